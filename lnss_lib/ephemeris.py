@@ -1,0 +1,205 @@
+"""Ephemerides, frames and time through SPICE, and their tabulation for the force model.
+
+Conventions: times are TDB seconds past J2000 (``t_tdb_s``, SPICE's ET); positions in km,
+velocities in km/s; the integration frame is Moon-centred J2000 ("MCI", Horizons' ICRF).
+Calendar strings are always read with an explicit time scale (``tdb_seconds("...", scale="TDB")``).
+
+SPICE is called only here, and only to build tables: :class:`EphemerisTable` samples the third
+bodies and the J2000 -> MOON_PA rotation once per run; :func:`hermite_cubic` interpolates them in
+the compiled force model (notebook 01 shows that the interpolation error is far below the force
+model's own error).
+"""
+
+from __future__ import annotations
+
+import hashlib
+from dataclasses import dataclass
+from pathlib import Path
+
+import numba as nb
+import numpy as np
+import spiceypy as spice
+
+from .config import data_path
+
+NAIF_BODY = {"SUN": "SUN", "EARTH": "EARTH", "JUPITER": "JUPITER BARYCENTER", "MOON": "MOON"}
+_LOADED: set[str] = set()
+
+
+def planetary_spk_path(spec: str = "skyfield-data:de421.bsp") -> Path:
+    """Path of the planetary SPK; ``skyfield-data:NAME`` resolves inside that package."""
+    if spec.startswith("skyfield-data:"):
+        import skyfield_data
+
+        # The package's own path helper warns about its unrelated Earth-orientation file: avoid it.
+        return Path(skyfield_data.__file__).resolve().parent / "data" / spec.split(":", 1)[1]
+    return data_path(spec)
+
+
+def kernel_paths(profile: dict) -> list[Path]:
+    """Every kernel a profile uses, in load order (planetary SPK first)."""
+    eph = profile["ephemeris"]
+    return [planetary_spk_path(eph["planetary_spk"])] + [data_path(k) for k in eph["kernels"]]
+
+
+def load_kernels(paths: list[Path]) -> None:
+    """Furnish SPICE kernels once per process (safe to call again, e.g. in worker processes).
+
+    Raises ``FileNotFoundError`` naming a missing kernel.
+    """
+    for path in map(Path, paths):
+        key = str(path.resolve())
+        if key in _LOADED:
+            continue
+        if not path.is_file():
+            raise FileNotFoundError(
+                f"SPICE kernel not found: {path}. The kernels ship in params/data/kernels "
+                "(see params/data/README.md); de421.bsp comes from the skyfield-data package."
+            )
+        spice.furnsh(key)
+        _LOADED.add(key)
+
+
+def ensure_kernels(profile: dict) -> None:
+    """Load the kernels a profile names (idempotent)."""
+    load_kernels(kernel_paths(profile))
+
+
+def tdb_seconds(calendar: str, scale: str = "TDB") -> float:
+    """Seconds past J2000 TDB for an ISO calendar string read in ``scale`` ("TDB" or "UTC").
+
+    ``str2et`` reads a bare date as UTC; the scale is therefore always appended explicitly.
+    """
+    scale = scale.upper()
+    if scale not in ("TDB", "UTC"):
+        raise ValueError(f"unknown time scale {scale!r}; allowed: 'TDB', 'UTC'")
+    if not _LOADED:
+        raise RuntimeError("SPICE kernels are not loaded: call ensure_kernels(profile) first")
+    return float(spice.str2et(f"{calendar.replace('T', ' ')} {scale}"))
+
+
+def tdb_iso(t_tdb_s: float) -> str:
+    """ISO calendar string (TDB) of a TDB epoch."""
+    return spice.timout(t_tdb_s, "YYYY-MM-DDTHR:MN:SC.### ::TDB")
+
+
+def body_states_mci(body: str, t_tdb_s: np.ndarray) -> np.ndarray:
+    """Moon-centred J2000 states (km, km/s) of ``body`` at TDB epochs; shape (n, 6)."""
+    times = np.atleast_1d(np.asarray(t_tdb_s, dtype=float))
+    states, _ = spice.spkezr(NAIF_BODY.get(body, body), times.tolist(), "J2000", "NONE", "MOON")
+    return np.asarray(states, dtype=float).reshape(len(times), 6)
+
+
+def rotation_and_rate(frame_from: str, frame_to: str, t_tdb_s: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Rotation R (n, 3, 3) with x_to = R x_from, and its time derivative dR/dt (1/s)."""
+    times = np.atleast_1d(np.asarray(t_tdb_s, dtype=float))
+    rot = np.empty((len(times), 3, 3))
+    rate = np.empty((len(times), 3, 3))
+    for k, et in enumerate(times):
+        xform = np.asarray(spice.sxform(frame_from, frame_to, et))
+        rot[k] = xform[:3, :3]
+        rate[k] = xform[3:, :3]
+    return rot, rate
+
+
+def rotation(frame_from: str, frame_to: str, t_tdb_s: np.ndarray) -> np.ndarray:
+    """Rotation matrices R (n, 3, 3) with x_to = R x_from at TDB epochs."""
+    times = np.atleast_1d(np.asarray(t_tdb_s, dtype=float))
+    return np.stack([np.asarray(spice.pxform(frame_from, frame_to, et)) for et in times])
+
+
+def element_frame_to_j2000(profile: dict, t_epoch_tdb_s: float) -> np.ndarray:
+    """Rotation from the profile's element frame to J2000 (x_j2000 = R x_elements).
+
+    ``lunar_equator_of_epoch``: the Moon-fixed frame (``frames.moon_fixed``) frozen at the epoch,
+    so inclinations are to the lunar equator and RAAN is counted from the prime meridian at epoch.
+    ``j2000``: identity (elements in the Earth's mean equator and equinox of J2000).
+    """
+    frame = profile["frames"]["element_frame"]
+    if frame == "j2000":
+        return np.eye(3)
+    if frame == "lunar_equator_of_epoch":
+        return rotation(profile["frames"]["moon_fixed"], "J2000", t_epoch_tdb_s)[0]
+    raise ValueError(f"unknown element frame {frame!r}; allowed: 'lunar_equator_of_epoch', 'j2000'")
+
+
+@nb.njit(cache=True, fastmath=False)
+def hermite_cubic(values: np.ndarray, rates: np.ndarray, t0: float, dt: float, t: float, out: np.ndarray) -> None:
+    """Cubic Hermite interpolation on a uniform grid (values and rates at nodes) into ``out``."""
+    n = values.shape[0]
+    s = (t - t0) / dt
+    k = int(np.floor(s))
+    if k < 0:
+        k = 0
+    elif k > n - 2:
+        k = n - 2
+    u = s - k
+    u2 = u * u
+    u3 = u2 * u
+    h00 = 2.0 * u3 - 3.0 * u2 + 1.0
+    h10 = (u3 - 2.0 * u2 + u) * dt
+    h01 = -2.0 * u3 + 3.0 * u2
+    h11 = (u3 - u2) * dt
+    for j in range(values.shape[1]):
+        out[j] = h00 * values[k, j] + h10 * rates[k, j] + h01 * values[k + 1, j] + h11 * rates[k + 1, j]
+
+
+@dataclass(frozen=True)
+class EphemerisTable:
+    """Tabulated Moon-centred J2000 geometry on a uniform TDB grid, for the compiled force model.
+
+    ``bodies`` (n, nb, 6): states of ``body_names`` relative to the Moon (km, km/s);
+    ``rot_pa`` and ``rot_pa_rate`` (n, 9): J2000 -> MOON_PA rotation, row-major, and its rate.
+    """
+
+    t0_tdb_s: float
+    step_s: float
+    body_names: tuple[str, ...]
+    bodies: np.ndarray
+    rot_pa: np.ndarray
+    rot_pa_rate: np.ndarray
+
+    @classmethod
+    def build(cls, profile: dict, t_start_tdb_s: float, t_end_tdb_s: float,
+              body_names: tuple[str, ...] = ("SUN", "EARTH", "JUPITER")) -> "EphemerisTable":
+        """Sample SPICE over [t_start, t_end] (with two nodes of margin each side)."""
+        ensure_kernels(profile)
+        step = float(profile["ephemeris"]["table_step_s"])
+        t_lo, t_hi = min(t_start_tdb_s, t_end_tdb_s), max(t_start_tdb_s, t_end_tdb_s)
+        n = int(np.ceil((t_hi - t_lo) / step)) + 5
+        times = t_lo - 2 * step + step * np.arange(n)
+        bodies = np.stack([body_states_mci(b, times) for b in body_names], axis=1)
+        rot, rate = rotation_and_rate("J2000", profile["frames"]["gravity"], times)
+        return cls(float(times[0]), step, tuple(body_names), bodies,
+                   rot.reshape(n, 9).copy(), rate.reshape(n, 9).copy())
+
+    @property
+    def t_end_tdb_s(self) -> float:
+        return self.t0_tdb_s + self.step_s * (self.bodies.shape[0] - 1)
+
+    def body_position(self, name: str, t_tdb_s: float) -> np.ndarray:
+        """Interpolated Moon-centred J2000 position (km) of a tabulated body."""
+        k = self.body_names.index(name)
+        out = np.empty(3)
+        hermite_cubic(self.bodies[:, k, :3], self.bodies[:, k, 3:], self.t0_tdb_s, self.step_s, t_tdb_s, out)
+        return out
+
+    def rotation_pa(self, t_tdb_s: float) -> np.ndarray:
+        """Interpolated J2000 -> MOON_PA rotation (3, 3)."""
+        out = np.empty(9)
+        hermite_cubic(self.rot_pa, self.rot_pa_rate, self.t0_tdb_s, self.step_s, t_tdb_s, out)
+        return out.reshape(3, 3)
+
+
+def file_sha256(path: Path) -> str:
+    """SHA-256 hex digest of a file."""
+    digest = hashlib.sha256()
+    with open(path, "rb") as handle:
+        for block in iter(lambda: handle.read(1 << 20), b""):
+            digest.update(block)
+    return digest.hexdigest()
+
+
+def worker_init(profile: dict) -> None:
+    """Initialiser for worker processes: load kernels once per process."""
+    ensure_kernels(profile)
