@@ -1,0 +1,157 @@
+"""LNSS constellations as arrays of Keplerian elements (paper Section 5.1, eq. 42; Table 4).
+
+Every constellation is an ``elements_deg`` array of shape (nsat, 6) with columns
+``[a_km, e, inc_deg, raan_deg, aop_deg, M_deg]``, referred to the profile's element frame
+(``frames.element_frame``: lunar equator of epoch by default, see
+:func:`lnss_lib.ephemeris.element_frame_to_j2000`), which is what
+``lnss_lib.propagator.propagate_elements`` takes. Satellites are ordered plane by plane; the
+first satellite (plane 1, M = 0) is the one the paper uses for the GPS link and Delta-V.
+
+Validation here is physical only (closed orbit above the surface, integer counts); the design
+bounds of Table 3 belong to the optimiser, so the standalone ELFO (8 satellites per plane) is a
+valid constellation.
+"""
+
+from __future__ import annotations
+
+import numbers
+from dataclasses import dataclass
+
+import numpy as np
+
+from .elements import validate_elements
+
+ELEMENT_COLUMNS = ("a_km", "e", "inc_deg", "raan_deg", "aop_deg", "M_deg")
+
+
+def _positive_int(value, name: str) -> int:
+    """``value`` as an int if it is a positive integer (integral floats accepted), else ``ValueError``."""
+    if isinstance(value, (bool, np.bool_)) or not isinstance(value, numbers.Real):
+        raise ValueError(f"{name} must be a positive integer; got {value!r} ({type(value).__name__})")
+    if not np.isfinite(float(value)) or float(value) != int(value) or int(value) < 1:
+        raise ValueError(f"{name} must be a positive integer; got {value!r}")
+    return int(value)
+
+
+def _check_inclination(inc_deg) -> None:
+    inc = np.atleast_1d(np.asarray(inc_deg, dtype=float))
+    bad = ~np.isfinite(inc) | (inc < 0.0) | (inc > 180.0)
+    if np.any(bad):
+        raise ValueError(f"inclination must be in [0, 180] deg; got {inc[bad][0]!r}")
+
+
+def _check_finite_angles(values, name: str) -> None:
+    arr = np.atleast_1d(np.asarray(values, dtype=float))
+    if np.any(~np.isfinite(arr)):
+        raise ValueError(f"{name} must be finite (deg); got {arr[~np.isfinite(arr)][0]!r}")
+
+
+def _surface_limits(profile: dict) -> tuple[float, float]:
+    """(mean lunar radius km, minimum altitude km) from a profile: the perilune floor."""
+    return float(profile["constants"]["r_moon_mean_km"]), float(profile["impact"]["min_altitude_km"])
+
+
+def planes_elements_deg(a_km: float, e: float, inc_deg: float, aop_deg: float,
+                        raan_deg, sats_per_plane: int) -> np.ndarray:
+    """Elements (nsat, 6) of planes with the given RAANs, ``sats_per_plane`` satellites each.
+
+    Within a plane the mean anomalies are ``(s - 1) 360 / Ns`` deg, s = 1..Ns (the first at
+    M = 0); satellites are ordered plane by plane. Angles are wrapped to [0, 360).
+    """
+    ns = _positive_int(sats_per_plane, "sats_per_plane")
+    raans = np.atleast_1d(np.asarray(raan_deg, dtype=float))
+    if raans.ndim != 1 or raans.size == 0:
+        raise ValueError(f"raan_deg must be a non-empty 1-D list of angles; got shape {raans.shape}")
+    _check_finite_angles(raans, "raan_deg")
+    mean_anomalies = np.arange(ns) * 360.0 / ns
+    raan_col = np.repeat(raans, ns)
+    m_col = np.tile(mean_anomalies, raans.size)
+    n = raan_col.size
+    return np.column_stack([
+        np.full(n, float(a_km)), np.full(n, float(e)), np.full(n, float(inc_deg)),
+        np.mod(raan_col, 360.0), np.full(n, float(np.mod(aop_deg, 360.0))), np.mod(m_col, 360.0),
+    ])
+
+
+@dataclass(frozen=True)
+class WalkerDesign:
+    """Walker-type design of Table 3: ``n_planes`` planes, ``sats_per_plane`` satellites each.
+
+    RAAN of plane p is ``raan_offset_deg + (p - 1) 360 / Np`` (eq. 42, offset 0 in the paper);
+    satellites are equally spaced in mean anomaly from M = 0. Angles in degrees, ``a_km`` in km.
+    Construction checks e in [0, 1), a > 0, inclination in [0, 180] deg and positive integer
+    counts; :func:`walker_design` also checks the perilune against the lunar surface.
+    """
+
+    a_km: float
+    e: float
+    inc_deg: float
+    aop_deg: float
+    n_planes: int
+    sats_per_plane: int
+    raan_offset_deg: float = 0.0
+
+    def __post_init__(self) -> None:
+        object.__setattr__(self, "n_planes", _positive_int(self.n_planes, "n_planes (Np)"))
+        object.__setattr__(self, "sats_per_plane", _positive_int(self.sats_per_plane, "sats_per_plane (Ns)"))
+        validate_elements(self.a_km, self.e, r_body_km=0.0)
+        _check_inclination(self.inc_deg)
+        _check_finite_angles([self.aop_deg, self.raan_offset_deg], "aop_deg and raan_offset_deg")
+
+    @property
+    def n_sat(self) -> int:
+        """Total number of satellites Np * Ns."""
+        return self.n_planes * self.sats_per_plane
+
+    def raan_deg(self) -> np.ndarray:
+        """RAAN of each plane (deg, eq. 42), shape (Np,)."""
+        return np.mod(self.raan_offset_deg + np.arange(self.n_planes) * 360.0 / self.n_planes, 360.0)
+
+    def elements_deg(self) -> np.ndarray:
+        """Elements (n_sat, 6) ``[a_km, e, inc_deg, raan_deg, aop_deg, M_deg]``, plane by plane."""
+        return planes_elements_deg(self.a_km, self.e, self.inc_deg, self.aop_deg,
+                                   self.raan_deg(), self.sats_per_plane)
+
+
+def walker_design(profile: dict, a_km: float, e: float, inc_deg: float, aop_deg: float,
+                  n_planes: int, sats_per_plane: int, raan_offset_deg: float = 0.0) -> WalkerDesign:
+    """A :class:`WalkerDesign` whose perilune a(1 - e) clears the surface (``constants.r_moon_mean_km``
+    + ``impact.min_altitude_km``); ``ValueError`` naming the bad value otherwise."""
+    design = WalkerDesign(a_km, e, inc_deg, aop_deg, n_planes, sats_per_plane, raan_offset_deg)
+    r_body_km, min_alt_km = _surface_limits(profile)
+    validate_elements(design.a_km, design.e, r_body_km, min_alt_km)
+    return design
+
+
+def explicit_constellation(profile: dict, elements_deg) -> np.ndarray:
+    """Validated (nsat, 6) array from any list of element sets ``[a_km, e, inc_deg, raan_deg, aop_deg, M_deg]``.
+
+    Checks shape, closed orbits above the surface (as :func:`walker_design`), inclination in
+    [0, 180] deg and finite angles; RAAN, AOP and M are wrapped to [0, 360).
+    """
+    el = np.array(elements_deg, dtype=float)
+    if el.ndim == 1 and el.size == 6:
+        el = el[None, :]
+    if el.ndim != 2 or el.shape[1] != 6 or el.shape[0] == 0:
+        raise ValueError(
+            f"elements_deg must have shape (nsat, 6) with columns {', '.join(ELEMENT_COLUMNS)}; got shape {el.shape}"
+        )
+    r_body_km, min_alt_km = _surface_limits(profile)
+    validate_elements(el[:, 0], el[:, 1], r_body_km, min_alt_km)
+    _check_inclination(el[:, 2])
+    _check_finite_angles(el[:, 3:], "raan_deg, aop_deg and M_deg")
+    el[:, 3:] = np.mod(el[:, 3:], 360.0)
+    return el
+
+
+def standalone_elfo(profile: dict) -> np.ndarray:
+    """Elements (nsat, 6) of the paper's standalone ELFO (Table 4) from ``profile["standalone_elfo"]``.
+
+    Planes at the listed RAANs (0 and 180 deg), ``sats_per_plane`` (8) satellites each equally
+    spaced in mean anomaly from M = 0: 16 satellites, a = 6143 km, e = 0.6, i = 51.7 deg,
+    AOP = 90 deg.
+    """
+    cfg = profile["standalone_elfo"]
+    el = planes_elements_deg(cfg["sma_km"], cfg["ecc"], cfg["inc_deg"], cfg["aop_deg"],
+                             cfg["raan_deg"], cfg["sats_per_plane"])
+    return explicit_constellation(profile, el)

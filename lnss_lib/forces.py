@@ -1,0 +1,242 @@
+"""Force model in Moon-centred J2000 (km, km/s^2, TDB): the compiled kernels and their set-up.
+
+Terms (each switchable in ``params``): lunar gravity field (``gravity``), Sun/Earth/Jupiter as
+differential third bodies, cannonball solar radiation pressure with conical Moon and Earth shadow,
+the Schwarzschild relativistic term of the Moon, and Earth albedo from a Lambertian sphere.
+
+A :class:`ForceModel` bundles numbers and tables into a plain tuple (``.kernel_args``) that the
+compiled :func:`acceleration` takes, so the integrator never calls Python or SPICE.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numba as nb
+import numpy as np
+
+from .ephemeris import EphemerisTable, hermite_cubic
+from .gravity import GravityField, harmonic_acceleration
+
+BODY_ORDER = ("SUN", "EARTH", "JUPITER")  # rows of the ephemeris table; Sun and Earth also occult/illuminate
+TERMS = ("central", "harmonics", "SUN", "EARTH", "JUPITER", "srp", "relativity", "albedo")
+
+# indices into the scalar parameter vector of the kernels
+GM, R_REF, R_MOON, R_EARTH, R_SUN, AU, C_LIGHT, SRP_K, ALBEDO, SOLAR_P = range(10)
+# indices into the flag vector
+F_HARMONICS, F_SUN, F_EARTH, F_JUPITER, F_SRP, F_SHADOW, F_REL, F_ALBEDO = range(8)
+
+
+@dataclass(frozen=True)
+class ForceModel:
+    """Everything the compiled acceleration needs, built once per run from a profile."""
+
+    scalars: np.ndarray
+    flags: np.ndarray
+    gm_bodies: np.ndarray
+    table: EphemerisTable
+    field: GravityField
+
+    @classmethod
+    def from_profile(cls, profile: dict, table: EphemerisTable, *, degree: int | None = None,
+                     srp_cr_area_mass_m2_kg: float | None = None) -> "ForceModel":
+        """Force model of a profile; ``degree`` and Cr*A/m (m^2/kg) may override the profile's."""
+        if tuple(table.body_names) != BODY_ORDER:
+            raise ValueError(f"ephemeris table must hold {BODY_ORDER}; got {table.body_names}")
+        const, forces, craft = profile["constants"], profile["forces"], profile["spacecraft"]
+        field = GravityField.from_profile(profile, degree)
+        if srp_cr_area_mass_m2_kg is None:
+            srp_cr_area_mass_m2_kg = craft["cr"] * craft["area_m2"] / craft["mass_kg"]
+        if srp_cr_area_mass_m2_kg < 0:
+            raise ValueError(f"Cr*A/m must be >= 0 m^2/kg; got {srp_cr_area_mass_m2_kg}")
+        solar_pressure_n_m2 = forces["solar_flux_w_m2"] / (const["c_km_s"] * 1e3)
+        scalars = np.zeros(10)
+        scalars[GM] = field.gm_km3_s2
+        scalars[R_REF] = field.r_ref_km
+        scalars[R_MOON] = const["r_moon_mean_km"]
+        scalars[R_EARTH] = const["r_earth_km"]
+        scalars[R_SUN] = const["r_sun_km"]
+        scalars[AU] = const["au_km"]
+        scalars[C_LIGHT] = const["c_km_s"]
+        scalars[SRP_K] = solar_pressure_n_m2 * srp_cr_area_mass_m2_kg * 1e-3  # km/s^2 at 1 au
+        scalars[ALBEDO] = forces["earth_albedo"]
+        scalars[SOLAR_P] = solar_pressure_n_m2
+        unknown = set(forces["third_bodies"]) - set(BODY_ORDER)
+        if unknown:
+            raise ValueError(f"unknown third bodies {sorted(unknown)}; allowed: {BODY_ORDER}")
+        if forces["shadow"] not in ("conical", "none"):
+            raise ValueError(f"unknown shadow model {forces['shadow']!r}; allowed: 'conical', 'none'")
+        flags = np.zeros(8, dtype=np.int64)
+        flags[F_HARMONICS] = 1
+        flags[F_SUN] = "SUN" in forces["third_bodies"]
+        flags[F_EARTH] = "EARTH" in forces["third_bodies"]
+        flags[F_JUPITER] = "JUPITER" in forces["third_bodies"]
+        flags[F_SRP] = bool(forces["srp"])
+        flags[F_SHADOW] = forces["shadow"] == "conical"
+        flags[F_REL] = bool(forces["relativity"])
+        flags[F_ALBEDO] = bool(forces["albedo"])
+        gm_bodies = np.array([const["gm_sun_km3_s2"], const["gm_earth_km3_s2"], const["gm_jupiter_km3_s2"]])
+        return cls(scalars, flags, gm_bodies, table, field)
+
+    @property
+    def kernel_args(self) -> tuple:
+        """The tuple :func:`acceleration` and the integrator take."""
+        tab = self.table
+        return (self.scalars, self.flags, self.gm_bodies, np.array([tab.t0_tdb_s, tab.step_s]),
+                tab.bodies, tab.rot_pa, tab.rot_pa_rate, self.field.cnm, self.field.snm, self.field.coef)
+
+    def describe(self) -> str:
+        """One line naming the active terms, for dataset attributes."""
+        f = self.flags
+        parts = [f"gravity AIUB-GRL350B {self.field.degree}x{self.field.degree} (MOON_PA)"]
+        parts += [b for b, k in zip(BODY_ORDER, (F_SUN, F_EARTH, F_JUPITER)) if f[k]]
+        if f[F_SRP]:
+            parts.append("SRP" + (" with conical shadow" if f[F_SHADOW] else ""))
+        if f[F_REL]:
+            parts.append("Schwarzschild relativity")
+        if f[F_ALBEDO]:
+            parts.append("Earth albedo")
+        return ", ".join(parts)
+
+
+@nb.njit(cache=True)
+def shadow_factor(r_sc: np.ndarray, r_sun: np.ndarray, r_body: np.ndarray, radius_body: float, radius_sun: float) -> float:
+    """Fraction of the solar disc visible past one spherical occulting body (conical model).
+
+    Montenbruck & Gill (2000), Sec. 3.4.2: apparent radii a (Sun), b (body) and separation c.
+    """
+    sx, sy, sz = r_sc[0] - r_body[0], r_sc[1] - r_body[1], r_sc[2] - r_body[2]
+    dx, dy, dz = r_sun[0] - r_sc[0], r_sun[1] - r_sc[1], r_sun[2] - r_sc[2]
+    s_norm = np.sqrt(sx * sx + sy * sy + sz * sz)
+    d_norm = np.sqrt(dx * dx + dy * dy + dz * dz)
+    if s_norm <= radius_body:
+        return 0.0
+    a = np.arcsin(min(1.0, radius_sun / d_norm))
+    b = np.arcsin(radius_body / s_norm)
+    cos_c = -(sx * dx + sy * dy + sz * dz) / (s_norm * d_norm)
+    c = np.arccos(max(-1.0, min(1.0, cos_c)))
+    if c >= a + b:
+        return 1.0
+    if c <= b - a:
+        return 0.0
+    if c <= a - b:
+        return 1.0 - (b * b) / (a * a)
+    x = (c * c + a * a - b * b) / (2.0 * c)
+    y = np.sqrt(max(a * a - x * x, 0.0))
+    area = a * a * np.arccos(max(-1.0, min(1.0, x / a))) + b * b * np.arccos(max(-1.0, min(1.0, (c - x) / b))) - c * y
+    return 1.0 - area / (np.pi * a * a)
+
+
+@nb.njit(cache=True)
+def _third_body(r: np.ndarray, r_b: np.ndarray, gm_b: float, out: np.ndarray) -> None:
+    """Differential point-mass acceleration of a body at r_b on a satellite at r (Moon-centred)."""
+    dx, dy, dz = r_b[0] - r[0], r_b[1] - r[1], r_b[2] - r[2]
+    d3 = (dx * dx + dy * dy + dz * dz) ** 1.5
+    b3 = (r_b[0] * r_b[0] + r_b[1] * r_b[1] + r_b[2] * r_b[2]) ** 1.5
+    out[0] += gm_b * (dx / d3 - r_b[0] / b3)
+    out[1] += gm_b * (dy / d3 - r_b[1] / b3)
+    out[2] += gm_b * (dz / d3 - r_b[2] / b3)
+
+
+@nb.njit(cache=True)
+def acceleration_terms(t: float, y: np.ndarray, args: tuple, work: np.ndarray, terms: np.ndarray) -> None:
+    """Each term of the acceleration (km/s^2, Moon-centred J2000) into ``terms`` (8, 3), order ``TERMS``."""
+    scalars, flags, gm_bodies, t0dt, bodies, rot_pa, rot_pa_rate, cnm, snm, coef = args
+    terms[:, :] = 0.0
+    r = y[:3]
+    v = y[3:6]
+    gm = scalars[GM]
+    r2 = r[0] * r[0] + r[1] * r[1] + r[2] * r[2]
+    r_norm = np.sqrt(r2)
+    for j in range(3):
+        terms[0, j] = -gm * r[j] / (r2 * r_norm)
+    degree = cnm.shape[0] - 1
+    buf = np.empty(9)
+    r_bf = np.empty(3)
+    a_bf = np.empty(3)
+    if flags[F_HARMONICS] and degree >= 2:
+        hermite_cubic(rot_pa, rot_pa_rate, t0dt[0], t0dt[1], t, buf)
+        for i in range(3):
+            r_bf[i] = buf[3 * i] * r[0] + buf[3 * i + 1] * r[1] + buf[3 * i + 2] * r[2]
+        harmonic_acceleration(r_bf, cnm, snm, coef, gm, scalars[R_REF], degree, work, a_bf)
+        for j in range(3):
+            terms[1, j] = buf[j] * a_bf[0] + buf[3 + j] * a_bf[1] + buf[6 + j] * a_bf[2] - terms[0, j]
+    r_sun = np.empty(3)
+    r_earth = np.empty(3)
+    r_jup = np.empty(3)
+    hermite_cubic(bodies[:, 0, :3], bodies[:, 0, 3:], t0dt[0], t0dt[1], t, r_sun)
+    hermite_cubic(bodies[:, 1, :3], bodies[:, 1, 3:], t0dt[0], t0dt[1], t, r_earth)
+    if flags[F_SUN]:
+        _third_body(r, r_sun, gm_bodies[0], terms[2])
+    if flags[F_EARTH]:
+        _third_body(r, r_earth, gm_bodies[1], terms[3])
+    if flags[F_JUPITER]:
+        hermite_cubic(bodies[:, 2, :3], bodies[:, 2, 3:], t0dt[0], t0dt[1], t, r_jup)
+        _third_body(r, r_jup, gm_bodies[2], terms[4])
+    if flags[F_SRP]:
+        ux, uy, uz = r[0] - r_sun[0], r[1] - r_sun[1], r[2] - r_sun[2]
+        d = np.sqrt(ux * ux + uy * uy + uz * uz)
+        nu = 1.0
+        if flags[F_SHADOW]:
+            origin = np.zeros(3)
+            nu = shadow_factor(r, r_sun, origin, scalars[R_MOON], scalars[R_SUN])
+            if nu > 0.0:
+                nu *= shadow_factor(r, r_sun, r_earth, scalars[R_EARTH], scalars[R_SUN])
+        k = nu * scalars[SRP_K] * (scalars[AU] / d) ** 2 / d
+        terms[5, 0] = k * ux
+        terms[5, 1] = k * uy
+        terms[5, 2] = k * uz
+    if flags[F_REL]:
+        c2 = scalars[C_LIGHT] ** 2
+        v2 = v[0] * v[0] + v[1] * v[1] + v[2] * v[2]
+        rv = r[0] * v[0] + r[1] * v[1] + r[2] * v[2]
+        f = gm / (c2 * r2 * r_norm)
+        for j in range(3):
+            terms[6, j] = f * ((4.0 * gm / r_norm - v2) * r[j] + 4.0 * rv * v[j])
+    if flags[F_ALBEDO]:
+        qx, qy, qz = r[0] - r_earth[0], r[1] - r_earth[1], r[2] - r_earth[2]
+        q = np.sqrt(qx * qx + qy * qy + qz * qz)
+        ex, ey, ez = r_sun[0] - r_earth[0], r_sun[1] - r_earth[1], r_sun[2] - r_earth[2]
+        e_norm = np.sqrt(ex * ex + ey * ey + ez * ez)
+        cos_phase = (ex * qx + ey * qy + ez * qz) / (e_norm * q)
+        phase = np.arccos(max(-1.0, min(1.0, cos_phase)))
+        lambert = (np.sin(phase) + (np.pi - phase) * np.cos(phase)) / np.pi
+        # reflected flux / incident flux of a Lambertian sphere: (2/3) A (R/q)^2 lambert(phase)
+        ratio = (2.0 / 3.0) * scalars[ALBEDO] * (scalars[R_EARTH] / q) ** 2 * lambert * (scalars[AU] / e_norm) ** 2
+        k = ratio * scalars[SRP_K] / q
+        terms[7, 0] = k * qx
+        terms[7, 1] = k * qy
+        terms[7, 2] = k * qz
+
+
+@nb.njit(cache=True)
+def acceleration(t: float, y: np.ndarray, args: tuple, work: np.ndarray, terms: np.ndarray, out: np.ndarray) -> None:
+    """Total acceleration (km/s^2, Moon-centred J2000) at TDB ``t`` and state ``y`` into ``out``."""
+    acceleration_terms(t, y, args, work, terms)
+    for j in range(3):
+        s = 0.0
+        for k in range(terms.shape[0]):
+            s += terms[k, j]
+        out[j] = s
+
+
+def acceleration_breakdown(profile: dict, t_tdb_s: np.ndarray, state_mci: np.ndarray, *, degree: int | None = None,
+                           srp_cr_area_mass_m2_kg: float | None = None, model: ForceModel | None = None) -> dict:
+    """Each force term (km/s^2, Moon-centred J2000) at epochs ``t_tdb_s`` (n,) and states (n, 6).
+
+    Returns ``{term: (n, 3)}`` with keys :data:`TERMS`. Pass ``model`` to reuse its tables.
+    """
+    times = np.atleast_1d(np.asarray(t_tdb_s, dtype=float))
+    states = np.atleast_2d(np.asarray(state_mci, dtype=float))
+    if model is None:
+        table = EphemerisTable.build(profile, float(times.min()), float(times.max()))
+        model = ForceModel.from_profile(profile, table, degree=degree, srp_cr_area_mass_m2_kg=srp_cr_area_mass_m2_kg)
+    out = np.empty((len(times), len(TERMS), 3))
+    _breakdown_loop(times, states, model.kernel_args, model.field.workspace(), out)
+    return {name: out[:, k, :] for k, name in enumerate(TERMS)}
+
+
+@nb.njit(cache=True)
+def _breakdown_loop(times: np.ndarray, states: np.ndarray, args: tuple, work: np.ndarray, out: np.ndarray) -> None:
+    for i in range(times.shape[0]):
+        acceleration_terms(times[i], states[i], args, work, out[i])

@@ -1,0 +1,174 @@
+"""Lunar gravity field: fully normalised spherical harmonics (AIUB-GRL350B, frame MOON_PA).
+
+The acceleration uses the Cunningham V/W recursion (Montenbruck & Gill, Satellite Orbits, 3.2.4)
+rewritten for fully normalised coefficients. It works in Cartesian body-fixed coordinates, so it
+has no singularity at the poles, and the normalised recursion stays in range to degree 100.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from pathlib import Path
+
+import numba as nb
+import numpy as np
+
+from .config import data_path
+
+MAX_FILE_DEGREE = 100
+
+
+@dataclass(frozen=True)
+class GravityField:
+    """Fully normalised coefficients ``cnm[n, m]``, ``snm[n, m]`` up to ``degree``, GM, R and recursion factors."""
+
+    degree: int
+    gm_km3_s2: float
+    r_ref_km: float
+    cnm: np.ndarray
+    snm: np.ndarray
+    coef: np.ndarray
+
+    @classmethod
+    def from_file(cls, path: Path, degree: int, gm_km3_s2: float, r_ref_km: float) -> "GravityField":
+        """Read ``n m Cnm Snm`` rows (fully normalised) and truncate to ``degree`` (2..100)."""
+        if not isinstance(degree, (int, np.integer)) or not 2 <= degree <= MAX_FILE_DEGREE:
+            raise ValueError(f"gravity degree must be an integer in [2, {MAX_FILE_DEGREE}]; got {degree!r}")
+        path = Path(path)
+        if not path.is_file():
+            raise FileNotFoundError(f"gravity field file not found: {path} (see params/data/README.md)")
+        rows = np.loadtxt(path, dtype=float)
+        n_idx = rows[:, 0].astype(int)
+        m_idx = rows[:, 1].astype(int)
+        keep = n_idx <= degree
+        cnm = np.zeros((degree + 1, degree + 1))
+        snm = np.zeros((degree + 1, degree + 1))
+        cnm[n_idx[keep], m_idx[keep]] = rows[keep, 2]
+        snm[n_idx[keep], m_idx[keep]] = rows[keep, 3]
+        if np.max(n_idx) < degree:
+            raise ValueError(f"{path} holds degree {np.max(n_idx)} only; requested {degree}")
+        return cls(int(degree), float(gm_km3_s2), float(r_ref_km), cnm, snm, recursion_coefficients(int(degree)))
+
+    @classmethod
+    def from_profile(cls, profile: dict, degree: int | None = None) -> "GravityField":
+        """The field a profile names, at its degree unless ``degree`` overrides it."""
+        grav = profile["gravity"]
+        return cls.from_file(data_path(grav["file"]), int(degree if degree is not None else grav["degree"]),
+                             grav["gm_km3_s2"], grav["r_ref_km"])
+
+    def workspace(self) -> np.ndarray:
+        """Scratch array for :func:`harmonic_acceleration` (V and W, degree + 2 squared each)."""
+        return np.zeros((2, self.degree + 2, self.degree + 2))
+
+
+def recursion_coefficients(degree: int) -> np.ndarray:
+    """Constant factors of the normalised V/W recursion and of the acceleration sums.
+
+    Shape (6, degree + 2, degree + 2), indexed [kind, m, n]: 0, 1 the column recursion
+    V_nm = a z0 V_n-1,m - b rho V_n-2,m; 2, 3, 4 the x/y factors towards orders m + 1 and m - 1 and
+    the z factor of term (n, m); 5 the sectorial factor of order m.
+    """
+    size = degree + 2
+    coef = np.zeros((6, size, size))
+    for m in range(size):
+        coef[5, m, 0] = np.sqrt(3.0) if m == 1 else np.sqrt((2.0 * m + 1.0) / (2.0 * m)) if m > 1 else 0.0
+        for n in range(m + 1, size):
+            coef[0, m, n] = np.sqrt((2.0 * n + 1.0) * (2.0 * n - 1.0) / ((n - m) * (n + m)))
+            if n >= m + 2:
+                coef[1, m, n] = np.sqrt((2.0 * n + 1.0) * (n + m - 1.0) * (n - m - 1.0)
+                                        / ((2.0 * n - 3.0) * (n + m) * (n - m)))
+    for n in range(degree + 1):
+        k_n = (2.0 * n + 1.0) / (2.0 * n + 3.0)
+        coef[2, 0, n] = np.sqrt(0.5 * k_n * (n + 1.0) * (n + 2.0))
+        coef[4, 0, n] = np.sqrt(k_n) * (n + 1.0)
+        for m in range(1, n + 1):
+            coef[2, m, n] = 0.5 * np.sqrt(k_n * (n + m + 1.0) * (n + m + 2.0))
+            coef[3, m, n] = 0.5 * np.sqrt((2.0 if m == 1 else 1.0) * k_n * (n - m + 2.0) * (n - m + 1.0))
+            coef[4, m, n] = np.sqrt(k_n * (n - m + 1.0) * (n + m + 1.0))
+    return coef
+
+
+@nb.njit(cache=True, fastmath=True)
+def _fill_vw(x: float, y: float, z: float, r_ref: float, nmax: int, coef: np.ndarray, V: np.ndarray, W: np.ndarray) -> None:
+    """Normalised V_nm, W_nm (stored [m, n]) of Montenbruck & Gill eq. 3.29-3.31 up to degree nmax."""
+    r2 = x * x + y * y + z * z
+    rho = r_ref * r_ref / r2
+    x0, y0, z0 = r_ref * x / r2, r_ref * y / r2, r_ref * z / r2
+    V[0, 0] = r_ref / np.sqrt(r2)
+    W[0, 0] = 0.0
+    for m in range(nmax + 1):
+        if m > 0:
+            f = coef[5, m, 0]
+            V[m, m] = f * (x0 * V[m - 1, m - 1] - y0 * W[m - 1, m - 1])
+            W[m, m] = f * (x0 * W[m - 1, m - 1] + y0 * V[m - 1, m - 1])
+        if m < nmax:
+            f = coef[0, m, m + 1] * z0
+            V[m, m + 1] = f * V[m, m]
+            W[m, m + 1] = f * W[m, m]
+        a_row = coef[0, m]
+        b_row = coef[1, m]
+        v_row = V[m]
+        w_row = W[m]
+        for n in range(m + 2, nmax + 1):
+            a = a_row[n] * z0
+            b = b_row[n] * rho
+            v_row[n] = a * v_row[n - 1] - b * v_row[n - 2]
+            w_row[n] = a * w_row[n - 1] - b * w_row[n - 2]
+
+
+@nb.njit(cache=True, fastmath=True)
+def harmonic_acceleration(r_bf_km: np.ndarray, cnm: np.ndarray, snm: np.ndarray, coef: np.ndarray, gm: float,
+                          r_ref: float, degree: int, work: np.ndarray, out: np.ndarray) -> None:
+    """Acceleration (km/s^2, body-fixed) of the field of degree/order ``degree`` at ``r_bf_km``, into ``out``.
+
+    Includes the central term (C00 = 1). ``coef`` from :func:`recursion_coefficients`; ``work`` is a
+    (2, degree + 2, degree + 2) scratch array.
+    """
+    V = work[0]
+    W = work[1]
+    _fill_vw(r_bf_km[0], r_bf_km[1], r_bf_km[2], r_ref, degree + 1, coef, V, W)
+    ax = 0.0
+    ay = 0.0
+    az = 0.0
+    for n in range(degree + 1):
+        c = cnm[n, 0]
+        f1 = coef[2, 0, n]
+        ax -= c * f1 * V[1, n + 1]
+        ay -= c * f1 * W[1, n + 1]
+        az -= c * coef[4, 0, n] * V[0, n + 1]
+    for m in range(1, degree + 1):
+        up_v = V[m + 1]
+        up_w = W[m + 1]
+        dn_v = V[m - 1]
+        dn_w = W[m - 1]
+        z_v = V[m]
+        z_w = W[m]
+        f_up_row = coef[2, m]
+        f_dn_row = coef[3, m]
+        f_z_row = coef[4, m]
+        for n in range(m, degree + 1):
+            c = cnm[n, m]
+            s = snm[n, m]
+            f_up = f_up_row[n]
+            f_dn = f_dn_row[n]
+            ax += f_up * (-c * up_v[n + 1] - s * up_w[n + 1]) + f_dn * (c * dn_v[n + 1] + s * dn_w[n + 1])
+            ay += f_up * (-c * up_w[n + 1] + s * up_v[n + 1]) + f_dn * (-c * dn_w[n + 1] + s * dn_v[n + 1])
+            az += f_z_row[n] * (-c * z_v[n + 1] - s * z_w[n + 1])
+    scale = gm / (r_ref * r_ref)
+    out[0] = scale * ax
+    out[1] = scale * ay
+    out[2] = scale * az
+
+
+@nb.njit(cache=True)
+def harmonic_potential(r_bf_km: np.ndarray, cnm: np.ndarray, snm: np.ndarray, coef: np.ndarray, gm: float,
+                       r_ref: float, degree: int, work: np.ndarray) -> float:
+    """Gravitational potential U (km^2/s^2, U = GM/r for a point mass) from the same V/W terms."""
+    V = work[0]
+    W = work[1]
+    _fill_vw(r_bf_km[0], r_bf_km[1], r_bf_km[2], r_ref, degree, coef, V, W)
+    total = 0.0
+    for n in range(degree + 1):
+        for m in range(n + 1):
+            total += cnm[n, m] * V[m, n] + snm[n, m] * W[m, n]
+    return gm / r_ref * total

@@ -1,0 +1,408 @@
+"""Compiled adaptive Runge-Kutta propagation of lunar orbits, one step sequence per satellite.
+
+Methods: Dormand-Prince 5(4) ("RK45", the paper's Table 2 at RelTol 1e-6 / AbsTol 1e-9) and
+Dormand-Prince 8(5,3) ("DOP853", the converged setting). Butcher tableaux, error norms and the
+step-size controller are those of ``scipy.integrate.solve_ivp``, so the straightforward reference
+in :mod:`lnss_lib.reference` and this engine take the same steps. Output on the sampling grid by
+quintic Hermite interpolation of position (from r, v, a at the step ends) and its derivative.
+
+Satellites run in parallel (``numba.prange``). An orbit that goes below the lunar surface plus the
+minimum altitude stops there: :func:`propagate_states` raises :class:`ImpactError` for a single
+satellite, or flags it (``impact``, ``impact_t_tdb_s``) in batch mode; its later samples are NaN
+and ``valid`` says which samples are real.
+"""
+
+from __future__ import annotations
+
+import numba as nb
+import numpy as np
+import xarray as xr
+from scipy.integrate._ivp import dop853_coefficients as _dop853
+from scipy.integrate._ivp.rk import RK45 as _RK45
+
+from .config import integrator_setting
+from .elements import elements_to_state, validate_elements
+from .ephemeris import EphemerisTable, element_frame_to_j2000, ensure_kernels, tdb_iso, tdb_seconds
+from .forces import TERMS, ForceModel, acceleration
+
+METHODS = ("RK45", "DOP853")
+STATUS_OK, STATUS_IMPACT, STATUS_MAX_STEPS, STATUS_STEP_TOO_SMALL = 0, 1, 2, 3
+STATUS_TEXT = {0: "ok", 1: "impact", 2: "maximum number of steps", 3: "step size too small"}
+
+# Butcher tableaux in one layout: A (s x s), B (s), C (s), E5 and E3 (s + 1; E3 unused for RK45)
+_RK45_TAB = (np.ascontiguousarray(_RK45.A, dtype=float), np.ascontiguousarray(_RK45.B, dtype=float),
+             np.ascontiguousarray(_RK45.C, dtype=float), np.ascontiguousarray(_RK45.E, dtype=float),
+             np.zeros(7))
+_N = _dop853.N_STAGES
+_DOP853_TAB = (np.ascontiguousarray(_dop853.A[:_N, :_N]), np.ascontiguousarray(_dop853.B),
+               np.ascontiguousarray(_dop853.C[:_N]), np.ascontiguousarray(_dop853.E5),
+               np.ascontiguousarray(_dop853.E3))
+SAFETY, MIN_FACTOR, MAX_FACTOR = 0.9, 0.2, 10.0
+
+
+class ImpactError(RuntimeError):
+    """A propagated orbit went below the lunar surface plus the minimum altitude."""
+
+
+@nb.njit(cache=True)
+def _rhs(t, y, args, work, terms, acc, out):
+    acceleration(t, y, args, work, terms, acc)
+    out[0] = y[3]
+    out[1] = y[4]
+    out[2] = y[5]
+    out[3] = acc[0]
+    out[4] = acc[1]
+    out[5] = acc[2]
+
+
+@nb.njit(cache=True)
+def _rms_scaled(vec, scale):
+    s = 0.0
+    for j in range(vec.shape[0]):
+        q = vec[j] / scale[j]
+        s += q * q
+    return np.sqrt(s / vec.shape[0])
+
+
+@nb.njit(cache=True)
+def _hermite5(t0, y0, f0, t1, y1, f1, t, out):
+    """Quintic Hermite position (from r, v, a at both ends) and its derivative at ``t``."""
+    h = t1 - t0
+    s = (t - t0) / h
+    s2 = s * s
+    s3 = s2 * s
+    s4 = s3 * s
+    s5 = s4 * s
+    h0 = 1 - 10 * s3 + 15 * s4 - 6 * s5
+    h1 = s - 6 * s3 + 8 * s4 - 3 * s5
+    h2 = 0.5 * s2 - 1.5 * s3 + 1.5 * s4 - 0.5 * s5
+    h3 = 10 * s3 - 15 * s4 + 6 * s5
+    h4 = -4 * s3 + 7 * s4 - 3 * s5
+    h5 = 0.5 * s3 - s4 + 0.5 * s5
+    d0 = (-30 * s2 + 60 * s3 - 30 * s4) / h
+    d1 = (1 - 18 * s2 + 32 * s3 - 15 * s4) / h
+    d2 = (s - 4.5 * s2 + 6 * s3 - 2.5 * s4) / h
+    d3 = -d0
+    d4 = (-12 * s2 + 28 * s3 - 15 * s4) / h
+    d5 = (1.5 * s2 - 4 * s3 + 2.5 * s4) / h
+    for j in range(3):
+        p0, v0, a0 = y0[j], f0[j] * h, f0[j + 3] * h * h
+        p1, v1, a1 = y1[j], f1[j] * h, f1[j + 3] * h * h
+        out[j] = h0 * p0 + h1 * v0 + h2 * a0 + h3 * p1 + h4 * v1 + h5 * a1
+        out[j + 3] = d0 * p0 + d1 * v0 + d2 * a0 + d3 * p1 + d4 * v1 + d5 * a1
+
+
+@nb.njit(cache=True)
+def _initial_step(t0, y0, f0, t_bound, order, rtol, atol, args, work, terms, acc, f1):
+    """scipy's ``select_initial_step`` (Hairer, Norsett & Wanner, Sec. II.4)."""
+    n = y0.shape[0]
+    scale = np.empty(n)
+    for j in range(n):
+        scale[j] = atol + abs(y0[j]) * rtol
+    d0 = _rms_scaled(y0, scale)
+    d1 = _rms_scaled(f0, scale)
+    interval = abs(t_bound - t0)
+    h0 = 1e-6 if (d0 < 1e-5 or d1 < 1e-5) else 0.01 * d0 / d1
+    h0 = min(h0, interval)
+    y1 = y0 + h0 * f0
+    _rhs(t0 + h0, y1, args, work, terms, acc, f1)
+    d2 = _rms_scaled(f1 - f0, scale) / h0
+    if d1 <= 1e-15 and d2 <= 1e-15:
+        h1 = max(1e-6, h0 * 1e-3)
+    else:
+        h1 = (0.01 / max(d1, d2)) ** (1.0 / (order + 1))
+    return min(100.0 * h0, h1, interval)
+
+
+@nb.njit(cache=True)
+def integrate_one(y0, t0, t_out, method, rtol, atol, r_min_km, max_steps, args, work):
+    """Integrate one satellite from (t0, y0) to t_out[-1]; return (states at t_out, status, t_stop, n_rhs).
+
+    ``method`` 0 = RK45, 1 = DOP853. States after an impact or failure are NaN.
+    """
+    if method == 0:
+        A, B, C, E5, E3 = _RK45_TAB
+        order = 4
+    else:
+        A, B, C, E5, E3 = _DOP853_TAB
+        order = 7
+    n_stages = B.shape[0]
+    exponent = -1.0 / (order + 1)
+    n = 6
+    terms = np.empty((len(TERMS), 3))
+    acc = np.empty(3)
+    K = np.zeros((n_stages + 1, n))
+    y = y0.copy()
+    f = np.empty(n)
+    y_new = np.empty(n)
+    f_new = np.empty(n)
+    y_stage = np.empty(n)
+    tmp = np.empty(n)
+    scale = np.empty(n)
+    err5 = np.empty(n)
+    err3 = np.empty(n)
+    n_out = t_out.shape[0]
+    states = np.full((n_out, n), np.nan)
+    t_bound = t_out[n_out - 1]
+    _rhs(t0, y, args, work, terms, acc, f)
+    n_rhs = 1
+    t = t0
+    k_out = 0
+    while k_out < n_out and t_out[k_out] <= t0:
+        states[k_out] = y
+        k_out += 1
+    if k_out == n_out:
+        return states, STATUS_OK, t, n_rhs
+    h_abs = _initial_step(t0, y, f, t_bound, order, rtol, atol, args, work, terms, acc, tmp)
+    n_rhs += 1
+    status = STATUS_OK
+    steps = 0
+    while t < t_bound:
+        if steps >= max_steps:
+            status = STATUS_MAX_STEPS
+            break
+        min_step = 10.0 * abs(np.nextafter(t, np.inf) - t)
+        if h_abs < min_step:
+            h_abs = min_step
+        accepted = False
+        rejected = False
+        t_new = t
+        while not accepted:
+            if h_abs < min_step:
+                status = STATUS_STEP_TOO_SMALL
+                break
+            t_new = t + h_abs
+            if t_new > t_bound:
+                t_new = t_bound
+            h = t_new - t
+            h_abs = abs(h)
+            for j in range(n):
+                K[0, j] = f[j]
+            for s in range(1, n_stages):
+                for j in range(n):
+                    dy = 0.0
+                    for q in range(s):
+                        dy += A[s, q] * K[q, j]
+                    y_stage[j] = y[j] + h * dy
+                _rhs(t + C[s] * h, y_stage, args, work, terms, acc, tmp)
+                for j in range(n):
+                    K[s, j] = tmp[j]
+            for j in range(n):
+                dy = 0.0
+                for q in range(n_stages):
+                    dy += B[q] * K[q, j]
+                y_new[j] = y[j] + h * dy
+            _rhs(t + h, y_new, args, work, terms, acc, f_new)
+            n_rhs += n_stages
+            for j in range(n):
+                K[n_stages, j] = f_new[j]
+                scale[j] = atol + max(abs(y[j]), abs(y_new[j])) * rtol
+            for j in range(n):
+                e5 = 0.0
+                e3 = 0.0
+                for q in range(n_stages + 1):
+                    e5 += K[q, j] * E5[q]
+                    e3 += K[q, j] * E3[q]
+                err5[j] = e5 / scale[j]
+                err3[j] = e3 / scale[j]
+            if method == 0:
+                error_norm = 0.0
+                for j in range(n):
+                    error_norm += (h * err5[j]) ** 2
+                error_norm = np.sqrt(error_norm / n)
+            else:
+                n5 = 0.0
+                n3 = 0.0
+                for j in range(n):
+                    n5 += err5[j] * err5[j]
+                    n3 += err3[j] * err3[j]
+                if n5 == 0.0 and n3 == 0.0:
+                    error_norm = 0.0
+                else:
+                    error_norm = abs(h) * n5 / np.sqrt((n5 + 0.01 * n3) * n)
+            if error_norm < 1.0:
+                factor = MAX_FACTOR if error_norm == 0.0 else min(MAX_FACTOR, SAFETY * error_norm ** exponent)
+                if rejected:
+                    factor = min(1.0, factor)
+                h_abs *= factor
+                accepted = True
+            else:
+                h_abs *= max(MIN_FACTOR, SAFETY * error_norm ** exponent)
+                rejected = True
+        if not accepted:
+            break
+        steps += 1
+        while k_out < n_out and t_out[k_out] <= t_new:
+            if t_out[k_out] == t_new:
+                for j in range(n):
+                    states[k_out, j] = y_new[j]
+            else:
+                _hermite5(t, y, f, t_new, y_new, f_new, t_out[k_out], tmp)
+                for j in range(n):
+                    states[k_out, j] = tmp[j]
+            r_out = np.sqrt(states[k_out, 0] ** 2 + states[k_out, 1] ** 2 + states[k_out, 2] ** 2)
+            if r_out < r_min_km:
+                states[k_out, :] = np.nan
+                status = STATUS_IMPACT
+                break
+            k_out += 1
+        if status == STATUS_IMPACT:
+            break
+        if np.sqrt(y_new[0] ** 2 + y_new[1] ** 2 + y_new[2] ** 2) < r_min_km:
+            status = STATUS_IMPACT
+            t = t_new
+            break
+        t = t_new
+        for j in range(n):
+            y[j] = y_new[j]
+            f[j] = f_new[j]
+    return states, status, t, n_rhs
+
+
+@nb.njit(cache=True, parallel=True)
+def integrate_many(y0s, t0, t_out, method, rtol, atol, r_min_km, max_steps, args, degree):
+    """:func:`integrate_one` for each row of ``y0s``, in parallel; returns (states, status, t_stop, n_rhs)."""
+    n_sat = y0s.shape[0]
+    states = np.empty((n_sat, t_out.shape[0], 6))
+    status = np.zeros(n_sat, dtype=np.int64)
+    t_stop = np.zeros(n_sat)
+    n_rhs = np.zeros(n_sat, dtype=np.int64)
+    for i in nb.prange(n_sat):
+        work = np.zeros((2, degree + 2, degree + 2))
+        s, st, ts, nr = integrate_one(y0s[i], t0, t_out, method, rtol, atol, r_min_km, max_steps, args, work)
+        states[i] = s
+        status[i] = st
+        t_stop[i] = ts
+        n_rhs[i] = nr
+    return states, status, t_stop, n_rhs
+
+
+def _check_states(states_mci: np.ndarray) -> np.ndarray:
+    states = np.atleast_2d(np.asarray(states_mci, dtype=float))
+    if states.ndim != 2 or states.shape[1] != 6:
+        raise ValueError(f"states must have shape (n_sat, 6) [x, y, z, vx, vy, vz]; got {states.shape}")
+    if not np.all(np.isfinite(states)):
+        raise ValueError("states contain non-finite values")
+    return states
+
+
+def output_times(t0_tdb_s: float, duration_s: float, step_s: float) -> np.ndarray:
+    """Sampling grid t0, t0 + step, ..., t0 + duration (TDB s); duration and step must be positive."""
+    if not duration_s > 0:
+        raise ValueError(f"duration must be positive (s); got {duration_s}")
+    if not step_s > 0:
+        raise ValueError(f"sampling step must be positive (s); got {step_s}")
+    n = int(np.floor(duration_s / step_s + 1e-9))
+    times = t0_tdb_s + step_s * np.arange(n + 1)
+    if times[-1] < t0_tdb_s + duration_s - 1e-6:
+        times = np.append(times, t0_tdb_s + duration_s)
+    return times
+
+
+def propagate_states(profile: dict, states_mci, t0_tdb_s: float, duration_s: float, step_s: float, *,
+                     setting: str | None = None, degree: int | None = None,
+                     srp_cr_area_mass_m2_kg: float | None = None, batch: bool | None = None,
+                     model: ForceModel | None = None, max_steps: int = 5_000_000) -> xr.Dataset:
+    """Propagate Moon-centred J2000 states (n_sat, 6; km, km/s) from TDB ``t0_tdb_s``.
+
+    Returns a Dataset (dims ``sat``, ``time``, ``xyz``) sampled every ``step_s`` seconds. With one
+    satellite (unless ``batch=True``) an impact raises :class:`ImpactError`; in batch mode it is
+    flagged. ``model`` reuses a prepared :class:`ForceModel` (its table must span the arc).
+    """
+    states = _check_states(states_mci)
+    batch = states.shape[0] > 1 if batch is None else batch
+    integ = integrator_setting(profile, setting)
+    if integ["method"] not in METHODS:
+        raise ValueError(f"unknown integration method {integ['method']!r}; allowed: {METHODS}")
+    times = output_times(t0_tdb_s, duration_s, step_s)
+    if model is None:
+        ensure_kernels(profile)
+        table = EphemerisTable.build(profile, t0_tdb_s, times[-1])
+        model = ForceModel.from_profile(profile, table, degree=degree, srp_cr_area_mass_m2_kg=srp_cr_area_mass_m2_kg)
+    elif model.table.t0_tdb_s > t0_tdb_s or model.table.t_end_tdb_s < times[-1]:
+        raise ValueError("the force model's ephemeris table does not span the requested arc")
+    r_min = profile["constants"]["r_moon_mean_km"] + profile["impact"]["min_altitude_km"]
+    radius = np.linalg.norm(states[:, :3], axis=1)
+    if np.any(radius < r_min) and not batch:
+        raise ImpactError(f"initial radius {radius.min():.1f} km is below {r_min:.1f} km (surface + minimum altitude)")
+    out, status, t_stop, n_rhs = integrate_many(states, float(t0_tdb_s), times, METHODS.index(integ["method"]),
+                                                float(integ["rtol"]), float(integ["atol"]), r_min, max_steps,
+                                                model.kernel_args, model.field.degree)
+    impact = status == STATUS_IMPACT
+    if not batch and status[0] != STATUS_OK:
+        if impact[0]:
+            raise ImpactError(f"orbit hits the Moon (radius below {r_min:.1f} km) at {tdb_iso(t_stop[0])} TDB, "
+                              f"{(t_stop[0] - t0_tdb_s) / 86400:.3f} days after the start")
+        raise RuntimeError(f"propagation failed: {STATUS_TEXT[int(status[0])]} at t = {t_stop[0]:.1f} s TDB")
+    return _as_dataset(out, times, status, t_stop, n_rhs, profile, integ, model)
+
+
+def _as_dataset(out, times, status, t_stop, n_rhs, profile, integ, model) -> xr.Dataset:
+    n_sat = out.shape[0]
+    valid = np.all(np.isfinite(out), axis=2)
+    ds = xr.Dataset(
+        {
+            "r_mci_km": (("sat", "time", "xyz"), out[:, :, :3]),
+            "v_mci_kms": (("sat", "time", "xyz"), out[:, :, 3:]),
+            "valid": (("sat", "time"), valid),
+            "impact": ("sat", status == STATUS_IMPACT),
+            "impact_t_tdb_s": ("sat", np.where(status == STATUS_IMPACT, t_stop, np.nan)),
+            "status": ("sat", np.array([STATUS_TEXT[int(s)] for s in status])),
+            "n_rhs": ("sat", n_rhs),
+        },
+        coords={"sat": np.arange(n_sat), "time": times, "xyz": ["x", "y", "z"]},
+        attrs={
+            "frame": "Moon-centred J2000 (ICRF axes), km and km/s",
+            "time_scale": "TDB; coordinate time is seconds past J2000 TDB",
+            "epoch_tdb": tdb_iso(times[0]),
+            "force_model": model.describe(),
+            "integrator": integ["method"],
+            "integrator_setting": integ["name"],
+            "rtol": float(integ["rtol"]),
+            "atol": float(integ["atol"]),
+            "gm_km3_s2": model.field.gm_km3_s2,
+            "srp_cr_area_mass_m2_kg": float(model.scalars[7] / model.scalars[9] * 1e3),
+            "output": "quintic Hermite interpolation between integrator steps",
+        },
+    )
+    ds["time"].attrs.update(units="s", long_name="TDB seconds past J2000")
+    ds["r_mci_km"].attrs.update(units="km")
+    ds["v_mci_kms"].attrs.update(units="km/s")
+    return ds
+
+
+def elements_deg_to_states(profile: dict, elements_deg, t0_tdb_s: float) -> np.ndarray:
+    """Moon-centred J2000 states (n, 6) of elements (n, 6) [a_km, e, i, RAAN, AOP, M] (deg) in the element frame.
+
+    Raises ``ValueError`` for e outside [0, 1), non-positive a, or a perilune below the surface plus
+    the minimum altitude.
+    """
+    el = np.atleast_2d(np.asarray(elements_deg, dtype=float))
+    if el.ndim != 2 or el.shape[1] != 6:
+        raise ValueError(f"elements must have shape (n_sat, 6) [a_km, e, i, RAAN, AOP, M] in degrees; got {el.shape}")
+    validate_elements(el[:, 0], el[:, 1], profile["constants"]["r_moon_mean_km"], profile["impact"]["min_altitude_km"])
+    el_rad = el.copy()
+    el_rad[:, 2:] = np.radians(el[:, 2:])
+    states_frame = elements_to_state(el_rad, profile["gravity"]["gm_km3_s2"])
+    rot = element_frame_to_j2000(profile, t0_tdb_s)
+    return np.concatenate([states_frame[:, :3] @ rot.T, states_frame[:, 3:] @ rot.T], axis=1)
+
+
+def propagate_elements(profile: dict, elements_deg, *, setting: str | None = None, degree: int | None = None,
+                       t0_tdb_s: float | None = None, duration_s: float | None = None, step_s: float | None = None,
+                       batch: bool | None = None, model: ForceModel | None = None) -> xr.Dataset:
+    """Propagate satellites given by elements (n, 6) [a_km, e, inc, RAAN, AOP, M] (deg) in the profile's element frame.
+
+    Defaults: the profile's epoch, duration and sampling step.
+    """
+    ensure_kernels(profile)
+    epoch = profile["epoch"]
+    t0 = tdb_seconds(epoch["start_tdb"], "TDB") if t0_tdb_s is None else float(t0_tdb_s)
+    duration = epoch["duration_days"] * 86400.0 if duration_s is None else float(duration_s)
+    step = epoch["step_s"] if step_s is None else float(step_s)
+    states = elements_deg_to_states(profile, elements_deg, t0)
+    ds = propagate_states(profile, states, t0, duration, step, setting=setting, degree=degree, batch=batch, model=model)
+    ds["elements_deg"] = (("sat", "element"), np.atleast_2d(np.asarray(elements_deg, dtype=float)))
+    ds = ds.assign_coords(element=["a_km", "e", "inc_deg", "raan_deg", "aop_deg", "mean_anomaly_deg"])
+    ds.attrs["element_frame"] = profile["frames"]["element_frame"]
+    return ds
