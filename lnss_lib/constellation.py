@@ -19,7 +19,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .elements import validate_elements
+from .elements import elements_to_state, validate_elements
 
 ELEMENT_COLUMNS = ("a_km", "e", "inc_deg", "raan_deg", "aop_deg", "M_deg")
 
@@ -155,3 +155,22 @@ def standalone_elfo(profile: dict) -> np.ndarray:
     el = planes_elements_deg(cfg["sma_km"], cfg["ecc"], cfg["inc_deg"], cfg["aop_deg"],
                              cfg["raan_deg"], cfg["sats_per_plane"])
     return explicit_constellation(profile, el)
+
+
+def two_body_positions_mci(profile: dict, elements_deg, t_tdb_s) -> np.ndarray:
+    """Keplerian (two-body) positions (nsat, ntime, 3) km in Moon-centred J2000 at TDB epochs.
+
+    ``elements_deg`` (nsat, 6) hold at the first epoch ``t_tdb_s[0]`` in the profile's element
+    frame (rotated with :func:`lnss_lib.ephemeris.element_frame_to_j2000`); the mean anomaly
+    advances at sqrt(GM / a^3) with ``gravity.gm_km3_s2``. A reference for the propagated orbits.
+    """
+    from .ephemeris import element_frame_to_j2000, ensure_kernels
+
+    el = explicit_constellation(profile, elements_deg)
+    times = np.atleast_1d(np.asarray(t_tdb_s, dtype=float))
+    gm = float(profile["gravity"]["gm_km3_s2"])
+    series = np.repeat(np.concatenate([el[:, :2], np.radians(el[:, 2:])], axis=1)[:, None, :], times.size, axis=1)
+    series[..., 5] += np.sqrt(gm / el[:, None, 0] ** 3) * (times - times[0])
+    ensure_kernels(profile)
+    rot = element_frame_to_j2000(profile, float(times[0]))
+    return elements_to_state(series, gm)[..., :3] @ rot.T

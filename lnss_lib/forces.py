@@ -19,6 +19,7 @@ from .ephemeris import EphemerisTable, hermite_cubic
 from .gravity import GravityField, harmonic_acceleration
 
 BODY_ORDER = ("SUN", "EARTH", "JUPITER")  # rows of the ephemeris table; Sun and Earth also occult/illuminate
+SCRATCH_SIZE = 24
 TERMS = ("central", "harmonics", "SUN", "EARTH", "JUPITER", "srp", "relativity", "albedo")
 
 # indices into the scalar parameter vector of the kernels
@@ -100,12 +101,13 @@ class ForceModel:
 
 
 @nb.njit(cache=True)
-def shadow_factor(r_sc: np.ndarray, r_sun: np.ndarray, r_body: np.ndarray, radius_body: float, radius_sun: float) -> float:
-    """Fraction of the solar disc visible past one spherical occulting body (conical model).
+def shadow_factor(r_sc: np.ndarray, r_sun: np.ndarray, bx: float, by: float, bz: float,
+                  radius_body: float, radius_sun: float) -> float:
+    """Fraction of the solar disc visible past one spherical occulting body at (bx, by, bz) (conical model).
 
     Montenbruck & Gill (2000), Sec. 3.4.2: apparent radii a (Sun), b (body) and separation c.
     """
-    sx, sy, sz = r_sc[0] - r_body[0], r_sc[1] - r_body[1], r_sc[2] - r_body[2]
+    sx, sy, sz = r_sc[0] - bx, r_sc[1] - by, r_sc[2] - bz
     dx, dy, dz = r_sun[0] - r_sc[0], r_sun[1] - r_sc[1], r_sun[2] - r_sc[2]
     s_norm = np.sqrt(sx * sx + sy * sy + sz * sz)
     d_norm = np.sqrt(dx * dx + dy * dy + dz * dz)
@@ -139,8 +141,12 @@ def _third_body(r: np.ndarray, r_b: np.ndarray, gm_b: float, out: np.ndarray) ->
 
 
 @nb.njit(cache=True)
-def acceleration_terms(t: float, y: np.ndarray, args: tuple, work: np.ndarray, terms: np.ndarray) -> None:
-    """Each term of the acceleration (km/s^2, Moon-centred J2000) into ``terms`` (8, 3), order ``TERMS``."""
+def acceleration_terms(t: float, y: np.ndarray, args: tuple, work: np.ndarray, scratch: np.ndarray,
+                       terms: np.ndarray) -> None:
+    """Each term of the acceleration (km/s^2, Moon-centred J2000) into ``terms`` (8, 3), order ``TERMS``.
+
+    ``work`` is the gravity scratch array, ``scratch`` a float array of at least 24 elements.
+    """
     scalars, flags, gm_bodies, t0dt, bodies, rot_pa, rot_pa_rate, cnm, snm, coef = args
     terms[:, :] = 0.0
     r = y[:3]
@@ -151,9 +157,9 @@ def acceleration_terms(t: float, y: np.ndarray, args: tuple, work: np.ndarray, t
     for j in range(3):
         terms[0, j] = -gm * r[j] / (r2 * r_norm)
     degree = cnm.shape[0] - 1
-    buf = np.empty(9)
-    r_bf = np.empty(3)
-    a_bf = np.empty(3)
+    buf = scratch[0:9]
+    r_bf = scratch[9:12]
+    a_bf = scratch[12:15]
     if flags[F_HARMONICS] and degree >= 2:
         hermite_cubic(rot_pa, rot_pa_rate, t0dt[0], t0dt[1], t, buf)
         for i in range(3):
@@ -161,9 +167,9 @@ def acceleration_terms(t: float, y: np.ndarray, args: tuple, work: np.ndarray, t
         harmonic_acceleration(r_bf, cnm, snm, coef, gm, scalars[R_REF], degree, work, a_bf)
         for j in range(3):
             terms[1, j] = buf[j] * a_bf[0] + buf[3 + j] * a_bf[1] + buf[6 + j] * a_bf[2] - terms[0, j]
-    r_sun = np.empty(3)
-    r_earth = np.empty(3)
-    r_jup = np.empty(3)
+    r_sun = scratch[15:18]
+    r_earth = scratch[18:21]
+    r_jup = scratch[21:24]
     hermite_cubic(bodies[:, 0, :3], bodies[:, 0, 3:], t0dt[0], t0dt[1], t, r_sun)
     hermite_cubic(bodies[:, 1, :3], bodies[:, 1, 3:], t0dt[0], t0dt[1], t, r_earth)
     if flags[F_SUN]:
@@ -178,10 +184,9 @@ def acceleration_terms(t: float, y: np.ndarray, args: tuple, work: np.ndarray, t
         d = np.sqrt(ux * ux + uy * uy + uz * uz)
         nu = 1.0
         if flags[F_SHADOW]:
-            origin = np.zeros(3)
-            nu = shadow_factor(r, r_sun, origin, scalars[R_MOON], scalars[R_SUN])
+            nu = shadow_factor(r, r_sun, 0.0, 0.0, 0.0, scalars[R_MOON], scalars[R_SUN])
             if nu > 0.0:
-                nu *= shadow_factor(r, r_sun, r_earth, scalars[R_EARTH], scalars[R_SUN])
+                nu *= shadow_factor(r, r_sun, r_earth[0], r_earth[1], r_earth[2], scalars[R_EARTH], scalars[R_SUN])
         k = nu * scalars[SRP_K] * (scalars[AU] / d) ** 2 / d
         terms[5, 0] = k * ux
         terms[5, 1] = k * uy
@@ -210,9 +215,10 @@ def acceleration_terms(t: float, y: np.ndarray, args: tuple, work: np.ndarray, t
 
 
 @nb.njit(cache=True)
-def acceleration(t: float, y: np.ndarray, args: tuple, work: np.ndarray, terms: np.ndarray, out: np.ndarray) -> None:
+def acceleration(t: float, y: np.ndarray, args: tuple, work: np.ndarray, scratch: np.ndarray, terms: np.ndarray,
+                 out: np.ndarray) -> None:
     """Total acceleration (km/s^2, Moon-centred J2000) at TDB ``t`` and state ``y`` into ``out``."""
-    acceleration_terms(t, y, args, work, terms)
+    acceleration_terms(t, y, args, work, scratch, terms)
     for j in range(3):
         s = 0.0
         for k in range(terms.shape[0]):
@@ -232,11 +238,12 @@ def acceleration_breakdown(profile: dict, t_tdb_s: np.ndarray, state_mci: np.nda
         table = EphemerisTable.build(profile, float(times.min()), float(times.max()))
         model = ForceModel.from_profile(profile, table, degree=degree, srp_cr_area_mass_m2_kg=srp_cr_area_mass_m2_kg)
     out = np.empty((len(times), len(TERMS), 3))
-    _breakdown_loop(times, states, model.kernel_args, model.field.workspace(), out)
+    _breakdown_loop(times, states, model.kernel_args, model.field.workspace(), np.empty(SCRATCH_SIZE), out)
     return {name: out[:, k, :] for k, name in enumerate(TERMS)}
 
 
 @nb.njit(cache=True)
-def _breakdown_loop(times: np.ndarray, states: np.ndarray, args: tuple, work: np.ndarray, out: np.ndarray) -> None:
+def _breakdown_loop(times: np.ndarray, states: np.ndarray, args: tuple, work: np.ndarray, scratch: np.ndarray,
+                    out: np.ndarray) -> None:
     for i in range(times.shape[0]):
-        acceleration_terms(times[i], states[i], args, work, out[i])
+        acceleration_terms(times[i], states[i], args, work, scratch, out[i])

@@ -64,56 +64,59 @@ class GravityField:
 def recursion_coefficients(degree: int) -> np.ndarray:
     """Constant factors of the normalised V/W recursion and of the acceleration sums.
 
-    Shape (6, degree + 2, degree + 2), indexed [kind, m, n]: 0, 1 the column recursion
-    V_nm = a z0 V_n-1,m - b rho V_n-2,m; 2, 3, 4 the x/y factors towards orders m + 1 and m - 1 and
-    the z factor of term (n, m); 5 the sectorial factor of order m.
+    Shape (6, degree + 2, degree + 2), indexed [kind, n, m]: 0, 1 the column recursion
+    V_nm = a z0 V_n-1,m - b rho V_n-2,m (kind 0 at m = n is the sectorial factor); 2, 3, 4 the
+    x/y factors towards orders m + 1 and m - 1 and the z factor of term (n, m).
     """
     size = degree + 2
     coef = np.zeros((6, size, size))
-    for m in range(size):
-        coef[5, m, 0] = np.sqrt(3.0) if m == 1 else np.sqrt((2.0 * m + 1.0) / (2.0 * m)) if m > 1 else 0.0
-        for n in range(m + 1, size):
-            coef[0, m, n] = np.sqrt((2.0 * n + 1.0) * (2.0 * n - 1.0) / ((n - m) * (n + m)))
-            if n >= m + 2:
-                coef[1, m, n] = np.sqrt((2.0 * n + 1.0) * (n + m - 1.0) * (n - m - 1.0)
+    for n in range(1, size):
+        coef[0, n, n] = np.sqrt(3.0) if n == 1 else np.sqrt((2.0 * n + 1.0) / (2.0 * n))
+        for m in range(n):
+            coef[0, n, m] = np.sqrt((2.0 * n + 1.0) * (2.0 * n - 1.0) / ((n - m) * (n + m)))
+            if m <= n - 2:
+                coef[1, n, m] = np.sqrt((2.0 * n + 1.0) * (n + m - 1.0) * (n - m - 1.0)
                                         / ((2.0 * n - 3.0) * (n + m) * (n - m)))
     for n in range(degree + 1):
         k_n = (2.0 * n + 1.0) / (2.0 * n + 3.0)
-        coef[2, 0, n] = np.sqrt(0.5 * k_n * (n + 1.0) * (n + 2.0))
-        coef[4, 0, n] = np.sqrt(k_n) * (n + 1.0)
+        coef[2, n, 0] = np.sqrt(0.5 * k_n * (n + 1.0) * (n + 2.0))
+        coef[4, n, 0] = np.sqrt(k_n) * (n + 1.0)
         for m in range(1, n + 1):
-            coef[2, m, n] = 0.5 * np.sqrt(k_n * (n + m + 1.0) * (n + m + 2.0))
-            coef[3, m, n] = 0.5 * np.sqrt((2.0 if m == 1 else 1.0) * k_n * (n - m + 2.0) * (n - m + 1.0))
-            coef[4, m, n] = np.sqrt(k_n * (n - m + 1.0) * (n + m + 1.0))
+            coef[2, n, m] = 0.5 * np.sqrt(k_n * (n + m + 1.0) * (n + m + 2.0))
+            coef[3, n, m] = 0.5 * np.sqrt((2.0 if m == 1 else 1.0) * k_n * (n - m + 2.0) * (n - m + 1.0))
+            coef[4, n, m] = np.sqrt(k_n * (n - m + 1.0) * (n + m + 1.0))
     return coef
 
 
 @nb.njit(cache=True, fastmath=True)
 def _fill_vw(x: float, y: float, z: float, r_ref: float, nmax: int, coef: np.ndarray, V: np.ndarray, W: np.ndarray) -> None:
-    """Normalised V_nm, W_nm (stored [m, n]) of Montenbruck & Gill eq. 3.29-3.31 up to degree nmax."""
+    """Normalised V_nm, W_nm (Montenbruck & Gill eq. 3.29-3.31) up to degree nmax, stored [n, m].
+
+    Each degree row is computed from the two before it, so the loop over orders vectorises.
+    """
     r2 = x * x + y * y + z * z
     rho = r_ref * r_ref / r2
     x0, y0, z0 = r_ref * x / r2, r_ref * y / r2, r_ref * z / r2
     V[0, 0] = r_ref / np.sqrt(r2)
     W[0, 0] = 0.0
-    for m in range(nmax + 1):
-        if m > 0:
-            f = coef[5, m, 0]
-            V[m, m] = f * (x0 * V[m - 1, m - 1] - y0 * W[m - 1, m - 1])
-            W[m, m] = f * (x0 * W[m - 1, m - 1] + y0 * V[m - 1, m - 1])
-        if m < nmax:
-            f = coef[0, m, m + 1] * z0
-            V[m, m + 1] = f * V[m, m]
-            W[m, m + 1] = f * W[m, m]
-        a_row = coef[0, m]
-        b_row = coef[1, m]
-        v_row = V[m]
-        w_row = W[m]
-        for n in range(m + 2, nmax + 1):
-            a = a_row[n] * z0
-            b = b_row[n] * rho
-            v_row[n] = a * v_row[n - 1] - b * v_row[n - 2]
-            w_row[n] = a * w_row[n - 1] - b * w_row[n - 2]
+    for n in range(1, nmax + 1):
+        a_row = coef[0, n]
+        b_row = coef[1, n]
+        v_row, v_1, w_row, w_1 = V[n], V[n - 1], W[n], W[n - 1]
+        if n >= 2:
+            v_2 = V[n - 2]
+            w_2 = W[n - 2]
+            for m in range(n - 1):
+                a = a_row[m] * z0
+                b = b_row[m] * rho
+                v_row[m] = a * v_1[m] - b * v_2[m]
+                w_row[m] = a * w_1[m] - b * w_2[m]
+        a = a_row[n - 1] * z0
+        v_row[n - 1] = a * v_1[n - 1]
+        w_row[n - 1] = a * w_1[n - 1]
+        f = a_row[n]
+        v_row[n] = f * (x0 * v_1[n - 1] - y0 * w_1[n - 1])
+        w_row[n] = f * (x0 * w_1[n - 1] + y0 * v_1[n - 1])
 
 
 @nb.njit(cache=True, fastmath=True)
@@ -131,29 +134,21 @@ def harmonic_acceleration(r_bf_km: np.ndarray, cnm: np.ndarray, snm: np.ndarray,
     ay = 0.0
     az = 0.0
     for n in range(degree + 1):
-        c = cnm[n, 0]
-        f1 = coef[2, 0, n]
-        ax -= c * f1 * V[1, n + 1]
-        ay -= c * f1 * W[1, n + 1]
-        az -= c * coef[4, 0, n] * V[0, n + 1]
-    for m in range(1, degree + 1):
-        up_v = V[m + 1]
-        up_w = W[m + 1]
-        dn_v = V[m - 1]
-        dn_w = W[m - 1]
-        z_v = V[m]
-        z_w = W[m]
-        f_up_row = coef[2, m]
-        f_dn_row = coef[3, m]
-        f_z_row = coef[4, m]
-        for n in range(m, degree + 1):
-            c = cnm[n, m]
-            s = snm[n, m]
-            f_up = f_up_row[n]
-            f_dn = f_dn_row[n]
-            ax += f_up * (-c * up_v[n + 1] - s * up_w[n + 1]) + f_dn * (c * dn_v[n + 1] + s * dn_w[n + 1])
-            ay += f_up * (-c * up_w[n + 1] + s * up_v[n + 1]) + f_dn * (-c * dn_w[n + 1] + s * dn_v[n + 1])
-            az += f_z_row[n] * (-c * z_v[n + 1] - s * z_w[n + 1])
+        c_row, s_row = cnm[n], snm[n]
+        up_row, dn_row, z_row = coef[2, n], coef[3, n], coef[4, n]
+        v, w = V[n + 1], W[n + 1]
+        c = c_row[0]
+        ax -= c * up_row[0] * v[1]
+        ay -= c * up_row[0] * w[1]
+        az -= c * z_row[0] * v[0]
+        for m in range(1, n + 1):
+            c = c_row[m]
+            s = s_row[m]
+            f_up = up_row[m]
+            f_dn = dn_row[m]
+            ax += f_up * (-c * v[m + 1] - s * w[m + 1]) + f_dn * (c * v[m - 1] + s * w[m - 1])
+            ay += f_up * (-c * w[m + 1] + s * v[m + 1]) + f_dn * (-c * w[m - 1] + s * v[m - 1])
+            az += z_row[m] * (-c * v[m] - s * w[m])
     scale = gm / (r_ref * r_ref)
     out[0] = scale * ax
     out[1] = scale * ay
@@ -170,5 +165,5 @@ def harmonic_potential(r_bf_km: np.ndarray, cnm: np.ndarray, snm: np.ndarray, co
     total = 0.0
     for n in range(degree + 1):
         for m in range(n + 1):
-            total += cnm[n, m] * V[m, n] + snm[n, m] * W[m, n]
+            total += cnm[n, m] * V[n, m] + snm[n, m] * W[n, m]
     return gm / r_ref * total

@@ -23,7 +23,7 @@ from scipy.integrate._ivp.rk import RK45 as _RK45
 from .config import integrator_setting
 from .elements import elements_to_state, validate_elements
 from .ephemeris import EphemerisTable, element_frame_to_j2000, ensure_kernels, tdb_iso, tdb_seconds
-from .forces import TERMS, ForceModel, acceleration
+from .forces import SCRATCH_SIZE, TERMS, ForceModel, acceleration
 
 METHODS = ("RK45", "DOP853")
 STATUS_OK, STATUS_IMPACT, STATUS_MAX_STEPS, STATUS_STEP_TOO_SMALL = 0, 1, 2, 3
@@ -46,7 +46,7 @@ class ImpactError(RuntimeError):
 
 @nb.njit(cache=True)
 def _rhs(t, y, args, work, terms, acc, out):
-    acceleration(t, y, args, work, terms, acc)
+    acceleration(t, y, args, work[1], work[0], terms, acc)
     out[0] = y[3]
     out[1] = y[4]
     out[2] = y[5]
@@ -118,7 +118,8 @@ def _initial_step(t0, y0, f0, t_bound, order, rtol, atol, args, work, terms, acc
 def integrate_one(y0, t0, t_out, method, rtol, atol, r_min_km, max_steps, args, work):
     """Integrate one satellite from (t0, y0) to t_out[-1]; return (states at t_out, status, t_stop, n_rhs).
 
-    ``method`` 0 = RK45, 1 = DOP853. States after an impact or failure are NaN.
+    ``method`` 0 = RK45, 1 = DOP853; ``work`` = (force scratch, gravity scratch). States after an
+    impact or failure are NaN.
     """
     if method == 0:
         A, B, C, E5, E3 = _RK45_TAB
@@ -268,7 +269,7 @@ def integrate_many(y0s, t0, t_out, method, rtol, atol, r_min_km, max_steps, args
     t_stop = np.zeros(n_sat)
     n_rhs = np.zeros(n_sat, dtype=np.int64)
     for i in nb.prange(n_sat):
-        work = np.zeros((2, degree + 2, degree + 2))
+        work = (np.zeros(SCRATCH_SIZE), np.zeros((2, degree + 2, degree + 2)))
         s, st, ts, nr = integrate_one(y0s[i], t0, t_out, method, rtol, atol, r_min_km, max_steps, args, work)
         states[i] = s
         status[i] = st

@@ -4,7 +4,13 @@ import numpy as np
 import pytest
 
 from lnss_lib.config import load_profile
-from lnss_lib.constellation import WalkerDesign, explicit_constellation, standalone_elfo, walker_design
+from lnss_lib.constellation import (
+    WalkerDesign,
+    explicit_constellation,
+    standalone_elfo,
+    two_body_positions_mci,
+    walker_design,
+)
 
 
 @pytest.fixture(scope="module")
@@ -85,3 +91,19 @@ def test_bad_inclination_and_shape(profile):
 def test_explicit_constellation_wraps_angles(profile):
     el = explicit_constellation(profile, [8000.0, 0.1, 50.0, -90.0, 450.0, 720.0])
     np.testing.assert_allclose(el, [[8000.0, 0.1, 50.0, 270.0, 90.0, 0.0]])
+
+
+def test_two_body_positions_follow_kepler(profile):
+    from lnss_lib.ephemeris import ensure_kernels, tdb_seconds
+
+    ensure_kernels(profile)
+    el = walker_design(profile, 6143.0, 0.6, 51.7, 90.0, 2, 2).elements_deg()
+    gm = profile["gravity"]["gm_km3_s2"]
+    period_s = 2.0 * np.pi * np.sqrt(6143.0**3 / gm)
+    t0 = tdb_seconds(profile["epoch"]["start_tdb"])
+    r = two_body_positions_mci(profile, el, t0 + np.array([0.0, 0.5 * period_s, period_s]))
+    radius = np.linalg.norm(r, axis=-1)
+    # Satellites at M = 0 start at perilune a(1 - e), reach apolune a(1 + e) half a period later, and return.
+    np.testing.assert_allclose(radius[[0, 2], 0], 6143.0 * 0.4, rtol=1e-9)
+    np.testing.assert_allclose(radius[[0, 2], 1], 6143.0 * 1.6, rtol=1e-9)
+    np.testing.assert_allclose(r[:, 2], r[:, 0], atol=1e-6)

@@ -1,0 +1,650 @@
+"""Station-keeping Delta-V from a propagated arc (paper Section 3.1, eq. 25-41; Section 4).
+
+Pipeline (pure numpy kernels, time along axis -2 of state arrays, any leading batch dims):
+osculating elements at every epoch -> unwrapped angles -> drift rates by central finite
+differences (:func:`element_rates`) -> thrust in RTN by an inverse of the Gauss variational
+equations (GVEs, eq. 25-29) -> T_total (eq. 36) -> Delta-V by the trapezoidal rule (eq. 37) ->
+per satellite per year (x 365.25 d / arc length, Section 4).
+
+Conventions: ``T`` is the RTN acceleration that *produces* the observed drift (R along r, N along
+h = r x v, T = N x R); the station-keeping thrust is -T, of the same magnitude. Accelerations in
+km/s^2, elements ``[a_km, e, i, raan, aop, nu]`` in km and rad (nu: true anomaly).
+
+Three models (``MODELS``), all reported:
+
+``paper``
+    eq. 30-35 with the evident misprints corrected (see :func:`paper_thrust`): eq. 26's ``r e``
+    inside the T_T bracket (already right in eq. 33); eq. 34 divides by cos(nu); eq. 32 and
+    eq. 35 combine the two normal and the two radial estimates of one acceleration as a
+    least-squares (weighted) mean instead of ``|T_i|`` and a double-counting sum. Eq. 30's
+    assumption (no radial part in the SMA drift) is the paper's modelling choice and is kept.
+    The literal variants and the divisor floor / component cap stay selectable.
+``lsq``
+    least-squares inverse of all five GVEs (5 x 3 per epoch, row-scaled, :func:`lsq_thrust`);
+    with exact rates it returns the perturbing acceleration itself.
+``secular``
+    the cost of cancelling only the secular drift of orbit-averaged (mean) elements, with
+    optimally placed linearised impulsive corrections derived from the GVEs
+    (:func:`secular_deltav_rates`); periodic terms cost nothing.
+
+The optimised thrust of eq. 38-41 has a closed form (:func:`tmax_closed_form`); SLSQP
+(:func:`slsqp_tmax`) is kept as a cross-check.
+"""
+
+from __future__ import annotations
+
+import copy
+
+import numpy as np
+import xarray as xr
+from scipy.optimize import minimize
+
+from .elements import state_to_elements
+
+MODELS = ("paper", "lsq", "secular")
+OSCULATING_MODELS = ("paper", "lsq")
+ELEMENT_FRAMES = ("j2000", "lunar_equator_of_epoch")
+ROW_SCALES = ("natural", "unit")
+PAPER_NORMAL = ("weighted", "eq32", "rss")
+PAPER_RADIAL = ("weighted", "eq35")
+SECONDS_PER_DAY = 86400.0
+RATE_NAMES = ("a", "e", "i", "raan", "aop")
+SECULAR_PARTS = ("sma", "ecc", "aop_in_plane", "plane")
+
+DEFAULT_SETTINGS = {
+    "model": "lsq",
+    "element_frame": "j2000",
+    "year_days": 365.25,
+    "lsq_row_scale": "natural",
+    "paper_normal": "weighted",
+    "paper_radial": "weighted",
+    "paper_divisor_floor": 1e-3,
+    "paper_cap_kms2": 1.0,
+    "secular_min_periods": 2.0,
+    "slsqp_lambda": 20.0,
+}
+
+
+# ----------------------------------------------------------------------------------------------
+# settings
+# ----------------------------------------------------------------------------------------------
+
+def deltav_settings(profile: dict | None = None, **overrides) -> dict:
+    """The ``[deltav]`` settings of a profile (defaults :data:`DEFAULT_SETTINGS`) with ``overrides``.
+
+    Raises ``ValueError`` naming a bad value and the allowed ones.
+    """
+    settings = dict(DEFAULT_SETTINGS)
+    if profile is not None:
+        settings.update(profile.get("deltav", {}))
+    settings.update({k: v for k, v in overrides.items() if v is not None})
+    unknown = set(settings) - set(DEFAULT_SETTINGS)
+    if unknown:
+        raise ValueError(f"unknown [deltav] setting(s) {sorted(unknown)}; allowed: {sorted(DEFAULT_SETTINGS)}")
+    choices = {"model": MODELS, "element_frame": ELEMENT_FRAMES, "lsq_row_scale": ROW_SCALES,
+               "paper_normal": PAPER_NORMAL, "paper_radial": PAPER_RADIAL}
+    for key, allowed in choices.items():
+        if settings[key] not in allowed:
+            raise ValueError(f"[deltav] {key} = {settings[key]!r} is not allowed; allowed: {', '.join(allowed)}")
+    if not 0.0 <= float(settings["paper_divisor_floor"]) < 1.0:
+        raise ValueError(f"[deltav] paper_divisor_floor = {settings['paper_divisor_floor']!r} must be in [0, 1)")
+    if not float(settings["paper_cap_kms2"]) > 0.0:
+        raise ValueError(f"[deltav] paper_cap_kms2 = {settings['paper_cap_kms2']!r} must be positive (km/s^2; 1.0 or more means no cap in practice)")
+    if not float(settings["year_days"]) > 0.0:
+        raise ValueError(f"[deltav] year_days = {settings['year_days']!r} must be positive")
+    if not float(settings["secular_min_periods"]) >= 1.0:
+        raise ValueError(f"[deltav] secular_min_periods = {settings['secular_min_periods']!r} must be >= 1")
+    if not float(settings["slsqp_lambda"]) >= 0.0:
+        raise ValueError(f"[deltav] slsqp_lambda = {settings['slsqp_lambda']!r} must be >= 0")
+    return settings
+
+
+# ----------------------------------------------------------------------------------------------
+# geometry and elements
+# ----------------------------------------------------------------------------------------------
+
+def rtn_basis(states: np.ndarray) -> np.ndarray:
+    """Unit vectors (..., 3, 3) with rows R (along r), T (N x R), N (along r x v) in the state's frame."""
+    s = np.asarray(states, dtype=float)
+    r_vec, v_vec = s[..., :3], s[..., 3:6]
+    r_hat = r_vec / np.linalg.norm(r_vec, axis=-1, keepdims=True)
+    h_vec = np.cross(r_vec, v_vec)
+    n_hat = h_vec / np.linalg.norm(h_vec, axis=-1, keepdims=True)
+    t_hat = np.cross(n_hat, r_hat)
+    return np.stack([r_hat, t_hat, n_hat], axis=-2)
+
+
+def to_rtn(vectors: np.ndarray, states: np.ndarray) -> np.ndarray:
+    """Components (..., 3) [R, T, N] of vectors (..., 3) given in the states' frame."""
+    return np.einsum("...ij,...j->...i", rtn_basis(states), np.asarray(vectors, dtype=float))
+
+
+def from_rtn(components_rtn: np.ndarray, states: np.ndarray) -> np.ndarray:
+    """Vectors (..., 3) in the states' frame from RTN components (..., 3)."""
+    return np.einsum("...ji,...j->...i", rtn_basis(states), np.asarray(components_rtn, dtype=float))
+
+
+def osculating_elements(states: np.ndarray, gm_km3_s2: float) -> np.ndarray:
+    """Osculating ``[a_km, e, i, raan, aop, nu]`` (..., n, 6) of states (..., n, 6), angles unwrapped in time.
+
+    Time runs along axis -2. The argument of latitude theta is taken from the geometry (well
+    defined for circular orbits) and nu = theta - aop, so theta = aop + nu holds exactly.
+    """
+    s = np.asarray(states, dtype=float)
+    if s.ndim < 2 or s.shape[-1] != 6:
+        raise ValueError(f"states must have shape (..., n_time, 6) [km, km/s]; got {s.shape}")
+    el = state_to_elements(s, gm_km3_s2)
+    a, e, inc, raan, aop = (el[..., k] for k in range(5))
+    r_vec = s[..., :3]
+    h_vec = np.cross(r_vec, s[..., 3:6])
+    h_hat = h_vec / np.linalg.norm(h_vec, axis=-1, keepdims=True)
+    node_hat = np.stack([np.cos(raan), np.sin(raan), np.zeros_like(raan)], axis=-1)
+    r_hat = r_vec / np.linalg.norm(r_vec, axis=-1, keepdims=True)
+    theta = np.arctan2(np.sum(np.cross(node_hat, r_hat) * h_hat, axis=-1), np.sum(node_hat * r_hat, axis=-1))
+    raan_u = np.unwrap(raan, axis=-1)
+    aop_u = np.unwrap(aop, axis=-1)
+    nu = np.mod(theta - aop_u, 2.0 * np.pi)
+    return np.stack([a, e, inc, raan_u, aop_u, nu], axis=-1)
+
+
+def element_rates(t_tdb_s: np.ndarray, elements: np.ndarray) -> np.ndarray:
+    """Drift rates (..., n, 5) of ``[a, e, i, raan, aop]`` by central finite differences (Section 3.1.1).
+
+    ``numpy.gradient`` along time: second-order central differences inside, second-order
+    one-sided at the two ends. Units km/s, 1/s, rad/s.
+    """
+    t = np.asarray(t_tdb_s, dtype=float)
+    el = np.asarray(elements, dtype=float)
+    if t.ndim != 1 or t.size < 3 or el.shape[-2] != t.size:
+        raise ValueError(f"need at least 3 epochs and elements (..., {t.size}, 6); got t {t.shape}, elements {el.shape}")
+    if np.any(np.diff(t) <= 0.0):
+        raise ValueError("epochs t_tdb_s must be strictly increasing")
+    return np.gradient(el[..., :5], t, axis=-2, edge_order=2)
+
+
+def _orbit_quantities(elements: np.ndarray, gm_km3_s2: float):
+    el = np.asarray(elements, dtype=float)
+    a, e, inc, _, aop, nu = (el[..., k] for k in range(6))
+    p = a * (1.0 - e * e)
+    h = np.sqrt(gm_km3_s2 * p)
+    r = p / (1.0 + e * np.cos(nu))
+    theta = aop + nu
+    return a, e, inc, nu, theta, p, h, r
+
+
+# ----------------------------------------------------------------------------------------------
+# forward and inverse GVEs
+# ----------------------------------------------------------------------------------------------
+
+def gve_matrix(elements: np.ndarray, gm_km3_s2: float) -> np.ndarray:
+    """Matrix B (..., 5, 3) of the GVEs (eq. 25-29): d[a, e, i, raan, aop]/dt = B [T_R, T_T, T_N].
+
+    Standard forms (e.g. Vallado, Fundamentals of Astrodynamics, Gauss form); eq. 26 with its
+    ``r e`` term inside the T_T bracket: e-dot = [p sin(nu) T_R + ((p + r) cos(nu) + r e) T_T] / h.
+    Singular for e = 0 (aop row) and sin(i) = 0 (raan, aop rows).
+    """
+    a, e, inc, nu, theta, p, h, r = _orbit_quantities(elements, gm_km3_s2)
+    sn, cn, st, ct = np.sin(nu), np.cos(nu), np.sin(theta), np.cos(theta)
+    zero = np.zeros_like(a)
+    cot_i = np.cos(inc) / np.sin(inc)
+    rows = [
+        [2.0 * a * a / h * e * sn, 2.0 * a * a / h * p / r, zero],
+        [p * sn / h, ((p + r) * cn + r * e) / h, zero],
+        [zero, zero, r * ct / h],
+        [zero, zero, r * st / (h * np.sin(inc))],
+        [-p * cn / (h * e), (p + r) * sn / (h * e), -r * st * cot_i / h],
+    ]
+    return np.stack([np.stack(row, axis=-1) for row in rows], axis=-2)
+
+
+def gve_rates(elements: np.ndarray, acc_rtn_kms2: np.ndarray, gm_km3_s2: float) -> np.ndarray:
+    """Forward GVEs (eq. 25-29): rates (..., 5) of [a, e, i, raan, aop] under RTN acceleration (..., 3)."""
+    return np.einsum("...ij,...j->...i", gve_matrix(elements, gm_km3_s2), np.asarray(acc_rtn_kms2, dtype=float))
+
+
+def _row_scales(elements: np.ndarray, row_scale: str) -> np.ndarray:
+    el = np.asarray(elements, dtype=float)
+    ones = np.ones_like(el[..., 0])
+    if row_scale == "unit":
+        return np.stack([1.0 / el[..., 0], ones, ones, ones, ones], axis=-1)
+    if row_scale == "natural":
+        return np.stack([1.0 / el[..., 0], ones, ones, np.sin(el[..., 2]), el[..., 1]], axis=-1)
+    raise ValueError(f"unknown lsq row scaling {row_scale!r}; allowed: {', '.join(ROW_SCALES)}")
+
+
+def _scaled_gve_matrix(elements: np.ndarray, gm_km3_s2: float, row_scale: str) -> np.ndarray:
+    """diag(scales) B, with the natural scaling written out so that e = 0 and sin(i) = 0 stay finite."""
+    if row_scale != "natural":
+        return gve_matrix(elements, gm_km3_s2) * _row_scales(elements, row_scale)[..., :, None]
+    a, e, inc, nu, theta, p, h, r = _orbit_quantities(elements, gm_km3_s2)
+    sn, cn, st, ct = np.sin(nu), np.cos(nu), np.sin(theta), np.cos(theta)
+    zero = np.zeros_like(a)
+    rows = [
+        [2.0 * a / h * e * sn, 2.0 * a / h * p / r, zero],
+        [p * sn / h, ((p + r) * cn + r * e) / h, zero],
+        [zero, zero, r * ct / h],
+        [zero, zero, r * st / h],
+        [-p * cn / h, (p + r) * sn / h, -e * r * st * np.cos(inc) / (h * np.sin(inc))],
+    ]
+    return np.stack([np.stack(row, axis=-1) for row in rows], axis=-2)
+
+
+def lsq_thrust(elements: np.ndarray, rates: np.ndarray, gm_km3_s2: float, row_scale: str = "natural"):
+    """Least-squares RTN acceleration (..., 3) from all five drift rates, and the fit residual (...,).
+
+    Solves min |S (B T - rates)| per epoch (B: :func:`gve_matrix`, S diagonal). Row scaling
+    ``natural``: a-dot / a, e-dot, i-dot, sin(i) raan-dot, e aop-dot, i.e. the rates of the
+    dimensionless a, of the eccentricity vector and of the orbit normal, all in 1/s, so no
+    element's units dominate and the rows stay finite at e = 0 (sin(i) = 0 only through the
+    e cot(i) coupling of the aop row). ``unit``: a-dot / a and the other rates unscaled (singular
+    at e = 0 and sin(i) = 0). The residual is |S (B T - rates)| (1/s), zero for consistent rates.
+    """
+    weights = _row_scales(elements, row_scale)
+    matrix = _scaled_gve_matrix(elements, gm_km3_s2, row_scale)
+    target = np.asarray(rates, dtype=float) * weights
+    solution = np.einsum("...ij,...j->...i", np.linalg.pinv(matrix), target)
+    residual = np.linalg.norm(np.einsum("...ij,...j->...i", matrix, solution) - target, axis=-1)
+    return solution, residual
+
+
+def _clip_divisor(d: np.ndarray, floor: float) -> np.ndarray:
+    """d with |d| raised to at least ``floor``, sign kept (sign(0) taken as +)."""
+    return np.where(d < 0.0, -1.0, 1.0) * np.maximum(np.abs(d), floor)
+
+
+def paper_thrust(elements: np.ndarray, rates: np.ndarray, gm_km3_s2: float, *, normal: str = "weighted",
+                 radial: str = "weighted", divisor_floor: float = 1e-3, cap_kms2: float = np.inf,
+                 t_t_kms2: np.ndarray | None = None) -> dict:
+    """The paper's sequential inverse (eq. 30-35), misprints corrected; dict of (...,) arrays (km/s^2).
+
+    Keys ``T_R, T_T, T_N`` (the result) and the single-equation estimates ``T_sma`` (eq. 30),
+    ``T_i``, ``T_raan`` (eq. 31), ``T_e`` (eq. 33), ``T_aop`` (eq. 34, corrected).
+
+    * eq. 30 (kept): T_T = h r a-dot / (2 p a^2), i.e. the radial part of the SMA drift neglected.
+      ``t_t_kms2`` replaces it in eq. 33-34 (for tests that isolate eq. 31-35).
+    * eq. 31: T_i = h i-dot / (r cos theta), T_raan = h sin(i) raan-dot / (r sin theta).
+    * eq. 32: ``normal="weighted"`` (default) T_N = cos^2(theta) T_i + sin^2(theta) T_raan
+      = (h / r)(cos(theta) i-dot + sin(theta) sin(i) raan-dot), the least-squares combination of the
+      two estimates of the one normal acceleration (the orbit normal turns at rate r T_N / h), free
+      of divisions; ``"eq32"``: literal, sqrt(T_i^2 + T_raan^2) cos(atan(T_raan / T_i)) = |T_i|;
+      ``"rss"``: sqrt(T_i^2 + T_raan^2) (double counting).
+    * eq. 33: T_e = [h e-dot - T_T((p + r) cos(nu) + r e)] / (p sin(nu)).
+    * eq. 34 corrected (divide by cos(nu), as the inversion of eq. 29 requires):
+      T_aop = [-h e (aop-dot + T_N r sin(theta) cos(i) / (h sin(i))) + T_T (p + r) sin(nu)] / (p cos(nu)).
+    * eq. 35: ``radial="weighted"`` (default) T_R = sin^2(nu) T_e + cos^2(nu) T_aop, the
+      least-squares combination of the two estimates of the one radial acceleration (rates of the
+      eccentricity vector along and across itself), free of divisions by sin(nu), cos(nu);
+      ``"eq35"``: literal sum T_e + T_aop (double counting).
+
+    Singularities: every division by sin(nu), cos(nu), sin(theta), cos(theta) and sin(i) uses a
+    divisor raised to at least ``divisor_floor`` in magnitude (sign kept); each estimate is then
+    capped to |T| <= ``cap_kms2``. Neither is needed by the weighted forms except sin(i) in
+    eq. 34 (i -> 0); the literal forms diverge as the floor goes to zero. Small e is harmless here
+    (eq. 34 multiplies by e).
+    """
+    if normal not in PAPER_NORMAL:
+        raise ValueError(f"unknown paper normal combination {normal!r}; allowed: {', '.join(PAPER_NORMAL)}")
+    if radial not in PAPER_RADIAL:
+        raise ValueError(f"unknown paper radial combination {radial!r}; allowed: {', '.join(PAPER_RADIAL)}")
+    a, e, inc, nu, theta, p, h, r = _orbit_quantities(elements, gm_km3_s2)
+    rate = np.asarray(rates, dtype=float)
+    a_dot, e_dot, i_dot, raan_dot, aop_dot = (rate[..., k] for k in range(5))
+    sn, cn, st, ct, si = np.sin(nu), np.cos(nu), np.sin(theta), np.cos(theta), np.sin(inc)
+
+    def cap(x):
+        return np.clip(x, -cap_kms2, cap_kms2)
+
+    def div(d):
+        return _clip_divisor(d, divisor_floor)
+
+    t_sma = cap(h * r * a_dot / (2.0 * p * a * a))
+    t_t = t_sma if t_t_kms2 is None else np.asarray(t_t_kms2, dtype=float)
+    t_i = cap(h * i_dot / (r * div(ct)))
+    t_raan = cap(h * si * raan_dot / (r * div(st)))
+    if normal == "weighted":
+        t_n = cap(h / r * (ct * i_dot + st * si * raan_dot))
+    elif normal == "eq32":
+        t_n = np.abs(t_i)
+    else:
+        t_n = cap(np.hypot(t_i, t_raan))
+    x_e = h * e_dot - t_t * ((p + r) * cn + r * e)
+    x_aop = -h * e * (aop_dot + t_n * r * st * np.cos(inc) / (h * div(si))) + t_t * (p + r) * sn
+    t_e = cap(x_e / (p * div(sn)))
+    t_aop = cap(x_aop / (p * div(cn)))
+    t_r = cap((sn * x_e + cn * x_aop) / p) if radial == "weighted" else cap(t_e + t_aop)
+    return {"T_R": t_r, "T_T": t_t, "T_N": t_n, "T_sma": t_sma, "T_i": t_i, "T_raan": t_raan,
+            "T_e": t_e, "T_aop": t_aop}
+
+
+# ----------------------------------------------------------------------------------------------
+# magnitude, optimisation and integration (eq. 36-41)
+# ----------------------------------------------------------------------------------------------
+
+def thrust_total(t_rtn_kms2: np.ndarray) -> np.ndarray:
+    """T_total = sqrt(T_R^2 + T_T^2 + T_N^2) (eq. 36), over the last axis."""
+    return np.linalg.norm(np.asarray(t_rtn_kms2, dtype=float), axis=-1)
+
+
+def tmax_closed_form(t_rtn_kms2: np.ndarray) -> np.ndarray:
+    """Optimised thrust of eq. 38-41: T_max = sqrt(sum_k T_k^4) / sum_k |T_k| (0 where T = 0).
+
+    Derivation: squaring and adding the three equalities of eq. 40 (cos^2 b cos^2 a +
+    cos^2 b sin^2 a + sin^2 b = 1) gives T_max^2 = sum_k w_k^2 T_k^2 with w_k = |T_k| / sum_j |T_j|
+    (eq. 39), hence the closed form; the angles follow as alpha = atan2(w_T|T_T|, w_R|T_R|),
+    beta = asin(w_N|T_N| / T_max). Three equations fix all three unknowns, so the objective of
+    eq. 41 and its penalty lambda play no role. T_total / 3 <= T_max <= T_total / sqrt(3) ... T_total
+    (equal components give 1/3 of T_total, a single component gives T_total). Note the
+    optimised vector (w_k |T_k|) is not parallel to (T_k) unless all non-zero |T_k| are equal.
+    """
+    t = np.abs(np.asarray(t_rtn_kms2, dtype=float))
+    total_abs = np.sum(t, axis=-1)
+    quartic = np.sqrt(np.sum(t**4, axis=-1))
+    return np.where(total_abs > 0.0, quartic / np.where(total_abs > 0.0, total_abs, 1.0), 0.0)
+
+
+def slsqp_tmax(t_rtn_kms2: np.ndarray, lam: float = 20.0) -> tuple[np.ndarray, np.ndarray]:
+    """Eq. 41 solved by SLSQP per sample (rows of an (m, 3) array); returns (T_max km/s^2, success).
+
+    Scaled so that T_total = 1 (SLSQP stops on infeasible points in km/s^2 units, NOTES.md):
+    variables (T_max / T_total, alpha, beta), objective T + lam (T - 1)^2, equalities eq. 40,
+    bounds 0 <= T <= 1, alpha in [-pi, pi], beta in [-pi/2, pi/2]; initial guess T = 1 and the
+    angles of (|T_R|, |T_T|, |T_N|).
+    """
+    samples = np.atleast_2d(np.asarray(t_rtn_kms2, dtype=float))
+    if samples.shape[-1] != 3:
+        raise ValueError(f"thrust samples must have shape (m, 3) [T_R, T_T, T_N]; got {samples.shape}")
+    out = np.zeros(samples.shape[0])
+    ok = np.ones(samples.shape[0], dtype=bool)
+    for k, row in enumerate(samples):
+        total = float(np.linalg.norm(row))
+        if total == 0.0:
+            continue
+        c = np.abs(row) / total
+        w = c / c.sum()
+        target = w * c
+
+        def equalities(x, target=target):
+            tm, alpha, beta = x
+            return np.array([target[0] - tm * np.cos(beta) * np.cos(alpha),
+                             target[1] - tm * np.cos(beta) * np.sin(alpha),
+                             target[2] - tm * np.sin(beta)])
+
+        x0 = np.array([1.0, np.arctan2(c[1], c[0]), np.arcsin(np.clip(c[2], -1.0, 1.0))])
+        res = minimize(lambda x: x[0] + lam * (x[0] - 1.0) ** 2, x0, method="SLSQP",
+                       constraints=[{"type": "eq", "fun": equalities}],
+                       bounds=[(0.0, 1.0), (-np.pi, np.pi), (-np.pi / 2, np.pi / 2)],
+                       options={"ftol": 1e-14, "maxiter": 200})
+        out[k] = res.x[0] * total
+        ok[k] = bool(res.success) and np.max(np.abs(equalities(res.x))) < 1e-8
+    return out, ok
+
+
+def trapezoid_deltav(t_tdb_s: np.ndarray, t_total_kms2: np.ndarray) -> np.ndarray:
+    """Delta-V (km/s) = integral of T_total dt by the trapezoidal rule over time (last axis) (eq. 37)."""
+    return np.trapezoid(np.asarray(t_total_kms2, dtype=float), np.asarray(t_tdb_s, dtype=float), axis=-1)
+
+
+def per_year_factor(t_tdb_s: np.ndarray, year_days: float = 365.25) -> float:
+    """Scale from an arc's Delta-V to a year's: year_days * 86400 s / (t_end - t_start) (Section 4)."""
+    t = np.asarray(t_tdb_s, dtype=float)
+    span = float(t[-1] - t[0])
+    if not span > 0.0:
+        raise ValueError(f"arc length must be positive to scale to a year; got {span} s")
+    return year_days * SECONDS_PER_DAY / span
+
+
+# ----------------------------------------------------------------------------------------------
+# secular (mean-element) model
+# ----------------------------------------------------------------------------------------------
+
+def orbit_mean(t_tdb_s: np.ndarray, values: np.ndarray, period_s: float) -> tuple[np.ndarray, np.ndarray]:
+    """Running mean over one period: window mid-times (m,) and means (..., m, k) of values (..., n, k).
+
+    Windows [t_j, t_j + P] start at every sample with t_j + P <= t_end; the mean is the exact
+    integral of the piecewise-linear interpolant divided by P.
+    """
+    t = np.asarray(t_tdb_s, dtype=float)
+    v = np.asarray(values, dtype=float)
+    starts = t[t + period_s <= t[-1] + 1e-9 * period_s]
+    if starts.size < 2:
+        raise ValueError(f"arc of {t[-1] - t[0]:.0f} s holds fewer than two one-period windows (P = {period_s:.0f} s)")
+    dt = np.diff(t)
+    increments = 0.5 * (v[..., 1:, :] + v[..., :-1, :]) * dt[:, None]
+    cumulative = np.concatenate([np.zeros_like(v[..., :1, :]), np.cumsum(increments, axis=-2)], axis=-2)
+    ends = starts + period_s
+    k = np.clip(np.searchsorted(t, ends, side="right") - 1, 0, t.size - 2)
+    u = (ends - t[k]) / dt[k]
+    v_end = v[..., k, :] + (v[..., k + 1, :] - v[..., k, :]) * u[:, None]
+    cum_end = cumulative[..., k, :] + 0.5 * (v[..., k, :] + v_end) * (ends - t[k])[:, None]
+    k0 = np.searchsorted(t, starts)
+    means = (cum_end - cumulative[..., k0, :]) / period_s
+    return starts + 0.5 * period_s, means
+
+
+def secular_rates(t_tdb_s: np.ndarray, elements: np.ndarray, gm_km3_s2: float, min_periods: float = 2.0):
+    """Mean elements and secular drift rates of [a, e, i, raan, aop] over an arc.
+
+    Osculating elements (unwrapped) are averaged over one Keplerian period of the arc-mean a
+    (:func:`orbit_mean`); a straight line fitted by least squares to the running means gives
+    the secular rates (..., 5). Assumes the arc spans at least ``min_periods`` periods; terms
+    with periods longer than the arc (e.g. Earth's half-month tide) are absorbed in the trend.
+    Returns (mean elements (..., 5) averaged over the arc, rates (..., 5)).
+    """
+    t = np.asarray(t_tdb_s, dtype=float)
+    el = np.asarray(elements, dtype=float)[..., :5]
+    if el.ndim > 2:
+        flat = el.reshape(-1, *el.shape[-2:])
+        pairs = [secular_rates(t, one, gm_km3_s2, min_periods) for one in flat]
+        batch = el.shape[:-2]
+        return (np.stack([m for m, _ in pairs]).reshape(*batch, 5), np.stack([r for _, r in pairs]).reshape(*batch, 5))
+    period = 2.0 * np.pi * np.sqrt(np.mean(el[:, 0]) ** 3 / gm_km3_s2)
+    if t[-1] - t[0] < min_periods * period:
+        raise ValueError(f"the secular model needs an arc of at least {min_periods:g} orbital periods "
+                         f"({min_periods * period:.0f} s); got {t[-1] - t[0]:.0f} s")
+    t_mid, means = orbit_mean(t, el, period)
+    x = t_mid - t_mid.mean()
+    slope = x @ (means - means.mean(axis=0)) / np.sum(x * x)
+    return means.mean(axis=0), slope
+
+
+def secular_deltav_rates(mean_elements: np.ndarray, rates: np.ndarray, gm_km3_s2: float) -> dict:
+    """Delta-V rates (km/s per s) that cancel secular drifts, by part; dict of (...,) arrays.
+
+    Linearised optimally placed impulses from the GVEs (Vallado, Fundamentals of Astrodynamics,
+    Sec. 6.3-6.4 in the small-change limit; Chobotov, Orbital Mechanics, station keeping):
+
+    * ``sma``: two equal tangential impulses at perilune and apolune (e unchanged):
+      |da| mu / (a^2 (v_p + v_a)) = (n a / 2) sqrt(1 - e^2) |da| / a.
+    * ``ecc``: tangential impulses at perilune and apolune of opposite sense, sized so that a is
+      unchanged: h |de| / (2 p) (= v |de| / 2 for a circle).
+    * ``aop_in_plane``: opposite tangential impulses at nu = +-90 deg (a and e unchanged):
+      e h |d(aop) + cos(i) d(raan)| / (2 p); the cos(i) d(raan) part is the apse shift that the
+      plane correction itself causes (GVE: normal thrust moves aop by -cos(i) d(raan)).
+    * ``plane``: one normal impulse on the line where the drifted plane crosses the nominal one
+      (argument of latitude theta* = atan2(sin(i) d(raan), di)), at its farther end:
+      h sqrt(di^2 + sin^2(i) d(raan)^2) (1 - e |cos(theta* - aop)|) / p; for a circular orbit
+      v sqrt(di^2 + sin^2(i) d(raan)^2), the textbook combined plane change.
+
+    The parts are added (no sharing between the in-plane corrections): an upper bound on a
+    jointly optimised in-plane manoeuvre. ``total`` is their sum.
+    """
+    el = np.asarray(mean_elements, dtype=float)
+    rt = np.asarray(rates, dtype=float)
+    a, e, inc, _, aop = (el[..., k] for k in range(5))
+    a_dot, e_dot, i_dot, raan_dot, aop_dot = (rt[..., k] for k in range(5))
+    p = a * (1.0 - e * e)
+    h = np.sqrt(gm_km3_s2 * p)
+    n = np.sqrt(gm_km3_s2 / a**3)
+    si = np.sin(inc)
+    theta_star = np.arctan2(si * raan_dot, i_dot)
+    parts = {
+        "sma": 0.5 * n * np.sqrt(1.0 - e * e) * np.abs(a_dot),
+        "ecc": h * np.abs(e_dot) / (2.0 * p),
+        "aop_in_plane": e * h * np.abs(aop_dot + np.cos(inc) * raan_dot) / (2.0 * p),
+        "plane": h * np.hypot(i_dot, si * raan_dot) * (1.0 - e * np.abs(np.cos(theta_star - aop))) / p,
+    }
+    parts["total"] = sum(parts[k] for k in SECULAR_PARTS)
+    return parts
+
+
+# ----------------------------------------------------------------------------------------------
+# the whole kernel on arrays
+# ----------------------------------------------------------------------------------------------
+
+def deltav_arrays(t_tdb_s: np.ndarray, states: np.ndarray, gm_km3_s2: float, settings: dict | None = None) -> dict:
+    """Every model's Delta-V from one arc of states (..., n, 6) in the GVE element frame.
+
+    Returns a dict of arrays: ``elements`` (..., n, 6), ``rates`` (..., n, 5), for ``paper`` and
+    ``lsq``: ``T_rtn_<model>`` (..., n, 3), ``T_total_<model>``, ``T_opt_<model>`` (..., n);
+    ``lsq_residual`` (..., n); ``paper_estimates`` (the single-equation estimates);
+    ``secular_mean_elements`` and ``secular_rates`` (..., 5), ``secular_parts`` (dict, km/s per s);
+    ``dv_total`` and ``dv_opt`` (dicts model -> (...,) km/s per year); ``per_year_factor``.
+    The secular model has no instantaneous thrust; its optimised budget equals its total (it is
+    already a minimum-cost impulsive budget, so eq. 38-41 do not apply).
+    """
+    cfg = deltav_settings(None, **(settings or {}))
+    t = np.asarray(t_tdb_s, dtype=float)
+    elements = osculating_elements(states, gm_km3_s2)
+    rates = element_rates(t, elements)
+    factor = per_year_factor(t, cfg["year_days"])
+    out = {"elements": elements, "rates": rates, "per_year_factor": factor, "dv_total": {}, "dv_opt": {}}
+    paper = paper_thrust(elements, rates, gm_km3_s2, normal=cfg["paper_normal"], radial=cfg["paper_radial"],
+                         divisor_floor=float(cfg["paper_divisor_floor"]), cap_kms2=float(cfg["paper_cap_kms2"]))
+    lsq, residual = lsq_thrust(elements, rates, gm_km3_s2, cfg["lsq_row_scale"])
+    out["paper_estimates"] = paper
+    out["lsq_residual"] = residual
+    for name, t_rtn in (("paper", np.stack([paper["T_R"], paper["T_T"], paper["T_N"]], axis=-1)), ("lsq", lsq)):
+        total = thrust_total(t_rtn)
+        opt = tmax_closed_form(t_rtn)
+        out[f"T_rtn_{name}"] = t_rtn
+        out[f"T_total_{name}"] = total
+        out[f"T_opt_{name}"] = opt
+        out["dv_total"][name] = trapezoid_deltav(t, total) * factor
+        out["dv_opt"][name] = trapezoid_deltav(t, opt) * factor
+    mean_el, sec_rates = secular_rates(t, elements, gm_km3_s2, float(cfg["secular_min_periods"]))
+    parts = secular_deltav_rates(mean_el, sec_rates, gm_km3_s2)
+    year_s = float(cfg["year_days"]) * SECONDS_PER_DAY
+    out["secular_mean_elements"] = mean_el
+    out["secular_rates"] = sec_rates
+    out["secular_parts"] = parts
+    out["dv_total"]["secular"] = parts["total"] * year_s
+    out["dv_opt"]["secular"] = parts["total"] * year_s
+    return out
+
+
+# ----------------------------------------------------------------------------------------------
+# orchestration on propagator datasets
+# ----------------------------------------------------------------------------------------------
+
+def element_frame_rotation(profile: dict, frame: str, t_epoch_tdb_s: float) -> np.ndarray:
+    """Rotation R (3, 3), x_j2000 = R x_elements, of the GVE element frame (``j2000`` or ``lunar_equator_of_epoch``)."""
+    if frame not in ELEMENT_FRAMES:
+        raise ValueError(f"unknown GVE element frame {frame!r}; allowed: {', '.join(ELEMENT_FRAMES)}")
+    if frame == "j2000":
+        return np.eye(3)
+    from .ephemeris import element_frame_to_j2000, ensure_kernels
+
+    ensure_kernels(profile)
+    local = copy.deepcopy(profile)
+    local["frames"]["element_frame"] = frame
+    return element_frame_to_j2000(local, t_epoch_tdb_s)
+
+
+def _states_from_dataset(ds: xr.Dataset) -> np.ndarray:
+    return np.concatenate([ds["r_mci_km"].values, ds["v_mci_kms"].values], axis=-1)
+
+
+def _rotate_states(states: np.ndarray, rot_to_j2000: np.ndarray) -> np.ndarray:
+    return np.concatenate([states[..., :3] @ rot_to_j2000, states[..., 3:] @ rot_to_j2000], axis=-1)
+
+
+def perturbing_acceleration_rtn(profile: dict, t_tdb_s: np.ndarray, states_mci: np.ndarray, *,
+                                degree: int | None = None) -> np.ndarray:
+    """The force model's non-Keplerian acceleration (n, 3) in RTN (km/s^2): all terms but ``central``."""
+    from .forces import acceleration_breakdown
+
+    terms = acceleration_breakdown(profile, t_tdb_s, states_mci, degree=degree)
+    perturbing = sum(value for key, value in terms.items() if key != "central")
+    return to_rtn(perturbing, states_mci)
+
+
+def deltav_from_propagation(profile: dict, ds: xr.Dataset, sat: int = 0, model: str | None = None,
+                            **overrides) -> xr.Dataset:
+    """Delta-V of satellite ``sat`` of a propagator Dataset, every model; time series and summary.
+
+    Data variables: the osculating elements and their rates (time), ``T_rtn_kms2`` (model, time,
+    rtn), ``T_total_kms2`` and ``T_opt_kms2`` (model, time) for the osculating models,
+    ``lsq_residual_per_s`` (time), the secular mean elements, rates and cost parts, and the summary
+    ``dv_total_kms_per_year`` and ``dv_opt_kms_per_year`` (model_all: paper, lsq, secular).
+    Attributes name the chosen model (``model`` or the profile's ``[deltav] model``) and its two
+    budgets. ``overrides`` replace ``[deltav]`` settings (e.g. ``element_frame="lunar_equator_of_epoch"``).
+    """
+    cfg = deltav_settings(profile, model=model, **overrides)
+    if sat not in ds["sat"].values:
+        raise ValueError(f"satellite {sat!r} is not in the dataset; available: {ds['sat'].values.tolist()}")
+    one = ds.sel(sat=sat)
+    t = one["time"].values.astype(float)
+    states = _states_from_dataset(one)
+    if not np.all(np.isfinite(states)):
+        raise ValueError(f"satellite {sat} has non-finite states (impact or failed propagation); no Delta-V")
+    gm = float(profile["gravity"]["gm_km3_s2"])
+    rot = element_frame_rotation(profile, cfg["element_frame"], float(t[0]))
+    res = deltav_arrays(t, _rotate_states(states, rot), gm, {k: v for k, v in cfg.items() if k != "model"})
+    el, rates = res["elements"], res["rates"]
+    osc = list(OSCULATING_MODELS)
+    out = xr.Dataset(
+        {
+            "a_km": ("time", el[:, 0]), "ecc": ("time", el[:, 1]), "inc_rad": ("time", el[:, 2]),
+            "raan_rad": ("time", el[:, 3]), "aop_rad": ("time", el[:, 4]), "nu_rad": ("time", el[:, 5]),
+            "rate": (("time", "element"), rates),
+            "T_rtn_kms2": (("model", "time", "rtn"), np.stack([res[f"T_rtn_{m}"] for m in osc])),
+            "T_total_kms2": (("model", "time"), np.stack([res[f"T_total_{m}"] for m in osc])),
+            "T_opt_kms2": (("model", "time"), np.stack([res[f"T_opt_{m}"] for m in osc])),
+            "lsq_residual_per_s": ("time", res["lsq_residual"]),
+            "secular_mean_element": ("element", res["secular_mean_elements"]),
+            "secular_rate": ("element", res["secular_rates"]),
+            "secular_dv_kms_per_year": ("part", [res["secular_parts"][k] * float(cfg["year_days"]) * SECONDS_PER_DAY
+                                                 for k in SECULAR_PARTS]),
+            "dv_total_kms_per_year": ("model_all", [res["dv_total"][m] for m in MODELS]),
+            "dv_opt_kms_per_year": ("model_all", [res["dv_opt"][m] for m in MODELS]),
+        },
+        coords={"time": t, "element": list(RATE_NAMES), "model": osc, "rtn": ["R", "T", "N"],
+                "part": list(SECULAR_PARTS), "model_all": list(MODELS), "sat": sat},
+        attrs={
+            "deltav_model": cfg["model"],
+            "dv_total_kms_per_year": float(res["dv_total"][cfg["model"]]),
+            "dv_opt_kms_per_year": float(res["dv_opt"][cfg["model"]]),
+            "per_year_factor": res["per_year_factor"],
+            "element_frame": cfg["element_frame"],
+            "settings": repr({k: cfg[k] for k in sorted(cfg)}),
+            "units": "elements km and rad; rates km/s, 1/s, rad/s; thrust km/s^2; Delta-V km/s per satellite per year",
+            "sign": "T is the acceleration that produces the drift; the station-keeping thrust is -T",
+        },
+    )
+    out["time"].attrs.update(units="s", long_name="TDB seconds past J2000")
+    return out
+
+
+def deltav_per_satellite(profile: dict, ds: xr.Dataset, model: str | None = None, **overrides) -> xr.Dataset:
+    """Per-satellite budgets of every model (dims sat, model_all), km/s per satellite per year.
+
+    Satellites with non-finite states (impact) get NaN. Attributes name the chosen model.
+    """
+    cfg = deltav_settings(profile, model=model, **overrides)
+    t = ds["time"].values.astype(float)
+    states = _states_from_dataset(ds)
+    finite = np.all(np.isfinite(states), axis=(1, 2))
+    gm = float(profile["gravity"]["gm_km3_s2"])
+    total = np.full((states.shape[0], len(MODELS)), np.nan)
+    opt = np.full_like(total, np.nan)
+    if np.any(finite):
+        rot = element_frame_rotation(profile, cfg["element_frame"], float(t[0]))
+        res = deltav_arrays(t, _rotate_states(states[finite], rot), gm, {k: v for k, v in cfg.items() if k != "model"})
+        total[finite] = np.stack([res["dv_total"][m] for m in MODELS], axis=-1)
+        opt[finite] = np.stack([res["dv_opt"][m] for m in MODELS], axis=-1)
+    return xr.Dataset(
+        {"dv_total_kms_per_year": (("sat", "model_all"), total), "dv_opt_kms_per_year": (("sat", "model_all"), opt)},
+        coords={"sat": ds["sat"].values, "model_all": list(MODELS)},
+        attrs={"deltav_model": cfg["model"], "element_frame": cfg["element_frame"],
+               "units": "km/s per satellite per year"},
+    )

@@ -1,0 +1,283 @@
+"""Station-keeping Delta-V (lnss_lib.deltav): GVEs, inverses, eq. 36-41, secular budget.
+
+Independent references: states integrated here with scipy (two-body + constant RTN thrust, and
+two-body + J2), the analytic J2 acceleration and secular nodal rate, SLSQP, exact integrals.
+"""
+
+import numpy as np
+import pytest
+import xarray as xr
+from scipy.integrate import solve_ivp
+
+from lnss_lib import deltav as dv
+from lnss_lib.config import load_profile
+from lnss_lib.elements import elements_to_state, orbital_period_s
+
+GM = 4902.7999671
+R_REF = 1738.0
+J2 = 1.0e-3  # about five times the Moon's, so the drift stands well above finite-difference noise
+YEAR_S = 365.25 * 86400.0
+
+
+def random_elements(rng, m):
+    """Elements [a, e, i, raan, aop, nu] of closed orbits well away from e = 0 and i = 0, pi."""
+    return np.column_stack([
+        rng.uniform(2500.0, 9000.0, m), rng.uniform(0.05, 0.7, m), rng.uniform(0.2, np.pi - 0.2, m),
+        rng.uniform(0.0, 2 * np.pi, m), rng.uniform(0.0, 2 * np.pi, m), rng.uniform(0.0, 2 * np.pi, m),
+    ])
+
+
+def state_from_nu(el):
+    """State from [a, e, i, raan, aop, nu] (converted through the mean anomaly)."""
+    a, e, inc, raan, aop, nu = el
+    ecc_anom = 2.0 * np.arctan2(np.sqrt(1 - e) * np.sin(nu / 2), np.sqrt(1 + e) * np.cos(nu / 2))
+    mean_anom = ecc_anom - e * np.sin(ecc_anom)
+    return elements_to_state(np.array([a, e, inc, raan, aop, mean_anom]), GM)
+
+
+def j2_acceleration(r_vec):
+    """Zonal J2 acceleration (km/s^2), pole along z."""
+    x, y, z = r_vec
+    r2 = x * x + y * y + z * z
+    r = np.sqrt(r2)
+    k = -1.5 * J2 * GM * R_REF**2 / r**5
+    f = 5.0 * z * z / r2
+    return k * np.array([x * (1 - f), y * (1 - f), z * (3 - f)])
+
+
+def integrate(state0, t_eval, extra):
+    """Two-body plus ``extra(state)`` acceleration, DOP853 at tight tolerances; (n, 6) states at t_eval."""
+    def rhs(_, y):
+        r = y[:3]
+        return np.concatenate([y[3:], -GM * r / np.linalg.norm(r) ** 3 + extra(y)])
+
+    sol = solve_ivp(rhs, (t_eval[0], t_eval[-1]), state0, method="DOP853", t_eval=t_eval, rtol=1e-12, atol=1e-12)
+    assert sol.success
+    return sol.y.T
+
+
+@pytest.fixture(scope="module")
+def j2_arc():
+    """Near-circular J2-only arc: a 2500 km, e 0.001, i 60 deg, six orbits sampled every 60 s."""
+    el0 = np.array([2500.0, 0.001, np.radians(60.0), 0.4, 0.3, 0.0])
+    period = orbital_period_s(el0[0], GM)
+    t = np.arange(0.0, 6.0 * period, 60.0)
+    states = integrate(elements_to_state(el0, GM), t, lambda y: j2_acceleration(y[:3]))
+    return el0, t, states
+
+
+def test_rtn_basis_orthonormal_and_round_trip():
+    rng = np.random.default_rng(3)
+    states = np.stack([state_from_nu(el) for el in random_elements(rng, 20)])
+    basis = dv.rtn_basis(states)
+    np.testing.assert_allclose(basis @ np.swapaxes(basis, -1, -2), np.broadcast_to(np.eye(3), basis.shape), atol=1e-14)
+    np.testing.assert_allclose(np.linalg.det(basis), 1.0, atol=1e-13)
+    vec = rng.normal(size=(20, 3))
+    np.testing.assert_allclose(dv.from_rtn(dv.to_rtn(vec, states), states), vec, atol=1e-13)
+    np.testing.assert_allclose(dv.to_rtn(states[:, :3], states)[:, 0], np.linalg.norm(states[:, :3], axis=1))
+
+
+@pytest.mark.parametrize("el", [
+    [6143.0, 0.6, np.radians(51.7), 0.2, np.radians(90.0), 1.0],
+    [3000.0, 0.2, np.radians(100.0), 4.0, 2.0, 4.0],
+    [8000.0, 0.4, np.radians(20.0), 1.0, 5.0, 2.5],
+])
+def test_forward_gves_match_integrated_constant_rtn_thrust(el):
+    """Element rates of two-body states integrated with a constant RTN thrust equal eq. 25-29."""
+    acc_rtn = np.array([3e-5, -2e-5, 4e-5])
+    state0 = state_from_nu(np.array(el))
+    h = 5.0
+    t = np.array([-h, 0.0, h])
+
+    def thrust(y):
+        return dv.from_rtn(acc_rtn, y)
+
+    before = integrate(state0, np.array([0.0, -h]), thrust)[-1]
+    after = integrate(state0, np.array([0.0, h]), thrust)[-1]
+    elements = dv.osculating_elements(np.stack([before, state0, after]), GM)
+    fd = (elements[2, :5] - elements[0, :5]) / (2 * h)
+    expected = dv.gve_rates(elements[1], acc_rtn, GM)
+    np.testing.assert_allclose(fd, expected, rtol=2e-4, atol=1e-12 * np.abs(expected).max())
+    assert t.size == 3
+
+
+@pytest.mark.parametrize("row_scale", dv.ROW_SCALES)
+def test_lsq_inverts_forward_gves_exactly(row_scale):
+    rng = np.random.default_rng(7)
+    el = random_elements(rng, 500)
+    acc = rng.normal(size=(500, 3)) * 1e-7
+    solution, residual = dv.lsq_thrust(el, dv.gve_rates(el, acc, GM), GM, row_scale)
+    np.testing.assert_allclose(solution, acc, rtol=0, atol=1e-12 * 1e-7)
+    assert np.all(residual < 1e-18)
+
+
+def test_corrected_paper_equations_invert_forward_gves():
+    """Eq. 30-35 corrected: exact inverse when eq. 30's assumption holds (T_R = 0), and each
+    single-equation estimate exact given the true T_T, away from singular points."""
+    rng = np.random.default_rng(11)
+    el = random_elements(rng, 4000)
+    theta = el[:, 4] + el[:, 5]
+    regular = np.min(np.abs([np.sin(el[:, 5]), np.cos(el[:, 5]), np.sin(theta), np.cos(theta)]), axis=0) > 0.1
+    el = el[regular]
+    acc = rng.normal(size=(len(el), 3)) * 1e-7
+    no_radial = acc * np.array([0.0, 1.0, 1.0])
+    est = dv.paper_thrust(el, dv.gve_rates(el, no_radial, GM), GM)
+    for key, col in (("T_R", 0), ("T_T", 1), ("T_N", 2)):
+        np.testing.assert_allclose(est[key], no_radial[:, col], atol=1e-9 * 1e-7)
+    est = dv.paper_thrust(el, dv.gve_rates(el, acc, GM), GM, t_t_kms2=acc[:, 1])
+    for key, col in (("T_i", 2), ("T_raan", 2), ("T_N", 2), ("T_e", 0), ("T_aop", 0), ("T_R", 0)):
+        np.testing.assert_allclose(est[key], acc[:, col], atol=1e-8 * 1e-7, err_msg=key)
+    literal = dv.paper_thrust(el, dv.gve_rates(el, acc, GM), GM, t_t_kms2=acc[:, 1], normal="eq32", radial="eq35")
+    np.testing.assert_allclose(literal["T_N"], np.abs(acc[:, 2]), atol=1e-8 * 1e-7)
+    np.testing.assert_allclose(literal["T_R"], literal["T_e"] + literal["T_aop"], rtol=1e-12)
+    summed = dv.paper_thrust(el, dv.gve_rates(el, acc, GM), GM, t_t_kms2=acc[:, 1], radial="eq35")
+    np.testing.assert_allclose(summed["T_R"], 2 * acc[:, 0], atol=1e-8 * 1e-7)
+
+
+def test_paper_divisor_floor_and_cap():
+    """At sin(nu) = 0 the literal eq. 33 grows as 1 / floor; the cap bounds every estimate; the
+    weighted combinations are unaffected."""
+    el = np.array([[6143.0, 0.6, np.radians(51.7), 0.0, np.radians(90.0), 0.0]])
+    acc = np.array([[2e-8, 1e-8, -3e-8]])
+    rates = dv.gve_rates(el, acc, GM)
+    rates[:, 1] += 1e-12  # an e-dot that no finite T_R at perilune can produce
+    big = dv.paper_thrust(el, rates, GM, divisor_floor=1e-4, radial="eq35")
+    small = dv.paper_thrust(el, rates, GM, divisor_floor=1e-6, radial="eq35")
+    assert abs(small["T_e"][0]) == pytest.approx(100 * abs(big["T_e"][0]), rel=1e-6)
+    capped = dv.paper_thrust(el, rates, GM, divisor_floor=1e-6, radial="eq35", cap_kms2=1e-6)
+    for key in ("T_R", "T_T", "T_N", "T_i", "T_raan", "T_e", "T_aop"):
+        assert np.all(np.abs(capped[key]) <= 1e-6)
+    w1 = dv.paper_thrust(el, rates, GM, divisor_floor=1e-4)
+    w2 = dv.paper_thrust(el, rates, GM, divisor_floor=1e-6)
+    assert w1["T_N"][0] == w2["T_N"][0]
+    assert w1["T_R"][0] == pytest.approx(w2["T_R"][0], rel=1e-12)
+
+
+def test_tmax_closed_form_equals_slsqp():
+    rng = np.random.default_rng(5)
+    samples = rng.normal(size=(40, 3)) * 10.0 ** rng.uniform(-10, -6, size=(40, 1))
+    samples[0] = [0.0, 3e-8, 0.0]
+    samples[1] = [1e-8, -1e-8, 1e-8]
+    closed = dv.tmax_closed_form(samples)
+    solved, ok = dv.slsqp_tmax(samples, lam=20.0)
+    assert ok.all()
+    np.testing.assert_allclose(solved, closed, rtol=1e-7)
+    total = dv.thrust_total(samples)
+    assert np.all(closed <= total * (1 + 1e-12)) and np.all(closed >= total / 3 * (1 - 1e-12))
+    assert closed[0] == pytest.approx(3e-8) and closed[1] == pytest.approx(total[1] / 3)
+    assert dv.tmax_closed_form(np.zeros(3)) == 0.0
+
+
+def test_trapezoid_constant_thrust_and_year_scaling():
+    t = np.linspace(0.0, 10 * 86400.0, 961)
+    assert dv.trapezoid_deltav(t, np.full(t.size, 2e-8)) == pytest.approx(2e-8 * 10 * 86400.0, rel=1e-13)
+    assert dv.per_year_factor(t) == pytest.approx(36.525)
+    assert dv.per_year_factor(t[:193]) == pytest.approx(365.25 / 2)
+    assert dv.per_year_factor(t, year_days=365.0) == pytest.approx(36.5)
+    with pytest.raises(ValueError, match="arc length"):
+        dv.per_year_factor(np.array([5.0, 5.0]))
+
+
+def test_keplerian_arc_costs_nothing():
+    el = np.array([6143.0, 0.6, np.radians(51.7), 0.3, np.radians(90.0), 0.0])
+    t = np.arange(0.0, 10 * 86400.0 + 1, 900.0)
+    series = np.tile(el, (t.size, 1))
+    series[:, 5] = np.sqrt(GM / el[0] ** 3) * t
+    res = dv.deltav_arrays(t, elements_to_state(series, GM), GM)
+    for model in dv.MODELS:
+        assert res["dv_total"][model] < 1e-9
+        assert res["dv_opt"][model] < 1e-9
+
+
+def test_per_year_budget_follows_the_arc(j2_arc):
+    """A steady process gives the same per-year budget from a short and a long arc."""
+    _, t, states = j2_arc
+    n = t.size
+    half = dv.deltav_arrays(t[: n // 2], states[: n // 2], GM)
+    full = dv.deltav_arrays(t, states, GM)
+    assert full["per_year_factor"] == pytest.approx(half["per_year_factor"] * (t[n // 2 - 1] - t[0]) / (t[-1] - t[0]))
+    for model in dv.MODELS:
+        assert half["dv_total"][model] == pytest.approx(full["dv_total"][model], rel=0.03), model
+
+
+def test_lsq_recovers_the_j2_acceleration(j2_arc):
+    _, t, states = j2_arc
+    res = dv.deltav_arrays(t, states, GM)
+    truth = dv.to_rtn(np.stack([j2_acceleration(s[:3]) for s in states]), states)
+    inner = slice(2, -2)
+    err = np.linalg.norm(res["T_rtn_lsq"][inner] - truth[inner], axis=1)
+    assert np.sqrt(np.mean(err**2)) < 0.01 * np.sqrt(np.mean(np.sum(truth[inner] ** 2, axis=1)))
+    dv_truth = dv.trapezoid_deltav(t, np.linalg.norm(truth, axis=1)) * res["per_year_factor"]
+    assert res["dv_total"]["lsq"] == pytest.approx(dv_truth, rel=0.01)
+
+
+def test_secular_model_gives_textbook_plane_change_for_j2(j2_arc):
+    """J2 only: mean a, e, i do not drift; the node regresses at -1.5 n J2 (R/p)^2 cos i and the
+    budget is the textbook plane change v sin(i) |dRAAN/dt| per unit time (Vallado, small angle)."""
+    el0, t, states = j2_arc
+    res = dv.deltav_arrays(t, states, GM)
+    a, e, inc = res["secular_mean_elements"][:3]
+    n = np.sqrt(GM / a**3)
+    raan_rate = -1.5 * n * J2 * (R_REF / (a * (1 - e * e))) ** 2 * np.cos(inc)
+    assert res["secular_rates"][3] == pytest.approx(raan_rate, rel=5e-3)
+    textbook = np.sqrt(GM / a) * np.sin(inc) * abs(raan_rate) * YEAR_S
+    parts = {k: v * YEAR_S for k, v in res["secular_parts"].items()}
+    assert parts["plane"] == pytest.approx(textbook, rel=5e-3)
+    assert parts["sma"] + parts["ecc"] + parts["aop_in_plane"] < 0.01 * parts["plane"]
+    assert res["dv_total"]["secular"] == pytest.approx(parts["total"])
+    assert res["dv_total"]["secular"] < 0.2 * res["dv_total"]["lsq"]
+
+
+def test_constant_tangential_thrust_costs_the_thrust():
+    """A constant tangential thrust T on a circular orbit: the secular a-drift costs T per unit
+    time (Edelbaum), and the lsq inverse returns T."""
+    thrust = 2e-8
+    el0 = np.array([3000.0, 0.0, np.radians(40.0), 0.0, 0.0, 0.0])
+    t = np.arange(0.0, 4.0 * orbital_period_s(el0[0], GM), 120.0)
+    states = integrate(elements_to_state(el0, GM), t, lambda y: dv.from_rtn(np.array([0.0, thrust, 0.0]), y))
+    res = dv.deltav_arrays(t, states, GM)
+    span = t[-1] - t[0]
+    assert res["dv_total"]["lsq"] == pytest.approx(thrust * YEAR_S, rel=1e-3)
+    assert res["secular_parts"]["sma"] == pytest.approx(thrust, rel=0.01)
+    assert res["dv_total"]["secular"] == pytest.approx(thrust * YEAR_S, rel=0.05)
+    assert span > 0
+
+
+def _dataset(t, states):
+    return xr.Dataset(
+        {"r_mci_km": (("sat", "time", "xyz"), states[None, :, :3]),
+         "v_mci_kms": (("sat", "time", "xyz"), states[None, :, 3:])},
+        coords={"sat": [0], "time": t, "xyz": ["x", "y", "z"]},
+    )
+
+
+def test_deltav_from_propagation_dataset(j2_arc):
+    _, t, states = j2_arc
+    profile = load_profile("ci")
+    ds = _dataset(t, states)
+    out = dv.deltav_from_propagation(profile, ds, sat=0, model="secular", element_frame="j2000")
+    assert out.attrs["deltav_model"] == "secular"
+    assert out.attrs["dv_total_kms_per_year"] == pytest.approx(float(out["dv_total_kms_per_year"].sel(model_all="secular")))
+    assert set(out["model_all"].values) == set(dv.MODELS)
+    assert out["T_total_kms2"].dims == ("model", "time")
+    np.testing.assert_allclose(out["T_total_kms2"].sel(model="lsq"), np.linalg.norm(out["T_rtn_kms2"].sel(model="lsq"), axis=-1))
+    per_sat = dv.deltav_per_satellite(profile, ds, element_frame="j2000")
+    np.testing.assert_allclose(per_sat["dv_total_kms_per_year"].sel(sat=0), out["dv_total_kms_per_year"])
+
+
+def test_bad_inputs_are_rejected(j2_arc):
+    _, t, states = j2_arc
+    with pytest.raises(ValueError, match="model"):
+        dv.deltav_settings(None, model="osculating")
+    with pytest.raises(ValueError, match="element_frame"):
+        dv.deltav_settings(None, element_frame="ecliptic")
+    with pytest.raises(ValueError, match="paper_divisor_floor"):
+        dv.deltav_settings(None, paper_divisor_floor=-1.0)
+    with pytest.raises(ValueError, match="unknown"):
+        dv.deltav_settings(None, lsq_weights="x")
+    with pytest.raises(ValueError, match="orbital periods"):
+        dv.secular_rates(t[:50], dv.osculating_elements(states[:50], GM), GM)
+    with pytest.raises(ValueError, match="increasing"):
+        dv.element_rates(t[::-1], dv.osculating_elements(states, GM))
+    with pytest.raises(ValueError, match="satellite 3"):
+        dv.deltav_from_propagation(load_profile("ci"), _dataset(t, states), sat=3)
