@@ -1,0 +1,102 @@
+"""Command line: ``python -m lnss_lib {reproduce, propagate, bench} ...`` (``--help`` on each)."""
+
+from __future__ import annotations
+
+import argparse
+import sys
+from pathlib import Path
+
+import numpy as np
+
+from .config import available_profiles, load_profile
+
+BENCHMARKS = ("propagator", "dop")
+
+
+def _cmd_reproduce(args: argparse.Namespace) -> int:
+    from .pipeline import reproduce
+
+    return reproduce(args.profile, only=args.only)
+
+
+def _cmd_propagate(args: argparse.Namespace) -> int:
+    from .ephemeris import ensure_kernels, tdb_seconds
+    from .propagator import elements_deg_to_states, propagate_states
+
+    profile = load_profile(args.profile, overrides={"gravity": {"degree": args.degree}} if args.degree else None)
+    ensure_kernels(profile)
+    t0 = tdb_seconds(args.epoch_tdb, "TDB")
+    if args.elements is not None:
+        state = elements_deg_to_states(profile, [args.elements], t0)
+    else:
+        state = np.array([args.state_km])
+    ds = propagate_states(profile, state, t0, args.days * 86400.0, args.step_s, setting=args.setting,
+                          srp_cr_area_mass_m2_kg=args.srp_cr_area_mass)
+    out = Path(args.out) if args.out else None
+    if out is not None and out.suffix == ".nc":
+        ds.to_netcdf(out, engine="h5netcdf")
+    else:
+        table = np.column_stack([ds.time.values, ds.r_mci_km.values[0], ds.v_mci_kms.values[0]])
+        header = ("t_tdb_s,x,y,z,vx,vy,vz  # Moon-centred J2000, km and km/s, TDB seconds past J2000; "
+                  f"{ds.attrs['force_model']}; {ds.attrs['integrator']} rtol={ds.attrs['rtol']} atol={ds.attrs['atol']}")
+        target = out.open("w") if out is not None else sys.stdout
+        np.savetxt(target, table, delimiter=",", header=header, comments="", fmt="%.9f")
+        if out is not None:
+            target.close()
+    if out is not None:
+        print(f"wrote {out} ({ds.sizes['time']} samples)", file=sys.stderr)
+    return 0
+
+
+def _cmd_bench(args: argparse.Namespace) -> int:
+    import importlib
+
+    module = importlib.import_module(f"lnss_lib.bench.{args.name}")
+    module.run(profile_name=args.profile)
+    return 0
+
+
+def build_parser() -> argparse.ArgumentParser:
+    parser = argparse.ArgumentParser(prog="python -m lnss_lib", description="LNSS design workbook")
+    sub = parser.add_subparsers(dest="command", required=True)
+
+    rep = sub.add_parser("reproduce", help="execute the notebooks headless into outputs/<profile>/")
+    rep.add_argument("--profile", default="quick", help=f"profile in params/ ({', '.join(available_profiles())})")
+    rep.add_argument("--only", nargs="+", metavar="NAME", help="notebook names or number prefixes (e.g. 01 02_dop_grid)")
+    rep.set_defaults(func=_cmd_reproduce)
+
+    prop = sub.add_parser("propagate", help="propagate one orbit with the high-fidelity model; CSV or NetCDF out")
+    prop.add_argument("--epoch-tdb", required=True, help="start epoch, ISO calendar in TDB (e.g. 2022-11-25T00:00:00)")
+    group = prop.add_mutually_exclusive_group(required=True)
+    group.add_argument("--state-km", nargs=6, type=float, metavar=("X", "Y", "Z", "VX", "VY", "VZ"),
+                       help="Moon-centred J2000 state, km and km/s")
+    group.add_argument("--elements", nargs=6, type=float, metavar=("A_KM", "E", "I", "RAAN", "AOP", "M"),
+                       help="Keplerian elements (km, deg) in the profile's element frame")
+    prop.add_argument("--days", type=float, required=True, help="duration in days")
+    prop.add_argument("--step-s", type=float, default=900.0, help="output sampling step in seconds")
+    prop.add_argument("--degree", type=int, help="gravity degree and order (2-100)")
+    prop.add_argument("--srp-cr-area-mass", type=float, help="Cr*A/m in m^2/kg (default: the profile's spacecraft)")
+    prop.add_argument("--setting", help="integrator setting: paper or converged (default: the profile's)")
+    prop.add_argument("--profile", default="paper", help="profile for force model and constants")
+    prop.add_argument("--out", help="output path, .csv or .nc (default: CSV to stdout)")
+    prop.set_defaults(func=_cmd_propagate)
+
+    bench = sub.add_parser("bench", help="benchmarks that print numbers")
+    bench.add_argument("name", choices=BENCHMARKS)
+    bench.add_argument("--profile", default="paper")
+    bench.set_defaults(func=_cmd_bench)
+    return parser
+
+
+def main(argv: list[str] | None = None) -> int:
+    parser = build_parser()
+    args = parser.parse_args(argv)
+    try:
+        return args.func(args)
+    except (ValueError, FileNotFoundError) as error:
+        print(f"error: {error}", file=sys.stderr)
+        return 2
+
+
+if __name__ == "__main__":
+    sys.exit(main())
