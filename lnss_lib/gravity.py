@@ -8,6 +8,7 @@ has no singularity at the poles, and the normalised recursion stays in range to 
 from __future__ import annotations
 
 from dataclasses import dataclass
+from functools import lru_cache
 from pathlib import Path
 
 import numba as nb
@@ -16,6 +17,12 @@ import numpy as np
 from .config import data_path
 
 MAX_FILE_DEGREE = 100
+
+
+@lru_cache(maxsize=4)
+def _read_rows(path: str) -> np.ndarray:
+    """The ``n m Cnm Snm`` table of a coefficient file (read once per process)."""
+    return np.loadtxt(path, dtype=float)
 
 
 @dataclass(frozen=True)
@@ -31,13 +38,13 @@ class GravityField:
 
     @classmethod
     def from_file(cls, path: Path, degree: int, gm_km3_s2: float, r_ref_km: float) -> "GravityField":
-        """Read ``n m Cnm Snm`` rows (fully normalised) and truncate to ``degree`` (2..100)."""
-        if not isinstance(degree, (int, np.integer)) or not 2 <= degree <= MAX_FILE_DEGREE:
-            raise ValueError(f"gravity degree must be an integer in [2, {MAX_FILE_DEGREE}]; got {degree!r}")
+        """Read ``n m Cnm Snm`` rows (fully normalised) and truncate to ``degree`` (0..100; 0 or 1 = point mass)."""
+        if not isinstance(degree, (int, np.integer)) or not 0 <= degree <= MAX_FILE_DEGREE:
+            raise ValueError(f"gravity degree must be an integer in [0, {MAX_FILE_DEGREE}] (0 = point mass); got {degree!r}")
         path = Path(path)
         if not path.is_file():
             raise FileNotFoundError(f"gravity field file not found: {path} (see params/data/README.md)")
-        rows = np.loadtxt(path, dtype=float)
+        rows = _read_rows(str(path.resolve()))
         n_idx = rows[:, 0].astype(int)
         m_idx = rows[:, 1].astype(int)
         keep = n_idx <= degree

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import json
+import os
 import platform
 import subprocess
 import sys
@@ -101,6 +102,8 @@ def reproduce(profile_name: str = "quick", only: list[str] | None = None) -> int
 
     load_profile(profile_name)
     books = notebook_paths(only)
+    paths = [p for p in os.environ.get("PYTHONPATH", "").split(os.pathsep) if p]
+    os.environ["PYTHONPATH"] = os.pathsep.join([str(PROJECT_DIR), *paths])  # kernels import this lnss_lib
     if not books:
         raise ValueError(f"no notebooks found in {NOTEBOOKS_DIR}")
     target = output_dir(profile_name, "notebooks")

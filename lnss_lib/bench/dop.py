@@ -39,9 +39,9 @@ def _median_s(func, repeats: int) -> float:
     return float(np.median(samples))
 
 
-def run(repeats: int = 7) -> None:
+def run(profile_name: str = "paper", repeats: int = 7) -> None:
     """Print the median wall time (ms) of one DOP grid evaluation, per stage and LOS convention."""
-    profile = load_profile("paper")
+    profile = load_profile(profile_name)
     grid = grid_from_profile(profile)
     r_mf_km = _positions_km(profile, 961, 900.0)
     points, up = grid.r_mf_km.reshape(-1, 3), grid.up.reshape(-1, 3)

@@ -1,0 +1,47 @@
+"""Shared fixtures: profiles and the standalone-ELFO set-up, loaded once per test session."""
+
+import numpy as np
+import pytest
+
+from lnss_lib.config import load_profile
+from lnss_lib.ephemeris import ensure_kernels, tdb_seconds
+
+
+@pytest.fixture(scope="session")
+def paper_profile():
+    profile = load_profile("paper")
+    ensure_kernels(profile)
+    return profile
+
+
+@pytest.fixture(scope="session")
+def epoch_tdb_s(paper_profile):
+    return tdb_seconds(paper_profile["epoch"]["start_tdb"], "TDB")
+
+
+@pytest.fixture(scope="session")
+def two_body_profile():
+    """Point-mass Moon only: every perturbation switched off."""
+    profile = load_profile("paper", overrides={
+        "gravity": {"degree": 0},
+        "forces": {"third_bodies": [], "srp": False, "albedo": False, "relativity": False},
+        "integrator": {"setting": "converged"},
+    })
+    ensure_kernels(profile)
+    return profile
+
+
+@pytest.fixture(scope="session")
+def rng():
+    return np.random.default_rng(20250501)
+
+
+def pytest_configure(config):
+    """Notebook kernels started by the tests (nbval, papermill) import lnss_lib from this checkout."""
+    import os
+    from pathlib import Path
+
+    root = str(Path(__file__).resolve().parents[1])
+    paths = [p for p in os.environ.get("PYTHONPATH", "").split(os.pathsep) if p]
+    if root not in paths:
+        os.environ["PYTHONPATH"] = os.pathsep.join([root, *paths])

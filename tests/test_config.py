@@ -1,0 +1,28 @@
+"""Profiles: inheritance, unknown names, fingerprints."""
+
+import pytest
+
+from lnss_lib.config import available_profiles, load_profile, profile_hash
+
+
+def test_profiles_inherit_from_paper():
+    paper, quick, ci = load_profile("paper"), load_profile("quick"), load_profile("ci")
+    assert {"paper", "quick", "ci"} <= set(available_profiles())
+    assert paper["epoch"]["start_tdb"] == "2025-05-01T00:00:00"
+    assert paper["epoch"]["step_s"] == 900.0
+    assert (paper["spacecraft"]["mass_kg"], paper["spacecraft"]["area_m2"], paper["spacecraft"]["cr"]) == (1080.0, 23.78, 1.3)
+    assert paper["integrator"]["settings"]["paper"] == {"method": "RK45", "rtol": 1e-6, "atol": 1e-9}
+    assert paper["gravity"]["degree"] == 30
+    assert ci["profile"]["name"] == "ci" and ci["gravity"]["file"] == paper["gravity"]["file"]
+    assert quick["spacecraft"] == paper["spacecraft"]
+
+
+def test_unknown_profile_names_the_choices():
+    with pytest.raises(ValueError, match=r"unknown profile 'fast'.*paper"):
+        load_profile("fast")
+
+
+def test_hash_tracks_parameters_only():
+    base = load_profile("paper")
+    assert profile_hash(base) == profile_hash(load_profile("paper"))
+    assert profile_hash(base) != profile_hash(load_profile("paper", overrides={"gravity": {"degree": 20}}))

@@ -1,0 +1,160 @@
+"""Propagator: conservation laws, analytic J2 rates, scipy equivalence, the reference model, impacts."""
+
+import dataclasses
+
+import numpy as np
+import pytest
+from scipy.integrate import solve_ivp
+
+from lnss_lib.elements import state_to_elements
+from lnss_lib.ephemeris import EphemerisTable, rotation
+from lnss_lib.forces import SCRATCH_SIZE, TERMS, ForceModel, acceleration, acceleration_breakdown
+from lnss_lib.gravity import GravityField
+from lnss_lib.propagator import ImpactError, elements_deg_to_states, propagate_elements, propagate_states
+from lnss_lib.reference import ReferenceModel
+
+ELFO = [6143.0, 0.6, 51.7, 0.0, 90.0, 0.0]
+
+
+def test_two_body_conserves_energy_and_angular_momentum(two_body_profile, epoch_tdb_s):
+    ds = propagate_elements(two_body_profile, [ELFO], t0_tdb_s=epoch_tdb_s, duration_s=5 * 86400.0)
+    r, v = ds.r_mci_km.values[0], ds.v_mci_kms.values[0]
+    gm = ds.attrs["gm_km3_s2"]
+    energy = 0.5 * np.sum(v * v, axis=1) - gm / np.linalg.norm(r, axis=1)
+    h = np.cross(r, v)
+    # the last sample is an integrator step: the converged setting keeps the integrals to 1e-8 over 5 days
+    assert abs(energy[-1] / energy[0] - 1) < 1e-8
+    assert np.linalg.norm(h[-1] - h[0]) / np.linalg.norm(h[0]) < 1e-9
+    # samples between steps come from the quintic Hermite interpolant (velocity good to ~1e-7 km/s)
+    assert np.abs(energy / energy[0] - 1).max() < 2e-6
+    assert np.abs(h - h[0]).max() / np.linalg.norm(h[0]) < 2e-6
+
+
+def test_j2_secular_rates_match_analytic(paper_profile, epoch_tdb_s):
+    profile = {**paper_profile, "forces": {**paper_profile["forces"], "third_bodies": [], "srp": False,
+                                           "albedo": False, "relativity": False},
+               "integrator": {**paper_profile["integrator"], "setting": "converged"}}
+    duration = 10 * 86400.0
+    table = EphemerisTable.build(profile, epoch_tdb_s, epoch_tdb_s + duration)
+    model = ForceModel.from_profile(profile, table, degree=2)
+    cnm = np.zeros_like(model.field.cnm)
+    cnm[0, 0], cnm[2, 0] = 1.0, model.field.cnm[2, 0]
+    model = dataclasses.replace(model, field=dataclasses.replace(model.field, cnm=cnm, snm=np.zeros_like(cnm)))
+    a, e, inc = 3000.0, 0.1, 50.0
+    ds = propagate_elements(profile, [[a, e, inc, 30.0, 40.0, 0.0]], t0_tdb_s=epoch_tdb_s, duration_s=duration,
+                            step_s=300.0, model=model)
+    # elements in the lunar (MOON_PA) equator frozen at the epoch: inertial, and the field's equator
+    rot = rotation("J2000", "MOON_PA", [epoch_tdb_s])[0]
+    r_pa = ds.r_mci_km.values[0] @ rot.T
+    v_pa = ds.v_mci_kms.values[0] @ rot.T
+    el = state_to_elements(np.concatenate([r_pa, v_pa], axis=1), model.field.gm_km3_s2)
+    t = ds.time.values - ds.time.values[0]
+    raan_rate = np.polyfit(t, np.unwrap(el[:, 3]), 1)[0]
+    aop_rate = np.polyfit(t, np.unwrap(el[:, 4]), 1)[0]
+    gm, r_ref, j2 = model.field.gm_km3_s2, model.field.r_ref_km, -np.sqrt(5.0) * cnm[2, 0]
+    a_mean, e_mean, i_mean = np.mean(el[:, 0]), np.mean(el[:, 1]), np.mean(el[:, 2])
+    n = np.sqrt(gm / a_mean ** 3)
+    k = n * j2 * (r_ref / (a_mean * (1 - e_mean ** 2))) ** 2
+    assert raan_rate == pytest.approx(-1.5 * k * np.cos(i_mean), rel=0.02)
+    assert aop_rate == pytest.approx(0.75 * k * (5 * np.cos(i_mean) ** 2 - 1), rel=0.03)
+
+
+def test_integrator_takes_scipy_steps(paper_profile, epoch_tdb_s):
+    """Same tableau and controller as solve_ivp: identical evaluation counts and end states."""
+    duration = 86400.0
+    table = EphemerisTable.build(paper_profile, epoch_tdb_s, epoch_tdb_s + duration)
+    model = ForceModel.from_profile(paper_profile, table)
+    y0 = elements_deg_to_states(paper_profile, [ELFO], epoch_tdb_s)[0]
+    args, work, scratch, terms, acc = model.kernel_args, model.field.workspace(), np.zeros(SCRATCH_SIZE), np.zeros((8, 3)), np.zeros(3)
+
+    def rhs(t, y):
+        acceleration(t, y, args, work, scratch, terms, acc)
+        return np.concatenate([y[3:], acc])
+
+    for setting in ("paper", "converged"):
+        cfg = paper_profile["integrator"]["settings"][setting]
+        sol = solve_ivp(rhs, (epoch_tdb_s, epoch_tdb_s + duration), y0, method=cfg["method"], rtol=cfg["rtol"], atol=cfg["atol"])
+        ds = propagate_states(paper_profile, y0[None], epoch_tdb_s, duration, 900.0, setting=setting, model=model)
+        assert int(ds.n_rhs[0]) == sol.nfev
+        assert np.linalg.norm(ds.r_mci_km.values[0, -1] - sol.y[:3, -1]) < 1e-6
+
+
+def test_dense_output_matches_solver_steps(paper_profile, epoch_tdb_s):
+    """Quintic Hermite samples against the same orbit integrated tightly: far below the integration error."""
+    fine = load_overrides(paper_profile, "DOP853", 1e-12, 1e-14)
+    a = propagate_elements(fine, [ELFO], t0_tdb_s=epoch_tdb_s, duration_s=86400.0, step_s=900.0)
+    b = propagate_elements(fine, [ELFO], t0_tdb_s=epoch_tdb_s, duration_s=86400.0, step_s=60.0)
+    common = np.isin(b.time.values, a.time.values)
+    assert np.abs(a.r_mci_km.values[0] - b.r_mci_km.values[0, common]).max() < 1e-4  # 10 cm
+
+
+def load_overrides(profile, method, rtol, atol):
+    return {**profile, "integrator": {"setting": "tight", "settings": {"tight": {"method": method, "rtol": rtol, "atol": atol}}}}
+
+
+def test_force_model_matches_reference_implementation(paper_profile, epoch_tdb_s, rng):
+    ref = ReferenceModel(paper_profile)
+    times = epoch_tdb_s + rng.uniform(0, 9 * 86400.0, 10)
+    states = elements_deg_to_states(paper_profile, [[6143.0, 0.6, 51.7, 10.0, 90.0, m] for m in np.linspace(0, 330, 10)],
+                                    epoch_tdb_s)
+    terms = acceleration_breakdown(paper_profile, times, states)
+    total = sum(terms[k] for k in TERMS)
+    for k in range(len(times)):
+        expected = ref.acceleration(times[k], states[k, :3], states[k, 3:])
+        perturbation = np.linalg.norm(total[k] - terms["central"][k])
+        assert np.linalg.norm(total[k] - expected) < 1e-8 * perturbation
+
+
+def test_force_terms_have_expected_sizes(paper_profile, epoch_tdb_s):
+    """Orders of magnitude at the ELFO apolune: a check on units of every term."""
+    state = elements_deg_to_states(paper_profile, [[6143.0, 0.6, 51.7, 0.0, 90.0, 180.0]], epoch_tdb_s)
+    terms = {k: np.linalg.norm(v[0]) for k, v in acceleration_breakdown(paper_profile, [epoch_tdb_s], state).items()}
+    assert terms["central"] == pytest.approx(4902.7999671 / (6143.0 * 1.6) ** 2, rel=1e-6)
+    assert 1e-9 < terms["EARTH"] < 1e-7
+    assert 1e-11 < terms["SUN"] < 1e-9
+    assert 1e-16 < terms["JUPITER"] < 1e-14
+    craft = paper_profile["spacecraft"]
+    srp_expected = 1361.0 / 299792458.0 * craft["cr"] * craft["area_m2"] / craft["mass_kg"] * 1e-3
+    assert terms["srp"] in (0.0, pytest.approx(srp_expected, rel=0.05))
+    assert terms["relativity"] < 1e-12
+    assert terms["albedo"] < 1e-3 * srp_expected
+
+
+def test_impact_raises_for_single_and_flags_in_batch(paper_profile, epoch_tdb_s):
+    falling = np.array([[2000.0, 0.0, 0.0, -0.5, 0.2, 0.0]])
+    with pytest.raises(ImpactError, match="hits the Moon"):
+        propagate_states(paper_profile, falling, epoch_tdb_s, 86400.0, 900.0)
+    healthy = elements_deg_to_states(paper_profile, [ELFO], epoch_tdb_s)
+    ds = propagate_states(paper_profile, np.vstack([healthy, falling]), epoch_tdb_s, 86400.0, 900.0)
+    assert ds.impact.values.tolist() == [False, True]
+    assert np.isfinite(ds.impact_t_tdb_s.values[1]) and ds.impact_t_tdb_s.values[1] - epoch_tdb_s < 3600.0
+    assert ds.valid.values[0].all() and not ds.valid.values[1, -1]
+    assert np.isnan(ds.r_mci_km.values[1, -1]).all() and np.isfinite(ds.r_mci_km.values[0]).all()
+
+
+def test_minimum_altitude_parameter(paper_profile, epoch_tdb_s):
+    profile = {**paper_profile, "impact": {"min_altitude_km": 800.0}}
+    with pytest.raises(ValueError, match="minimum altitude 800.0 km"):
+        propagate_elements(profile, [ELFO], t0_tdb_s=epoch_tdb_s, duration_s=3600.0)
+
+
+def test_bad_inputs_rejected(paper_profile, epoch_tdb_s):
+    with pytest.raises(ValueError, match="eccentricity"):
+        propagate_elements(paper_profile, [[6143.0, 1.0, 51.7, 0, 90, 0]], duration_s=3600.0)
+    with pytest.raises(ValueError, match="shape"):
+        propagate_states(paper_profile, np.zeros((2, 5)), epoch_tdb_s, 3600.0, 900.0)
+    with pytest.raises(ValueError, match="duration"):
+        propagate_states(paper_profile, np.ones((1, 6)) * 3000, epoch_tdb_s, -1.0, 900.0)
+    with pytest.raises(ValueError, match="integrator setting"):
+        propagate_elements(paper_profile, [ELFO], setting="sloppy", duration_s=3600.0)
+
+
+def test_dataset_layout(paper_profile, epoch_tdb_s):
+    ds = propagate_elements(paper_profile, [ELFO, [6143.0, 0.6, 51.7, 180.0, 90.0, 0.0]], duration_s=86400.0)
+    assert ds.r_mci_km.dims == ("sat", "time", "xyz")
+    assert ds.sizes["time"] == 97 and ds.time.values[1] - ds.time.values[0] == 900.0
+    assert ds.time.values[0] == epoch_tdb_s
+    for key in ("frame", "time_scale", "force_model", "integrator", "rtol", "atol"):
+        assert key in ds.attrs
+    assert "30x30" in ds.attrs["force_model"] and ds.attrs["integrator"] == "RK45"
+    assert np.linalg.norm(ds.r_mci_km.values[0, 0]) == pytest.approx(6143.0 * 0.4, rel=1e-12)
