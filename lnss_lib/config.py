@@ -24,11 +24,12 @@ def available_profiles() -> list[str]:
     return sorted(p.stem for p in PARAMS_DIR.glob("*.toml"))
 
 
-def _deep_merge(base: dict, override: dict) -> dict:
+def deep_merge(base: dict, override: dict) -> dict:
+    """A copy of ``base`` with the nested ``override`` applied."""
     merged = copy.deepcopy(base)
     for key, value in override.items():
         if isinstance(value, dict) and isinstance(merged.get(key), dict):
-            merged[key] = _deep_merge(merged[key], value)
+            merged[key] = deep_merge(merged[key], value)
         else:
             merged[key] = copy.deepcopy(value)
     return merged
@@ -58,8 +59,8 @@ def load_profile(name: str = "quick", overrides: dict | None = None) -> dict:
         current = data.get("profile", {}).get("inherits")
     profile: dict = {}
     for data in reversed(chain):
-        profile = _deep_merge(profile, data)
-    profile = _deep_merge(profile, overrides or {})
+        profile = deep_merge(profile, data)
+    profile = deep_merge(profile, overrides or {})
     profile["profile"]["name"] = name
     profile["profile"].pop("inherits", None)
     return profile

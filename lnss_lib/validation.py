@@ -14,7 +14,7 @@ from pathlib import Path
 import numpy as np
 import xarray as xr
 
-from .config import data_path
+from .config import data_path, deep_merge
 from .ephemeris import EphemerisTable, ensure_kernels, tdb_seconds
 from .forces import ForceModel
 from .propagator import propagate_states
@@ -149,3 +149,24 @@ def estimate_srp(profile: dict, arc: xr.Dataset, *, initial_m2_kg: float | None 
         "history": history,
         "arc": final,
     }
+
+
+def variant_differences(profile: dict, state_mci: np.ndarray, t0_tdb_s: float, duration_s: float, step_s: float,
+                        variants: dict[str, dict], *, setting: str | None = None) -> xr.Dataset:
+    """Position difference (km) against the profile's own model of each variant (profile overrides).
+
+    ``variants`` maps a label to a nested dict of overrides (for example
+    ``{"no Sun": {"forces": {"third_bodies": ["EARTH", "JUPITER"]}}}``); a ``"_setting"`` key in an
+    override picks another integrator setting. Returns ``difference_km`` (variant, time).
+    """
+    base = propagate_states(profile, state_mci[None, :], t0_tdb_s, duration_s, step_s, setting=setting)
+    diffs = []
+    for overrides in variants.values():
+        overrides = dict(overrides)
+        variant_setting = overrides.pop("_setting", setting)
+        other = propagate_states(deep_merge(profile, overrides), state_mci[None, :], t0_tdb_s, duration_s, step_s,
+                                 setting=variant_setting)
+        diffs.append(np.linalg.norm(other.r_mci_km.values[0] - base.r_mci_km.values[0], axis=1))
+    return xr.Dataset({"difference_km": (("variant", "time"), np.array(diffs))},
+                      coords={"variant": list(variants), "time": base.time.values},
+                      attrs={"baseline": base.attrs["force_model"], "integrator": base.attrs["integrator"]})

@@ -1,0 +1,76 @@
+"""Command line and pipeline: propagate output, clear errors, notebook selection, manifests."""
+
+import json
+import subprocess
+import sys
+
+import numpy as np
+import pytest
+
+from lnss_lib.__main__ import main
+from lnss_lib.config import PROJECT_DIR
+from lnss_lib.pipeline import notebook_paths, write_manifest
+
+
+def test_propagate_writes_csv(tmp_path):
+    out = tmp_path / "orbit.csv"
+    code = main(["propagate", "--epoch-tdb", "2025-05-01T00:00:00", "--elements", "6143", "0.6", "51.7", "0", "90", "0",
+                 "--days", "0.5", "--step-s", "900", "--degree", "8", "--out", str(out)])
+    assert code == 0
+    lines = out.read_text().splitlines()
+    assert lines[0].startswith("t_tdb_s,x,y,z,vx,vy,vz")
+    table = np.loadtxt(out, delimiter=",", skiprows=1)
+    assert table.shape == (49, 7)
+    assert np.linalg.norm(table[0, 1:4]) == pytest.approx(6143 * 0.4, rel=1e-9)
+    assert np.all(np.diff(table[:, 0]) == 900.0)
+
+
+def test_propagate_netcdf_with_state(tmp_path):
+    import xarray as xr
+
+    out = tmp_path / "orbit.nc"
+    code = main(["propagate", "--epoch-tdb", "2022-11-25T00:00:00", "--state-km", "-16983.14", "21213.56", "-58035.63",
+                 "-0.044576", "0.051375", "0.141642", "--days", "0.1", "--step-s", "600", "--out", str(out)])
+    assert code == 0
+    ds = xr.open_dataset(out, engine="h5netcdf")
+    assert ds.r_mci_km.dims == ("sat", "time", "xyz")
+
+
+def test_bad_elements_and_profile_give_clear_errors(capsys):
+    assert main(["propagate", "--epoch-tdb", "2025-05-01T00:00:00", "--elements", "6143", "1.2", "51.7", "0", "90", "0",
+                 "--days", "1"]) == 2
+    assert "eccentricity" in capsys.readouterr().err
+    assert main(["reproduce", "--profile", "nonexistent"]) == 2
+    assert "unknown profile 'nonexistent'" in capsys.readouterr().err
+
+
+def test_module_entry_point_runs():
+    result = subprocess.run([sys.executable, "-m", "lnss_lib", "--help"], cwd=PROJECT_DIR, capture_output=True, text=True)
+    assert result.returncode == 0 and "reproduce" in result.stdout
+
+
+def test_notebook_selection():
+    names = [p.stem for p in notebook_paths()]
+    assert names == sorted(names) and names[0] == "01_propagator_validation"
+    assert [p.stem for p in notebook_paths(["01"])] == ["01_propagator_validation"]
+    with pytest.raises(ValueError, match="no notebook matches '99'"):
+        notebook_paths(["99"])
+
+
+def test_manifest_records_parameters_versions_and_checksums():
+    path = write_manifest("ci", {"test": {"status": "ok", "wall_s": 0.0}})
+    manifest = json.loads(path.read_text())
+    assert manifest["parameters"]["profile"]["name"] == "ci"
+    assert manifest["packages"]["numpy"] == np.__version__
+    assert len(manifest["data_sha256"]["data/gravity/Moon_AIUB-GRL350B_deg100.txt"]) == 64
+    assert "skyfield-data:de421.bsp" in manifest["data_sha256"]
+    assert manifest["notebooks"]["test"]["status"] == "ok"
+
+
+def test_shipped_data_match_their_checksums():
+    from lnss_lib.ephemeris import file_sha256
+
+    data = PROJECT_DIR / "params" / "data"
+    for line in (data / "SHA256SUMS").read_text().splitlines():
+        digest, name = line.split()
+        assert file_sha256(data / name) == digest, name
