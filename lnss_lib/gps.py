@@ -18,8 +18,8 @@ Four layers, pure kernels apart from orchestration:
   equinoxes EqE = dpsi cos(eps_mean) (the TEME convention of Vallado et al. 2006). The 93 skipped
   nutation terms sum to at most :data:`NUTATION_SKIPPED_DPSI_MAS` in longitude and
   :data:`NUTATION_SKIPPED_DEPS_MAS` in obliquity, a frame error below 0.12 arcsec (15 m at GPS
-  radius); the IAU-1980 model itself is off the IAU-2006/2000A one by tens of mas (a few metres)
-  and the J2000/ICRF frame bias (23 mas) is ignored as SPICE does. All of this is far below the
+  radius); the IAU-1976/1980 models themselves differ from IAU-2006/2000A by up to about 0.1 arcsec
+  (about 10 m) and the J2000/ICRF frame bias (23 mas) is ignored as SPICE does. All of this is far below the
   error of SGP4 itself (kilometres) and irrelevant for visibility and DOP seen from the Moon.
 * **Link kernels** (eq. 15-24): lunar occultation cone (eq. 17-18), off-boresight angle (eq. 19-20),
   Earth occultation with the atmospheric margin (eq. 21) plus the ray / WGS-84 ellipsoid test,
@@ -148,8 +148,10 @@ def _check_element_line(line: str, expected: int, path: Path, line_no: int) -> N
 
 
 def _designator(line1: str, path: Path, line_no: int) -> tuple[str, int, int]:
-    """("YYYY-NNNP", launch year, launch number) from line 1 columns 10-17."""
+    """("YYYY-NNNP", launch year, launch number) from line 1 columns 10-17; ("", 0, 0) when blank."""
     raw = line1[9:17]
+    if not raw.strip():
+        return "", 0, 0
     match = re.fullmatch(r"(\d{2})(\d{3})([A-Z ]{1,3})", raw.rstrip().ljust(6))
     if not match:
         raise ValueError(f"{path}: line {line_no}: international designator {raw!r} is not YYNNNP (columns 10-17)")
@@ -214,12 +216,18 @@ def launch_date(record: TleRecord, launch_dates: dict | None = None) -> tuple[dt
     """(launch date, source): from ``launch_dates`` (designator -> ISO date) or estimated.
 
     The estimate is TLE epoch - revolution number / mean motion, clamped to the designator's launch
-    year; source is "table" or "estimate".
+    year when the TLE gives a designator; source is "table" or "estimate".
     """
     listed = (launch_dates or {}).get(record.designator) or (launch_dates or {}).get(record.designator[:8])
-    if listed:
-        return dt.date.fromisoformat(str(listed)), "table"
+    if record.designator and listed:
+        try:
+            return dt.date.fromisoformat(str(listed)), "table"
+        except ValueError:
+            raise ValueError(f"gps.launch_dates: launch date of {record.designator} must be an ISO date "
+                             f"YYYY-MM-DD; got {listed!r}") from None
     estimate = (record.epoch_utc - dt.timedelta(days=record.rev_number / record.mean_motion_rev_day)).date()
+    if not record.launch_year:
+        return estimate, "estimate"
     first, last = dt.date(record.launch_year, 1, 1), dt.date(record.launch_year, 12, 31)
     return min(max(estimate, first), last), "estimate"
 
@@ -378,28 +386,36 @@ def propagate_teme(records: list[TleRecord], jd_utc: np.ndarray, fr_utc: np.ndar
 
 
 _STATE_CACHE: dict[str, xr.Dataset] = {}
+_STATE_CACHE_SIZE = 8
 
 
-def gps_states_mci(profile: dict, t_tdb_s, *, tle_path: str | Path | None = None) -> xr.Dataset:
+def gps_states_mci(profile: dict, t_tdb_s, *, tle_path: str | Path | None = None,
+                   sgp4_offset_s: float = 0.0) -> xr.Dataset:
     """GPS positions at TDB epochs: Dataset (gps, time, xyz) with ``r_mci_km``, ``r_eci_km``, ``r_teme_km``.
 
     SGP4 (TEME, UTC) -> J2000 (:func:`teme_to_j2000`) -> Moon-centred by adding the Earth's
     Moon-centred J2000 position (SPICE). Also holds ``rot_teme_to_j2000`` (time, i, j). Coords:
     ``prn``, ``name``, ``designator`` on ``gps``; ``time`` in TDB s. The default TLE set is dated
     November 2025 while the paper's epoch is May 2025: SGP4 then propagates about 6.5 months
-    backwards. Results are cached per (file, exclusions, epochs): compute once, reuse across designs.
+    backwards. ``sgp4_offset_s`` evaluates SGP4 at t + offset while the Earth and the frame rotation
+    stay at t: a GPS phase (along-track) error, to test how much the back-propagation matters.
+    Results are cached per (file, exclusions, epochs, offset): compute once, reuse across designs.
     """
     ensure_kernels(profile)
     t = np.atleast_1d(np.asarray(t_tdb_s, dtype=float))
     cfg = profile["gps"]
     path = Path(tle_path) if tle_path is not None else data_path(cfg["tle_file"])
+    selection = {k: str(cfg.get(k)) for k in ("exclude_prn", "exclude_launched_after", "exclude_launches_from",
+                                               "launch_dates")}
     key = hashlib.sha256(b"".join([
-        path.read_bytes(), repr(sorted((k, str(v)) for k, v in cfg.items())).encode(),
-        profile["epoch"]["start_tdb"].encode(), t.tobytes()])).hexdigest()
+        path.read_bytes(), repr(sorted(selection.items())).encode(), profile["epoch"]["start_tdb"].encode(),
+        t.tobytes(), repr(float(sgp4_offset_s)).encode()])).hexdigest()
     if key in _STATE_CACHE:
         return _STATE_CACHE[key]
+    if len(_STATE_CACHE) >= _STATE_CACHE_SIZE:
+        _STATE_CACHE.clear()
     records, _ = gps_catalogue(profile, path)
-    jd, fr = utc_julian_dates(t)
+    jd, fr = utc_julian_dates(t + float(sgp4_offset_s))
     r_teme = propagate_teme(records, jd, fr)
     rot = teme_to_j2000(tt_centuries(t))
     r_eci = np.einsum("tij,gtj->gti", rot, r_teme)
@@ -420,7 +436,8 @@ def gps_states_mci(profile: dict, t_tdb_s, *, tle_path: str | Path | None = None
         attrs={"frame": "J2000 (r_mci_km Moon-centred, r_eci_km Earth-centred); r_teme_km TEME",
                "time_scale": "TDB seconds past J2000", "tle_file": str(path),
                "propagator": "SGP4 (sgp4 package), UTC from SPICE deltet",
-               "teme_to_j2000": "IAU-1976 precession, IAU-1980 nutation (13 terms), EqE 1982"},
+               "teme_to_j2000": "IAU-1976 precession, IAU-1980 nutation (13 terms), EqE 1982",
+               "sgp4_offset_s": float(sgp4_offset_s)},
     )
     _STATE_CACHE[key] = ds
     return ds
@@ -522,6 +539,32 @@ def pdop_kernel(los_hat: np.ndarray, visible: np.ndarray, clock_column: bool = T
         pdop = np.sqrt(np.where(det > 0.0, cof / det, np.inf))
     need = MIN_VISIBLE if clock_column else MIN_VISIBLE - 1
     return np.where(n_vis >= need, pdop, np.nan)
+
+
+def pdop_along_axis(los_hat: np.ndarray, visible: np.ndarray, axis_hat: np.ndarray,
+                    clock_column: bool = True) -> tuple[np.ndarray, np.ndarray]:
+    """Split PDOP into the error along ``axis_hat`` (..., 3) and across it: (sigma_along, sigma_across).
+
+    sigma_along^2 = a^T Q a and sigma_across^2 = PDOP^2 - sigma_along^2 with Q the position block of
+    (G^T G)^-1 (see :func:`pdop_kernel`); NaN where PDOP is undefined or the geometry singular.
+    Taking ``axis_hat`` toward the Earth shows the range / clock degeneracy of nearly parallel
+    lines of sight: with the clock column almost all of the PDOP lies along it.
+    """
+    w = np.asarray(visible, dtype=float)
+    los = np.asarray(los_hat, dtype=float)
+    n_vis = w.sum(axis=-1)
+    if clock_column:
+        mean = np.sum(w[..., None] * los, axis=-2) / np.maximum(n_vis, 1.0)[..., None]
+        los = los - mean[..., None, :]
+    m = np.einsum("...k,...ki,...kj->...ij", w, los, los)
+    need = MIN_VISIBLE if clock_column else MIN_VISIBLE - 1
+    ok = (n_vis >= need) & (np.linalg.det(m) > 0.0)
+    q = np.full(m.shape, np.nan)
+    q[ok] = np.linalg.inv(m[ok])
+    a = np.broadcast_to(np.asarray(axis_hat, dtype=float), m.shape[:-1])
+    along2 = np.einsum("...i,...ij,...j->...", a, q, a)
+    total2 = np.trace(q, axis1=-2, axis2=-1)
+    return np.sqrt(along2), np.sqrt(np.clip(total2 - along2, 0.0, None))
 
 
 def filtered_mean(values, method: str = "percentile95") -> tuple[float, int]:
@@ -714,3 +757,45 @@ def gps_link_summary(ds: xr.Dataset, pdop_filter: str | None = None) -> dict[str
         "gps_pdop_available_fraction": float(np.isfinite(pdop).mean()),
         "gps_pdop_samples_kept": kept,
     }
+
+
+def gps_link_sensitivity(profile: dict, gps: xr.Dataset, lnss, variants: dict[str, dict], *,
+                         sats="first") -> pd.DataFrame:
+    """Summary (:func:`gps_link_summary`) of :func:`gps_link` for each named set of ``[gps]`` overrides.
+
+    ``variants`` maps a label to overrides (``{}`` = the profile's settings); a ``pdop_filter`` key
+    changes only the summary's filter. Returns one row per variant.
+    """
+    rows = []
+    for label, over in variants.items():
+        over = dict(over)
+        method = over.pop("pdop_filter", None)
+        ds = gps_link(profile, gps, lnss, sats=sats, **over)
+        rows.append({"variant": label, **gps_link_summary(ds, method)})
+    return pd.DataFrame(rows).set_index("variant")
+
+
+def link_budget_table(profile: dict, theta_off_deg, distance_km: float, **overrides) -> pd.DataFrame:
+    """Table 1 / eq. 22-24 budget terms against off-boresight angle at one GPS-LNSS distance.
+
+    Columns: gain_dbi, eirp_dbw, fsl_db, g_rx_dbi, ktn_dbw_hz (10 log10 k T), cn0_dbhz and
+    receivable (C/N0 >= threshold). ``overrides``: ``[gps]`` keys as in :func:`gps_link`.
+    """
+    unknown = set(overrides) - set(profile["gps"])
+    if unknown:
+        raise ValueError(f"unknown GPS link setting(s) {sorted(unknown)}; allowed: {sorted(profile['gps'])}")
+    cfg = {**profile["gps"], **overrides}
+    theta = np.atleast_1d(np.asarray(theta_off_deg, dtype=float))
+    gain = gain_from_profile({"gps": cfg})(theta)
+    losses = float(cfg["l_tx_db"]) + float(cfg["l_pol_db"])
+    freq = float(cfg["frequency_mhz"]) * 1e6
+    cn0 = cn0_dbhz(gain, distance_km, p_tx_dbw=float(cfg["p_tx_dbw"]), losses_db=losses,
+                   g_rx_dbi=float(cfg["g_rx_dbi"]), frequency_hz=freq,
+                   noise_temperature_k=float(cfg["noise_temperature_k"]))
+    return pd.DataFrame({
+        "off_boresight_deg": theta, "gain_dbi": gain, "eirp_dbw": float(cfg["p_tx_dbw"]) - losses + gain,
+        "fsl_db": free_space_loss_db(np.full(theta.shape, float(distance_km)), freq),
+        "g_rx_dbi": float(cfg["g_rx_dbi"]),
+        "ktn_dbw_hz": 10.0 * np.log10(BOLTZMANN_J_K * float(cfg["noise_temperature_k"])),
+        "cn0_dbhz": cn0, "receivable": np.nan_to_num(cn0, nan=-np.inf) >= float(cfg["cn0_threshold_dbhz"]),
+    }).set_index("off_boresight_deg")

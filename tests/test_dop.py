@@ -139,8 +139,10 @@ def test_matches_pseudo_inverse_of_explicit_geometry_matrix():
                 for axes, basis in (("moon_fixed", np.eye(3)), ("enu", np.array([east, north, up]))):
                     g = np.column_stack([los[visible] @ basis.T, np.ones(visible.sum())])
                     h_inv = np.linalg.pinv(g.T @ g)
-                    assert results[axes]["pdop"].values[t, i, j] == pytest.approx(np.sqrt(np.trace(h_inv[:3, :3])), rel=1e-7)
-                    assert results[axes]["hdop"].values[t, i, j] == pytest.approx(np.sqrt(h_inv[0, 0] + h_inv[1, 1]), rel=1e-7)
+                    pdop_ref = np.sqrt(np.trace(h_inv[:3, :3]))
+                    hdop_ref = np.sqrt(h_inv[0, 0] + h_inv[1, 1])
+                    assert results[axes]["pdop"].values[t, i, j] == pytest.approx(pdop_ref, rel=1e-7)
+                    assert results[axes]["hdop"].values[t, i, j] == pytest.approx(hdop_ref, rel=1e-7)
                 checked += 1
     assert checked > 20
 
