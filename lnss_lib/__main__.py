@@ -1,4 +1,4 @@
-"""Command line: ``python -m lnss_lib {reproduce, propagate, bench} ...`` (``--help`` on each)."""
+"""Command line: ``python -m lnss_lib {reproduce, propagate, evaluate, bench} ...`` (``--help`` on each)."""
 
 from __future__ import annotations
 
@@ -10,7 +10,7 @@ import numpy as np
 
 from .config import available_profiles, load_profile
 
-BENCHMARKS = ("propagator", "dop")
+BENCHMARKS = ("propagator", "dop", "evaluate")
 
 
 def _cmd_reproduce(args: argparse.Namespace) -> int:
@@ -48,6 +48,22 @@ def _cmd_propagate(args: argparse.Namespace) -> int:
     return 0
 
 
+def _cmd_evaluate(args: argparse.Namespace) -> int:
+    import json
+
+    from .objectives import evaluate_cli
+
+    result = evaluate_cli(args.profile, args.sma_km, args.ecc, args.aop_deg, args.inc_deg, args.planes,
+                          args.sats_per_plane)
+    if args.json:
+        print(json.dumps(result))
+    else:
+        width = max(map(len, result))
+        for key, value in result.items():
+            print(f"{key:<{width}}  {value:.6g}" if isinstance(value, float) else f"{key:<{width}}  {value}")
+    return 0
+
+
 def _cmd_bench(args: argparse.Namespace) -> int:
     import importlib
 
@@ -80,6 +96,17 @@ def build_parser() -> argparse.ArgumentParser:
     prop.add_argument("--profile", default="paper", help="profile for force model and constants")
     prop.add_argument("--out", help="output path, .csv or .nc (default: CSV to stdout)")
     prop.set_defaults(func=_cmd_propagate)
+
+    ev = sub.add_parser("evaluate", help="every objective of eq. 45 for one Walker design")
+    ev.add_argument("--sma-km", type=float, required=True, help="semi-major axis (km)")
+    ev.add_argument("--ecc", type=float, required=True, help="eccentricity, [0, 1)")
+    ev.add_argument("--aop-deg", type=float, required=True, help="argument of perilune (deg)")
+    ev.add_argument("--inc-deg", type=float, required=True, help="inclination to the element frame's equator (deg)")
+    ev.add_argument("--planes", type=int, required=True, help="number of planes Np (RAAN by eq. 42)")
+    ev.add_argument("--sats-per-plane", type=int, required=True, help="satellites per plane Ns")
+    ev.add_argument("--profile", default="quick", help=f"profile in params/ ({', '.join(available_profiles())})")
+    ev.add_argument("--json", action="store_true", help="print one JSON object")
+    ev.set_defaults(func=_cmd_evaluate)
 
     bench = sub.add_parser("bench", help="benchmarks that print numbers")
     bench.add_argument("name", choices=BENCHMARKS)

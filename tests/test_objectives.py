@@ -1,0 +1,65 @@
+"""The design evaluator: eq. 45 keys, consistency with the parts, infeasible designs flagged."""
+
+import json
+import math
+import subprocess
+import sys
+
+import numpy as np
+import pytest
+
+from lnss_lib.config import PROJECT_DIR, load_profile
+from lnss_lib.objectives import METRIC_KEYS, RESULT_KEYS, context_for, evaluate_constellation, evaluate_design
+
+CLI_KEYS = {"n_sat", "mean_visible_sats", "pdop_mean_3sigma", "pdop_avail_pct", "hdop_mean_3sigma", "hdop_avail_pct",
+            "dv_total_kms_per_year", "dv_opt_kms_per_year", "gps_visible_mean", "gps_pdop_mean", "deltav_model",
+            "feasible", "wall_s"}
+
+
+@pytest.fixture(scope="module")
+def context():
+    return context_for(load_profile("ci"))
+
+
+def test_elfo_metrics_are_physical(context):
+    result = evaluate_design(context, 6143.0, 0.6, 90.0, 51.7, 2, 8)
+    assert result["feasible"] and result["n_sat"] == 16
+    assert 9.0 < result["mean_visible_sats"] <= 16.0
+    assert 1.0 < result["pdop_mean_3sigma"] < 5.0 and result["hdop_mean_3sigma"] < result["pdop_mean_3sigma"]
+    assert result["pdop_avail_pct"] == pytest.approx(100.0) and result["hdop_avail_pct"] == pytest.approx(100.0)
+    assert 0.0 < result["dv_opt_kms_per_year"] <= result["dv_total_kms_per_year"]
+    assert 0.0 < result["gps_visible_mean"] < 31.0 and result["gps_pdop_mean"] > 1.0
+    assert set(METRIC_KEYS) <= set(result)
+
+
+def test_constellation_and_design_agree(context):
+    from lnss_lib.constellation import WalkerDesign
+
+    elements = WalkerDesign(6143.0, 0.6, 51.7, 90.0, 2, 2).elements_deg()
+    a = evaluate_constellation(context, elements)
+    b = evaluate_design(context, 6143.0, 0.6, 90.0, 51.7, 2, 2)
+    for key in METRIC_KEYS:
+        assert a[key] == pytest.approx(b[key], nan_ok=True)
+
+
+def test_too_few_satellites_gives_no_coverage_not_an_error(context):
+    result = evaluate_design(context, 6143.0, 0.6, 90.0, 51.7, 1, 2)
+    assert result["feasible"] and result["pdop_avail_pct"] == 0.0 and math.isnan(result["pdop_mean_3sigma"])
+
+
+@pytest.mark.parametrize("design, reason", [((6143.0, 1.2, 90.0, 51.7, 2, 2), "invalid design"),
+                                            ((2000.0, 0.5, 90.0, 51.7, 2, 2), "invalid elements"),
+                                            ((6143.0, 0.6, 90.0, 51.7, 0, 2), "invalid design")])
+def test_infeasible_designs_are_flagged_not_raised(context, design, reason):
+    result = evaluate_design(context, *design)
+    assert result["feasible"] is False and result["reason"].startswith(reason)
+    assert all(math.isnan(result[k]) for k in METRIC_KEYS if k != "n_sat")
+
+
+def test_cli_json_has_exactly_the_documented_keys():
+    out = subprocess.run([sys.executable, "-m", "lnss_lib", "evaluate", "--sma-km", "6143", "--ecc", "0.6", "--aop-deg", "90",
+                          "--inc-deg", "51.7", "--planes", "2", "--sats-per-plane", "2", "--profile", "ci", "--json"],
+                         cwd=PROJECT_DIR, capture_output=True, text=True, check=True)
+    result = json.loads(out.stdout)
+    assert set(result) == CLI_KEYS == set(RESULT_KEYS)
+    assert result["n_sat"] == 4 and result["feasible"] is True and np.isfinite(result["wall_s"])
