@@ -20,12 +20,14 @@ Three models (``MODELS``), all reported:
     assumption (no radial part in the SMA drift) is the paper's modelling choice and is kept.
     The literal variants and the divisor floor / component cap stay selectable.
 ``lsq``
-    least-squares inverse of all five GVEs (5 x 3 per epoch, row-scaled, :func:`lsq_thrust`);
-    with exact rates it returns the perturbing acceleration itself.
+    least-squares inverse of all five GVEs (5 x 3 per epoch, rows in natural units,
+    :func:`lsq_thrust`), with the rates taken by central differences of a, the eccentricity
+    vector and the orbit normal (regular at e -> 0 and i -> 0); with exact rates it returns the
+    perturbing acceleration itself.
 ``secular``
-    the cost of cancelling only the secular drift of orbit-averaged (mean) elements, with
+    the cost of cancelling only the secular drift of the orbit-averaged (mean) orbit, with
     optimally placed linearised impulsive corrections derived from the GVEs
-    (:func:`secular_deltav_rates`); periodic terms cost nothing.
+    (:func:`secular_drift`, :func:`secular_deltav_rates`); periodic terms cost nothing.
 
 The optimised thrust of eq. 38-41 has a closed form (:func:`tmax_closed_form`); SLSQP
 (:func:`slsqp_tmax`) is kept as a cross-check.
@@ -44,18 +46,19 @@ from .elements import state_to_elements
 MODELS = ("paper", "lsq", "secular")
 OSCULATING_MODELS = ("paper", "lsq")
 ELEMENT_FRAMES = ("j2000", "lunar_equator_of_epoch")
-ROW_SCALES = ("natural", "unit")
+LSQ_RATES = ("vectors", "elements")
 PAPER_NORMAL = ("weighted", "eq32", "rss")
 PAPER_RADIAL = ("weighted", "eq35")
 SECONDS_PER_DAY = 86400.0
 RATE_NAMES = ("a", "e", "i", "raan", "aop")
-SECULAR_PARTS = ("sma", "ecc", "aop_in_plane", "plane")
+SECULAR_PARTS = ("sma", "ecc_vector", "plane")
+NATURAL_RATE_NAMES = ("a_dot_over_a", "e_dot", "e_apse_dot", "i_dot", "sin_i_raan_dot")
 
 DEFAULT_SETTINGS = {
     "model": "lsq",
     "element_frame": "j2000",
     "year_days": 365.25,
-    "lsq_row_scale": "natural",
+    "lsq_rates": "vectors",
     "paper_normal": "weighted",
     "paper_radial": "weighted",
     "paper_divisor_floor": 1e-3,
@@ -81,7 +84,7 @@ def deltav_settings(profile: dict | None = None, **overrides) -> dict:
     unknown = set(settings) - set(DEFAULT_SETTINGS)
     if unknown:
         raise ValueError(f"unknown [deltav] setting(s) {sorted(unknown)}; allowed: {sorted(DEFAULT_SETTINGS)}")
-    choices = {"model": MODELS, "element_frame": ELEMENT_FRAMES, "lsq_row_scale": ROW_SCALES,
+    choices = {"model": MODELS, "element_frame": ELEMENT_FRAMES, "lsq_rates": LSQ_RATES,
                "paper_normal": PAPER_NORMAL, "paper_radial": PAPER_RADIAL}
     for key, allowed in choices.items():
         if settings[key] not in allowed:
@@ -89,11 +92,13 @@ def deltav_settings(profile: dict | None = None, **overrides) -> dict:
     if not 0.0 <= float(settings["paper_divisor_floor"]) < 1.0:
         raise ValueError(f"[deltav] paper_divisor_floor = {settings['paper_divisor_floor']!r} must be in [0, 1)")
     if not float(settings["paper_cap_kms2"]) > 0.0:
-        raise ValueError(f"[deltav] paper_cap_kms2 = {settings['paper_cap_kms2']!r} must be positive (km/s^2; 1.0 or more means no cap in practice)")
+        raise ValueError(f"[deltav] paper_cap_kms2 = {settings['paper_cap_kms2']!r} must be positive "
+                         "(km/s^2; 1.0 or more means no cap in practice)")
     if not float(settings["year_days"]) > 0.0:
         raise ValueError(f"[deltav] year_days = {settings['year_days']!r} must be positive")
-    if not float(settings["secular_min_periods"]) >= 1.0:
-        raise ValueError(f"[deltav] secular_min_periods = {settings['secular_min_periods']!r} must be >= 1")
+    if not float(settings["secular_min_periods"]) > 1.0:
+        raise ValueError(f"[deltav] secular_min_periods = {settings['secular_min_periods']!r} must be > 1 "
+                         "(the trend needs at least two one-orbit windows)")
     if not float(settings["slsqp_lambda"]) >= 0.0:
         raise ValueError(f"[deltav] slsqp_lambda = {settings['slsqp_lambda']!r} must be >= 0")
     return settings
@@ -155,11 +160,16 @@ def element_rates(t_tdb_s: np.ndarray, elements: np.ndarray) -> np.ndarray:
     """
     t = np.asarray(t_tdb_s, dtype=float)
     el = np.asarray(elements, dtype=float)
-    if t.ndim != 1 or t.size < 3 or el.shape[-2] != t.size:
-        raise ValueError(f"need at least 3 epochs and elements (..., {t.size}, 6); got t {t.shape}, elements {el.shape}")
+    _check_times(t, el)
+    return np.gradient(el[..., :5], t, axis=-2, edge_order=2)
+
+
+def _check_times(t: np.ndarray, series: np.ndarray) -> None:
+    if t.ndim != 1 or t.size < 3 or series.ndim < 2 or series.shape[-2] != t.size:
+        raise ValueError(f"need at least 3 epochs and series (..., {t.size}, k); "
+                         f"got t {t.shape}, series {series.shape}")
     if np.any(np.diff(t) <= 0.0):
         raise ValueError("epochs t_tdb_s must be strictly increasing")
-    return np.gradient(el[..., :5], t, axis=-2, edge_order=2)
 
 
 def _orbit_quantities(elements: np.ndarray, gm_km3_s2: float):
@@ -202,47 +212,115 @@ def gve_rates(elements: np.ndarray, acc_rtn_kms2: np.ndarray, gm_km3_s2: float) 
     return np.einsum("...ij,...j->...i", gve_matrix(elements, gm_km3_s2), np.asarray(acc_rtn_kms2, dtype=float))
 
 
-def _row_scales(elements: np.ndarray, row_scale: str) -> np.ndarray:
+def natural_rates_from_elements(elements: np.ndarray, rates: np.ndarray) -> np.ndarray:
+    """Natural rates (..., 5) [a-dot/a, e-dot, e (aop-dot + cos(i) raan-dot), i-dot, sin(i) raan-dot] (1/s).
+
+    From element rates (..., 5) [a-dot, e-dot, i-dot, raan-dot, aop-dot]. These are the rate of
+    the dimensionless a, the components of the eccentricity-vector rate along and across itself
+    (in the orbit plane), and the components of the orbit-normal rate across and along the node
+    line: all 1/s and bounded as e -> 0 and i -> 0 (taking them from finite differences of aop and
+    raan is not; :func:`natural_rates_from_states` avoids those angles).
+    """
     el = np.asarray(elements, dtype=float)
-    ones = np.ones_like(el[..., 0])
-    if row_scale == "unit":
-        return np.stack([1.0 / el[..., 0], ones, ones, ones, ones], axis=-1)
-    if row_scale == "natural":
-        return np.stack([1.0 / el[..., 0], ones, ones, np.sin(el[..., 2]), el[..., 1]], axis=-1)
-    raise ValueError(f"unknown lsq row scaling {row_scale!r}; allowed: {', '.join(ROW_SCALES)}")
+    rt = np.asarray(rates, dtype=float)
+    a, e, inc = el[..., 0], el[..., 1], el[..., 2]
+    return np.stack([rt[..., 0] / a, rt[..., 1], e * (rt[..., 4] + np.cos(inc) * rt[..., 3]), rt[..., 2],
+                     np.sin(inc) * rt[..., 3]], axis=-1)
 
 
-def _scaled_gve_matrix(elements: np.ndarray, gm_km3_s2: float, row_scale: str) -> np.ndarray:
-    """diag(scales) B, with the natural scaling written out so that e = 0 and sin(i) = 0 stay finite."""
-    if row_scale != "natural":
-        return gve_matrix(elements, gm_km3_s2) * _row_scales(elements, row_scale)[..., :, None]
+def orbit_vectors(states: np.ndarray, gm_km3_s2: float) -> np.ndarray:
+    """[a_km, e_vec (3), h_hat (3)] (..., n, 7) of states (..., n, 6): SMA, eccentricity vector, orbit normal."""
+    s = np.asarray(states, dtype=float)
+    r_vec, v_vec = s[..., :3], s[..., 3:6]
+    r = np.linalg.norm(r_vec, axis=-1, keepdims=True)
+    v2 = np.sum(v_vec * v_vec, axis=-1, keepdims=True)
+    h_vec = np.cross(r_vec, v_vec)
+    e_vec = np.cross(v_vec, h_vec) / gm_km3_s2 - r_vec / r
+    a = 1.0 / (2.0 / r - v2 / gm_km3_s2)
+    return np.concatenate([a, e_vec, h_vec / np.linalg.norm(h_vec, axis=-1, keepdims=True)], axis=-1)
+
+
+def _project_natural(vectors: np.ndarray, vector_rates: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Natural rates (..., 5) and |cos| of the angle between e_hat and the plane-rotation axis."""
+    a, e_vec, h_hat = vectors[..., 0], vectors[..., 1:4], vectors[..., 4:7]
+    a_dot, e_dot_vec, h_dot = vector_rates[..., 0], vector_rates[..., 1:4], vector_rates[..., 4:7]
+    h_hat = h_hat / np.linalg.norm(h_hat, axis=-1, keepdims=True)
+    e_vec = e_vec - np.sum(e_vec * h_hat, axis=-1, keepdims=True) * h_hat
+    node = np.cross(np.array([0.0, 0.0, 1.0]), h_hat)
+    node_norm = np.linalg.norm(node, axis=-1, keepdims=True)
+    inclined = node_norm > 1e-12
+    node_hat = np.where(inclined, node / np.where(inclined, node_norm, 1.0), np.array([1.0, 0.0, 0.0]))
+    e = np.linalg.norm(e_vec, axis=-1, keepdims=True)
+    e_hat = np.where(e > 1e-12, e_vec / np.where(e > 1e-12, e, 1.0), node_hat)
+    across = np.cross(h_hat, e_hat)
+    natural = np.stack([
+        a_dot / a,
+        np.sum(e_hat * e_dot_vec, axis=-1),
+        np.sum(across * e_dot_vec, axis=-1),
+        -np.sum(np.cross(h_hat, node_hat) * h_dot, axis=-1),
+        np.sum(node_hat * h_dot, axis=-1),
+    ], axis=-1)
+    axis = np.cross(h_hat, h_dot)
+    axis_norm = np.linalg.norm(axis, axis=-1, keepdims=True)
+    axis_hat = axis / np.where(axis_norm > 0.0, axis_norm, 1.0)
+    return natural, np.abs(np.sum(axis_hat * e_hat, axis=-1))
+
+
+def natural_rates_from_states(t_tdb_s: np.ndarray, states: np.ndarray, gm_km3_s2: float) -> np.ndarray:
+    """Natural rates (..., n, 5) (see :func:`natural_rates_from_elements`) by central differences of vectors.
+
+    The same central differences as :func:`element_rates`, taken on a, the eccentricity vector and
+    the orbit normal (Cartesian, no angle wrapping) and projected at each epoch: regular where
+    aop (e -> 0) or raan (i -> 0) is ill-defined.
+    """
+    t = np.asarray(t_tdb_s, dtype=float)
+    vectors = orbit_vectors(states, gm_km3_s2)
+    _check_times(t, vectors)
+    return _project_natural(vectors, np.gradient(vectors, t, axis=-2, edge_order=2))[0]
+
+
+def natural_gve_matrix(elements: np.ndarray, gm_km3_s2: float) -> np.ndarray:
+    """GVEs for the natural rates (..., 5, 3): rows of eq. 25-29 recombined, no 1/e or 1/sin(i) left.
+
+    a-dot/a = (2a/h)(e sin(nu) T_R + (p/r) T_T); e-dot = eq. 26 (corrected);
+    e (aop-dot + cos(i) raan-dot) = (-p cos(nu) T_R + (p + r) sin(nu) T_T) / h (eq. 29 + cos(i) eq. 28:
+    the T_N coupling cancels); i-dot = r cos(theta) T_N / h; sin(i) raan-dot = r sin(theta) T_N / h.
+    """
     a, e, inc, nu, theta, p, h, r = _orbit_quantities(elements, gm_km3_s2)
-    sn, cn, st, ct = np.sin(nu), np.cos(nu), np.sin(theta), np.cos(theta)
+    sn, cn = np.sin(nu), np.cos(nu)
     zero = np.zeros_like(a)
     rows = [
         [2.0 * a / h * e * sn, 2.0 * a / h * p / r, zero],
         [p * sn / h, ((p + r) * cn + r * e) / h, zero],
-        [zero, zero, r * ct / h],
-        [zero, zero, r * st / h],
-        [-p * cn / h, (p + r) * sn / h, -e * r * st * np.cos(inc) / (h * np.sin(inc))],
+        [-p * cn / h, (p + r) * sn / h, zero],
+        [zero, zero, r * np.cos(theta) / h],
+        [zero, zero, r * np.sin(theta) / h],
     ]
     return np.stack([np.stack(row, axis=-1) for row in rows], axis=-2)
 
 
-def lsq_thrust(elements: np.ndarray, rates: np.ndarray, gm_km3_s2: float, row_scale: str = "natural"):
-    """Least-squares RTN acceleration (..., 3) from all five drift rates, and the fit residual (...,).
+def lsq_thrust(elements: np.ndarray, natural_rates: np.ndarray, gm_km3_s2: float):
+    """Least-squares RTN acceleration (..., 3) from all five drift rates, and the fit residual (...,) (1/s).
 
-    Solves min |S (B T - rates)| per epoch (B: :func:`gve_matrix`, S diagonal). Row scaling
-    ``natural``: a-dot / a, e-dot, i-dot, sin(i) raan-dot, e aop-dot, i.e. the rates of the
-    dimensionless a, of the eccentricity vector and of the orbit normal, all in 1/s, so no
-    element's units dominate and the rows stay finite at e = 0 (sin(i) = 0 only through the
-    e cot(i) coupling of the aop row). ``unit``: a-dot / a and the other rates unscaled (singular
-    at e = 0 and sin(i) = 0). The residual is |S (B T - rates)| (1/s), zero for consistent rates.
+    Solves min |N T - q| per epoch, N = :func:`natural_gve_matrix`, q the natural rates: eq. 25-29
+    with rows scaled by their natural size (a-dot by a; e-dot, i-dot by 1; raan-dot by sin(i);
+    aop-dot by e after adding cos(i) raan-dot), so every row is a rate in 1/s and no element's units
+    dominate. The system splits into three in-plane rows for (T_R, T_T), solved by their 2 x 2
+    normal equations (well conditioned: the in-plane block has full rank on every closed orbit),
+    and two out-of-plane rows for T_N, whose solution (h / r)(cos(theta) i-dot + sin(theta) sin(i)
+    raan-dot) has the form of the weighted eq. 32 of :func:`paper_thrust`. The residual is zero for
+    consistent rates and measures finite-difference error otherwise.
     """
-    weights = _row_scales(elements, row_scale)
-    matrix = _scaled_gve_matrix(elements, gm_km3_s2, row_scale)
-    target = np.asarray(rates, dtype=float) * weights
-    solution = np.einsum("...ij,...j->...i", np.linalg.pinv(matrix), target)
+    matrix = natural_gve_matrix(elements, gm_km3_s2)
+    target = np.asarray(natural_rates, dtype=float)
+    plane, normal = matrix[..., :3, :2], matrix[..., 3:, 2]
+    gram = np.einsum("...ki,...kj->...ij", plane, plane)
+    rhs = np.einsum("...ki,...k->...i", plane, target[..., :3])
+    det = gram[..., 0, 0] * gram[..., 1, 1] - gram[..., 0, 1] * gram[..., 1, 0]
+    t_r = (gram[..., 1, 1] * rhs[..., 0] - gram[..., 0, 1] * rhs[..., 1]) / det
+    t_t = (gram[..., 0, 0] * rhs[..., 1] - gram[..., 1, 0] * rhs[..., 0]) / det
+    t_n = np.sum(normal * target[..., 3:], axis=-1) / np.sum(normal * normal, axis=-1)
+    solution = np.stack([t_r, t_t, t_n], axis=-1)
     residual = np.linalg.norm(np.einsum("...ij,...j->...i", matrix, solution) - target, axis=-1)
     return solution, residual
 
@@ -332,9 +410,10 @@ def tmax_closed_form(t_rtn_kms2: np.ndarray) -> np.ndarray:
     cos^2 b sin^2 a + sin^2 b = 1) gives T_max^2 = sum_k w_k^2 T_k^2 with w_k = |T_k| / sum_j |T_j|
     (eq. 39), hence the closed form; the angles follow as alpha = atan2(w_T|T_T|, w_R|T_R|),
     beta = asin(w_N|T_N| / T_max). Three equations fix all three unknowns, so the objective of
-    eq. 41 and its penalty lambda play no role. T_total / 3 <= T_max <= T_total / sqrt(3) ... T_total
-    (equal components give 1/3 of T_total, a single component gives T_total). Note the
-    optimised vector (w_k |T_k|) is not parallel to (T_k) unless all non-zero |T_k| are equal.
+    eq. 41 and its penalty lambda play no role. T_total / 3 <= T_max <= T_total (three equal
+    components give the lower bound, a single non-zero component the upper one). Note that the
+    optimised vector (w_k |T_k|) is not parallel to (|T_k|) unless all non-zero |T_k| are equal, so it
+    does not produce the drift that (T_R, T_T, T_N) cancels: eq. 38-41 are reproduced, not endorsed.
     """
     t = np.abs(np.asarray(t_rtn_kms2, dtype=float))
     total_abs = np.sum(t, axis=-1)
@@ -348,7 +427,8 @@ def slsqp_tmax(t_rtn_kms2: np.ndarray, lam: float = 20.0) -> tuple[np.ndarray, n
     Scaled so that T_total = 1 (SLSQP stops on infeasible points in km/s^2 units, NOTES.md):
     variables (T_max / T_total, alpha, beta), objective T + lam (T - 1)^2, equalities eq. 40,
     bounds 0 <= T <= 1, alpha in [-pi, pi], beta in [-pi/2, pi/2]; initial guess T = 1 and the
-    angles of (|T_R|, |T_T|, |T_N|).
+    angles of (|T_R|, |T_T|, |T_N|). ``success`` means eq. 40 holds to 1e-7 (relative); SLSQP's
+    own flag can report a line-search stop at rounding level once the equalities are met.
     """
     samples = np.atleast_2d(np.asarray(t_rtn_kms2, dtype=float))
     if samples.shape[-1] != 3:
@@ -373,9 +453,9 @@ def slsqp_tmax(t_rtn_kms2: np.ndarray, lam: float = 20.0) -> tuple[np.ndarray, n
         res = minimize(lambda x: x[0] + lam * (x[0] - 1.0) ** 2, x0, method="SLSQP",
                        constraints=[{"type": "eq", "fun": equalities}],
                        bounds=[(0.0, 1.0), (-np.pi, np.pi), (-np.pi / 2, np.pi / 2)],
-                       options={"ftol": 1e-14, "maxiter": 200})
+                       options={"ftol": 1e-12, "maxiter": 200})
         out[k] = res.x[0] * total
-        ok[k] = bool(res.success) and np.max(np.abs(equalities(res.x))) < 1e-8
+        ok[k] = np.max(np.abs(equalities(res.x))) < 1e-7
     return out, ok
 
 
@@ -421,67 +501,90 @@ def orbit_mean(t_tdb_s: np.ndarray, values: np.ndarray, period_s: float) -> tupl
     return starts + 0.5 * period_s, means
 
 
-def secular_rates(t_tdb_s: np.ndarray, elements: np.ndarray, gm_km3_s2: float, min_periods: float = 2.0):
-    """Mean elements and secular drift rates of [a, e, i, raan, aop] over an arc.
+def secular_drift(t_tdb_s: np.ndarray, states: np.ndarray, gm_km3_s2: float, min_periods: float = 2.0,
+                  short_arc: str = "raise") -> dict:
+    """Mean (orbit-averaged) orbit and its secular drift over an arc of states (n, 6) or (..., n, 6).
 
-    Osculating elements (unwrapped) are averaged over one Keplerian period of the arc-mean a
-    (:func:`orbit_mean`); a straight line fitted by least squares to the running means gives
-    the secular rates (..., 5). Assumes the arc spans at least ``min_periods`` periods; terms
-    with periods longer than the arc (e.g. Earth's half-month tide) are absorbed in the trend.
-    Returns (mean elements (..., 5) averaged over the arc, rates (..., 5)).
+    a, the eccentricity vector and the orbit normal (:func:`orbit_vectors`) are averaged over one
+    Keplerian period of the arc-mean a (:func:`orbit_mean`); a straight line fitted by least
+    squares to the running means gives their secular rates, projected into natural rates
+    (:func:`natural_rates_from_elements`). Assumes the arc spans at least ``min_periods`` periods;
+    terms with periods longer than the arc (e.g. the Earth's half-month tide) are absorbed in the
+    trend, and osculating-to-mean offsets are not modelled (plain averaging, no mean-element theory).
+
+    Returns a dict: ``a_km``, ``e``, ``inc_rad``, ``natural_rates`` (..., 5), ``raan_dot``,
+    ``aop_dot`` (rad/s, for reporting; ill-defined as i -> 0 or e -> 0), ``axis_cos`` (|cos| of the
+    angle between perilune and the line about which the plane turns) and ``period_s``. An arc
+    shorter than ``min_periods`` periods raises ``ValueError`` (``short_arc="raise"``) or gives NaN
+    results (``short_arc="nan"``, for batch use).
     """
+    if short_arc not in ("raise", "nan"):
+        raise ValueError(f"short_arc = {short_arc!r}; allowed: 'raise', 'nan'")
     t = np.asarray(t_tdb_s, dtype=float)
-    el = np.asarray(elements, dtype=float)[..., :5]
-    if el.ndim > 2:
-        flat = el.reshape(-1, *el.shape[-2:])
-        pairs = [secular_rates(t, one, gm_km3_s2, min_periods) for one in flat]
-        batch = el.shape[:-2]
-        return (np.stack([m for m, _ in pairs]).reshape(*batch, 5), np.stack([r for _, r in pairs]).reshape(*batch, 5))
-    period = 2.0 * np.pi * np.sqrt(np.mean(el[:, 0]) ** 3 / gm_km3_s2)
+    return _secular_from_vectors(t, orbit_vectors(states, gm_km3_s2), gm_km3_s2, min_periods, short_arc)
+
+
+def _secular_from_vectors(t: np.ndarray, vectors: np.ndarray, gm_km3_s2: float, min_periods: float,
+                          short_arc: str) -> dict:
+    if vectors.ndim > 2:
+        flat = [_secular_from_vectors(t, one, gm_km3_s2, min_periods, short_arc)
+                for one in vectors.reshape(-1, *vectors.shape[-2:])]
+        return {k: np.stack([f[k] for f in flat]).reshape(*vectors.shape[:-2], *np.shape(flat[0][k])) for k in flat[0]}
+    _check_times(t, vectors)
+    period = 2.0 * np.pi * np.sqrt(np.mean(vectors[:, 0]) ** 3 / gm_km3_s2)
     if t[-1] - t[0] < min_periods * period:
+        if short_arc == "nan":
+            return {"a_km": np.nan, "e": np.nan, "inc_rad": np.nan, "natural_rates": np.full(5, np.nan),
+                    "raan_dot": np.nan, "aop_dot": np.nan, "axis_cos": np.nan, "period_s": float(period)}
         raise ValueError(f"the secular model needs an arc of at least {min_periods:g} orbital periods "
                          f"({min_periods * period:.0f} s); got {t[-1] - t[0]:.0f} s")
-    t_mid, means = orbit_mean(t, el, period)
+    t_mid, means = orbit_mean(t, vectors, period)
     x = t_mid - t_mid.mean()
     slope = x @ (means - means.mean(axis=0)) / np.sum(x * x)
-    return means.mean(axis=0), slope
+    mean = means.mean(axis=0)
+    natural, axis_cos = _project_natural(mean, slope)
+    h_hat = mean[4:7] / np.linalg.norm(mean[4:7])
+    e_vec = mean[1:4] - np.dot(mean[1:4], h_hat) * h_hat
+    e = float(np.linalg.norm(e_vec))
+    inc = float(np.arccos(np.clip(h_hat[2], -1.0, 1.0)))
+    raan_dot = natural[4] / np.sin(inc) if np.sin(inc) > 0.0 else np.nan
+    aop_dot = natural[2] / e - np.cos(inc) * raan_dot if e > 0.0 else np.nan
+    return {"a_km": float(mean[0]), "e": e, "inc_rad": inc, "natural_rates": natural, "raan_dot": raan_dot,
+            "aop_dot": aop_dot, "axis_cos": float(axis_cos), "period_s": float(period)}
 
 
-def secular_deltav_rates(mean_elements: np.ndarray, rates: np.ndarray, gm_km3_s2: float) -> dict:
+def secular_deltav_rates(a_km, e, natural_rates: np.ndarray, axis_cos, gm_km3_s2: float) -> dict:
     """Delta-V rates (km/s per s) that cancel secular drifts, by part; dict of (...,) arrays.
 
-    Linearised optimally placed impulses from the GVEs (Vallado, Fundamentals of Astrodynamics,
-    Sec. 6.3-6.4 in the small-change limit; Chobotov, Orbital Mechanics, station keeping):
+    Linearised, optimally placed impulses derived from the GVEs (the small-change limits of
+    Vallado, Fundamentals of Astrodynamics and Applications, Sec. 6.3-6.4, and of the classic
+    station-keeping costs in Chobotov, Orbital Mechanics), with q = natural rates:
 
     * ``sma``: two equal tangential impulses at perilune and apolune (e unchanged):
-      |da| mu / (a^2 (v_p + v_a)) = (n a / 2) sqrt(1 - e^2) |da| / a.
-    * ``ecc``: tangential impulses at perilune and apolune of opposite sense, sized so that a is
-      unchanged: h |de| / (2 p) (= v |de| / 2 for a circle).
-    * ``aop_in_plane``: opposite tangential impulses at nu = +-90 deg (a and e unchanged):
-      e h |d(aop) + cos(i) d(raan)| / (2 p); the cos(i) d(raan) part is the apse shift that the
-      plane correction itself causes (GVE: normal thrust moves aop by -cos(i) d(raan)).
-    * ``plane``: one normal impulse on the line where the drifted plane crosses the nominal one
-      (argument of latitude theta* = atan2(sin(i) d(raan), di)), at its farther end:
-      h sqrt(di^2 + sin^2(i) d(raan)^2) (1 - e |cos(theta* - aop)|) / p; for a circular orbit
-      v sqrt(di^2 + sin^2(i) d(raan)^2), the textbook combined plane change.
+      mu |a-dot| / (a^2 (v_p + v_a)) = (n a / 2) sqrt(1 - e^2) |a-dot| / a.
+    * ``ecc_vector``: the in-plane eccentricity-vector drift, h |(e-dot, e (aop-dot + cos(i) raan-dot))| / (2 p).
+      A pure change of e (opposite tangential impulses at perilune and apolune, a unchanged) and a pure
+      apse rotation (opposite tangential impulses at nu = +-90 deg, a and e unchanged) both cost
+      h / (2 p) per unit; for a circle any direction costs v |de| / 2. Taking the vector norm for a mixed
+      drift is exact for circles and an approximation for eccentric orbits. The cos(i) raan-dot part
+      removes the apse shift that the plane correction itself causes (GVE: a normal impulse moves aop
+      by -cos(i) d raan).
+    * ``plane``: one normal impulse on the line about which the drifted plane turns, at its farther end:
+      h |(i-dot, sin(i) raan-dot)| (1 - e |cos(theta* - aop)|) / p; for a circle v sqrt(di^2 + sin^2(i) d raan^2),
+      the textbook combined change of inclination and node.
 
-    The parts are added (no sharing between the in-plane corrections): an upper bound on a
-    jointly optimised in-plane manoeuvre. ``total`` is their sum.
+    ``total`` is the sum of the parts (in-plane and out-of-plane corrections share nothing).
     """
-    el = np.asarray(mean_elements, dtype=float)
-    rt = np.asarray(rates, dtype=float)
-    a, e, inc, _, aop = (el[..., k] for k in range(5))
-    a_dot, e_dot, i_dot, raan_dot, aop_dot = (rt[..., k] for k in range(5))
+    q = np.asarray(natural_rates, dtype=float)
+    a = np.asarray(a_km, dtype=float)
+    e = np.asarray(e, dtype=float)
     p = a * (1.0 - e * e)
     h = np.sqrt(gm_km3_s2 * p)
     n = np.sqrt(gm_km3_s2 / a**3)
-    si = np.sin(inc)
-    theta_star = np.arctan2(si * raan_dot, i_dot)
     parts = {
-        "sma": 0.5 * n * np.sqrt(1.0 - e * e) * np.abs(a_dot),
-        "ecc": h * np.abs(e_dot) / (2.0 * p),
-        "aop_in_plane": e * h * np.abs(aop_dot + np.cos(inc) * raan_dot) / (2.0 * p),
-        "plane": h * np.hypot(i_dot, si * raan_dot) * (1.0 - e * np.abs(np.cos(theta_star - aop))) / p,
+        "sma": 0.5 * n * a * np.sqrt(1.0 - e * e) * np.abs(q[..., 0]),
+        "ecc_vector": h * np.hypot(q[..., 1], q[..., 2]) / (2.0 * p),
+        "plane": h * np.hypot(q[..., 3], q[..., 4]) * (1.0 - e * np.asarray(axis_cos, dtype=float)) / p,
     }
     parts["total"] = sum(parts[k] for k in SECULAR_PARTS)
     return parts
@@ -494,23 +597,31 @@ def secular_deltav_rates(mean_elements: np.ndarray, rates: np.ndarray, gm_km3_s2
 def deltav_arrays(t_tdb_s: np.ndarray, states: np.ndarray, gm_km3_s2: float, settings: dict | None = None) -> dict:
     """Every model's Delta-V from one arc of states (..., n, 6) in the GVE element frame.
 
-    Returns a dict of arrays: ``elements`` (..., n, 6), ``rates`` (..., n, 5), for ``paper`` and
-    ``lsq``: ``T_rtn_<model>`` (..., n, 3), ``T_total_<model>``, ``T_opt_<model>`` (..., n);
-    ``lsq_residual`` (..., n); ``paper_estimates`` (the single-equation estimates);
-    ``secular_mean_elements`` and ``secular_rates`` (..., 5), ``secular_parts`` (dict, km/s per s);
-    ``dv_total`` and ``dv_opt`` (dicts model -> (...,) km/s per year); ``per_year_factor``.
-    The secular model has no instantaneous thrust; its optimised budget equals its total (it is
-    already a minimum-cost impulsive budget, so eq. 38-41 do not apply).
+    Returns a dict of arrays: ``elements`` (..., n, 6) and their finite-difference ``rates``
+    (..., n, 5); ``natural_rates`` (..., n, 5) used by ``lsq``; for ``paper`` and ``lsq``:
+    ``T_rtn_<model>`` (..., n, 3), ``T_total_<model>``, ``T_opt_<model>`` (..., n);
+    ``lsq_residual`` (..., n); ``paper_estimates`` (the single-equation estimates); ``secular``
+    (:func:`secular_drift`) and ``secular_parts`` (km/s per s); ``dv_total`` and ``dv_opt`` (dicts
+    model -> (...,) km/s per year); ``per_year_factor``. The secular model has no instantaneous
+    thrust; its optimised budget equals its total (already a minimum-cost impulsive budget, so
+    eq. 38-41 do not apply); it is NaN for an arc shorter than ``secular_min_periods`` orbits.
     """
     cfg = deltav_settings(None, **(settings or {}))
     t = np.asarray(t_tdb_s, dtype=float)
     elements = osculating_elements(states, gm_km3_s2)
     rates = element_rates(t, elements)
+    vectors = orbit_vectors(states, gm_km3_s2)
+    _check_times(t, vectors)
+    if cfg["lsq_rates"] == "vectors":
+        natural = _project_natural(vectors, np.gradient(vectors, t, axis=-2, edge_order=2))[0]
+    else:
+        natural = natural_rates_from_elements(elements, rates)
     factor = per_year_factor(t, cfg["year_days"])
-    out = {"elements": elements, "rates": rates, "per_year_factor": factor, "dv_total": {}, "dv_opt": {}}
+    out = {"elements": elements, "rates": rates, "natural_rates": natural, "per_year_factor": factor,
+           "dv_total": {}, "dv_opt": {}}
     paper = paper_thrust(elements, rates, gm_km3_s2, normal=cfg["paper_normal"], radial=cfg["paper_radial"],
                          divisor_floor=float(cfg["paper_divisor_floor"]), cap_kms2=float(cfg["paper_cap_kms2"]))
-    lsq, residual = lsq_thrust(elements, rates, gm_km3_s2, cfg["lsq_row_scale"])
+    lsq, residual = lsq_thrust(elements, natural, gm_km3_s2)
     out["paper_estimates"] = paper
     out["lsq_residual"] = residual
     for name, t_rtn in (("paper", np.stack([paper["T_R"], paper["T_T"], paper["T_N"]], axis=-1)), ("lsq", lsq)):
@@ -521,11 +632,10 @@ def deltav_arrays(t_tdb_s: np.ndarray, states: np.ndarray, gm_km3_s2: float, set
         out[f"T_opt_{name}"] = opt
         out["dv_total"][name] = trapezoid_deltav(t, total) * factor
         out["dv_opt"][name] = trapezoid_deltav(t, opt) * factor
-    mean_el, sec_rates = secular_rates(t, elements, gm_km3_s2, float(cfg["secular_min_periods"]))
-    parts = secular_deltav_rates(mean_el, sec_rates, gm_km3_s2)
+    sec = _secular_from_vectors(t, vectors, gm_km3_s2, float(cfg["secular_min_periods"]), "nan")
+    parts = secular_deltav_rates(sec["a_km"], sec["e"], sec["natural_rates"], sec["axis_cos"], gm_km3_s2)
     year_s = float(cfg["year_days"]) * SECONDS_PER_DAY
-    out["secular_mean_elements"] = mean_el
-    out["secular_rates"] = sec_rates
+    out["secular"] = sec
     out["secular_parts"] = parts
     out["dv_total"]["secular"] = parts["total"] * year_s
     out["dv_opt"]["secular"] = parts["total"] * year_s
@@ -574,7 +684,8 @@ def deltav_from_propagation(profile: dict, ds: xr.Dataset, sat: int = 0, model: 
 
     Data variables: the osculating elements and their rates (time), ``T_rtn_kms2`` (model, time,
     rtn), ``T_total_kms2`` and ``T_opt_kms2`` (model, time) for the osculating models,
-    ``lsq_residual_per_s`` (time), the secular mean elements, rates and cost parts, and the summary
+    ``natural_rate`` (time, natural) and ``lsq_residual_per_s`` (time), the secular mean orbit, its
+    natural rates and cost parts (part), and the summary
     ``dv_total_kms_per_year`` and ``dv_opt_kms_per_year`` (model_all: paper, lsq, secular).
     Attributes name the chosen model (``model`` or the profile's ``[deltav] model``) and its two
     budgets. ``overrides`` replace ``[deltav]`` settings (e.g. ``element_frame="lunar_equator_of_epoch"``).
@@ -600,15 +711,21 @@ def deltav_from_propagation(profile: dict, ds: xr.Dataset, sat: int = 0, model: 
             "T_rtn_kms2": (("model", "time", "rtn"), np.stack([res[f"T_rtn_{m}"] for m in osc])),
             "T_total_kms2": (("model", "time"), np.stack([res[f"T_total_{m}"] for m in osc])),
             "T_opt_kms2": (("model", "time"), np.stack([res[f"T_opt_{m}"] for m in osc])),
+            "natural_rate": (("time", "natural"), res["natural_rates"]),
             "lsq_residual_per_s": ("time", res["lsq_residual"]),
-            "secular_mean_element": ("element", res["secular_mean_elements"]),
-            "secular_rate": ("element", res["secular_rates"]),
+            "secular_natural_rate": ("natural", res["secular"]["natural_rates"]),
+            "secular_mean_a_km": res["secular"]["a_km"],
+            "secular_mean_ecc": res["secular"]["e"],
+            "secular_mean_inc_rad": res["secular"]["inc_rad"],
+            "secular_raan_dot_rad_s": res["secular"]["raan_dot"],
+            "secular_aop_dot_rad_s": res["secular"]["aop_dot"],
             "secular_dv_kms_per_year": ("part", [res["secular_parts"][k] * float(cfg["year_days"]) * SECONDS_PER_DAY
                                                  for k in SECULAR_PARTS]),
             "dv_total_kms_per_year": ("model_all", [res["dv_total"][m] for m in MODELS]),
             "dv_opt_kms_per_year": ("model_all", [res["dv_opt"][m] for m in MODELS]),
         },
-        coords={"time": t, "element": list(RATE_NAMES), "model": osc, "rtn": ["R", "T", "N"],
+        coords={"time": t, "element": list(RATE_NAMES), "natural": list(NATURAL_RATE_NAMES), "model": osc,
+                "rtn": ["R", "T", "N"],
                 "part": list(SECULAR_PARTS), "model_all": list(MODELS), "sat": sat},
         attrs={
             "deltav_model": cfg["model"],
