@@ -1,4 +1,4 @@
-"""Command line: ``python -m lnss_lib {reproduce, propagate, evaluate, bench} ...`` (``--help`` on each)."""
+"""Command line: ``python -m lnss_lib {reproduce, propagate, evaluate, campaign, bench} ...`` (``--help`` on each)."""
 
 from __future__ import annotations
 
@@ -10,7 +10,7 @@ import numpy as np
 
 from .config import available_profiles, load_profile
 
-BENCHMARKS = ("propagator", "dop", "evaluate")
+BENCHMARKS = ("propagator", "dop", "evaluate", "campaign")
 
 
 def _cmd_reproduce(args: argparse.Namespace) -> int:
@@ -64,6 +64,51 @@ def _cmd_evaluate(args: argparse.Namespace) -> int:
     return 0
 
 
+def _parse_sets(items: list[str] | None) -> dict | None:
+    """``SECTION.KEY=VALUE`` strings (VALUE a TOML literal) as a nested overrides dict."""
+    import tomllib
+
+    from .config import deep_merge
+
+    overrides: dict = {}
+    for item in items or []:
+        path, sep, literal = item.partition("=")
+        if not sep or not path.strip():
+            raise ValueError(f"--set needs SECTION.KEY=VALUE (VALUE in TOML syntax); got {item!r}")
+        try:
+            value = tomllib.loads(f"v = {literal}")["v"]
+        except tomllib.TOMLDecodeError as error:
+            raise ValueError(f"--set {item!r}: VALUE is not a TOML literal ({error})") from None
+        nested: dict = value
+        for part in reversed(path.strip().split(".")):
+            nested = {part: nested}
+        overrides = deep_merge(overrides, nested)
+    return overrides or None
+
+
+def _cmd_campaign(args: argparse.Namespace) -> int:
+    from .optimize import run_campaign
+
+    overrides = _parse_sets(args.set)
+    if args.evaluator:
+        overrides = {**(overrides or {}), "campaign": {**(overrides or {}).get("campaign", {}),
+                                                       "evaluator": args.evaluator}}
+    if args.resume and (args.profile or overrides or args.run_dir):
+        raise ValueError("--resume continues a run with its stored parameters: "
+                         "drop --profile, --set, --evaluator and --run-dir")
+    result = run_campaign(args.profile or "quick", overrides=overrides, workers=args.workers,
+                          scheduler_address=args.scheduler_address, run_dir=args.run_dir, resume=args.resume,
+                          progress=not args.no_progress, max_generations=args.max_generations)
+    rate = result.session_evaluations / result.session_wall_s if result.session_wall_s > 0 else 0.0
+    print(f"run {result.run_dir}: {result.generations} generation(s), {result.n_evaluations} unique designs "
+          f"evaluated ({result.n_feasible} feasible); this session {result.session_evaluations} evaluations in "
+          f"{result.session_wall_s:.1f} s ({rate:.2f} designs/s)"
+          + (f"; {result.resubmitted} design(s) resubmitted after lost workers" if result.resubmitted else ""))
+    for path in result.files:
+        print(f"wrote {path}")
+    return 0
+
+
 def _cmd_bench(args: argparse.Namespace) -> int:
     import importlib
 
@@ -107,6 +152,21 @@ def build_parser() -> argparse.ArgumentParser:
     ev.add_argument("--profile", default="quick", help=f"profile in params/ ({', '.join(available_profiles())})")
     ev.add_argument("--json", action="store_true", help="print one JSON object")
     ev.set_defaults(func=_cmd_evaluate)
+
+    camp = sub.add_parser("campaign", help="NSGA-II design search (Section 5, Table 5), checkpointed every generation")
+    camp.add_argument("--profile", help=f"profile in params/ ({', '.join(available_profiles())}; default quick)")
+    camp.add_argument("--workers", type=int, help="Dask worker processes on this machine (default: one per core; "
+                      "0 or 1: evaluate in this process)")
+    camp.add_argument("--scheduler-address", help="use an existing Dask cluster, e.g. tcp://HOST:8786")
+    camp.add_argument("--resume", metavar="RUN_DIR", help="continue the run in RUN_DIR from its last checkpoint")
+    camp.add_argument("--run-dir", help="new run directory (default outputs/<profile>/campaign/run_<time>)")
+    camp.add_argument("--evaluator", choices=("walker", "synthetic"),
+                      help="walker (default): the design evaluator; synthetic: closed-form stand-in for tests")
+    camp.add_argument("--set", action="append", metavar="SECTION.KEY=VALUE",
+                      help="override a profile value (TOML literal), e.g. campaign.generations=20; repeatable")
+    camp.add_argument("--max-generations", type=int, help="stop this session after N generations (resumable)")
+    camp.add_argument("--no-progress", action="store_true", help="no progress bars")
+    camp.set_defaults(func=_cmd_campaign)
 
     bench = sub.add_parser("bench", help="benchmarks that print numbers")
     bench.add_argument("name", choices=BENCHMARKS)

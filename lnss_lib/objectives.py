@@ -22,7 +22,7 @@ from .config import load_profile, profile_hash
 from .constellation import WalkerDesign
 from .ephemeris import EphemerisTable, ensure_kernels, rotation, tdb_seconds
 from .forces import ForceModel
-from .propagator import elements_deg_to_states, output_times, propagate_states
+from .propagator import ImpactError, elements_deg_to_states, output_times, propagate_states
 
 METRIC_KEYS = ("n_sat", "mean_visible_sats", "pdop_mean_3sigma", "pdop_avail_pct", "hdop_mean_3sigma",
                "hdop_avail_pct", "dv_total_kms_per_year", "dv_opt_kms_per_year", "gps_visible_mean", "gps_pdop_mean")
@@ -73,23 +73,17 @@ def _infeasible(n_sat: int, reason: str, model: str, start: float) -> dict:
     return result
 
 
-def evaluate_constellation(context: EvaluationContext, elements_deg) -> dict:
-    """Every quantity of eq. 45 for satellites given by elements (n, 6) [a_km, e, i, RAAN, AOP, M] (deg).
+def analyse_constellation(context: EvaluationContext, elements_deg) -> dict:
+    """Propagate a constellation and keep every intermediate result, for study notebooks.
 
-    Returns a dict with :data:`RESULT_KEYS` plus ``reason`` ("" when feasible), ``impact`` and
-    ``timing_s`` (seconds spent in propagation, DOP, Delta-V and GPS link).
-    ``feasible`` is False (metrics NaN) for invalid elements or an orbit that hits the Moon; the
-    Table 3 bounds are the optimiser's business, not checked here.
+    Returns ``{"propagation", "dop", "deltav", "gps_link": xarray.Dataset, "metrics": dict}`` with
+    the metrics of :func:`evaluate_constellation`. Raises ``ValueError`` for invalid elements and
+    :class:`~lnss_lib.propagator.ImpactError` for an orbit that hits the Moon.
     """
     start = time.perf_counter()
     profile = context.profile
-    model_name = deltav.deltav_settings(profile)["model"]
     elements = np.atleast_2d(np.asarray(elements_deg, dtype=float))
-    n_sat = elements.shape[0]
-    try:
-        states = elements_deg_to_states(profile, elements, context.t0_tdb_s)
-    except ValueError as error:
-        return _infeasible(n_sat, f"invalid elements: {error}", model_name, start)
+    states = elements_deg_to_states(profile, elements, context.t0_tdb_s)
     times = context.times
     clock = [time.perf_counter()]
     ds = propagate_states(profile, states, context.t0_tdb_s, float(times[-1] - times[0]), profile["epoch"]["step_s"],
@@ -97,7 +91,8 @@ def evaluate_constellation(context: EvaluationContext, elements_deg) -> dict:
     if bool(ds.impact.any()):
         first = int(np.argmax(ds.impact.values))
         days = (float(ds.impact_t_tdb_s.values[first]) - context.t0_tdb_s) / 86400.0
-        return _infeasible(n_sat, f"impact: satellite {first} hits the Moon after {days:.2f} days", model_name, start)
+        raise ImpactError(f"impact: satellite {first} hits the Moon after {days:.2f} days")
+    ds["elements_deg"] = (("sat", "element"), elements)
     clock.append(time.perf_counter())
     r_mf = np.einsum("tij,stj->sti", context.rot_to_moon_fixed, ds.r_mci_km.values)
     grid_ds = dop.dop_for_profile(profile, r_mf, times, grid=context.grid)
@@ -108,8 +103,8 @@ def evaluate_constellation(context: EvaluationContext, elements_deg) -> dict:
     link = gps.gps_link(profile, context.gps_states, ds, sats="first")
     link_stats = gps.gps_link_summary(link)
     clock.append(time.perf_counter())
-    result = {
-        "n_sat": int(n_sat),
+    metrics = {
+        "n_sat": int(elements.shape[0]),
         "mean_visible_sats": dop_stats["n_visible_mean"],
         "pdop_mean_3sigma": dop_stats["pdop_mean_3sigma"],
         "pdop_avail_pct": dop_stats["pdop_availability_pct"],
@@ -119,14 +114,33 @@ def evaluate_constellation(context: EvaluationContext, elements_deg) -> dict:
         "dv_opt_kms_per_year": float(dv.attrs["dv_opt_kms_per_year"]),
         "gps_visible_mean": link_stats["gps_visible_mean"],
         "gps_pdop_mean": link_stats["gps_pdop_mean"],
-        "deltav_model": model_name,
+        "deltav_model": dv.attrs["deltav_model"],
         "feasible": True,
         "reason": "",
         "impact": False,
         "timing_s": dict(zip(("propagation", "dop", "deltav", "gps"), np.diff(clock).tolist())),
+        "wall_s": time.perf_counter() - start,
     }
-    result["wall_s"] = time.perf_counter() - start
-    return result
+    return {"propagation": ds, "dop": grid_ds, "deltav": dv, "gps_link": link, "metrics": metrics}
+
+
+def evaluate_constellation(context: EvaluationContext, elements_deg) -> dict:
+    """Every quantity of eq. 45 for satellites given by elements (n, 6) [a_km, e, i, RAAN, AOP, M] (deg).
+
+    Returns a dict with :data:`RESULT_KEYS` plus ``reason`` ("" when feasible), ``impact`` and
+    ``timing_s`` (seconds spent in propagation, DOP, Delta-V and GPS link). ``feasible`` is False
+    (metrics NaN) for invalid elements or an orbit that hits the Moon; the Table 3 bounds are the
+    optimiser's business, not checked here.
+    """
+    start = time.perf_counter()
+    n_sat = np.atleast_2d(np.asarray(elements_deg, dtype=float)).shape[0]
+    model_name = deltav.deltav_settings(context.profile)["model"]
+    try:
+        return analyse_constellation(context, elements_deg)["metrics"]
+    except ImpactError as error:
+        return _infeasible(n_sat, str(error), model_name, start)
+    except ValueError as error:
+        return _infeasible(n_sat, f"invalid elements: {error}", model_name, start)
 
 
 def evaluate_design(context: EvaluationContext, sma_km: float, ecc: float, aop_deg: float, inc_deg: float,
