@@ -1,0 +1,141 @@
+"""Pareto analysis of an NSGA-II campaign (paper Section 6.2, Figures 8-16, Table 6).
+
+Works on the campaign's NetCDF results (:mod:`lnss_lib.optimize`): every evaluated design and
+the front. :func:`pareto_front` recomputes a front under any subset of the campaign's constraints,
+so the analysis stays meaningful when a bound (Table 3's Delta-V <= 1 km/s/yr) admits no design;
+:func:`table6` selects the designs of Table 6 by a stated rule.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import pandas as pd
+import xarray as xr
+
+from .objectives import DESIGN_KEYS, METRIC_KEYS
+from .optimize import non_dominated_mask, objective_matrix
+from .pipeline import output_dir
+
+TABLE6_COLUMNS = DESIGN_KEYS + METRIC_KEYS + ("why selected",)
+
+
+def load_campaign(profile_name: str) -> tuple[xr.Dataset, xr.Dataset]:
+    """(evaluations, front) of the latest campaign published under ``outputs/<profile>/campaign/``.
+
+    Raises ``FileNotFoundError`` naming the command that produces them.
+    """
+    folder = output_dir(profile_name, "campaign")
+    paths = [folder / "evaluations.nc", folder / "front.nc"]
+    missing = [p.name for p in paths if not p.is_file()]
+    if missing:
+        raise FileNotFoundError(
+            f"no campaign results for profile {profile_name!r} ({', '.join(missing)} missing in {folder}); "
+            f"run: python -m lnss_lib campaign --profile {profile_name}")
+    return tuple(xr.load_dataset(p, engine="h5netcdf") for p in paths)
+
+
+def parse_constraints(text: str) -> list[tuple[str, str, float]]:
+    """``"pdop_mean_3sigma <= 10,pdop_avail_pct >= 70"`` -> [(metric, "max"|"min", limit), ...]."""
+    constraints = []
+    for item in filter(None, (part.strip() for part in text.split(","))):
+        for operator, kind in (("<=", "max"), (">=", "min")):
+            if operator in item:
+                metric, limit = (s.strip() for s in item.split(operator))
+                constraints.append((metric, kind, float(limit)))
+                break
+        else:
+            raise ValueError(f"cannot read constraint {item!r}; expected 'metric <= limit' or 'metric >= limit'")
+    return constraints
+
+
+def satisfies(ds: xr.Dataset, constraints) -> np.ndarray:
+    """Boolean (design,) mask of designs meeting every (metric, kind, limit) constraint (NaN fails)."""
+    ok = np.ones(ds.sizes["design"], dtype=bool)
+    for metric, kind, limit in constraints:
+        values = ds[metric].values.astype(float)
+        with np.errstate(invalid="ignore"):
+            ok &= (values <= limit) if kind == "max" else (values >= limit)
+    return ok
+
+
+def pareto_front(evaluations: xr.Dataset, *, relax: tuple[str, ...] = ()) -> xr.Dataset:
+    """Designs no other admissible design dominates in the campaign's objectives (eq. 45).
+
+    Admissible: evaluated without impact, every objective defined, and meeting the campaign's
+    constraints except those on the metrics named in ``relax`` (whose objectives still count).
+    With ``relax=()`` this is the campaign's own feasible front.
+    """
+    objectives = evaluations.attrs["objectives"].split(",")
+    constraints = [c for c in parse_constraints(evaluations.attrs["constraints"]) if c[0] not in relax]
+    admissible = satisfies(evaluations, constraints) & ~evaluations["impact"].values.astype(bool)
+    for metric in {name.lstrip("-") for name in objectives}:
+        admissible &= np.isfinite(evaluations[metric].values.astype(float))
+    index = np.flatnonzero(admissible)
+    if index.size:
+        f = objective_matrix({k: evaluations[k].values[index] for k in METRIC_KEYS}, objectives, 1e6)
+        index = index[non_dominated_mask(f)]
+    front = evaluations.isel(design=index)
+    front.attrs = {**evaluations.attrs, "front_constraints": ", ".join(f"{m} {'<=' if k == 'max' else '>='} {v:g}"
+                                                                       for m, k, v in constraints),
+                   "relaxed": ", ".join(relax)}
+    return front
+
+
+TABLE6_RULES = (
+    ("fewest satellites (ties: best PDOP)", lambda d: d.sort_values(["n_sat", "pdop_mean_3sigma"])),
+    ("best PDOP with fewer than 10 satellites", lambda d: d[d.n_sat < 10].sort_values("pdop_mean_3sigma")),
+    ("best PDOP", lambda d: d.sort_values("pdop_mean_3sigma")),
+    ("best HDOP", lambda d: d.sort_values("hdop_mean_3sigma")),
+    ("best GPS geometry (lowest GPS-LNSS PDOP)", lambda d: d.sort_values("gps_pdop_mean")),
+    ("most GPS satellites visible", lambda d: d.sort_values("gps_visible_mean", ascending=False)),
+    ("lowest station-keeping Delta-V", lambda d: d.sort_values("dv_total_kms_per_year")),
+)
+
+
+def table6(front: xr.Dataset, *, availability_min_pct: float = 90.0, dv_max_kms_per_year: float = 1.0) -> pd.DataFrame:
+    """Table 6: front designs with PDOP and HDOP availability >= ``availability_min_pct`` and Delta-V total
+    <= ``dv_max_kms_per_year``, one per rule of :data:`TABLE6_RULES` (a design picked by several rules
+    appears once, with every reason). Empty (with the columns) when no design qualifies.
+    """
+    frame = front[list(DESIGN_KEYS + METRIC_KEYS)].to_dataframe().reset_index(drop=True)
+    with np.errstate(invalid="ignore"):
+        eligible = frame[(frame.pdop_avail_pct >= availability_min_pct) & (frame.hdop_avail_pct >= availability_min_pct)
+                         & (frame.dv_total_kms_per_year <= dv_max_kms_per_year)]
+    chosen: dict[int, list[str]] = {}
+    for reason, rule in TABLE6_RULES:
+        ranked = rule(eligible)
+        if len(ranked):
+            chosen.setdefault(int(ranked.index[0]), []).append(reason)
+    rows = frame.loc[list(chosen)].copy()
+    rows["why selected"] = ["; ".join(reasons) for reasons in chosen.values()]
+    return rows.reset_index(drop=True)[list(TABLE6_COLUMNS)]
+
+
+def synthetic_campaign(n_designs: int = 200, seed: int = 0) -> xr.Dataset:
+    """A campaign-shaped Dataset with made-up, loosely physical metrics, for tests and examples only."""
+    rng = np.random.default_rng(seed)
+    n_planes = rng.integers(2, 6, n_designs)
+    sats = rng.integers(1, 5, n_designs)
+    n_sat = n_planes * sats
+    sma = rng.uniform(4000, 24000, n_designs)
+    pdop = 1.5 + 40.0 / n_sat ** 1.5 + rng.uniform(0, 1, n_designs)
+    avail = np.clip(100 * (1 - np.exp(-(n_sat - 3) / 3)) + rng.normal(0, 3, n_designs), 0, 100)
+    data = {
+        "sma_km": sma, "ecc": rng.uniform(0, 0.8, n_designs), "aop_deg": rng.uniform(1, 359, n_designs),
+        "inc_deg": rng.uniform(1, 90, n_designs), "n_planes": n_planes, "sats_per_plane": sats, "n_sat": n_sat,
+        "mean_visible_sats": n_sat * 0.6, "pdop_mean_3sigma": pdop, "pdop_avail_pct": avail,
+        "hdop_mean_3sigma": 0.4 * pdop, "hdop_avail_pct": avail, "dv_total_kms_per_year": 0.3 + sma / 20000,
+        "dv_opt_kms_per_year": 0.2 + sma / 30000, "gps_visible_mean": 4 + sma / 4000,
+        "gps_pdop_mean": 5000 / (1 + sma / 4000), "feasible": np.ones(n_designs, bool),
+        "impact": np.zeros(n_designs, bool), "constraint_violation": np.zeros(n_designs),
+        "generation": rng.integers(1, 10, n_designs),
+    }
+    ds = xr.Dataset({k: ("design", np.asarray(v)) for k, v in data.items()}, coords={"design": np.arange(n_designs)})
+    ds.attrs = {"profile": "synthetic",
+                "objectives": "n_sat,pdop_mean_3sigma,-pdop_avail_pct,hdop_mean_3sigma,-hdop_avail_pct,"
+                              "dv_total_kms_per_year,dv_opt_kms_per_year,-gps_visible_mean,gps_pdop_mean",
+                "constraints": "pdop_mean_3sigma <= 10,pdop_avail_pct >= 70,dv_total_kms_per_year <= 1,n_sat <= 20"}
+    violation = ~satisfies(ds, parse_constraints(ds.attrs["constraints"]))
+    ds["feasible"] = ("design", ~violation)
+    ds["constraint_violation"] = ("design", violation.astype(float))
+    return ds

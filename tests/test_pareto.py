@@ -1,0 +1,95 @@
+"""Pareto analysis: fronts under chosen constraints, the Table 6 rule, the figure builders."""
+
+import numpy as np
+import pytest
+import xarray as xr
+
+from lnss_lib.figures import dop_against_availability, pareto_3d, variable_relationships
+from lnss_lib.pareto import TABLE6_COLUMNS, load_campaign, pareto_front, parse_constraints, satisfies, synthetic_campaign, table6
+
+
+def _campaign(rows, constraints="pdop_mean_3sigma <= 10,dv_total_kms_per_year <= 1"):
+    ds = synthetic_campaign(len(rows))
+    for key in ("n_sat", "pdop_mean_3sigma", "pdop_avail_pct", "hdop_mean_3sigma", "hdop_avail_pct",
+                "dv_total_kms_per_year", "dv_opt_kms_per_year", "gps_visible_mean", "gps_pdop_mean"):
+        ds[key] = ("design", np.array([r.get(key, 1.0) for r in rows], dtype=float))
+    ds.attrs["objectives"] = "n_sat,pdop_mean_3sigma,-pdop_avail_pct,dv_total_kms_per_year"
+    ds.attrs["constraints"] = constraints
+    return ds
+
+
+def test_parse_constraints_and_errors():
+    assert parse_constraints("pdop_mean_3sigma <= 10,pdop_avail_pct >= 70") == [
+        ("pdop_mean_3sigma", "max", 10.0), ("pdop_avail_pct", "min", 70.0)]
+    with pytest.raises(ValueError, match="pdop ~ 3"):
+        parse_constraints("pdop ~ 3")
+
+
+def test_front_drops_dominated_and_handles_maximised_objectives():
+    ds = _campaign([
+        {"n_sat": 8, "pdop_mean_3sigma": 2.0, "pdop_avail_pct": 99, "dv_total_kms_per_year": 0.5},   # front
+        {"n_sat": 8, "pdop_mean_3sigma": 2.0, "pdop_avail_pct": 90, "dv_total_kms_per_year": 0.5},   # lower availability
+        {"n_sat": 4, "pdop_mean_3sigma": 5.0, "pdop_avail_pct": 80, "dv_total_kms_per_year": 0.5},   # front (fewer sats)
+        {"n_sat": 9, "pdop_mean_3sigma": 2.5, "pdop_avail_pct": 99, "dv_total_kms_per_year": 0.6},   # dominated by 0
+    ])
+    assert pareto_front(ds).design.values.tolist() == [0, 2]
+
+
+def test_ties_are_kept_and_constraints_apply():
+    ds = _campaign([
+        {"n_sat": 8, "pdop_mean_3sigma": 2.0, "pdop_avail_pct": 99, "dv_total_kms_per_year": 0.5},
+        {"n_sat": 8, "pdop_mean_3sigma": 2.0, "pdop_avail_pct": 99, "dv_total_kms_per_year": 0.5},
+        {"n_sat": 4, "pdop_mean_3sigma": 1.0, "pdop_avail_pct": 99, "dv_total_kms_per_year": 3.0},   # violates Delta-V
+    ])
+    assert pareto_front(ds).design.values.tolist() == [0, 1]
+    relaxed = pareto_front(ds, relax=("dv_total_kms_per_year",))
+    assert relaxed.design.values.tolist() == [0, 1, 2]
+    assert "dv_total" not in relaxed.attrs["front_constraints"]
+
+
+def test_table6_rule_on_a_synthetic_front():
+    ds = synthetic_campaign(400, seed=3)
+    front = pareto_front(ds)
+    table = table6(front)
+    assert list(table.columns) == list(TABLE6_COLUMNS)
+    assert len(table) >= 1
+    assert (table.pdop_avail_pct >= 90).all() and (table.hdop_avail_pct >= 90).all()
+    assert (table.dv_total_kms_per_year <= 1.0).all()
+    eligible = front.where((front.pdop_avail_pct >= 90) & (front.hdop_avail_pct >= 90)
+                           & (front.dv_total_kms_per_year <= 1.0), drop=True)
+    fewest = table[table["why selected"].str.contains("fewest satellites")]
+    assert fewest.n_sat.iloc[0] == eligible.n_sat.min()
+    best_pdop = table[table["why selected"].str.contains(r"^best PDOP$|; best PDOP$|^best PDOP;", regex=True)]
+    assert best_pdop.pdop_mean_3sigma.iloc[0] == pytest.approx(float(eligible.pdop_mean_3sigma.min()))
+    under_ten = table[table["why selected"].str.contains("fewer than 10")]
+    assert (under_ten.n_sat < 10).all()
+
+
+def test_table6_empty_when_nothing_qualifies():
+    table = table6(pareto_front(synthetic_campaign(50)), dv_max_kms_per_year=0.0)
+    assert table.empty and list(table.columns) == list(TABLE6_COLUMNS)
+
+
+def test_satisfies_treats_nan_as_failing():
+    ds = _campaign([{"pdop_mean_3sigma": np.nan}, {"pdop_mean_3sigma": 3.0}])
+    assert satisfies(ds, [("pdop_mean_3sigma", "max", 10.0)]).tolist() == [False, True]
+
+
+def test_figure_builders_plot_the_front():
+    ds = synthetic_campaign(120, seed=1)
+    front = pareto_front(ds)
+    fig = pareto_3d(front, "hdop_mean_3sigma", "pdop_mean_3sigma", "dv_total_kms_per_year", title="t")
+    assert len(fig.data) == 1 and len(fig.data[0].x) == front.sizes["design"]
+    fig = dop_against_availability(front, ds, "pdop_mean_3sigma", title="t")
+    assert [len(t.x) for t in fig.data] == [ds.sizes["design"], front.sizes["design"]]
+    fig = variable_relationships(front, ds, "sma_km", title="t")
+    assert len(fig.data) == 6
+
+
+def test_missing_campaign_names_the_command(tmp_path, monkeypatch):
+    import lnss_lib.pipeline as pipeline
+
+    monkeypatch.setattr(pipeline, "OUTPUTS_DIR", tmp_path)
+    with pytest.raises(FileNotFoundError, match="python -m lnss_lib campaign --profile nowhere"):
+        load_campaign("nowhere")
+    assert isinstance(synthetic_campaign(3), xr.Dataset)
