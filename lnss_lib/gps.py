@@ -515,6 +515,19 @@ def cn0_dbhz(gain_tx_dbi: np.ndarray, distance_km: np.ndarray, *, p_tx_dbw: floa
         - 10.0 * np.log10(BOLTZMANN_J_K * noise_temperature_k)
 
 
+def _position_normal_matrix(los_hat, visible, clock_column: bool):
+    """(M, n_visible, satellites needed): M (..., 3, 3) is the matrix whose inverse is the position block of
+    (G^T G)^-1 (see :func:`pdop_kernel`)."""
+    w = np.asarray(visible, dtype=float)
+    los = np.asarray(los_hat, dtype=float)
+    n_vis = w.sum(axis=-1)
+    if clock_column:
+        mean = np.sum(w[..., None] * los, axis=-2) / np.maximum(n_vis, 1.0)[..., None]
+        los = los - mean[..., None, :]
+    m = np.einsum("...k,...ki,...kj->...ij", w, los, los)
+    return m, n_vis, MIN_VISIBLE if clock_column else MIN_VISIBLE - 1
+
+
 def pdop_kernel(los_hat: np.ndarray, visible: np.ndarray, clock_column: bool = True) -> np.ndarray:
     """PDOP (eq. 5-7) from unit lines of sight (..., n, 3) and a visibility mask (..., n).
 
@@ -525,19 +538,12 @@ def pdop_kernel(los_hat: np.ndarray, visible: np.ndarray, clock_column: bool = T
     visible (3 without clock column), inf for a singular geometry. Eq. 6's pseudo-inverse equals
     the inverse whenever G has full rank.
     """
-    w = np.asarray(visible, dtype=float)
-    los = np.asarray(los_hat, dtype=float)
-    n_vis = w.sum(axis=-1)
-    if clock_column:
-        mean = np.sum(w[..., None] * los, axis=-2) / np.maximum(n_vis, 1.0)[..., None]
-        los = los - mean[..., None, :]
-    m = np.einsum("...k,...ki,...kj->...ij", w, los, los)
+    m, n_vis, need = _position_normal_matrix(los_hat, visible, clock_column)
     det = np.linalg.det(m)
     cof = (m[..., 1, 1] * m[..., 2, 2] - m[..., 1, 2] ** 2 + m[..., 0, 0] * m[..., 2, 2] - m[..., 0, 2] ** 2
            + m[..., 0, 0] * m[..., 1, 1] - m[..., 0, 1] ** 2)
     with np.errstate(divide="ignore", invalid="ignore"):
         pdop = np.sqrt(np.where(det > 0.0, cof / det, np.inf))
-    need = MIN_VISIBLE if clock_column else MIN_VISIBLE - 1
     return np.where(n_vis >= need, pdop, np.nan)
 
 
@@ -550,14 +556,7 @@ def pdop_along_axis(los_hat: np.ndarray, visible: np.ndarray, axis_hat: np.ndarr
     Taking ``axis_hat`` toward the Earth shows the range / clock degeneracy of nearly parallel
     lines of sight: with the clock column almost all of the PDOP lies along it.
     """
-    w = np.asarray(visible, dtype=float)
-    los = np.asarray(los_hat, dtype=float)
-    n_vis = w.sum(axis=-1)
-    if clock_column:
-        mean = np.sum(w[..., None] * los, axis=-2) / np.maximum(n_vis, 1.0)[..., None]
-        los = los - mean[..., None, :]
-    m = np.einsum("...k,...ki,...kj->...ij", w, los, los)
-    need = MIN_VISIBLE if clock_column else MIN_VISIBLE - 1
+    m, n_vis, need = _position_normal_matrix(los_hat, visible, clock_column)
     ok = (n_vis >= need) & (np.linalg.det(m) > 0.0)
     q = np.full(m.shape, np.nan)
     q[ok] = np.linalg.inv(m[ok])
