@@ -37,7 +37,7 @@ def rng():
 
 
 def pytest_configure(config):
-    """Notebook kernels started by the tests (nbval, papermill) import lnss_lib from this checkout."""
+    """Notebook kernels started by the tests (papermill) import lnss_lib from this checkout."""
     import os
     from pathlib import Path
 

@@ -53,3 +53,21 @@ def test_figures_written(executed):
     figures = list((OUTPUTS_DIR / PROFILE / "figures").glob("*.html"))
     stems = {f.stem[:2] for f in figures}
     assert {b.stem[:2] for b in notebook_paths()} - {"06"} <= stems
+
+
+def test_standalone_elfo_table4_dop_within_five_percent(executed):
+    table = _table("05_table4").set_index("metric")
+    for metric in ("Satellite visibility", "PDOP (3-sigma mean)", "HDOP (3-sigma mean)", "PDOP availability (%)",
+                   "HDOP availability (%)"):
+        assert abs(table.loc[metric, "difference (%)"]) <= 5.0, metric
+    assert table["why"].notna().all()
+
+
+def test_campaign_and_pareto_outputs(executed):
+    import xarray as xr
+
+    evaluations = xr.load_dataset(OUTPUTS_DIR / PROFILE / "campaign" / "evaluations.nc", engine="h5netcdf")
+    assert evaluations.sizes["design"] > 0 and "objectives" in evaluations.attrs
+    table6 = _table("07_table6")
+    assert "why selected" in table6.columns
+    assert (OUTPUTS_DIR / PROFILE / "index.html").is_file()
