@@ -300,7 +300,7 @@ def availability_pct(values, threshold: float = 15.0, weights=None) -> float:
     w = np.ones_like(v) if weights is None else np.broadcast_to(np.asarray(weights, dtype=float), v.shape)
     with np.errstate(invalid="ignore"):
         ok = v < threshold
-    return float(100.0 * np.sum(w * ok) / np.sum(w))
+    return min(100.0, float(100.0 * np.sum(w * ok) / np.sum(w)))  # min: rounding of the weight sums
 
 
 def dop_summary(ds: xr.Dataset, *, threshold: float = 15.0, n_sigma: float = 3.0,
@@ -331,7 +331,7 @@ def dop_summary(ds: xr.Dataset, *, threshold: float = 15.0, n_sigma: float = 3.0
         "hdop_mean_raw": float(np.sum(w[fin_h] * hdop[fin_h]) / np.sum(w[fin_h])) if fin_h.any() else float("nan"),
         "pdop_availability_pct": availability_pct(pdop, threshold, w),
         "hdop_availability_pct": availability_pct(hdop, threshold, w),
-        "availability_pct": float(100.0 * np.sum(w * both) / np.sum(w)),
+        "availability_pct": min(100.0, float(100.0 * np.sum(w * both) / np.sum(w))),
         "fewer_than_4_pct": float(100.0 * np.sum(w * (nvis < MIN_VISIBLE)) / np.sum(w)),
         "n_samples": int(pdop.size),
         "pdop_kept": pdop_kept,

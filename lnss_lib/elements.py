@@ -99,12 +99,6 @@ def state_to_elements(state: np.ndarray, gm_km3_s2: float) -> np.ndarray:
     return np.stack([a, e, inc, raan, aop, M], axis=-1)
 
 
-def true_anomaly(e: np.ndarray, mean_anomaly_rad: np.ndarray) -> np.ndarray:
-    """True anomaly (rad, in [0, 2 pi)) from eccentricity and mean anomaly."""
-    E = solve_kepler(mean_anomaly_rad, e)
-    return np.mod(2.0 * np.arctan2(np.sqrt(1.0 + e) * np.sin(E / 2.0), np.sqrt(1.0 - e) * np.cos(E / 2.0)), TWO_PI)
-
-
 def orbital_period_s(a_km, gm_km3_s2: float):
     """Keplerian period (s)."""
     return TWO_PI * np.sqrt(np.asarray(a_km, dtype=float) ** 3 / gm_km3_s2)

@@ -165,6 +165,8 @@ class EphemerisTable:
         """Sample SPICE over [t_start, t_end] (with two nodes of margin each side)."""
         ensure_kernels(profile)
         step = float(profile["ephemeris"]["table_step_s"])
+        if not step > 0:
+            raise ValueError(f"ephemeris.table_step_s must be positive (s); got {step!r}")
         t_lo, t_hi = min(t_start_tdb_s, t_end_tdb_s), max(t_start_tdb_s, t_end_tdb_s)
         n = int(np.ceil((t_hi - t_lo) / step)) + 5
         times = t_lo - 2 * step + step * np.arange(n)
@@ -198,8 +200,3 @@ def file_sha256(path: Path) -> str:
         for block in iter(lambda: handle.read(1 << 20), b""):
             digest.update(block)
     return digest.hexdigest()
-
-
-def worker_init(profile: dict) -> None:
-    """Initialiser for worker processes: load kernels once per process."""
-    ensure_kernels(profile)

@@ -237,6 +237,9 @@ def acceleration_breakdown(profile: dict, t_tdb_s: np.ndarray, state_mci: np.nda
     if model is None:
         table = EphemerisTable.build(profile, float(times.min()), float(times.max()))
         model = ForceModel.from_profile(profile, table, degree=degree, srp_cr_area_mass_m2_kg=srp_cr_area_mass_m2_kg)
+    elif times.min() < model.table.t0_tdb_s or times.max() > model.table.t_end_tdb_s:
+        raise ValueError("epochs outside the force model's ephemeris table "
+                         f"[{model.table.t0_tdb_s:.0f}, {model.table.t_end_tdb_s:.0f}] s TDB")
     out = np.empty((len(times), len(TERMS), 3))
     _breakdown_loop(times, states, model.kernel_args, model.field.workspace(), np.empty(SCRATCH_SIZE), out)
     return {name: out[:, k, :] for k, name in enumerate(TERMS)}

@@ -60,7 +60,10 @@ class GravityField:
     def from_profile(cls, profile: dict, degree: int | None = None) -> "GravityField":
         """The field a profile names, at its degree unless ``degree`` overrides it."""
         grav = profile["gravity"]
-        return cls.from_file(data_path(grav["file"]), int(degree if degree is not None else grav["degree"]),
+        chosen = degree if degree is not None else grav["degree"]
+        if isinstance(chosen, float) and chosen.is_integer():
+            chosen = int(chosen)
+        return cls.from_file(data_path(grav["file"]), chosen,
                              grav["gm_km3_s2"], grav["r_ref_km"])
 
     def workspace(self) -> np.ndarray:

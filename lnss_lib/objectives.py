@@ -136,11 +136,13 @@ def evaluate_constellation(context: EvaluationContext, elements_deg) -> dict:
     n_sat = np.atleast_2d(np.asarray(elements_deg, dtype=float)).shape[0]
     model_name = deltav.deltav_settings(context.profile)["model"]
     try:
+        elements_deg_to_states(context.profile, elements_deg, context.t0_tdb_s)
+    except ValueError as error:
+        return _infeasible(n_sat, f"invalid elements: {error}", model_name, start)
+    try:
         return analyse_constellation(context, elements_deg)["metrics"]
     except ImpactError as error:
         return _infeasible(n_sat, str(error), model_name, start)
-    except ValueError as error:
-        return _infeasible(n_sat, f"invalid elements: {error}", model_name, start)
 
 
 def evaluate_design(context: EvaluationContext, sma_km: float, ecc: float, aop_deg: float, inc_deg: float,

@@ -100,7 +100,7 @@ def reproduce(profile_name: str = "quick", only: list[str] | None = None) -> int
     import papermill
     from tqdm import tqdm
 
-    load_profile(profile_name)
+    timeout_s = int(load_profile(profile_name)["notebooks"]["timeout_s"])
     books = notebook_paths(only)
     paths = [p for p in os.environ.get("PYTHONPATH", "").split(os.pathsep) if p]
     os.environ["PYTHONPATH"] = os.pathsep.join([str(PROJECT_DIR), *paths])  # kernels import this lnss_lib
@@ -115,7 +115,8 @@ def reproduce(profile_name: str = "quick", only: list[str] | None = None) -> int
         start = time.perf_counter()
         try:
             papermill.execute_notebook(str(book), str(target / book.name), parameters={"profile_name": profile_name},
-                                       cwd=str(NOTEBOOKS_DIR), progress_bar=False, kernel_name="python3")
+                                       cwd=str(NOTEBOOKS_DIR), progress_bar=False, kernel_name="python3",
+                                       execution_timeout=timeout_s)
             runs[book.stem] = {"status": "ok", "wall_s": round(time.perf_counter() - start, 2)}
         except papermill.PapermillExecutionError as error:
             runs[book.stem] = {"status": "failed", "wall_s": round(time.perf_counter() - start, 2),

@@ -23,7 +23,7 @@ from scipy.integrate._ivp.rk import RK45 as _RK45
 from .config import integrator_setting
 from .elements import elements_to_state, validate_elements
 from .ephemeris import EphemerisTable, element_frame_to_j2000, ensure_kernels, tdb_iso, tdb_seconds
-from .forces import SCRATCH_SIZE, TERMS, ForceModel, acceleration
+from .forces import SCRATCH_SIZE, SOLAR_P, SRP_K, TERMS, ForceModel, acceleration
 
 METHODS = ("RK45", "DOP853")
 STATUS_OK, STATUS_IMPACT, STATUS_MAX_STEPS, STATUS_STEP_TOO_SMALL = 0, 1, 2, 3
@@ -245,6 +245,7 @@ def integrate_one(y0, t0, t_out, method, rtol, atol, r_min_km, max_steps, args, 
             if r_out < r_min_km:
                 states[k_out, :] = np.nan
                 status = STATUS_IMPACT
+                t = t_out[k_out]
                 break
             k_out += 1
         if status == STATUS_IMPACT:
@@ -320,8 +321,12 @@ def propagate_states(profile: dict, states_mci, t0_tdb_s: float, duration_s: flo
         ensure_kernels(profile)
         table = EphemerisTable.build(profile, t0_tdb_s, times[-1])
         model = ForceModel.from_profile(profile, table, degree=degree, srp_cr_area_mass_m2_kg=srp_cr_area_mass_m2_kg)
-    elif model.table.t0_tdb_s > t0_tdb_s or model.table.t_end_tdb_s < times[-1]:
-        raise ValueError("the force model's ephemeris table does not span the requested arc")
+    else:
+        if degree is not None or srp_cr_area_mass_m2_kg is not None:
+            raise ValueError("degree and srp_cr_area_mass_m2_kg belong to the force model: pass them to "
+                             "ForceModel.from_profile, not together with model=")
+        if model.table.t0_tdb_s > t0_tdb_s or model.table.t_end_tdb_s < times[-1]:
+            raise ValueError("the force model's ephemeris table does not span the requested arc")
     r_min = profile["constants"]["r_moon_mean_km"] + profile["impact"]["min_altitude_km"]
     radius = np.linalg.norm(states[:, :3], axis=1)
     if np.any(radius < r_min) and not batch:
@@ -362,7 +367,7 @@ def _as_dataset(out, times, status, t_stop, n_rhs, profile, integ, model) -> xr.
             "rtol": float(integ["rtol"]),
             "atol": float(integ["atol"]),
             "gm_km3_s2": model.field.gm_km3_s2,
-            "srp_cr_area_mass_m2_kg": float(model.scalars[7] / model.scalars[9] * 1e3),
+            "srp_cr_area_mass_m2_kg": float(model.scalars[SRP_K] / model.scalars[SOLAR_P] * 1e3),
             "output": "quintic Hermite interpolation between integrator steps",
         },
     )
@@ -382,6 +387,11 @@ def elements_deg_to_states(profile: dict, elements_deg, t0_tdb_s: float) -> np.n
     if el.ndim != 2 or el.shape[1] != 6:
         raise ValueError(f"elements must have shape (n_sat, 6) [a_km, e, i, RAAN, AOP, M] in degrees; got {el.shape}")
     validate_elements(el[:, 0], el[:, 1], profile["constants"]["r_moon_mean_km"], profile["impact"]["min_altitude_km"])
+    bad = ~np.isfinite(el[:, 2:])
+    if bad.any():
+        row, col = np.argwhere(bad)[0]
+        raise ValueError(f"satellite {row}: {('inclination', 'RAAN', 'AOP', 'mean anomaly')[col]} is not finite "
+                         f"({el[row, col + 2]!r} deg)")
     el_rad = el.copy()
     el_rad[:, 2:] = np.radians(el[:, 2:])
     states_frame = elements_to_state(el_rad, profile["gravity"]["gm_km3_s2"])

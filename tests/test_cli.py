@@ -30,7 +30,7 @@ def test_propagate_netcdf_with_state(tmp_path):
 
     out = tmp_path / "orbit.nc"
     code = main(["propagate", "--epoch-tdb", "2022-11-25T00:00:00", "--state-km", "-16983.14", "21213.56", "-58035.63",
-                 "-0.044576", "0.051375", "0.141642", "--days", "0.1", "--step-s", "600", "--out", str(out)])
+                 "-0.044576", "-0.051375", "0.141642", "--days", "0.1", "--step-s", "600", "--out", str(out)])
     assert code == 0
     ds = xr.open_dataset(out, engine="h5netcdf")
     assert ds.r_mci_km.dims == ("sat", "time", "xyz")
@@ -57,8 +57,12 @@ def test_notebook_selection():
         notebook_paths(["99"])
 
 
-def test_manifest_records_parameters_versions_and_checksums():
+def test_manifest_records_parameters_versions_and_checksums(tmp_path, monkeypatch):
+    import lnss_lib.pipeline as pipeline
+
+    monkeypatch.setattr(pipeline, "OUTPUTS_DIR", tmp_path)
     path = write_manifest("ci", {"test": {"status": "ok", "wall_s": 0.0}})
+    assert path.parent == tmp_path / "ci"
     manifest = json.loads(path.read_text())
     assert manifest["parameters"]["profile"]["name"] == "ci"
     assert manifest["packages"]["numpy"] == np.__version__

@@ -79,13 +79,14 @@ def test_integrator_takes_scipy_steps(paper_profile, epoch_tdb_s):
         assert np.linalg.norm(ds.r_mci_km.values[0, -1] - sol.y[:3, -1]) < 1e-6
 
 
-def test_dense_output_matches_solver_steps(paper_profile, epoch_tdb_s):
-    """Quintic Hermite samples against the same orbit integrated tightly: far below the integration error."""
+def test_dense_output_matches_integration_ending_at_the_sample(paper_profile, epoch_tdb_s):
+    """Interpolated samples (quintic Hermite between steps) against runs whose last step ends exactly there."""
     fine = load_overrides(paper_profile, "DOP853", 1e-12, 1e-14)
-    a = propagate_elements(fine, [ELFO], t0_tdb_s=epoch_tdb_s, duration_s=86400.0, step_s=900.0)
-    b = propagate_elements(fine, [ELFO], t0_tdb_s=epoch_tdb_s, duration_s=86400.0, step_s=60.0)
-    common = np.isin(b.time.values, a.time.values)
-    assert np.abs(a.r_mci_km.values[0] - b.r_mci_km.values[0, common]).max() < 1e-4  # 10 cm
+    day = propagate_elements(fine, [ELFO], t0_tdb_s=epoch_tdb_s, duration_s=86400.0, step_s=900.0)
+    for k in (7, 31, 58, 90):
+        exact = propagate_elements(fine, [ELFO], t0_tdb_s=epoch_tdb_s, duration_s=900.0 * k, step_s=900.0 * k)
+        assert np.linalg.norm(day.r_mci_km.values[0, k] - exact.r_mci_km.values[0, -1]) < 1e-5      # 1 cm
+        assert np.linalg.norm(day.v_mci_kms.values[0, k] - exact.v_mci_kms.values[0, -1]) < 1e-7    # 0.1 mm/s
 
 
 def load_overrides(profile, method, rtol, atol):
@@ -106,18 +107,48 @@ def test_force_model_matches_reference_implementation(paper_profile, epoch_tdb_s
 
 
 def test_force_terms_have_expected_sizes(paper_profile, epoch_tdb_s):
-    """Orders of magnitude at the ELFO apolune: a check on units of every term."""
-    state = elements_deg_to_states(paper_profile, [[6143.0, 0.6, 51.7, 0.0, 90.0, 180.0]], epoch_tdb_s)
-    terms = {k: np.linalg.norm(v[0]) for k, v in acceleration_breakdown(paper_profile, [epoch_tdb_s], state).items()}
-    assert terms["central"] == pytest.approx(4902.7999671 / (6143.0 * 1.6) ** 2, rel=1e-6)
-    assert 1e-9 < terms["EARTH"] < 1e-7
-    assert 1e-11 < terms["SUN"] < 1e-9
+    """Every term against its closed-form magnitude, at a sunlit state far from the Moon's shadow."""
+    from lnss_lib.ephemeris import body_states_mci
+
+    sun = body_states_mci("SUN", [epoch_tdb_s])[0, :3]
+    earth = body_states_mci("EARTH", [epoch_tdb_s])[0, :3]
+    r = 9000.0 * sun / np.linalg.norm(sun)                    # on the day side, towards the Sun
+    v = np.cross([0.0, 0.0, 1.0], r)
+    v *= np.sqrt(4902.7999671 / 9000.0) / np.linalg.norm(v)
+    terms = {k: np.linalg.norm(x[0]) for k, x in
+             acceleration_breakdown(paper_profile, [epoch_tdb_s], np.concatenate([r, v])[None]).items()}
+    assert terms["central"] == pytest.approx(4902.7999671 / 9000.0 ** 2, rel=1e-12)
+    d_earth, d_sun = np.linalg.norm(earth), np.linalg.norm(sun)
+    tidal = lambda gm, d: gm * 9000.0 / d ** 3                # noqa: E731, differential (tidal) scale
+    assert tidal(398600.436233, d_earth) < terms["EARTH"] < 2.1 * tidal(398600.436233, d_earth)
+    assert tidal(132712440040.944, d_sun) < terms["SUN"] < 2.1 * tidal(132712440040.944, d_sun)
     assert 1e-16 < terms["JUPITER"] < 1e-14
     craft = paper_profile["spacecraft"]
-    srp_expected = 1361.0 / 299792458.0 * craft["cr"] * craft["area_m2"] / craft["mass_kg"] * 1e-3
-    assert terms["srp"] in (0.0, pytest.approx(srp_expected, rel=0.05))
-    assert terms["relativity"] < 1e-12
-    assert terms["albedo"] < 1e-3 * srp_expected
+    srp_expected = (1361.0 / 299792458.0 * craft["cr"] * craft["area_m2"] / craft["mass_kg"] * 1e-3
+                    * (149597870.7 / np.linalg.norm(sun - r)) ** 2)
+    assert terms["srp"] == pytest.approx(srp_expected, rel=1e-9)
+    gm, c = 4902.7999671, 299792.458
+    relativity = gm / (c ** 2 * 9000.0 ** 3) * (4 * gm / 9000.0 - v @ v) * 9000.0   # circular: r.v = 0
+    assert terms["relativity"] == pytest.approx(relativity, rel=1e-9)
+    # Earth albedo: Lambertian sphere, reflected flux (2/3) A (R/q)^2 phi(phase) of the solar flux
+    assert 1e-6 * srp_expected < terms["albedo"] < 0.3 * (2 / 3) * (6378.137 / (d_earth - 9000.0)) ** 2 * 1.1 * srp_expected
+
+
+def test_conical_shadow_closed_forms():
+    from lnss_lib.forces import shadow_factor
+
+    sun = np.array([1.5e8, 0.0, 0.0])
+    r_sun, r_body = 696000.0, 1737.4
+    assert shadow_factor(np.array([-3000.0, 0.0, 0.0]), sun, 0.0, 0.0, 0.0, r_body, r_sun) == 0.0   # umbra
+    assert shadow_factor(np.array([3000.0, 0.0, 0.0]), sun, 0.0, 0.0, 0.0, r_body, r_sun) == 1.0    # day side
+    assert shadow_factor(np.array([0.0, 5000.0, 0.0]), sun, 0.0, 0.0, 0.0, r_body, r_sun) == 1.0    # beside the Moon
+    # annular: a small body far from the spacecraft, centred on the Sun's disc
+    nu = shadow_factor(np.array([-1e6, 0.0, 0.0]), sun, 0.0, 0.0, 0.0, 100.0, r_sun)
+    a, b = np.arcsin(r_sun / (1.5e8 + 1e6)), np.arcsin(100.0 / 1e6)
+    assert nu == pytest.approx(1 - b ** 2 / a ** 2, rel=1e-12)
+    # penumbra: the fraction falls monotonically from 1 to 0 across the shadow edge
+    edge = [shadow_factor(np.array([-3000.0, y, 0.0]), sun, 0.0, 0.0, 0.0, r_body, r_sun) for y in np.linspace(1760, 1700, 13)]
+    assert edge[0] == 1.0 and edge[-1] == 0.0 and np.all(np.diff(edge) <= 0) and 0 < edge[6] < 1
 
 
 def test_impact_raises_for_single_and_flags_in_batch(paper_profile, epoch_tdb_s):
