@@ -483,7 +483,7 @@ def degenerate_geometry_rows(pdop, plane_counts, plane_angle_deg, threshold: flo
     if counts.shape[1:] != p.shape or angle.shape != counts.shape:
         raise ValueError(f"plane arrays {counts.shape}, {angle.shape} do not match pdop {p.shape} (plane, *pdop shape)")
     majority = np.take_along_axis(angle, np.argmax(counts, axis=0)[None], axis=0)[0]
-    one_plane = counts.min(axis=0) == 0
+    one_plane = (counts > 0).sum(axis=0) == 1
     bad = ~(p < threshold)
     rows = []
     for label, mask in ((f"PDOP >= {threshold:g} or none", bad), (f"PDOP < {threshold:g}", ~bad)):
