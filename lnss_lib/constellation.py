@@ -19,7 +19,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .elements import elements_to_state, validate_elements
+from .elements import kepler_states, validate_elements
 
 ELEMENT_COLUMNS = ("a_km", "e", "inc_deg", "raan_deg", "aop_deg", "M_deg")
 
@@ -168,9 +168,7 @@ def two_body_positions_mci(profile: dict, elements_deg, t_tdb_s) -> np.ndarray:
 
     el = explicit_constellation(profile, elements_deg)
     times = np.atleast_1d(np.asarray(t_tdb_s, dtype=float))
-    gm = float(profile["gravity"]["gm_km3_s2"])
-    series = np.repeat(np.concatenate([el[:, :2], np.radians(el[:, 2:])], axis=1)[:, None, :], times.size, axis=1)
-    series[..., 5] += np.sqrt(gm / el[:, None, 0] ** 3) * (times - times[0])
+    el_rad = np.concatenate([el[:, :2], np.radians(el[:, 2:])], axis=1)
     ensure_kernels(profile)
     rot = element_frame_to_j2000(profile, float(times[0]))
-    return elements_to_state(series, gm)[..., :3] @ rot.T
+    return kepler_states(el_rad, times - times[0], float(profile["gravity"]["gm_km3_s2"]))[..., :3] @ rot.T

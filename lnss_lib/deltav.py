@@ -35,17 +35,15 @@ The optimised thrust of eq. 38-41 has a closed form (:func:`tmax_closed_form`); 
 
 from __future__ import annotations
 
-import copy
-
 import numpy as np
 import xarray as xr
 from scipy.optimize import minimize
 
 from .elements import state_to_elements
+from .ephemeris import ELEMENT_FRAMES, element_frame_to_j2000
 
 MODELS = ("paper", "lsq", "secular")
 OSCULATING_MODELS = ("paper", "lsq")
-ELEMENT_FRAMES = ("j2000", "lunar_equator_of_epoch")
 LSQ_RATES = ("vectors", "elements")
 PAPER_NORMAL = ("weighted", "eq32", "rss")
 PAPER_RADIAL = ("weighted", "eq35")
@@ -646,20 +644,6 @@ def deltav_arrays(t_tdb_s: np.ndarray, states: np.ndarray, gm_km3_s2: float, set
 # orchestration on propagator datasets
 # ----------------------------------------------------------------------------------------------
 
-def element_frame_rotation(profile: dict, frame: str, t_epoch_tdb_s: float) -> np.ndarray:
-    """Rotation R (3, 3), x_j2000 = R x_elements, of the GVE element frame (``j2000`` or ``lunar_equator_of_epoch``)."""
-    if frame not in ELEMENT_FRAMES:
-        raise ValueError(f"unknown GVE element frame {frame!r}; allowed: {', '.join(ELEMENT_FRAMES)}")
-    if frame == "j2000":
-        return np.eye(3)
-    from .ephemeris import element_frame_to_j2000, ensure_kernels
-
-    ensure_kernels(profile)
-    local = copy.deepcopy(profile)
-    local["frames"]["element_frame"] = frame
-    return element_frame_to_j2000(local, t_epoch_tdb_s)
-
-
 def _states_from_dataset(ds: xr.Dataset) -> np.ndarray:
     return np.concatenate([ds["r_mci_km"].values, ds["v_mci_kms"].values], axis=-1)
 
@@ -699,7 +683,7 @@ def deltav_from_propagation(profile: dict, ds: xr.Dataset, sat: int = 0, model: 
     if not np.all(np.isfinite(states)):
         raise ValueError(f"satellite {sat} has non-finite states (impact or failed propagation); no Delta-V")
     gm = float(profile["gravity"]["gm_km3_s2"])
-    rot = element_frame_rotation(profile, cfg["element_frame"], float(t[0]))
+    rot = element_frame_to_j2000(profile, float(t[0]), cfg["element_frame"])
     res = deltav_arrays(t, _rotate_states(states, rot), gm, {k: v for k, v in cfg.items() if k != "model"})
     el, rates = res["elements"], res["rates"]
     osc = list(OSCULATING_MODELS)
@@ -755,7 +739,7 @@ def deltav_per_satellite(profile: dict, ds: xr.Dataset, model: str | None = None
     total = np.full((states.shape[0], len(MODELS)), np.nan)
     opt = np.full_like(total, np.nan)
     if np.any(finite):
-        rot = element_frame_rotation(profile, cfg["element_frame"], float(t[0]))
+        rot = element_frame_to_j2000(profile, float(t[0]), cfg["element_frame"])
         res = deltav_arrays(t, _rotate_states(states[finite], rot), gm, {k: v for k, v in cfg.items() if k != "model"})
         total[finite] = np.stack([res["dv_total"][m] for m in MODELS], axis=-1)
         opt[finite] = np.stack([res["dv_opt"][m] for m in MODELS], axis=-1)

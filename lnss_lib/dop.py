@@ -27,6 +27,9 @@ from dataclasses import dataclass
 import numpy as np
 import xarray as xr
 
+from .elements import orbital_period_s
+from .ephemeris import ELEMENT_FRAMES
+
 LOS_AXES = ("moon_fixed", "enu")
 WEIGHTINGS = ("none", "cos_lat", "cell_area")
 MIN_VISIBLE = 4
@@ -380,7 +383,6 @@ def summary_from_profile(profile: dict, ds: xr.Dataset) -> dict[str, float]:
 # Analysis: element frame x line-of-sight axes study (paper Table 4 DOP rows, NOTES.md "Frames")
 # ---------------------------------------------------------------------------------------------
 
-ELEMENT_FRAMES = ("lunar_equator_of_epoch", "j2000")
 PAPER_TABLE_4 = {"n_visible_mean": 11.22, "pdop_mean_3sigma": 2.17, "hdop_mean_3sigma": 0.83,
                  "pdop_availability_pct": 100.0, "hdop_availability_pct": 100.0}
 SUMMARY_LABELS = {"n_visible_mean": "mean visible satellites", "pdop_mean_3sigma": "PDOP (3-sigma mean)",
@@ -544,7 +546,7 @@ def apolune_latitude_table(study: FrameStudy, sats_per_plane: int) -> "pd.DataFr
     rows = []
     for frame, profile in study.profiles.items():
         t0 = float(study.propagation[frame]["time"].values[0])
-        times = np.array([t0, t0 + np.pi * np.sqrt(el[0, 0] ** 3 / profile["gravity"]["gm_km3_s2"])])
+        times = np.array([t0, t0 + 0.5 * orbital_period_s(el[0, 0], profile["gravity"]["gm_km3_s2"])])
         r_mf = rotate_to_moon_fixed(profile, two_body_positions_mci(profile, el[leaders], times), times)[:, 1]
         lat = latitude_deg(r_mf)
         rows.append({"element frame": frame,

@@ -99,6 +99,18 @@ def state_to_elements(state: np.ndarray, gm_km3_s2: float) -> np.ndarray:
     return np.stack([a, e, inc, raan, aop, M], axis=-1)
 
 
+def kepler_states(elements: np.ndarray, dt_s: np.ndarray, gm_km3_s2: float) -> np.ndarray:
+    """Two-body states (n, ntime, 6) of elements (n, 6) [a, e, i, RAAN, AOP, M] (km, rad) after ``dt_s`` (ntime,).
+
+    The mean anomaly advances at n = sqrt(GM / a^3); the other elements stay fixed.
+    """
+    el = np.atleast_2d(np.asarray(elements, dtype=float))
+    dt = np.atleast_1d(np.asarray(dt_s, dtype=float))
+    series = np.repeat(el[:, None, :], dt.size, axis=1)
+    series[..., 5] += np.sqrt(gm_km3_s2 / el[:, None, 0] ** 3) * dt
+    return elements_to_state(series, gm_km3_s2)
+
+
 def orbital_period_s(a_km, gm_km3_s2: float):
     """Keplerian period (s)."""
     return TWO_PI * np.sqrt(np.asarray(a_km, dtype=float) ** 3 / gm_km3_s2)

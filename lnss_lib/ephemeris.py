@@ -108,19 +108,23 @@ def rotation(frame_from: str, frame_to: str, t_tdb_s: np.ndarray) -> np.ndarray:
     return np.stack([np.asarray(spice.pxform(frame_from, frame_to, et)) for et in times])
 
 
-def element_frame_to_j2000(profile: dict, t_epoch_tdb_s: float) -> np.ndarray:
-    """Rotation from the profile's element frame to J2000 (x_j2000 = R x_elements).
+ELEMENT_FRAMES = ("lunar_equator_of_epoch", "j2000")
+
+
+def element_frame_to_j2000(profile: dict, t_epoch_tdb_s: float, frame: str | None = None) -> np.ndarray:
+    """Rotation from an element frame (default: the profile's) to J2000 (x_j2000 = R x_elements).
 
     ``lunar_equator_of_epoch``: the Moon-fixed frame (``frames.moon_fixed``) frozen at the epoch,
     so inclinations are to the lunar equator and RAAN is counted from the prime meridian at epoch.
     ``j2000``: identity (elements in the Earth's mean equator and equinox of J2000).
     """
-    frame = profile["frames"]["element_frame"]
+    frame = profile["frames"]["element_frame"] if frame is None else frame
     if frame == "j2000":
         return np.eye(3)
     if frame == "lunar_equator_of_epoch":
+        ensure_kernels(profile)
         return rotation(profile["frames"]["moon_fixed"], "J2000", t_epoch_tdb_s)[0]
-    raise ValueError(f"unknown element frame {frame!r}; allowed: 'lunar_equator_of_epoch', 'j2000'")
+    raise ValueError(f"unknown element frame {frame!r}; allowed: {', '.join(map(repr, ELEMENT_FRAMES))}")
 
 
 @nb.njit(cache=True, fastmath=False)

@@ -7,11 +7,20 @@ from lnss_lib.config import load_profile
 from lnss_lib.ephemeris import ensure_kernels, tdb_seconds
 
 
-@pytest.fixture(scope="session")
-def paper_profile():
-    profile = load_profile("paper")
+def _loaded(name: str) -> dict:
+    profile = load_profile(name)
     ensure_kernels(profile)
     return profile
+
+
+@pytest.fixture(scope="session")
+def paper_profile():
+    return _loaded("paper")
+
+
+@pytest.fixture(scope="session")
+def ci_profile():
+    return _loaded("ci")
 
 
 @pytest.fixture(scope="session")

@@ -14,8 +14,8 @@ from lnss_lib.constellation import (
 
 
 @pytest.fixture(scope="module")
-def profile():
-    return load_profile("ci")
+def profile(ci_profile):
+    return ci_profile
 
 
 def test_walker_raan_and_mean_anomaly_spacing(profile):

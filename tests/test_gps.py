@@ -11,17 +11,15 @@ import spiceypy as spice
 
 from lnss_lib import gps
 from lnss_lib.config import data_path, load_profile
-from lnss_lib.ephemeris import ensure_kernels, tdb_seconds
+from lnss_lib.ephemeris import tdb_seconds
 
 R_EARTH_KM = 6378.137
 R_MOON_KM = 1737.4
 
 
 @pytest.fixture(scope="module")
-def profile():
-    prof = load_profile("ci")
-    ensure_kernels(prof)
-    return prof
+def profile(ci_profile):
+    return ci_profile
 
 
 @pytest.fixture(scope="module")

@@ -15,7 +15,7 @@ import numpy as np
 from ..config import load_profile
 from ..constellation import WalkerDesign
 from ..dop import dop_grid, dop_kernel, dop_summary, grid_from_profile
-from ..elements import elements_to_state
+from ..elements import kepler_states
 
 
 def _positions_km(profile: dict, n_epochs: int, step_s: float) -> np.ndarray:
@@ -23,10 +23,7 @@ def _positions_km(profile: dict, n_epochs: int, step_s: float) -> np.ndarray:
     gm = float(profile["gravity"]["gm_km3_s2"])
     el_deg = WalkerDesign(6143.0, 0.6, 51.7, 90.0, 5, 4).elements_deg()
     el = np.concatenate([el_deg[:, :2], np.radians(el_deg[:, 2:])], axis=1)
-    t_s = step_s * np.arange(n_epochs)
-    series = np.repeat(el[:, None, :], n_epochs, axis=1)
-    series[..., 5] += np.sqrt(gm / el[:, None, 0] ** 3) * t_s
-    return elements_to_state(series, gm)[..., :3]
+    return kepler_states(el, step_s * np.arange(n_epochs), gm)[..., :3]
 
 
 def _median_s(func, repeats: int) -> float:
