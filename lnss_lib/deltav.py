@@ -39,6 +39,7 @@ import numpy as np
 import xarray as xr
 from scipy.optimize import minimize
 
+from .constellation import PAPER_TABLE_4 as _PAPER
 from .elements import state_to_elements
 from .ephemeris import ELEMENT_FRAMES, element_frame_to_j2000
 
@@ -755,7 +756,7 @@ def deltav_per_satellite(profile: dict, ds: xr.Dataset, model: str | None = None
 # analysis: model comparison and sensitivity sweeps (notebook 04; paper Table 4, Section 3.1)
 # ----------------------------------------------------------------------------------------------
 
-PAPER_TABLE_4 = {"dv_total": 0.50, "dv_opt": 0.37}          # km/s per satellite per year
+PAPER_TABLE_4 = {"dv_total": _PAPER["dv_total_kms_per_year"], "dv_opt": _PAPER["dv_opt_kms_per_year"]}  # km/s/yr
 PAPER_LABEL = "paper (Table 4)"
 PAPER_VARIANTS = {"corrected (weighted eq. 32, 35)": ("weighted", "weighted"),
                   "literal eq. 32, corrected eq. 35": ("eq32", "weighted"),

@@ -27,6 +27,7 @@ from dataclasses import dataclass
 import numpy as np
 import xarray as xr
 
+from .constellation import PAPER_TABLE_4 as _PAPER
 from .elements import orbital_period_s
 from .ephemeris import ELEMENT_FRAMES
 
@@ -383,8 +384,10 @@ def summary_from_profile(profile: dict, ds: xr.Dataset) -> dict[str, float]:
 # Analysis: element frame x line-of-sight axes study (paper Table 4 DOP rows, NOTES.md "Frames")
 # ---------------------------------------------------------------------------------------------
 
-PAPER_TABLE_4 = {"n_visible_mean": 11.22, "pdop_mean_3sigma": 2.17, "hdop_mean_3sigma": 0.83,
-                 "pdop_availability_pct": 100.0, "hdop_availability_pct": 100.0}
+PAPER_TABLE_4 = {key: _PAPER[metric] for key, metric in (
+    ("n_visible_mean", "mean_visible_sats"), ("pdop_mean_3sigma", "pdop_mean_3sigma"),
+    ("hdop_mean_3sigma", "hdop_mean_3sigma"), ("pdop_availability_pct", "pdop_avail_pct"),
+    ("hdop_availability_pct", "hdop_avail_pct"))}
 SUMMARY_LABELS = {"n_visible_mean": "mean visible satellites", "pdop_mean_3sigma": "PDOP (3-sigma mean)",
                   "hdop_mean_3sigma": "HDOP (3-sigma mean)", "pdop_availability_pct": "PDOP availability (%)",
                   "hdop_availability_pct": "HDOP availability (%)", "availability_pct": "PDOP and HDOP < 15 (%)",

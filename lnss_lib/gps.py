@@ -47,6 +47,7 @@ import xarray as xr
 from sgp4.api import SatrecArray, Satrec
 
 from .config import data_path
+from .constellation import PAPER_TABLE_4 as _PAPER
 from .ephemeris import body_states_mci, ensure_kernels
 
 BOLTZMANN_J_K = 1.380649e-23
@@ -804,7 +805,7 @@ def link_budget_table(profile: dict, theta_off_deg, distance_km: float, **overri
 # Analysis: tables and diagnostics of the GPS-LNSS link (paper Table 1, Table 4, Figure 7)
 # --------------------------------------------------------------------------------------------
 
-PAPER_TABLE_4 = {"gps_visible_mean": 7.74, "gps_pdop_mean": 6238.0}
+PAPER_TABLE_4 = {key: _PAPER[key] for key in ("gps_visible_mean", "gps_pdop_mean")}
 GAIN_COLUMNS = ("improved_panel_dbi", "legacy_iir_dbi", "iirm_dbavg_dbi", "iirm_min_dbi", "iirm_max_dbi")
 GPS_ORBIT_RADIUS_KM = 26560.0          # nominal, for the off-boresight schematic
 MEAN_EARTH_MOON_KM = 384400.0          # mean Earth-Moon distance of the link-budget tables
