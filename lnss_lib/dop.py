@@ -348,8 +348,12 @@ def rotate_to_moon_fixed(profile: dict, r_mci_km: np.ndarray, t_tdb_s: np.ndarra
     from .ephemeris import ensure_kernels, rotation
 
     ensure_kernels(profile)
-    rot = rotation("J2000", profile["frames"]["moon_fixed"], np.asarray(t_tdb_s, dtype=float))
-    return np.einsum("tij,stj->sti", rot, np.asarray(r_mci_km, dtype=float))
+    return rotate_with(rotation("J2000", profile["frames"]["moon_fixed"], np.asarray(t_tdb_s, dtype=float)), r_mci_km)
+
+
+def rotate_with(rot: np.ndarray, vectors) -> np.ndarray:
+    """Vectors (sat, time, 3) rotated by one matrix per epoch, rot (time, 3, 3): out = rot[t] @ v[s, t]."""
+    return np.einsum("tij,stj->sti", rot, np.asarray(vectors, dtype=float))
 
 
 def dop_for_profile(profile: dict, r_mf_km, t_tdb_s, *, los_axes: str | None = None,

@@ -80,10 +80,13 @@ def analyse_constellation(context: EvaluationContext, elements_deg) -> dict:
     the metrics of :func:`evaluate_constellation`. Raises ``ValueError`` for invalid elements and
     :class:`~lnss_lib.propagator.ImpactError` for an orbit that hits the Moon.
     """
+    elements = np.atleast_2d(np.asarray(elements_deg, dtype=float))
+    return _analyse_states(context, elements, elements_deg_to_states(context.profile, elements, context.t0_tdb_s))
+
+
+def _analyse_states(context: EvaluationContext, elements: np.ndarray, states: np.ndarray) -> dict:
     start = time.perf_counter()
     profile = context.profile
-    elements = np.atleast_2d(np.asarray(elements_deg, dtype=float))
-    states = elements_deg_to_states(profile, elements, context.t0_tdb_s)
     times = context.times
     clock = [time.perf_counter()]
     ds = propagate_states(profile, states, context.t0_tdb_s, float(times[-1] - times[0]), profile["epoch"]["step_s"],
@@ -94,7 +97,7 @@ def analyse_constellation(context: EvaluationContext, elements_deg) -> dict:
         raise ImpactError(f"impact: satellite {first} hits the Moon after {days:.2f} days")
     ds["elements_deg"] = (("sat", "element"), elements)
     clock.append(time.perf_counter())
-    r_mf = np.einsum("tij,stj->sti", context.rot_to_moon_fixed, ds.r_mci_km.values)
+    r_mf = dop.rotate_with(context.rot_to_moon_fixed, ds.r_mci_km.values)
     grid_ds = dop.dop_for_profile(profile, r_mf, times, grid=context.grid)
     dop_stats = dop.summary_from_profile(profile, grid_ds)
     clock.append(time.perf_counter())
@@ -133,14 +136,15 @@ def evaluate_constellation(context: EvaluationContext, elements_deg) -> dict:
     optimiser's business, not checked here.
     """
     start = time.perf_counter()
-    n_sat = np.atleast_2d(np.asarray(elements_deg, dtype=float)).shape[0]
+    elements = np.atleast_2d(np.asarray(elements_deg, dtype=float))
+    n_sat = elements.shape[0]
     model_name = deltav.deltav_settings(context.profile)["model"]
     try:
-        elements_deg_to_states(context.profile, elements_deg, context.t0_tdb_s)
+        states = elements_deg_to_states(context.profile, elements, context.t0_tdb_s)
     except ValueError as error:
         return _infeasible(n_sat, f"invalid elements: {error}", model_name, start)
     try:
-        return analyse_constellation(context, elements_deg)["metrics"]
+        return _analyse_states(context, elements, states)["metrics"]
     except ImpactError as error:
         return _infeasible(n_sat, str(error), model_name, start)
 

@@ -63,3 +63,29 @@ def test_cli_json_has_exactly_the_documented_keys():
     result = json.loads(out.stdout)
     assert set(result) == CLI_KEYS == set(RESULT_KEYS)
     assert result["n_sat"] == 4 and result["feasible"] is True and np.isfinite(result["wall_s"])
+
+
+def test_metrics_come_from_the_right_parts(context):
+    """Each eq. 45 key holds the matching quantity of its own module (a swapped key would fail here).
+
+    A sparse design, so that PDOP and HDOP availabilities and means all differ from each other.
+    """
+    from lnss_lib.constellation import WalkerDesign
+    from lnss_lib.dop import summary_from_profile
+    from lnss_lib.gps import gps_link_summary
+    from lnss_lib.objectives import analyse_constellation
+
+    study = analyse_constellation(context, WalkerDesign(6143.0, 0.6, 51.7, 90.0, 2, 3).elements_deg())
+    metrics, profile = study["metrics"], context.profile
+    grid = summary_from_profile(profile, study["dop"])
+    assert grid["pdop_availability_pct"] != grid["hdop_availability_pct"]
+    assert metrics["pdop_avail_pct"] == grid["pdop_availability_pct"]
+    assert metrics["hdop_avail_pct"] == grid["hdop_availability_pct"]
+    assert metrics["pdop_mean_3sigma"] == grid["pdop_mean_3sigma"] != metrics["hdop_mean_3sigma"]
+    assert metrics["mean_visible_sats"] == grid["n_visible_mean"]
+    assert metrics["dv_total_kms_per_year"] == study["deltav"].attrs["dv_total_kms_per_year"]
+    assert metrics["dv_opt_kms_per_year"] == study["deltav"].attrs["dv_opt_kms_per_year"]
+    link = gps_link_summary(study["gps_link"])
+    assert (metrics["gps_visible_mean"], metrics["gps_pdop_mean"]) == (link["gps_visible_mean"], link["gps_pdop_mean"])
+    # the DOP grid is evaluated on the propagated orbits rotated into the Moon-fixed frame
+    assert study["dop"].sizes["time"] == study["propagation"].sizes["time"]
