@@ -22,12 +22,11 @@ from .config import load_profile, profile_hash
 from .constellation import WalkerDesign
 from .ephemeris import EphemerisTable, ensure_kernels, rotation, tdb_seconds
 from .forces import ForceModel
-from .propagator import ImpactError, elements_deg_to_states, output_times, propagate_states
+from .constants import SECONDS_PER_DAY
+from .errors import ImpactError
+from .keys import DESIGN_KEYS, METRIC_KEYS, RESULT_KEYS
+from .propagator import elements_deg_to_states, output_times, propagate_states
 
-METRIC_KEYS = ("n_sat", "mean_visible_sats", "pdop_mean_3sigma", "pdop_avail_pct", "hdop_mean_3sigma",
-               "hdop_avail_pct", "dv_total_kms_per_year", "dv_opt_kms_per_year", "gps_visible_mean", "gps_pdop_mean")
-RESULT_KEYS = METRIC_KEYS + ("deltav_model", "feasible", "wall_s")
-DESIGN_KEYS = ("sma_km", "ecc", "aop_deg", "inc_deg", "n_planes", "sats_per_plane")
 
 
 @dataclass
@@ -48,7 +47,7 @@ class EvaluationContext:
         ensure_kernels(profile)
         epoch = profile["epoch"]
         t0 = tdb_seconds(epoch["start_tdb"], "TDB")
-        times = output_times(t0, epoch["duration_days"] * 86400.0, epoch["step_s"])
+        times = output_times(t0, epoch["duration_days"] * SECONDS_PER_DAY, epoch["step_s"])
         table = EphemerisTable.build(profile, t0, float(times[-1]))
         model = ForceModel.from_profile(profile, table)
         rot = rotation("J2000", profile["frames"]["moon_fixed"], times)
@@ -93,8 +92,10 @@ def _analyse_states(context: EvaluationContext, elements: np.ndarray, states: np
                           batch=True, model=context.model)
     if bool(ds.impact.any()):
         first = int(np.argmax(ds.impact.values))
-        days = (float(ds.impact_t_tdb_s.values[first]) - context.t0_tdb_s) / 86400.0
-        raise ImpactError(f"impact: satellite {first} hits the Moon after {days:.2f} days")
+        t_impact = float(ds.impact_t_tdb_s.values[first])
+        days = (t_impact - context.t0_tdb_s) / SECONDS_PER_DAY
+        raise ImpactError(f"impact: satellite {first} hits the Moon after {days:.2f} days", sat=first,
+                          t_tdb_s=t_impact, days=days)
     ds["elements_deg"] = (("sat", "element"), elements)
     clock.append(time.perf_counter())
     r_mf = dop.rotate_with(context.rot_to_moon_fixed, ds.r_mci_km.values)

@@ -21,7 +21,9 @@ from scipy.integrate._ivp import dop853_coefficients as _dop853
 from scipy.integrate._ivp.rk import RK45 as _RK45
 
 from .config import integrator_setting
+from .constants import SECONDS_PER_DAY
 from .elements import elements_to_state, validate_elements
+from .errors import ImpactError
 from .ephemeris import EphemerisTable, element_frame_to_j2000, ensure_kernels, tdb_iso, tdb_seconds
 from .forces import SCRATCH_SIZE, SOLAR_P, SRP_K, TERMS, ForceModel, acceleration
 
@@ -38,10 +40,6 @@ _DOP853_TAB = (np.ascontiguousarray(_dop853.A[:_N, :_N]), np.ascontiguousarray(_
                np.ascontiguousarray(_dop853.C[:_N]), np.ascontiguousarray(_dop853.E5),
                np.ascontiguousarray(_dop853.E3))
 SAFETY, MIN_FACTOR, MAX_FACTOR = 0.9, 0.2, 10.0
-
-
-class ImpactError(RuntimeError):
-    """A propagated orbit went below the lunar surface plus the minimum altitude."""
 
 
 @nb.njit(cache=True)
@@ -330,15 +328,17 @@ def propagate_states(profile: dict, states_mci, t0_tdb_s: float, duration_s: flo
     r_min = profile["constants"]["r_moon_mean_km"] + profile["impact"]["min_altitude_km"]
     radius = np.linalg.norm(states[:, :3], axis=1)
     if np.any(radius < r_min) and not batch:
-        raise ImpactError(f"initial radius {radius.min():.1f} km is below {r_min:.1f} km (surface + minimum altitude)")
+        raise ImpactError(f"initial radius {radius.min():.1f} km is below {r_min:.1f} km (surface + minimum altitude)",
+                          sat=int(np.argmin(radius)), t_tdb_s=float(t0_tdb_s), days=0.0)
     out, status, t_stop, n_rhs = integrate_many(states, float(t0_tdb_s), times, METHODS.index(integ["method"]),
                                                 float(integ["rtol"]), float(integ["atol"]), r_min, max_steps,
                                                 model.kernel_args, model.field.degree)
     impact = status == STATUS_IMPACT
     if not batch and status[0] != STATUS_OK:
         if impact[0]:
+            days = (t_stop[0] - t0_tdb_s) / SECONDS_PER_DAY
             raise ImpactError(f"orbit hits the Moon (radius below {r_min:.1f} km) at {tdb_iso(t_stop[0])} TDB, "
-                              f"{(t_stop[0] - t0_tdb_s) / 86400:.3f} days after the start")
+                              f"{days:.3f} days after the start", sat=0, t_tdb_s=float(t_stop[0]), days=float(days))
         raise RuntimeError(f"propagation failed: {STATUS_TEXT[int(status[0])]} at t = {t_stop[0]:.1f} s TDB")
     return _as_dataset(out, times, status, t_stop, n_rhs, profile, integ, model)
 

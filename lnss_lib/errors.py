@@ -1,0 +1,42 @@
+"""Exceptions that carry data (skyfield's ``EphemerisRangeError`` pattern).
+
+Callers read the attributes; messages are for people and are never parsed back.
+"""
+
+from __future__ import annotations
+
+__all__ = ["ConfigError", "EphemerisRangeError", "ImpactError"]
+
+
+class ConfigError(ValueError):
+    """A profile, ``--set`` override or user file is invalid; ``key`` names the setting (or None)."""
+
+    def __init__(self, message: str, *, key: str | None = None, source: str | None = None):
+        super().__init__(message)
+        self.key = key
+        self.source = source
+
+
+class EphemerisRangeError(ValueError):
+    """Epochs outside the span of the loaded tables or kernels (TDB seconds past J2000)."""
+
+    def __init__(self, message: str, *, start_tdb_s: float, end_tdb_s: float, requested_tdb_s=None):
+        super().__init__(message)
+        self.start_tdb_s = start_tdb_s
+        self.end_tdb_s = end_tdb_s
+        self.requested_tdb_s = requested_tdb_s
+
+
+class ImpactError(RuntimeError):
+    """A propagated orbit went below the lunar surface plus the minimum altitude.
+
+    ``sat`` is the satellite index (None for a single state), ``t_tdb_s`` the first sample at or
+    after the impact and ``days`` the time since the start of the propagation.
+    """
+
+    def __init__(self, message: str, *, sat: int | None = None, t_tdb_s: float | None = None,
+                 days: float | None = None):
+        super().__init__(message)
+        self.sat = sat
+        self.t_tdb_s = t_tdb_s
+        self.days = days
