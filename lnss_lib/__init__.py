@@ -2,7 +2,7 @@
 
 Modules follow the domain: ``config`` (profiles), ``ephemeris`` (SPICE, frames, time),
 ``elements`` (Keplerian conversions), ``gravity``, ``forces``, ``propagator``, ``reference`` and
-``validation`` (independent checks), ``constellation``, ``dop``, ``gps``, ``deltav``, ``objectives``
+``validation`` (independent checks), ``constellation``, ``dop``, ``gps``, ``deltav``, ``evaluator``
 (the design evaluator), ``optimize`` (NSGA-II campaign), ``pareto``, ``figures``, ``pipeline``.
 """
 

@@ -51,7 +51,7 @@ def _cmd_propagate(args: argparse.Namespace) -> int:
 def _cmd_evaluate(args: argparse.Namespace) -> int:
     import json
 
-    from .objectives import evaluate_cli
+    from .evaluator import evaluate_cli
 
     result = evaluate_cli(args.profile, args.sma_km, args.ecc, args.aop_deg, args.inc_deg, args.planes,
                           args.sats_per_plane)

@@ -159,7 +159,7 @@ def standalone_elfo(profile: dict) -> np.ndarray:
 
 
 PAPER_TABLE_4 = paper.TABLE_4
-"""The paper's Table 4 metrics of the standalone ELFO, keyed as eq. 45 (``objectives.METRIC_KEYS``): the
+"""The paper's Table 4 metrics of the standalone ELFO, keyed as eq. 45 (``keys.METRIC_KEYS``): the
 one place the workbook holds them, for comparison only."""
 
 

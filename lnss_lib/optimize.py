@@ -27,7 +27,7 @@ ask and tell, one generation at a time, in a run directory:
 
 Designs are evaluated in-process (``workers`` 0 or 1) or as tasks on a Dask cluster (a local
 one with one worker process per core, or an existing one by address); each worker builds its
-:class:`~lnss_lib.objectives.EvaluationContext` once (:func:`~lnss_lib.objectives.context_for`)
+:class:`~lnss_lib.evaluator.EvaluationContext` once (:func:`~lnss_lib.evaluator.context_for`)
 and reuses it. A design whose worker is lost is resubmitted.
 """
 
@@ -49,7 +49,7 @@ import xarray as xr
 from pymoo.core.problem import Problem
 
 from .config import OUTPUTS_DIR, deep_merge, load_profile, profile_hash
-from .objectives import DESIGN_KEYS, METRIC_KEYS
+from .evaluator import DESIGN_KEYS, METRIC_KEYS
 
 INTEGER_VARIABLES = ("n_planes", "sats_per_plane")
 EVALUATORS = ("walker", "synthetic")
@@ -122,7 +122,7 @@ class DesignGrid:
         return values
 
     def designs(self, scaled) -> list[dict]:
-        """Keyword dicts for :func:`~lnss_lib.objectives.evaluate_design` (ints for Np and Ns)."""
+        """Keyword dicts for :func:`~lnss_lib.evaluator.evaluate_design` (ints for Np and Ns)."""
         return [{k: (int(v) if k in INTEGER_VARIABLES else float(v)) for k, v in zip(DESIGN_KEYS, row)}
                 for row in self.descale(scaled)]
 
@@ -313,7 +313,7 @@ def hypervolume(metrics: dict, feasible: np.ndarray, reference) -> float:
 
 def synthetic_evaluation(profile: dict, sma_km: float, ecc: float, aop_deg: float, inc_deg: float,
                          n_planes: int, sats_per_plane: int, delay_s: float = 0.0) -> dict:
-    """A closed-form stand-in for :func:`~lnss_lib.objectives.evaluate_design` (tests and debugging; no physics).
+    """A closed-form stand-in for :func:`~lnss_lib.evaluator.evaluate_design` (tests and debugging; no physics).
 
     Same keys and conventions (an orbit whose perilune ``a (1 - e)`` is below the mean lunar
     radius plus the minimum altitude is an impact with NaN metrics); smooth, deterministic
@@ -351,7 +351,7 @@ def evaluate_task(eval_profile: dict, design: dict, evaluator: str = "walker", s
                   numba_threads: int = 0) -> dict:
     """Evaluate one design where this runs (in-process or a Dask worker); a JSON-ready record.
 
-    The walker evaluator uses the process-wide context (:func:`~lnss_lib.objectives.context_for`:
+    The walker evaluator uses the process-wide context (:func:`~lnss_lib.evaluator.context_for`:
     kernels, tables and compiled code are loaded once per process). ``numba_threads`` > 0 caps the
     propagator's threads (one per worker process on a shared machine). An exception inside the
     evaluator is recorded as an infeasible design with ``reason`` "error: ..." and ``error`` True.
@@ -363,7 +363,7 @@ def evaluate_task(eval_profile: dict, design: dict, evaluator: str = "walker", s
         numba.set_num_threads(min(numba_threads, numba.config.NUMBA_NUM_THREADS))
     try:
         if evaluator == "walker":
-            from .objectives import context_for, evaluate_design
+            from .evaluator import context_for, evaluate_design
 
             result = evaluate_design(context_for(eval_profile), **design)
         else:

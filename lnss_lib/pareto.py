@@ -12,7 +12,7 @@ import numpy as np
 import pandas as pd
 import xarray as xr
 
-from .objectives import DESIGN_KEYS, METRIC_KEYS
+from .evaluator import DESIGN_KEYS, METRIC_KEYS
 from .optimize import non_dominated_mask, objective_matrix
 from .pipeline import output_dir
 

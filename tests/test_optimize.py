@@ -16,7 +16,7 @@ import xarray as xr
 
 from lnss_lib.__main__ import _parse_sets, main
 from lnss_lib.config import PROJECT_DIR, load_profile
-from lnss_lib.objectives import DESIGN_KEYS, METRIC_KEYS, context_for, evaluate_design
+from lnss_lib.evaluator import DESIGN_KEYS, METRIC_KEYS, context_for, evaluate_design
 from lnss_lib.optimize import (CampaignSettings, EvaluationCache, WalkerDesignProblem,
                                constraint_matrix, constraint_violation, evaluation_hash, final_population,
                                hypervolume, non_dominated_mask, objective_matrix, read_cache_records, run_campaign,

@@ -7,7 +7,7 @@ import time
 import numpy as np
 
 from ..config import load_profile
-from ..objectives import EvaluationContext, evaluate_design
+from ..evaluator import EvaluationContext, evaluate_design
 
 
 def run(profile_name: str = "paper", repeats: int = 5) -> None:

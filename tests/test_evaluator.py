@@ -9,7 +9,7 @@ import numpy as np
 import pytest
 
 from lnss_lib.config import PROJECT_DIR, load_profile
-from lnss_lib.objectives import METRIC_KEYS, RESULT_KEYS, context_for, evaluate_constellation, evaluate_design
+from lnss_lib.evaluator import METRIC_KEYS, RESULT_KEYS, context_for, evaluate_constellation, evaluate_design
 
 CLI_KEYS = {"n_sat", "mean_visible_sats", "pdop_mean_3sigma", "pdop_avail_pct", "hdop_mean_3sigma", "hdop_avail_pct",
             "dv_total_kms_per_year", "dv_opt_kms_per_year", "gps_visible_mean", "gps_pdop_mean", "deltav_model",
@@ -73,7 +73,7 @@ def test_metrics_come_from_the_right_parts(context):
     from lnss_lib.constellation import WalkerDesign
     from lnss_lib.dop import summary_from_profile
     from lnss_lib.gps import gps_link_summary
-    from lnss_lib.objectives import analyse_constellation
+    from lnss_lib.evaluator import analyse_constellation
 
     study = analyse_constellation(context, WalkerDesign(6143.0, 0.6, 51.7, 90.0, 2, 3).elements_deg())
     metrics, profile = study["metrics"], context.profile
