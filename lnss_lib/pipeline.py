@@ -1,31 +1,23 @@
-"""Orchestration: output folders, run manifests, and headless notebook execution (papermill)."""
+"""Running the workbook: headless notebook execution (papermill) and the outputs index page."""
 
 from __future__ import annotations
 
-import json
+import csv
+import html
 import os
-import platform
-import subprocess
 import sys
 import time
-from importlib import metadata
+import uuid
 from pathlib import Path
 
-from .config import OUTPUTS_DIR, PARAMS_DIR, PROJECT_DIR, load_profile, profile_hash
+from .config import PROJECT_DIR, load_profile
+from .outputs import (CAPTION_SUFFIX, output_dir, profile_dir, read_caption, write_manifest,
+                      write_text_atomic)
+
+__all__ = ["NOTEBOOKS_DIR", "notebook_paths", "reproduce", "write_index", "ipc_kernel_manager_class"]
 
 NOTEBOOKS_DIR = PROJECT_DIR / "notebooks"
-MANIFEST_PACKAGES = ("numpy", "scipy", "spiceypy", "sgp4", "numba", "xarray", "pymoo", "plotly", "dask",
-                     "distributed", "papermill", "skyfield-data", "h5netcdf", "pandas")
-
-
-def output_dir(profile_name: str, kind: str) -> Path:
-    """``outputs/<profile>/<kind>/`` (created): kind is notebooks, figures, tables, data or campaign."""
-    allowed = ("notebooks", "figures", "tables", "data", "campaign")
-    if kind not in allowed:
-        raise ValueError(f"unknown output kind {kind!r}; allowed: {', '.join(allowed)}")
-    folder = OUTPUTS_DIR / profile_name / kind
-    folder.mkdir(parents=True, exist_ok=True)
-    return folder
+INDEX_TABLE_MAX_ROWS = 200            # rows of a table shown inline in the index; the CSV has them all
 
 
 def notebook_paths(only: list[str] | None = None) -> list[Path]:
@@ -43,60 +35,32 @@ def notebook_paths(only: list[str] | None = None) -> list[Path]:
     return sorted(chosen)
 
 
-def data_checksums() -> dict[str, str]:
-    """SHA-256 of every data file in ``params/data`` and of the planetary SPK."""
-    from .ephemeris import file_sha256, planetary_spk_path
+def ipc_kernel_manager_class():
+    """A jupyter_client kernel manager whose kernels talk over local IPC sockets instead of TCP.
 
-    sums = {str(p.relative_to(PARAMS_DIR)): file_sha256(p) for p in sorted((PARAMS_DIR / "data").rglob("*"))
-            if p.is_file() and p.name not in ("README.md", "SHA256SUMS")}
-    sums["skyfield-data:de421.bsp"] = file_sha256(planetary_spk_path())
-    return sums
+    The sockets are files in the Jupyter runtime folder, readable only by this user, so nothing
+    listens on a port and the kernel has no reason to warn about unencrypted TCP traffic.
+    """
+    from jupyter_client import AsyncKernelManager
+    from jupyter_core.paths import jupyter_runtime_dir
 
+    class IpcKernelManager(AsyncKernelManager):
+        def __init__(self, **kwargs):
+            kwargs.setdefault("transport", "ipc")
+            super().__init__(**kwargs)
+            runtime = Path(jupyter_runtime_dir())
+            runtime.mkdir(parents=True, exist_ok=True)
+            self.ip = str(runtime / f"lnss-kernel-{uuid.uuid4().hex[:12]}-ipc")
 
-def package_versions() -> dict[str, str]:
-    """Versions of Python and the packages a result depends on."""
-    versions = {"python": platform.python_version()}
-    for name in MANIFEST_PACKAGES:
-        try:
-            versions[name] = metadata.version(name)
-        except metadata.PackageNotFoundError:
-            versions[name] = "not installed"
-    return versions
-
-
-def git_revision() -> str:
-    """The workbook's git commit (with ``-dirty`` if modified), or ``unknown``."""
-    try:
-        rev = subprocess.run(["git", "describe", "--always", "--dirty"], cwd=PROJECT_DIR, capture_output=True,
-                             text=True, timeout=10)
-        return rev.stdout.strip() or "unknown"
-    except (OSError, subprocess.SubprocessError):
-        return "unknown"
-
-
-def write_manifest(profile_name: str, runs: dict[str, dict]) -> Path:
-    """Write ``outputs/<profile>/manifest.json``: parameters, versions, data checksums, notebook runs."""
-    profile = load_profile(profile_name)
-    path = OUTPUTS_DIR / profile_name / "manifest.json"
-    path.parent.mkdir(parents=True, exist_ok=True)
-    previous = json.loads(path.read_text()).get("notebooks", {}) if path.is_file() else {}
-    manifest = {
-        "profile": profile_name,
-        "profile_hash": profile_hash(profile),
-        "parameters": profile,
-        "git_revision": git_revision(),
-        "written_utc": time.strftime("%Y-%m-%dT%H:%M:%SZ", time.gmtime()),
-        "platform": platform.platform(),
-        "packages": package_versions(),
-        "data_sha256": data_checksums(),
-        "notebooks": {**previous, **runs},
-    }
-    path.write_text(json.dumps(manifest, indent=2, default=str))
-    return path
+    return IpcKernelManager
 
 
 def reproduce(profile_name: str = "quick", only: list[str] | None = None) -> int:
-    """Execute the notebooks in order under a profile; stop at the first failure. Returns an exit code."""
+    """Execute the notebooks in order under a profile; stop at the first failure. Returns an exit code.
+
+    Kernels run over IPC sockets (:func:`ipc_kernel_manager_class`), so the progress bar is the only
+    output unless a notebook fails.
+    """
     import papermill
     from tqdm import tqdm
 
@@ -107,6 +71,7 @@ def reproduce(profile_name: str = "quick", only: list[str] | None = None) -> int
     if not books:
         raise ValueError(f"no notebooks found in {NOTEBOOKS_DIR}")
     target = output_dir(profile_name, "notebooks")
+    manager = ipc_kernel_manager_class()
     runs: dict[str, dict] = {}
     status = 0
     bar = tqdm(books, desc=f"reproduce [{profile_name}]", unit="notebook", file=sys.stderr)
@@ -116,7 +81,7 @@ def reproduce(profile_name: str = "quick", only: list[str] | None = None) -> int
         try:
             papermill.execute_notebook(str(book), str(target / book.name), parameters={"profile_name": profile_name},
                                        cwd=str(NOTEBOOKS_DIR), progress_bar=False, kernel_name="python3",
-                                       execution_timeout=timeout_s)
+                                       execution_timeout=timeout_s, kernel_manager_class=manager)
             runs[book.stem] = {"status": "ok", "wall_s": round(time.perf_counter() - start, 2)}
         except papermill.PapermillExecutionError as error:
             runs[book.stem] = {"status": "failed", "wall_s": round(time.perf_counter() - start, 2),
@@ -136,120 +101,128 @@ def reproduce(profile_name: str = "quick", only: list[str] | None = None) -> int
     return status
 
 
-CAPTION_SUFFIX = ".meta.json"
+INDEX_STYLE = (
+    "body{font-family:sans-serif;margin:2em;max-width:1400px}"
+    ".grid{display:flex;flex-wrap:wrap;gap:16px}"
+    "figure{margin:0;width:320px;border:1px solid #ddd;padding:8px;background:#fafafa}"
+    "figure img{width:100%;height:auto;display:block;background:#fff}"
+    ".noimg{display:flex;align-items:center;justify-content:center;height:180px;background:#eee;color:#555}"
+    "figcaption{font-size:0.9em;margin-top:6px}"
+    "table{border-collapse:collapse;font-size:0.85em;margin-bottom:0.5em}"
+    "td,th{border:1px solid #ccc;padding:3px 6px;text-align:right;vertical-align:top}"
+    "th{background:#f0f0f0}td.text{text-align:left}"
+    ".files{font-size:0.85em;color:#555}"
+)
 
 
-def write_caption(folder: Path, name: str, caption: str, files: list[Path]) -> Path:
-    """Sidecar ``<folder>/<name>.meta.json`` holding the one-line caption of a figure or table and its files."""
-    path = folder / f"{name}{CAPTION_SUFFIX}"
-    path.write_text(json.dumps({"name": name, "caption": " ".join(str(caption).split()),
-                                "files": [p.name for p in files]}, indent=1))
-    return path
+def _stems(folder: Path, suffixes: tuple[str, ...]) -> list[str]:
+    if not folder.is_dir():
+        return []
+    return sorted({p.name[: -len(p.suffix)] for p in folder.iterdir()
+                   if p.suffix in suffixes and not p.name.endswith(CAPTION_SUFFIX)})
 
 
-def read_caption(folder: Path, name: str) -> str:
-    """The caption of ``name`` from its sidecar, or a readable form of the name when there is none."""
-    path = folder / f"{name}{CAPTION_SUFFIX}"
-    if path.is_file():
-        caption = json.loads(path.read_text()).get("caption", "")
-        if caption:
-            return caption
-    return name.replace("_", " ")
+def _group(stem: str) -> str:
+    """The notebook number a figure or table belongs to (its ``NN_`` prefix), or ``""``."""
+    prefix = stem.split("_", 1)[0]
+    return prefix if len(prefix) == 2 and prefix.isdigit() else ""
 
 
-def markdown_table(frame, digits: int = 4) -> str:
-    """Pipe-style Markdown table of a DataFrame (index included when it is not a plain range).
-
-    Floats are written with ``digits`` significant digits; NaN and None as empty cells.
-    """
-    import numbers
-
-    import pandas as pd
-
-    def cell(value) -> str:
-        if value is None or (isinstance(value, float) and value != value):
-            return ""
-        if isinstance(value, (bool,)) or not isinstance(value, numbers.Real):
-            return str(value).replace("|", "\\|").replace("\n", " ")
-        if isinstance(value, numbers.Integral):
-            return str(int(value))
-        return f"{float(value):.{digits}g}"
-
-    show_index = not isinstance(frame.index, pd.RangeIndex)
-    header = ([str(frame.index.name or "")] if show_index else []) + [str(c) for c in frame.columns]
-    lines = ["| " + " | ".join(header) + " |", "|" + "---|" * len(header)]
-    for index, row in zip(frame.index, frame.itertuples(index=False)):
-        cells = ([cell(index)] if show_index else []) + [cell(v) for v in row]
-        lines.append("| " + " | ".join(cells) + " |")
-    return "\n".join(lines) + "\n"
+def _cell(text: str) -> str:
+    """One CSV cell for display: numbers to 4 significant digits, text escaped."""
+    try:
+        value = float(text)
+    except ValueError:
+        return f'<td class="text">{html.escape(text)}</td>'
+    if text.strip().lstrip("-").isdigit():
+        return f"<td>{html.escape(text.strip())}</td>"
+    return f"<td>{value:.4g}</td>"
 
 
-def save_table(frame, profile_name: str, name: str, caption: str, *, digits: int = 4) -> dict[str, Path]:
-    """Write ``outputs/<profile>/tables/<name>.csv`` and ``.md`` (with the caption above the table)
-    and the caption sidecar used by :func:`write_index`; return the written paths."""
-    folder = output_dir(profile_name, "tables")
-    written = {"csv": folder / f"{name}.csv", "md": folder / f"{name}.md"}
-    frame.to_csv(written["csv"], index=not _plain_index(frame))
-    written["md"].write_text(f"{' '.join(caption.split())}\n\n{markdown_table(frame, digits)}")
-    written["meta"] = write_caption(folder, name, caption, [written["csv"], written["md"]])
-    return written
-
-
-def _plain_index(frame) -> bool:
-    import pandas as pd
-
-    return isinstance(frame.index, pd.RangeIndex)
+def _csv_table(path: Path) -> str:
+    """A small CSV as an HTML table (the first :data:`INDEX_TABLE_MAX_ROWS` rows)."""
+    with path.open(newline="") as handle:
+        rows = list(csv.reader(handle))
+    if not rows:
+        return "<p>(empty table)</p>"
+    header, body = rows[0], rows[1:]
+    out = ["<table><tr>" + "".join(f"<th>{html.escape(h)}</th>" for h in header) + "</tr>"]
+    out += ["<tr>" + "".join(_cell(c) for c in row) + "</tr>" for row in body[:INDEX_TABLE_MAX_ROWS]]
+    out.append("</table>")
+    if len(body) > INDEX_TABLE_MAX_ROWS:
+        out.append(f"<p>first {INDEX_TABLE_MAX_ROWS} of {len(body)} rows; all in the CSV.</p>")
+    return "".join(out)
 
 
 def write_index(profile_name: str) -> Path:
-    """Write ``outputs/<profile>/index.html``: every figure (HTML, PNG) and table (CSV, Markdown) with
-    a one-line caption (from the sidecars :func:`lnss_lib.figures.save_figure` and :func:`save_table`
-    write), the executed notebooks, the campaign files and the manifest, all as relative links."""
-    import html
+    """Write ``outputs/<profile>/index.html``, a page that opens offline.
 
-    root = OUTPUTS_DIR / profile_name
+    Grouped by notebook (the ``NN_`` prefix of each name): every figure as its PNG thumbnail with its
+    caption, linking to the interactive HTML; every table rendered inline with its caption and links to
+    the CSV and Markdown; then the executed notebooks, campaign files and the manifest. Captions come
+    from the sidecars :func:`lnss_lib.figures.save_figure` and :func:`lnss_lib.outputs.save_table` write.
+    """
+    root = profile_dir(profile_name)
     root.mkdir(parents=True, exist_ok=True)
+    figures_dir, tables_dir, notebooks_dir = root / "figures", root / "tables", root / "notebooks"
+
+    def href(path: Path) -> str:
+        return html.escape(path.relative_to(root).as_posix())
 
     def link(path: Path, label: str) -> str:
-        return f'<a href="{html.escape(path.relative_to(root).as_posix())}">{html.escape(label)}</a>'
+        return f'<a href="{href(path)}">{html.escape(label)}</a>'
 
-    def rows(folder: Path, kinds: tuple[str, ...]) -> list[str]:
-        if not folder.is_dir():
-            return []
-        stems = sorted({p.name[: -len(p.suffix)] for p in folder.iterdir()
-                        if p.suffix in kinds and not p.name.endswith(CAPTION_SUFFIX)})
-        out = []
-        for stem in stems:
-            links = " ".join(link(folder / f"{stem}{k}", k.lstrip(".").upper()) for k in kinds
-                             if (folder / f"{stem}{k}").is_file())
-            out.append(f"<tr><td>{html.escape(stem)}</td><td>{html.escape(read_caption(folder, stem))}</td>"
-                       f"<td>{links}</td></tr>")
-        return out
+    def figure(stem: str) -> str:
+        caption = html.escape(read_caption(figures_dir, stem))
+        page, png = figures_dir / f"{stem}.html", figures_dir / f"{stem}.png"
+        target = href(page) if page.is_file() else href(png)
+        image = (f'<img src="{href(png)}" alt="{caption}" loading="lazy">' if png.is_file()
+                 else '<div class="noimg">interactive figure (no PNG)</div>')
+        files = " ".join(link(p, p.suffix.lstrip(".").upper()) for p in (page, png) if p.is_file())
+        return (f'<figure><a href="{target}">{image}</a><figcaption>{caption}'
+                f'<div class="files">{html.escape(stem)}: {files}</div></figcaption></figure>')
 
-    def section(title: str, body: list[str], empty: str) -> str:
-        if not body:
-            return f"<h2>{html.escape(title)}</h2><p>{html.escape(empty)}</p>"
-        return (f"<h2>{html.escape(title)}</h2><table><tr><th>name</th><th>caption</th><th>files</th></tr>"
-                + "".join(body) + "</table>")
+    def table(stem: str) -> str:
+        files = [tables_dir / f"{stem}{s}" for s in (".csv", ".md")]
+        body = _csv_table(files[0]) if files[0].is_file() else ""
+        links = " ".join(link(p, p.suffix.lstrip(".").upper()) for p in files if p.is_file())
+        return (f"<h4>{html.escape(read_caption(tables_dir, stem))}</h4>{body}"
+                f'<p class="files">{html.escape(stem)}: {links}</p>')
 
-    notebooks = sorted((root / "notebooks").glob("*.ipynb")) if (root / "notebooks").is_dir() else []
+    figure_stems = _stems(figures_dir, (".html", ".png"))
+    table_stems = _stems(tables_dir, (".csv", ".md"))
+    executed = {b.stem: b for b in sorted(notebooks_dir.glob("*.ipynb"))} if notebooks_dir.is_dir() else {}
+    names = {b.stem.split("_", 1)[0]: b.stem for b in notebook_paths()}
+    names.update({stem.split("_", 1)[0]: stem for stem in executed})
+    groups = sorted({_group(s) for s in figure_stems + table_stems} | {_group(s) for s in executed})
+    sections = []
+    for group in sorted(groups, key=lambda g: (g == "", g)):
+        title = names.get(group, group).replace("_", " ") if group else "other outputs"
+        figs = [figure(s) for s in figure_stems if _group(s) == group]
+        tabs = [table(s) for s in table_stems if _group(s) == group]
+        notebook = executed.get(names.get(group, ""))
+        parts = [f"<h2>{html.escape(title)}</h2>"]
+        if notebook is not None:
+            parts.append(f"<p>executed notebook: {link(notebook, notebook.name)}</p>")
+        if figs:
+            parts.append('<div class="grid">' + "".join(figs) + "</div>")
+        if tabs:
+            parts.append("<h3>Tables</h3>" + "".join(tabs))
+        sections.append("".join(parts))
     campaign = sorted((root / "campaign").glob("*.nc")) if (root / "campaign").is_dir() else []
-    extras = [link(p, p.name) for p in notebooks + campaign]
+    extras = [link(p, p.name) for p in campaign]
     if (root / "manifest.json").is_file():
         extras.append(link(root / "manifest.json", "manifest.json (parameters, versions, checksums, timings)"))
     page = (
         "<!DOCTYPE html><html><head><meta charset='utf-8'>"
         f"<title>LNSS workbook outputs: {html.escape(profile_name)}</title>"
-        "<style>body{font-family:sans-serif;margin:2em}table{border-collapse:collapse}"
-        "td,th{border:1px solid #ccc;padding:4px 8px;text-align:left;vertical-align:top}</style></head><body>"
+        f"<style>{INDEX_STYLE}</style></head><body>"
         f"<h1>LNSS workbook outputs, profile {html.escape(profile_name)}</h1>"
-        f"<p>Written {time.strftime('%Y-%m-%d %H:%M:%S UTC', time.gmtime())}.</p>"
-        + section("Figures", rows(root / "figures", (".html", ".png")), "no figures yet")
-        + section("Tables", rows(root / "tables", (".csv", ".md")), "no tables yet")
-        + "<h2>Notebooks, campaign and manifest</h2>"
+        f"<p>Written {time.strftime('%Y-%m-%d %H:%M:%S UTC', time.gmtime())}. Click a thumbnail for the "
+        "interactive figure (works offline).</p>"
+        + ("".join(sections) if sections else "<p>no figures or tables yet</p>")
+        + "<h2>Campaign and manifest</h2>"
         + ("<ul>" + "".join(f"<li>{e}</li>" for e in extras) + "</ul>" if extras else "<p>none yet</p>")
         + "</body></html>\n"
     )
-    path = root / "index.html"
-    path.write_text(page)
-    return path
+    return write_text_atomic(root / "index.html", page)

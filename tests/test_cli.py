@@ -9,7 +9,8 @@ import pytest
 
 from lnss_lib.__main__ import main
 from lnss_lib.config import PROJECT_DIR
-from lnss_lib.pipeline import notebook_paths, write_manifest
+from lnss_lib.outputs import write_manifest
+from lnss_lib.pipeline import notebook_paths
 
 
 def test_propagate_writes_csv(tmp_path):
@@ -58,9 +59,9 @@ def test_notebook_selection():
 
 
 def test_manifest_records_parameters_versions_and_checksums(tmp_path, monkeypatch):
-    import lnss_lib.pipeline as pipeline
+    import lnss_lib.outputs as outputs
 
-    monkeypatch.setattr(pipeline, "OUTPUTS_DIR", tmp_path)
+    monkeypatch.setattr(outputs, "OUTPUTS_DIR", tmp_path)
     path = write_manifest("ci", {"test": {"status": "ok", "wall_s": 0.0}})
     assert path.parent == tmp_path / "ci"
     manifest = json.loads(path.read_text())

@@ -1,16 +1,18 @@
-"""Figure and table writers: PNG through a system Chromium, HTML fallback, the outputs index."""
+"""Figure writing (figures.export): PNG through a system Chromium, HTML fallback, offline HTML; the builders'
+package layout and one builder's data."""
 
 import pandas as pd
 import plotly.graph_objects as go
 import pytest
 
 import lnss_lib.figures as figures
-import lnss_lib.pipeline as pipeline
+import lnss_lib.figures.export as export
+import lnss_lib.outputs
 
 
 @pytest.fixture
 def outputs(tmp_path, monkeypatch):
-    monkeypatch.setattr(pipeline, "OUTPUTS_DIR", tmp_path)
+    monkeypatch.setattr(lnss_lib.outputs, "OUTPUTS_DIR", tmp_path)
     return tmp_path
 
 
@@ -28,30 +30,18 @@ def test_png_written_with_system_chromium(outputs, monkeypatch):
 
 def test_html_fallback_warns_once(outputs, monkeypatch):
     monkeypatch.setenv(figures.PNG_ENV, "off")
-    monkeypatch.setattr(figures, "_PNG_WARNED", False)
+    monkeypatch.setattr(export, "_PNG_WARNED", False)
     with pytest.warns(RuntimeWarning, match="apt-get install chromium"):
         written = figures.save_figure(_figure(), "t", "fig_html")
     assert written["html"].is_file() and "png" not in written
     assert not (outputs / "t" / "figures" / "fig_html.png").exists()
 
 
-def test_index_links_every_figure_and_table(outputs, monkeypatch):
-    monkeypatch.setenv(figures.PNG_ENV, "off")
-    monkeypatch.setattr(figures, "_PNG_WARNED", True)
-    figures.save_figure(_figure(), "t", "fig_a")
-    pipeline.save_table(pd.DataFrame({"x": [1.0, 2.5]}), "t", "table_a", caption="Table A: two numbers")
-    page = pipeline.write_index("t").read_text()
-    assert 'href="figures/fig_a.html"' in page and "a test figure" in page
-    assert 'href="tables/table_a.csv"' in page and 'href="tables/table_a.md"' in page and "Table A: two numbers" in page
-    markdown = (outputs / "t" / "tables" / "table_a.md").read_text()
-    assert markdown.startswith("Table A: two numbers") and "| 2.5 |" in markdown
-
-
 def test_no_browser_gives_html_and_one_warning(outputs, monkeypatch):
     monkeypatch.delenv(figures.PNG_ENV, raising=False)
     monkeypatch.setenv("BROWSER_PATH", str(outputs / "no-such-chrome"))
-    monkeypatch.setattr(figures, "_EXPORTER", None)
-    monkeypatch.setattr(figures, "_PNG_WARNED", False)
+    monkeypatch.setattr(export, "_EXPORTER", None)
+    monkeypatch.setattr(export, "_PNG_WARNED", False)
     stale = outputs / "t" / "figures" / "fig_b.png"
     stale.parent.mkdir(parents=True)
     stale.write_bytes(b"old")
@@ -86,15 +76,39 @@ def test_constellation_3d_draws_moon_and_every_orbit():
     assert len(set(colours[:3])) == 1 and len(set(colours[3:])) == 1 and colours[0] != colours[3]  # one colour per plane
 
 
-def test_markdown_table_cells_and_index_ignores_sidecars(outputs):
-    import numpy as np
+def test_html_is_offline_with_one_local_plotly_js(outputs, monkeypatch):
+    monkeypatch.setenv(export.PNG_ENV, "off")
+    monkeypatch.setattr(export, "_PNG_WARNED", True)
+    first = figures.save_figure(_figure(), "t", "fig_a")["html"]
+    second = figures.save_figure(_figure(), "t", "fig_b")["html"]
+    for page in (first, second):
+        text = page.read_text()
+        assert '<script charset="utf-8" src="plotly.min.js"></script>' in text
+        assert "cdn.plot.ly" not in text and "https://" not in text.split("<body>")[0]
+    bundle = first.parent / "plotly.min.js"
+    assert bundle.stat().st_size > 1_000_000 and b"Plotly" in bundle.read_bytes()[:2000]
 
-    frame = pd.DataFrame({"n": [3, 12], "pdop": [2.123456, np.nan], "why": ["a|b", "c"]},
-                         index=pd.Index(["x", "y"], name="design"))
-    lines = pipeline.markdown_table(frame, digits=3).splitlines()
-    assert lines[0] == "| design | n | pdop | why |" and lines[1] == "|---|---|---|---|"
-    assert lines[2] == "| x | 3 | 2.12 | a\\|b |" and lines[3] == "| y | 12 |  | c |"
-    pipeline.save_table(frame, "t", "tab", caption="multi\nline  caption")
-    assert pd.read_csv(outputs / "t" / "tables" / "tab.csv", index_col=0).index.tolist() == ["x", "y"]
-    page = pipeline.write_index("t").read_text()
-    assert "multi line caption" in page and ".meta.json" not in page
+
+def test_no_cdn_reference_in_the_package():
+    from pathlib import Path
+
+    package = Path(figures.__file__).resolve().parents[1]
+    hits = [p for p in package.rglob("*.py") if "cdn.plot" + ".ly" in p.read_text()]
+    assert hits == []
+
+
+def test_package_reexports_every_builder():
+    import inspect
+    import pkgutil
+
+    modules = [m.name for m in pkgutil.iter_modules(figures.__path__)]
+    assert {"export", "charts", "propagation", "dop", "gps", "deltav", "campaign", "pareto"} <= set(modules)
+    for name in modules:
+        module = __import__(f"lnss_lib.figures.{name}", fromlist=["_"])
+        builders = [n for n, obj in vars(module).items() if inspect.isfunction(obj) and obj.__module__ == module.__name__
+                    and not n.startswith("_") and inspect.signature(obj).return_annotation in ("go.Figure", go.Figure)]
+        missing = [n for n in builders if n not in figures.__all__ or getattr(figures, n) is not getattr(module, n)]
+        assert missing == [], (name, missing)
+    assert {"save_figure", "LABELS"} <= set(figures.__all__)
+    assert all(hasattr(figures, n) for n in figures.__all__)
+

@@ -1,0 +1,33 @@
+"""Figure builders (plotly) and the one place figures are written to disk.
+
+Builders take datasets and return ``plotly.graph_objects.Figure``; notebooks call them and
+:func:`save_figure`, which writes interactive HTML that opens offline and a PNG when kaleido finds a
+Chromium. One module per topic: :mod:`.charts` (generic lines and bars), :mod:`.propagation`,
+:mod:`.dop` (notebook 02), :mod:`.gps` (03), :mod:`.deltav` (04), :mod:`.campaign` (06),
+:mod:`.pareto` (07), and :mod:`.export` (HTML and PNG writing). Figures import only foundations,
+:mod:`lnss_lib.outputs`, plotly and numpy: they receive datasets, never run studies or campaigns.
+"""
+
+from .campaign import campaign_convergence, campaign_throughput, designs_pdop_deltav
+from .charts import bar_chart, days_since_start, line_chart
+from .deltav import (deltav_elements_and_rates, deltav_sampling, deltav_singularity, deltav_thrust_components,
+                     lsq_recovery_series, thrust_history)
+from .dop import DOP_MAP_PANELS, dop_grid_points, dop_polar_maps, dop_time_series, dop_time_series_by_frame
+from .export import PNG_ENV, chromium_path, figure_title, save_figure
+from .gps import (GPS_SENSITIVITY_GROUPS, cn0_vs_off_boresight, gps_sensitivity_scatter, gps_view_from_lnss,
+                  gps_visibility_pdop, gps_visibility_pdop_vs_paper, gps_visible_links, off_boresight_geometry)
+from .pareto import LABELS, dop_against_availability, pareto_3d, variable_relationships
+from .propagation import constellation_3d, elements_history
+
+__all__ = [
+    "save_figure", "figure_title", "chromium_path", "PNG_ENV", "LABELS", "DOP_MAP_PANELS", "GPS_SENSITIVITY_GROUPS",
+    "line_chart", "bar_chart", "days_since_start",
+    "elements_history", "constellation_3d",
+    "dop_time_series", "dop_grid_points", "dop_polar_maps", "dop_time_series_by_frame",
+    "gps_visibility_pdop", "off_boresight_geometry", "gps_view_from_lnss", "cn0_vs_off_boresight",
+    "gps_visibility_pdop_vs_paper", "gps_visible_links", "gps_sensitivity_scatter",
+    "thrust_history", "deltav_elements_and_rates", "deltav_thrust_components", "lsq_recovery_series",
+    "deltav_sampling", "deltav_singularity",
+    "pareto_3d", "dop_against_availability", "variable_relationships",
+    "campaign_convergence", "designs_pdop_deltav", "campaign_throughput",
+]

@@ -1,0 +1,104 @@
+"""Notebook 02: south-pole DOP grid, polar maps per element frame and DOP time series (paper Table 4,
+Figure 4)."""
+
+from __future__ import annotations
+
+import numpy as np
+import plotly.graph_objects as go
+
+from .charts import days_since_start
+
+
+def dop_time_series(dop_ds, *, title: str) -> go.Figure:
+    """Grid-mean visible satellites, PDOP and HDOP against time (paper Figure 4)."""
+    from plotly.subplots import make_subplots
+
+    days = days_since_start(dop_ds)
+    fig = make_subplots(rows=3, cols=1, shared_xaxes=True, vertical_spacing=0.04,
+                        subplot_titles=["mean visible satellites", "grid-mean PDOP", "grid-mean HDOP"])
+    for row, name in enumerate(("n_visible", "pdop", "hdop"), start=1):
+        fig.add_trace(go.Scatter(x=days, y=dop_ds[name].mean(("lat", "lon")).values, mode="lines", showlegend=False),
+                      row=row, col=1)
+    fig.update_xaxes(title_text="days since epoch (TDB)", row=3, col=1)
+    fig.update_layout(title=title, template="plotly_white", height=750)
+    return fig
+
+
+def dop_grid_points(grid) -> go.Figure:
+    """The receiver grid of eq. 1-2 (a :class:`lnss_lib.dop.SurfaceGrid`) in a polar plot around the south pole."""
+    lat2d, lon2d = np.meshgrid(grid.lat_deg, grid.lon_deg, indexing="ij")
+    fig = go.Figure(go.Scatterpolar(r=(90.0 + lat2d).ravel(), theta=lon2d.ravel(), mode="markers",
+                                    marker={"size": 7},
+                                    text=[f"lat {a:.0f}, lon {o:.0f}" for a, o in zip(lat2d.ravel(), lon2d.ravel())]))
+    fig.update_layout(title="South-pole receiver grid (radius: colatitude from the south pole, deg; angle: longitude)",
+                      polar={"radialaxis": {"range": [0, 32]}}, height=500, width=550)
+    return fig
+
+
+def _polar_wedges(values, lat_deg, lon_deg, name: str, coloraxis: str) -> go.Barpolar:
+    lat2d, lon2d = np.meshgrid(lat_deg, lon_deg, indexing="ij")
+    colat = 90.0 + lat2d
+    base = np.maximum(colat - 5.0, 0.0)
+    top = np.minimum(colat + 5.0, 30.0)
+    return go.Barpolar(r=(top - base).ravel(), base=base.ravel(), theta=lon2d.ravel(), width=10.0,
+                       marker={"color": np.asarray(values).ravel(), "coloraxis": coloraxis, "line_width": 0},
+                       name=name, hovertemplate="lat %{customdata[0]:.0f} lon %{theta:.0f}: %{marker.color:.3g}<extra></extra>",
+                       customdata=np.stack([lat2d.ravel(), lon2d.ravel()], axis=1))
+
+
+DOP_MAP_PANELS = (("mean visible", "mean_visible", "Viridis"), ("median PDOP", "median_pdop", "Plasma"),
+                  ("median HDOP (Moon-fixed x, y)", "median_hdop_moon_fixed", "Plasma"),
+                  ("median HDOP (ENU)", "median_hdop_enu", "Plasma"),
+                  ("PDOP availability (%)", "pdop_availability_pct", "Viridis"))
+
+
+def dop_polar_maps(maps: dict, *, title: str) -> go.Figure:
+    """Polar maps over the south-pole grid, one row per element frame (notebook 02; paper Table 4 metrics).
+
+    ``maps``: element frame -> :func:`lnss_lib.dop.time_statistics_maps` Dataset. Each wedge is one
+    grid node; the centre disc is the pole. Every column shares one colour scale across frames.
+    """
+    from plotly.subplots import make_subplots
+
+    frames = list(maps)
+    ncol = len(DOP_MAP_PANELS)
+    fig = make_subplots(rows=len(frames), cols=ncol, specs=[[{"type": "polar"}] * ncol] * len(frames),
+                        subplot_titles=[f"{label}<br>{frame}" for frame in frames for label, _, _ in DOP_MAP_PANELS],
+                        vertical_spacing=0.12)
+    for row, frame in enumerate(frames, start=1):
+        ds = maps[frame]
+        for col, (label, var, _) in enumerate(DOP_MAP_PANELS, start=1):
+            fig.add_trace(_polar_wedges(ds[var].values, ds["lat"].values, ds["lon"].values, f"{label} ({frame})",
+                                        f"coloraxis{col if col > 1 else ''}"), row=row, col=col)
+    for col, (_, var, scale) in enumerate(DOP_MAP_PANELS, start=1):
+        values = np.concatenate([np.ravel(maps[f][var].values) for f in frames])
+        fig.update_layout({f"coloraxis{col if col > 1 else ''}": {
+            "colorscale": scale, "cmin": float(np.nanmin(values)), "cmax": float(np.nanmax(values)),
+            "colorbar": {"orientation": "h", "x": (col - 0.5) / ncol, "y": -0.08, "len": 0.8 / ncol, "thickness": 12}}})
+    fig.update_polars(radialaxis={"range": [0, 30], "showticklabels": False}, angularaxis={"showticklabels": False})
+    fig.update_layout(height=750, width=1400, showlegend=False, title=title)
+    return fig
+
+
+def dop_time_series_by_frame(dop: dict, *, title: str) -> go.Figure:
+    """Grid-mean visible count, PDOP and HDOP (both axes conventions) against time, one colour per element
+    frame (paper Figure 4). ``dop``: (element frame, los axes) -> :func:`lnss_lib.dop.dop_grid` Dataset."""
+    from plotly.subplots import make_subplots
+
+    fig = make_subplots(rows=3, cols=1, shared_xaxes=True, vertical_spacing=0.05,
+                        subplot_titles=["mean visible satellites", "grid-mean PDOP", "grid-mean HDOP"])
+    palette = ["#1f77b4", "#d62728", "#2ca02c", "#9467bd"]
+    frames = list(dict.fromkeys(frame for frame, _ in dop))
+    for k, frame in enumerate(frames):
+        color = palette[k % len(palette)]
+        ds_mf, ds_enu = dop[(frame, "moon_fixed")], dop[(frame, "enu")]
+        days = days_since_start(ds_mf)
+        for row, var, ds, name, dash in ((1, "n_visible", ds_mf, "visible", None), (2, "pdop", ds_mf, "PDOP", None),
+                                         (3, "hdop", ds_mf, "HDOP Moon-fixed", None), (3, "hdop", ds_enu, "HDOP ENU", "dot")):
+            fig.add_trace(go.Scatter(x=days, y=ds[var].mean(("lat", "lon")).values, name=f"{frame}: {name}",
+                                     line={"color": color, "dash": dash}), row=row, col=1)
+    fig.update_yaxes(type="log", row=2, col=1)
+    fig.update_yaxes(type="log", row=3, col=1)
+    fig.update_xaxes(title_text="days since epoch (TDB)", row=3, col=1)
+    fig.update_layout(height=850, width=1000, title=title)
+    return fig

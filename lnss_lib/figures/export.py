@@ -1,0 +1,147 @@
+"""Writing figures to disk: interactive HTML that works offline, and PNG through a system Chromium (kaleido).
+
+:func:`save_figure` is the one place a figure is written: ``outputs/<profile>/figures/<name>.html``
+(plotly.js from one local ``plotly.min.js`` in the same folder, no CDN), ``<name>.png`` when kaleido
+finds a Chromium, and the caption sidecar the outputs index reads.
+"""
+
+from __future__ import annotations
+
+import asyncio
+import atexit
+import os
+import re
+import threading
+import warnings
+from pathlib import Path
+
+import plotly.graph_objects as go
+
+from ..outputs import output_dir, write_caption
+
+PNG_ENV = "LNSS_PNG"                 # set to "off" to skip PNG export (HTML only)
+PNG_TIMEOUT_S = 120.0                 # start-up of Chromium, and rendering of one figure
+_PNG_WARNED = False
+_EXPORTER = None
+
+
+def chromium_path() -> str | None:
+    """The Chrome/Chromium kaleido would use for PNG export, or None.
+
+    ``$BROWSER_PATH`` when set (and a file), else choreographer's search: Chrome/Chromium on
+    ``PATH`` and the usual install paths (Debian's ``chromium`` package gives ``/usr/bin/chromium``).
+    Nothing is downloaded.
+    """
+    override = os.environ.get("BROWSER_PATH")
+    if override:
+        return override if Path(override).is_file() else None
+    from choreographer.browsers.chromium import Chromium
+
+    return Chromium.find_browser(skip_local=False)
+
+
+class _PngExporter:
+    """One headless Chromium (kaleido) kept open for the whole process: about 2 s a figure instead of
+    about 7 s for a fresh browser each time. Every call has a time limit, so a broken browser can
+    only cost one timeout; MathJax is off, so the page needs no network."""
+
+    def __init__(self, browser: str) -> None:
+        import kaleido
+
+        self.pid = os.getpid()
+        self._loop = asyncio.new_event_loop()
+        self._thread = threading.Thread(target=self._loop.run_forever, name="lnss-png-export", daemon=True)
+        self._thread.start()
+
+        async def open_browser():
+            k = kaleido.Kaleido(path=browser, mathjax=False, timeout=PNG_TIMEOUT_S)
+            await k.open()
+            return k
+
+        try:
+            self._kaleido = self._run(open_browser())
+        except BaseException:
+            self._loop.call_soon_threadsafe(self._loop.stop)
+            raise
+        atexit.register(self.close)
+
+    def _run(self, coroutine):
+        return asyncio.run_coroutine_threadsafe(coroutine, self._loop).result(timeout=PNG_TIMEOUT_S)
+
+    def png(self, fig: go.Figure, width: int, height: int) -> bytes:
+        """PNG bytes of ``fig`` at ``width`` x ``height`` pixels."""
+        return self._run(self._kaleido.calc_fig(fig.to_plotly_json(),
+                                                opts={"format": "png", "width": width, "height": height}))
+
+    def close(self) -> None:
+        """Close the browser and stop the event loop (registered with ``atexit``)."""
+        try:
+            self._run(self._kaleido.close())
+        except BaseException:
+            pass
+        self._loop.call_soon_threadsafe(self._loop.stop)
+
+
+def _png_unavailable(reason: str) -> None:
+    global _PNG_WARNED
+    if not _PNG_WARNED:
+        warnings.warn(
+            f"PNG export skipped ({reason}); HTML written. For PNG figures install Chromium "
+            "(Debian/Ubuntu: apt-get install chromium) or point BROWSER_PATH at a Chrome/Chromium executable.",
+            RuntimeWarning,
+            stacklevel=3,
+        )
+        _PNG_WARNED = True
+
+
+def _write_png(fig: go.Figure, path: Path, width: int, height: int) -> bool:
+    """Write ``fig`` as PNG with a persistent kaleido browser; False (one warning) when not possible."""
+    global _EXPORTER
+    if os.environ.get(PNG_ENV, "").lower() in ("off", "0", "no", "false"):
+        _png_unavailable(f"{PNG_ENV}={os.environ[PNG_ENV]}")
+        return False
+    if _EXPORTER == "unavailable":
+        return False
+    try:
+        if _EXPORTER is None or _EXPORTER.pid != os.getpid():
+            browser = chromium_path()
+            if browser is None:
+                _EXPORTER = "unavailable"
+                _png_unavailable("no Chrome/Chromium found")
+                return False
+            _EXPORTER = _PngExporter(browser)
+        path.write_bytes(_EXPORTER.png(fig, width, height))
+        return True
+    except Exception as error:  # kaleido and choreographer raise several types when the browser fails
+        _EXPORTER = "unavailable"
+        _png_unavailable(f"{type(error).__name__}: {error}")
+        return False
+
+
+def figure_title(fig: go.Figure) -> str:
+    """The figure's title as plain text (HTML tags dropped), or an empty string."""
+    text = fig.layout.title.text or ""
+    return " ".join(re.sub(r"<[^>]+>", " ", text).split())
+
+
+def save_figure(fig: go.Figure, profile_name: str, name: str, *, width: int = 1000, height: int = 600,
+                caption: str | None = None) -> dict[str, Path]:
+    """Write ``fig`` as ``outputs/<profile>/figures/<name>.html`` and ``.png``; return the written paths.
+
+    The HTML loads plotly.js from ``plotly.min.js`` beside it (written once per folder), so figures open
+    with no network. PNG export needs kaleido and a Chromium (Debian package ``chromium``; see
+    :func:`chromium_path`); without one the HTML is still written and one warning says how to get PNGs.
+    ``caption`` (default: the figure's title) goes to the sidecar ``<name>.meta.json`` that
+    :func:`lnss_lib.pipeline.write_index` reads.
+    """
+    folder = output_dir(profile_name, "figures")
+    written = {"html": folder / f"{name}.html"}
+    fig.write_html(written["html"], include_plotlyjs="directory", include_mathjax=False)
+    png = folder / f"{name}.png"
+    if _write_png(fig, png, width, height):
+        written["png"] = png
+    elif png.is_file():
+        png.unlink()
+    written["meta"] = write_caption(folder, name, caption or figure_title(fig) or name,
+                                    [p for k, p in written.items() if k != "meta"])
+    return written

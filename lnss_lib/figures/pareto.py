@@ -1,0 +1,68 @@
+"""Notebook 07: Pareto fronts of a campaign against every evaluated design (paper Figures 8-15)."""
+
+from __future__ import annotations
+
+import plotly.graph_objects as go
+
+
+LABELS = {
+    "n_sat": "satellites", "pdop_mean_3sigma": "PDOP (3-sigma mean)", "hdop_mean_3sigma": "HDOP (3-sigma mean)",
+    "pdop_avail_pct": "PDOP availability (%)", "hdop_avail_pct": "HDOP availability (%)",
+    "dv_total_kms_per_year": "Delta-V total (km/s/yr)", "dv_opt_kms_per_year": "Delta-V optimised (km/s/yr)",
+    "gps_visible_mean": "mean visible GPS", "gps_pdop_mean": "GPS-LNSS PDOP", "sma_km": "SMA (km)", "ecc": "eccentricity",
+    "aop_deg": "AOP (deg)", "inc_deg": "inclination (deg)", "mean_visible_sats": "mean visible LNSS satellites",
+}
+
+
+def _hover(ds) -> list[str]:
+    return [f"a {a:.0f} km, e {e:.2f}, i {i:.0f}, AOP {w:.0f}, {p}x{s}" for a, e, i, w, p, s in
+            zip(ds["sma_km"].values, ds["ecc"].values, ds["inc_deg"].values, ds["aop_deg"].values,
+                ds["n_planes"].values, ds["sats_per_plane"].values)]
+
+
+def pareto_3d(front, x: str, y: str, z: str, *, title: str) -> go.Figure:
+    """Four-objective view of a front: three metrics in 3D, colour = number of satellites (Figures 8, 9)."""
+    fig = go.Figure(go.Scatter3d(
+        x=front[x].values, y=front[y].values, z=front[z].values, mode="markers", text=_hover(front),
+        marker={"size": 5, "color": front["n_sat"].values, "colorscale": "Viridis", "colorbar": {"title": "satellites"}},
+        hovertemplate="%{text}<br>" + f"{LABELS[x]} %{{x:.3g}}<br>{LABELS[y]} %{{y:.3g}}<br>{LABELS[z]} %{{z:.3g}}<extra></extra>"))
+    fig.update_layout(title=title, template="plotly_white", height=700,
+                      scene={"xaxis_title": LABELS[x], "yaxis_title": LABELS[y], "zaxis_title": LABELS[z]})
+    return fig
+
+
+def dop_against_availability(front, evaluations, dop: str, *, title: str) -> go.Figure:
+    """A DOP metric against its availability: every evaluated design in grey, the front coloured by
+    number of satellites (Figures 10, 11)."""
+    avail = dop.replace("_mean_3sigma", "_avail_pct")
+    fig = go.Figure()
+    fig.add_trace(go.Scatter(x=evaluations[avail].values, y=evaluations[dop].values, mode="markers", name="evaluated",
+                             marker={"size": 4, "color": "#c8c8c8"}, text=_hover(evaluations)))
+    fig.add_trace(go.Scatter(x=front[avail].values, y=front[dop].values, mode="markers", name="front", text=_hover(front),
+                             marker={"size": 8, "color": front["n_sat"].values, "colorscale": "Viridis",
+                                     "colorbar": {"title": "satellites"}, "line": {"width": 0.5, "color": "black"}}))
+    fig.update_layout(title=title, template="plotly_white", xaxis_title=LABELS[avail], yaxis_title=LABELS[dop],
+                      legend={"orientation": "h", "y": -0.2})
+    fig.update_yaxes(type="log")
+    return fig
+
+
+def variable_relationships(front, evaluations, variable: str, *, title: str) -> go.Figure:
+    """A design variable against PDOP availability, Delta-V and GPS-LNSS PDOP (Figures 12-15)."""
+    from plotly.subplots import make_subplots
+
+    metrics = ("pdop_avail_pct", "dv_total_kms_per_year", "gps_pdop_mean")
+    fig = make_subplots(rows=1, cols=3, subplot_titles=[LABELS[m] for m in metrics], horizontal_spacing=0.08)
+    for col, metric in enumerate(metrics, start=1):
+        fig.add_trace(go.Scatter(x=evaluations[variable].values, y=evaluations[metric].values, mode="markers",
+                                 marker={"size": 4, "color": "#c8c8c8"}, name="evaluated", showlegend=col == 1,
+                                 text=_hover(evaluations)), row=1, col=col)
+        fig.add_trace(go.Scatter(x=front[variable].values, y=front[metric].values, mode="markers", name="front",
+                                 showlegend=col == 1, text=_hover(front),
+                                 marker={"size": 7, "color": front["n_sat"].values, "colorscale": "Viridis",
+                                         "cmin": 1, "cmax": 20, "showscale": col == 3,
+                                         "colorbar": {"title": "satellites"}}), row=1, col=col)
+        fig.update_xaxes(title_text=LABELS[variable], row=1, col=col)
+    fig.update_yaxes(type="log", row=1, col=3)
+    fig.update_layout(title=title, template="plotly_white", height=500, legend={"orientation": "h", "y": -0.25})
+    return fig

@@ -1,0 +1,163 @@
+"""Outputs of a run: the folders under ``outputs/<profile>/``, table and caption writers, and the manifest.
+
+Figures (:mod:`lnss_lib.figures`) and notebooks write through :func:`output_dir`,
+:func:`write_caption` and :func:`save_table`; :mod:`lnss_lib.pipeline` reads the captions back for
+the index and calls :func:`write_manifest` after a run.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import platform
+import subprocess
+import time
+from importlib import metadata
+from pathlib import Path
+
+from .config import OUTPUTS_DIR, PARAMS_DIR, PROJECT_DIR, load_profile, profile_hash
+
+__all__ = ["output_dir", "profile_dir", "write_text_atomic", "write_caption", "read_caption", "markdown_table",
+           "save_table", "data_checksums", "package_versions", "git_revision", "write_manifest", "CAPTION_SUFFIX",
+           "OUTPUT_KINDS", "MANIFEST_PACKAGES"]
+
+MANIFEST_PACKAGES = ("numpy", "scipy", "spiceypy", "sgp4", "numba", "xarray", "pymoo", "plotly", "dask",
+                     "distributed", "papermill", "skyfield-data", "h5netcdf", "pandas")
+OUTPUT_KINDS = ("notebooks", "figures", "tables", "data", "campaign")
+CAPTION_SUFFIX = ".meta.json"
+
+
+def write_text_atomic(path: Path, text: str) -> Path:
+    """Write ``text`` to ``path`` through a temporary file in the same folder and ``os.replace``."""
+    temporary = path.with_name(f".{path.name}.{os.getpid()}.tmp")
+    temporary.write_text(text)
+    os.replace(temporary, path)
+    return path
+
+
+def profile_dir(profile_name: str) -> Path:
+    """``outputs/<profile>/`` (not created)."""
+    return OUTPUTS_DIR / profile_name
+
+
+def output_dir(profile_name: str, kind: str) -> Path:
+    """``outputs/<profile>/<kind>/`` (created): kind is notebooks, figures, tables, data or campaign."""
+    if kind not in OUTPUT_KINDS:
+        raise ValueError(f"unknown output kind {kind!r}; allowed: {', '.join(OUTPUT_KINDS)}")
+    folder = profile_dir(profile_name) / kind
+    folder.mkdir(parents=True, exist_ok=True)
+    return folder
+
+
+def write_caption(folder: Path, name: str, caption: str, files: list[Path]) -> Path:
+    """Sidecar ``<folder>/<name>.meta.json`` holding the one-line caption of a figure or table and its files."""
+    path = folder / f"{name}{CAPTION_SUFFIX}"
+    write_text_atomic(path, json.dumps({"name": name, "caption": " ".join(str(caption).split()),
+                                "files": [p.name for p in files]}, indent=1))
+    return path
+
+
+def read_caption(folder: Path, name: str) -> str:
+    """The caption of ``name`` from its sidecar, or a readable form of the name when there is none."""
+    path = folder / f"{name}{CAPTION_SUFFIX}"
+    if path.is_file():
+        caption = json.loads(path.read_text()).get("caption", "")
+        if caption:
+            return caption
+    return name.replace("_", " ")
+
+
+def markdown_table(frame, digits: int = 4) -> str:
+    """Pipe-style Markdown table of a DataFrame (index included when it is not a plain range).
+
+    Floats are written with ``digits`` significant digits; NaN and None as empty cells.
+    """
+    import numbers
+
+    import pandas as pd
+
+    def cell(value) -> str:
+        if value is None or (isinstance(value, float) and value != value):
+            return ""
+        if isinstance(value, (bool,)) or not isinstance(value, numbers.Real):
+            return str(value).replace("|", "\\|").replace("\n", " ")
+        if isinstance(value, numbers.Integral):
+            return str(int(value))
+        return f"{float(value):.{digits}g}"
+
+    show_index = not isinstance(frame.index, pd.RangeIndex)
+    header = ([str(frame.index.name or "")] if show_index else []) + [str(c) for c in frame.columns]
+    lines = ["| " + " | ".join(header) + " |", "|" + "---|" * len(header)]
+    for index, row in zip(frame.index, frame.itertuples(index=False)):
+        cells = ([cell(index)] if show_index else []) + [cell(v) for v in row]
+        lines.append("| " + " | ".join(cells) + " |")
+    return "\n".join(lines) + "\n"
+
+
+def save_table(frame, profile_name: str, name: str, caption: str, *, digits: int = 4) -> dict[str, Path]:
+    """Write ``outputs/<profile>/tables/<name>.csv`` and ``.md`` (with the caption above the table)
+    and the caption sidecar used by :func:`lnss_lib.pipeline.write_index`; return the written paths."""
+    folder = output_dir(profile_name, "tables")
+    written = {"csv": folder / f"{name}.csv", "md": folder / f"{name}.md"}
+    write_text_atomic(written["csv"], frame.to_csv(index=not _plain_index(frame)))
+    write_text_atomic(written["md"], f"{' '.join(caption.split())}\n\n{markdown_table(frame, digits)}")
+    written["meta"] = write_caption(folder, name, caption, [written["csv"], written["md"]])
+    return written
+
+
+def _plain_index(frame) -> bool:
+    import pandas as pd
+
+    return isinstance(frame.index, pd.RangeIndex)
+
+
+def data_checksums() -> dict[str, str]:
+    """SHA-256 of every data file in ``params/data`` and of the planetary SPK."""
+    from .ephemeris import file_sha256, planetary_spk_path
+
+    sums = {str(p.relative_to(PARAMS_DIR)): file_sha256(p) for p in sorted((PARAMS_DIR / "data").rglob("*"))
+            if p.is_file() and p.name not in ("README.md", "SHA256SUMS")}
+    sums["skyfield-data:de421.bsp"] = file_sha256(planetary_spk_path())
+    return sums
+
+
+def package_versions() -> dict[str, str]:
+    """Versions of Python and the packages a result depends on."""
+    versions = {"python": platform.python_version()}
+    for name in MANIFEST_PACKAGES:
+        try:
+            versions[name] = metadata.version(name)
+        except metadata.PackageNotFoundError:
+            versions[name] = "not installed"
+    return versions
+
+
+def git_revision() -> str:
+    """The workbook's git commit (with ``-dirty`` if modified), or ``unknown``."""
+    try:
+        rev = subprocess.run(["git", "describe", "--always", "--dirty"], cwd=PROJECT_DIR, capture_output=True,
+                             text=True, timeout=10)
+        return rev.stdout.strip() or "unknown"
+    except (OSError, subprocess.SubprocessError):
+        return "unknown"
+
+
+def write_manifest(profile_name: str, runs: dict[str, dict]) -> Path:
+    """Write ``outputs/<profile>/manifest.json``: parameters, versions, data checksums, notebook runs."""
+    profile = load_profile(profile_name)
+    path = profile_dir(profile_name) / "manifest.json"
+    path.parent.mkdir(parents=True, exist_ok=True)
+    previous = json.loads(path.read_text()).get("notebooks", {}) if path.is_file() else {}
+    manifest = {
+        "profile": profile_name,
+        "profile_hash": profile_hash(profile),
+        "parameters": profile,
+        "git_revision": git_revision(),
+        "written_utc": time.strftime("%Y-%m-%dT%H:%M:%SZ", time.gmtime()),
+        "platform": platform.platform(),
+        "packages": package_versions(),
+        "data_sha256": data_checksums(),
+        "notebooks": {**previous, **runs},
+    }
+    write_text_atomic(path, json.dumps(manifest, indent=2, default=str))
+    return path

@@ -1,0 +1,55 @@
+"""Outputs of a run: output folders, Markdown and CSV tables, caption sidecars, atomic writes."""
+
+import pandas as pd
+import pytest
+
+import lnss_lib.outputs as outputs_module
+import lnss_lib.pipeline as pipeline
+from lnss_lib.outputs import markdown_table, output_dir, read_caption, save_table, write_caption, write_text_atomic
+
+
+@pytest.fixture
+def outputs(tmp_path, monkeypatch):
+    monkeypatch.setattr(outputs_module, "OUTPUTS_DIR", tmp_path)
+    return tmp_path
+
+
+def test_markdown_table_cells_and_index_ignores_sidecars(outputs):
+    import numpy as np
+
+    frame = pd.DataFrame({"n": [3, 12], "pdop": [2.123456, np.nan], "why": ["a|b", "c"]},
+                         index=pd.Index(["x", "y"], name="design"))
+    lines = markdown_table(frame, digits=3).splitlines()
+    assert lines[0] == "| design | n | pdop | why |" and lines[1] == "|---|---|---|---|"
+    assert lines[2] == "| x | 3 | 2.12 | a\\|b |" and lines[3] == "| y | 12 |  | c |"
+    save_table(frame, "t", "tab", caption="multi\nline  caption")
+    assert pd.read_csv(outputs / "t" / "tables" / "tab.csv", index_col=0).index.tolist() == ["x", "y"]
+    page = pipeline.write_index("t").read_text()
+    assert "multi line caption" in page and ".meta.json" not in page
+
+
+def test_save_table_writes_csv_markdown_and_caption(outputs):
+    written = save_table(pd.DataFrame({"x": [1.0, 2.5]}), "t", "table_a", caption="Table A: two numbers")
+    assert set(written) == {"csv", "md", "meta"}
+    assert written["csv"].read_text().splitlines() == ["x", "1.0", "2.5"]  # a plain index is not written
+    assert read_caption(written["csv"].parent, "table_a") == "Table A: two numbers"
+    assert read_caption(written["csv"].parent, "no_sidecar_here") == "no sidecar here"
+    assert not [p for p in written["csv"].parent.iterdir() if p.name.endswith(".tmp")]
+
+
+def test_output_dir_rejects_unknown_kind(outputs):
+    assert output_dir("t", "figures") == outputs / "t" / "figures" and (outputs / "t" / "figures").is_dir()
+    with pytest.raises(ValueError, match="unknown output kind 'plots'; allowed: notebooks, figures"):
+        output_dir("t", "plots")
+
+
+def test_caption_sidecar_collapses_whitespace(tmp_path):
+    path = write_caption(tmp_path, "f", "two\n  lines", [tmp_path / "f.html"])
+    assert path.name == "f.meta.json" and read_caption(tmp_path, "f") == "two lines"
+
+
+def test_atomic_write_replaces_whole_file(tmp_path):
+    target = tmp_path / "a.txt"
+    target.write_text("old content that is longer")
+    assert write_text_atomic(target, "new") == target
+    assert target.read_text() == "new" and [p.name for p in tmp_path.iterdir()] == ["a.txt"]

@@ -1,0 +1,140 @@
+"""Running the workbook: the outputs index (thumbnails, inline tables, offline), IPC kernels for papermill,
+and a written HTML figure rendered by headless Chromium with the network disabled."""
+
+import shutil
+import struct
+import subprocess
+import zlib
+
+import pandas as pd
+import plotly.graph_objects as go
+import pytest
+
+import lnss_lib.figures as figures
+import lnss_lib.figures.export as export
+import lnss_lib.outputs
+import lnss_lib.pipeline as pipeline
+
+CHROMIUM = shutil.which("chromium") or shutil.which("chromium-browser") or shutil.which("google-chrome")
+needs_chromium = pytest.mark.skipif(CHROMIUM is None, reason="no Chromium on PATH (apt-get install chromium)")
+
+
+@pytest.fixture
+def outputs(tmp_path, monkeypatch):
+    monkeypatch.setattr(lnss_lib.outputs, "OUTPUTS_DIR", tmp_path)
+    monkeypatch.setenv(export.PNG_ENV, "off")
+    monkeypatch.setattr(export, "_PNG_WARNED", True)
+    return tmp_path
+
+
+def _figure(title="a <b>test</b> figure"):
+    return go.Figure(go.Scatter(x=[0, 1, 2], y=[1, 3, 2], line={"width": 8}), layout={"title": {"text": title}})
+
+
+def test_index_links_every_figure_and_table(outputs):
+    figures.save_figure(_figure(), "t", "fig_a")
+    lnss_lib.outputs.save_table(pd.DataFrame({"x": [1.0, 2.5]}), "t", "table_a", caption="Table A: two numbers")
+    page = pipeline.write_index("t").read_text()
+    assert 'href="figures/fig_a.html"' in page and "a test figure" in page
+    assert 'href="tables/table_a.csv"' in page and 'href="tables/table_a.md"' in page and "Table A: two numbers" in page
+    markdown = (outputs / "t" / "tables" / "table_a.md").read_text()
+    assert markdown.startswith("Table A: two numbers") and "| 2.5 |" in markdown
+
+
+def test_index_groups_by_notebook_with_thumbnails_and_inline_tables(outputs):
+    figures.save_figure(_figure("orbit"), "t", "05_orbit")
+    figures.save_figure(_figure("dop"), "t", "02_dop")
+    (outputs / "t" / "figures" / "05_orbit.png").write_bytes(b"\x89PNG\r\n\x1a\n")  # as kaleido would write it
+    lnss_lib.outputs.save_table(pd.DataFrame({"metric": ["pdop", "a<b"], "value": [2.123456789, 40]}), "t",
+                                "05_metrics", caption="metrics of the design")
+    page = pipeline.write_index("t").read_text()
+    assert page.index("02 dop grid") < page.index("02_dop") < page.index("05 standalone elfo") < page.index("05_orbit")
+    assert '<a href="figures/05_orbit.html"><img src="figures/05_orbit.png" alt="orbit"' in page
+    assert '<a href="figures/02_dop.html"><div class="noimg">' in page  # no PNG: still a link to the HTML
+    assert "<td>2.123</td>" in page and '<td class="text">a&lt;b</td>' in page and "<td>40</td>" in page
+    assert "http://" not in page and "https://" not in page
+
+
+def test_index_shows_the_first_rows_of_a_long_table(outputs, monkeypatch):
+    monkeypatch.setattr(pipeline, "INDEX_TABLE_MAX_ROWS", 3)
+    lnss_lib.outputs.save_table(pd.DataFrame({"k": range(10)}), "t", "01_long", caption="long")
+    page = pipeline.write_index("t").read_text()
+    assert page.count("<tr>") == 4 and "first 3 of 10 rows" in page
+
+
+def test_kernels_use_ipc_transport():
+    manager = pipeline.ipc_kernel_manager_class()(kernel_name="python3")
+    assert manager.transport == "ipc" and manager.ip.endswith("-ipc") and "/" in manager.ip
+
+
+def _non_white_pixels(png: bytes) -> int:
+    """Pixels that are not (near) white in an 8-bit RGB/RGBA PNG, decoded with zlib (no PIL needed)."""
+    assert png[:8] == b"\x89PNG\r\n\x1a\n"
+    pos, chunks, header = 8, [], None
+    while pos < len(png):
+        length, kind = struct.unpack(">I4s", png[pos:pos + 8])
+        data = png[pos + 8:pos + 8 + length]
+        if kind == b"IHDR":
+            header = struct.unpack(">IIBBBBB", data)
+        elif kind == b"IDAT":
+            chunks.append(data)
+        pos += 12 + length
+    width, height, depth, colour = header[:4]
+    assert depth == 8 and colour in (2, 6), header
+    channels = 3 if colour == 2 else 4
+    raw, stride = zlib.decompress(b"".join(chunks)), width * channels
+    previous, count = bytearray(stride), 0
+    for row in range(height):
+        kind, line = raw[row * (stride + 1)], bytearray(raw[row * (stride + 1) + 1:(row + 1) * (stride + 1)])
+        for i in range(stride):
+            left = line[i - channels] if i >= channels else 0
+            up, corner = previous[i], previous[i - channels] if i >= channels else 0
+            if kind == 1:
+                line[i] = (line[i] + left) & 255
+            elif kind == 2:
+                line[i] = (line[i] + up) & 255
+            elif kind == 3:
+                line[i] = (line[i] + (left + up) // 2) & 255
+            elif kind == 4:
+                p = left + up - corner
+                pa, pb, pc = abs(p - left), abs(p - up), abs(p - corner)
+                line[i] = (line[i] + (left if pa <= pb and pa <= pc else up if pb <= pc else corner)) & 255
+        count += sum(1 for i in range(0, stride, channels) if min(line[i:i + 3]) < 200)
+        previous = line
+    return count
+
+
+def screenshot_offline(page, png, tmp_path, size=(800, 500)):
+    """Load ``page`` in headless Chromium with every network request refused; write a screenshot to ``png``."""
+    command = [CHROMIUM, "--headless", "--no-sandbox", "--disable-gpu", "--disable-background-networking",
+               "--no-first-run", "--disable-component-update", "--disable-sync", "--hide-scrollbars",
+               f"--user-data-dir={tmp_path / 'chromium-profile'}", "--proxy-server=127.0.0.1:9",
+               "--proxy-bypass-list=<-loopback>", "--host-resolver-rules=MAP * ~NOTFOUND",
+               "--virtual-time-budget=10000", f"--window-size={size[0]},{size[1]}", f"--screenshot={png}",
+               page.as_uri()]
+    subprocess.run(command, capture_output=True, timeout=120, check=False)
+    assert png.is_file(), "Chromium wrote no screenshot"
+    return png.read_bytes()
+
+
+@needs_chromium
+def test_written_figure_renders_offline_in_headless_chromium(outputs, tmp_path):
+    page = figures.save_figure(_figure(), "t", "fig_offline")["html"]
+    drawn = _non_white_pixels(screenshot_offline(page, tmp_path / "drawn.png", tmp_path))
+    blank_page = page.with_name("blank.html")
+    blank_page.write_text(page.read_text().replace('src="plotly.min.js"', 'src="https://cdn.plot.ly/x.js"'))
+    blank = _non_white_pixels(screenshot_offline(blank_page, tmp_path / "blank.png", tmp_path))
+    assert blank < 100  # the same page loading plotly.js from the network stays white: the network is off
+    assert drawn > 5000 and drawn > 50 * max(blank, 1)
+
+
+def test_png_decoder_counts_dark_pixels():
+    def png(rows):
+        raw = b"".join(b"\x00" + bytes(v for pixel in row for v in pixel) for row in rows)
+        ihdr = struct.pack(">IIBBBBB", len(rows[0]), len(rows), 8, 2, 0, 0, 0)
+        chunk = lambda kind, data: struct.pack(">I", len(data)) + kind + data + b"\0\0\0\0"  # noqa: E731
+        return b"\x89PNG\r\n\x1a\n" + chunk(b"IHDR", ihdr) + chunk(b"IDAT", zlib.compress(raw)) + chunk(b"IEND", b"")
+
+    white, black = (255, 255, 255), (0, 0, 0)
+    assert _non_white_pixels(png([[white, black], [black, black]])) == 3
+    assert _non_white_pixels(png([[white, white]])) == 0
