@@ -67,6 +67,27 @@ def test_kernels_use_ipc_transport():
     assert manager.transport == "ipc" and manager.ip.endswith("-ipc") and "/" in manager.ip
 
 
+def test_reproduce_prints_only_progress_and_summary(outputs, tmp_path, monkeypatch, capfd):
+    import nbformat
+
+    books = tmp_path / "notebooks"
+    books.mkdir()
+    nb = nbformat.v4.new_notebook(metadata={"kernelspec": {"name": "python3", "language": "python",
+                                                           "display_name": "Python 3"}})
+    nb.cells = [nbformat.v4.new_code_cell("profile_name = 'quick'", metadata={"tags": ["parameters"]}),
+                nbformat.v4.new_code_cell("assert profile_name == 'ci'; print('ran')")]
+    nbformat.write(nb, books / "01_tiny.ipynb")
+    monkeypatch.setattr(pipeline, "NOTEBOOKS_DIR", books)
+    monkeypatch.setenv("PYTHONPATH", "")
+    assert pipeline.reproduce("ci") == 0
+    err = capfd.readouterr().err
+    assert "without encryption" not in err and "WARNING" not in err
+    lines = [line for line in err.replace("\r", "\n").splitlines() if line.strip()]
+    assert all(line.startswith(("reproduce [ci]", "index of figures", "1 notebook(s) ran")) for line in lines), lines
+    executed = nbformat.read(outputs / "ci" / "notebooks" / "01_tiny.ipynb", as_version=4)
+    assert executed.cells[-1].outputs[0]["text"] == "ran\n"
+
+
 def _non_white_pixels(png: bytes) -> int:
     """Pixels that are not (near) white in an 8-bit RGB/RGBA PNG, decoded with zlib (no PIL needed)."""
     assert png[:8] == b"\x89PNG\r\n\x1a\n"
