@@ -47,7 +47,6 @@ import xarray as xr
 
 from .constants import SECONDS_PER_DAY
 from .deltav import orbit_mean, orbit_vectors
-from .elements import state_to_elements
 from .ephemeris import ELEMENT_FRAMES, element_frame_to_j2000
 
 __all__ = ["PARTS", "DEFAULT_SETTINGS", "sk_estimate_settings", "mean_drift", "sk_estimate_arrays",
@@ -81,6 +80,19 @@ def sk_estimate_settings(profile: dict | None = None, **overrides) -> dict:
     return cfg
 
 
+def _mean_argument_of_latitude(r: np.ndarray, e_vec: np.ndarray, h_hat: np.ndarray) -> np.ndarray:
+    """u = AOP + M (rad) from positions, eccentricity vectors and orbit normals (..., 3) (node on z = 0)."""
+    node = np.stack([-h_hat[..., 1], h_hat[..., 0], np.zeros_like(h_hat[..., 0])], axis=-1)
+    m_hat = np.cross(h_hat, node)
+    theta = np.arctan2(np.sum(r * m_hat, axis=-1), np.sum(r * node, axis=-1))      # AOP + true anomaly
+    e = np.sqrt(np.sum(e_vec * e_vec, axis=-1))
+    cos_nu_e = np.sum(r * e_vec, axis=-1)
+    sin_nu_e = np.sum(np.cross(e_vec, r) * h_hat, axis=-1)
+    nu = np.arctan2(sin_nu_e, cos_nu_e)                                           # exact angles times |r| e
+    ecc_anomaly = 2.0 * np.arctan2(np.sqrt(1.0 - e) * np.sin(0.5 * nu), np.sqrt(1.0 + e) * np.cos(0.5 * nu))
+    return theta - nu + ecc_anomaly - e * np.sin(ecc_anomaly)
+
+
 def mean_drift(t_tdb_s: np.ndarray, states: np.ndarray, gm_km3_s2: float, min_periods: float = 2.0) -> dict:
     """Mean orbit and secular rates of every satellite from states (n_sat, n_time, 6) in the element frame.
 
@@ -95,8 +107,7 @@ def mean_drift(t_tdb_s: np.ndarray, states: np.ndarray, gm_km3_s2: float, min_pe
     if not np.all(np.isfinite(s)):
         raise ValueError("states hold non-finite values (impact or failed propagation): no estimate")
     vectors = orbit_vectors(s, gm_km3_s2)
-    el = state_to_elements(s, gm_km3_s2)
-    u = np.unwrap(el[..., 4] + el[..., 5], axis=-1)
+    u = np.unwrap(_mean_argument_of_latitude(s[..., :3], vectors[..., 1:4], vectors[..., 4:7]), axis=-1)
     values = np.concatenate([vectors, u[..., None]], axis=-1)
     means, slopes = [], []
     for k in range(s.shape[0]):
