@@ -1,0 +1,473 @@
+"""Design-life stability screen: the doubly-averaged (secular) lunar J2 + third-body quadrupole model.
+
+Issue 11 item 2. A satellite's orbit is reduced to its eccentricity vector ``e`` and dimensionless
+angular momentum ``j = sqrt(1 - e^2) h_hat`` (Moon-centred J2000); ``a`` is constant. The
+orbit-averaged potential per unit mass is
+
+* lunar J2 about the lunar pole ``k`` (Kaula 1966; vector form of Tremaine & Yavetz 2014, eq. 6):
+  ``Phi_J2 = GM J2 R^2 / (4 a^3) [|j|^-3 - 3 (j.k)^2 |j|^-5]``;
+* the tidal quadrupole of each third body ``b`` (Earth, optionally the Sun), averaged over the
+  satellite's orbit (``<r r^T> = a^2/2 [(1 - e^2) I - j j^T + 5 e e^T]``) and, with the body's
+  direction ``u`` and distance ``r_b``, over one sidereal month of the ephemeris:
+  ``Phi_tide = -(a^2 / 4) [s (1 - 6 e^2) - 3 j^T T j + 15 e^T T e]``,
+  ``T = < GM_b u u^T / r_b^3 >``, ``s = trace T``. For a circular perturber orbit of normal ``n``
+  this is the classic Lidov-Kozai quadrupole ``-(GM_b a^2 / 8 a_b^3) [6 e^2 - 1 + 3 (j.n)^2 - 15 (e.n)^2]``
+  (Tremaine, Touma & Kazandjian 2009, eq. 22; Ely 2005 for the lunar case).
+
+The vectors evolve by the Milankovitch equations (Tremaine et al. 2009, eq. 18), ``L = sqrt(GM a)``:
+``dj/dt = -(j x grad_j Phi + e x grad_e Phi) / L``, ``de/dt = -(j x grad_e Phi + e x grad_j Phi) / L``.
+
+``T`` and ``k`` come from SPICE: the Earth's and the Sun's Moon-centred positions, averaged over a
+running window of one sidereal month, and the MOON_PA pole, tabulated over the design life so that
+the Earth's orbit plane and the lunar pole move as they do (``precession = true``), or frozen at
+their first-month values. Satellites that share (a, e, j) (the satellites of one Walker plane) are
+integrated once.
+
+Dropped terms, by argument:
+* C22 (and every tesseral/sectoral term): the Moon rotates synchronously, so within the averaging
+  month the C22 bulge turns once about the pole; the average of ``x x^T - y y^T`` of a frame turning
+  about z is zero, and the satellite's orbit barely changes in a month. Resonances of the orbital
+  period with the lunar rotation are not modelled.
+* J3 and higher zonals (J3/J2 ~ 0.04; they shape the e-AOP frozen family of low orbits, not the
+  Lidov-Kozai growth that ends high inclined orbits), SRP, octupole tide ((a / a_E) e_E terms).
+* Short-period and monthly terms: the screen's ``e`` is a mean eccentricity, started from the
+  osculating one. The real perilune oscillates about the mean one by the monthly tidal terms, whose
+  amplitude grows with a (the averaging assumes the orbital period << one month: 0.5 d at
+  a = 6000 km, 3.9 d at a = 24000 km); ``[stability] margin_km`` raises the floor to allow for it.
+"""
+
+from __future__ import annotations
+
+import time
+from dataclasses import dataclass
+
+import numba as nb
+import numpy as np
+import xarray as xr
+from scipy.integrate import solve_ivp
+from scipy.interpolate import CubicSpline
+
+from .constants import SECONDS_PER_DAY
+from .ephemeris import body_states_mci, element_frame_to_j2000, ensure_kernels, rotation, tdb_seconds
+from .gravity import GravityField
+
+__all__ = ["StabilitySettings", "stability_settings", "SecularField", "orbit_vectors_ej", "secular_rates",
+           "averaged_potential", "integrate_secular", "elements_from_vectors", "screen_states", "screen_elements",
+           "screen_design", "classical_j2_rates", "kozai_e_max", "circular_tide_tensor"]
+
+SIDEREAL_MONTH_DAYS = 27.321661
+BODIES = ("EARTH", "SUN")
+NON_SCREEN_KEYS = ("validation_designs", "validation_degree", "validation_step_s")   # read by the bench only
+DEFAULT_SETTINGS = {
+    "life_days": 365.25,                # design life integrated by the screen
+    "third_bodies": ["EARTH", "SUN"],   # quadrupole tides included
+    "precession": True,                 # let the Earth's orbit plane and the lunar pole move (SPICE)
+    "average_days": SIDEREAL_MONTH_DAYS,  # running-mean window of the tide tensor
+    "table_step_days": 0.25,            # sampling of the ephemeris for the tide tensor
+    "method": "DOP853",
+    "rtol": 1e-9,
+    "atol": 1e-11,
+    "output_step_days": 1.0,            # sampling of the returned histories
+    "margin_km": 0.0,                   # extra altitude above surface + impact.min_altitude_km
+}
+
+
+@dataclass(frozen=True)
+class StabilitySettings:
+    """The ``[stability]`` settings (see :data:`DEFAULT_SETTINGS` for units and meaning)."""
+
+    life_days: float
+    third_bodies: tuple
+    precession: bool
+    average_days: float
+    table_step_days: float
+    method: str
+    rtol: float
+    atol: float
+    output_step_days: float
+    margin_km: float
+
+
+def stability_settings(profile: dict | None = None, **overrides) -> StabilitySettings:
+    """Settings from a profile's ``[stability]`` (defaults :data:`DEFAULT_SETTINGS`) with ``overrides``.
+
+    Raises ``ValueError`` naming an unknown key or a value out of range.
+    """
+    cfg = dict(DEFAULT_SETTINGS)
+    section = {k: v for k, v in (profile or {}).get("stability", {}).items() if k not in NON_SCREEN_KEYS}
+    for source in (section, overrides):
+        unknown = set(source) - set(DEFAULT_SETTINGS)
+        if unknown:
+            raise ValueError(f"unknown [stability] setting(s) {sorted(unknown)}; allowed: {sorted(DEFAULT_SETTINGS)}")
+        cfg.update({k: v for k, v in source.items() if v is not None})
+    for key in ("life_days", "average_days", "table_step_days", "rtol", "atol", "output_step_days"):
+        value = float(cfg[key])
+        if not np.isfinite(value) or value <= 0.0:
+            raise ValueError(f"[stability] {key} must be positive and finite; got {cfg[key]!r}")
+    if not np.isfinite(float(cfg["margin_km"])) or float(cfg["margin_km"]) < 0.0:
+        raise ValueError(f"[stability] margin_km must be >= 0 (km); got {cfg['margin_km']!r}")
+    bodies = tuple(str(b).upper() for b in cfg["third_bodies"])
+    bad = [b for b in bodies if b not in BODIES]
+    if bad:
+        raise ValueError(f"[stability] third_bodies {bad} not supported; allowed: {list(BODIES)}")
+    if cfg["method"] not in ("DOP853", "RK45", "Radau", "LSODA"):
+        raise ValueError(f"[stability] method {cfg['method']!r}; allowed: 'DOP853', 'RK45', 'Radau', 'LSODA'")
+    if not isinstance(cfg["precession"], (bool, np.bool_)):
+        raise ValueError(f"[stability] precession must be true or false; got {cfg['precession']!r}")
+    return StabilitySettings(float(cfg["life_days"]), bodies, bool(cfg["precession"]), float(cfg["average_days"]),
+                             float(cfg["table_step_days"]), str(cfg["method"]), float(cfg["rtol"]),
+                             float(cfg["atol"]), float(cfg["output_step_days"]), float(cfg["margin_km"]))
+
+
+def circular_tide_tensor(gm_body_km3_s2: float, a_body_km: float, normal) -> np.ndarray:
+    """Tide tensor T (3, 3) (1/s^2) of a body on a circular orbit of radius ``a_body_km`` and unit normal."""
+    n = np.asarray(normal, dtype=float)
+    n = n / np.linalg.norm(n)
+    return gm_body_km3_s2 / a_body_km**3 * 0.5 * (np.eye(3) - np.outer(n, n))
+
+
+@dataclass(frozen=True)
+class SecularField:
+    """Everything the secular right-hand side needs, tabulated on days since the epoch.
+
+    ``t_days`` (m,) increasing; ``tide`` (m, 3, 3) tide tensors (1/s^2); ``pole`` (m, 3) unit lunar
+    pole in J2000; ``gm_km3_s2``, ``j2`` (unnormalised, positive for an oblate Moon), ``r_ref_km``.
+    Between nodes T and k are interpolated by a cubic spline (smooth, so that the integrator's
+    error control sees no kinks; k renormalised); outside the nodes they are held.
+    """
+
+    t_days: np.ndarray
+    tide: np.ndarray
+    pole: np.ndarray
+    gm_km3_s2: float
+    j2: float
+    r_ref_km: float
+
+    @classmethod
+    def constant(cls, tide, pole, gm_km3_s2: float, j2: float, r_ref_km: float) -> "SecularField":
+        """A field with fixed T (3, 3) and pole (3,) (analytic tests, frozen geometry)."""
+        tide = np.asarray(tide, dtype=float).reshape(3, 3)
+        pole = np.asarray(pole, dtype=float) / np.linalg.norm(pole)
+        return cls(np.array([0.0, 1.0]), np.stack([tide, tide]), np.stack([pole, pole]), float(gm_km3_s2),
+                   float(j2), float(r_ref_km))
+
+    @classmethod
+    def from_profile(cls, profile: dict, t0_tdb_s: float, life_days: float,
+                     settings: StabilitySettings | None = None) -> "SecularField":
+        """T and k from SPICE over the design life (running one-month mean), J2 from the gravity file."""
+        cfg = settings or stability_settings(profile)
+        ensure_kernels(profile)
+        step, window = cfg.table_step_days, cfg.average_days
+        half = int(np.ceil(0.5 * window / step))
+        n_out = int(np.ceil(life_days / step)) + 1 if cfg.precession else 1
+        t_days = step * np.arange(-half, n_out + half)
+        times = t0_tdb_s + t_days * SECONDS_PER_DAY
+        gms = {"EARTH": float(profile["constants"]["gm_earth_km3_s2"]), "SUN": float(profile["constants"]["gm_sun_km3_s2"])}
+        inst = np.zeros((t_days.size, 3, 3))
+        for body in cfg.third_bodies:
+            r = body_states_mci(body, times)[:, :3]
+            dist = np.linalg.norm(r, axis=1)
+            inst += gms[body] * np.einsum("ni,nj->nij", r, r) / dist[:, None, None] ** 5
+        weights = np.ones(2 * half + 1)
+        weights[[0, -1]] = 0.5 + (0.5 * window / step - half)   # trapezoid over exactly one window
+        weights /= weights.sum()
+        tide = np.stack([np.tensordot(weights, inst[j:j + 2 * half + 1], axes=1) for j in range(n_out)])
+        out_days = t_days[half:half + n_out]
+        pole = rotation(profile["frames"]["gravity"], "J2000", t0_tdb_s + out_days * SECONDS_PER_DAY)[:, :, 2]
+        if not cfg.precession:
+            return cls.constant(tide[0], pole[0], *_gravity_constants(profile))
+        return cls(out_days, tide, pole, *_gravity_constants(profile))
+
+    def __post_init__(self) -> None:
+        values = np.concatenate([self.tide.reshape(-1, 9), self.pole], axis=1)
+        object.__setattr__(self, "_spline", CubicSpline(self.t_days, values, axis=0))
+
+    def at(self, t_day: float) -> tuple[np.ndarray, np.ndarray]:
+        """(T (3, 3), k (3,)) at ``t_day`` days since the epoch."""
+        v = self._spline(min(max(t_day, self.t_days[0]), self.t_days[-1]))
+        return v[:9].reshape(3, 3), v[9:] / np.linalg.norm(v[9:])
+
+
+def _gravity_constants(profile: dict) -> tuple[float, float, float]:
+    field = GravityField.from_profile(profile, degree=2)
+    return field.gm_km3_s2, float(-field.cnm[2, 0] * np.sqrt(5.0)), field.r_ref_km
+
+
+def orbit_vectors_ej(states: np.ndarray, gm_km3_s2: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """(a_km (n,), e vector (n, 3), j = sqrt(1 - e^2) h_hat (n, 3)) of osculating states (n, 6)."""
+    s = np.atleast_2d(np.asarray(states, dtype=float))
+    r, v = s[:, :3], s[:, 3:]
+    rn = np.linalg.norm(r, axis=1)
+    a = 1.0 / (2.0 / rn - np.sum(v * v, axis=1) / gm_km3_s2)
+    if np.any(~(a > 0.0)):
+        raise ValueError(f"the screen needs bound orbits; got a = {a[~(a > 0.0)][0]!r} km")
+    h = np.cross(r, v)
+    e_vec = np.cross(v, h) / gm_km3_s2 - r / rn[:, None]
+    return a, e_vec, h / np.sqrt(gm_km3_s2 * a)[:, None]
+
+
+def _gradients(e_vec, j_vec, a_km, tide, pole, gm, j2, r_ref):
+    """grad_e Phi and grad_j Phi (n, 3) (km^2/s^2) of the averaged potential."""
+    a2 = (a_km**2)[:, None]
+    s = np.trace(tide)
+    grad_e = -0.25 * a2 * (-12.0 * s * e_vec + 30.0 * e_vec @ tide)
+    grad_j = -0.25 * a2 * (-6.0 * j_vec @ tide)
+    jn = np.linalg.norm(j_vec, axis=1)[:, None]
+    jk = (j_vec @ pole)[:, None]
+    c = (gm * j2 * r_ref**2 / (4.0 * a_km**3))[:, None]
+    grad_j = grad_j + c * (-3.0 * j_vec / jn**5 - 6.0 * jk * pole / jn**5 + 15.0 * jk**2 * j_vec / jn**7)
+    return grad_e, grad_j
+
+
+def averaged_potential(e_vec, j_vec, a_km, tide, pole, gm_km3_s2: float, j2: float, r_ref_km: float) -> np.ndarray:
+    """Doubly-averaged potential per unit mass (n,) (km^2/s^2), tide plus J2 (see module docstring)."""
+    e_vec, j_vec = np.atleast_2d(e_vec), np.atleast_2d(j_vec)
+    a = np.atleast_1d(np.asarray(a_km, dtype=float))
+    s = np.trace(tide)
+    tide_part = -0.25 * a**2 * (s * (1.0 - 6.0 * np.sum(e_vec**2, axis=1))
+                                - 3.0 * np.einsum("ni,ij,nj->n", j_vec, tide, j_vec)
+                                + 15.0 * np.einsum("ni,ij,nj->n", e_vec, tide, e_vec))
+    jn = np.linalg.norm(j_vec, axis=1)
+    jk = j_vec @ pole
+    return tide_part + gm_km3_s2 * j2 * r_ref_km**2 / (4.0 * a**3) * (jn**-3 - 3.0 * jk**2 * jn**-5)
+
+
+def secular_rates(e_vec, j_vec, a_km, tide, pole, gm_km3_s2: float, j2: float, r_ref_km: float):
+    """Milankovitch rates (de/dt, dj/dt), each (n, 3) in 1/s, of vectors (n, 3) with a_km (n,)."""
+    e_vec, j_vec = np.atleast_2d(e_vec), np.atleast_2d(j_vec)
+    a = np.atleast_1d(np.asarray(a_km, dtype=float))
+    grad_e, grad_j = _gradients(e_vec, j_vec, a, np.asarray(tide), np.asarray(pole), gm_km3_s2, j2, r_ref_km)
+    inv_l = (1.0 / np.sqrt(gm_km3_s2 * a))[:, None]
+    de = -inv_l * (np.cross(j_vec, grad_e) + np.cross(e_vec, grad_j))
+    dj = -inv_l * (np.cross(j_vec, grad_j) + np.cross(e_vec, grad_e))
+    return de, dj
+
+
+@nb.njit(cache=True)
+def _rhs_kernel(y: np.ndarray, a_km: np.ndarray, tide: np.ndarray, pole: np.ndarray, gm: float, j2: float,
+                r_ref: float, scale: float) -> np.ndarray:
+    """Compiled :func:`secular_rates` on a flat state [e (3), j (3)] per orbit, times ``scale``."""
+    n = a_km.size
+    out = np.empty(6 * n)
+    s = tide[0, 0] + tide[1, 1] + tide[2, 2]
+    ge = np.empty(3)
+    gj = np.empty(3)
+    for q in range(n):
+        e = y[6 * q:6 * q + 3]
+        j = y[6 * q + 3:6 * q + 6]
+        a = a_km[q]
+        jn = np.sqrt(j[0] * j[0] + j[1] * j[1] + j[2] * j[2])
+        jk = j[0] * pole[0] + j[1] * pole[1] + j[2] * pole[2]
+        c = gm * j2 * r_ref * r_ref / (4.0 * a * a * a)
+        for m in range(3):
+            te = tide[0, m] * e[0] + tide[1, m] * e[1] + tide[2, m] * e[2]
+            tj = tide[0, m] * j[0] + tide[1, m] * j[1] + tide[2, m] * j[2]
+            ge[m] = -0.25 * a * a * (-12.0 * s * e[m] + 30.0 * te)
+            gj[m] = 1.5 * a * a * tj + c * (-3.0 * j[m] / jn**5 - 6.0 * jk * pole[m] / jn**5
+                                             + 15.0 * jk * jk * j[m] / jn**7)
+        f = -scale / np.sqrt(gm * a)
+        for m in range(3):
+            m1 = (m + 1) % 3
+            m2 = (m + 2) % 3
+            out[6 * q + m] = f * (j[m1] * ge[m2] - j[m2] * ge[m1] + e[m1] * gj[m2] - e[m2] * gj[m1])
+            out[6 * q + 3 + m] = f * (j[m1] * gj[m2] - j[m2] * gj[m1] + e[m1] * ge[m2] - e[m2] * ge[m1])
+    return out
+
+
+def integrate_secular(a_km, e0, j0, field: SecularField, life_days: float, *, floor_km=None,
+                      method: str = "DOP853", rtol: float = 1e-9, atol: float = 1e-11,
+                      output_step_days: float = 1.0) -> dict:
+    """Integrate orbits (n,) from (e0, j0) (n, 3) for ``life_days``; stop an orbit whose perilune reaches ``floor_km``.
+
+    Returns ``t_days`` (m,), ``e`` and ``j`` (n, m, 3) (NaN after an impact), ``impact_day`` (n,)
+    (NaN when none; located by a solve_ivp event to the integrator's accuracy), ``n_rhs``.
+    """
+    a = np.atleast_1d(np.asarray(a_km, dtype=float))
+    y0 = np.concatenate([np.atleast_2d(e0), np.atleast_2d(j0)], axis=1)
+    n = a.size
+    if y0.shape != (n, 6) or not np.all(np.isfinite(y0)):
+        raise ValueError(f"e0 and j0 must be finite arrays of shape ({n}, 3); got {y0.shape}")
+    floor = np.full(n, -np.inf) if floor_km is None else np.broadcast_to(np.asarray(floor_km, float), (n,))
+    t_out = np.arange(0.0, life_days + 1e-9, output_step_days)
+    if t_out[-1] < life_days:
+        t_out = np.append(t_out, life_days)
+    out = np.full((n, t_out.size, 6), np.nan)
+    impact_day = np.full(n, np.nan)
+    alive = np.arange(n)
+    t_start, y_start, n_rhs = 0.0, y0.copy(), 0
+    while alive.size and t_start < life_days:
+        aa, ff = a[alive], floor[alive]
+
+        def rhs(t, y, aa=aa):
+            tide, pole = field.at(t)
+            return _rhs_kernel(y, aa, tide, pole, field.gm_km3_s2, field.j2, field.r_ref_km, SECONDS_PER_DAY)
+
+        def surface(t, y, aa=aa, ff=ff):
+            e = np.linalg.norm(y.reshape(-1, 6)[:, :3], axis=1)
+            return float(np.min(aa * (1.0 - e) - ff))
+
+        surface.terminal = True
+        surface.direction = -1
+        sol = solve_ivp(rhs, (t_start, life_days), y_start.ravel(), method=method, rtol=rtol, atol=atol,
+                        dense_output=True, events=surface)
+        if sol.status < 0:
+            raise RuntimeError(f"secular integration failed at t = {sol.t[-1]:.2f} d: {sol.message}")
+        n_rhs += int(sol.nfev)
+        t_end = float(sol.t[-1])
+        mask = (t_out >= t_start) & (t_out <= t_end)
+        if mask.any():
+            out[alive[:, None], np.flatnonzero(mask)[None, :], :] = sol.sol(t_out[mask]).T.reshape(
+                mask.sum(), alive.size, 6).transpose(1, 0, 2)
+        if sol.status == 1:
+            y_end = sol.y_events[0][0].reshape(-1, 6)
+            e_end = np.linalg.norm(y_end[:, :3], axis=1)
+            hit = aa * (1.0 - e_end) - ff <= 1e-6 * aa
+            impact_day[alive[hit]] = t_end
+            alive, y_start = alive[~hit], y_end[~hit]
+        else:
+            alive = alive[:0]
+        t_start = t_end
+    return {"t_days": t_out, "e": out[..., :3], "j": out[..., 3:], "impact_day": impact_day, "n_rhs": n_rhs}
+
+
+def elements_from_vectors(e_vec, j_vec, rot_to_frame=None) -> dict:
+    """e, inclination, RAAN and AOP (deg) of (..., 3) vectors, optionally rotated (x_frame = R x) first."""
+    e_vec, j_vec = np.asarray(e_vec, float), np.asarray(j_vec, float)
+    if rot_to_frame is not None:
+        e_vec, j_vec = e_vec @ rot_to_frame.T, j_vec @ rot_to_frame.T
+    e = np.linalg.norm(e_vec, axis=-1)
+    h_hat = j_vec / np.linalg.norm(j_vec, axis=-1)[..., None]
+    inc = np.degrees(np.arccos(np.clip(h_hat[..., 2], -1.0, 1.0)))
+    node = np.stack([-h_hat[..., 1], h_hat[..., 0], np.zeros_like(e)], axis=-1)
+    raan = np.degrees(np.arctan2(node[..., 1], node[..., 0])) % 360.0
+    node_hat = node / np.linalg.norm(node, axis=-1)[..., None]
+    aop = np.degrees(np.arctan2(np.sum(np.cross(node_hat, e_vec) * h_hat, axis=-1),
+                                np.sum(node_hat * e_vec, axis=-1))) % 360.0
+    return {"ecc": e, "inc_deg": inc, "raan_deg": raan, "aop_deg": aop}
+
+
+def screen_states(profile: dict, states_mci, t0_tdb_s: float, *, field: SecularField | None = None,
+                  **overrides) -> xr.Dataset:
+    """The screen for osculating Moon-centred J2000 states (n_sat, 6) at TDB ``t0_tdb_s``.
+
+    Returns a Dataset: ``ecc``, ``inc_deg``, ``raan_deg``, ``aop_deg`` (element frame of the
+    profile) and ``perilune_alt_km`` (sat, time in days), per satellite ``min_perilune_alt_km``,
+    ``impact`` and ``impact_day`` (NaN when none); attrs ``stable`` (no impact within the life),
+    ``min_perilune_alt_km``, ``impact_day`` (first, NaN when none), ``n_orbits`` (distinct orbits
+    integrated), ``n_rhs``, ``wall_s``. ``overrides`` replace ``[stability]`` settings.
+    """
+    start = time.perf_counter()
+    cfg = stability_settings(profile, **overrides)
+    gm = float(profile["gravity"]["gm_km3_s2"])
+    a, e_vec, j_vec = orbit_vectors_ej(states_mci, gm)
+    if field is None:
+        field = _cached_field(profile, float(t0_tdb_s), cfg)
+    key = np.round(np.column_stack([a / 1e4, e_vec, j_vec]), 12)
+    _, first, inverse = np.unique(key, axis=0, return_index=True, return_inverse=True)
+    r_moon = float(profile["constants"]["r_moon_mean_km"])
+    floor = r_moon + float(profile["impact"]["min_altitude_km"]) + cfg.margin_km
+    res = integrate_secular(a[first], e_vec[first], j_vec[first], field, cfg.life_days, floor_km=floor,
+                            method=cfg.method, rtol=cfg.rtol, atol=cfg.atol, output_step_days=cfg.output_step_days)
+    inverse = np.asarray(inverse).ravel()
+    e_hist, j_hist = res["e"][inverse], res["j"][inverse]
+    rot = element_frame_to_j2000(profile, float(t0_tdb_s)).T
+    el = elements_from_vectors(e_hist, j_hist, rot)
+    alt = a[:, None] * (1.0 - el["ecc"]) - r_moon
+    impact_day = res["impact_day"][inverse]
+    alt_min = np.where(np.isnan(impact_day), np.nanmin(alt, axis=1), floor - r_moon)
+    ds = xr.Dataset(
+        {**{k: (("sat", "time"), v) for k, v in el.items()}, "perilune_alt_km": (("sat", "time"), alt),
+         "min_perilune_alt_km": ("sat", alt_min), "impact": ("sat", ~np.isnan(impact_day)),
+         "impact_day": ("sat", impact_day), "a_km": ("sat", a)},
+        coords={"sat": np.arange(a.size), "time": res["t_days"]},
+        attrs={"stable": bool(np.all(np.isnan(impact_day))), "min_perilune_alt_km": float(np.min(alt_min)),
+               "impact_day": float(np.nanmin(impact_day)) if np.any(~np.isnan(impact_day)) else float("nan"),
+               "life_days": cfg.life_days, "floor_alt_km": floor - r_moon, "n_orbits": int(first.size),
+               "n_rhs": res["n_rhs"], "element_frame": profile["frames"]["element_frame"],
+               "wall_s": time.perf_counter() - start})
+    ds["time"].attrs["units"] = "days since the epoch"
+    return ds
+
+
+def screen_elements(profile: dict, elements_deg, t0_tdb_s: float | None = None, **overrides) -> xr.Dataset:
+    """:func:`screen_states` for elements (n, 6) [a_km, e, i, RAAN, AOP, M] (deg) in the profile's element frame."""
+    from .propagator import elements_deg_to_states
+
+    ensure_kernels(profile)
+    t0 = tdb_seconds(profile["epoch"]["start_tdb"], "TDB") if t0_tdb_s is None else float(t0_tdb_s)
+    return screen_states(profile, elements_deg_to_states(profile, elements_deg, t0), t0, **overrides)
+
+
+def screen_design(profile: dict, sma_km: float, ecc: float, aop_deg: float, inc_deg: float, n_planes: int,
+                  sats_per_plane: int, **overrides) -> dict:
+    """Summary of the screen for a Walker design: ``stable_screen``, ``screen_min_perilune_alt_km``,
+    ``screen_impact_day`` (None when none), ``screen_wall_s``."""
+    from .constellation import WalkerDesign
+
+    elements = WalkerDesign(sma_km, ecc, inc_deg, aop_deg, n_planes, sats_per_plane).elements_deg()
+    ds = screen_elements(profile, elements, **overrides)
+    day = ds.attrs["impact_day"]
+    return {"stable_screen": ds.attrs["stable"], "screen_min_perilune_alt_km": ds.attrs["min_perilune_alt_km"],
+            "screen_impact_day": None if np.isnan(day) else day, "screen_wall_s": ds.attrs["wall_s"]}
+
+
+_FIELDS: dict = {}
+
+
+def _cached_field(profile: dict, t0_tdb_s: float, cfg: StabilitySettings) -> SecularField:
+    from .config import profile_hash
+
+    key = (profile_hash(profile), t0_tdb_s, cfg.life_days, cfg.third_bodies, cfg.precession, cfg.average_days,
+           cfg.table_step_days)
+    if key not in _FIELDS:
+        _FIELDS[key] = SecularField.from_profile(profile, t0_tdb_s, cfg.life_days, cfg)
+    return _FIELDS[key]
+
+
+def classical_j2_rates(a_km, e, inc_rad, gm_km3_s2: float, j2: float, r_ref_km: float) -> tuple:
+    """Secular (RAAN-dot, AOP-dot) (rad/s) of J2 (Vallado eq. 9-41, 9-42), mean motion sqrt(GM / a^3)."""
+    n = np.sqrt(gm_km3_s2 / np.asarray(a_km, float) ** 3)
+    k = 1.5 * n * j2 * (r_ref_km / (np.asarray(a_km, float) * (1.0 - np.asarray(e, float) ** 2))) ** 2
+    return -k * np.cos(inc_rad), 0.5 * k * (5.0 * np.cos(inc_rad) ** 2 - 1.0)
+
+
+def kozai_e_max(inc0_rad) -> np.ndarray:
+    """Maximum eccentricity of the test-particle quadrupole Lidov-Kozai cycle from e0 -> 0 (0 below 39.23 deg)."""
+    c2 = np.cos(np.asarray(inc0_rad, float)) ** 2
+    return np.sqrt(np.clip(1.0 - 5.0 / 3.0 * c2, 0.0, None))
+
+
+def propagated_perilune(profile: dict, elements_deg, life_days: float, *, setting: str | None = "converged",
+                        degree: int | None = None, step_s: float = 3600.0) -> dict:
+    """Reference for the screen: the full force model (engine, ``batch=True``, no station keeping).
+
+    Propagates every satellite for ``life_days`` and returns ``impact_day`` (n,) (NaN when none),
+    ``min_perilune_alt_km`` (n,) of the osculating orbit (floor value after an impact),
+    ``perilune_alt_km`` (n, m) and ``t_days`` (m,), ``stable``, ``wall_s``. Costs seconds to tens
+    of seconds per satellite-year: for notebooks, benches and the slow tests.
+    """
+    from .propagator import elements_deg_to_states, propagate_states
+
+    start = time.perf_counter()
+    ensure_kernels(profile)
+    t0 = tdb_seconds(profile["epoch"]["start_tdb"], "TDB")
+    states = elements_deg_to_states(profile, elements_deg, t0)
+    ds = propagate_states(profile, states, t0, life_days * SECONDS_PER_DAY, step_s, setting=setting, degree=degree,
+                          batch=True)
+    gm = float(profile["gravity"]["gm_km3_s2"])
+    r_moon = float(profile["constants"]["r_moon_mean_km"])
+    sv = np.concatenate([ds["r_mci_km"].values, ds["v_mci_kms"].values], axis=-1)
+    finite = np.all(np.isfinite(sv), axis=-1)
+    safe = np.where(finite[..., None], sv, states[:, None, :])
+    r, v = safe[..., :3], safe[..., 3:]
+    rn = np.linalg.norm(r, axis=-1)
+    a = 1.0 / (2.0 / rn - np.sum(v * v, axis=-1) / gm)
+    h = np.cross(r, v)
+    e = np.linalg.norm(np.cross(v, h) / gm - r / rn[..., None], axis=-1)
+    alt = np.where(finite, a * (1.0 - e) - r_moon, np.nan)
+    impact = ds["impact"].values.astype(bool)
+    impact_day = np.where(impact, (ds["impact_t_tdb_s"].values - t0) / SECONDS_PER_DAY, np.nan)
+    floor_alt = float(profile["impact"]["min_altitude_km"])
+    return {"t_days": (ds["time"].values - t0) / SECONDS_PER_DAY, "perilune_alt_km": alt,
+            "min_perilune_alt_km": np.where(impact, floor_alt, np.nanmin(alt, axis=1)), "impact_day": impact_day,
+            "stable": bool(not impact.any()), "wall_s": time.perf_counter() - start}

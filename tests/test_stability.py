@@ -1,0 +1,97 @@
+"""The design-life stability screen: analytic limits, conservation laws, SPICE geometry, full-model agreement."""
+
+import numpy as np
+import pytest
+
+from lnss_lib import stability as st
+from lnss_lib.constellation import WalkerDesign, planes_elements_deg
+from lnss_lib.elements import elements_to_state
+
+GM, J2, R = 4902.7999671, 2.0323e-4, 1738.0
+GM_EARTH, A_EARTH_KM = 398600.436233, 384400.0
+
+
+def _vectors(a, e, inc_deg, raan_deg=0.0, aop_deg=30.0):
+    state = elements_to_state(np.array([a, e, np.radians(inc_deg), np.radians(raan_deg), np.radians(aop_deg), 0.0]), GM)
+    return st.orbit_vectors_ej(state[None], GM)
+
+
+@pytest.mark.parametrize("a, e, inc_deg", [(5000.0, 0.3, 50.0), (6143.0, 0.6, 51.7), (4000.0, 0.01, 89.0)])
+def test_pure_j2_gives_the_classical_secular_rates(a, e, inc_deg):
+    a_, e0, j0 = _vectors(a, e, inc_deg, 20.0)
+    field = st.SecularField.constant(np.zeros((3, 3)), [0.0, 0.0, 1.0], GM, J2, R)
+    res = st.integrate_secular(a_, e0, j0, field, 100.0, output_step_days=5.0, rtol=1e-11, atol=1e-13)
+    el = st.elements_from_vectors(res["e"][0], res["j"][0])
+    t_s = res["t_days"] * 86400.0
+    raan_dot, aop_dot = st.classical_j2_rates(a, e, np.radians(inc_deg), GM, J2, R)
+    assert np.polyfit(t_s, np.unwrap(np.radians(el["raan_deg"])), 1)[0] == pytest.approx(raan_dot, rel=1e-7)
+    assert np.polyfit(t_s, np.unwrap(np.radians(el["aop_deg"])), 1)[0] == pytest.approx(aop_dot, rel=1e-6)
+    assert np.ptp(el["ecc"]) < 1e-10 and np.ptp(el["inc_deg"]) < 1e-8     # J2 conserves e and i
+
+
+@pytest.mark.parametrize("inc_deg", [45.0, 60.0, 75.0])
+def test_kozai_cycle_reaches_the_analytic_e_max_and_conserves_the_integrals(inc_deg):
+    normal = np.array([0.0, 0.0, 1.0])
+    tide = st.circular_tide_tensor(GM_EARTH, A_EARTH_KM, normal)
+    a_, e0, j0 = _vectors(6000.0, 1e-3, inc_deg)
+    field = st.SecularField.constant(tide, normal, GM, 0.0, R)
+    res = st.integrate_secular(a_, e0, j0, field, 3000.0, output_step_days=0.5)
+    e_vec, j_vec = res["e"][0], res["j"][0]
+    e = np.linalg.norm(e_vec, axis=1)
+    assert e.max() == pytest.approx(st.kozai_e_max(np.radians(inc_deg)), abs=2e-4)
+    phi = st.averaged_potential(e_vec, j_vec, np.full(e.size, 6000.0), tide, normal, GM, 0.0, R)
+    assert np.ptp(phi) < 1e-7 * abs(phi[0])
+    assert np.ptp(j_vec @ normal) < 1e-10                                   # Kozai integral j.n
+    assert np.max(np.abs(np.sum(e_vec * j_vec, axis=1))) < 1e-8              # constraints e.j = 0
+    assert np.max(np.abs(np.sum(e_vec**2 + j_vec**2, axis=1) - 1.0)) < 1e-8  # and e^2 + j^2 = 1 (rtol 1e-9, 3000 d)
+
+
+def test_below_the_critical_inclination_a_circular_orbit_stays_circular():
+    normal = np.array([0.0, 0.0, 1.0])
+    field = st.SecularField.constant(st.circular_tide_tensor(GM_EARTH, A_EARTH_KM, normal), normal, GM, 0.0, R)
+    a_, e0, j0 = _vectors(6000.0, 1e-3, 35.0)
+    res = st.integrate_secular(a_, e0, j0, field, 3000.0)
+    assert np.linalg.norm(res["e"][0], axis=1).max() < 3e-3
+    assert st.kozai_e_max(np.radians(35.0)) == 0.0
+
+
+def test_tide_tensor_from_spice_matches_the_earths_orbit(paper_profile, epoch_tdb_s):
+    field = st.SecularField.from_profile(paper_profile, epoch_tdb_s, 30.0)
+    tide, pole = field.at(10.0)
+    # one month of GM/r^3 is GM/a^3 (1 - e^2)^(-3/2) (e = 0.055, a = 384400 km) within the solar perturbation of the orbit
+    assert np.trace(tide) == pytest.approx(GM_EARTH / A_EARTH_KM**3 * (1 - 0.0549**2) ** -1.5, rel=0.05)
+    normal = np.linalg.eigh(tide)[1][:, 0]                                  # the orbit normal: T's null direction
+    tilt = np.degrees(np.arccos(abs(normal @ pole)))
+    assert 5.5 < tilt < 7.5                                                 # Cassini state: 5.14 + 1.54 deg
+
+
+def test_settings_reject_unknown_keys_and_bad_values(paper_profile):
+    with pytest.raises(ValueError, match="unknown"):
+        st.stability_settings(paper_profile, lifetime=3.0)
+    with pytest.raises(ValueError, match="life_days"):
+        st.stability_settings(paper_profile, life_days=-1.0)
+    with pytest.raises(ValueError, match="third_bodies"):
+        st.stability_settings(paper_profile, third_bodies=["MARS"])
+
+
+def test_planes_are_integrated_once(paper_profile):
+    ds = st.screen_elements(paper_profile, WalkerDesign(6143.0, 0.6, 51.7, 90.0, 4, 5).elements_deg(), life_days=30.0)
+    assert ds.attrs["n_orbits"] == 4 and ds.sizes["sat"] == 20
+    np.testing.assert_array_equal(ds.ecc.values[0], ds.ecc.values[4])
+
+
+def test_screen_agrees_with_the_full_model_on_a_stable_and_an_impacting_design(paper_profile):
+    # stable: the standalone ELFO (one satellite per plane), 120 days. The screen's perilune is a mean one; the
+    # osculating perilune of the full model dips about 100 km below it (monthly and short-period terms)
+    elfo = planes_elements_deg(6143.0, 0.6, 51.7, 90.0, [0.0, 180.0], 1)
+    screen = st.screen_elements(paper_profile, elfo, life_days=120.0)
+    ref = st.propagated_perilune(paper_profile, elfo, 120.0, degree=8)
+    assert screen.attrs["stable"] and ref["stable"]
+    np.testing.assert_allclose(screen.min_perilune_alt_km.values, ref["min_perilune_alt_km"], atol=150.0)
+    # impacting: a = 18000 km, i = 80 deg, 3 planes: Lidov-Kozai drives every perilune into the surface
+    high = WalkerDesign(18000.0, 0.4, 80.0, 90.0, 3, 1).elements_deg()
+    screen = st.screen_elements(paper_profile, high, life_days=60.0)
+    ref = st.propagated_perilune(paper_profile, high, 60.0, degree=8)
+    assert not screen.attrs["stable"] and not ref["stable"]
+    assert screen.attrs["impact_day"] == pytest.approx(np.nanmin(ref["impact_day"]), rel=0.10)
+    np.testing.assert_allclose(screen.impact_day.values, ref["impact_day"], rtol=0.20)
