@@ -5,7 +5,7 @@ import pytest
 import xarray as xr
 
 from lnss_lib.figures import dop_against_availability, pareto_3d, variable_relationships
-from lnss_lib.pareto import TABLE6_COLUMNS, load_campaign, pareto_front, parse_constraints, satisfies, synthetic_campaign, table6
+from lnss_lib.studies.pareto import TABLE6_COLUMNS, load_campaign, pareto_front, parse_constraints, satisfies, synthetic_campaign, table6
 
 
 def _campaign(rows, constraints="pdop_mean_3sigma <= 10,dv_total_kms_per_year <= 1"):
