@@ -9,22 +9,25 @@ resumed (``--resume``) ends with the same population as an uninterrupted one. Mo
 * :mod:`.tasks` (one evaluation) and :mod:`.backends` (serial, Dask) with :class:`BatchEvaluator`;
 * :mod:`.journal`: ``evaluations.jsonl``, the persistent evaluation cache;
 * :mod:`.problem`: the pymoo problem and algorithm; :mod:`.rundir`: run.json, checkpoints, NetCDF export;
-* :mod:`.runner`: the generation loop, which notifies callbacks; :mod:`.timing`: worker-time shares.
+* :mod:`.runner`: the generation loop, which notifies the observers of :mod:`.callbacks` (error guard,
+  history, checkpoint, progress bars); :mod:`.timing`: worker-time shares.
 """
 
 from .backends import BatchEvaluator, DaskBackend, SerialBackend, open_backend
+from .callbacks import Callback, Checkpointer, ErrorGuard, HistoryRecorder, ProgressBars, RunState
 from .fitness import (constraint_matrix, constraint_violation, hypervolume, metric_columns, non_dominated_mask,
                       objective_matrix)
 from .grid import DesignGrid
 from .journal import EvaluationCache, read_cache_records
 from .problem import WalkerDesignProblem, build_algorithm, build_termination
 from .rundir import RESULT_FILES, export_results, final_population, load_checkpoint, load_run, write_results
-from .runner import CampaignResult, run_campaign
+from .runner import CampaignResult, default_callbacks, run_campaign
 from .settings import CampaignSettings, evaluation_hash, evaluation_profile
 from .tasks import evaluate_task, synthetic_evaluation
 from .timing import campaign_timing
 
-__all__ = ["run_campaign", "CampaignResult", "CampaignSettings", "DesignGrid", "evaluation_hash",
+__all__ = ["run_campaign", "CampaignResult", "Callback", "RunState", "ErrorGuard", "HistoryRecorder",
+           "Checkpointer", "ProgressBars", "default_callbacks", "CampaignSettings", "DesignGrid", "evaluation_hash",
            "evaluation_profile", "objective_matrix", "constraint_matrix", "constraint_violation",
            "non_dominated_mask", "hypervolume", "metric_columns", "evaluate_task", "synthetic_evaluation",
            "EvaluationCache", "read_cache_records", "SerialBackend", "DaskBackend", "open_backend",

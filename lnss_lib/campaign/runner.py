@@ -1,52 +1,34 @@
 """The campaign: pymoo's NSGA-II through ask and tell, one generation at a time, in a run directory.
 
-A run killed at any moment and resumed ends with the same population as an uninterrupted one:
-designs of an interrupted generation come back from the journal, the checkpoint holds the
+:func:`run_campaign` (``python -m lnss_lib campaign``) is a loop: ask the algorithm for a generation,
+evaluate it through the journal and a backend, tell the algorithm, and notify the callbacks
+(:mod:`lnss_lib.campaign.callbacks`: error guard, history, checkpoint, progress bars) that do the
+rest. A run killed at any moment and resumed ends with the same population as an uninterrupted
+one: designs of an interrupted generation come back from the journal, the checkpoint holds the
 algorithm and its random generator.
 """
 
 from __future__ import annotations
 
-import math
-import sys
 import time
 from dataclasses import dataclass
 from pathlib import Path
 
-import numpy as np
-
 from ..config import OUTPUTS_DIR, load_profile
 from .backends import BatchEvaluator, open_backend
-from .fitness import constraint_matrix, constraint_violation, hypervolume, metric_columns
+from .callbacks import Callback, Checkpointer, ErrorGuard, HistoryRecorder, ProgressBars, RunState
 from .journal import JOURNAL_FILE, EvaluationCache
 from .problem import WalkerDesignProblem, build_algorithm, build_termination
-from .rundir import default_run_dir, load_checkpoint, load_run, start_run, write_checkpoint, write_results
+from .rundir import default_run_dir, load_checkpoint, load_run, start_run, write_results
 from .settings import CampaignSettings, evaluation_hash, evaluation_profile
 
-__all__ = ["run_campaign", "CampaignResult"]
+__all__ = ["run_campaign", "CampaignResult", "default_callbacks"]
 
 
-def _generation_stats(settings: CampaignSettings, records: list[dict], pop_keys: list[tuple]) -> dict:
-    """Deterministic per-generation numbers from the cache so far and the population's keys."""
-    columns = metric_columns(records)
-    cv = constraint_violation(constraint_matrix(columns, settings.constraints, settings.nan_violation))
-    feasible = columns["ok"] & (cv == 0.0)
-    by_key = {tuple(r["key"]): i for i, r in enumerate(records)}
-    pop_idx = np.array([by_key[k] for k in pop_keys], dtype=int)
-    stats = {
-        "n_evaluations_cum": len(records),
-        "n_feasible_cum": int(feasible.sum()),
-        "n_feasible_pop": int(feasible[pop_idx].sum()),
-        "min_cv_pop": float(cv[pop_idx].min()) if pop_idx.size else math.nan,
-        "hypervolume": hypervolume(columns, feasible, settings.hypervolume),
-    }
-    for name in settings.objectives:
-        metric = name.lstrip("-")
-        values = columns[metric][feasible].astype(float)
-        values = values[np.isfinite(values)]
-        best = (values.max() if name.startswith("-") else values.min()) if values.size else math.nan
-        stats[f"best_{metric}"] = float(best)
-    return stats
+def default_callbacks(progress: bool) -> list[Callback]:
+    """Error guard, history, checkpoint and (with ``progress``) the tqdm bars, in the order they act."""
+    chain = [ErrorGuard(), HistoryRecorder(), Checkpointer()]
+    return chain + [ProgressBars()] if progress else chain
 
 
 @dataclass
@@ -64,28 +46,17 @@ class CampaignResult:
     resubmitted: int
 
 
-def _progress_text(entry: dict) -> str:
-    """Progress-bar summary of one history entry: throughput, cache hits, feasibility, best values."""
-    text = (f"{entry['designs_per_s']:.2f} designs/s, hits {entry['n_cache_hits']}, feasible "
-            f"{entry['n_feasible_pop']}/{entry['n_designs']} (all {entry['n_feasible_cum']}), "
-            f"min cv {entry['min_cv_pop']:.3g}" + (f", errors {entry['n_errors']}" if entry["n_errors"] else ""))
-    best = [f"{key[5:]} {entry[key]:.3g}" for key in ("best_n_sat", "best_pdop_mean_3sigma", "best_dv_opt_kms_per_year")
-            if key in entry and math.isfinite(entry[key])]
-    return text + (f", best {', '.join(best)}" if best else "")
-
-
 def run_campaign(profile_name: str = "quick", *, overrides: dict | None = None, workers: int | None = None,
                  scheduler_address: str | None = None, run_dir=None, resume=None, progress: bool = True,
-                 max_generations: int | None = None) -> CampaignResult:
+                 max_generations: int | None = None, callbacks=()) -> CampaignResult:
     """Run (or, with ``resume`` = a run directory, continue) an NSGA-II campaign; see the module docstring.
 
     ``overrides`` is merged into the profile (e.g. ``{"campaign": {"evaluator": "synthetic"}}``);
     ``workers`` 0 or 1 evaluates in this process, None or >= 2 on a local Dask cluster, and
     ``scheduler_address`` uses an existing cluster. ``max_generations`` stops this session after
-    that many generations (the run stays resumable). Returns a :class:`CampaignResult`.
+    that many generations (the run stays resumable). ``callbacks`` (:class:`~lnss_lib.campaign.callbacks.Callback`)
+    are notified after the default chain (:func:`default_callbacks`). Returns a :class:`CampaignResult`.
     """
-    from tqdm import tqdm
-
     if resume is not None:
         run_dir = Path(resume)
         run = load_run(run_dir)
@@ -110,7 +81,6 @@ def run_campaign(profile_name: str = "quick", *, overrides: dict | None = None, 
         problem = WalkerDesignProblem(settings)
         algorithm.setup(problem, termination=build_termination(settings), seed=settings.seed, verbose=False)
     cache = EvaluationCache(run_dir / JOURNAL_FILE, eval_hash)
-    done_before = len(history)
     session_start = time.perf_counter()
     backend = None
     try:
@@ -118,45 +88,31 @@ def run_campaign(profile_name: str = "quick", *, overrides: dict | None = None, 
             backend = open_backend(evaluation_profile(profile), settings, workers, scheduler_address)
         batch = BatchEvaluator(settings, cache, backend)
         problem.metrics_source = batch
-        outer = tqdm(total=settings.generations, initial=done_before, desc=f"campaign [{name}]", unit="gen",
-                     file=sys.stderr, disable=not progress, dynamic_ncols=True)
+        state = RunState(run_dir=run_dir, name=name, settings=settings, algorithm=algorithm, cache=cache,
+                         batch=batch, history=history)
+        observers = default_callbacks(progress) + list(callbacks)
+
+        def notify(hook: str, *args) -> None:
+            for observer in observers:
+                getattr(observer, hook)(state, *args)
+
+        batch.progress = lambda done, total, hits: notify("on_designs", done, total, hits)
+        notify("on_session_start")
         session_gens = 0
         while backend is not None and algorithm.has_next():
             if max_generations is not None and session_gens >= max_generations:
                 break
-            generation = len(history) + 1
             gen_start = time.perf_counter()
             pop = algorithm.ask()
-            batch.generation = generation
-            inner = tqdm(total=len(pop), desc=f"gen {generation}", unit="design", leave=False, file=sys.stderr,
-                         disable=not progress, dynamic_ncols=True)
-
-            def report(done, total, hits, bar=inner, t0=time.perf_counter()):
-                bar.total = total + hits
-                bar.n = done + hits
-                rate = done / max(time.perf_counter() - t0, 1e-9)
-                bar.set_postfix_str(f"{rate:.2f} designs/s, cache hits {hits}", refresh=True)
-
-            batch.progress = report
+            state.generation, state.n_designs = len(history) + 1, len(pop)
+            batch.generation = state.generation
+            notify("on_generation_start")
             algorithm.evaluator.eval(problem, pop)
             algorithm.tell(infills=pop)
-            inner.close()
-            gen_wall = time.perf_counter() - gen_start
-            records = list(cache.records.values())
-            pop_keys = [tuple(int(v) for v in row) for row in np.rint(algorithm.pop.get("X"))]
-            stats = _generation_stats(settings, records, pop_keys)
-            if batch.last["errors"] and stats["n_evaluations_cum"] == sum(r["error"] for r in records):
-                first = next(r for r in records if r["error"])
-                raise RuntimeError(f"every evaluation so far failed; first: {first['reason']}")
-            history.append({"generation": generation, "n_designs": len(pop), "n_evaluated": batch.last["evaluated"],
-                            "n_cache_hits": batch.last["hits"], "n_errors": batch.last["errors"], **stats,
-                            "wall_s": gen_wall,
-                            "designs_per_s": batch.last["evaluated"] / gen_wall if gen_wall > 0 else 0.0})
-            write_checkpoint(run_dir, generation, algorithm, history, not algorithm.has_next())
+            state.wall_s = time.perf_counter() - gen_start
+            notify("on_generation_end")
             session_gens += 1
-            outer.update(1)
-            outer.set_postfix_str(_progress_text(history[-1]))
-        outer.close()
+        notify("on_session_end")
     finally:
         cache.close()
         resubmitted = getattr(backend, "resubmitted", 0)

@@ -41,3 +41,38 @@ def test_tolerance_termination_stops_early(tmp_path):
     fixed = run_campaign("ci", overrides={"campaign": {"evaluator": "synthetic", "generations": 5}}, workers=0,
                          run_dir=tmp_path / "fixed", progress=False)
     assert fixed.generations == 5
+
+
+def test_runner_notifies_callbacks_in_order_and_resume_continues_history(tmp_path):
+    from lnss_lib.campaign import Callback, load_checkpoint
+
+    class Recorder(Callback):
+        def __init__(self):
+            self.events = []
+
+        def on_session_start(self, state):
+            self.events.append(("start", len(state.history)))
+
+        def on_generation_start(self, state):
+            self.events.append(("gen", state.generation, state.n_designs))
+
+        def on_designs(self, state, n_done, n_total, n_hits):
+            assert 0 <= n_done <= n_total and n_total + n_hits <= state.n_designs
+
+        def on_generation_end(self, state):
+            # runs after the default chain: the generation is in the history and checkpointed
+            assert state.history[-1]["generation"] == state.generation and state.wall_s > 0
+            assert load_checkpoint(state.run_dir)["generation"] == state.generation
+            self.events.append(("end", state.generation))
+
+        def on_session_end(self, state):
+            self.events.append(("stop", len(state.history)))
+
+    synthetic = {"campaign": {"evaluator": "synthetic", "generations": 3}}
+    first = Recorder()
+    run_campaign("ci", overrides=synthetic, workers=0, run_dir=tmp_path / "run", progress=False,
+                 max_generations=2, callbacks=[first])
+    assert first.events == [("start", 0), ("gen", 1, 6), ("end", 1), ("gen", 2, 6), ("end", 2), ("stop", 2)]
+    second = Recorder()
+    result = run_campaign(resume=tmp_path / "run", workers=0, progress=False, callbacks=[second])
+    assert second.events == [("start", 2), ("gen", 3, 6), ("end", 3), ("stop", 3)] and result.generations == 3
