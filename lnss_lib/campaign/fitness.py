@@ -15,7 +15,7 @@ import numpy as np
 from ..keys import METRIC_KEYS
 
 __all__ = ["objective_matrix", "constraint_matrix", "constraint_violation", "non_dominated_mask", "hypervolume",
-           "metric_columns"]
+           "dominated_volume", "metric_columns"]
 
 
 def objective_matrix(metrics: dict, objectives, nan_objective: float) -> np.ndarray:
@@ -69,14 +69,43 @@ def hypervolume(metrics: dict, feasible: np.ndarray, reference) -> float:
     by the reference value (ideal at 0, reference point at 1), so 1 is the whole box [0, ref]."""
     if not reference or not np.any(feasible):
         return 0.0
-    from pymoo.indicators.hv import HV
-
     points = np.column_stack([np.asarray(metrics[m], dtype=float)[feasible] / ref for m, ref in reference])
     points = points[np.all(points < 1.0, axis=1)]
     if points.shape[0] == 0:
         return 0.0
-    points = points[non_dominated_mask(points)]
-    return float(HV(ref_point=np.ones(points.shape[1])).do(points))
+    return float(dominated_volume(points[non_dominated_mask(points)]))
+
+
+def dominated_volume(points: np.ndarray) -> float:
+    """Volume of the union of the boxes [p, 1] of ``points`` (n, k) in the unit cube (minimisation).
+
+    Exact, by slicing along the last objective (HSO): between consecutive values of that objective
+    the slice is the (k-1)-dimensional volume of the points at or below it. Three objectives are
+    done at once: the area of every slice is a sweep over the first objective with the running
+    minimum of the second, for all slices as one (n, n) array, so dominated points need no removal.
+    """
+    p = np.asarray(points, dtype=float)
+    n, k = p.shape
+    if n == 0:
+        return 0.0
+    if k == 1:
+        return float(1.0 - p[:, 0].min())
+    if k == 2:
+        order = np.argsort(p[:, 0], kind="stable")
+        x, y = p[order, 0], np.minimum.accumulate(p[order, 1])
+        return float(np.sum(np.diff(np.append(x, 1.0)) * (1.0 - y)))
+    p = p[np.argsort(p[:, -1], kind="stable")]
+    depth = np.diff(np.append(p[:, -1], 1.0))
+    if k == 3:
+        by_x = np.argsort(p[:, 0], kind="stable")           # slice i holds the points of z-rank <= i
+        y = np.where(by_x[None, :] <= np.arange(n)[:, None], p[by_x, 1][None, :], 1.0)
+        areas = np.sum(np.diff(np.append(p[by_x, 0], 1.0)) * (1.0 - np.minimum.accumulate(y, axis=1)), axis=1)
+        return float(np.sum(depth * areas))
+    volume = 0.0
+    for i in np.flatnonzero(depth > 0.0):
+        below = p[:i + 1, :-1]
+        volume += depth[i] * dominated_volume(below if k == 4 else below[non_dominated_mask(below)])
+    return volume
 
 
 def metric_columns(records: list[dict]) -> dict:

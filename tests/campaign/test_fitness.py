@@ -5,8 +5,8 @@ import math
 import numpy as np
 import pytest
 
-from lnss_lib.campaign.fitness import (constraint_matrix, constraint_violation, hypervolume, non_dominated_mask,
-                                       objective_matrix)
+from lnss_lib.campaign.fitness import (constraint_matrix, constraint_violation, dominated_volume, hypervolume,
+                                       non_dominated_mask, objective_matrix)
 
 
 def test_objectives_signs_and_nan_penalty(settings, metrics):
@@ -52,3 +52,18 @@ def test_hypervolume_closed_forms(metrics):
     two = metrics(n_sat=[10, 4, 12], pdop_mean_3sigma=[5.0, 8.0, 12.0])  # third lies outside the box
     # union of [0.5, 1] x [0.5, 1] and [0.2, 1] x [0.8, 1]: 0.25 + 0.3 * 0.2
     assert hypervolume(two, np.ones(3, dtype=bool), ref) == pytest.approx(0.31)
+
+
+def test_dominated_volume_against_pymoo_and_monte_carlo(rng):
+    from pymoo.indicators.hv import HV
+
+    for k, n in ((1, 5), (2, 40), (3, 150), (4, 120), (5, 25)):
+        points = rng.random((n, k)) ** 0.5
+        expected = HV(ref_point=np.ones(k)).do(points[non_dominated_mask(points)])
+        assert dominated_volume(points) == pytest.approx(expected, rel=1e-12, abs=1e-15)   # dominated points kept
+        assert dominated_volume(points[non_dominated_mask(points)]) == pytest.approx(expected, rel=1e-12)
+    points = np.array([[0.2, 0.5, 0.7], [0.6, 0.1, 0.4], [0.5, 0.5, 0.2], [0.2, 0.5, 0.7]])  # with a duplicate
+    samples = rng.random((400_000, 3))
+    covered = np.any(np.all(samples[:, None, :] >= points[None, :, :], axis=2), axis=1)
+    assert dominated_volume(points) == pytest.approx(covered.mean(), abs=4e-3)
+    assert dominated_volume(np.zeros((0, 4))) == 0.0 and dominated_volume(np.zeros((1, 3))) == 1.0
