@@ -19,6 +19,7 @@ from pathlib import Path
 import numpy as np
 import xarray as xr
 
+from ..config import OUTPUTS_DIR
 from ..keys import DESIGN_KEYS, INTEGER_DESIGN_KEYS, METRIC_KEYS
 from .fitness import constraint_matrix, constraint_violation, metric_columns, non_dominated_mask, objective_matrix
 from .journal import read_cache_records
@@ -50,13 +51,26 @@ def load_run(run_dir) -> dict:
     return json.loads(path.read_text())
 
 
+# classes pickled by checkpoints written before the campaign package (module lnss_lib.optimize)
+_MOVED_CLASSES = {("lnss_lib.optimize", "WalkerDesignProblem"): "lnss_lib.campaign.problem",
+                  ("lnss_lib.optimize", "CampaignSettings"): "lnss_lib.campaign.settings",
+                  ("lnss_lib.optimize", "DesignGrid"): "lnss_lib.campaign.grid"}
+
+
+class _CheckpointUnpickler(pickle.Unpickler):
+    """Reads checkpoints of either layout: classes of ``lnss_lib.optimize`` load from their new modules."""
+
+    def find_class(self, module, name):
+        return super().find_class(_MOVED_CLASSES.get((module, name), module), name)
+
+
 def load_checkpoint(run_dir) -> dict | None:
     """The last checkpoint of a run (keys generation, algorithm, history, finished), or None before the first."""
     path = Path(run_dir) / CHECKPOINT_FILE
     if not path.is_file():
         return None
     with path.open("rb") as handle:
-        return pickle.load(handle)
+        return _CheckpointUnpickler(handle).load()
 
 
 def write_checkpoint(run_dir, generation: int, algorithm, history: list[dict], finished: bool) -> None:
@@ -162,10 +176,10 @@ def write_results(run_dir, publish_dir=None) -> list[Path]:
 
 
 def default_run_dir(profile_name: str) -> Path:
-    from ..pipeline import output_dir
-
+    """A new ``outputs/<profile>/campaign/run_<time>`` (the folder runs are published from)."""
     stamp = time.strftime("%Y%m%d-%H%M%S")
-    base = output_dir(profile_name, "campaign")
+    base = OUTPUTS_DIR / profile_name / "campaign"
+    base.mkdir(parents=True, exist_ok=True)
     candidate, n = base / f"run_{stamp}", 1
     while candidate.exists():
         n += 1

@@ -67,3 +67,15 @@ def test_dominated_volume_against_pymoo_and_monte_carlo(rng):
     covered = np.any(np.all(samples[:, None, :] >= points[None, :, :], axis=2), axis=1)
     assert dominated_volume(points) == pytest.approx(covered.mean(), abs=4e-3)
     assert dominated_volume(np.zeros((0, 4))) == 0.0 and dominated_volume(np.zeros((1, 3))) == 1.0
+
+
+def test_fitness_is_pure_numpy_and_the_engine_stays_below_presentation():
+    import subprocess
+    import sys
+
+    code = ("import sys, lnss_lib.campaign.fitness; "
+            "print(sorted({m.split('.')[0] for m in sys.modules} & {'pymoo', 'dask', 'distributed', 'xarray'}))")
+    assert subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True).stdout.strip() == "[]"
+    code = ("import sys, lnss_lib.campaign; print(sorted(m for m in sys.modules if m.split('.')[0] in "
+            "('plotly', 'papermill') or m.startswith(('lnss_lib.studies', 'lnss_lib.figures', 'lnss_lib.bench'))))")
+    assert subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True).stdout.strip() == "[]"

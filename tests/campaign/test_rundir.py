@@ -1,6 +1,7 @@
 """Run directory: the NetCDF result contract of a real campaign, the command line, SIGKILL and resume."""
 
 import json
+import sys
 
 import numpy as np
 import xarray as xr
@@ -88,3 +89,28 @@ def test_sigkill_at_any_moment_then_resume_matches_uninterrupted(synthetic_refer
     xr.testing.assert_identical(got.drop_attrs(), ref.drop_attrs())
     # resuming a finished run only rewrites the results
     assert "0 evaluations" in _cli(["--resume", str(run_dir), "--workers", "0", "--no-progress"]).stdout
+
+
+def test_checkpoint_written_by_the_old_optimize_module_still_loads(tmp_path, monkeypatch):
+    import pickle
+    import types
+
+    from lnss_lib.campaign import DesignGrid, WalkerDesignProblem, load_checkpoint, run_campaign
+    from lnss_lib.campaign.rundir import CHECKPOINT_FILE
+
+    run_campaign("ci", overrides={"campaign": {"evaluator": "synthetic", "generations": 2}}, workers=0,
+                 run_dir=tmp_path / "run", progress=False)
+    checkpoint = load_checkpoint(tmp_path / "run")
+    old = types.ModuleType("lnss_lib.optimize")
+    with monkeypatch.context() as patch:         # pickle the classes under the module name they had before
+        patch.setitem(sys.modules, "lnss_lib.optimize", old)
+        for cls in (WalkerDesignProblem, CampaignSettings, DesignGrid):
+            patch.setattr(old, cls.__name__, cls, raising=False)
+            patch.setattr(cls, "__module__", "lnss_lib.optimize")
+        data = pickle.dumps(checkpoint)
+    assert b"lnss_lib.optimize" in data and "lnss_lib.optimize" not in sys.modules
+    (tmp_path / "run" / CHECKPOINT_FILE).write_bytes(data)
+    loaded = load_checkpoint(tmp_path / "run")
+    assert type(loaded["algorithm"].problem) is WalkerDesignProblem
+    np.testing.assert_array_equal(loaded["algorithm"].pop.get("X"), checkpoint["algorithm"].pop.get("X"))
+    assert run_campaign(resume=tmp_path / "run", workers=0, progress=False).generations == 2
