@@ -87,7 +87,7 @@ def _parse_sets(items: list[str] | None) -> dict | None:
 
 
 def _cmd_campaign(args: argparse.Namespace) -> int:
-    from .optimize import run_campaign
+    from .campaign import run_campaign
 
     overrides = _parse_sets(args.set)
     if args.evaluator:

@@ -10,7 +10,9 @@ from __future__ import annotations
 import copy
 import hashlib
 import json
+import platform
 import tomllib
+from importlib import metadata
 from pathlib import Path
 
 PACKAGE_DIR = Path(__file__).resolve().parent
@@ -87,3 +89,19 @@ def integrator_setting(profile: dict, setting: str | None = None) -> dict:
     if name not in settings:
         raise ValueError(f"unknown integrator setting {name!r}; available: {', '.join(settings)}")
     return {"name": name, **settings[name]}
+
+
+
+MANIFEST_PACKAGES = ("numpy", "scipy", "spiceypy", "sgp4", "numba", "xarray", "pymoo", "plotly", "dask",
+                     "distributed", "papermill", "skyfield-data", "h5netcdf", "pandas")
+
+
+def package_versions() -> dict[str, str]:
+    """Versions of Python and the packages a result depends on."""
+    versions = {"python": platform.python_version()}
+    for name in MANIFEST_PACKAGES:
+        try:
+            versions[name] = metadata.version(name)
+        except metadata.PackageNotFoundError:
+            versions[name] = "not installed"
+    return versions

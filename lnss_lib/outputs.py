@@ -15,14 +15,12 @@ import time
 from importlib import metadata
 from pathlib import Path
 
-from .config import OUTPUTS_DIR, PARAMS_DIR, PROJECT_DIR, load_profile, profile_hash
+from .config import MANIFEST_PACKAGES, OUTPUTS_DIR, PARAMS_DIR, PROJECT_DIR, load_profile, package_versions, profile_hash
 
 __all__ = ["output_dir", "profile_dir", "write_text_atomic", "write_caption", "read_caption", "markdown_table",
            "save_table", "data_checksums", "package_versions", "git_revision", "write_manifest", "CAPTION_SUFFIX",
            "OUTPUT_KINDS", "MANIFEST_PACKAGES"]
 
-MANIFEST_PACKAGES = ("numpy", "scipy", "spiceypy", "sgp4", "numba", "xarray", "pymoo", "plotly", "dask",
-                     "distributed", "papermill", "skyfield-data", "h5netcdf", "pandas")
 OUTPUT_KINDS = ("notebooks", "figures", "tables", "data", "campaign")
 CAPTION_SUFFIX = ".meta.json"
 
@@ -119,17 +117,6 @@ def data_checksums() -> dict[str, str]:
             if p.is_file() and p.name not in ("README.md", "SHA256SUMS")}
     sums["skyfield-data:de421.bsp"] = file_sha256(planetary_spk_path())
     return sums
-
-
-def package_versions() -> dict[str, str]:
-    """Versions of Python and the packages a result depends on."""
-    versions = {"python": platform.python_version()}
-    for name in MANIFEST_PACKAGES:
-        try:
-            versions[name] = metadata.version(name)
-        except metadata.PackageNotFoundError:
-            versions[name] = "not installed"
-    return versions
 
 
 def git_revision() -> str:

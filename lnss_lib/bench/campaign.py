@@ -8,27 +8,9 @@ import time
 from pathlib import Path
 
 from ..config import load_profile
-from ..optimize import CampaignSettings, load_checkpoint, read_cache_records, run_campaign
-
-PAPER_DESIGNS = 120 * 1000  # Table 5: population 120, 1000 generations
-
-
-def campaign_timing(run_dir, n_workers: int, wall_s: float) -> dict:
-    """Time shares of a finished run from its cache records (``timing_s`` of every evaluation).
-
-    Worker time available = ``n_workers * wall_s``; propagation and metrics (DOP, Delta-V, GPS
-    link) are summed over the evaluations; in-task overhead is the rest of each task (context
-    build, compiled-code loading, glue); campaign overhead is what is left (start-up, scheduling,
-    idle workers at the end of a generation, pymoo, checkpoints).
-    """
-    records = read_cache_records(run_dir)
-    propagation = sum(r["timing_s"].get("propagation", 0.0) for r in records)
-    metrics = sum(r["timing_s"].get(k, 0.0) for r in records for k in ("dop", "deltav", "gps"))
-    task = sum(r["task_wall_s"] for r in records)
-    budget = n_workers * wall_s
-    return {"n_evaluations": len(records), "propagation_s": propagation, "metrics_s": metrics,
-            "in_task_overhead_s": task - propagation - metrics, "campaign_overhead_s": budget - task,
-            "worker_budget_s": budget, "task_s": task}
+from ..campaign import CampaignSettings, load_checkpoint, read_cache_records, run_campaign
+from ..campaign.timing import campaign_timing, steady_rate
+from ..paper import EVALUATIONS
 
 
 def run(profile_name: str = "quick", generations: int | None = None, population: int | None = None,
@@ -54,26 +36,25 @@ def run(profile_name: str = "quick", generations: int | None = None, population:
         timing = campaign_timing(result.run_dir, n_workers, wall)
         history = load_checkpoint(result.run_dir)["history"]
     n = timing["n_evaluations"]
-    later = [h for h in history if h["generation"] > 1]
-    steady_rate = (sum(h["n_evaluated"] for h in later) / sum(h["wall_s"] for h in later)) if later else n / wall
+    rate = steady_rate(history, n, wall)
     first_gen_s = history[0]["wall_s"]
     startup_s = wall - sum(h["wall_s"] for h in history)
     hits = sum(h["n_cache_hits"] for h in history) / max(1, sum(h["n_designs"] for h in history))
-    projected_h = (startup_s + first_gen_s + PAPER_DESIGNS / steady_rate) / 3600.0
+    projected_h = (startup_s + first_gen_s + EVALUATIONS / rate) / 3600.0
     budget = timing["worker_budget_s"]
     print(f"campaign [{profile_name}] {population} x {generations} generations, {profile['epoch']['duration_days']:g} "
           f"days, degree {profile['gravity']['degree']}, {n_workers} worker(s): {n} unique designs "
           f"({result.n_feasible} feasible), cache hits {100 * hits:.1f}% of requests")
     print(f"  wall {wall:.1f} s (start-up {startup_s:.1f} s, generation 1 {first_gen_s:.1f} s incl. worker warm-up)"
           + ("  <- the whole quick campaign" if full and profile_name == "quick" else ""))
-    print(f"  throughput {n / wall:.2f} designs/s overall, {steady_rate:.2f} designs/s from generation 2 on")
+    print(f"  throughput {n / wall:.2f} designs/s overall, {rate:.2f} designs/s from generation 2 on")
     print(f"  worker time {budget:.1f} s: propagation {100 * timing['propagation_s'] / budget:.1f}%, metrics "
           f"(DOP, Delta-V, GPS) {100 * timing['metrics_s'] / budget:.1f}%, in-task overhead "
           f"{100 * timing['in_task_overhead_s'] / budget:.1f}%, campaign overhead "
           f"{100 * timing['campaign_overhead_s'] / budget:.1f}%")
     print(f"  mean per evaluation: propagation {timing['propagation_s'] / max(n, 1):.3f} s, metrics "
           f"{timing['metrics_s'] / max(n, 1):.3f} s")
-    print(f"  projected paper campaign (120 x 1000 = {PAPER_DESIGNS} designs, no cache hits, this design mix): "
+    print(f"  projected paper campaign (120 x 1000 = {EVALUATIONS} designs, no cache hits, this design mix): "
           f"{projected_h:.1f} h on this machine; with this run's hit rate {projected_h * (1 - hits):.1f} h")
-    return {"wall_s": wall, "n_evaluations": n, "designs_per_s": n / wall, "steady_designs_per_s": steady_rate,
+    return {"wall_s": wall, "n_evaluations": n, "designs_per_s": n / wall, "steady_designs_per_s": rate,
             "projected_paper_h": projected_h, **timing}

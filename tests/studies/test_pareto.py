@@ -5,7 +5,7 @@ import pytest
 import xarray as xr
 
 from lnss_lib.figures import dop_against_availability, pareto_3d, variable_relationships
-from lnss_lib.pareto import TABLE6_COLUMNS, load_campaign, pareto_front, parse_constraints, satisfies, synthetic_campaign, table6
+from lnss_lib.studies.pareto import TABLE6_COLUMNS, load_campaign, pareto_front, parse_constraints, satisfies, synthetic_campaign, table6
 
 
 def _campaign(rows, constraints="pdop_mean_3sigma <= 10,dv_total_kms_per_year <= 1"):
@@ -87,7 +87,7 @@ def test_figure_builders_plot_the_front():
 
 
 def test_missing_campaign_names_the_command(tmp_path, monkeypatch):
-    import lnss_lib.pipeline as pipeline
+    import lnss_lib.outputs as pipeline
 
     monkeypatch.setattr(pipeline, "OUTPUTS_DIR", tmp_path)
     with pytest.raises(FileNotFoundError, match="python -m lnss_lib campaign --profile nowhere"):

@@ -1,0 +1,162 @@
+"""Where designs are evaluated: in this process or as tasks on a Dask cluster; the batch evaluator.
+
+Each worker builds its :class:`~lnss_lib.evaluator.EvaluationContext` once
+(:func:`~lnss_lib.evaluator.context_for`) and reuses it. A design whose worker is lost is resubmitted.
+"""
+
+from __future__ import annotations
+
+import os
+import time
+
+import numpy as np
+
+from .fitness import metric_columns
+from .journal import EvaluationCache
+from .settings import CampaignSettings
+from .tasks import evaluate_task
+
+__all__ = ["SerialBackend", "DaskBackend", "open_backend", "BatchEvaluator"]
+
+
+class SerialBackend:
+    """Evaluates designs one after the other in this process."""
+
+    n_workers = 1
+    resubmitted = 0
+
+    def __init__(self, eval_profile: dict, settings: CampaignSettings):
+        self.args = (eval_profile, settings.evaluator, settings.synthetic_delay_s, 0)
+
+    def run(self, designs: list[dict]):
+        """Yield ``(index, record)`` for each design as it finishes."""
+        profile, evaluator, delay, threads = self.args
+        for index, design in enumerate(designs):
+            yield index, evaluate_task(profile, design, evaluator, delay, threads)
+
+    def close(self) -> None:
+        return None
+
+
+class DaskBackend:
+    """Evaluates designs as tasks on a Dask cluster: a new local one (``n_workers`` processes, one thread
+    each, on 127.0.0.1) or an existing one at ``scheduler_address``. A task lost with its worker
+    (KilledWorker, closed connection, cancelled) is resubmitted up to ``max_resubmits`` times."""
+
+    def __init__(self, eval_profile: dict, settings: CampaignSettings, n_workers: int | None = None,
+                 scheduler_address: str | None = None):
+        import logging
+
+        from dask.distributed import Client, LocalCluster
+
+        self.cluster = None
+        if scheduler_address:
+            self.client = Client(scheduler_address, timeout=60)
+        else:
+            self.cluster = LocalCluster(n_workers=n_workers, threads_per_worker=1, processes=True,
+                                        host="127.0.0.1", dashboard_address=None, silence_logs=logging.ERROR)
+            self.client = Client(self.cluster)
+        self.n_workers = max(1, len(self.client.scheduler_info().get("workers", {})))
+        self.profile = eval_profile
+        self.settings = settings
+        self.resubmitted = 0
+
+    def _submit(self, design: dict):
+        s = self.settings
+        return self.client.submit(evaluate_task, self.profile, design, s.evaluator, s.synthetic_delay_s,
+                                  s.numba_threads_per_worker, pure=False)
+
+    def run(self, designs: list[dict]):
+        """Yield ``(index, record)`` for each design as it finishes (completion order)."""
+        from dask.distributed import as_completed
+
+        if not designs:
+            return
+        futures = {}
+        for index, design in enumerate(designs):
+            futures[self._submit(design)] = index
+        attempts = dict.fromkeys(range(len(designs)), 0)
+        queue = as_completed(list(futures))
+        for future in queue:
+            index = futures.pop(future)
+            try:
+                record = future.result()
+            except Exception as exc:  # worker lost or task cancelled: resubmit (evaluate_task itself never raises)
+                attempts[index] += 1
+                if attempts[index] > self.settings.max_resubmits:
+                    raise RuntimeError(f"design {designs[index]} failed {attempts[index]} times on the cluster; "
+                                       f"last error: {type(exc).__name__}: {exc}") from exc
+                retry = self._submit(designs[index])
+                self.resubmitted += 1
+                futures[retry] = index
+                queue.add(retry)
+                continue
+            yield index, record
+
+    def close(self) -> None:
+        self.client.close()
+        if self.cluster is not None:
+            self.cluster.close()
+
+
+def open_backend(eval_profile: dict, settings: CampaignSettings, workers: int | None = None,
+                 scheduler_address: str | None = None):
+    """Serial for ``workers`` 0 or 1 (and no address), else Dask (``workers`` None: one per core)."""
+    if scheduler_address:
+        return DaskBackend(eval_profile, settings, scheduler_address=scheduler_address)
+    if workers is None:
+        workers = len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else (os.cpu_count() or 1)
+    if workers < 0:
+        raise ValueError(f"workers must be >= 0 (0 or 1 = serial in this process); got {workers}")
+    if workers <= 1:
+        return SerialBackend(eval_profile, settings)
+    return DaskBackend(eval_profile, settings, n_workers=workers)
+
+
+class BatchEvaluator:
+    """Scaled designs (n, 6) -> metric columns, through the cache; new designs go to the backend.
+
+    ``generation`` must be set before each call; records carry the generation in which a design was
+    first evaluated and its row in that generation's batch (``order``). ``progress`` is an optional
+    callable ``(n_done, n_total, n_hits)`` called as designs finish.
+    """
+
+    def __init__(self, settings: CampaignSettings, cache: EvaluationCache, backend):
+        self.settings = settings
+        self.cache = cache
+        self.backend = backend
+        self.generation = 1
+        self.progress = None
+        self.last = {"evaluated": 0, "hits": 0, "errors": 0, "wall_s": 0.0}
+        self.n_backend = 0
+
+    def __call__(self, scaled: np.ndarray) -> dict:
+        start = time.perf_counter()
+        keys = [tuple(int(v) for v in row) for row in np.rint(np.atleast_2d(scaled))]
+        todo, order, seen = [], [], set()
+        fresh = 0
+        for i, key in enumerate(keys):
+            if key in seen:
+                continue
+            seen.add(key)
+            if key not in self.cache:
+                todo.append(key)
+                order.append(i)
+                fresh += 1
+            elif self.cache.records[key]["generation"] == self.generation:
+                fresh += 1  # evaluated in this generation before an interruption: still new to it
+        hits = len(keys) - fresh
+        designs = self.settings.grid.designs(np.array(todo)) if todo else []
+        errors, done = 0, 0
+        if self.progress:
+            self.progress(0, len(todo), hits)
+        for index, record in self.backend.run(designs):
+            record.update(generation=self.generation, order=order[index])
+            self.cache.add(todo[index], record)
+            errors += record["error"]
+            done += 1
+            if self.progress:
+                self.progress(done, len(todo), hits)
+        self.last = {"evaluated": fresh, "hits": hits, "errors": errors, "wall_s": time.perf_counter() - start}
+        self.n_backend += done
+        return metric_columns([self.cache.records[k] for k in keys])

@@ -1,0 +1,116 @@
+"""Objectives, constraints, dominance and hypervolume of eq. 45 and Table 3: pure functions on arrays.
+
+Numpy only (pymoo's ``functions/`` and ``indicators/`` apart from its algorithms): the objectives are
+the metrics named in ``campaign.objectives`` (a leading ``-`` marks a maximised metric, negated so
+every objective is minimised); the constraints are Table 3's fitness bounds as inequality
+constraints ``g <= 0``, normalised by their limits. A design without a metric (impact, invalid
+elements, no four-satellite coverage: NaN) gets the finite penalty ``nan_objective`` for that
+objective and ``nan_violation`` for that constraint, so it is dominated, never an error.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from ..keys import METRIC_KEYS
+
+__all__ = ["objective_matrix", "constraint_matrix", "constraint_violation", "non_dominated_mask", "hypervolume",
+           "dominated_volume", "metric_columns"]
+
+
+def objective_matrix(metrics: dict, objectives, nan_objective: float) -> np.ndarray:
+    """F (n, k) for pymoo (minimised): metric, or -metric for a ``-name`` objective; NaN -> ``nan_objective``."""
+    columns = []
+    for name in objectives:
+        values = np.asarray(metrics[name.lstrip("-")], dtype=float)
+        signed = -values if name.startswith("-") else values
+        columns.append(np.where(np.isfinite(signed), signed, nan_objective))
+    return np.column_stack(columns)
+
+
+def constraint_matrix(metrics: dict, constraints, nan_violation: float) -> np.ndarray:
+    """G (n, m), feasible where <= 0: ``value / limit - 1`` for a max bound, ``1 - value / limit`` for a min
+    bound (divided by ``|limit|``, or 1 for a zero limit); a NaN metric violates by ``nan_violation``."""
+    n = len(np.asarray(metrics[METRIC_KEYS[0]]))
+    if not constraints:
+        return np.zeros((n, 0))
+    columns = []
+    for metric, kind, limit in constraints:
+        values = np.asarray(metrics[metric], dtype=float)
+        scale = abs(limit) if limit != 0.0 else 1.0
+        g = (values - limit) / scale if kind == "max" else (limit - values) / scale
+        columns.append(np.where(np.isfinite(g), g, nan_violation))
+    return np.column_stack(columns)
+
+
+def constraint_violation(g: np.ndarray) -> np.ndarray:
+    """Total violation (n,) >= 0: the sum of the positive parts of G (pymoo's CV)."""
+    return np.sum(np.maximum(np.asarray(g, dtype=float), 0.0), axis=1)
+
+
+def non_dominated_mask(f: np.ndarray, chunk: int = 512) -> np.ndarray:
+    """True for the rows of F (n, k) that no other row dominates (<= everywhere, < somewhere); minimisation.
+
+    Identical rows do not dominate each other, so duplicates are all kept.
+    """
+    f = np.asarray(f, dtype=float)
+    n = f.shape[0]
+    keep = np.ones(n, dtype=bool)
+    for start in range(0, n, chunk):
+        block = f[start:start + chunk]
+        less_eq = np.all(f[None, :, :] <= block[:, None, :], axis=2)
+        less = np.any(f[None, :, :] < block[:, None, :], axis=2)
+        keep[start:start + chunk] = ~np.any(less_eq & less, axis=1)
+    return keep
+
+
+def hypervolume(metrics: dict, feasible: np.ndarray, reference) -> float:
+    """Hypervolume of the feasible designs in the space of ``reference`` metrics, normalised per metric
+    by the reference value (ideal at 0, reference point at 1), so 1 is the whole box [0, ref]."""
+    if not reference or not np.any(feasible):
+        return 0.0
+    points = np.column_stack([np.asarray(metrics[m], dtype=float)[feasible] / ref for m, ref in reference])
+    points = points[np.all(points < 1.0, axis=1)]
+    if points.shape[0] == 0:
+        return 0.0
+    return float(dominated_volume(points[non_dominated_mask(points)]))
+
+
+def dominated_volume(points: np.ndarray) -> float:
+    """Volume of the union of the boxes [p, 1] of ``points`` (n, k) in the unit cube (minimisation).
+
+    Exact, by slicing along the last objective (HSO): between consecutive values of that objective
+    the slice is the (k-1)-dimensional volume of the points at or below it. Three objectives are
+    done at once: the area of every slice is a sweep over the first objective with the running
+    minimum of the second, for all slices as one (n, n) array, so dominated points need no removal.
+    """
+    p = np.asarray(points, dtype=float)
+    n, k = p.shape
+    if n == 0:
+        return 0.0
+    if k == 1:
+        return float(1.0 - p[:, 0].min())
+    if k == 2:
+        order = np.argsort(p[:, 0], kind="stable")
+        x, y = p[order, 0], np.minimum.accumulate(p[order, 1])
+        return float(np.sum(np.diff(np.append(x, 1.0)) * (1.0 - y)))
+    p = p[np.argsort(p[:, -1], kind="stable")]
+    depth = np.diff(np.append(p[:, -1], 1.0))
+    if k == 3:
+        by_x = np.argsort(p[:, 0], kind="stable")           # slice i holds the points of z-rank <= i
+        y = np.where(by_x[None, :] <= np.arange(n)[:, None], p[by_x, 1][None, :], 1.0)
+        areas = np.sum(np.diff(np.append(p[by_x, 0], 1.0)) * (1.0 - np.minimum.accumulate(y, axis=1)), axis=1)
+        return float(np.sum(depth * areas))
+    volume = 0.0
+    for i in np.flatnonzero(depth > 0.0):
+        below = p[:i + 1, :-1]
+        volume += depth[i] * dominated_volume(below if k == 4 else below[non_dominated_mask(below)])
+    return volume
+
+
+def metric_columns(records: list[dict]) -> dict:
+    """Metric arrays (n,) keyed by ``METRIC_KEYS`` from cache records, plus ``ok`` (evaluated without impact)."""
+    columns = {k: np.array([r["metrics"][k] for r in records], dtype=int if k == "n_sat" else float)
+               for k in METRIC_KEYS}
+    columns["ok"] = np.array([r["ok"] for r in records], dtype=bool)
+    return columns

@@ -1,0 +1,83 @@
+"""The evaluation journal ``evaluations.jsonl``: the run's persistent evaluation cache.
+
+One JSON line per design evaluated, appended (and flushed) as each design finishes; the header line
+holds the evaluation hash (:func:`~lnss_lib.campaign.settings.evaluation_hash`) and the format
+version, so a design is never evaluated twice in a run, even across kills. One parser
+(:func:`parse_journal`) serves the cache and :func:`read_cache_records`.
+"""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+__all__ = ["EvaluationCache", "read_cache_records", "parse_journal", "JOURNAL_FILE", "FORMAT_VERSION"]
+
+JOURNAL_FILE = "evaluations.jsonl"
+FORMAT_VERSION = 1
+
+
+def parse_journal(data: bytes) -> tuple[dict, list[dict], int]:
+    """(header, records in file order, length of the complete lines) of a journal's bytes.
+
+    Only complete lines count: a last line without its newline (cut short by a kill) is left out.
+    """
+    end = data.rfind(b"\n") + 1
+    lines = data[:end].decode().splitlines()
+    header = json.loads(lines[0]) if lines else {}
+    return header, [json.loads(line) for line in lines[1:]], end
+
+
+class EvaluationCache:
+    """The run's evaluations, keyed by scaled design (tuple of 6 ints), backed by an append-only JSON-lines file.
+
+    The first line records the evaluation hash; each further line is one record
+    ``{"key", "generation", "order", "metrics", "ok", "impact", "error", "reason", ...}``. A line cut
+    short by a kill is dropped (and the file truncated to the last complete line) on opening.
+    Opening a file written under another evaluation hash raises ValueError.
+    """
+
+    def __init__(self, path: Path, eval_hash: str):
+        self.path = Path(path)
+        self.eval_hash = eval_hash
+        self.records: dict[tuple, dict] = {}
+        if self.path.exists():
+            self._load()
+        else:
+            self.path.write_text(json.dumps({"evaluation_hash": eval_hash, "format": FORMAT_VERSION}) + "\n")
+        self._handle = self.path.open("a")
+
+    def _load(self) -> None:
+        data = self.path.read_bytes()
+        header, records, end = parse_journal(data)
+        if end < len(data):
+            with self.path.open("r+b") as handle:
+                handle.truncate(end)
+        if header.get("evaluation_hash") != self.eval_hash:
+            raise ValueError(f"{self.path} holds evaluations for evaluation hash {header.get('evaluation_hash')!r}, "
+                             f"not {self.eval_hash!r}: the parameters that change an evaluation differ")
+        self.records = {tuple(record["key"]): record for record in records}
+
+    def __contains__(self, key: tuple) -> bool:
+        return key in self.records
+
+    def __len__(self) -> int:
+        return len(self.records)
+
+    def add(self, key: tuple, record: dict) -> None:
+        """Store ``record`` under ``key`` and append it to the file (flushed)."""
+        record = {"key": list(key), **record}
+        self.records[key] = record
+        self._handle.write(json.dumps(record) + "\n")
+        self._handle.flush()
+
+    def close(self) -> None:
+        self._handle.close()
+
+
+def read_cache_records(run_dir) -> list[dict]:
+    """Every record of a run's evaluation cache, in file order (complete lines only)."""
+    path = Path(run_dir) / JOURNAL_FILE
+    if not path.is_file():
+        return []
+    return parse_journal(path.read_bytes())[1]

@@ -1,0 +1,128 @@
+"""The campaign: pymoo's NSGA-II through ask and tell, one generation at a time, in a run directory.
+
+:func:`run_campaign` (``python -m lnss_lib campaign``) is a loop: ask the algorithm for a generation,
+evaluate it through the journal and a backend, tell the algorithm, and notify the callbacks
+(:mod:`lnss_lib.campaign.callbacks`: error guard, history, checkpoint, progress bars) that do the
+rest. A run killed at any moment and resumed ends with the same population as an uninterrupted
+one: designs of an interrupted generation come back from the journal, the checkpoint holds the
+algorithm and its random generator.
+"""
+
+from __future__ import annotations
+
+import time
+from dataclasses import dataclass
+from pathlib import Path
+
+from ..config import OUTPUTS_DIR, load_profile
+from .backends import BatchEvaluator, open_backend
+from .callbacks import Callback, Checkpointer, ErrorGuard, HistoryRecorder, ProgressBars, RunState
+from .journal import JOURNAL_FILE, EvaluationCache
+from .problem import WalkerDesignProblem, build_algorithm, build_termination
+from .rundir import default_run_dir, load_checkpoint, load_run, start_run, write_results
+from .settings import CampaignSettings, evaluation_hash, evaluation_profile
+
+__all__ = ["run_campaign", "CampaignResult", "default_callbacks"]
+
+
+def default_callbacks(progress: bool) -> list[Callback]:
+    """Error guard, history, checkpoint and (with ``progress``) the tqdm bars, in the order they act."""
+    chain = [ErrorGuard(), HistoryRecorder(), Checkpointer()]
+    return chain + [ProgressBars()] if progress else chain
+
+
+@dataclass
+class CampaignResult:
+    """What :func:`run_campaign` returns: the run directory, result files and headline numbers."""
+
+    run_dir: Path
+    files: list[Path]
+    generations: int
+    n_evaluations: int
+    n_feasible: int
+    wall_s: float
+    session_evaluations: int
+    session_wall_s: float
+    resubmitted: int
+
+
+def run_campaign(profile_name: str = "quick", *, overrides: dict | None = None, workers: int | None = None,
+                 scheduler_address: str | None = None, run_dir=None, resume=None, progress: bool = True,
+                 max_generations: int | None = None, callbacks=()) -> CampaignResult:
+    """Run (or, with ``resume`` = a run directory, continue) an NSGA-II campaign; see the module docstring.
+
+    ``overrides`` is merged into the profile (e.g. ``{"campaign": {"evaluator": "synthetic"}}``);
+    ``workers`` 0 or 1 evaluates in this process, None or >= 2 on a local Dask cluster, and
+    ``scheduler_address`` uses an existing cluster. ``max_generations`` stops this session after
+    that many generations (the run stays resumable). ``callbacks`` (:class:`~lnss_lib.campaign.callbacks.Callback`)
+    are notified after the default chain (:func:`default_callbacks`). Returns a :class:`CampaignResult`.
+    """
+    if resume is not None:
+        run_dir = Path(resume)
+        run = load_run(run_dir)
+        profile = run["profile"]
+        if overrides:
+            raise ValueError("a resumed run keeps its parameters: overrides are not allowed with resume")
+        if evaluation_hash(profile) != run["evaluation_hash"]:
+            raise ValueError(f"{run_dir}: evaluation hash of the stored profile changed; cannot resume")
+    else:
+        profile = load_profile(profile_name, overrides=overrides)
+        run_dir = Path(run_dir) if run_dir is not None else default_run_dir(profile_name)
+        start_run(run_dir, profile)
+    settings = CampaignSettings.from_profile(profile)
+    eval_hash = evaluation_hash(profile)
+    name = profile["profile"]["name"]
+    checkpoint = load_checkpoint(run_dir)
+    if checkpoint is not None:
+        algorithm, history = checkpoint["algorithm"], checkpoint["history"]
+        problem = algorithm.problem
+    else:
+        algorithm, history = build_algorithm(settings), []
+        problem = WalkerDesignProblem(settings)
+        algorithm.setup(problem, termination=build_termination(settings), seed=settings.seed, verbose=False)
+    cache = EvaluationCache(run_dir / JOURNAL_FILE, eval_hash)
+    session_start = time.perf_counter()
+    backend = None
+    try:
+        if not (checkpoint and checkpoint.get("finished")) and algorithm.has_next():
+            backend = open_backend(evaluation_profile(profile), settings, workers, scheduler_address)
+        batch = BatchEvaluator(settings, cache, backend)
+        problem.metrics_source = batch
+        state = RunState(run_dir=run_dir, name=name, settings=settings, algorithm=algorithm, cache=cache,
+                         batch=batch, history=history)
+        observers = default_callbacks(progress) + list(callbacks)
+
+        def notify(hook: str, *args) -> None:
+            for observer in observers:
+                getattr(observer, hook)(state, *args)
+
+        batch.progress = lambda done, total, hits: notify("on_designs", done, total, hits)
+        notify("on_session_start")
+        session_gens = 0
+        while backend is not None and algorithm.has_next():
+            if max_generations is not None and session_gens >= max_generations:
+                break
+            gen_start = time.perf_counter()
+            pop = algorithm.ask()
+            state.generation, state.n_designs = len(history) + 1, len(pop)
+            batch.generation = state.generation
+            notify("on_generation_start")
+            algorithm.evaluator.eval(problem, pop)
+            algorithm.tell(infills=pop)
+            state.wall_s = time.perf_counter() - gen_start
+            notify("on_generation_end")
+            session_gens += 1
+        notify("on_session_end")
+    finally:
+        cache.close()
+        resubmitted = getattr(backend, "resubmitted", 0)
+        if backend is not None:
+            backend.close()
+    published = (OUTPUTS_DIR / name / "campaign").resolve()
+    files = write_results(run_dir, published if run_dir.resolve().parent == published else None) if history else []
+    return CampaignResult(run_dir=run_dir, files=files, generations=len(history),
+                          n_evaluations=history[-1]["n_evaluations_cum"] if history else 0,
+                          n_feasible=history[-1]["n_feasible_cum"] if history else 0,
+                          wall_s=float(sum(h["wall_s"] for h in history)),
+                          session_evaluations=batch.n_backend, session_wall_s=time.perf_counter() - session_start,
+                          resubmitted=resubmitted)

@@ -1,0 +1,138 @@
+"""Campaign settings (``[campaign]`` of ``params/*.toml``, Table 5) checked once, and the evaluation hash.
+
+:func:`evaluation_hash` covers every parameter that can change the evaluation of a scaled design, so
+a run's journal is never re-used under other physics.
+"""
+
+from __future__ import annotations
+
+import copy
+import math
+from dataclasses import dataclass, field
+
+from ..config import deep_merge, profile_hash
+from ..keys import METRIC_KEYS
+from .grid import DesignGrid
+
+__all__ = ["CampaignSettings", "evaluation_profile", "evaluation_hash", "EVALUATORS", "CAMPAIGN_ONLY_KEYS"]
+
+EVALUATORS = ("walker", "synthetic")
+CAMPAIGN_ONLY_KEYS = ("population", "generations", "crossover_prob", "crossover_eta", "mutation_eta",
+                      "mutation_prob_var", "seed", "ftol", "ftol_period", "objectives", "constraints",
+                      "nan_objective", "nan_violation", "hypervolume", "max_resubmits",
+                      "numba_threads_per_worker", "synthetic_delay_s")
+
+
+@dataclass(frozen=True)
+class CampaignSettings:
+    """``profile["campaign"]`` checked (see ``params/paper.toml``); ValueError names a bad entry."""
+
+    grid: DesignGrid
+    population: int
+    generations: int
+    crossover_prob: float
+    crossover_eta: float
+    mutation_eta: float
+    mutation_prob_var: float
+    seed: int
+    ftol: float
+    ftol_period: int
+    objectives: tuple[str, ...]
+    constraints: tuple[tuple[str, str, float], ...]
+    nan_objective: float
+    nan_violation: float
+    hypervolume: tuple[tuple[str, float], ...]
+    evaluator: str
+    synthetic_delay_s: float
+    max_resubmits: int
+    numba_threads_per_worker: int
+    overrides: dict = field(default_factory=dict)
+
+    @classmethod
+    def from_profile(cls, profile: dict) -> "CampaignSettings":
+        if "campaign" not in profile:
+            raise ValueError(f"profile {profile.get('profile', {}).get('name')!r} has no [campaign] section")
+        c = profile["campaign"]
+
+        def number(key, kind=float, low=None, high=None):
+            if key not in c:
+                raise ValueError(f"campaign.{key} is missing")
+            value = c[key]
+            if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value) \
+                    or (kind is int and value != int(value)):
+                raise ValueError(f"campaign.{key} must be a finite {kind.__name__}; got {value!r}")
+            if (low is not None and value < low) or (high is not None and value > high):
+                raise ValueError(f"campaign.{key} = {value!r} is outside [{low}, {high}]")
+            return kind(value)
+
+        objectives = tuple(c.get("objectives", ()))
+        bad = [o for o in objectives if not isinstance(o, str) or o.lstrip("-") not in METRIC_KEYS]
+        if not objectives or bad or len({o.lstrip("-") for o in objectives}) != len(objectives):
+            raise ValueError(f"campaign.objectives must be distinct metric names (optionally '-' = maximise) "
+                             f"from {', '.join(METRIC_KEYS)}; bad: {bad or objectives!r}")
+        constraints = []
+        for metric, spec in c.get("constraints", {}).items():
+            if metric not in METRIC_KEYS or not isinstance(spec, dict) or len(spec) != 1 \
+                    or next(iter(spec)) not in ("min", "max"):
+                raise ValueError(f"campaign.constraints.{metric}: need a metric of {', '.join(METRIC_KEYS)} "
+                                 f"and exactly one of {{min = value}} or {{max = value}}; got {spec!r}")
+            kind, limit = next(iter(spec.items()))
+            if isinstance(limit, bool) or not isinstance(limit, (int, float)) or not math.isfinite(limit):
+                raise ValueError(f"campaign.constraints.{metric}.{kind} must be a finite number; got {limit!r}")
+            constraints.append((metric, kind, float(limit)))
+        hv = []
+        for metric, ref in c.get("hypervolume", {}).items():
+            if metric not in METRIC_KEYS or isinstance(ref, bool) or not isinstance(ref, (int, float)) or ref <= 0:
+                raise ValueError(f"campaign.hypervolume.{metric}: need a metric of {', '.join(METRIC_KEYS)} "
+                                 f"and a positive reference value; got {ref!r}")
+            hv.append((metric, float(ref)))
+        evaluator = c.get("evaluator", "walker")
+        if evaluator not in EVALUATORS:
+            raise ValueError(f"campaign.evaluator {evaluator!r} unknown; allowed: {', '.join(EVALUATORS)}")
+        overrides = c.get("overrides", {})
+        if not isinstance(overrides, dict) or "campaign" in overrides:
+            raise ValueError(f"campaign.overrides must be a table of profile sections other than campaign; "
+                             f"got {overrides!r}")
+        return cls(
+            grid=DesignGrid.from_settings(c.get("variables", {})),
+            population=number("population", int, 2),
+            generations=number("generations", int, 1),
+            crossover_prob=number("crossover_prob", float, 0.0, 1.0),
+            crossover_eta=number("crossover_eta", float, 0.0),
+            mutation_eta=number("mutation_eta", float, 0.0),
+            mutation_prob_var=number("mutation_prob_var", float, 0.0, 1.0),
+            seed=number("seed", int, 0),
+            ftol=number("ftol", float, 0.0),
+            ftol_period=number("ftol_period", int, 1),
+            objectives=objectives,
+            constraints=tuple(constraints),
+            nan_objective=number("nan_objective", float, 0.0),
+            nan_violation=number("nan_violation", float, 0.0),
+            hypervolume=tuple(hv),
+            evaluator=evaluator,
+            synthetic_delay_s=number("synthetic_delay_s", float, 0.0),
+            max_resubmits=number("max_resubmits", int, 0),
+            numba_threads_per_worker=number("numba_threads_per_worker", int, 0),
+            overrides=overrides,
+        )
+
+
+def evaluation_profile(profile: dict) -> dict:
+    """The profile an evaluation runs under: ``campaign.overrides`` merged in, no campaign section."""
+    settings = CampaignSettings.from_profile(profile)
+    base = {k: v for k, v in profile.items() if k != "campaign"}
+    return deep_merge(base, settings.overrides)
+
+
+def evaluation_hash(profile: dict) -> str:
+    """Hash of every parameter that can change an evaluation of a scaled design.
+
+    :func:`~lnss_lib.config.profile_hash` of the profile without the campaign-only keys
+    (``CAMPAIGN_ONLY_KEYS``: population, objectives, constraints, seed, ...); the grid
+    (``campaign.variables``), ``campaign.overrides`` and ``campaign.evaluator`` stay in.
+    """
+    CampaignSettings.from_profile(profile)
+    content = copy.deepcopy(profile)
+    for key in CAMPAIGN_ONLY_KEYS:
+        content["campaign"].pop(key, None)
+    return profile_hash(content)

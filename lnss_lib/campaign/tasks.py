@@ -1,0 +1,90 @@
+"""One design's evaluation as a task (in-process or on a Dask worker), and the synthetic stand-in."""
+
+from __future__ import annotations
+
+import math
+import os
+import socket
+import time
+
+from ..keys import METRIC_KEYS, TIMING_KEYS
+
+__all__ = ["evaluate_task", "synthetic_evaluation"]
+
+
+def synthetic_evaluation(profile: dict, sma_km: float, ecc: float, aop_deg: float, inc_deg: float,
+                         n_planes: int, sats_per_plane: int, delay_s: float = 0.0) -> dict:
+    """A closed-form stand-in for :func:`~lnss_lib.evaluator.evaluate_design` (tests and debugging; no physics).
+
+    Same keys and conventions (an orbit whose perilune ``a (1 - e)`` is below the mean lunar
+    radius plus the minimum altitude is an impact with NaN metrics); smooth, deterministic
+    trade-offs between satellite count, apolune over the south pole (AOP near 90 deg, high
+    inclination) and a perilune-driven Delta-V. ``delay_s`` sleeps to mimic an evaluation's cost.
+    Chosen with ``campaign.evaluator = "synthetic"`` (or ``--evaluator synthetic``).
+    """
+    start = time.perf_counter()
+    if delay_s > 0.0:
+        time.sleep(delay_s)
+    n_sat = int(n_planes) * int(sats_per_plane)
+    r_min = float(profile["constants"]["r_moon_mean_km"]) + float(profile["impact"]["min_altitude_km"])
+    result = {"deltav_model": "synthetic", "timing_s": dict.fromkeys(TIMING_KEYS, 0.0)}
+    if sma_km * (1.0 - ecc) < r_min:
+        result.update({k: math.nan for k in METRIC_KEYS}, n_sat=n_sat, feasible=False, impact=True,
+                      reason=f"impact: perilune {sma_km * (1.0 - ecc):.1f} km below {r_min:.1f} km")
+    else:
+        pole = 0.5 * (1.0 + math.sin(math.radians(aop_deg))) * math.sin(math.radians(inc_deg))
+        visible = n_sat * (0.2 + 0.6 * pole * (0.3 + ecc) + 0.2 * sma_km / 24000.0)
+        pdop = 1.2 + 12.0 / max(visible, 0.3) ** 1.2
+        avail = 100.0 * min(1.0, visible / 5.0)
+        dv_total = 0.1 + 4.0 * (r_min / (sma_km * (1.0 - ecc))) ** 4 + 0.3 * ecc * math.cos(math.radians(inc_deg))
+        gps_visible = 12.0 * sma_km / 24000.0 * (0.5 + 0.5 * math.cos(math.radians(aop_deg)))
+        result.update(n_sat=n_sat, mean_visible_sats=visible, pdop_mean_3sigma=pdop, pdop_avail_pct=avail,
+                      hdop_mean_3sigma=0.45 * pdop, hdop_avail_pct=min(100.0, 1.1 * avail),
+                      dv_total_kms_per_year=dv_total, dv_opt_kms_per_year=0.75 * dv_total,
+                      gps_visible_mean=gps_visible,
+                      gps_pdop_mean=500.0 / gps_visible if gps_visible >= 1.0 else math.nan,
+                      feasible=True, impact=False, reason="")
+    result["wall_s"] = time.perf_counter() - start
+    return result
+
+
+def evaluate_task(eval_profile: dict, design: dict, evaluator: str = "walker", synthetic_delay_s: float = 0.0,
+                  numba_threads: int = 0) -> dict:
+    """Evaluate one design where this runs (in-process or a Dask worker); a JSON-ready record.
+
+    The walker evaluator uses the process-wide context (:func:`~lnss_lib.evaluator.context_for`:
+    kernels, tables and compiled code are loaded once per process). ``numba_threads`` > 0 caps the
+    propagator's threads (one per worker process on a shared machine). An exception inside the
+    evaluator is recorded as an infeasible design with ``reason`` "error: ..." and ``error`` True.
+    """
+    start = time.perf_counter()
+    if numba_threads > 0:
+        import numba
+
+        numba.set_num_threads(min(numba_threads, numba.config.NUMBA_NUM_THREADS))
+    try:
+        if evaluator == "walker":
+            from ..evaluator import context_for, evaluate_design
+
+            result = evaluate_design(context_for(eval_profile), **design)
+        else:
+            result = synthetic_evaluation(eval_profile, **design, delay_s=synthetic_delay_s)
+        error = False
+    except Exception as exc:  # recorded, counted and reported; one failed design must not stop a campaign
+        result = {k: math.nan for k in METRIC_KEYS}
+        result.update(n_sat=int(design["n_planes"]) * int(design["sats_per_plane"]), feasible=False,
+                      impact=False, reason=f"error: {type(exc).__name__}: {exc}", wall_s=0.0, deltav_model="")
+        error = True
+    metrics = {k: (int(result[k]) if k == "n_sat" else float(result[k])) for k in METRIC_KEYS}
+    return {
+        "metrics": metrics,
+        "ok": bool(result["feasible"]),
+        "impact": bool(result.get("impact", False)),
+        "error": error,
+        "reason": str(result.get("reason", "")),
+        "deltav_model": str(result.get("deltav_model", "")),
+        "timing_s": {k: float(v) for k, v in result.get("timing_s", {}).items()},
+        "wall_s": float(result.get("wall_s", 0.0)),
+        "task_wall_s": time.perf_counter() - start,
+        "worker": f"{socket.gethostname()}:{os.getpid()}",
+    }

@@ -1,0 +1,38 @@
+"""Where a campaign's worker time went, from its journal: propagation, metrics, overheads.
+
+Used by ``python -m lnss_lib bench campaign`` and notebook 06's throughput table; the campaign
+package never imports :mod:`lnss_lib.bench`.
+"""
+
+from __future__ import annotations
+
+from .journal import read_cache_records
+
+__all__ = ["campaign_timing", "steady_rate"]
+
+
+def campaign_timing(run_dir, n_workers: int, wall_s: float) -> dict:
+    """Time shares of a finished run from its cache records (``timing_s`` of every evaluation).
+
+    Worker time available = ``n_workers * wall_s``; propagation and metrics (DOP, Delta-V, GPS
+    link) are summed over the evaluations; in-task overhead is the rest of each task (context
+    build, compiled-code loading, glue); campaign overhead is what is left (start-up, scheduling,
+    idle workers at the end of a generation, pymoo, checkpoints).
+    """
+    records = read_cache_records(run_dir)
+    propagation = sum(r["timing_s"].get("propagation", 0.0) for r in records)
+    metrics = sum(r["timing_s"].get(k, 0.0) for r in records for k in ("dop", "deltav", "gps"))
+    task = sum(r["task_wall_s"] for r in records)
+    budget = n_workers * wall_s
+    return {"n_evaluations": len(records), "propagation_s": propagation, "metrics_s": metrics,
+            "in_task_overhead_s": task - propagation - metrics, "campaign_overhead_s": budget - task,
+            "worker_budget_s": budget, "task_s": task}
+
+
+def steady_rate(history: list[dict], n_evaluations: int, wall_s: float) -> float:
+    """Designs evaluated per second of generation wall time from generation 2 on (generation 1 holds the
+    worker warm-up); ``n_evaluations / wall_s`` when the run has one generation."""
+    later = [h for h in history if h["generation"] > 1]
+    if later:
+        return sum(h["n_evaluated"] for h in later) / sum(h["wall_s"] for h in later)
+    return n_evaluations / wall_s

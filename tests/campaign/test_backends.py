@@ -1,0 +1,116 @@
+"""Evaluation tasks and backends: the synthetic evaluator, a Dask cluster on loopback against the in-process
+run, and a lost worker."""
+
+import json
+import math
+import os
+import signal
+import subprocess
+import time
+
+import numpy as np
+import pytest
+import xarray as xr
+
+from lnss_lib.campaign import final_population, read_cache_records, synthetic_evaluation
+from lnss_lib.config import PROJECT_DIR, load_profile
+from lnss_lib.keys import METRIC_KEYS
+
+from .helpers import CLI, KILL_SETTINGS, SYNTHETIC, _cli, _journal_count
+
+
+def test_synthetic_evaluator_flags_impact():
+    profile = load_profile("ci")
+    hit = synthetic_evaluation(profile, 4000.0, 0.8, 90.0, 50.0, 2, 2)
+    assert hit["impact"] and not hit["feasible"] and math.isnan(hit["pdop_mean_3sigma"]) and hit["n_sat"] == 4
+    ok = synthetic_evaluation(profile, 8000.0, 0.5, 90.0, 80.0, 4, 4)
+    assert ok["feasible"] and all(math.isfinite(ok[k]) for k in METRIC_KEYS)
+
+
+def _start_worker(scheduler_address):
+    return subprocess.Popen(["dask", "worker", scheduler_address, "--nthreads", "1", "--no-nanny", "--no-dashboard",
+                             "--host", "127.0.0.1"], cwd=PROJECT_DIR, stdout=subprocess.DEVNULL,
+                            stderr=subprocess.DEVNULL, env={**os.environ, "NUMBA_NUM_THREADS": "1"})
+
+
+def _wait_for_workers(address, n):
+    from dask.distributed import Client
+
+    with Client(address, timeout=60) as client:
+        client.wait_for_workers(n, timeout=120)
+
+
+@pytest.fixture(scope="module")
+def cluster(tmp_path_factory):
+    """``dask scheduler`` and two ``dask worker`` processes bound to 127.0.0.1."""
+    scheduler_file = tmp_path_factory.mktemp("dask") / "scheduler.json"
+    procs = [subprocess.Popen(["dask", "scheduler", "--host", "127.0.0.1", "--port", "0", "--no-dashboard",
+                               "--scheduler-file", str(scheduler_file)], cwd=PROJECT_DIR,
+                              stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL,
+                              env={**os.environ, "DASK_DISTRIBUTED__SCHEDULER__ALLOWED_FAILURES": "0"})]
+    try:
+        deadline = time.monotonic() + 60
+        while not scheduler_file.exists():
+            assert time.monotonic() < deadline and procs[0].poll() is None, "dask scheduler did not start"
+            time.sleep(0.1)
+        time.sleep(0.2)
+        address = json.loads(scheduler_file.read_text())["address"]
+        assert address.startswith("tcp://127.0.0.1:")
+        workers = [_start_worker(address) for _ in range(2)]
+        procs += workers
+        _wait_for_workers(address, 2)
+        yield address, workers
+    finally:
+        for proc in reversed(procs):
+            if proc.poll() is None:
+                proc.send_signal(signal.SIGTERM)
+        for proc in procs:
+            try:
+                proc.wait(timeout=20)
+            except subprocess.TimeoutExpired:
+                proc.kill()
+
+
+def test_dask_cluster_run_equals_local_run(cluster, real_run, tmp_path):
+    address, workers = cluster
+    run_dir = tmp_path / "dask"
+    _cli(["--profile", "ci", "--scheduler-address", address, "--run-dir", str(run_dir), "--no-progress"])
+    x_ref, f_ref = final_population(real_run.run_dir)
+    x, f = final_population(run_dir)
+    np.testing.assert_array_equal(x, x_ref)
+    np.testing.assert_array_equal(f, f_ref)
+    ref = xr.open_dataset(real_run.run_dir / "evaluations.nc", engine="h5netcdf").load()
+    got = xr.open_dataset(run_dir / "evaluations.nc", engine="h5netcdf").load()
+    xr.testing.assert_identical(got.drop_attrs(), ref.drop_attrs())
+    used = {r["worker"].rsplit(":", 1)[1] for r in read_cache_records(run_dir)}
+    assert used <= {str(w.pid) for w in workers} and len(used) == 2  # evaluated in both worker processes
+
+
+def test_lost_worker_costs_only_its_designs(cluster, synthetic_reference, tmp_path):
+    address, _ = cluster
+    extra = _start_worker(address)
+    try:
+        _wait_for_workers(address, 3)
+        run_dir = tmp_path / "lost"
+        proc = subprocess.Popen(CLI + SYNTHETIC + KILL_SETTINGS + ["--scheduler-address", address, "--run-dir",
+                                                                   str(run_dir)],
+                                cwd=PROJECT_DIR, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+        deadline = time.monotonic() + 120
+        while _journal_count(run_dir) < 10:
+            assert time.monotonic() < deadline and proc.poll() is None, "campaign did not progress"
+            time.sleep(0.01)
+        extra.send_signal(signal.SIGKILL)
+        _, err = proc.communicate(timeout=300)
+        assert proc.returncode == 0, err
+    finally:
+        if extra.poll() is None:
+            extra.kill()
+        extra.wait()
+    records = read_cache_records(run_dir)
+    assert any(r["worker"].endswith(f":{extra.pid}") for r in records)  # the killed worker had taken designs
+    keys = [tuple(r["key"]) for r in records]
+    assert len(keys) == len(set(keys))
+    x_ref, f_ref = final_population(synthetic_reference)
+    x, f = final_population(run_dir)
+    np.testing.assert_array_equal(x, x_ref)
+    np.testing.assert_array_equal(f, f_ref)

@@ -1,0 +1,81 @@
+"""Objectives and constraints (eq. 45, Table 3), the non-dominated mask and the hypervolume."""
+
+import math
+
+import numpy as np
+import pytest
+
+from lnss_lib.campaign.fitness import (constraint_matrix, constraint_violation, dominated_volume, hypervolume,
+                                       non_dominated_mask, objective_matrix)
+
+
+def test_objectives_signs_and_nan_penalty(settings, metrics):
+    metrics = metrics(n_sat=[8, 12], pdop_mean_3sigma=[2.5, math.nan], pdop_avail_pct=[95.0, 0.0],
+                       hdop_mean_3sigma=[1.0, math.nan], hdop_avail_pct=[90.0, 0.0],
+                       dv_total_kms_per_year=[0.8, 2.0], dv_opt_kms_per_year=[0.6, 1.5],
+                       gps_visible_mean=[7.0, 3.0], gps_pdop_mean=[900.0, math.nan])
+    f = objective_matrix(metrics, settings.objectives, settings.nan_objective)
+    np.testing.assert_array_equal(f[0], [8, 2.5, -95.0, 1.0, -90.0, 0.8, 0.6, -7.0, 900.0])
+    np.testing.assert_array_equal(f[1], [12, 1e6, -0.0, 1e6, -0.0, 2.0, 1.5, -3.0, 1e6])
+    assert np.all(np.isfinite(f))
+
+
+def test_constraints_of_table3_normalised(settings, metrics):
+    assert settings.constraints == (("pdop_mean_3sigma", "max", 10.0), ("pdop_avail_pct", "min", 70.0),
+                                    ("dv_total_kms_per_year", "max", 1.0), ("n_sat", "max", 20.0))
+    metrics = metrics(n_sat=[12, 20, 4], pdop_mean_3sigma=[12.0, 10.0, math.nan], pdop_avail_pct=[56.0, 70.0, 0.0],
+                       dv_total_kms_per_year=[2.5, 1.0, math.nan])
+    g = constraint_matrix(metrics, settings.constraints, settings.nan_violation)
+    np.testing.assert_allclose(g[0], [0.2, 0.2, 1.5, -0.4])
+    np.testing.assert_allclose(g[1], [0.0, 0.0, 0.0, 0.0])
+    np.testing.assert_allclose(g[2], [1e3, 1.0, 1e3, -0.8])
+    np.testing.assert_allclose(constraint_violation(g), [1.9, 0.0, 2001.0])
+
+
+def test_non_dominated_mask_against_brute_force_and_pymoo(rng):
+    from pymoo.util.nds.non_dominated_sorting import find_non_dominated
+
+    f = rng.integers(0, 6, size=(300, 3)).astype(float)
+    brute = np.array([not any(np.all(f[j] <= f[i]) and np.any(f[j] < f[i]) for j in range(len(f)))
+                      for i in range(len(f))])
+    mask = non_dominated_mask(f, chunk=37)
+    np.testing.assert_array_equal(mask, brute)
+    g = rng.random((200, 4))
+    np.testing.assert_array_equal(np.flatnonzero(non_dominated_mask(g)), np.sort(find_non_dominated(g)))
+
+
+def test_hypervolume_closed_forms(metrics):
+    ref = (("n_sat", 20.0), ("pdop_mean_3sigma", 10.0))
+    one = metrics(n_sat=[10], pdop_mean_3sigma=[5.0])
+    assert hypervolume(one, np.array([True]), ref) == pytest.approx(0.25)
+    assert hypervolume(one, np.array([False]), ref) == 0.0
+    two = metrics(n_sat=[10, 4, 12], pdop_mean_3sigma=[5.0, 8.0, 12.0])  # third lies outside the box
+    # union of [0.5, 1] x [0.5, 1] and [0.2, 1] x [0.8, 1]: 0.25 + 0.3 * 0.2
+    assert hypervolume(two, np.ones(3, dtype=bool), ref) == pytest.approx(0.31)
+
+
+def test_dominated_volume_against_pymoo_and_monte_carlo(rng):
+    from pymoo.indicators.hv import HV
+
+    for k, n in ((1, 5), (2, 40), (3, 150), (4, 120), (5, 25)):
+        points = rng.random((n, k)) ** 0.5
+        expected = HV(ref_point=np.ones(k)).do(points[non_dominated_mask(points)])
+        assert dominated_volume(points) == pytest.approx(expected, rel=1e-12, abs=1e-15)   # dominated points kept
+        assert dominated_volume(points[non_dominated_mask(points)]) == pytest.approx(expected, rel=1e-12)
+    points = np.array([[0.2, 0.5, 0.7], [0.6, 0.1, 0.4], [0.5, 0.5, 0.2], [0.2, 0.5, 0.7]])  # with a duplicate
+    samples = rng.random((400_000, 3))
+    covered = np.any(np.all(samples[:, None, :] >= points[None, :, :], axis=2), axis=1)
+    assert dominated_volume(points) == pytest.approx(covered.mean(), abs=4e-3)
+    assert dominated_volume(np.zeros((0, 4))) == 0.0 and dominated_volume(np.zeros((1, 3))) == 1.0
+
+
+def test_fitness_is_pure_numpy_and_the_engine_stays_below_presentation():
+    import subprocess
+    import sys
+
+    code = ("import sys, lnss_lib.campaign.fitness; "
+            "print(sorted({m.split('.')[0] for m in sys.modules} & {'pymoo', 'dask', 'distributed', 'xarray'}))")
+    assert subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True).stdout.strip() == "[]"
+    code = ("import sys, lnss_lib.campaign; print(sorted(m for m in sys.modules if m.split('.')[0] in "
+            "('plotly', 'papermill') or m.startswith(('lnss_lib.studies', 'lnss_lib.figures', 'lnss_lib.bench'))))")
+    assert subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True).stdout.strip() == "[]"

@@ -1,0 +1,116 @@
+"""Run directory: the NetCDF result contract of a real campaign, the command line, SIGKILL and resume."""
+
+import json
+import sys
+
+import numpy as np
+import xarray as xr
+
+from lnss_lib.__main__ import _parse_sets, main
+from lnss_lib.campaign import CampaignSettings, final_population, read_cache_records
+from lnss_lib.config import load_profile
+from lnss_lib.evaluator import context_for, evaluate_design
+from lnss_lib.keys import DESIGN_KEYS, METRIC_KEYS
+
+from .helpers import KILL_SETTINGS, SYNTHETIC, _cli, _run_until
+
+
+def test_set_parser_and_cli_errors(capsys):
+    assert _parse_sets(["campaign.generations=4", "epoch.duration_days=1.5", "campaign.seed=3"]) == {
+        "campaign": {"generations": 4, "seed": 3}, "epoch": {"duration_days": 1.5}}
+    assert main(["campaign", "--set", "campaign.generations"]) == 2
+    assert "SECTION.KEY=VALUE" in capsys.readouterr().err
+    assert main(["campaign", "--resume", "/nonexistent/run", "--profile", "ci"]) == 2
+    assert "--resume continues a run" in capsys.readouterr().err
+
+
+def test_real_campaign_netcdf_contract(real_run):
+    settings = CampaignSettings.from_profile(load_profile("ci"))
+    ev = xr.open_dataset(real_run.run_dir / "evaluations.nc", engine="h5netcdf").load()
+    front = xr.open_dataset(real_run.run_dir / "front.nc", engine="h5netcdf").load()
+    history = xr.open_dataset(real_run.run_dir / "history.nc", engine="h5netcdf").load()
+    expected = {*DESIGN_KEYS, *METRIC_KEYS, "feasible", "impact", "constraint_violation", "generation"}
+    for ds in (ev, front):
+        assert set(ds.data_vars) == expected and set(ds.dims) == {"design"}
+        for name in ("sma_km", "ecc", "aop_deg", "inc_deg"):
+            assert ds[name].dtype == np.float64
+        for name in ("n_planes", "sats_per_plane", "n_sat", "generation"):
+            assert np.issubdtype(ds[name].dtype, np.integer)
+        assert ds.feasible.dtype == bool and ds.impact.dtype == bool
+        assert ds.attrs["profile"] == "ci" and ds.attrs["objectives"].split(",") == list(settings.objectives)
+        assert json.loads(ds.attrs["parameters"])["campaign"]["population"] == 6
+        assert "pymoo" in json.loads(ds.attrs["versions"])
+    assert ev.sizes["design"] == real_run.n_evaluations == len(read_cache_records(real_run.run_dir))
+    designs = np.column_stack([ev[k].values for k in DESIGN_KEYS])
+    assert len({tuple(row) for row in designs}) == ev.sizes["design"]  # every design once
+    np.testing.assert_allclose(settings.grid.descale(np.rint(settings.grid.scale(designs))), designs)
+    np.testing.assert_array_equal(ev.n_sat, ev.n_planes * ev.sats_per_plane)
+    assert ev.generation.min() == 1 and ev.generation.max() == 3 and np.all(np.diff(ev.generation) >= 0)
+    # violations and feasibility follow from the stored metrics (Table 3 limits, independently written)
+    pdop, avail, dv = ev.pdop_mean_3sigma.values, ev.pdop_avail_pct.values, ev.dv_total_kms_per_year.values
+    with np.errstate(invalid="ignore"):
+        manual = (np.where(np.isnan(pdop), 1e3, np.maximum(pdop / 10 - 1, 0))
+                  + np.where(np.isnan(avail), 1e3, np.maximum(1 - avail / 70, 0))
+                  + np.where(np.isnan(dv), 1e3, np.maximum(dv - 1, 0)))
+    np.testing.assert_allclose(ev.constraint_violation, manual, rtol=1e-12)
+    assert np.all(ev.constraint_violation >= 0)
+    np.testing.assert_array_equal(ev.feasible, (ev.constraint_violation == 0) & ~np.isnan(pdop))
+    assert np.all(front.feasible) and front.sizes["design"] <= int(ev.feasible.sum())
+    np.testing.assert_array_equal(history.generation, [1, 2, 3])
+    np.testing.assert_array_equal(history.n_evaluations_cum[-1], ev.sizes["design"])
+    assert np.all(history.n_evaluated + history.n_cache_hits == history.n_designs)
+
+
+def test_real_campaign_cache_holds_a_fresh_evaluation(real_run):
+    ev = xr.open_dataset(real_run.run_dir / "evaluations.nc", engine="h5netcdf").load()
+    ok = np.flatnonzero(~np.isnan(ev.pdop_avail_pct.values))
+    row = ev.isel(design=int(ok[-1]))
+    fresh = evaluate_design(context_for(load_profile("ci")), **{k: row[k].item() for k in DESIGN_KEYS})
+    for key in METRIC_KEYS:
+        np.testing.assert_allclose(fresh[key], row[key].item(), rtol=1e-12, equal_nan=True)
+
+
+def test_sigkill_at_any_moment_then_resume_matches_uninterrupted(synthetic_reference, tmp_path):
+    run_dir = tmp_path / "killed"
+    # kills: before the first checkpoint, mid-generation 2, mid-generation 5; then run to the end
+    assert _run_until(SYNTHETIC + KILL_SETTINGS + ["--workers", "0", "--run-dir", str(run_dir)], run_dir, 2)
+    assert not (run_dir / "checkpoint.pkl").exists()
+    assert _run_until(["--resume", str(run_dir), "--workers", "0", "--no-progress"], run_dir, 9)
+    assert _run_until(["--resume", str(run_dir), "--workers", "0", "--no-progress"], run_dir, 27)
+    _cli(["--resume", str(run_dir), "--workers", "0", "--no-progress"])
+    x_ref, f_ref = final_population(synthetic_reference)
+    x, f = final_population(run_dir)
+    np.testing.assert_array_equal(x, x_ref)
+    np.testing.assert_array_equal(f, f_ref)
+    keys = [tuple(r["key"]) for r in read_cache_records(run_dir)]
+    assert len(keys) == len(set(keys)) == len(read_cache_records(synthetic_reference))  # nothing evaluated twice
+    ref = xr.open_dataset(synthetic_reference / "evaluations.nc", engine="h5netcdf").load()
+    got = xr.open_dataset(run_dir / "evaluations.nc", engine="h5netcdf").load()
+    xr.testing.assert_identical(got.drop_attrs(), ref.drop_attrs())
+    # resuming a finished run only rewrites the results
+    assert "0 evaluations" in _cli(["--resume", str(run_dir), "--workers", "0", "--no-progress"]).stdout
+
+
+def test_checkpoint_written_by_the_old_optimize_module_still_loads(tmp_path, monkeypatch):
+    import pickle
+    import types
+
+    from lnss_lib.campaign import DesignGrid, WalkerDesignProblem, load_checkpoint, run_campaign
+    from lnss_lib.campaign.rundir import CHECKPOINT_FILE
+
+    run_campaign("ci", overrides={"campaign": {"evaluator": "synthetic", "generations": 2}}, workers=0,
+                 run_dir=tmp_path / "run", progress=False)
+    checkpoint = load_checkpoint(tmp_path / "run")
+    old = types.ModuleType("lnss_lib.optimize")
+    with monkeypatch.context() as patch:         # pickle the classes under the module name they had before
+        patch.setitem(sys.modules, "lnss_lib.optimize", old)
+        for cls in (WalkerDesignProblem, CampaignSettings, DesignGrid):
+            patch.setattr(old, cls.__name__, cls, raising=False)
+            patch.setattr(cls, "__module__", "lnss_lib.optimize")
+        data = pickle.dumps(checkpoint)
+    assert b"lnss_lib.optimize" in data and "lnss_lib.optimize" not in sys.modules
+    (tmp_path / "run" / CHECKPOINT_FILE).write_bytes(data)
+    loaded = load_checkpoint(tmp_path / "run")
+    assert type(loaded["algorithm"].problem) is WalkerDesignProblem
+    np.testing.assert_array_equal(loaded["algorithm"].pop.get("X"), checkpoint["algorithm"].pop.get("X"))
+    assert run_campaign(resume=tmp_path / "run", workers=0, progress=False).generations == 2
