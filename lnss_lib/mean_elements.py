@@ -62,7 +62,8 @@ def mean_elements(states: np.ndarray, gm_km3_s2: float) -> np.ndarray:
     osc = state_to_elements(s, gm_km3_s2)
     u_osc = np.unwrap(osc[..., 4] + osc[..., 5], axis=-1)
     u_mean = np.mod(np.einsum("...n,n->...", u_osc, w), TWO_PI)
-    return np.stack([a_mean, ecc, inc, raan, aop, u_mean], axis=-1)
+    out = np.stack([a_mean, ecc, inc, raan, aop, u_mean], axis=-1)
+    return np.where(np.all(np.isfinite(s), axis=(-2, -1))[..., None], out, np.nan)
 
 
 def wrap_pi(angle_rad):

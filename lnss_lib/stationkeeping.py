@@ -188,8 +188,11 @@ def simulate_life(profile: dict, elements_deg, *, natural: bool = False, life_da
     periods = orbital_period_s(el[:, 0], gm)
     step = float(periods.min()) / cfg.samples_per_orbit
     window = np.rint(periods / step).astype(int)
-    chunk_s = max(cfg.check_interval_days * SECONDS_PER_DAY, 2.05 * float(periods.max()))
-    n_chunks = int(np.ceil(life_s / chunk_s - 1e-9))
+    if life_s < 2.05 * float(periods.max()):
+        raise ValueError(f"design life {cfg.life_days} days is shorter than 2.05 orbits "
+                         f"({2.05 * periods.max() / SECONDS_PER_DAY:.2f} days)")
+    n_chunks = max(1, int(np.floor(life_s / max(cfg.check_interval_days * SECONDS_PER_DAY, 2.05 * float(periods.max())))))
+    chunk_s = life_s / n_chunks
     ref_ecc, ref_aop, ref_inc = el[:, 1], np.radians(el[:, 4]), np.radians(el[:, 2])
     nom_raan, nom_u = np.radians(el[:, 3]), np.radians(el[:, 4] + el[:, 5])
     half = np.array([cfg.box["ecc"], np.radians(cfg.box["aop_deg"]), np.radians(cfg.box["inc_deg"]),
@@ -231,8 +234,7 @@ def simulate_life(profile: dict, elements_deg, *, natural: bool = False, life_da
         y = np.where(active[:, None], y_new, y)
         mel = np.full((n_sat, 6), np.nan)
         for i in np.flatnonzero(active):
-            sl = seg_states[i, n_win - window[i]:]
-            mel[i] = mean_elements(to_element_frame(sl, rot), gm)
+            mel[i] = mean_elements(to_element_frame(seg_states[i, n_win - window[i]:], rot), gm)
         raan_rel = relative_angles(mel[:, 3], nom_raan, active)
         u_rel = relative_angles(mel[:, 5], nom_u, active)
         err = np.stack([mel[:, 1] - ref_ecc, wrap_pi(mel[:, 4] - ref_aop), mel[:, 2] - ref_inc, raan_rel, u_rel], axis=1)
