@@ -72,9 +72,9 @@ def wrap_pi(angle_rad):
 
 
 def circular_mean(angle_rad, axis=-1):
-    """Mean direction of angles (rad), in [-pi, pi); NaNs ignored."""
+    """Mean direction of angles (rad), in [-pi, pi); NaNs ignored (0 when all are NaN)."""
     ang = np.asarray(angle_rad, dtype=float)
-    return np.arctan2(np.nanmean(np.sin(ang), axis=axis), np.nanmean(np.cos(ang), axis=axis))
+    return np.arctan2(np.nansum(np.sin(ang), axis=axis), np.nansum(np.cos(ang), axis=axis))
 
 
 def relative_angles(angle_rad: np.ndarray, nominal_rad: np.ndarray, active: np.ndarray | None = None) -> np.ndarray:
