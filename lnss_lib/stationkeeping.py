@@ -14,7 +14,8 @@ A satellite out of its box (and whose last manoeuvre is at least ``min_maneuver_
 old, and whose Delta-v cap is not spent) gets one or two impulses on the next orbit, planned from
 the GVEs (:func:`lnss_lib.maneuvers.plan_impulses`) and flown in the propagation (the velocity
 jumps at the burn epoch). Targeting: e, AOP, i and relative RAAN are aimed back at the reference
-(the centre of the box); the along-track slot is held by a drift-rate (phasing) correction: out of
+(the centre of the box) when out of it, while the quantities still inside are held unchanged by
+the same burns (the periodic motion inside the box costs nothing); the along-track slot is held by a drift-rate (phasing) correction: out of
 its box, the satellite's mean a is changed so that it drifts back to its slot centre in
 ``phasing_days``, from its current relative drift rate (measured as the slope of the slot offset
 since its last manoeuvre, or from the mean a when there are too few checks); inside the box, a
@@ -253,7 +254,7 @@ def simulate_life(profile: dict, elements_deg, *, natural: bool = False, life_da
             if dv_used[i] >= cap_kms:
                 continue
             osc = state_to_elements(to_element_frame(y[i], rot), gm)
-            plan = _plan(osc, mel[i], ref_ecc[i], ref_aop[i], ref_inc[i], raan_rel[i], u_rel[i], out[4],
+            plan = _plan(osc, mel[i], ref_ecc[i], ref_aop[i], ref_inc[i], raan_rel[i], u_rel[i], out,
                          u_since[i], mel[active, 0].mean(), cfg.phasing_days * SECONDS_PER_DAY, gm)
             if plan is None:
                 continue
@@ -265,18 +266,20 @@ def simulate_life(profile: dict, elements_deg, *, natural: bool = False, life_da
                          np.array(hist_err), half, burns_t, burns_dv, impact_t, cap_kms, time.perf_counter() - start)
 
 
-def _plan(osc, mel, ref_ecc, ref_aop, ref_inc, raan_rel, u_rel, u_out, u_history, a_mean_all, phasing_s, gm):
-    """Impulses for one satellite: e-vector, i and relative RAAN to the reference; a for the slot."""
+def _plan(osc, mel, ref_ecc, ref_aop, ref_inc, raan_rel, u_rel, out, u_history, a_mean_all, phasing_s, gm):
+    """Impulses for one satellite: each quantity out of its box (``out``, order :data:`BOX_KEYS`) is aimed
+    at its reference (e and AOP together, as the e vector in nodal axes); the others are held (zero
+    change), so the periodic motion inside the box costs nothing; the slot is held through a."""
     a, n = mel[0], np.sqrt(gm / mel[0] ** 3)
-    # targets of the control set are changes of the nodal-axes e-vector: measured from the osculating
-    # AOP, so that the e-vector rows of the GVE matrix (evaluated at the osculating state) apply
+    fix_e = out[0] or out[1]
     target = {
-        "ex": ref_ecc * np.cos(ref_aop) - mel[1] * np.cos(mel[4]),
-        "ey": ref_ecc * np.sin(ref_aop) - mel[1] * np.sin(mel[4]),
-        "inc_rad": ref_inc - mel[2],
-        "raan_rad": -raan_rel,
+        "ex": ref_ecc * np.cos(ref_aop) - mel[1] * np.cos(mel[4]) if fix_e else 0.0,
+        "ey": ref_ecc * np.sin(ref_aop) - mel[1] * np.sin(mel[4]) if fix_e else 0.0,
+        "inc_rad": ref_inc - mel[2] if out[2] else 0.0,
+        "raan_rad": -raan_rel if out[3] else 0.0,
         "a_km": 0.0,
     }
+    u_out = out[4]
     if u_out:
         if len(u_history) >= 3:
             tt, uu = np.array(u_history).T
