@@ -269,7 +269,8 @@ def simulate_life(profile: dict, elements_deg, *, natural: bool = False, life_da
 def _plan(osc, mel, ref_ecc, ref_aop, ref_inc, raan_rel, u_rel, out, u_history, a_mean_all, phasing_s, gm):
     """Impulses for one satellite: each quantity out of its box (``out``, order :data:`BOX_KEYS`) is aimed
     at its reference (e and AOP together, as the e vector in nodal axes); the others are held (zero
-    change), so the periodic motion inside the box costs nothing; the slot is held through a."""
+    change, the slot included: u one orbit after the burns), so the periodic motion inside the box costs
+nothing; a slot out of its box is driven back through a."""
     a, n = mel[0], np.sqrt(gm / mel[0] ** 3)
     fix_e = out[0] or out[1]
     target = {
@@ -278,6 +279,7 @@ def _plan(osc, mel, ref_ecc, ref_aop, ref_inc, raan_rel, u_rel, out, u_history, 
         "inc_rad": ref_inc - mel[2] if out[2] else 0.0,
         "raan_rad": -raan_rel if out[3] else 0.0,
         "a_km": 0.0,
+        "u_rad": 0.0,
     }
     u_out = out[4]
     if u_out:
@@ -287,6 +289,7 @@ def _plan(osc, mel, ref_ecc, ref_aop, ref_inc, raan_rel, u_rel, out, u_history, 
         else:
             rate = -1.5 * n / a * (a - a_mean_all)
         target["a_km"] = (-u_rel / phasing_s - rate) / (-1.5 * n / a)
+        del target["u_rad"]
     plan = plan_impulses(osc, gm, target, max_burns=2)
     return plan if plan.dv_rtn_kms.size else None
 
