@@ -208,6 +208,6 @@ def plan_impulses(elements: np.ndarray, gm_km3_s2: float, target: dict, *, horiz
     achieved = np.zeros(len(rows))
     for t_k, dv_k in zip(dt_sel, dv):
         idx = int(np.argmin(np.abs(dts - t_k)))
-        achieved += columns[idx] @ dv_k / 1.0
+        achieved += columns[idx] @ dv_k
     achieved = achieved / scale
     return ImpulsePlan(dt_sel, dv, achieved, achieved - np.array([target[k] for k in target]))
