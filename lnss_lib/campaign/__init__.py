@@ -5,7 +5,7 @@ runs pymoo's NSGA-II through ask and tell in a run directory; a campaign killed 
 resumed (``--resume``) ends with the same population as an uninterrupted one. Modules:
 
 * :mod:`.settings` (:class:`CampaignSettings`, the evaluation hash) and :mod:`.grid` (eq. 43-44);
-* :mod:`.fitness`: objective and constraint matrices, non-dominated mask, hypervolume (numpy only);
+* :mod:`.fitness`: objective and constraint matrices, non-dominated mask, hypervolume (numpy; pymoo's HV indicator);
 * :mod:`.tasks` (one evaluation) and :mod:`.backends` (serial, Dask) with :class:`BatchEvaluator`;
 * :mod:`.journal`: ``evaluations.jsonl``, the persistent evaluation cache;
 * :mod:`.problem`: the pymoo problem and algorithm; :mod:`.rundir`: run.json, checkpoints, NetCDF export;
@@ -24,7 +24,7 @@ __all__ = ["run_campaign", "CampaignResult", "CampaignSettings", "DesignGrid", "
            "load_checkpoint", "final_population", "export_results", "write_results", "RESULT_FILES",
            "evaluation_hash", "evaluation_profile", "Callback", "RunState", "ErrorGuard", "HistoryRecorder",
            "Checkpointer", "ProgressBars", "default_callbacks", "objective_matrix", "constraint_matrix",
-           "constraint_violation", "non_dominated_mask", "hypervolume", "dominated_volume",
+           "constraint_violation", "non_dominated_mask", "hypervolume",
            "metric_columns", "evaluate_task", "synthetic_evaluation", "EvaluationCache",
            "read_cache_records", "SerialBackend", "DaskBackend", "open_backend", "BatchEvaluator",
            "WalkerDesignProblem", "build_algorithm", "build_termination", "campaign_timing"]
@@ -42,7 +42,6 @@ _MODULES = {
     "RunState": "callbacks",
     "constraint_matrix": "fitness",
     "constraint_violation": "fitness",
-    "dominated_volume": "fitness",
     "hypervolume": "fitness",
     "metric_columns": "fitness",
     "non_dominated_mask": "fitness",

@@ -1,6 +1,6 @@
 """Objectives, constraints, dominance and hypervolume of eq. 45 and Table 3: pure functions on arrays.
 
-Numpy only (pymoo's ``functions/`` and ``indicators/`` apart from its algorithms): the objectives are
+Numpy, and pymoo's HV indicator alone (pymoo's ``functions/`` and ``indicators/`` apart from its algorithms): the objectives are
 the metrics named in ``campaign.objectives`` (a leading ``-`` marks a maximised metric, negated so
 every objective is minimised); the constraints are Table 3's fitness bounds as inequality
 constraints ``g <= 0``, normalised by their limits. A design without a metric (impact, invalid
@@ -15,7 +15,7 @@ import numpy as np
 from ..keys import METRIC_KEYS
 
 __all__ = ["objective_matrix", "constraint_matrix", "constraint_violation", "non_dominated_mask", "hypervolume",
-           "dominated_volume", "metric_columns"]
+           "metric_columns"]
 
 
 def objective_matrix(metrics: dict, objectives, nan_objective: float) -> np.ndarray:
@@ -73,39 +73,9 @@ def hypervolume(metrics: dict, feasible: np.ndarray, reference) -> float:
     points = points[np.all(points < 1.0, axis=1)]
     if points.shape[0] == 0:
         return 0.0
-    return float(dominated_volume(points[non_dominated_mask(points)]))
+    from pymoo.indicators.hv import HV      # the indicator alone: no algorithm machinery
 
-
-def dominated_volume(points: np.ndarray) -> float:
-    """Volume of the union of the boxes [p, 1] of ``points`` (n, k) in the unit cube (minimisation).
-
-    Exact, by slicing along the last objective (HSO): between consecutive values of that objective
-    the slice is the (k-1)-dimensional volume of the points at or below it. Three objectives are
-    done at once: the area of every slice is a sweep over the first objective with the running
-    minimum of the second, for all slices as one (n, n) array, so dominated points need no removal.
-    """
-    p = np.asarray(points, dtype=float)
-    n, k = p.shape
-    if n == 0:
-        return 0.0
-    if k == 1:
-        return float(1.0 - p[:, 0].min())
-    if k == 2:
-        order = np.argsort(p[:, 0], kind="stable")
-        x, y = p[order, 0], np.minimum.accumulate(p[order, 1])
-        return float(np.sum(np.diff(np.append(x, 1.0)) * (1.0 - y)))
-    p = p[np.argsort(p[:, -1], kind="stable")]
-    depth = np.diff(np.append(p[:, -1], 1.0))
-    if k == 3:
-        by_x = np.argsort(p[:, 0], kind="stable")           # slice i holds the points of z-rank <= i
-        y = np.where(by_x[None, :] <= np.arange(n)[:, None], p[by_x, 1][None, :], 1.0)
-        areas = np.sum(np.diff(np.append(p[by_x, 0], 1.0)) * (1.0 - np.minimum.accumulate(y, axis=1)), axis=1)
-        return float(np.sum(depth * areas))
-    volume = 0.0
-    for i in np.flatnonzero(depth > 0.0):
-        below = p[:i + 1, :-1]
-        volume += depth[i] * dominated_volume(below if k == 4 else below[non_dominated_mask(below)])
-    return volume
+    return float(HV(ref_point=np.ones(points.shape[1]))(points[non_dominated_mask(points)]))
 
 
 def metric_columns(records: list[dict]) -> dict:
