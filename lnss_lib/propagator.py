@@ -24,7 +24,8 @@ from .config import integrator_setting
 from .constants import SECONDS_PER_DAY
 from .elements import elements_to_state, validate_elements
 from .errors import ImpactError
-from .ephemeris import EphemerisTable, element_frame_to_j2000, ensure_kernels, tdb_iso, tdb_seconds
+from .ephemeris import EphemerisTable, ensure_kernels, tdb_iso, tdb_seconds
+from .frames import element_frame_to_j2000
 from .forces import SCRATCH_SIZE, SOLAR_P, SRP_K, TERMS, ForceModel, acceleration
 
 METHODS = ("RK45", "DOP853")
@@ -409,7 +410,7 @@ def propagate_elements(profile: dict, elements_deg, *, setting: str | None = Non
     ensure_kernels(profile)
     epoch = profile["epoch"]
     t0 = tdb_seconds(epoch["start_tdb"], "TDB") if t0_tdb_s is None else float(t0_tdb_s)
-    duration = epoch["duration_days"] * 86400.0 if duration_s is None else float(duration_s)
+    duration = epoch["duration_days"] * SECONDS_PER_DAY if duration_s is None else float(duration_s)
     step = epoch["step_s"] if step_s is None else float(step_s)
     states = elements_deg_to_states(profile, elements_deg, t0)
     ds = propagate_states(profile, states, t0, duration, step, setting=setting, degree=degree, batch=batch, model=model)
