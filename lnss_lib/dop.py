@@ -8,9 +8,9 @@ past J2000.
 Kernel (:func:`dop_kernel`): elevation from the local vertical, visibility with the mask
 (eq. 3-4), and the geometry matrix G = [l_hat, 1] of eq. 5 accumulated as H = G^T G over the
 visible satellites only (invisible rows are zeroed, which leaves H exactly that of the visible
-set). The position block of H^-1 (eq. 6) is the inverse of the Schur complement
-S = A - b b^T / N_v (A = sum l l^T, b = sum l), inverted in closed form for every time x grid
-sample at once. PDOP and HDOP (eq. 7-8) come from its diagonal; HDOP takes the line-of-sight
+set). The position block of H^-1 (eq. 6) is the inverse of the clock's Schur complement
+S = sum (l - l_mean)(l - l_mean)^T over the visible satellites, inverted in closed form for every
+time x grid sample at once (:mod:`lnss_lib.geometry`, shared with the GPS link). PDOP and HDOP (eq. 7-8) come from its diagonal; HDOP takes the line-of-sight
 axes either as the Moon-fixed x, y (``"moon_fixed"``, the paper's literal eq. 5-8) or as the
 local East and North (``"enu"``, the physically horizontal error). PDOP is the same in both.
 Samples with fewer than 4 visible satellites have no DOP (NaN).
@@ -29,7 +29,7 @@ import xarray as xr
 
 from .constants import MIN_VISIBLE
 from .frames import rotate_to_moon_fixed
-from .geometry import _inverse_position_block, availability_pct, sigma_filtered_mean
+from .geometry import availability_pct, normal_matrix_entries, position_block_inverse, sigma_filtered_mean
 
 __all__ = ["LOS_AXES", "WEIGHTINGS", "SurfaceGrid", "surface_grid", "grid_from_profile", "elevation_deg", "dop_kernel",
            "check_positions", "dop_grid", "dop_summary", "dop_for_profile", "dop_from_propagation", "summary_from_profile"]
@@ -191,16 +191,8 @@ def dop_kernel(r_mf_km: np.ndarray, r_grid_km: np.ndarray, up: np.ndarray, eleva
         dy *= inv_rho
         dz *= inv_rho
         visible = (dx * ux + dy * uy + dz * uz) >= sin_mask
-        dx *= visible
-        dy *= visible
-        dz *= visible
-        n = visible.sum(axis=0, dtype=np.int16)
-        nf = n.astype(float)
-        ixx, iyy, izz, ixy, ixz, iyz, ok = _inverse_position_block(
-            nf, dx.sum(axis=0), dy.sum(axis=0), dz.sum(axis=0),
-            np.einsum("stp,stp->tp", dx, dx), np.einsum("stp,stp->tp", dy, dy), np.einsum("stp,stp->tp", dz, dz),
-            np.einsum("stp,stp->tp", dx, dy), np.einsum("stp,stp->tp", dx, dz), np.einsum("stp,stp->tp", dy, dz),
-        )
+        n, entries = normal_matrix_entries(dx, dy, dz, visible, axis=0)
+        ixx, iyy, izz, ixy, ixz, iyz, ok = position_block_inverse(*entries)
         trace = ixx + iyy + izz
         if los_axes == "moon_fixed":
             horizontal = ixx + iyy

@@ -1,28 +1,94 @@
 """Dilution-of-precision geometry shared by the lunar grid (:mod:`lnss_lib.dop`) and the GPS link
 (:mod:`lnss_lib.gps`): the position block of (G^T G)^-1 (paper eq. 5-7) and the filtered means and
 availability of the DOP statistics (eq. 9-14).
+
+With G = [l_k^T, 1] over the visible satellites (unit lines of sight l_k, eq. 5), the position block
+of (G^T G)^-1 is the inverse of the Schur complement of the clock,
+S = sum_k (l_k - l_mean)(l_k - l_mean)^T, written centred: with nearly parallel lines of sight (GPS
+seen from the Moon) the uncentred form A - b b^T / N loses most of its digits to cancellation.
+Without the clock column the block is A^-1, A = sum_k l_k l_k^T. Both go through one closed-form
+inverse (:func:`position_block_inverse`) with one singularity rule: det S <= :data:`SINGULAR_RTOL`
+(trace S / 3)^3 is singular. Eq. 6's pseudo-inverse equals the inverse whenever G has full rank.
 """
 
 from __future__ import annotations
 
+import numba as nb
 import numpy as np
 
-from .constants import MIN_VISIBLE
+__all__ = ["SINGULAR_RTOL", "PDOP_FILTERS", "normal_matrix_entries", "position_block_inverse", "sigma_filtered_mean",
+           "availability_pct", "filtered_mean"]
 
-__all__ = ["PDOP_FILTERS", "sigma_filtered_mean", "availability_pct", "filtered_mean"]
+SINGULAR_RTOL = 1e-12       # det S relative to (trace S / 3)^3 below which the geometry counts as singular
 
-def _inverse_position_block(n, bx, by, bz, axx, ayy, azz, axy, axz, ayz):
-    """Entries of the position block of (G^T G)^-1 via the Schur complement S = A - b b^T / n.
 
-    Returns (ixx, iyy, izz, ixy, ixz, iyz, det_ok) where det_ok flags non-singular S.
+@nb.njit(cache=True)
+def _normal_sums(lx, ly, lz, w, centred):
+    """Counts (m,) and entries (6, m) of sum_k w_k (l_k - l_mean)(l_k - l_mean)^T over axis 0 of (n, m) arrays
+    (``w``: weights or a boolean mask; without ``centred`` the mean is left at zero).
+
+    Two passes, both streaming along axis 1 (contiguous): the weighted means, then the products.
     """
-    inv_n = 1.0 / np.maximum(n, 1.0)
-    sxx = axx - bx * bx * inv_n
-    syy = ayy - by * by * inv_n
-    szz = azz - bz * bz * inv_n
-    sxy = axy - bx * by * inv_n
-    sxz = axz - bx * bz * inv_n
-    syz = ayz - by * bz * inv_n
+    n, m = lx.shape
+    count = np.zeros(m)
+    mean = np.zeros((3, m))
+    for k in range(n):
+        for j in range(m):
+            wk = 1.0 * w[k, j]
+            count[j] += wk
+            if centred:
+                mean[0, j] += wk * lx[k, j]
+                mean[1, j] += wk * ly[k, j]
+                mean[2, j] += wk * lz[k, j]
+    if centred:
+        for j in range(m):
+            inv = 1.0 / max(count[j], 1.0)
+            mean[0, j] *= inv
+            mean[1, j] *= inv
+            mean[2, j] *= inv
+    s = np.zeros((6, m))
+    for k in range(n):
+        for j in range(m):
+            wk = 1.0 * w[k, j]
+            x = (lx[k, j] - mean[0, j]) * wk
+            y = (ly[k, j] - mean[1, j]) * wk
+            z = (lz[k, j] - mean[2, j]) * wk
+            s[0, j] += x * x
+            s[1, j] += y * y
+            s[2, j] += z * z
+            s[3, j] += x * y
+            s[4, j] += x * z
+            s[5, j] += y * z
+    return count, s
+
+
+def _leading(a, axis: int, dtype=float) -> np.ndarray:
+    """``a`` with ``axis`` first and the rest flattened: a C-contiguous (n, m) array of ``dtype``."""
+    moved = np.moveaxis(np.asarray(a, dtype=dtype), axis, 0)
+    return np.ascontiguousarray(moved.reshape(moved.shape[0], -1))
+
+
+def normal_matrix_entries(lx, ly, lz, visible, axis: int = -1, clock_column: bool = True):
+    """(n_visible, (sxx, syy, szz, sxy, sxz, syz)): the matrix whose inverse is the position block of
+    (G^T G)^-1, summed over the satellites along ``axis``; every output has the inputs' shape without it.
+
+    ``lx``, ``ly``, ``lz``: components of the unit lines of sight; ``visible``: mask of the same shape
+    (invisible satellites do not count). With ``clock_column`` the centred Schur complement
+    S = sum_k (l_k - l_mean)(l_k - l_mean)^T over the visible satellites, else A = sum_k l_k l_k^T.
+    """
+    shape = np.delete(np.shape(lx), axis)
+    mask = np.asarray(visible)
+    w = _leading(mask, axis, bool if mask.dtype == bool else float)
+    count, sums = _normal_sums(_leading(lx, axis), _leading(ly, axis), _leading(lz, axis), w, bool(clock_column))
+    return count.reshape(shape), tuple(sums[k].reshape(shape) for k in range(6))
+
+
+def position_block_inverse(sxx, syy, szz, sxy, sxz, syz):
+    """Entries of S^-1 for symmetric S given by its six entries, by the adjugate; arrays broadcast.
+
+    Returns (ixx, iyy, izz, ixy, ixz, iyz, ok), ``ok`` False where S is singular
+    (det S <= :data:`SINGULAR_RTOL` (trace S / 3)^3); the entries there are finite but meaningless.
+    """
     cxx = syy * szz - syz * syz
     cyy = sxx * szz - sxz * sxz
     czz = sxx * syy - sxy * sxy
@@ -31,22 +97,9 @@ def _inverse_position_block(n, bx, by, bz, axx, ayy, azz, axy, axz, ayz):
     cyz = sxy * sxz - sxx * syz
     det = sxx * cxx + sxy * cxy + sxz * cxz
     scale = ((sxx + syy + szz) / 3.0) ** 3
-    det_ok = det > 1e-12 * scale
-    inv_det = 1.0 / np.where(det_ok, det, 1.0)
-    return cxx * inv_det, cyy * inv_det, czz * inv_det, cxy * inv_det, cxz * inv_det, cyz * inv_det, det_ok
-
-
-def _position_normal_matrix(los_hat, visible, clock_column: bool):
-    """(M, n_visible, satellites needed): M (..., 3, 3) is the matrix whose inverse is the position block of
-    (G^T G)^-1 (see :func:`pdop_kernel`)."""
-    w = np.asarray(visible, dtype=float)
-    los = np.asarray(los_hat, dtype=float)
-    n_vis = w.sum(axis=-1)
-    if clock_column:
-        mean = np.sum(w[..., None] * los, axis=-2) / np.maximum(n_vis, 1.0)[..., None]
-        los = los - mean[..., None, :]
-    m = np.einsum("...k,...ki,...kj->...ij", w, los, los)
-    return m, n_vis, MIN_VISIBLE if clock_column else MIN_VISIBLE - 1
+    ok = det > SINGULAR_RTOL * scale
+    inv_det = 1.0 / np.where(ok, det, 1.0)
+    return cxx * inv_det, cyy * inv_det, czz * inv_det, cxy * inv_det, cxz * inv_det, cyz * inv_det, ok
 
 
 PDOP_FILTERS = ("percentile95", "sigma2", "none")

@@ -27,10 +27,10 @@ import xarray as xr
 from sgp4.api import Satrec, SatrecArray
 
 from .config import data_path
-from .constants import BOLTZMANN_J_K, C_M_S, WGS84_A_KM, WGS84_B_KM
+from .constants import BOLTZMANN_J_K, C_M_S, MIN_VISIBLE, WGS84_A_KM, WGS84_B_KM
 from .ephemeris import body_states_mci, ensure_kernels
 from .frames import teme_to_j2000, tt_centuries, utc_julian_dates
-from .geometry import _position_normal_matrix, filtered_mean
+from .geometry import filtered_mean, normal_matrix_entries, position_block_inverse
 from .tle import TleRecord, gps_catalogue
 
 __all__ = ["propagate_teme", "gps_states_mci", "lunar_occultation", "off_boresight_deg", "earth_occultation",
@@ -178,23 +178,25 @@ def cn0_dbhz(gain_tx_dbi: np.ndarray, distance_km: np.ndarray, *, p_tx_dbw: floa
         - 10.0 * np.log10(BOLTZMANN_J_K * noise_temperature_k)
 
 
+def _position_block(los_hat, visible, clock_column: bool):
+    """(entries of the position block of (G^T G)^-1, ok, enough) from lines of sight (..., n, 3)."""
+    los = np.asarray(los_hat, dtype=float)
+    n_vis, entries = normal_matrix_entries(los[..., 0], los[..., 1], los[..., 2], visible, axis=-1,
+                                           clock_column=clock_column)
+    *inverse, ok = position_block_inverse(*entries)
+    return inverse, ok, n_vis >= (MIN_VISIBLE if clock_column else MIN_VISIBLE - 1)
+
+
 def pdop_kernel(los_hat: np.ndarray, visible: np.ndarray, clock_column: bool = True) -> np.ndarray:
     """PDOP (eq. 5-7) from unit lines of sight (..., n, 3) and a visibility mask (..., n).
 
-    With the clock column, the position block of (G^T G)^-1 is S^-1 with
-    S = sum_k (l_k - l_mean)(l_k - l_mean)^T over the visible satellites (the Schur complement of
-    the clock, written centred for precision with nearly parallel lines of sight); without it,
-    A^-1 with A = sum_k l_k l_k^T. PDOP = sqrt(trace) via the adjugate; NaN with fewer than 4
-    visible (3 without clock column), inf for a singular geometry. Eq. 6's pseudo-inverse equals
-    the inverse whenever G has full rank.
+    The position block of (G^T G)^-1 comes from :mod:`lnss_lib.geometry` (centred Schur complement
+    of the clock column; without it, A^-1 with A = sum_k l_k l_k^T). PDOP = sqrt(trace); NaN with
+    fewer than 4 visible (3 without clock column), inf for a singular geometry.
     """
-    m, n_vis, need = _position_normal_matrix(los_hat, visible, clock_column)
-    det = np.linalg.det(m)
-    cof = (m[..., 1, 1] * m[..., 2, 2] - m[..., 1, 2] ** 2 + m[..., 0, 0] * m[..., 2, 2] - m[..., 0, 2] ** 2
-           + m[..., 0, 0] * m[..., 1, 1] - m[..., 0, 1] ** 2)
-    with np.errstate(divide="ignore", invalid="ignore"):
-        pdop = np.sqrt(np.where(det > 0.0, cof / det, np.inf))
-    return np.where(n_vis >= need, pdop, np.nan)
+    (ixx, iyy, izz, _, _, _), ok, enough = _position_block(los_hat, visible, clock_column)
+    pdop = np.where(ok, np.sqrt(np.maximum(ixx + iyy + izz, 0.0)), np.inf)
+    return np.where(enough, pdop, np.nan)
 
 
 def pdop_along_axis(los_hat: np.ndarray, visible: np.ndarray, axis_hat: np.ndarray,
@@ -206,14 +208,15 @@ def pdop_along_axis(los_hat: np.ndarray, visible: np.ndarray, axis_hat: np.ndarr
     Taking ``axis_hat`` toward the Earth shows the range / clock degeneracy of nearly parallel
     lines of sight: with the clock column almost all of the PDOP lies along it.
     """
-    m, n_vis, need = _position_normal_matrix(los_hat, visible, clock_column)
-    ok = (n_vis >= need) & (np.linalg.det(m) > 0.0)
-    q = np.full(m.shape, np.nan)
-    q[ok] = np.linalg.inv(m[ok])
-    a = np.broadcast_to(np.asarray(axis_hat, dtype=float), m.shape[:-1])
-    along2 = np.einsum("...i,...ij,...j->...", a, q, a)
-    total2 = np.trace(q, axis1=-2, axis2=-1)
-    return np.sqrt(along2), np.sqrt(np.clip(total2 - along2, 0.0, None))
+    (qxx, qyy, qzz, qxy, qxz, qyz), ok, enough = _position_block(los_hat, visible, clock_column)
+    a = np.broadcast_to(np.asarray(axis_hat, dtype=float), qxx.shape + (3,))
+    ax, ay, az = a[..., 0], a[..., 1], a[..., 2]
+    along2 = ax * ax * qxx + ay * ay * qyy + az * az * qzz + 2.0 * (ax * ay * qxy + ax * az * qxz + ay * az * qyz)
+    total2 = qxx + qyy + qzz
+    defined = ok & enough
+    along = np.where(defined, np.sqrt(np.maximum(along2, 0.0)), np.nan)
+    across = np.where(defined, np.sqrt(np.clip(total2 - along2, 0.0, None)), np.nan)
+    return along, across
 
 
 # --------------------------------------------------------------------------------------------
