@@ -1,6 +1,7 @@
 """Notebook 02's study (lnss_lib.studies.dop_grid): summary and latitude tables, maps, degenerate geometry."""
 
 import numpy as np
+import pandas as pd
 import pytest
 import xarray as xr
 
@@ -124,3 +125,24 @@ def test_frame_study_tables_are_consistent(elfo_study):
         assert visible == pytest.approx(summary["mean_visible_sats"], rel=1e-12)
     assert summaries["lunar_equator_of_epoch / moon_fixed"]["pdop_mean_3sigma"] == pytest.approx(
         summaries["lunar_equator_of_epoch / enu"]["pdop_mean_3sigma"], rel=1e-12)   # PDOP does not depend on the axes
+
+
+def test_frame_findings_read_the_tables():
+    base = {"mean_visible_sats": 11.0, "pdop_mean_3sigma": 2.0, "hdop_mean_3sigma": 0.8, "pdop_avail_pct": 100.0,
+            "hdop_avail_pct": 100.0}
+    summaries = {"lunar_equator_of_epoch / moon_fixed": base,
+                 "lunar_equator_of_epoch / enu": {**base, "hdop_mean_3sigma": 0.9},
+                 "j2000 / moon_fixed": {**base, "pdop_mean_3sigma": 300.0, "pdop_avail_pct": 90.0},
+                 "lunar_equator_of_epoch / moon_fixed, two-body": {**base, "pdop_mean_3sigma": 2.02}}
+    table = dg.summary_table(summaries, reference="lunar_equator_of_epoch / moon_fixed")
+    apolune = pd.DataFrame([{"element frame": "j2000", "apolune latitude plane 1 (deg)": -30.04,
+                             "apolune latitude plane 2 (deg)": -74.0}])
+    text = "\n".join(dg.frame_findings(table, apolune))
+    worst = 100.0 * abs(2.0 - 2.17) / 2.17           # PDOP differs most from Table 4 here
+    assert f"largest difference from Table 4 {worst:.1f}% (PDOP (3-sigma mean))" in text
+    assert "local East-North 0.900, +12.5%" in text
+    assert "PDOP (3-sigma mean) 300.0, PDOP availability 90.0%, i.e. 10.0%" in text
+    assert "-30.0 / -74.0 deg" in text
+    assert "two-body: the DOP metrics move by at most 1.00%" in text
+    with pytest.raises(ValueError, match="not in the summary table"):
+        dg.frame_findings(table.drop(columns="j2000 / moon_fixed"), apolune)

@@ -31,7 +31,7 @@ from ..propagator import propagate_elements
 __all__ = ["PAPER_BUDGETS", "PAPER_VARIANTS", "DIVISOR_FLOORS", "COMPONENT_CAPS_KMS2", "kernel_settings", "budget_row",
            "model_comparison_table", "secular_rates_table", "lsq_recovery", "lsq_recovery_study", "sampling_sweep",
            "singularity_sweep", "singular_proximity", "element_frame_table", "secular_window_sweep", "window_spread",
-           "slsqp_check_table", "constellation_table"]
+           "slsqp_check_table", "constellation_table", "model_findings"]
 
 PAPER_BUDGETS = {"dv_total": TABLE_4["dv_total_kms_per_year"],
                  "dv_opt": TABLE_4["dv_opt_kms_per_year"]}   # Table 4, km/s per satellite per year
@@ -247,3 +247,75 @@ def constellation_table(per_sat: xr.Dataset, paper: dict | None = None):
     })
     table.loc[TABLE_4_LABEL] = [paper["dv_total"], np.nan, np.nan, paper["dv_opt"]]
     return table
+
+
+def _nearest_step(index, integrator: str, step_s: float) -> float:
+    steps = np.array([s for setting, s in index if setting == integrator], dtype=float)
+    if steps.size == 0:
+        raise ValueError(f"integrator setting {integrator!r} is not in the table")
+    return float(steps[np.argmin(np.abs(steps - step_s))])
+
+
+def model_findings(*, summary: pd.DataFrame, recovery: pd.DataFrame, recovery_data: dict, sampling: pd.DataFrame,
+                   frames_table: pd.DataFrame, windows: pd.DataFrame, span_days: float, constellation: pd.DataFrame,
+                   secular_parts: dict, singular: pd.DataFrame, integrator: str, step_s: float,
+                   year_days: float = 365.25, paper: dict | None = None) -> list[str]:
+    """Markdown bullet lines with the numbers notebook 04 discusses, each read from the tables it builds.
+
+    ``summary``: :func:`model_comparison_table`; ``recovery`` and ``recovery_data``: :func:`lsq_recovery_study`;
+    ``sampling``: :func:`sampling_sweep`; ``frames_table``: :func:`element_frame_table`; ``windows``:
+    :func:`secular_window_sweep` with windows of ``span_days``; ``constellation``: :func:`constellation_table`;
+    ``secular_parts``: part -> km/s per year of the first satellite; ``singular``: :func:`singularity_sweep`;
+    ``integrator`` and ``step_s``: the profile's setting and output step.
+    """
+    paper = PAPER_BUDGETS if paper is None else paper
+    year_s = year_days * SECONDS_PER_DAY
+    rec = recovery.xs(integrator, level="integrator")
+    at_step = rec.loc[_nearest_step(recovery.index, integrator, step_s)]
+    steps = ", ".join(f"{100.0 * (r['lsq / truth'] - 1.0):+.1f}% at {s:g} s" for s, r in rec.iterrows())
+    _, truth, _ = recovery_data[(integrator, float(at_step.name))]
+    mean_acc = float(np.mean(np.linalg.norm(truth, axis=1)))
+    s_ref = _nearest_step(sampling.index, integrator, step_s)
+    lsq_ref = sampling.loc[(integrator, s_ref), "lsq total"]
+    tolerance = "; ".join(f"{other}: {100.0 * (sampling.loc[(other, s_ref), 'lsq total'] / lsq_ref - 1.0):+.2f}%"
+                          for other in dict.fromkeys(sampling.index.get_level_values(0)) if other != integrator)
+    finest = sampling.xs(integrator, level="integrator")["lsq total"]
+    by_step = ", ".join(f"{100.0 * (v / finest.iloc[0] - 1.0):+.1f}% at {s:g} s" for s, v in finest.iloc[1:].items())
+    frame_move = 100.0 * (frames_table["lsq total"].max() / frames_table["lsq total"].min() - 1.0)
+    lsq, pap, sec = (summary.loc[m] for m in ("lsq", "paper", "secular"))
+    spread = window_spread(windows, span_days)
+    whole = windows.iloc[-1]
+    lo, hi = spread["lsq"]
+    mid = 0.5 * (lo + hi)
+    caps = singular[singular.index.get_level_values("cap (km/s^2)") != "none"]
+    tightest = caps.index.get_level_values("cap (km/s^2)").astype(float).min()
+    at_cap = caps[caps.index.get_level_values("cap (km/s^2)").astype(float) == tightest]["dv total"]
+    ratios = summary.loc[list(OSCULATING_MODELS), "opt / total"]
+    return [
+        f"- `lsq` recovery at {at_step.name:g} s ({integrator} integrator): median per-epoch error "
+        f"{100.0 * at_step['median |dT|/|T|']:.2f}%, rms error / rms acceleration {at_step['rms |dT| / rms |T|']:.2f}; "
+        f"integrated budget {at_step['dv lsq']:.3f} against {at_step['dv truth (km/s/yr)']:.3f} km/s per year for the "
+        f"force model's own perturbing acceleration ({steps})",
+        f"- corrected `paper` against the truth: {100.0 * (at_step['paper / truth'] - 1.0):+.1f}% at {at_step.name:g} s",
+        f"- `lsq` against the integrator tolerances at {s_ref:g} s: {tolerance}; against the GVE element frame: "
+        f"{frame_move:.3f}%; against the sampling step (relative to {finest.index[0]:g} s): {by_step}",
+        f"- corrected `paper` / `lsq`: {pap['dv_total_kms_per_year'] / lsq['dv_total_kms_per_year']:.3f}",
+        f"- `secular`: {sec['dv_total_kms_per_year']:.3f} km/s per year, of which the plane "
+        f"{100.0 * secular_parts['plane'] / sum(secular_parts.values()):.0f}%; over windows of {span_days:g} days in a "
+        f"longer arc: {spread['secular'][0]:.2f} to {spread['secular'][1]:.2f} (whole {whole.name[1]:.0f}-day arc "
+        f"{whole['secular total']:.2f}); `lsq` over the same windows {lo:.2f} to {hi:.2f}, i.e. the per-year "
+        f"extrapolation is uncertain by about +-{100.0 * (hi - lo) / (2.0 * mid):.0f}%",
+        f"- first satellite, total / optimised (km/s per year): `lsq` {lsq['dv_total_kms_per_year']:.2f} / "
+        f"{lsq['dv_opt_kms_per_year']:.2f}, `paper` {pap['dv_total_kms_per_year']:.2f} / {pap['dv_opt_kms_per_year']:.2f}, "
+        f"`secular` {sec['dv_total_kms_per_year']:.2f}; means over the constellation: "
+        + ", ".join(f"`{m}` {constellation.loc[m, 'mean total']:.2f} / {constellation.loc[m, 'mean opt']:.2f}"
+                    for m in MODELS)
+        + f"; Table 4: {paper['dv_total']:.2f} / {paper['dv_opt']:.2f} "
+        f"(`lsq` is {lsq['dv_total_kms_per_year'] / paper['dv_total']:.1f} times the paper's total)",
+        f"- mean perturbing acceleration on the arc {mean_acc:.2e} km/s^2; the paper's total corresponds to a mean of "
+        f"{paper['dv_total'] / year_s:.2e} km/s^2",
+        f"- literal eq. 32/35 with the tightest cap tried ({tightest:g} km/s^2): "
+        + ", ".join(f"{variant} {v:.2f}" for (variant, _, _), v in at_cap.items()) + " km/s per year",
+        f"- optimised / total (eq. 38-41): {ratios.min():.2f} to {ratios.max():.2f} here, "
+        f"{paper['dv_opt'] / paper['dv_total']:.2f} in Table 4",
+    ]

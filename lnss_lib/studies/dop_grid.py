@@ -34,7 +34,7 @@ from ..propagator import propagate_elements
 
 __all__ = ["SUMMARY_LABELS", "summary_table", "latitude_statistics", "time_statistics_maps", "plane_visibility",
            "degenerate_geometry_rows", "FrameStudy", "element_frame_study", "apolune_latitude_table",
-           "frame_study_summaries", "latitude_table", "degenerate_geometry_table"]
+           "frame_study_summaries", "latitude_table", "degenerate_geometry_table", "frame_findings"]
 
 SUMMARY_LABELS = {"mean_visible_sats": "mean visible satellites", "pdop_mean_3sigma": "PDOP (3-sigma mean)",
                   "hdop_mean_3sigma": "HDOP (3-sigma mean)", "pdop_avail_pct": "PDOP availability (%)",
@@ -236,3 +236,35 @@ def degenerate_geometry_table(study: FrameStudy, sats_per_plane: int) -> pd.Data
         for row in degenerate_geometry_rows(pdop, counts, angle, float(profile["dop"]["availability_threshold"])):
             rows.append({"element frame": frame, **row})
     return pd.DataFrame(rows)
+
+
+def frame_findings(table: pd.DataFrame, apolune: pd.DataFrame, *, reference: str = "lunar_equator_of_epoch / moon_fixed",
+                   enu: str = "lunar_equator_of_epoch / enu", literal: str = "j2000 / moon_fixed") -> list[str]:
+    """Markdown bullet lines with the numbers notebook 02 discusses, read from :func:`summary_table` (of
+    :func:`frame_study_summaries`) and :func:`apolune_latitude_table`: the largest difference from Table 4,
+    HDOP in both axes, the J2000 reading's PDOP and availability, the apolune latitudes and how far the
+    two-body, cell-area and converged checks move the default."""
+    for column in (reference, enu, literal):
+        if column not in table.columns:
+            raise ValueError(f"column {column!r} is not in the summary table: {', '.join(table.columns)}")
+    lab = SUMMARY_LABELS
+    quoted = table.index[np.isfinite(table[TABLE_4_LABEL].to_numpy(float))]
+    diff = table.loc[quoted, "default vs paper (%)"].abs()
+    hdop_xy, hdop_en = table.loc[lab["hdop_mean_3sigma"], reference], table.loc[lab["hdop_mean_3sigma"], enu]
+    lines = [
+        f"- {reference}: largest difference from Table 4 {diff.max():.1f}% ({diff.idxmax()})",
+        f"- HDOP: Moon-fixed x, y {hdop_xy:.3f} (Table 4: {table.loc[lab['hdop_mean_3sigma'], TABLE_4_LABEL]:g}); "
+        f"local East-North {hdop_en:.3f}, {100.0 * (hdop_en / hdop_xy - 1.0):+.1f}%; PDOP "
+        f"{table.loc[lab['pdop_mean_3sigma'], reference]:.3f} in both",
+        f"- {literal}: PDOP (3-sigma mean) {table.loc[lab['pdop_mean_3sigma'], literal]:.1f}, PDOP availability "
+        f"{table.loc[lab['pdop_avail_pct'], literal]:.1f}%, i.e. {100.0 - table.loc[lab['pdop_avail_pct'], literal]:.1f}% "
+        "of the grid-epoch samples without a usable PDOP",
+    ]
+    for _, row in apolune.iterrows():
+        lats = [f"{v:.1f}" for k, v in row.items() if k != "element frame"]
+        lines.append(f"- apolune latitudes with elements in {row['element frame']}: {' / '.join(lats)} deg")
+    metrics = [lab[k] for k in ("mean_visible_sats", "pdop_mean_3sigma", "hdop_mean_3sigma", "pdop_avail_pct")]
+    for check in (c for c in table.columns if c.startswith(reference + ",")):
+        move = (100.0 * (table.loc[metrics, check] / table.loc[metrics, reference] - 1.0)).abs().max()
+        lines.append(f"- {check.split(', ', 1)[1]}: the DOP metrics move by at most {move:.2f}%")
+    return lines
