@@ -21,9 +21,9 @@ from . import deltav, dop, gps
 from .config import load_profile, profile_hash
 from .constellation import WalkerDesign
 from .ephemeris import EphemerisTable, ensure_kernels, rotation, tdb_seconds
+from .constants import SECONDS_PER_DAY
 from .forces import ForceModel
 from .frames import rotate_with
-from .constants import SECONDS_PER_DAY
 from .errors import ImpactError
 from .keys import DESIGN_KEYS, METRIC_KEYS, RESULT_KEYS
 from .propagator import elements_deg_to_states, output_times, propagate_states

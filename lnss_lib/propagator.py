@@ -25,8 +25,11 @@ from .constants import SECONDS_PER_DAY
 from .elements import elements_to_state, validate_elements
 from .errors import ImpactError
 from .ephemeris import EphemerisTable, ensure_kernels, tdb_iso, tdb_seconds
-from .frames import element_frame_to_j2000
 from .forces import SCRATCH_SIZE, SOLAR_P, SRP_K, TERMS, ForceModel, acceleration
+from .frames import element_frame_to_j2000
+
+__all__ = ["METHODS", "STATUS_TEXT", "integrate_one", "integrate_many", "output_times", "propagate_states",
+           "elements_deg_to_states", "propagate_elements"]
 
 METHODS = ("RK45", "DOP853")
 STATUS_OK, STATUS_IMPACT, STATUS_MAX_STEPS, STATUS_STEP_TOO_SMALL = 0, 1, 2, 3
