@@ -1,9 +1,21 @@
 """lnss_lib: the helper library behind the LNSS design workbook (Malik & Yang, LNSS optimisation).
 
-Modules follow the domain: ``config`` (profiles), ``ephemeris`` (SPICE, frames, time),
-``elements`` (Keplerian conversions), ``gravity``, ``forces``, ``propagator``, ``reference`` and
-``validation`` (independent checks), ``constellation``, ``dop``, ``gps``, ``deltav``, ``evaluator``
-(the design evaluator), ``optimize`` (NSGA-II campaign), ``pareto``, ``figures``, ``pipeline``.
+Layers (a module imports only from its own layer or a lower one):
+
+1. Foundations: ``config`` (profiles), ``constants`` (units in the names), ``paper`` (numbers quoted
+   from the paper), ``keys`` (one spelling of design, metric and result keys), ``errors``.
+2. Physics kernels (numpy, numba, scipy, xarray; no pandas, plotting or campaign machinery):
+   ``ephemeris`` (SPICE kernels, bodies, tabulated geometry), ``frames`` (element frames, Moon-fixed
+   rotation, RTN, precession-nutation, TEME -> J2000, time scales), ``elements``, ``gravity``,
+   ``forces``, ``propagator``, ``reference`` and ``validation`` (independent checks), ``tle`` (TLE
+   reading, checks, selection), ``geometry`` (the shared position block of (G^T G)^-1, filtered means,
+   availability), ``dop`` (south-pole grid), ``gps`` (GPS states and link), ``gve`` (Gauss variational
+   equations and their inverses), ``deltav`` (station-keeping budgets), ``constellation``,
+   ``evaluator`` (the design evaluator).
+3. Campaign engine: ``optimize`` (NSGA-II campaign), ``pareto``.
+4. Presentation and studies: ``pipeline``, ``figures``, ``studies`` (one module per notebook:
+   ``propagator_validation`` 01, ``dop_grid`` 02, ``gps_link`` 03, ``deltav_models`` 04,
+   ``standalone_elfo`` 05). Top: ``__main__``, ``bench``.
 """
 
 __version__ = "0.1.0"

@@ -9,6 +9,7 @@ from pathlib import Path
 import numpy as np
 
 from .config import available_profiles, load_profile
+from .constants import SECONDS_PER_DAY
 
 BENCHMARKS = ("propagator", "dop", "evaluate", "campaign")
 
@@ -30,7 +31,7 @@ def _cmd_propagate(args: argparse.Namespace) -> int:
         state = elements_deg_to_states(profile, [args.elements], t0)
     else:
         state = np.array([args.state_km])
-    ds = propagate_states(profile, state, t0, args.days * 86400.0, args.step_s, setting=args.setting,
+    ds = propagate_states(profile, state, t0, args.days * SECONDS_PER_DAY, args.step_s, setting=args.setting,
                           srp_cr_area_mass_m2_kg=args.srp_cr_area_mass)
     out = Path(args.out) if args.out else None
     if out is not None and out.suffix == ".nc":

@@ -1,9 +1,9 @@
 """LNSS constellations as arrays of Keplerian elements (paper Section 5.1, eq. 42; Table 4).
 
 Every constellation is an ``elements_deg`` array of shape (nsat, 6) with columns
-``[a_km, e, inc_deg, raan_deg, aop_deg, M_deg]``, referred to the profile's element frame
+``keys.ELEMENT_KEYS`` = ``[sma_km, ecc, inc_deg, raan_deg, aop_deg, mean_anomaly_deg]``, referred to the profile's element frame
 (``frames.element_frame``: lunar equator of epoch by default, see
-:func:`lnss_lib.ephemeris.element_frame_to_j2000`), which is what
+:func:`lnss_lib.frames.element_frame_to_j2000`), which is what
 ``lnss_lib.propagator.propagate_elements`` takes. Satellites are ordered plane by plane; the
 first satellite (plane 1, M = 0) is the one the paper uses for the GPS link and Delta-V.
 
@@ -19,10 +19,14 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from . import paper
 from .elements import kepler_states, validate_elements
+from .ephemeris import ensure_kernels
+from .frames import element_frame_to_j2000
+from .keys import ELEMENT_KEYS
 
-ELEMENT_COLUMNS = ("a_km", "e", "inc_deg", "raan_deg", "aop_deg", "M_deg")
+__all__ = ["planes_elements_deg", "WalkerDesign", "walker_design", "explicit_constellation", "standalone_elfo",
+           "two_body_positions_mci"]
+
 
 
 def _positive_int(value, name: str) -> int:
@@ -135,7 +139,7 @@ def explicit_constellation(profile: dict, elements_deg) -> np.ndarray:
         el = el[None, :]
     if el.ndim != 2 or el.shape[1] != 6 or el.shape[0] == 0:
         raise ValueError(
-            f"elements_deg must have shape (nsat, 6) with columns {', '.join(ELEMENT_COLUMNS)}; got shape {el.shape}"
+            f"elements_deg must have shape (nsat, 6) with columns {', '.join(ELEMENT_KEYS)}; got shape {el.shape}"
         )
     r_body_km, min_alt_km = _surface_limits(profile)
     validate_elements(el[:, 0], el[:, 1], r_body_km, min_alt_km)
@@ -158,20 +162,13 @@ def standalone_elfo(profile: dict) -> np.ndarray:
     return explicit_constellation(profile, el)
 
 
-PAPER_TABLE_4 = paper.TABLE_4
-"""The paper's Table 4 metrics of the standalone ELFO, keyed as eq. 45 (``keys.METRIC_KEYS``): the
-one place the workbook holds them, for comparison only."""
-
-
 def two_body_positions_mci(profile: dict, elements_deg, t_tdb_s) -> np.ndarray:
     """Keplerian (two-body) positions (nsat, ntime, 3) km in Moon-centred J2000 at TDB epochs.
 
     ``elements_deg`` (nsat, 6) hold at the first epoch ``t_tdb_s[0]`` in the profile's element
-    frame (rotated with :func:`lnss_lib.ephemeris.element_frame_to_j2000`); the mean anomaly
+    frame (rotated with :func:`lnss_lib.frames.element_frame_to_j2000`); the mean anomaly
     advances at sqrt(GM / a^3) with ``gravity.gm_km3_s2``. A reference for the propagated orbits.
     """
-    from .ephemeris import element_frame_to_j2000, ensure_kernels
-
     el = explicit_constellation(profile, elements_deg)
     times = np.atleast_1d(np.asarray(t_tdb_s, dtype=float))
     el_rad = np.concatenate([el[:, :2], np.radians(el[:, 2:])], axis=1)

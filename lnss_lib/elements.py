@@ -10,6 +10,9 @@ from __future__ import annotations
 
 import numpy as np
 
+__all__ = ["TWO_PI", "validate_elements", "solve_kepler", "elements_to_state", "state_to_elements",
+           "kepler_states", "orbital_period_s"]
+
 TWO_PI = 2.0 * np.pi
 
 

@@ -1,4 +1,4 @@
-"""Ephemerides, frames and time through SPICE, and their tabulation for the force model.
+"""Ephemerides, rotations and time through SPICE, and their tabulation for the force model.
 
 Conventions: times are TDB seconds past J2000 (``t_tdb_s``, SPICE's ET); positions in km,
 velocities in km/s; the integration frame is Moon-centred J2000 ("MCI", Horizons' ICRF).
@@ -21,6 +21,10 @@ import numpy as np
 import spiceypy as spice
 
 from .config import data_path
+
+__all__ = ["NAIF_BODY", "planetary_spk_path", "kernel_paths", "load_kernels", "ensure_kernels", "tdb_seconds",
+           "tdb_iso", "body_states_mci", "rotation_and_rate", "rotation", "hermite_cubic", "EphemerisTable",
+           "file_sha256"]
 
 NAIF_BODY = {"SUN": "SUN", "EARTH": "EARTH", "JUPITER": "JUPITER BARYCENTER", "MOON": "MOON"}
 _LOADED: set[str] = set()
@@ -106,25 +110,6 @@ def rotation(frame_from: str, frame_to: str, t_tdb_s: np.ndarray) -> np.ndarray:
     """Rotation matrices R (n, 3, 3) with x_to = R x_from at TDB epochs."""
     times = np.atleast_1d(np.asarray(t_tdb_s, dtype=float))
     return np.stack([np.asarray(spice.pxform(frame_from, frame_to, et)) for et in times])
-
-
-ELEMENT_FRAMES = ("lunar_equator_of_epoch", "j2000")
-
-
-def element_frame_to_j2000(profile: dict, t_epoch_tdb_s: float, frame: str | None = None) -> np.ndarray:
-    """Rotation from an element frame (default: the profile's) to J2000 (x_j2000 = R x_elements).
-
-    ``lunar_equator_of_epoch``: the Moon-fixed frame (``frames.moon_fixed``) frozen at the epoch,
-    so inclinations are to the lunar equator and RAAN is counted from the prime meridian at epoch.
-    ``j2000``: identity (elements in the Earth's mean equator and equinox of J2000).
-    """
-    frame = profile["frames"]["element_frame"] if frame is None else frame
-    if frame == "j2000":
-        return np.eye(3)
-    if frame == "lunar_equator_of_epoch":
-        ensure_kernels(profile)
-        return rotation(profile["frames"]["moon_fixed"], "J2000", t_epoch_tdb_s)[0]
-    raise ValueError(f"unknown element frame {frame!r}; allowed: {', '.join(map(repr, ELEMENT_FRAMES))}")
 
 
 @nb.njit(cache=True, fastmath=False)

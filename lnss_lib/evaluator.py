@@ -21,8 +21,9 @@ from . import deltav, dop, gps
 from .config import load_profile, profile_hash
 from .constellation import WalkerDesign
 from .ephemeris import EphemerisTable, ensure_kernels, rotation, tdb_seconds
-from .forces import ForceModel
 from .constants import SECONDS_PER_DAY
+from .forces import ForceModel
+from .frames import rotate_with
 from .errors import ImpactError
 from .keys import DESIGN_KEYS, METRIC_KEYS, RESULT_KEYS
 from .propagator import elements_deg_to_states, output_times, propagate_states
@@ -98,7 +99,7 @@ def _analyse_states(context: EvaluationContext, elements: np.ndarray, states: np
                           t_tdb_s=t_impact, days=days)
     ds["elements_deg"] = (("sat", "element"), elements)
     clock.append(time.perf_counter())
-    r_mf = dop.rotate_with(context.rot_to_moon_fixed, ds.r_mci_km.values)
+    r_mf = rotate_with(context.rot_to_moon_fixed, ds.r_mci_km.values)
     grid_ds = dop.dop_for_profile(profile, r_mf, times, grid=context.grid)
     dop_stats = dop.summary_from_profile(profile, grid_ds)
     clock.append(time.perf_counter())
@@ -109,11 +110,11 @@ def _analyse_states(context: EvaluationContext, elements: np.ndarray, states: np
     clock.append(time.perf_counter())
     metrics = {
         "n_sat": int(elements.shape[0]),
-        "mean_visible_sats": dop_stats["n_visible_mean"],
+        "mean_visible_sats": dop_stats["mean_visible_sats"],
         "pdop_mean_3sigma": dop_stats["pdop_mean_3sigma"],
-        "pdop_avail_pct": dop_stats["pdop_availability_pct"],
+        "pdop_avail_pct": dop_stats["pdop_avail_pct"],
         "hdop_mean_3sigma": dop_stats["hdop_mean_3sigma"],
-        "hdop_avail_pct": dop_stats["hdop_availability_pct"],
+        "hdop_avail_pct": dop_stats["hdop_avail_pct"],
         "dv_total_kms_per_year": float(dv.attrs["dv_total_kms_per_year"]),
         "dv_opt_kms_per_year": float(dv.attrs["dv_opt_kms_per_year"]),
         "gps_visible_mean": link_stats["gps_visible_mean"],

@@ -18,6 +18,9 @@ import numpy as np
 from .ephemeris import EphemerisTable, hermite_cubic
 from .gravity import GravityField, harmonic_acceleration
 
+__all__ = ["BODY_ORDER", "SCRATCH_SIZE", "TERMS", "ForceModel", "shadow_factor", "acceleration_terms",
+           "acceleration", "acceleration_breakdown"]
+
 BODY_ORDER = ("SUN", "EARTH", "JUPITER")  # rows of the ephemeris table; Sun and Earth also occult/illuminate
 SCRATCH_SIZE = 24
 TERMS = ("central", "harmonics", "SUN", "EARTH", "JUPITER", "srp", "relativity", "albedo")

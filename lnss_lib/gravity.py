@@ -16,6 +16,9 @@ import numpy as np
 
 from .config import data_path
 
+__all__ = ["MAX_FILE_DEGREE", "GravityField", "recursion_coefficients", "harmonic_acceleration",
+           "harmonic_potential"]
+
 MAX_FILE_DEGREE = 100
 
 

@@ -24,8 +24,12 @@ from .config import integrator_setting
 from .constants import SECONDS_PER_DAY
 from .elements import elements_to_state, validate_elements
 from .errors import ImpactError
-from .ephemeris import EphemerisTable, element_frame_to_j2000, ensure_kernels, tdb_iso, tdb_seconds
+from .ephemeris import EphemerisTable, ensure_kernels, tdb_iso, tdb_seconds
 from .forces import SCRATCH_SIZE, SOLAR_P, SRP_K, TERMS, ForceModel, acceleration
+from .frames import element_frame_to_j2000
+
+__all__ = ["METHODS", "STATUS_TEXT", "integrate_one", "integrate_many", "output_times", "propagate_states",
+           "elements_deg_to_states", "propagate_elements"]
 
 METHODS = ("RK45", "DOP853")
 STATUS_OK, STATUS_IMPACT, STATUS_MAX_STEPS, STATUS_STEP_TOO_SMALL = 0, 1, 2, 3
@@ -409,7 +413,7 @@ def propagate_elements(profile: dict, elements_deg, *, setting: str | None = Non
     ensure_kernels(profile)
     epoch = profile["epoch"]
     t0 = tdb_seconds(epoch["start_tdb"], "TDB") if t0_tdb_s is None else float(t0_tdb_s)
-    duration = epoch["duration_days"] * 86400.0 if duration_s is None else float(duration_s)
+    duration = epoch["duration_days"] * SECONDS_PER_DAY if duration_s is None else float(duration_s)
     step = epoch["step_s"] if step_s is None else float(step_s)
     states = elements_deg_to_states(profile, elements_deg, t0)
     ds = propagate_states(profile, states, t0, duration, step, setting=setting, degree=degree, batch=batch, model=model)

@@ -17,6 +17,8 @@ from .ephemeris import NAIF_BODY, ensure_kernels
 from .forces import shadow_factor
 from .gravity import GravityField
 
+__all__ = ["legendre_normalised", "harmonic_acceleration_spherical", "ReferenceModel", "propagate_reference"]
+
 
 def legendre_normalised(degree: int, sin_phi: float, cos_phi: float) -> tuple[np.ndarray, np.ndarray]:
     """Fully normalised P_nm(sin phi) and dP_nm/dphi, (degree + 2, degree + 2) arrays [n, m]."""

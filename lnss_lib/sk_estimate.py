@@ -47,7 +47,7 @@ import xarray as xr
 
 from .constants import SECONDS_PER_DAY
 from .deltav import orbit_mean, orbit_vectors
-from .ephemeris import ELEMENT_FRAMES, element_frame_to_j2000
+from .frames import ELEMENT_FRAMES, element_frame_to_j2000
 
 __all__ = ["PARTS", "DEFAULT_SETTINGS", "sk_estimate_settings", "mean_drift", "sk_estimate_arrays",
            "sk_estimate_from_propagation"]

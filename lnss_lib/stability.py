@@ -48,7 +48,8 @@ from scipy.integrate import solve_ivp
 from scipy.interpolate import CubicSpline
 
 from .constants import SECONDS_PER_DAY
-from .ephemeris import body_states_mci, element_frame_to_j2000, ensure_kernels, rotation, tdb_seconds
+from .ephemeris import body_states_mci, ensure_kernels, rotation, tdb_seconds
+from .frames import element_frame_to_j2000
 from .gravity import GravityField
 
 __all__ = ["StabilitySettings", "stability_settings", "SecularField", "orbit_vectors_ej", "secular_rates",

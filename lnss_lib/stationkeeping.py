@@ -34,7 +34,8 @@ import xarray as xr
 from .config import integrator_setting
 from .constants import DAYS_PER_JULIAN_YEAR, SECONDS_PER_DAY
 from .elements import TWO_PI, orbital_period_s, state_to_elements
-from .ephemeris import EphemerisTable, element_frame_to_j2000, ensure_kernels, tdb_seconds
+from .ephemeris import EphemerisTable, ensure_kernels, tdb_seconds
+from .frames import element_frame_to_j2000
 from .forces import SCRATCH_SIZE, ForceModel
 from .maneuvers import plan_impulses
 from .mean_elements import MEAN_ELEMENTS, mean_elements, relative_angles, to_element_frame, wrap_pi

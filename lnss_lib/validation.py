@@ -15,6 +15,7 @@ import numpy as np
 import xarray as xr
 
 from .config import data_path, deep_merge
+from .constants import SECONDS_PER_DAY
 from .ephemeris import EphemerisTable, ensure_kernels, tdb_seconds
 from .forces import ForceModel
 from .propagator import propagate_states
@@ -25,7 +26,9 @@ _RECORD = re.compile(
     r"VX\s*=\s*(?P<vx>\S+)\s+VY\s*=\s*(?P<vy>\S+)\s+VZ\s*=\s*(?P<vz>\S+)\s*$",
     re.MULTILINE,
 )
-SECONDS_PER_DAY = 86400.0
+__all__ = ["read_horizons_vectors", "capstone_arcs", "one_step_residuals", "propagate_arc", "estimate_srp",
+           "variant_differences", "without_term"]
+
 JD_J2000 = 2451545.0
 
 
@@ -172,38 +175,6 @@ def variant_differences(profile: dict, state_mci: np.ndarray, t0_tdb_s: float, d
                       attrs={"baseline": base.attrs["force_model"], "integrator": base.attrs["integrator"]})
 
 
-def table_interpolation_errors(profile: dict, table: EphemerisTable, *, n_probe: int = 400, seed: int = 0,
-                               reference_radius_km: float = 1e4) -> "pd.DataFrame":
-    """Worst error of the tabulated ephemerides against SPICE at random epochs, and its acceleration effect.
-
-    For a body at distance d, a position error delta moves the tidal acceleration at
-    ``reference_radius_km`` from the Moon by about 3 GM rho / d^3 * delta / d; for the rotation, the
-    error times a 4e-4 km/s^2 field acceleration (perilune of a low orbit).
-    """
-    import pandas as pd
-    import spiceypy as spice
-
-    from .ephemeris import body_states_mci
-
-    rng = np.random.default_rng(seed)
-    probe = table.t0_tdb_s + table.step_s * 2 + rng.uniform(0, table.t_end_tdb_s - table.t0_tdb_s - 4 * table.step_s, n_probe)
-    const = profile["constants"]
-    gm = {"SUN": const["gm_sun_km3_s2"], "EARTH": const["gm_earth_km3_s2"], "JUPITER": const["gm_jupiter_km3_s2"]}
-    rows = []
-    for body in table.body_names:
-        exact = body_states_mci(body, probe)[:, :3]
-        err = max(np.linalg.norm(table.body_position(body, t) - e) for t, e in zip(probe, exact))
-        distance = float(np.linalg.norm(exact[0]))
-        tidal = 3 * gm[body] * reference_radius_km / distance ** 3 * err / distance
-        rows.append({"quantity": f"{body} position", "max interpolation error": f"{err * 1e3:.3g} m",
-                     "acceleration error (km/s^2)": tidal})
-    rot_err = max(np.abs(table.rotation_pa(t) - np.asarray(spice.pxform("J2000", profile["frames"]["gravity"], t))).max()
-                  for t in probe)
-    rows.append({"quantity": f"J2000 -> {profile['frames']['gravity']} rotation", "max interpolation error": f"{rot_err:.1e} rad",
-                 "acceleration error (km/s^2)": rot_err * 4e-4})
-    return pd.DataFrame(rows)
-
-
 def without_term(profile: dict, term: str) -> dict:
     """Profile overrides that switch one force term off: a third body, ``harmonics``, ``srp``, ``relativity``, ``albedo``."""
     if term in ("SUN", "EARTH", "JUPITER"):
@@ -213,28 +184,3 @@ def without_term(profile: dict, term: str) -> dict:
     if term in ("srp", "relativity", "albedo"):
         return {"forces": {term: False}}
     raise ValueError(f"unknown force term {term!r}; allowed: SUN, EARTH, JUPITER, harmonics, srp, relativity, albedo")
-
-
-def capstone_study(profile: dict) -> dict:
-    """CAPSTONE cases of notebook 01: both arcs with the nominal Cr*A/m, arc 1 without SRP, and Cr*A/m
-    estimated on arc 1 and carried into arc 2. Returns ``{"arcs", "estimate", "cases", "summary"}``."""
-    import pandas as pd
-
-    cfg = profile["validation"]["capstone"]
-    arcs = capstone_arcs(profile)
-    estimate = estimate_srp(profile, arcs[0])
-    nominal = cfg["srp_cr_area_mass_m2_kg"]
-    cases = {
-        f"arc 1, Cr*A/m = {nominal:g}": propagate_arc(profile, arcs[0], srp_cr_area_mass_m2_kg=nominal),
-        "arc 1, no SRP": propagate_arc(profile, arcs[0], srp_cr_area_mass_m2_kg=0.0),
-        "arc 1, estimated SRP": estimate["arc"],
-        f"arc 2, Cr*A/m = {nominal:g}": propagate_arc(profile, arcs[1], srp_cr_area_mass_m2_kg=nominal),
-        "arc 2, estimated SRP (from arc 1)": propagate_arc(profile, arcs[1],
-                                                          srp_cr_area_mass_m2_kg=estimate["cr_area_mass_m2_kg"]),
-    }
-    targets = {f"arc 1, Cr*A/m = {nominal:g}": 3.0, "arc 1, estimated SRP": 0.3, "arc 2, estimated SRP (from arc 1)": 1.0}
-    summary = pd.DataFrame([{"case": label, "Cr*A/m (m^2/kg)": arc.attrs["srp_cr_area_mass_m2_kg"],
-                             "arc length (days)": (arc.time.values[-1] - arc.time.values[0]) / 86400,
-                             "end error (km)": arc.pos_error_km.values[-1], "max error (km)": arc.pos_error_km.values.max(),
-                             "target (km)": targets.get(label, np.nan)} for label, arc in cases.items()])
-    return {"arcs": arcs, "estimate": estimate, "cases": cases, "summary": summary}

@@ -4,10 +4,8 @@ import numpy as np
 import pytest
 import spiceypy as spice
 
-from lnss_lib.config import load_profile
 from lnss_lib.elements import elements_to_state, state_to_elements, validate_elements
-from lnss_lib.ephemeris import (EphemerisTable, body_states_mci, element_frame_to_j2000, load_kernels, rotation,
-                                tdb_seconds)
+from lnss_lib.ephemeris import (EphemerisTable, body_states_mci, load_kernels, rotation, tdb_seconds)
 
 
 def test_calendar_scale_is_explicit(paper_profile):
@@ -48,20 +46,6 @@ def test_interpolated_tables_match_spice(paper_profile, epoch_tdb_s):
             assert np.linalg.norm(table.body_position(body, t) - exact) < 1e-3 * max(1.0, np.linalg.norm(exact) / 1e8)
         exact_rot = np.asarray(spice.pxform("J2000", "MOON_PA", t))
         assert np.abs(table.rotation_pa(t) - exact_rot).max() < 1e-10
-
-
-def test_lunar_equator_element_frame(paper_profile, epoch_tdb_s):
-    rot = element_frame_to_j2000(paper_profile, epoch_tdb_s)
-    pole_j2000 = rot[:, 2]
-    moon_pole = rotation("MOON_ME", "J2000", [epoch_tdb_s])[0][:, 2]
-    assert np.allclose(pole_j2000, moon_pole, atol=1e-14)
-    tilt_deg = np.degrees(np.arccos(pole_j2000[2]))
-    assert 20.0 < tilt_deg < 26.0  # the lunar pole is about 22 deg from the J2000 pole
-    j2000 = load_profile("paper", overrides={"frames": {"element_frame": "j2000"}})
-    assert np.array_equal(element_frame_to_j2000(j2000, epoch_tdb_s), np.eye(3))
-    bad = load_profile("paper", overrides={"frames": {"element_frame": "ecliptic"}})
-    with pytest.raises(ValueError, match="ecliptic"):
-        element_frame_to_j2000(bad, epoch_tdb_s)
 
 
 def test_elements_round_trip(rng):
