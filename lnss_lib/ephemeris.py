@@ -108,7 +108,7 @@ def rotation(frame_from: str, frame_to: str, t_tdb_s: np.ndarray) -> np.ndarray:
     return np.stack([np.asarray(spice.pxform(frame_from, frame_to, et)) for et in times])
 
 
-ELEMENT_FRAMES = ("lunar_equator_of_epoch", "j2000")
+ELEMENT_FRAMES = ("lunar_equator_of_epoch", "j2000", "moon_op")
 
 
 def element_frame_to_j2000(profile: dict, t_epoch_tdb_s: float, frame: str | None = None) -> np.ndarray:
@@ -117,6 +117,7 @@ def element_frame_to_j2000(profile: dict, t_epoch_tdb_s: float, frame: str | Non
     ``lunar_equator_of_epoch``: the Moon-fixed frame (``frames.moon_fixed``) frozen at the epoch,
     so inclinations are to the lunar equator and RAAN is counted from the prime meridian at epoch.
     ``j2000``: identity (elements in the Earth's mean equator and equinox of J2000).
+    ``moon_op``: the Moon orbital-plane frame built at the epoch (:func:`lnss_lib.moon_op.moon_op_to_j2000`).
     """
     frame = profile["frames"]["element_frame"] if frame is None else frame
     if frame == "j2000":
@@ -124,6 +125,11 @@ def element_frame_to_j2000(profile: dict, t_epoch_tdb_s: float, frame: str | Non
     if frame == "lunar_equator_of_epoch":
         ensure_kernels(profile)
         return rotation(profile["frames"]["moon_fixed"], "J2000", t_epoch_tdb_s)[0]
+    if frame == "moon_op":
+        from .moon_op import moon_op_to_j2000
+
+        ensure_kernels(profile)
+        return moon_op_to_j2000(float(t_epoch_tdb_s))
     raise ValueError(f"unknown element frame {frame!r}; allowed: {', '.join(map(repr, ELEMENT_FRAMES))}")
 
 
