@@ -26,7 +26,7 @@ WALKER = WalkerDesign(6143.0, 0.6, 51.7, 90.0, 2, 2)
 def _user_file(path, elements_deg, frame="lunar_equator_of_epoch", epoch="not given", time_scale="not given",
                anomaly="mean"):
     """A user constellation file in the catalogue format; elements written with repr (exact floats)."""
-    lines = [f'name = "user test"', f'element_frame = "{frame}"', f'epoch = "{epoch}"', f'time_scale = "{time_scale}"',
+    lines = ['name = "user test"', f'element_frame = "{frame}"', f'epoch = "{epoch}"', f'time_scale = "{time_scale}"',
              f'anomaly = "{anomaly}"', "approximate = false"]
     for k, row in enumerate(np.asarray(elements_deg, dtype=float)):
         lines += ["", "[[satellite]]", f'name = "S{k}"']
@@ -196,3 +196,20 @@ def test_unreadable_toml_and_unknown_names_are_errors(tmp_path):
 
 def test_frames_of_the_catalogue_are_known():
     assert {load_constellation(k).element_frame for k in EXACT} <= set(FILE_FRAMES)
+
+
+def test_bhamidipati_case_c_is_the_table_4_elfo_in_the_moon_op_frame(ci_context):
+    """Same a, e, i, AOP, RAANs and phasing as Table 4: identical to the profile path with element_frame = moon_op."""
+    from lnss_lib.config import deep_merge
+    from lnss_lib.constellation import standalone_elfo
+    from lnss_lib.evaluator import evaluate_constellation
+
+    c = load_constellation("bhamidipati2023_case_c", ci_context.profile)
+    assert np.array_equal(c.elements_deg, standalone_elfo(ci_context.profile))
+    ours = evaluate_catalogue(ci_context, c)
+    op_profile = deep_merge(ci_context.profile, {"frames": {"element_frame": "moon_op"}})
+    theirs = evaluate_constellation(context_for(op_profile), standalone_elfo(op_profile))
+    for key in METRIC_KEYS:
+        assert ours[key] == theirs[key], key
+    lunar = evaluate_constellation(ci_context, standalone_elfo(ci_context.profile))
+    assert ours["mean_visible_sats"] != lunar["mean_visible_sats"]    # the frame changes the geometry
