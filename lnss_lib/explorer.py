@@ -96,6 +96,11 @@ def initial_design(profile: dict) -> dict:
     return {key: snap_to_grid(raw[key], variables[key]) for key in DESIGN_KEYS}
 
 
+def served_by_voila() -> bool:
+    """True in a kernel that voila started for a page (voila sets ``SERVER_SOFTWARE=voila/<version>``)."""
+    return os.environ.get("SERVER_SOFTWARE", "").startswith("voila/")
+
+
 def _toml_literal(value) -> str:
     return json.dumps(value) if isinstance(value, str) else repr(value)
 
