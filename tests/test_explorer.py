@@ -1,5 +1,6 @@
 """The design explorer (issue 14): callbacks driven in-process, the export, and the page served by voila."""
 
+import asyncio
 import contextlib
 import io
 import json
@@ -175,6 +176,9 @@ def test_profile_switch_keeps_the_design(explorer):
 
 
 # ---- the page served by voila, loaded in headless Chromium -------------------------------------
+# The widgets render only after the page's widget manager has talked to the kernel over a websocket
+# in real time, which --virtual-time-budget skips ("Loading widget..."), so the test drives Chromium
+# over its DevTools protocol and polls the page until the metrics table appears.
 
 def _chromium() -> str | None:
     return next((path for name in ("chromium", "chromium-browser", "google-chrome")
@@ -187,45 +191,98 @@ def _free_port() -> int:
         return sock.getsockname()[1]
 
 
-def _chromium_args(chromium: str, profile_dir: str) -> list[str]:
-    return [chromium, "--headless", "--no-sandbox", "--disable-gpu", "--disable-background-networking",
-            "--no-first-run", "--disable-component-update", "--disable-sync", f"--user-data-dir={profile_dir}",
-            "--virtual-time-budget=120000", "--window-size=1400,2600"]
+def _wait_for_port(port: int, process: subprocess.Popen, timeout_s: float) -> None:
+    deadline = time.monotonic() + timeout_s
+    while True:
+        with contextlib.suppress(OSError), socket.create_connection(("127.0.0.1", port), timeout=2):
+            return
+        assert process.poll() is None, f"process exited with {process.returncode}"
+        assert time.monotonic() < deadline, f"nothing listens on port {port} after {timeout_s} s"
+        time.sleep(0.5)
+
+
+async def _browse(url: str, chromium: str, screenshot: Path, timeout_s: float = 240.0) -> tuple[str, str]:
+    """Load ``url``, wait for the metrics table, click "add to comparison", wait for the comparison
+    table; return the page's HTML before and after the click and write a full-page screenshot."""
+    import base64
+    import urllib.request
+
+    import websockets
+
+    port = _free_port()
+    with tempfile.TemporaryDirectory() as profile_dir:
+        browser = subprocess.Popen(
+            [chromium, "--headless", "--no-sandbox", "--disable-gpu", "--disable-background-networking",
+             "--no-first-run", "--disable-component-update", "--disable-sync", f"--user-data-dir={profile_dir}",
+             f"--remote-debugging-port={port}", "--remote-debugging-address=127.0.0.1", "--remote-allow-origins=*",
+             "--window-size=1400,1800", "about:blank"], stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+        try:
+            _wait_for_port(port, browser, 60)
+            targets = json.load(urllib.request.urlopen(f"http://127.0.0.1:{port}/json", timeout=10))
+            page = next(t["webSocketDebuggerUrl"] for t in targets if t["type"] == "page")
+            async with websockets.connect(page, max_size=2 ** 28) as ws:
+                ids = iter(range(1, 10 ** 6))
+
+                async def call(method, **params):
+                    message_id = next(ids)
+                    await ws.send(json.dumps({"id": message_id, "method": method, "params": params}))
+                    while (reply := json.loads(await ws.recv())).get("id") != message_id:
+                        pass
+                    return reply["result"]
+
+                async def value(expression):
+                    return (await call("Runtime.evaluate", expression=expression, returnByValue=True))["result"].get("value")
+
+                async def wait_for(selector):
+                    deadline = time.monotonic() + timeout_s
+                    while not await value(f"document.querySelector({json.dumps(selector)}) !== null"):
+                        assert time.monotonic() < deadline, f"{selector} not shown after {timeout_s} s"
+                        await asyncio.sleep(1)
+
+                await call("Page.enable")
+                await call("Page.navigate", url=url)
+                await wait_for(".lnss-explorer-metrics")
+                before = await value("document.documentElement.outerHTML")
+                await value("[...document.querySelectorAll('button')].find(b => b.textContent.includes("
+                            "'add to comparison')).click()")
+                await wait_for(".lnss-explorer-comparison")
+                await asyncio.sleep(3)
+                size = (await call("Page.getLayoutMetrics"))["cssContentSize"]
+                shot = await call("Page.captureScreenshot", format="png", captureBeyondViewport=True,
+                                  clip={"x": 0, "y": 0, "width": size["width"], "height": size["height"], "scale": 1})
+                screenshot.write_bytes(base64.b64decode(shot["data"]))
+                return before, await value("document.documentElement.outerHTML")
+        finally:
+            browser.terminate()
+            try:
+                browser.wait(timeout=20)
+            except subprocess.TimeoutExpired:
+                browser.kill()
 
 
 @pytest.mark.skipif(_chromium() is None or shutil.which("voila") is None, reason="needs voila and Chromium")
 def test_voila_page_shows_the_metrics(tmp_path):
+    pytest.importorskip("websockets")
     port = _free_port()
     env = {**os.environ, "PYTHONPATH": os.pathsep.join(p for p in (str(ROOT), os.environ.get("PYTHONPATH")) if p),
            "LNSS_PNG": "off"}
-    log = (tmp_path / "voila.log").open("w")
-    server = subprocess.Popen([shutil.which("voila"), "--no-browser", f"--port={port}", "--Voila.ip=127.0.0.1",
-                               "--Voila.port_retries=0", str(NOTEBOOK)], cwd=ROOT, env=env, stdout=log,
-                              stderr=subprocess.STDOUT)
-    url = f"http://127.0.0.1:{port}/"
-    try:
-        deadline = time.monotonic() + 60
-        while True:
-            with contextlib.suppress(OSError), socket.create_connection(("127.0.0.1", port), timeout=5):
-                break
-            assert server.poll() is None and time.monotonic() < deadline, (tmp_path / "voila.log").read_text()
-            time.sleep(1)
-        with tempfile.TemporaryDirectory() as profile_dir:
-            shot = tmp_path / "voila.png"
-            subprocess.run(_chromium_args(_chromium(), profile_dir) + [f"--screenshot={shot}", url],
-                           capture_output=True, timeout=300)
-        with tempfile.TemporaryDirectory() as profile_dir:
-            dom = subprocess.run(_chromium_args(_chromium(), profile_dir) + ["--dump-dom", url],
-                                 capture_output=True, text=True, timeout=300).stdout
-    finally:
-        server.terminate()
+    log_path = tmp_path / "voila.log"
+    with log_path.open("w") as log:
+        server = subprocess.Popen([shutil.which("voila"), "--no-browser", f"--port={port}", "--Voila.ip=127.0.0.1",
+                                   "--Voila.port_retries=0", str(NOTEBOOK)], cwd=ROOT, env=env, stdout=log,
+                                  stderr=subprocess.STDOUT)
         try:
-            server.wait(timeout=20)
-        except subprocess.TimeoutExpired:
-            server.kill()
-        log.close()
-    assert "lnss-explorer-metrics" in dom, (tmp_path / "voila.log").read_text()[-3000:]
-    for key in ("mean visible satellites", "PDOP (3-sigma mean)", "HDOP availability (%)", "feasible"):
-        assert key in dom, key
-    assert "Traceback" not in dom and "error</b>" not in dom
-    assert shot.is_file() and shot.stat().st_size > 10_000
+            _wait_for_port(port, server, 60)
+            before, after = asyncio.run(asyncio.wait_for(
+                _browse(f"http://127.0.0.1:{port}/", _chromium(), tmp_path / "voila.png"), timeout=420))
+        finally:
+            server.terminate()
+            try:
+                server.wait(timeout=20)
+            except subprocess.TimeoutExpired:
+                server.kill()
+    for label in ("mean visible satellites", "PDOP (3-sigma mean)", "HDOP availability (%)", "feasible"):
+        assert label in before, label
+    assert "Traceback" not in after and "error</b>" not in after, log_path.read_text()[-3000:]
+    assert "lnss-explorer-comparison" not in before and "lnss-explorer-comparison" in after
+    assert (tmp_path / "voila.png").stat().st_size > 50_000
