@@ -180,7 +180,7 @@ class DesignExplorer:
         self.status = widgets.HTML()
         self.metrics_html = widgets.HTML()
         self.comparison_html = widgets.HTML()
-        self.export_text = widgets.Textarea(layout={"width": "100%", "height": "260px"}, disabled=True)
+        self.export_text = widgets.Textarea(layout={"width": "100%", "height": "260px"})
         self.write_export = widgets.Checkbox(value=False, description="also write a file in outputs/")
         self.add_button = widgets.Button(description="add to comparison", icon="plus")
         self.export_button = widgets.Button(description="export design", icon="download")
@@ -358,8 +358,9 @@ class DesignExplorer:
         columns = list(self.comparison[0])
         head = "".join(f"<th>{html.escape(c)}</th>" for c in columns)
         body = "".join("<tr>" + "".join(f"<td>{_fmt(row[c])}</td>" for c in columns) + "</tr>" for row in self.comparison)
-        self.comparison_html.value = (f"<table class='lnss-explorer-comparison' border='1' cellpadding='3' "
-                                      f"style='border-collapse:collapse;font-size:90%'><tr>{head}</tr>{body}</table>")
+        self.comparison_html.value = (f"<div style='overflow-x:auto'><table class='lnss-explorer-comparison' border='1' "
+                                      f"cellpadding='3' style='border-collapse:collapse;font-size:90%'><tr>{head}</tr>"
+                                      f"{body}</table></div>")
 
     @property
     def widget(self) -> widgets.Widget:

@@ -202,8 +202,9 @@ def _wait_for_port(port: int, process: subprocess.Popen, timeout_s: float) -> No
 
 
 async def _browse(url: str, chromium: str, screenshot: Path, timeout_s: float = 240.0) -> tuple[str, str]:
-    """Load ``url``, wait for the metrics table, click "add to comparison", wait for the comparison
-    table; return the page's HTML before and after the click and write a full-page screenshot."""
+    """Load ``url``, wait for the metrics table, click "add to comparison", wait for the comparison table,
+    choose the secular Delta-V model and wait for the re-evaluation; return the page's HTML at the start
+    and at the end and write a screenshot of the whole page."""
     import base64
     import urllib.request
 
@@ -215,7 +216,7 @@ async def _browse(url: str, chromium: str, screenshot: Path, timeout_s: float = 
             [chromium, "--headless", "--no-sandbox", "--disable-gpu", "--disable-background-networking",
              "--no-first-run", "--disable-component-update", "--disable-sync", f"--user-data-dir={profile_dir}",
              f"--remote-debugging-port={port}", "--remote-debugging-address=127.0.0.1", "--remote-allow-origins=*",
-             "--window-size=1400,1800", "about:blank"], stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+             "--window-size=1400,4200", "about:blank"], stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
         try:
             _wait_for_port(port, browser, 60)
             targets = json.load(urllib.request.urlopen(f"http://127.0.0.1:{port}/json", timeout=10))
@@ -246,6 +247,13 @@ async def _browse(url: str, chromium: str, screenshot: Path, timeout_s: float = 
                 await value("[...document.querySelectorAll('button')].find(b => b.textContent.includes("
                             "'add to comparison')).click()")
                 await wait_for(".lnss-explorer-comparison")
+                await value("(s => { s.value = [...s.options].find(o => o.text === 'secular').value; "
+                            "s.dispatchEvent(new Event('change', {bubbles: true})); })([...document.querySelectorAll('select')]"
+                            ".find(s => [...s.options].some(o => o.text === 'secular')))")
+                deadline = time.monotonic() + timeout_s
+                while "secular Delta-V" not in await value("document.body.innerText"):
+                    assert time.monotonic() < deadline, "choosing the secular Delta-V model changed nothing"
+                    await asyncio.sleep(1)
                 await asyncio.sleep(3)
                 size = (await call("Page.getLayoutMetrics"))["cssContentSize"]
                 shot = await call("Page.captureScreenshot", format="png", captureBeyondViewport=True,
@@ -285,4 +293,5 @@ def test_voila_page_shows_the_metrics(tmp_path):
         assert label in before, label
     assert "Traceback" not in after and "error</b>" not in after, log_path.read_text()[-3000:]
     assert "lnss-explorer-comparison" not in before and "lnss-explorer-comparison" in after
+    assert "secular Delta-V" in after and "previous design" in after
     assert (tmp_path / "voila.png").stat().st_size > 50_000
