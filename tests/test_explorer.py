@@ -2,7 +2,6 @@
 
 import asyncio
 import contextlib
-import io
 import json
 import math
 import os
@@ -23,7 +22,7 @@ from lnss_lib.__main__ import build_parser, main  # noqa: E402
 from lnss_lib.config import load_profile  # noqa: E402
 from lnss_lib.evaluator import context_for, evaluate_design  # noqa: E402
 from lnss_lib.explorer import DesignExplorer, initial_design, snap_to_grid  # noqa: E402
-from lnss_lib.keys import DESIGN_KEYS, METRIC_KEYS  # noqa: E402
+from lnss_lib.keys import METRIC_KEYS  # noqa: E402
 
 PROFILE = "ci"
 ROOT = Path(__file__).resolve().parents[1]
@@ -60,7 +59,8 @@ def test_snap_to_grid_follows_table3_steps():
     assert snap_to_grid(6143.0, spec) == 6100.0
     assert snap_to_grid(99999.0, spec) == 24000.0
     assert snap_to_grid(0.6000000001, {"lower": 0.0, "upper": 0.8, "step": 0.01}) == 0.6
-    assert snap_to_grid(7, {"lower": 2, "upper": 5, "step": 1}) == 5 and isinstance(snap_to_grid(3.2, {"lower": 2, "upper": 5, "step": 1}), int)
+    planes = {"lower": 2, "upper": 5, "step": 1}
+    assert snap_to_grid(7, planes) == 5 and snap_to_grid(3.2, planes) == 3 and isinstance(snap_to_grid(3.2, planes), int)
     with pytest.raises(ValueError, match="nan"):
         snap_to_grid(float("nan"), spec)
 
@@ -128,6 +128,20 @@ def test_infeasible_design_shows_its_reason(explorer, design, words):
     assert explorer.figures == {} and all(out.outputs == () for out in explorer.outputs.values())
     explorer.sliders["ecc"].value = 0.3
     assert explorer.current.feasible and not explorer.previous.feasible
+
+
+def test_an_evaluation_that_raises_is_an_error_not_an_infeasible_design(explorer, monkeypatch):
+    import lnss_lib.explorer as module
+
+    def broken(context, elements):
+        raise RuntimeError("integrator blew up")
+
+    before = explorer.current
+    monkeypatch.setattr(module, "analyse_constellation", broken)
+    with pytest.raises(RuntimeError, match="integrator blew up"):
+        explorer.sliders["inc_deg"].value = 70.0
+    assert "error" in explorer.status.value and "not an infeasible design" in explorer.status.value
+    assert explorer.current is before
 
 
 def test_comparison_button_appends_rows(explorer):
