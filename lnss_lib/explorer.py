@@ -13,7 +13,6 @@ that reproduces them. The state logic runs without a browser: tests set widget v
 from __future__ import annotations
 
 import html
-import importlib
 import json
 import math
 import os
@@ -27,6 +26,7 @@ import numpy as np
 import plotly.graph_objects as go
 import plotly.io as pio
 
+from . import deltav, frames
 from .config import OUTPUTS_DIR, available_profiles, load_profile
 from .constellation import walker_design
 from .errors import ImpactError
@@ -35,18 +35,8 @@ from .figures import constellation_3d, dop_time_series
 from .keys import DESIGN_KEYS, INTEGER_DESIGN_KEYS, METRIC_KEYS
 
 
-def _runtime_choices(modules: tuple[str, ...], attribute: str) -> tuple[str, ...]:
-    """The first ``lnss_lib.<module>.<attribute>`` found (modules move between releases)."""
-    for name in modules:
-        try:
-            return tuple(getattr(importlib.import_module(f"lnss_lib.{name}"), attribute))
-        except (ImportError, AttributeError):
-            continue
-    raise ImportError(f"none of lnss_lib.{{{', '.join(modules)}}} defines {attribute}")
-
-
-ELEMENT_FRAMES = _runtime_choices(("frames", "ephemeris"), "ELEMENT_FRAMES")
-DELTAV_MODELS = _runtime_choices(("deltav",), "MODELS")
+ELEMENT_FRAMES = frames.ELEMENT_FRAMES
+DELTAV_MODELS = deltav.MODELS
 
 SLIDER_LABELS = {"sma_km": "a (km)", "ecc": "e", "aop_deg": "AOP (deg)", "inc_deg": "i (deg)",
                  "n_planes": "planes Np", "sats_per_plane": "sats/plane Ns"}
