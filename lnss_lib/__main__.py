@@ -52,10 +52,24 @@ def _cmd_propagate(args: argparse.Namespace) -> int:
 def _cmd_evaluate(args: argparse.Namespace) -> int:
     import json
 
-    from .evaluator import evaluate_cli
+    walker = {"--sma-km": args.sma_km, "--ecc": args.ecc, "--aop-deg": args.aop_deg, "--inc-deg": args.inc_deg,
+              "--planes": args.planes, "--sats-per-plane": args.sats_per_plane}
+    if args.constellation is not None:
+        given = [flag for flag, value in walker.items() if value is not None]
+        if given:
+            raise ValueError(f"--constellation replaces the Walker arguments; drop {', '.join(given)}")
+        from .catalogue import evaluate_catalogue_cli
 
-    result = evaluate_cli(args.profile, args.sma_km, args.ecc, args.aop_deg, args.inc_deg, args.planes,
-                          args.sats_per_plane)
+        result = evaluate_catalogue_cli(args.profile, args.constellation, epoch=args.constellation_epoch)
+    else:
+        missing = [flag for flag, value in walker.items() if value is None]
+        if missing:
+            raise ValueError(f"evaluate needs --constellation NAME_OR_PATH or all Walker arguments; "
+                             f"missing {', '.join(missing)}")
+        from .evaluator import evaluate_cli
+
+        result = evaluate_cli(args.profile, args.sma_km, args.ecc, args.aop_deg, args.inc_deg, args.planes,
+                              args.sats_per_plane)
     if args.json:
         print(json.dumps(result))
     else:
@@ -143,13 +157,18 @@ def build_parser() -> argparse.ArgumentParser:
     prop.add_argument("--out", help="output path, .csv or .nc (default: CSV to stdout)")
     prop.set_defaults(func=_cmd_propagate)
 
-    ev = sub.add_parser("evaluate", help="every objective of eq. 45 for one Walker design")
-    ev.add_argument("--sma-km", type=float, required=True, help="semi-major axis (km)")
-    ev.add_argument("--ecc", type=float, required=True, help="eccentricity, [0, 1)")
-    ev.add_argument("--aop-deg", type=float, required=True, help="argument of perilune (deg)")
-    ev.add_argument("--inc-deg", type=float, required=True, help="inclination to the element frame's equator (deg)")
-    ev.add_argument("--planes", type=int, required=True, help="number of planes Np (RAAN by eq. 42)")
-    ev.add_argument("--sats-per-plane", type=int, required=True, help="satellites per plane Ns")
+    ev = sub.add_parser("evaluate", help="every objective of eq. 45 for one Walker design or one catalogue constellation")
+    ev.add_argument("--constellation", metavar="NAME_OR_PATH",
+                    help="catalogue name (params/constellations/NAME.toml) or a TOML file in that format, "
+                         "instead of the Walker arguments")
+    ev.add_argument("--constellation-epoch", choices=("study", "file"), default="study",
+                    help="read the constellation's elements at the study epoch (default) or at its file's epoch")
+    ev.add_argument("--sma-km", type=float, help="semi-major axis (km)")
+    ev.add_argument("--ecc", type=float, help="eccentricity, [0, 1)")
+    ev.add_argument("--aop-deg", type=float, help="argument of perilune (deg)")
+    ev.add_argument("--inc-deg", type=float, help="inclination to the element frame's equator (deg)")
+    ev.add_argument("--planes", type=int, help="number of planes Np (RAAN by eq. 42)")
+    ev.add_argument("--sats-per-plane", type=int, help="satellites per plane Ns")
     ev.add_argument("--profile", default="quick", help=f"profile in params/ ({', '.join(available_profiles())})")
     ev.add_argument("--json", action="store_true", help="print one JSON object")
     ev.set_defaults(func=_cmd_evaluate)

@@ -79,3 +79,17 @@ def test_shipped_data_match_their_checksums():
     for line in (data / "SHA256SUMS").read_text().splitlines():
         digest, name = line.split()
         assert file_sha256(data / name) == digest, name
+
+
+def test_evaluate_catalogue_constellation(capsys):
+    """`evaluate --constellation NAME --json` gives the evaluator's keys plus the catalogue labels."""
+    assert main(["evaluate", "--constellation", "bhamidipati2023_case_c", "--profile", "ci", "--json"]) == 0
+    result = json.loads(capsys.readouterr().out)
+    assert result["n_sat"] == 16 and result["feasible"] is True
+    assert result["element_frame"] == "moon_op" and result["epoch_source"].startswith("study epoch")
+    assert main(["evaluate", "--constellation", "moonlight_lcns_approx", "--profile", "ci"]) == 2
+    assert "approximate" in capsys.readouterr().err
+    assert main(["evaluate", "--constellation", "bhamidipati2023_case_c", "--ecc", "0.5"]) == 2
+    assert "--ecc" in capsys.readouterr().err
+    assert main(["evaluate", "--sma-km", "6143"]) == 2
+    assert "missing --ecc" in capsys.readouterr().err
