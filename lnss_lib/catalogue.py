@@ -53,7 +53,7 @@ from .keys import RESULT_KEYS
 
 __all__ = ["CATALOGUE_DIR", "FILE_FRAMES", "CatalogueConstellation", "CatalogueStates", "list_catalogue",
            "load_constellation", "true_to_mean_anomaly_deg", "constellation_states_mci", "file_epoch_profile",
-           "evaluate_catalogue", "evaluate_catalogue_cli"]
+           "analyse_catalogue", "evaluate_catalogue", "evaluate_catalogue_cli"]
 
 CATALOGUE_DIR = PARAMS_DIR / "constellations"
 NOT_GIVEN = "not given"
@@ -336,6 +336,26 @@ def file_epoch_profile(profile: dict, c: CatalogueConstellation) -> dict:
     return deep_merge(profile, {"epoch": {"start_tdb": tdb_iso(_file_epoch_tdb_s(c))}})
 
 
+def analyse_catalogue(context, c: CatalogueConstellation, epoch: str = "study") -> dict:
+    """:func:`lnss_lib.evaluator.analyse_constellation` for a catalogue constellation, for study notebooks.
+
+    Returns the evaluator's ``{"propagation", "dop", "deltav", "gps_link", "metrics"}`` plus ``"states"``
+    (the :class:`CatalogueStates` it started from). ``context`` and ``epoch`` as in
+    :func:`evaluate_catalogue`; raises :class:`~lnss_lib.errors.ImpactError` for an orbit that hits
+    the Moon and :class:`~lnss_lib.errors.ConfigError` for an approximate entry.
+    """
+    from .evaluator import _analyse_states
+
+    if epoch not in EPOCH_CHOICES:
+        raise ValueError(f"epoch must be one of {', '.join(EPOCH_CHOICES)}; got {epoch!r}")
+    _refuse_approximate(c)
+    if epoch == "file" and abs(_file_epoch_tdb_s(c) - context.t0_tdb_s) > 1e-3:
+        raise ValueError(f"{c.key}: the evaluation context starts at {tdb_iso(context.t0_tdb_s)} TDB, not at the "
+                         f"file's epoch {c.epoch} {c.time_scale}: build it from file_epoch_profile(profile, constellation)")
+    states = _states_at(context.profile, c, context.t0_tdb_s, _epoch_source(c, epoch))
+    return {**_analyse_states(context, c.elements_deg, states.states_mci), "states": states}
+
+
 def evaluate_catalogue(context, c: CatalogueConstellation, epoch: str = "study") -> dict:
     """Eq. 45 metrics of a catalogue constellation with the design evaluator, plus its labels.
 
@@ -350,22 +370,15 @@ def evaluate_catalogue(context, c: CatalogueConstellation, epoch: str = "study")
     import time
 
     from .deltav import deltav_settings
-    from .evaluator import _analyse_states, _infeasible
+    from .evaluator import _infeasible
 
     start = time.perf_counter()
-    if epoch not in EPOCH_CHOICES:
-        raise ValueError(f"epoch must be one of {', '.join(EPOCH_CHOICES)}; got {epoch!r}")
-    _refuse_approximate(c)
-    if epoch == "file" and abs(_file_epoch_tdb_s(c) - context.t0_tdb_s) > 1e-3:
-        raise ValueError(f"{c.key}: the evaluation context starts at {tdb_iso(context.t0_tdb_s)} TDB, not at the "
-                         f"file's epoch {c.epoch} {c.time_scale}: build it from file_epoch_profile(profile, constellation)")
-    states = _states_at(context.profile, c, context.t0_tdb_s, _epoch_source(c, epoch))
     try:
-        result = _analyse_states(context, c.elements_deg, states.states_mci)["metrics"]
+        result = analyse_catalogue(context, c, epoch)["metrics"]
     except ImpactError as error:
         result = _infeasible(c.n_sat, str(error), deltav_settings(context.profile)["model"], start)
     result.update(name=c.key, approximate=c.approximate, element_frame=c.element_frame,
-                  epoch_used=states.epoch_used, epoch_source=states.epoch_source)
+                  epoch_used=tdb_iso(context.t0_tdb_s), epoch_source=_epoch_source(c, epoch))
     return result
 
 
