@@ -1,0 +1,512 @@
+"""Notebook 10: every published lunar navigation constellation on one yardstick.
+
+Question: measured the same way (the eq. 45 metrics over the paper's south-pole grid and the study's
+epoch span, at the paper's 5 deg elevation mask and at Bhamidipati et al.'s 20 deg, with the
+design-life stability screen and the geometry-keeping station-keeping estimate), how do the
+catalogue constellations (``params/constellations/``), the paper's Table 4 ELFO and the campaign's
+best designs compare; where a study published performance figures, how far are ours from them and
+why; and how much does the study epoch (2025-05-01) matter across the Moon's 18.6-year nodal cycle?
+
+Verdict: the ELFO families (Table 4, Bhamidipati B and C) give near-complete south-pole availability
+at 5 deg, and the 20 deg mask separates them: the sparser designs lose availability first. The
+three-satellite constellations cannot give a 4-satellite fix most of the time. The published figures
+are not reproduced one for one because their metric definitions, epoch, user grid and span differ or
+were not given; the comparison table names each cause beside each number rather than tuning. Across
+the nodal cycle the DOP metrics move by a few per cent at most, so the 2025-05-01 epoch is not a
+special choice; the station-keeping estimate moves more. The notebook prints the numbers.
+
+Design-life metrics come from the campaign-grade estimate (:mod:`lnss_lib.sk_estimate`) and the
+stability screen (:mod:`lnss_lib.stability`); :func:`add_closed_loop_life` adds the closed-loop
+metrics of ``lnss_lib.designlife`` where that module exists.
+"""
+
+from __future__ import annotations
+
+import importlib
+import importlib.util
+import math
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+
+from ..catalogue import FILE_FRAMES, analyse_catalogue, constellation_states_mci, list_catalogue, load_constellation
+from ..config import deep_merge, load_profile
+from ..constants import SECONDS_PER_DAY
+from ..constellation import WalkerDesign, standalone_elfo
+from ..dop import dop_for_profile, elevation_deg, summary_from_profile
+from ..ephemeris import body_states_mci, ensure_kernels, rotation, tdb_seconds
+from ..errors import ImpactError
+from ..evaluator import analyse_constellation, context_for
+from ..frames import rotate_to_moon_fixed, rotate_with
+from ..keys import METRIC_KEYS
+from ..outputs import output_dir
+from ..propagator import elements_deg_to_states, propagate_states
+from ..sk_estimate import sk_estimate_from_propagation
+from ..stability import screen_states
+
+__all__ = ["TABLE4_KEY", "DOP_KEYS", "DESIGN_LIFE_KEYS", "Entry", "Benchmark", "benchmark_settings", "mask_key",
+           "catalogue_entries", "paper_entry", "campaign_entries", "run_benchmark", "add_closed_loop_life",
+           "published_comparison", "epoch_sensitivity", "epoch_spread", "epoch_findings"]
+
+TABLE4_KEY = "table4_elfo"
+DOP_KEYS = ("mean_visible_sats", "pdop_mean_3sigma", "pdop_avail_pct", "hdop_mean_3sigma", "hdop_avail_pct")
+DESIGN_LIFE_KEYS = ("life_days", "impact_day", "sk_dv_kms_per_year", "sk_dv_max_kms_per_year", "n_maneuvers",
+                    "box_held", "pdop_avail_pct_life", "hdop_avail_pct_life", "sk_dv_estimate_kms_per_year",
+                    "stable_screen")
+SETTINGS_KEYS = ("extra_masks_deg", "campaign_picks", "closed_loop_life", "epoch_constellations", "epochs_tdb")
+
+
+def benchmark_settings(profile: dict) -> dict:
+    """The checked ``[benchmark]`` table of a profile (keys :data:`SETTINGS_KEYS`)."""
+    cfg = dict(profile.get("benchmark", {}))
+    unknown = sorted(set(cfg) - set(SETTINGS_KEYS))
+    missing = [k for k in SETTINGS_KEYS if k not in cfg]
+    if unknown or missing:
+        raise ValueError(f"[benchmark]: unknown {unknown}, missing {missing}; keys: {', '.join(SETTINGS_KEYS)}")
+    for mask in cfg["extra_masks_deg"]:
+        if isinstance(mask, bool) or not isinstance(mask, (int, float)) or not 0.0 <= float(mask) < 90.0:
+            raise ValueError(f"[benchmark] extra_masks_deg: {mask!r} is not an elevation in [0, 90) deg")
+    for key in ("campaign_picks", "closed_loop_life"):
+        if not isinstance(cfg[key], bool):
+            raise ValueError(f"[benchmark] {key} must be true or false; got {cfg[key]!r}")
+    if not cfg["epochs_tdb"]:
+        raise ValueError("[benchmark] epochs_tdb: give at least one epoch")
+    return cfg
+
+
+def mask_key(key: str, mask_deg: float) -> str:
+    """Column name of a DOP metric at an extra elevation mask, e.g. ``pdop_avail_pct_mask20deg``."""
+    return f"{key}_mask{float(mask_deg):g}deg"
+
+
+@dataclass
+class Entry:
+    """One constellation of the yardstick: ``elements_deg`` (n, 6) in ``element_frame`` (None: not evaluated)."""
+
+    label: str
+    kind: str                       # "catalogue", "paper" or "campaign"
+    n_sat: int
+    elements_deg: np.ndarray | None
+    element_frame: str | None
+    note: str = ""
+    catalogue: object = None        # the CatalogueConstellation of a catalogue entry
+
+    @property
+    def evaluated(self) -> bool:
+        return self.elements_deg is not None
+
+
+@dataclass
+class Benchmark:
+    """The yardstick: ``table`` (one row per entry), ``analysis`` (label -> evaluator's analysis dict),
+    the profile and the entries."""
+
+    profile_name: str
+    profile: dict
+    entries: list
+    table: pd.DataFrame
+    analysis: dict = field(default_factory=dict)
+    notes: list = field(default_factory=list)
+
+
+def catalogue_entries(profile: dict) -> list[Entry]:
+    """Every catalogue file as an :class:`Entry`; approximate ones listed with the reason they are not evaluated."""
+    entries = []
+    for row in list_catalogue(profile):
+        c = load_constellation(row["key"], profile)
+        if c.approximate:
+            entries.append(Entry(c.key, "catalogue (approximate)", c.n_sat, None, None,
+                                 "not evaluated: approximate entry, its sources give no eccentricity, inclination, "
+                                 "node, perilune or phasing", c))
+        else:
+            epoch = "none" if c.epoch is None else f"{c.epoch} {c.time_scale}"
+            entries.append(Entry(c.key, "catalogue", c.n_sat, c.elements_deg, c.element_frame,
+                                 f"elements in {c.element_frame} at the study epoch (file epoch {epoch})", c))
+    return entries
+
+
+def paper_entry(profile: dict) -> Entry:
+    """The paper's Table 4 standalone ELFO, elements in the profile's element frame."""
+    elements = standalone_elfo(profile)
+    return Entry(TABLE4_KEY, "paper", elements.shape[0], elements, profile["frames"]["element_frame"],
+                 "Malik & Yang Table 4 (2 planes x 8)")
+
+
+def _campaign_folders(profile_name: str) -> list[tuple[str, Path]]:
+    base = output_dir(profile_name, "campaign")
+    folders = [("paper-faithful", base)] if (base / "front.nc").is_file() else []
+    folders += [(sub.name, sub) for sub in sorted(base.iterdir()) if sub.is_dir() and not sub.name.startswith("run_")
+                and (sub / "front.nc").is_file()] if base.is_dir() else []
+    return folders
+
+
+def campaign_entries(profile_name: str) -> tuple[list[Entry], list[str]]:
+    """Table 6 picks (:func:`lnss_lib.studies.pareto.table6`) of every campaign with a ``front.nc`` under
+    ``outputs/<profile>/campaign/`` (the paper-faithful one there, others in subfolders), and notes.
+
+    The picks use the front with the Delta-V bound relaxed when no front design meets it (notebook 07's
+    reading). A missing campaign gives a note, not an error.
+    """
+    import xarray as xr
+
+    from .pareto import pareto_front, table6
+
+    entries, notes = [], []
+    folders = _campaign_folders(profile_name)
+    if not folders:
+        notes.append(f"no campaign results under {output_dir(profile_name, 'campaign')} (front.nc): campaign designs "
+                     f"skipped; run `python -m lnss_lib campaign --profile {profile_name}`")
+    for name, folder in folders:
+        front = xr.load_dataset(folder / "front.nc", engine="h5netcdf")
+        picks = table6(front)
+        if not len(picks) and (folder / "evaluations.nc").is_file():
+            relaxed = pareto_front(xr.load_dataset(folder / "evaluations.nc", engine="h5netcdf"),
+                                   relax=("dv_total_kms_per_year",))
+            picks = table6(relaxed, dv_max_kms_per_year=math.inf)
+            notes.append(f"{name} campaign: no front design meets every bound; Table 6 picks from the front with the "
+                         "Delta-V bound relaxed")
+        if not len(picks):
+            notes.append(f"{name} campaign ({folder}): no design qualifies for Table 6; none added")
+        for k, row in picks.iterrows():
+            design = WalkerDesign(row.sma_km, row.ecc, row.inc_deg, row.aop_deg, int(row.n_planes), int(row.sats_per_plane))
+            label = (f"{name} campaign #{k + 1}: {int(row.n_planes)}x{int(row.sats_per_plane)}, a {row.sma_km:.0f} km, "
+                     f"e {row.ecc:.2f}, i {row.inc_deg:.0f}, AOP {row.aop_deg:.0f}")
+            entries.append(Entry(label, "campaign", design.n_sat, design.elements_deg(), None, row["why selected"]))
+    return entries, notes
+
+
+def _nan_row(entry: Entry, masks) -> dict:
+    row = {"constellation": entry.label, "kind": entry.kind, "n_sat": entry.n_sat, "status": entry.note}
+    row.update({k: math.nan for k in METRIC_KEYS if k != "n_sat"})
+    row.update({mask_key(k, m): math.nan for m in masks for k in DOP_KEYS})
+    row.update(screen_min_perilune_alt_km=math.nan, stable_screen=None, screen_impact_day=math.nan,
+               sk_dv_estimate_kms_per_year=math.nan, sk_dv_estimate_max_kms_per_year=math.nan)
+    return row
+
+
+def _profile_for(profile: dict, entry: Entry) -> dict:
+    if entry.kind == "catalogue":
+        return deep_merge(profile, {"frames": {"element_frame": FILE_FRAMES[entry.element_frame]}})
+    return profile
+
+
+def _evaluate_entry(context, entry: Entry, masks) -> tuple[dict, dict | None]:
+    profile = context.profile
+    row = _nan_row(entry, masks)
+    if not entry.evaluated:
+        return row, None
+    try:
+        if entry.kind == "catalogue":
+            study = analyse_catalogue(context, entry.catalogue)
+            states = study["states"].states_mci
+        else:
+            study = analyse_constellation(context, entry.elements_deg)
+            states = elements_deg_to_states(profile, entry.elements_deg, context.t0_tdb_s)
+    except ImpactError as error:
+        row["status"] = f"{entry.note}; {error}"
+        return row, None
+    row.update({k: study["metrics"][k] for k in METRIC_KEYS})
+    r_mf = rotate_with(context.rot_to_moon_fixed, study["propagation"].r_mci_km.values)
+    study["r_mf_km"] = r_mf
+    for mask in masks:
+        masked = deep_merge(profile, {"dop": {"elevation_mask_deg": float(mask)}})
+        summary = summary_from_profile(masked, dop_for_profile(masked, r_mf, context.times, grid=context.grid))
+        row.update({mask_key(k, mask): summary[k] for k in DOP_KEYS})
+    screen = screen_states(profile, states, context.t0_tdb_s)
+    row.update(screen_min_perilune_alt_km=screen.attrs["min_perilune_alt_km"], stable_screen=screen.attrs["stable"],
+               screen_impact_day=screen.attrs["impact_day"])
+    try:
+        sk = sk_estimate_from_propagation(profile, study["propagation"])
+        row.update(sk_dv_estimate_kms_per_year=sk["sk_dv_estimate_kms_per_year"],
+                   sk_dv_estimate_max_kms_per_year=sk["sk_dv_estimate_max_kms_per_year"])
+    except ValueError as error:
+        row["status"] = f"{entry.note}; no station-keeping estimate: {error}"
+    return row, study
+
+
+def run_benchmark(profile_name: str, *, campaigns: bool | None = None) -> Benchmark:
+    """Evaluate every entry (catalogue, Table 4 ELFO, campaign picks) over the profile's grid and epoch span.
+
+    Columns: ``constellation``, ``kind``, ``n_sat``, ``status``, the eq. 45 metrics of
+    :data:`lnss_lib.keys.METRIC_KEYS` at the profile's mask (the evaluator's, as ``evaluate
+    --constellation``), :data:`DOP_KEYS` at each ``[benchmark] extra_masks_deg`` (:func:`mask_key`), the
+    stability screen (``screen_min_perilune_alt_km``, ``stable_screen``, ``screen_impact_day``) and the
+    geometry-keeping estimate (``sk_dv_estimate_kms_per_year`` mean over satellites, ``..._max_...``).
+    ``campaigns`` overrides ``[benchmark] campaign_picks``.
+    """
+    profile = load_profile(profile_name)
+    cfg = benchmark_settings(profile)
+    context = context_for(profile)
+    entries = [paper_entry(profile)] + catalogue_entries(profile)
+    notes = []
+    if cfg["campaign_picks"] if campaigns is None else campaigns:
+        picked, notes = campaign_entries(profile_name)
+        entries += picked
+    rows, analysis = [], {}
+    for entry in entries:
+        row, study = _evaluate_entry(context, entry, cfg["extra_masks_deg"])
+        rows.append(row)
+        if study is not None:
+            analysis[entry.label] = study
+    return Benchmark(profile_name, profile, entries, pd.DataFrame(rows), analysis, notes)
+
+
+def add_closed_loop_life(bench: Benchmark, life_days: float | None = None) -> tuple[pd.DataFrame, str]:
+    """The yardstick with the closed-loop design-life metrics of ``lnss_lib.designlife`` added (prefixed
+    ``life_``), and a note. Without that module (or with ``[benchmark] closed_loop_life = false``) the table
+    comes back unchanged with a note saying why."""
+    if importlib.util.find_spec("lnss_lib.designlife") is None:
+        return bench.table, "lnss_lib.designlife is not installed: closed-loop design-life metrics not added"
+    if not benchmark_settings(bench.profile)["closed_loop_life"]:
+        return bench.table, "[benchmark] closed_loop_life = false: closed-loop design-life metrics not added"
+    designlife = importlib.import_module("lnss_lib.designlife")
+    life = float(bench.profile["design_life"]["life_days"]) if life_days is None else float(life_days)
+    table = bench.table.copy()
+    for entry in bench.entries:
+        if entry.label not in bench.analysis:
+            continue
+        result = designlife.evaluate_design_life(_profile_for(bench.profile, entry), entry.elements_deg, life)
+        index = table.index[table["constellation"] == entry.label][0]
+        for key in DESIGN_LIFE_KEYS:
+            table.loc[index, f"life_{key}"] = result.get(key, math.nan)
+    return table, f"closed-loop design-life metrics over {life:g} days (lnss_lib.designlife)"
+
+
+# ---------------------------------------------------------------- published figures beside ours
+
+OUR_CONDITIONS = "{mask:g} deg mask; 144-node grid lat -90..-60 deg (pole repeated 36 times); {epoch} TDB + {days:g} d"
+BHAMIDIPATI_DEFINITIONS = {
+    "availability_pct": ("share of grid-epoch samples with PDOP < 15 (eq. 14)",
+                         "their definition (Sec. 3.2.3) was not readable; ours is eq. 14's threshold on PDOP"),
+    "coverage_pct": ("share of grid-epoch samples with >= 4 satellites above the mask",
+                     "their definition was not readable; ours counts 4-fold visibility"),
+    "failure_tolerance_pct": (None, "not computed: needs a one-satellite-out analysis whose definition was not readable"),
+    "gdop": (None, "not computed: the workbook's DOP kernel returns PDOP and HDOP, not the time term GDOP needs"),
+    "horizontal_position_rmse_mean_m": ("UERE x RMS over the available samples (PDOP < 15) of East-North HDOP per node, mean over nodes",
+                                        "DOP x UERE assumes equal, uncorrelated ranging errors; their estimator is not stated"),
+    "horizontal_position_rmse_max_m": ("UERE x RMS over the available samples (PDOP < 15) of East-North HDOP per node, worst node",
+                                       "worst node decided by near-degenerate samples; their grid differs"),
+    "vertical_position_rmse_mean_m": ("UERE x RMS over the available samples of VDOP = sqrt(PDOP^2 - HDOP_EN^2) per node, mean over nodes",
+                                      "same DOP x UERE reading as the horizontal row"),
+    "vertical_position_rmse_max_m": ("UERE x RMS over the available samples of VDOP per node, worst node",
+                                     "worst node decided by near-degenerate samples; their grid differs"),
+    "receiver_timing_rmse_mean_us": (None, "not computed: no TDOP in the workbook"),
+    "receiver_timing_rmse_max_us": (None, "not computed: no TDOP in the workbook"),
+}
+COMMON_CAUSES = ("their epoch, user grid and span are not given (ours: the study's); elements in the Moon "
+                 "orbital-plane frame built as Ely's / LuPNT's (their OP definition not readable)")
+
+
+def _node_rms(values: np.ndarray) -> np.ndarray:
+    """RMS over time (axis 0) of each node's finite samples; NaN where a node has none."""
+    with np.errstate(invalid="ignore"):
+        return np.sqrt(np.nanmean(np.where(np.isfinite(values), values, np.nan) ** 2, axis=0))
+
+
+def _dop_counterparts(profile: dict, r_mf: np.ndarray, times: np.ndarray, grid, mask_deg: float, uere_m: float) -> dict:
+    masked = deep_merge(profile, {"dop": {"elevation_mask_deg": float(mask_deg)}})
+    ds_xy = dop_for_profile(masked, r_mf, times, grid=grid)
+    ds_en = dop_for_profile(masked, r_mf, times, grid=grid, los_axes="enu")
+    summary = summary_from_profile(masked, ds_xy)
+    pdop, hdop = ds_en["pdop"].values, ds_en["hdop"].values
+    with np.errstate(invalid="ignore"):
+        usable = pdop < float(profile["dop"]["availability_threshold"])        # eq. 14: a fix is reported
+        hdop = np.where(usable, hdop, np.nan)
+        vdop = np.where(usable, np.sqrt(np.clip(pdop**2 - hdop**2, 0.0, None)), np.nan)
+    h_node, v_node = uere_m * _node_rms(hdop), uere_m * _node_rms(vdop)
+    with np.errstate(invalid="ignore"):
+        return {"availability_pct": summary["pdop_avail_pct"], "coverage_pct": 100.0 - summary["fewer_than_4_pct"],
+                "horizontal_position_rmse_mean_m": float(np.nanmean(h_node)),
+                "horizontal_position_rmse_max_m": float(np.nanmax(h_node)),
+                "vertical_position_rmse_mean_m": float(np.nanmean(v_node)),
+                "vertical_position_rmse_max_m": float(np.nanmax(v_node))}
+
+
+def _runs(visible: np.ndarray, value: bool) -> np.ndarray:
+    """Lengths (samples) of the runs of ``value`` in a boolean series."""
+    edges = np.flatnonzero(np.diff(np.concatenate([[False], visible == value, [False]]).astype(int)))
+    return edges[1::2] - edges[0::2]
+
+
+def _pole_coverage(elev_deg: np.ndarray, mask_deg: float, fold: int | None, step_h: float) -> dict:
+    """Coverage (%), mean pass and gap (h) at the pole station of one satellite (fold None, elev (time,))
+    or of the constellation's ``fold``-fold visibility (elev (sat, time))."""
+    visible = elev_deg >= mask_deg if fold is None else np.sum(elev_deg >= mask_deg, axis=0) >= fold
+    passes, gaps = _runs(visible, True), _runs(visible, False)
+    return {"coverage_pct": 100.0 * float(np.mean(visible)),
+            "mean_pass_h": "Total Span" if visible.all() else float(np.mean(passes) * step_h) if passes.size else 0.0,
+            "mean_gap_h": float(np.mean(gaps) * step_h) if gaps.size else 0.0}
+
+
+def _ely_rows(bench: Benchmark, entry: Entry, study: dict, our: str) -> list[dict]:
+    pub = entry.catalogue.published
+    grid = context_for(bench.profile).grid
+    pole = int(np.argmin(grid.lat_deg))
+    elev = elevation_deg(study["r_mf_km"], grid)[:, :, pole, 0]
+    step_h = float(bench.profile["epoch"]["step_s"]) / 3600.0
+    days = float(bench.profile["epoch"]["duration_days"])
+    theirs = f"{pub['conditions']} Epoch 2009-07 (ET; day uncertain, see README)."
+    why = (f"span: their 10 years against our {days:g} days at {step_h * 60:g} min sampling (passes cut at the span's "
+           "ends, pass lengths quantised to the step); epoch: theirs 2009, ours the study epoch; same station (the pole)")
+    blocks = []
+    for k in range(entry.n_sat):
+        blocks.append((f"satellite_{k + 1}", float(pub["elevation_mask_deg"]), None, elev[k]))
+    blocks += [("constellation_1_fold", float(pub["elevation_mask_deg"]), 1, elev),
+               ("constellation_2_fold", float(pub["elevation_mask_deg"]), 2, elev)]
+    rows = []
+    for name, mask, fold, values in blocks:
+        ours = _pole_coverage(values, mask, fold, step_h)
+        for key, value in pub.get(name, {}).items():
+            rows.append({"constellation": entry.label, "published figure": f"{name}.{key}", "published": value,
+                         "their conditions": theirs, "ours": ours.get(key),
+                         "our conditions": our.format(mask=mask) + "; South Pole node only",
+                         "our definition": "as theirs (p. 314), from our sampled passes",
+                         "why they differ": why})
+    for key, fold in (("one_fold_coverage_pct", 1), ("two_fold_coverage_pct", 2)):
+        if key in pub.get("elevation_mask_15deg", {}):
+            ours = _pole_coverage(elev, 15.0, fold, step_h)["coverage_pct"]
+            rows.append({"constellation": entry.label, "published figure": f"elevation_mask_15deg.{key}",
+                         "published": pub["elevation_mask_15deg"][key], "their conditions": theirs.replace("10 deg", "15 deg"),
+                         "ours": ours, "our conditions": our.format(mask=15.0) + "; South Pole node only",
+                         "our definition": f"share of epochs with >= {fold} satellites above 15 deg at the pole",
+                         "why they differ": why})
+    return rows
+
+
+def _bhamidipati_rows(bench: Benchmark, entry: Entry, study: dict, our: str) -> list[dict]:
+    context = context_for(bench.profile)
+    rows = []
+    for table_key, table in entry.catalogue.published.items():
+        if not isinstance(table, dict) or "elevation_mask_deg" not in table:
+            continue
+        mask, uere = float(table["elevation_mask_deg"]), float(table["lunar_uere_m"])
+        ours = _dop_counterparts(bench.profile, study["r_mf_km"], context.times, context.grid, mask, uere)
+        theirs = (f"{table['table']}; {mask:g} deg mask; UERE {uere:g} m; epoch, user grid and duration not given")
+        for key, value in table.items():
+            if key in ("table", "elevation_mask_deg", "lunar_uere_m"):
+                continue
+            definition, cause = BHAMIDIPATI_DEFINITIONS.get(key, (None, "no counterpart in the workbook"))
+            rows.append({"constellation": entry.label, "published figure": f"{table_key}.{key}", "published": value,
+                         "their conditions": theirs, "ours": ours.get(key, math.nan) if definition else math.nan,
+                         "our conditions": our.format(mask=mask) + f"; UERE {uere:g} m",
+                         "our definition": definition or "-",
+                         "why they differ": f"{cause}; {COMMON_CAUSES}" if definition else cause})
+    return rows
+
+
+def published_comparison(bench: Benchmark) -> pd.DataFrame:
+    """One row per published performance figure (the catalogue's ``[published]`` tables) beside our counterpart.
+
+    Columns: ``constellation``, ``published figure`` (table.key), ``published``, ``their conditions``,
+    ``ours`` (NaN where the workbook has no counterpart), ``our conditions`` (mask, grid, epoch, span),
+    ``our definition`` and ``why they differ``. Our numbers come from the yardstick's propagation.
+    """
+    profile = bench.profile
+    our = OUR_CONDITIONS.replace("{epoch}", profile["epoch"]["start_tdb"]).replace(
+        "{days:g}", f"{float(profile['epoch']['duration_days']):g}")
+    rows = []
+    for entry in bench.entries:
+        if entry.kind != "catalogue" or not entry.catalogue.published:
+            continue
+        study = bench.analysis.get(entry.label)
+        if study is None:
+            continue
+        if "lunar_uere_m" in str(entry.catalogue.published):
+            rows += _bhamidipati_rows(bench, entry, study, our)
+        else:
+            rows += _ely_rows(bench, entry, study, our)
+    return pd.DataFrame(rows)
+
+
+# ---------------------------------------------------------------- epoch sensitivity
+
+def _moon_node_deg(t_tdb_s: float) -> float:
+    """Longitude (deg) of the ascending node of the Moon's geocentric orbit on the J2000 ecliptic."""
+    state = body_states_mci("EARTH", np.array([t_tdb_s]))[0]
+    h = np.cross(state[:3], state[3:])                 # Earth about the Moon: the same normal as the Moon about the Earth
+    h = rotation("J2000", "ECLIPJ2000", np.array([t_tdb_s]))[0] @ h
+    return float(np.degrees(np.arctan2(h[0], -h[1])) % 360.0)
+
+
+def _epoch_states(profile: dict, name: str, t0: float) -> np.ndarray:
+    if name == TABLE4_KEY:
+        return elements_deg_to_states(profile, standalone_elfo(profile), t0)
+    return constellation_states_mci(profile, load_constellation(name, profile)).states_mci
+
+
+def epoch_sensitivity(profile_name: str, *, epochs=None, names=None) -> pd.DataFrame:
+    """Lunar-surface metrics of the same constellations started at each epoch (``[benchmark] epochs_tdb``).
+
+    The constellation keeps its geometry relative to the Moon: Table 4's elements in the lunar equator
+    of each epoch, catalogue elements in their frame built at each epoch. One row per (epoch,
+    constellation): the DOP metrics at the profile's mask and the extra masks, the stability screen and
+    the geometry-keeping estimate; ``moon_node_deg`` is the phase of the 18.6-year nodal cycle. The
+    GPS link is left out: its TLEs (2025) do not reach other epochs.
+    """
+    base = load_profile(profile_name)
+    cfg = benchmark_settings(base)
+    epochs = cfg["epochs_tdb"] if epochs is None else epochs
+    names = cfg["epoch_constellations"] if names is None else names
+    rows = []
+    for epoch in epochs:
+        profile = load_profile(profile_name, overrides={"epoch": {"start_tdb": epoch}})
+        ensure_kernels(profile)
+        t0 = tdb_seconds(epoch, "TDB")
+        duration = float(profile["epoch"]["duration_days"]) * SECONDS_PER_DAY
+        for name in names:
+            states = _epoch_states(profile, name, t0)
+            ds = propagate_states(profile, states, t0, duration, float(profile["epoch"]["step_s"]), batch=True)
+            row = {"epoch_tdb": epoch, "year": 2000.0 + (t0 / SECONDS_PER_DAY) / 365.25, "moon_node_deg": _moon_node_deg(t0),
+                   "constellation": name, "n_sat": states.shape[0], "impact": bool(ds.impact.any())}
+            if not row["impact"]:
+                times = ds["time"].values.astype(float)
+                r_mf = rotate_to_moon_fixed(profile, ds["r_mci_km"].values, times)
+                for mask in [float(profile["dop"]["elevation_mask_deg"])] + [float(m) for m in cfg["extra_masks_deg"]]:
+                    masked = deep_merge(profile, {"dop": {"elevation_mask_deg": mask}})
+                    summary = summary_from_profile(masked, dop_for_profile(masked, r_mf, times))
+                    row.update({mask_key(k, mask): summary[k] for k in DOP_KEYS})
+                row["sk_dv_estimate_kms_per_year"] = sk_estimate_from_propagation(profile, ds)["sk_dv_estimate_kms_per_year"]
+            screen = screen_states(profile, states, t0)
+            row.update(screen_min_perilune_alt_km=screen.attrs["min_perilune_alt_km"], stable_screen=screen.attrs["stable"])
+            rows.append(row)
+    return pd.DataFrame(rows)
+
+
+def epoch_spread(table: pd.DataFrame, reference_epoch: str | None = None) -> pd.DataFrame:
+    """Per constellation and metric: the value at ``reference_epoch`` (default: the first epoch), the
+    minimum, maximum and the spread (max - min) across the epochs, and the largest departure from the
+    reference in per cent."""
+    reference_epoch = table["epoch_tdb"].iloc[0] if reference_epoch is None else reference_epoch
+    metrics = [c for c in table.columns if c not in ("epoch_tdb", "year", "moon_node_deg", "constellation", "n_sat",
+                                                     "impact", "stable_screen")]
+    rows = []
+    for name, group in table.groupby("constellation", sort=False):
+        ref = group[group["epoch_tdb"] == reference_epoch]
+        for metric in metrics:
+            values = group[metric].to_numpy(float)
+            ref_value = float(ref[metric].iloc[0]) if len(ref) else math.nan
+            with np.errstate(invalid="ignore", divide="ignore"):
+                departure = float(np.nanmax(np.abs(values / ref_value - 1.0)) * 100.0) if ref_value else math.nan
+            rows.append({"constellation": name, "metric": metric, f"at {reference_epoch}": ref_value,
+                         "min": float(np.nanmin(values)), "max": float(np.nanmax(values)),
+                         "spread": float(np.nanmax(values) - np.nanmin(values)),
+                         "largest departure from the reference (%)": departure})
+    return pd.DataFrame(rows)
+
+
+def epoch_findings(spread: pd.DataFrame) -> list[str]:
+    """Markdown bullet lines: per constellation, the largest departure of a DOP metric and of the other metrics."""
+    lines = []
+    column = "largest departure from the reference (%)"
+    for name, group in spread.groupby("constellation", sort=False):
+        dop = group[group["metric"].str.contains("dop|visible")]
+        other = group[~group["metric"].str.contains("dop|visible")]
+        worst = dop.loc[dop[column].idxmax()] if dop[column].notna().any() else None
+        text = f"- {name}: DOP metrics move by at most {worst[column]:.2f}% ({worst['metric']})" if worst is not None else f"- {name}: no DOP metric"
+        for _, row in other.iterrows():
+            text += f"; {row['metric']} from {row['min']:.4g} to {row['max']:.4g}"
+        lines.append(text)
+    return lines
+
