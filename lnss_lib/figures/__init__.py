@@ -4,10 +4,11 @@ Builders take datasets and return ``plotly.graph_objects.Figure``; notebooks cal
 :func:`save_figure`, which writes interactive HTML that opens offline and a PNG when kaleido finds a
 Chromium. One module per topic: :mod:`.charts` (generic lines and bars), :mod:`.propagation`,
 :mod:`.dop` (notebook 02), :mod:`.gps` (03), :mod:`.deltav` (04), :mod:`.campaign` (06),
-:mod:`.pareto` (07), and :mod:`.export` (HTML and PNG writing). Figures import only foundations,
+:mod:`.pareto` (07), :mod:`.benchmark` (10), and :mod:`.export` (HTML and PNG writing). Figures import only foundations,
 :mod:`lnss_lib.outputs`, plotly and numpy: they receive datasets, never run studies or campaigns.
 """
 
+from .benchmark import benchmark_scatter, epoch_sensitivity_lines
 from .campaign import campaign_convergence, campaign_throughput, designs_pdop_deltav
 from .charts import bar_chart, days_since_start, line_chart
 from .deltav import (deltav_elements_and_rates, deltav_sampling, deltav_singularity, deltav_thrust_components,
@@ -30,4 +31,5 @@ __all__ = [
     "deltav_sampling", "deltav_singularity",
     "pareto_3d", "dop_against_availability", "variable_relationships",
     "campaign_convergence", "designs_pdop_deltav", "campaign_throughput",
+    "benchmark_scatter", "epoch_sensitivity_lines",
 ]

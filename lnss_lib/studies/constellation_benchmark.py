@@ -48,7 +48,7 @@ from ..stability import screen_states
 
 __all__ = ["TABLE4_KEY", "DOP_KEYS", "DESIGN_LIFE_KEYS", "Entry", "Benchmark", "benchmark_settings", "mask_key",
            "catalogue_entries", "paper_entry", "campaign_entries", "run_benchmark", "add_closed_loop_life",
-           "published_comparison", "epoch_sensitivity", "epoch_spread", "epoch_findings"]
+           "published_comparison", "epoch_sensitivity", "epoch_spread", "epoch_findings", "yardstick_findings"]
 
 TABLE4_KEY = "table4_elfo"
 DOP_KEYS = ("mean_visible_sats", "pdop_mean_3sigma", "pdop_avail_pct", "hdop_mean_3sigma", "hdop_avail_pct")
@@ -510,3 +510,19 @@ def epoch_findings(spread: pd.DataFrame) -> list[str]:
         lines.append(text)
     return lines
 
+
+
+def yardstick_findings(table: pd.DataFrame, masks) -> list[str]:
+    """Markdown bullet lines read from the yardstick: what was evaluated, and how each extra mask moves
+    the PDOP availability of every evaluated constellation."""
+    evaluated = table[np.isfinite(table["pdop_avail_pct"].to_numpy(float))]
+    lines = [f"- {len(evaluated)} of {len(table)} constellations evaluated; not evaluated: "
+             + (", ".join(f"{r.constellation} ({r.status})" for r in table[~table.index.isin(evaluated.index)].itertuples())
+                or "none")]
+    for mask in masks:
+        drop = evaluated["pdop_avail_pct"] - evaluated[mask_key("pdop_avail_pct", mask)]
+        lines.append(f"- {float(mask):g} deg mask: PDOP availability lower than at the profile's mask by "
+                     f"{drop.min():.1f} to {drop.max():.1f} points; "
+                     + ", ".join(f"{r.constellation} {r.pdop_avail_pct:.1f}% -> {a:.1f}%"
+                                 for r, a in zip(evaluated.itertuples(), evaluated[mask_key('pdop_avail_pct', mask)])))
+    return lines

@@ -1,0 +1,63 @@
+"""Notebook 10: every catalogue constellation on one yardstick, and the epoch sensitivity."""
+
+from __future__ import annotations
+
+import numpy as np
+import plotly.graph_objects as go
+from plotly.subplots import make_subplots
+
+__all__ = ["benchmark_scatter", "epoch_sensitivity_lines"]
+
+
+def benchmark_scatter(table, panels, colour: str, colour_label: str, *, title: str) -> go.Figure:
+    """Satellites (x) against south-pole availability (y), one labelled point per constellation.
+
+    ``table``: the yardstick (a DataFrame with ``constellation`` and ``n_sat``); ``panels``: sequence of
+    (panel title, availability column); ``colour``: the column that colours the points (e.g. the
+    station-keeping cost), rows without it drawn as open grey circles.
+    """
+    panels = list(panels)
+    fig = make_subplots(rows=1, cols=len(panels), subplot_titles=[p[0] for p in panels], shared_yaxes=True,
+                        horizontal_spacing=0.06)
+    values = table[colour].to_numpy(float)
+    finite = np.isfinite(values)
+    span = (float(np.min(values[finite])), float(np.max(values[finite]))) if finite.any() else (0.0, 1.0)
+    for col, (_, column) in enumerate(panels, start=1):
+        y = table[column].to_numpy(float)
+        for mask, marker, name in ((finite, {"size": 12, "color": values[finite], "colorscale": "Viridis",
+                                             "cmin": span[0], "cmax": span[1], "showscale": col == len(panels),
+                                             "colorbar": {"title": colour_label},
+                                             "line": {"width": 0.5, "color": "black"}}, "cost known"),
+                                   (~finite, {"size": 12, "color": "rgba(0,0,0,0)",
+                                              "line": {"width": 1.5, "color": "grey"}}, "no cost")):
+            keep = mask & np.isfinite(y)
+            if not keep.any():
+                continue
+            fig.add_trace(go.Scatter(
+                x=table["n_sat"].to_numpy(float)[keep], y=y[keep], mode="markers+text", name=name, marker=marker,
+                text=table["constellation"].to_numpy(str)[keep], textposition="top center", textfont={"size": 9},
+                showlegend=False, hovertemplate="%{text}<br>%{x} satellites<br>availability %{y:.1f}%<extra></extra>"),
+                row=1, col=col)
+        fig.update_xaxes(title_text="satellites", row=1, col=col)
+    fig.update_yaxes(title_text="PDOP availability over the south-pole grid (%)", row=1, col=1)
+    fig.update_layout(title=title, template="plotly_white", height=650)
+    return fig
+
+
+def epoch_sensitivity_lines(table, metrics, labels, *, title: str) -> go.Figure:
+    """One panel per metric against the start epoch (decimal year), one line per constellation.
+
+    ``table``: rows with ``year``, ``constellation`` and the ``metrics`` columns; ``labels``: panel titles.
+    """
+    metrics = list(metrics)
+    fig = make_subplots(rows=len(metrics), cols=1, shared_xaxes=True, subplot_titles=list(labels), vertical_spacing=0.06)
+    for k, name in enumerate(dict.fromkeys(table["constellation"])):
+        group = table[table["constellation"] == name]
+        for row, metric in enumerate(metrics, start=1):
+            fig.add_trace(go.Scatter(x=group["year"], y=group[metric], mode="lines+markers", name=name,
+                                     legendgroup=name, showlegend=row == 1,
+                                     line={"color": f"hsl({(k * 137) % 360},60%,40%)"}), row=row, col=1)
+    fig.update_xaxes(title_text="start epoch (year, TDB)", row=len(metrics), col=1)
+    fig.update_layout(title=title, template="plotly_white", height=max(400, 230 * len(metrics)),
+                      legend={"orientation": "h", "y": -0.08})
+    return fig
