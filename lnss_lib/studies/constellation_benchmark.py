@@ -111,10 +111,15 @@ class Benchmark:
     notes: list = field(default_factory=list)
 
 
-def catalogue_entries(profile: dict) -> list[Entry]:
-    """Every catalogue file as an :class:`Entry`; approximate ones listed with the reason they are not evaluated."""
+def catalogue_entries(profile: dict, names=None) -> list[Entry]:
+    """Every catalogue file (or those named) as an :class:`Entry`; approximate ones listed with the reason
+    they are not evaluated."""
+    keys = [row["key"] for row in list_catalogue(profile)]
+    unknown = sorted(set(names or ()) - set(keys))
+    if unknown:
+        raise ValueError(f"unknown catalogue constellation(s) {unknown}; catalogue: {', '.join(keys)}")
     entries = []
-    for row in list_catalogue(profile):
+    for row in (r for r in list_catalogue(profile) if names is None or r["key"] in names):
         c = load_constellation(row["key"], profile)
         if c.approximate:
             entries.append(Entry(c.key, "catalogue (approximate)", c.n_sat, None, None,
@@ -226,7 +231,7 @@ def _evaluate_entry(context, entry: Entry, masks) -> tuple[dict, dict | None]:
     return row, study
 
 
-def run_benchmark(profile_name: str, *, campaigns: bool | None = None) -> Benchmark:
+def run_benchmark(profile_name: str, *, campaigns: bool | None = None, names=None) -> Benchmark:
     """Evaluate every entry (catalogue, Table 4 ELFO, campaign picks) over the profile's grid and epoch span.
 
     Columns: ``constellation``, ``kind``, ``n_sat``, ``status``, the eq. 45 metrics of
@@ -234,12 +239,12 @@ def run_benchmark(profile_name: str, *, campaigns: bool | None = None) -> Benchm
     --constellation``), :data:`DOP_KEYS` at each ``[benchmark] extra_masks_deg`` (:func:`mask_key`), the
     stability screen (``screen_min_perilune_alt_km``, ``stable_screen``, ``screen_impact_day``) and the
     geometry-keeping estimate (``sk_dv_estimate_kms_per_year`` mean over satellites, ``..._max_...``).
-    ``campaigns`` overrides ``[benchmark] campaign_picks``.
+    ``campaigns`` overrides ``[benchmark] campaign_picks``; ``names`` restricts the catalogue (default: all).
     """
     profile = load_profile(profile_name)
     cfg = benchmark_settings(profile)
     context = context_for(profile)
-    entries = [paper_entry(profile)] + catalogue_entries(profile)
+    entries = [paper_entry(profile)] + catalogue_entries(profile, names)
     notes = []
     if cfg["campaign_picks"] if campaigns is None else campaigns:
         picked, notes = campaign_entries(profile_name)
@@ -301,8 +306,10 @@ COMMON_CAUSES = ("their epoch, user grid and span are not given (ours: the study
 
 def _node_rms(values: np.ndarray) -> np.ndarray:
     """RMS over time (axis 0) of each node's finite samples; NaN where a node has none."""
-    with np.errstate(invalid="ignore"):
-        return np.sqrt(np.nanmean(np.where(np.isfinite(values), values, np.nan) ** 2, axis=0))
+    finite = np.isfinite(values)
+    count = finite.sum(axis=0)
+    total = np.sum(np.where(finite, values, 0.0) ** 2, axis=0)
+    return np.where(count > 0, np.sqrt(total / np.maximum(count, 1)), np.nan)
 
 
 def _dop_counterparts(profile: dict, r_mf: np.ndarray, times: np.ndarray, grid, mask_deg: float, uere_m: float) -> dict:
@@ -316,12 +323,12 @@ def _dop_counterparts(profile: dict, r_mf: np.ndarray, times: np.ndarray, grid, 
         hdop = np.where(usable, hdop, np.nan)
         vdop = np.where(usable, np.sqrt(np.clip(pdop**2 - hdop**2, 0.0, None)), np.nan)
     h_node, v_node = uere_m * _node_rms(hdop), uere_m * _node_rms(vdop)
-    with np.errstate(invalid="ignore"):
-        return {"availability_pct": summary["pdop_avail_pct"], "coverage_pct": 100.0 - summary["fewer_than_4_pct"],
-                "horizontal_position_rmse_mean_m": float(np.nanmean(h_node)),
-                "horizontal_position_rmse_max_m": float(np.nanmax(h_node)),
-                "vertical_position_rmse_mean_m": float(np.nanmean(v_node)),
-                "vertical_position_rmse_max_m": float(np.nanmax(v_node))}
+    out = {"availability_pct": summary["pdop_avail_pct"], "coverage_pct": 100.0 - summary["fewer_than_4_pct"]}
+    for name, node in (("horizontal", h_node), ("vertical", v_node)):
+        finite = node[np.isfinite(node)]
+        out[f"{name}_position_rmse_mean_m"] = float(finite.mean()) if finite.size else math.nan
+        out[f"{name}_position_rmse_max_m"] = float(finite.max()) if finite.size else math.nan
+    return out
 
 
 def _runs(visible: np.ndarray, value: bool) -> np.ndarray:

@@ -260,6 +260,13 @@ def frame_findings(table: pd.DataFrame, apolune: pd.DataFrame, *, reference: str
         f"{table.loc[lab['pdop_avail_pct'], literal]:.1f}%, i.e. {100.0 - table.loc[lab['pdop_avail_pct'], literal]:.1f}% "
         "of the grid-epoch samples without a usable PDOP",
     ]
+    orbit_plane = "moon_op / moon_fixed"
+    if orbit_plane in table.columns:
+        rows = [lab[k] for k in ("mean_visible_sats", "pdop_mean_3sigma", "hdop_mean_3sigma", "pdop_avail_pct")]
+        change = 100.0 * (table.loc[rows, orbit_plane] / table.loc[rows, reference] - 1.0)
+        moved = ", ".join(f"{name} {table.loc[name, orbit_plane]:.3f} ({change[name]:+.1f}% against the lunar equator)"
+                          for name in rows)
+        lines.append(f"- {orbit_plane} (Table 4 elements in the Moon's orbital-plane frame, Bhamidipati case C): {moved}")
     for _, row in apolune.iterrows():
         lats = [f"{v:.1f}" for k, v in row.items() if k != "element frame"]
         lines.append(f"- apolune latitudes with elements in {row['element frame']}: {' / '.join(lats)} deg")
