@@ -7,13 +7,17 @@ catalogue constellations (``params/constellations/``), the paper's Table 4 ELFO 
 best designs compare; where a study published performance figures, how far are ours from them and
 why; and how much does the study epoch (2025-05-01) matter across the Moon's 18.6-year nodal cycle?
 
-Verdict: the ELFO families (Table 4, Bhamidipati B and C) give near-complete south-pole availability
-at 5 deg, and the 20 deg mask separates them: the sparser designs lose availability first. The
-three-satellite constellations cannot give a 4-satellite fix most of the time. The published figures
-are not reproduced one for one because their metric definitions, epoch, user grid and span differ or
-were not given; the comparison table names each cause beside each number rather than tuning. Across
-the nodal cycle the DOP metrics move by a few per cent at most, so the 2025-05-01 epoch is not a
-special choice; the station-keeping estimate moves more. The notebook prints the numbers.
+Verdict: the Table 4 ELFO and Bhamidipati's case C (the same ELFO with its elements in the Moon's
+orbital-plane frame) give near-complete south-pole availability at 5 deg; cases A and B and the
+cislunar-nav designs fall short, and the three-satellite and single-satellite entries never give a
+four-satellite fix over the grid. The 20 deg mask lowers every availability, the sparse designs'
+most. The cislunar-nav designs, read in J2000 axes at the study epoch, fail the year-long stability
+screen. The published figures are not reproduced one for one: metric definitions, epoch, user grid
+and span differ or were not given, and the comparison table names each cause beside each number
+rather than tuning. Across the nodal cycle the availabilities and visible counts barely move, the
+filtered mean DOPs move where a geometry has near-degenerate windows, and the year-long perilune
+history and the station-keeping estimate move most: the 2025-05-01 epoch matters for the design life,
+hardly for the navigation geometry. The notebook prints the numbers.
 
 Design-life metrics come from the campaign-grade estimate (:mod:`lnss_lib.sk_estimate`) and the
 stability screen (:mod:`lnss_lib.stability`); :func:`add_closed_loop_life` adds the closed-loop
