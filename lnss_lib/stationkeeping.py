@@ -160,7 +160,7 @@ def life_force_model(profile: dict, t0_tdb_s: float, life_days: float, degree: i
 
 def simulate_life(profile: dict, elements_deg, *, natural: bool = False, life_days: float | None = None,
                   degree: int | None = None, model: ForceModel | None = None, t0_tdb_s: float | None = None,
-                  settings: LifeSettings | None = None) -> xr.Dataset:
+                  settings: LifeSettings | None = None, sample_step_s: float | None = None) -> xr.Dataset:
     """Station keeping (or, with ``natural=True``, natural drift) of a constellation over its design life.
 
     ``elements_deg`` (n_sat, 6) ``[a_km, e, inc_deg, raan_deg, aop_deg, M_deg]`` in the profile's
@@ -169,7 +169,10 @@ def simulate_life(profile: dict, elements_deg, *, natural: bool = False, life_da
     ``maneuver``: per satellite ``dv_kms_per_year``, ``dv_total_kms``, ``n_maneuvers``,
     ``maneuver_t_tdb_s`` and ``maneuver_dv_rtn_kms``, ``box_held``, ``impact``, ``impact_day``,
     ``max_box_ratio`` (largest error / half-width per box quantity after the first check), and the
-    histories ``mean_elements`` and ``box_error``. Raises ``ValueError`` for invalid elements.
+    histories ``mean_elements`` and ``box_error``. With ``sample_step_s`` the Dataset also holds
+    ``r_mci_km`` (sat, sample, xyz): Moon-centred J2000 positions (km) on the grid ``sample_t_tdb_s`` =
+    t0 + k ``sample_step_s`` over the life (manoeuvres flown; NaN after an impact), for navigation
+    metrics over the design life. Raises ``ValueError`` for invalid elements or sample step.
     """
     cfg = settings or LifeSettings.from_profile(profile, life_days=life_days)
     ensure_kernels(profile)
@@ -187,6 +190,10 @@ def simulate_life(profile: dict, elements_deg, *, natural: bool = False, life_da
     r_min = profile["constants"]["r_moon_mean_km"] + profile["impact"]["min_altitude_km"]
 
     n_sat = el.shape[0]
+    sample_t = _sample_grid(t0, life_s, sample_step_s)
+    r_sample = np.full((n_sat, sample_t.size, 3), np.nan)
+    if sample_t.size:
+        r_sample[:, 0] = states[:, :3]
     periods = orbital_period_s(el[:, 0], gm)
     step = float(periods.min()) / cfg.samples_per_orbit
     window = np.rint(periods / step).astype(int)
@@ -214,11 +221,13 @@ def simulate_life(profile: dict, elements_deg, *, natural: bool = False, life_da
     u_since = [[] for _ in range(n_sat)]
     start = time.perf_counter()
     t = t0
-    for _ in range(n_chunks):
-        t_next = min(t + chunk_s, t0 + life_s)
+    for k_chunk in range(n_chunks):
+        t_next = t0 + life_s if k_chunk == n_chunks - 1 else min(t + chunk_s, t0 + life_s)
         n_win = int(window.max())
-        t_out = t_next - step * np.arange(n_win, -1, -1)
-        seg_states, y_new, status, t_stop = integrate_chunk(
+        t_win = t_next - step * np.arange(n_win, -1, -1)
+        in_chunk = np.flatnonzero((sample_t > t) & (sample_t <= t_next))
+        t_out, where = np.unique(np.concatenate([t_win, sample_t[in_chunk]]), return_inverse=True)
+        out_states, y_new, status, t_stop = integrate_chunk(
             y, active, t, t_out, pending_t, pending_dv, METHODS.index(integ["method"]), float(integ["rtol"]),
             float(integ["atol"]), r_min, 5_000_000, model.kernel_args, model.field.degree)
         bad = active & (status != STATUS_OK)
@@ -230,6 +239,8 @@ def simulate_life(profile: dict, elements_deg, *, natural: bool = False, life_da
                     burns_t[i].append(float(tb))
                     burns_dv[i].append(dvb.copy())
                     dv_used[i] += float(np.linalg.norm(dvb))
+        seg_states = out_states[:, where[:t_win.size]]
+        r_sample[:, in_chunk] = out_states[:, where[t_win.size:], :3]
         impact_t[bad] = t_stop[bad]
         active &= ~bad
         pending_t[:] = np.nan
@@ -264,7 +275,19 @@ def simulate_life(profile: dict, elements_deg, *, natural: bool = False, life_da
             last_burn[i] = t
             u_since[i] = []
     return _life_dataset(profile, cfg, integ, model, natural, el, t0, life_s, np.array(hist_t), np.array(hist_el),
-                         np.array(hist_err), half, burns_t, burns_dv, impact_t, cap_kms, time.perf_counter() - start)
+                         np.array(hist_err), half, burns_t, burns_dv, impact_t, cap_kms, time.perf_counter() - start,
+                         sample_t, r_sample if sample_step_s is not None else None)
+
+
+def _sample_grid(t0: float, life_s: float, sample_step_s: float | None) -> np.ndarray:
+    """Epochs t0 + k step (k = 0, 1, ...) up to the end of the life; empty without a step."""
+    if sample_step_s is None:
+        return np.empty(0)
+    step = float(sample_step_s)
+    if not (np.isfinite(step) and 0.0 < step <= life_s):
+        raise ValueError(f"sample_step_s = {sample_step_s!r} must be a positive number of seconds at most the "
+                         f"design life ({life_s:.0f} s)")
+    return np.minimum(t0 + step * np.arange(int(np.floor(life_s / step + 1e-9)) + 1), t0 + life_s)
 
 
 def _plan(osc, mel, ref_ecc, ref_aop, ref_inc, raan_rel, u_rel, out, u_history, a_mean_all, phasing_s, gm):
@@ -296,7 +319,7 @@ nothing; a slot out of its box is driven back through a."""
 
 
 def _life_dataset(profile, cfg, integ, model, natural, el, t0, life_s, hist_t, hist_el, hist_err, half, burns_t,
-                  burns_dv, impact_t, cap_kms, wall_s) -> xr.Dataset:
+                  burns_dv, impact_t, cap_kms, wall_s, sample_t, r_sample) -> xr.Dataset:
     n_sat = el.shape[0]
     n_max = max([len(b) for b in burns_t] + [1])
     man_t = np.full((n_sat, n_max), np.nan)
@@ -348,6 +371,11 @@ def _life_dataset(profile, cfg, integ, model, natural, el, t0, life_s, hist_t, h
             "dv_cap_kms_per_year": cfg.dv_cap_kms_per_year, "wall_s": wall_s,
         },
     )
+    if r_sample is not None:
+        ds["r_mci_km"] = (("sat", "sample", "xyz"), r_sample)
+        ds = ds.assign_coords(sample_t_tdb_s=("sample", sample_t), sample_day=("sample", (sample_t - t0) / SECONDS_PER_DAY),
+                              xyz=["x", "y", "z"])
+        ds["r_mci_km"].attrs["description"] = "Moon-centred J2000 positions (km) on the sample grid, NaN after an impact"
     ds["dv_kms_per_year"].attrs["units"] = "km/s per year"
     ds["mean_elements"].attrs["description"] = "mean elements over one orbit ending at each check; u = aop + M"
     return ds
