@@ -13,13 +13,12 @@ Every satellite of a constellation is propagated by the compiled engine
 A satellite out of its box (and whose last manoeuvre is at least ``min_maneuver_spacing_days``
 old, and whose Delta-v cap is not spent) gets one or two impulses on the next orbit, planned from
 the GVEs (:func:`lnss_lib.maneuvers.plan_impulses`) and flown in the propagation (the velocity
-jumps at the burn epoch). Targeting: e, AOP, i and relative RAAN are aimed back at the reference
-(the centre of the box) when out of it, while the quantities still inside are held unchanged by
-the same burns (the periodic motion inside the box costs nothing); the along-track slot is held by a drift-rate (phasing) correction: out of
-its box, the satellite's mean a is changed so that it drifts back to its slot centre in
-``phasing_days``, from its current relative drift rate (measured as the slope of the slot offset
-since its last manoeuvre, or from the mean a when there are too few checks); inside the box, a
-manoeuvre leaves a unchanged. ``natural=True`` flies no manoeuvre (natural drift).
+jumps at the burn epoch). The control laws are in :mod:`lnss_lib.sk_control`: e, AOP, i and relative
+RAAN are judged on their running mean over one tidal period (the one-orbit means swing at half the
+sidereal month) and, when out, aimed past the reference to the far side of the box, the others held;
+the slot is predicted from the mean-a drift rate (-1.5 n (a - mean a)/a) and the fitted trend of
+u_rel, and corrected by a drift-band change of a only when it is predicted to leave the box while
+moving outward. ``natural=True`` flies no manoeuvre (natural drift).
 """
 
 from __future__ import annotations
@@ -39,6 +38,7 @@ from .frames import element_frame_to_j2000
 from .forces import SCRATCH_SIZE, ForceModel
 from .maneuvers import plan_impulses
 from .mean_elements import MEAN_ELEMENTS, mean_elements, relative_angles, to_element_frame, wrap_pi
+from .sk_control import SlotState, drift_band_rate, overshoot_target, predicted_exit, running_mean
 from .propagator import METHODS, STATUS_IMPACT, STATUS_OK, elements_deg_to_states, integrate_one
 
 BOX_KEYS = ("ecc", "aop_deg", "inc_deg", "raan_rel_deg", "u_rel_deg")
@@ -54,7 +54,11 @@ class LifeSettings:
     samples_per_orbit: int
     min_maneuver_spacing_days: float
     dv_cap_kms_per_year: float
-    phasing_days: float
+    slot_coast_days: float
+    slot_fit_days: float
+    slot_quad_days: float
+    target_fraction: float
+    tide_period_days: float
     box_tolerance: float
     integrator_setting: str
     box: dict
@@ -72,9 +76,12 @@ class LifeSettings:
         unknown = set(cfg) - allowed
         if unknown:
             raise ValueError(f"unknown [design_life] key(s) {sorted(unknown)}; allowed: {sorted(allowed)}")
-        for key in ("life_days", "check_interval_days", "phasing_days", "dv_cap_kms_per_year"):
+        for key in ("life_days", "check_interval_days", "slot_coast_days", "tide_period_days", "slot_fit_days", "slot_quad_days",
+                    "dv_cap_kms_per_year"):
             if not (np.isfinite(cfg[key]) and cfg[key] > 0):
                 raise ValueError(f"[design_life] {key} = {cfg[key]!r} must be positive")
+        if not 0.0 <= cfg["target_fraction"] < 1.0:
+            raise ValueError(f"[design_life] target_fraction = {cfg['target_fraction']!r} must be in [0, 1)")
         if not cfg["min_maneuver_spacing_days"] >= 0 or not cfg["box_tolerance"] >= 0:
             raise ValueError("[design_life] min_maneuver_spacing_days and box_tolerance must be >= 0")
         if int(cfg["samples_per_orbit"]) < 16:
@@ -218,7 +225,8 @@ def simulate_life(profile: dict, elements_deg, *, natural: bool = False, life_da
     pending_t = np.full((n_sat, 2), np.nan)
     pending_dv = np.zeros((n_sat, 2, 3))
     dv_used = np.zeros(n_sat)
-    u_since = [[] for _ in range(n_sat)]
+    slot = [SlotState() for _ in range(n_sat)]
+    geo_hist = [[] for _ in range(n_sat)]
     start = time.perf_counter()
     t = t0
     for k_chunk in range(n_chunks):
@@ -259,21 +267,40 @@ def simulate_life(profile: dict, elements_deg, *, natural: bool = False, life_da
         if natural or t >= t0 + life_s - 1e-6:
             continue
         for i in np.flatnonzero(active):
-            u_since[i].append((t_mid[i], u_rel[i]))
-            out = np.abs(err[i]) > half
-            if not out.any() or t - last_burn[i] < cfg.min_maneuver_spacing_days * SECONDS_PER_DAY:
+            slot[i].history.append((t_mid[i], u_rel[i]))
+            geo_hist[i].append((t_mid[i], err[i, :4]))
+            if t - last_burn[i] < cfg.min_maneuver_spacing_days * SECONDS_PER_DAY or dv_used[i] >= cap_kms:
                 continue
-            if dv_used[i] >= cap_kms:
+            tt, gg = zip(*geo_hist[i])
+            err_avg = np.append(running_mean(np.array(tt), np.array(gg), cfg.tide_period_days), u_rel[i])
+            out = np.abs(err_avg) > half
+            out[:4] &= tt[-1] - tt[0] >= 0.5 * cfg.tide_period_days * SECONDS_PER_DAY
+            out[4] = False
+            trend = slot[i].fit(cfg.slot_fit_days, cfg.slot_quad_days, cfg.tide_period_days)
+            a_all = mel[active, 0].mean()
+            rate_a = -1.5 * np.sqrt(gm / mel[i, 0] ** 3) * (mel[i, 0] - a_all) / a_all
+            fit = (u_rel[i] if trend is None else trend[0], rate_a, 0.0, 0.0) if len(slot[i].history) >= 2 else None
+            if fit is not None:
+                out[4] = predicted_exit(*fit[:3], half[4], chunk_s + float(periods[i]))
+            if not out.any():
                 continue
             osc = state_to_elements(to_element_frame(y[i], rot), gm)
-            plan = _plan(osc, mel[i], ref_ecc[i], ref_aop[i], ref_inc[i], raan_rel[i], u_rel[i], out,
-                         u_since[i], mel[active, 0].mean(), cfg.phasing_days * SECONDS_PER_DAY, gm)
+            plan, new_rate = _plan(osc, mel[i], err_avg, out, fit, half, cfg, gm)
             if plan is None:
                 continue
             pending_t[i, :len(plan.dt_s)] = t + plan.dt_s
             pending_dv[i, :len(plan.dt_s)] = plan.dv_rtn_kms
             last_burn[i] = t
-            u_since[i] = []
+            if out[:4].any():
+                shift = np.where(out[:4], -err_avg[:4] - np.sign(err_avg[:4]) * cfg.target_fraction * half[:4], 0.0)
+                geo_hist[i] = [(tk, gk + shift) for tk, gk in geo_hist[i]]
+            if out[:4].any() and not out[4]:
+                slot[i].history, slot[i].planned_rate = [], np.nan
+            if out[4]:
+                if slot[i].history[-1][0] - slot[i].history[0][0] >= cfg.slot_quad_days * SECONDS_PER_DAY:
+                    slot[i].accel = fit[2]
+                slot[i].history = []
+                slot[i].planned_rate = new_rate
     return _life_dataset(profile, cfg, integ, model, natural, el, t0, life_s, np.array(hist_t), np.array(hist_el),
                          np.array(hist_err), half, burns_t, burns_dv, impact_t, cap_kms, time.perf_counter() - start,
                          sample_t, r_sample if sample_step_s is not None else None)
@@ -290,32 +317,35 @@ def _sample_grid(t0: float, life_s: float, sample_step_s: float | None) -> np.nd
     return np.minimum(t0 + step * np.arange(int(np.floor(life_s / step + 1e-9)) + 1), t0 + life_s)
 
 
-def _plan(osc, mel, ref_ecc, ref_aop, ref_inc, raan_rel, u_rel, out, u_history, a_mean_all, phasing_s, gm):
-    """Impulses for one satellite: each quantity out of its box (``out``, order :data:`BOX_KEYS`) is aimed
-    at its reference (e and AOP together, as the e vector in nodal axes); the others are held (zero
-    change, the slot included: u one orbit after the burns), so the periodic motion inside the box costs
-nothing; a slot out of its box is driven back through a."""
+def _plan(osc, mel, err, out, fit, half, cfg, gm):
+    """Impulses for one satellite and the slot drift rate they aim at (NaN when the slot is not corrected).
+
+    Each geometry quantity out of its box (``out``, order :data:`BOX_KEYS`) is aimed past its reference
+    (:func:`lnss_lib.sk_control.overshoot_target`; e and AOP together as the e vector in nodal axes);
+    the others are held (zero change). A slot correction sets the mean a so that the drift rate becomes
+    :func:`lnss_lib.sk_control.drift_band_rate`; otherwise a and u are held (u one orbit after the burns).
+    """
     a, n = mel[0], np.sqrt(gm / mel[0] ** 3)
-    fix_e = out[0] or out[1]
+    ecc, aop = mel[1], mel[4]
+    d_ecc = overshoot_target(err[0], half[0], cfg.target_fraction) if out[0] else 0.0
+    d_aop = overshoot_target(err[1], half[1], cfg.target_fraction) if out[1] else 0.0
+    ecc_new, aop_new = ecc + d_ecc, aop + d_aop
     target = {
-        "ex": ref_ecc * np.cos(ref_aop) - mel[1] * np.cos(mel[4]) if fix_e else 0.0,
-        "ey": ref_ecc * np.sin(ref_aop) - mel[1] * np.sin(mel[4]) if fix_e else 0.0,
-        "inc_rad": ref_inc - mel[2] if out[2] else 0.0,
-        "raan_rad": -raan_rel if out[3] else 0.0,
+        "ex": ecc_new * np.cos(aop_new) - ecc * np.cos(aop),
+        "ey": ecc_new * np.sin(aop_new) - ecc * np.sin(aop),
+        "inc_rad": overshoot_target(err[2], half[2], cfg.target_fraction) if out[2] else 0.0,
+        "raan_rad": overshoot_target(err[3], half[3], cfg.target_fraction) if out[3] else 0.0,
         "a_km": 0.0,
         "u_rad": 0.0,
     }
-    u_out = out[4]
-    if u_out:
-        if len(u_history) >= 3:
-            tt, uu = np.array(u_history).T
-            rate = np.polyfit(tt - tt[-1], np.unwrap(uu), 1)[0]
-        else:
-            rate = -1.5 * n / a * (a - a_mean_all)
-        target["a_km"] = (-u_rel / phasing_s - rate) / (-1.5 * n / a)
+    new_rate = np.nan
+    if out[4]:
+        u0, rate, accel, _ = fit
+        new_rate = drift_band_rate(u0, accel, half[4], cfg.target_fraction, cfg.slot_coast_days * SECONDS_PER_DAY)
+        target["a_km"] = (new_rate - rate) / (-1.5 * n / a)
         del target["u_rad"]
     plan = plan_impulses(osc, gm, target, max_burns=2)
-    return plan if plan.dv_rtn_kms.size else None
+    return (plan, new_rate) if plan.dv_rtn_kms.size else (None, new_rate)
 
 
 def _life_dataset(profile, cfg, integ, model, natural, el, t0, life_s, hist_t, hist_el, hist_err, half, burns_t,
