@@ -180,8 +180,9 @@ def plan_impulses(elements: np.ndarray, gm_km3_s2: float, target: dict, *, horiz
     if np.any(dts > horizon):
         raise ValueError(f"horizon {horizon:.0f} s ends before burn point(s) at {dts[dts > horizon]} s")
     rows = [CONTROL_ROWS.index(k) for k in target]
-    # scale: a in units of a, angles and e-vector in units of 1e-3 (comparable sizes)
-    scale = np.array([1.0 / a, 1e3, 1e3, 1e3, 1e3 * np.sin(el[2]), 1e3])[rows]
+    # scale: angles and e-vector in units of 1e-3; a by the along-track drift it causes in one orbit
+    # (3 pi da/a rad), so that holding a weighs as much as holding u
+    scale = np.array([3e3 * np.pi / a, 1e3, 1e3, 1e3, 1e3 * np.sin(el[2]), 1e3])[rows]
     want = np.array([target[k] for k in target]) * scale
     columns = []
     for nu, dt in zip(nus, dts):

@@ -13,13 +13,12 @@ Every satellite of a constellation is propagated by the compiled engine
 A satellite out of its box (and whose last manoeuvre is at least ``min_maneuver_spacing_days``
 old, and whose Delta-v cap is not spent) gets one or two impulses on the next orbit, planned from
 the GVEs (:func:`lnss_lib.maneuvers.plan_impulses`) and flown in the propagation (the velocity
-jumps at the burn epoch). Targeting: e, AOP, i and relative RAAN are aimed back at the reference
-(the centre of the box) when out of it, while the quantities still inside are held unchanged by
-the same burns (the periodic motion inside the box costs nothing); the along-track slot is held by a drift-rate (phasing) correction: out of
-its box, the satellite's mean a is changed so that it drifts back to its slot centre in
-``phasing_days``, from its current relative drift rate (measured as the slope of the slot offset
-since its last manoeuvre, or from the mean a when there are too few checks); inside the box, a
-manoeuvre leaves a unchanged. ``natural=True`` flies no manoeuvre (natural drift).
+jumps at the burn epoch). The control laws are in :mod:`lnss_lib.sk_control`: e, AOP, i and relative
+RAAN are judged on their running mean over one tidal period (the one-orbit means swing at half the
+sidereal month) and, when out, aimed past the reference to the far side of the box, the others held;
+the slot is predicted from the mean-a drift rate (-1.5 n (a - mean a)/a) and the fitted trend of
+u_rel, and corrected by a drift-band change of a only when it is predicted to leave the box while
+moving outward. ``natural=True`` flies no manoeuvre (natural drift).
 """
 
 from __future__ import annotations
@@ -39,6 +38,7 @@ from .frames import element_frame_to_j2000
 from .forces import SCRATCH_SIZE, ForceModel
 from .maneuvers import plan_impulses
 from .mean_elements import MEAN_ELEMENTS, mean_elements, relative_angles, to_element_frame, wrap_pi
+from .sk_control import SlotState, drift_band_rate, overshoot_target, predicted_exit, running_mean
 from .propagator import METHODS, STATUS_IMPACT, STATUS_OK, elements_deg_to_states, integrate_one
 
 BOX_KEYS = ("ecc", "aop_deg", "inc_deg", "raan_rel_deg", "u_rel_deg")
@@ -54,7 +54,11 @@ class LifeSettings:
     samples_per_orbit: int
     min_maneuver_spacing_days: float
     dv_cap_kms_per_year: float
-    phasing_days: float
+    slot_coast_days: float
+    slot_fit_days: float
+    slot_quad_days: float
+    target_fraction: float
+    tide_period_days: float
     box_tolerance: float
     integrator_setting: str
     box: dict
@@ -72,9 +76,12 @@ class LifeSettings:
         unknown = set(cfg) - allowed
         if unknown:
             raise ValueError(f"unknown [design_life] key(s) {sorted(unknown)}; allowed: {sorted(allowed)}")
-        for key in ("life_days", "check_interval_days", "phasing_days", "dv_cap_kms_per_year"):
+        for key in ("life_days", "check_interval_days", "slot_coast_days", "tide_period_days", "slot_fit_days", "slot_quad_days",
+                    "dv_cap_kms_per_year"):
             if not (np.isfinite(cfg[key]) and cfg[key] > 0):
                 raise ValueError(f"[design_life] {key} = {cfg[key]!r} must be positive")
+        if not 0.0 <= cfg["target_fraction"] < 1.0:
+            raise ValueError(f"[design_life] target_fraction = {cfg['target_fraction']!r} must be in [0, 1)")
         if not cfg["min_maneuver_spacing_days"] >= 0 or not cfg["box_tolerance"] >= 0:
             raise ValueError("[design_life] min_maneuver_spacing_days and box_tolerance must be >= 0")
         if int(cfg["samples_per_orbit"]) < 16:
@@ -160,7 +167,7 @@ def life_force_model(profile: dict, t0_tdb_s: float, life_days: float, degree: i
 
 def simulate_life(profile: dict, elements_deg, *, natural: bool = False, life_days: float | None = None,
                   degree: int | None = None, model: ForceModel | None = None, t0_tdb_s: float | None = None,
-                  settings: LifeSettings | None = None) -> xr.Dataset:
+                  settings: LifeSettings | None = None, sample_step_s: float | None = None) -> xr.Dataset:
     """Station keeping (or, with ``natural=True``, natural drift) of a constellation over its design life.
 
     ``elements_deg`` (n_sat, 6) ``[a_km, e, inc_deg, raan_deg, aop_deg, M_deg]`` in the profile's
@@ -169,7 +176,10 @@ def simulate_life(profile: dict, elements_deg, *, natural: bool = False, life_da
     ``maneuver``: per satellite ``dv_kms_per_year``, ``dv_total_kms``, ``n_maneuvers``,
     ``maneuver_t_tdb_s`` and ``maneuver_dv_rtn_kms``, ``box_held``, ``impact``, ``impact_day``,
     ``max_box_ratio`` (largest error / half-width per box quantity after the first check), and the
-    histories ``mean_elements`` and ``box_error``. Raises ``ValueError`` for invalid elements.
+    histories ``mean_elements`` and ``box_error``. With ``sample_step_s`` the Dataset also holds
+    ``r_mci_km`` (sat, sample, xyz): Moon-centred J2000 positions (km) on the grid ``sample_t_tdb_s`` =
+    t0 + k ``sample_step_s`` over the life (manoeuvres flown; NaN after an impact), for navigation
+    metrics over the design life. Raises ``ValueError`` for invalid elements or sample step.
     """
     cfg = settings or LifeSettings.from_profile(profile, life_days=life_days)
     ensure_kernels(profile)
@@ -187,6 +197,10 @@ def simulate_life(profile: dict, elements_deg, *, natural: bool = False, life_da
     r_min = profile["constants"]["r_moon_mean_km"] + profile["impact"]["min_altitude_km"]
 
     n_sat = el.shape[0]
+    sample_t = _sample_grid(t0, life_s, sample_step_s)
+    r_sample = np.full((n_sat, sample_t.size, 3), np.nan)
+    if sample_t.size:
+        r_sample[:, 0] = states[:, :3]
     periods = orbital_period_s(el[:, 0], gm)
     step = float(periods.min()) / cfg.samples_per_orbit
     window = np.rint(periods / step).astype(int)
@@ -211,14 +225,17 @@ def simulate_life(profile: dict, elements_deg, *, natural: bool = False, life_da
     pending_t = np.full((n_sat, 2), np.nan)
     pending_dv = np.zeros((n_sat, 2, 3))
     dv_used = np.zeros(n_sat)
-    u_since = [[] for _ in range(n_sat)]
+    slot = [SlotState() for _ in range(n_sat)]
+    geo_hist = [[] for _ in range(n_sat)]
     start = time.perf_counter()
     t = t0
-    for _ in range(n_chunks):
-        t_next = min(t + chunk_s, t0 + life_s)
+    for k_chunk in range(n_chunks):
+        t_next = t0 + life_s if k_chunk == n_chunks - 1 else min(t + chunk_s, t0 + life_s)
         n_win = int(window.max())
-        t_out = t_next - step * np.arange(n_win, -1, -1)
-        seg_states, y_new, status, t_stop = integrate_chunk(
+        t_win = t_next - step * np.arange(n_win, -1, -1)
+        in_chunk = np.flatnonzero((sample_t > t) & (sample_t <= t_next))
+        t_out, where = np.unique(np.concatenate([t_win, sample_t[in_chunk]]), return_inverse=True)
+        out_states, y_new, status, t_stop = integrate_chunk(
             y, active, t, t_out, pending_t, pending_dv, METHODS.index(integ["method"]), float(integ["rtol"]),
             float(integ["atol"]), r_min, 5_000_000, model.kernel_args, model.field.degree)
         bad = active & (status != STATUS_OK)
@@ -230,6 +247,8 @@ def simulate_life(profile: dict, elements_deg, *, natural: bool = False, life_da
                     burns_t[i].append(float(tb))
                     burns_dv[i].append(dvb.copy())
                     dv_used[i] += float(np.linalg.norm(dvb))
+        seg_states = out_states[:, where[:t_win.size]]
+        r_sample[:, in_chunk] = out_states[:, where[t_win.size:], :3]
         impact_t[bad] = t_stop[bad]
         active &= ~bad
         pending_t[:] = np.nan
@@ -248,55 +267,89 @@ def simulate_life(profile: dict, elements_deg, *, natural: bool = False, life_da
         if natural or t >= t0 + life_s - 1e-6:
             continue
         for i in np.flatnonzero(active):
-            u_since[i].append((t_mid[i], u_rel[i]))
-            out = np.abs(err[i]) > half
-            if not out.any() or t - last_burn[i] < cfg.min_maneuver_spacing_days * SECONDS_PER_DAY:
+            slot[i].history.append((t_mid[i], u_rel[i]))
+            geo_hist[i].append((t_mid[i], err[i, :4]))
+            if t - last_burn[i] < cfg.min_maneuver_spacing_days * SECONDS_PER_DAY or dv_used[i] >= cap_kms:
                 continue
-            if dv_used[i] >= cap_kms:
+            tt, gg = zip(*geo_hist[i])
+            err_avg = np.append(running_mean(np.array(tt), np.array(gg), cfg.tide_period_days), u_rel[i])
+            out = np.abs(err_avg) > half
+            out[:4] &= tt[-1] - tt[0] >= 0.5 * cfg.tide_period_days * SECONDS_PER_DAY
+            out[4] = False
+            trend = slot[i].fit(cfg.slot_fit_days, cfg.slot_quad_days, cfg.tide_period_days)
+            a_all = mel[active, 0].mean()
+            rate_a = -1.5 * np.sqrt(gm / mel[i, 0] ** 3) * (mel[i, 0] - a_all) / a_all
+            fit = (u_rel[i] if trend is None else trend[0], rate_a, 0.0, 0.0) if len(slot[i].history) >= 2 else None
+            if fit is not None:
+                out[4] = predicted_exit(*fit[:3], half[4], chunk_s + float(periods[i]))
+            if not out.any():
                 continue
             osc = state_to_elements(to_element_frame(y[i], rot), gm)
-            plan = _plan(osc, mel[i], ref_ecc[i], ref_aop[i], ref_inc[i], raan_rel[i], u_rel[i], out,
-                         u_since[i], mel[active, 0].mean(), cfg.phasing_days * SECONDS_PER_DAY, gm)
+            plan, new_rate = _plan(osc, mel[i], err_avg, out, fit, half, cfg, gm)
             if plan is None:
                 continue
             pending_t[i, :len(plan.dt_s)] = t + plan.dt_s
             pending_dv[i, :len(plan.dt_s)] = plan.dv_rtn_kms
             last_burn[i] = t
-            u_since[i] = []
+            if out[:4].any():
+                shift = np.where(out[:4], -err_avg[:4] - np.sign(err_avg[:4]) * cfg.target_fraction * half[:4], 0.0)
+                geo_hist[i] = [(tk, gk + shift) for tk, gk in geo_hist[i]]
+            if out[:4].any() and not out[4]:
+                slot[i].history, slot[i].planned_rate = [], np.nan
+            if out[4]:
+                if slot[i].history[-1][0] - slot[i].history[0][0] >= cfg.slot_quad_days * SECONDS_PER_DAY:
+                    slot[i].accel = fit[2]
+                slot[i].history = []
+                slot[i].planned_rate = new_rate
     return _life_dataset(profile, cfg, integ, model, natural, el, t0, life_s, np.array(hist_t), np.array(hist_el),
-                         np.array(hist_err), half, burns_t, burns_dv, impact_t, cap_kms, time.perf_counter() - start)
+                         np.array(hist_err), half, burns_t, burns_dv, impact_t, cap_kms, time.perf_counter() - start,
+                         sample_t, r_sample if sample_step_s is not None else None)
 
 
-def _plan(osc, mel, ref_ecc, ref_aop, ref_inc, raan_rel, u_rel, out, u_history, a_mean_all, phasing_s, gm):
-    """Impulses for one satellite: each quantity out of its box (``out``, order :data:`BOX_KEYS`) is aimed
-    at its reference (e and AOP together, as the e vector in nodal axes); the others are held (zero
-    change, the slot included: u one orbit after the burns), so the periodic motion inside the box costs
-nothing; a slot out of its box is driven back through a."""
+def _sample_grid(t0: float, life_s: float, sample_step_s: float | None) -> np.ndarray:
+    """Epochs t0 + k step (k = 0, 1, ...) up to the end of the life; empty without a step."""
+    if sample_step_s is None:
+        return np.empty(0)
+    step = float(sample_step_s)
+    if not (np.isfinite(step) and 0.0 < step <= life_s):
+        raise ValueError(f"sample_step_s = {sample_step_s!r} must be a positive number of seconds at most the "
+                         f"design life ({life_s:.0f} s)")
+    return np.minimum(t0 + step * np.arange(int(np.floor(life_s / step + 1e-9)) + 1), t0 + life_s)
+
+
+def _plan(osc, mel, err, out, fit, half, cfg, gm):
+    """Impulses for one satellite and the slot drift rate they aim at (NaN when the slot is not corrected).
+
+    Each geometry quantity out of its box (``out``, order :data:`BOX_KEYS`) is aimed past its reference
+    (:func:`lnss_lib.sk_control.overshoot_target`; e and AOP together as the e vector in nodal axes);
+    the others are held (zero change). A slot correction sets the mean a so that the drift rate becomes
+    :func:`lnss_lib.sk_control.drift_band_rate`; otherwise a and u are held (u one orbit after the burns).
+    """
     a, n = mel[0], np.sqrt(gm / mel[0] ** 3)
-    fix_e = out[0] or out[1]
+    ecc, aop = mel[1], mel[4]
+    d_ecc = overshoot_target(err[0], half[0], cfg.target_fraction) if out[0] else 0.0
+    d_aop = overshoot_target(err[1], half[1], cfg.target_fraction) if out[1] else 0.0
+    ecc_new, aop_new = ecc + d_ecc, aop + d_aop
     target = {
-        "ex": ref_ecc * np.cos(ref_aop) - mel[1] * np.cos(mel[4]) if fix_e else 0.0,
-        "ey": ref_ecc * np.sin(ref_aop) - mel[1] * np.sin(mel[4]) if fix_e else 0.0,
-        "inc_rad": ref_inc - mel[2] if out[2] else 0.0,
-        "raan_rad": -raan_rel if out[3] else 0.0,
+        "ex": ecc_new * np.cos(aop_new) - ecc * np.cos(aop),
+        "ey": ecc_new * np.sin(aop_new) - ecc * np.sin(aop),
+        "inc_rad": overshoot_target(err[2], half[2], cfg.target_fraction) if out[2] else 0.0,
+        "raan_rad": overshoot_target(err[3], half[3], cfg.target_fraction) if out[3] else 0.0,
         "a_km": 0.0,
         "u_rad": 0.0,
     }
-    u_out = out[4]
-    if u_out:
-        if len(u_history) >= 3:
-            tt, uu = np.array(u_history).T
-            rate = np.polyfit(tt - tt[-1], np.unwrap(uu), 1)[0]
-        else:
-            rate = -1.5 * n / a * (a - a_mean_all)
-        target["a_km"] = (-u_rel / phasing_s - rate) / (-1.5 * n / a)
+    new_rate = np.nan
+    if out[4]:
+        u0, rate, accel, _ = fit
+        new_rate = drift_band_rate(u0, accel, half[4], cfg.target_fraction, cfg.slot_coast_days * SECONDS_PER_DAY)
+        target["a_km"] = (new_rate - rate) / (-1.5 * n / a)
         del target["u_rad"]
     plan = plan_impulses(osc, gm, target, max_burns=2)
-    return plan if plan.dv_rtn_kms.size else None
+    return (plan, new_rate) if plan.dv_rtn_kms.size else (None, new_rate)
 
 
 def _life_dataset(profile, cfg, integ, model, natural, el, t0, life_s, hist_t, hist_el, hist_err, half, burns_t,
-                  burns_dv, impact_t, cap_kms, wall_s) -> xr.Dataset:
+                  burns_dv, impact_t, cap_kms, wall_s, sample_t, r_sample) -> xr.Dataset:
     n_sat = el.shape[0]
     n_max = max([len(b) for b in burns_t] + [1])
     man_t = np.full((n_sat, n_max), np.nan)
@@ -348,6 +401,11 @@ def _life_dataset(profile, cfg, integ, model, natural, el, t0, life_s, hist_t, h
             "dv_cap_kms_per_year": cfg.dv_cap_kms_per_year, "wall_s": wall_s,
         },
     )
+    if r_sample is not None:
+        ds["r_mci_km"] = (("sat", "sample", "xyz"), r_sample)
+        ds = ds.assign_coords(sample_t_tdb_s=("sample", sample_t), sample_day=("sample", (sample_t - t0) / SECONDS_PER_DAY),
+                              xyz=["x", "y", "z"])
+        ds["r_mci_km"].attrs["description"] = "Moon-centred J2000 positions (km) on the sample grid, NaN after an impact"
     ds["dv_kms_per_year"].attrs["units"] = "km/s per year"
     ds["mean_elements"].attrs["description"] = "mean elements over one orbit ending at each check; u = aop + M"
     return ds
