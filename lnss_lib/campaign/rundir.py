@@ -11,7 +11,6 @@
 from __future__ import annotations
 
 import json
-import os
 import pickle
 import time
 from pathlib import Path
@@ -19,6 +18,7 @@ from pathlib import Path
 import numpy as np
 import xarray as xr
 
+from ..atomicio import write_bytes_atomic, write_netcdf_atomic
 from ..config import OUTPUTS_DIR
 from ..keys import DESIGN_KEYS, INTEGER_DESIGN_KEYS, METRIC_KEYS
 from .fitness import constraint_matrix, constraint_violation, metric_columns, non_dominated_mask, objective_matrix
@@ -34,13 +34,7 @@ RESULT_FILES = ("evaluations.nc", "front.nc", "history.nc")
 CHECKPOINT_FORMAT = 1
 
 
-def atomic_write_bytes(path: Path, data: bytes) -> None:
-    tmp = path.with_name(f".{path.name}.tmp{os.getpid()}")
-    with tmp.open("wb") as handle:
-        handle.write(data)
-        handle.flush()
-        os.fsync(handle.fileno())
-    os.replace(tmp, path)
+atomic_write_bytes = write_bytes_atomic
 
 
 def load_run(run_dir) -> dict:
@@ -168,9 +162,7 @@ def write_results(run_dir, publish_dir=None) -> list[Path]:
     for folder in [Path(run_dir)] + ([Path(publish_dir)] if publish_dir else []):
         for name, ds in zip(RESULT_FILES, datasets):
             target = folder / name
-            tmp = folder / f".{name}.tmp{os.getpid()}"
-            ds.to_netcdf(tmp, engine="h5netcdf")
-            os.replace(tmp, target)
+            write_netcdf_atomic(ds, target)
             written.append(target)
     return written
 
