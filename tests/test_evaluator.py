@@ -47,13 +47,21 @@ def test_too_few_satellites_gives_no_coverage_not_an_error(context):
     assert result["feasible"] and result["pdop_avail_pct"] == 0.0 and math.isnan(result["pdop_mean_3sigma"])
 
 
-@pytest.mark.parametrize("design, reason", [((6143.0, 1.2, 90.0, 51.7, 2, 2), "invalid design"),
-                                            ((2000.0, 0.5, 90.0, 51.7, 2, 2), "invalid elements"),
-                                            ((6143.0, 0.6, 90.0, 51.7, 0, 2), "invalid design")])
-def test_infeasible_designs_are_flagged_not_raised(context, design, reason):
-    result = evaluate_design(context, *design)
-    assert result["feasible"] is False and result["reason"].startswith(reason)
+def test_infeasible_designs_are_flagged_not_raised(context):
+    result = evaluate_design(context, 2000.0, 0.5, 90.0, 51.7, 2, 2)
+    assert result["feasible"] is False and result["reason"].startswith("invalid elements")
     assert all(math.isnan(result[k]) for k in METRIC_KEYS if k != "n_sat")
+
+
+@pytest.mark.parametrize("design, key", [((6143.0, 1.2, 90.0, 51.7, 2, 2), "e = 1.2"),
+                                         ((6143.0, 0.6, 90.0, 51.7, 0, 2), "n_planes = 0"),
+                                         ((float("nan"), 0.6, 90.0, 51.7, 2, 2), "a_km = nan"),
+                                         ((6143.0, 0.6, 90.0, 181.0, 2, 2), "inc_deg = 181")])
+def test_invalid_input_is_an_error_not_an_infeasible_design(context, design, key):
+    from lnss_lib.errors import ConfigError
+
+    with pytest.raises(ConfigError, match=key):
+        evaluate_design(context, *design)
 
 
 def test_cli_json_has_exactly_the_documented_keys():
