@@ -57,7 +57,7 @@ def _cmd_propagate(args: argparse.Namespace) -> int:
     import io
 
     from .atomicio import write_netcdf_atomic, write_text_atomic
-    from .ephemeris import ensure_kernels, tdb_seconds
+    from .ephemeris import check_span, ensure_kernels, tdb_seconds
     from .propagator import check_elements_deg, elements_deg_to_states, propagate_states
 
     _require("--days", args.days, (0.0, None, True, False))
@@ -76,6 +76,7 @@ def _cmd_propagate(args: argparse.Namespace) -> int:
     profile = load_profile(args.profile, overrides=overrides or None)
     ensure_kernels(profile)
     t0 = tdb_seconds(args.epoch_tdb, "TDB")
+    check_span(t0, t0 + args.days * SECONDS_PER_DAY)
     if args.elements is not None:
         state = elements_deg_to_states(profile, [args.elements], t0)
     else:
@@ -141,7 +142,7 @@ def _check_walker(args: argparse.Namespace) -> None:
         check_design(args.sma_km, args.ecc, args.aop_deg, args.inc_deg, args.planes, args.sats_per_plane)
     except ConfigError as error:
         flag = flags.get(error.key, error.key)
-        raise ConfigError(f"{flag}: {str(error).removeprefix('satellite 0: ')}", key=flag) from None
+        raise ConfigError(f"{flag}: {error}", key=flag) from None
 
 
 def _cmd_campaign(args: argparse.Namespace) -> int:
@@ -269,7 +270,10 @@ def main(argv: list[str] | None = None) -> int:
     debug = "--debug" in argv
     argv = [a for a in argv if a != "--debug"]
     parser = build_parser()
-    args = parser.parse_args(argv)
+    try:
+        args = parser.parse_args(argv)
+    except SystemExit as stop:          # --help (0) or a usage error (2, one line already printed)
+        return stop.code if isinstance(stop.code, int) else 2
     try:
         return args.func(args)
     except KeyboardInterrupt:
@@ -283,7 +287,7 @@ def main(argv: list[str] | None = None) -> int:
         if isinstance(error, ImpactError):
             code, text = 1, _one_line(error)
         elif isinstance(error, FileNotFoundError):
-            code, text = 2, f"file not found: {error.filename}" if error.filename else _one_line(error)
+            code, text = 2, f"no such file or folder: {error.filename}" if error.filename else _one_line(error)
         elif isinstance(error, BAD_INPUT):
             code, text = 2, _one_line(error)
         elif isinstance(error, OSError):

@@ -25,9 +25,11 @@ def atomic_path(path):
     try:
         yield temporary
         os.replace(temporary, path)
-    except BaseException:
+    except BaseException as error:
         with contextlib.suppress(OSError):
             temporary.unlink()
+        if isinstance(error, OSError) and error.errno is not None:   # name the target, not the temporary file
+            raise type(error)(error.errno, error.strerror or str(error), str(path)) from error
         raise
 
 

@@ -24,7 +24,7 @@ from .config import allowed_range_text, in_range, integrator_setting
 from .constants import SECONDS_PER_DAY
 from .elements import elements_to_state, validate_elements
 from .errors import ConfigError, ImpactError
-from .ephemeris import EphemerisTable, ensure_kernels, tdb_iso, tdb_seconds
+from .ephemeris import EphemerisTable, check_span, ensure_kernels, tdb_iso, tdb_seconds
 from .forces import SCRATCH_SIZE, SOLAR_P, SRP_K, TERMS, ForceModel, acceleration
 from .frames import element_frame_to_j2000
 
@@ -392,8 +392,8 @@ def _as_dataset(out, times, status, t_stop, n_rhs, profile, integ, model) -> xr.
     return ds
 
 
-ELEMENT_RANGES = (("a_km", (0.0, None, True, False)), ("e", (0.0, 1.0, False, True)),
-                  ("inc_deg", (0.0, 180.0, False, False)), ("raan_deg", (None, None, False, False)),
+ELEMENT_RANGES = (("semi-major axis a_km", (0.0, None, True, False)), ("eccentricity e", (0.0, 1.0, False, True)),
+                  ("inclination inc_deg", (0.0, 180.0, False, False)), ("raan_deg", (None, None, False, False)),
                   ("aop_deg", (None, None, False, False)), ("mean_anomaly_deg", (None, None, False, False)))
 
 
@@ -409,8 +409,9 @@ def check_elements_deg(elements_deg) -> np.ndarray:
     for col, (name, spec) in enumerate(ELEMENT_RANGES):
         for row, value in enumerate(el[:, col]):
             if not np.isfinite(value) or not in_range(value, spec):
-                raise ConfigError(f"satellite {row}: {name} = {value!r} is outside the allowed range "
-                                  f"{allowed_range_text(spec)} (finite)", key=name)
+                where = f"satellite {row}: " if el.shape[0] > 1 else ""
+                raise ConfigError(f"{where}{name} = {float(value)!r} is not allowed; allowed: a finite number in "
+                                  f"{allowed_range_text(spec)}", key=name.split()[-1])
     return el
 
 
@@ -429,6 +430,7 @@ def elements_deg_to_states(profile: dict, elements_deg, t0_tdb_s: float) -> np.n
         row, col = np.argwhere(bad)[0]
         raise ValueError(f"satellite {row}: {('inclination', 'RAAN', 'AOP', 'mean anomaly')[col]} is not finite "
                          f"({el[row, col + 2]!r} deg)")
+    check_span(t0_tdb_s, t0_tdb_s)
     el_rad = el.copy()
     el_rad[:, 2:] = np.radians(el[:, 2:])
     states_frame = elements_to_state(el_rad, profile["gravity"]["gm_km3_s2"])

@@ -45,6 +45,7 @@ class RunState:
     n_designs: int = 0
     wall_s: float = 0.0
     profile_hash: str | None = None
+    asked_keys: list = field(default_factory=list)
 
 
 class Callback:
@@ -145,7 +146,7 @@ class Checkpointer(Callback):
 
     def on_generation_end(self, state: RunState) -> None:
         write_checkpoint(state.run_dir, state.generation, state.algorithm, state.history,
-                         not state.algorithm.has_next(), state.profile_hash)
+                         not state.algorithm.has_next(), state.profile_hash, state.asked_keys)
 
 
 class ProgressBars(Callback):

@@ -83,12 +83,12 @@ def load_checkpoint(run_dir) -> dict | None:
 
 
 def write_checkpoint(run_dir, generation: int, algorithm, history: list[dict], finished: bool,
-                     profile_fingerprint: str | None = None) -> None:
+                     profile_fingerprint: str | None = None, asked_keys: list | None = None) -> None:
     """Pickle the algorithm and the history after ``generation`` into ``checkpoint.pkl`` (atomically)."""
     profile_fingerprint = profile_fingerprint or profile_hash(load_run(run_dir)["profile"])
     atomic_write_bytes(Path(run_dir) / CHECKPOINT_FILE, pickle.dumps(
         {"format": CHECKPOINT_FORMAT, "generation": generation, "algorithm": algorithm, "history": history,
-         "finished": finished, "profile_hash": profile_fingerprint}))
+         "finished": finished, "profile_hash": profile_fingerprint, "asked_keys": list(asked_keys or [])}))
 
 
 def final_population(run_dir) -> tuple[np.ndarray, np.ndarray]:

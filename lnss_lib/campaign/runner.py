@@ -12,6 +12,8 @@ from __future__ import annotations
 
 import time
 from dataclasses import dataclass
+
+import numpy as np
 from pathlib import Path
 
 from ..config import OUTPUTS_DIR, load_profile, profile_hash, validate_profile
@@ -134,9 +136,13 @@ def _run_locked(run_dir: Path, profile: dict, workers, scheduler_address, progre
     backend = None
     observers: list = []
     try:
-        if not (checkpoint and checkpoint.get("finished")) and algorithm.has_next():
+        lost = [tuple(k) for k in (checkpoint or {}).get("asked_keys", []) if tuple(k) not in cache]
+        if lost or (not (checkpoint and checkpoint.get("finished")) and algorithm.has_next()):
             backend = open_backend(evaluation_profile(profile), settings, workers, scheduler_address)
         batch = BatchEvaluator(settings, cache, backend)
+        if lost:   # designs of the checkpointed generation whose journal line was torn: evaluate them again
+            batch.generation = len(history)
+            batch(np.array(lost))
         problem.metrics_source = batch
         state = RunState(run_dir=run_dir, name=name, settings=settings, algorithm=algorithm, cache=cache,
                          batch=batch, history=history, profile_hash=profile_hash(profile))
@@ -155,6 +161,7 @@ def _run_locked(run_dir: Path, profile: dict, workers, scheduler_address, progre
             gen_start = time.perf_counter()
             pop = algorithm.ask()
             state.generation, state.n_designs = len(history) + 1, len(pop)
+            state.asked_keys = [[int(v) for v in row] for row in np.rint(pop.get("X"))]
             batch.generation = state.generation
             notify("on_generation_start")
             algorithm.evaluator.eval(problem, pop)
