@@ -14,10 +14,10 @@ import time
 from importlib import metadata
 from pathlib import Path
 
-from .atomicio import write_text_atomic
+from .atomicio import atomic_path, write_bytes_atomic, write_text_atomic
 from .config import MANIFEST_PACKAGES, OUTPUTS_DIR, PARAMS_DIR, PROJECT_DIR, load_profile, package_versions, profile_hash
 
-__all__ = ["output_dir", "profile_dir", "write_text_atomic", "write_caption", "read_caption", "markdown_table",
+__all__ = ["output_dir", "profile_dir", "write_text_atomic", "write_bytes_atomic", "atomic_path", "write_caption", "read_caption", "markdown_table",
            "save_table", "data_checksums", "package_versions", "git_revision", "write_manifest", "CAPTION_SUFFIX",
            "OUTPUT_KINDS", "MANIFEST_PACKAGES"]
 

@@ -17,8 +17,7 @@ from pathlib import Path
 
 import plotly.graph_objects as go
 
-from ..atomicio import atomic_path, write_bytes_atomic
-from ..outputs import output_dir, write_caption
+from ..outputs import atomic_path, output_dir, write_bytes_atomic, write_caption
 
 PNG_ENV = "LNSS_PNG"                 # set to "off" to skip PNG export (HTML only)
 PNG_TIMEOUT_S = 120.0                 # start-up of Chromium, and rendering of one figure
