@@ -34,7 +34,7 @@ def parse_journal(data: bytes) -> tuple[dict, list[dict], int]:
             continue
         if number == 0:
             header = item if isinstance(item, dict) else {}
-        elif isinstance(item, dict) and isinstance(item.get("key"), list):
+        elif isinstance(item, dict):
             records.append(item)
     return header, records, end
 
