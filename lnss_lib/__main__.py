@@ -3,47 +3,98 @@
 from __future__ import annotations
 
 import argparse
+import errno
+import math
+import os
 import sys
 from pathlib import Path
 
 import numpy as np
 
-from .config import available_profiles, load_profile
+from .config import allowed_range_text, available_profiles, in_range, load_profile, parse_sets
 from .constants import SECONDS_PER_DAY
+from .errors import ConfigError, ImpactError
 
 BENCHMARKS = ("propagator", "dop", "evaluate", "campaign")
+
+
+def _require(flag: str, value, spec: tuple, integer: bool = False):
+    """``value`` if finite (an integer with ``integer``) and inside ``spec`` (config.RANGES form), else ConfigError."""
+    if value is None:
+        return None
+    if not math.isfinite(value) or (integer and value != int(value)) or not in_range(value, spec):
+        kind = "an integer" if integer else "a finite number"
+        raise ConfigError(f"{flag} {value!r} is not allowed; allowed: {kind} in {allowed_range_text(spec)}", key=flag)
+    return value
+
+
+def _overrides(args: argparse.Namespace) -> dict | None:
+    """``--set SECTION.KEY=VALUE`` items as a nested overrides dict (checked by load_profile), or None."""
+    return parse_sets(getattr(args, "set", None)) or None
+
+
+def _check_output(path: str | None) -> Path | None:
+    """The ``--out`` path, checked before any work: a .csv or .nc file in an existing, writable folder."""
+    if path is None:
+        return None
+    out = Path(path)
+    if out.suffix not in (".csv", ".nc") or out.is_dir():
+        raise ConfigError(f"--out {path}: need a file name ending in .csv or .nc", key="--out")
+    if not out.parent.is_dir():
+        raise ConfigError(f"--out {path}: folder {out.parent} does not exist", key="--out")
+    if not os.access(out.parent, os.W_OK):
+        raise PermissionError(errno.EACCES, "folder is not writable", str(out.parent))
+    return out
 
 
 def _cmd_reproduce(args: argparse.Namespace) -> int:
     from .pipeline import reproduce
 
-    return reproduce(args.profile, only=args.only)
+    return reproduce(args.profile, only=args.only, overrides=_overrides(args))
 
 
 def _cmd_propagate(args: argparse.Namespace) -> int:
-    from .ephemeris import ensure_kernels, tdb_seconds
-    from .propagator import elements_deg_to_states, propagate_states
+    import io
 
-    profile = load_profile(args.profile, overrides={"gravity": {"degree": args.degree}} if args.degree else None)
+    from .atomicio import write_netcdf_atomic, write_text_atomic
+    from .ephemeris import check_span, ensure_kernels, tdb_seconds
+    from .propagator import check_elements_deg, elements_deg_to_states, propagate_states
+
+    _require("--days", args.days, (0.0, None, True, False))
+    _require("--step-s", args.step_s, (0.0, None, True, False))
+    _require("--degree", args.degree, (0, 100, False, False), integer=True)
+    _require("--srp-cr-area-mass", args.srp_cr_area_mass, (0.0, None, False, False))
+    if args.elements is not None:
+        check_elements_deg([args.elements])
+    elif not all(math.isfinite(v) for v in args.state_km):
+        raise ConfigError(f"--state-km {' '.join(map(str, args.state_km))}: every component must be finite",
+                          key="--state-km")
+    out = _check_output(args.out)
+    overrides = _overrides(args) or {}
+    if args.degree is not None:
+        overrides = {**overrides, "gravity": {**overrides.get("gravity", {}), "degree": args.degree}}
+    profile = load_profile(args.profile, overrides=overrides or None)
     ensure_kernels(profile)
     t0 = tdb_seconds(args.epoch_tdb, "TDB")
+    check_span(t0, t0 + args.days * SECONDS_PER_DAY)
     if args.elements is not None:
         state = elements_deg_to_states(profile, [args.elements], t0)
     else:
         state = np.array([args.state_km])
     ds = propagate_states(profile, state, t0, args.days * SECONDS_PER_DAY, args.step_s, setting=args.setting,
                           srp_cr_area_mass_m2_kg=args.srp_cr_area_mass)
-    out = Path(args.out) if args.out else None
     if out is not None and out.suffix == ".nc":
-        ds.to_netcdf(out, engine="h5netcdf")
+        write_netcdf_atomic(ds, out)
     else:
         table = np.column_stack([ds.time.values, ds.r_mci_km.values[0], ds.v_mci_kms.values[0]])
         header = ("t_tdb_s,x,y,z,vx,vy,vz  # Moon-centred J2000, km and km/s, TDB seconds past J2000; "
                   f"{ds.attrs['force_model']}; {ds.attrs['integrator']} rtol={ds.attrs['rtol']} atol={ds.attrs['atol']}")
-        target = out.open("w") if out is not None else sys.stdout
-        np.savetxt(target, table, delimiter=",", header=header, comments="", fmt="%.9f")
+        buffer = io.StringIO()
+        np.savetxt(buffer, table, delimiter=",", header=header, comments="", fmt="%.9f")
         if out is not None:
-            target.close()
+            write_text_atomic(out, buffer.getvalue())
+        else:
+            sys.stdout.write(buffer.getvalue())
     if out is not None:
         print(f"wrote {out} ({ds.sizes['time']} samples)", file=sys.stderr)
     return 0
@@ -57,19 +108,21 @@ def _cmd_evaluate(args: argparse.Namespace) -> int:
     if args.constellation is not None:
         given = [flag for flag, value in walker.items() if value is not None]
         if given:
-            raise ValueError(f"--constellation replaces the Walker arguments; drop {', '.join(given)}")
+            raise ConfigError(f"--constellation replaces the Walker arguments; drop {', '.join(given)}")
         from .catalogue import evaluate_catalogue_cli
 
-        result = evaluate_catalogue_cli(args.profile, args.constellation, epoch=args.constellation_epoch)
+        result = evaluate_catalogue_cli(args.profile, args.constellation, epoch=args.constellation_epoch,
+                                        overrides=_overrides(args))
     else:
         missing = [flag for flag, value in walker.items() if value is None]
         if missing:
-            raise ValueError(f"evaluate needs --constellation NAME_OR_PATH or all Walker arguments; "
-                             f"missing {', '.join(missing)}")
+            raise ConfigError(f"evaluate needs --constellation NAME_OR_PATH or all Walker arguments; "
+                              f"missing {', '.join(missing)}")
         from .evaluator import evaluate_cli
 
+        _check_walker(args)
         result = evaluate_cli(args.profile, args.sma_km, args.ecc, args.aop_deg, args.inc_deg, args.planes,
-                              args.sats_per_plane)
+                              args.sats_per_plane, overrides=_overrides(args))
     if args.json:
         print(json.dumps(result))
     else:
@@ -79,44 +132,37 @@ def _cmd_evaluate(args: argparse.Namespace) -> int:
     return 0
 
 
-def _parse_sets(items: list[str] | None) -> dict | None:
-    """``SECTION.KEY=VALUE`` strings (VALUE a TOML literal) as a nested overrides dict."""
-    import tomllib
+def _check_walker(args: argparse.Namespace) -> None:
+    """The Walker arguments checked (evaluator.check_design) with the message naming the flag."""
+    from .evaluator import check_design
 
-    from .config import deep_merge
-
-    overrides: dict = {}
-    for item in items or []:
-        path, sep, literal = item.partition("=")
-        if not sep or not path.strip():
-            raise ValueError(f"--set needs SECTION.KEY=VALUE (VALUE in TOML syntax); got {item!r}")
-        try:
-            value = tomllib.loads(f"v = {literal}")["v"]
-        except tomllib.TOMLDecodeError as error:
-            raise ValueError(f"--set {item!r}: VALUE is not a TOML literal ({error})") from None
-        nested: dict = value
-        for part in reversed(path.strip().split(".")):
-            nested = {part: nested}
-        overrides = deep_merge(overrides, nested)
-    return overrides or None
+    flags = {"a_km": "--sma-km", "e": "--ecc", "inc_deg": "--inc-deg", "aop_deg": "--aop-deg",
+             "n_planes": "--planes", "sats_per_plane": "--sats-per-plane"}
+    try:
+        check_design(args.sma_km, args.ecc, args.aop_deg, args.inc_deg, args.planes, args.sats_per_plane)
+    except ConfigError as error:
+        flag = flags.get(error.key, error.key)
+        raise ConfigError(f"{flag}: {error}", key=flag) from None
 
 
 def _cmd_campaign(args: argparse.Namespace) -> int:
     from .campaign import run_campaign
 
-    overrides = _parse_sets(args.set)
+    overrides = _overrides(args)
+    _require("--workers", args.workers, (0, None, False, False), integer=True)
+    _require("--max-generations", args.max_generations, (1, None, False, False), integer=True)
     if args.evaluator:
         overrides = {**(overrides or {}), "campaign": {**(overrides or {}).get("campaign", {}),
                                                        "evaluator": args.evaluator}}
     if args.resume and (args.profile or overrides or args.run_dir):
-        raise ValueError("--resume continues a run with its stored parameters: "
+        raise ConfigError("--resume continues a run with its stored parameters: "
                          "drop --profile, --set, --evaluator and --run-dir")
     result = run_campaign(args.profile or "quick", overrides=overrides, workers=args.workers,
                           scheduler_address=args.scheduler_address, run_dir=args.run_dir, resume=args.resume,
                           progress=not args.no_progress, max_generations=args.max_generations)
     rate = result.session_evaluations / result.session_wall_s if result.session_wall_s > 0 else 0.0
     print(f"run {result.run_dir}: {result.generations} generation(s), {result.n_evaluations} unique designs "
-          f"evaluated ({result.n_feasible} feasible); this session {result.session_evaluations} evaluations in "
+          f"evaluated ({result.n_feasible} feasible, {result.n_errors} evaluation errors); this session {result.session_evaluations} evaluations in "
           f"{result.session_wall_s:.1f} s ({rate:.2f} designs/s)"
           + (f"; {result.resubmitted} design(s) resubmitted after lost workers" if result.resubmitted else ""))
     for path in result.files:
@@ -133,12 +179,16 @@ def _cmd_bench(args: argparse.Namespace) -> int:
 
 
 def build_parser() -> argparse.ArgumentParser:
-    parser = argparse.ArgumentParser(prog="python -m lnss_lib", description="LNSS design workbook")
-    sub = parser.add_subparsers(dest="command", required=True)
+    parser = OneLineParser(prog="python -m lnss_lib", description="LNSS design workbook")
+    parser.add_argument("--debug", action="store_true", help="show the traceback of an error (also accepted after "
+                        "the command)")
+    sub = parser.add_subparsers(dest="command", required=True, parser_class=OneLineParser)
+    set_help = "override a profile value (TOML literal), e.g. gravity.degree=8; repeatable; checked like the profile"
 
     rep = sub.add_parser("reproduce", help="execute the notebooks headless into outputs/<profile>/")
     rep.add_argument("--profile", default="quick", help=f"profile in params/ ({', '.join(available_profiles())})")
     rep.add_argument("--only", nargs="+", metavar="NAME", help="notebook names or number prefixes (e.g. 01 02_dop_grid)")
+    rep.add_argument("--set", action="append", metavar="SECTION.KEY=VALUE", help=set_help)
     rep.set_defaults(func=_cmd_reproduce)
 
     prop = sub.add_parser("propagate", help="propagate one orbit with the high-fidelity model; CSV or NetCDF out")
@@ -150,11 +200,12 @@ def build_parser() -> argparse.ArgumentParser:
                        help="Keplerian elements (km, deg) in the profile's element frame")
     prop.add_argument("--days", type=float, required=True, help="duration in days")
     prop.add_argument("--step-s", type=float, default=900.0, help="output sampling step in seconds")
-    prop.add_argument("--degree", type=int, help="gravity degree and order (2-100)")
+    prop.add_argument("--degree", type=int, help="gravity degree and order (0-100; 0 = point mass)")
     prop.add_argument("--srp-cr-area-mass", type=float, help="Cr*A/m in m^2/kg (default: the profile's spacecraft)")
     prop.add_argument("--setting", help="integrator setting: paper or converged (default: the profile's)")
     prop.add_argument("--profile", default="paper", help="profile for force model and constants")
     prop.add_argument("--out", help="output path, .csv or .nc (default: CSV to stdout)")
+    prop.add_argument("--set", action="append", metavar="SECTION.KEY=VALUE", help=set_help)
     prop.set_defaults(func=_cmd_propagate)
 
     ev = sub.add_parser("evaluate", help="every objective of eq. 45 for one Walker design or one catalogue constellation")
@@ -171,6 +222,7 @@ def build_parser() -> argparse.ArgumentParser:
     ev.add_argument("--sats-per-plane", type=int, help="satellites per plane Ns")
     ev.add_argument("--profile", default="quick", help=f"profile in params/ ({', '.join(available_profiles())})")
     ev.add_argument("--json", action="store_true", help="print one JSON object")
+    ev.add_argument("--set", action="append", metavar="SECTION.KEY=VALUE", help=set_help)
     ev.set_defaults(func=_cmd_evaluate)
 
     camp = sub.add_parser("campaign", help="NSGA-II design search (Section 5, Table 5), checkpointed every generation")
@@ -182,8 +234,7 @@ def build_parser() -> argparse.ArgumentParser:
     camp.add_argument("--run-dir", help="new run directory (default outputs/<profile>/campaign/run_<time>)")
     camp.add_argument("--evaluator", choices=("walker", "synthetic"),
                       help="walker (default): the design evaluator; synthetic: closed-form stand-in for tests")
-    camp.add_argument("--set", action="append", metavar="SECTION.KEY=VALUE",
-                      help="override a profile value (TOML literal), e.g. campaign.generations=20; repeatable")
+    camp.add_argument("--set", action="append", metavar="SECTION.KEY=VALUE", help=set_help)
     camp.add_argument("--max-generations", type=int, help="stop this session after N generations (resumable)")
     camp.add_argument("--no-progress", action="store_true", help="no progress bars")
     camp.set_defaults(func=_cmd_campaign)
@@ -195,14 +246,58 @@ def build_parser() -> argparse.ArgumentParser:
     return parser
 
 
+class OneLineParser(argparse.ArgumentParser):
+    """argparse with a one-line usage error (exit 2) that points at ``--help``."""
+
+    def error(self, message: str):
+        self.exit(2, f"error: {self.prog}: {message} (see {self.prog} --help)\n")
+
+
+BAD_INPUT = (ConfigError, ValueError, FileNotFoundError, KeyError)   # exit 2; EphemerisRangeError is a ValueError
+
+
+def _one_line(error: BaseException) -> str:
+    text = " ".join(str(error).split())
+    if isinstance(error, OSError) and error.filename is not None:
+        text = f"cannot write or read {error.filename}: {error.strerror or text}"
+    return text or type(error).__name__
+
+
 def main(argv: list[str] | None = None) -> int:
+    """Run a command; errors end in one line on stderr with exit 2 (bad input) or 1 (failure), the
+    traceback only with ``--debug``."""
+    argv = list(sys.argv[1:] if argv is None else argv)
+    debug = "--debug" in argv
+    argv = [a for a in argv if a != "--debug"]
     parser = build_parser()
-    args = parser.parse_args(argv)
+    try:
+        args = parser.parse_args(argv)
+    except SystemExit as stop:          # --help (0) or a usage error (2, one line already printed)
+        return stop.code if isinstance(stop.code, int) else 2
     try:
         return args.func(args)
-    except (ValueError, FileNotFoundError) as error:
-        print(f"error: {error}", file=sys.stderr)
-        return 2
+    except KeyboardInterrupt:
+        if debug:
+            raise
+        print("error: interrupted", file=sys.stderr)
+        return 130
+    except Exception as error:
+        if debug:
+            raise
+        if isinstance(error, ImpactError):
+            code, text = 1, _one_line(error)
+        elif isinstance(error, FileNotFoundError):
+            code, text = 2, f"no such file or folder: {error.filename}" if error.filename else _one_line(error)
+        elif isinstance(error, BAD_INPUT):
+            code, text = 2, _one_line(error)
+        elif isinstance(error, OSError):
+            code, text = 1, _one_line(error)
+        elif isinstance(error, RuntimeError):
+            code, text = 1, _one_line(error)
+        else:
+            code, text = 1, f"internal error {type(error).__name__}: {_one_line(error)} (rerun with --debug for the traceback)"
+        print(f"error: {text}", file=sys.stderr)
+        return code
 
 
 if __name__ == "__main__":

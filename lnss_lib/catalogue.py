@@ -382,7 +382,7 @@ def evaluate_catalogue(context, c: CatalogueConstellation, epoch: str = "study")
     return result
 
 
-def evaluate_catalogue_cli(profile_name: str, name_or_path: str, epoch: str = "study") -> dict:
+def evaluate_catalogue_cli(profile_name: str, name_or_path: str, epoch: str = "study", overrides: dict | None = None) -> dict:
     """:func:`evaluate_catalogue` under a named profile with the evaluate CLI's JSON keys plus the labels.
 
     The keys are ``RESULT_KEYS`` followed by ``name``, ``approximate``, ``element_frame``,
@@ -390,7 +390,7 @@ def evaluate_catalogue_cli(profile_name: str, name_or_path: str, epoch: str = "s
     """
     from .evaluator import context_for
 
-    profile = load_profile(profile_name)
+    profile = load_profile(profile_name, overrides=overrides)
     c = load_constellation(name_or_path, profile)
     _refuse_approximate(c)
     if epoch == "file":

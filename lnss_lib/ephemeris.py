@@ -19,10 +19,12 @@ from pathlib import Path
 import numba as nb
 import numpy as np
 import spiceypy as spice
+import spiceypy.utils.exceptions
 
 from .config import data_path
+from .errors import ConfigError, EphemerisRangeError
 
-__all__ = ["NAIF_BODY", "planetary_spk_path", "kernel_paths", "load_kernels", "ensure_kernels", "tdb_seconds",
+__all__ = ["NAIF_BODY", "planetary_spk_path", "kernel_paths", "load_kernels", "ensure_kernels", "tdb_seconds", "kernel_span_tdb_s", "check_span",
            "tdb_iso", "body_states_mci", "rotation_and_rate", "rotation", "hermite_cubic", "EphemerisTable",
            "file_sha256"]
 
@@ -79,7 +81,54 @@ def tdb_seconds(calendar: str, scale: str = "TDB") -> float:
         raise ValueError(f"unknown time scale {scale!r}; allowed: 'TDB', 'UTC'")
     if not _LOADED:
         raise RuntimeError("SPICE kernels are not loaded: call ensure_kernels(profile) first")
-    return float(spice.str2et(f"{calendar.replace('T', ' ')} {scale}"))
+    if not isinstance(calendar, str) or not calendar.strip():
+        raise ConfigError(f"epoch {calendar!r} is not an ISO calendar date; expected YYYY-MM-DDTHH:MM:SS ({scale})")
+    try:
+        return float(spice.str2et(f"{calendar.strip().replace('T', ' ')} {scale}"))
+    except spice.utils.exceptions.SpiceyError:
+        raise ConfigError(f"epoch {calendar!r} is not an ISO calendar date; expected YYYY-MM-DDTHH:MM:SS "
+                          f"({scale}), e.g. 2025-05-01T00:00:00") from None
+
+
+def kernel_span_tdb_s() -> tuple[float, float]:
+    """(start, end) TDB s of the time span every loaded SPK and binary PCK covers (their intersection)."""
+    key_set = frozenset(_LOADED)
+    if key_set in _SPANS:
+        return _SPANS[key_set]
+    start, end = -np.inf, np.inf
+    for key in _LOADED:
+        suffix = Path(key).suffix.lower()
+        if suffix == ".bsp":
+            ids, cover = spice.spkobj(key), spice.spkcov
+        elif suffix == ".bpc":
+            ids, cover = spice.cell_int(1000), spice.pckcov
+            spice.pckfrm(key, ids)
+        else:
+            continue
+        if suffix == ".bsp":
+            ids = list(ids)
+        for body in ids:
+            window = cover(key, int(body))
+            count = spice.wncard(window)
+            if count:
+                start = max(start, spice.wnfetd(window, 0)[0])
+                end = min(end, spice.wnfetd(window, count - 1)[1])
+    _SPANS[key_set] = (float(start), float(end))
+    return _SPANS[key_set]
+
+
+_SPANS: dict[frozenset, tuple[float, float]] = {}
+
+
+def check_span(t_start_tdb_s: float, t_end_tdb_s: float) -> None:
+    """EphemerisRangeError (naming the span) unless [start, end] lies inside the loaded kernels' span."""
+    start, end = kernel_span_tdb_s()
+    if not (np.isfinite(t_start_tdb_s) and np.isfinite(t_end_tdb_s)) or t_start_tdb_s < start or t_end_tdb_s > end:
+        raise EphemerisRangeError(
+            f"epochs {tdb_iso(t_start_tdb_s) if np.isfinite(t_start_tdb_s) else t_start_tdb_s} to "
+            f"{tdb_iso(t_end_tdb_s) if np.isfinite(t_end_tdb_s) else t_end_tdb_s} TDB are outside the span of the "
+            f"loaded ephemeris and lunar frame kernels, {tdb_iso(start)[:10]} to {tdb_iso(end)[:10]} TDB",
+            start_tdb_s=start, end_tdb_s=end, requested_tdb_s=(t_start_tdb_s, t_end_tdb_s))
 
 
 def tdb_iso(t_tdb_s: float) -> str:
@@ -159,6 +208,7 @@ class EphemerisTable:
         t_lo, t_hi = min(t_start_tdb_s, t_end_tdb_s), max(t_start_tdb_s, t_end_tdb_s)
         n = int(np.ceil((t_hi - t_lo) / step)) + 5
         times = t_lo - 2 * step + step * np.arange(n)
+        check_span(float(times[0]), float(times[-1]))
         bodies = np.stack([body_states_mci(b, times) for b in body_names], axis=1)
         rot, rate = rotation_and_rate("J2000", profile["frames"]["gravity"], times)
         return cls(float(times[0]), step, tuple(body_names), bodies,

@@ -18,15 +18,15 @@ import numpy as np
 import xarray as xr
 
 from . import deltav, dop, gps
-from .config import load_profile, profile_hash
+from .config import load_profile, profile_hash, validate_profile
 from .constellation import WalkerDesign
 from .ephemeris import EphemerisTable, ensure_kernels, rotation, tdb_seconds
 from .constants import SECONDS_PER_DAY
 from .forces import ForceModel
 from .frames import rotate_with
-from .errors import ImpactError
+from .errors import ConfigError, ImpactError
 from .keys import DESIGN_KEYS, METRIC_KEYS, RESULT_KEYS
-from .propagator import elements_deg_to_states, output_times, propagate_states
+from .propagator import check_elements_deg, elements_deg_to_states, output_times, propagate_states
 
 
 
@@ -44,7 +44,9 @@ class EvaluationContext:
 
     @classmethod
     def from_profile(cls, profile: dict) -> "EvaluationContext":
-        """Tables, force model, Moon-fixed rotations, grid and GPS states over the profile's arc."""
+        """Tables, force model, Moon-fixed rotations, grid and GPS states over the profile's arc (profile checked
+        by :func:`~lnss_lib.config.validate_profile` first)."""
+        validate_profile(profile, partial=True)   # an evaluation profile has no [campaign]
         ensure_kernels(profile)
         epoch = profile["epoch"]
         t0 = tdb_seconds(epoch["start_tdb"], "TDB")
@@ -155,23 +157,35 @@ def evaluate_design(context: EvaluationContext, sma_km: float, ecc: float, aop_d
                     n_planes: int, sats_per_plane: int) -> dict:
     """Eq. 45 for the Walker design of Table 3's variables (RAAN by eq. 42, M equally spaced).
 
-    Invalid designs (e outside [0, 1), perilune inside the Moon, non-positive counts) come back
-    flagged, not raised.
+    Invalid input (NaN, e outside [0, 1), a <= 0, i outside [0, 180], counts < 1) raises ConfigError
+    (:func:`check_design`); a valid design whose perilune is inside the Moon or that impacts comes back
+    infeasible with its ``reason``.
     """
-    start = time.perf_counter()
-    try:
-        design = WalkerDesign(sma_km, ecc, inc_deg, aop_deg, n_planes, sats_per_plane)
-        elements = design.elements_deg()
-    except ValueError as error:
-        n_sat = int(n_planes) * int(sats_per_plane) if float(n_planes) > 0 and float(sats_per_plane) > 0 else 0
-        return _infeasible(n_sat, f"invalid design: {error}", deltav.deltav_settings(context.profile)["model"], start)
-    return evaluate_constellation(context, elements)
+    check_design(sma_km, ecc, aop_deg, inc_deg, n_planes, sats_per_plane)
+    design = WalkerDesign(sma_km, ecc, inc_deg, aop_deg, n_planes, sats_per_plane)
+    return evaluate_constellation(context, design.elements_deg())
+
+
+def check_design(sma_km, ecc, aop_deg, inc_deg, n_planes, sats_per_plane) -> None:
+    """ConfigError naming the first Walker variable that is not a finite value in its domain: a > 0,
+    0 <= e < 1, 0 <= i <= 180 deg, AOP finite, Np and Ns integers >= 1 (the same element checks as
+    ``propagate --elements``)."""
+    for name, value in (("n_planes", n_planes), ("sats_per_plane", sats_per_plane)):
+        if isinstance(value, bool) or not isinstance(value, (int, np.integer, float)) or not math.isfinite(value) \
+                or value != int(value) or value < 1:
+            raise ConfigError(f"{name} = {value!r} is not allowed; allowed: an integer >= 1", key=name)
+    for name, value in (("sma_km", sma_km), ("ecc", ecc), ("aop_deg", aop_deg), ("inc_deg", inc_deg)):
+        if isinstance(value, bool) or not isinstance(value, (int, float, np.integer, np.floating)):
+            raise ConfigError(f"{name} = {value!r} is not a number", key=name)
+    check_elements_deg([[sma_km, ecc, inc_deg, 0.0, aop_deg, 0.0]])
 
 
 def evaluate_cli(profile_name: str, sma_km: float, ecc: float, aop_deg: float, inc_deg: float, n_planes: int,
-                 sats_per_plane: int) -> dict:
-    """:func:`evaluate_design` under a named profile with exactly the CLI's JSON keys."""
-    context = context_for(load_profile(profile_name))
+                 sats_per_plane: int, overrides: dict | None = None) -> dict:
+    """:func:`evaluate_design` under a named profile (with ``overrides``) with exactly the CLI's JSON keys;
+    the design is checked before any kernel loads."""
+    check_design(sma_km, ecc, aop_deg, inc_deg, n_planes, sats_per_plane)
+    context = context_for(load_profile(profile_name, overrides=overrides))
     result = evaluate_design(context, sma_km, ecc, aop_deg, inc_deg, n_planes, sats_per_plane)
     return {key: (None if isinstance(result[key], float) and math.isnan(result[key]) else result[key])
             for key in RESULT_KEYS}

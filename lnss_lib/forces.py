@@ -16,6 +16,7 @@ import numba as nb
 import numpy as np
 
 from .ephemeris import EphemerisTable, hermite_cubic
+from .errors import ConfigError
 from .gravity import GravityField, harmonic_acceleration
 
 __all__ = ["BODY_ORDER", "SCRATCH_SIZE", "TERMS", "ForceModel", "shadow_factor", "acceleration_terms",
@@ -27,6 +28,7 @@ TERMS = ("central", "harmonics", "SUN", "EARTH", "JUPITER", "srp", "relativity",
 
 # indices into the scalar parameter vector of the kernels
 GM, R_REF, R_MOON, R_EARTH, R_SUN, AU, C_LIGHT, SRP_K, ALBEDO, SOLAR_P = range(10)
+SCALAR_NAMES = ("gm", "r_ref", "r_moon", "r_earth", "r_sun", "au", "c_light", "srp_k", "albedo", "solar_p")
 # indices into the flag vector
 F_HARMONICS, F_SUN, F_EARTH, F_JUPITER, F_SRP, F_SHADOW, F_REL, F_ALBEDO = range(8)
 
@@ -51,8 +53,13 @@ class ForceModel:
         field = GravityField.from_profile(profile, degree)
         if srp_cr_area_mass_m2_kg is None:
             srp_cr_area_mass_m2_kg = craft["cr"] * craft["area_m2"] / craft["mass_kg"]
-        if srp_cr_area_mass_m2_kg < 0:
-            raise ValueError(f"Cr*A/m must be >= 0 m^2/kg; got {srp_cr_area_mass_m2_kg}")
+        if not (isinstance(srp_cr_area_mass_m2_kg, (int, float, np.floating)) and np.isfinite(srp_cr_area_mass_m2_kg)
+                and srp_cr_area_mass_m2_kg >= 0):
+            raise ConfigError(f"Cr*A/m = {srp_cr_area_mass_m2_kg!r} m^2/kg is not allowed; allowed: a finite number "
+                              f"in [0, inf)", key="srp_cr_area_mass_m2_kg")
+        if not (np.all(np.isfinite(field.cnm)) and np.all(np.isfinite(field.snm))):
+            raise ConfigError(f"gravity field {profile['gravity']['file']} holds non-finite coefficients",
+                              key="gravity.file")
         solar_pressure_n_m2 = forces["solar_flux_w_m2"] / (const["c_km_s"] * 1e3)
         scalars = np.zeros(10)
         scalars[GM] = field.gm_km3_s2
@@ -65,6 +72,8 @@ class ForceModel:
         scalars[SRP_K] = solar_pressure_n_m2 * srp_cr_area_mass_m2_kg * 1e-3  # km/s^2 at 1 au
         scalars[ALBEDO] = forces["earth_albedo"]
         scalars[SOLAR_P] = solar_pressure_n_m2
+        if not np.all(np.isfinite(scalars)):
+            raise ConfigError(f"force model constants must be finite; got {dict(zip(SCALAR_NAMES, scalars))}")
         unknown = set(forces["third_bodies"]) - set(BODY_ORDER)
         if unknown:
             raise ValueError(f"unknown third bodies {sorted(unknown)}; allowed: {BODY_ORDER}")

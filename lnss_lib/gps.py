@@ -29,6 +29,7 @@ from sgp4.api import Satrec, SatrecArray
 from .config import data_path
 from .constants import BOLTZMANN_J_K, C_M_S, MIN_VISIBLE, WGS84_A_KM, WGS84_B_KM
 from .ephemeris import body_states_mci, ensure_kernels
+from .errors import ConfigError
 from .frames import teme_to_j2000, tt_centuries, utc_julian_dates
 from .geometry import filtered_mean, normal_matrix_entries, position_block_inverse
 from .tle import TleRecord, gps_catalogue
@@ -252,9 +253,23 @@ def load_gain_pattern(path: str | Path, column: str) -> GainPattern:
     if not path.is_file():
         raise ValueError(f"gain pattern file not found: {path}")
     with open(path, newline="") as handle:
-        rows = [row for row in csv.reader(line for line in handle if line.strip() and not line.startswith("#"))]
-    header = [c.strip() for c in rows[0]]
-    table = {name: np.array([float(row[k]) for row in rows[1:]]) for k, name in enumerate(header)}
+        numbered = [(k, line) for k, line in enumerate(handle, start=1) if line.strip() and not line.startswith("#")]
+    rows = list(zip((k for k, _ in numbered), csv.reader(line for _, line in numbered)))
+    if len(rows) < 3:
+        raise ConfigError(f"{path}: a gain pattern needs a header line and at least two rows", key="gps.gain_file")
+    header = [c.strip() for c in rows[0][1]]
+    values = []
+    for line_no, row in rows[1:]:
+        try:
+            numbers = [float(c) for c in row]
+        except ValueError:
+            raise ConfigError(f"{path}: line {line_no}: {','.join(row)!r} is not {len(header)} numbers",
+                              key="gps.gain_file") from None
+        if len(numbers) != len(header) or not all(np.isfinite(numbers)):
+            raise ConfigError(f"{path}: line {line_no}: need {len(header)} finite numbers; got {','.join(row)!r}",
+                              key="gps.gain_file")
+        values.append(numbers)
+    table = {name: np.array([row[k] for row in values]) for k, name in enumerate(header)}
     if "off_boresight_deg" not in table:
         raise ValueError(f"{path}: needs a column 'off_boresight_deg'; found {', '.join(header)}")
     if column not in table:

@@ -101,6 +101,7 @@ def recursion_coefficients(degree: int) -> np.ndarray:
     return coef
 
 
+# fastmath is safe: states checked finite (propagator), coefficients finite (ForceModel), r >= r_min > 0 at each step
 @nb.njit(cache=True, fastmath=True)
 def _fill_vw(x: float, y: float, z: float, r_ref: float, nmax: int, coef: np.ndarray, V: np.ndarray, W: np.ndarray) -> None:
     """Normalised V_nm, W_nm (Montenbruck & Gill eq. 3.29-3.31) up to degree nmax, stored [n, m].
@@ -132,6 +133,7 @@ def _fill_vw(x: float, y: float, z: float, r_ref: float, nmax: int, coef: np.nda
         w_row[n] = f * (x0 * w_1[n - 1] + y0 * v_1[n - 1])
 
 
+# fastmath is safe: finite inputs proven upstream, as for _fill_vw; a NaN stage stops the integrator (status 4)
 @nb.njit(cache=True, fastmath=True)
 def harmonic_acceleration(r_bf_km: np.ndarray, cnm: np.ndarray, snm: np.ndarray, coef: np.ndarray, gm: float,
                           r_ref: float, degree: int, work: np.ndarray, out: np.ndarray) -> None:

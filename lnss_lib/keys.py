@@ -10,5 +10,5 @@ ELEMENT_KEYS = ("sma_km", "ecc", "inc_deg", "raan_deg", "aop_deg", "mean_anomaly
 
 METRIC_KEYS = ("n_sat", "mean_visible_sats", "pdop_mean_3sigma", "pdop_avail_pct", "hdop_mean_3sigma",
                "hdop_avail_pct", "dv_total_kms_per_year", "dv_opt_kms_per_year", "gps_visible_mean", "gps_pdop_mean")
-RESULT_KEYS = METRIC_KEYS + ("deltav_model", "feasible", "wall_s")
+RESULT_KEYS = METRIC_KEYS + ("deltav_model", "feasible", "reason", "wall_s")
 TIMING_KEYS = ("propagation", "dop", "deltav", "gps")

@@ -8,29 +8,21 @@ the index and calls :func:`write_manifest` after a run.
 from __future__ import annotations
 
 import json
-import os
 import platform
 import subprocess
 import time
 from importlib import metadata
 from pathlib import Path
 
+from .atomicio import atomic_path, write_bytes_atomic, write_text_atomic
 from .config import MANIFEST_PACKAGES, OUTPUTS_DIR, PARAMS_DIR, PROJECT_DIR, load_profile, package_versions, profile_hash
 
-__all__ = ["output_dir", "profile_dir", "write_text_atomic", "write_caption", "read_caption", "markdown_table",
+__all__ = ["output_dir", "profile_dir", "write_text_atomic", "write_bytes_atomic", "atomic_path", "write_caption", "read_caption", "markdown_table",
            "save_table", "data_checksums", "package_versions", "git_revision", "write_manifest", "CAPTION_SUFFIX",
            "OUTPUT_KINDS", "MANIFEST_PACKAGES"]
 
 OUTPUT_KINDS = ("notebooks", "figures", "tables", "data", "campaign")
 CAPTION_SUFFIX = ".meta.json"
-
-
-def write_text_atomic(path: Path, text: str) -> Path:
-    """Write ``text`` to ``path`` through a temporary file in the same folder and ``os.replace``."""
-    temporary = path.with_name(f".{path.name}.{os.getpid()}.tmp")
-    temporary.write_text(text)
-    os.replace(temporary, path)
-    return path
 
 
 def profile_dir(profile_name: str) -> Path:

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import csv
 import html
+import json
 import os
 import sys
 import time
@@ -55,16 +56,20 @@ def ipc_kernel_manager_class():
     return IpcKernelManager
 
 
-def reproduce(profile_name: str = "quick", only: list[str] | None = None) -> int:
+def reproduce(profile_name: str = "quick", only: list[str] | None = None, overrides: dict | None = None) -> int:
     """Execute the notebooks in order under a profile; stop at the first failure. Returns an exit code.
 
+    ``overrides`` (a nested dict, e.g. from ``--set``) is checked here, before any notebook runs, and
+    reaches each notebook as the papermill parameter ``overrides_json`` for its ``load_profile``.
     Kernels run over IPC sockets (:func:`ipc_kernel_manager_class`), so the progress bar is the only
-    output unless a notebook fails.
+    output unless a notebook fails. Each executed notebook is written to a temporary file and moved
+    into place, so a failed write leaves the previous copy.
     """
     import papermill
     from tqdm import tqdm
 
-    timeout_s = int(load_profile(profile_name)["notebooks"]["timeout_s"])
+    timeout_s = int(load_profile(profile_name, overrides=overrides)["notebooks"]["timeout_s"])
+    parameters = {"profile_name": profile_name, "overrides_json": json.dumps(overrides or {})}
     books = notebook_paths(only)
     paths = [p for p in os.environ.get("PYTHONPATH", "").split(os.pathsep) if p]
     os.environ["PYTHONPATH"] = os.pathsep.join([str(PROJECT_DIR), *paths])  # kernels import this lnss_lib
@@ -78,12 +83,17 @@ def reproduce(profile_name: str = "quick", only: list[str] | None = None) -> int
     for book in bar:
         bar.set_postfix_str(book.stem)
         start = time.perf_counter()
+        executed = target / book.name
+        temporary = executed.with_name(f".{book.stem}.{os.getpid()}.tmp.ipynb")
         try:
-            papermill.execute_notebook(str(book), str(target / book.name), parameters={"profile_name": profile_name},
+            declared = parameters if "overrides_json" in book.read_text() else {"profile_name": profile_name}
+            papermill.execute_notebook(str(book), str(temporary), parameters=declared,
                                        cwd=str(NOTEBOOKS_DIR), progress_bar=False, kernel_name="python3",
                                        execution_timeout=timeout_s, kernel_manager_class=manager)
+            os.replace(temporary, executed)
             runs[book.stem] = {"status": "ok", "wall_s": round(time.perf_counter() - start, 2)}
         except papermill.PapermillExecutionError as error:
+            os.replace(temporary, executed)   # complete notebook holding the failing cell's traceback
             runs[book.stem] = {"status": "failed", "wall_s": round(time.perf_counter() - start, 2),
                                "error": f"{error.ename}: {error.evalue}"}
             bar.close()
@@ -92,6 +102,10 @@ def reproduce(profile_name: str = "quick", only: list[str] | None = None) -> int
                   f"outputs of the notebooks before it are kept", file=sys.stderr)
             status = 1
             break
+        except BaseException:
+            temporary.unlink(missing_ok=True)
+            bar.close()
+            raise
     manifest = write_manifest(profile_name, runs)
     index = write_index(profile_name)
     print(f"index of figures and tables: {index}", file=sys.stderr)

@@ -20,20 +20,21 @@ import xarray as xr
 from scipy.integrate._ivp import dop853_coefficients as _dop853
 from scipy.integrate._ivp.rk import RK45 as _RK45
 
-from .config import integrator_setting
+from .config import allowed_range_text, in_range, integrator_setting
 from .constants import SECONDS_PER_DAY
 from .elements import elements_to_state, validate_elements
-from .errors import ImpactError
-from .ephemeris import EphemerisTable, ensure_kernels, tdb_iso, tdb_seconds
+from .errors import ConfigError, ImpactError
+from .ephemeris import EphemerisTable, check_span, ensure_kernels, tdb_iso, tdb_seconds
 from .forces import SCRATCH_SIZE, SOLAR_P, SRP_K, TERMS, ForceModel, acceleration
 from .frames import element_frame_to_j2000
 
-__all__ = ["METHODS", "STATUS_TEXT", "integrate_one", "integrate_many", "output_times", "propagate_states",
+__all__ = ["METHODS", "STATUS_TEXT", "check_elements_deg", "integrate_one", "integrate_many", "output_times", "propagate_states",
            "elements_deg_to_states", "propagate_elements"]
 
 METHODS = ("RK45", "DOP853")
-STATUS_OK, STATUS_IMPACT, STATUS_MAX_STEPS, STATUS_STEP_TOO_SMALL = 0, 1, 2, 3
-STATUS_TEXT = {0: "ok", 1: "impact", 2: "maximum number of steps", 3: "step size too small"}
+STATUS_OK, STATUS_IMPACT, STATUS_MAX_STEPS, STATUS_STEP_TOO_SMALL, STATUS_NON_FINITE = 0, 1, 2, 3, 4
+STATUS_TEXT = {0: "ok", 1: "impact", 2: "maximum number of steps", 3: "step size too small",
+               4: "non-finite state or acceleration"}
 
 # Butcher tableaux in one layout: A (s x s), B (s), C (s), E5 and E3 (s + 1; E3 unused for RK45)
 _RK45_TAB = (np.ascontiguousarray(_RK45.A, dtype=float), np.ascontiguousarray(_RK45.B, dtype=float),
@@ -223,6 +224,9 @@ def integrate_one(y0, t0, t_out, method, rtol, atol, r_min_km, max_steps, args, 
                     error_norm = 0.0
                 else:
                     error_norm = abs(h) * n5 / np.sqrt((n5 + 0.01 * n3) * n)
+            if not np.isfinite(error_norm):
+                status = STATUS_NON_FINITE
+                break
             if error_norm < 1.0:
                 factor = MAX_FACTOR if error_norm == 0.0 else min(MAX_FACTOR, SAFETY * error_norm ** exponent)
                 if rejected:
@@ -292,10 +296,12 @@ def _check_states(states_mci: np.ndarray) -> np.ndarray:
 
 def output_times(t0_tdb_s: float, duration_s: float, step_s: float) -> np.ndarray:
     """Sampling grid t0, t0 + step, ..., t0 + duration (TDB s); duration and step must be positive."""
-    if not duration_s > 0:
-        raise ValueError(f"duration must be positive (s); got {duration_s}")
-    if not step_s > 0:
-        raise ValueError(f"sampling step must be positive (s); got {step_s}")
+    if not (np.isfinite(duration_s) and duration_s > 0):
+        raise ConfigError(f"duration must be positive and finite (s); got {duration_s}")
+    if not (np.isfinite(step_s) and step_s > 0):
+        raise ConfigError(f"sampling step must be positive and finite (s); got {step_s}")
+    if not np.isfinite(t0_tdb_s):
+        raise ConfigError(f"start epoch must be finite (TDB s); got {t0_tdb_s}")
     n = int(np.floor(duration_s / step_s + 1e-9))
     times = t0_tdb_s + step_s * np.arange(n + 1)
     if times[-1] < t0_tdb_s + duration_s - 1e-6:
@@ -338,6 +344,11 @@ def propagate_states(profile: dict, states_mci, t0_tdb_s: float, duration_s: flo
                                                 float(integ["rtol"]), float(integ["atol"]), r_min, max_steps,
                                                 model.kernel_args, model.field.degree)
     impact = status == STATUS_IMPACT
+    failed = (status != STATUS_OK) & ~impact
+    if failed.any():
+        k = int(np.argmax(failed))
+        raise RuntimeError(f"propagation of satellite {k} failed: {STATUS_TEXT[int(status[k])]} at "
+                           f"t = {t_stop[k]:.1f} s TDB")
     if not batch and status[0] != STATUS_OK:
         if impact[0]:
             days = (t_stop[0] - t0_tdb_s) / SECONDS_PER_DAY
@@ -381,6 +392,29 @@ def _as_dataset(out, times, status, t_stop, n_rhs, profile, integ, model) -> xr.
     return ds
 
 
+ELEMENT_RANGES = (("semi-major axis a_km", (0.0, None, True, False)), ("eccentricity e", (0.0, 1.0, False, True)),
+                  ("inclination inc_deg", (0.0, 180.0, False, False)), ("raan_deg", (None, None, False, False)),
+                  ("aop_deg", (None, None, False, False)), ("mean_anomaly_deg", (None, None, False, False)))
+
+
+def check_elements_deg(elements_deg) -> np.ndarray:
+    """Elements (n, 6) [a_km, e, i, RAAN, AOP, M] (deg) as floats, every value finite and in its domain
+    (a > 0, 0 <= e < 1, 0 <= i <= 180 deg); ConfigError naming the element, the value and the range."""
+    try:
+        el = np.atleast_2d(np.asarray(elements_deg, dtype=float))
+    except (TypeError, ValueError):
+        raise ConfigError(f"elements must be numbers [a_km, e, i, RAAN, AOP, M]; got {elements_deg!r}") from None
+    if el.ndim != 2 or el.shape[1] != 6:
+        raise ConfigError(f"elements must have shape (n_sat, 6) [a_km, e, i, RAAN, AOP, M] in degrees; got {el.shape}")
+    for col, (name, spec) in enumerate(ELEMENT_RANGES):
+        for row, value in enumerate(el[:, col]):
+            if not np.isfinite(value) or not in_range(value, spec):
+                where = f"satellite {row}: " if el.shape[0] > 1 else ""
+                raise ConfigError(f"{where}{name} = {float(value)!r} is not allowed; allowed: a finite number in "
+                                  f"{allowed_range_text(spec)}", key=name.split()[-1])
+    return el
+
+
 def elements_deg_to_states(profile: dict, elements_deg, t0_tdb_s: float) -> np.ndarray:
     """Moon-centred J2000 states (n, 6) of elements (n, 6) [a_km, e, i, RAAN, AOP, M] (deg) in the element frame.
 
@@ -396,6 +430,7 @@ def elements_deg_to_states(profile: dict, elements_deg, t0_tdb_s: float) -> np.n
         row, col = np.argwhere(bad)[0]
         raise ValueError(f"satellite {row}: {('inclination', 'RAAN', 'AOP', 'mean anomaly')[col]} is not finite "
                          f"({el[row, col + 2]!r} deg)")
+    check_span(t0_tdb_s, t0_tdb_s)
     el_rad = el.copy()
     el_rad[:, 2:] = np.radians(el[:, 2:])
     states_frame = elements_to_state(el_rad, profile["gravity"]["gm_km3_s2"])

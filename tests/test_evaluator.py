@@ -13,7 +13,7 @@ from lnss_lib.evaluator import METRIC_KEYS, RESULT_KEYS, context_for, evaluate_c
 
 CLI_KEYS = {"n_sat", "mean_visible_sats", "pdop_mean_3sigma", "pdop_avail_pct", "hdop_mean_3sigma", "hdop_avail_pct",
             "dv_total_kms_per_year", "dv_opt_kms_per_year", "gps_visible_mean", "gps_pdop_mean", "deltav_model",
-            "feasible", "wall_s"}
+            "feasible", "reason", "wall_s"}
 
 
 @pytest.fixture(scope="module")
@@ -47,13 +47,21 @@ def test_too_few_satellites_gives_no_coverage_not_an_error(context):
     assert result["feasible"] and result["pdop_avail_pct"] == 0.0 and math.isnan(result["pdop_mean_3sigma"])
 
 
-@pytest.mark.parametrize("design, reason", [((6143.0, 1.2, 90.0, 51.7, 2, 2), "invalid design"),
-                                            ((2000.0, 0.5, 90.0, 51.7, 2, 2), "invalid elements"),
-                                            ((6143.0, 0.6, 90.0, 51.7, 0, 2), "invalid design")])
-def test_infeasible_designs_are_flagged_not_raised(context, design, reason):
-    result = evaluate_design(context, *design)
-    assert result["feasible"] is False and result["reason"].startswith(reason)
+def test_infeasible_designs_are_flagged_not_raised(context):
+    result = evaluate_design(context, 2000.0, 0.5, 90.0, 51.7, 2, 2)
+    assert result["feasible"] is False and result["reason"].startswith("invalid elements")
     assert all(math.isnan(result[k]) for k in METRIC_KEYS if k != "n_sat")
+
+
+@pytest.mark.parametrize("design, key", [((6143.0, 1.2, 90.0, 51.7, 2, 2), "e = 1.2"),
+                                         ((6143.0, 0.6, 90.0, 51.7, 0, 2), "n_planes = 0"),
+                                         ((float("nan"), 0.6, 90.0, 51.7, 2, 2), "a_km = nan"),
+                                         ((6143.0, 0.6, 90.0, 181.0, 2, 2), "inc_deg = 181")])
+def test_invalid_input_is_an_error_not_an_infeasible_design(context, design, key):
+    from lnss_lib.errors import ConfigError
+
+    with pytest.raises(ConfigError, match=key):
+        evaluate_design(context, *design)
 
 
 def test_cli_json_has_exactly_the_documented_keys():
@@ -62,7 +70,7 @@ def test_cli_json_has_exactly_the_documented_keys():
                          cwd=PROJECT_DIR, capture_output=True, text=True, check=True)
     result = json.loads(out.stdout)
     assert set(result) == CLI_KEYS == set(RESULT_KEYS)
-    assert result["n_sat"] == 4 and result["feasible"] is True and np.isfinite(result["wall_s"])
+    assert result["n_sat"] == 4 and result["feasible"] is True and result["reason"] == "" and np.isfinite(result["wall_s"])
 
 
 def test_metrics_come_from_the_right_parts(context):

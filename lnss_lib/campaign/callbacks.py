@@ -21,7 +21,7 @@ from .fitness import constraint_matrix, constraint_violation, hypervolume, metri
 from .rundir import write_checkpoint
 from .settings import CampaignSettings
 
-__all__ = ["Callback", "RunState", "ErrorGuard", "HistoryRecorder", "Checkpointer", "ProgressBars",
+__all__ = ["Callback", "RunState", "CampaignStopped", "ErrorGuard", "HistoryRecorder", "Checkpointer", "ProgressBars",
            "generation_stats", "progress_text"]
 
 
@@ -44,6 +44,8 @@ class RunState:
     generation: int = 0
     n_designs: int = 0
     wall_s: float = 0.0
+    profile_hash: str | None = None
+    asked_keys: list = field(default_factory=list)
 
 
 class Callback:
@@ -88,13 +90,40 @@ def generation_stats(settings: CampaignSettings, records: list[dict], pop_keys: 
     return stats
 
 
+class CampaignStopped(RuntimeError):
+    """The run stopped because evaluations raised (``errors`` of them; ``first`` their first record)."""
+
+    def __init__(self, message: str, *, errors: int, first: dict | None):
+        super().__init__(message)
+        self.errors = errors
+        self.first = first
+
+
 class ErrorGuard(Callback):
-    """Stops the run with RuntimeError when every evaluation so far failed (a broken evaluator, not designs)."""
+    """Stops the run (:class:`CampaignStopped`) as soon as more evaluations raised than
+    ``campaign.max_errors`` allows (default 0: the first error, in generation 1 or later, stops it).
+
+    An evaluation that raises is an error, never an infeasible design: it points at the evaluator or
+    the settings (a bad gain file, a NaN constant), so the run stops instead of optimising around it.
+    """
+
+    def on_designs(self, state: RunState, n_done: int, n_total: int, n_hits: int) -> None:
+        self._check(state)
 
     def on_generation_end(self, state: RunState) -> None:
-        if state.batch.last["errors"] and all(r["error"] for r in state.cache.records.values()):
-            first = next(r for r in state.cache.records.values() if r["error"])
-            raise RuntimeError(f"every evaluation so far failed; first: {first['reason']}")
+        self._check(state)
+
+    @staticmethod
+    def _check(state: RunState) -> None:
+        n_errors, limit = state.cache.n_errors, state.settings.max_errors
+        if n_errors > limit:
+            first = state.cache.first_error()
+            design = dict(zip(("sma_km", "ecc", "aop_deg", "inc_deg", "n_planes", "sats_per_plane"),
+                              state.settings.grid.descale(np.array([first["key"]], dtype=float))[0].tolist()))
+            raise CampaignStopped(
+                f"campaign stopped: {n_errors} evaluation error(s), more than campaign.max_errors = {limit}; first, "
+                f"design {design}: {first['reason']}; every error is in {state.run_dir / 'evaluations.jsonl'}",
+                errors=n_errors, first=first)
 
 
 class HistoryRecorder(Callback):
@@ -108,7 +137,7 @@ class HistoryRecorder(Callback):
         last = state.batch.last
         state.history.append({"generation": state.generation, "n_designs": state.n_designs,
                               "n_evaluated": last["evaluated"], "n_cache_hits": last["hits"],
-                              "n_errors": last["errors"], **stats, "wall_s": state.wall_s,
+                              "n_errors": last["errors"], "n_errors_cum": state.cache.n_errors, **stats, "wall_s": state.wall_s,
                               "designs_per_s": last["evaluated"] / state.wall_s if state.wall_s > 0 else 0.0})
 
 
@@ -117,7 +146,7 @@ class Checkpointer(Callback):
 
     def on_generation_end(self, state: RunState) -> None:
         write_checkpoint(state.run_dir, state.generation, state.algorithm, state.history,
-                         not state.algorithm.has_next())
+                         not state.algorithm.has_next(), state.profile_hash, state.asked_keys)
 
 
 class ProgressBars(Callback):
@@ -145,7 +174,9 @@ class ProgressBars(Callback):
         self.inner.total = n_total + n_hits
         self.inner.n = n_done + n_hits
         rate = n_done / max(time.perf_counter() - self.t0, 1e-9)
-        self.inner.set_postfix_str(f"{rate:.2f} designs/s, cache hits {n_hits}", refresh=True)
+        errors = state.cache.n_errors
+        self.inner.set_postfix_str(f"{rate:.2f} designs/s, cache hits {n_hits}"
+                                   + (f", evaluation errors {errors}" if errors else ""), refresh=True)
 
     def on_generation_end(self, state: RunState) -> None:
         self.inner.close()
@@ -154,6 +185,12 @@ class ProgressBars(Callback):
 
     def on_session_end(self, state: RunState) -> None:
         self.outer.close()
+
+    def close(self) -> None:
+        """Close the bars after an error (the runner calls this when the session ends early)."""
+        for bar in (self.inner, self.outer):
+            if bar is not None:
+                bar.close()
 
 
 def progress_text(entry: dict) -> str:

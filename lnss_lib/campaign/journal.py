@@ -20,31 +20,46 @@ FORMAT_VERSION = 1
 def parse_journal(data: bytes) -> tuple[dict, list[dict], int]:
     """(header, records in file order, length of the complete lines) of a journal's bytes.
 
-    Only complete lines count: a last line without its newline (cut short by a kill) is left out.
+    Only complete records count: a last line without its newline (cut short by a kill) is left out,
+    and so is any line that is not a whole JSON record (torn by a full disk); the designs they held
+    are evaluated again on resume.
     """
     end = data.rfind(b"\n") + 1
-    lines = data[:end].decode().splitlines()
-    header = json.loads(lines[0]) if lines else {}
-    return header, [json.loads(line) for line in lines[1:]], end
+    lines = data[:end].decode(errors="replace").splitlines()
+    header, records = {}, []
+    for number, line in enumerate(lines):
+        try:
+            item = json.loads(line)
+        except json.JSONDecodeError:
+            continue
+        if number == 0:
+            header = item if isinstance(item, dict) else {}
+        elif isinstance(item, dict):
+            records.append(item)
+    return header, records, end
 
 
 class EvaluationCache:
     """The run's evaluations, keyed by scaled design (tuple of 6 ints), backed by an append-only JSON-lines file.
 
     The first line records the evaluation hash; each further line is one record
-    ``{"key", "generation", "order", "metrics", "ok", "impact", "error", "reason", ...}``. A line cut
-    short by a kill is dropped (and the file truncated to the last complete line) on opening.
+    ``{"key", "generation", "order", "metrics", "ok", "impact", "error", "reason", ...}`` (``error`` True:
+    the evaluation raised, ``reason`` holds the message). A line cut short by a kill is dropped (and the
+    file truncated to the last complete line) on opening; ``n_errors`` counts the error records.
     Opening a file written under another evaluation hash raises ValueError.
     """
 
     def __init__(self, path: Path, eval_hash: str):
         self.path = Path(path)
         self.eval_hash = eval_hash
+        self.n_errors = 0
+        self.created = False
         self.records: dict[tuple, dict] = {}
-        if self.path.exists():
+        if self.path.exists() and b"\n" in self.path.read_bytes():
             self._load()
         else:
             self.path.write_text(json.dumps({"evaluation_hash": eval_hash, "format": FORMAT_VERSION}) + "\n")
+            self.created = True
         self._handle = self.path.open("a")
 
     def _load(self) -> None:
@@ -57,6 +72,7 @@ class EvaluationCache:
             raise ValueError(f"{self.path} holds evaluations for evaluation hash {header.get('evaluation_hash')!r}, "
                              f"not {self.eval_hash!r}: the parameters that change an evaluation differ")
         self.records = {tuple(record["key"]): record for record in records}
+        self.n_errors = sum(bool(r.get("error")) for r in self.records.values())
 
     def __contains__(self, key: tuple) -> bool:
         return key in self.records
@@ -68,8 +84,13 @@ class EvaluationCache:
         """Store ``record`` under ``key`` and append it to the file (flushed)."""
         record = {"key": list(key), **record}
         self.records[key] = record
+        self.n_errors += bool(record.get("error"))
         self._handle.write(json.dumps(record) + "\n")
         self._handle.flush()
+
+    def first_error(self) -> dict | None:
+        """The first record (in evaluation order) whose evaluation raised, or None."""
+        return next((r for r in self.records.values() if r.get("error")), None)
 
     def close(self) -> None:
         self._handle.close()

@@ -19,36 +19,39 @@ from pathlib import Path
 import numpy as np
 import xarray as xr
 
-from ..config import OUTPUTS_DIR
+from ..atomicio import write_bytes_atomic, write_netcdf_atomic
+from ..config import OUTPUTS_DIR, profile_hash
+from ..errors import ConfigError
 from ..keys import DESIGN_KEYS, INTEGER_DESIGN_KEYS, METRIC_KEYS
 from .fitness import constraint_matrix, constraint_violation, metric_columns, non_dominated_mask, objective_matrix
 from .journal import read_cache_records
 from .settings import CampaignSettings, evaluation_hash
 
 __all__ = ["load_run", "load_checkpoint", "final_population", "export_results", "write_results",
-           "write_checkpoint", "start_run", "default_run_dir", "atomic_write_bytes",
+           "write_checkpoint", "start_run", "default_run_dir", "atomic_write_bytes", "check_resumable", "RunLock",
+           "LOCK_FILE",
            "RUN_FILE", "CHECKPOINT_FILE", "RESULT_FILES", "CHECKPOINT_FORMAT"]
 
-RUN_FILE, CHECKPOINT_FILE = "run.json", "checkpoint.pkl"
+RUN_FILE, CHECKPOINT_FILE, LOCK_FILE = "run.json", "checkpoint.pkl", "run.lock"
 RESULT_FILES = ("evaluations.nc", "front.nc", "history.nc")
 CHECKPOINT_FORMAT = 1
 
 
-def atomic_write_bytes(path: Path, data: bytes) -> None:
-    tmp = path.with_name(f".{path.name}.tmp{os.getpid()}")
-    with tmp.open("wb") as handle:
-        handle.write(data)
-        handle.flush()
-        os.fsync(handle.fileno())
-    os.replace(tmp, path)
+atomic_write_bytes = write_bytes_atomic
 
 
 def load_run(run_dir) -> dict:
-    """``run.json`` of a run directory (profile, evaluation hash, creation time); ValueError if absent."""
+    """``run.json`` of a run directory (profile, evaluation hash, creation time); ConfigError if absent or unreadable."""
     path = Path(run_dir) / RUN_FILE
     if not path.is_file():
-        raise ValueError(f"{run_dir} is not a campaign run directory (no {RUN_FILE})")
-    return json.loads(path.read_text())
+        raise ConfigError(f"{run_dir} is not a campaign run directory (no {RUN_FILE})")
+    try:
+        run = json.loads(path.read_text())
+    except (json.JSONDecodeError, UnicodeDecodeError) as error:
+        raise ConfigError(f"{path} is not valid JSON ({error})") from None
+    if not isinstance(run, dict) or not isinstance(run.get("profile"), dict) or "evaluation_hash" not in run:
+        raise ConfigError(f"{path} lacks the profile or the evaluation hash of the run")
+    return run
 
 
 # classes pickled by checkpoints written before the campaign package (module lnss_lib.optimize)
@@ -65,19 +68,27 @@ class _CheckpointUnpickler(pickle.Unpickler):
 
 
 def load_checkpoint(run_dir) -> dict | None:
-    """The last checkpoint of a run (keys generation, algorithm, history, finished), or None before the first."""
+    """The last checkpoint of a run (keys generation, algorithm, history, finished, profile_hash), or None
+    before the first. A truncated or unreadable file raises RuntimeError saying how to recover."""
     path = Path(run_dir) / CHECKPOINT_FILE
     if not path.is_file():
         return None
-    with path.open("rb") as handle:
-        return _CheckpointUnpickler(handle).load()
+    try:
+        with path.open("rb") as handle:
+            return _CheckpointUnpickler(handle).load()
+    except (EOFError, pickle.UnpicklingError, AttributeError, ImportError, IndexError, TypeError, ValueError) as error:
+        raise RuntimeError(f"{path} is truncated or corrupt ({type(error).__name__}: {error}); delete it and resume: "
+                           f"the evaluation cache {Path(run_dir) / 'evaluations.jsonl'} re-uses every design "
+                           f"already evaluated") from None
 
 
-def write_checkpoint(run_dir, generation: int, algorithm, history: list[dict], finished: bool) -> None:
+def write_checkpoint(run_dir, generation: int, algorithm, history: list[dict], finished: bool,
+                     profile_fingerprint: str | None = None, asked_keys: list | None = None) -> None:
     """Pickle the algorithm and the history after ``generation`` into ``checkpoint.pkl`` (atomically)."""
+    profile_fingerprint = profile_fingerprint or profile_hash(load_run(run_dir)["profile"])
     atomic_write_bytes(Path(run_dir) / CHECKPOINT_FILE, pickle.dumps(
         {"format": CHECKPOINT_FORMAT, "generation": generation, "algorithm": algorithm, "history": history,
-         "finished": finished}))
+         "finished": finished, "profile_hash": profile_fingerprint, "asked_keys": list(asked_keys or [])}))
 
 
 def final_population(run_dir) -> tuple[np.ndarray, np.ndarray]:
@@ -103,6 +114,7 @@ def _dataset_from_records(records: list[dict], settings: CampaignSettings, attrs
         data[name] = ("design", np.asarray(columns[name]).astype(np.int64 if name == "n_sat" else np.float64))
     data["feasible"] = ("design", np.asarray(columns["ok"], dtype=bool) & (cv == 0.0))
     data["impact"] = ("design", np.array([r["impact"] for r in records], dtype=bool))
+    data["error"] = ("design", np.array([r["reason"] if r.get("error") else "" for r in records], dtype=str))
     data["constraint_violation"] = ("design", cv.astype(np.float64))
     data["generation"] = ("design", np.array([r["generation"] for r in records], dtype=np.int64))
     ds = xr.Dataset(data, attrs=attrs)
@@ -114,6 +126,8 @@ def _dataset_from_records(records: list[dict], settings: CampaignSettings, attrs
     ds["constraint_violation"].attrs["description"] = ("sum of positive normalised constraint values "
                                                        "(value/limit - 1 for max, 1 - value/limit for min)")
     ds["generation"].attrs["description"] = "generation in which the design was first evaluated"
+    ds["error"].attrs["description"] = ("message of an evaluation that raised (an error, not an infeasible "
+                                        "design; its metrics are NaN); empty when the evaluation ran")
     return ds
 
 
@@ -143,6 +157,7 @@ def export_results(run_dir) -> tuple[xr.Dataset, xr.Dataset, xr.Dataset]:
         "seed": settings.seed,
         "generations_done": len(history),
         "finished": int(bool(checkpoint and checkpoint.get("finished"))),
+        "n_evaluation_errors": sum(bool(r.get("error")) for r in read_cache_records(run_dir)),
     }
     records = read_cache_records(run_dir)
     evaluations = _dataset_from_records(records, settings, attrs)
@@ -168,18 +183,15 @@ def write_results(run_dir, publish_dir=None) -> list[Path]:
     for folder in [Path(run_dir)] + ([Path(publish_dir)] if publish_dir else []):
         for name, ds in zip(RESULT_FILES, datasets):
             target = folder / name
-            tmp = folder / f".{name}.tmp{os.getpid()}"
-            ds.to_netcdf(tmp, engine="h5netcdf")
-            os.replace(tmp, target)
+            write_netcdf_atomic(ds, target)
             written.append(target)
     return written
 
 
 def default_run_dir(profile_name: str) -> Path:
-    """A new ``outputs/<profile>/campaign/run_<time>`` (the folder runs are published from)."""
+    """A new ``outputs/<profile>/campaign/run_<time>`` (the folder runs are published from; not created)."""
     stamp = time.strftime("%Y%m%d-%H%M%S")
     base = OUTPUTS_DIR / profile_name / "campaign"
-    base.mkdir(parents=True, exist_ok=True)
     candidate, n = base / f"run_{stamp}", 1
     while candidate.exists():
         n += 1
@@ -188,11 +200,56 @@ def default_run_dir(profile_name: str) -> Path:
 
 
 def start_run(run_dir: Path, profile: dict) -> None:
+    """Write ``run.json`` (profile, its hash, the evaluation hash, versions) into ``run_dir`` (the caller
+    holds the run's lock and has checked the profile)."""
     from ..config import package_versions
 
-    run_dir.mkdir(parents=True, exist_ok=True)
-    if (run_dir / RUN_FILE).exists():
-        raise ValueError(f"{run_dir} already holds a campaign; continue it with --resume {run_dir}")
-    run = {"profile": profile, "evaluation_hash": evaluation_hash(profile),
+    run = {"profile": profile, "profile_hash": profile_hash(profile), "evaluation_hash": evaluation_hash(profile),
            "created_utc": time.strftime("%Y-%m-%dT%H:%M:%SZ", time.gmtime()), "versions": package_versions()}
     atomic_write_bytes(run_dir / RUN_FILE, json.dumps(run, indent=1, default=str).encode())
+
+
+def check_resumable(run_dir: Path, run: dict, checkpoint: dict | None) -> None:
+    """Refuse (ConfigError) a resume whose ``run.json`` settings were edited after the run started: its
+    profile must still give the profile hash recorded in run.json and in the checkpoint."""
+    current = profile_hash(run["profile"])
+    for recorded, where in ((run.get("profile_hash"), RUN_FILE),
+                            ((checkpoint or {}).get("profile_hash"), CHECKPOINT_FILE)):
+        if recorded is not None and recorded != current:
+            raise ConfigError(f"{run_dir / RUN_FILE}: its settings (profile hash {current}) differ from those the "
+                              f"run started with ({recorded}, recorded in {where}); a run keeps its settings: undo "
+                              f"the edit, or start a new run with --profile and --set")
+
+
+class RunLock:
+    """Advisory lock on a run folder (``run.lock``, ``fcntl.flock``) holding the owner's pid.
+
+    One process owns a run at a time; a second gets RuntimeError naming the owner. The kernel drops
+    the lock when its process dies, so the lock of a killed run is stale by construction: the next
+    process takes it over (and writes its own pid).
+    """
+
+    def __init__(self, run_dir: Path):
+        import fcntl
+
+        self.path = Path(run_dir) / LOCK_FILE
+        self._handle = open(self.path, "a+")
+        try:
+            fcntl.flock(self._handle.fileno(), fcntl.LOCK_EX | fcntl.LOCK_NB)
+        except OSError:
+            self._handle.seek(0)
+            owner = self._handle.read().strip() or "unknown"
+            self._handle.close()
+            raise RuntimeError(f"{run_dir} is in use by another campaign process (pid {owner}); wait for it to "
+                               f"finish or stop it, then --resume {run_dir}") from None
+        self._handle.seek(0)
+        self._handle.truncate()
+        self._handle.write(f"{os.getpid()}\n")
+        self._handle.flush()
+
+    def release(self) -> None:
+        import fcntl
+
+        if not self._handle.closed:
+            fcntl.flock(self._handle.fileno(), fcntl.LOCK_UN)
+            self._handle.close()

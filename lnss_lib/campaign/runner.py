@@ -12,14 +12,19 @@ from __future__ import annotations
 
 import time
 from dataclasses import dataclass
+
+import numpy as np
 from pathlib import Path
 
-from ..config import OUTPUTS_DIR, load_profile
+from ..config import OUTPUTS_DIR, load_profile, profile_hash, validate_profile
+from ..errors import ConfigError
 from .backends import BatchEvaluator, open_backend
-from .callbacks import Callback, Checkpointer, ErrorGuard, HistoryRecorder, ProgressBars, RunState
+from .callbacks import (Callback, CampaignStopped, Checkpointer, ErrorGuard, HistoryRecorder, ProgressBars,
+                        RunState)
 from .journal import JOURNAL_FILE, EvaluationCache
 from .problem import WalkerDesignProblem, build_algorithm, build_termination
-from .rundir import default_run_dir, load_checkpoint, load_run, start_run, write_results
+from .rundir import (LOCK_FILE, RUN_FILE, RunLock, check_resumable, default_run_dir, load_checkpoint, load_run,
+                     start_run, write_results)
 from .settings import CampaignSettings, evaluation_hash, evaluation_profile
 
 __all__ = ["run_campaign", "CampaignResult", "default_callbacks"]
@@ -44,6 +49,7 @@ class CampaignResult:
     session_evaluations: int
     session_wall_s: float
     resubmitted: int
+    n_errors: int = 0
 
 
 def run_campaign(profile_name: str = "quick", *, overrides: dict | None = None, workers: int | None = None,
@@ -56,23 +62,68 @@ def run_campaign(profile_name: str = "quick", *, overrides: dict | None = None, 
     ``scheduler_address`` uses an existing cluster. ``max_generations`` stops this session after
     that many generations (the run stays resumable). ``callbacks`` (:class:`~lnss_lib.campaign.callbacks.Callback`)
     are notified after the default chain (:func:`default_callbacks`). Returns a :class:`CampaignResult`.
+
+    Everything is checked before the run folder is touched (profile, campaign settings, on resume the
+    stored settings against their hashes); a new run folder that ends without a recorded design is
+    removed again. The process holds the folder's lock (:class:`~lnss_lib.campaign.rundir.RunLock`)
+    while it runs. More evaluation errors than ``campaign.max_errors`` raise
+    :class:`~lnss_lib.campaign.callbacks.CampaignStopped` after writing ``evaluations.nc``.
     """
     if resume is not None:
+        if overrides:
+            raise ConfigError("a resumed run keeps its parameters: overrides are not allowed with resume")
         run_dir = Path(resume)
         run = load_run(run_dir)
         profile = run["profile"]
-        if overrides:
-            raise ValueError("a resumed run keeps its parameters: overrides are not allowed with resume")
+        validate_profile(profile, partial=True)
         if evaluation_hash(profile) != run["evaluation_hash"]:
-            raise ValueError(f"{run_dir}: evaluation hash of the stored profile changed; cannot resume")
+            raise ConfigError(f"{run_dir}: evaluation hash of the stored profile changed; cannot resume")
+        lock = RunLock(run_dir)
+        created = False
     else:
         profile = load_profile(profile_name, overrides=overrides)
+        CampaignSettings.from_profile(profile)
+        evaluation_profile(profile)
         run_dir = Path(run_dir) if run_dir is not None else default_run_dir(profile_name)
-        start_run(run_dir, profile)
+        if (run_dir / RUN_FILE).exists():
+            raise ConfigError(f"{run_dir} already holds a campaign; continue it with --resume {run_dir}")
+        created = not run_dir.exists()
+        run_dir.mkdir(parents=True, exist_ok=True)
+        lock = RunLock(run_dir)
+    try:
+        if resume is None:
+            start_run(run_dir, profile)
+        return _run_locked(run_dir, profile, workers, scheduler_address, progress, max_generations, callbacks)
+    except BaseException:
+        if created:
+            _remove_if_empty_run(run_dir)
+        raise
+    finally:
+        lock.release()
+
+
+def _remove_if_empty_run(run_dir: Path) -> None:
+    """Remove a run folder this call created when no design was recorded (a rejected or failed start)."""
+    from .journal import read_cache_records
+
+    if read_cache_records(run_dir):
+        return
+    for name in (RUN_FILE, JOURNAL_FILE, LOCK_FILE):
+        (run_dir / name).unlink(missing_ok=True)
+    try:
+        run_dir.rmdir()
+    except OSError:
+        pass
+
+
+def _run_locked(run_dir: Path, profile: dict, workers, scheduler_address, progress: bool, max_generations,
+                callbacks) -> CampaignResult:
+    """The generation loop of :func:`run_campaign` in a run folder this process holds the lock of."""
     settings = CampaignSettings.from_profile(profile)
     eval_hash = evaluation_hash(profile)
     name = profile["profile"]["name"]
     checkpoint = load_checkpoint(run_dir)
+    check_resumable(run_dir, load_run(run_dir), checkpoint)
     if checkpoint is not None:
         algorithm, history = checkpoint["algorithm"], checkpoint["history"]
         problem = algorithm.problem
@@ -83,13 +134,18 @@ def run_campaign(profile_name: str = "quick", *, overrides: dict | None = None, 
     cache = EvaluationCache(run_dir / JOURNAL_FILE, eval_hash)
     session_start = time.perf_counter()
     backend = None
+    observers: list = []
     try:
-        if not (checkpoint and checkpoint.get("finished")) and algorithm.has_next():
+        lost = [tuple(k) for k in (checkpoint or {}).get("asked_keys", []) if tuple(k) not in cache]
+        if lost or (not (checkpoint and checkpoint.get("finished")) and algorithm.has_next()):
             backend = open_backend(evaluation_profile(profile), settings, workers, scheduler_address)
         batch = BatchEvaluator(settings, cache, backend)
+        if lost:   # designs of the checkpointed generation whose journal line was torn: evaluate them again
+            batch.generation = len(history)
+            batch(np.array(lost))
         problem.metrics_source = batch
         state = RunState(run_dir=run_dir, name=name, settings=settings, algorithm=algorithm, cache=cache,
-                         batch=batch, history=history)
+                         batch=batch, history=history, profile_hash=profile_hash(profile))
         observers = default_callbacks(progress) + list(callbacks)
 
         def notify(hook: str, *args) -> None:
@@ -105,6 +161,7 @@ def run_campaign(profile_name: str = "quick", *, overrides: dict | None = None, 
             gen_start = time.perf_counter()
             pop = algorithm.ask()
             state.generation, state.n_designs = len(history) + 1, len(pop)
+            state.asked_keys = [[int(v) for v in row] for row in np.rint(pop.get("X"))]
             batch.generation = state.generation
             notify("on_generation_start")
             algorithm.evaluator.eval(problem, pop)
@@ -113,6 +170,13 @@ def run_campaign(profile_name: str = "quick", *, overrides: dict | None = None, 
             notify("on_generation_end")
             session_gens += 1
         notify("on_session_end")
+    except CampaignStopped:
+        for observer in observers:
+            if hasattr(observer, "close"):
+                observer.close()
+        cache.close()
+        write_results(run_dir)          # evaluations.nc holds every design so far, errors with their messages
+        raise
     finally:
         cache.close()
         resubmitted = getattr(backend, "resubmitted", 0)
@@ -125,4 +189,4 @@ def run_campaign(profile_name: str = "quick", *, overrides: dict | None = None, 
                           n_feasible=history[-1]["n_feasible_cum"] if history else 0,
                           wall_s=float(sum(h["wall_s"] for h in history)),
                           session_evaluations=batch.n_backend, session_wall_s=time.perf_counter() - session_start,
-                          resubmitted=resubmitted)
+                          resubmitted=resubmitted, n_errors=cache.n_errors)

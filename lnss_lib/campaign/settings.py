@@ -20,7 +20,7 @@ EVALUATORS = ("walker", "synthetic")
 CAMPAIGN_ONLY_KEYS = ("population", "generations", "crossover_prob", "crossover_eta", "mutation_eta",
                       "mutation_prob_var", "seed", "ftol", "ftol_period", "objectives", "constraints",
                       "nan_objective", "nan_violation", "hypervolume", "max_resubmits",
-                      "numba_threads_per_worker", "synthetic_delay_s")
+                      "numba_threads_per_worker", "synthetic_delay_s", "max_errors")
 
 
 @dataclass(frozen=True)
@@ -46,6 +46,7 @@ class CampaignSettings:
     synthetic_delay_s: float
     max_resubmits: int
     numba_threads_per_worker: int
+    max_errors: int = 0
     overrides: dict = field(default_factory=dict)
 
     @classmethod
@@ -113,6 +114,7 @@ class CampaignSettings:
             synthetic_delay_s=number("synthetic_delay_s", float, 0.0),
             max_resubmits=number("max_resubmits", int, 0),
             numba_threads_per_worker=number("numba_threads_per_worker", int, 0),
+            max_errors=number("max_errors", int, 0) if "max_errors" in c else 0,
             overrides=overrides,
         )
 

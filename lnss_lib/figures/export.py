@@ -17,7 +17,7 @@ from pathlib import Path
 
 import plotly.graph_objects as go
 
-from ..outputs import output_dir, write_caption
+from ..outputs import atomic_path, output_dir, write_bytes_atomic, write_caption
 
 PNG_ENV = "LNSS_PNG"                 # set to "off" to skip PNG export (HTML only)
 PNG_TIMEOUT_S = 120.0                 # start-up of Chromium, and rendering of one figure
@@ -110,12 +110,13 @@ def _write_png(fig: go.Figure, path: Path, width: int, height: int) -> bool:
                 _png_unavailable("no Chrome/Chromium found")
                 return False
             _EXPORTER = _PngExporter(browser)
-        path.write_bytes(_EXPORTER.png(fig, width, height))
-        return True
+        data = _EXPORTER.png(fig, width, height)
     except Exception as error:  # kaleido and choreographer raise several types when the browser fails
         _EXPORTER = "unavailable"
         _png_unavailable(f"{type(error).__name__}: {error}")
         return False
+    write_bytes_atomic(path, data)
+    return True
 
 
 def figure_title(fig: go.Figure) -> str:
@@ -136,7 +137,8 @@ def save_figure(fig: go.Figure, profile_name: str, name: str, *, width: int = 10
     """
     folder = output_dir(profile_name, "figures")
     written = {"html": folder / f"{name}.html"}
-    fig.write_html(written["html"], include_plotlyjs="directory", include_mathjax=False)
+    with atomic_path(written["html"]) as temporary:   # plotly.min.js goes beside it, in the same folder
+        fig.write_html(temporary, include_plotlyjs="directory", include_mathjax=False)
     png = folder / f"{name}.png"
     if _write_png(fig, png, width, height):
         written["png"] = png

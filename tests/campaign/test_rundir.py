@@ -6,7 +6,8 @@ import sys
 import numpy as np
 import xarray as xr
 
-from lnss_lib.__main__ import _parse_sets, main
+from lnss_lib.__main__ import main
+from lnss_lib.config import parse_sets as _parse_sets
 from lnss_lib.campaign import CampaignSettings, final_population, read_cache_records
 from lnss_lib.config import load_profile
 from lnss_lib.evaluator import context_for, evaluate_design
@@ -29,7 +30,7 @@ def test_real_campaign_netcdf_contract(real_run):
     ev = xr.open_dataset(real_run.run_dir / "evaluations.nc", engine="h5netcdf").load()
     front = xr.open_dataset(real_run.run_dir / "front.nc", engine="h5netcdf").load()
     history = xr.open_dataset(real_run.run_dir / "history.nc", engine="h5netcdf").load()
-    expected = {*DESIGN_KEYS, *METRIC_KEYS, "feasible", "impact", "constraint_violation", "generation"}
+    expected = {*DESIGN_KEYS, *METRIC_KEYS, "feasible", "impact", "error", "constraint_violation", "generation"}
     for ds in (ev, front):
         assert set(ds.data_vars) == expected and set(ds.dims) == {"design"}
         for name in ("sma_km", "ecc", "aop_deg", "inc_deg"):
