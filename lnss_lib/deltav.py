@@ -43,6 +43,7 @@ from .constants import SECONDS_PER_DAY
 from .frames import ELEMENT_FRAMES, element_frame_to_j2000, to_rtn
 from .gve import (NATURAL_RATE_NAMES, PAPER_NORMAL, PAPER_RADIAL, RATE_NAMES, check_epochs, element_rates, lsq_thrust,
                   natural_rates_from_elements, orbit_vectors, osculating_elements, paper_thrust, project_natural)
+from .keys import DELTAV_SATELLITES
 
 __all__ = ["MODELS", "OSCULATING_MODELS", "LSQ_RATES", "SECULAR_PARTS", "DEFAULT_SETTINGS", "deltav_settings",
            "thrust_total", "tmax_closed_form", "slsqp_tmax", "trapezoid_deltav", "per_year_factor", "orbit_mean",
@@ -69,6 +70,7 @@ DEFAULT_SETTINGS = {
     "paper_cap_kms2": 1.0,
     "secular_min_periods": 2.0,
     "slsqp_lambda": 20.0,
+    "satellites": "first",       # evaluator: the design's budget from satellite 0 ("first") or the mean over "all"
 }
 
 
@@ -89,7 +91,7 @@ def deltav_settings(profile: dict | None = None, **overrides) -> dict:
     if unknown:
         raise ValueError(f"unknown [deltav] setting(s) {sorted(unknown)}; allowed: {sorted(DEFAULT_SETTINGS)}")
     choices = {"model": MODELS, "element_frame": ELEMENT_FRAMES, "lsq_rates": LSQ_RATES,
-               "paper_normal": PAPER_NORMAL, "paper_radial": PAPER_RADIAL}
+               "paper_normal": PAPER_NORMAL, "paper_radial": PAPER_RADIAL, "satellites": DELTAV_SATELLITES}
     for key, allowed in choices.items():
         if settings[key] not in allowed:
             raise ValueError(f"[deltav] {key} = {settings[key]!r} is not allowed; allowed: {', '.join(allowed)}")

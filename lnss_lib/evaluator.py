@@ -3,9 +3,16 @@
 An :class:`EvaluationContext` holds what a run shares across designs (ephemeris tables and force
 model, the Moon-fixed rotation at every epoch, the surface grid, the GPS states); it is built once
 per process. :func:`evaluate_design` propagates a design, then computes the south-pole DOP
-statistics (eq. 9-14, all satellites), the station-keeping Delta-V and the GPS-LNSS link (first
-satellite, as the paper does, Section 5.3). Infeasible designs (impact, invalid elements) come back
-flagged with NaN metrics, never raised, so batch callers can treat them as constraint violations.
+statistics (eq. 9-14, all satellites), the station-keeping Delta-V (satellite 0, or the mean over
+every satellite with ``[deltav] satellites = "all"``) and the GPS-LNSS link (first satellite, as the
+paper does, Section 5.3). Infeasible designs (impact, invalid elements) come back flagged with NaN
+metrics, never raised, so batch callers can treat them as constraint violations.
+
+A profile may ask for the operational metrics of :data:`~lnss_lib.keys.EXTRA_METRIC_KEYS` in
+``[evaluator] extra_metrics`` (issue 11 item 5; none in ``paper``): the geometry-keeping Delta-V
+estimate over every satellite (:mod:`lnss_lib.sk_estimate`, from the same arc), the design-life
+stability screen (:mod:`lnss_lib.stability`, from the initial states; ``stable_screen`` 1.0 or 0.0)
+and the eq. 45 Delta-V's maximum over satellites. Only the requested ones are computed and returned.
 """
 
 from __future__ import annotations
@@ -17,7 +24,7 @@ from dataclasses import dataclass
 import numpy as np
 import xarray as xr
 
-from . import deltav, dop, gps
+from . import deltav, dop, gps, sk_estimate, stability
 from .config import load_profile, profile_hash, validate_profile
 from .constellation import WalkerDesign
 from .ephemeris import EphemerisTable, ensure_kernels, rotation, tdb_seconds
@@ -25,7 +32,7 @@ from .constants import SECONDS_PER_DAY
 from .forces import ForceModel
 from .frames import rotate_with
 from .errors import ConfigError, ImpactError
-from .keys import DESIGN_KEYS, METRIC_KEYS, RESULT_KEYS
+from .keys import DESIGN_KEYS, METRIC_KEYS, RESULT_KEYS, TIMING_KEYS, requested_extra_metrics
 from .propagator import check_elements_deg, elements_deg_to_states, output_times, propagate_states
 
 
@@ -41,12 +48,19 @@ class EvaluationContext:
     rot_to_moon_fixed: np.ndarray
     grid: dop.SurfaceGrid
     gps_states: xr.Dataset
+    extra_metrics: tuple[str, ...] = ()
 
     @classmethod
     def from_profile(cls, profile: dict) -> "EvaluationContext":
         """Tables, force model, Moon-fixed rotations, grid and GPS states over the profile's arc (profile checked
-        by :func:`~lnss_lib.config.validate_profile` first)."""
+        by :func:`~lnss_lib.config.validate_profile` first, then the settings of the requested extra metrics)."""
         validate_profile(profile, partial=True)   # an evaluation profile has no [campaign]
+        extras = requested_extra_metrics(profile)
+        deltav.deltav_settings(profile)
+        if any(k.startswith("sk_dv_estimate") for k in extras):
+            sk_estimate.sk_estimate_settings(profile)
+        if any(k.startswith(("stable", "screen")) for k in extras):
+            stability.stability_settings(profile)
         ensure_kernels(profile)
         epoch = profile["epoch"]
         t0 = tdb_seconds(epoch["start_tdb"], "TDB")
@@ -54,7 +68,8 @@ class EvaluationContext:
         table = EphemerisTable.build(profile, t0, float(times[-1]))
         model = ForceModel.from_profile(profile, table)
         rot = rotation("J2000", profile["frames"]["moon_fixed"], times)
-        return cls(profile, t0, times, model, rot, dop.grid_from_profile(profile), gps.gps_states_mci(profile, times))
+        return cls(profile, t0, times, model, rot, dop.grid_from_profile(profile), gps.gps_states_mci(profile, times),
+                   extras)
 
 
 _CONTEXTS: dict[str, EvaluationContext] = {}
@@ -68,8 +83,8 @@ def context_for(profile: dict) -> EvaluationContext:
     return _CONTEXTS[key]
 
 
-def _infeasible(n_sat: int, reason: str, model: str, start: float) -> dict:
-    result = {k: math.nan for k in METRIC_KEYS}
+def _infeasible(n_sat: int, reason: str, model: str, start: float, extras: tuple[str, ...] = ()) -> dict:
+    result = {k: math.nan for k in METRIC_KEYS + extras}
     result.update(n_sat=int(n_sat), deltav_model=model, feasible=False, reason=reason,
                   impact=reason.startswith("impact"), wall_s=time.perf_counter() - start)
     return result
@@ -106,9 +121,12 @@ def _analyse_states(context: EvaluationContext, elements: np.ndarray, states: np
     dop_stats = dop.summary_from_profile(profile, grid_ds)
     clock.append(time.perf_counter())
     dv = deltav.deltav_from_propagation(profile, ds, sat=0)
+    dv_budget = _design_deltav(profile, ds, dv)
     clock.append(time.perf_counter())
     link = gps.gps_link(profile, context.gps_states, ds, sats="first")
     link_stats = gps.gps_link_summary(link)
+    clock.append(time.perf_counter())
+    extras = _operational_metrics(context, ds, states, dv_budget)
     clock.append(time.perf_counter())
     metrics = {
         "n_sat": int(elements.shape[0]),
@@ -117,25 +135,64 @@ def _analyse_states(context: EvaluationContext, elements: np.ndarray, states: np
         "pdop_avail_pct": dop_stats["pdop_avail_pct"],
         "hdop_mean_3sigma": dop_stats["hdop_mean_3sigma"],
         "hdop_avail_pct": dop_stats["hdop_avail_pct"],
-        "dv_total_kms_per_year": float(dv.attrs["dv_total_kms_per_year"]),
-        "dv_opt_kms_per_year": float(dv.attrs["dv_opt_kms_per_year"]),
+        "dv_total_kms_per_year": dv_budget["dv_total_kms_per_year"],
+        "dv_opt_kms_per_year": dv_budget["dv_opt_kms_per_year"],
         "gps_visible_mean": link_stats["gps_visible_mean"],
         "gps_pdop_mean": link_stats["gps_pdop_mean"],
         "deltav_model": dv.attrs["deltav_model"],
         "feasible": True,
         "reason": "",
         "impact": False,
-        "timing_s": dict(zip(("propagation", "dop", "deltav", "gps"), np.diff(clock).tolist())),
+        **extras,
+        "timing_s": dict(zip(TIMING_KEYS, np.diff(clock).tolist())),
         "wall_s": time.perf_counter() - start,
     }
     return {"propagation": ds, "dop": grid_ds, "deltav": dv, "gps_link": link, "metrics": metrics}
 
 
+def _design_deltav(profile: dict, ds: xr.Dataset, dv_first: xr.Dataset) -> dict:
+    """The design's eq. 45 Delta-V budgets: satellite 0's (``[deltav] satellites = "first"``, the paper's
+    Section 5.3 practice) or the mean over every satellite (``"all"``), then also the maxima."""
+    if deltav.deltav_settings(profile)["satellites"] == "first":
+        return {k: float(dv_first.attrs[k]) for k in ("dv_total_kms_per_year", "dv_opt_kms_per_year")}
+    per_sat = deltav.deltav_per_satellite(profile, ds).sel(model_all=dv_first.attrs["deltav_model"])
+    out = {}
+    for key in ("dv_total", "dv_opt"):
+        values = per_sat[f"{key}_kms_per_year"].values
+        out[f"{key}_kms_per_year"] = float(np.mean(values))
+        out[f"{key}_max_kms_per_year"] = float(np.max(values))
+    return out
+
+
+def _operational_metrics(context: EvaluationContext, ds: xr.Dataset, states: np.ndarray, dv_budget: dict) -> dict:
+    """The requested extra metrics (``context.extra_metrics``); NaN for an estimate the arc cannot give."""
+    profile, wanted = context.profile, context.extra_metrics
+    out = {k: dv_budget[k] for k in wanted if k in dv_budget}
+    if any(k.startswith("sk_dv_estimate") for k in wanted):
+        cfg = sk_estimate.sk_estimate_settings(profile)
+        gm = float(profile["gravity"]["gm_km3_s2"])
+        r = np.linalg.norm(ds["r_mci_km"].values, axis=-1)
+        v2 = np.sum(ds["v_mci_kms"].values ** 2, axis=-1)
+        a_mean = np.mean(1.0 / (2.0 / r - v2 / gm), axis=1)             # vis-viva, as the estimate's arc test
+        arc_s = float(ds["time"].values[-1] - ds["time"].values[0])
+        if arc_s >= float(cfg["min_periods"]) * 2.0 * np.pi * np.sqrt(np.max(a_mean) ** 3 / gm) * (1.0 + 1e-9):
+            estimate = sk_estimate.sk_estimate_from_propagation(profile, ds)
+        else:
+            estimate = dict.fromkeys(("sk_dv_estimate_kms_per_year", "sk_dv_estimate_max_kms_per_year"), math.nan)
+        out.update({k: float(estimate[k]) for k in wanted if k.startswith("sk_dv_estimate")})
+    if any(k.startswith(("stable", "screen")) for k in wanted):
+        screen = stability.screen_states(profile, states, context.t0_tdb_s)
+        values = {"stable_screen": 1.0 if screen.attrs["stable"] else 0.0,
+                  "screen_min_perilune_alt_km": float(screen.attrs["min_perilune_alt_km"])}
+        out.update({k: values[k] for k in wanted if k in values})
+    return {k: out[k] for k in wanted}
+
+
 def evaluate_constellation(context: EvaluationContext, elements_deg) -> dict:
     """Every quantity of eq. 45 for satellites given by elements (n, 6) [a_km, e, i, RAAN, AOP, M] (deg).
 
-    Returns a dict with :data:`RESULT_KEYS` plus ``reason`` ("" when feasible), ``impact`` and
-    ``timing_s`` (seconds spent in propagation, DOP, Delta-V and GPS link). ``feasible`` is False
+    Returns a dict with :data:`RESULT_KEYS`, the profile's extra metrics, ``reason`` ("" when feasible),
+    ``impact`` and ``timing_s`` (seconds spent in propagation, DOP, Delta-V, GPS link and operational metrics). ``feasible`` is False
     (metrics NaN) for invalid elements or an orbit that hits the Moon; the Table 3 bounds are the
     optimiser's business, not checked here.
     """
@@ -146,11 +203,11 @@ def evaluate_constellation(context: EvaluationContext, elements_deg) -> dict:
     try:
         states = elements_deg_to_states(context.profile, elements, context.t0_tdb_s)
     except ValueError as error:
-        return _infeasible(n_sat, f"invalid elements: {error}", model_name, start)
+        return _infeasible(n_sat, f"invalid elements: {error}", model_name, start, context.extra_metrics)
     try:
         return _analyse_states(context, elements, states)["metrics"]
     except ImpactError as error:
-        return _infeasible(n_sat, str(error), model_name, start)
+        return _infeasible(n_sat, str(error), model_name, start, context.extra_metrics)
 
 
 def evaluate_design(context: EvaluationContext, sma_km: float, ecc: float, aop_deg: float, inc_deg: float,

@@ -72,3 +72,16 @@ def test_campaign_and_pareto_outputs(executed):
     table6 = _table("07_table6")
     assert "why selected" in table6.columns
     assert (OUTPUTS_DIR / PROFILE / "index.html").is_file()
+
+
+def test_operational_companion_outputs(executed):
+    """ci's companion campaign (ci_operational) ran beside it and notebooks 06-07 compare the two."""
+    import xarray as xr
+
+    evaluations = xr.load_dataset(OUTPUTS_DIR / "ci_operational" / "campaign" / "evaluations.nc", engine="h5netcdf")
+    assert {"sk_dv_estimate_max_kms_per_year", "stable_screen"} <= set(evaluations.data_vars)
+    side = _table("06_operational_comparison").set_index("designs meeting")
+    assert list(side.columns) == ["ci", "ci_operational"]
+    assert side.loc["unique designs evaluated", "ci_operational"] == evaluations.sizes["design"]
+    assert side.loc["all Table 3 bounds (feasible)", "ci_operational"] == int(evaluations.feasible.sum())
+    assert "sk_dv_estimate_max_kms_per_year" in _table("07_operational_table6").columns

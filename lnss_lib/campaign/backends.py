@@ -159,4 +159,4 @@ class BatchEvaluator:
                 self.progress(done, len(todo), hits)
         self.last = {"evaluated": fresh, "hits": hits, "errors": errors, "wall_s": time.perf_counter() - start}
         self.n_backend += done
-        return metric_columns([self.cache.records[k] for k in keys])
+        return metric_columns([self.cache.records[k] for k in keys], self.settings.extra_metrics)

@@ -69,7 +69,7 @@ class Callback:
 
 def generation_stats(settings: CampaignSettings, records: list[dict], pop_keys: list[tuple]) -> dict:
     """Deterministic per-generation numbers from the cache so far and the population's keys."""
-    columns = metric_columns(records)
+    columns = metric_columns(records, settings.extra_metrics)
     cv = constraint_violation(constraint_matrix(columns, settings.constraints, settings.nan_violation))
     feasible = columns["ok"] & (cv == 0.0)
     by_key = {tuple(r["key"]): i for i, r in enumerate(records)}

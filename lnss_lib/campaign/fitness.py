@@ -12,7 +12,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..keys import METRIC_KEYS
+from ..keys import EXTRA_METRIC_KEYS, METRIC_KEYS
 
 __all__ = ["objective_matrix", "constraint_matrix", "constraint_violation", "non_dominated_mask", "hypervolume",
            "metric_columns"]
@@ -78,9 +78,14 @@ def hypervolume(metrics: dict, feasible: np.ndarray, reference) -> float:
     return float(HV(ref_point=np.ones(points.shape[1]))(points[non_dominated_mask(points)]))
 
 
-def metric_columns(records: list[dict]) -> dict:
-    """Metric arrays (n,) keyed by ``METRIC_KEYS`` from cache records, plus ``ok`` (evaluated without impact)."""
+def metric_columns(records: list[dict], extras=()) -> dict:
+    """Metric arrays (n,) keyed by ``METRIC_KEYS`` and the ``extras`` (of ``EXTRA_METRIC_KEYS``; NaN where a
+    record has none) from cache records, plus ``ok`` (evaluated without impact)."""
+    unknown = [k for k in extras if k not in EXTRA_METRIC_KEYS]
+    if unknown:
+        raise ValueError(f"unknown extra metric(s) {unknown}; allowed: {', '.join(EXTRA_METRIC_KEYS)}")
     columns = {k: np.array([r["metrics"][k] for r in records], dtype=int if k == "n_sat" else float)
                for k in METRIC_KEYS}
+    columns.update({k: np.array([r["metrics"].get(k, np.nan) for r in records], dtype=float) for k in extras})
     columns["ok"] = np.array([r["ok"] for r in records], dtype=bool)
     return columns

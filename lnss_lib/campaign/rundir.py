@@ -100,17 +100,18 @@ def final_population(run_dir) -> tuple[np.ndarray, np.ndarray]:
     return np.asarray(pop.get("X")).astype(int), np.asarray(pop.get("F"), dtype=float)
 
 
-def _dataset_from_records(records: list[dict], settings: CampaignSettings, attrs: dict) -> xr.Dataset:
+def _dataset_from_records(records: list[dict], settings: CampaignSettings, attrs: dict,
+                          extras: tuple[str, ...] = ()) -> xr.Dataset:
     records = sorted(records, key=lambda r: (r["generation"], r["order"]))
     keys = np.array([r["key"] for r in records], dtype=float).reshape(-1, len(DESIGN_KEYS))
     designs = settings.grid.descale(keys) if len(records) else np.zeros((0, len(DESIGN_KEYS)))
-    columns = metric_columns(records) if records else {k: np.zeros(0) for k in (*METRIC_KEYS, "ok")}
+    columns = metric_columns(records, extras) if records else {k: np.zeros(0) for k in (*METRIC_KEYS, *extras, "ok")}
     cv = constraint_violation(constraint_matrix(columns, settings.constraints, settings.nan_violation)) \
         if records else np.zeros(0)
     data = {}
     for j, name in enumerate(DESIGN_KEYS):
         data[name] = ("design", designs[:, j].astype(np.int64 if name in INTEGER_DESIGN_KEYS else np.float64))
-    for name in METRIC_KEYS:
+    for name in METRIC_KEYS + extras:
         data[name] = ("design", np.asarray(columns[name]).astype(np.int64 if name == "n_sat" else np.float64))
     data["feasible"] = ("design", np.asarray(columns["ok"], dtype=bool) & (cv == 0.0))
     data["impact"] = ("design", np.array([r["impact"] for r in records], dtype=bool))
@@ -119,9 +120,16 @@ def _dataset_from_records(records: list[dict], settings: CampaignSettings, attrs
     data["generation"] = ("design", np.array([r["generation"] for r in records], dtype=np.int64))
     ds = xr.Dataset(data, attrs=attrs)
     units = {"sma_km": "km", "aop_deg": "deg", "inc_deg": "deg", "dv_total_kms_per_year": "km/s per satellite per year",
-             "dv_opt_kms_per_year": "km/s per satellite per year", "pdop_avail_pct": "%", "hdop_avail_pct": "%"}
+             "dv_opt_kms_per_year": "km/s per satellite per year", "pdop_avail_pct": "%", "hdop_avail_pct": "%",
+             "sk_dv_estimate_kms_per_year": "km/s per satellite per year (mean over satellites)",
+             "sk_dv_estimate_max_kms_per_year": "km/s per year (worst satellite)",
+             "dv_total_max_kms_per_year": "km/s per year (worst satellite)",
+             "dv_opt_max_kms_per_year": "km/s per year (worst satellite)", "screen_min_perilune_alt_km": "km"}
     for name, unit in units.items():
-        ds[name].attrs["units"] = unit
+        if name in ds:
+            ds[name].attrs["units"] = unit
+    if "stable_screen" in ds:
+        ds["stable_screen"].attrs["description"] = "1: no perilune reaches the surface over the screened design life; 0: one does"
     ds["feasible"].attrs["description"] = "evaluated without impact and every campaign constraint met (Table 3)"
     ds["constraint_violation"].attrs["description"] = ("sum of positive normalised constraint values "
                                                        "(value/limit - 1 for max, 1 - value/limit for min)")
@@ -160,9 +168,10 @@ def export_results(run_dir) -> tuple[xr.Dataset, xr.Dataset, xr.Dataset]:
         "n_evaluation_errors": sum(bool(r.get("error")) for r in read_cache_records(run_dir)),
     }
     records = read_cache_records(run_dir)
-    evaluations = _dataset_from_records(records, settings, attrs)
+    extras = settings.extra_metrics
+    evaluations = _dataset_from_records(records, settings, attrs, extras)
     feasible = evaluations["feasible"].values
-    columns = {k: evaluations[k].values for k in METRIC_KEYS}
+    columns = {k: evaluations[k].values for k in METRIC_KEYS + extras}
     f = objective_matrix(columns, settings.objectives, settings.nan_objective)
     front_index = np.flatnonzero(feasible)[non_dominated_mask(f[feasible])] if feasible.any() else np.zeros(0, int)
     front = evaluations.isel(design=front_index)

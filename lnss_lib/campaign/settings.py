@@ -11,16 +11,20 @@ import math
 from dataclasses import dataclass, field
 
 from ..config import deep_merge, profile_hash
-from ..keys import METRIC_KEYS
+from ..keys import METRIC_KEYS, requested_extra_metrics
 from .grid import DesignGrid
 
-__all__ = ["CampaignSettings", "evaluation_profile", "evaluation_hash", "EVALUATORS", "CAMPAIGN_ONLY_KEYS"]
+__all__ = ["CampaignSettings", "evaluation_profile", "evaluation_hash", "EVALUATORS", "CAMPAIGN_ONLY_KEYS",
+           "NOTEBOOK_MODES", "OFF"]
 
 EVALUATORS = ("walker", "synthetic")
+NOTEBOOK_MODES = ("run", "load")   # notebook 06 runs the campaign itself, or loads the latest CLI run
+OFF = "off"                        # a constraint or hypervolume entry set to "off" drops an inherited one
 CAMPAIGN_ONLY_KEYS = ("population", "generations", "crossover_prob", "crossover_eta", "mutation_eta",
                       "mutation_prob_var", "seed", "ftol", "ftol_period", "objectives", "constraints",
                       "nan_objective", "nan_violation", "hypervolume", "max_resubmits",
-                      "numba_threads_per_worker", "synthetic_delay_s", "max_errors")
+                      "numba_threads_per_worker", "synthetic_delay_s", "max_errors",
+                      "companion_profile", "notebook_mode")
 
 
 @dataclass(frozen=True)
@@ -48,6 +52,9 @@ class CampaignSettings:
     numba_threads_per_worker: int
     max_errors: int = 0
     overrides: dict = field(default_factory=dict)
+    companion_profile: str = ""
+    notebook_mode: str = "run"
+    extra_metrics: tuple[str, ...] = ()     # [evaluator] extra_metrics: columns beyond METRIC_KEYS
 
     @classmethod
     def from_profile(cls, profile: dict) -> "CampaignSettings":
@@ -66,26 +73,34 @@ class CampaignSettings:
                 raise ValueError(f"campaign.{key} = {value!r} is outside [{low}, {high}]")
             return kind(value)
 
+        extras = requested_extra_metrics(profile)
+        metric_keys = METRIC_KEYS + extras       # what the evaluator returns
         objectives = tuple(c.get("objectives", ()))
-        bad = [o for o in objectives if not isinstance(o, str) or o.lstrip("-") not in METRIC_KEYS]
+        bad = [o for o in objectives if not isinstance(o, str) or o.lstrip("-") not in metric_keys]
         if not objectives or bad or len({o.lstrip("-") for o in objectives}) != len(objectives):
             raise ValueError(f"campaign.objectives must be distinct metric names (optionally '-' = maximise) "
-                             f"from {', '.join(METRIC_KEYS)}; bad: {bad or objectives!r}")
+                             f"from {', '.join(metric_keys)} (extra metrics: list them in [evaluator] "
+                             f"extra_metrics); bad: {bad or objectives!r}")
         constraints = []
         for metric, spec in c.get("constraints", {}).items():
-            if metric not in METRIC_KEYS or not isinstance(spec, dict) or len(spec) != 1 \
+            if spec == OFF:
+                continue
+            if metric not in metric_keys or not isinstance(spec, dict) or len(spec) != 1 \
                     or next(iter(spec)) not in ("min", "max"):
-                raise ValueError(f"campaign.constraints.{metric}: need a metric of {', '.join(METRIC_KEYS)} "
-                                 f"and exactly one of {{min = value}} or {{max = value}}; got {spec!r}")
+                raise ValueError(f"campaign.constraints.{metric}: need a metric of {', '.join(metric_keys)} "
+                                 f"and exactly one of {{min = value}}, {{max = value}} or {OFF!r}; got {spec!r}")
             kind, limit = next(iter(spec.items()))
             if isinstance(limit, bool) or not isinstance(limit, (int, float)) or not math.isfinite(limit):
                 raise ValueError(f"campaign.constraints.{metric}.{kind} must be a finite number; got {limit!r}")
             constraints.append((metric, kind, float(limit)))
         hv = []
         for metric, ref in c.get("hypervolume", {}).items():
-            if metric not in METRIC_KEYS or isinstance(ref, bool) or not isinstance(ref, (int, float)) or ref <= 0:
-                raise ValueError(f"campaign.hypervolume.{metric}: need a metric of {', '.join(METRIC_KEYS)} "
-                                 f"and a positive reference value; got {ref!r}")
+            if ref == OFF:
+                continue
+            if metric not in metric_keys or isinstance(ref, bool) or not isinstance(ref, (int, float)) \
+                    or not math.isfinite(ref) or ref <= 0:
+                raise ValueError(f"campaign.hypervolume.{metric}: need a metric of {', '.join(metric_keys)} "
+                                 f"and a positive reference value (or {OFF!r}); got {ref!r}")
             hv.append((metric, float(ref)))
         evaluator = c.get("evaluator", "walker")
         if evaluator not in EVALUATORS:
@@ -94,6 +109,13 @@ class CampaignSettings:
         if not isinstance(overrides, dict) or "campaign" in overrides:
             raise ValueError(f"campaign.overrides must be a table of profile sections other than campaign; "
                              f"got {overrides!r}")
+        companion = c.get("companion_profile", "")
+        if not isinstance(companion, str) or companion == profile.get("profile", {}).get("name"):
+            raise ValueError(f"campaign.companion_profile must be a profile name other than this one, or \"\" "
+                             f"(none); got {companion!r}")
+        mode = c.get("notebook_mode", "run")
+        if mode not in NOTEBOOK_MODES:
+            raise ValueError(f"campaign.notebook_mode {mode!r} unknown; allowed: {', '.join(NOTEBOOK_MODES)}")
         return cls(
             grid=DesignGrid.from_settings(c.get("variables", {})),
             population=number("population", int, 2),
@@ -116,6 +138,9 @@ class CampaignSettings:
             numba_threads_per_worker=number("numba_threads_per_worker", int, 0),
             max_errors=number("max_errors", int, 0) if "max_errors" in c else 0,
             overrides=overrides,
+            companion_profile=companion,
+            notebook_mode=mode,
+            extra_metrics=extras,
         )
 
 

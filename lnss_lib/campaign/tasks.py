@@ -7,7 +7,7 @@ import os
 import socket
 import time
 
-from ..keys import METRIC_KEYS, TIMING_KEYS
+from ..keys import CAMPAIGN_METRIC_KEYS, METRIC_KEYS, TIMING_KEYS, requested_extra_metrics
 
 __all__ = ["evaluate_task", "synthetic_evaluation"]
 
@@ -21,15 +21,23 @@ def synthetic_evaluation(profile: dict, sma_km: float, ecc: float, aop_deg: floa
     trade-offs between satellite count, apolune over the south pole (AOP near 90 deg, high
     inclination) and a perilune-driven Delta-V. ``delay_s`` sleeps to mimic an evaluation's cost.
     Chosen with ``campaign.evaluator = "synthetic"`` (or ``--evaluator synthetic``).
+
+    The profile's ``[evaluator] extra_metrics`` get closed-form stand-ins too (no physics either):
+    a geometry-keeping Delta-V that grows with a (the Earth's tide) and away from the frozen
+    inclination near 60 deg, its maximum 10 % above the mean, the eq. 45 Delta-V maxima 5 % above
+    their values, and a "screen" that calls a design unstable when the Lidov-Kozai bound
+    ``a (1 - e_max)`` with ``e_max = sqrt(1 - 5/3 cos^2 i)`` (i above 39.2 deg) for a > 8000 km
+    falls below the surface.
     """
     start = time.perf_counter()
     if delay_s > 0.0:
         time.sleep(delay_s)
     n_sat = int(n_planes) * int(sats_per_plane)
     r_min = float(profile["constants"]["r_moon_mean_km"]) + float(profile["impact"]["min_altitude_km"])
+    extras = requested_extra_metrics(profile)
     result = {"deltav_model": "synthetic", "timing_s": dict.fromkeys(TIMING_KEYS, 0.0)}
     if sma_km * (1.0 - ecc) < r_min:
-        result.update({k: math.nan for k in METRIC_KEYS}, n_sat=n_sat, feasible=False, impact=True,
+        result.update({k: math.nan for k in METRIC_KEYS + extras}, n_sat=n_sat, feasible=False, impact=True,
                       reason=f"impact: perilune {sma_km * (1.0 - ecc):.1f} km below {r_min:.1f} km")
     else:
         pole = 0.5 * (1.0 + math.sin(math.radians(aop_deg))) * math.sin(math.radians(inc_deg))
@@ -44,8 +52,21 @@ def synthetic_evaluation(profile: dict, sma_km: float, ecc: float, aop_deg: floa
                       gps_visible_mean=gps_visible,
                       gps_pdop_mean=500.0 / gps_visible if gps_visible >= 1.0 else math.nan,
                       feasible=True, impact=False, reason="")
+        result.update(_synthetic_extras(sma_km, ecc, inc_deg, r_min, dv_total, extras))
     result["wall_s"] = time.perf_counter() - start
     return result
+
+
+def _synthetic_extras(sma_km: float, ecc: float, inc_deg: float, r_min: float, dv_total: float, extras) -> dict:
+    """Closed-form stand-ins for the extra metrics (see :func:`synthetic_evaluation`; no physics)."""
+    cos_i = math.cos(math.radians(inc_deg))
+    sk = 0.05 + 0.6 * (sma_km / 24000.0) ** 3 + 0.8 * abs(math.sin(math.radians(inc_deg - 60.0)))
+    e_max = max(ecc, math.sqrt(max(0.0, 1.0 - 5.0 / 3.0 * cos_i * cos_i))) if sma_km > 8000.0 else ecc
+    perilune_alt = sma_km * (1.0 - e_max) - r_min
+    values = {"sk_dv_estimate_kms_per_year": sk, "sk_dv_estimate_max_kms_per_year": 1.1 * sk,
+              "stable_screen": 1.0 if perilune_alt > 0.0 else 0.0, "screen_min_perilune_alt_km": perilune_alt,
+              "dv_total_max_kms_per_year": 1.05 * dv_total, "dv_opt_max_kms_per_year": 0.75 * 1.05 * dv_total}
+    return {k: values[k] for k in extras}
 
 
 def evaluate_task(eval_profile: dict, design: dict, evaluator: str = "walker", synthetic_delay_s: float = 0.0,
@@ -71,11 +92,12 @@ def evaluate_task(eval_profile: dict, design: dict, evaluator: str = "walker", s
             result = synthetic_evaluation(eval_profile, **design, delay_s=synthetic_delay_s)
         error = False
     except Exception as exc:  # recorded, counted and reported; one failed design must not stop a campaign
-        result = {k: math.nan for k in METRIC_KEYS}
+        result = {k: math.nan for k in CAMPAIGN_METRIC_KEYS}
         result.update(n_sat=int(design["n_planes"]) * int(design["sats_per_plane"]), feasible=False,
                       impact=False, reason=f"error: {type(exc).__name__}: {exc}", wall_s=0.0, deltav_model="")
         error = True
     metrics = {k: (int(result[k]) if k == "n_sat" else float(result[k])) for k in METRIC_KEYS}
+    metrics.update({k: float(result[k]) for k in CAMPAIGN_METRIC_KEYS if k in result and k not in METRIC_KEYS})
     return {
         "metrics": metrics,
         "ok": bool(result["feasible"]),

@@ -15,13 +15,13 @@ def campaign_timing(run_dir, n_workers: int, wall_s: float) -> dict:
     """Time shares of a finished run from its cache records (``timing_s`` of every evaluation).
 
     Worker time available = ``n_workers * wall_s``; propagation and metrics (DOP, Delta-V, GPS
-    link) are summed over the evaluations; in-task overhead is the rest of each task (context
+    link, operational extras) are summed over the evaluations; in-task overhead is the rest of each task (context
     build, compiled-code loading, glue); campaign overhead is what is left (start-up, scheduling,
     idle workers at the end of a generation, pymoo, checkpoints).
     """
     records = read_cache_records(run_dir)
     propagation = sum(r["timing_s"].get("propagation", 0.0) for r in records)
-    metrics = sum(r["timing_s"].get(k, 0.0) for r in records for k in ("dop", "deltav", "gps"))
+    metrics = sum(r["timing_s"].get(k, 0.0) for r in records for k in ("dop", "deltav", "gps", "operational"))
     task = sum(r["task_wall_s"] for r in records)
     budget = n_workers * wall_s
     return {"n_evaluations": len(records), "propagation_s": propagation, "metrics_s": metrics,

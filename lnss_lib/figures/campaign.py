@@ -27,23 +27,25 @@ def campaign_convergence(history, title: str) -> go.Figure:
     return fig
 
 
-def designs_pdop_deltav(evaluations, front, dv_bound: float, pdop_bound: float, title: str) -> go.Figure:
-    """Every evaluated design with a PDOP: PDOP_3sigma against Delta-V_total (km/s per satellite per year),
-    log axes, colour = n_sat, the bounds ``dv_bound`` and ``pdop_bound`` dashed, front designs circled."""
+def designs_pdop_deltav(evaluations, front, dv_bound: float, pdop_bound: float, title: str,
+                        dv_metric: str = "dv_total_kms_per_year") -> go.Figure:
+    """Every evaluated design with a PDOP: PDOP_3sigma against the Delta-V ``dv_metric`` (Delta-V_total, or the
+    operational geometry-keeping estimate; km/s per year), log axes, colour = n_sat, the bounds ``dv_bound``
+    and ``pdop_bound`` dashed, front designs circled."""
     if dv_bound <= 0 or pdop_bound <= 0:
         raise ValueError(f"bounds must be positive on log axes; got dv_bound {dv_bound!r}, pdop_bound {pdop_bound!r}")
     ev = evaluations
     shown = ~np.isnan(ev.pdop_mean_3sigma.values)
     fig = go.Figure()
     fig.add_trace(go.Scatter(
-        x=ev.dv_total_kms_per_year.values[shown], y=ev.pdop_mean_3sigma.values[shown], mode="markers", name="evaluated",
+        x=ev[dv_metric].values[shown], y=ev.pdop_mean_3sigma.values[shown], mode="markers", name="evaluated",
         marker=dict(color=ev.n_sat.values[shown], colorscale="Viridis", showscale=True, colorbar=dict(title="n_sat"),
                     size=7),
         text=[f"a {a:.0f} km, e {e:.2f}, AOP {w:.0f}, i {i:.0f}, {p}x{s}, generation {gen}" for a, e, w, i, p, s, gen in zip(
             ev.sma_km.values[shown], ev.ecc.values[shown], ev.aop_deg.values[shown], ev.inc_deg.values[shown],
             ev.n_planes.values[shown], ev.sats_per_plane.values[shown], ev.generation.values[shown])]))
     if front.sizes["design"]:
-        fig.add_trace(go.Scatter(x=front.dv_total_kms_per_year.values, y=front.pdop_mean_3sigma.values, mode="markers",
+        fig.add_trace(go.Scatter(x=front[dv_metric].values, y=front.pdop_mean_3sigma.values, mode="markers",
                                  name="front (feasible)",
                                  marker=dict(size=14, color="rgba(0,0,0,0)", line=dict(width=2, color="red"))))
     fig.add_vline(x=dv_bound, line_dash="dash")
@@ -55,7 +57,8 @@ def designs_pdop_deltav(evaluations, front, dv_bound: float, pdop_bound: float, 
                        xanchor="right", yanchor="bottom")
     x_all = np.append(ev.dv_total_kms_per_year.values[shown], dv_bound)
     y_all = np.append(ev.pdop_mean_3sigma.values[shown], pdop_bound)
-    fig.update_xaxes(title_text="Delta-V_total (km/s per satellite per year)", type="log",
+    x_label = "Delta-V_total (km/s per satellite per year)" if dv_metric == "dv_total_kms_per_year" else f"{dv_metric} (km/s/yr)"
+    fig.update_xaxes(title_text=x_label, type="log",
                      range=[np.log10(np.nanmin(x_all)) - 0.1, np.log10(np.nanmax(x_all)) + 0.1])
     fig.update_yaxes(title_text="PDOP_3sigma (south-pole grid)", type="log",
                      range=[np.log10(np.nanmin(y_all)) - 0.1, np.log10(np.nanmax(y_all)) + 0.1])

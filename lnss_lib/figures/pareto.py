@@ -11,6 +11,9 @@ LABELS = {
     "dv_total_kms_per_year": "Delta-V total (km/s/yr)", "dv_opt_kms_per_year": "Delta-V optimised (km/s/yr)",
     "gps_visible_mean": "mean visible GPS", "gps_pdop_mean": "GPS-LNSS PDOP", "sma_km": "SMA (km)", "ecc": "eccentricity",
     "aop_deg": "AOP (deg)", "inc_deg": "inclination (deg)", "mean_visible_sats": "mean visible LNSS satellites",
+    "sk_dv_estimate_kms_per_year": "geometry-keeping Delta-V, mean (km/s/yr)",
+    "sk_dv_estimate_max_kms_per_year": "geometry-keeping Delta-V, worst satellite (km/s/yr)",
+    "screen_min_perilune_alt_km": "lowest perilune over the life (km)", "stable_screen": "stable (screen)",
 }
 
 

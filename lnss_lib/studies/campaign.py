@@ -26,12 +26,22 @@ from ..campaign.rundir import CHECKPOINT_FILE, RESULT_FILES
 from ..paper import EVALUATIONS, FEASIBLE_DESIGNS, TABLE_5
 
 __all__ = ["settings_table", "design_grid_table", "latest_run_dir", "load_or_run", "constraint_label",
-           "constraint_table", "steady_designs_per_s", "throughput_table", "run_throughput_table"]
+           "constraint_table", "steady_designs_per_s", "throughput_table", "run_throughput_table", "companion_of",
+           "comparison_table",
+           "NON_NAVIGATION_METRICS"]
 
 CONSTRAINT_LABELS = {"pdop_mean_3sigma": ("PDOP_3sigma", ""), "pdop_avail_pct": ("PDOP availability", " %"),
                      "hdop_mean_3sigma": ("HDOP_3sigma", ""), "hdop_avail_pct": ("HDOP availability", " %"),
                      "dv_total_kms_per_year": ("Delta-V_total", " km/s/yr"),
-                     "dv_opt_kms_per_year": ("Delta-V_opt", " km/s/yr")}
+                     "dv_opt_kms_per_year": ("Delta-V_opt", " km/s/yr"),
+                     "sk_dv_estimate_kms_per_year": ("geometry-keeping Delta-V (mean)", " km/s/yr"),
+                     "sk_dv_estimate_max_kms_per_year": ("geometry-keeping Delta-V (worst satellite)", " km/s/yr"),
+                     "stable_screen": ("stable over the design life (screen)", ""),
+                     "screen_min_perilune_alt_km": ("lowest perilune over the design life (screen)", " km")}
+# bounds that are not about navigation: station keeping and design-life stability
+NON_NAVIGATION_METRICS = ("dv_total_kms_per_year", "dv_opt_kms_per_year", "sk_dv_estimate_kms_per_year",
+                          "sk_dv_estimate_max_kms_per_year", "dv_total_max_kms_per_year", "dv_opt_max_kms_per_year",
+                          "stable_screen", "screen_min_perilune_alt_km")
 
 
 def settings_table(settings: CampaignSettings):
@@ -74,16 +84,30 @@ def latest_run_dir(campaign_dir, profile_name: str) -> Path:
     return runs[-1]
 
 
+def companion_of(profile_name: str) -> str:
+    """The profile's ``campaign.companion_profile`` ("" when none), checked to load and to name no companion itself."""
+    from ..config import load_profile
+
+    companion = CampaignSettings.from_profile(load_profile(profile_name)).companion_profile
+    if companion and CampaignSettings.from_profile(load_profile(companion)).companion_profile:
+        raise ValueError(f"profile {profile_name!r}: its companion {companion!r} names a companion itself; "
+                         "companions are one level deep")
+    return companion
+
+
 def load_or_run(profile_name: str) -> tuple[Path, xr.Dataset, xr.Dataset, xr.Dataset, list[dict]]:
     """(run_dir, evaluations, front, history, cache records) of the profile's campaign.
 
-    ``paper`` loads the latest run in ``outputs/paper/campaign/`` (publishing its last checkpoint,
-    so a run still going is covered); any other profile runs its campaign here (:func:`run_campaign`).
+    With ``campaign.notebook_mode = "load"`` (``paper``, ``operational``) the latest run in
+    ``outputs/<profile>/campaign/`` is loaded (its last checkpoint published, so a run still going is
+    covered); with ``"run"`` (``quick``, ``ci`` and their companions) the campaign runs here
+    (:func:`run_campaign`).
     """
+    from ..config import load_profile
     from ..outputs import output_dir
 
     campaign_dir = output_dir(profile_name, "campaign")
-    if profile_name == "paper":
+    if CampaignSettings.from_profile(load_profile(profile_name)).notebook_mode == "load":
         run_dir = latest_run_dir(campaign_dir, profile_name)
         write_results(run_dir, campaign_dir)
         print(f"loaded {run_dir}")
@@ -107,8 +131,9 @@ def constraint_table(evaluations: xr.Dataset, constraints):
     """Designs meeting each campaign bound (Table 3) separately, with count and share of all designs.
 
     Rows: evaluated without impact (PDOP availability defined), each (metric, kind, limit) of
-    ``constraints`` (CampaignSettings.constraints; NaN fails), all bounds except those on Delta-V
-    ("navigation bounds only"), and the campaign's own ``feasible`` flag.
+    ``constraints`` (CampaignSettings.constraints; NaN fails), all bounds except those on Delta-V and
+    stability (:data:`NON_NAVIGATION_METRICS`: "navigation bounds only"), and the campaign's own
+    ``feasible`` flag.
     """
     checks = {"evaluated without impact": ~np.isnan(evaluations["pdop_avail_pct"].values.astype(float))}
     navigation = np.ones(evaluations.sizes["design"], dtype=bool)
@@ -119,14 +144,31 @@ def constraint_table(evaluations: xr.Dataset, constraints):
         with np.errstate(invalid="ignore"):
             met = values <= limit if kind == "max" else values >= limit
         checks[constraint_label(metric, kind, limit)] = met
-        if not metric.startswith("dv_"):
+        if metric not in NON_NAVIGATION_METRICS:
             navigation &= met
-    checks["navigation bounds only (no Delta-V bound)"] = navigation
+    checks["navigation bounds only (no Delta-V or stability bound)"] = navigation
     checks["all Table 3 bounds (feasible)"] = evaluations["feasible"].values.astype(bool)
     n = evaluations.sizes["design"]
     table = pd.DataFrame({"designs": {k: int(v.sum()) for k, v in checks.items()},
                           "share (%)": {k: 100.0 * v.sum() / max(n, 1) for k, v in checks.items()}})
     table.index.name = "bound"
+    return table
+
+
+def comparison_table(campaigns: dict) -> pd.DataFrame:
+    """Campaigns side by side: ``{name: (evaluations, constraints)}`` -> designs meeting each bound
+    (:func:`constraint_table` of each; <NA> where a campaign has no such bound), after the number of
+    unique designs evaluated; the bounds in order of first appearance, the summary rows last."""
+    columns = {}
+    for name, (evaluations, constraints) in campaigns.items():
+        designs = constraint_table(evaluations, constraints)["designs"]
+        total = pd.Series({"unique designs evaluated": evaluations.sizes["design"]})
+        columns[name] = pd.concat([total, designs])
+    rows = list(dict.fromkeys(row for series in columns.values() for row in series.index))
+    last = [row for row in rows if row.startswith(("navigation bounds only", "all Table 3 bounds"))]
+    rows = [row for row in rows if row not in last] + last
+    table = pd.DataFrame({name: series.reindex(rows) for name, series in columns.items()}).astype("Int64")
+    table.index.name = "designs meeting"
     return table
 
 

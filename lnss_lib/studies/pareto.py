@@ -20,10 +20,10 @@ import pandas as pd
 import xarray as xr
 
 from ..campaign.fitness import non_dominated_mask, objective_matrix
-from ..keys import DESIGN_KEYS, METRIC_KEYS
+from ..keys import DESIGN_KEYS, EXTRA_METRIC_KEYS, METRIC_KEYS
 
 __all__ = ["load_campaign", "parse_constraints", "satisfies", "pareto_front", "table6", "synthetic_campaign",
-           "TABLE6_RULES", "TABLE6_COLUMNS"]
+           "deltav_constraint", "analysis_front", "TABLE6_RULES", "TABLE6_COLUMNS"]
 
 TABLE6_COLUMNS = DESIGN_KEYS + METRIC_KEYS + ("why selected",)
 
@@ -83,7 +83,7 @@ def pareto_front(evaluations: xr.Dataset, *, relax: tuple[str, ...] = ()) -> xr.
         admissible &= np.isfinite(evaluations[metric].values.astype(float))
     index = np.flatnonzero(admissible)
     if index.size:
-        f = objective_matrix({k: evaluations[k].values[index] for k in METRIC_KEYS}, objectives, 1e6)
+        f = objective_matrix({k: evaluations[k].values[index] for k in {n.lstrip("-") for n in objectives}}, objectives, 1e6)
         index = index[non_dominated_mask(f)]
     front = evaluations.isel(design=index)
     front.attrs = {**evaluations.attrs, "front_constraints": ", ".join(f"{m} {'<=' if k == 'max' else '>='} {v:g}"
@@ -92,34 +92,62 @@ def pareto_front(evaluations: xr.Dataset, *, relax: tuple[str, ...] = ()) -> xr.
     return front
 
 
-TABLE6_RULES = (
-    ("fewest satellites (ties: best PDOP)", lambda d: d.sort_values(["n_sat", "pdop_mean_3sigma"])),
-    ("best PDOP with fewer than 10 satellites", lambda d: d[d.n_sat < 10].sort_values("pdop_mean_3sigma")),
-    ("best PDOP", lambda d: d.sort_values("pdop_mean_3sigma")),
-    ("best HDOP", lambda d: d.sort_values("hdop_mean_3sigma")),
-    ("best GPS geometry (lowest GPS-LNSS PDOP)", lambda d: d.sort_values("gps_pdop_mean")),
-    ("most GPS satellites visible", lambda d: d.sort_values("gps_visible_mean", ascending=False)),
-    ("lowest station-keeping Delta-V", lambda d: d.sort_values("dv_total_kms_per_year")),
+def deltav_constraint(evaluations: xr.Dataset) -> tuple[str, float]:
+    """(metric, limit) of the campaign's Delta-V bound (Table 3's; a ``max`` on a metric with ``dv_`` in its
+    name, e.g. ``dv_total_kms_per_year`` or ``sk_dv_estimate_max_kms_per_year``); the paper's Delta-V
+    total and no limit (inf) when the campaign has none."""
+    bounds = [(m, v) for m, k, v in parse_constraints(evaluations.attrs["constraints"]) if k == "max" and "dv_" in m]
+    if len(bounds) > 1:
+        raise ValueError(f"the campaign has several Delta-V bounds {bounds}; expected at most one")
+    return bounds[0] if bounds else ("dv_total_kms_per_year", np.inf)
+
+
+def analysis_front(evaluations: xr.Dataset, campaign_front: xr.Dataset) -> tuple[xr.Dataset, str]:
+    """(front, label) for the Pareto analysis: the campaign's feasible front, or, when it is empty, the
+    front with the Delta-V bound (:func:`deltav_constraint`) relaxed, labelled so."""
+    if campaign_front.sizes["design"] > 0:
+        return campaign_front, "feasible front"
+    metric, limit = deltav_constraint(evaluations)
+    return (pareto_front(evaluations, relax=(metric,)),
+            f"front with the Delta-V bound ({metric} <= {limit:g} km/s/yr) relaxed")
+
+
+TABLE6_RULES = (   # (reason, rule(frame, Delta-V metric name) -> frame ranked best first)
+    ("fewest satellites (ties: best PDOP)", lambda d, dv: d.sort_values(["n_sat", "pdop_mean_3sigma"])),
+    ("best PDOP with fewer than 10 satellites", lambda d, dv: d[d.n_sat < 10].sort_values("pdop_mean_3sigma")),
+    ("best PDOP", lambda d, dv: d.sort_values("pdop_mean_3sigma")),
+    ("best HDOP", lambda d, dv: d.sort_values("hdop_mean_3sigma")),
+    ("best GPS geometry (lowest GPS-LNSS PDOP)", lambda d, dv: d.sort_values("gps_pdop_mean")),
+    ("most GPS satellites visible", lambda d, dv: d.sort_values("gps_visible_mean", ascending=False)),
+    ("lowest station-keeping Delta-V", lambda d, dv: d.sort_values(dv)),
 )
 
 
-def table6(front: xr.Dataset, *, availability_min_pct: float = 90.0, dv_max_kms_per_year: float = 1.0) -> pd.DataFrame:
-    """Table 6: front designs with PDOP and HDOP availability >= ``availability_min_pct`` and Delta-V total
+def table6(front: xr.Dataset, *, availability_min_pct: float = 90.0, dv_max_kms_per_year: float = 1.0,
+           dv_metric: str = "dv_total_kms_per_year") -> pd.DataFrame:
+    """Table 6: front designs with PDOP and HDOP availability >= ``availability_min_pct`` and the Delta-V
+    ``dv_metric`` (the paper's Delta-V total, or e.g. the operational ``sk_dv_estimate_max_kms_per_year``)
     <= ``dv_max_kms_per_year``, one per rule of :data:`TABLE6_RULES` (a design picked by several rules
-    appears once, with every reason). Empty (with the columns) when no design qualifies.
+    appears once, with every reason). Columns: :data:`TABLE6_COLUMNS` with the front's extra metrics
+    before "why selected". Empty (with the columns) when no design qualifies.
     """
-    frame = front[list(DESIGN_KEYS + METRIC_KEYS)].to_dataframe().reset_index(drop=True)
+    extras = tuple(k for k in EXTRA_METRIC_KEYS if k in front)
+    if dv_metric not in METRIC_KEYS + extras:
+        raise ValueError(f"dv_metric {dv_metric!r} is not a metric of this front; available: "
+                         f"{', '.join(METRIC_KEYS + extras)}")
+    columns = DESIGN_KEYS + METRIC_KEYS + extras
+    frame = front[list(columns)].to_dataframe().reset_index(drop=True)
     with np.errstate(invalid="ignore"):
         eligible = frame[(frame.pdop_avail_pct >= availability_min_pct) & (frame.hdop_avail_pct >= availability_min_pct)
-                         & (frame.dv_total_kms_per_year <= dv_max_kms_per_year)]
+                         & (frame[dv_metric] <= dv_max_kms_per_year)]
     chosen: dict[int, list[str]] = {}
     for reason, rule in TABLE6_RULES:
-        ranked = rule(eligible)
+        ranked = rule(eligible, dv_metric)
         if len(ranked):
             chosen.setdefault(int(ranked.index[0]), []).append(reason)
     rows = frame.loc[list(chosen)].copy()
     rows["why selected"] = ["; ".join(reasons) for reasons in chosen.values()]
-    return rows.reset_index(drop=True)[list(TABLE6_COLUMNS)]
+    return rows.reset_index(drop=True)[list(columns + ("why selected",))]
 
 
 def synthetic_campaign(n_designs: int = 200, seed: int = 0) -> xr.Dataset:
