@@ -54,6 +54,10 @@ def _read_toml(path: Path) -> dict:
 def load_profile(name: str = "quick", overrides: dict | str | None = None) -> dict:
     """Load profile ``name`` from ``params/NAME.toml``, resolving ``inherits``, then apply ``overrides``.
 
+    Along the ``inherits`` chain (root first), each file's ``[profile] also = [NAMES]`` merges the
+    settings those profiles' own files set (not what they inherit) before the file's own: a
+    companion such as ``quick_operational`` takes operational physics and quick's sizes from one place.
+
     ``overrides`` is a nested dict or its JSON text (notebooks' ``overrides_json`` parameter). Every
     file and the result are checked by :func:`validate_profile`. Raises :class:`ConfigError` (a
     ValueError) naming the unknown profile, the file and line of a TOML error, or the bad key.
@@ -86,19 +90,33 @@ def load_profile(name: str = "quick", overrides: dict | str | None = None) -> di
         current = data.get("profile", {}).get("inherits")
     profile: dict = {}
     for data in reversed(chain):
+        for mixin in data.get("profile", {}).get("also", []):
+            profile = deep_merge(profile, _own_settings(mixin))
         profile = deep_merge(profile, data)
     if overrides:
         validate_profile(overrides, partial=True, source="overrides")
     profile = deep_merge(profile, overrides or {})
     profile["profile"]["name"] = name
     profile["profile"].pop("inherits", None)
+    profile["profile"].pop("also", None)
     validate_profile(profile)
     return profile
 
 
+def _own_settings(name: str) -> dict:
+    """The settings profile ``name``'s own file sets (not what it inherits), for ``[profile] also``."""
+    path = PARAMS_DIR / f"{name}.toml"
+    if not isinstance(name, str) or not path.is_file():
+        raise ConfigError(f"[profile] also names unknown profile {name!r}; available profiles: "
+                          f"{', '.join(available_profiles())}", key="profile.also")
+    data = _read_toml(path)
+    validate_profile(data, partial=True, source=path)
+    return {section: table for section, table in data.items() if section != "profile"}
+
+
 REFERENCE_PROFILE = "paper"          # its TOML fixes the keys and value types of every profile
 FREE_TABLES = ("gps.launch_dates", "campaign.constraints", "campaign.hypervolume", "campaign.variables")
-PROFILE_TABLE = {"name": "", "description": "", "inherits": ""}
+PROFILE_TABLE = {"name": "", "description": "", "inherits": "", "also": [""]}
 ALLOW_INFINITE = ("gps.sidelobe_offset_db",)   # -inf = main lobe only
 # Allowed ranges of physical settings: key -> (low, high, low open, high open); None = unbounded.
 # integrator.settings.<any name> is "integrator.settings.*"; campaign.overrides.<section> uses the section's keys.
@@ -245,7 +263,7 @@ def _walk(data: dict, ref: dict, prefix: str, rule_prefix: str, partial: bool, s
         else:
             _check_number(key, rule_key, value, source)
     if not partial:
-        missing = [f"{prefix}{k}" for k in ref if k not in data and f"{prefix}{k}" != "profile.inherits"]
+        missing = [f"{prefix}{k}" for k in ref if k not in data and f"{prefix}{k}" not in ("profile.inherits", "profile.also")]
         if missing:
             _fail(f"missing key(s) {', '.join(missing)} (every profile has the keys of params/{REFERENCE_PROFILE}.toml; "
                   f"inherit it with [profile] inherits = \"{REFERENCE_PROFILE}\")", missing[0], source)

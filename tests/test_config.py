@@ -26,3 +26,19 @@ def test_hash_tracks_parameters_only():
     base = load_profile("paper")
     assert profile_hash(base) == profile_hash(load_profile("paper"))
     assert profile_hash(base) != profile_hash(load_profile("paper", overrides={"gravity": {"degree": 20}}))
+
+
+def test_also_merges_other_profiles_own_settings():
+    """`[profile] also` takes the named profiles' own settings on top of the inherited chain."""
+    from lnss_lib.config import _own_settings
+    from lnss_lib.errors import ConfigError
+
+    quick, ci, operational = load_profile("quick"), load_profile("ci"), load_profile("operational")
+    companion = load_profile("ci_operational")
+    assert companion["campaign"]["population"] == ci["campaign"]["population"] != operational["campaign"]["population"]
+    assert companion["gravity"]["degree"] == ci["gravity"]["degree"]
+    assert companion["dop"]["los_axes"] == operational["dop"]["los_axes"] != quick["dop"]["los_axes"]
+    assert companion["campaign"]["objectives"] == operational["campaign"]["objectives"]
+    assert companion["campaign"]["companion_profile"] == "" and "also" not in companion["profile"]
+    with pytest.raises(ConfigError, match="also names unknown profile 'nowhere'"):
+        _own_settings("nowhere")

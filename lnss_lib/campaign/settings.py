@@ -27,6 +27,9 @@ CAMPAIGN_ONLY_KEYS = ("population", "generations", "crossover_prob", "crossover_
                       "companion_profile", "notebook_mode")
 
 
+PRESENTATION_SECTIONS = ("notebooks", "benchmark")   # read by notebooks only, never by an evaluation
+
+
 @dataclass(frozen=True)
 class CampaignSettings:
     """``profile["campaign"]`` checked (see ``params/paper.toml``); ValueError names a bad entry."""
@@ -155,11 +158,12 @@ def evaluation_hash(profile: dict) -> str:
     """Hash of every parameter that can change an evaluation of a scaled design.
 
     :func:`~lnss_lib.config.profile_hash` of the profile without the campaign-only keys
-    (``CAMPAIGN_ONLY_KEYS``: population, objectives, constraints, seed, ...); the grid
+    (``CAMPAIGN_ONLY_KEYS``: population, objectives, constraints, seed, ...) and without the sections
+    that only shape notebooks (``PRESENTATION_SECTIONS``); the grid
     (``campaign.variables``), ``campaign.overrides`` and ``campaign.evaluator`` stay in.
     """
     CampaignSettings.from_profile(profile)
-    content = copy.deepcopy(profile)
+    content = {k: copy.deepcopy(v) for k, v in profile.items() if k not in PRESENTATION_SECTIONS}
     for key in CAMPAIGN_ONLY_KEYS:
         content["campaign"].pop(key, None)
     return profile_hash(content)
