@@ -37,11 +37,10 @@ from .constants import SECONDS_PER_DAY
 
 @dataclass
 class SlotState:
-    """Per-satellite slot estimator: (t_tdb_s, u_rel rad) of the current coast, the drift rate the last
-    slot manoeuvre aimed at (rad/s) and the acceleration fitted over the previous coast (rad/s^2)."""
+    """Per-satellite slot estimator: (t_tdb_s, u_rel rad) of the current coast and the acceleration
+    fitted over the previous coast (rad/s^2)."""
 
     history: list = field(default_factory=list)
-    planned_rate: float = np.nan
     accel: float = 0.0
 
     def fit(self, min_span_days: float, quad_span_days: float, tide_period_days: float):

@@ -61,6 +61,7 @@ class LifeSettings:
     tide_period_days: float
     box_tolerance: float
     integrator_setting: str
+    initial_trim: bool
     box: dict
 
     @classmethod
@@ -87,6 +88,8 @@ class LifeSettings:
         if int(cfg["samples_per_orbit"]) < 16:
             raise ValueError(f"[design_life] samples_per_orbit = {cfg['samples_per_orbit']!r} must be >= 16")
         integrator_setting(profile, cfg["integrator_setting"])
+        if not isinstance(cfg["initial_trim"], bool):
+            raise ValueError(f"[design_life] initial_trim = {cfg['initial_trim']!r} must be true or false")
         return cls(**{**cfg, "samples_per_orbit": int(cfg["samples_per_orbit"])}, box=box)
 
 
@@ -165,6 +168,55 @@ def life_force_model(profile: dict, t0_tdb_s: float, life_days: float, degree: i
     return ForceModel.from_profile(profile, table, degree=degree)
 
 
+TRIM_ELEMENTS = (0, 1, 2, 3, 4)
+"""Columns of ``[a, e, i, raan, aop]`` trimmed so that their one-orbit means equal the design's."""
+
+
+def trim_to_mean(profile: dict, elements_deg, t0_tdb_s: float, model: ForceModel, integ: dict, *,
+                 samples_per_orbit: int = 64, iterations: int = 4) -> tuple[np.ndarray, np.ndarray]:
+    """Osculating insertion elements (n_sat, 6) (deg) whose mean elements over the first orbit equal ``elements_deg``.
+
+    The design's elements are read as MEAN elements (an operator deploys satellites with matched mean
+    periods, else a common osculating a at different mean anomalies leaves their mean a several km
+    apart and the slots drift apart by ~1 deg/day). Fixed-point iteration: propagate one orbit with the full
+    force model, compare the one-orbit mean a, e, i, RAAN and AOP with the design and shift the osculating
+    values by the difference; the mean argument of latitude (at the window centre, less the design's mean
+    motion over half a window) is trimmed through M. Insertion is not a manoeuvre: no Delta-v is counted.
+    Returns (trimmed elements, final mean-minus-design residual (n_sat, 6): km, -, deg x 4).
+    """
+    design = np.atleast_2d(np.asarray(elements_deg, dtype=float))
+    gm = float(profile["gravity"]["gm_km3_s2"])
+    rot = element_frame_to_j2000(profile, t0_tdb_s)
+    r_min = profile["constants"]["r_moon_mean_km"] + profile["impact"]["min_altitude_km"]
+    period = orbital_period_s(design[:, 0], gm)
+    n_win = int(samples_per_orbit)
+    osc = design.copy()
+    resid = np.zeros_like(design)
+    n_sat = design.shape[0]
+    for _ in range(int(iterations) + 1):
+        states = elements_deg_to_states(profile, osc, t0_tdb_s)
+        mean = np.empty((n_sat, 6))
+        for i in range(n_sat):
+            t_win = t0_tdb_s + period[i] * np.linspace(0.0, 1.0, n_win + 1)
+            out, _, status, _ = integrate_chunk(
+                states[i:i + 1], np.ones(1, dtype=bool), t0_tdb_s, t_win, np.full((1, 1), np.nan), np.zeros((1, 1, 3)),
+                METHODS.index(integ["method"]), float(integ["rtol"]), float(integ["atol"]), r_min, 5_000_000,
+                model.kernel_args, model.field.degree)
+            if status[0] != STATUS_OK:
+                raise RuntimeError(f"trim propagation failed for satellite {i} (status {status[0]})")
+            out[0, 0] = states[i]                  # the kernel fills epochs after t0 only
+            mean[i] = mean_elements(to_element_frame(out[0], rot), gm)
+        u_design = np.radians(design[:, 4] + design[:, 5]) + np.pi          # one orbit: u advances 2 pi, centre at pi
+        resid = np.column_stack([mean[:, 0] - design[:, 0], mean[:, 1] - design[:, 1],
+                                 np.degrees(wrap_pi(mean[:, 2:5] - np.radians(design[:, 2:5]))),
+                                 np.degrees(wrap_pi(mean[:, 5] - u_design))])
+        if _ == iterations:
+            break
+        osc[:, list(TRIM_ELEMENTS)] -= resid[:, list(TRIM_ELEMENTS)]
+        osc[:, 5] -= resid[:, 5] - resid[:, 4]      # u = aop + M: the aop trim already moved u
+    return osc, resid
+
+
 def simulate_life(profile: dict, elements_deg, *, natural: bool = False, life_days: float | None = None,
                   degree: int | None = None, model: ForceModel | None = None, t0_tdb_s: float | None = None,
                   settings: LifeSettings | None = None, sample_step_s: float | None = None) -> xr.Dataset:
@@ -185,7 +237,7 @@ def simulate_life(profile: dict, elements_deg, *, natural: bool = False, life_da
     ensure_kernels(profile)
     el = np.atleast_2d(np.asarray(elements_deg, dtype=float))
     t0 = tdb_seconds(profile["epoch"]["start_tdb"], "TDB") if t0_tdb_s is None else float(t0_tdb_s)
-    states = elements_deg_to_states(profile, el, t0)
+    elements_deg_to_states(profile, el, t0)
     gm = float(profile["gravity"]["gm_km3_s2"])
     life_s = cfg.life_days * SECONDS_PER_DAY
     if model is None:
@@ -193,6 +245,9 @@ def simulate_life(profile: dict, elements_deg, *, natural: bool = False, life_da
     elif model.table.t0_tdb_s > t0 or model.table.t_end_tdb_s < t0 + life_s:
         raise ValueError("the force model's ephemeris table does not span the design life")
     integ = integrator_setting(profile, cfg.integrator_setting)
+    el_insert, trim_resid = (trim_to_mean(profile, el, t0, model, integ, samples_per_orbit=cfg.samples_per_orbit)
+                             if cfg.initial_trim else (el.copy(), np.full_like(el, np.nan)))
+    states = elements_deg_to_states(profile, el_insert, t0)
     rot = element_frame_to_j2000(profile, t0)
     r_min = profile["constants"]["r_moon_mean_km"] + profile["impact"]["min_altitude_km"]
 
@@ -209,7 +264,7 @@ def simulate_life(profile: dict, elements_deg, *, natural: bool = False, life_da
                          f"({2.05 * periods.max() / SECONDS_PER_DAY:.2f} days)")
     n_chunks = max(1, int(np.floor(life_s / max(cfg.check_interval_days * SECONDS_PER_DAY, 2.05 * float(periods.max())))))
     chunk_s = life_s / n_chunks
-    ref_ecc, ref_aop, ref_inc = el[:, 1], np.radians(el[:, 4]), np.radians(el[:, 2])
+    ref_a, ref_ecc, ref_aop, ref_inc = el[:, 0], el[:, 1], np.radians(el[:, 4]), np.radians(el[:, 2])
     nom_raan, nom_u = np.radians(el[:, 3]), np.radians(el[:, 4] + el[:, 5])
     half = np.array([cfg.box["ecc"], np.radians(cfg.box["aop_deg"]), np.radians(cfg.box["inc_deg"]),
                      np.radians(cfg.box["raan_rel_deg"]), np.radians(cfg.box["u_rel_deg"])])
@@ -277,15 +332,14 @@ def simulate_life(profile: dict, elements_deg, *, natural: bool = False, life_da
             out[:4] &= tt[-1] - tt[0] >= 0.5 * cfg.tide_period_days * SECONDS_PER_DAY
             out[4] = False
             trend = slot[i].fit(cfg.slot_fit_days, cfg.slot_quad_days, cfg.tide_period_days)
-            a_all = mel[active, 0].mean()
-            rate_a = -1.5 * np.sqrt(gm / mel[i, 0] ** 3) * (mel[i, 0] - a_all) / a_all
+            rate_a = -1.5 * np.sqrt(gm / ref_a[i] ** 3) * (mel[i, 0] - ref_a[i]) / ref_a[i]
             fit = (u_rel[i] if trend is None else trend[0], rate_a, 0.0, 0.0) if len(slot[i].history) >= 2 else None
             if fit is not None:
                 out[4] = predicted_exit(*fit[:3], half[4], chunk_s + float(periods[i]))
             if not out.any():
                 continue
             osc = state_to_elements(to_element_frame(y[i], rot), gm)
-            plan, new_rate = _plan(osc, mel[i], err_avg, out, fit, half, cfg, gm)
+            plan = _plan(osc, mel[i], ref_a[i], err_avg, out, fit, half, cfg, gm)
             if plan is None:
                 continue
             pending_t[i, :len(plan.dt_s)] = t + plan.dt_s
@@ -294,16 +348,17 @@ def simulate_life(profile: dict, elements_deg, *, natural: bool = False, life_da
             if out[:4].any():
                 shift = np.where(out[:4], -err_avg[:4] - np.sign(err_avg[:4]) * cfg.target_fraction * half[:4], 0.0)
                 geo_hist[i] = [(tk, gk + shift) for tk, gk in geo_hist[i]]
-            if out[:4].any() and not out[4]:
-                slot[i].history, slot[i].planned_rate = [], np.nan
-            if out[4]:
-                if slot[i].history[-1][0] - slot[i].history[0][0] >= cfg.slot_quad_days * SECONDS_PER_DAY:
-                    slot[i].accel = fit[2]
-                slot[i].history = []
-                slot[i].planned_rate = new_rate
-    return _life_dataset(profile, cfg, integ, model, natural, el, t0, life_s, np.array(hist_t), np.array(hist_el),
-                         np.array(hist_err), half, burns_t, burns_dv, impact_t, cap_kms, time.perf_counter() - start,
-                         sample_t, r_sample if sample_step_s is not None else None)
+            if out[4] and slot[i].history[-1][0] - slot[i].history[0][0] >= cfg.slot_quad_days * SECONDS_PER_DAY:
+                slot[i].accel = fit[2]
+            slot[i].history = []
+    ds = _life_dataset(profile, cfg, integ, model, natural, el, t0, life_s, np.array(hist_t), np.array(hist_el),
+                       np.array(hist_err), half, burns_t, burns_dv, impact_t, cap_kms, time.perf_counter() - start,
+                       sample_t, r_sample if sample_step_s is not None else None)
+    ds["insertion_elements_deg"] = (("sat", "element"), el_insert)
+    ds["trim_residual"] = (("sat", "element"), trim_resid)
+    ds["trim_residual"].attrs["description"] = ("first-orbit mean minus design at insertion (km, -, deg: i, raan, "
+                                                "aop, u); NaN without the initial trim")
+    return ds
 
 
 def _sample_grid(t0: float, life_s: float, sample_step_s: float | None) -> np.ndarray:
@@ -317,15 +372,17 @@ def _sample_grid(t0: float, life_s: float, sample_step_s: float | None) -> np.nd
     return np.minimum(t0 + step * np.arange(int(np.floor(life_s / step + 1e-9)) + 1), t0 + life_s)
 
 
-def _plan(osc, mel, err, out, fit, half, cfg, gm):
-    """Impulses for one satellite and the slot drift rate they aim at (NaN when the slot is not corrected).
+def _plan(osc, mel, a_ref, err, out, fit, half, cfg, gm):
+    """Impulses for one satellite (None when there is nothing to fly).
 
     Each geometry quantity out of its box (``out``, order :data:`BOX_KEYS`) is aimed past its reference
     (:func:`lnss_lib.sk_control.overshoot_target`; e and AOP together as the e vector in nodal axes);
-    the others are held (zero change). A slot correction sets the mean a so that the drift rate becomes
-    :func:`lnss_lib.sk_control.drift_band_rate`; otherwise a and u are held (u one orbit after the burns).
+    the others are held (zero change). A slot correction sets the mean a so that the drift rate relative
+    to the design's mean motion (``a_ref``) becomes :func:`lnss_lib.sk_control.drift_band_rate`; otherwise
+    a and u are held (u one orbit after the burns). The e-vector correction is thus a perilune/apolune
+    pair with no net change of a (Newton-refined in :func:`lnss_lib.maneuvers.plan_impulses`).
     """
-    a, n = mel[0], np.sqrt(gm / mel[0] ** 3)
+    n = np.sqrt(gm / a_ref ** 3)
     ecc, aop = mel[1], mel[4]
     d_ecc = overshoot_target(err[0], half[0], cfg.target_fraction) if out[0] else 0.0
     d_aop = overshoot_target(err[1], half[1], cfg.target_fraction) if out[1] else 0.0
@@ -338,14 +395,13 @@ def _plan(osc, mel, err, out, fit, half, cfg, gm):
         "a_km": 0.0,
         "u_rad": 0.0,
     }
-    new_rate = np.nan
     if out[4]:
         u0, rate, accel, _ = fit
         new_rate = drift_band_rate(u0, accel, half[4], cfg.target_fraction, cfg.slot_coast_days * SECONDS_PER_DAY)
-        target["a_km"] = (new_rate - rate) / (-1.5 * n / a)
+        target["a_km"] = (new_rate - rate) / (-1.5 * n / a_ref)
         del target["u_rad"]
     plan = plan_impulses(osc, gm, target, max_burns=2)
-    return (plan, new_rate) if plan.dv_rtn_kms.size else (None, new_rate)
+    return plan if plan.dv_rtn_kms.size else None
 
 
 def _life_dataset(profile, cfg, integ, model, natural, el, t0, life_s, hist_t, hist_el, hist_err, half, burns_t,
