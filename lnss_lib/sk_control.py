@@ -103,3 +103,16 @@ def running_mean(t_s: np.ndarray, values: np.ndarray, window_days: float) -> np.
     t = np.asarray(t_s, dtype=float)
     keep = t >= t[-1] - window_days * SECONDS_PER_DAY
     return np.asarray(values, dtype=float)[keep].mean(axis=0)
+
+
+def tidal_mean(t_s: np.ndarray, values: np.ndarray, window_days: float) -> np.ndarray:
+    """Centred running mean (n, ...) of ``values`` (n, ...) sampled at ``t_s`` (n,): each sample is replaced by
+    the mean of the finite samples within half a window on either side (NaN where none is finite)."""
+    t = np.asarray(t_s, dtype=float)
+    v = np.asarray(values, dtype=float)
+    near = (np.abs(t[:, None] - t[None, :]) <= 0.5 * window_days * SECONDS_PER_DAY).astype(float)
+    ok = np.isfinite(v)
+    w = np.einsum("kj,j...->k...", near, ok.astype(float))
+    total = np.einsum("kj,j...->k...", near, np.where(ok, v, 0.0))
+    with np.errstate(invalid="ignore", divide="ignore"):
+        return np.where(w > 0, total / np.where(w > 0, w, 1.0), np.nan)
