@@ -8,17 +8,29 @@ Every satellite of a constellation is propagated by the compiled engine
 - mean e, AOP and i about the design's values (they place the apolune over the south pole);
 - RAAN relative to the constellation's mean RAAN (the common precession is left free);
 - the mean argument of latitude relative to its slot: nominal phasing plus the constellation's
-  mean along-track offset.
+  mean along-track offset (common drift free).
 
-A satellite out of its box (and whose last manoeuvre is at least ``min_maneuver_spacing_days``
-old, and whose Delta-v cap is not spent) gets one or two impulses on the next orbit, planned from
-the GVEs (:func:`lnss_lib.maneuvers.plan_impulses`) and flown in the propagation (the velocity
-jumps at the burn epoch). The control laws are in :mod:`lnss_lib.sk_control`: e, AOP, i and relative
-RAAN are judged on their running mean over one tidal period (the one-orbit means swing at half the
-sidereal month) and, when out, aimed past the reference to the far side of the box, the others held;
-the slot is predicted from the mean-a drift rate (-1.5 n (a - mean a)/a) and the fitted trend of
-u_rel, and corrected by a drift-band change of a only when it is predicted to leave the box while
-moving outward. ``natural=True`` flies no manoeuvre (natural drift).
+The design's elements are MEAN elements: at insertion each satellite's osculating a, e, i, RAAN, AOP
+and M are trimmed (:func:`trim_to_mean`, fixed point on first-orbit means, no Delta-v counted) so that
+all satellites share the design's mean a (a common osculating a at different mean anomalies leaves
+their mean a ~5 km apart, which alone drifts the slots ~100 deg in 120 days). Slot phasing is judged
+against the design's mean motion, a fixed reference that does not move with anybody's burns.
+
+A satellite out of its box (whose last correction is at least ``min_maneuver_spacing_days`` old and whose
+Delta-v cap is not spent) gets one or two impulses on the next orbit, planned from the GVEs and
+Newton-refined in two-body motion (:func:`lnss_lib.maneuvers.plan_impulses`), so an e-vector pair at
+perilune/apolune leaves the osculating a unchanged. The one-orbit MEAN a still moves by a few km when e
+or AOP change (the orbit-averaged lunar potential seen by the new orbit differs: 2 a^2/GM Delta<R>), so
+after every correction the next check measures the mean a and trims it back with a small tangential
+burn (:data:`A_TRIM_FRACTION`). The control laws are in :mod:`lnss_lib.sk_control`: e, AOP, i and
+relative RAAN are judged on their running mean over one tidal period (the one-orbit mean e swings by
+about +-0.015 at half the sidereal month on the ELFO, hence an e box of 0.03) and aimed past the
+reference to the far side of the box; the slot is predicted from the mean-a drift rate
+(-1.5 n (a - a_design)/a) and corrected by a drift-band change of a. Reported box ratios use the centred
+tidal mean for the geometry (the one-orbit ratios beside them). A satellite can still fail its box when
+its secular drift within ``min_maneuver_spacing_days`` exceeds ``box_tolerance`` of the half-width, when
+its Delta-v cap is spent, or when it impacts; ``box_held`` then says False and ``max_box_ratio`` which
+quantity by how much. ``natural=True`` flies no manoeuvre (natural drift, same insertion trim).
 """
 
 from __future__ import annotations
