@@ -37,11 +37,10 @@ from .constants import SECONDS_PER_DAY
 
 @dataclass
 class SlotState:
-    """Per-satellite slot estimator: (t_tdb_s, u_rel rad) of the current coast, the drift rate the last
-    slot manoeuvre aimed at (rad/s) and the acceleration fitted over the previous coast (rad/s^2)."""
+    """Per-satellite slot estimator: (t_tdb_s, u_rel rad) of the current coast and the acceleration
+    fitted over the previous coast (rad/s^2)."""
 
     history: list = field(default_factory=list)
-    planned_rate: float = np.nan
     accel: float = 0.0
 
     def fit(self, min_span_days: float, quad_span_days: float, tide_period_days: float):
@@ -104,3 +103,16 @@ def running_mean(t_s: np.ndarray, values: np.ndarray, window_days: float) -> np.
     t = np.asarray(t_s, dtype=float)
     keep = t >= t[-1] - window_days * SECONDS_PER_DAY
     return np.asarray(values, dtype=float)[keep].mean(axis=0)
+
+
+def tidal_mean(t_s: np.ndarray, values: np.ndarray, window_days: float) -> np.ndarray:
+    """Centred running mean (n, ...) of ``values`` (n, ...) sampled at ``t_s`` (n,): each sample is replaced by
+    the mean of the finite samples within half a window on either side (NaN where none is finite)."""
+    t = np.asarray(t_s, dtype=float)
+    v = np.asarray(values, dtype=float)
+    near = (np.abs(t[:, None] - t[None, :]) <= 0.5 * window_days * SECONDS_PER_DAY).astype(float)
+    ok = np.isfinite(v)
+    w = np.einsum("kj,j...->k...", near, ok.astype(float))
+    total = np.einsum("kj,j...->k...", near, np.where(ok, v, 0.0))
+    with np.errstate(invalid="ignore", divide="ignore"):
+        return np.where(w > 0, total / np.where(w > 0, w, 1.0), np.nan)

@@ -8,17 +8,29 @@ Every satellite of a constellation is propagated by the compiled engine
 - mean e, AOP and i about the design's values (they place the apolune over the south pole);
 - RAAN relative to the constellation's mean RAAN (the common precession is left free);
 - the mean argument of latitude relative to its slot: nominal phasing plus the constellation's
-  mean along-track offset.
+  mean along-track offset (common drift free).
 
-A satellite out of its box (and whose last manoeuvre is at least ``min_maneuver_spacing_days``
-old, and whose Delta-v cap is not spent) gets one or two impulses on the next orbit, planned from
-the GVEs (:func:`lnss_lib.maneuvers.plan_impulses`) and flown in the propagation (the velocity
-jumps at the burn epoch). The control laws are in :mod:`lnss_lib.sk_control`: e, AOP, i and relative
-RAAN are judged on their running mean over one tidal period (the one-orbit means swing at half the
-sidereal month) and, when out, aimed past the reference to the far side of the box, the others held;
-the slot is predicted from the mean-a drift rate (-1.5 n (a - mean a)/a) and the fitted trend of
-u_rel, and corrected by a drift-band change of a only when it is predicted to leave the box while
-moving outward. ``natural=True`` flies no manoeuvre (natural drift).
+The design's elements are MEAN elements: at insertion each satellite's osculating a, e, i, RAAN, AOP
+and M are trimmed (:func:`trim_to_mean`, fixed point on first-orbit means, no Delta-v counted) so that
+all satellites share the design's mean a (a common osculating a at different mean anomalies leaves
+their mean a ~5 km apart, which alone drifts the slots ~100 deg in 120 days). Slot phasing is judged
+against the design's mean motion, a fixed reference that does not move with anybody's burns.
+
+A satellite out of its box (whose last correction is at least ``min_maneuver_spacing_days`` old and whose
+Delta-v cap is not spent) gets one or two impulses on the next orbit, planned from the GVEs and
+Newton-refined in two-body motion (:func:`lnss_lib.maneuvers.plan_impulses`), so an e-vector pair at
+perilune/apolune leaves the osculating a unchanged. The one-orbit MEAN a still moves by a few km when e
+or AOP change (the orbit-averaged lunar potential seen by the new orbit differs: 2 a^2/GM Delta<R>), so
+after every correction the next check measures the mean a and trims it back with a small tangential
+burn (:data:`A_TRIM_FRACTION`). The control laws are in :mod:`lnss_lib.sk_control`: e, AOP, i and
+relative RAAN are judged on their running mean over one tidal period (the one-orbit mean e swings by
+about +-0.015 at half the sidereal month on the ELFO, hence an e box of 0.03) and aimed past the
+reference to the far side of the box; the slot is predicted from the mean-a drift rate
+(-1.5 n (a - a_design)/a) and corrected by a drift-band change of a. Reported box ratios use the centred
+tidal mean for the geometry (the one-orbit ratios beside them). A satellite can still fail its box when
+its secular drift within ``min_maneuver_spacing_days`` exceeds ``box_tolerance`` of the half-width, when
+its Delta-v cap is spent, or when it impacts; ``box_held`` then says False and ``max_box_ratio`` which
+quantity by how much. ``natural=True`` flies no manoeuvre (natural drift, same insertion trim).
 """
 
 from __future__ import annotations
@@ -38,11 +50,15 @@ from .frames import element_frame_to_j2000
 from .forces import SCRATCH_SIZE, ForceModel
 from .maneuvers import plan_impulses
 from .mean_elements import MEAN_ELEMENTS, mean_elements, relative_angles, to_element_frame, wrap_pi
-from .sk_control import SlotState, drift_band_rate, overshoot_target, predicted_exit, running_mean
+from .sk_control import SlotState, drift_band_rate, overshoot_target, predicted_exit, running_mean, tidal_mean
 from .propagator import METHODS, STATUS_IMPACT, STATUS_OK, elements_deg_to_states, integrate_one
 
 BOX_KEYS = ("ecc", "aop_deg", "inc_deg", "raan_rel_deg", "u_rel_deg")
 """Box quantities (``[design_life.box]``): half-widths about the reference."""
+
+A_TRIM_FRACTION = 0.1
+"""Mean-a check after every manoeuvre set: a residual that would drift the slot by more than this fraction
+of its half-width over ``slot_coast_days`` is trimmed at once (a tangential touch of ~0.1 m/s per km)."""
 
 
 @dataclass(frozen=True)
@@ -61,6 +77,7 @@ class LifeSettings:
     tide_period_days: float
     box_tolerance: float
     integrator_setting: str
+    initial_trim: bool
     box: dict
 
     @classmethod
@@ -87,6 +104,8 @@ class LifeSettings:
         if int(cfg["samples_per_orbit"]) < 16:
             raise ValueError(f"[design_life] samples_per_orbit = {cfg['samples_per_orbit']!r} must be >= 16")
         integrator_setting(profile, cfg["integrator_setting"])
+        if not isinstance(cfg["initial_trim"], bool):
+            raise ValueError(f"[design_life] initial_trim = {cfg['initial_trim']!r} must be true or false")
         return cls(**{**cfg, "samples_per_orbit": int(cfg["samples_per_orbit"])}, box=box)
 
 
@@ -165,6 +184,55 @@ def life_force_model(profile: dict, t0_tdb_s: float, life_days: float, degree: i
     return ForceModel.from_profile(profile, table, degree=degree)
 
 
+TRIM_ELEMENTS = (0, 1, 2, 3, 4)
+"""Columns of ``[a, e, i, raan, aop]`` trimmed so that their one-orbit means equal the design's."""
+
+
+def trim_to_mean(profile: dict, elements_deg, t0_tdb_s: float, model: ForceModel, integ: dict, *,
+                 samples_per_orbit: int = 64, iterations: int = 4) -> tuple[np.ndarray, np.ndarray]:
+    """Osculating insertion elements (n_sat, 6) (deg) whose mean elements over the first orbit equal ``elements_deg``.
+
+    The design's elements are read as MEAN elements (an operator deploys satellites with matched mean
+    periods, else a common osculating a at different mean anomalies leaves their mean a several km
+    apart and the slots drift apart by ~1 deg/day). Fixed-point iteration: propagate one orbit with the full
+    force model, compare the one-orbit mean a, e, i, RAAN and AOP with the design and shift the osculating
+    values by the difference; the mean argument of latitude (at the window centre, less the design's mean
+    motion over half a window) is trimmed through M. Insertion is not a manoeuvre: no Delta-v is counted.
+    Returns (trimmed elements, final mean-minus-design residual (n_sat, 6): km, -, deg x 4).
+    """
+    design = np.atleast_2d(np.asarray(elements_deg, dtype=float))
+    gm = float(profile["gravity"]["gm_km3_s2"])
+    rot = element_frame_to_j2000(profile, t0_tdb_s)
+    r_min = profile["constants"]["r_moon_mean_km"] + profile["impact"]["min_altitude_km"]
+    period = orbital_period_s(design[:, 0], gm)
+    n_win = int(samples_per_orbit)
+    osc = design.copy()
+    resid = np.zeros_like(design)
+    n_sat = design.shape[0]
+    for _ in range(int(iterations) + 1):
+        states = elements_deg_to_states(profile, osc, t0_tdb_s)
+        mean = np.empty((n_sat, 6))
+        for i in range(n_sat):
+            t_win = t0_tdb_s + period[i] * np.linspace(0.0, 1.0, n_win + 1)
+            out, _, status, _ = integrate_chunk(
+                states[i:i + 1], np.ones(1, dtype=bool), t0_tdb_s, t_win, np.full((1, 1), np.nan), np.zeros((1, 1, 3)),
+                METHODS.index(integ["method"]), float(integ["rtol"]), float(integ["atol"]), r_min, 5_000_000,
+                model.kernel_args, model.field.degree)
+            if status[0] != STATUS_OK:
+                raise RuntimeError(f"trim propagation failed for satellite {i} (status {status[0]})")
+            out[0, 0] = states[i]                  # the kernel fills epochs after t0 only
+            mean[i] = mean_elements(to_element_frame(out[0], rot), gm)
+        u_design = np.radians(design[:, 4] + design[:, 5]) + np.pi          # one orbit: u advances 2 pi, centre at pi
+        resid = np.column_stack([mean[:, 0] - design[:, 0], mean[:, 1] - design[:, 1],
+                                 np.degrees(wrap_pi(mean[:, 2:5] - np.radians(design[:, 2:5]))),
+                                 np.degrees(wrap_pi(mean[:, 5] - u_design))])
+        if _ == iterations:
+            break
+        osc[:, list(TRIM_ELEMENTS)] -= resid[:, list(TRIM_ELEMENTS)]
+        osc[:, 5] -= resid[:, 5] - resid[:, 4]      # u = aop + M: the aop trim already moved u
+    return osc, resid
+
+
 def simulate_life(profile: dict, elements_deg, *, natural: bool = False, life_days: float | None = None,
                   degree: int | None = None, model: ForceModel | None = None, t0_tdb_s: float | None = None,
                   settings: LifeSettings | None = None, sample_step_s: float | None = None) -> xr.Dataset:
@@ -175,8 +243,10 @@ def simulate_life(profile: dict, elements_deg, *, natural: bool = False, life_da
     Returns a Dataset with dims ``sat``, ``check`` (mean-element history, one per chunk) and
     ``maneuver``: per satellite ``dv_kms_per_year``, ``dv_total_kms``, ``n_maneuvers``,
     ``maneuver_t_tdb_s`` and ``maneuver_dv_rtn_kms``, ``box_held``, ``impact``, ``impact_day``,
-    ``max_box_ratio`` (largest error / half-width per box quantity after the first check), and the
-    histories ``mean_elements`` and ``box_error``. With ``sample_step_s`` the Dataset also holds
+    ``max_box_ratio`` (largest error / half-width per box quantity after the first check; e, AOP, i and
+    relative RAAN on their centred tidal running mean, the slot on the one-orbit mean), ``max_box_ratio_one_orbit``
+    (all on one-orbit means), ``n_maneuver_sets``, the insertion trim, and the histories ``mean_elements``,
+    ``box_error`` and ``box_error_tidal_mean``. With ``sample_step_s`` the Dataset also holds
     ``r_mci_km`` (sat, sample, xyz): Moon-centred J2000 positions (km) on the grid ``sample_t_tdb_s`` =
     t0 + k ``sample_step_s`` over the life (manoeuvres flown; NaN after an impact), for navigation
     metrics over the design life. Raises ``ValueError`` for invalid elements or sample step.
@@ -185,7 +255,7 @@ def simulate_life(profile: dict, elements_deg, *, natural: bool = False, life_da
     ensure_kernels(profile)
     el = np.atleast_2d(np.asarray(elements_deg, dtype=float))
     t0 = tdb_seconds(profile["epoch"]["start_tdb"], "TDB") if t0_tdb_s is None else float(t0_tdb_s)
-    states = elements_deg_to_states(profile, el, t0)
+    elements_deg_to_states(profile, el, t0)
     gm = float(profile["gravity"]["gm_km3_s2"])
     life_s = cfg.life_days * SECONDS_PER_DAY
     if model is None:
@@ -193,6 +263,9 @@ def simulate_life(profile: dict, elements_deg, *, natural: bool = False, life_da
     elif model.table.t0_tdb_s > t0 or model.table.t_end_tdb_s < t0 + life_s:
         raise ValueError("the force model's ephemeris table does not span the design life")
     integ = integrator_setting(profile, cfg.integrator_setting)
+    el_insert, trim_resid = (trim_to_mean(profile, el, t0, model, integ, samples_per_orbit=cfg.samples_per_orbit)
+                             if cfg.initial_trim else (el.copy(), np.full_like(el, np.nan)))
+    states = elements_deg_to_states(profile, el_insert, t0)
     rot = element_frame_to_j2000(profile, t0)
     r_min = profile["constants"]["r_moon_mean_km"] + profile["impact"]["min_altitude_km"]
 
@@ -209,7 +282,7 @@ def simulate_life(profile: dict, elements_deg, *, natural: bool = False, life_da
                          f"({2.05 * periods.max() / SECONDS_PER_DAY:.2f} days)")
     n_chunks = max(1, int(np.floor(life_s / max(cfg.check_interval_days * SECONDS_PER_DAY, 2.05 * float(periods.max())))))
     chunk_s = life_s / n_chunks
-    ref_ecc, ref_aop, ref_inc = el[:, 1], np.radians(el[:, 4]), np.radians(el[:, 2])
+    ref_a, ref_ecc, ref_aop, ref_inc = el[:, 0], el[:, 1], np.radians(el[:, 4]), np.radians(el[:, 2])
     nom_raan, nom_u = np.radians(el[:, 3]), np.radians(el[:, 4] + el[:, 5])
     half = np.array([cfg.box["ecc"], np.radians(cfg.box["aop_deg"]), np.radians(cfg.box["inc_deg"]),
                      np.radians(cfg.box["raan_rel_deg"]), np.radians(cfg.box["u_rel_deg"])])
@@ -222,6 +295,9 @@ def simulate_life(profile: dict, elements_deg, *, natural: bool = False, life_da
     burns_t = [[] for _ in range(n_sat)]
     burns_dv = [[] for _ in range(n_sat)]
     last_burn = np.full(n_sat, -np.inf)
+    a_hold = np.full(n_sat, np.nan)
+    n_sets = np.zeros(n_sat, dtype=int)
+    a_tol = A_TRIM_FRACTION * half[4] / (1.5 * np.sqrt(gm / ref_a ** 3) / ref_a * cfg.slot_coast_days * SECONDS_PER_DAY)
     pending_t = np.full((n_sat, 2), np.nan)
     pending_dv = np.zeros((n_sat, 2, 3))
     dv_used = np.zeros(n_sat)
@@ -269,6 +345,15 @@ def simulate_life(profile: dict, elements_deg, *, natural: bool = False, life_da
         for i in np.flatnonzero(active):
             slot[i].history.append((t_mid[i], u_rel[i]))
             geo_hist[i].append((t_mid[i], err[i, :4]))
+            if np.isfinite(a_hold[i]) and dv_used[i] < cap_kms:
+                d_a, a_hold[i] = a_hold[i] - mel[i, 0], np.nan
+                if abs(d_a) > a_tol[i]:
+                    osc = state_to_elements(to_element_frame(y[i], rot), gm)
+                    plan = plan_impulses(osc, gm, {"a_km": d_a, "ex": 0.0, "ey": 0.0, "inc_rad": 0.0, "raan_rad": 0.0})
+                    pending_t[i, :len(plan.dt_s)] = t + plan.dt_s
+                    pending_dv[i, :len(plan.dt_s)] = plan.dv_rtn_kms
+                    slot[i].history = []
+                    continue
             if t - last_burn[i] < cfg.min_maneuver_spacing_days * SECONDS_PER_DAY or dv_used[i] >= cap_kms:
                 continue
             tt, gg = zip(*geo_hist[i])
@@ -277,33 +362,37 @@ def simulate_life(profile: dict, elements_deg, *, natural: bool = False, life_da
             out[:4] &= tt[-1] - tt[0] >= 0.5 * cfg.tide_period_days * SECONDS_PER_DAY
             out[4] = False
             trend = slot[i].fit(cfg.slot_fit_days, cfg.slot_quad_days, cfg.tide_period_days)
-            a_all = mel[active, 0].mean()
-            rate_a = -1.5 * np.sqrt(gm / mel[i, 0] ** 3) * (mel[i, 0] - a_all) / a_all
+            rate_a = -1.5 * np.sqrt(gm / ref_a[i] ** 3) * (mel[i, 0] - ref_a[i]) / ref_a[i]
             fit = (u_rel[i] if trend is None else trend[0], rate_a, 0.0, 0.0) if len(slot[i].history) >= 2 else None
             if fit is not None:
                 out[4] = predicted_exit(*fit[:3], half[4], chunk_s + float(periods[i]))
             if not out.any():
                 continue
             osc = state_to_elements(to_element_frame(y[i], rot), gm)
-            plan, new_rate = _plan(osc, mel[i], err_avg, out, fit, half, cfg, gm)
+            plan, d_a = _plan(osc, mel[i], ref_a[i], err_avg, out, fit, half, cfg, gm)
             if plan is None:
                 continue
+            a_hold[i] = mel[i, 0] + d_a
+            n_sets[i] += 1
             pending_t[i, :len(plan.dt_s)] = t + plan.dt_s
             pending_dv[i, :len(plan.dt_s)] = plan.dv_rtn_kms
             last_burn[i] = t
             if out[:4].any():
                 shift = np.where(out[:4], -err_avg[:4] - np.sign(err_avg[:4]) * cfg.target_fraction * half[:4], 0.0)
                 geo_hist[i] = [(tk, gk + shift) for tk, gk in geo_hist[i]]
-            if out[:4].any() and not out[4]:
-                slot[i].history, slot[i].planned_rate = [], np.nan
-            if out[4]:
-                if slot[i].history[-1][0] - slot[i].history[0][0] >= cfg.slot_quad_days * SECONDS_PER_DAY:
-                    slot[i].accel = fit[2]
-                slot[i].history = []
-                slot[i].planned_rate = new_rate
-    return _life_dataset(profile, cfg, integ, model, natural, el, t0, life_s, np.array(hist_t), np.array(hist_el),
-                         np.array(hist_err), half, burns_t, burns_dv, impact_t, cap_kms, time.perf_counter() - start,
-                         sample_t, r_sample if sample_step_s is not None else None)
+            if out[4] and slot[i].history[-1][0] - slot[i].history[0][0] >= cfg.slot_quad_days * SECONDS_PER_DAY:
+                slot[i].accel = fit[2]
+            slot[i].history = []
+    ds = _life_dataset(profile, cfg, integ, model, natural, el, t0, life_s, np.array(hist_t), np.array(hist_el),
+                       np.array(hist_err), half, burns_t, burns_dv, impact_t, cap_kms, time.perf_counter() - start,
+                       sample_t, r_sample if sample_step_s is not None else None)
+    ds["n_maneuver_sets"] = ("sat", n_sets)
+    ds["n_maneuver_sets"].attrs["description"] = "box corrections (each one or two burns plus a mean-a trim)"
+    ds["insertion_elements_deg"] = (("sat", "element"), el_insert)
+    ds["trim_residual"] = (("sat", "element"), trim_resid)
+    ds["trim_residual"].attrs["description"] = ("first-orbit mean minus design at insertion (km, -, deg: i, raan, "
+                                                "aop, u); NaN without the initial trim")
+    return ds
 
 
 def _sample_grid(t0: float, life_s: float, sample_step_s: float | None) -> np.ndarray:
@@ -317,15 +406,17 @@ def _sample_grid(t0: float, life_s: float, sample_step_s: float | None) -> np.nd
     return np.minimum(t0 + step * np.arange(int(np.floor(life_s / step + 1e-9)) + 1), t0 + life_s)
 
 
-def _plan(osc, mel, err, out, fit, half, cfg, gm):
-    """Impulses for one satellite and the slot drift rate they aim at (NaN when the slot is not corrected).
+def _plan(osc, mel, a_ref, err, out, fit, half, cfg, gm):
+    """Impulses for one satellite (None when there is nothing to fly).
 
     Each geometry quantity out of its box (``out``, order :data:`BOX_KEYS`) is aimed past its reference
     (:func:`lnss_lib.sk_control.overshoot_target`; e and AOP together as the e vector in nodal axes);
-    the others are held (zero change). A slot correction sets the mean a so that the drift rate becomes
-    :func:`lnss_lib.sk_control.drift_band_rate`; otherwise a and u are held (u one orbit after the burns).
+    the others are held (zero change). A slot correction sets the mean a so that the drift rate relative
+    to the design's mean motion (``a_ref``) becomes :func:`lnss_lib.sk_control.drift_band_rate`; otherwise
+    a and u are held (u one orbit after the burns). The e-vector correction is thus a perilune/apolune
+    pair with no net change of a (Newton-refined in :func:`lnss_lib.maneuvers.plan_impulses`).
     """
-    a, n = mel[0], np.sqrt(gm / mel[0] ** 3)
+    n = np.sqrt(gm / a_ref ** 3)
     ecc, aop = mel[1], mel[4]
     d_ecc = overshoot_target(err[0], half[0], cfg.target_fraction) if out[0] else 0.0
     d_aop = overshoot_target(err[1], half[1], cfg.target_fraction) if out[1] else 0.0
@@ -338,14 +429,13 @@ def _plan(osc, mel, err, out, fit, half, cfg, gm):
         "a_km": 0.0,
         "u_rad": 0.0,
     }
-    new_rate = np.nan
     if out[4]:
         u0, rate, accel, _ = fit
         new_rate = drift_band_rate(u0, accel, half[4], cfg.target_fraction, cfg.slot_coast_days * SECONDS_PER_DAY)
-        target["a_km"] = (new_rate - rate) / (-1.5 * n / a)
+        target["a_km"] = (new_rate - rate) / (-1.5 * n / a_ref)
         del target["u_rad"]
     plan = plan_impulses(osc, gm, target, max_burns=2)
-    return (plan, new_rate) if plan.dv_rtn_kms.size else (None, new_rate)
+    return (plan if plan.dv_rtn_kms.size else None), target["a_km"]
 
 
 def _life_dataset(profile, cfg, integ, model, natural, el, t0, life_s, hist_t, hist_el, hist_err, half, burns_t,
@@ -361,9 +451,11 @@ def _life_dataset(profile, cfg, integ, model, natural, el, t0, life_s, hist_t, h
     dv_total = np.nansum(np.linalg.norm(man_dv, axis=-1), axis=1)
     impact = np.isfinite(impact_t)
     span_s = np.where(impact, impact_t - t0, life_s)
-    ratio = np.abs(hist_err.transpose(1, 0, 2)) / half
-    max_ratio = np.nanmax(np.where(np.isfinite(ratio), ratio, -np.inf)[:, 1:], axis=1) if ratio.shape[1] > 1 else \
-        np.nanmax(ratio, axis=1)
+    err = hist_err.transpose(1, 0, 2)
+    smooth = err.copy()
+    for i in range(n_sat):
+        smooth[i, :, :4] = tidal_mean(hist_t[:, i], err[i, :, :4], cfg.tide_period_days)
+    max_ratio, max_ratio_orbit = (_max_ratio(np.abs(x) / half) for x in (smooth, err))
     years = life_s / (DAYS_PER_JULIAN_YEAR * SECONDS_PER_DAY)
     dv_per_year = dv_total / years
     held = (~impact) & np.all(max_ratio <= 1.0 + cfg.box_tolerance, axis=1) & (dv_total <= cap_kms * (1 + 1e-9))
@@ -382,6 +474,8 @@ def _life_dataset(profile, cfg, integ, model, natural, el, t0, life_s, hist_t, h
             "impact_t_tdb_s": ("sat", impact_t),
             "impact_day": ("sat", (impact_t - t0) / SECONDS_PER_DAY),
             "max_box_ratio": (("sat", "box"), max_ratio),
+            "max_box_ratio_one_orbit": (("sat", "box"), max_ratio_orbit),
+            "box_error_tidal_mean": (("sat", "check", "box"), smooth),
             "mean_elements": (("sat", "check", "mean_element"), mel),
             "box_error": (("sat", "check", "box"), hist_err.transpose(1, 0, 2)),
             "check_t_tdb_s": (("sat", "check"), hist_t.T),
@@ -409,6 +503,13 @@ def _life_dataset(profile, cfg, integ, model, natural, el, t0, life_s, hist_t, h
     ds["dv_kms_per_year"].attrs["units"] = "km/s per year"
     ds["mean_elements"].attrs["description"] = "mean elements over one orbit ending at each check; u = aop + M"
     return ds
+
+
+def _max_ratio(ratio: np.ndarray) -> np.ndarray:
+    """Largest ratio (sat, box) over the checks after the first (all checks when there is one)."""
+    r = np.where(np.isfinite(ratio), ratio, -np.inf)
+    r = r[:, 1:] if r.shape[1] > 1 else r
+    return np.where(np.isfinite(r.max(axis=1)), r.max(axis=1), np.nan)
 
 
 def impact_day(ds: xr.Dataset) -> float:
@@ -449,3 +550,39 @@ def integrator_convergence(profile: dict, elements_deg, *, life_days: float = 36
                        "n_rhs_reference": ("sat", runs["_reference"].n_rhs.values)},
                       coords={"setting": list(settings), "sat": np.arange(el.shape[0]), "day": day},
                       attrs={"reference": f"{ref['method']} rtol {ref['rtol']:g} atol {ref['atol']:g}"})
+
+
+def integrator_convergence_mean(profile: dict, elements_deg, *, life_days: float | None = None, degree: int | None = None,
+                                tight: dict | None = None, natural: bool = False,
+                                model: ForceModel | None = None) -> xr.Dataset:
+    """Mean-element histories and Delta-v of :func:`simulate_life` with the ``[design_life]`` integrator setting
+    against a tighter one (default DOP853 rtol 1e-12 / atol 1e-14), same force model and checks.
+
+    Returns per satellite ``max_d_ecc``, ``max_d_aop_deg``, ``max_d_inc_deg`` (largest difference of the
+    one-orbit mean histories), ``dv_total_kms`` (setting, sat) and ``n_maneuvers`` (setting, sat). In closed
+    loop the two runs may decide differently near a box edge; their Delta-v difference is then what an
+    integrator error of that size does to the budget.
+    """
+    tight = tight or {"method": "DOP853", "rtol": 1e-12, "atol": 1e-14}
+    prof = {**profile, "integrator": {**profile["integrator"],
+                                      "settings": {**profile["integrator"]["settings"], "_tight": tight}}}
+    base = LifeSettings.from_profile(prof, life_days=life_days)
+    t0 = tdb_seconds(prof["epoch"]["start_tdb"], "TDB")
+    if model is None:
+        model = life_force_model(prof, t0, base.life_days, degree)
+    names = (base.integrator_setting, "_tight")
+    runs = [simulate_life(prof, elements_deg, natural=natural, model=model, t0_tdb_s=t0,
+                          settings=LifeSettings.from_profile(prof, life_days=base.life_days, integrator_setting=name))
+            for name in names]
+    diff = np.abs(runs[0].mean_elements.values - runs[1].mean_elements.values)
+    col = list(runs[0].mean_element.values)
+    return xr.Dataset(
+        {"max_d_ecc": ("sat", np.nanmax(diff[..., col.index("e")], axis=1)),
+         "max_d_aop_deg": ("sat", np.nanmax(diff[..., col.index("aop_deg")], axis=1)),
+         "max_d_inc_deg": ("sat", np.nanmax(diff[..., col.index("inc_deg")], axis=1)),
+         "dv_total_kms": (("setting", "sat"), np.stack([r.dv_total_kms.values for r in runs])),
+         "n_maneuvers": (("setting", "sat"), np.stack([r.n_maneuvers.values for r in runs])),
+         "wall_s": ("setting", [r.attrs["wall_s"] for r in runs])},
+        coords={"setting": [names[0], "tight"], "sat": runs[0].sat.values},
+        attrs={"tight": f"{tight['method']} rtol {tight['rtol']:g} atol {tight['atol']:g}", "life_days": base.life_days,
+               "mode": runs[0].attrs["mode"], "force_model": model.describe()})
