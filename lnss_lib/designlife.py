@@ -225,3 +225,44 @@ def json_ready(result: dict) -> dict:
         else:
             out[key] = value
     return out
+
+
+def elements_deg_in_frame(profile: dict, states_mci, t0_tdb_s: float) -> np.ndarray:
+    """Osculating ``[a_km, e, i, RAAN, AOP, M]`` (n, 6) (km, deg) of Moon-centred J2000 states in the profile's element frame."""
+    from .elements import state_to_elements
+    from .frames import element_frame_to_j2000
+
+    rot = element_frame_to_j2000(profile, float(t0_tdb_s))
+    s = np.atleast_2d(np.asarray(states_mci, dtype=float))
+    el = state_to_elements(np.concatenate([s[:, :3] @ rot, s[:, 3:] @ rot], axis=1), float(profile["gravity"]["gm_km3_s2"]))
+    return np.column_stack([el[:, :2], np.degrees(el[:, 2:])])
+
+
+def design_life_cli(profile_name: str, life_days: float, *, walker: tuple | None = None,
+                    constellation: str | None = None, constellation_epoch: str = "study") -> dict:
+    """:data:`LIFE_KEYS` for the evaluate CLI: a Walker design ``(sma_km, ecc, aop_deg, inc_deg, n_planes,
+    sats_per_plane)`` or a catalogue constellation (its states at the evaluation epoch, as elements in the
+    profile's element frame). NaN becomes None. An invalid Walker design gives every key None."""
+    from .config import load_profile
+    from .constellation import WalkerDesign
+    from .evaluator import context_for
+
+    if not (isinstance(life_days, (int, float)) and math.isfinite(life_days) and life_days > 0):
+        raise ValueError(f"--design-life-days must be a positive number of days; got {life_days!r}")
+    profile = load_profile(profile_name)
+    if constellation is not None:
+        from .catalogue import constellation_states_mci, file_epoch_profile, load_constellation
+
+        c = load_constellation(constellation, profile)
+        if constellation_epoch == "file":
+            profile = file_epoch_profile(profile, c)
+        states = constellation_states_mci(profile, c, constellation_epoch)
+        elements = elements_deg_in_frame(profile, states.states_mci, states.t_epoch_tdb_s)
+    else:
+        sma_km, ecc, aop_deg, inc_deg, n_planes, sats_per_plane = walker
+        try:
+            elements = WalkerDesign(sma_km, ecc, inc_deg, aop_deg, n_planes, sats_per_plane).elements_deg()
+        except ValueError:
+            return {key: None for key in LIFE_KEYS}
+    result = evaluate_design_life(context_for(profile), elements, float(life_days))
+    return json_ready({key: result[key] for key in LIFE_KEYS})

@@ -170,8 +170,8 @@ def evaluate_design(context: EvaluationContext, sma_km: float, ecc: float, aop_d
 
 def evaluate_cli(profile_name: str, sma_km: float, ecc: float, aop_deg: float, inc_deg: float, n_planes: int,
                  sats_per_plane: int) -> dict:
-    """:func:`evaluate_design` under a named profile with exactly the CLI's JSON keys."""
+    """:func:`evaluate_design` under a named profile with exactly the CLI's JSON keys (``RESULT_KEYS``, ``reason``)."""
     context = context_for(load_profile(profile_name))
     result = evaluate_design(context, sma_km, ecc, aop_deg, inc_deg, n_planes, sats_per_plane)
     return {key: (None if isinstance(result[key], float) and math.isnan(result[key]) else result[key])
-            for key in RESULT_KEYS}
+            for key in RESULT_KEYS + ("reason",)}
