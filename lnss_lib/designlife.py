@@ -32,7 +32,8 @@ from .stability import screen_states
 from .stationkeeping import LifeSettings, impact_day, life_force_model, simulate_life
 
 __all__ = ["LIFE_KEYS", "NAVIGATION_KEYS", "life_evaluation_settings", "run_design_life", "life_metrics",
-           "life_navigation", "life_availability", "evaluate_design_life", "json_ready"]
+           "life_navigation", "life_availability", "short_arc_predictors", "evaluate_design_life", "json_ready",
+           "elements_deg_in_frame", "design_life_cli"]
 
 LIFE_KEYS = ("life_days", "impact_day", "natural_impact_day", "sk_dv_kms_per_year", "sk_dv_max_kms_per_year",
              "n_maneuvers", "box_held", "pdop_avail_pct_life", "hdop_avail_pct_life", "sk_dv_estimate_kms_per_year",
@@ -65,16 +66,17 @@ def _profile_of(context_or_profile):
 
 
 def run_design_life(profile: dict, elements_deg, life_days: float | None = None, *, natural: bool = True,
-                    sample_step_s: float | None = None) -> dict[str, xr.Dataset]:
+                    sample_step_s: float | None = None, sample: bool = True) -> dict[str, xr.Dataset]:
     """The controlled (and, with ``natural``, the natural-drift) life of elements (n, 6) in the element frame.
 
     Both runs share one force model and sample positions every ``sample_step_s`` (default
-    ``[life_evaluation] sample_step_s``). Returns ``{"controlled": ds[, "natural": ds]}`` of
+    ``[life_evaluation] sample_step_s``; none with ``sample=False``). Returns ``{"controlled": ds[, "natural": ds]}`` of
     :func:`lnss_lib.stationkeeping.simulate_life` Datasets.
     """
     ensure_kernels(profile)
     settings = LifeSettings.from_profile(profile, life_days=life_days)
     step = life_evaluation_settings(profile)["sample_step_s"] if sample_step_s is None else float(sample_step_s)
+    step = step if sample else None
     t0 = tdb_seconds(profile["epoch"]["start_tdb"], "TDB")
     model = life_force_model(profile, t0, settings.life_days)
     runs = {"controlled": simulate_life(profile, elements_deg, settings=settings, model=model, t0_tdb_s=t0,
@@ -171,8 +173,10 @@ def life_metrics(runs: Mapping[str, xr.Dataset], nav: xr.Dataset | None = None) 
     return out
 
 
-def _short_arc_predictors(context_or_profile, profile: dict, elements: np.ndarray, life_days: float) -> dict:
-    """The campaign-grade estimate on the profile's short arc and the stability screen for ``life_days``."""
+def short_arc_predictors(context_or_profile, profile: dict, elements: np.ndarray, life_days: float) -> dict:
+    """The campaign-grade estimate on the profile's short arc (NaN if a satellite hits the Moon on it) and the
+    stability screen for ``life_days``: ``sk_dv_estimate_kms_per_year``, ``stable_screen``,
+    ``screen_min_perilune_alt_km``, ``screen_impact_day`` (None when none)."""
     t0 = tdb_seconds(profile["epoch"]["start_tdb"], "TDB")
     states = elements_deg_to_states(profile, elements, t0)
     model = None if isinstance(context_or_profile, Mapping) else context_or_profile.model
@@ -204,7 +208,7 @@ def evaluate_design_life(context_or_profile, elements_deg, life_days: float | No
     runs = run_design_life(profile, elements, settings.life_days)
     nav = life_navigation(profile, runs)
     result = life_metrics(runs, nav)
-    result.update(_short_arc_predictors(context_or_profile, profile, elements, settings.life_days))
+    result.update(short_arc_predictors(context_or_profile, profile, elements, settings.life_days))
     result = {**{k: result[k] for k in LIFE_KEYS}, "screen_impact_day": result["screen_impact_day"],
               "design_life_wall_s": time.perf_counter() - start}
     if keep:
@@ -242,7 +246,8 @@ def design_life_cli(profile_name: str, life_days: float, *, walker: tuple | None
                     constellation: str | None = None, constellation_epoch: str = "study") -> dict:
     """:data:`LIFE_KEYS` for the evaluate CLI: a Walker design ``(sma_km, ecc, aop_deg, inc_deg, n_planes,
     sats_per_plane)`` or a catalogue constellation (its states at the evaluation epoch, as elements in the
-    profile's element frame). NaN becomes None. An invalid Walker design gives every key None."""
+    profile's element frame). NaN becomes None. An invalid Walker design (the evaluation says why) gives
+    every key None."""
     from .config import load_profile
     from .constellation import WalkerDesign
     from .evaluator import context_for
@@ -262,6 +267,7 @@ def design_life_cli(profile_name: str, life_days: float, *, walker: tuple | None
         sma_km, ecc, aop_deg, inc_deg, n_planes, sats_per_plane = walker
         try:
             elements = WalkerDesign(sma_km, ecc, inc_deg, aop_deg, n_planes, sats_per_plane).elements_deg()
+            elements_deg_to_states(profile, elements, tdb_seconds(profile["epoch"]["start_tdb"], "TDB"))
         except ValueError:
             return {key: None for key in LIFE_KEYS}
     result = evaluate_design_life(context_for(profile), elements, float(life_days))
