@@ -30,7 +30,7 @@ from ..designlife import run_design_life, short_arc_predictors
 from ..keys import DESIGN_KEYS
 
 __all__ = ["REGIONS", "region_of", "campaign_designs", "validation_designs", "flown_elements", "validate_design",
-           "validation_table", "compare", "screen_misses", "region_summary", "verdict"]
+           "validation_table", "compare", "screen_misses", "region_summary", "verdict", "run_validation"]
 
 REGIONS = ("standalone ELFO", "frozen family", "high a, high i", "low near-circular", "campaign", "other")
 
@@ -191,3 +191,13 @@ def verdict(table: pd.DataFrame, stats: dict, regions: pd.DataFrame, dv_bound_km
                      f"{dv_bound_kms_per_year:g} km/s/yr per satellite; {r.natural_survives} survive with no control; "
                      f"closed-loop median {r.dv_median_kms_per_year:.3g} km/s/yr).")
     return "\n".join(lines)
+
+
+def run_validation(profile: dict, campaign_dir: Path | None = None) -> tuple[pd.DataFrame, str]:
+    """:func:`validate_design` on every design of :func:`validation_designs` with ``[life_evaluation]``'s life and
+    satellites per plane; returns the :func:`validation_table` and the sentence on the campaign's designs."""
+    section = profile["life_evaluation"]
+    designs, note = validation_designs(profile, campaign_dir)
+    rows = [validate_design(profile, d["design"], float(section["validation_life_days"]),
+                            int(section["validation_max_sats_per_plane"]), d["region"]) for d in designs]
+    return validation_table(rows), note
