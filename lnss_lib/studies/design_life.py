@@ -169,16 +169,25 @@ def region_summary(table: pd.DataFrame, dv_bound_kms_per_year: float) -> pd.Data
         dv_max_kms_per_year=("sk_dv_max_kms_per_year", "max")).reset_index()
 
 
+def _ranking_words(stats: dict) -> str:
+    if stats["n_compared"] < 5:
+        return "Too few designs to judge the ranking."
+    ranks = stats["spearman_rho"] >= 0.6 and stats["spearman_p"] < 0.05
+    spread = stats["ratio_max"] / stats["ratio_min"] if stats["ratio_min"] > 0 else np.inf
+    budget = ("and, its ratio staying within a factor of two, a budget" if spread <= 2.0
+              else f"but not a budget (the ratio spreads over a factor of {spread:.0f})")
+    return ("It ranks designs by station-keeping cost " + budget + "." if ranks
+            else "It does not rank designs reliably by station-keeping cost, " + budget.removeprefix("but ") + ".")
+
+
 def verdict(table: pd.DataFrame, stats: dict, regions: pd.DataFrame, dv_bound_kms_per_year: float) -> str:
     """A plain verdict in words, built from the validation's numbers."""
     life = float(table["life_days"].iloc[0])
-    lines = [f"Over a {life:g}-day life ({stats['n_designs']} designs; {stats['n_compared']} kept every satellite "
-             f"under station keeping):"]
+    lines = [f"Over a {life:g}-day life ({stats['n_designs']} designs; {stats['n_compared']} with a ratio: no impact "
+             f"under station keeping and a non-zero closed-loop Delta-V):"]
     lines.append(f"- the campaign-grade estimate / closed loop ratio runs from {stats['ratio_min']:.2f} to "
                  f"{stats['ratio_max']:.2f} (median {stats['ratio_median']:.2f}); Spearman rank correlation "
-                 f"{stats['spearman_rho']:.2f} (p = {stats['spearman_p']:.2g}). "
-                 + ("It ranks designs usefully but is not a budget."
-                    if stats["spearman_rho"] >= 0.6 else "It neither ranks designs reliably nor gives a budget."))
+                 f"{stats['spearman_rho']:.2f} (p = {stats['spearman_p']:.2g}). " + _ranking_words(stats))
     misses = table[table["screen_call"] != "agree"]
     lines.append(f"- the stability screen agrees with the natural-drift propagation on {len(table) - len(misses)} of "
                  f"{len(table)} designs" + (": wrong on " + "; ".join(
