@@ -13,7 +13,7 @@ from lnss_lib.evaluator import METRIC_KEYS, RESULT_KEYS, context_for, evaluate_c
 
 CLI_KEYS = {"n_sat", "mean_visible_sats", "pdop_mean_3sigma", "pdop_avail_pct", "hdop_mean_3sigma", "hdop_avail_pct",
             "dv_total_kms_per_year", "dv_opt_kms_per_year", "gps_visible_mean", "gps_pdop_mean", "deltav_model",
-            "feasible", "wall_s"}
+            "feasible", "wall_s", "reason"}
 
 
 @pytest.fixture(scope="module")
@@ -61,8 +61,9 @@ def test_cli_json_has_exactly_the_documented_keys():
                           "--inc-deg", "51.7", "--planes", "2", "--sats-per-plane", "2", "--profile", "ci", "--json"],
                          cwd=PROJECT_DIR, capture_output=True, text=True, check=True)
     result = json.loads(out.stdout)
-    assert set(result) == CLI_KEYS == set(RESULT_KEYS)
+    assert set(result) == CLI_KEYS == set(RESULT_KEYS) | {"reason"}
     assert result["n_sat"] == 4 and result["feasible"] is True and np.isfinite(result["wall_s"])
+    assert result["reason"] == ""
 
 
 def test_metrics_come_from_the_right_parts(context):
