@@ -163,13 +163,15 @@ def screen_misses(table: pd.DataFrame) -> pd.DataFrame:
 
 
 def region_summary(table: pd.DataFrame, dv_bound_kms_per_year: float) -> pd.DataFrame:
-    """Per region: designs, how many are sustainable (box held, no impact, closed-loop Delta-V within the bound)."""
-    sustainable = (table["box_held"].astype(bool) & ~np.isfinite(table["impact_day"].astype(float))
+    """Per region: designs; ``sustainable`` (no satellite lost under station keeping and every satellite's
+    closed-loop Delta-V within the bound); ``box_held`` (the box held throughout as well); ``natural_survives``."""
+    sustainable = (~np.isfinite(table["impact_day"].astype(float))
                    & (table["sk_dv_max_kms_per_year"].astype(float) <= dv_bound_kms_per_year))
-    frame = table.assign(sustainable=sustainable, natural_survives=~np.isfinite(table["natural_impact_day"].astype(float)))
+    frame = table.assign(sustainable=sustainable, held=sustainable & table["box_held"].astype(bool),
+                         natural_survives=~np.isfinite(table["natural_impact_day"].astype(float)))
     return frame.groupby("region", sort=False).agg(
-        designs=("sustainable", "size"), sustainable=("sustainable", "sum"), natural_survives=("natural_survives", "sum"),
-        dv_median_kms_per_year=("sk_dv_kms_per_year", "median"),
+        designs=("sustainable", "size"), sustainable=("sustainable", "sum"), box_held=("held", "sum"),
+        natural_survives=("natural_survives", "sum"), dv_median_kms_per_year=("sk_dv_kms_per_year", "median"),
         dv_max_kms_per_year=("sk_dv_max_kms_per_year", "max")).reset_index()
 
 
@@ -200,9 +202,10 @@ def verdict(table: pd.DataFrame, stats: dict, regions: pd.DataFrame, dv_bound_km
     for r in regions.itertuples():
         word = ("sustainable" if r.sustainable == r.designs else "not sustainable" if r.sustainable == 0
                 else "partly sustainable")
-        lines.append(f"- {r.region}: {word} ({r.sustainable} of {r.designs} hold their box without an impact within "
-                     f"{dv_bound_kms_per_year:g} km/s/yr per satellite; {r.natural_survives} survive with no control; "
-                     f"closed-loop median {r.dv_median_kms_per_year:.3g} km/s/yr).")
+        lines.append(f"- {r.region}: {word} ({r.sustainable} of {r.designs} keep every satellite up within "
+                     f"{dv_bound_kms_per_year:g} km/s/yr per satellite, {r.box_held} of them inside the box throughout; "
+                     f"{r.natural_survives} survive with no control; closed-loop median {r.dv_median_kms_per_year:.3g} "
+                     f"km/s/yr).")
     return "\n".join(lines)
 
 
