@@ -31,7 +31,7 @@ from .sk_estimate import sk_estimate_from_propagation
 from .stability import screen_states
 from .stationkeeping import LifeSettings, impact_day, life_force_model, simulate_life
 
-__all__ = ["LIFE_KEYS", "NAVIGATION_KEYS", "life_evaluation_settings", "run_design_life", "life_metrics",
+__all__ = ["LIFE_KEYS", "NAVIGATION_KEYS", "STUDY_KEYS", "life_evaluation_settings", "run_design_life", "life_metrics",
            "life_navigation", "life_availability", "short_arc_predictors", "evaluate_design_life", "json_ready",
            "elements_deg_in_frame", "design_life_cli"]
 
@@ -45,11 +45,17 @@ NAVIGATION_KEYS = ("pdop_avail_pct", "hdop_avail_pct", "pdop_mean_3sigma", "hdop
 """Per-month statistics of :func:`life_navigation` (eq. 9-14)."""
 
 _SETTINGS = {"sample_step_s": float, "month_days": float}
+STUDY_KEYS = ("notebook_life_days", "convergence_life_days", "convergence_sats", "validation_life_days",
+              "validation_max_sats_per_plane", "validation_front_designs", "validation_designs")
+"""``[life_evaluation]`` keys read by notebook 08 and :mod:`lnss_lib.studies.design_life` only."""
 
 
 def life_evaluation_settings(profile: dict) -> dict:
     """``sample_step_s`` (DOP sampling over the life, s) and ``month_days`` of ``[life_evaluation]``, checked."""
     section = profile.get("life_evaluation", {})
+    unknown = set(section) - set(_SETTINGS) - set(STUDY_KEYS)
+    if unknown:
+        raise ValueError(f"unknown [life_evaluation] key(s) {sorted(unknown)}; allowed: {sorted(_SETTINGS) + sorted(STUDY_KEYS)}")
     cfg = {}
     for key, kind in _SETTINGS.items():
         if key not in section:

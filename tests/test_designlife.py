@@ -107,3 +107,13 @@ def test_validation_table_ratio_and_rank_correlation(ci_profile):
     ranks_est, ranks_closed = rankdata([0.3, 0.5, 0.9, 1.0]), rankdata([0.1, 0.4, 0.2, 0.8])
     assert stats["spearman_rho"] == pytest.approx(np.corrcoef(ranks_est, ranks_closed)[0, 1])
     assert stats["ratio_median"] == pytest.approx(np.median([3.0, 1.25, 4.5, 1.25]))
+
+
+def test_life_evaluation_settings_are_checked(ci_profile):
+    from lnss_lib.designlife import life_evaluation_settings
+
+    assert life_evaluation_settings(ci_profile)["sample_step_s"] == 900.0
+    with pytest.raises(ValueError, match="unknown"):
+        life_evaluation_settings({**ci_profile, "life_evaluation": {**ci_profile["life_evaluation"], "smaple_step_s": 1}})
+    with pytest.raises(ValueError, match="month_days"):
+        life_evaluation_settings({**ci_profile, "life_evaluation": {**ci_profile["life_evaluation"], "month_days": -1.0}})
