@@ -15,7 +15,7 @@ from .config import allowed_range_text, available_profiles, in_range, load_profi
 from .constants import SECONDS_PER_DAY
 from .errors import ConfigError, ImpactError
 
-BENCHMARKS = ("propagator", "dop", "evaluate", "campaign")
+BENCHMARKS = ("propagator", "dop", "evaluate", "campaign", "design-life", "stability")
 
 
 def _require(flag: str, value, spec: tuple, integer: bool = False):
@@ -103,6 +103,9 @@ def _cmd_propagate(args: argparse.Namespace) -> int:
 def _cmd_evaluate(args: argparse.Namespace) -> int:
     import json
 
+    life = args.design_life_days
+    if life is not None and not (np.isfinite(life) and life > 0):
+        raise ValueError(f"--design-life-days must be a positive number of days; got {life!r}")
     walker = {"--sma-km": args.sma_km, "--ecc": args.ecc, "--aop-deg": args.aop_deg, "--inc-deg": args.inc_deg,
               "--planes": args.planes, "--sats-per-plane": args.sats_per_plane}
     if args.constellation is not None:
@@ -123,6 +126,13 @@ def _cmd_evaluate(args: argparse.Namespace) -> int:
         _check_walker(args)
         result = evaluate_cli(args.profile, args.sma_km, args.ecc, args.aop_deg, args.inc_deg, args.planes,
                               args.sats_per_plane, overrides=_overrides(args))
+    if args.design_life_days is not None:
+        from .designlife import design_life_cli
+
+        result.update(design_life_cli(args.profile, args.design_life_days, constellation=args.constellation,
+                                      constellation_epoch=args.constellation_epoch,
+                                      walker=(args.sma_km, args.ecc, args.aop_deg, args.inc_deg, args.planes,
+                                              args.sats_per_plane), overrides=_overrides(args)))
     if args.json:
         print(json.dumps(result))
     else:
@@ -173,7 +183,7 @@ def _cmd_campaign(args: argparse.Namespace) -> int:
 def _cmd_bench(args: argparse.Namespace) -> int:
     import importlib
 
-    module = importlib.import_module(f"lnss_lib.bench.{args.name}")
+    module = importlib.import_module(f"lnss_lib.bench.{args.name.replace('-', '_')}")
     module.run(profile_name=args.profile)
     return 0
 
@@ -221,6 +231,9 @@ def build_parser() -> argparse.ArgumentParser:
     ev.add_argument("--planes", type=int, help="number of planes Np (RAAN by eq. 42)")
     ev.add_argument("--sats-per-plane", type=int, help="satellites per plane Ns")
     ev.add_argument("--profile", default="quick", help=f"profile in params/ ({', '.join(available_profiles())})")
+    ev.add_argument("--design-life-days", type=float, metavar="D",
+                    help="also fly the design life of D days: closed-loop station keeping, natural drift, DOP "
+                         "over the life, the campaign-grade Delta-V estimate and the stability screen")
     ev.add_argument("--json", action="store_true", help="print one JSON object")
     ev.add_argument("--set", action="append", metavar="SECTION.KEY=VALUE", help=set_help)
     ev.set_defaults(func=_cmd_evaluate)

@@ -4,13 +4,15 @@ Builders take datasets and return ``plotly.graph_objects.Figure``; notebooks cal
 :func:`save_figure`, which writes interactive HTML that opens offline and a PNG when kaleido finds a
 Chromium. One module per topic: :mod:`.charts` (generic lines and bars), :mod:`.propagation`,
 :mod:`.dop` (notebook 02), :mod:`.gps` (03), :mod:`.deltav` (04), :mod:`.campaign` (06),
-:mod:`.pareto` (07), :mod:`.benchmark` (10), and :mod:`.export` (HTML and PNG writing). Figures import only foundations,
+:mod:`.pareto` (07), :mod:`.design_life` (08), :mod:`.benchmark` (10), and :mod:`.export` (HTML and PNG writing). Figures import only foundations,
 :mod:`lnss_lib.outputs`, plotly and numpy: they receive datasets, never run studies or campaigns.
 """
 
 from .benchmark import benchmark_scatter, epoch_sensitivity_lines
 from .campaign import campaign_convergence, campaign_throughput, designs_pdop_deltav
 from .charts import bar_chart, days_since_start, line_chart
+from .design_life import (estimate_vs_closed_loop, integrator_convergence_chart, life_element_histories,
+                          maneuver_timeline, monthly_dop)
 from .deltav import (deltav_elements_and_rates, deltav_sampling, deltav_singularity, deltav_thrust_components,
                      lsq_recovery_series, thrust_history)
 from .dop import DOP_MAP_PANELS, dop_grid_points, dop_polar_maps, dop_time_series, dop_time_series_by_frame
@@ -32,4 +34,6 @@ __all__ = [
     "pareto_3d", "dop_against_availability", "variable_relationships",
     "campaign_convergence", "designs_pdop_deltav", "campaign_throughput",
     "benchmark_scatter", "epoch_sensitivity_lines",
+    "life_element_histories", "maneuver_timeline", "monthly_dop", "estimate_vs_closed_loop",
+    "integrator_convergence_chart",
 ]

@@ -1,0 +1,281 @@
+"""A design judged over its design life (issue 11 items 4 and 6): station keeping, drift and navigation.
+
+:func:`evaluate_design_life` flies the constellation for the design life twice with the full force
+model (:func:`lnss_lib.stationkeeping.simulate_life`, one force model shared by both runs): with
+closed-loop station keeping and with none (natural drift). From the controlled run it reports the
+Delta-V per satellite and year (mean and max), the manoeuvres, whether every box was held and the
+first impact; from the natural run the first impact of the uncontrolled constellation. Navigation
+over the life (:func:`life_navigation`) is the south-pole DOP of eq. 3-14 on positions sampled
+every ``[life_evaluation] sample_step_s`` over the life, with the profile's grid, mask, threshold
+and 3-sigma filter (:func:`lnss_lib.dop.dop_for_profile`, :func:`lnss_lib.dop.summary_from_profile`),
+evaluated one month at a time so memory stays bounded. Beside them, the two cheap predictors of the
+campaign: the geometry-keeping estimate from the 10-day arc (:mod:`lnss_lib.sk_estimate`) and the
+doubly-averaged stability screen for the same life (:mod:`lnss_lib.stability`).
+"""
+
+from __future__ import annotations
+
+import math
+import time
+from collections.abc import Mapping
+
+import numpy as np
+import xarray as xr
+
+from .constants import SECONDS_PER_DAY
+from .dop import dop_for_profile, grid_from_profile, summary_from_profile
+from .ephemeris import ensure_kernels, tdb_seconds
+from .frames import rotate_to_moon_fixed
+from .propagator import elements_deg_to_states, propagate_states
+from .sk_estimate import sk_estimate_from_propagation
+from .stability import screen_states
+from .stationkeeping import LifeSettings, impact_day, life_force_model, simulate_life
+
+__all__ = ["LIFE_KEYS", "NAVIGATION_KEYS", "STUDY_KEYS", "life_evaluation_settings", "run_design_life", "life_metrics",
+           "life_navigation", "life_availability", "short_arc_predictors", "evaluate_design_life", "json_ready",
+           "elements_deg_in_frame", "design_life_cli"]
+
+LIFE_KEYS = ("life_days", "impact_day", "natural_impact_day", "sk_dv_kms_per_year", "sk_dv_max_kms_per_year",
+             "n_maneuvers", "box_held", "pdop_avail_pct_life", "hdop_avail_pct_life", "sk_dv_estimate_kms_per_year",
+             "stable_screen", "screen_min_perilune_alt_km")
+"""Keys :func:`evaluate_design_life` adds to an evaluation (the evaluate CLI's ``--design-life-days``)."""
+
+NAVIGATION_KEYS = ("pdop_avail_pct", "hdop_avail_pct", "pdop_mean_3sigma", "hdop_mean_3sigma", "mean_visible_sats",
+                   "fewer_than_4_pct")
+"""Per-month statistics of :func:`life_navigation` (eq. 9-14)."""
+
+_SETTINGS = {"sample_step_s": float, "month_days": float}
+STUDY_KEYS = ("notebook_life_days", "convergence_life_days", "convergence_sats", "validation_life_days",
+              "validation_max_sats_per_plane", "validation_front_designs", "validation_designs")
+"""``[life_evaluation]`` keys read by notebook 08 and :mod:`lnss_lib.studies.design_life` only."""
+
+
+def life_evaluation_settings(profile: dict) -> dict:
+    """``sample_step_s`` (DOP sampling over the life, s) and ``month_days`` of ``[life_evaluation]``, checked."""
+    section = profile.get("life_evaluation", {})
+    unknown = set(section) - set(_SETTINGS) - set(STUDY_KEYS)
+    if unknown:
+        raise ValueError(f"unknown [life_evaluation] key(s) {sorted(unknown)}; allowed: {sorted(_SETTINGS) + sorted(STUDY_KEYS)}")
+    cfg = {}
+    for key, kind in _SETTINGS.items():
+        if key not in section:
+            raise ValueError(f"[life_evaluation] needs {key!r} (see params/paper.toml)")
+        value = kind(section[key])
+        if not (math.isfinite(value) and value > 0.0):
+            raise ValueError(f"[life_evaluation] {key} = {section[key]!r} must be positive")
+        cfg[key] = value
+    return cfg
+
+
+def _profile_of(context_or_profile):
+    return context_or_profile if isinstance(context_or_profile, Mapping) else context_or_profile.profile
+
+
+def run_design_life(profile: dict, elements_deg, life_days: float | None = None, *, natural: bool = True,
+                    sample_step_s: float | None = None, sample: bool = True) -> dict[str, xr.Dataset]:
+    """The controlled (and, with ``natural``, the natural-drift) life of elements (n, 6) in the element frame.
+
+    Both runs share one force model and sample positions every ``sample_step_s`` (default
+    ``[life_evaluation] sample_step_s``; none with ``sample=False``). Returns ``{"controlled": ds[, "natural": ds]}`` of
+    :func:`lnss_lib.stationkeeping.simulate_life` Datasets.
+    """
+    ensure_kernels(profile)
+    settings = LifeSettings.from_profile(profile, life_days=life_days)
+    step = life_evaluation_settings(profile)["sample_step_s"] if sample_step_s is None else float(sample_step_s)
+    step = step if sample else None
+    t0 = tdb_seconds(profile["epoch"]["start_tdb"], "TDB")
+    model = life_force_model(profile, t0, settings.life_days)
+    runs = {"controlled": simulate_life(profile, elements_deg, settings=settings, model=model, t0_tdb_s=t0,
+                                        sample_step_s=step)}
+    if natural:
+        runs["natural"] = simulate_life(profile, elements_deg, natural=True, settings=settings, model=model,
+                                        t0_tdb_s=t0, sample_step_s=step)
+    return runs
+
+
+def _month_index(sample_day: np.ndarray, month_days: float) -> np.ndarray:
+    """Month (0, 1, ...) of each sample; the last sample (the end of the life) joins the month it closes."""
+    month = np.floor(sample_day / month_days + 1e-9).astype(int)
+    last = max(int(np.ceil(sample_day[-1] / month_days - 1e-9)) - 1, 0)
+    return np.minimum(month, last)
+
+
+def life_navigation(profile: dict, life_ds, *, month_days: float | None = None) -> xr.Dataset:
+    """Month-by-month PDOP/HDOP statistics (eq. 9-14) over the design life, dims (run, month).
+
+    ``life_ds``: one :func:`simulate_life` Dataset sampled with ``sample_step_s`` or a mapping
+    run name -> Dataset (e.g. :func:`run_design_life`'s controlled and natural runs). Every month
+    (``month_days``, default ``[life_evaluation]``) is one :func:`lnss_lib.dop.dop_for_profile` call
+    on that month's samples. Variables :data:`NAVIGATION_KEYS` and ``n_epochs`` (run, month);
+    coordinates ``month_start_day``, ``month_end_day``.
+    """
+    runs = {"life": life_ds} if isinstance(life_ds, xr.Dataset) else dict(life_ds)
+    month_days = life_evaluation_settings(profile)["month_days"] if month_days is None else float(month_days)
+    if not (math.isfinite(month_days) and month_days > 0):
+        raise ValueError(f"month_days = {month_days!r} must be positive")
+    grid = grid_from_profile(profile)
+    first = next(iter(runs.values()))
+    for name, ds in runs.items():
+        if "r_mci_km" not in ds:
+            raise ValueError(f"run {name!r} holds no sampled positions: simulate_life(..., sample_step_s=...)")
+        if not np.array_equal(ds["sample_day"].values, first["sample_day"].values):
+            raise ValueError(f"run {name!r} is sampled on another grid than {next(iter(runs))!r}")
+    day = first["sample_day"].values
+    month = _month_index(day, month_days)
+    n_month = int(month.max()) + 1
+    stats = {key: np.full((len(runs), n_month), np.nan) for key in NAVIGATION_KEYS}
+    n_epochs = np.zeros((len(runs), n_month), dtype=int)
+    t = first["sample_t_tdb_s"].values
+    for m in range(n_month):
+        idx = np.flatnonzero(month == m)
+        for k, ds in enumerate(runs.values()):
+            r_mci = ds["r_mci_km"].transpose("sat", "sample", "xyz").values[:, idx]
+            summary = summary_from_profile(profile, dop_for_profile(profile, rotate_to_moon_fixed(profile, r_mci, t[idx]),
+                                                                    t[idx], grid=grid))
+            for key in NAVIGATION_KEYS:
+                stats[key][k, m] = summary[key]
+            n_epochs[k, m] = idx.size
+    starts = np.array([day[month == m][0] for m in range(n_month)])
+    ends = np.array([day[month == m][-1] for m in range(n_month)])
+    out = xr.Dataset({key: (("run", "month"), value) for key, value in stats.items()},
+                     coords={"run": list(runs), "month": np.arange(n_month), "month_start_day": ("month", starts),
+                             "month_end_day": ("month", ends)},
+                     attrs={"month_days": month_days, "los_axes": profile["dop"]["los_axes"],
+                            "elevation_mask_deg": float(profile["dop"]["elevation_mask_deg"]),
+                            "availability_threshold": float(profile["dop"]["availability_threshold"]),
+                            "filter_sigma": float(profile["dop"]["filter_sigma"]),
+                            "sample_step_s": float(np.median(np.diff(t))) if t.size > 1 else float("nan")})
+    out["n_epochs"] = (("run", "month"), n_epochs)
+    return out
+
+
+def life_availability(nav: xr.Dataset, run: str, key: str) -> float:
+    """Availability (%) over the whole life from :func:`life_navigation`: the month values weighted by epochs.
+
+    Exact for eq. 13-14: every epoch carries the same grid weights, so the whole-life weighted
+    fraction is the epoch-weighted mean of the monthly fractions.
+    """
+    if key not in ("pdop_avail_pct", "hdop_avail_pct", "fewer_than_4_pct"):
+        raise ValueError(f"life_availability combines availability fractions only; got {key!r}")
+    n = nav["n_epochs"].sel(run=run).values
+    return float(np.sum(nav[key].sel(run=run).values * n) / np.sum(n))
+
+
+def _day_or_none(value: float):
+    return None if not np.isfinite(value) else float(value)
+
+
+def life_metrics(runs: Mapping[str, xr.Dataset], nav: xr.Dataset | None = None) -> dict:
+    """Closed-loop and natural-drift summary of :func:`run_design_life` (and :func:`life_navigation`)."""
+    ctl = runs["controlled"]
+    out = {"life_days": float(ctl.attrs["life_days"]), "impact_day": _day_or_none(impact_day(ctl)),
+           "natural_impact_day": _day_or_none(impact_day(runs["natural"])) if "natural" in runs else None,
+           "sk_dv_kms_per_year": float(ctl["dv_kms_per_year"].mean()),
+           "sk_dv_max_kms_per_year": float(ctl["dv_kms_per_year"].max()),
+           "n_maneuvers": int(ctl["n_maneuvers"].sum()), "box_held": bool(ctl["box_held"].all())}
+    if nav is not None:
+        out["pdop_avail_pct_life"] = life_availability(nav, "controlled", "pdop_avail_pct")
+        out["hdop_avail_pct_life"] = life_availability(nav, "controlled", "hdop_avail_pct")
+    return out
+
+
+def short_arc_predictors(context_or_profile, profile: dict, elements: np.ndarray, life_days: float) -> dict:
+    """The campaign-grade estimate on the profile's short arc (NaN if a satellite hits the Moon on it) and the
+    stability screen for ``life_days``: ``sk_dv_estimate_kms_per_year``, ``stable_screen``,
+    ``screen_min_perilune_alt_km``, ``screen_impact_day`` (None when none)."""
+    t0 = tdb_seconds(profile["epoch"]["start_tdb"], "TDB")
+    states = elements_deg_to_states(profile, elements, t0)
+    model = None if isinstance(context_or_profile, Mapping) else context_or_profile.model
+    arc = propagate_states(profile, states, t0, float(profile["epoch"]["duration_days"]) * SECONDS_PER_DAY,
+                           float(profile["epoch"]["step_s"]), batch=True, model=model)
+    estimate = (float("nan") if bool(arc["impact"].any())
+                else sk_estimate_from_propagation(profile, arc)["sk_dv_estimate_kms_per_year"])
+    screen = screen_states(profile, states, t0, life_days=life_days)
+    return {"sk_dv_estimate_kms_per_year": estimate, "stable_screen": bool(screen.attrs["stable"]),
+            "screen_min_perilune_alt_km": float(screen.attrs["min_perilune_alt_km"]),
+            "screen_impact_day": _day_or_none(screen.attrs["impact_day"])}
+
+
+def evaluate_design_life(context_or_profile, elements_deg, life_days: float | None = None, *,
+                         keep: bool = False) -> dict:
+    """:data:`LIFE_KEYS` for elements (n, 6) ``[a_km, e, i, RAAN, AOP, M]`` (deg, the profile's element frame).
+
+    ``context_or_profile``: an :class:`lnss_lib.evaluator.EvaluationContext` (its force model is
+    reused for the short arc) or a profile dict. ``life_days`` defaults to ``[design_life]``.
+    Availabilities are over the whole life with station keeping; ``impact_day`` is the controlled
+    run's first impact, ``natural_impact_day`` the natural drift's (None when none). Also returns
+    ``screen_impact_day`` and ``design_life_wall_s``; with ``keep`` the runs (``"runs"``) and the
+    month-by-month navigation (``"navigation"``) too. Raises ``ValueError`` for invalid elements.
+    """
+    start = time.perf_counter()
+    profile = _profile_of(context_or_profile)
+    elements = np.atleast_2d(np.asarray(elements_deg, dtype=float))
+    settings = LifeSettings.from_profile(profile, life_days=life_days)
+    runs = run_design_life(profile, elements, settings.life_days)
+    nav = life_navigation(profile, runs)
+    result = life_metrics(runs, nav)
+    result.update(short_arc_predictors(context_or_profile, profile, elements, settings.life_days))
+    result = {**{k: result[k] for k in LIFE_KEYS}, "screen_impact_day": result["screen_impact_day"],
+              "design_life_wall_s": time.perf_counter() - start}
+    if keep:
+        result.update(runs=runs, navigation=nav)
+    return result
+
+
+def json_ready(result: dict) -> dict:
+    """``result`` with NaN floats as None and numpy scalars as Python ones (for ``json.dumps``)."""
+    out = {}
+    for key, value in result.items():
+        if isinstance(value, (np.bool_, bool)):
+            out[key] = bool(value)
+        elif isinstance(value, (np.integer, int)):
+            out[key] = int(value)
+        elif isinstance(value, (np.floating, float)):
+            out[key] = None if not math.isfinite(float(value)) else float(value)
+        else:
+            out[key] = value
+    return out
+
+
+def elements_deg_in_frame(profile: dict, states_mci, t0_tdb_s: float) -> np.ndarray:
+    """Osculating ``[a_km, e, i, RAAN, AOP, M]`` (n, 6) (km, deg) of Moon-centred J2000 states in the profile's element frame."""
+    from .elements import state_to_elements
+    from .frames import element_frame_to_j2000
+
+    rot = element_frame_to_j2000(profile, float(t0_tdb_s))
+    s = np.atleast_2d(np.asarray(states_mci, dtype=float))
+    el = state_to_elements(np.concatenate([s[:, :3] @ rot, s[:, 3:] @ rot], axis=1), float(profile["gravity"]["gm_km3_s2"]))
+    return np.column_stack([el[:, :2], np.degrees(el[:, 2:])])
+
+
+def design_life_cli(profile_name: str, life_days: float, *, walker: tuple | None = None,
+                    constellation: str | None = None, constellation_epoch: str = "study",
+                    overrides: dict | None = None) -> dict:
+    """:data:`LIFE_KEYS` for the evaluate CLI: a Walker design ``(sma_km, ecc, aop_deg, inc_deg, n_planes,
+    sats_per_plane)`` or a catalogue constellation (its states at the evaluation epoch, as elements in the
+    profile's element frame). NaN becomes None. An invalid Walker design (the evaluation says why) gives
+    every key None."""
+    from .config import load_profile
+    from .constellation import WalkerDesign
+    from .evaluator import context_for
+
+    if not (isinstance(life_days, (int, float)) and math.isfinite(life_days) and life_days > 0):
+        raise ValueError(f"--design-life-days must be a positive number of days; got {life_days!r}")
+    profile = load_profile(profile_name, overrides=overrides)
+    if constellation is not None:
+        from .catalogue import constellation_states_mci, file_epoch_profile, load_constellation
+
+        c = load_constellation(constellation, profile)
+        if constellation_epoch == "file":
+            profile = file_epoch_profile(profile, c)
+        states = constellation_states_mci(profile, c, constellation_epoch)
+        elements = elements_deg_in_frame(profile, states.states_mci, states.t_epoch_tdb_s)
+    else:
+        sma_km, ecc, aop_deg, inc_deg, n_planes, sats_per_plane = walker
+        try:
+            elements = WalkerDesign(sma_km, ecc, inc_deg, aop_deg, n_planes, sats_per_plane).elements_deg()
+            elements_deg_to_states(profile, elements, tdb_seconds(profile["epoch"]["start_tdb"], "TDB"))
+        except ValueError:
+            return {key: None for key in LIFE_KEYS}
+    result = evaluate_design_life(context_for(profile), elements, float(life_days))
+    return json_ready({key: result[key] for key in LIFE_KEYS})
