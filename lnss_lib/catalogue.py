@@ -385,7 +385,7 @@ def evaluate_catalogue(context, c: CatalogueConstellation, epoch: str = "study")
 def evaluate_catalogue_cli(profile_name: str, name_or_path: str, epoch: str = "study", overrides: dict | None = None) -> dict:
     """:func:`evaluate_catalogue` under a named profile with the evaluate CLI's JSON keys plus the labels.
 
-    The keys are ``RESULT_KEYS`` and ``reason`` followed by ``name``, ``approximate``, ``element_frame``,
+    The keys are ``RESULT_KEYS`` (``reason`` among them) followed by ``name``, ``approximate``, ``element_frame``,
     ``epoch_used`` and ``epoch_source``; NaN becomes None (JSON null).
     """
     from .evaluator import context_for
@@ -397,4 +397,4 @@ def evaluate_catalogue_cli(profile_name: str, name_or_path: str, epoch: str = "s
         profile = file_epoch_profile(profile, c)
     result = evaluate_catalogue(context_for(profile), c, epoch)
     return {key: (None if isinstance(result[key], float) and math.isnan(result[key]) else result[key])
-            for key in RESULT_KEYS + ("reason",) + EXTRA_RESULT_KEYS}
+            for key in RESULT_KEYS + EXTRA_RESULT_KEYS}

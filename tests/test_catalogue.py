@@ -136,7 +136,7 @@ def test_user_file_and_walker_design_give_identical_metrics(ci_context, tmp_path
 
 def test_cli_function_returns_the_evaluate_keys_plus_labels():
     result = evaluate_catalogue_cli("ci", "ely2005_elfo_3sat")
-    assert list(result) == list(RESULT_KEYS + ("reason",) + EXTRA_RESULT_KEYS)
+    assert list(result) == list(RESULT_KEYS + EXTRA_RESULT_KEYS)
     assert result["name"] == "ely2005_elfo_3sat" and result["element_frame"] == "moon_op" and result["n_sat"] == 3
     assert result["epoch_used"].startswith("2025-05-01T00:00:00") and "2009-07-15T01:00:00 TDB" in result["epoch_source"]
     assert result["feasible"] and 0.0 < result["mean_visible_sats"] <= 3.0

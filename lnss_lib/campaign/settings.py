@@ -27,7 +27,7 @@ CAMPAIGN_ONLY_KEYS = ("population", "generations", "crossover_prob", "crossover_
                       "companion_profile", "notebook_mode")
 
 
-PRESENTATION_SECTIONS = ("notebooks", "benchmark")   # read by notebooks only, never by an evaluation
+NON_EVALUATION_SECTIONS = ("notebooks", "benchmark", "life_evaluation", "design_life")   # never read by a 10-day evaluation
 
 
 @dataclass(frozen=True)
@@ -159,11 +159,11 @@ def evaluation_hash(profile: dict) -> str:
 
     :func:`~lnss_lib.config.profile_hash` of the profile without the campaign-only keys
     (``CAMPAIGN_ONLY_KEYS``: population, objectives, constraints, seed, ...) and without the sections
-    that only shape notebooks (``PRESENTATION_SECTIONS``); the grid
+    that a 10-day evaluation never reads (``NON_EVALUATION_SECTIONS``: notebooks, design life); the grid
     (``campaign.variables``), ``campaign.overrides`` and ``campaign.evaluator`` stay in.
     """
     CampaignSettings.from_profile(profile)
-    content = {k: copy.deepcopy(v) for k, v in profile.items() if k not in PRESENTATION_SECTIONS}
+    content = {k: copy.deepcopy(v) for k, v in profile.items() if k not in NON_EVALUATION_SECTIONS}
     for key in CAMPAIGN_ONLY_KEYS:
         content["campaign"].pop(key, None)
     return profile_hash(content)

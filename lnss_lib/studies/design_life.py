@@ -125,7 +125,7 @@ def validation_table(rows: list[dict]) -> pd.DataFrame:
     """Rows of :func:`validate_design` as a table, with the estimate / closed-loop ratio and the screen's call.
 
     ``ratio`` is NaN where the closed loop lost a satellite (its Delta-V then covers a shorter
-    life) or the estimate is undefined; ``screen_call``: ``agree``, ``missed impact`` (screen stable,
+    life), flew no manoeuvre in the span (zero Delta-V) or the estimate is undefined; ``screen_call``: ``agree``, ``missed impact`` (screen stable,
     natural drift hits the Moon) or ``false alarm`` (screen unstable, natural drift survives).
     """
     table = pd.DataFrame(rows)
