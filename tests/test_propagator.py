@@ -103,8 +103,8 @@ def test_force_model_matches_reference_implementation(paper_profile, epoch_tdb_s
     for k in range(len(times)):
         expected = ref.acceleration(times[k], states[k, :3], states[k, 3:])
         perturbation = np.linalg.norm(total[k] - terms["central"][k])
-        rounding = 1e-14 * np.linalg.norm(terms["central"][k])   # summation order: a few ulp of the total
-        assert np.linalg.norm(total[k] - expected) < 1e-8 * perturbation + rounding
+        table_floor = 1e-15          # km/s^2: Hermite tables vs direct SPICE (at most 6e-16, validation.table_interpolation_errors)
+        assert np.linalg.norm(total[k] - expected) < 1e-8 * perturbation + table_floor
 
 
 def test_force_terms_have_expected_sizes(paper_profile, epoch_tdb_s):
