@@ -84,7 +84,10 @@ def analyse_constellation(context: EvaluationContext, elements_deg) -> dict:
     return _analyse_states(context, elements, elements_deg_to_states(context.profile, elements, context.t0_tdb_s))
 
 
-def _analyse_states(context: EvaluationContext, elements: np.ndarray, states: np.ndarray) -> dict:
+def _analyse_states(context: EvaluationContext, elements: np.ndarray, states: np.ndarray,
+                    datasets: bool = True) -> dict:
+    """Propagation and metrics; without ``datasets`` the DOP grid takes the compiled path
+    (:func:`lnss_lib.dop.metrics_from_profile`, no grid Dataset; same metrics to ~1e-12 relative)."""
     start = time.perf_counter()
     profile = context.profile
     times = context.times
@@ -100,8 +103,11 @@ def _analyse_states(context: EvaluationContext, elements: np.ndarray, states: np
     ds["elements_deg"] = (("sat", "element"), elements)
     clock.append(time.perf_counter())
     r_mf = rotate_with(context.rot_to_moon_fixed, ds.r_mci_km.values)
-    grid_ds = dop.dop_for_profile(profile, r_mf, times, grid=context.grid)
-    dop_stats = dop.summary_from_profile(profile, grid_ds)
+    if datasets:
+        grid_ds = dop.dop_for_profile(profile, r_mf, times, grid=context.grid)
+        dop_stats = dop.summary_from_profile(profile, grid_ds)
+    else:
+        grid_ds, dop_stats = None, dop.metrics_from_profile(profile, r_mf, context.grid)
     clock.append(time.perf_counter())
     dv = deltav.deltav_from_propagation(profile, ds, sat=0)
     clock.append(time.perf_counter())
@@ -146,7 +152,7 @@ def evaluate_constellation(context: EvaluationContext, elements_deg) -> dict:
     except ValueError as error:
         return _infeasible(n_sat, f"invalid elements: {error}", model_name, start)
     try:
-        return _analyse_states(context, elements, states)["metrics"]
+        return _analyse_states(context, elements, states, datasets=False)["metrics"]
     except ImpactError as error:
         return _infeasible(n_sat, str(error), model_name, start)
 
