@@ -11,7 +11,7 @@ import numpy as np
 from .config import available_profiles, load_profile
 from .constants import SECONDS_PER_DAY
 
-BENCHMARKS = ("propagator", "dop", "evaluate", "campaign")
+BENCHMARKS = ("propagator", "dop", "evaluate", "campaign", "integrator")
 
 
 def _cmd_reproduce(args: argparse.Namespace) -> int:
