@@ -86,8 +86,9 @@ def analyse_constellation(context: EvaluationContext, elements_deg) -> dict:
 
 def _analyse_states(context: EvaluationContext, elements: np.ndarray, states: np.ndarray,
                     datasets: bool = True) -> dict:
-    """Propagation and metrics; without ``datasets`` the DOP grid takes the compiled path
-    (:func:`lnss_lib.dop.metrics_from_profile`, no grid Dataset; same metrics to ~1e-12 relative)."""
+    """Propagation and metrics; without ``datasets`` the campaign's path: no grid or link Dataset, the DOP
+    grid compiled (:func:`lnss_lib.dop.metrics_from_profile`, same metrics to ~1e-12 relative) and the
+    GPS link from arrays (:func:`lnss_lib.gps.gps_link_metrics`, bit for bit)."""
     start = time.perf_counter()
     profile = context.profile
     times = context.times
@@ -111,8 +112,11 @@ def _analyse_states(context: EvaluationContext, elements: np.ndarray, states: np
     clock.append(time.perf_counter())
     dv = deltav.deltav_from_propagation(profile, ds, sat=0)
     clock.append(time.perf_counter())
-    link = gps.gps_link(profile, context.gps_states, ds, sats="first")
-    link_stats = gps.gps_link_summary(link)
+    if datasets:
+        link = gps.gps_link(profile, context.gps_states, ds, sats="first")
+        link_stats = gps.gps_link_summary(link)
+    else:
+        link, link_stats = None, gps.gps_link_metrics(profile, context.gps_states, ds["r_mci_km"].values)
     clock.append(time.perf_counter())
     metrics = {
         "n_sat": int(elements.shape[0]),
