@@ -16,6 +16,7 @@ import tempfile
 import time
 from pathlib import Path
 
+import numba
 import numpy as np
 
 from ..config import PARAMS_DIR, load_profile
@@ -85,23 +86,69 @@ def _greedy_makespan(durations: np.ndarray, n_workers: int, dispatch_s: float) -
 
 
 def _busy_fraction(durations: np.ndarray, n_workers: int, dispatch_s: float, fixed_s: float) -> float:
+    """Share of worker time spent in tasks when ``durations`` run as one generation (list scheduling)."""
     return float(durations.sum() / (n_workers * (_greedy_makespan(durations, n_workers, dispatch_s) + fixed_s)))
+
+
+def busy_model(records: list[dict], overhead: dict) -> dict:
+    """Largest worker count keeping workers >= 90% busy on a generation of 120 designs drawn from ``records``
+    (task times of a real campaign), with designs as tasks and with satellites as tasks, each handed out
+    longest first, for a dispatch cost per task equal to the smallest and to the largest measured campaign
+    overhead per design."""
+    records = [r for r in records if r["task_wall_s"] > 0.0 and r["timing_s"]]
+    durations = np.array([r["task_wall_s"] for r in records])
+    n_sat = np.array([max(int(r["metrics"]["n_sat"]), 1) for r in records])
+    propagation = np.array([r["timing_s"].get("propagation", 0.0) for r in records])
+    rng = np.random.default_rng(0)
+    picks = [rng.integers(0, len(records), 120) for _ in range(10)]
+    counts = [w for w in range(2, 2401) if w <= 128 or w % 32 == 0]
+
+    def designs_as_tasks(w, dispatch):
+        return float(np.mean([_busy_fraction(np.sort(durations[i])[::-1], w, dispatch, 0.0) for i in picks]))
+
+    def satellites_as_tasks(w, dispatch):
+        """Propagation split into one task per satellite, then one metrics task per design (two phases)."""
+        fractions = []
+        for i in picks:
+            sat_tasks = np.sort(np.repeat(propagation[i] / n_sat[i], n_sat[i]))[::-1]
+            wall = _greedy_makespan(sat_tasks, w, dispatch) + _greedy_makespan(
+                np.sort(durations[i] - propagation[i])[::-1], w, dispatch)
+            fractions.append(durations[i].sum() / (w * wall))
+        return float(np.mean(fractions))
+
+    print(f"  real evaluations here: mean {durations.mean():.2f} s, 95th percentile {np.percentile(durations, 95):.2f} s, "
+          f"max {durations.max():.2f} s per design, propagation {100 * propagation.sum() / durations.sum():.0f}% of "
+          f"task time")
+    out = {}
+    for dispatch in sorted({min(overhead.values()), max(overhead.values())}):
+        for label, model in (("designs as tasks", designs_as_tasks), ("satellites as tasks", satellites_as_tasks)):
+            busy = {w: model(w, dispatch) for w in counts}
+            best = max((w for w in counts if busy[w] >= 0.9), default=1)
+            out[f"max_workers_90pct_{label.split()[0]}_{1e3 * dispatch:.1f}ms"] = best
+            print(f"  {label:19s}, {1e3 * dispatch:5.1f} ms per task: >= 90% busy up to {best} workers (busy at 8: "
+                  f"{100 * busy[8]:.0f}%, 32: {100 * busy[32]:.0f}%, 64: {100 * busy[64]:.0f}%, 128: {100 * busy[128]:.0f}%)")
+    return out
 
 
 def scaling(profile_name: str = "paper", reference: dict | None = None) -> dict:
     """Print local scaling, loopback-cluster overhead per design and the 90%-busy worker count."""
     out = {}
     rates = {}
+    threads = numba.get_num_threads()
     for workers in (1, 2):
-        run = _short_campaign(profile_name, 16, 4, workers)
+        numba.set_num_threads(1)                     # one core per worker, as in a Dask worker process
+        try:
+            run = _short_campaign(profile_name, 16, 4, workers)
+        finally:
+            numba.set_num_threads(threads)
         rates[workers] = steady_rate(run["history"], run["timing"]["n_evaluations"], run["wall_s"])
     out["designs_per_s"] = rates
-    print(f"scaling [{profile_name}], 16 x 4 generations: {rates[1]:.2f} designs/s on 1 worker (in-process), "
+    print(f"scaling [{profile_name}], 16 x 4 generations: {rates[1]:.2f} designs/s on 1 worker (in-process, 1 thread), "
           f"{rates[2]:.2f} on 2 (Dask): efficiency {100 * rates[2] / (2 * rates[1]):.0f}%")
     overhead = {}
     for workers in SCALING_WORKERS:
         start = time.perf_counter()
-        run = _short_campaign(profile_name, 120, 3, workers, {"campaign": {"evaluator": "synthetic",
+        run = _short_campaign(profile_name, 120, 2, workers, {"campaign": {"evaluator": "synthetic",
                                                                            "synthetic_delay_s": SCALING_DELAY_S}})
         later = [h for h in run["history"] if h["generation"] > 1]
         n = sum(h["n_evaluated"] for h in later)
@@ -115,19 +162,8 @@ def scaling(profile_name: str = "paper", reference: dict | None = None) -> dict:
               f"{1e3 * excess:.1f} ms per design, workers busy {100 * busy:.0f}% (run incl. start-up "
               f"{time.perf_counter() - start:.0f} s)")
     out["overhead_s_per_design"] = overhead
-    dispatch = max(overhead.values())
     records = (reference or {}).get("records") or _short_campaign(profile_name, 32, 2, None)["records"]
-    durations = np.array([r["task_wall_s"] for r in records if r["task_wall_s"] > 0.0])
-    rng = np.random.default_rng(0)
-    samples = [rng.choice(durations, 120) for _ in range(20)]
-    counts = list(range(2, 241))
-    busy = {w: float(np.mean([_busy_fraction(s, w, dispatch, 0.0) for s in samples])) for w in counts}
-    best = max((w for w in counts if busy[w] >= 0.9), default=1)
-    print(f"  real evaluations (this machine): mean {durations.mean():.2f} s, 95th percentile "
-          f"{np.percentile(durations, 95):.2f} s, max {durations.max():.2f} s per design; with the worst overhead "
-          f"above ({1e3 * dispatch:.1f} ms per design) a generation of 120 designs keeps workers >= 90% busy up to "
-          f"{best} workers (busy at 32: {100 * busy[32]:.0f}%, 64: {100 * busy[64]:.0f}%, 120: {100 * busy[120]:.0f}%)")
-    out["max_workers_90pct"] = best
+    out.update(busy_model(records, overhead))
     return out
 
 
