@@ -15,7 +15,7 @@ from .config import allowed_range_text, available_profiles, in_range, load_profi
 from .constants import SECONDS_PER_DAY
 from .errors import ConfigError, ImpactError
 
-BENCHMARKS = ("propagator", "dop", "evaluate", "campaign", "design-life", "stability")
+BENCHMARKS = ("propagator", "dop", "evaluate", "campaign", "integrator", "design-life", "stability")
 
 
 def _require(flag: str, value, spec: tuple, integer: bool = False):
@@ -184,7 +184,9 @@ def _cmd_bench(args: argparse.Namespace) -> int:
     import importlib
 
     module = importlib.import_module(f"lnss_lib.bench.{args.name.replace('-', '_')}")
-    module.run(profile_name=args.profile)
+    if args.scaling and args.name != "campaign":
+        raise SystemExit("--scaling applies to 'bench campaign' only")
+    module.run(profile_name=args.profile, **({"scaling_run": True} if args.scaling else {}))
     return 0
 
 
@@ -255,6 +257,7 @@ def build_parser() -> argparse.ArgumentParser:
     bench = sub.add_parser("bench", help="benchmarks that print numbers")
     bench.add_argument("name", choices=BENCHMARKS)
     bench.add_argument("--profile", default="paper")
+    bench.add_argument("--scaling", action="store_true", help="campaign: local scaling and loopback-cluster overhead")
     bench.set_defaults(func=_cmd_bench)
     return parser
 

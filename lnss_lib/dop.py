@@ -24,15 +24,18 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
+import numba as nb
 import numpy as np
 import xarray as xr
 
 from .constants import MIN_VISIBLE
 from .frames import rotate_to_moon_fixed
-from .geometry import availability_pct, normal_matrix_entries, position_block_inverse, sigma_filtered_mean
+from .geometry import (availability_pct, block_inverse, normal_matrix_entries, position_block_inverse, sigma_filtered_mean,
+                       weighted_dop_stats)
 
 __all__ = ["LOS_AXES", "WEIGHTINGS", "SurfaceGrid", "surface_grid", "grid_from_profile", "elevation_deg", "dop_kernel",
-           "check_positions", "dop_grid", "dop_summary", "dop_for_profile", "dop_from_propagation", "summary_from_profile"]
+           "check_positions", "dop_arrays", "dop_metrics", "metrics_from_profile", "dop_grid", "dop_summary",
+           "dop_for_profile", "dop_from_propagation", "summary_from_profile"]
 
 LOS_AXES = ("moon_fixed", "enu")
 WEIGHTINGS = ("none", "cos_lat", "cell_area")
@@ -205,6 +208,152 @@ def dop_kernel(r_mf_km: np.ndarray, r_grid_km: np.ndarray, up: np.ndarray, eleva
         pdop[t0:t1] = np.where(enough, np.where(ok, np.sqrt(np.maximum(trace, 0.0)), np.inf), np.nan)
         hdop[t0:t1] = np.where(enough, np.where(ok, np.sqrt(np.maximum(horizontal, 0.0)), np.inf), np.nan)
     return n_visible, pdop, hdop
+
+
+@nb.njit(cache=True)
+def _grid_kernel(r, gx, gy, gz, ux, uy, uz, sin_mask, enu, n_visible, pdop, hdop):
+    """:func:`dop_kernel`'s arithmetic on ``r`` (time, sat, 3), one epoch at a time: lines of sight and
+    visibility (sat, point), the centred normal matrix in two passes weighted by visibility (as
+    :func:`lnss_lib.geometry.normal_matrix_entries`) and its inverse
+    (:func:`lnss_lib.geometry.block_inverse`); the loops over points are independent and vectorise.
+    """
+    ntime, nsat, _ = r.shape
+    npt = gx.shape[0]
+    lx = np.empty((nsat, npt))
+    ly = np.empty((nsat, npt))
+    lz = np.empty((nsat, npt))
+    wv = np.empty((nsat, npt))
+    count = np.empty(npt)
+    mx = np.empty(npt)
+    my = np.empty(npt)
+    mz = np.empty(npt)
+    s = np.empty((6, npt))
+    for t in range(ntime):
+        count[:] = 0.0
+        mx[:] = 0.0
+        my[:] = 0.0
+        mz[:] = 0.0
+        for k in range(nsat):
+            rx, ry, rz = r[t, k, 0], r[t, k, 1], r[t, k, 2]
+            lxk, lyk, lzk, wk = lx[k], ly[k], lz[k], wv[k]
+            for p in range(npt):
+                dx = rx - gx[p]
+                dy = ry - gy[p]
+                dz = rz - gz[p]
+                inv_rho = 1.0 / max(np.sqrt(dx * dx + dy * dy + dz * dz), 1e-9)
+                dx *= inv_rho
+                dy *= inv_rho
+                dz *= inv_rho
+                w = 1.0 if dx * ux[p] + dy * uy[p] + dz * uz[p] >= sin_mask else 0.0
+                lxk[p] = dx
+                lyk[p] = dy
+                lzk[p] = dz
+                wk[p] = w
+                count[p] += w
+                mx[p] += w * dx
+                my[p] += w * dy
+                mz[p] += w * dz
+        for p in range(npt):
+            inv = 1.0 / max(count[p], 1.0)
+            mx[p] *= inv
+            my[p] *= inv
+            mz[p] *= inv
+        s[:, :] = 0.0
+        for k in range(nsat):
+            lxk, lyk, lzk, wk = lx[k], ly[k], lz[k], wv[k]
+            for p in range(npt):
+                x = (lxk[p] - mx[p]) * wk[p]
+                y = (lyk[p] - my[p]) * wk[p]
+                z = (lzk[p] - mz[p]) * wk[p]
+                s[0, p] += x * x
+                s[1, p] += y * y
+                s[2, p] += z * z
+                s[3, p] += x * y
+                s[4, p] += x * z
+                s[5, p] += y * z
+        for p in range(npt):
+            n = count[p]
+            n_visible[t, p] = int(n)
+            if n < MIN_VISIBLE:
+                pdop[t, p] = np.nan
+                hdop[t, p] = np.nan
+                continue
+            ixx, iyy, izz, ixy, ixz, iyz, ok = block_inverse(s[0, p], s[1, p], s[2, p], s[3, p], s[4, p], s[5, p])
+            if not ok:
+                pdop[t, p] = np.inf
+                hdop[t, p] = np.inf
+                continue
+            trace = ixx + iyy + izz
+            if enu:
+                vertical = (ux[p] * ux[p] * ixx + uy[p] * uy[p] * iyy + uz[p] * uz[p] * izz
+                            + 2.0 * (ux[p] * uy[p] * ixy + ux[p] * uz[p] * ixz + uy[p] * uz[p] * iyz))
+                horizontal = trace - vertical
+            else:
+                horizontal = ixx + iyy
+            pdop[t, p] = np.sqrt(max(trace, 0.0))
+            hdop[t, p] = np.sqrt(max(horizontal, 0.0))
+
+
+def dop_arrays(r_mf_km, r_grid_km, up, elevation_mask_deg: float = 5.0,
+               los_axes: str = "moon_fixed") -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """:func:`dop_kernel`'s (n_visible, pdop, hdop), each (time, npoint), from one compiled pass.
+
+    Same conventions and inputs as :func:`dop_kernel`; the results agree with it to rounding (the
+    visible lines of sight are summed in the same order; ``tests/test_dop.py`` checks the agreement).
+    """
+    if los_axes not in LOS_AXES:
+        raise ValueError(f"unknown line-of-sight axes {los_axes!r}; allowed: {', '.join(LOS_AXES)}")
+    if not np.isfinite(elevation_mask_deg) or not -90.0 <= elevation_mask_deg < 90.0:
+        raise ValueError(f"elevation mask must be in [-90, 90) deg; got {elevation_mask_deg!r}")
+    r = check_positions(r_mf_km)
+    r = np.ascontiguousarray(np.where(np.isfinite(r).all(axis=-1, keepdims=True), r, 0.0).transpose(1, 0, 2))
+    g = np.asarray(r_grid_km, dtype=float).reshape(-1, 3)
+    u = np.asarray(up, dtype=float).reshape(-1, 3)
+    ntime, npt = r.shape[0], g.shape[0]
+    n_visible = np.empty((ntime, npt), dtype=np.int16)
+    pdop = np.empty((ntime, npt))
+    hdop = np.empty((ntime, npt))
+    _grid_kernel(r, *(np.ascontiguousarray(g[:, k]) for k in range(3)), *(np.ascontiguousarray(u[:, k]) for k in range(3)),
+                 float(np.sin(np.radians(elevation_mask_deg))), los_axes == "enu", n_visible, pdop, hdop)
+    return n_visible, pdop, hdop
+
+
+def dop_metrics(r_mf_km, grid: SurfaceGrid, *, elevation_mask_deg: float = 5.0, los_axes: str = "moon_fixed",
+                threshold: float = 15.0, n_sigma: float = 3.0, weighted: bool = True) -> dict[str, float]:
+    """:func:`dop_summary` of :func:`dop_grid` without the Dataset: the campaign's path (compiled grid
+    pass :func:`dop_arrays` and compiled statistics :func:`lnss_lib.geometry.weighted_dop_stats`).
+
+    Same keys; agrees with ``dop_summary(dop_grid(...))`` to summation rounding (~1e-13 relative).
+    """
+    n_visible, pdop, hdop = dop_arrays(r_mf_km, grid.r_mf_km, grid.up, elevation_mask_deg, los_axes)
+    w = grid.weight.reshape(-1) if weighted else np.ones(grid.n_points)
+    w_total = float(np.sum(w)) * pdop.shape[0]
+    p_mean, p_kept, p_raw, p_avail = weighted_dop_stats(pdop, w, float(n_sigma), float(threshold))
+    h_mean, h_kept, h_raw, h_avail = weighted_dop_stats(hdop, w, float(n_sigma), float(threshold))
+    with np.errstate(invalid="ignore"):
+        both = (pdop < threshold) & (hdop < threshold)
+    return {
+        "mean_visible_sats": float(np.sum(n_visible @ w) / w_total),
+        "pdop_mean_3sigma": float(p_mean),
+        "hdop_mean_3sigma": float(h_mean),
+        "pdop_mean_raw": float(p_raw),
+        "hdop_mean_raw": float(h_raw),
+        "pdop_avail_pct": float(p_avail),
+        "hdop_avail_pct": float(h_avail),
+        "availability_pct": min(100.0, float(100.0 * np.sum(both @ w) / w_total)),
+        "fewer_than_4_pct": float(100.0 * np.sum((n_visible < MIN_VISIBLE) @ w) / w_total),
+        "n_samples": int(pdop.size),
+        "pdop_kept": int(p_kept),
+        "hdop_kept": int(h_kept),
+    }
+
+
+def metrics_from_profile(profile: dict, r_mf_km, grid: SurfaceGrid | None = None) -> dict[str, float]:
+    """:func:`dop_metrics` with the grid, mask, LOS axes, threshold and filter width of ``profile["dop"]``."""
+    cfg = profile["dop"]
+    return dop_metrics(r_mf_km, grid or grid_from_profile(profile), elevation_mask_deg=float(cfg["elevation_mask_deg"]),
+                       los_axes=cfg["los_axes"], threshold=float(cfg["availability_threshold"]),
+                       n_sigma=float(cfg["filter_sigma"]))
 
 
 def dop_grid(r_mf_km, grid: SurfaceGrid, *, t_tdb_s=None, elevation_mask_deg: float = 5.0,

@@ -101,7 +101,11 @@ def analyse_constellation(context: EvaluationContext, elements_deg) -> dict:
     return _analyse_states(context, elements, elements_deg_to_states(context.profile, elements, context.t0_tdb_s))
 
 
-def _analyse_states(context: EvaluationContext, elements: np.ndarray, states: np.ndarray) -> dict:
+def _analyse_states(context: EvaluationContext, elements: np.ndarray, states: np.ndarray,
+                    datasets: bool = True) -> dict:
+    """Propagation and metrics; without ``datasets`` the campaign's path: no grid or link Dataset, the DOP
+    grid compiled (:func:`lnss_lib.dop.metrics_from_profile`, same metrics to ~1e-12 relative) and the
+    GPS link from arrays (:func:`lnss_lib.gps.gps_link_metrics`, bit for bit)."""
     start = time.perf_counter()
     profile = context.profile
     times = context.times
@@ -117,14 +121,20 @@ def _analyse_states(context: EvaluationContext, elements: np.ndarray, states: np
     ds["elements_deg"] = (("sat", "element"), elements)
     clock.append(time.perf_counter())
     r_mf = rotate_with(context.rot_to_moon_fixed, ds.r_mci_km.values)
-    grid_ds = dop.dop_for_profile(profile, r_mf, times, grid=context.grid)
-    dop_stats = dop.summary_from_profile(profile, grid_ds)
+    if datasets:
+        grid_ds = dop.dop_for_profile(profile, r_mf, times, grid=context.grid)
+        dop_stats = dop.summary_from_profile(profile, grid_ds)
+    else:
+        grid_ds, dop_stats = None, dop.metrics_from_profile(profile, r_mf, context.grid)
     clock.append(time.perf_counter())
     dv = deltav.deltav_from_propagation(profile, ds, sat=0)
     dv_budget = _design_deltav(profile, ds, dv)
     clock.append(time.perf_counter())
-    link = gps.gps_link(profile, context.gps_states, ds, sats="first")
-    link_stats = gps.gps_link_summary(link)
+    if datasets:
+        link = gps.gps_link(profile, context.gps_states, ds, sats="first")
+        link_stats = gps.gps_link_summary(link)
+    else:
+        link, link_stats = None, gps.gps_link_metrics(profile, context.gps_states, ds["r_mci_km"].values)
     clock.append(time.perf_counter())
     extras = _operational_metrics(context, ds, states, dv_budget)
     clock.append(time.perf_counter())
@@ -205,7 +215,7 @@ def evaluate_constellation(context: EvaluationContext, elements_deg) -> dict:
     except ValueError as error:
         return _infeasible(n_sat, f"invalid elements: {error}", model_name, start, context.extra_metrics)
     try:
-        return _analyse_states(context, elements, states)["metrics"]
+        return _analyse_states(context, elements, states, datasets=False)["metrics"]
     except ImpactError as error:
         return _infeasible(n_sat, str(error), model_name, start, context.extra_metrics)
 

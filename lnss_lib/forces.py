@@ -17,7 +17,7 @@ import numpy as np
 
 from .ephemeris import EphemerisTable, hermite_cubic
 from .errors import ConfigError
-from .gravity import GravityField, harmonic_acceleration
+from .gravity import GravityField, harmonic_acceleration, truncation_degree
 
 __all__ = ["BODY_ORDER", "SCRATCH_SIZE", "TERMS", "ForceModel", "shadow_factor", "acceleration_terms",
            "acceleration", "acceleration_breakdown"]
@@ -27,8 +27,8 @@ SCRATCH_SIZE = 24
 TERMS = ("central", "harmonics", "SUN", "EARTH", "JUPITER", "srp", "relativity", "albedo")
 
 # indices into the scalar parameter vector of the kernels
-GM, R_REF, R_MOON, R_EARTH, R_SUN, AU, C_LIGHT, SRP_K, ALBEDO, SOLAR_P = range(10)
-SCALAR_NAMES = ("gm", "r_ref", "r_moon", "r_earth", "r_sun", "au", "c_light", "srp_k", "albedo", "solar_p")
+GM, R_REF, R_MOON, R_EARTH, R_SUN, AU, C_LIGHT, SRP_K, ALBEDO, SOLAR_P, GRAV_TRUNC = range(11)
+SCALAR_NAMES = ("gm", "r_ref", "r_moon", "r_earth", "r_sun", "au", "c_light", "srp_k", "albedo", "solar_p", "grav_trunc_kms2")
 # indices into the flag vector
 F_HARMONICS, F_SUN, F_EARTH, F_JUPITER, F_SRP, F_SHADOW, F_REL, F_ALBEDO = range(8)
 
@@ -61,7 +61,7 @@ class ForceModel:
             raise ConfigError(f"gravity field {profile['gravity']['file']} holds non-finite coefficients",
                               key="gravity.file")
         solar_pressure_n_m2 = forces["solar_flux_w_m2"] / (const["c_km_s"] * 1e3)
-        scalars = np.zeros(10)
+        scalars = np.zeros(11)
         scalars[GM] = field.gm_km3_s2
         scalars[R_REF] = field.r_ref_km
         scalars[R_MOON] = const["r_moon_mean_km"]
@@ -72,6 +72,7 @@ class ForceModel:
         scalars[SRP_K] = solar_pressure_n_m2 * srp_cr_area_mass_m2_kg * 1e-3  # km/s^2 at 1 au
         scalars[ALBEDO] = forces["earth_albedo"]
         scalars[SOLAR_P] = solar_pressure_n_m2
+        scalars[GRAV_TRUNC] = field.truncation_kms2   # per-evaluation degree truncation (gravity.truncation_degree)
         if not np.all(np.isfinite(scalars)):
             raise ConfigError(f"force model constants must be finite; got {dict(zip(SCALAR_NAMES, scalars))}")
         unknown = set(forces["third_bodies"]) - set(BODY_ORDER)
@@ -101,7 +102,8 @@ class ForceModel:
     def describe(self) -> str:
         """One line naming the active terms, for dataset attributes."""
         f = self.flags
-        parts = [f"gravity AIUB-GRL350B {self.field.degree}x{self.field.degree} (MOON_PA)"]
+        parts = [f"gravity AIUB-GRL350B {self.field.degree}x{self.field.degree} (MOON_PA)"
+                 + (f", degrees dropped below {self.field.truncation_kms2:g} km/s^2" if self.field.truncation_kms2 else "")]
         parts += [b for b, k in zip(BODY_ORDER, (F_SUN, F_EARTH, F_JUPITER)) if f[k]]
         if f[F_SRP]:
             parts.append("SRP" + (" with conical shadow" if f[F_SHADOW] else ""))
@@ -176,7 +178,8 @@ def acceleration_terms(t: float, y: np.ndarray, args: tuple, work: np.ndarray, s
         hermite_cubic(rot_pa, rot_pa_rate, t0dt[0], t0dt[1], t, buf)
         for i in range(3):
             r_bf[i] = buf[3 * i] * r[0] + buf[3 * i + 1] * r[1] + buf[3 * i + 2] * r[2]
-        harmonic_acceleration(r_bf, cnm, snm, coef, gm, scalars[R_REF], degree, work, a_bf)
+        kept = truncation_degree(r_norm, coef, gm, scalars[R_REF], degree, scalars[GRAV_TRUNC])
+        harmonic_acceleration(r_bf, cnm, snm, coef, gm, scalars[R_REF], kept, work, a_bf)
         for j in range(3):
             terms[1, j] = buf[j] * a_bf[0] + buf[3 + j] * a_bf[1] + buf[6 + j] * a_bf[2] - terms[0, j]
     r_sun = scratch[15:18]

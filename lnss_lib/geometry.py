@@ -16,8 +16,8 @@ from __future__ import annotations
 import numba as nb
 import numpy as np
 
-__all__ = ["SINGULAR_RTOL", "PDOP_FILTERS", "normal_matrix_entries", "position_block_inverse", "sigma_filtered_mean",
-           "availability_pct", "filtered_mean"]
+__all__ = ["SINGULAR_RTOL", "PDOP_FILTERS", "normal_matrix_entries", "block_inverse", "position_block_inverse",
+           "weighted_dop_stats", "sigma_filtered_mean", "availability_pct", "filtered_mean"]
 
 SINGULAR_RTOL = 1e-12       # det S relative to (trace S / 3)^3 below which the geometry counts as singular
 
@@ -83,12 +83,10 @@ def normal_matrix_entries(lx, ly, lz, visible, axis: int = -1, clock_column: boo
     return count.reshape(shape), tuple(sums[k].reshape(shape) for k in range(6))
 
 
-def position_block_inverse(sxx, syy, szz, sxy, sxz, syz):
-    """Entries of S^-1 for symmetric S given by its six entries, by the adjugate; arrays broadcast.
-
-    Returns (ixx, iyy, izz, ixy, ixz, iyz, ok), ``ok`` False where S is singular
-    (det S <= :data:`SINGULAR_RTOL` (trace S / 3)^3); the entries there are finite but meaningless.
-    """
+@nb.njit(cache=True)
+def block_inverse(sxx, syy, szz, sxy, sxz, syz):
+    """Scalar S^-1 by the adjugate: (ixx, iyy, izz, ixy, ixz, iyz, ok); the one formula behind
+    :func:`position_block_inverse` and the fused grid kernel of :mod:`lnss_lib.dop`."""
     cxx = syy * szz - syz * syz
     cyy = sxx * szz - sxz * sxz
     czz = sxx * syy - sxy * sxy
@@ -96,10 +94,84 @@ def position_block_inverse(sxx, syy, szz, sxy, sxz, syz):
     cxz = sxy * syz - syy * sxz
     cyz = sxy * sxz - sxx * syz
     det = sxx * cxx + sxy * cxy + sxz * cxz
-    scale = ((sxx + syy + szz) / 3.0) ** 3
+    scale = ((sxx + syy + szz) / 3.0) ** 3.0
     ok = det > SINGULAR_RTOL * scale
-    inv_det = 1.0 / np.where(ok, det, 1.0)
+    inv_det = 1.0 / (det if ok else 1.0)
     return cxx * inv_det, cyy * inv_det, czz * inv_det, cxy * inv_det, cxz * inv_det, cyz * inv_det, ok
+
+
+@nb.njit(cache=True)
+def _block_inverse_loop(s, out, ok):
+    for j in range(s.shape[1]):
+        ixx, iyy, izz, ixy, ixz, iyz, good = block_inverse(s[0, j], s[1, j], s[2, j], s[3, j], s[4, j], s[5, j])
+        out[0, j] = ixx
+        out[1, j] = iyy
+        out[2, j] = izz
+        out[3, j] = ixy
+        out[4, j] = ixz
+        out[5, j] = iyz
+        ok[j] = good
+
+
+def position_block_inverse(sxx, syy, szz, sxy, sxz, syz):
+    """Entries of S^-1 for symmetric S given by its six entries (:func:`block_inverse`); arrays broadcast.
+
+    Returns (ixx, iyy, izz, ixy, ixz, iyz, ok), ``ok`` False where S is singular
+    (det S <= :data:`SINGULAR_RTOL` (trace S / 3)^3); the entries there are finite but meaningless.
+    """
+    arrays = np.broadcast_arrays(*(np.asarray(a, dtype=float) for a in (sxx, syy, szz, sxy, sxz, syz)))
+    shape = arrays[0].shape
+    s = np.ascontiguousarray(np.stack([a.reshape(-1) for a in arrays]))
+    out = np.empty_like(s)
+    ok = np.empty(s.shape[1], dtype=bool)
+    _block_inverse_loop(s, out, ok)
+    return tuple(out[k].reshape(shape) for k in range(6)) + (ok.reshape(shape),)
+
+
+@nb.njit(cache=True)
+def weighted_dop_stats(values, weights, n_sigma, threshold):
+    """Eq. 9-14 on (time, point) samples in compiled loops, ``weights`` (point,) shared by every epoch.
+
+    Returns (filtered mean, samples kept, raw mean over finite samples, availability % over all
+    samples (value < ``threshold``)); the same quantities as :func:`sigma_filtered_mean` and
+    :func:`availability_pct` (which sum pairwise: the two agree to rounding, ~1e-13 relative).
+    """
+    nt, npt = values.shape
+    sw = 0.0
+    swv = 0.0
+    w_all = 0.0
+    w_ok = 0.0
+    for t in range(nt):
+        for p in range(npt):
+            v = values[t, p]
+            w = weights[p]
+            w_all += w
+            if np.isfinite(v):
+                sw += w
+                swv += w * v
+                if v < threshold:
+                    w_ok += w
+    if sw <= 0.0:
+        return np.nan, 0, np.nan, min(100.0, 100.0 * w_ok / w_all)
+    mu = swv / sw
+    s2 = 0.0
+    for t in range(nt):
+        for p in range(npt):
+            v = values[t, p]
+            if np.isfinite(v):
+                s2 += weights[p] * (v - mu) ** 2
+    limit = n_sigma * np.sqrt(s2 / sw)
+    kw = 0.0
+    kwv = 0.0
+    kept = 0
+    for t in range(nt):
+        for p in range(npt):
+            v = values[t, p]
+            if np.isfinite(v) and abs(v - mu) <= limit:
+                kw += weights[p]
+                kwv += weights[p] * v
+                kept += 1
+    return kwv / kw, kept, mu, min(100.0, 100.0 * w_ok / w_all)
 
 
 PDOP_FILTERS = ("percentile95", "sigma2", "none")

@@ -20,8 +20,10 @@ from __future__ import annotations
 import csv
 import hashlib
 from dataclasses import dataclass
+from functools import lru_cache
 from pathlib import Path
 
+import numba as nb
 import numpy as np
 import xarray as xr
 from sgp4.api import Satrec, SatrecArray
@@ -31,12 +33,12 @@ from .constants import BOLTZMANN_J_K, C_M_S, MIN_VISIBLE, WGS84_A_KM, WGS84_B_KM
 from .ephemeris import body_states_mci, ensure_kernels
 from .errors import ConfigError
 from .frames import teme_to_j2000, tt_centuries, utc_julian_dates
-from .geometry import filtered_mean, normal_matrix_entries, position_block_inverse
+from .geometry import block_inverse, filtered_mean, normal_matrix_entries, position_block_inverse
 from .tle import TleRecord, gps_catalogue
 
 __all__ = ["propagate_teme", "gps_states_mci", "lunar_occultation", "off_boresight_deg", "earth_occultation",
            "ray_hits_ellipsoid", "free_space_loss_db", "cn0_dbhz", "pdop_kernel", "pdop_along_axis", "GainPattern",
-           "load_gain_pattern", "gain_from_profile", "gps_link", "gps_link_summary"]
+           "load_gain_pattern", "gain_from_profile", "gps_link", "gps_link_metrics", "gps_link_summary"]
 
 
 def propagate_teme(records: list[TleRecord], jd_utc: np.ndarray, fr_utc: np.ndarray) -> np.ndarray:
@@ -306,46 +308,46 @@ def _lnss_positions(lnss, times: np.ndarray) -> np.ndarray:
     return r
 
 
-def gps_link(profile: dict, gps: xr.Dataset, lnss, *, sats="first", **overrides) -> xr.Dataset:
-    """GPS-LNSS visibility, C/N0 and PDOP (eq. 15-24, Section 2.2.4) on the GPS dataset's epochs.
-
-    ``gps``: from :func:`gps_states_mci`; ``lnss``: a propagation Dataset (``r_mci_km`` (sat, time,
-    xyz)) or an array (sat, time, 3) of Moon-centred J2000 km. ``sats``: "first" (the paper's
-    choice), "all", or a list of satellite indices. ``overrides``: any ``[gps]`` key (e.g.
-    ``noise_temperature_k=150``, ``beam_mask_deg=60``, ``clock_column=False``) or ``gain``: a
-    :class:`GainPattern`.
-
-    A link is visible when the Moon does not block it (eq. 17-18), theta_off is inside the beam
-    mask, the Earth (eq. 21, with the margin) and the WGS-84 ellipsoid do not block it, and
-    C/N0 >= the threshold. The ellipsoid test is done in TEME (z along the true pole of date; polar
-    motion, ~10 m, neglected). Dataset dims (sat, time, gps): ``theta_off_deg``, ``range_km``,
-    ``gain_dbi``, ``cn0_dbhz``, the blocking masks and ``visible``; (sat, time): ``n_visible``,
-    ``pdop`` (NaN below 4 visible).
-    """
+def _link_settings(profile: dict, overrides: dict) -> tuple[dict, GainPattern]:
+    """The ``[gps]`` settings with ``overrides`` and the transmit pattern; ``ValueError`` for an unknown key."""
     cfg = {**profile["gps"], **{k: v for k, v in overrides.items() if k != "gain"}}
     unknown = set(overrides) - set(profile["gps"]) - {"gain"}
     if unknown:
         raise ValueError(f"unknown GPS link setting(s) {sorted(unknown)}; allowed: {sorted(profile['gps'])} or 'gain'")
-    gain = overrides.get("gain") or (gain_from_profile({"gps": cfg}) if overrides else gain_from_profile(profile))
-    times = gps["time"].values
-    r_all = _lnss_positions(lnss, times)
-    if isinstance(sats, str):
-        if sats not in ("first", "all"):
-            raise ValueError(f"sats must be 'first', 'all' or a list of indices; got {sats!r}")
-        index = [0] if sats == "first" else list(range(r_all.shape[0]))
-    else:
-        index = [int(s) for s in sats]
-        if any(s < 0 or s >= r_all.shape[0] for s in index):
-            raise ValueError(f"satellite index out of range 0..{r_all.shape[0] - 1}: {index}")
-    r_lnss = r_all[index][:, :, None, :]                                  # (sat, time, 1, 3)
-    earth = gps["earth_mci_km"].values[None, :, None, :]
-    r_gps_mci = gps["r_mci_km"].transpose("time", "gps", "xyz").values[None]   # (1, time, gps, 3)
-    r_gps_eci = gps["r_eci_km"].transpose("time", "gps", "xyz").values[None]
-    r_gps_teme = gps["r_teme_km"].transpose("time", "gps", "xyz").values[None]
-    r_lnss_eci = r_lnss - earth
-    rot = gps["rot_teme_to_j2000"].values                                  # (time, 3, 3)
-    r_lnss_teme = np.einsum("tji,stgj->stgi", rot, r_lnss_eci)
+    gain = overrides.get("gain") or _cached_gain(str(data_path(cfg["gain_file"])), cfg["gain_column"],
+                                                 float(cfg["sidelobe_from_deg"]), float(cfg["sidelobe_offset_db"]))
+    return cfg, gain
 
+
+@lru_cache(maxsize=16)
+def _cached_gain(path: str, column: str, from_deg: float, offset_db: float) -> GainPattern:
+    """:func:`gain_from_profile` read once per process (the file is not re-read for every design)."""
+    return load_gain_pattern(path, column).with_sidelobes(from_deg, offset_db)
+
+
+_GPS_ARRAYS: dict[int, tuple] = {}
+
+
+def _gps_arrays(gps: xr.Dataset) -> tuple:
+    """(gps dataset, r_mci, r_eci, r_teme (1, time, gps, 3), earth (1, time, 1, 3), rot) pulled out of the
+    Dataset once per dataset (the reference kept in the tuple pins the id)."""
+    hit = _GPS_ARRAYS.get(id(gps))
+    if hit is not None and hit[0] is gps:
+        return hit
+    if len(_GPS_ARRAYS) >= 8:
+        _GPS_ARRAYS.clear()
+    arrays = (gps, *(np.ascontiguousarray(gps[name].transpose("time", "gps", "xyz").values[None])
+                     for name in ("r_mci_km", "r_eci_km", "r_teme_km")),
+              gps["earth_mci_km"].values[None, :, None, :], gps["rot_teme_to_j2000"].values)
+    _GPS_ARRAYS[id(gps)] = arrays
+    return arrays
+
+
+def _link_arrays(profile: dict, cfg: dict, gain: GainPattern, gps: xr.Dataset, r_lnss: np.ndarray) -> dict:
+    """Every array of :func:`gps_link` for LNSS positions ``r_lnss`` (sat, time, 1, 3), Moon-centred J2000 km."""
+    _, r_gps_mci, r_gps_eci, r_gps_teme, earth, rot = _gps_arrays(gps)
+    r_lnss_eci = r_lnss - earth
+    r_lnss_teme = np.einsum("tji,stgj->stgi", rot, r_lnss_eci)
     r_moon = float(profile["constants"]["r_moon_mean_km"])
     r_earth = float(profile["constants"]["r_earth_km"])
     moon_blocked = lunar_occultation(r_lnss, r_gps_mci, r_moon)
@@ -364,14 +366,155 @@ def gps_link(profile: dict, gps: xr.Dataset, lnss, *, sats="first", **overrides)
     strong = np.nan_to_num(cn0, nan=-np.inf) >= float(cfg["cn0_threshold_dbhz"])
     visible = ~moon_blocked & ~earth_blocked & ~ellipsoid_blocked & ~outside_beam & strong
     pdop = pdop_kernel(los / range_km[..., None], visible, bool(cfg["clock_column"]))
+    return {"theta_off_deg": theta, "range_km": range_km, "gain_dbi": g_tx, "cn0_dbhz": cn0,
+            "moon_blocked": moon_blocked, "earth_blocked": earth_blocked, "ellipsoid_blocked": ellipsoid_blocked,
+            "outside_beam": outside_beam, "above_threshold": strong, "visible": visible, "pdop": pdop}
 
+
+@nb.njit(cache=True)
+def _link_kernel(r_lnss, r_gps_mci, r_gps_eci, r_gps_teme, earth, rot, theta_tab, gain_tab, r_moon, r_earth, margin_deg,
+                 beam_deg, ellipsoid, a_km, b_km, eirp_base_db, fsl_factor, noise_db, threshold_dbhz, clock,
+                 n_visible, pdop):
+    """:func:`_link_arrays`'s visibility (eq. 15-24) and PDOP (eq. 5-7) for one LNSS satellite ``r_lnss`` (time, 3),
+    one (epoch, GPS) pair at a time, into ``n_visible`` and ``pdop`` (time,)."""
+    ntime, ngps, _ = r_gps_mci.shape
+    lx = np.empty(ngps)
+    ly = np.empty(ngps)
+    lz = np.empty(ngps)
+    lnss_teme = np.empty(3)
+    for t in range(ntime):
+        px, py, pz = r_lnss[t, 0], r_lnss[t, 1], r_lnss[t, 2]
+        r_norm = np.sqrt(px * px + py * py + pz * pz)
+        zx, zy, zz = px / r_norm, py / r_norm, pz / r_norm
+        alpha_moon = np.degrees(np.arcsin(min(max(r_moon / r_norm, -1.0), 1.0)))
+        ex, ey, ez = px - earth[t, 0], py - earth[t, 1], pz - earth[t, 2]
+        for i in range(3):
+            lnss_teme[i] = rot[t, 0, i] * ex + rot[t, 1, i] * ey + rot[t, 2, i] * ez
+        n = 0
+        for g in range(ngps):
+            ux = r_gps_mci[t, g, 0] - px
+            uy = r_gps_mci[t, g, 1] - py
+            uz = r_gps_mci[t, g, 2] - pz
+            rng = np.sqrt(ux * ux + uy * uy + uz * uz)
+            ux /= rng
+            uy /= rng
+            uz /= rng
+            if np.degrees(np.arccos(min(max(-(ux * zx + uy * zy + uz * zz), -1.0), 1.0))) < alpha_moon:
+                continue                                                   # behind the Moon (eq. 17-18)
+            gx, gy, gz = r_gps_eci[t, g, 0], r_gps_eci[t, g, 1], r_gps_eci[t, g, 2]
+            g_norm = np.sqrt(gx * gx + gy * gy + gz * gz)
+            vx, vy, vz = ex - gx, ey - gy, ez - gz
+            v_norm = np.sqrt(vx * vx + vy * vy + vz * vz)
+            cos_off = -(gx * vx + gy * vy + gz * vz) / (g_norm * v_norm)
+            theta = np.degrees(np.arccos(min(max(cos_off, -1.0), 1.0)))     # off-boresight (eq. 19-20)
+            if theta > beam_deg or theta < np.degrees(np.arcsin(r_earth / g_norm)) + margin_deg:
+                continue                                                   # outside the beam, or behind the Earth (eq. 21)
+            if ellipsoid:
+                q0x, q0y, q0z = r_gps_teme[t, g, 0] / a_km, r_gps_teme[t, g, 1] / a_km, r_gps_teme[t, g, 2] / b_km
+                dx, dy, dz = lnss_teme[0] / a_km - q0x, lnss_teme[1] / a_km - q0y, lnss_teme[2] / b_km - q0z
+                sc = min(max(-(q0x * dx + q0y * dy + q0z * dz) / (dx * dx + dy * dy + dz * dz), 0.0), 1.0)
+                cx, cy, cz = q0x + sc * dx, q0y + sc * dy, q0z + sc * dz
+                if cx * cx + cy * cy + cz * cz < 1.0:
+                    continue                                               # through the WGS-84 ellipsoid
+            if theta < theta_tab[0] or theta > theta_tab[-1]:
+                continue                                                   # no gain tabulated: no link
+            cn0 = eirp_base_db + np.interp(theta, theta_tab, gain_tab) - 20.0 * np.log10(fsl_factor * rng) - noise_db
+            if not cn0 >= threshold_dbhz:
+                continue                                                   # link budget (eq. 22-24)
+            lx[n] = ux
+            ly[n] = uy
+            lz[n] = uz
+            n += 1
+        n_visible[t] = n
+        if n < (MIN_VISIBLE if clock else MIN_VISIBLE - 1):
+            pdop[t] = np.nan
+            continue
+        mx = my = mz = 0.0
+        if clock:
+            for k in range(n):
+                mx += lx[k]
+                my += ly[k]
+                mz += lz[k]
+            mx /= n
+            my /= n
+            mz /= n
+        sxx = syy = szz = sxy = sxz = syz = 0.0
+        for k in range(n):
+            x, y, z = lx[k] - mx, ly[k] - my, lz[k] - mz
+            sxx += x * x
+            syy += y * y
+            szz += z * z
+            sxy += x * y
+            sxz += x * z
+            syz += y * z
+        ixx, iyy, izz, _, _, _, ok = block_inverse(sxx, syy, szz, sxy, sxz, syz)
+        pdop[t] = np.sqrt(max(ixx + iyy + izz, 0.0)) if ok else np.inf
+
+
+def gps_link_metrics(profile: dict, gps: xr.Dataset, r_lnss_mci_km: np.ndarray) -> dict[str, float]:
+    """:func:`gps_link_summary` of :func:`gps_link` (first satellite) without the Dataset: the campaign's path.
+
+    ``r_lnss_mci_km`` (sat, time, 3) on the GPS dataset's epochs; the first satellite is used, as in
+    the paper. One compiled pass (:func:`_link_kernel`) with :func:`gps_link`'s tests in its order;
+    libm and numpy's vectorised arccos/log10 may round differently, so the metrics agree to ~1e-12
+    unless a link sits exactly on a threshold (``tests/test_gps.py`` checks the agreement).
+    """
+    cfg, gain = _link_settings(profile, {})
+    r = np.ascontiguousarray(_lnss_positions(r_lnss_mci_km, gps["time"].values)[0])
+    _, r_gps_mci, r_gps_eci, r_gps_teme, earth, rot = _gps_arrays(gps)
+    if not cfg["noise_temperature_k"] > 0.0:
+        raise ValueError(f"noise temperature must be positive (K); got {cfg['noise_temperature_k']!r}")
+    wavelength_m = C_M_S / (float(cfg["frequency_mhz"]) * 1e6)
+    ntime = r.shape[0]
+    n_visible = np.empty(ntime, dtype=np.int64)
+    pdop = np.empty(ntime)
+    _link_kernel(r, r_gps_mci[0], r_gps_eci[0], r_gps_teme[0], np.ascontiguousarray(earth[0, :, 0]), rot,
+                 np.asarray(gain.off_boresight_deg, dtype=float), np.asarray(gain.gain_dbi, dtype=float),
+                 float(profile["constants"]["r_moon_mean_km"]), float(profile["constants"]["r_earth_km"]),
+                 float(cfg["atmosphere_margin_deg"]), float(cfg["beam_mask_deg"]), bool(cfg["ellipsoid_test"]),
+                 WGS84_A_KM, WGS84_B_KM,
+                 float(cfg["p_tx_dbw"]) - (float(cfg["l_tx_db"]) + float(cfg["l_pol_db"])) + float(cfg["g_rx_dbi"]),
+                 4.0 * np.pi * 1e3 / wavelength_m, 10.0 * np.log10(BOLTZMANN_J_K * float(cfg["noise_temperature_k"])),
+                 float(cfg["cn0_threshold_dbhz"]), bool(cfg["clock_column"]), n_visible, pdop)
+    return _summary(pdop[None], n_visible[None], cfg["pdop_filter"])
+
+
+def gps_link(profile: dict, gps: xr.Dataset, lnss, *, sats="first", **overrides) -> xr.Dataset:
+    """GPS-LNSS visibility, C/N0 and PDOP (eq. 15-24, Section 2.2.4) on the GPS dataset's epochs.
+
+    ``gps``: from :func:`gps_states_mci`; ``lnss``: a propagation Dataset (``r_mci_km`` (sat, time,
+    xyz)) or an array (sat, time, 3) of Moon-centred J2000 km. ``sats``: "first" (the paper's
+    choice), "all", or a list of satellite indices. ``overrides``: any ``[gps]`` key (e.g.
+    ``noise_temperature_k=150``, ``beam_mask_deg=60``, ``clock_column=False``) or ``gain``: a
+    :class:`GainPattern`.
+
+    A link is visible when the Moon does not block it (eq. 17-18), theta_off is inside the beam
+    mask, the Earth (eq. 21, with the margin) and the WGS-84 ellipsoid do not block it, and
+    C/N0 >= the threshold. The ellipsoid test is done in TEME (z along the true pole of date; polar
+    motion, ~10 m, neglected). Dataset dims (sat, time, gps): ``theta_off_deg``, ``range_km``,
+    ``gain_dbi``, ``cn0_dbhz``, the blocking masks and ``visible``; (sat, time): ``n_visible``,
+    ``pdop`` (NaN below 4 visible).
+    """
+    cfg, gain = _link_settings(profile, overrides)
+    times = gps["time"].values
+    r_all = _lnss_positions(lnss, times)
+    if isinstance(sats, str):
+        if sats not in ("first", "all"):
+            raise ValueError(f"sats must be 'first', 'all' or a list of indices; got {sats!r}")
+        index = [0] if sats == "first" else list(range(r_all.shape[0]))
+    else:
+        index = [int(s) for s in sats]
+        if any(s < 0 or s >= r_all.shape[0] for s in index):
+            raise ValueError(f"satellite index out of range 0..{r_all.shape[0] - 1}: {index}")
+    r_lnss = r_all[index][:, :, None, :]                                  # (sat, time, 1, 3)
+    arrays = _link_arrays(profile, cfg, gain, gps, r_lnss)
+    visible, pdop = arrays["visible"], arrays["pdop"]
     dims = ("sat", "time", "gps")
     ds = xr.Dataset(
         {
-            "theta_off_deg": (dims, theta), "range_km": (dims, range_km), "gain_dbi": (dims, g_tx),
-            "cn0_dbhz": (dims, cn0), "moon_blocked": (dims, moon_blocked), "earth_blocked": (dims, earth_blocked),
-            "ellipsoid_blocked": (dims, ellipsoid_blocked), "outside_beam": (dims, outside_beam),
-            "above_threshold": (dims, strong), "visible": (dims, visible),
+            **{name: (dims, arrays[name]) for name in ("theta_off_deg", "range_km", "gain_dbi", "cn0_dbhz",
+                                                        "moon_blocked", "earth_blocked", "ellipsoid_blocked",
+                                                        "outside_beam", "above_threshold", "visible")},
             "n_visible": (("sat", "time"), visible.sum(axis=-1)), "pdop": (("sat", "time"), pdop),
         },
         coords={"sat": index, "time": times, "gps": gps["gps"].values, "prn": ("gps", gps["prn"].values),
@@ -394,12 +537,14 @@ def gps_link_summary(ds: xr.Dataset, pdop_filter: str | None = None) -> dict[str
     over the epochs with >= 4 visible; also the unfiltered mean and median, the fraction of epochs
     with a PDOP and the number of samples the filter kept.
     """
-    method = pdop_filter or ds.attrs["pdop_filter"]
-    pdop = ds["pdop"].values
+    return _summary(ds["pdop"].values, ds["n_visible"].values, pdop_filter or ds.attrs["pdop_filter"])
+
+
+def _summary(pdop: np.ndarray, n_visible: np.ndarray, method: str) -> dict[str, float]:
     mean, kept = filtered_mean(pdop, method)
     finite = pdop[np.isfinite(pdop)]
     return {
-        "gps_visible_mean": float(ds["n_visible"].mean()),
+        "gps_visible_mean": float(np.mean(n_visible)),
         "gps_pdop_mean": mean,
         "gps_pdop_unfiltered_mean": float(finite.mean()) if finite.size else float("nan"),
         "gps_pdop_median": float(np.median(finite)) if finite.size else float("nan"),

@@ -16,8 +16,8 @@ import numpy as np
 
 from .config import data_path
 
-__all__ = ["MAX_FILE_DEGREE", "GravityField", "recursion_coefficients", "harmonic_acceleration",
-           "harmonic_potential"]
+__all__ = ["MAX_FILE_DEGREE", "GravityField", "recursion_coefficients", "degree_bound_factors", "truncation_degree",
+           "omitted_bound", "harmonic_acceleration", "harmonic_potential"]
 
 MAX_FILE_DEGREE = 100
 
@@ -30,7 +30,12 @@ def _read_rows(path: str) -> np.ndarray:
 
 @dataclass(frozen=True)
 class GravityField:
-    """Fully normalised coefficients ``cnm[n, m]``, ``snm[n, m]`` up to ``degree``, GM, R and recursion factors."""
+    """Fully normalised coefficients ``cnm[n, m]``, ``snm[n, m]`` up to ``degree``, GM, R and recursion factors.
+
+    ``coef[5, n, 0]`` holds the per-degree acceleration bound factor K_n of :func:`degree_bound_factors`;
+    ``truncation_kms2`` > 0 lets the compiled force model drop, per evaluation, the degrees whose
+    summed bound at the current radius stays below it (:func:`truncation_degree`); 0 keeps every degree.
+    """
 
     degree: int
     gm_km3_s2: float
@@ -38,9 +43,11 @@ class GravityField:
     cnm: np.ndarray
     snm: np.ndarray
     coef: np.ndarray
+    truncation_kms2: float = 0.0
 
     @classmethod
-    def from_file(cls, path: Path, degree: int, gm_km3_s2: float, r_ref_km: float) -> "GravityField":
+    def from_file(cls, path: Path, degree: int, gm_km3_s2: float, r_ref_km: float,
+                  truncation_kms2: float = 0.0) -> "GravityField":
         """Read ``n m Cnm Snm`` rows (fully normalised) and truncate to ``degree`` (0..100; 0 or 1 = point mass)."""
         if not isinstance(degree, (int, np.integer)) or not 0 <= degree <= MAX_FILE_DEGREE:
             raise ValueError(f"gravity degree must be an integer in [0, {MAX_FILE_DEGREE}] (0 = point mass); got {degree!r}")
@@ -57,7 +64,11 @@ class GravityField:
         snm[n_idx[keep], m_idx[keep]] = rows[keep, 3]
         if np.max(n_idx) < degree:
             raise ValueError(f"{path} holds degree {np.max(n_idx)} only; requested {degree}")
-        return cls(int(degree), float(gm_km3_s2), float(r_ref_km), cnm, snm, recursion_coefficients(int(degree)))
+        if not (np.isfinite(truncation_kms2) and truncation_kms2 >= 0.0):
+            raise ValueError(f"gravity truncation must be >= 0 km/s^2 (0 = full field); got {truncation_kms2!r}")
+        coef = recursion_coefficients(int(degree))
+        coef[5, : degree + 1, 0] = degree_bound_factors(cnm, snm)
+        return cls(int(degree), float(gm_km3_s2), float(r_ref_km), cnm, snm, coef, float(truncation_kms2))
 
     @classmethod
     def from_profile(cls, profile: dict, degree: int | None = None) -> "GravityField":
@@ -66,8 +77,8 @@ class GravityField:
         chosen = degree if degree is not None else grav["degree"]
         if isinstance(chosen, float) and chosen.is_integer():
             chosen = int(chosen)
-        return cls.from_file(data_path(grav["file"]), chosen,
-                             grav["gm_km3_s2"], grav["r_ref_km"])
+        return cls.from_file(data_path(grav["file"]), chosen, grav["gm_km3_s2"], grav["r_ref_km"],
+                             float(grav.get("truncation_kms2", 0.0)))
 
     def workspace(self) -> np.ndarray:
         """Scratch array for :func:`harmonic_acceleration` (V and W, degree + 2 squared each)."""
@@ -79,7 +90,8 @@ def recursion_coefficients(degree: int) -> np.ndarray:
 
     Shape (6, degree + 2, degree + 2), indexed [kind, n, m]: 0, 1 the column recursion
     V_nm = a z0 V_n-1,m - b rho V_n-2,m (kind 0 at m = n is the sectorial factor); 2, 3, 4 the
-    x/y factors towards orders m + 1 and m - 1 and the z factor of term (n, m).
+    x/y factors towards orders m + 1 and m - 1 and the z factor of term (n, m); kind 5 is left for the
+    field's per-degree bound factors (:func:`degree_bound_factors`, set by :class:`GravityField`).
     """
     size = degree + 2
     coef = np.zeros((6, size, size))
@@ -99,6 +111,56 @@ def recursion_coefficients(degree: int) -> np.ndarray:
             coef[3, n, m] = 0.5 * np.sqrt((2.0 if m == 1 else 1.0) * k_n * (n - m + 2.0) * (n - m + 1.0))
             coef[4, n, m] = np.sqrt(k_n * (n - m + 1.0) * (n + m + 1.0))
     return coef
+
+
+def degree_bound_factors(cnm: np.ndarray, snm: np.ndarray) -> np.ndarray:
+    """K_n = (2n + 1) sqrt(n + 1) sigma_n, sigma_n = sqrt(sum_m C_nm^2 + S_nm^2), for n = 0..degree (K_0 = K_1 = 0).
+
+    Bound on the degree-n acceleration of a fully normalised field at radius r (any direction):
+    |a_n| <= GM / r^2 (R / r)^n K_n. Derivation: a_n = sum_k c_k grad f_k over the 2n + 1 real
+    harmonics f_k = GM R^n r^-(n+1) Y_k (c_k the coefficients C_nm, S_nm; Y_k of unit mean square), so
+    by Cauchy-Schwarz |a_n| <= sigma_n sqrt(sum_k |grad f_k|^2). The radial part of grad f_k is
+    -(n + 1) f_k / r, the tangential part GM R^n r^-(n+2) grad_S Y_k; Unsold's theorem gives
+    sum_k Y_k^2 = 2n + 1 and (applying the surface Laplacian to it) sum_k |grad_S Y_k|^2 =
+    n (n + 1)(2n + 1), so sum_k |grad f_k|^2 = (GM / r^2)^2 (R / r)^2n (2n + 1)^2 (n + 1).
+    Degrees 0 (central term, never dropped) and 1 (zero in a centre-of-mass frame) get 0.
+    """
+    degree = cnm.shape[0] - 1
+    factors = np.zeros(degree + 1)
+    for n in range(2, degree + 1):
+        sigma = np.sqrt(np.sum(cnm[n, : n + 1] ** 2) + np.sum(snm[n, : n + 1] ** 2))
+        factors[n] = (2.0 * n + 1.0) * np.sqrt(n + 1.0) * sigma
+    return factors
+
+
+@nb.njit(cache=True)
+def omitted_bound(r_km: float, coef: np.ndarray, gm: float, r_ref: float, degree: int, kept: int) -> float:
+    """Bound (km/s^2) on the acceleration of degrees kept + 1 .. ``degree``: sum_n GM / r^2 (R / r)^n K_n."""
+    q = r_ref / r_km
+    qn = q ** (kept + 1)
+    total = 0.0
+    for n in range(kept + 1, degree + 1):
+        total += coef[5, n, 0] * qn
+        qn *= q
+    return gm / (r_km * r_km) * total
+
+
+@nb.njit(cache=True)
+def truncation_degree(r_km: float, coef: np.ndarray, gm: float, r_ref: float, degree: int, tol_kms2: float) -> int:
+    """Smallest N <= ``degree`` whose omitted degrees N + 1 .. ``degree`` are bounded below ``tol_kms2``
+    at radius ``r_km`` (:func:`degree_bound_factors`); ``degree`` itself when ``tol_kms2`` <= 0."""
+    if tol_kms2 <= 0.0:
+        return degree
+    q = r_ref / r_km
+    limit = tol_kms2 * r_km * r_km / gm
+    qn = q ** degree
+    tail = 0.0
+    for n in range(degree, 1, -1):
+        tail += coef[5, n, 0] * qn
+        if tail > limit:
+            return n
+        qn /= q
+    return 1
 
 
 # fastmath is safe: states checked finite (propagator), coefficients finite (ForceModel), r >= r_min > 0 at each step

@@ -97,3 +97,25 @@ def test_metrics_come_from_the_right_parts(context):
     assert (metrics["gps_visible_mean"], metrics["gps_pdop_mean"]) == (link["gps_visible_mean"], link["gps_pdop_mean"])
     # the DOP grid is evaluated on the propagated orbits rotated into the Moon-fixed frame
     assert study["dop"].sizes["time"] == study["propagation"].sizes["time"]
+
+
+def test_campaign_path_matches_study_path_and_reuses_run_geometry(context, monkeypatch):
+    """The campaign's compiled DOP path gives the study path's metrics (to summation rounding), and an
+    evaluation neither rebuilds the Moon-fixed rotations nor the surface grid (built once per run)."""
+    from lnss_lib import dop, evaluator
+    from lnss_lib.constellation import WalkerDesign
+    from lnss_lib.evaluator import analyse_constellation
+
+    elements = WalkerDesign(6143.0, 0.6, 51.7, 90.0, 2, 3).elements_deg()
+    study = analyse_constellation(context, elements)["metrics"]
+
+    def forbidden(*args, **kwargs):
+        raise AssertionError("run geometry rebuilt inside an evaluation")
+
+    monkeypatch.setattr(evaluator, "rotation", forbidden)
+    monkeypatch.setattr(dop, "surface_grid", forbidden)
+    monkeypatch.setattr(dop, "grid_from_profile", forbidden)
+    campaign = evaluate_constellation(context, elements)
+    assert context_for(load_profile("ci")) is context
+    for key in METRIC_KEYS:
+        assert campaign[key] == pytest.approx(study[key], rel=1e-11, nan_ok=True), key

@@ -105,3 +105,22 @@ def test_dop_and_gps_share_one_pdop():
     los /= np.linalg.norm(los, axis=1, keepdims=True)
     assert n[0, 0] == 6
     assert pdop[0, 0] == pytest.approx(gps.pdop_kernel(los, np.ones(6, bool)), rel=1e-12)
+
+
+def test_compiled_statistics_match_numpy_filters():
+    rng = np.random.default_rng(3)
+    values = np.abs(rng.standard_cauchy((50, 12))) + 1.0       # heavy tail: the 3-sigma filter drops samples
+    values[0, :3] = np.nan
+    values[1, 4] = np.inf
+    weights = rng.uniform(0.5, 2.0, 12)
+    mean, kept, raw, avail = geometry.weighted_dop_stats(values, weights, 3.0, 15.0)
+    w = np.broadcast_to(weights, values.shape)
+    ref_mean, ref_kept = geometry.sigma_filtered_mean(values, w, 3.0)
+    finite = np.isfinite(values)
+    assert kept == ref_kept and kept < finite.sum()
+    assert mean == pytest.approx(ref_mean, rel=1e-13)
+    assert raw == pytest.approx(np.sum(w[finite] * values[finite]) / np.sum(w[finite]), rel=1e-13)
+    assert avail == pytest.approx(geometry.availability_pct(values, 15.0, w), rel=1e-13)
+    nothing = np.full((3, 4), np.nan)
+    m, k, _, a = geometry.weighted_dop_stats(nothing, np.ones(4), 3.0, 15.0)
+    assert np.isnan(m) and k == 0 and a == 0.0

@@ -76,3 +76,69 @@ def test_bad_degree_rejected(paper_profile):
         GravityField.from_profile(paper_profile, 101)
     with pytest.raises(ValueError, match="degree"):
         GravityField.from_profile(paper_profile, -1)
+
+
+def test_degree_bound_holds_against_the_full_field_at_many_radii(paper_profile, rng):
+    """|a_30 - a_N| <= sum_{n > N} GM / r^2 (R / r)^n K_n for every N, radius and direction tried."""
+    from lnss_lib.gravity import omitted_bound
+
+    field = GravityField.from_profile(paper_profile)
+    worst = 0.0
+    for r_km in np.geomspace(1738.0, 30000.0, 25):
+        for _ in range(12):
+            u = rng.normal(size=3)
+            x = r_km * u / np.linalg.norm(u)
+            full = _accel(field, x)
+            for kept in (1, 2, 4, 8, 15, 25, 29):
+                part = np.empty(3)
+                harmonic_acceleration(x, field.cnm, field.snm, field.coef, field.gm_km3_s2, field.r_ref_km, kept,
+                                      field.workspace(), part)
+                ratio = np.linalg.norm(full - part) / omitted_bound(r_km, field.coef, field.gm_km3_s2,
+                                                                     field.r_ref_km, field.degree, kept)
+                worst = max(worst, ratio)
+    assert 0.05 < worst <= 1.0       # holds, and is not vacuous (within a factor 20 of the worst case seen)
+
+
+def test_truncation_degree_keeps_the_dropped_part_below_the_tolerance(paper_profile, rng):
+    from lnss_lib.gravity import omitted_bound, truncation_degree
+
+    field = GravityField.from_profile(paper_profile)
+    gm, r_ref = field.gm_km3_s2, field.r_ref_km
+    previous = field.degree
+    for r_km in np.geomspace(1738.0, 40000.0, 60):
+        kept = truncation_degree(r_km, field.coef, gm, r_ref, field.degree, 1e-15)
+        assert kept <= previous                                  # farther out, fewer degrees
+        previous = kept
+        assert omitted_bound(r_km, field.coef, gm, r_ref, field.degree, kept) <= 1e-15
+        if kept > 1:                                             # and it is the smallest such degree
+            assert omitted_bound(r_km, field.coef, gm, r_ref, field.degree, kept - 1) > 1e-15
+        x = r_km * np.array([0.3, -0.5, 0.81]) / np.linalg.norm([0.3, -0.5, 0.81])
+        part = np.empty(3)
+        harmonic_acceleration(x, field.cnm, field.snm, field.coef, gm, r_ref, kept, field.workspace(), part)
+        assert np.linalg.norm(_accel(field, x) - part) <= 1e-15
+    assert truncation_degree(1740.0, field.coef, gm, r_ref, field.degree, 1e-15) == field.degree
+    assert truncation_degree(24000.0, field.coef, gm, r_ref, field.degree, 1e-15) < 8
+    assert truncation_degree(24000.0, field.coef, gm, r_ref, field.degree, 0.0) == field.degree
+    with pytest.raises(ValueError, match="truncation"):
+        GravityField.from_profile({**paper_profile, "gravity": {**paper_profile["gravity"], "truncation_kms2": -1.0}})
+
+
+@pytest.mark.parametrize("elements", [[6143.0, 0.6, 51.7, 0.0, 90.0, 0.0],       # the ELFO
+                                      [15000.0, 0.8, 60.0, 0.0, 90.0, 0.0]])     # high and eccentric
+@pytest.mark.parametrize("setting", ["paper", "converged"])
+def test_truncated_field_moves_ten_day_positions_by_less_than_a_metre(paper_profile, epoch_tdb_s, elements, setting):
+    from lnss_lib.config import load_profile
+    from lnss_lib.ephemeris import EphemerisTable
+    from lnss_lib.forces import ForceModel
+    from lnss_lib.propagator import elements_deg_to_states, propagate_states
+
+    duration = 10 * 86400.0
+    table = EphemerisTable.build(paper_profile, epoch_tdb_s, epoch_tdb_s + duration)
+    y0 = elements_deg_to_states(paper_profile, [elements], epoch_tdb_s)
+    runs = {}
+    for tol in (0.0, 1e-15):
+        profile = load_profile("paper", overrides={"gravity": {"truncation_kms2": tol}})
+        runs[tol] = propagate_states(profile, y0, epoch_tdb_s, duration, 900.0, setting=setting,
+                                     model=ForceModel.from_profile(profile, table)).r_mci_km.values[0]
+    moved_m = 1e3 * np.max(np.linalg.norm(runs[1e-15] - runs[0.0], axis=-1))
+    assert moved_m < 1.0

@@ -1,40 +1,55 @@
-"""``python -m lnss_lib bench campaign``: a short NSGA-II campaign, its throughput and time shares, and the
-projected wall time of the paper's 120 x 1000 campaign on this machine."""
+"""``python -m lnss_lib bench campaign [--scaling]``: a short NSGA-II campaign, its throughput and time shares,
+and the projected wall time of the paper's 120 x 1000 campaign on this machine (and of the operational
+profile's, when ``params/operational.toml`` exists).
+
+``--scaling`` adds: designs/s with 1 and 2 local workers (scaling efficiency); the campaign's own
+overhead per design on loopback Dask clusters (127.0.0.1, one thread per worker process) of 8, 32 and 64
+workers running the synthetic evaluation with a fixed sleep (no CPU); and, from those numbers and the
+measured spread of real evaluation times, the largest worker count that keeps workers 90% busy on a
+generation of 120 designs, with designs as tasks and with satellites as tasks.
+"""
 
 from __future__ import annotations
 
+import math
 import tempfile
 import time
 from pathlib import Path
 
-from ..config import load_profile
+import numba
+import numpy as np
+
+from ..config import PARAMS_DIR, load_profile
 from ..campaign import CampaignSettings, load_checkpoint, read_cache_records, run_campaign
 from ..campaign.timing import campaign_timing, steady_rate
 from ..paper import EVALUATIONS
 
+SCALING_WORKERS = (8, 32, 64)
+SCALING_DELAY_S = 0.5
 
-def run(profile_name: str = "quick", generations: int | None = None, population: int | None = None,
-        workers: int | None = None) -> dict:
-    """Run a short campaign with the profile's evaluations and print throughput, shares and projections.
 
-    Defaults: the profile's population (at most 32) for at most 8 generations; for ``quick`` that
-    is its whole campaign. Returns the printed numbers.
-    """
-    profile = load_profile(profile_name)
-    settings = CampaignSettings.from_profile(profile)
-    population = population or min(settings.population, 32)
-    generations = generations or min(settings.generations, 8)
-    full = population == settings.population and generations == settings.generations
+def _short_campaign(profile_name: str, population: int, generations: int, workers: int | None,
+                    overrides: dict | None = None) -> dict:
+    """Run a campaign in a temporary directory; its timing, history and records."""
+    camp = {"population": population, "generations": generations, "ftol": 0.0}
+    merged = {**(overrides or {}), "campaign": {**camp, **(overrides or {}).get("campaign", {})}}
     with tempfile.TemporaryDirectory(prefix="lnss_bench_campaign_") as tmp:
         start = time.perf_counter()
-        result = run_campaign(profile_name, overrides={"campaign": {"population": population,
-                                                                    "generations": generations, "ftol": 0.0}},
-                              workers=workers, run_dir=Path(tmp) / "run", progress=False)
+        result = run_campaign(profile_name, overrides=merged, workers=workers, run_dir=Path(tmp) / "run", progress=False)
         wall = time.perf_counter() - start
         records = read_cache_records(result.run_dir)
         n_workers = len({r["worker"] for r in records}) or 1
         timing = campaign_timing(result.run_dir, n_workers, wall)
         history = load_checkpoint(result.run_dir)["history"]
+    return {"result": result, "wall_s": wall, "records": records, "n_workers": n_workers, "timing": timing,
+            "history": history}
+
+
+def _projection(profile_name: str, population: int, generations: int, workers: int | None) -> dict:
+    """Short campaign at ``profile_name``'s fidelity and its 120 x 1000 projection; prints the numbers."""
+    profile = load_profile(profile_name)
+    run = _short_campaign(profile_name, population, generations, workers)
+    timing, history, wall = run["timing"], run["history"], run["wall_s"]
     n = timing["n_evaluations"]
     rate = steady_rate(history, n, wall)
     first_gen_s = history[0]["wall_s"]
@@ -43,18 +58,135 @@ def run(profile_name: str = "quick", generations: int | None = None, population:
     projected_h = (startup_s + first_gen_s + EVALUATIONS / rate) / 3600.0
     budget = timing["worker_budget_s"]
     print(f"campaign [{profile_name}] {population} x {generations} generations, {profile['epoch']['duration_days']:g} "
-          f"days, degree {profile['gravity']['degree']}, {n_workers} worker(s): {n} unique designs "
-          f"({result.n_feasible} feasible), cache hits {100 * hits:.1f}% of requests")
-    print(f"  wall {wall:.1f} s (start-up {startup_s:.1f} s, generation 1 {first_gen_s:.1f} s incl. worker warm-up)"
-          + ("  <- the whole quick campaign" if full and profile_name == "quick" else ""))
+          f"days, degree {profile['gravity']['degree']} (truncation {profile['gravity'].get('truncation_kms2', 0.0):g} "
+          f"km/s^2), integrator {profile['integrator']['setting']}, {run['n_workers']} worker(s): {n} unique designs "
+          f"({run['result'].n_feasible} feasible), cache hits {100 * hits:.1f}% of requests")
+    print(f"  wall {wall:.1f} s (start-up {startup_s:.1f} s, generation 1 {first_gen_s:.1f} s incl. worker warm-up)")
     print(f"  throughput {n / wall:.2f} designs/s overall, {rate:.2f} designs/s from generation 2 on")
     print(f"  worker time {budget:.1f} s: propagation {100 * timing['propagation_s'] / budget:.1f}%, metrics "
           f"(DOP, Delta-V, GPS) {100 * timing['metrics_s'] / budget:.1f}%, in-task overhead "
           f"{100 * timing['in_task_overhead_s'] / budget:.1f}%, campaign overhead "
           f"{100 * timing['campaign_overhead_s'] / budget:.1f}%")
-    print(f"  mean per evaluation: propagation {timing['propagation_s'] / max(n, 1):.3f} s, metrics "
-          f"{timing['metrics_s'] / max(n, 1):.3f} s")
-    print(f"  projected paper campaign (120 x 1000 = {EVALUATIONS} designs, no cache hits, this design mix): "
-          f"{projected_h:.1f} h on this machine; with this run's hit rate {projected_h * (1 - hits):.1f} h")
-    return {"wall_s": wall, "n_evaluations": n, "designs_per_s": n / wall, "steady_designs_per_s": rate,
-            "projected_paper_h": projected_h, **timing}
+    parts = {k: sum(r["timing_s"].get(k, 0.0) for r in run["records"]) / max(n, 1)
+             for k in ("propagation", "dop", "deltav", "gps")}
+    print("  mean per evaluation: " + ", ".join(f"{k} {v:.3f} s" for k, v in parts.items()))
+    print(f"  projected 120 x 1000 campaign ({EVALUATIONS} designs, all eq. 45 objectives, no cache hits, this design "
+          f"mix): {projected_h:.1f} h on this machine; with this run's hit rate {projected_h * (1 - hits):.1f} h")
+    return {"profile": profile_name, "wall_s": wall, "n_evaluations": n, "designs_per_s": n / wall,
+            "steady_designs_per_s": rate, "projected_paper_h": projected_h, "records": run["records"], **timing}
+
+
+def _greedy_makespan(durations: np.ndarray, n_workers: int, dispatch_s: float) -> float:
+    """Wall time of tasks handed out in order to the first free worker, one every ``dispatch_s`` seconds."""
+    free = np.zeros(n_workers)
+    for k, d in enumerate(durations):
+        w = int(np.argmin(free))
+        free[w] = max(free[w], k * dispatch_s) + d
+    return float(free.max())
+
+
+def _busy_fraction(durations: np.ndarray, n_workers: int, dispatch_s: float, fixed_s: float) -> float:
+    """Share of worker time spent in tasks when ``durations`` run as one generation (list scheduling)."""
+    return float(durations.sum() / (n_workers * (_greedy_makespan(durations, n_workers, dispatch_s) + fixed_s)))
+
+
+def busy_model(records: list[dict], overhead: dict) -> dict:
+    """Largest worker count keeping workers >= 90% busy on a generation of 120 designs drawn from ``records``
+    (task times of a real campaign), with designs as tasks and with satellites as tasks, each handed out
+    longest first, for a dispatch cost per task equal to the smallest and to the largest measured campaign
+    overhead per design."""
+    records = [r for r in records if r["task_wall_s"] > 0.0 and r["timing_s"]]
+    durations = np.array([r["task_wall_s"] for r in records])
+    n_sat = np.array([max(int(r["metrics"]["n_sat"]), 1) for r in records])
+    propagation = np.array([r["timing_s"].get("propagation", 0.0) for r in records])
+    rng = np.random.default_rng(0)
+    picks = [rng.integers(0, len(records), 120) for _ in range(10)]
+    counts = [w for w in range(2, 2401) if w <= 128 or w % 32 == 0]
+
+    def designs_as_tasks(w, dispatch):
+        return float(np.mean([_busy_fraction(np.sort(durations[i])[::-1], w, dispatch, 0.0) for i in picks]))
+
+    def satellites_as_tasks(w, dispatch):
+        """Propagation split into one task per satellite, then one metrics task per design (two phases)."""
+        fractions = []
+        for i in picks:
+            sat_tasks = np.sort(np.repeat(propagation[i] / n_sat[i], n_sat[i]))[::-1]
+            wall = _greedy_makespan(sat_tasks, w, dispatch) + _greedy_makespan(
+                np.sort(durations[i] - propagation[i])[::-1], w, dispatch)
+            fractions.append(durations[i].sum() / (w * wall))
+        return float(np.mean(fractions))
+
+    print(f"  real evaluations here: mean {durations.mean():.2f} s, 95th percentile {np.percentile(durations, 95):.2f} s, "
+          f"max {durations.max():.2f} s per design, propagation {100 * propagation.sum() / durations.sum():.0f}% of "
+          f"task time")
+    out = {}
+    for dispatch in sorted({min(overhead.values()), max(overhead.values())}):
+        for label, model in (("designs as tasks", designs_as_tasks), ("satellites as tasks", satellites_as_tasks)):
+            busy = {w: model(w, dispatch) for w in counts}
+            best = max((w for w in counts if busy[w] >= 0.9), default=1)
+            out[f"max_workers_90pct_{label.split()[0]}_{1e3 * dispatch:.1f}ms"] = best
+            print(f"  {label:19s}, {1e3 * dispatch:5.1f} ms per task: >= 90% busy up to {best} workers (busy at 8: "
+                  f"{100 * busy[8]:.0f}%, 32: {100 * busy[32]:.0f}%, 64: {100 * busy[64]:.0f}%, 128: {100 * busy[128]:.0f}%)")
+    return out
+
+
+def scaling(profile_name: str = "paper", reference: dict | None = None) -> dict:
+    """Print local scaling, loopback-cluster overhead per design and the 90%-busy worker count."""
+    out = {}
+    rates = {}
+    threads = numba.get_num_threads()
+    for workers in (1, 2):
+        numba.set_num_threads(1)                     # one core per worker, as in a Dask worker process
+        try:
+            run = _short_campaign(profile_name, 16, 4, workers)
+        finally:
+            numba.set_num_threads(threads)
+        rates[workers] = steady_rate(run["history"], run["timing"]["n_evaluations"], run["wall_s"])
+    out["designs_per_s"] = rates
+    print(f"scaling [{profile_name}], 16 x 4 generations: {rates[1]:.2f} designs/s on 1 worker (in-process, 1 thread), "
+          f"{rates[2]:.2f} on 2 (Dask): efficiency {100 * rates[2] / (2 * rates[1]):.0f}%")
+    overhead = {}
+    for workers in SCALING_WORKERS:
+        start = time.perf_counter()
+        run = _short_campaign(profile_name, 120, 2, workers, {"campaign": {"evaluator": "synthetic",
+                                                                           "synthetic_delay_s": SCALING_DELAY_S}})
+        later = [h for h in run["history"] if h["generation"] > 1]
+        n = sum(h["n_evaluated"] for h in later)
+        gen_wall = sum(h["wall_s"] for h in later)
+        rounds = sum(math.ceil(h["n_evaluated"] / workers) for h in later)
+        excess = (gen_wall - rounds * SCALING_DELAY_S) / max(n, 1)
+        busy = n * SCALING_DELAY_S / (workers * gen_wall)
+        overhead[workers] = excess
+        print(f"  loopback cluster, {workers:2d} workers, {SCALING_DELAY_S} s sleep per design: generation wall "
+              f"{gen_wall / len(later):.2f} s (ideal {rounds * SCALING_DELAY_S / len(later):.2f} s), campaign overhead "
+              f"{1e3 * excess:.1f} ms per design, workers busy {100 * busy:.0f}% (run incl. start-up "
+              f"{time.perf_counter() - start:.0f} s)")
+    out["overhead_s_per_design"] = overhead
+    records = (reference or {}).get("records") or _short_campaign(profile_name, 32, 2, None)["records"]
+    out.update(busy_model(records, overhead))
+    return out
+
+
+def run(profile_name: str = "paper", generations: int | None = None, population: int | None = None,
+        workers: int | None = None, scaling_run: bool = False) -> dict:
+    """Short campaign(s) with the profile's evaluations; throughput, shares and 120 x 1000 projections.
+
+    Defaults: the profile's population (at most 32) for at most 8 generations. When
+    ``params/operational.toml`` exists its projection is printed beside the profile's.
+    """
+    settings = CampaignSettings.from_profile(load_profile(profile_name))
+    population = population or min(settings.population, 32)
+    generations = generations or min(settings.generations, 8)
+    out = {profile_name: _projection(profile_name, population, generations, workers)}
+    if (PARAMS_DIR / "operational.toml").is_file() and profile_name != "operational":
+        out["operational"] = _projection("operational", population, generations, workers)
+        print(f"projected 120 x 1000: [{profile_name}] {out[profile_name]['projected_paper_h']:.1f} h, [operational] "
+              f"{out['operational']['projected_paper_h']:.1f} h (target <= 3 h on 2 workers)")
+    else:
+        print(f"projected 120 x 1000: [{profile_name}] {out[profile_name]['projected_paper_h']:.1f} h (target <= 3 h on "
+              "2 workers); no params/operational.toml, so no operational projection")
+    if scaling_run:
+        out["scaling"] = scaling(profile_name, out[profile_name])
+    for value in out.values():
+        value.pop("records", None) if isinstance(value, dict) else None
+    return out

@@ -2,8 +2,7 @@
 
 Keplerian orbits of a 5-plane x 4-satellite Walker design (a = 6143 km, e = 0.6, i = 51.7 deg,
 AOP = 90 deg) over 10 days at 900 s, taken directly as Moon-fixed positions (the benchmark times
-the DOP grid, not SPICE). Prints the median of several runs of the kernel, of the full Dataset
-and of the summary statistics.
+the DOP grid, not SPICE). Today's numpy path and the compiled path (issue 12) run alternately, side by side.
 """
 
 from __future__ import annotations
@@ -14,7 +13,7 @@ import numpy as np
 
 from ..config import load_profile
 from ..constellation import WalkerDesign
-from ..dop import dop_grid, dop_kernel, dop_summary, grid_from_profile
+from ..dop import dop_arrays, dop_for_profile, dop_kernel, grid_from_profile, metrics_from_profile, summary_from_profile
 from ..elements import kepler_states
 
 
@@ -26,33 +25,50 @@ def _positions_km(profile: dict, n_epochs: int, step_s: float) -> np.ndarray:
     return kepler_states(el, step_s * np.arange(n_epochs), gm)[..., :3]
 
 
-def _median_s(func, repeats: int) -> float:
-    func()
-    samples = []
-    for _ in range(repeats):
-        start = time.perf_counter()
+def _alternating_ms(funcs: dict, repeats: int) -> dict:
+    """Min and median wall time (ms) of each callable, run alternately in the same loop (same load)."""
+    for func in funcs.values():
         func()
-        samples.append(time.perf_counter() - start)
-    return float(np.median(samples))
+    samples = {name: [] for name in funcs}
+    for _ in range(repeats):
+        for name, func in funcs.items():
+            start = time.perf_counter()
+            func()
+            samples[name].append(1e3 * (time.perf_counter() - start))
+    return {name: (min(v), float(np.median(v))) for name, v in samples.items()}
 
 
-def run(profile_name: str = "paper", repeats: int = 7) -> None:
-    """Print the median wall time (ms) of one DOP grid evaluation, per stage and LOS convention."""
+def run(profile_name: str = "paper", repeats: int = 9) -> dict:
+    """Print today's path (numpy kernel + Dataset + numpy statistics) and the compiled path side by side.
+
+    Both run alternately in one loop so machine load hits them alike; prints min and median (ms)
+    and the largest relative difference of the summary metrics. Returns the numbers.
+    """
     profile = load_profile(profile_name)
     grid = grid_from_profile(profile)
     r_mf_km = _positions_km(profile, 961, 900.0)
     points, up = grid.r_mf_km.reshape(-1, 3), grid.up.reshape(-1, 3)
     print(f"DOP grid benchmark: {r_mf_km.shape[0]} satellites x {r_mf_km.shape[1]} epochs x {grid.n_points} points "
-          f"(median of {repeats} runs)")
-    for axes in ("moon_fixed", "enu"):
-        t_kernel = _median_s(lambda: dop_kernel(r_mf_km, points, up, 5.0, axes), repeats)
-        print(f"  dop_kernel ({axes:10s}): {1e3 * t_kernel:7.1f} ms")
-    ds = dop_grid(r_mf_km, grid)
-    t_grid = _median_s(lambda: dop_grid(r_mf_km, grid), repeats)
-    t_summary = _median_s(lambda: dop_summary(ds), repeats)
-    print(f"  dop_grid (Dataset)      : {1e3 * t_grid:7.1f} ms")
-    print(f"  dop_summary             : {1e3 * t_summary:7.1f} ms")
-    print(f"  grid + summary          : {1e3 * (t_grid + t_summary):7.1f} ms (target: well under 200 ms)")
+          f"(min / median of {repeats} alternating runs, ms)")
+    funcs = {
+        "old kernel (dop_kernel, numpy)": lambda: dop_kernel(r_mf_km, points, up, 5.0, "moon_fixed"),
+        "new kernel (dop_arrays, one compiled pass)": lambda: dop_arrays(r_mf_km, points, up, 5.0, "moon_fixed"),
+        "old kernel + Dataset + summary": lambda: summary_from_profile(profile, dop_for_profile(profile, r_mf_km, None,
+                                                                                              grid=grid)),
+        "new kernel + compiled statistics": lambda: metrics_from_profile(profile, r_mf_km, grid),
+    }
+    times = _alternating_ms(funcs, repeats)
+    for name, (lo, med) in times.items():
+        print(f"  {name:44s}: {lo:7.1f} / {med:7.1f}")
+    old = summary_from_profile(profile, dop_for_profile(profile, r_mf_km, None, grid=grid))
+    new = metrics_from_profile(profile, r_mf_km, grid)
+    same = all(np.array_equal(a, b, equal_nan=True) for a, b in zip(dop_kernel(r_mf_km, points, up, 5.0),
+                                                                      dop_arrays(r_mf_km, points, up, 5.0)))
+    rel = max(abs(new[k] - old[k]) / max(abs(old[k]), 1e-300) for k in old if old[k] == old[k])
+    ratio = times["old kernel + Dataset + summary"][0] / times["new kernel + compiled statistics"][0]
+    print(f"  grid arrays bit-for-bit equal: {same}; summary metrics largest relative difference {rel:.1e}; "
+          f"speed-up (grid + summary, min) {ratio:.1f}x (target: new <= 15 ms on a quiet machine)")
+    return {"times_ms": times, "bit_for_bit": same, "max_rel_diff": rel, "speedup": ratio}
 
 
 if __name__ == "__main__":

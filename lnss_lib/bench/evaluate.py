@@ -1,27 +1,102 @@
-"""``python -m lnss_lib bench evaluate``: one 20-satellite design at the profile's fidelity, after warm-up."""
+"""``python -m lnss_lib bench evaluate``: design evaluations at the profile's fidelity, after warm-up, today's
+path and the issue-12 path side by side.
+
+Old path: every gravity degree at every step, the DOP grid and GPS link through their Datasets
+(:func:`~lnss_lib.evaluator.analyse_constellation`). New path: the campaign's
+(:func:`~lnss_lib.evaluator.evaluate_constellation`): gravity degrees bounded below
+``gravity.truncation_kms2`` dropped, DOP and GPS link in compiled passes. One numba thread, as in a
+campaign worker; the two paths alternate design by design so machine load hits both alike.
+"""
 
 from __future__ import annotations
 
+import copy
 import time
 
+import numba
 import numpy as np
 
 from ..config import load_profile
-from ..evaluator import EvaluationContext, evaluate_design
+from ..constellation import WalkerDesign
+from ..evaluator import EvaluationContext, analyse_constellation, evaluate_constellation
+from ..errors import ImpactError
+from ..paper import EVALUATIONS
+from ..campaign import CampaignSettings
+
+PARTS = ("propagation", "dop", "deltav", "gps")
 
 
-def run(profile_name: str = "paper", repeats: int = 5) -> None:
+def _designs(profile: dict, n: int, seed: int = 12) -> list[WalkerDesign]:
+    """``n`` Walker designs drawn uniformly from the campaign grid (Table 3) that do not start inside the Moon."""
+    grid = CampaignSettings.from_profile(profile).grid
+    rng = np.random.default_rng(seed)
+    out = [WalkerDesign(6143.0, 0.6, 51.7, 90.0, 4, 5)]
+    while len(out) < n:
+        d = grid.designs(rng.integers(0, grid.n_levels + 1).reshape(1, -1))[0]
+        try:
+            design = WalkerDesign(d["sma_km"], d["ecc"], d["inc_deg"], d["aop_deg"], d["n_planes"], d["sats_per_plane"])
+            design.elements_deg()
+        except ValueError:
+            continue
+        out.append(design)
+    return out
+
+
+def run(profile_name: str = "paper", n_designs: int = 12, repeats: int = 2) -> dict:
+    """Print old and new per-design times (20-satellite ELFO design and a Table 3 sample) and projections."""
+    numba.set_num_threads(1)
     profile = load_profile(profile_name)
+    full = copy.deepcopy(profile)
+    full["gravity"]["truncation_kms2"] = 0.0
     start = time.perf_counter()
-    context = EvaluationContext.from_profile(profile)
-    print(f"context (tables, force model, rotations, grid, GPS states): {time.perf_counter() - start:.2f} s")
-    design = dict(sma_km=6143.0, ecc=0.6, aop_deg=90.0, inc_deg=51.7, n_planes=4, sats_per_plane=5)
+    new_ctx = EvaluationContext.from_profile(profile)
+    old_ctx = EvaluationContext.from_profile(full)
+    print(f"contexts (tables, force model, rotations, grid, GPS states), both: {time.perf_counter() - start:.2f} s")
+
+    def old(elements):
+        return analyse_constellation(old_ctx, elements)["metrics"]
+
+    def new(elements):
+        return evaluate_constellation(new_ctx, elements)
+
+    designs = _designs(profile, n_designs)
     start = time.perf_counter()
-    evaluate_design(context, **design)
-    print(f"first evaluation (JIT compile or cache load): {time.perf_counter() - start:.2f} s")
-    results = [evaluate_design(context, **design) for _ in range(repeats)]
-    walls = np.array([r["wall_s"] for r in results])
-    parts = {k: np.median([r["timing_s"][k] for r in results]) for k in results[0]["timing_s"]}
-    print(f"20-satellite design {design}, {profile['epoch']['duration_days']:.0f} days, degree "
-          f"{profile['gravity']['degree']}: median {np.median(walls):.3f} s wall (min {walls.min():.3f}, {repeats} runs)")
-    print("  " + ", ".join(f"{k} {v:.3f} s" for k, v in parts.items()))
+    old(designs[0].elements_deg())
+    new(designs[0].elements_deg())
+    print(f"first evaluations (JIT compile or cache load): {time.perf_counter() - start:.2f} s")
+    rows = []
+    for design in designs:
+        elements = design.elements_deg()
+        best = {"old": None, "new": None}
+        for _ in range(repeats):
+            for name, func in (("old", old), ("new", new)):
+                try:
+                    result = func(elements)
+                except ImpactError:
+                    result = None
+                if result is None or not result.get("feasible", True) or "timing_s" not in result:
+                    best[name] = "infeasible"
+                    continue
+                if best[name] is None or best[name] == "infeasible" or result["wall_s"] < best[name]["wall_s"]:
+                    best[name] = result
+        if isinstance(best["old"], dict) and isinstance(best["new"], dict):
+            rows.append((design, best["old"], best["new"]))
+    print(f"{profile['epoch']['duration_days']:.0f} days, degree {profile['gravity']['degree']}, integrator "
+          f"{profile['integrator']['setting']}, 1 thread; min of {repeats} alternating runs, seconds (old -> new):")
+    for design, o, n in rows:
+        diff = max(abs(n[k] - o[k]) / max(abs(o[k]), 1e-300) for k in ("pdop_mean_3sigma", "hdop_mean_3sigma",
+                                                                       "pdop_avail_pct", "dv_total_kms_per_year",
+                                                                       "gps_visible_mean") if o[k] == o[k])
+        print(f"  a {design.a_km:7.0f} e {design.e:4.2f} i {design.inc_deg:4.0f} w {design.aop_deg:5.0f} "
+              f"{design.n_planes}x{design.sats_per_plane}: {o['wall_s']:.3f} -> {n['wall_s']:.3f} ("
+              + ", ".join(f"{k} {o['timing_s'][k]:.3f}->{n['timing_s'][k]:.3f}" for k in PARTS)
+              + f"); metrics max rel diff {diff:.1e}")
+    old_mean = float(np.mean([o["wall_s"] for _, o, _ in rows]))
+    new_mean = float(np.mean([n["wall_s"] for _, _, n in rows]))
+    shares = {k: (np.mean([o["timing_s"][k] for _, o, _ in rows]), np.mean([n["timing_s"][k] for _, _, n in rows]))
+              for k in PARTS}
+    print(f"  mean over {len(rows)} designs: {old_mean:.3f} s -> {new_mean:.3f} s ({old_mean / new_mean:.2f}x); "
+          + ", ".join(f"{k} {a:.3f}->{b:.3f}" for k, (a, b) in shares.items()))
+    print(f"  evaluation time alone for {EVALUATIONS} designs on 2 workers: {EVALUATIONS * old_mean / 2 / 3600:.1f} h -> "
+          f"{EVALUATIONS * new_mean / 2 / 3600:.1f} h (add the campaign's overhead from `bench campaign`)")
+    return {"old_mean_s": old_mean, "new_mean_s": new_mean, "rows": len(rows)}

@@ -73,8 +73,9 @@ class DaskBackend:
         if not designs:
             return
         futures = {}
-        for index, design in enumerate(designs):
-            futures[self._submit(design)] = index
+        by_cost = sorted(range(len(designs)), key=lambda i: -designs[i]["n_planes"] * designs[i]["sats_per_plane"])
+        for index in by_cost:                      # largest constellations first: less idle time at the generation's end
+            futures[self._submit(designs[index])] = index
         attempts = dict.fromkeys(range(len(designs)), 0)
         queue = as_completed(list(futures))
         for future in queue:

@@ -20,6 +20,7 @@ import numpy as np
 from .fitness import constraint_matrix, constraint_violation, hypervolume, metric_columns
 from .rundir import write_checkpoint
 from .settings import CampaignSettings
+from .timing import generation_timing, timing_text
 
 __all__ = ["Callback", "RunState", "CampaignStopped", "ErrorGuard", "HistoryRecorder", "Checkpointer", "ProgressBars",
            "generation_stats", "progress_text"]
@@ -127,8 +128,8 @@ class ErrorGuard(Callback):
 
 
 class HistoryRecorder(Callback):
-    """Appends the generation's counts, cache hits, errors, best values, hypervolume and throughput to
-    ``state.history`` (:func:`generation_stats`)."""
+    """Appends the generation's counts, cache hits, errors, best values, hypervolume, throughput and
+    per-design time split (:func:`~lnss_lib.campaign.timing.generation_timing`) to ``state.history``."""
 
     def on_generation_end(self, state: RunState) -> None:
         records = list(state.cache.records.values())
@@ -138,7 +139,9 @@ class HistoryRecorder(Callback):
         state.history.append({"generation": state.generation, "n_designs": state.n_designs,
                               "n_evaluated": last["evaluated"], "n_cache_hits": last["hits"],
                               "n_errors": last["errors"], "n_errors_cum": state.cache.n_errors, **stats, "wall_s": state.wall_s,
-                              "designs_per_s": last["evaluated"] / state.wall_s if state.wall_s > 0 else 0.0})
+                              "designs_per_s": last["evaluated"] / state.wall_s if state.wall_s > 0 else 0.0,
+                              **generation_timing(records, state.generation,
+                                                  getattr(state.batch.backend, "n_workers", 1), state.wall_s)})
 
 
 class Checkpointer(Callback):
@@ -200,4 +203,5 @@ def progress_text(entry: dict) -> str:
             f"min cv {entry['min_cv_pop']:.3g}" + (f", errors {entry['n_errors']}" if entry["n_errors"] else ""))
     best = [f"{key[5:]} {entry[key]:.3g}" for key in ("best_n_sat", "best_pdop_mean_3sigma", "best_dv_opt_kms_per_year")
             if key in entry and math.isfinite(entry[key])]
-    return text + (f", best {', '.join(best)}" if best else "")
+    timing = timing_text(entry)
+    return text + (f", best {', '.join(best)}" if best else "") + (f", {timing}" if timing else "")

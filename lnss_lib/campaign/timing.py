@@ -6,9 +6,10 @@ package never imports :mod:`lnss_lib.bench`.
 
 from __future__ import annotations
 
+from ..keys import TIMING_KEYS
 from .journal import read_cache_records
 
-__all__ = ["campaign_timing", "steady_rate"]
+__all__ = ["campaign_timing", "steady_rate", "generation_timing", "timing_text"]
 
 
 def campaign_timing(run_dir, n_workers: int, wall_s: float) -> dict:
@@ -36,3 +37,28 @@ def steady_rate(history: list[dict], n_evaluations: int, wall_s: float) -> float
     if later:
         return sum(h["n_evaluated"] for h in later) / sum(h["wall_s"] for h in later)
     return n_evaluations / wall_s
+
+
+def generation_timing(records, generation: int, n_workers: int, wall_s: float) -> dict:
+    """Mean seconds per design evaluated in ``generation``: ``time_<part>_s`` for propagation, DOP,
+    Delta-V and GPS (the evaluator's ``timing_s``), ``time_overhead_s`` (the rest of each task) and
+    ``time_campaign_s`` (worker time not spent in tasks: scheduling, idle workers, pymoo, checkpoint).
+
+    NaN-free: zeros for a generation that evaluated nothing. Written to ``history.nc`` every generation.
+    """
+    mine = [r for r in records if r.get("generation") == generation]
+    n = max(len(mine), 1)
+    out = {f"time_{k}_s": sum(r["timing_s"].get(k, 0.0) for r in mine) / n for k in TIMING_KEYS}
+    task = sum(r.get("task_wall_s", 0.0) for r in mine)
+    out["time_overhead_s"] = task / n - sum(out[f"time_{k}_s"] for k in TIMING_KEYS)
+    out["time_campaign_s"] = max(n_workers * wall_s - task, 0.0) / n if mine else 0.0
+    return out
+
+
+def timing_text(entry: dict) -> str:
+    """Progress-line summary of :func:`generation_timing` (ms per design), empty without timing keys."""
+    parts = [("prop", "time_propagation_s"), ("dop", "time_dop_s"), ("dv", "time_deltav_s"), ("gps", "time_gps_s"),
+             ("ovh", "time_overhead_s"), ("camp", "time_campaign_s")]
+    if not all(key in entry for _, key in parts):
+        return ""
+    return "ms/design " + " ".join(f"{name} {1e3 * entry[key]:.0f}" for name, key in parts)

@@ -4,6 +4,7 @@ import json
 import sys
 
 import numpy as np
+import pytest
 import xarray as xr
 
 from lnss_lib.__main__ import main
@@ -60,6 +61,27 @@ def test_real_campaign_netcdf_contract(real_run):
     np.testing.assert_array_equal(history.generation, [1, 2, 3])
     np.testing.assert_array_equal(history.n_evaluations_cum[-1], ev.sizes["design"])
     assert np.all(history.n_evaluated + history.n_cache_hits == history.n_designs)
+
+
+def test_history_holds_each_generations_time_split(real_run):
+    from lnss_lib.campaign.callbacks import progress_text
+
+    history = xr.open_dataset(real_run.run_dir / "history.nc", engine="h5netcdf").load()
+    records = read_cache_records(real_run.run_dir)
+    parts = ("propagation", "dop", "deltav", "gps")
+    for gen in history.generation.values:
+        mine = [r for r in records if r["generation"] == gen]
+        row = history.sel(generation=gen)
+        for part in parts:
+            expected = np.mean([r["timing_s"].get(part, 0.0) for r in mine]) if mine else 0.0
+            assert row[f"time_{part}_s"].item() == pytest.approx(expected, rel=1e-12, abs=1e-15)
+        task = np.mean([r["task_wall_s"] for r in mine]) if mine else 0.0
+        split = sum(row[f"time_{part}_s"].item() for part in parts) + row["time_overhead_s"].item()
+        assert split == pytest.approx(task, rel=1e-9, abs=1e-12)
+        assert row["time_campaign_s"].item() >= 0.0
+    assert history["time_propagation_s"].values[0] > 0.0
+    entry = {k: history[k].values[-1].item() for k in history.data_vars}
+    assert "ms/design prop" in progress_text(entry)
 
 
 def test_real_campaign_cache_holds_a_fresh_evaluation(real_run):
