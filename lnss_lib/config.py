@@ -124,7 +124,7 @@ POSITIVE, NON_NEGATIVE = (0.0, None, True, False), (0.0, None, False, False)
 RANGES = {
     "epoch.duration_days": POSITIVE, "epoch.step_s": POSITIVE,
     "spacecraft.mass_kg": POSITIVE, "spacecraft.area_m2": POSITIVE, "spacecraft.cr": POSITIVE,
-    "gravity.degree": (0, 100, False, False), "gravity.gm_km3_s2": POSITIVE, "gravity.r_ref_km": POSITIVE,
+    "gravity.degree": (0, 100, False, False), "gravity.gm_km3_s2": POSITIVE, "gravity.truncation_kms2": NON_NEGATIVE, "gravity.r_ref_km": POSITIVE,
     "forces.earth_albedo": (0.0, 1.0, False, False), "forces.solar_flux_w_m2": NON_NEGATIVE,
     "integrator.settings.*.rtol": POSITIVE, "integrator.settings.*.atol": POSITIVE,
     "ephemeris.table_step_s": POSITIVE, "impact.min_altitude_km": NON_NEGATIVE,
