@@ -336,15 +336,16 @@ def file_epoch_profile(profile: dict, c: CatalogueConstellation) -> dict:
     return deep_merge(profile, {"epoch": {"start_tdb": tdb_iso(_file_epoch_tdb_s(c))}})
 
 
-def analyse_catalogue(context, c: CatalogueConstellation, epoch: str = "study") -> dict:
+def analyse_catalogue(context, c: CatalogueConstellation, epoch: str = "study", *, datasets: bool = True) -> dict:
     """:func:`lnss_lib.evaluator.analyse_constellation` for a catalogue constellation, for study notebooks.
 
     Returns the evaluator's ``{"propagation", "dop", "deltav", "gps_link", "metrics"}`` plus ``"states"``
     (the :class:`CatalogueStates` it started from). ``context`` and ``epoch`` as in
     :func:`evaluate_catalogue`; raises :class:`~lnss_lib.errors.ImpactError` for an orbit that hits
-    the Moon and :class:`~lnss_lib.errors.ConfigError` for an approximate entry.
+    the Moon and :class:`~lnss_lib.errors.ConfigError` for an approximate entry. Without ``datasets``
+    the campaign's metrics-only path (what ``evaluate`` prints, to the last bit).
     """
-    from .evaluator import _analyse_states
+    from .evaluator import analyse_states
 
     if epoch not in EPOCH_CHOICES:
         raise ValueError(f"epoch must be one of {', '.join(EPOCH_CHOICES)}; got {epoch!r}")
@@ -353,7 +354,7 @@ def analyse_catalogue(context, c: CatalogueConstellation, epoch: str = "study") 
         raise ValueError(f"{c.key}: the evaluation context starts at {tdb_iso(context.t0_tdb_s)} TDB, not at the "
                          f"file's epoch {c.epoch} {c.time_scale}: build it from file_epoch_profile(profile, constellation)")
     states = _states_at(context.profile, c, context.t0_tdb_s, _epoch_source(c, epoch))
-    return {**_analyse_states(context, c.elements_deg, states.states_mci), "states": states}
+    return {**analyse_states(context, c.elements_deg, states.states_mci, datasets=datasets), "states": states}
 
 
 def evaluate_catalogue(context, c: CatalogueConstellation, epoch: str = "study") -> dict:
@@ -374,7 +375,7 @@ def evaluate_catalogue(context, c: CatalogueConstellation, epoch: str = "study")
 
     start = time.perf_counter()
     try:
-        result = analyse_catalogue(context, c, epoch)["metrics"]
+        result = analyse_catalogue(context, c, epoch, datasets=False)["metrics"]
     except ImpactError as error:
         result = _infeasible(c.n_sat, str(error), deltav_settings(context.profile)["model"], start)
     result.update(name=c.key, approximate=c.approximate, element_frame=c.element_frame,

@@ -98,10 +98,10 @@ def analyse_constellation(context: EvaluationContext, elements_deg) -> dict:
     :class:`~lnss_lib.propagator.ImpactError` for an orbit that hits the Moon.
     """
     elements = np.atleast_2d(np.asarray(elements_deg, dtype=float))
-    return _analyse_states(context, elements, elements_deg_to_states(context.profile, elements, context.t0_tdb_s))
+    return analyse_states(context, elements, elements_deg_to_states(context.profile, elements, context.t0_tdb_s))
 
 
-def _analyse_states(context: EvaluationContext, elements: np.ndarray, states: np.ndarray,
+def analyse_states(context: EvaluationContext, elements: np.ndarray, states: np.ndarray,
                     datasets: bool = True) -> dict:
     """Propagation and metrics; without ``datasets`` the campaign's path: no grid or link Dataset, the DOP
     grid compiled (:func:`lnss_lib.dop.metrics_from_profile`, same metrics to ~1e-12 relative) and the
@@ -215,7 +215,7 @@ def evaluate_constellation(context: EvaluationContext, elements_deg) -> dict:
     except ValueError as error:
         return _infeasible(n_sat, f"invalid elements: {error}", model_name, start, context.extra_metrics)
     try:
-        return _analyse_states(context, elements, states, datasets=False)["metrics"]
+        return analyse_states(context, elements, states, datasets=False)["metrics"]
     except ImpactError as error:
         return _infeasible(n_sat, str(error), model_name, start, context.extra_metrics)
 

@@ -174,13 +174,13 @@ def test_pdop_along_axis_splits_the_trace():
 def test_campaign_link_metrics_equal_the_dataset_summary():
     from lnss_lib.config import load_profile
     from lnss_lib.constellation import WalkerDesign
-    from lnss_lib.evaluator import _analyse_states, context_for
+    from lnss_lib.evaluator import analyse_states, context_for
     from lnss_lib.gps import gps_link, gps_link_metrics, gps_link_summary
     from lnss_lib.propagator import elements_deg_to_states
 
     context = context_for(load_profile("ci"))
     elements = WalkerDesign(6143.0, 0.6, 51.7, 90.0, 2, 2).elements_deg()
-    ds = _analyse_states(context, elements, elements_deg_to_states(context.profile, elements, context.t0_tdb_s))[
+    ds = analyse_states(context, elements, elements_deg_to_states(context.profile, elements, context.t0_tdb_s))[
         "propagation"]
     reference = gps_link_summary(gps_link(context.profile, context.gps_states, ds, sats="first"))
     for _ in range(2):                                   # second call: cached gain pattern and GPS arrays

@@ -13,7 +13,7 @@ from lnss_lib.campaign.settings import evaluation_hash
 from lnss_lib.config import load_profile
 from lnss_lib.constellation import WalkerDesign
 from lnss_lib.errors import ConfigError
-from lnss_lib.evaluator import _analyse_states, context_for, evaluate_design
+from lnss_lib.evaluator import analyse_states, context_for, evaluate_design
 from lnss_lib.keys import EXTRA_METRIC_KEYS, METRIC_KEYS, requested_extra_metrics
 from lnss_lib.propagator import elements_deg_to_states
 from lnss_lib.studies.pareto import deltav_constraint, table6
@@ -48,7 +48,7 @@ def test_deltav_satellites_first_is_satellite_zero_and_all_is_the_mean(extra_con
 
     profile = extra_context.profile
     elements = WalkerDesign(6143.0, 0.6, 51.7, 90.0, 2, 2).elements_deg()
-    out = _analyse_states(extra_context, elements, elements_deg_to_states(profile, elements, extra_context.t0_tdb_s))
+    out = analyse_states(extra_context, elements, elements_deg_to_states(profile, elements, extra_context.t0_tdb_s))
     per_sat = deltav.deltav_per_satellite(profile, out["propagation"]).sel(model_all=profile["deltav"]["model"])
     metrics = out["metrics"]
     assert metrics["dv_total_kms_per_year"] == pytest.approx(float(per_sat.dv_total_kms_per_year.mean()))

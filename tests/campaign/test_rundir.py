@@ -68,7 +68,8 @@ def test_history_holds_each_generations_time_split(real_run):
 
     history = xr.open_dataset(real_run.run_dir / "history.nc", engine="h5netcdf").load()
     records = read_cache_records(real_run.run_dir)
-    parts = ("propagation", "dop", "deltav", "gps")
+    from lnss_lib.keys import TIMING_KEYS as parts
+
     for gen in history.generation.values:
         mine = [r for r in records if r["generation"] == gen]
         row = history.sel(generation=gen)
