@@ -12,10 +12,15 @@ Layers (a module imports only from its own layer or a lower one):
    availability), ``dop`` (south-pole grid), ``gps`` (GPS states and link), ``gve`` (Gauss variational
    equations and their inverses), ``deltav`` (station-keeping budgets), ``constellation``,
    ``evaluator`` (the design evaluator).
-3. Campaign engine: ``optimize`` (NSGA-II campaign), ``pareto``.
-4. Presentation and studies: ``pipeline``, ``figures``, ``studies`` (one module per notebook:
-   ``propagator_validation`` 01, ``dop_grid`` 02, ``gps_link`` 03, ``deltav_models`` 04,
-   ``standalone_elfo`` 05). Top: ``__main__``, ``bench``.
+   Design life: ``stability`` (doubly-averaged screen), ``sk_estimate`` (campaign-grade
+   geometry-keeping Delta-V), ``maneuvers`` (impulsive GVEs), ``mean_elements``, ``sk_control``,
+   ``stationkeeping`` (closed loop over the design life), ``designlife`` (its evaluation);
+   ``catalogue`` (published constellations).
+3. Campaign engine: ``campaign`` (settings, grid, fitness, tasks, journal, backends, problem, rundir,
+   runner and callbacks, timing).
+4. Presentation and studies: ``outputs``, ``pipeline``, ``figures``, ``studies`` (one module per
+   notebook; each docstring states the question and the verdict), ``explorer``.
+   Top: ``__main__``, ``bench``.
 """
 
 __version__ = "0.1.0"

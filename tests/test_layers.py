@@ -22,7 +22,7 @@ from pathlib import Path
 
 PACKAGE = "lnss_lib"
 PACKAGE_DIR = Path(__file__).resolve().parents[1] / PACKAGE
-FOUNDATIONS = {"config", "constants", "paper", "keys", "errors"}
+FOUNDATIONS = {"config", "constants", "paper", "keys", "errors", "atomicio"}
 CAMPAIGN = {"campaign"}
 PRESENTATION = {"outputs", "pipeline", "figures", "studies", "explorer"}
 TOP = {"__main__", "bench"}
