@@ -86,7 +86,7 @@ def reproduce(profile_name: str = "quick", only: list[str] | None = None, overri
         executed = target / book.name
         temporary = executed.with_name(f".{book.stem}.{os.getpid()}.tmp.ipynb")
         try:
-            declared = parameters if "overrides_json" in book.read_text() else {"profile_name": profile_name}
+            declared = {k: v for k, v in parameters.items() if k in papermill.inspect_notebook(str(book))}
             papermill.execute_notebook(str(book), str(temporary), parameters=declared,
                                        cwd=str(NOTEBOOKS_DIR), progress_bar=False, kernel_name="python3",
                                        execution_timeout=timeout_s, kernel_manager_class=manager)

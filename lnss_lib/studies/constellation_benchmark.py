@@ -235,7 +235,7 @@ def _evaluate_entry(context, entry: Entry, masks) -> tuple[dict, dict | None]:
     return row, study
 
 
-def run_benchmark(profile_name: str, *, campaigns: bool | None = None, names=None) -> Benchmark:
+def run_benchmark(profile_name: str, *, campaigns: bool | None = None, names=None, overrides=None) -> Benchmark:
     """Evaluate every entry (catalogue, Table 4 ELFO, campaign picks) over the profile's grid and epoch span.
 
     Columns: ``constellation``, ``kind``, ``n_sat``, ``status``, the eq. 45 metrics of
@@ -245,7 +245,7 @@ def run_benchmark(profile_name: str, *, campaigns: bool | None = None, names=Non
     geometry-keeping estimate (``sk_dv_estimate_kms_per_year`` mean over satellites, ``..._max_...``).
     ``campaigns`` overrides ``[benchmark] campaign_picks``; ``names`` restricts the catalogue (default: all).
     """
-    profile = load_profile(profile_name)
+    profile = load_profile(profile_name, overrides=overrides)
     cfg = benchmark_settings(profile)
     context = context_for(profile)
     entries = [paper_entry(profile)] + catalogue_entries(profile, names)
@@ -447,7 +447,7 @@ def _epoch_states(profile: dict, name: str, t0: float) -> np.ndarray:
     return constellation_states_mci(profile, load_constellation(name, profile)).states_mci
 
 
-def epoch_sensitivity(profile_name: str, *, epochs=None, names=None) -> pd.DataFrame:
+def epoch_sensitivity(profile_name: str, *, epochs=None, names=None, overrides=None) -> pd.DataFrame:
     """Lunar-surface metrics of the same constellations started at each epoch (``[benchmark] epochs_tdb``).
 
     The constellation keeps its geometry relative to the Moon: Table 4's elements in the lunar equator
@@ -456,13 +456,13 @@ def epoch_sensitivity(profile_name: str, *, epochs=None, names=None) -> pd.DataF
     the geometry-keeping estimate; ``moon_node_deg`` is the phase of the 18.6-year nodal cycle. The
     GPS link is left out: its TLEs (2025) do not reach other epochs.
     """
-    base = load_profile(profile_name)
+    base = load_profile(profile_name, overrides=overrides)
     cfg = benchmark_settings(base)
     epochs = cfg["epochs_tdb"] if epochs is None else epochs
     names = cfg["epoch_constellations"] if names is None else names
     rows = []
     for epoch in epochs:
-        profile = load_profile(profile_name, overrides={"epoch": {"start_tdb": epoch}})
+        profile = deep_merge(base, {"epoch": {"start_tdb": epoch}})
         ensure_kernels(profile)
         t0 = tdb_seconds(epoch, "TDB")
         duration = float(profile["epoch"]["duration_days"]) * SECONDS_PER_DAY
