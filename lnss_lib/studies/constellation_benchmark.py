@@ -144,23 +144,31 @@ def paper_entry(profile: dict) -> Entry:
 
 
 def _campaign_folders(profile_name: str) -> list[tuple[str, Path]]:
+    """(label, folder) of the profile's campaign (paper-faithful), of its companion (``operational``) and of
+    any subfolder holding a ``front.nc``."""
+    from .campaign import companion_of
+
     base = output_dir(profile_name, "campaign")
     folders = [("paper-faithful", base)] if (base / "front.nc").is_file() else []
     folders += [(sub.name, sub) for sub in sorted(base.iterdir()) if sub.is_dir() and not sub.name.startswith("run_")
                 and (sub / "front.nc").is_file()] if base.is_dir() else []
+    companion = companion_of(profile_name)
+    if companion and (output_dir(companion, "campaign") / "front.nc").is_file():
+        folders.append(("operational", output_dir(companion, "campaign")))
     return folders
 
 
 def campaign_entries(profile_name: str) -> tuple[list[Entry], list[str]]:
     """Table 6 picks (:func:`lnss_lib.studies.pareto.table6`) of every campaign with a ``front.nc`` under
-    ``outputs/<profile>/campaign/`` (the paper-faithful one there, others in subfolders), and notes.
+    ``outputs/<profile>/campaign/`` (the paper-faithful one there, others in subfolders) and of the
+    profile's companion (the operational campaign, under its own Delta-V metric and bound), and notes.
 
     The picks use the front with the Delta-V bound relaxed when no front design meets it (notebook 07's
     reading). A missing campaign gives a note, not an error.
     """
     import xarray as xr
 
-    from .pareto import pareto_front, table6
+    from .pareto import analysis_front, deltav_constraint, table6
 
     entries, notes = [], []
     folders = _campaign_folders(profile_name)
@@ -169,11 +177,12 @@ def campaign_entries(profile_name: str) -> tuple[list[Entry], list[str]]:
                      f"skipped; run `python -m lnss_lib campaign --profile {profile_name}`")
     for name, folder in folders:
         front = xr.load_dataset(folder / "front.nc", engine="h5netcdf")
-        picks = table6(front)
-        if not len(picks) and (folder / "evaluations.nc").is_file():
-            relaxed = pareto_front(xr.load_dataset(folder / "evaluations.nc", engine="h5netcdf"),
-                                   relax=("dv_total_kms_per_year",))
-            picks = table6(relaxed, dv_max_kms_per_year=math.inf)
+        evaluations = xr.load_dataset(folder / "evaluations.nc", engine="h5netcdf")
+        metric, limit = deltav_constraint(evaluations)      # the paper's Delta-V, or the operational estimate
+        picks = table6(front, dv_max_kms_per_year=limit, dv_metric=metric)
+        if not len(picks):
+            relaxed, _ = analysis_front(evaluations, front.isel(design=slice(0, 0)))
+            picks = table6(relaxed, dv_max_kms_per_year=math.inf, dv_metric=metric)
             notes.append(f"{name} campaign: no front design meets every bound; Table 6 picks from the front with the "
                          "Delta-V bound relaxed")
         if not len(picks):
