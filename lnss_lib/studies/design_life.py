@@ -8,16 +8,17 @@ campaign-grade estimate from the 10-day arc (ratio and Spearman rank correlation
 which designs does the stability screen get wrong, and which regions of the design space can be
 kept at all?
 
-Verdict (the notebook prints it from the numbers; words here from the quick run, 60-day lives, one
-satellite per plane): the campaign-grade estimate ranks designs by closed-loop cost (strong Spearman
-correlation) but is not a budget: it over-predicts cheap low near-circular orbits many times over
-(the closed loop lets their small drifts ride inside the box) and under-predicts the near-equatorial
-low orbit; for the ELFO and the frozen family it is within a factor of about three. The stability
-screen agreed with the natural drift on every design. High, inclined orbits (a >= 12000 km,
-i >= 70 deg) are not sustainable: most reach the surface within weeks without control,
-and within Table 3's 1 km/s/yr cap the controller delays but does not always prevent the impact.
-The standalone ELFO, the low near-circular orbits and the campaign's low near-polar designs are
-sustainable; the frozen family only partly (its larger-a members need the whole 1 km/s/yr).
+Verdict (the notebook prints it from the numbers; words here from a one-year life, one satellite per
+plane): over weeks the campaign-grade estimate ranks designs by closed-loop cost, over a year only
+weakly: the Lidov-Kozai growth it sees as a 10-day slope dominates the year, and designs that need
+more than Table 3's 1 km/s/yr saturate the closed loop's cap, so the estimate is a screen for cheap
+designs, not a budget (it over-predicts low near-circular orbits many times over and under-predicts
+the near-equatorial low orbit). The stability screen agrees with natural drift on all designs but
+one frozen-family orbit whose mean perilune stays about 100 km up while the real one, swinging with
+the monthly terms the averaging removes, reaches the surface. High, inclined orbits (a >= 12000 km,
+i >= 70 deg) are not sustainable; the frozen family mostly not over a year (its perilunes are driven
+down within months and the cap is reached); the standalone ELFO, the low orbits and the operational
+campaign's low near-polar designs are sustainable inside their box for a few tenths of a km/s a year.
 """
 
 from __future__ import annotations
