@@ -14,9 +14,12 @@ def benchmark_scatter(table, panels, colour: str, colour_label: str, *, title: s
 
     ``table``: the yardstick (a DataFrame with ``constellation`` and ``n_sat``); ``panels``: sequence of
     (panel title, availability column); ``colour``: the column that colours the points (e.g. the
-    station-keeping cost), rows without it drawn as open grey circles.
+    station-keeping cost), rows without it drawn as open grey circles. Campaign picks are labelled
+    P1, P2, ... (paper-faithful) and O1, ... (operational), catalogue entries by name.
     """
     panels = list(panels)
+    names = table["constellation"].to_numpy(str)
+    tags = np.array([_tag(name) for name in names])
     fig = make_subplots(rows=1, cols=len(panels), subplot_titles=[p[0] for p in panels], shared_yaxes=True,
                         horizontal_spacing=0.06)
     values = table[colour].to_numpy(float)
@@ -35,13 +38,23 @@ def benchmark_scatter(table, panels, colour: str, colour_label: str, *, title: s
                 continue
             fig.add_trace(go.Scatter(
                 x=table["n_sat"].to_numpy(float)[keep], y=y[keep], mode="markers+text", name=name, marker=marker,
-                text=table["constellation"].to_numpy(str)[keep], textposition="top center", textfont={"size": 9},
-                showlegend=False, hovertemplate="%{text}<br>%{x} satellites<br>availability %{y:.1f}%<extra></extra>"),
+                text=tags[keep], customdata=names[keep], textposition="top center", textfont={"size": 9},
+                showlegend=False,
+                hovertemplate="%{customdata}<br>%{x} satellites<br>availability %{y:.1f}%<extra></extra>"),
                 row=1, col=col)
         fig.update_xaxes(title_text="satellites", row=1, col=col)
     fig.update_yaxes(title_text="PDOP availability over the south-pole grid (%)", row=1, col=1)
     fig.update_layout(title=title, template="plotly_white", height=650)
     return fig
+
+
+def _tag(name: str) -> str:
+    """Short point label: campaign picks as P1.. (paper-faithful) and O1.. (operational); the full name
+    is in the hover text."""
+    for prefix, short in (("paper-faithful campaign #", "P"), ("operational campaign #", "O")):
+        if name.startswith(prefix):
+            return short + name[len(prefix):].split(":")[0]
+    return name
 
 
 def epoch_sensitivity_lines(table, metrics, labels, *, title: str) -> go.Figure:
