@@ -16,7 +16,6 @@ import ast
 import os
 import subprocess
 import sys
-from concurrent.futures import ThreadPoolExecutor
 from pathlib import Path
 
 
@@ -232,15 +231,45 @@ def test_checks_catch_synthetic_violations(tmp_path):
         "lnss_lib.gps (layer 2, kernels) imports lnss_lib.figures.charts (layer 4, presentation/studies)"]
 
 
-def _import_alone(module: str) -> tuple[str, int, str]:
-    env = {**os.environ, "PYTHONPATH": os.pathsep.join([str(PACKAGE_DIR.parent), os.environ.get("PYTHONPATH", "")])}
-    done = subprocess.run([sys.executable, "-c", f"import {module}"], capture_output=True, text=True, timeout=300,
-                          cwd=PACKAGE_DIR.parent, env=env)
-    return module, done.returncode, done.stderr.strip().splitlines()[-1] if done.stderr.strip() else ""
+# Third-party libraries are loaded once in a parent interpreter that then forks one child per module:
+# each child starts with no lnss_lib module imported (a fresh interpreter for the package, which is what
+# import-order bugs need), without paying numba's, xarray's and plotly's start-up per module.
+_FORK_IMPORTS = """
+import importlib, os, sys
+for name in ("numpy", "scipy", "numba", "xarray", "pandas", "spiceypy", "sgp4.api", "h5netcdf", "plotly.graph_objects",
+             "plotly.subplots", "pymoo.core.problem", "pymoo.algorithms.moo.nsga2", "dask", "distributed",
+             "papermill", "tqdm", "ipywidgets", "kaleido"):
+    try:
+        importlib.import_module(name)
+    except ImportError:
+        pass
+assert not any(m == "lnss_lib" or m.startswith("lnss_lib.") for m in sys.modules)
+running = {}
+def reap():
+    pid, status = os.wait()
+    module = running.pop(pid)
+    if status != 0:
+        print(f"{module}: exit status {status}", flush=True)
+for module in sys.argv[1:]:
+    if len(running) >= 4:
+        reap()
+    pid = os.fork()
+    if pid == 0:
+        try:
+            importlib.import_module(module)
+        except BaseException as error:
+            print(f"{module}: {type(error).__name__}: {error}", flush=True)
+            os._exit(1)
+        os._exit(0)
+    running[pid] = module
+while running:
+    reap()
+"""
 
 
 def test_each_module_imports_in_a_fresh_interpreter():
-    modules = sorted(GRAPH)
-    with ThreadPoolExecutor(max_workers=min(4, os.cpu_count() or 1)) as pool:
-        failures = [f"{m}: {err}" for m, code, err in pool.map(_import_alone, modules) if code != 0]
-    assert failures == []
+    env = {**os.environ, "PYTHONPATH": os.pathsep.join([str(PACKAGE_DIR.parent), os.environ.get("PYTHONPATH", "")])}
+    done = subprocess.run([sys.executable, "-c", _FORK_IMPORTS, *sorted(GRAPH)], capture_output=True, text=True,
+                          timeout=300, cwd=PACKAGE_DIR.parent, env=env)
+    failures = [line for line in done.stdout.splitlines() if line.strip()]
+    assert done.returncode == 0 and failures == [], (failures, done.stderr[-2000:])
