@@ -54,7 +54,8 @@ class DaskBackend:
             self.client = Client(scheduler_address, timeout=60)
         else:
             self.cluster = LocalCluster(n_workers=n_workers, threads_per_worker=1, processes=True,
-                                        host="127.0.0.1", dashboard_address=None, silence_logs=logging.ERROR)
+                                        host="127.0.0.1", dashboard_address=None,
+                                        silence_logs=logging.CRITICAL)   # task errors come back through the futures
             self.client = Client(self.cluster)
         self.n_workers = max(1, len(self.client.scheduler_info().get("workers", {})))
         self.profile = eval_profile
