@@ -27,7 +27,7 @@ import plotly.graph_objects as go
 import plotly.io as pio
 
 from . import deltav, frames
-from .config import OUTPUTS_DIR, available_profiles, load_profile
+from .config import OUTPUTS_DIR, available_profiles, deep_merge, load_profile
 from .constellation import walker_design
 from .errors import ImpactError
 from .evaluator import EvaluationContext, analyse_constellation, context_for
@@ -136,16 +136,31 @@ def _fmt(value) -> str:
     return html.escape(str(value))
 
 
+def _flatten(values, prefix: str = "") -> list[tuple[str, object]]:
+    """``[("key.sub", value), ...]`` of a nested overrides table."""
+    if not isinstance(values, dict):
+        return [(prefix, values)]
+    return [item for key, value in values.items() for item in _flatten(value, f"{prefix}.{key}" if prefix else key)]
+
+
+def _lookup(table: dict, dotted: str):
+    for part in dotted.split("."):
+        table = table.get(part) if isinstance(table, dict) else None
+    return table
+
+
 class DesignExplorer:
     """Widgets and state of the explorer; :attr:`widget` is what a notebook displays.
 
     ``current`` and ``previous`` are :class:`Evaluation` records; ``comparison`` the rows added with
     the "add to comparison" button; ``figures`` the plotly figures of the current design.
-    Evaluation contexts are cached per (profile, element frame, Delta-V model).
+    Evaluation contexts are cached per (profile, element frame, Delta-V model); ``overrides`` (a nested
+    dict or its JSON, as ``reproduce --set`` passes them) apply to every profile the explorer loads.
     """
 
     def __init__(self, profile_name: str = "quick", *, design: dict | None = None, frame: str | None = None,
-                 model: str | None = None, outputs_dir: Path | str | None = None):
+                 model: str | None = None, outputs_dir: Path | str | None = None, overrides: dict | str | None = None):
+        self.overrides = (json.loads(overrides) if isinstance(overrides, str) else dict(overrides or {}))
         self.outputs_dir = Path(outputs_dir) if outputs_dir is not None else OUTPUTS_DIR
         self._contexts: dict[tuple[str, str, str], EvaluationContext] = {}
         self._holding = False
@@ -153,7 +168,7 @@ class DesignExplorer:
         self.previous: Evaluation | None = None
         self.comparison: list[dict] = []
         self.figures: dict[str, go.Figure] = {}
-        self.profile = load_profile(profile_name)
+        self.profile = load_profile(profile_name, overrides=self.overrides)
         style = {"description_width": "110px"}
         self.profile_choice = widgets.Dropdown(options=available_profiles(), value=profile_name,
                                                description="profile", style=style)
@@ -215,7 +230,8 @@ class DesignExplorer:
         """The cached :class:`EvaluationContext` of the chosen (profile, element frame, Delta-V model)."""
         key = (self.profile_choice.value, self.frame_choice.value, self.model_choice.value)
         if key not in self._contexts:
-            self._contexts[key] = context_for(load_profile(key[0], overrides=self.settings()))
+            self._contexts[key] = context_for(load_profile(key[0], overrides=deep_merge(self.overrides,
+                                                                                          self.settings())))
         return self._contexts[key]
 
     def evaluate(self) -> Evaluation:
@@ -254,7 +270,7 @@ class DesignExplorer:
 
     def _on_profile(self, change) -> None:
         design = self.design()
-        self.profile = load_profile(change["new"])
+        self.profile = load_profile(change["new"], overrides=self.overrides)
         self._configure_sliders(design)
         self.refresh()
 
@@ -280,9 +296,9 @@ class DesignExplorer:
         argv = ["evaluate", "--profile", name]
         for key in DESIGN_KEYS:
             argv += [CLI_FLAGS[key], str(design[key])]
-        for section, values in self.settings().items():
-            for key, value in values.items():
-                if base[section][key] != value:
+        for section, values in deep_merge(self.overrides, self.settings()).items():
+            for key, value in _flatten(values):
+                if _lookup(base[section], key) != value:
                     argv += ["--set", f"{section}.{key}={_toml_literal(value)}"]
         command = "python -m lnss_lib " + shlex.join(argv)
         lines = [f"# LNSS design explorer: Walker design (Table 3 variables, RAAN by eq. 42), profile {name!r}",

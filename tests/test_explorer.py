@@ -182,6 +182,19 @@ def test_export_passes_changed_settings_and_writes_atomically(explorer, tmp_path
     assert args.set == ['deltav.model="secular"']
 
 
+def test_overrides_reach_every_evaluation_and_the_export(tmp_path, capsys):
+    """`reproduce --set` overrides (JSON, as notebook 09 receives them) apply to the explorer's profile,
+    its evaluations and the exported command line."""
+    overrides = {"dop": {"elevation_mask_deg": 15.0}}
+    explorer = DesignExplorer(PROFILE, outputs_dir=tmp_path, overrides=json.dumps(overrides))
+    assert explorer.context().profile["dop"]["elevation_mask_deg"] == 15.0
+    _assert_same_metrics(explorer.current.metrics, _reference(explorer.design(), overrides))
+    exported = explorer.export()
+    assert "dop.elevation_mask_deg=15.0" in exported["argv"]
+    assert main(exported["argv"] + ["--json"]) == 0
+    _assert_same_metrics(explorer.current.metrics, json.loads(capsys.readouterr().out))
+
+
 def test_profile_switch_keeps_the_design(explorer):
     _set(explorer, n_planes=3)
     explorer.profile_choice.value = "quick"
