@@ -32,7 +32,7 @@ from .constants import SECONDS_PER_DAY
 from .forces import ForceModel
 from .frames import rotate_with
 from .errors import ConfigError, ImpactError
-from .keys import DESIGN_KEYS, METRIC_KEYS, RESULT_KEYS, TIMING_KEYS, requested_extra_metrics
+from .keys import METRIC_KEYS, RESULT_KEYS, TIMING_KEYS, requested_extra_metrics
 from .propagator import check_elements_deg, elements_deg_to_states, output_times, propagate_states
 
 

@@ -11,7 +11,6 @@ import json
 import platform
 import subprocess
 import time
-from importlib import metadata
 from pathlib import Path
 
 from .atomicio import atomic_path, write_bytes_atomic, write_text_atomic

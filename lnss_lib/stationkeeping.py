@@ -44,12 +44,12 @@ import xarray as xr
 
 from .config import integrator_setting
 from .constants import DAYS_PER_JULIAN_YEAR, SECONDS_PER_DAY
-from .elements import TWO_PI, orbital_period_s, state_to_elements
+from .elements import orbital_period_s, state_to_elements
 from .ephemeris import EphemerisTable, ensure_kernels, tdb_seconds
 from .frames import element_frame_to_j2000
 from .forces import SCRATCH_SIZE, ForceModel
 from .maneuvers import plan_impulses
-from .mean_elements import MEAN_ELEMENTS, mean_elements, relative_angles, to_element_frame, wrap_pi
+from .mean_elements import mean_elements, relative_angles, to_element_frame, wrap_pi
 from .sk_control import SlotState, drift_band_rate, overshoot_target, predicted_exit, running_mean, tidal_mean
 from .propagator import METHODS, STATUS_IMPACT, STATUS_OK, elements_deg_to_states, integrate_one
 
@@ -241,7 +241,7 @@ def simulate_life(profile: dict, elements_deg, *, natural: bool = False, life_da
     ``elements_deg`` (n_sat, 6) ``[a_km, e, inc_deg, raan_deg, aop_deg, M_deg]`` in the profile's
     element frame at the start (default: the profile's epoch) are also the references of the box.
     Returns a Dataset with dims ``sat``, ``check`` (mean-element history, one per chunk) and
-    ``maneuver``: per satellite ``dv_kms_per_year``, ``dv_total_kms``, ``n_maneuvers``,
+    ``maneuver``: per satellite ``dv_kms_per_year`` (over the life, or over the flown span of a lost satellite), ``dv_total_kms``, ``n_maneuvers``,
     ``maneuver_t_tdb_s`` and ``maneuver_dv_rtn_kms``, ``box_held``, ``impact``, ``impact_day``,
     ``max_box_ratio`` (largest error / half-width per box quantity after the first check; e, AOP, i and
     relative RAAN on their centred tidal running mean, the slot on the one-orbit mean), ``max_box_ratio_one_orbit``
@@ -456,8 +456,7 @@ def _life_dataset(profile, cfg, integ, model, natural, el, t0, life_s, hist_t, h
     for i in range(n_sat):
         smooth[i, :, :4] = tidal_mean(hist_t[:, i], err[i, :, :4], cfg.tide_period_days)
     max_ratio, max_ratio_orbit = (_max_ratio(np.abs(x) / half) for x in (smooth, err))
-    years = life_s / (DAYS_PER_JULIAN_YEAR * SECONDS_PER_DAY)
-    dv_per_year = dv_total / years
+    dv_per_year = dv_total / (span_s / (DAYS_PER_JULIAN_YEAR * SECONDS_PER_DAY))   # a lost satellite: over its flown span
     held = (~impact) & np.all(max_ratio <= 1.0 + cfg.box_tolerance, axis=1) & (dv_total <= cap_kms * (1 + 1e-9))
     mel = hist_el.transpose(1, 0, 2).copy()
     mel[..., 1:] = np.where(np.arange(6)[1:] >= 2, np.degrees(mel[..., 1:]), mel[..., 1:])

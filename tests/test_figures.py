@@ -1,7 +1,6 @@
 """Figure writing (figures.export): PNG through a system Chromium, HTML fallback, offline HTML; the builders'
 package layout and one builder's data."""
 
-import pandas as pd
 import plotly.graph_objects as go
 import pytest
 

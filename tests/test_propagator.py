@@ -9,7 +9,6 @@ from scipy.integrate import solve_ivp
 from lnss_lib.elements import state_to_elements
 from lnss_lib.ephemeris import EphemerisTable, rotation
 from lnss_lib.forces import SCRATCH_SIZE, TERMS, ForceModel, acceleration, acceleration_breakdown
-from lnss_lib.gravity import GravityField
 from lnss_lib.propagator import ImpactError, elements_deg_to_states, propagate_elements, propagate_states
 from lnss_lib.reference import ReferenceModel
 
