@@ -7,13 +7,14 @@ import errno
 import math
 import os
 import sys
+import traceback
 from pathlib import Path
 
 import numpy as np
 
-from .config import allowed_range_text, available_profiles, in_range, load_profile, parse_sets
+from .config import PACKAGE_DIR, allowed_range_text, available_profiles, in_range, load_profile, parse_sets, use_profile_file
 from .constants import SECONDS_PER_DAY
-from .errors import ConfigError, ImpactError
+from .errors import ConfigError, EphemerisRangeError, ImpactError
 
 BENCHMARKS = ("propagator", "dop", "evaluate", "campaign", "integrator", "design-life", "stability")
 
@@ -185,8 +186,10 @@ def _cmd_bench(args: argparse.Namespace) -> int:
 
     module = importlib.import_module(f"lnss_lib.bench.{args.name.replace('-', '_')}")
     if args.scaling and args.name != "campaign":
-        raise SystemExit("--scaling applies to 'bench campaign' only")
-    module.run(profile_name=args.profile, **({"scaling_run": True} if args.scaling else {}))
+        raise ConfigError(f"--scaling applies to 'bench campaign' only; got bench {args.name}", key="--scaling")
+    overrides = _overrides(args)
+    load_profile(args.profile, overrides=overrides)          # every setting checked before the benchmark starts
+    module.run(profile_name=args.profile, overrides=overrides, **({"scaling_run": True} if args.scaling else {}))
     return 0
 
 
@@ -195,10 +198,11 @@ def build_parser() -> argparse.ArgumentParser:
     parser.add_argument("--debug", action="store_true", help="show the traceback of an error (also accepted after "
                         "the command)")
     sub = parser.add_subparsers(dest="command", required=True, parser_class=OneLineParser)
-    set_help = "override a profile value (TOML literal), e.g. gravity.degree=8; repeatable; checked like the profile"
+    set_help = ("override a profile value (TOML literal: true/false, numbers, quoted strings and dates), e.g. "
+                "gravity.degree=8; repeatable; checked like the profile")
 
     rep = sub.add_parser("reproduce", help="execute the notebooks headless into outputs/<profile>/")
-    rep.add_argument("--profile", default="quick", help=f"profile in params/ ({', '.join(available_profiles())})")
+    _add_profile(rep, "quick")
     rep.add_argument("--only", nargs="+", metavar="NAME", help="notebook names or number prefixes (e.g. 01 02_dop_grid)")
     rep.add_argument("--set", action="append", metavar="SECTION.KEY=VALUE", help=set_help)
     rep.set_defaults(func=_cmd_reproduce)
@@ -215,7 +219,7 @@ def build_parser() -> argparse.ArgumentParser:
     prop.add_argument("--degree", type=int, help="gravity degree and order (0-100; 0 = point mass)")
     prop.add_argument("--srp-cr-area-mass", type=float, help="Cr*A/m in m^2/kg (default: the profile's spacecraft)")
     prop.add_argument("--setting", help="integrator setting: paper or converged (default: the profile's)")
-    prop.add_argument("--profile", default="paper", help="profile for force model and constants")
+    _add_profile(prop, "paper")
     prop.add_argument("--out", help="output path, .csv or .nc (default: CSV to stdout)")
     prop.add_argument("--set", action="append", metavar="SECTION.KEY=VALUE", help=set_help)
     prop.set_defaults(func=_cmd_propagate)
@@ -232,7 +236,7 @@ def build_parser() -> argparse.ArgumentParser:
     ev.add_argument("--inc-deg", type=float, help="inclination to the element frame's equator (deg)")
     ev.add_argument("--planes", type=int, help="number of planes Np (RAAN by eq. 42)")
     ev.add_argument("--sats-per-plane", type=int, help="satellites per plane Ns")
-    ev.add_argument("--profile", default="quick", help=f"profile in params/ ({', '.join(available_profiles())})")
+    _add_profile(ev, "quick")
     ev.add_argument("--design-life-days", type=float, metavar="D",
                     help="also fly the design life of D days: closed-loop station keeping, natural drift, DOP "
                          "over the life, the campaign-grade Delta-V estimate and the stability screen")
@@ -241,7 +245,7 @@ def build_parser() -> argparse.ArgumentParser:
     ev.set_defaults(func=_cmd_evaluate)
 
     camp = sub.add_parser("campaign", help="NSGA-II design search (Section 5, Table 5), checkpointed every generation")
-    camp.add_argument("--profile", help=f"profile in params/ ({', '.join(available_profiles())}; default quick)")
+    _add_profile(camp, None)
     camp.add_argument("--workers", type=int, help="Dask worker processes on this machine (default: one per core; "
                       "0 or 1: evaluate in this process)")
     camp.add_argument("--scheduler-address", help="use an existing Dask cluster, e.g. tcp://HOST:8786")
@@ -256,10 +260,20 @@ def build_parser() -> argparse.ArgumentParser:
 
     bench = sub.add_parser("bench", help="benchmarks that print numbers")
     bench.add_argument("name", choices=BENCHMARKS)
-    bench.add_argument("--profile", default="paper")
+    _add_profile(bench, "paper")
     bench.add_argument("--scaling", action="store_true", help="campaign: local scaling and loopback-cluster overhead")
+    bench.add_argument("--set", action="append", metavar="SECTION.KEY=VALUE", help=set_help)
     bench.set_defaults(func=_cmd_bench)
     return parser
+
+
+def _add_profile(command: argparse.ArgumentParser, default: str | None) -> None:
+    """``--profile NAME`` (a file of params/) or ``--profile-file PATH`` (outputs in outputs/<stem>/)."""
+    group = command.add_mutually_exclusive_group()
+    group.add_argument("--profile", default=default, help=f"profile name: {', '.join(available_profiles())} "
+                       f"(params/NAME.toml; default {default or 'quick'})")
+    group.add_argument("--profile-file", metavar="PATH", help="a profile TOML file outside params/ (it may inherit "
+                       "from params/ profiles); its name is the file's stem, outputs go to outputs/<stem>/")
 
 
 class OneLineParser(argparse.ArgumentParser):
@@ -269,7 +283,15 @@ class OneLineParser(argparse.ArgumentParser):
         self.exit(2, f"error: {self.prog}: {message} (see {self.prog} --help)\n")
 
 
-BAD_INPUT = (ConfigError, ValueError, FileNotFoundError, KeyError)   # exit 2; EphemerisRangeError is a ValueError
+INPUT_ERRORS = (ConfigError, EphemerisRangeError, FileNotFoundError)   # bad input: exit 2
+
+
+def _raised_by_lnss(error: BaseException) -> bool:
+    """True when the innermost frame of ``error``'s traceback is lnss_lib code (one of its own checks)."""
+    tb = error.__traceback__
+    while tb is not None and tb.tb_next is not None:
+        tb = tb.tb_next
+    return tb is not None and Path(tb.tb_frame.f_code.co_filename).resolve().is_relative_to(PACKAGE_DIR)
 
 
 def _one_line(error: BaseException) -> str:
@@ -279,9 +301,22 @@ def _one_line(error: BaseException) -> str:
     return text or type(error).__name__
 
 
+def classify(error: Exception) -> tuple[int, str]:
+    """Exit code and one-line message: 2 for bad input (the input-error classes, and ValueErrors raised by
+    lnss_lib's own checks), 1 for a failure (impact, OSError, RuntimeError) and for anything else, which is
+    an internal error, not bad input."""
+    if isinstance(error, FileNotFoundError):
+        return 2, f"no such file or folder: {error.filename}" if error.filename else _one_line(error)
+    if isinstance(error, INPUT_ERRORS) or (type(error) is ValueError and _raised_by_lnss(error)):
+        return 2, _one_line(error)
+    if isinstance(error, (OSError, RuntimeError)) and not isinstance(error, NotImplementedError):
+        return 1, _one_line(error)
+    return 1, f"internal error: {type(error).__name__}: {_one_line(error)} (run with --debug for the traceback)"
+
+
 def main(argv: list[str] | None = None) -> int:
-    """Run a command; errors end in one line on stderr with exit 2 (bad input) or 1 (failure), the
-    traceback only with ``--debug``."""
+    """Run a command; errors end in one line on stderr with exit 2 (bad input), 1 (failure or internal
+    error) or 130 (interrupted); ``--debug`` adds the traceback before that line, with the same exit code."""
     argv = list(sys.argv[1:] if argv is None else argv)
     debug = "--debug" in argv
     argv = [a for a in argv if a != "--debug"]
@@ -291,29 +326,17 @@ def main(argv: list[str] | None = None) -> int:
     except SystemExit as stop:          # --help (0) or a usage error (2, one line already printed)
         return stop.code if isinstance(stop.code, int) else 2
     try:
+        if getattr(args, "profile_file", None):
+            args.profile = use_profile_file(args.profile_file)
         return args.func(args)
     except KeyboardInterrupt:
-        if debug:
-            raise
-        print("error: interrupted", file=sys.stderr)
-        return 130
+        code, text = 130, "interrupted"
     except Exception as error:
-        if debug:
-            raise
-        if isinstance(error, ImpactError):
-            code, text = 1, _one_line(error)
-        elif isinstance(error, FileNotFoundError):
-            code, text = 2, f"no such file or folder: {error.filename}" if error.filename else _one_line(error)
-        elif isinstance(error, BAD_INPUT):
-            code, text = 2, _one_line(error)
-        elif isinstance(error, OSError):
-            code, text = 1, _one_line(error)
-        elif isinstance(error, RuntimeError):
-            code, text = 1, _one_line(error)
-        else:
-            code, text = 1, f"internal error {type(error).__name__}: {_one_line(error)} (rerun with --debug for the traceback)"
-        print(f"error: {text}", file=sys.stderr)
-        return code
+        code, text = classify(error)
+    if debug:
+        traceback.print_exc()
+    print(f"error: {text}", file=sys.stderr)
+    return code
 
 
 if __name__ == "__main__":

@@ -14,14 +14,15 @@ __all__ = ["atomic_path", "write_bytes_atomic", "write_text_atomic", "write_netc
 
 
 @contextlib.contextmanager
-def atomic_path(path):
+def atomic_path(path, suffix: str = ""):
     """Yield a temporary path beside ``path``; on a clean exit move it onto ``path``, else delete it.
 
     For writers that want a file name (NetCDF engines, plotly, papermill): write the temporary path
-    inside the ``with`` block.
+    inside the ``with`` block. ``suffix`` ends the temporary's name, for writers that check it
+    (papermill wants ``.ipynb``).
     """
     path = Path(path)
-    temporary = path.with_name(f".{path.name}.{os.getpid()}.tmp")
+    temporary = path.with_name(f".{path.name}.{os.getpid()}.tmp{suffix}")
     try:
         yield temporary
         os.replace(temporary, path)

@@ -38,14 +38,13 @@ inclination, node, perilune or phasing: they are listed with ``approximate = Tru
 from __future__ import annotations
 
 import math
-import tomllib
 from dataclasses import dataclass, field
 from datetime import datetime
 from pathlib import Path
 
 import numpy as np
 
-from .config import PARAMS_DIR, deep_merge, load_profile
+from .config import PARAMS_DIR, deep_merge, load_profile, read_toml
 from .ephemeris import ensure_kernels, tdb_iso, tdb_seconds
 from .frames import element_frame_to_j2000
 from .errors import ConfigError, ImpactError
@@ -218,11 +217,7 @@ def load_constellation(name_or_path: str | Path, profile: dict | None = None) ->
     the surface (``constants.r_moon_mean_km`` + ``impact.min_altitude_km``; default: the paper's).
     """
     path = _resolve(name_or_path)
-    try:
-        with path.open("rb") as handle:
-            data = tomllib.load(handle)
-    except tomllib.TOMLDecodeError as error:
-        raise ConfigError(f"{path}: not valid TOML ({error})", source=str(path)) from None
+    data = read_toml(path)
     profile = profile if profile is not None else load_profile("paper")
     floor_km = float(profile["constants"]["r_moon_mean_km"]) + float(profile["impact"]["min_altitude_km"])
     _check_keys(path, data, TOP_KEYS_REQUIRED, TOP_KEYS_OPTIONAL, "")

@@ -2,22 +2,28 @@
 
 A profile is a plain nested ``dict``; :func:`load_profile` returns it with the chain resolved and
 ``profile.name`` set. :func:`profile_hash` fingerprints everything that can change a result, so
-caches and manifests can tell runs apart. Data paths in a profile are relative to ``params/``.
+caches and manifests can tell runs apart. Profiles are names of files in ``params/`` (or a file
+made loadable by :func:`use_profile_file`); data paths in a profile are relative to ``params/`` and
+must lie under ``params/data/``.
 """
 
 from __future__ import annotations
 
 import copy
+import datetime
 import difflib
 import hashlib
 import math
 import json
+import os
 import platform
+import re
 import tomllib
 from importlib import metadata
 from functools import lru_cache
 from pathlib import Path
 
+from .constants import SECONDS_PER_DAY
 from .errors import ConfigError
 
 PACKAGE_DIR = Path(__file__).resolve().parent
@@ -42,13 +48,68 @@ def deep_merge(base: dict, override: dict) -> dict:
     return merged
 
 
-def _read_toml(path: Path) -> dict:
-    """A TOML file as a dict; ConfigError naming the file and line of a syntax error."""
+def read_toml(path: Path) -> dict:
+    """A TOML file as a dict; ConfigError naming the file and the line of a syntax error, never its content."""
     try:
         with path.open("rb") as handle:
             return tomllib.load(handle)
+    except UnicodeDecodeError as error:
+        raise ConfigError(f"{path}: not a TOML text file (byte {error.start} is not UTF-8 text)",
+                          source=str(path)) from None
     except tomllib.TOMLDecodeError as error:
-        raise ConfigError(f"{path}: TOML syntax error: {error}", source=str(path)) from None
+        where = re.search(r"\(at line (\d+), column \d+\)", str(error))
+        line = f", line {where.group(1)}" if where else ""
+        raise ConfigError(f"{path}{line}: TOML syntax error", source=str(path)) from None
+
+
+PROFILE_NAME = re.compile(r"[A-Za-z0-9][A-Za-z0-9_-]{0,63}")
+PROFILE_FILES_ENV = "LNSS_PROFILE_FILES"   # {name: path} of use_profile_file, inherited by kernels and workers
+
+
+def _profile_files() -> dict[str, str]:
+    try:
+        files = json.loads(os.environ.get(PROFILE_FILES_ENV) or "{}")
+    except json.JSONDecodeError:
+        files = None
+    if not isinstance(files, dict):
+        raise ConfigError(f"environment variable {PROFILE_FILES_ENV} is not a JSON table of profile files",
+                          key=PROFILE_FILES_ENV)
+    return files
+
+
+def use_profile_file(path) -> str:
+    """Make the TOML file ``path`` loadable as profile ``<stem>`` (outputs in ``outputs/<stem>/``) by this
+    process and the processes it starts (notebook kernels, local workers); returns the name.
+
+    The stem must be a profile name (letters, digits, ``_``, ``-``) that no file in ``params/`` has.
+    """
+    path = Path(path)
+    if path.suffix != ".toml" or not path.is_file():
+        raise ConfigError(f"--profile-file {path}: need an existing file ending in .toml", key="--profile-file")
+    name = path.stem
+    if not PROFILE_NAME.fullmatch(name):
+        raise ConfigError(f"--profile-file {path}: the file name {name!r} is not allowed as a profile name; allowed: "
+                          f"letters, digits, '_' and '-' (at most 64, first a letter or digit)", key="--profile-file")
+    if name in available_profiles():
+        raise ConfigError(f"--profile-file {path}: params/{name}.toml already has the name {name!r}; rename the file "
+                          f"(profiles in params/: {', '.join(available_profiles())})", key="--profile-file")
+    os.environ[PROFILE_FILES_ENV] = json.dumps({**_profile_files(), name: str(path.resolve())})
+    return name
+
+
+def profile_path(name: str, key: str = "--profile") -> Path:
+    """The TOML file of profile ``name``: ``params/NAME.toml`` or a file given to :func:`use_profile_file`.
+
+    ConfigError naming ``key`` and the available profiles for anything else (paths included).
+    """
+    files = _profile_files()
+    if isinstance(name, str) and name in files:
+        return Path(files[name])
+    path = PARAMS_DIR / f"{name}.toml" if isinstance(name, str) and PROFILE_NAME.fullmatch(name) else None
+    if path is None or not path.is_file():
+        raise ConfigError(f"{key}: unknown profile {name!r}; allowed: {', '.join(available_profiles() + sorted(files))} "
+                          f"(names of params/*.toml; a file elsewhere: --profile-file PATH)", key=key)
+    return path
 
 
 def load_profile(name: str = "quick", overrides: dict | str | None = None) -> dict:
@@ -75,16 +136,11 @@ def load_profile(name: str = "quick", overrides: dict | str | None = None) -> di
     seen: set[str] = set()
     current: str | None = name
     while current is not None:
-        path = PARAMS_DIR / f"{current}.toml"
-        if not path.is_file():
-            raise ConfigError(
-                f"unknown profile {current!r}: expected {path}; available profiles: "
-                f"{', '.join(available_profiles())}", source=str(path)
-            )
+        path = profile_path(current, "--profile" if current == name else "profile.inherits")
         if current in seen:
             raise ConfigError(f"profile {name!r} has an inheritance cycle through {current!r}")
         seen.add(current)
-        data = _read_toml(path)
+        data = read_toml(path)
         validate_profile(data, partial=True, source=path)
         chain.append(data)
         current = data.get("profile", {}).get("inherits")
@@ -100,17 +156,15 @@ def load_profile(name: str = "quick", overrides: dict | str | None = None) -> di
     profile["profile"].pop("inherits", None)
     profile["profile"].pop("also", None)
     validate_profile(profile)
+    _check_data_paths(profile)
+    _check_sampling(profile)
     return profile
 
 
 def _own_settings(name: str) -> dict:
     """The settings profile ``name``'s own file sets (not what it inherits), for ``[profile] also``."""
-    path = PARAMS_DIR / f"{name}.toml"
-    if not isinstance(name, str) or not path.is_file():
-        raise ConfigError(f"[profile] also names unknown profile {name!r}; available profiles: "
-                          f"{', '.join(available_profiles())}", key="profile.also")
-    data = _read_toml(path)
-    validate_profile(data, partial=True, source=path)
+    data = read_toml(profile_path(name, "profile.also"))
+    validate_profile(data, partial=True, source=profile_path(name, "profile.also"))
     return {section: table for section, table in data.items() if section != "profile"}
 
 
@@ -175,7 +229,7 @@ def in_range(value: float, spec: tuple) -> bool:
 
 @lru_cache(maxsize=1)
 def _reference() -> dict:
-    reference = _read_toml(PARAMS_DIR / f"{REFERENCE_PROFILE}.toml")
+    reference = read_toml(PARAMS_DIR / f"{REFERENCE_PROFILE}.toml")
     reference["profile"] = dict(PROFILE_TABLE)
     return reference
 
@@ -315,6 +369,9 @@ def parse_sets(items) -> dict:
                 value = literal.strip()
             else:
                 raise ConfigError(f"--set {item!r}: VALUE is not a TOML literal ({error})", key=path) from None
+        if isinstance(value, (datetime.date, datetime.time)):
+            raise ConfigError(f"--set {item!r}: TOML reads an unquoted {literal.strip()} as a date-time, and dates are "
+                              f"strings here; quote it: --set '{path.strip()}=\"{literal.strip()}\"'", key=path.strip())
         nested: dict = value
         for part in reversed(parts):
             nested = {part: nested}
@@ -322,9 +379,67 @@ def parse_sets(items) -> dict:
     return overrides
 
 
-def data_path(relative: str) -> Path:
-    """Absolute path of a data file named relative to ``params/``."""
+def toml_literal(value) -> str:
+    """``value`` (bool, number, string, list or table) as a TOML literal, the syntax ``--set`` and profiles read."""
+    if isinstance(value, bool):
+        return "true" if value else "false"
+    if isinstance(value, int):
+        return str(value)
+    if isinstance(value, float):
+        return repr(value) if math.isfinite(value) else ("nan" if math.isnan(value) else ("inf" if value > 0 else "-inf"))
+    if isinstance(value, str):
+        return json.dumps(value)
+    if isinstance(value, (list, tuple)):
+        return "[" + ", ".join(map(toml_literal, value)) + "]"
+    if isinstance(value, dict):
+        return "{" + ", ".join(f"{json.dumps(str(k))} = {toml_literal(v)}" for k, v in value.items()) + "}"
+    raise TypeError(f"no TOML literal for {type(value).__name__} {value!r}")
+
+
+def data_path(relative: str, key: str = "data file") -> Path:
+    """Absolute path of a data file named relative to ``params/`` (``data/...``); ConfigError naming ``key``
+    unless it lies under ``params/data/`` once symbolic links are resolved."""
+    root = (PARAMS_DIR / "data").resolve()
+    if not isinstance(relative, str) or Path(relative).is_absolute() \
+            or not (PARAMS_DIR / relative).resolve().is_relative_to(root):
+        raise ConfigError(f"{key} = {relative!r} is not allowed; allowed: a file under params/data/, named relative "
+                          f"to params/ (e.g. \"data/gravity/...\")", key=key)
     return PARAMS_DIR / relative
+
+
+DATA_KEYS = ("gravity.file", "ephemeris.kernels", "gps.tle_file", "gps.gain_file", "validation.capstone.file")
+SKYFIELD_DATA = "skyfield-data:"      # ephemeris.planetary_spk prefix: a file of the skyfield-data package
+
+
+def _check_data_paths(profile: dict) -> None:
+    """Every data-file key of a profile names a file under ``params/data/`` (or a skyfield-data file)."""
+    for key in DATA_KEYS:
+        value = profile
+        for part in key.split("."):
+            value = value[part]
+        for item in value if isinstance(value, list) else [value]:
+            data_path(item, key)
+    spk = profile["ephemeris"]["planetary_spk"]
+    if spk.startswith(SKYFIELD_DATA):
+        name = spk.removeprefix(SKYFIELD_DATA)
+        if not PROFILE_NAME.fullmatch(Path(name).stem) or Path(name).name != name:
+            raise ConfigError(f"ephemeris.planetary_spk = {spk!r} is not allowed; allowed: {SKYFIELD_DATA}FILE_NAME "
+                              f"or a file under params/data/", key="ephemeris.planetary_spk")
+    else:
+        data_path(spk, "ephemeris.planetary_spk")
+
+
+MIN_EPOCHS = 3     # a time series the DOP statistics, the GVE Delta-V and the fits need at least
+
+
+def _check_sampling(profile: dict) -> None:
+    """``epoch.duration_days`` / ``epoch.step_s`` give at least :data:`MIN_EPOCHS` samples."""
+    days, step_s = profile["epoch"]["duration_days"], profile["epoch"]["step_s"]
+    n_epochs = math.floor(days * SECONDS_PER_DAY / step_s + 1e-9) + 1
+    if n_epochs < MIN_EPOCHS:
+        raise ConfigError(f"epoch.duration_days = {days!r} at epoch.step_s = {step_s!r} gives {n_epochs} epoch(s); "
+                          f"allowed: at least {MIN_EPOCHS} (lengthen epoch.duration_days or shorten epoch.step_s)",
+                          key="epoch.duration_days")
 
 
 def profile_hash(profile: dict) -> str:

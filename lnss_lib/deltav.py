@@ -247,7 +247,11 @@ def _secular_from_vectors(t: np.ndarray, vectors: np.ndarray, gm_km3_s2: float, 
                 for one in vectors.reshape(-1, *vectors.shape[-2:])]
         return {k: np.stack([f[k] for f in flat]).reshape(*vectors.shape[:-2], *np.shape(flat[0][k])) for k in flat[0]}
     check_epochs(t, vectors)
-    period = 2.0 * np.pi * np.sqrt(np.mean(vectors[:, 0]) ** 3 / gm_km3_s2)
+    a_mean_km = np.mean(vectors[:, 0])
+    if not a_mean_km > 0.0:
+        raise ValueError(f"the secular Delta-V model needs a bound orbit: the arc-mean semi-major axis is "
+                         f"{a_mean_km:.6g} km, so the orbital period is undefined (the orbit escapes or hits the Moon)")
+    period = 2.0 * np.pi * np.sqrt(a_mean_km ** 3 / gm_km3_s2)
     if t[-1] - t[0] < min_periods * period:
         if short_arc == "nan":
             return {"a_km": np.nan, "e": np.nan, "inc_rad": np.nan, "natural_rates": np.full(5, np.nan),

@@ -12,6 +12,7 @@ model's own error).
 
 from __future__ import annotations
 
+import contextlib
 import hashlib
 from dataclasses import dataclass
 from pathlib import Path
@@ -25,7 +26,7 @@ from .config import data_path
 from .errors import ConfigError, EphemerisRangeError
 
 __all__ = ["NAIF_BODY", "planetary_spk_path", "kernel_paths", "load_kernels", "ensure_kernels", "tdb_seconds", "kernel_span_tdb_s", "check_span",
-           "tdb_iso", "body_states_mci", "rotation_and_rate", "rotation", "hermite_cubic", "EphemerisTable",
+           "tdb_iso", "spice_errors", "body_states_mci", "rotation_and_rate", "rotation", "hermite_cubic", "EphemerisTable",
            "file_sha256"]
 
 NAIF_BODY = {"SUN": "SUN", "EARTH": "EARTH", "JUPITER": "JUPITER BARYCENTER", "MOON": "MOON"}
@@ -48,10 +49,22 @@ def kernel_paths(profile: dict) -> list[Path]:
     return [planetary_spk_path(eph["planetary_spk"])] + [data_path(k) for k in eph["kernels"]]
 
 
+@contextlib.contextmanager
+def spice_errors(asked: str, kernels=None):
+    """SPICE errors inside the block as one ConfigError naming what was ``asked``, the kernel file(s)
+    (default: every loaded kernel) and SPICE's error code, never SPICE's banner or a line of a file."""
+    try:
+        yield
+    except spice.utils.exceptions.SpiceyError as error:
+        files = ", ".join(map(str, sorted(_LOADED) if kernels is None else kernels)) or "no kernels loaded"
+        raise ConfigError(f"SPICE could not {asked}: {error.short or type(error).__name__} (kernel file(s): {files}; "
+                          f"see params/data/README.md)", key="ephemeris.kernels", source=files) from error
+
+
 def load_kernels(paths: list[Path]) -> None:
     """Furnish SPICE kernels once per process (safe to call again, e.g. in worker processes).
 
-    Raises ``FileNotFoundError`` naming a missing kernel.
+    Raises ``FileNotFoundError`` naming a missing kernel and ConfigError naming one SPICE cannot load.
     """
     for path in map(Path, paths):
         key = str(path.resolve())
@@ -62,7 +75,13 @@ def load_kernels(paths: list[Path]) -> None:
                 f"SPICE kernel not found: {path}. The kernels ship in params/data/kernels "
                 "(see params/data/README.md); de421.bsp comes from the skyfield-data package."
             )
-        spice.furnsh(key)
+        with spice_errors("load the kernel", [key]):
+            spice.furnsh(key)
+        try:
+            _kernel_coverage(key)            # a damaged binary kernel is refused here, not at first use
+        except ConfigError:
+            spice.unload(key)
+            raise
         _LOADED.add(key)
 
 
@@ -90,30 +109,33 @@ def tdb_seconds(calendar: str, scale: str = "TDB") -> float:
                           f"({scale}), e.g. 2025-05-01T00:00:00") from None
 
 
-def kernel_span_tdb_s() -> tuple[float, float]:
-    """(start, end) TDB s of the time span every loaded SPK and binary PCK covers (their intersection)."""
-    key_set = frozenset(_LOADED)
-    if key_set in _SPANS:
-        return _SPANS[key_set]
+def _kernel_coverage(key: str) -> tuple[float, float]:
+    """(start, end) TDB s that every body of one SPK or binary PCK covers; (-inf, inf) for other kernels."""
     start, end = -np.inf, np.inf
-    for key in _LOADED:
-        suffix = Path(key).suffix.lower()
+    suffix = Path(key).suffix.lower()
+    if suffix not in (".bsp", ".bpc"):
+        return start, end
+    with spice_errors("read the time span the kernel covers", [key]):
         if suffix == ".bsp":
-            ids, cover = spice.spkobj(key), spice.spkcov
-        elif suffix == ".bpc":
+            ids, cover = list(spice.spkobj(key)), spice.spkcov
+        else:
             ids, cover = spice.cell_int(1000), spice.pckcov
             spice.pckfrm(key, ids)
-        else:
-            continue
-        if suffix == ".bsp":
-            ids = list(ids)
         for body in ids:
             window = cover(key, int(body))
             count = spice.wncard(window)
             if count:
                 start = max(start, spice.wnfetd(window, 0)[0])
                 end = min(end, spice.wnfetd(window, count - 1)[1])
-    _SPANS[key_set] = (float(start), float(end))
+    return float(start), float(end)
+
+
+def kernel_span_tdb_s() -> tuple[float, float]:
+    """(start, end) TDB s of the time span every loaded SPK and binary PCK covers (their intersection)."""
+    key_set = frozenset(_LOADED)
+    if key_set not in _SPANS:
+        spans = [_kernel_coverage(key) for key in _LOADED]
+        _SPANS[key_set] = (max((s for s, _ in spans), default=-np.inf), min((e for _, e in spans), default=np.inf))
     return _SPANS[key_set]
 
 
@@ -133,13 +155,15 @@ def check_span(t_start_tdb_s: float, t_end_tdb_s: float) -> None:
 
 def tdb_iso(t_tdb_s: float) -> str:
     """ISO calendar string (TDB) of a TDB epoch."""
-    return spice.timout(t_tdb_s, "YYYY-MM-DDTHR:MN:SC.### ::TDB")
+    with spice_errors(f"write the epoch {t_tdb_s!r} s TDB as a calendar date"):
+        return spice.timout(t_tdb_s, "YYYY-MM-DDTHR:MN:SC.### ::TDB")
 
 
 def body_states_mci(body: str, t_tdb_s: np.ndarray) -> np.ndarray:
     """Moon-centred J2000 states (km, km/s) of ``body`` at TDB epochs; shape (n, 6)."""
     times = np.atleast_1d(np.asarray(t_tdb_s, dtype=float))
-    states, _ = spice.spkezr(NAIF_BODY.get(body, body), times.tolist(), "J2000", "NONE", "MOON")
+    with spice_errors(f"give the state of {body} relative to the Moon (J2000) at {_span_text(times)}"):
+        states, _ = spice.spkezr(NAIF_BODY.get(body, body), times.tolist(), "J2000", "NONE", "MOON")
     return np.asarray(states, dtype=float).reshape(len(times), 6)
 
 
@@ -148,17 +172,24 @@ def rotation_and_rate(frame_from: str, frame_to: str, t_tdb_s: np.ndarray) -> tu
     times = np.atleast_1d(np.asarray(t_tdb_s, dtype=float))
     rot = np.empty((len(times), 3, 3))
     rate = np.empty((len(times), 3, 3))
-    for k, et in enumerate(times):
-        xform = np.asarray(spice.sxform(frame_from, frame_to, et))
-        rot[k] = xform[:3, :3]
-        rate[k] = xform[3:, :3]
+    with spice_errors(f"give the rotation {frame_from} -> {frame_to} and its rate at {_span_text(times)}"):
+        for k, et in enumerate(times):
+            xform = np.asarray(spice.sxform(frame_from, frame_to, et))
+            rot[k] = xform[:3, :3]
+            rate[k] = xform[3:, :3]
     return rot, rate
 
 
 def rotation(frame_from: str, frame_to: str, t_tdb_s: np.ndarray) -> np.ndarray:
     """Rotation matrices R (n, 3, 3) with x_to = R x_from at TDB epochs."""
     times = np.atleast_1d(np.asarray(t_tdb_s, dtype=float))
-    return np.stack([np.asarray(spice.pxform(frame_from, frame_to, et)) for et in times])
+    with spice_errors(f"give the rotation {frame_from} -> {frame_to} at {_span_text(times)}"):
+        return np.stack([np.asarray(spice.pxform(frame_from, frame_to, et)) for et in times])
+
+
+def _span_text(times: np.ndarray) -> str:
+    """"t0 .. t1 s TDB" of an array of epochs, for messages."""
+    return f"{times[0]:.1f} s TDB" if times.size == 1 else f"{times.min():.1f} .. {times.max():.1f} s TDB"
 
 
 @nb.njit(cache=True, fastmath=False)

@@ -17,7 +17,6 @@ import json
 import math
 import os
 import shlex
-import tempfile
 from dataclasses import dataclass, field, replace
 from pathlib import Path
 
@@ -27,7 +26,8 @@ import plotly.graph_objects as go
 import plotly.io as pio
 
 from . import deltav, frames
-from .config import OUTPUTS_DIR, available_profiles, deep_merge, load_profile
+from .atomicio import write_text_atomic
+from .config import OUTPUTS_DIR, available_profiles, deep_merge, load_profile, toml_literal
 from .constellation import walker_design
 from .errors import ImpactError
 from .evaluator import EvaluationContext, analyse_constellation, context_for
@@ -89,10 +89,6 @@ def initial_design(profile: dict) -> dict:
 def served_by_voila() -> bool:
     """True in a kernel that voila started for a page (voila sets ``SERVER_SOFTWARE=voila/<version>``)."""
     return os.environ.get("SERVER_SOFTWARE", "").startswith("voila/")
-
-
-def _toml_literal(value) -> str:
-    return json.dumps(value) if isinstance(value, str) else repr(value)
 
 
 def availability_polar_maps(dop_ds, threshold: float, *, title: str) -> go.Figure:
@@ -299,22 +295,20 @@ class DesignExplorer:
         for section, values in deep_merge(self.overrides, self.settings()).items():
             for key, value in _flatten(values):
                 if _lookup(base[section], key) != value:
-                    argv += ["--set", f"{section}.{key}={_toml_literal(value)}"]
+                    argv += ["--set", f"{section}.{key}={toml_literal(value)}"]
         command = "python -m lnss_lib " + shlex.join(argv)
         lines = [f"# LNSS design explorer: Walker design (Table 3 variables, RAAN by eq. 42), profile {name!r}",
                  f"# reproduce: {command}", "[design]"]
-        lines += [f"{key} = {_toml_literal(design[key])}" for key in DESIGN_KEYS]
+        lines += [f"{key} = {toml_literal(design[key])}" for key in DESIGN_KEYS]
         for section, values in self.settings().items():
-            lines += ["", f"[{section}]", *(f"{k} = {_toml_literal(v)}" for k, v in values.items())]
+            lines += ["", f"[{section}]", *(f"{k} = {toml_literal(v)}" for k, v in values.items())]
         toml_text = "\n".join(lines) + "\n"
         path = None
         if write:
             stem = "design_" + "_".join(f"{design[k]:g}" for k in DESIGN_KEYS).replace(".", "p")
             path = self.outputs_dir / name / "explorer" / f"{stem}_{self.frame_choice.value}_{self.model_choice.value}.toml"
             path.parent.mkdir(parents=True, exist_ok=True)
-            with tempfile.NamedTemporaryFile("w", dir=path.parent, suffix=".tmp", delete=False) as handle:
-                handle.write(toml_text)
-            os.replace(handle.name, path)
+            write_text_atomic(path, toml_text)
         self.export_text.value = toml_text + (f"\n# written to {path}\n" if path else "")
         return {"toml": toml_text, "argv": argv, "command": command, "path": path}
 

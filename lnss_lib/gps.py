@@ -265,15 +265,16 @@ def load_gain_pattern(path: str | Path, column: str) -> GainPattern:
         try:
             numbers = [float(c) for c in row]
         except ValueError:
-            raise ConfigError(f"{path}: line {line_no}: {','.join(row)!r} is not {len(header)} numbers",
+            raise ConfigError(f"{path}: line {line_no}: need {len(header)} numbers separated by commas",
                               key="gps.gain_file") from None
         if len(numbers) != len(header) or not all(np.isfinite(numbers)):
-            raise ConfigError(f"{path}: line {line_no}: need {len(header)} finite numbers; got {','.join(row)!r}",
+            raise ConfigError(f"{path}: line {line_no}: need {len(header)} finite numbers; got {len(numbers)} value(s)"
+                              f"{'' if all(np.isfinite(numbers)) else ', not all finite'}",
                               key="gps.gain_file")
         values.append(numbers)
     table = {name: np.array([row[k] for row in values]) for k, name in enumerate(header)}
     if "off_boresight_deg" not in table:
-        raise ValueError(f"{path}: needs a column 'off_boresight_deg'; found {', '.join(header)}")
+        raise ValueError(f"{path}: line 1 (the header) needs a column 'off_boresight_deg'")
     if column not in table:
         allowed = [c for c in header if c != "off_boresight_deg"]
         raise ValueError(f"{path}: unknown gain column {column!r}; allowed: {', '.join(allowed)}")

@@ -12,12 +12,13 @@ import uuid
 from pathlib import Path
 
 from .config import PROJECT_DIR, load_profile
-from .outputs import (CAPTION_SUFFIX, output_dir, profile_dir, read_caption, write_manifest,
+from .outputs import (CAPTION_SUFFIX, atomic_path, output_dir, profile_dir, read_caption, write_manifest,
                       write_text_atomic)
 
 __all__ = ["NOTEBOOKS_DIR", "notebook_paths", "reproduce", "write_index", "ipc_kernel_manager_class"]
 
 NOTEBOOKS_DIR = PROJECT_DIR / "notebooks"
+KERNEL_LOG = "kernels.log"            # in outputs/<profile>/notebooks/: the kernel processes' own stderr
 INDEX_TABLE_MAX_ROWS = 200            # rows of a table shown inline in the index; the CSV has them all
 
 
@@ -36,11 +37,13 @@ def notebook_paths(only: list[str] | None = None) -> list[Path]:
     return sorted(chosen)
 
 
-def ipc_kernel_manager_class():
+def ipc_kernel_manager_class(log_path: Path | None = None):
     """A jupyter_client kernel manager whose kernels talk over local IPC sockets instead of TCP.
 
     The sockets are files in the Jupyter runtime folder, readable only by this user, so nothing
-    listens on a port and the kernel has no reason to warn about unencrypted TCP traffic.
+    listens on a port and the kernel has no reason to warn about unencrypted TCP traffic. With
+    ``log_path`` the kernel process's own stderr (its log, not the cells' output) is appended there,
+    so an interrupted run does not print the kernel's socket errors on the terminal.
     """
     from jupyter_client import AsyncKernelManager
     from jupyter_core.paths import jupyter_runtime_dir
@@ -53,6 +56,12 @@ def ipc_kernel_manager_class():
             runtime.mkdir(parents=True, exist_ok=True)
             self.ip = str(runtime / f"lnss-kernel-{uuid.uuid4().hex[:12]}-ipc")
 
+        async def start_kernel(self, **kwargs):
+            if log_path is None:
+                return await super().start_kernel(**kwargs)
+            with open(log_path, "a") as log:
+                return await super().start_kernel(**{"stderr": log, **kwargs})
+
     return IpcKernelManager
 
 
@@ -61,8 +70,9 @@ def reproduce(profile_name: str = "quick", only: list[str] | None = None, overri
 
     ``overrides`` (a nested dict, e.g. from ``--set``) is checked here, before any notebook runs, and
     reaches each notebook as the papermill parameter ``overrides_json`` for its ``load_profile``.
-    Kernels run over IPC sockets (:func:`ipc_kernel_manager_class`), so the progress bar is the only
-    output unless a notebook fails. Each executed notebook is written to a temporary file and moved
+    Kernels run over IPC sockets (:func:`ipc_kernel_manager_class`) with their own log in
+    ``notebooks/kernels.log``, so the progress bar is the only output unless a notebook fails; Ctrl-C
+    ends the run with one line (exit 130). Each executed notebook is written to a temporary file and moved
     into place, so a failed write leaves the previous copy.
     """
     import papermill
@@ -76,36 +86,37 @@ def reproduce(profile_name: str = "quick", only: list[str] | None = None, overri
     if not books:
         raise ValueError(f"no notebooks found in {NOTEBOOKS_DIR}")
     target = output_dir(profile_name, "notebooks")
-    manager = ipc_kernel_manager_class()
+    manager = ipc_kernel_manager_class(target / KERNEL_LOG)
     runs: dict[str, dict] = {}
     status = 0
     bar = tqdm(books, desc=f"reproduce [{profile_name}]", unit="notebook", file=sys.stderr)
     for book in bar:
         bar.set_postfix_str(book.stem)
         start = time.perf_counter()
-        executed = target / book.name
-        temporary = executed.with_name(f".{book.stem}.{os.getpid()}.tmp.ipynb")
+        failure = None
         try:
-            declared = {k: v for k, v in parameters.items() if k in papermill.inspect_notebook(str(book))}
-            papermill.execute_notebook(str(book), str(temporary), parameters=declared,
-                                       cwd=str(NOTEBOOKS_DIR), progress_bar=False, kernel_name="python3",
-                                       execution_timeout=timeout_s, kernel_manager_class=manager)
-            os.replace(temporary, executed)
-            runs[book.stem] = {"status": "ok", "wall_s": round(time.perf_counter() - start, 2)}
-        except papermill.PapermillExecutionError as error:
-            os.replace(temporary, executed)   # complete notebook holding the failing cell's traceback
-            runs[book.stem] = {"status": "failed", "wall_s": round(time.perf_counter() - start, 2),
-                               "error": f"{error.ename}: {error.evalue}"}
-            bar.close()
-            print(f"\nnotebook {book.name} failed in cell {error.cell_index}: {error.ename}: {error.evalue}\n"
-                  f"the executed copy with the traceback is {target / book.name}; "
-                  f"outputs of the notebooks before it are kept", file=sys.stderr)
-            status = 1
-            break
+            with atomic_path(target / book.name, suffix=".ipynb") as temporary:
+                declared = {k: v for k, v in parameters.items() if k in papermill.inspect_notebook(str(book))}
+                try:
+                    papermill.execute_notebook(str(book), str(temporary), parameters=declared,
+                                               cwd=str(NOTEBOOKS_DIR), progress_bar=False, kernel_name="python3",
+                                               execution_timeout=timeout_s, kernel_manager_class=manager)
+                except papermill.PapermillExecutionError as error:
+                    failure = error        # the complete notebook, holding the failing cell's traceback, is kept
         except BaseException:
-            temporary.unlink(missing_ok=True)
             bar.close()
             raise
+        wall_s = round(time.perf_counter() - start, 2)
+        if failure is None:
+            runs[book.stem] = {"status": "ok", "wall_s": wall_s}
+            continue
+        runs[book.stem] = {"status": "failed", "wall_s": wall_s, "error": f"{failure.ename}: {failure.evalue}"}
+        bar.close()
+        print(f"\nnotebook {book.name} failed in cell {failure.cell_index}: {failure.ename}: {failure.evalue}\n"
+              f"the executed copy with the traceback is {target / book.name}; "
+              f"outputs of the notebooks before it are kept", file=sys.stderr)
+        status = 1
+        break
     manifest = write_manifest(profile_name, runs)
     index = write_index(profile_name)
     print(f"index of figures and tables: {index}", file=sys.stderr)

@@ -60,7 +60,7 @@ def _check_element_line(line: str, expected: int, path: Path, line_no: int) -> N
     """Raise ``ValueError`` naming file and line if ``line`` is not a well-formed TLE line ``expected``."""
     where = f"{path}: line {line_no}"
     if len(line) != 69:
-        raise ValueError(f"{where}: TLE line {expected} must be 69 characters long, got {len(line)}: {line!r}")
+        raise ValueError(f"{where}: TLE line {expected} must be 69 characters long, got {len(line)}")
     if line[0] != str(expected):
         raise ValueError(f"{where}: expected TLE line number {expected} in column 1, got {line[0]!r}")
     for col in _BLANKS[expected]:

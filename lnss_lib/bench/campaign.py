@@ -19,7 +19,7 @@ from pathlib import Path
 import numba
 import numpy as np
 
-from ..config import PARAMS_DIR, load_profile
+from ..config import PARAMS_DIR, deep_merge, load_profile
 from ..campaign import CampaignSettings, load_checkpoint, read_cache_records, run_campaign
 from ..campaign.timing import campaign_timing, steady_rate
 from ..paper import EVALUATIONS
@@ -31,8 +31,8 @@ SCALING_DELAY_S = 0.5
 def _short_campaign(profile_name: str, population: int, generations: int, workers: int | None,
                     overrides: dict | None = None) -> dict:
     """Run a campaign in a temporary directory; its timing, history and records."""
-    camp = {"population": population, "generations": generations, "ftol": 0.0}
-    merged = {**(overrides or {}), "campaign": {**camp, **(overrides or {}).get("campaign", {})}}
+    size = {"campaign": {"population": population, "generations": generations, "ftol": 0.0}}
+    merged = deep_merge(size, overrides or {})
     with tempfile.TemporaryDirectory(prefix="lnss_bench_campaign_") as tmp:
         start = time.perf_counter()
         result = run_campaign(profile_name, overrides=merged, workers=workers, run_dir=Path(tmp) / "run", progress=False)
@@ -45,10 +45,11 @@ def _short_campaign(profile_name: str, population: int, generations: int, worker
             "history": history}
 
 
-def _projection(profile_name: str, population: int, generations: int, workers: int | None) -> dict:
+def _projection(profile_name: str, population: int, generations: int, workers: int | None,
+                overrides: dict | None = None) -> dict:
     """Short campaign at ``profile_name``'s fidelity and its 120 x 1000 projection; prints the numbers."""
-    profile = load_profile(profile_name)
-    run = _short_campaign(profile_name, population, generations, workers)
+    profile = load_profile(profile_name, overrides=overrides)
+    run = _short_campaign(profile_name, population, generations, workers, overrides)
     timing, history, wall = run["timing"], run["history"], run["wall_s"]
     n = timing["n_evaluations"]
     rate = steady_rate(history, n, wall)
@@ -130,7 +131,7 @@ def busy_model(records: list[dict], overhead: dict) -> dict:
     return out
 
 
-def scaling(profile_name: str = "paper", reference: dict | None = None) -> dict:
+def scaling(profile_name: str = "paper", reference: dict | None = None, overrides: dict | None = None) -> dict:
     """Print local scaling, loopback-cluster overhead per design and the 90%-busy worker count."""
     out = {}
     rates = {}
@@ -138,7 +139,7 @@ def scaling(profile_name: str = "paper", reference: dict | None = None) -> dict:
     for workers in (1, 2):
         numba.set_num_threads(1)                     # one core per worker, as in a Dask worker process
         try:
-            run = _short_campaign(profile_name, 16, 4, workers)
+            run = _short_campaign(profile_name, 16, 4, workers, overrides)
         finally:
             numba.set_num_threads(threads)
         rates[workers] = steady_rate(run["history"], run["timing"]["n_evaluations"], run["wall_s"])
@@ -148,8 +149,8 @@ def scaling(profile_name: str = "paper", reference: dict | None = None) -> dict:
     overhead = {}
     for workers in SCALING_WORKERS:
         start = time.perf_counter()
-        run = _short_campaign(profile_name, 120, 2, workers, {"campaign": {"evaluator": "synthetic",
-                                                                           "synthetic_delay_s": SCALING_DELAY_S}})
+        synthetic = {"campaign": {"evaluator": "synthetic", "synthetic_delay_s": SCALING_DELAY_S}}
+        run = _short_campaign(profile_name, 120, 2, workers, deep_merge(overrides or {}, synthetic))
         later = [h for h in run["history"] if h["generation"] > 1]
         n = sum(h["n_evaluated"] for h in later)
         gen_wall = sum(h["wall_s"] for h in later)
@@ -162,31 +163,32 @@ def scaling(profile_name: str = "paper", reference: dict | None = None) -> dict:
               f"{1e3 * excess:.1f} ms per design, workers busy {100 * busy:.0f}% (run incl. start-up "
               f"{time.perf_counter() - start:.0f} s)")
     out["overhead_s_per_design"] = overhead
-    records = (reference or {}).get("records") or _short_campaign(profile_name, 32, 2, None)["records"]
+    records = (reference or {}).get("records") or _short_campaign(profile_name, 32, 2, None, overrides)["records"]
     out.update(busy_model(records, overhead))
     return out
 
 
 def run(profile_name: str = "paper", generations: int | None = None, population: int | None = None,
-        workers: int | None = None, scaling_run: bool = False) -> dict:
+        workers: int | None = None, scaling_run: bool = False, overrides: dict | None = None) -> dict:
     """Short campaign(s) with the profile's evaluations; throughput, shares and 120 x 1000 projections.
 
     Defaults: the profile's population (at most 32) for at most 8 generations. When
-    ``params/operational.toml`` exists its projection is printed beside the profile's.
+    ``params/operational.toml`` exists its projection is printed beside the profile's. ``overrides``
+    (``--set``) apply to every campaign run here.
     """
-    settings = CampaignSettings.from_profile(load_profile(profile_name))
+    settings = CampaignSettings.from_profile(load_profile(profile_name, overrides=overrides))
     population = population or min(settings.population, 32)
     generations = generations or min(settings.generations, 8)
-    out = {profile_name: _projection(profile_name, population, generations, workers)}
+    out = {profile_name: _projection(profile_name, population, generations, workers, overrides)}
     if (PARAMS_DIR / "operational.toml").is_file() and profile_name != "operational":
-        out["operational"] = _projection("operational", population, generations, workers)
+        out["operational"] = _projection("operational", population, generations, workers, overrides)
         print(f"projected 120 x 1000: [{profile_name}] {out[profile_name]['projected_paper_h']:.1f} h, [operational] "
               f"{out['operational']['projected_paper_h']:.1f} h (target <= 3 h on 2 workers)")
     else:
         print(f"projected 120 x 1000: [{profile_name}] {out[profile_name]['projected_paper_h']:.1f} h (target <= 3 h on "
               "2 workers); no params/operational.toml, so no operational projection")
     if scaling_run:
-        out["scaling"] = scaling(profile_name, out[profile_name])
+        out["scaling"] = scaling(profile_name, out[profile_name], overrides)
     for value in out.values():
         value.pop("records", None) if isinstance(value, dict) else None
     return out

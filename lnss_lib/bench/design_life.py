@@ -22,8 +22,8 @@ from ..stability import screen_states
 from ..stationkeeping import LifeSettings, life_force_model, simulate_life
 
 
-def run(profile_name: str = "paper") -> None:
-    profile = load_profile(profile_name)
+def run(profile_name: str = "paper", overrides: dict | None = None) -> None:
+    profile = load_profile(profile_name, overrides=overrides)
     ensure_kernels(profile)
     settings = LifeSettings.from_profile(profile)
     el = standalone_elfo(profile)

@@ -38,13 +38,13 @@ def _alternating_ms(funcs: dict, repeats: int) -> dict:
     return {name: (min(v), float(np.median(v))) for name, v in samples.items()}
 
 
-def run(profile_name: str = "paper", repeats: int = 9) -> dict:
+def run(profile_name: str = "paper", repeats: int = 9, overrides: dict | None = None) -> dict:
     """Print today's path (numpy kernel + Dataset + numpy statistics) and the compiled path side by side.
 
     Both run alternately in one loop so machine load hits them alike; prints min and median (ms)
     and the largest relative difference of the summary metrics. Returns the numbers.
     """
-    profile = load_profile(profile_name)
+    profile = load_profile(profile_name, overrides=overrides)
     grid = grid_from_profile(profile)
     r_mf_km = _positions_km(profile, 961, 900.0)
     points, up = grid.r_mf_km.reshape(-1, 3), grid.up.reshape(-1, 3)

@@ -42,10 +42,10 @@ def _designs(profile: dict, n: int, seed: int = 12) -> list[WalkerDesign]:
     return out
 
 
-def run(profile_name: str = "paper", n_designs: int = 12, repeats: int = 2) -> dict:
+def run(profile_name: str = "paper", n_designs: int = 12, repeats: int = 2, overrides: dict | None = None) -> dict:
     """Print old and new per-design times (20-satellite ELFO design and a Table 3 sample) and projections."""
     numba.set_num_threads(1)
-    profile = load_profile(profile_name)
+    profile = load_profile(profile_name, overrides=overrides)
     full = copy.deepcopy(profile)
     full["gravity"]["truncation_kms2"] = 0.0
     start = time.perf_counter()

@@ -61,8 +61,8 @@ def candidate_table(profile: dict, days: float = 10.0) -> list[dict]:
     return rows
 
 
-def run(profile_name: str = "paper", limit_m: float = 100.0) -> list[dict]:
-    profile = load_profile(profile_name)
+def run(profile_name: str = "paper", limit_m: float = 100.0, overrides: dict | None = None) -> list[dict]:
+    profile = load_profile(profile_name, overrides=overrides)
     rows = candidate_table(profile)
     print(f"10-day error against {REFERENCE[0]} {REFERENCE[1]:g}/{REFERENCE[2]:g} (full field); candidates with "
           f"[{profile_name}] forces, gravity truncation {profile['gravity'].get('truncation_kms2', 0.0):g} km/s^2")

@@ -28,8 +28,8 @@ def _evaluation_loop(n, t0, y, args, work, scratch, terms, out):
     return total
 
 
-def run(profile_name: str = "paper") -> None:
-    profile = load_profile(profile_name)
+def run(profile_name: str = "paper", overrides: dict | None = None) -> None:
+    profile = load_profile(profile_name, overrides=overrides)
     ensure_kernels(profile)
     elfo = profile["standalone_elfo"]
     elements = [[elfo["sma_km"], elfo["ecc"], elfo["inc_deg"], elfo["raan_deg"][0], elfo["aop_deg"], 0.0]]

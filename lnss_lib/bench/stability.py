@@ -43,8 +43,8 @@ def validation_table(profile: dict, designs=None, life_days: float | None = None
     return rows
 
 
-def run(profile_name: str = "paper", reference: bool = True) -> None:
-    profile = load_profile(profile_name)
+def run(profile_name: str = "paper", reference: bool = True, overrides: dict | None = None) -> None:
+    profile = load_profile(profile_name, overrides=overrides)
     ensure_kernels(profile)
     start = time.perf_counter()
     screen_elements(profile, WalkerDesign(6143.0, 0.6, 51.7, 90.0, 4, 5).elements_deg())

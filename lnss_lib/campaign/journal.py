@@ -85,8 +85,11 @@ class EvaluationCache:
         record = {"key": list(key), **record}
         self.records[key] = record
         self.n_errors += bool(record.get("error"))
-        self._handle.write(json.dumps(record) + "\n")
-        self._handle.flush()
+        try:
+            self._handle.write(json.dumps(record) + "\n")
+            self._handle.flush()
+        except OSError as error:           # a full disk names the journal, not only the errno
+            raise OSError(error.errno, error.strerror or str(error), str(self.path)) from error
 
     def first_error(self) -> dict | None:
         """The first record (in evaluation order) whose evaluation raised, or None."""
