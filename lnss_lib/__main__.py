@@ -329,14 +329,12 @@ def main(argv: list[str] | None = None) -> int:
         if getattr(args, "profile_file", None):
             args.profile = use_profile_file(args.profile_file)
         return args.func(args)
-    except KeyboardInterrupt:
-        code, text = 130, "interrupted"
-    except Exception as error:
-        code, text = classify(error)
-    if debug:
-        traceback.print_exc()
-    print(f"error: {text}", file=sys.stderr)
-    return code
+    except (KeyboardInterrupt, Exception) as error:
+        code, text = (130, "interrupted") if isinstance(error, KeyboardInterrupt) else classify(error)
+        if debug:
+            traceback.print_exception(error)
+        print(f"error: {text}", file=sys.stderr)
+        return code
 
 
 if __name__ == "__main__":

@@ -429,17 +429,14 @@ def _check_data_paths(profile: dict) -> None:
         data_path(spk, "ephemeris.planetary_spk")
 
 
-MIN_EPOCHS = 3     # a time series the DOP statistics, the GVE Delta-V and the fits need at least
-
-
 def _check_sampling(profile: dict) -> None:
-    """``epoch.duration_days`` / ``epoch.step_s`` give at least :data:`MIN_EPOCHS` samples."""
+    """The arc is longer than one sampling step, so it holds at least 3 epochs (t0, t0 + step, ..., end),
+    the fewest the DOP statistics and the GVE Delta-V take."""
     days, step_s = profile["epoch"]["duration_days"], profile["epoch"]["step_s"]
-    n_epochs = math.floor(days * SECONDS_PER_DAY / step_s + 1e-9) + 1
-    if n_epochs < MIN_EPOCHS:
-        raise ConfigError(f"epoch.duration_days = {days!r} at epoch.step_s = {step_s!r} gives {n_epochs} epoch(s); "
-                          f"allowed: at least {MIN_EPOCHS} (lengthen epoch.duration_days or shorten epoch.step_s)",
-                          key="epoch.duration_days")
+    if not days * SECONDS_PER_DAY > step_s * (1.0 + 1e-9):
+        raise ConfigError(f"epoch.duration_days = {days!r} ({days * SECONDS_PER_DAY:g} s) is not longer than epoch.step_s = "
+                          f"{step_s!r} s; allowed: an arc of more than one step (at least 3 epochs): lengthen "
+                          f"epoch.duration_days or shorten epoch.step_s", key="epoch.duration_days")
 
 
 def profile_hash(profile: dict) -> str:

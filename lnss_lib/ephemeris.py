@@ -22,7 +22,7 @@ import numpy as np
 import spiceypy as spice
 import spiceypy.utils.exceptions
 
-from .config import data_path
+from .config import SKYFIELD_DATA, data_path
 from .errors import ConfigError, EphemerisRangeError
 
 __all__ = ["NAIF_BODY", "planetary_spk_path", "kernel_paths", "load_kernels", "ensure_kernels", "tdb_seconds", "kernel_span_tdb_s", "check_span",
@@ -35,18 +35,18 @@ _LOADED: set[str] = set()
 
 def planetary_spk_path(spec: str = "skyfield-data:de421.bsp") -> Path:
     """Path of the planetary SPK; ``skyfield-data:NAME`` resolves inside that package."""
-    if spec.startswith("skyfield-data:"):
+    if spec.startswith(SKYFIELD_DATA):
         import skyfield_data
 
         # The package's own path helper warns about its unrelated Earth-orientation file: avoid it.
-        return Path(skyfield_data.__file__).resolve().parent / "data" / spec.split(":", 1)[1]
-    return data_path(spec)
+        return Path(skyfield_data.__file__).resolve().parent / "data" / spec.removeprefix(SKYFIELD_DATA)
+    return data_path(spec, "ephemeris.planetary_spk")
 
 
 def kernel_paths(profile: dict) -> list[Path]:
     """Every kernel a profile uses, in load order (planetary SPK first)."""
     eph = profile["ephemeris"]
-    return [planetary_spk_path(eph["planetary_spk"])] + [data_path(k) for k in eph["kernels"]]
+    return [planetary_spk_path(eph["planetary_spk"])] + [data_path(k, "ephemeris.kernels") for k in eph["kernels"]]
 
 
 @contextlib.contextmanager

@@ -7,6 +7,7 @@ has no singularity at the poles, and the normalised recursion stays in range to 
 
 from __future__ import annotations
 
+import re
 from dataclasses import dataclass
 from functools import lru_cache
 from pathlib import Path
@@ -15,6 +16,7 @@ import numba as nb
 import numpy as np
 
 from .config import data_path
+from .errors import ConfigError
 
 __all__ = ["MAX_FILE_DEGREE", "GravityField", "recursion_coefficients", "degree_bound_factors", "truncation_degree",
            "omitted_bound", "harmonic_acceleration", "harmonic_potential"]
@@ -24,8 +26,15 @@ MAX_FILE_DEGREE = 100
 
 @lru_cache(maxsize=4)
 def _read_rows(path: str) -> np.ndarray:
-    """The ``n m Cnm Snm`` table of a coefficient file (read once per process)."""
-    return np.loadtxt(path, dtype=float)
+    """The ``n m Cnm Snm`` table of a coefficient file (read once per process); ConfigError naming the file
+    and the row of a malformed line (never the line itself)."""
+    try:
+        return np.loadtxt(path, dtype=float, ndmin=2)
+    except ValueError as error:
+        where = re.search(r"at row \d+(, column \d+)?", str(error))
+        raise ConfigError(f"{path}: not a table of four numbers per line (n m Cnm Snm)"
+                          + (f"; the first bad value is {where.group(0)} (numpy's count)" if where else ""),
+                          key="gravity.file", source=path) from None
 
 
 @dataclass(frozen=True)

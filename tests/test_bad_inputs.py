@@ -105,11 +105,6 @@ def test_bad_value_is_one_line_exit_2(capsys, tmp_path, monkeypatch, argv, needl
     assert set(os.listdir(tmp_path)) == before
 
 
-def test_debug_shows_the_traceback():
-    with pytest.raises(ConfigError, match="e = 1.0"):
-        main(elements("6143", "1.0", "51.7", "0", "90", "0") + ["--debug"])
-
-
 def test_impact_is_a_failure_with_its_time(capsys):
     code = main(["propagate", *EPOCH, "--elements", "5900", "0.7", "80", "0", "0", "180", "--days", "20",
                  "--degree", "8", "--step-s", "3600"])
@@ -299,3 +294,230 @@ def test_two_resumes_of_one_run_one_refuses(tmp_path):
     assert len(second.stderr.strip().splitlines()) == 1 and "Traceback" not in second.stderr
     keys = [tuple(json.loads(line)["key"]) for line in (run_dir / "evaluations.jsonl").read_text().splitlines()[1:]]
     assert len(keys) == len(set(keys))
+
+
+# ---- issue 21: confined paths, exit classes, messages that name the key or the file -----------------------
+
+WALKER_ARGS = [item for pair in WALKER.items() for item in pair]
+
+
+@pytest.fixture
+def own_outputs(tmp_path, monkeypatch):
+    """Outputs under tmp_path/outputs and a clean registry of --profile-file names (restored afterwards)."""
+    from lnss_lib.campaign import rundir, runner
+
+    outputs = tmp_path / "outputs"
+    for module in (config, rundir, runner):
+        monkeypatch.setattr(module, "OUTPUTS_DIR", outputs)
+    monkeypatch.setenv(config.PROFILE_FILES_ENV, "{}")
+    return outputs
+
+
+@pytest.mark.parametrize("name", ["{tmp}/x", "../params/ci", "ci.toml", "params/ci", "./ci", "c i"])
+def test_profile_is_a_name_in_params(capsys, tmp_path, monkeypatch, name):
+    """`--profile /abs/x` loaded /abs/x.toml and wrote under /abs/x/: a profile is a name of params/."""
+    shutil.copy(config.PARAMS_DIR / "ci.toml", tmp_path / "x.toml")
+    monkeypatch.chdir(config.PROJECT_DIR)
+    name = name.format(tmp=tmp_path)
+    err = one_line_error(capsys, main(["evaluate", "--profile", name, *WALKER_ARGS]), 2, repr(name), "--profile-file")
+    assert "ci, ci_operational" in err
+    assert sorted(os.listdir(tmp_path)) == ["x.toml"]
+
+
+def test_profile_file_runs_and_writes_under_its_stem(capsys, tmp_path, own_outputs):
+    profile_file = tmp_path / "elsewhere" / "mine.toml"
+    profile_file.parent.mkdir()
+    shutil.copy(config.PARAMS_DIR / "ci.toml", profile_file)
+    command = ["campaign", "--profile-file", str(profile_file), "--evaluator", "synthetic", "--workers", "0",
+               "--no-progress", "--set", "campaign.generations=1"]
+    assert main(command) == 0, capsys.readouterr().err
+    assert [p.name for p in own_outputs.iterdir()] == ["mine"]
+    assert sorted(os.listdir(profile_file.parent)) == ["mine.toml"]
+    assert load_profile("mine")["profile"]["name"] == "mine"
+
+
+@pytest.mark.parametrize("file_name, needle", [("x y.toml", "'x y' is not allowed"), ("ci.toml", "params/ci.toml"),
+                                               ("mine.txt", "ending in .toml"), ("../x.toml", "ending in .toml")])
+def test_profile_file_name_is_checked(capsys, tmp_path, own_outputs, file_name, needle):
+    path = tmp_path / file_name
+    if path.suffix == ".toml" and ".." not in file_name:
+        shutil.copy(config.PARAMS_DIR / "ci.toml", path)
+    one_line_error(capsys, main(["evaluate", "--profile-file", str(path), *WALKER_ARGS]), 2, "--profile-file", needle)
+    assert not own_outputs.exists()
+
+
+def test_inherits_and_also_name_profiles_only(capsys, tmp_path, own_outputs):
+    for key, value in (("inherits", f"{config.PARAMS_DIR}/ci"), ("also", ["../params/ci"])):
+        path = tmp_path / "mine.toml"
+        path.write_text(f'[profile]\ninherits = "paper"\n{key} = {config.toml_literal(value)}\n'
+                        if key == "also" else f'[profile]\ninherits = {config.toml_literal(value)}\n')
+        one_line_error(capsys, main(["evaluate", "--profile-file", str(path), *WALKER_ARGS]), 2,
+                       f"profile.{key}", "unknown profile")
+
+
+@pytest.mark.parametrize("setting", ['gravity.file="../../etc/passwd"', 'gravity.file="/etc/passwd"',
+                                     'gps.tle_file="data/../../README.md"', 'ephemeris.kernels=["/etc/hosts"]',
+                                     'ephemeris.planetary_spk="skyfield-data:../../../x.bsp"',
+                                     'validation.capstone.file="../pyproject.toml"'])
+def test_data_paths_stay_under_params_data(capsys, setting):
+    """Data-file keys accepted `../` and absolute paths, and the error then echoed a line of the file read."""
+    err = one_line_error(capsys, main(walker() + ["--set", setting]), 2, setting.split("=")[0], "params/data/")
+    assert "root:" not in err
+
+
+def test_a_symlink_out_of_params_data_is_refused(capsys, params_dir):
+    (params_dir / "data").mkdir()
+    (params_dir / "data" / "field.txt").symlink_to("/etc/passwd")
+    (params_dir / "bad.toml").write_text('[profile]\ninherits = "paper"\n[gravity]\nfile = "data/field.txt"\n')
+    one_line_error(capsys, main(walker() + ["--profile", "bad"]), 2, "gravity.file = 'data/field.txt'", "params/data/")
+
+
+def test_no_message_prints_a_line_of_a_file(tmp_path):
+    """TOML, gravity, TLE and gain-file errors name the file and line, never the content of the line."""
+    from lnss_lib.gps import load_gain_pattern
+    from lnss_lib.gravity import GravityField
+    from lnss_lib.tle import read_tle
+
+    secret = "SECRET-7f3a"
+    cases = {
+        "profile.toml": (f"[profile]\ninherits = {secret}\n", lambda p: config.read_toml(p), "line 2"),
+        "field.txt": (f"2 0 1.0 0.0\n{secret} 0 1.0 0.0\n", lambda p: GravityField.from_file(p, 2, 4902.8, 1738.0), "row"),
+        "gps.tle": (f"GPS\n1 {secret}\n2 x\n", read_tle, "line 2"),
+        "gain.csv": (f"off_boresight_deg,g\n0,1\n{secret},2\n", lambda p: load_gain_pattern(p, "g"), "line 3"),
+    }
+    for name, (text, read, where) in cases.items():
+        path = tmp_path / name
+        path.write_text(text)
+        with pytest.raises(ValueError) as info:
+            read(path)
+        assert str(path) in str(info.value) and where in str(info.value), info.value
+        assert secret not in str(info.value), info.value
+
+
+def test_internal_errors_are_not_bad_input(capsys, monkeypatch):
+    """A KeyError (or any unexpected exception) is a failure with the traceback on request, not bad input."""
+    from lnss_lib import evaluator
+
+    for error in (KeyError("inc"), KeyError((191, 34, 9, 70, 1, 1)), TypeError("unsupported operand")):
+        def broken(*args, _error=error, **kwargs):
+            raise _error
+
+        monkeypatch.setattr(evaluator, "evaluate_cli", broken)
+        one_line_error(capsys, main(walker()), 1, f"internal error: {type(error).__name__}: ",
+                       "(run with --debug for the traceback)")
+
+    def numpy_fails(*args, **kwargs):
+        return np.linspace(0.0, 1.0, -1)           # a ValueError raised inside numpy: a bug, not bad input
+
+    monkeypatch.setattr(evaluator, "evaluate_cli", numpy_fails)
+    one_line_error(capsys, main(walker()), 1, "internal error: ValueError: ")
+    assert main(walker() + ["--debug"]) == 1
+    err = capsys.readouterr().err
+    assert "Traceback" in err and "linspace" in err and err.strip().splitlines()[-1].startswith("error: internal error")
+
+
+def test_debug_keeps_the_exit_code(capsys):
+    """`--debug` adds the traceback and keeps exit 2 for bad input (it turned it into 1)."""
+    assert main(elements("6143", "1.0", "51.7", "0", "90", "0") + ["--debug"]) == 2
+    err = capsys.readouterr().err
+    assert "Traceback" in err and "ConfigError" in err and err.strip().splitlines()[-1].startswith("error: ")
+    assert "e = 1.0" in err.strip().splitlines()[-1]
+
+
+def test_every_command_takes_set_and_profile_file():
+    """The README says every command takes --set; `bench` did not."""
+    from lnss_lib.__main__ import build_parser
+
+    parser = build_parser()
+    commands = parser._subparsers._group_actions[0].choices
+    for name, command in commands.items():
+        flags = {flag for action in command._actions for flag in action.option_strings}
+        assert {"--set", "--profile", "--profile-file"} <= flags, name
+
+
+def test_bench_applies_and_checks_set(capsys, monkeypatch):
+    from lnss_lib.bench import dop
+
+    one_line_error(capsys, main(["bench", "dop", "--profile", "ci", "--set", "gravity.degree=500"]), 2,
+                   "gravity.degree = 500")
+    seen = {}
+    monkeypatch.setattr(dop, "run", lambda profile_name, overrides=None: seen.update(name=profile_name, overrides=overrides))
+    assert main(["bench", "dop", "--profile", "ci", "--set", "dop.elevation_mask_deg=10.0"]) == 0
+    assert seen == {"name": "ci", "overrides": {"dop": {"elevation_mask_deg": 10.0}}}
+    one_line_error(capsys, main(["bench", "dop", "--scaling"]), 2, "--scaling", "bench dop")
+
+
+MESSAGES = [
+    # too few epochs: named by the two keys, before any work
+    (walker() + ["--set", "epoch.duration_days=0.01"], ("epoch.duration_days = 0.01", "epoch.step_s = 900.0")),
+    (walker() + ["--set", "epoch.step_s=864000.0"], ("epoch.duration_days", "epoch.step_s = 864000.0")),
+    # an unquoted date: TOML reads it as a date-time; say how to write it
+    (walker() + ["--set", "epoch.start_tdb=2025-05-01T00:00:00"], ("epoch.start_tdb", "quote it",
+                                                                   "'epoch.start_tdb=\"2025-05-01T00:00:00\"'")),
+    (walker() + ["--set", "epoch.start_tdb=2025-05-01"], ("epoch.start_tdb", "quote it")),
+    # a SPICE failure: what was asked and the kernels, not SPICE's banner
+    (walker() + ["--set", 'frames.gravity="MOON_NOSUCH"'], ("MOON_NOSUCH",)),
+]
+
+
+@pytest.mark.parametrize("argv, needles", MESSAGES, ids=[a[-1] for a, _ in MESSAGES])
+def test_messages_name_the_key(capsys, argv, needles):
+    err = one_line_error(capsys, main(argv), 2, *needles)
+    assert "Toolkit" not in err and "=====" not in err and "series (" not in err
+
+
+def test_binary_constellation_file_is_named(capsys, tmp_path):
+    path = tmp_path / "constellation.toml"
+    path.write_bytes(bytes(range(256)) * 4)
+    one_line_error(capsys, main(["evaluate", "--constellation", str(path), "--profile", "ci"]), 2, str(path),
+                   "not a TOML text file")
+
+
+def test_damaged_kernel_is_named_and_not_kept(tmp_path):
+    """SPICE errors name the kernel file and what was asked; a kernel SPICE cannot read is not left loaded."""
+    from lnss_lib.ephemeris import _LOADED, kernel_span_tdb_s, load_kernels
+
+    load_kernels([])
+    before = (set(_LOADED), kernel_span_tdb_s())
+    junk = tmp_path / "junk.bsp"
+    junk.write_bytes(b"\x7fELF" + bytes(range(256)) * 20)
+    with pytest.raises(ConfigError) as info:
+        load_kernels([junk])
+    message = str(info.value)
+    assert str(junk) in message and "SPICE(" in message and "Toolkit" not in message and "\n" not in message
+    assert (set(_LOADED), kernel_span_tdb_s()) == before
+
+
+def test_secular_model_on_an_unbound_orbit_names_the_cause():
+    """"P = nan s" came from averaging an escaping orbit over a NaN period."""
+    from lnss_lib.deltav import secular_drift
+
+    t = np.linspace(0.0, 86400.0, 97)
+    r = np.array([1.0e4, 0.0, 0.0]) + np.outer(t, [0.0, 5.0, 0.0])      # 5 km/s at 10,000 km: hyperbolic
+    states = np.column_stack([r, np.tile([0.0, 5.0, 0.0], (t.size, 1))])
+    with pytest.raises(ValueError, match="bound orbit") as info:
+        secular_drift(t, states, 4902.8)
+    assert "nan" not in str(info.value)
+
+
+def test_full_journal_disk_names_the_journal(capsys, tmp_path, monkeypatch):
+    """Errno 28 while appending to the evaluation journal names the journal (it printed only the errno)."""
+    from lnss_lib.campaign import journal
+
+    class FullDisk:
+        def write(self, text):
+            raise OSError(errno.ENOSPC, "No space left on device")
+
+        flush = close = lambda self: None
+
+    real_init = journal.EvaluationCache.__init__
+
+    def init(self, *args, **kwargs):
+        real_init(self, *args, **kwargs)
+        self._handle.close()
+        self._handle = FullDisk()
+
+    monkeypatch.setattr(journal.EvaluationCache, "__init__", init)
+    run_dir = tmp_path / "run"
+    one_line_error(capsys, main(SYNTHETIC + ["--run-dir", str(run_dir)]), 1, str(run_dir / "evaluations.jsonl"),
+                   "No space left on device")

@@ -93,3 +93,45 @@ def test_evaluate_catalogue_constellation(capsys):
     assert "--ecc" in capsys.readouterr().err
     assert main(["evaluate", "--sma-km", "6143"]) == 2
     assert "missing --ecc" in capsys.readouterr().err
+
+
+def test_ctrl_c_on_reproduce_is_one_line_exit_130(tmp_path):
+    """Ctrl-C (SIGINT to the foreground process group) while a notebook runs printed the kernel's ZMQ
+    traceback: one line, exit 130, no temporary notebook left and no kernel left running."""
+    import os
+    import signal
+    import time
+
+    import nbformat
+
+    books, outputs, marker = tmp_path / "notebooks", tmp_path / "outputs", tmp_path / "kernel.pid"
+    books.mkdir()
+    cells = [nbformat.v4.new_code_cell("profile_name = 'ci'\noverrides_json = '{}'", metadata={"tags": ["parameters"]}),
+             nbformat.v4.new_code_cell(f"import os, pathlib, time\npathlib.Path({str(marker)!r}).write_text(str(os.getpid()))"
+                                       "\ntime.sleep(300)")]
+    kernelspec = {"name": "python3", "display_name": "Python 3", "language": "python"}
+    nbformat.write(nbformat.v4.new_notebook(cells=cells, metadata={"kernelspec": kernelspec}), books / "01_wait.ipynb")
+    script = ("import sys\nfrom pathlib import Path\nimport lnss_lib.outputs as outputs, lnss_lib.pipeline as pipeline\n"
+              "pipeline.NOTEBOOKS_DIR, outputs.OUTPUTS_DIR = Path(sys.argv[1]), Path(sys.argv[2])\n"
+              "from lnss_lib.__main__ import main\nsys.exit(main(['reproduce', '--profile', 'ci']))\n")
+    process = subprocess.Popen([sys.executable, "-c", script, str(books), str(outputs)], cwd=PROJECT_DIR,
+                               stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, start_new_session=True)
+    deadline = time.monotonic() + 120
+    while not marker.exists() or not marker.read_text():
+        assert process.poll() is None and time.monotonic() < deadline, process.communicate()
+        time.sleep(0.2)
+    os.killpg(process.pid, signal.SIGINT)
+    _, err = process.communicate(timeout=120)
+    assert process.returncode == 130, err
+    assert "Traceback" not in err and "ZMQ" not in err and err.count("error:") == 1, err
+    assert err.rstrip().endswith("error: interrupted"), err
+    assert not [p.name for p in (outputs / "ci" / "notebooks").iterdir() if p.suffix == ".ipynb" or "tmp" in p.name]
+    kernel_pid, deadline = int(marker.read_text()), time.monotonic() + 30
+    while time.monotonic() < deadline:
+        try:
+            os.kill(kernel_pid, 0)
+        except ProcessLookupError:
+            break
+        time.sleep(0.2)
+    else:
+        pytest.fail(f"kernel process {kernel_pid} still runs after the interrupt")

@@ -40,5 +40,31 @@ def test_also_merges_other_profiles_own_settings():
     assert companion["dop"]["los_axes"] == operational["dop"]["los_axes"] != quick["dop"]["los_axes"]
     assert companion["campaign"]["objectives"] == operational["campaign"]["objectives"]
     assert companion["campaign"]["companion_profile"] == "" and "also" not in companion["profile"]
-    with pytest.raises(ConfigError, match="also names unknown profile 'nowhere'"):
+    with pytest.raises(ConfigError, match="profile.also: unknown profile 'nowhere'"):
         _own_settings("nowhere")
+
+
+def _leaves(table: dict, prefix: str = ""):
+    for key, value in table.items():
+        if isinstance(value, dict):
+            yield from _leaves(value, f"{prefix}{key}.")
+        else:
+            yield f"{prefix}{key}", value
+
+
+def test_every_setting_round_trips_through_set():
+    """toml_literal writes what `--set` reads, for every value type of every profile (booleans were `False`)."""
+    from lnss_lib.config import parse_sets, toml_literal
+
+    for name in available_profiles():
+        for key, value in _leaves(load_profile(name)):
+            parsed = parse_sets([f"{key}={toml_literal(value)}"])
+            expected: object = value
+            for part in reversed(key.split(".")):
+                expected = {part: expected}
+            assert parsed == expected, (name, key, toml_literal(value))
+    extremes = {"gps": {"sidelobe_offset_db": float("-inf")}, "forces": {"relativity": False, "third_bodies": []},
+                "campaign": {"constraints": {"pdop_mean_3sigma": {"max": 1e300}}}, "profile": {"description": 'a "q" \\'}}
+    assert parse_sets([f"{k}={toml_literal(v)}" for k, v in _leaves(extremes)]) == extremes
+    relativity_off = parse_sets([f"forces.relativity={toml_literal(False)}"])
+    assert load_profile("ci", overrides=relativity_off)["forces"]["relativity"] is False

@@ -322,3 +322,21 @@ def test_voila_page_shows_the_metrics(tmp_path):
     assert "lnss-explorer-comparison" not in before and "lnss-explorer-comparison" in after
     assert "secular Delta-V" in after and "previous design" in after
     assert (tmp_path / "voila.png").stat().st_size > 50_000
+
+
+def test_exported_command_passes_the_command_line_checks(tmp_path):
+    """The export wrote `--set forces.relativity=False`, which the command line refused: the exported
+    command is parsed and its settings checked as `python -m lnss_lib` does it, giving the explorer's profile."""
+    import shlex
+
+    from lnss_lib.config import parse_sets
+
+    overrides = {"forces": {"relativity": False, "third_bodies": ["SUN", "EARTH"]}, "dop": {"elevation_mask_deg": 15.0}}
+    explorer = DesignExplorer(PROFILE, outputs_dir=tmp_path, overrides=overrides)
+    explorer.model_choice.value = "secular"
+    exported = explorer.export()
+    assert shlex.split(exported["command"])[3:] == exported["argv"]
+    args = build_parser().parse_args(exported["argv"])
+    profile = load_profile(args.profile, overrides=parse_sets(args.set))
+    assert profile["forces"]["relativity"] is False and profile["forces"]["third_bodies"] == ["SUN", "EARTH"]
+    assert profile == explorer.context().profile
