@@ -14,7 +14,7 @@ import numpy as np
 
 from .config import PACKAGE_DIR, allowed_range_text, available_profiles, in_range, load_profile, parse_sets, use_profile_file
 from .constants import SECONDS_PER_DAY
-from .errors import ConfigError, EphemerisRangeError, ImpactError
+from .errors import ConfigError, EphemerisRangeError
 
 BENCHMARKS = ("propagator", "dop", "evaluate", "campaign", "integrator", "design-life", "stability")
 
@@ -167,7 +167,7 @@ def _cmd_campaign(args: argparse.Namespace) -> int:
                                                        "evaluator": args.evaluator}}
     if args.resume and (args.profile or overrides or args.run_dir):
         raise ConfigError("--resume continues a run with its stored parameters: "
-                         "drop --profile, --set, --evaluator and --run-dir")
+                         "drop --profile or --profile-file, --set, --evaluator and --run-dir")
     result = run_campaign(args.profile or "quick", overrides=overrides, workers=args.workers,
                           scheduler_address=args.scheduler_address, run_dir=args.run_dir, resume=args.resume,
                           progress=not args.no_progress, max_generations=args.max_generations)

@@ -163,8 +163,9 @@ def load_profile(name: str = "quick", overrides: dict | str | None = None) -> di
 
 def _own_settings(name: str) -> dict:
     """The settings profile ``name``'s own file sets (not what it inherits), for ``[profile] also``."""
-    data = read_toml(profile_path(name, "profile.also"))
-    validate_profile(data, partial=True, source=profile_path(name, "profile.also"))
+    path = profile_path(name, "profile.also")
+    data = read_toml(path)
+    validate_profile(data, partial=True, source=path)
     return {section: table for section, table in data.items() if section != "profile"}
 
 
@@ -422,7 +423,7 @@ def _check_data_paths(profile: dict) -> None:
     spk = profile["ephemeris"]["planetary_spk"]
     if spk.startswith(SKYFIELD_DATA):
         name = spk.removeprefix(SKYFIELD_DATA)
-        if not PROFILE_NAME.fullmatch(Path(name).stem) or Path(name).name != name:
+        if name in ("", ".", "..") or Path(name).name != name:
             raise ConfigError(f"ephemeris.planetary_spk = {spk!r} is not allowed; allowed: {SKYFIELD_DATA}FILE_NAME "
                               f"or a file under params/data/", key="ephemeris.planetary_spk")
     else:
