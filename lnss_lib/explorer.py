@@ -27,7 +27,7 @@ import plotly.io as pio
 
 from . import deltav, frames
 from .atomicio import write_text_atomic
-from .config import OUTPUTS_DIR, available_profiles, deep_merge, load_profile, toml_literal
+from .config import OUTPUTS_DIR, available_profiles, deep_merge, load_profile, profile_path, toml_literal
 from .constellation import walker_design
 from .errors import ImpactError
 from .evaluator import EvaluationContext, analyse_constellation, context_for
@@ -166,7 +166,8 @@ class DesignExplorer:
         self.figures: dict[str, go.Figure] = {}
         self.profile = load_profile(profile_name, overrides=self.overrides)
         style = {"description_width": "110px"}
-        self.profile_choice = widgets.Dropdown(options=available_profiles(), value=profile_name,
+        choices = available_profiles() + ([] if profile_name in available_profiles() else [profile_name])
+        self.profile_choice = widgets.Dropdown(options=choices, value=profile_name,
                                                description="profile", style=style)
         self.frame_choice = widgets.Dropdown(options=ELEMENT_FRAMES, description="element frame", style=style,
                                              value=frame or self.profile["frames"]["element_frame"])
@@ -289,7 +290,8 @@ class DesignExplorer:
         """
         design, name = self.design(), self.profile_choice.value
         base = load_profile(name)
-        argv = ["evaluate", "--profile", name]
+        argv = (["evaluate", "--profile", name] if name in available_profiles()
+                else ["evaluate", "--profile-file", str(profile_path(name))])    # a reproduce --profile-file run
         for key in DESIGN_KEYS:
             argv += [CLI_FLAGS[key], str(design[key])]
         for section, values in deep_merge(self.overrides, self.settings()).items():

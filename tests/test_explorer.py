@@ -340,3 +340,20 @@ def test_exported_command_passes_the_command_line_checks(tmp_path):
     profile = load_profile(args.profile, overrides=parse_sets(args.set))
     assert profile["forces"]["relativity"] is False and profile["forces"]["third_bodies"] == ["SUN", "EARTH"]
     assert profile == explorer.context().profile
+
+
+def test_export_of_a_profile_file_names_the_file(tmp_path, monkeypatch):
+    """Notebook 09 under `reproduce --profile-file PATH`: the explorer offers that profile and exports
+    `--profile-file PATH`, which the command line accepts."""
+    from lnss_lib import config
+
+    monkeypatch.setenv(config.PROFILE_FILES_ENV, "{}")
+    path = tmp_path / "mine.toml"
+    shutil.copy(config.PARAMS_DIR / f"{PROFILE}.toml", path)
+    explorer = DesignExplorer(config.use_profile_file(path), outputs_dir=tmp_path)
+    exported = explorer.export()
+    args = build_parser().parse_args(exported["argv"])
+    assert args.profile_file == str(path)
+    loaded = load_profile(config.use_profile_file(args.profile_file))
+    assert loaded["profile"]["name"] == "mine"
+    assert config.profile_hash(loaded) == config.profile_hash(explorer.context().profile)   # contexts are shared by hash
