@@ -25,6 +25,7 @@ import xarray as xr
 from .constants import SECONDS_PER_DAY
 from .dop import dop_for_profile, grid_from_profile, summary_from_profile
 from .ephemeris import ensure_kernels, tdb_seconds
+from .errors import ConfigError
 from .frames import rotate_to_moon_fixed
 from .propagator import elements_deg_to_states, propagate_states
 from .sk_estimate import sk_estimate_from_propagation
@@ -262,6 +263,11 @@ def design_life_cli(profile_name: str, life_days: float, *, walker: tuple | None
     if not (isinstance(life_days, (int, float)) and math.isfinite(life_days) and life_days > 0):
         raise ValueError(f"--design-life-days must be a positive number of days; got {life_days!r}")
     profile = load_profile(profile_name, overrides=overrides)
+    step_s = life_evaluation_settings(profile)["sample_step_s"]
+    if not life_days * SECONDS_PER_DAY > step_s:
+        raise ConfigError(f"--design-life-days {life_days!r} ({life_days * SECONDS_PER_DAY:g} s) is not longer than "
+                          f"life_evaluation.sample_step_s = {step_s!r} s; allowed: a life of more than one sampling step",
+                          key="--design-life-days")
     if constellation is not None:
         from .catalogue import constellation_states_mci, file_epoch_profile, load_constellation
 

@@ -451,6 +451,7 @@ MESSAGES = [
     # too few epochs: named by the two keys, before any work
     (walker() + ["--set", "epoch.duration_days=0.01"], ("epoch.duration_days = 0.01", "epoch.step_s = 900.0")),
     (walker() + ["--set", "epoch.step_s=864000.0"], ("epoch.duration_days", "epoch.step_s = 864000.0")),
+    (walker() + ["--design-life-days", "0.01"], ("--design-life-days 0.01", "life_evaluation.sample_step_s = 900.0")),
     # an unquoted date: TOML reads it as a date-time; say how to write it
     (walker() + ["--set", "epoch.start_tdb=2025-05-01T00:00:00"], ("epoch.start_tdb", "quote it",
                                                                    "'epoch.start_tdb=\"2025-05-01T00:00:00\"'")),
