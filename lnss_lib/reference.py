@@ -13,7 +13,7 @@ import spiceypy as spice
 from scipy.integrate import solve_ivp
 
 from .config import integrator_setting
-from .ephemeris import NAIF_BODY, ensure_kernels
+from .ephemeris import NAIF_BODY, ensure_kernels, spice_errors
 from .forces import shadow_factor
 from .gravity import GravityField
 
@@ -83,9 +83,11 @@ class ReferenceModel:
     def acceleration(self, t_tdb_s: float, r: np.ndarray, v: np.ndarray) -> np.ndarray:
         """Total acceleration (km/s^2, Moon-centred J2000)."""
         self.n_calls += 1
-        rot = np.asarray(spice.pxform("J2000", self.profile["frames"]["gravity"], t_tdb_s))
+        with spice_errors("give the reference model's lunar frame (frames.gravity) and third bodies"):
+            rot = np.asarray(spice.pxform("J2000", self.profile["frames"]["gravity"], t_tdb_s))
+            pos = {b: np.asarray(spice.spkpos(NAIF_BODY[b], t_tdb_s, "J2000", "NONE", "MOON")[0])
+                   for b in ("SUN", "EARTH", "JUPITER")}
         acc = rot.T @ harmonic_acceleration_spherical(rot @ r, self.field)
-        pos = {b: np.asarray(spice.spkpos(NAIF_BODY[b], t_tdb_s, "J2000", "NONE", "MOON")[0]) for b in ("SUN", "EARTH", "JUPITER")}
         for body in self.forces["third_bodies"]:
             rb = pos[body]
             acc += self.gm[body] * ((rb - r) / np.linalg.norm(rb - r) ** 3 - rb / np.linalg.norm(rb) ** 3)
