@@ -14,7 +14,7 @@ import numpy as np
 
 from .config import PACKAGE_DIR, allowed_range_text, available_profiles, in_range, load_profile, parse_sets, use_profile_file
 from .constants import SECONDS_PER_DAY
-from .errors import ConfigError, EphemerisRangeError
+from .errors import ConfigError, EphemerisRangeError, SpiceError
 
 BENCHMARKS = ("propagator", "dop", "evaluate", "campaign", "integrator", "design-life", "stability")
 
@@ -283,7 +283,7 @@ class OneLineParser(argparse.ArgumentParser):
         self.exit(2, f"error: {self.prog}: {message} (see {self.prog} --help)\n")
 
 
-INPUT_ERRORS = (ConfigError, EphemerisRangeError, FileNotFoundError)   # bad input: exit 2
+INPUT_ERRORS = (ConfigError, EphemerisRangeError, SpiceError, FileNotFoundError)   # bad input: exit 2
 
 
 def _raised_by_lnss(error: BaseException) -> bool:

@@ -23,7 +23,7 @@ import spiceypy as spice
 import spiceypy.utils.exceptions
 
 from .config import SKYFIELD_DATA, data_path
-from .errors import ConfigError, EphemerisRangeError
+from .errors import ConfigError, EphemerisRangeError, SpiceError
 
 __all__ = ["NAIF_BODY", "planetary_spk_path", "kernel_paths", "load_kernels", "ensure_kernels", "tdb_seconds", "kernel_span_tdb_s", "check_span",
            "tdb_iso", "spice_errors", "body_states_mci", "rotation_and_rate", "rotation", "hermite_cubic", "EphemerisTable",
@@ -51,20 +51,21 @@ def kernel_paths(profile: dict) -> list[Path]:
 
 @contextlib.contextmanager
 def spice_errors(asked: str, kernels=None):
-    """SPICE errors inside the block as one ConfigError naming what was ``asked``, the kernel file(s)
+    """SPICE errors inside the block as one :class:`SpiceError` naming what was ``asked``, the kernel file(s)
     (default: every loaded kernel) and SPICE's error code, never SPICE's banner or a line of a file."""
     try:
         yield
     except spice.utils.exceptions.SpiceyError as error:
-        files = ", ".join(map(str, sorted(_LOADED) if kernels is None else kernels)) or "no kernels loaded"
-        raise ConfigError(f"SPICE could not {asked}: {error.short or type(error).__name__} (kernel file(s): {files}; "
-                          f"see params/data/README.md)", key="ephemeris.kernels", source=files) from error
+        files = tuple(map(str, sorted(_LOADED) if kernels is None else kernels))
+        code = error.short or type(error).__name__
+        raise SpiceError(f"SPICE could not {asked}: {code} (kernel file(s): {', '.join(files) or 'none loaded'}; "
+                         f"see params/data/README.md)", asked=asked, kernels=files, code=code) from error
 
 
 def load_kernels(paths: list[Path]) -> None:
     """Furnish SPICE kernels once per process (safe to call again, e.g. in worker processes).
 
-    Raises ``FileNotFoundError`` naming a missing kernel and ConfigError naming one SPICE cannot load.
+    Raises ``FileNotFoundError`` naming a missing kernel and :class:`SpiceError` naming one SPICE cannot read.
     """
     for path in map(Path, paths):
         key = str(path.resolve())
@@ -79,7 +80,7 @@ def load_kernels(paths: list[Path]) -> None:
             spice.furnsh(key)
         try:
             _kernel_coverage(key)            # a damaged binary kernel is refused here, not at first use
-        except ConfigError:
+        except SpiceError:
             spice.unload(key)
             raise
         _LOADED.add(key)

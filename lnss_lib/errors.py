@@ -5,7 +5,7 @@ Callers read the attributes; messages are for people and are never parsed back.
 
 from __future__ import annotations
 
-__all__ = ["ConfigError", "EphemerisRangeError", "ImpactError"]
+__all__ = ["ConfigError", "EphemerisRangeError", "ImpactError", "SpiceError"]
 
 
 class ConfigError(ValueError):
@@ -40,3 +40,15 @@ class ImpactError(RuntimeError):
         self.sat = sat
         self.t_tdb_s = t_tdb_s
         self.days = days
+
+
+class SpiceError(RuntimeError):
+    """SPICE could not do what was ``asked`` (a damaged kernel, an unknown frame or body): ``kernels`` are
+    the kernel files concerned and ``code`` SPICE's short error (e.g. ``SPICE(UNKNOWNFRAME)``). Not a
+    ValueError, so it never passes for an infeasible design."""
+
+    def __init__(self, message: str, *, asked: str, kernels: tuple[str, ...], code: str):
+        super().__init__(message)
+        self.asked = asked
+        self.kernels = kernels
+        self.code = code

@@ -18,7 +18,7 @@ from lnss_lib import config
 from lnss_lib.__main__ import main
 from lnss_lib.campaign.rundir import RunLock
 from lnss_lib.config import PROJECT_DIR, load_profile
-from lnss_lib.errors import ConfigError
+from lnss_lib.errors import ConfigError, SpiceError
 
 EPOCH = ["--epoch-tdb", "2025-05-01T00:00:00"]
 ELFO = ["--elements", "6143", "0.6", "51.7", "0", "90", "0"]
@@ -458,6 +458,7 @@ MESSAGES = [
     (walker() + ["--set", "epoch.start_tdb=2025-05-01"], ("epoch.start_tdb", "quote it")),
     # a SPICE failure: what was asked and the kernels, not SPICE's banner
     (walker() + ["--set", 'frames.gravity="MOON_NOSUCH"'], ("MOON_NOSUCH",)),
+    (walker() + ["--set", 'frames.moon_fixed="MOON_NOSUCH"'], ("MOON_NOSUCH",)),      # not "infeasible": exit 2
 ]
 
 
@@ -482,10 +483,11 @@ def test_damaged_kernel_is_named_and_not_kept(tmp_path):
     before = (set(_LOADED), kernel_span_tdb_s())
     junk = tmp_path / "junk.bsp"
     junk.write_bytes(b"\x7fELF" + bytes(range(256)) * 20)
-    with pytest.raises(ConfigError) as info:
+    with pytest.raises(SpiceError) as info:
         load_kernels([junk])
     message = str(info.value)
     assert str(junk) in message and "SPICE(" in message and "Toolkit" not in message and "\n" not in message
+    assert info.value.kernels == (str(junk),) and not isinstance(info.value, ValueError)   # never "infeasible"
     assert (set(_LOADED), kernel_span_tdb_s()) == before
 
 
