@@ -11,20 +11,23 @@ from pathlib import Path
 
 import numpy as np
 
-from .config import allowed_range_text, available_profiles, in_range, load_profile, parse_sets
+from .config import (CR_AREA_MASS, CR_AREA_MASS_WHY, allowed_range_text, available_profiles, in_range, load_profile,
+                     parse_sets)
 from .constants import SECONDS_PER_DAY
 from .errors import ConfigError, ImpactError
 
 BENCHMARKS = ("propagator", "dop", "evaluate", "campaign", "integrator", "design-life", "stability")
 
 
-def _require(flag: str, value, spec: tuple, integer: bool = False):
-    """``value`` if finite (an integer with ``integer``) and inside ``spec`` (config.RANGES form), else ConfigError."""
+def _require(flag: str, value, spec: tuple, integer: bool = False, why: str = ""):
+    """``value`` if finite (an integer with ``integer``) and inside ``spec`` (config.RANGES form), else ConfigError
+    (with the reason ``why``)."""
     if value is None:
         return None
     if not math.isfinite(value) or (integer and value != int(value)) or not in_range(value, spec):
         kind = "an integer" if integer else "a finite number"
-        raise ConfigError(f"{flag} {value!r} is not allowed; allowed: {kind} in {allowed_range_text(spec)}", key=flag)
+        raise ConfigError(f"{flag} {value!r} is not allowed; allowed: {kind} in {allowed_range_text(spec)}"
+                          + (f" ({why})" if why else ""), key=flag)
     return value
 
 
@@ -63,7 +66,7 @@ def _cmd_propagate(args: argparse.Namespace) -> int:
     _require("--days", args.days, (0.0, None, True, False))
     _require("--step-s", args.step_s, (0.0, None, True, False))
     _require("--degree", args.degree, (0, 100, False, False), integer=True)
-    _require("--srp-cr-area-mass", args.srp_cr_area_mass, (0.0, None, False, False))
+    _require("--srp-cr-area-mass", args.srp_cr_area_mass, CR_AREA_MASS, why=CR_AREA_MASS_WHY)
     if args.elements is not None:
         check_elements_deg([args.elements])
     elif not all(math.isfinite(v) for v in args.state_km):

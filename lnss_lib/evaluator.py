@@ -31,7 +31,7 @@ from .ephemeris import EphemerisTable, ensure_kernels, rotation, tdb_seconds
 from .constants import SECONDS_PER_DAY
 from .forces import ForceModel
 from .frames import rotate_with
-from .errors import ConfigError, ImpactError
+from .errors import ConfigError, ImpactError, InfeasibleDesignError
 from .keys import METRIC_KEYS, RESULT_KEYS, TIMING_KEYS, requested_extra_metrics
 from .propagator import check_elements_deg, elements_deg_to_states, output_times, propagate_states
 
@@ -203,8 +203,9 @@ def evaluate_constellation(context: EvaluationContext, elements_deg) -> dict:
 
     Returns a dict with :data:`RESULT_KEYS`, the profile's extra metrics, ``reason`` ("" when feasible),
     ``impact`` and ``timing_s`` (seconds spent in propagation, DOP, Delta-V, GPS link and operational metrics). ``feasible`` is False
-    (metrics NaN) for invalid elements or an orbit that hits the Moon; the Table 3 bounds are the
-    optimiser's business, not checked here.
+    (metrics NaN) for elements that are no closed orbit above the surface or an orbit that hits the Moon
+    (:class:`~lnss_lib.errors.InfeasibleDesignError`); configuration, ephemeris and other errors propagate.
+    The Table 3 bounds are the optimiser's business, not checked here.
     """
     start = time.perf_counter()
     elements = np.atleast_2d(np.asarray(elements_deg, dtype=float))
@@ -212,11 +213,11 @@ def evaluate_constellation(context: EvaluationContext, elements_deg) -> dict:
     model_name = deltav.deltav_settings(context.profile)["model"]
     try:
         states = elements_deg_to_states(context.profile, elements, context.t0_tdb_s)
-    except ValueError as error:
+    except InfeasibleDesignError as error:
         return _infeasible(n_sat, f"invalid elements: {error}", model_name, start, context.extra_metrics)
     try:
         return analyse_states(context, elements, states, datasets=False)["metrics"]
-    except ImpactError as error:
+    except InfeasibleDesignError as error:        # only a physically impossible design; any other error propagates
         return _infeasible(n_sat, str(error), model_name, start, context.extra_metrics)
 
 

@@ -10,15 +10,13 @@ import copy
 import math
 from dataclasses import dataclass, field
 
-from ..config import deep_merge, profile_hash
+from ..config import EVALUATORS, NOTEBOOK_MODES, deep_merge, profile_hash
 from ..keys import METRIC_KEYS, requested_extra_metrics
 from .grid import DesignGrid
 
 __all__ = ["CampaignSettings", "evaluation_profile", "evaluation_hash", "EVALUATORS", "CAMPAIGN_ONLY_KEYS",
            "NOTEBOOK_MODES", "OFF"]
 
-EVALUATORS = ("walker", "synthetic")
-NOTEBOOK_MODES = ("run", "load")   # notebook 06 runs the campaign itself, or loads the latest CLI run
 OFF = "off"                        # a constraint or hypervolume entry set to "off" drops an inherited one
 CAMPAIGN_ONLY_KEYS = ("population", "generations", "crossover_prob", "crossover_eta", "mutation_eta",
                       "mutation_prob_var", "seed", "ftol", "ftol_period", "objectives", "constraints",
