@@ -129,6 +129,9 @@ def _cmd_evaluate(args: argparse.Namespace) -> int:
         _check_walker(args)
         result = evaluate_cli(args.profile, args.sma_km, args.ecc, args.aop_deg, args.inc_deg, args.planes,
                               args.sats_per_plane, overrides=_overrides(args))
+    from .campaign.settings import bounds_verdict
+
+    result.update(bounds_verdict(load_profile(args.profile, overrides=_overrides(args)), result))
     if args.design_life_days is not None:
         from .designlife import design_life_cli
 
@@ -141,6 +144,7 @@ def _cmd_evaluate(args: argparse.Namespace) -> int:
     else:
         width = max(map(len, result))
         for key, value in result.items():
+            value = ("; ".join(value) or "none") if isinstance(value, list) else value
             print(f"{key:<{width}}  {value:.6g}" if isinstance(value, float) else f"{key:<{width}}  {value}")
     return 0
 

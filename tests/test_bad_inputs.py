@@ -371,7 +371,7 @@ def test_config_and_ephemeris_errors_propagate_only_impossible_designs_are_infea
         evaluator.evaluate_constellation(context, elfo)
     context.t0_tdb_s = tdb_seconds("2025-05-01T00:00:00", "TDB")
     bad = evaluator.evaluate_constellation(context, [[1800.0, 0.5, 51.7, 0.0, 90.0, 0.0]])
-    assert bad["feasible"] is False and "perilune" in bad["reason"]
+    assert bad["evaluated"] is False and "perilune" in bad["reason"]
     for error, infeasible in ((ConfigError("frames.element_frame = 'x'", key="frames.element_frame"), False),
                               (RuntimeError("propagation failed"), False),
                               (ImpactError("impact: satellite 0 hits the Moon", sat=0, t_tdb_s=0.0, days=1.0), True)):
