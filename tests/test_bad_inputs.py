@@ -98,6 +98,10 @@ BAD_VALUES = [
     (["propagate", *EPOCH, *ELFO, "--days", "0.1", "--set", "integrator.settings.paper.rtol=1e-300", "--set",
       "integrator.settings.paper.atol=1e-300"], "integrator.settings.paper.rtol = 1e-300"),
     (walker() + ["--set", "stability.atol=1e-20"], "stability.atol = 1e-20"),
+    # issue 21 item 2: a text setting outside its allowed set (was accepted, then every design "infeasible")
+    (walker() + ["--set", "frames.element_frame=nosuch"], "frames.element_frame = 'nosuch'"),
+    (["reproduce", "--profile", "ci", "--set", "dop.los_axes=up"], "allowed: 'moon_fixed', 'enu'"),
+    (SYNTHETIC + ["--set", "deltav.model=magic"], "deltav.model = 'magic'"),
 ]
 
 
