@@ -218,7 +218,7 @@ def trim_to_mean(profile: dict, elements_deg, t0_tdb_s: float, model: ForceModel
         mean = np.empty((n_sat, 6))
         for i in range(n_sat):
             t_win = t0_tdb_s + period[i] * np.linspace(0.0, 1.0, n_win + 1)
-            out, _, status, t_stop = integrate_chunk(
+            out, _end, status, t_stop = integrate_chunk(
                 states[i:i + 1], np.ones(1, dtype=bool), t0_tdb_s, t_win, np.full((1, 1), np.nan), np.zeros((1, 1, 3)),
                 METHODS.index(integ["method"]), float(integ["rtol"]), float(integ["atol"]), r_min, 5_000_000,
                 model.kernel_args, model.field.degree)
