@@ -202,9 +202,9 @@ CHOICES = {    # a text setting (or each entry of a list of texts) -> its allowe
 }
 
 
-def _iso_datetime(text: str) -> bool:
+def _iso_datetime(text: str, parse=dt.datetime.fromisoformat) -> bool:
     try:
-        dt.datetime.fromisoformat(text)
+        parse(text)
     except ValueError:
         return False
     return True
@@ -214,7 +214,8 @@ ISO_TEXT = "an ISO calendar date or date and time (e.g. 2025-05-01T00:00:00)"
 FORMS = {      # a text setting with an open set of values -> (test, what is allowed)
     "epoch.start_tdb": (_iso_datetime, ISO_TEXT), "validation.capstone.arc_break_tdb": (_iso_datetime, ISO_TEXT),
     "benchmark.epochs_tdb": (_iso_datetime, ISO_TEXT),
-    "gps.exclude_launched_after": (lambda v: v in ("epoch", "none") or _iso_datetime(v), f"'epoch', 'none' or {ISO_TEXT}"),
+    "gps.exclude_launched_after": (lambda v: v in ("epoch", "none") or _iso_datetime(v, dt.date.fromisoformat),
+                                   "'epoch', 'none' or an ISO calendar date (e.g. 2025-05-30)"),
     "gps.exclude_launches_from": (lambda v: re.fullmatch(r"(\d{4}-\d{3}[A-Z]{0,3})?", v) is not None,
                                   '"" (off) or an international designator YYYY-NNN'),
     "campaign.companion_profile": (lambda v: v == "" or v in available_profiles(),
