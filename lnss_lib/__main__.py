@@ -12,20 +12,23 @@ from pathlib import Path
 
 import numpy as np
 
-from .config import PACKAGE_DIR, allowed_range_text, available_profiles, in_range, load_profile, parse_sets, use_profile_file
+from .config import (CR_AREA_MASS, CR_AREA_MASS_WHY, PACKAGE_DIR, allowed_range_text, available_profiles, in_range,
+                     load_profile, parse_sets, use_profile_file)
 from .constants import SECONDS_PER_DAY
-from .errors import ConfigError, EphemerisRangeError, SpiceError
+from .errors import ConfigError, EphemerisRangeError, InvalidOrbitError, SpiceError
 
 BENCHMARKS = ("propagator", "dop", "evaluate", "campaign", "integrator", "design-life", "stability")
 
 
-def _require(flag: str, value, spec: tuple, integer: bool = False):
-    """``value`` if finite (an integer with ``integer``) and inside ``spec`` (config.RANGES form), else ConfigError."""
+def _require(flag: str, value, spec: tuple, integer: bool = False, why: str = ""):
+    """``value`` if finite (an integer with ``integer``) and inside ``spec`` (config.RANGES form), else ConfigError
+    (with the reason ``why``)."""
     if value is None:
         return None
     if not math.isfinite(value) or (integer and value != int(value)) or not in_range(value, spec):
         kind = "an integer" if integer else "a finite number"
-        raise ConfigError(f"{flag} {value!r} is not allowed; allowed: {kind} in {allowed_range_text(spec)}", key=flag)
+        raise ConfigError(f"{flag} {value!r} is not allowed; allowed: {kind} in {allowed_range_text(spec)}"
+                          + (f" ({why})" if why else ""), key=flag)
     return value
 
 
@@ -64,7 +67,7 @@ def _cmd_propagate(args: argparse.Namespace) -> int:
     _require("--days", args.days, (0.0, None, True, False))
     _require("--step-s", args.step_s, (0.0, None, True, False))
     _require("--degree", args.degree, (0, 100, False, False), integer=True)
-    _require("--srp-cr-area-mass", args.srp_cr_area_mass, (0.0, None, False, False))
+    _require("--srp-cr-area-mass", args.srp_cr_area_mass, CR_AREA_MASS, why=CR_AREA_MASS_WHY)
     if args.elements is not None:
         check_elements_deg([args.elements])
     elif not all(math.isfinite(v) for v in args.state_km):
@@ -127,6 +130,9 @@ def _cmd_evaluate(args: argparse.Namespace) -> int:
         _check_walker(args)
         result = evaluate_cli(args.profile, args.sma_km, args.ecc, args.aop_deg, args.inc_deg, args.planes,
                               args.sats_per_plane, overrides=_overrides(args))
+    from .campaign.settings import bounds_verdict
+
+    result.update(bounds_verdict(load_profile(args.profile, overrides=_overrides(args)), result))
     if args.design_life_days is not None:
         from .designlife import design_life_cli
 
@@ -139,6 +145,7 @@ def _cmd_evaluate(args: argparse.Namespace) -> int:
     else:
         width = max(map(len, result))
         for key, value in result.items():
+            value = ("; ".join(value) or "none") if isinstance(value, list) else value
             print(f"{key:<{width}}  {value:.6g}" if isinstance(value, float) else f"{key:<{width}}  {value}")
     return 0
 
@@ -283,7 +290,7 @@ class OneLineParser(argparse.ArgumentParser):
         self.exit(2, f"error: {self.prog}: {message} (see {self.prog} --help)\n")
 
 
-INPUT_ERRORS = (ConfigError, EphemerisRangeError, SpiceError, FileNotFoundError)   # bad input: exit 2
+INPUT_ERRORS = (ConfigError, EphemerisRangeError, InvalidOrbitError, SpiceError, FileNotFoundError)   # bad input: exit 2
 
 
 def _raised_by_lnss(error: BaseException) -> bool:

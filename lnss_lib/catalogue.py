@@ -47,8 +47,7 @@ import numpy as np
 from .config import PARAMS_DIR, deep_merge, load_profile, read_toml
 from .ephemeris import ensure_kernels, tdb_iso, tdb_seconds
 from .frames import element_frame_to_j2000
-from .errors import ConfigError, ImpactError
-from .keys import RESULT_KEYS
+from .errors import ConfigError, InfeasibleDesignError
 
 __all__ = ["CATALOGUE_DIR", "FILE_FRAMES", "CatalogueConstellation", "CatalogueStates", "list_catalogue",
            "load_constellation", "true_to_mean_anomaly_deg", "constellation_states_mci", "file_epoch_profile",
@@ -360,7 +359,7 @@ def evaluate_catalogue(context, c: CatalogueConstellation, epoch: str = "study")
     evaluator's metrics (``RESULT_KEYS``, ``reason``, ``impact``, ``timing_s``) and ``name``,
     ``approximate``, ``element_frame``, ``epoch_used``, ``epoch_source``. The states are built at the
     context's epoch (for ``"file"``, the file's epoch to the millisecond). An impact comes back
-    flagged (``feasible`` False, NaN metrics) as in :func:`lnss_lib.evaluator.evaluate_constellation`;
+    flagged (``evaluated`` False, NaN metrics) as in :func:`lnss_lib.evaluator.evaluate_constellation`;
     an approximate entry raises :class:`~lnss_lib.errors.ConfigError`.
     """
     import time
@@ -371,7 +370,7 @@ def evaluate_catalogue(context, c: CatalogueConstellation, epoch: str = "study")
     start = time.perf_counter()
     try:
         result = analyse_catalogue(context, c, epoch, datasets=False)["metrics"]
-    except ImpactError as error:
+    except InfeasibleDesignError as error:      # only a physically impossible design; any other error propagates
         result = _infeasible(c.n_sat, str(error), deltav_settings(context.profile)["model"], start)
     result.update(name=c.key, approximate=c.approximate, element_frame=c.element_frame,
                   epoch_used=tdb_iso(context.t0_tdb_s), epoch_source=_epoch_source(c, epoch))
@@ -381,16 +380,15 @@ def evaluate_catalogue(context, c: CatalogueConstellation, epoch: str = "study")
 def evaluate_catalogue_cli(profile_name: str, name_or_path: str, epoch: str = "study", overrides: dict | None = None) -> dict:
     """:func:`evaluate_catalogue` under a named profile with the evaluate CLI's JSON keys plus the labels.
 
-    The keys are ``RESULT_KEYS`` (``reason`` among them) followed by ``name``, ``approximate``, ``element_frame``,
-    ``epoch_used`` and ``epoch_source``; NaN becomes None (JSON null).
+    The keys are those of :func:`lnss_lib.evaluator.cli_result` followed by ``name``, ``approximate``,
+    ``element_frame``, ``epoch_used`` and ``epoch_source``; NaN becomes None (JSON null).
     """
-    from .evaluator import context_for
+    from .evaluator import cli_result, context_for
 
     profile = load_profile(profile_name, overrides=overrides)
     c = load_constellation(name_or_path, profile)
     _refuse_approximate(c)
     if epoch == "file":
         profile = file_epoch_profile(profile, c)
-    result = evaluate_catalogue(context_for(profile), c, epoch)
-    return {key: (None if isinstance(result[key], float) and math.isnan(result[key]) else result[key])
-            for key in RESULT_KEYS + EXTRA_RESULT_KEYS}
+    context = context_for(profile)
+    return cli_result(context, evaluate_catalogue(context, c, epoch), EXTRA_RESULT_KEYS)

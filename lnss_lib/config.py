@@ -10,7 +10,7 @@ must lie under ``params/data/``.
 from __future__ import annotations
 
 import copy
-import datetime
+import datetime as dt
 import difflib
 import hashlib
 import math
@@ -23,8 +23,10 @@ from importlib import metadata
 from functools import lru_cache
 from pathlib import Path
 
-from .constants import SECONDS_PER_DAY
+from .constants import (CR_AREA_MASS_MAX_M2_KG, CR_MAX, MOON_HILL_RADIUS_KM, SECONDS_PER_DAY,
+                        SPACECRAFT_MASS_RANGE_KG, TOLERANCE_FLOOR)
 from .errors import ConfigError
+from .keys import DELTAV_SATELLITES, EXTRA_METRIC_KEYS
 
 PACKAGE_DIR = Path(__file__).resolve().parent
 PROJECT_DIR = PACKAGE_DIR.parent
@@ -176,14 +178,20 @@ ALLOW_INFINITE = ("gps.sidelobe_offset_db",)   # -inf = main lobe only
 # Allowed ranges of physical settings: key -> (low, high, low open, high open); None = unbounded.
 # integrator.settings.<any name> is "integrator.settings.*"; campaign.overrides.<section> uses the section's keys.
 POSITIVE, NON_NEGATIVE = (0.0, None, True, False), (0.0, None, False, False)
+TOLERANCE = (TOLERANCE_FLOOR, None, False, False)
+SEMI_MAJOR_AXIS = (0.0, MOON_HILL_RADIUS_KM, True, False)
+CR_AREA_MASS = (0.0, CR_AREA_MASS_MAX_M2_KG, False, False)
+CR_AREA_MASS_WHY = "solar sails reach ~10-50 m^2/kg"
+SEMI_MAJOR_AXIS_WHY = f"a must be within the Moon's Hill sphere ({MOON_HILL_RADIUS_KM:,.0f} km) for a bound lunar orbit"
 RANGES = {
     "epoch.duration_days": POSITIVE, "epoch.step_s": POSITIVE,
-    "spacecraft.mass_kg": POSITIVE, "spacecraft.area_m2": POSITIVE, "spacecraft.cr": POSITIVE,
+    "spacecraft.mass_kg": (*SPACECRAFT_MASS_RANGE_KG, False, False), "spacecraft.area_m2": POSITIVE,
+    "spacecraft.cr": (0.0, CR_MAX, True, False),
     "gravity.degree": (0, 100, False, False), "gravity.gm_km3_s2": POSITIVE, "gravity.truncation_kms2": NON_NEGATIVE, "gravity.r_ref_km": POSITIVE,
     "forces.earth_albedo": (0.0, 1.0, False, False), "forces.solar_flux_w_m2": NON_NEGATIVE,
-    "integrator.settings.*.rtol": POSITIVE, "integrator.settings.*.atol": POSITIVE,
+    "integrator.settings.*.rtol": TOLERANCE, "integrator.settings.*.atol": TOLERANCE,
     "ephemeris.table_step_s": POSITIVE, "impact.min_altitude_km": NON_NEGATIVE,
-    "standalone_elfo.sma_km": POSITIVE, "standalone_elfo.ecc": (0.0, 1.0, False, True),
+    "standalone_elfo.sma_km": SEMI_MAJOR_AXIS, "standalone_elfo.ecc": (0.0, 1.0, False, True),
     "standalone_elfo.inc_deg": (0.0, 180.0, False, False), "standalone_elfo.sats_per_plane": (1, None, False, False),
     "notebooks.timeout_s": POSITIVE,
     "dop.lat_min_deg": (-90.0, 90.0, False, False), "dop.lat_max_deg": (-90.0, 90.0, False, False),
@@ -197,7 +205,7 @@ RANGES = {
     "deltav.paper_cap_kms2": POSITIVE, "deltav.secular_min_periods": POSITIVE, "deltav.slsqp_lambda": NON_NEGATIVE,
     "campaign.max_errors": (0, None, False, False),
     "stability.life_days": POSITIVE, "stability.average_days": POSITIVE, "stability.table_step_days": POSITIVE,
-    "stability.rtol": POSITIVE, "stability.atol": POSITIVE, "stability.output_step_days": POSITIVE,
+    "stability.rtol": TOLERANCE, "stability.atol": TOLERANCE, "stability.output_step_days": POSITIVE,
     "stability.margin_km": NON_NEGATIVE, "stability.validation_degree": (0, 100, False, False),
     "stability.validation_step_s": POSITIVE,
     "sk_estimate.year_days": POSITIVE, "sk_estimate.min_periods": POSITIVE,
@@ -207,6 +215,66 @@ RANGES = {
     "design_life.dv_cap_kms_per_year": NON_NEGATIVE, "design_life.phasing_days": POSITIVE,
     "design_life.box_tolerance": NON_NEGATIVE,
 }
+_TOLERANCE_WHY = (f"below about 100 machine epsilons ({TOLERANCE_FLOOR:g}) an integrator's error test asks for what "
+                  "double precision cannot resolve")
+WHY = {   # the physical or numerical reason of a range, quoted in the message
+    "integrator.settings.*.rtol": _TOLERANCE_WHY, "integrator.settings.*.atol": _TOLERANCE_WHY,
+    "stability.rtol": _TOLERANCE_WHY, "stability.atol": _TOLERANCE_WHY,
+    "spacecraft.mass_kg": "from a gram (chip-scale satellites) to 1000 t",
+    "spacecraft.cr": "Cr = 1 + specular reflectivity: 2 is a perfect mirror",
+    "standalone_elfo.sma_km": SEMI_MAJOR_AXIS_WHY,
+}
+
+# Allowed values of the text settings (one copy: the modules that read a setting import its tuple from here).
+METHODS = ("RK45", "DOP853")                      # propagator: Dormand-Prince 5(4) and 8(5,3)
+ELEMENT_FRAMES = ("lunar_equator_of_epoch", "j2000", "moon_op")
+POLE_FRAMES = ("MOON_ME", "MOON_PA", "IAU_MOON")
+THIRD_BODIES = ("SUN", "EARTH", "JUPITER")        # also the rows of the ephemeris table
+SHADOW_MODELS = ("conical", "none")
+LOS_AXES = ("moon_fixed", "enu")
+AREA_WEIGHTINGS = ("none", "cos_lat", "cell_area")
+PDOP_FILTERS = ("percentile95", "sigma2", "none")
+DELTAV_MODELS = ("paper", "lsq", "secular")
+LSQ_RATES = ("vectors", "elements")
+PAPER_NORMAL = ("weighted", "eq32", "rss")
+PAPER_RADIAL = ("weighted", "eq35")
+EVALUATORS = ("walker", "synthetic")
+NOTEBOOK_MODES = ("run", "load")                  # notebook 06 runs the campaign itself, or loads the latest CLI run
+STABILITY_METHODS = ("DOP853", "RK45", "Radau", "LSODA")
+STABILITY_BODIES = ("EARTH", "SUN")
+CHOICES = {    # a text setting (or each entry of a list of texts) -> its allowed values
+    "integrator.settings.*.method": METHODS, "frames.element_frame": ELEMENT_FRAMES, "frames.moon_fixed": POLE_FRAMES,
+    "frames.gravity": POLE_FRAMES, "forces.third_bodies": THIRD_BODIES, "forces.shadow": SHADOW_MODELS,
+    "dop.los_axes": LOS_AXES, "dop.area_weighting": AREA_WEIGHTINGS, "gps.pdop_filter": PDOP_FILTERS,
+    "deltav.model": DELTAV_MODELS, "deltav.element_frame": ELEMENT_FRAMES, "deltav.lsq_rates": LSQ_RATES,
+    "deltav.paper_normal": PAPER_NORMAL, "deltav.paper_radial": PAPER_RADIAL, "deltav.satellites": DELTAV_SATELLITES,
+    "campaign.evaluator": EVALUATORS, "campaign.notebook_mode": NOTEBOOK_MODES, "stability.method": STABILITY_METHODS,
+    "stability.third_bodies": STABILITY_BODIES, "sk_estimate.element_frame": ELEMENT_FRAMES,
+    "evaluator.extra_metrics": EXTRA_METRIC_KEYS,
+}
+
+
+def _iso_datetime(text: str, parse=dt.datetime.fromisoformat) -> bool:
+    try:
+        parse(text)
+    except ValueError:
+        return False
+    return True
+
+
+ISO_TEXT = "an ISO calendar date or date and time (e.g. 2025-05-01T00:00:00)"
+FORMS = {      # a text setting with an open set of values -> (test, what is allowed)
+    "epoch.start_tdb": (_iso_datetime, ISO_TEXT), "validation.capstone.arc_break_tdb": (_iso_datetime, ISO_TEXT),
+    "benchmark.epochs_tdb": (_iso_datetime, ISO_TEXT),
+    "gps.exclude_launched_after": (lambda v: v in ("epoch", "none") or _iso_datetime(v, dt.date.fromisoformat),
+                                   "'epoch', 'none' or an ISO calendar date (e.g. 2025-05-30)"),
+    "gps.exclude_launches_from": (lambda v: re.fullmatch(r"(\d{4}-\d{3}[A-Z]{0,3})?", v) is not None,
+                                  '"" (off) or an international designator YYYY-NNN'),
+    "campaign.companion_profile": (lambda v: v == "" or v in available_profiles(),
+                                   '"" (none) or a profile name: ' + ", ".join(available_profiles())),
+}
+SETTING_NAMES = ("integrator.setting", "design_life.integrator_setting", "validation.capstone.integrator_setting")
+
 for _name in ("ecc", "aop_deg", "inc_deg", "raan_rel_deg", "u_rel_deg"):
     RANGES[f"design_life.box.{_name}"] = POSITIVE
 for _name in ("gm_sun_km3_s2", "gm_earth_km3_s2", "gm_jupiter_km3_s2", "r_moon_mean_km", "r_earth_km", "r_sun_km",
@@ -285,7 +353,19 @@ def _check_number(key: str, rule_key: str, value, source) -> None:
               + (f" in {allowed_range_text(RANGES[rule_key])}" if rule_key in RANGES else ""), key, source)
     spec = RANGES.get(rule_key)
     if spec is not None and math.isfinite(value) and not in_range(value, spec):
-        _fail(f"{key} = {value!r} is out of range; allowed: {allowed_range_text(spec)}", key, source)
+        why = f" ({WHY[rule_key]})" if rule_key in WHY else ""
+        _fail(f"{key} = {value!r} is out of range; allowed: {allowed_range_text(spec)}{why}", key, source)
+
+
+def _check_text(key: str, rule_key: str, value, source) -> None:
+    """A text setting (or a list of them) against :data:`CHOICES` or :data:`FORMS`."""
+    if rule_key not in CHOICES and rule_key not in FORMS:
+        return
+    for item in (value if isinstance(value, list) else [value]):
+        if rule_key in CHOICES and item not in CHOICES[rule_key]:
+            _fail(f"{key} = {item!r} is not allowed; allowed: {', '.join(map(repr, CHOICES[rule_key]))}", key, source)
+        if rule_key in FORMS and not (isinstance(item, str) and FORMS[rule_key][0](item)):
+            _fail(f"{key} = {item!r} is not allowed; allowed: {FORMS[rule_key][1]}", key, source)
 
 
 def _walk(data: dict, ref: dict, prefix: str, rule_prefix: str, partial: bool, source) -> None:
@@ -315,6 +395,9 @@ def _walk(data: dict, ref: dict, prefix: str, rule_prefix: str, partial: bool, s
                 _walk(value, ref_value, f"{key}.", f"{rule_key}.", True, source)
         elif isinstance(value, list):
             _check_free(key, value, source)
+            _check_text(key, rule_key, value, source)
+        elif isinstance(value, str):
+            _check_text(key, rule_key, value, source)
         else:
             _check_number(key, rule_key, value, source)
     if not partial:
@@ -347,10 +430,34 @@ def validate_profile(profile: dict, *, partial: bool = False, source=None) -> No
     if not isinstance(profile, dict):
         raise ConfigError(f"a profile is a table of sections; got {profile!r}")
     _walk(profile, _reference(), "", "", partial, source)
-    integ = profile.get("integrator", {})
-    if not partial and integ.get("setting") not in integ.get("settings", {}):
-        _fail(f"integrator.setting = {integ.get('setting')!r} names no [integrator.settings.*]; allowed: "
-              f"{', '.join(integ.get('settings', {}))}", "integrator.setting", source)
+    _check_across(profile, source)
+    overrides = _lookup(profile, "campaign.overrides")
+    if overrides:                                   # the profile campaign evaluations use
+        _check_across(deep_merge(profile, overrides), source)
+
+
+def _lookup(profile: dict, key: str):
+    """The value at dotted ``key``, or None where a section or key is absent (a partial profile)."""
+    value = profile
+    for part in key.split("."):
+        if not isinstance(value, dict) or part not in value:
+            return None
+        value = value[part]
+    return value
+
+
+def _check_across(profile: dict, source) -> None:
+    """Rules across keys, wherever a (partial) profile holds every key a rule needs: setting names name an
+    ``[integrator.settings.*]`` table; Cr A/m of the spacecraft is a spacecraft's."""
+    settings = _lookup(profile, "integrator.settings")
+    for key in SETTING_NAMES:
+        name = _lookup(profile, key)
+        if settings is not None and name is not None and name not in settings:
+            _fail(f"{key} = {name!r} names no [integrator.settings.*]; allowed: {', '.join(settings)}", key, source)
+    craft = [_lookup(profile, f"spacecraft.{k}") for k in ("cr", "area_m2", "mass_kg")]
+    if None not in craft and craft[2] > 0 and not in_range(craft[0] * craft[1] / craft[2], CR_AREA_MASS):
+        _fail(f"spacecraft cr * area_m2 / mass_kg = {craft[0] * craft[1] / craft[2]:.6g} m^2/kg is out of range; "
+              f"allowed: {allowed_range_text(CR_AREA_MASS)} ({CR_AREA_MASS_WHY})", "spacecraft.area_m2", source)
 
 
 def parse_sets(items) -> dict:
@@ -370,7 +477,7 @@ def parse_sets(items) -> dict:
                 value = literal.strip()
             else:
                 raise ConfigError(f"--set {item!r}: VALUE is not a TOML literal ({error})", key=path) from None
-        if isinstance(value, (datetime.date, datetime.time)):
+        if isinstance(value, (dt.date, dt.time)):
             raise ConfigError(f"--set {item!r}: TOML reads an unquoted {literal.strip()} as a date-time, and dates are "
                               f"strings here; quote it: --set '{path.strip()}=\"{literal.strip()}\"'", key=path.strip())
         nested: dict = value
@@ -450,11 +557,14 @@ def profile_hash(profile: dict) -> str:
 
 
 def integrator_setting(profile: dict, setting: str | None = None) -> dict:
-    """The integrator settings (method, rtol, atol) named ``setting`` (default: the profile's)."""
+    """The integrator settings (method, rtol, atol) named ``setting`` (default: the profile's), checked
+    against :data:`METHODS` and the tolerance floor (ConfigError naming the key)."""
     settings = profile["integrator"]["settings"]
     name = setting or profile["integrator"]["setting"]
     if name not in settings:
-        raise ValueError(f"unknown integrator setting {name!r}; available: {', '.join(settings)}")
+        raise ConfigError(f"unknown integrator setting {name!r}; available: {', '.join(settings)}", key="integrator.setting")
+    _walk({name: settings[name]}, _reference()["integrator"]["settings"], "integrator.settings.", "integrator.settings.",
+          True, None)
     return {"name": name, **settings[name]}
 
 

@@ -10,7 +10,9 @@ from __future__ import annotations
 import math
 
 __all__ = ["SECONDS_PER_DAY", "DAYS_PER_JULIAN_YEAR", "SECONDS_PER_JULIAN_CENTURY", "ARCSEC_RAD",
-           "MIN_VISIBLE", "BOLTZMANN_J_K", "C_M_S", "WGS84_A_KM", "WGS84_INV_FLATTENING", "WGS84_B_KM"]
+           "MIN_VISIBLE", "BOLTZMANN_J_K", "C_M_S", "WGS84_A_KM", "WGS84_INV_FLATTENING", "WGS84_B_KM",
+           "TOLERANCE_FLOOR", "MOON_HILL_RADIUS_KM", "EARTH_MOON_DISTANCE_KM",
+           "SPACECRAFT_MASS_RANGE_KG", "CR_MAX", "CR_AREA_MASS_MAX_M2_KG", "MAX_OUTPUT_SAMPLES"]
 
 SECONDS_PER_DAY = 86400.0
 DAYS_PER_JULIAN_YEAR = 365.25
@@ -25,3 +27,16 @@ C_M_S = 299792458.0                 # speed of light, exact
 WGS84_A_KM = 6378.137               # WGS-84 equatorial radius
 WGS84_INV_FLATTENING = 298.257223563
 WGS84_B_KM = WGS84_A_KM * (1.0 - 1.0 / WGS84_INV_FLATTENING)
+
+TOLERANCE_FLOOR = 1e-14             # integrator rtol/atol: about 100 machine epsilons (45); below, the error test asks
+                                    # for what rounding cannot resolve (the tightest setting in use, the DOP853 1e-12/1e-14
+                                    # reference of bench integrator and stationkeeping.integrator_convergence, sits on it)
+
+# Sanity ranges of physical inputs (issue 21 item 4): values outside are no lunar spacecraft or orbit.
+EARTH_MOON_DISTANCE_KM = 384400.0   # mean; beyond it the Earth, not the Moon, is the central body
+MOON_HILL_RADIUS_KM = 61500.0       # a_moon (m_moon / (3 m_earth))^(1/3) = 384400 x (0.0123 / 3)^(1/3): a lunar
+                                    # orbit's semi-major axis beyond it is no bound orbit of the Moon
+SPACECRAFT_MASS_RANGE_KG = (1e-3, 1e6)   # a gram (chip-scale satellites) to 1000 t (twice the ISS)
+CR_MAX = 2.0                        # Cr = 1 + specular reflectivity: 2 is a perfect mirror
+CR_AREA_MASS_MAX_M2_KG = 100.0      # Cr A/m: solar sails reach ~10-50 m^2/kg (IKAROS 1.3, NanoSail-D ~5)
+MAX_OUTPUT_SAMPLES = 10_000_000     # samples of one propagation's output grid (480 MB per satellite)

@@ -39,6 +39,7 @@ import numpy as np
 import xarray as xr
 from scipy.optimize import minimize
 
+from .config import DELTAV_MODELS, LSQ_RATES
 from .constants import SECONDS_PER_DAY
 from .frames import ELEMENT_FRAMES, element_frame_to_j2000, to_rtn
 from .gve import (NATURAL_RATE_NAMES, PAPER_NORMAL, PAPER_RADIAL, RATE_NAMES, check_epochs, element_rates, lsq_thrust,
@@ -54,9 +55,8 @@ __all__ = ["MODELS", "OSCULATING_MODELS", "LSQ_RATES", "SECULAR_PARTS", "DEFAULT
            "natural_rates_from_elements", "to_rtn", "ELEMENT_FRAMES", "RATE_NAMES", "NATURAL_RATE_NAMES",
            "PAPER_NORMAL", "PAPER_RADIAL"]
 
-MODELS = ("paper", "lsq", "secular")
+MODELS = DELTAV_MODELS
 OSCULATING_MODELS = ("paper", "lsq")
-LSQ_RATES = ("vectors", "elements")
 SECULAR_PARTS = ("sma", "ecc_vector", "plane")
 
 DEFAULT_SETTINGS = {

@@ -25,7 +25,7 @@ import xarray as xr
 from .constants import SECONDS_PER_DAY
 from .dop import dop_for_profile, grid_from_profile, summary_from_profile
 from .ephemeris import ensure_kernels, tdb_seconds
-from .errors import ConfigError
+from .errors import ConfigError, InfeasibleDesignError
 from .frames import rotate_to_moon_fixed
 from .propagator import elements_deg_to_states, propagate_states
 from .sk_estimate import sk_estimate_from_propagation
@@ -281,7 +281,7 @@ def design_life_cli(profile_name: str, life_days: float, *, walker: tuple | None
         try:
             elements = WalkerDesign(sma_km, ecc, inc_deg, aop_deg, n_planes, sats_per_plane).elements_deg()
             elements_deg_to_states(profile, elements, tdb_seconds(profile["epoch"]["start_tdb"], "TDB"))
-        except ValueError:
+        except InfeasibleDesignError:
             return {key: None for key in LIFE_KEYS}
     result = evaluate_design_life(context_for(profile), elements, float(life_days))
     return json_ready({key: result[key] for key in LIFE_KEYS})

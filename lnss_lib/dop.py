@@ -28,6 +28,7 @@ import numba as nb
 import numpy as np
 import xarray as xr
 
+from .config import AREA_WEIGHTINGS, LOS_AXES
 from .constants import MIN_VISIBLE
 from .frames import rotate_to_moon_fixed
 from .geometry import (availability_pct, block_inverse, normal_matrix_entries, position_block_inverse, sigma_filtered_mean,
@@ -37,8 +38,7 @@ __all__ = ["LOS_AXES", "WEIGHTINGS", "SurfaceGrid", "surface_grid", "grid_from_p
            "check_positions", "dop_arrays", "dop_metrics", "metrics_from_profile", "dop_grid", "dop_summary",
            "dop_for_profile", "dop_from_propagation", "summary_from_profile"]
 
-LOS_AXES = ("moon_fixed", "enu")
-WEIGHTINGS = ("none", "cos_lat", "cell_area")
+WEIGHTINGS = AREA_WEIGHTINGS
 
 
 @dataclass(frozen=True)
@@ -310,11 +310,14 @@ def dop_arrays(r_mf_km, r_grid_km, up, elevation_mask_deg: float = 5.0,
     g = np.asarray(r_grid_km, dtype=float).reshape(-1, 3)
     u = np.asarray(up, dtype=float).reshape(-1, 3)
     ntime, npt = r.shape[0], g.shape[0]
-    n_visible = np.empty((ntime, npt), dtype=np.int16)
-    pdop = np.empty((ntime, npt))
-    hdop = np.empty((ntime, npt))
+    n_visible = np.full((ntime, npt), -1, dtype=np.int16)      # -1: not computed (checked after the kernel)
+    pdop = np.full((ntime, npt), np.nan)
+    hdop = np.full((ntime, npt), np.nan)
     _grid_kernel(r, *(np.ascontiguousarray(g[:, k]) for k in range(3)), *(np.ascontiguousarray(u[:, k]) for k in range(3)),
                  float(np.sin(np.radians(elevation_mask_deg))), los_axes == "enu", n_visible, pdop, hdop)
+    if np.any(n_visible < 0):
+        raise RuntimeError(f"the DOP grid kernel left {int(np.sum(n_visible < 0))} of {n_visible.size} "
+                           "(epoch, point) samples not computed")
     return n_visible, pdop, hdop
 
 

@@ -10,6 +10,8 @@ from __future__ import annotations
 
 import numpy as np
 
+from .errors import InvalidOrbitError
+
 __all__ = ["TWO_PI", "validate_elements", "solve_kepler", "elements_to_state", "state_to_elements",
            "kepler_states", "orbital_period_s"]
 
@@ -17,19 +19,20 @@ TWO_PI = 2.0 * np.pi
 
 
 def validate_elements(a_km, e, r_body_km: float, min_altitude_km: float = 0.0) -> None:
-    """Raise ``ValueError`` naming the bad value if elements are not a closed orbit above the surface."""
+    """Raise :class:`~lnss_lib.errors.InvalidOrbitError` (a ValueError) naming the bad value if elements are not a
+    closed orbit above the surface."""
     a = np.atleast_1d(np.asarray(a_km, dtype=float))
     ecc = np.atleast_1d(np.asarray(e, dtype=float))
     if np.any(~np.isfinite(a)) or np.any(a <= 0.0):
-        raise ValueError(f"semi-major axis must be positive and finite (km); got {a[(a <= 0) | ~np.isfinite(a)][0]!r}")
+        raise InvalidOrbitError(f"semi-major axis must be positive and finite (km); got {a[(a <= 0) | ~np.isfinite(a)][0]!r}")
     if np.any(~np.isfinite(ecc)) or np.any((ecc < 0.0) | (ecc >= 1.0)):
         bad = ecc[(ecc < 0.0) | (ecc >= 1.0) | ~np.isfinite(ecc)][0]
-        raise ValueError(f"eccentricity must be in [0, 1) (closed orbits only); got e = {bad!r}")
+        raise InvalidOrbitError(f"eccentricity must be in [0, 1) (closed orbits only); got e = {bad!r}")
     perilune = a * (1.0 - ecc)
     floor = r_body_km + min_altitude_km
     if np.any(perilune < floor):
         k = int(np.argmax(perilune < floor))
-        raise ValueError(
+        raise InvalidOrbitError(
             f"perilune radius a(1-e) = {perilune[k]:.1f} km (a = {a[k]:.1f} km, e = {ecc[k]:.4f}) is below "
             f"{floor:.1f} km (lunar radius {r_body_km} km + minimum altitude {min_altitude_km} km): the orbit hits the Moon"
         )

@@ -5,7 +5,8 @@ Callers read the attributes; messages are for people and are never parsed back.
 
 from __future__ import annotations
 
-__all__ = ["ConfigError", "EphemerisRangeError", "ImpactError", "SpiceError"]
+__all__ = ["ConfigError", "EphemerisRangeError", "InfeasibleDesignError", "ImpactError", "InvalidOrbitError",
+           "PropagationError", "SpiceError"]
 
 
 class ConfigError(ValueError):
@@ -27,7 +28,28 @@ class EphemerisRangeError(ValueError):
         self.requested_tdb_s = requested_tdb_s
 
 
-class ImpactError(RuntimeError):
+class InfeasibleDesignError(Exception):
+    """The design is physically impossible (it hits the Moon, escapes, or is not a closed orbit).
+
+    The only errors an evaluation turns into an infeasible design; configuration, ephemeris and
+    programming errors propagate.
+    """
+
+
+class InvalidOrbitError(InfeasibleDesignError, ValueError):
+    """Elements that are no closed orbit above the surface (e outside [0, 1), perilune inside the Moon)."""
+
+
+class PropagationError(RuntimeError):
+    """A compiled batch propagation did not finish: ``sats`` the satellite indices, ``statuses`` their status texts."""
+
+    def __init__(self, message: str, *, sats: list[int], statuses: list[str]):
+        super().__init__(message)
+        self.sats = sats
+        self.statuses = statuses
+
+
+class ImpactError(InfeasibleDesignError, RuntimeError):
     """A propagated orbit went below the lunar surface plus the minimum altitude.
 
     ``sat`` is the satellite index (None for a single state), ``t_tdb_s`` the first sample at or

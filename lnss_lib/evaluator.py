@@ -31,7 +31,7 @@ from .ephemeris import EphemerisTable, ensure_kernels, rotation, tdb_seconds
 from .constants import SECONDS_PER_DAY
 from .forces import ForceModel
 from .frames import rotate_with
-from .errors import ConfigError, ImpactError
+from .errors import ConfigError, ImpactError, InfeasibleDesignError
 from .keys import METRIC_KEYS, RESULT_KEYS, TIMING_KEYS, requested_extra_metrics
 from .propagator import check_elements_deg, elements_deg_to_states, output_times, propagate_states
 
@@ -85,7 +85,7 @@ def context_for(profile: dict) -> EvaluationContext:
 
 def _infeasible(n_sat: int, reason: str, model: str, start: float, extras: tuple[str, ...] = ()) -> dict:
     result = {k: math.nan for k in METRIC_KEYS + extras}
-    result.update(n_sat=int(n_sat), deltav_model=model, feasible=False, reason=reason,
+    result.update(n_sat=int(n_sat), deltav_model=model, evaluated=False, reason=reason,
                   impact=reason.startswith("impact"), wall_s=time.perf_counter() - start)
     return result
 
@@ -150,7 +150,7 @@ def analyse_states(context: EvaluationContext, elements: np.ndarray, states: np.
         "gps_visible_mean": link_stats["gps_visible_mean"],
         "gps_pdop_mean": link_stats["gps_pdop_mean"],
         "deltav_model": dv.attrs["deltav_model"],
-        "feasible": True,
+        "evaluated": True,
         "reason": "",
         "impact": False,
         **extras,
@@ -201,10 +201,11 @@ def _operational_metrics(context: EvaluationContext, ds: xr.Dataset, states: np.
 def evaluate_constellation(context: EvaluationContext, elements_deg) -> dict:
     """Every quantity of eq. 45 for satellites given by elements (n, 6) [a_km, e, i, RAAN, AOP, M] (deg).
 
-    Returns a dict with :data:`RESULT_KEYS`, the profile's extra metrics, ``reason`` ("" when feasible),
-    ``impact`` and ``timing_s`` (seconds spent in propagation, DOP, Delta-V, GPS link and operational metrics). ``feasible`` is False
-    (metrics NaN) for invalid elements or an orbit that hits the Moon; the Table 3 bounds are the
-    optimiser's business, not checked here.
+    Returns a dict with :data:`RESULT_KEYS`, the profile's extra metrics, ``reason`` ("" when evaluated),
+    ``impact`` and ``timing_s`` (seconds spent in propagation, DOP, Delta-V, GPS link and operational metrics). ``evaluated`` is False
+    (metrics NaN) for elements that are no closed orbit above the surface or an orbit that hits the Moon
+    (:class:`~lnss_lib.errors.InfeasibleDesignError`); configuration, ephemeris and other errors propagate.
+    The Table 3 bounds are the optimiser's business, not checked here.
     """
     start = time.perf_counter()
     elements = np.atleast_2d(np.asarray(elements_deg, dtype=float))
@@ -212,11 +213,11 @@ def evaluate_constellation(context: EvaluationContext, elements_deg) -> dict:
     model_name = deltav.deltav_settings(context.profile)["model"]
     try:
         states = elements_deg_to_states(context.profile, elements, context.t0_tdb_s)
-    except ValueError as error:
+    except InfeasibleDesignError as error:
         return _infeasible(n_sat, f"invalid elements: {error}", model_name, start, context.extra_metrics)
     try:
         return analyse_states(context, elements, states, datasets=False)["metrics"]
-    except ImpactError as error:
+    except InfeasibleDesignError as error:        # only a physically impossible design; any other error propagates
         return _infeasible(n_sat, str(error), model_name, start, context.extra_metrics)
 
 
@@ -249,10 +250,16 @@ def check_design(sma_km, ecc, aop_deg, inc_deg, n_planes, sats_per_plane) -> Non
 
 def evaluate_cli(profile_name: str, sma_km: float, ecc: float, aop_deg: float, inc_deg: float, n_planes: int,
                  sats_per_plane: int, overrides: dict | None = None) -> dict:
-    """:func:`evaluate_design` under a named profile (with ``overrides``) with exactly the CLI's JSON keys;
-    the design is checked before any kernel loads."""
+    """:func:`evaluate_design` under a named profile (with ``overrides``) with exactly the CLI's JSON keys
+    (:func:`cli_result`); the design is checked before any kernel loads."""
     check_design(sma_km, ecc, aop_deg, inc_deg, n_planes, sats_per_plane)
     context = context_for(load_profile(profile_name, overrides=overrides))
-    result = evaluate_design(context, sma_km, ecc, aop_deg, inc_deg, n_planes, sats_per_plane)
-    return {key: (None if isinstance(result[key], float) and math.isnan(result[key]) else result[key])
-            for key in RESULT_KEYS}
+    return cli_result(context, evaluate_design(context, sma_km, ecc, aop_deg, inc_deg, n_planes, sats_per_plane))
+
+
+def cli_result(context: EvaluationContext, result: dict, extra_keys: tuple[str, ...] = ()) -> dict:
+    """The evaluate CLI's keys of a result: :data:`RESULT_KEYS`, the profile's extra metrics (None when not
+    evaluated), then ``extra_keys``; NaN becomes None (JSON null)."""
+    keys = RESULT_KEYS + context.extra_metrics + extra_keys
+    return {key: (None if isinstance(result.get(key), float) and math.isnan(result[key]) else result.get(key))
+            for key in keys}

@@ -29,7 +29,7 @@ from . import deltav, frames
 from .atomicio import write_text_atomic
 from .config import OUTPUTS_DIR, available_profiles, deep_merge, load_profile, profile_path, toml_literal
 from .constellation import walker_design
-from .errors import ImpactError
+from .errors import ImpactError, InfeasibleDesignError
 from .evaluator import EvaluationContext, analyse_constellation, context_for
 from .figures import constellation_3d, dop_time_series
 from .keys import DESIGN_KEYS, INTEGER_DESIGN_KEYS, METRIC_KEYS
@@ -242,7 +242,7 @@ class DesignExplorer:
         try:
             elements = walker_design(context.profile, design["sma_km"], design["ecc"], design["inc_deg"],
                                      design["aop_deg"], design["n_planes"], design["sats_per_plane"]).elements_deg()
-        except ValueError as error:
+        except InfeasibleDesignError as error:      # no closed orbit above the surface; other errors propagate
             record.metrics["n_sat"] = design["n_planes"] * design["sats_per_plane"]
             return replace(record, reason=f"invalid design: {error}")
         try:

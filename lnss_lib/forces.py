@@ -15,6 +15,7 @@ from dataclasses import dataclass
 import numba as nb
 import numpy as np
 
+from .config import CR_AREA_MASS, CR_AREA_MASS_WHY, SHADOW_MODELS, THIRD_BODIES, allowed_range_text, in_range
 from .ephemeris import EphemerisTable, hermite_cubic
 from .errors import ConfigError
 from .gravity import GravityField, harmonic_acceleration, truncation_degree
@@ -22,7 +23,7 @@ from .gravity import GravityField, harmonic_acceleration, truncation_degree
 __all__ = ["BODY_ORDER", "SCRATCH_SIZE", "TERMS", "ForceModel", "shadow_factor", "acceleration_terms",
            "acceleration", "acceleration_breakdown"]
 
-BODY_ORDER = ("SUN", "EARTH", "JUPITER")  # rows of the ephemeris table; Sun and Earth also occult/illuminate
+BODY_ORDER = THIRD_BODIES  # rows of the ephemeris table; Sun and Earth also occult/illuminate
 SCRATCH_SIZE = 24
 TERMS = ("central", "harmonics", "SUN", "EARTH", "JUPITER", "srp", "relativity", "albedo")
 
@@ -54,9 +55,9 @@ class ForceModel:
         if srp_cr_area_mass_m2_kg is None:
             srp_cr_area_mass_m2_kg = craft["cr"] * craft["area_m2"] / craft["mass_kg"]
         if not (isinstance(srp_cr_area_mass_m2_kg, (int, float, np.floating)) and np.isfinite(srp_cr_area_mass_m2_kg)
-                and srp_cr_area_mass_m2_kg >= 0):
+                and in_range(srp_cr_area_mass_m2_kg, CR_AREA_MASS)):
             raise ConfigError(f"Cr*A/m = {srp_cr_area_mass_m2_kg!r} m^2/kg is not allowed; allowed: a finite number "
-                              f"in [0, inf)", key="srp_cr_area_mass_m2_kg")
+                              f"in {allowed_range_text(CR_AREA_MASS)} ({CR_AREA_MASS_WHY})", key="srp_cr_area_mass_m2_kg")
         if not (np.all(np.isfinite(field.cnm)) and np.all(np.isfinite(field.snm))):
             raise ConfigError(f"gravity field {profile['gravity']['file']} holds non-finite coefficients",
                               key="gravity.file")
@@ -78,8 +79,9 @@ class ForceModel:
         unknown = set(forces["third_bodies"]) - set(BODY_ORDER)
         if unknown:
             raise ValueError(f"unknown third bodies {sorted(unknown)}; allowed: {BODY_ORDER}")
-        if forces["shadow"] not in ("conical", "none"):
-            raise ValueError(f"unknown shadow model {forces['shadow']!r}; allowed: 'conical', 'none'")
+        if forces["shadow"] not in SHADOW_MODELS:
+            raise ConfigError(f"forces.shadow = {forces['shadow']!r} is not allowed; allowed: {', '.join(SHADOW_MODELS)}",
+                              key="forces.shadow")
         flags = np.zeros(8, dtype=np.int64)
         flags[F_HARMONICS] = 1
         flags[F_SUN] = "SUN" in forces["third_bodies"]
@@ -255,8 +257,11 @@ def acceleration_breakdown(profile: dict, t_tdb_s: np.ndarray, state_mci: np.nda
     elif times.min() < model.table.t0_tdb_s or times.max() > model.table.t_end_tdb_s:
         raise ValueError("epochs outside the force model's ephemeris table "
                          f"[{model.table.t0_tdb_s:.0f}, {model.table.t_end_tdb_s:.0f}] s TDB")
-    out = np.empty((len(times), len(TERMS), 3))
+    out = np.full((len(times), len(TERMS), 3), np.nan)
     _breakdown_loop(times, states, model.kernel_args, model.field.workspace(), np.empty(SCRATCH_SIZE), out)
+    if not np.all(np.isfinite(out)):
+        raise RuntimeError(f"force breakdown: non-finite or missing terms at {int(np.sum(~np.isfinite(out).all(axis=(1, 2))))} "
+                           f"of {len(times)} epochs")
     return {name: out[:, k, :] for k, name in enumerate(TERMS)}
 
 

@@ -26,6 +26,7 @@ from __future__ import annotations
 import numpy as np
 import spiceypy as spice
 
+from .config import ELEMENT_FRAMES, POLE_FRAMES
 from .constants import ARCSEC_RAD, SECONDS_PER_DAY, SECONDS_PER_JULIAN_CENTURY
 from .ephemeris import body_states_mci, ensure_kernels, rotation
 
@@ -40,8 +41,6 @@ J2000_JD = 2451545.0
 # Element frames and the Moon-fixed frame
 # ---------------------------------------------------------------------------------------------
 
-ELEMENT_FRAMES = ("lunar_equator_of_epoch", "j2000", "moon_op")
-POLE_FRAMES = ("MOON_ME", "MOON_PA", "IAU_MOON")
 
 
 def element_frame_to_j2000(profile: dict, t_epoch_tdb_s: float, frame: str | None = None) -> np.ndarray:

@@ -16,6 +16,8 @@ from __future__ import annotations
 import numba as nb
 import numpy as np
 
+from .config import PDOP_FILTERS
+
 __all__ = ["SINGULAR_RTOL", "PDOP_FILTERS", "normal_matrix_entries", "block_inverse", "position_block_inverse",
            "weighted_dop_stats", "sigma_filtered_mean", "availability_pct", "filtered_mean"]
 
@@ -122,8 +124,8 @@ def position_block_inverse(sxx, syy, szz, sxy, sxz, syz):
     arrays = np.broadcast_arrays(*(np.asarray(a, dtype=float) for a in (sxx, syy, szz, sxy, sxz, syz)))
     shape = arrays[0].shape
     s = np.ascontiguousarray(np.stack([a.reshape(-1) for a in arrays]))
-    out = np.empty_like(s)
-    ok = np.empty(s.shape[1], dtype=bool)
+    out = np.full_like(s, np.nan)
+    ok = np.zeros(s.shape[1], dtype=bool)
     _block_inverse_loop(s, out, ok)
     return tuple(out[k].reshape(shape) for k in range(6)) + (ok.reshape(shape),)
 
@@ -173,8 +175,6 @@ def weighted_dop_stats(values, weights, n_sigma, threshold):
                 kept += 1
     return kwv / kw, kept, mu, min(100.0, 100.0 * w_ok / w_all)
 
-
-PDOP_FILTERS = ("percentile95", "sigma2", "none")
 
 
 def sigma_filtered_mean(values, weights=None, n_sigma: float = 3.0) -> tuple[float, int]:

@@ -467,8 +467,8 @@ def gps_link_metrics(profile: dict, gps: xr.Dataset, r_lnss_mci_km: np.ndarray) 
         raise ValueError(f"noise temperature must be positive (K); got {cfg['noise_temperature_k']!r}")
     wavelength_m = C_M_S / (float(cfg["frequency_mhz"]) * 1e6)
     ntime = r.shape[0]
-    n_visible = np.empty(ntime, dtype=np.int64)
-    pdop = np.empty(ntime)
+    n_visible = np.full(ntime, -1, dtype=np.int64)      # -1: not computed (checked after the kernel)
+    pdop = np.full(ntime, np.nan)
     _link_kernel(r, r_gps_mci[0], r_gps_eci[0], r_gps_teme[0], np.ascontiguousarray(earth[0, :, 0]), rot,
                  np.asarray(gain.off_boresight_deg, dtype=float), np.asarray(gain.gain_dbi, dtype=float),
                  float(profile["constants"]["r_moon_mean_km"]), float(profile["constants"]["r_earth_km"]),
@@ -477,6 +477,8 @@ def gps_link_metrics(profile: dict, gps: xr.Dataset, r_lnss_mci_km: np.ndarray) 
                  float(cfg["p_tx_dbw"]) - (float(cfg["l_tx_db"]) + float(cfg["l_pol_db"])) + float(cfg["g_rx_dbi"]),
                  4.0 * np.pi * 1e3 / wavelength_m, 10.0 * np.log10(BOLTZMANN_J_K * float(cfg["noise_temperature_k"])),
                  float(cfg["cn0_threshold_dbhz"]), bool(cfg["clock_column"]), n_visible, pdop)
+    if np.any(n_visible < 0):
+        raise RuntimeError(f"the GPS link kernel left {int(np.sum(n_visible < 0))} of {ntime} epochs not computed")
     return _summary(pdop[None], n_visible[None], cfg["pdop_filter"])
 
 

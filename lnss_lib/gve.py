@@ -15,6 +15,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from .config import PAPER_NORMAL, PAPER_RADIAL
 from .elements import state_to_elements
 
 __all__ = ["RATE_NAMES", "NATURAL_RATE_NAMES", "PAPER_NORMAL", "PAPER_RADIAL", "check_epochs", "osculating_elements",
@@ -26,11 +27,6 @@ RATE_NAMES = ("a", "e", "i", "raan", "aop")
 
 NATURAL_RATE_NAMES = ("a_dot_over_a", "e_dot", "e_apse_dot", "i_dot", "sin_i_raan_dot")
 
-
-PAPER_NORMAL = ("weighted", "eq32", "rss")
-
-
-PAPER_RADIAL = ("weighted", "eq35")
 
 
 def check_epochs(t: np.ndarray, series: np.ndarray) -> None:

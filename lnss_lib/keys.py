@@ -3,7 +3,7 @@
 from __future__ import annotations
 
 __all__ = ["DESIGN_KEYS", "INTEGER_DESIGN_KEYS", "ELEMENT_KEYS", "METRIC_KEYS", "EXTRA_METRIC_KEYS",
-           "CAMPAIGN_METRIC_KEYS", "RESULT_KEYS", "TIMING_KEYS", "DELTAV_SATELLITES",
+           "CAMPAIGN_METRIC_KEYS", "RESULT_KEYS", "VERDICT_KEYS", "TIMING_KEYS", "DELTAV_SATELLITES",
            "requested_extra_metrics"]
 
 DESIGN_KEYS = ("sma_km", "ecc", "aop_deg", "inc_deg", "n_planes", "sats_per_plane")   # eq. 45 arguments
@@ -19,7 +19,9 @@ METRIC_KEYS = ("n_sat", "mean_visible_sats", "pdop_mean_3sigma", "pdop_avail_pct
 EXTRA_METRIC_KEYS = ("sk_dv_estimate_kms_per_year", "sk_dv_estimate_max_kms_per_year", "stable_screen",
                      "screen_min_perilune_alt_km", "dv_total_max_kms_per_year", "dv_opt_max_kms_per_year")
 CAMPAIGN_METRIC_KEYS = METRIC_KEYS + EXTRA_METRIC_KEYS   # what a campaign journal record holds
-RESULT_KEYS = METRIC_KEYS + ("deltav_model", "feasible", "reason", "wall_s")
+# "evaluated": the design was evaluated (no impact, a closed orbit); whether it meets Table 3's bounds is VERDICT_KEYS
+RESULT_KEYS = METRIC_KEYS + ("deltav_model", "evaluated", "reason", "wall_s")
+VERDICT_KEYS = ("meets_bounds", "violated_bounds")   # evaluate CLI: the profile's [campaign.constraints] (Table 3)
 TIMING_KEYS = ("propagation", "dop", "deltav", "gps", "operational")   # operational: the extra metrics
 DELTAV_SATELLITES = ("first", "all")        # [deltav] satellites: the eq. 45 Delta-V of satellite 0, or mean over all
 _NEEDS_ALL_SATELLITES = ("dv_total_max_kms_per_year", "dv_opt_max_kms_per_year")

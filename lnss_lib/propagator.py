@@ -9,7 +9,9 @@ quintic Hermite interpolation of position (from r, v, a at the step ends) and it
 Satellites run in parallel (``numba.prange``). An orbit that goes below the lunar surface plus the
 minimum altitude stops there: :func:`propagate_states` raises :class:`ImpactError` for a single
 satellite, or flags it (``impact``, ``impact_t_tdb_s``) in batch mode; its later samples are NaN
-and ``valid`` says which samples are real.
+and ``valid`` says which samples are real. An exception inside a parallel loop can end it without
+reaching the caller, so a batch kernel starts its outputs as NaN and its status as "not run", and
+:func:`check_batch` checks both after the loop.
 """
 
 from __future__ import annotations
@@ -20,21 +22,20 @@ import xarray as xr
 from scipy.integrate._ivp import dop853_coefficients as _dop853
 from scipy.integrate._ivp.rk import RK45 as _RK45
 
-from .config import allowed_range_text, in_range, integrator_setting
-from .constants import SECONDS_PER_DAY
+from .config import METHODS, SEMI_MAJOR_AXIS, SEMI_MAJOR_AXIS_WHY, allowed_range_text, in_range, integrator_setting
+from .constants import EARTH_MOON_DISTANCE_KM, MAX_OUTPUT_SAMPLES, SECONDS_PER_DAY
 from .elements import elements_to_state, validate_elements
-from .errors import ConfigError, ImpactError
+from .errors import ConfigError, ImpactError, PropagationError
 from .ephemeris import EphemerisTable, check_span, ensure_kernels, tdb_iso, tdb_seconds
 from .forces import SCRATCH_SIZE, SOLAR_P, SRP_K, TERMS, ForceModel, acceleration
 from .frames import element_frame_to_j2000
 
-__all__ = ["METHODS", "STATUS_TEXT", "check_elements_deg", "integrate_one", "integrate_many", "output_times", "propagate_states",
+__all__ = ["METHODS", "STATUS_TEXT", "check_batch", "check_elements_deg", "integrate_one", "integrate_many", "output_times", "propagate_states",
            "elements_deg_to_states", "propagate_elements"]
 
-METHODS = ("RK45", "DOP853")
-STATUS_OK, STATUS_IMPACT, STATUS_MAX_STEPS, STATUS_STEP_TOO_SMALL, STATUS_NON_FINITE = 0, 1, 2, 3, 4
-STATUS_TEXT = {0: "ok", 1: "impact", 2: "maximum number of steps", 3: "step size too small",
-               4: "non-finite state or acceleration"}
+STATUS_NOT_RUN, STATUS_OK, STATUS_IMPACT, STATUS_MAX_STEPS, STATUS_STEP_TOO_SMALL, STATUS_NON_FINITE = -1, 0, 1, 2, 3, 4
+STATUS_TEXT = {-1: "not run (the compiled loop ended before this satellite finished)", 0: "ok", 1: "impact",
+               2: "maximum number of steps", 3: "step size too small", 4: "non-finite state or acceleration"}
 
 # Butcher tableaux in one layout: A (s x s), B (s), C (s), E5 and E3 (s + 1; E3 unused for RK45)
 _RK45_TAB = (np.ascontiguousarray(_RK45.A, dtype=float), np.ascontiguousarray(_RK45.B, dtype=float),
@@ -106,6 +107,8 @@ def _initial_step(t0, y0, f0, t_bound, order, rtol, atol, args, work, terms, acc
     d1 = _rms_scaled(f0, scale)
     interval = abs(t_bound - t0)
     h0 = 1e-6 if (d0 < 1e-5 or d1 < 1e-5) else 0.01 * d0 / d1
+    if not np.isfinite(h0):
+        return np.nan                       # the scaled norms overflowed (tolerances far too small): the caller stops
     h0 = min(h0, interval)
     y1 = y0 + h0 * f0
     _rhs(t0 + h0, y1, args, work, terms, acc, f1)
@@ -164,6 +167,9 @@ def integrate_one(y0, t0, t_out, method, rtol, atol, r_min_km, max_steps, args, 
     while t < t_bound:
         if steps >= max_steps:
             status = STATUS_MAX_STEPS
+            break
+        if not np.isfinite(h_abs):          # e.g. tolerances so small that the error norms overflow
+            status = STATUS_NON_FINITE
             break
         min_step = 10.0 * abs(np.nextafter(t, np.inf) - t)
         if h_abs < min_step:
@@ -269,11 +275,14 @@ def integrate_one(y0, t0, t_out, method, rtol, atol, r_min_km, max_steps, args, 
 
 @nb.njit(cache=True, parallel=True)
 def integrate_many(y0s, t0, t_out, method, rtol, atol, r_min_km, max_steps, args, degree):
-    """:func:`integrate_one` for each row of ``y0s``, in parallel; returns (states, status, t_stop, n_rhs)."""
+    """:func:`integrate_one` for each row of ``y0s``, in parallel; returns (states, status, t_stop, n_rhs).
+
+    Outputs start as NaN and the status as ``STATUS_NOT_RUN``: check them with :func:`check_batch`.
+    """
     n_sat = y0s.shape[0]
-    states = np.empty((n_sat, t_out.shape[0], 6))
-    status = np.zeros(n_sat, dtype=np.int64)
-    t_stop = np.zeros(n_sat)
+    states = np.full((n_sat, t_out.shape[0], 6), np.nan)
+    status = np.full(n_sat, STATUS_NOT_RUN, dtype=np.int64)
+    t_stop = np.full(n_sat, np.nan)
     n_rhs = np.zeros(n_sat, dtype=np.int64)
     for i in nb.prange(n_sat):
         work = (np.zeros(SCRATCH_SIZE), np.zeros((2, degree + 2, degree + 2)))
@@ -285,12 +294,40 @@ def integrate_many(y0s, t0, t_out, method, rtol, atol, r_min_km, max_steps, args
     return states, status, t_stop, n_rhs
 
 
+def check_batch(status: np.ndarray, t_stop: np.ndarray, states: np.ndarray, t_out: np.ndarray, t0: float,
+                active: np.ndarray | None = None) -> np.ndarray:
+    """After a compiled batch loop: :class:`PropagationError` naming every (active) satellite that was not
+    run, failed, or left a non-finite sample after ``t0`` and before its stop; returns the impact mask.
+
+    ``states`` (n_sat, n_out, 6) on ``t_out``; an impacted satellite's samples from its stop on are NaN.
+    """
+    active = np.ones(status.shape[0], dtype=bool) if active is None else np.asarray(active, dtype=bool)
+    impact = active & (status == STATUS_IMPACT)
+    before_stop = (t_out[None, :] > t0) & ((status == STATUS_OK)[:, None] | (t_out[None, :] < t_stop[:, None]))
+    holes = np.any(before_stop & ~np.all(np.isfinite(states), axis=2), axis=1)
+    bad = active & (((status != STATUS_OK) & ~impact) | (impact & ~np.isfinite(t_stop)) | holes)
+    if bad.any():
+        sats = np.flatnonzero(bad).tolist()
+        texts = [STATUS_TEXT.get(int(status[i]), f"unknown status {int(status[i])}") if status[i] != STATUS_OK
+                 or not holes[i] else "non-finite samples" for i in sats]
+        detail = "; ".join(f"{i}: {text}" + (f" at t = {t_stop[i]:.1f} s TDB" if np.isfinite(t_stop[i]) else "")
+                           for i, text in zip(sats[:10], texts))
+        raise PropagationError(f"propagation failed for satellite(s) {sats} ({detail})", sats=sats, statuses=texts)
+    return impact
+
+
 def _check_states(states_mci: np.ndarray) -> np.ndarray:
     states = np.atleast_2d(np.asarray(states_mci, dtype=float))
     if states.ndim != 2 or states.shape[1] != 6:
         raise ValueError(f"states must have shape (n_sat, 6) [x, y, z, vx, vy, vz]; got {states.shape}")
     if not np.all(np.isfinite(states)):
         raise ValueError("states contain non-finite values")
+    radius = np.linalg.norm(states[:, :3], axis=1)
+    if np.any(radius > EARTH_MOON_DISTANCE_KM):
+        k = int(np.argmax(radius))
+        raise ConfigError(f"state {k}: radius {radius[k]:.6g} km is not allowed; allowed: up to {EARTH_MOON_DISTANCE_KM:,.0f} "
+                          "km (the Earth-Moon distance: beyond it the Earth, not the Moon, is the central body)",
+                          key="state")
     return states
 
 
@@ -302,6 +339,9 @@ def output_times(t0_tdb_s: float, duration_s: float, step_s: float) -> np.ndarra
         raise ConfigError(f"sampling step must be positive and finite (s); got {step_s}")
     if not np.isfinite(t0_tdb_s):
         raise ConfigError(f"start epoch must be finite (TDB s); got {t0_tdb_s}")
+    if duration_s / step_s > MAX_OUTPUT_SAMPLES:
+        raise ConfigError(f"duration {duration_s:g} s at a sampling step of {step_s:g} s gives {duration_s / step_s:.3g} "
+                          f"samples; allowed: at most {MAX_OUTPUT_SAMPLES:,} (48 bytes each per satellite)", key="step_s")
     n = int(np.floor(duration_s / step_s + 1e-9))
     times = t0_tdb_s + step_s * np.arange(n + 1)
     if times[-1] < t0_tdb_s + duration_s - 1e-6:
@@ -343,18 +383,11 @@ def propagate_states(profile: dict, states_mci, t0_tdb_s: float, duration_s: flo
     out, status, t_stop, n_rhs = integrate_many(states, float(t0_tdb_s), times, METHODS.index(integ["method"]),
                                                 float(integ["rtol"]), float(integ["atol"]), r_min, max_steps,
                                                 model.kernel_args, model.field.degree)
-    impact = status == STATUS_IMPACT
-    failed = (status != STATUS_OK) & ~impact
-    if failed.any():
-        k = int(np.argmax(failed))
-        raise RuntimeError(f"propagation of satellite {k} failed: {STATUS_TEXT[int(status[k])]} at "
-                           f"t = {t_stop[k]:.1f} s TDB")
-    if not batch and status[0] != STATUS_OK:
-        if impact[0]:
-            days = (t_stop[0] - t0_tdb_s) / SECONDS_PER_DAY
-            raise ImpactError(f"orbit hits the Moon (radius below {r_min:.1f} km) at {tdb_iso(t_stop[0])} TDB, "
-                              f"{days:.3f} days after the start", sat=0, t_tdb_s=float(t_stop[0]), days=float(days))
-        raise RuntimeError(f"propagation failed: {STATUS_TEXT[int(status[0])]} at t = {t_stop[0]:.1f} s TDB")
+    impact = check_batch(status, t_stop, out, times, float(t0_tdb_s))
+    if not batch and impact[0]:
+        days = (t_stop[0] - t0_tdb_s) / SECONDS_PER_DAY
+        raise ImpactError(f"orbit hits the Moon (radius below {r_min:.1f} km) at {tdb_iso(t_stop[0])} TDB, "
+                          f"{days:.3f} days after the start", sat=0, t_tdb_s=float(t_stop[0]), days=float(days))
     return _as_dataset(out, times, status, t_stop, n_rhs, profile, integ, model)
 
 
@@ -392,14 +425,15 @@ def _as_dataset(out, times, status, t_stop, n_rhs, profile, integ, model) -> xr.
     return ds
 
 
-ELEMENT_RANGES = (("semi-major axis a_km", (0.0, None, True, False)), ("eccentricity e", (0.0, 1.0, False, True)),
+ELEMENT_RANGES = (("semi-major axis a_km", SEMI_MAJOR_AXIS), ("eccentricity e", (0.0, 1.0, False, True)),
                   ("inclination inc_deg", (0.0, 180.0, False, False)), ("raan_deg", (None, None, False, False)),
                   ("aop_deg", (None, None, False, False)), ("mean_anomaly_deg", (None, None, False, False)))
 
 
 def check_elements_deg(elements_deg) -> np.ndarray:
     """Elements (n, 6) [a_km, e, i, RAAN, AOP, M] (deg) as floats, every value finite and in its domain
-    (a > 0, 0 <= e < 1, 0 <= i <= 180 deg); ConfigError naming the element, the value and the range."""
+    (0 < a <= the Moon's Hill radius, 0 <= e < 1, 0 <= i <= 180 deg); ConfigError naming the element, the value,
+    the range and, for a, why."""
     try:
         el = np.atleast_2d(np.asarray(elements_deg, dtype=float))
     except (TypeError, ValueError):
@@ -410,8 +444,9 @@ def check_elements_deg(elements_deg) -> np.ndarray:
         for row, value in enumerate(el[:, col]):
             if not np.isfinite(value) or not in_range(value, spec):
                 where = f"satellite {row}: " if el.shape[0] > 1 else ""
+                why = f" ({SEMI_MAJOR_AXIS_WHY})" if col == 0 else ""
                 raise ConfigError(f"{where}{name} = {float(value)!r} is not allowed; allowed: a finite number in "
-                                  f"{allowed_range_text(spec)}", key=name.split()[-1])
+                                  f"{allowed_range_text(spec)}{why}", key=name.split()[-1])
     return el
 
 

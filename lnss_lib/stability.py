@@ -47,6 +47,7 @@ import xarray as xr
 from scipy.integrate import solve_ivp
 from scipy.interpolate import CubicSpline
 
+from .config import STABILITY_BODIES, STABILITY_METHODS
 from .constants import SECONDS_PER_DAY
 from .ephemeris import body_states_mci, ensure_kernels, rotation, tdb_seconds
 from .frames import element_frame_to_j2000
@@ -57,7 +58,7 @@ __all__ = ["StabilitySettings", "stability_settings", "SecularField", "orbit_vec
            "screen_design", "classical_j2_rates", "kozai_e_max", "circular_tide_tensor"]
 
 SIDEREAL_MONTH_DAYS = 27.321661
-BODIES = ("EARTH", "SUN")
+BODIES = STABILITY_BODIES
 NON_SCREEN_KEYS = ("validation_designs", "validation_degree", "validation_step_s")   # read by the bench only
 DEFAULT_SETTINGS = {
     "life_days": 365.25,                # design life integrated by the screen
@@ -111,8 +112,8 @@ def stability_settings(profile: dict | None = None, **overrides) -> StabilitySet
     bad = [b for b in bodies if b not in BODIES]
     if bad:
         raise ValueError(f"[stability] third_bodies {bad} not supported; allowed: {list(BODIES)}")
-    if cfg["method"] not in ("DOP853", "RK45", "Radau", "LSODA"):
-        raise ValueError(f"[stability] method {cfg['method']!r}; allowed: 'DOP853', 'RK45', 'Radau', 'LSODA'")
+    if cfg["method"] not in STABILITY_METHODS:
+        raise ValueError(f"[stability] method {cfg['method']!r}; allowed: {', '.join(STABILITY_METHODS)}")
     if not isinstance(cfg["precession"], (bool, np.bool_)):
         raise ValueError(f"[stability] precession must be true or false; got {cfg['precession']!r}")
     return StabilitySettings(float(cfg["life_days"]), bodies, bool(cfg["precession"]), float(cfg["average_days"]),

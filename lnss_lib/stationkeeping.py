@@ -51,7 +51,7 @@ from .forces import SCRATCH_SIZE, ForceModel
 from .maneuvers import plan_impulses
 from .mean_elements import mean_elements, relative_angles, to_element_frame, wrap_pi
 from .sk_control import SlotState, drift_band_rate, overshoot_target, predicted_exit, running_mean, tidal_mean
-from .propagator import METHODS, STATUS_IMPACT, STATUS_OK, elements_deg_to_states, integrate_one
+from .propagator import METHODS, STATUS_NOT_RUN, STATUS_OK, check_batch, elements_deg_to_states, integrate_one
 
 BOX_KEYS = ("ecc", "aop_deg", "inc_deg", "raan_rel_deg", "u_rel_deg")
 """Box quantities (``[design_life.box]``): half-widths about the reference."""
@@ -117,13 +117,15 @@ def integrate_chunk(y0s, active, t0, t_out, burn_t, burn_dv_rtn, method, rtol, a
     ``burn_t`` (n_sat, k) burn epochs in (t0, t_out[-1]] (NaN = none, sorted), ``burn_dv_rtn``
     (n_sat, k, 3) impulses in the RTN axes of the state at the burn. Returns (states at t_out
     (n_sat, n_out, 6), end states (n_sat, 6), status, stop epoch); states after an impact are NaN.
+    Outputs start as NaN and the status as "not run" (inactive satellites keep it): check them with
+    :func:`lnss_lib.propagator.check_batch`.
     """
     n_sat = y0s.shape[0]
     n_out = t_out.shape[0]
     t_end = t_out[n_out - 1]
     states = np.full((n_sat, n_out, 6), np.nan)
     y_end = np.full((n_sat, 6), np.nan)
-    status = np.zeros(n_sat, dtype=np.int64)
+    status = np.full(n_sat, STATUS_NOT_RUN, dtype=np.int64)
     t_stop = np.full(n_sat, np.nan)
     for i in nb.prange(n_sat):
         if not active[i]:
@@ -174,6 +176,8 @@ def integrate_chunk(y0s, active, t0, t_out, burn_t, burn_dv_rtn, method, rtol, a
                 y[3 + q] += dv[0] * rh[q] + dv[1] * th[q] + dv[2] * nh[q]
             k += 1
         y_end[i] = y
+        if status[i] == STATUS_NOT_RUN:
+            status[i] = STATUS_OK
     return states, y_end, status, t_stop
 
 
@@ -220,6 +224,7 @@ def trim_to_mean(profile: dict, elements_deg, t0_tdb_s: float, model: ForceModel
                 model.kernel_args, model.field.degree)
             if status[0] != STATUS_OK:
                 raise RuntimeError(f"trim propagation failed for satellite {i} (status {status[0]})")
+            check_batch(status, np.full(1, np.nan), out, t_win, t0_tdb_s)     # "ok" means every sample was written
             out[0, 0] = states[i]                  # the kernel fills epochs after t0 only
             mean[i] = mean_elements(to_element_frame(out[0], rot), gm)
         u_design = np.radians(design[:, 4] + design[:, 5]) + np.pi          # one orbit: u advances 2 pi, centre at pi
@@ -314,9 +319,7 @@ def simulate_life(profile: dict, elements_deg, *, natural: bool = False, life_da
         out_states, y_new, status, t_stop = integrate_chunk(
             y, active, t, t_out, pending_t, pending_dv, METHODS.index(integ["method"]), float(integ["rtol"]),
             float(integ["atol"]), r_min, 5_000_000, model.kernel_args, model.field.degree)
-        bad = active & (status != STATUS_OK)
-        if np.any(bad & (status != STATUS_IMPACT)):
-            raise RuntimeError(f"propagation failed for satellite(s) {np.flatnonzero(bad & (status != STATUS_IMPACT))}")
+        bad = check_batch(status, t_stop, out_states, t_out, t, active)
         for i in np.flatnonzero(active):
             for tb, dvb in zip(pending_t[i], pending_dv[i]):
                 if np.isfinite(tb) and (status[i] == STATUS_OK or tb <= t_stop[i]):

@@ -94,6 +94,14 @@ BAD_VALUES = [
     (SYNTHETIC + ["--set", "campaign.max_errors=-1"], "campaign.max_errors = -1"),
     (SYNTHETIC + ["--workers", "-2"], "--workers -2"),
     (["campaign", "--resume", "/nonexistent/run"], "/nonexistent/run"),
+    # issue 21 item 1: tolerances a double cannot meet (the compiled loop failed and the command exited 0)
+    (["propagate", *EPOCH, *ELFO, "--days", "0.1", "--set", "integrator.settings.paper.rtol=1e-300", "--set",
+      "integrator.settings.paper.atol=1e-300"], "integrator.settings.paper.rtol = 1e-300"),
+    (walker() + ["--set", "stability.atol=1e-20"], "stability.atol = 1e-20"),
+    # issue 21 item 2: a text setting outside its allowed set (was accepted, then every design "infeasible")
+    (walker() + ["--set", "frames.element_frame=nosuch"], "frames.element_frame = 'nosuch'"),
+    (["reproduce", "--profile", "ci", "--set", "dop.los_axes=up"], "allowed: 'moon_fixed', 'enu'"),
+    (SYNTHETIC + ["--set", "deltav.model=magic"], "deltav.model = 'magic'"),
 ]
 
 
@@ -163,7 +171,7 @@ def params_dir(tmp_path, monkeypatch):
 @pytest.mark.parametrize("text, needles", [
     ('[profile]\ninherits = "paper"\n[spacecraft]\ncr = \n', ("bad.toml", "TOML syntax error", "line 4")),
     ('[profile]\ninherits = "paper"\n\n[spacecraft]\ncr = "high"\n', ("bad.toml, line 5", "spacecraft.cr = 'high'")),
-    ('[profile]\ninherits = "paper"\n[spacecraft]\nmass_kg = -1.0\n', ("bad.toml, line 4", "mass_kg = -1.0", "(0, inf)")),
+    ('[profile]\ninherits = "paper"\n[spacecraft]\nmass_kg = -1.0\n', ("bad.toml, line 4", "mass_kg = -1.0", "[0.001, 1e+06]")),
     ('[profile]\ninherits = "paper"\n[gravty]\ndegree = 8\n', ("unknown key gravty", "did you mean gravity")),
     ('[profile]\nname = "bad"\n[epoch]\nstart_tdb = "2025-05-01T00:00:00"\n', ("missing key",)),
 ])
@@ -524,3 +532,126 @@ def test_full_journal_disk_names_the_journal(capsys, tmp_path, monkeypatch):
     run_dir = tmp_path / "run"
     one_line_error(capsys, main(SYNTHETIC + ["--run-dir", str(run_dir)]), 1, str(run_dir / "evaluations.jsonl"),
                    "No space left on device")
+# ---- issue 21 items 2 and 4: text settings, infeasible versus error, physically absurd values ----------------------
+
+def _bad_text(key: str):
+    """An override setting ``key`` (``*`` = the paper integrator setting) to a value outside its allowed set."""
+    parts = key.replace("*", "paper").split(".")
+    ref = config._reference()
+    for part in parts[:-1]:
+        ref = ref[part if part in ref else next(iter(ref))]
+    value = ["NOSUCH"] if isinstance(ref[parts[-1]], list) else "NOSUCH"
+    for part in reversed(parts):
+        value = {part: value}
+    return value
+
+
+@pytest.mark.parametrize("key", sorted(config.CHOICES) + sorted(config.FORMS) + list(config.SETTING_NAMES))
+def test_every_text_setting_is_checked_against_its_allowed_values(key):
+    """Each text setting refuses an unknown value before any work, naming the key and what is allowed."""
+    with pytest.raises(ConfigError, match="allowed") as caught:
+        load_profile("ci", overrides=_bad_text(key))
+    assert key.replace("*", "paper") in str(caught.value) and "NOSUCH" in str(caught.value)
+    if key in config.CHOICES:
+        assert all(repr(v) in str(caught.value) for v in config.CHOICES[key])
+    if not key.startswith("campaign."):
+        with pytest.raises(ConfigError, match="allowed"):    # and in campaign.overrides, which evaluations use
+            load_profile("ci", overrides={"campaign": {"overrides": _bad_text(key)}})
+
+
+# text keys whose values are not a fixed set: data paths (confined by the loader), free text, names checked
+# against files by their readers before work (gain column, catalogue names, campaign objectives and constraints)
+OPEN_TEXT = {"profile.name", "profile.description", "gravity.file", "ephemeris.kernels", "ephemeris.planetary_spk",
+             "validation.capstone.file", "gps.tle_file", "gps.gain_file", "gps.gain_column",
+             "benchmark.epoch_constellations", "campaign.objectives"}
+
+
+def _text_keys(table: dict, prefix: str = "", rule: str = ""):
+    for name, value in table.items():
+        key, rule_key = f"{prefix}{name}", ("integrator.settings.*" if rule == "integrator.settings." else f"{rule}{name}")
+        if isinstance(value, dict) and rule_key not in config.FREE_TABLES:
+            yield from _text_keys(value, f"{key}.", f"{rule_key}.")
+        elif isinstance(value, str) or (isinstance(value, list) and value and all(isinstance(v, str) for v in value)):
+            yield key, rule_key
+
+
+@pytest.mark.parametrize("profile_name", config.available_profiles())
+def test_no_text_setting_escapes_the_checks(profile_name):
+    """A new text setting must get an allowed set (config.CHOICES / FORMS / SETTING_NAMES) or be declared open."""
+    checked = set(config.CHOICES) | set(config.FORMS) | set(config.SETTING_NAMES) | OPEN_TEXT
+    unchecked = [key for key, rule in _text_keys(load_profile(profile_name)) if rule not in checked]
+    assert not unchecked, unchecked
+
+
+def test_config_and_ephemeris_errors_propagate_only_impossible_designs_are_infeasible(ci_profile, monkeypatch):
+    """evaluate_constellation turns InfeasibleDesignError (no closed orbit, impact) into an infeasible design
+    and lets every other error through (it caught ValueError: ConfigError and EphemerisRangeError too)."""
+    from types import SimpleNamespace
+
+    from lnss_lib import evaluator
+    from lnss_lib.errors import EphemerisRangeError, ImpactError
+    from lnss_lib.ephemeris import tdb_seconds
+
+    context = SimpleNamespace(profile=ci_profile, t0_tdb_s=tdb_seconds("2060-01-01T00:00:00", "TDB"), extra_metrics=())
+    elfo = [[6143.0, 0.6, 51.7, 0.0, 90.0, 0.0]]
+    with pytest.raises(EphemerisRangeError):
+        evaluator.evaluate_constellation(context, elfo)
+    context.t0_tdb_s = tdb_seconds("2025-05-01T00:00:00", "TDB")
+    bad = evaluator.evaluate_constellation(context, [[1800.0, 0.5, 51.7, 0.0, 90.0, 0.0]])
+    assert bad["evaluated"] is False and "perilune" in bad["reason"]
+    for error, infeasible in ((ConfigError("frames.element_frame = 'x'", key="frames.element_frame"), False),
+                              (RuntimeError("propagation failed"), False),
+                              (ImpactError("impact: satellite 0 hits the Moon", sat=0, t_tdb_s=0.0, days=1.0), True)):
+        monkeypatch.setattr(evaluator, "analyse_states", lambda *a, error=error, **k: (_ for _ in ()).throw(error))
+        if infeasible:
+            assert evaluator.evaluate_constellation(context, elfo)["reason"].startswith("impact")
+        else:
+            with pytest.raises(type(error)):
+                evaluator.evaluate_constellation(context, elfo)
+
+
+def test_design_life_lets_ephemeris_errors_through():
+    from lnss_lib.designlife import design_life_cli
+    from lnss_lib.errors import EphemerisRangeError
+
+    with pytest.raises(EphemerisRangeError):
+        design_life_cli("ci", 10.0, walker=(6143.0, 0.6, 90.0, 51.7, 2, 1),
+                        overrides={"epoch": {"start_tdb": "2060-01-01T00:00:00"}})
+
+
+def test_campaign_with_a_bad_text_setting_stops_before_work(capsys, tmp_path):
+    run_dir = tmp_path / "run"
+    code = main(["campaign", "--profile", "ci", "--workers", "0", "--no-progress", "--run-dir", str(run_dir),
+                 "--set", "frames.element_frame=nosuch"])
+    one_line_error(capsys, code, 2, "frames.element_frame = 'nosuch'", "moon_op")
+    assert not run_dir.exists()
+
+
+ABSURD = [
+    (["propagate", *EPOCH, *ELFO, "--days", "1", "--srp-cr-area-mass", "1e12"], ("--srp-cr-area-mass 1000000000000.0", "solar sails")),
+    (["propagate", *EPOCH, *ELFO, "--days", "1", "--set", "spacecraft.mass_kg=1e-300"],
+     ("spacecraft.mass_kg = 1e-300", "[0.001, 1e+06]")),
+    (walker() + ["--set", "spacecraft.area_m2=1e12"], ("cr * area_m2 / mass_kg", "solar sails")),
+    (walker() + ["--set", "spacecraft.cr=3"], ("spacecraft.cr = 3", "perfect mirror")),
+    (walker(sma_km="1e5"), ("a_km = 100000.0", "Hill sphere (61,500 km)")),
+    (walker(sma_km="1e12"), ("a_km = 1000000000000.0", "Hill sphere")),
+    (elements("1e5", "0.1", "51.7", "0", "90", "0"), ("a_km = 100000.0", "Hill sphere")),
+    (["propagate", *EPOCH, "--state-km", "1e6", "0", "0", "0", "0.1", "0", "--days", "1"], ("1e+06 km", "Earth-Moon distance")),
+    (["propagate", *EPOCH, *ELFO, "--days", "10", "--step-s", "1e-6"], ("samples", "at most 10,000,000")),
+    (walker() + ["--set", "standalone_elfo.sma_km=1e5"], ("standalone_elfo.sma_km = 100000.0", "Hill sphere")),
+    (SYNTHETIC + ["--set", "campaign.variables.sma_km={lower=4000.0,upper=1e5,step=100.0}"], ("sma_km", "Hill sphere")),
+]
+
+
+@pytest.mark.parametrize("argv, needles", ABSURD, ids=[" ".join(a[-2:]) for a, _ in ABSURD])
+def test_physically_absurd_values_are_refused_with_the_reason(capsys, tmp_path, monkeypatch, argv, needles):
+    monkeypatch.chdir(tmp_path)
+    one_line_error(capsys, main(argv), 2, *needles)
+    assert os.listdir(tmp_path) == []
+
+
+def test_hill_radius_follows_from_the_profile_masses(paper_profile):
+    from lnss_lib.constants import EARTH_MOON_DISTANCE_KM, MOON_HILL_RADIUS_KM
+
+    ratio = paper_profile["gravity"]["gm_km3_s2"] / paper_profile["constants"]["gm_earth_km3_s2"]
+    assert MOON_HILL_RADIUS_KM == pytest.approx(EARTH_MOON_DISTANCE_KM * (ratio / 3.0) ** (1.0 / 3.0), rel=5e-3)

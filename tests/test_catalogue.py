@@ -128,7 +128,7 @@ def test_user_file_and_walker_design_give_identical_metrics(ci_context, tmp_path
     ours = evaluate_catalogue(ci_context, c)
     walker = evaluate_design(ci_context, WALKER.a_km, WALKER.e, WALKER.aop_deg, WALKER.inc_deg, WALKER.n_planes,
                              WALKER.sats_per_plane)
-    assert ours["feasible"] and ours["n_sat"] == 4
+    assert ours["evaluated"] and ours["n_sat"] == 4
     for key in METRIC_KEYS:
         assert ours[key] == walker[key] or (math.isnan(ours[key]) and math.isnan(walker[key])), key
     assert ours["epoch_source"] == "study epoch (file gives none)" and ours["approximate"] is False
@@ -139,7 +139,7 @@ def test_cli_function_returns_the_evaluate_keys_plus_labels():
     assert list(result) == list(RESULT_KEYS + EXTRA_RESULT_KEYS)
     assert result["name"] == "ely2005_elfo_3sat" and result["element_frame"] == "moon_op" and result["n_sat"] == 3
     assert result["epoch_used"].startswith("2025-05-01T00:00:00") and "2009-07-15T01:00:00 TDB" in result["epoch_source"]
-    assert result["feasible"] and 0.0 < result["mean_visible_sats"] <= 3.0
+    assert result["evaluated"] and 0.0 < result["mean_visible_sats"] <= 3.0
 
 
 def test_approximate_entry_loads_but_is_not_evaluated(paper_profile):

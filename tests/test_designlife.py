@@ -24,7 +24,7 @@ ELFO_2X1 = ["--sma-km", "6143", "--ecc", "0.6", "--aop-deg", "90", "--inc-deg", 
 def test_evaluate_design_life_json_keys_and_types(capsys):
     assert main(["evaluate", *ELFO_2X1, "--profile", "ci", "--design-life-days", "20", "--json"]) == 0
     out = json.loads(capsys.readouterr().out)
-    assert set(LIFE_KEYS) <= set(out) and out["reason"] == "" and out["feasible"] is True
+    assert set(LIFE_KEYS) <= set(out) and out["reason"] == "" and out["evaluated"] is True
     assert out["life_days"] == 20.0
     for key in ("impact_day", "natural_impact_day"):
         assert out[key] is None or isinstance(out[key], float)
@@ -42,7 +42,7 @@ def test_evaluate_prints_reason_of_infeasible_design(capsys):
     assert main(["evaluate", "--sma-km", "6143", "--ecc", "0.85", "--aop-deg", "90", "--inc-deg", "51.7", "--planes",
                  "2", "--sats-per-plane", "1", "--profile", "ci", "--json"]) == 0
     out = json.loads(capsys.readouterr().out)
-    assert out["feasible"] is False and "perilune" in out["reason"]
+    assert out["evaluated"] is False and "perilune" in out["reason"]
     assert "life_days" not in out
     assert main(["evaluate", "--sma-km", "6143", "--ecc", "0.85", "--aop-deg", "90", "--inc-deg", "51.7", "--planes",
                  "2", "--sats-per-plane", "1", "--profile", "ci", "--json", "--design-life-days", "20"]) == 0

@@ -10,10 +10,11 @@ import pytest
 
 from lnss_lib.config import PROJECT_DIR, load_profile
 from lnss_lib.evaluator import METRIC_KEYS, RESULT_KEYS, context_for, evaluate_constellation, evaluate_design
+from lnss_lib.keys import VERDICT_KEYS
 
 CLI_KEYS = {"n_sat", "mean_visible_sats", "pdop_mean_3sigma", "pdop_avail_pct", "hdop_mean_3sigma", "hdop_avail_pct",
             "dv_total_kms_per_year", "dv_opt_kms_per_year", "gps_visible_mean", "gps_pdop_mean", "deltav_model",
-            "feasible", "reason", "wall_s"}
+            "evaluated", "reason", "wall_s", "meets_bounds", "violated_bounds"}
 
 
 @pytest.fixture(scope="module")
@@ -23,7 +24,7 @@ def context():
 
 def test_elfo_metrics_are_physical(context):
     result = evaluate_design(context, 6143.0, 0.6, 90.0, 51.7, 2, 8)
-    assert result["feasible"] and result["n_sat"] == 16
+    assert result["evaluated"] and result["n_sat"] == 16
     assert 9.0 < result["mean_visible_sats"] <= 16.0
     assert 1.0 < result["pdop_mean_3sigma"] < 5.0 and result["hdop_mean_3sigma"] < result["pdop_mean_3sigma"]
     assert result["pdop_avail_pct"] == pytest.approx(100.0) and result["hdop_avail_pct"] == pytest.approx(100.0)
@@ -44,12 +45,12 @@ def test_constellation_and_design_agree(context):
 
 def test_too_few_satellites_gives_no_coverage_not_an_error(context):
     result = evaluate_design(context, 6143.0, 0.6, 90.0, 51.7, 1, 2)
-    assert result["feasible"] and result["pdop_avail_pct"] == 0.0 and math.isnan(result["pdop_mean_3sigma"])
+    assert result["evaluated"] and result["pdop_avail_pct"] == 0.0 and math.isnan(result["pdop_mean_3sigma"])
 
 
 def test_infeasible_designs_are_flagged_not_raised(context):
     result = evaluate_design(context, 2000.0, 0.5, 90.0, 51.7, 2, 2)
-    assert result["feasible"] is False and result["reason"].startswith("invalid elements")
+    assert result["evaluated"] is False and result["reason"].startswith("invalid elements")
     assert all(math.isnan(result[k]) for k in METRIC_KEYS if k != "n_sat")
 
 
@@ -69,8 +70,11 @@ def test_cli_json_has_exactly_the_documented_keys():
                           "--inc-deg", "51.7", "--planes", "2", "--sats-per-plane", "2", "--profile", "ci", "--json"],
                          cwd=PROJECT_DIR, capture_output=True, text=True, check=True)
     result = json.loads(out.stdout)
-    assert set(result) == CLI_KEYS == set(RESULT_KEYS)
-    assert result["n_sat"] == 4 and result["feasible"] is True and result["reason"] == "" and np.isfinite(result["wall_s"])
+    assert set(result) == CLI_KEYS == set(RESULT_KEYS + VERDICT_KEYS)
+    assert result["n_sat"] == 4 and result["evaluated"] is True and result["reason"] == "" and np.isfinite(result["wall_s"])
+    # 4 satellites: PDOP availability far below Table 3's 70 %; "evaluated" is no verdict on the bounds
+    assert result["meets_bounds"] is False and any(b.startswith("pdop_avail_pct = ") and b.endswith("< min 70")
+                                                   for b in result["violated_bounds"])
 
 
 def test_metrics_come_from_the_right_parts(context):

@@ -119,7 +119,7 @@ def test_frame_and_model_choice_use_their_own_context(explorer):
 def test_infeasible_design_shows_its_reason(explorer, design, words):
     _set(explorer, **design)
     reference = _reference(explorer.design())
-    assert not reference["feasible"] and not explorer.current.feasible
+    assert not reference["evaluated"] and not explorer.current.feasible
     assert words in explorer.current.reason
     assert reference["reason"].endswith(explorer.current.reason.removeprefix("invalid design: "))
     assert "infeasible" in explorer.status.value and words in explorer.status.value

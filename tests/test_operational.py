@@ -32,7 +32,7 @@ def test_extra_metrics_appear_only_when_asked(extra_context):
     plain = evaluate_design(context_for(load_profile("ci")), *ELFO_2X2)
     assert not set(EXTRA_METRIC_KEYS) & set(plain)
     result = evaluate_design(extra_context, *ELFO_2X2)
-    assert result["feasible"] and all(math.isfinite(result[k]) for k in EXTRA_METRIC_KEYS)
+    assert result["evaluated"] and all(math.isfinite(result[k]) for k in EXTRA_METRIC_KEYS)
     assert result["stable_screen"] == 1.0 and result["screen_min_perilune_alt_km"] > 0.0
     assert 0.0 < result["sk_dv_estimate_kms_per_year"] <= result["sk_dv_estimate_max_kms_per_year"]
     assert result["dv_total_kms_per_year"] <= result["dv_total_max_kms_per_year"]
@@ -63,7 +63,7 @@ def test_deltav_satellites_first_is_satellite_zero_and_all_is_the_mean(extra_con
 def test_unstable_design_violates_the_stable_screen_constraint(extra_context):
     unstable = evaluate_design(extra_context, *KOZAI_3X1)
     stable = evaluate_design(extra_context, *ELFO_2X2)
-    assert unstable["feasible"] and unstable["stable_screen"] == 0.0
+    assert unstable["evaluated"] and unstable["stable_screen"] == 0.0
     assert unstable["screen_min_perilune_alt_km"] <= 0.0 < stable["screen_min_perilune_alt_km"]
     # the 2-day ci arc holds fewer than two orbits at a = 18000 km: no estimate, NaN (a violation), not an error
     assert math.isnan(unstable["sk_dv_estimate_kms_per_year"])
@@ -74,7 +74,7 @@ def test_unstable_design_violates_the_stable_screen_constraint(extra_context):
 
 def test_infeasible_design_has_nan_extras(extra_context):
     result = evaluate_design(extra_context, 2000.0, 0.5, 90.0, 51.7, 2, 2)
-    assert not result["feasible"] and all(math.isnan(result[k]) for k in EXTRA_METRIC_KEYS)
+    assert not result["evaluated"] and all(math.isnan(result[k]) for k in EXTRA_METRIC_KEYS)
 
 
 @pytest.mark.parametrize("overrides, key", [

@@ -189,3 +189,74 @@ def test_dataset_layout(paper_profile, epoch_tdb_s):
         assert key in ds.attrs
     assert "30x30" in ds.attrs["force_model"] and ds.attrs["integrator"] == "RK45"
     assert np.linalg.norm(ds.r_mci_km.values[0, 0]) == pytest.approx(6143.0 * 0.4, rel=1e-12)
+
+
+# ---- batch kernels report what they did not do (issue 21 item 1) ------------------------------------------------
+
+def _batch_model(profile, t0, hours=1.0):
+    return ForceModel.from_profile(profile, EphemerisTable.build(profile, t0, t0 + hours * 3600.0), degree=2)
+
+
+def test_batch_loop_that_fails_reports_it(paper_profile, epoch_tdb_s):
+    """rtol = atol = 1e-300 overflow the error norms: the step size became NaN and the kernel raised inside the
+    parallel loop, where numba lost the exception (zeros written as states, status "ok") or returned a result
+    with the exception set. Now the step size is checked (status "non-finite") and the outputs stay NaN."""
+    from lnss_lib.errors import PropagationError
+    from lnss_lib.propagator import STATUS_NON_FINITE, check_batch, integrate_many, output_times
+
+    times = output_times(epoch_tdb_s, 3600.0, 600.0)
+    model = _batch_model(paper_profile, epoch_tdb_s)
+    y0 = elements_deg_to_states(paper_profile, [ELFO, ELFO], epoch_tdb_s)
+    args = (model.kernel_args, model.field.degree)
+    out, status, t_stop, _ = integrate_many(y0, epoch_tdb_s, times, 0, 1e-300, 1e-300, 1737.4, 100_000, *args)
+    assert np.all(status == STATUS_NON_FINITE) and np.all(np.isnan(out[:, 1:]))
+    with pytest.raises(PropagationError, match=r"satellite\(s\) \[0, 1\].*non-finite state") as caught:
+        check_batch(status, t_stop, out, times, epoch_tdb_s)
+    assert caught.value.sats == [0, 1]
+    out, status, t_stop, _ = integrate_many(y0, epoch_tdb_s, times, 0, 1e-6, 1e-9, 1737.4, 100_000, *args)
+    assert not check_batch(status, t_stop, out, times, epoch_tdb_s).any() and np.all(np.isfinite(out))
+
+
+def test_station_keeping_chunk_kernel_reports_a_lost_satellite(paper_profile, epoch_tdb_s):
+    from lnss_lib.errors import PropagationError
+    from lnss_lib.propagator import STATUS_NON_FINITE, STATUS_NOT_RUN, STATUS_OK, check_batch, output_times
+    from lnss_lib.stationkeeping import integrate_chunk
+
+    times = output_times(epoch_tdb_s, 3600.0, 600.0)
+    model = _batch_model(paper_profile, epoch_tdb_s)
+    y0 = elements_deg_to_states(paper_profile, [ELFO, ELFO, ELFO], epoch_tdb_s)
+    active = np.array([True, False, True])
+    no_burns = (np.full((3, 1), np.nan), np.zeros((3, 1, 3)))
+    for rtol, expected in ((1e-300, STATUS_NON_FINITE), (1e-6, STATUS_OK)):
+        out, y_end, status, t_stop = integrate_chunk(y0, active, epoch_tdb_s, times, *no_burns, 0, rtol, rtol,
+                                                     1737.4, 100_000, model.kernel_args, model.field.degree)
+        assert np.all(status[active] == expected) and status[1] == STATUS_NOT_RUN and np.all(np.isnan(y_end[1]))
+    assert not check_batch(status, t_stop, out, times, epoch_tdb_s, active).any()
+    with pytest.raises(PropagationError, match=r"\[1\]"):
+        check_batch(status, t_stop, out, times, epoch_tdb_s)          # the inactive one counts when asked for
+
+
+def test_check_batch_reads_status_and_samples():
+    from lnss_lib.errors import PropagationError
+    from lnss_lib.propagator import STATUS_IMPACT, STATUS_MAX_STEPS, STATUS_OK, check_batch
+
+    times = np.arange(5.0)
+    states = np.ones((3, 5, 6))
+    states[1, 3:] = np.nan                                   # satellite 1 hits the Moon at t = 3
+    status, t_stop = np.array([STATUS_OK, STATUS_IMPACT, STATUS_OK]), np.array([4.0, 3.0, 4.0])
+    assert check_batch(status, t_stop, states, times, 0.0).tolist() == [False, True, False]
+    holed = states.copy()
+    holed[2, 2, 0] = np.nan                                  # "ok" with a hole: the loop did not write it
+    with pytest.raises(PropagationError, match="2: non-finite samples"):
+        check_batch(status, t_stop, holed, times, 0.0)
+    with pytest.raises(PropagationError, match="0: maximum number of steps"):
+        check_batch(np.array([STATUS_MAX_STEPS, STATUS_IMPACT, STATUS_OK]), t_stop, states, times, 0.0)
+
+
+def test_compiled_grid_kernels_that_write_nothing_are_caught(monkeypatch):
+    from lnss_lib import dop
+
+    monkeypatch.setattr(dop, "_grid_kernel", lambda *args: None)
+    grid = dop.surface_grid()
+    with pytest.raises(RuntimeError, match="DOP grid kernel left 144 of 144"):
+        dop.dop_arrays(np.full((4, 1, 3), 5000.0), grid.r_mf_km, grid.up)

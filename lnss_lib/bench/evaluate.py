@@ -74,7 +74,7 @@ def run(profile_name: str = "paper", n_designs: int = 12, repeats: int = 2, over
                     result = func(elements)
                 except ImpactError:
                     result = None
-                if result is None or not result.get("feasible", True) or "timing_s" not in result:
+                if result is None or not result.get("evaluated", True) or "timing_s" not in result:
                     best[name] = "infeasible"
                     continue
                 if best[name] is None or best[name] == "infeasible" or result["wall_s"] < best[name]["wall_s"]:

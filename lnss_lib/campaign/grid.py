@@ -12,6 +12,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from ..config import SEMI_MAJOR_AXIS, SEMI_MAJOR_AXIS_WHY, allowed_range_text, in_range
 from ..keys import DESIGN_KEYS, INTEGER_DESIGN_KEYS
 
 __all__ = ["DesignGrid"]
@@ -41,6 +42,9 @@ class DesignGrid:
             lo, hi, step = (float(spec[k]) for k in ("lower", "upper", "step"))
             if not all(map(math.isfinite, (lo, hi, step))) or step <= 0.0 or hi <= lo:
                 raise ValueError(f"campaign.variables.{name}: need finite lower < upper and step > 0; got {spec!r}")
+            if name == "sma_km" and not (in_range(lo, SEMI_MAJOR_AXIS) and in_range(hi, SEMI_MAJOR_AXIS)):
+                raise ValueError(f"campaign.variables.sma_km: bounds must be in {allowed_range_text(SEMI_MAJOR_AXIS)} "
+                                 f"({SEMI_MAJOR_AXIS_WHY}); got {spec!r}")
             if name in INTEGER_DESIGN_KEYS and (lo != round(lo) or hi != round(hi) or lo < 1):
                 raise ValueError(f"campaign.variables.{name}: integer bounds >= 1 required; got {spec!r}")
             rows.append((lo, hi, step))

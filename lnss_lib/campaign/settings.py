@@ -10,15 +10,14 @@ import copy
 import math
 from dataclasses import dataclass, field
 
-from ..config import deep_merge, profile_hash
-from ..keys import METRIC_KEYS, requested_extra_metrics
+from ..config import EVALUATORS, NOTEBOOK_MODES, deep_merge, profile_hash
+from ..keys import METRIC_KEYS, VERDICT_KEYS, requested_extra_metrics
+from .fitness import constraint_matrix
 from .grid import DesignGrid
 
-__all__ = ["CampaignSettings", "evaluation_profile", "evaluation_hash", "EVALUATORS", "CAMPAIGN_ONLY_KEYS",
+__all__ = ["CampaignSettings", "evaluation_profile", "evaluation_hash", "bounds_verdict", "EVALUATORS", "CAMPAIGN_ONLY_KEYS",
            "NOTEBOOK_MODES", "OFF"]
 
-EVALUATORS = ("walker", "synthetic")
-NOTEBOOK_MODES = ("run", "load")   # notebook 06 runs the campaign itself, or loads the latest CLI run
 OFF = "off"                        # a constraint or hypervolume entry set to "off" drops an inherited one
 CAMPAIGN_ONLY_KEYS = ("population", "generations", "crossover_prob", "crossover_eta", "mutation_eta",
                       "mutation_prob_var", "seed", "ftol", "ftol_period", "objectives", "constraints",
@@ -152,6 +151,19 @@ def evaluation_profile(profile: dict) -> dict:
     settings = CampaignSettings.from_profile(profile)
     base = {k: v for k, v in profile.items() if k != "campaign"}
     return deep_merge(base, settings.overrides)
+
+
+def bounds_verdict(profile: dict, result: dict) -> dict:
+    """:data:`~lnss_lib.keys.VERDICT_KEYS` of one evaluation under the profile's ``[campaign.constraints]`` (Table 3):
+    ``meets_bounds`` and ``violated_bounds``, each violated bound as text with the value and the bound. A metric
+    that is undefined (NaN or None: an impact, fewer than four satellites in view) violates its bound, as in the
+    campaign (:func:`~lnss_lib.campaign.fitness.constraint_matrix`)."""
+    constraints = CampaignSettings.from_profile(profile).constraints
+    value = {m: math.nan if result.get(m) is None else float(result[m]) for m in (METRIC_KEYS[0], *(c[0] for c in constraints))}
+    g = constraint_matrix({m: [v] for m, v in value.items()}, constraints, math.inf)[0]
+    violated = [f"{m} = {value[m]:.6g} {'>' if kind == 'max' else '<'} {kind} {limit:g}" if math.isfinite(value[m])
+                else f"{m} undefined ({kind} {limit:g})" for (m, kind, limit), gi in zip(constraints, g) if gi > 0.0]
+    return dict(zip(VERDICT_KEYS, (not violated, violated)))
 
 
 def evaluation_hash(profile: dict) -> str:

@@ -37,7 +37,7 @@ def synthetic_evaluation(profile: dict, sma_km: float, ecc: float, aop_deg: floa
     extras = requested_extra_metrics(profile)
     result = {"deltav_model": "synthetic", "timing_s": dict.fromkeys(TIMING_KEYS, 0.0)}
     if sma_km * (1.0 - ecc) < r_min:
-        result.update({k: math.nan for k in METRIC_KEYS + extras}, n_sat=n_sat, feasible=False, impact=True,
+        result.update({k: math.nan for k in METRIC_KEYS + extras}, n_sat=n_sat, evaluated=False, impact=True,
                       reason=f"impact: perilune {sma_km * (1.0 - ecc):.1f} km below {r_min:.1f} km")
     else:
         pole = 0.5 * (1.0 + math.sin(math.radians(aop_deg))) * math.sin(math.radians(inc_deg))
@@ -51,7 +51,7 @@ def synthetic_evaluation(profile: dict, sma_km: float, ecc: float, aop_deg: floa
                       dv_total_kms_per_year=dv_total, dv_opt_kms_per_year=0.75 * dv_total,
                       gps_visible_mean=gps_visible,
                       gps_pdop_mean=500.0 / gps_visible if gps_visible >= 1.0 else math.nan,
-                      feasible=True, impact=False, reason="")
+                      evaluated=True, impact=False, reason="")
         result.update(_synthetic_extras(sma_km, ecc, inc_deg, r_min, dv_total, extras))
     result["wall_s"] = time.perf_counter() - start
     return result
@@ -93,14 +93,14 @@ def evaluate_task(eval_profile: dict, design: dict, evaluator: str = "walker", s
         error = False
     except Exception as exc:  # recorded, counted and reported; one failed design must not stop a campaign
         result = {k: math.nan for k in CAMPAIGN_METRIC_KEYS}
-        result.update(n_sat=int(design["n_planes"]) * int(design["sats_per_plane"]), feasible=False,
+        result.update(n_sat=int(design["n_planes"]) * int(design["sats_per_plane"]), evaluated=False,
                       impact=False, reason=f"error: {type(exc).__name__}: {exc}", wall_s=0.0, deltav_model="")
         error = True
     metrics = {k: (int(result[k]) if k == "n_sat" else float(result[k])) for k in METRIC_KEYS}
     metrics.update({k: float(result[k]) for k in CAMPAIGN_METRIC_KEYS if k in result and k not in METRIC_KEYS})
     return {
         "metrics": metrics,
-        "ok": bool(result["feasible"]),
+        "ok": bool(result["evaluated"]),
         "impact": bool(result.get("impact", False)),
         "error": error,
         "reason": str(result.get("reason", "")),

@@ -50,9 +50,9 @@ def box_sensitivity(context: EvaluationContext, elements_deg, cases: dict) -> pd
     rows = {"nominal": evaluate_constellation(context, elements_deg)}
     for label, (offsets, sat) in cases.items():
         rows[label] = evaluate_constellation(context, perturbed_elements(elements_deg, offsets, sat))
-    bad = [k for k, r in rows.items() if not r["feasible"]]
+    bad = [k for k, r in rows.items() if not r["evaluated"]]
     if bad:
-        raise ValueError(f"case(s) {bad} are not feasible: {[rows[k]['reason'] for k in bad]}")
+        raise ValueError(f"case(s) {bad} could not be evaluated: {[rows[k]['reason'] for k in bad]}")
     table = pd.DataFrame({k: {m: r[m] for m in METRICS} for k, r in rows.items()}).T
     for m in METRICS:
         table[f"d_{m}"] = table[m] - table.loc["nominal", m]

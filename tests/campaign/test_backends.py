@@ -22,9 +22,9 @@ from .helpers import CLI, KILL_SETTINGS, SYNTHETIC, _cli, _journal_count
 def test_synthetic_evaluator_flags_impact():
     profile = load_profile("ci")
     hit = synthetic_evaluation(profile, 4000.0, 0.8, 90.0, 50.0, 2, 2)
-    assert hit["impact"] and not hit["feasible"] and math.isnan(hit["pdop_mean_3sigma"]) and hit["n_sat"] == 4
+    assert hit["impact"] and not hit["evaluated"] and math.isnan(hit["pdop_mean_3sigma"]) and hit["n_sat"] == 4
     ok = synthetic_evaluation(profile, 8000.0, 0.5, 90.0, 80.0, 4, 4)
-    assert ok["feasible"] and all(math.isfinite(ok[k]) for k in METRIC_KEYS)
+    assert ok["evaluated"] and all(math.isfinite(ok[k]) for k in METRIC_KEYS)
 
 
 def _start_worker(scheduler_address):

@@ -36,9 +36,8 @@ def test_bad_settings_raise_clear_errors():
              ({"population": 1}, "campaign.population"),
              ({"crossover_prob": 1.5}, "campaign.crossover_prob")]
     for change, message in cases:
-        bad = load_profile("ci", overrides={"campaign": change})
-        with pytest.raises(ValueError, match=message):
-            CampaignSettings.from_profile(bad)
+        with pytest.raises(ValueError, match=message):     # at load (config) or from the campaign settings
+            CampaignSettings.from_profile(load_profile("ci", overrides={"campaign": change}))
     del profile["campaign"]
     with pytest.raises(ValueError, match=r"no \[campaign\] section"):
         CampaignSettings.from_profile(profile)
