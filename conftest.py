@@ -2,7 +2,6 @@
 `pyproject.toml`) under the `ci` profile, before the tests, and records which ran and which failed;
 tests/test_notebooks.py checks what they wrote (its docstring says why nbval runs them, not papermill)."""
 
-import os
 import time
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -12,6 +11,7 @@ import pytest
 NOTEBOOK_PROFILE = "ci"
 ROOT = Path(__file__).resolve().parent
 _FAILED_CELLS: dict[Path, list[str]] = {}
+_STARTED = pytest.StashKey[float]()
 
 
 def _notebook_cell(item) -> bool:
@@ -28,6 +28,11 @@ def pytest_configure(config):
     if hasattr(config.option, "nbval_cell_timeout") and not any(
             arg.startswith("--nbval-cell-timeout") for arg in config.invocation_params.args):
         config.option.nbval_cell_timeout = float(load_profile(NOTEBOOK_PROFILE)["notebooks"]["timeout_s"])
+
+
+@pytest.hookimpl(tryfirst=True)
+def pytest_sessionstart(session):
+    session.config.stash[_STARTED] = time.time()
 
 
 def pytest_collection_modifyitems(items):
@@ -81,11 +86,3 @@ def notebook_runs(request) -> NotebookRuns:
             runs.runner[book] = "papermill"
             runs.failed[book] = [] if run["status"] == "ok" else [run.get("error", run["status"])]
     return runs
-
-
-_STARTED = pytest.StashKey[float]()
-
-
-@pytest.hookimpl(tryfirst=True)
-def pytest_sessionstart(session):
-    session.config.stash[_STARTED] = time.time()

@@ -17,9 +17,9 @@ import pytest
 
 from lnss_lib.config import OUTPUTS_DIR
 from lnss_lib.paper import TABLE_4
-from lnss_lib.pipeline import notebook_paths, write_index
+from lnss_lib.pipeline import notebook_paths, notebook_profile, write_index
 
-PROFILE = "ci"
+PROFILE = notebook_profile()   # ci: conftest.py sets it for the session
 
 
 @pytest.fixture(scope="module")
