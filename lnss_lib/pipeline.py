@@ -11,14 +11,19 @@ import time
 import uuid
 from pathlib import Path
 
-from .config import PROJECT_DIR, load_profile
+from .config import PROJECT_DIR, available_profiles, load_profile
+from .errors import ConfigError
 from .outputs import (CAPTION_SUFFIX, atomic_path, output_dir, profile_dir, read_caption, write_manifest,
                       write_text_atomic)
 
-__all__ = ["NOTEBOOKS_DIR", "notebook_paths", "reproduce", "write_index", "ipc_kernel_manager_class"]
+__all__ = ["NOTEBOOKS_DIR", "PROFILE_ENV", "notebook_paths", "notebook_profile", "kernel_environment", "reproduce",
+           "write_index", "ipc_kernel_manager_class"]
 
 NOTEBOOKS_DIR = PROJECT_DIR / "notebooks"
 KERNEL_LOG = "kernels.log"            # in outputs/<profile>/notebooks/: the kernel processes' own stderr
+PROFILE_ENV = "LNSS_PROFILE"
+"""Environment variable naming the profile of a notebook run without papermill parameters (nbval, jupyter lab)."""
+DEFAULT_PROFILE = "quick"
 INDEX_TABLE_MAX_ROWS = 200            # rows of a table shown inline in the index; the CSV has them all
 
 
@@ -35,6 +40,25 @@ def notebook_paths(only: list[str] | None = None) -> list[Path]:
             raise ValueError(f"no notebook matches {key!r}; available: {', '.join(b.stem for b in books)}")
         chosen.extend(m for m in matches if m not in chosen)
     return sorted(chosen)
+
+
+def notebook_profile() -> str:
+    """The profile a notebook's parameters cell defaults to: ``$LNSS_PROFILE`` (the test suite sets ``ci`` for
+    nbval), else ``quick``; :func:`reproduce` passes its own as a papermill parameter. Raises
+    :class:`ConfigError` for a name that is not a profile in ``params/``."""
+    name = os.environ.get(PROFILE_ENV, DEFAULT_PROFILE)
+    if name not in available_profiles():
+        raise ConfigError(f"{PROFILE_ENV} = {name!r} is not a profile; available: {', '.join(available_profiles())}",
+                          key=PROFILE_ENV)
+    return name
+
+
+def kernel_environment(profile_name: str) -> None:
+    """Notebook kernels started from this process (papermill, nbval, voila) import this checkout's lnss_lib and
+    default to ``profile_name`` (:func:`notebook_profile`)."""
+    paths = [p for p in os.environ.get("PYTHONPATH", "").split(os.pathsep) if p]
+    os.environ["PYTHONPATH"] = os.pathsep.join([str(PROJECT_DIR), *(p for p in paths if p != str(PROJECT_DIR))])
+    os.environ[PROFILE_ENV] = profile_name
 
 
 def ipc_kernel_manager_class(log_path: Path | None = None):
@@ -65,7 +89,7 @@ def ipc_kernel_manager_class(log_path: Path | None = None):
     return IpcKernelManager
 
 
-def reproduce(profile_name: str = "quick", only: list[str] | None = None, overrides: dict | None = None) -> int:
+def reproduce(profile_name: str = DEFAULT_PROFILE, only: list[str] | None = None, overrides: dict | None = None) -> int:
     """Execute the notebooks in order under a profile; stop at the first failure. Returns an exit code.
 
     ``overrides`` (a nested dict, e.g. from ``--set``) is checked here, before any notebook runs, and
@@ -81,8 +105,7 @@ def reproduce(profile_name: str = "quick", only: list[str] | None = None, overri
     timeout_s = int(load_profile(profile_name, overrides=overrides)["notebooks"]["timeout_s"])
     parameters = {"profile_name": profile_name, "overrides_json": json.dumps(overrides or {})}
     books = notebook_paths(only)
-    paths = [p for p in os.environ.get("PYTHONPATH", "").split(os.pathsep) if p]
-    os.environ["PYTHONPATH"] = os.pathsep.join([str(PROJECT_DIR), *paths])  # kernels import this lnss_lib
+    kernel_environment(profile_name)
     if not books:
         raise ValueError(f"no notebooks found in {NOTEBOOKS_DIR}")
     target = output_dir(profile_name, "notebooks")

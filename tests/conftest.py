@@ -44,13 +44,3 @@ def two_body_profile():
 def rng():
     return np.random.default_rng(20250501)
 
-
-def pytest_configure(config):
-    """Notebook kernels started by the tests (papermill) import lnss_lib from this checkout."""
-    import os
-    from pathlib import Path
-
-    root = str(Path(__file__).resolve().parents[1])
-    paths = [p for p in os.environ.get("PYTHONPATH", "").split(os.pathsep) if p]
-    if root not in paths:
-        os.environ["PYTHONPATH"] = os.pathsep.join([root, *paths])

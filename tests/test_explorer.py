@@ -2,12 +2,14 @@
 
 import asyncio
 import contextlib
+import importlib.util
 import json
 import math
 import os
 import shutil
 import socket
 import subprocess
+import sys
 import tempfile
 import time
 import tomllib
@@ -295,7 +297,7 @@ async def _browse(url: str, chromium: str, screenshot: Path, timeout_s: float = 
                 browser.kill()
 
 
-@pytest.mark.skipif(_chromium() is None or shutil.which("voila") is None, reason="needs voila and Chromium")
+@pytest.mark.skipif(_chromium() is None or importlib.util.find_spec("voila") is None, reason="needs voila and Chromium")
 def test_voila_page_shows_the_metrics(tmp_path):
     pytest.importorskip("websockets")
     port = _free_port()
@@ -303,9 +305,9 @@ def test_voila_page_shows_the_metrics(tmp_path):
            "LNSS_PNG": "off"}
     log_path = tmp_path / "voila.log"
     with log_path.open("w") as log:
-        server = subprocess.Popen([shutil.which("voila"), "--no-browser", f"--port={port}", "--Voila.ip=127.0.0.1",
-                                   "--Voila.port_retries=0", str(NOTEBOOK)], cwd=ROOT, env=env, stdout=log,
-                                  stderr=subprocess.STDOUT)
+        server = subprocess.Popen([sys.executable, "-m", "voila", "--no-browser", f"--port={port}",
+                                   "--Voila.ip=127.0.0.1", "--Voila.port_retries=0", str(NOTEBOOK)], cwd=ROOT, env=env,
+                                  stdout=log, stderr=subprocess.STDOUT)
         try:
             _wait_for_port(port, server, 60)
             before, after = asyncio.run(asyncio.wait_for(

@@ -75,10 +75,12 @@ def test_reproduce_prints_only_progress_and_summary(outputs, tmp_path, monkeypat
     nb = nbformat.v4.new_notebook(metadata={"kernelspec": {"name": "python3", "language": "python",
                                                            "display_name": "Python 3"}})
     nb.cells = [nbformat.v4.new_code_cell("profile_name = 'quick'", metadata={"tags": ["parameters"]}),
-                nbformat.v4.new_code_cell("assert profile_name == 'ci'; print('ran')")]
+                nbformat.v4.new_code_cell("import os\nassert profile_name == os.environ['LNSS_PROFILE'] == 'ci'\n"
+                                          "print('ran')")]
     nbformat.write(nb, books / "01_tiny.ipynb")
     monkeypatch.setattr(pipeline, "NOTEBOOKS_DIR", books)
     monkeypatch.setenv("PYTHONPATH", "")
+    monkeypatch.setenv(pipeline.PROFILE_ENV, "quick")     # reproduce's profile wins, and reaches the kernel
     assert pipeline.reproduce("ci") == 0
     err = capfd.readouterr().err
     assert "without encryption" not in err and "WARNING" not in err
@@ -159,3 +161,20 @@ def test_png_decoder_counts_dark_pixels():
     white, black = (255, 255, 255), (0, 0, 0)
     assert _non_white_pixels(png([[white, black], [black, black]])) == 3
     assert _non_white_pixels(png([[white, white]])) == 0
+
+
+def test_notebooks_take_their_profile_from_one_place(monkeypatch):
+    """Every notebook's papermill parameters cell defaults to notebook_profile(): $LNSS_PROFILE, else quick."""
+    import papermill
+
+    from lnss_lib.errors import ConfigError
+
+    for book in pipeline.notebook_paths():
+        assert papermill.inspect_notebook(str(book))["profile_name"]["default"] == "notebook_profile()", book.name
+    monkeypatch.delenv(pipeline.PROFILE_ENV, raising=False)
+    assert pipeline.notebook_profile() == "quick"
+    monkeypatch.setenv(pipeline.PROFILE_ENV, "ci")
+    assert pipeline.notebook_profile() == "ci"
+    monkeypatch.setenv(pipeline.PROFILE_ENV, "nosuch")
+    with pytest.raises(ConfigError, match="LNSS_PROFILE = 'nosuch' is not a profile; available: .*ci.*quick"):
+        pipeline.notebook_profile()

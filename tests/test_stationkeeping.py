@@ -160,31 +160,46 @@ def test_settings_are_checked(life_profile):
 
 
 def test_sampled_positions_agree_with_a_plain_propagation(life_profile, life_model):
-    """Natural drift sampled every 6 h over 10 days against plain propagations: the chunked run restarts
-    the step sequence at every check, so it differs from one propagation with the same setting by the
-    integrator's error only. That error is measured against DOP853 rtol 1e-12 / atol 1e-14 (0.02-0.1 km
-    at day 10 on the ELFO, largest along-track near perilune): the sampled positions must be no further
-    from the reference than 2 x the plain run's own error plus 1 m."""
+    """Natural drift sampled every 6 h over 10 days against plain propagations. The chunked run restarts the
+    step sequence at every check, so its integration error is not the plain run's error plus a small restart
+    term but another realisation of the error of a run at that tolerance, and on the ELFO that error varies
+    by an order of magnitude with the step sequence (a rounding difference between CPUs is enough to change
+    it). The bound is the envelope of that error: the largest error, against DOP853 rtol 1e-12 / atol 1e-14,
+    of plain runs with rtol and atol scaled by 2^(k/4), k = -4..4 (nine step sequences, the looser ones
+    carrying up to 2^(7/8) times the error), doubled for a realisation beyond the nine. The envelope must be
+    small enough to matter (twice it below the distance covered at apolune in 5 s, so a sample misplaced in
+    time, or a state of another satellite or chunk, fails) and the reference ten times better than it
+    (against rtol 1e-13 / atol 1e-15)."""
     from lnss_lib.constellation import planes_elements_deg
+    from lnss_lib.elements import elements_to_state
 
-    el = planes_elements_deg(6143.0, 0.6, 51.7, 90.0, [0.0, 180.0], 1)
+    a_km, ecc = 6143.0, 0.6
+    el = planes_elements_deg(a_km, ecc, 51.7, 90.0, [0.0, 180.0], 1)
     step_s, life = 6 * 3600.0, 10.0
     ds = simulate_life(life_profile, el, natural=True, life_days=life, model=life_model, sample_step_s=step_s)
     t0 = ds.attrs["t0_tdb_s"]
     assert ds.r_mci_km.dims == ("sat", "sample", "xyz") and ds.sizes["sample"] == int(life * 4) + 1
     np.testing.assert_allclose(ds.sample_t_tdb_s.values, t0 + step_s * np.arange(ds.sizes["sample"]), rtol=0, atol=1e-6)
+    base = life_profile["integrator"]["settings"]["design_life"]
+    ensemble = {f"_x{k}": {**base, "rtol": base["rtol"] * 2 ** (k / 4), "atol": base["atol"] * 2 ** (k / 4)}
+                for k in range(-4, 5)}
+    references = {"_tight": {"method": "DOP853", "rtol": 1e-12, "atol": 1e-14},
+                  "_tighter": {"method": "DOP853", "rtol": 1e-13, "atol": 1e-15}}
     prof = {**life_profile, "integrator": {**life_profile["integrator"], "settings": {
-        **life_profile["integrator"]["settings"], "_tight": {"method": "DOP853", "rtol": 1e-12, "atol": 1e-14}}}}
+        **life_profile["integrator"]["settings"], **ensemble, **references}}}
     states = elements_deg_to_states(life_profile, ds.insertion_elements_deg.values, t0)   # after the initial trim
-    plain, tight = (propagate_states(prof, states, t0, life * SECONDS_PER_DAY, step_s, batch=True, model=life_model,
-                                     setting=name).r_mci_km.transpose("sat", "time", "xyz").values
-                    for name in ("design_life", "_tight"))
-    assert plain.shape == ds.r_mci_km.shape
+    r = {name: propagate_states(prof, states, t0, life * SECONDS_PER_DAY, step_s, batch=True, model=life_model,
+                                setting=name).r_mci_km.transpose("sat", "time", "xyz").values
+         for name in (*ensemble, *references)}
+    tight = r["_tight"]
+    assert r["_x0"].shape == ds.r_mci_km.shape
+    envelope_km = max(np.linalg.norm(r[name] - tight, axis=-1).max() for name in ensemble)
     err_sampled = np.linalg.norm(ds.r_mci_km.values - tight, axis=-1)
-    err_plain = np.linalg.norm(plain - tight, axis=-1)
-    assert np.all(np.isfinite(err_sampled)) and err_sampled.max() <= 2.0 * err_plain.max() + 1e-3, \
-        (err_sampled.max(), err_plain.max())
-    assert err_plain.max() < 0.5
+    assert np.all(np.isfinite(err_sampled)) and err_sampled.max() <= 2.0 * envelope_km, (err_sampled.max(), envelope_km)
+    gm = life_profile["gravity"]["gm_km3_s2"]
+    v_apolune_kms = np.linalg.norm(elements_to_state(np.array([a_km, ecc, 0.0, 0.0, 0.0, np.pi]), gm)[3:])
+    assert 2.0 * envelope_km < 5.0 * v_apolune_kms, (envelope_km, v_apolune_kms)
+    assert np.linalg.norm(tight - r["_tighter"], axis=-1).max() < 0.1 * envelope_km
     with pytest.raises(ValueError, match="sample_step_s"):
         simulate_life(life_profile, el, natural=True, life_days=life, model=life_model, sample_step_s=-1.0)
 

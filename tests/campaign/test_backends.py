@@ -6,6 +6,7 @@ import math
 import os
 import signal
 import subprocess
+import sys
 import time
 
 import numpy as np
@@ -27,8 +28,12 @@ def test_synthetic_evaluator_flags_impact():
     assert ok["evaluated"] and all(math.isfinite(ok[k]) for k in METRIC_KEYS)
 
 
+DASK = [sys.executable, "-m", "dask"]
+"""The ``dask`` command of this interpreter (not whatever ``dask`` is first on PATH)."""
+
+
 def _start_worker(scheduler_address):
-    return subprocess.Popen(["dask", "worker", scheduler_address, "--nthreads", "1", "--no-nanny", "--no-dashboard",
+    return subprocess.Popen([*DASK, "worker", scheduler_address, "--nthreads", "1", "--no-nanny", "--no-dashboard",
                              "--host", "127.0.0.1"], cwd=PROJECT_DIR, stdout=subprocess.DEVNULL,
                             stderr=subprocess.DEVNULL, env={**os.environ, "NUMBA_NUM_THREADS": "1"})
 
@@ -44,7 +49,7 @@ def _wait_for_workers(address, n):
 def cluster(tmp_path_factory):
     """``dask scheduler`` and two ``dask worker`` processes bound to 127.0.0.1."""
     scheduler_file = tmp_path_factory.mktemp("dask") / "scheduler.json"
-    procs = [subprocess.Popen(["dask", "scheduler", "--host", "127.0.0.1", "--port", "0", "--no-dashboard",
+    procs = [subprocess.Popen([*DASK, "scheduler", "--host", "127.0.0.1", "--port", "0", "--no-dashboard",
                                "--scheduler-file", str(scheduler_file)], cwd=PROJECT_DIR,
                               stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL,
                               env={**os.environ, "DASK_DISTRIBUTED__SCHEDULER__ALLOWED_FAILURES": "0"})]
