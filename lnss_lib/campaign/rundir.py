@@ -151,19 +151,22 @@ def load_checkpoint(run_dir) -> dict | None:
             header = json.loads(data[len(CHECKPOINT_MAGIC):header_end])
             expected = str(header["sha256"])
         except (ValueError, TypeError, KeyError):
-            raise CheckpointError(path, "its header is damaged") from None
+            raise CheckpointError(path, "is truncated or corrupt (its header line does not read)") from None
         data = data[header_end:] if header_end else b""
         actual = hashlib.sha256(data).hexdigest()
         if actual != expected:
-            raise CheckpointError(path, f"is damaged: the SHA-256 of its {len(data)} bytes is {actual[:12]}..., "
-                                        f"its header says {expected[:12]}...")
+            raise CheckpointError(path, f"is truncated or corrupt (the SHA-256 of its {len(data)} bytes is "
+                                        f"{actual[:12]}..., its header says {expected[:12]}...)")
     try:
-        return _CheckpointUnpickler(io.BytesIO(data), path).load()
+        checkpoint = _CheckpointUnpickler(io.BytesIO(data), path).load()
     except CheckpointError:
         raise
     except (EOFError, pickle.UnpicklingError, AttributeError, ImportError, IndexError, TypeError, ValueError,
             KeyError) as error:
         raise CheckpointError(path, f"is truncated or corrupt ({type(error).__name__}: {error})") from None
+    if not isinstance(checkpoint, dict) or not {"generation", "algorithm", "history"} <= set(checkpoint):
+        raise CheckpointError(path, "is truncated or corrupt (not a campaign checkpoint)")
+    return checkpoint
 
 
 def write_checkpoint(run_dir, generation: int, algorithm, history: list[dict], finished: bool,
