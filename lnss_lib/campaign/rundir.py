@@ -109,6 +109,7 @@ CHECKPOINT_GLOBALS = {
     "pymoo.util.display.output": ("NumberOfEvaluations", "NumberOfGenerations"),
     "pymoo.util.display.single": ("AverageConstraintViolation", "MinimumConstraintViolation"),
     "pymoo.util.nds.non_dominated_sorting": ("NonDominatedSorting",),
+    "pymoo.util.sliding_window": ("SlidingWindow",),
 }
 
 
@@ -274,16 +275,12 @@ def export_results(run_dir) -> tuple[xr.Dataset, xr.Dataset, xr.Dataset]:
     return evaluations, front, hist
 
 
-def write_results(run_dir, publish_dir=None) -> list[Path]:
-    """Write evaluations.nc, front.nc and history.nc (h5netcdf, atomically) into the run directory and,
-    if given, ``publish_dir``; returns the paths written."""
-    datasets = export_results(run_dir)
+def write_results(run_dir) -> list[Path]:
+    """Write evaluations.nc, front.nc and history.nc (h5netcdf, atomically) into the run directory; returns
+    the paths written (publication as the profile's campaign: :mod:`lnss_lib.campaign.publication`)."""
     written = []
-    for folder in [Path(run_dir)] + ([Path(publish_dir)] if publish_dir else []):
-        for name, ds in zip(RESULT_FILES, datasets):
-            target = folder / name
-            write_netcdf_atomic(ds, target)
-            written.append(target)
+    for name, ds in zip(RESULT_FILES, export_results(run_dir)):
+        written.append(write_netcdf_atomic(ds, Path(run_dir) / name))
     return written
 
 

@@ -5,7 +5,9 @@ evaluate it through the journal and a backend, tell the algorithm, and notify th
 (:mod:`lnss_lib.campaign.callbacks`: error guard, history, checkpoint, progress bars) that do the
 rest. A run killed at any moment and resumed ends with the same population as an uninterrupted
 one: designs of an interrupted generation come back from the journal, the checkpoint holds the
-algorithm and its random generator.
+algorithm and its random generator; designs the checkpoint needs whose journal lines were lost are
+evaluated again. A session that ends in ``outputs/<profile>/campaign/`` publishes the run when its
+settings are the profile's (:mod:`lnss_lib.campaign.publication`).
 """
 
 from __future__ import annotations
