@@ -94,6 +94,17 @@ def latest_run_dir(campaign_dir, profile_name: str, profile: dict | None = None)
     return run, reasons[run]
 
 
+def companion_of(profile_name: str) -> str:
+    """The profile's ``campaign.companion_profile`` ("" when none), checked to load and to name no companion itself."""
+    from ..config import load_profile
+
+    companion = CampaignSettings.from_profile(load_profile(profile_name)).companion_profile
+    if companion and CampaignSettings.from_profile(load_profile(companion)).companion_profile:
+        raise ValueError(f"profile {profile_name!r}: its companion {companion!r} names a companion itself; "
+                         "companions are one level deep")
+    return companion
+
+
 @dataclass(frozen=True)
 class CampaignRun:
     """The campaign a notebook shows: the run, its own profile (``run.json``), why it is shown (``note``),

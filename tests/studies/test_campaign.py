@@ -233,3 +233,25 @@ def test_campaign_figures_carry_the_data():
     assert len(designs_pdop_deltav(ev, front.isel(design=slice(0, 0)), 1.0, 10.0, "no front").data) == 1
     with pytest.raises(ValueError, match="positive"):
         designs_pdop_deltav(ev, front, 0.0, 10.0, "bad")
+
+
+def test_readers_follow_the_publication(tiny_profiles):
+    """Notebooks 07, 08, 10 and the index read the published run (the pointer), not files in the campaign folder."""
+    from lnss_lib import pipeline
+    from lnss_lib.campaign.publication import load_published
+    from lnss_lib.studies.design_life import campaign_designs
+    from lnss_lib.studies.pareto import load_campaign
+
+    folder = tiny_profiles / "tiny" / "campaign"
+    run_campaign("tiny", workers=0, run_dir=folder / "run_1", progress=False)
+    run_campaign("tiny", overrides={"campaign": {"seed": 7}}, workers=0, run_dir=folder / "run_2", progress=False)
+    published = load_published(folder)
+    assert published.pointer["run_dir"] == "run_1" and int(published.evaluations.attrs["seed"]) != 7
+    evaluations, front = load_campaign("tiny")
+    xr.testing.assert_identical(evaluations, published.evaluations)
+    xr.testing.assert_identical(front, published.front)
+    designs, note = campaign_designs(folder, 2)
+    assert len(designs) == 2 and f"published in {folder}" in note
+    assert campaign_designs(tiny_profiles / "nothing", 2)[0] == []
+    page = pipeline.write_index("tiny").read_text()
+    assert f"{published.folder.name}/front.nc" in page and "run_2" not in page
