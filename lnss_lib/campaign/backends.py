@@ -11,6 +11,7 @@ import os
 import signal
 import threading
 import time
+import warnings
 
 import numpy as np
 
@@ -71,7 +72,9 @@ class DaskBackend:
         if scheduler_address:
             self.client = Client(scheduler_address, timeout=60)
         else:
-            with _workers_ignore_sigint():
+            with _workers_ignore_sigint(), warnings.catch_warnings():
+                # the scheduler's HTTP port (no dashboard here) moves aside when another cluster holds 8787
+                warnings.filterwarnings("ignore", message="Port .* is already in use", category=UserWarning)
                 self.cluster = LocalCluster(n_workers=n_workers, threads_per_worker=1, processes=True,
                                             host="127.0.0.1", dashboard_address=None,
                                             silence_logs=logging.CRITICAL)   # task errors come back through the futures

@@ -177,7 +177,7 @@ def test_load_or_run_shows_the_profiles_run_or_says_why_not(tiny_profiles, capsy
     (folder / "run_4").mkdir()               # no checkpoint: not a run to load
     assert latest_run_dir(folder, "tiny") == (own.run_dir, [])
     shown = load_or_run("tiny")
-    assert shown.run_dir == own.run_dir and "profile 'tiny''s campaign, published" in shown.note
+    assert shown.run_dir == own.run_dir and "the campaign of profile 'tiny', published" in shown.note
     published = load_published(folder)
     assert published.pointer["run_dir"] == "run_1" and published.pointer["evaluator"] == "synthetic"
     for got, want, pub in zip((shown.evaluations, shown.front, shown.history), export_results(own.run_dir),
