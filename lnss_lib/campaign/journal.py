@@ -2,23 +2,46 @@
 
 One JSON line per design evaluated, appended (and flushed) as each design finishes; the header line
 holds the evaluation hash (:func:`~lnss_lib.campaign.settings.evaluation_hash`) and the format
-version, so a design is never evaluated twice in a run, even across kills. One parser
-(:func:`parse_journal`) serves the cache and :func:`read_cache_records`: each design counts once (its
-first record; an error record gives way to a later record of the design), and a line that is not a
-whole record (torn, damaged, from any generation) is skipped, so its design is evaluated again.
+version, so a design is never evaluated twice in a run, even across kills. Each record line ends with
+the CRC-32 of the rest (format 2). One parser (:func:`parse_journal`) serves the cache and
+:func:`read_cache_records`: each design counts once (its first record; an error record gives way to a
+later record of the design), and a line that is not a whole record or fails its CRC (torn, damaged,
+from any generation) is skipped, so its design is evaluated again.
 """
 
 from __future__ import annotations
 
 import json
+import zlib
 from pathlib import Path
 
 from ..atomicio import write_bytes_atomic
 
-__all__ = ["EvaluationCache", "read_cache_records", "parse_journal", "JOURNAL_FILE", "FORMAT_VERSION"]
+__all__ = ["EvaluationCache", "read_cache_records", "parse_journal", "encode_record", "JOURNAL_FILE", "FORMAT_VERSION"]
 
 JOURNAL_FILE = "evaluations.jsonl"
-FORMAT_VERSION = 1
+FORMAT_VERSION = 2                     # 1: records without the CRC
+CRC_FIELD = "crc32"
+
+
+def _crc(text: str) -> str:
+    return f"{zlib.crc32(text.encode()):08x}"
+
+
+def encode_record(record: dict) -> str:
+    """One journal line (without its newline): the record's JSON with the CRC-32 of that JSON as last field."""
+    body = json.dumps(record)
+    return f'{body[:-1]}, "{CRC_FIELD}": "{_crc(body)}"}}'
+
+
+def _decode_record(item, crc_required: bool) -> dict | None:
+    """The record of a parsed line when its CRC (if any; required from format 2) matches, else None."""
+    if not isinstance(item, dict):
+        return None
+    crc = item.pop(CRC_FIELD, None)
+    if crc is None and crc_required or crc is not None and crc != _crc(json.dumps(item)):
+        return None
+    return item if _is_record(item) else None
 
 
 def _is_record(item) -> bool:
@@ -33,8 +56,8 @@ def parse_journal(data: bytes) -> tuple[dict, list[dict], int]:
     journal's bytes.
 
     Only complete records count: a last line without its newline (cut short by a kill) is left out,
-    and so is any line that is not a whole record (torn by a full disk, damaged later); the designs
-    they held are evaluated again on resume. A design recorded twice (two writers) counts once: its
+    and so is any line that is not a whole record or whose CRC does not match (torn by a full disk,
+    damaged later; a journal of format 1 has no CRC); the designs they held are evaluated again on resume. A design recorded twice (two writers) counts once: its
     first record, unless that one is an error record and a later one exists (a retry after the cause
     of the error was removed).
     """
@@ -47,11 +70,11 @@ def parse_journal(data: bytes) -> tuple[dict, list[dict], int]:
         except json.JSONDecodeError:
             continue
         if number == 0:
-            header = item if isinstance(item, dict) else {}
-        elif _is_record(item):
-            key = tuple(item["key"])
+            header = item if isinstance(item, dict) and "evaluation_hash" in item else {}
+        elif (record := _decode_record(item, header.get("format", FORMAT_VERSION) >= 2)) is not None:
+            key = tuple(record["key"])
             if key not in by_key or by_key[key].get("error"):
-                by_key[key] = item
+                by_key[key] = record
     return header, list(by_key.values()), end
 
 
@@ -107,7 +130,7 @@ class EvaluationCache:
         record = {"key": list(key), **record}
         self.records[key] = record
         self.n_errors += bool(record.get("error"))
-        self._handle.write(json.dumps(record) + "\n")
+        self._handle.write(encode_record(record) + "\n")
         self._handle.flush()
 
     def first_error(self) -> dict | None:

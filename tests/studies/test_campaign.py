@@ -7,6 +7,7 @@ import pytest
 import xarray as xr
 
 from lnss_lib.campaign import CampaignSettings, run_campaign
+from lnss_lib.campaign.journal import encode_record
 from lnss_lib.config import load_profile
 from lnss_lib.keys import DESIGN_KEYS
 
@@ -115,7 +116,8 @@ def test_throughput_table_from_hand_made_history(tmp_path):
     records = [{"key": [i, 0, 0, 0, 0, 0], "generation": 1, "worker": w, "task_wall_s": 1.0,
                 "timing_s": {"propagation": 0.5, "dop": 0.1, "deltav": 0.1, "gps": 0.05}}
                for i, w in enumerate(("a", "b", "a", "b", "b"))]
-    (tmp_path / "evaluations.jsonl").write_text("\n".join(json.dumps(r) for r in [{"header": 1}] + records) + "\n")
+    (tmp_path / "evaluations.jsonl").write_text("\n".join([json.dumps({"evaluation_hash": "h", "format": 2})]
+                                                          + [encode_record(r) for r in records]) + "\n")
     t = run_throughput_table(tmp_path, history, xr.Dataset({"feasible": ("design", [True, False])}), records)["value"]
     assert t["worker processes"] == 2 and t["unique designs evaluated"] == 5 and t["unique feasible designs"] == 1
     assert t["propagation (% of worker time)"] == pytest.approx(100 * 2.5 / 8.0)
