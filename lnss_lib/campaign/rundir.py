@@ -36,7 +36,7 @@ from .settings import CampaignSettings, evaluation_hash
 __all__ = ["load_run", "load_checkpoint", "final_population", "export_results", "write_results",
            "write_checkpoint", "start_run", "default_run_dir", "atomic_write_bytes", "check_resumable", "RunLock",
            "CheckpointError", "LOCK_FILE", "RUN_FILE", "CHECKPOINT_FILE", "RESULT_FILES", "CHECKPOINT_FORMAT",
-           "CHECKPOINT_GLOBALS"]
+           "CHECKPOINT_GLOBALS", "CHECKPOINT_MAGIC"]
 
 RUN_FILE, CHECKPOINT_FILE, LOCK_FILE = "run.json", "checkpoint.pkl", "run.lock"
 RESULT_FILES = ("evaluations.nc", "front.nc", "history.nc")
@@ -162,8 +162,7 @@ def load_checkpoint(run_dir) -> dict | None:
         checkpoint = _CheckpointUnpickler(io.BytesIO(data), path).load()
     except CheckpointError:
         raise
-    except (EOFError, pickle.UnpicklingError, AttributeError, ImportError, IndexError, TypeError, ValueError,
-            KeyError) as error:
+    except Exception as error:     # whatever a damaged pickle raises (EOFError, UnpicklingError, OverflowError, ...)
         raise CheckpointError(path, f"is truncated or corrupt ({type(error).__name__}: {error})") from None
     if not isinstance(checkpoint, dict) or not {"generation", "algorithm", "history"} <= set(checkpoint):
         raise CheckpointError(path, "is truncated or corrupt (not a campaign checkpoint)")

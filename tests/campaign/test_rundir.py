@@ -183,8 +183,8 @@ def _checkpoint_of_a_run(tmp_path):
 
 
 def test_damaged_checkpoint_never_loads(tmp_path):
-    """Issue 21 item 8: 300 random one-byte corruptions of a checkpoint are all refused with CheckpointError
-    (before: 50 of 300 loaded silently)."""
+    """Issue 21 item 8: 300 random one-byte corruptions and 30 truncations of a checkpoint are all refused
+    with CheckpointError (before: 93 of these 300 corruptions loaded silently)."""
     from lnss_lib.campaign.rundir import CheckpointError, load_checkpoint
 
     run_dir, path = _checkpoint_of_a_run(tmp_path)
@@ -196,6 +196,10 @@ def test_damaged_checkpoint_never_loads(tmp_path):
         damaged[position] ^= int(flip)
         path.write_bytes(bytes(damaged))
         with pytest.raises(CheckpointError, match="delete it and resume"):
+            load_checkpoint(run_dir)
+    for length in rng.integers(0, len(good), 30):         # cut short
+        path.write_bytes(good[:length])
+        with pytest.raises(CheckpointError, match="truncated or corrupt"):
             load_checkpoint(run_dir)
 
 
