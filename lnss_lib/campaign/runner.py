@@ -218,5 +218,5 @@ def _publish(run_dir: Path, profile: dict) -> str:
     except (ConfigError, ValueError) as error:
         reasons = [f"profile {name!r} does not load ({error})"]
     if reasons:
-        return f"not published as profile {name!r}'s campaign: {'; '.join(reasons)}"
-    return f"published as profile {name!r}'s campaign: {publish_run(run_dir, campaign_dir)}"
+        return f"not published as the campaign of profile {name!r}: {'; '.join(reasons)}"
+    return f"published as the campaign of profile {name!r}: {publish_run(run_dir, campaign_dir)}"

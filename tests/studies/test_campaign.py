@@ -169,7 +169,7 @@ def test_load_or_run_shows_the_profiles_run_or_says_why_not(tiny_profiles, capsy
     with pytest.raises(FileNotFoundError, match="--profile tiny"):
         load_or_run("tiny")
     own = run_campaign("tiny", workers=0, run_dir=folder / "run_1", progress=False)
-    assert own.publication.startswith("published as profile 'tiny'")
+    assert own.publication.startswith("published as the campaign of profile 'tiny'")
     longer = run_campaign("tiny", overrides={"campaign": {"generations": 3}}, workers=0, run_dir=folder / "run_2",
                           progress=False)
     assert longer.publication.startswith("not published") and "campaign.generations = 3 (profile: 2)" in longer.publication
