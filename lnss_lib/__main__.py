@@ -185,6 +185,8 @@ def _cmd_campaign(args: argparse.Namespace) -> int:
           + (f"; {result.resubmitted} design(s) resubmitted after lost workers" if result.resubmitted else ""))
     for path in result.files:
         print(f"wrote {path}")
+    if result.publication:
+        print(result.publication)
     return 0
 
 

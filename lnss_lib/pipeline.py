@@ -207,9 +207,11 @@ def write_index(profile_name: str) -> Path:
 
     Grouped by notebook (the ``NN_`` prefix of each name): every figure as its PNG thumbnail with its
     caption, linking to the interactive HTML; every table rendered inline with its caption and links to
-    the CSV and Markdown; then the executed notebooks, campaign files and the manifest. Captions come
-    from the sidecars :func:`lnss_lib.figures.save_figure` and :func:`lnss_lib.outputs.save_table` write.
+    the CSV and Markdown; then the executed notebooks, the published campaign's files and the manifest.
+    Captions come from the sidecars :func:`lnss_lib.figures.save_figure` and :func:`lnss_lib.outputs.save_table` write.
     """
+    from .campaign.publication import published_folder
+
     root = profile_dir(profile_name)
     root.mkdir(parents=True, exist_ok=True)
     figures_dir, tables_dir, notebooks_dir = root / "figures", root / "tables", root / "notebooks"
@@ -257,7 +259,8 @@ def write_index(profile_name: str) -> Path:
         if tabs:
             parts.append("<h3>Tables</h3>" + "".join(tabs))
         sections.append("".join(parts))
-    campaign = sorted((root / "campaign").glob("*.nc")) if (root / "campaign").is_dir() else []
+    published = published_folder(root / "campaign") if (root / "campaign").is_dir() else None
+    campaign = sorted(published.glob("*.nc")) if published else []
     extras = [link(p, p.name) for p in campaign]
     if (root / "manifest.json").is_file():
         extras.append(link(root / "manifest.json", "manifest.json (parameters, versions, checksums, timings)"))

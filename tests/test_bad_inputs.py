@@ -233,6 +233,59 @@ def test_crashing_evaluator_stops_the_campaign(capsys, tmp_path, monkeypatch):
     assert code == 0 and " evaluation errors)" in out and "(0 evaluation errors)" not in out.replace(", 0 eval", "")
 
 
+def test_stopped_campaign_resumes_once_the_cause_is_gone(capsys, tmp_path, monkeypatch):
+    """Issue 21 item 7: a run stopped by an evaluation error evaluates that design again when resumed, and
+    ends as the uninterrupted run once the cause is removed."""
+    from lnss_lib.campaign import final_population, tasks
+
+    real = tasks.synthetic_evaluation
+    reference = _synthetic_run(tmp_path, "reference")
+    with monkeypatch.context() as patch:
+        patch.setattr(tasks, "synthetic_evaluation", lambda profile, sma_km, *args, **kwargs: (
+            (_ for _ in ()).throw(FloatingPointError("gain table holds NaN")) if sma_km > 12000.0
+            else real(profile, sma_km, *args, **kwargs)))
+        run_dir = tmp_path / "stopped"
+        code = main(SYNTHETIC + ["--run-dir", str(run_dir), "--set", "campaign.generations=2"])
+        one_line_error(capsys, code, 1, "campaign stopped", "gain table holds NaN")
+        code = main(["campaign", "--resume", str(run_dir), "--workers", "0", "--no-progress"])
+        one_line_error(capsys, code, 1, "campaign stopped", "gain table holds NaN")   # the cause is still there
+    assert main(["campaign", "--resume", str(run_dir), "--workers", "0", "--no-progress"]) == 0
+    for got, want in zip(final_population(run_dir), final_population(reference)):
+        np.testing.assert_array_equal(got, want)
+    ev = xr.open_dataset(run_dir / "evaluations.nc", engine="h5netcdf").load()
+    assert (ev["error"].values == "").all() and ev.attrs["n_evaluation_errors"] == 0
+
+
+def test_deleting_the_lock_file_does_not_unlock_a_run(capsys, tmp_path):
+    """Issue 21 item 6: the lock is an flock on the run folder; run.lock only names the owner."""
+    run_dir = _synthetic_run(tmp_path, extra=["--max-generations", "1"])
+    capsys.readouterr()
+    lock = RunLock(run_dir)
+    try:
+        (run_dir / "run.lock").unlink()
+        one_line_error(capsys, main(["campaign", "--resume", str(run_dir), "--workers", "0", "--no-progress"]), 1,
+                       "in use by another campaign process")
+    finally:
+        lock.release()
+    assert main(["campaign", "--resume", str(run_dir), "--workers", "0", "--no-progress"]) == 0
+
+
+def test_forged_checkpoint_is_one_line_and_runs_nothing(capsys, tmp_path):
+    """Issue 21 item 9: --resume of a run folder whose checkpoint would run code refuses it (exit 1)."""
+    import pickle
+
+    class Exploit:
+        def __reduce__(self):
+            return os.system, (f"touch {tmp_path / 'code_ran'}",)
+
+    run_dir = _synthetic_run(tmp_path, extra=["--max-generations", "1"])
+    capsys.readouterr()
+    (run_dir / "checkpoint.pkl").write_bytes(pickle.dumps(Exploit()))
+    one_line_error(capsys, main(["campaign", "--resume", str(run_dir), "--workers", "0", "--no-progress"]), 1,
+                   "checkpoint.pkl", "posix.system", "refused")
+    assert not (tmp_path / "code_ran").exists()
+
+
 def test_rejected_campaign_leaves_no_folder(capsys, tmp_path):
     for bad in (["--set", "spacecraft.cr=nan"], ["--set", "campaign.population=1"], ["--set", "campaign.seed=1.5"]):
         code = main(SYNTHETIC + ["--run-dir", str(tmp_path / "new" / "run"), *bad])

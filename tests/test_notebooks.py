@@ -81,10 +81,9 @@ def test_standalone_elfo_table4_dop_within_five_percent(executed):
 
 
 def test_campaign_and_pareto_outputs(executed):
-    import xarray as xr
+    from lnss_lib.campaign.publication import load_published
 
-    evaluations = xr.load_dataset(_fresh(OUTPUTS_DIR / PROFILE / "campaign" / "evaluations.nc", executed),
-                                  engine="h5netcdf")
+    evaluations = load_published(_fresh(OUTPUTS_DIR / PROFILE / "campaign" / "published.json", executed).parent).evaluations
     assert evaluations.sizes["design"] > 0 and "objectives" in evaluations.attrs
     table6 = _table("07_table6", executed)
     assert "why selected" in table6.columns
@@ -93,10 +92,9 @@ def test_campaign_and_pareto_outputs(executed):
 
 def test_operational_companion_outputs(executed):
     """ci's companion campaign (ci_operational) ran beside it and notebooks 06-07 compare the two."""
-    import xarray as xr
+    from lnss_lib.campaign.publication import load_published
 
-    evaluations = xr.load_dataset(_fresh(OUTPUTS_DIR / "ci_operational" / "campaign" / "evaluations.nc", executed),
-                                  engine="h5netcdf")
+    evaluations = load_published(_fresh(OUTPUTS_DIR / "ci_operational" / "campaign" / "published.json", executed).parent).evaluations
     assert {"sk_dv_estimate_max_kms_per_year", "stable_screen"} <= set(evaluations.data_vars)
     side = _table("06_operational_comparison", executed).set_index("designs meeting")
     assert list(side.columns) == ["ci", "ci_operational"]

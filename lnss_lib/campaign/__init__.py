@@ -9,6 +9,7 @@ resumed (``--resume``) ends with the same population as an uninterrupted one. Mo
 * :mod:`.tasks` (one evaluation) and :mod:`.backends` (serial, Dask) with :class:`BatchEvaluator`;
 * :mod:`.journal`: ``evaluations.jsonl``, the persistent evaluation cache;
 * :mod:`.problem`: the pymoo problem and algorithm; :mod:`.rundir`: run.json, checkpoints, NetCDF export;
+* :mod:`.publication`: a run published as its profile's campaign (a pointer to an unchanging copy);
 * :mod:`.runner`: the generation loop, which notifies the observers of :mod:`.callbacks` (error guard,
   history, checkpoint, progress bars); :mod:`.timing`: worker-time shares.
 

@@ -6,8 +6,12 @@ Each worker builds its :class:`~lnss_lib.evaluator.EvaluationContext` once
 
 from __future__ import annotations
 
+import contextlib
 import os
+import signal
+import threading
 import time
+import warnings
 
 import numpy as np
 
@@ -38,6 +42,21 @@ class SerialBackend:
         return None
 
 
+@contextlib.contextmanager
+def _workers_ignore_sigint():
+    """Ignore SIGINT while local workers start: they inherit "ignore" through exec, so Ctrl-C in a terminal
+    (sent to the whole process group) stops only this process, which then closes the cluster, instead
+    of printing a KeyboardInterrupt traceback from every worker."""
+    if threading.current_thread() is not threading.main_thread():
+        yield
+        return
+    previous = signal.signal(signal.SIGINT, signal.SIG_IGN)
+    try:
+        yield
+    finally:
+        signal.signal(signal.SIGINT, previous)
+
+
 class DaskBackend:
     """Evaluates designs as tasks on a Dask cluster: a new local one (``n_workers`` processes, one thread
     each, on 127.0.0.1) or an existing one at ``scheduler_address``. A task lost with its worker
@@ -53,9 +72,12 @@ class DaskBackend:
         if scheduler_address:
             self.client = Client(scheduler_address, timeout=60)
         else:
-            self.cluster = LocalCluster(n_workers=n_workers, threads_per_worker=1, processes=True,
-                                        host="127.0.0.1", dashboard_address=None,
-                                        silence_logs=logging.CRITICAL)   # task errors come back through the futures
+            with _workers_ignore_sigint(), warnings.catch_warnings():
+                # the scheduler's HTTP port (no dashboard here) moves aside when another cluster holds 8787
+                warnings.filterwarnings("ignore", message="Port .* is already in use", category=UserWarning)
+                self.cluster = LocalCluster(n_workers=n_workers, threads_per_worker=1, processes=True,
+                                            host="127.0.0.1", dashboard_address=None,
+                                            silence_logs=logging.CRITICAL)   # task errors come back through the futures
             self.client = Client(self.cluster)
         self.n_workers = max(1, len(self.client.scheduler_info().get("workers", {})))
         self.profile = eval_profile

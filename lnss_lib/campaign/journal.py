@@ -2,41 +2,80 @@
 
 One JSON line per design evaluated, appended (and flushed) as each design finishes; the header line
 holds the evaluation hash (:func:`~lnss_lib.campaign.settings.evaluation_hash`) and the format
-version, so a design is never evaluated twice in a run, even across kills. One parser
-(:func:`parse_journal`) serves the cache and :func:`read_cache_records`.
+version, so a design is never evaluated twice in a run, even across kills. Each record line ends with
+the CRC-32 of the rest (format 2). One parser (:func:`parse_journal`) serves the cache and
+:func:`read_cache_records`: each design counts once (its first record; an error record gives way to a
+later record of the design), and a line that is not a whole record or fails its CRC (torn, damaged,
+from any generation) is skipped, so its design is evaluated again.
 """
 
 from __future__ import annotations
 
 import json
+import zlib
 from pathlib import Path
 
-__all__ = ["EvaluationCache", "read_cache_records", "parse_journal", "JOURNAL_FILE", "FORMAT_VERSION"]
+from ..atomicio import write_bytes_atomic
+
+__all__ = ["EvaluationCache", "read_cache_records", "parse_journal", "encode_record", "JOURNAL_FILE", "FORMAT_VERSION"]
 
 JOURNAL_FILE = "evaluations.jsonl"
-FORMAT_VERSION = 1
+FORMAT_VERSION = 2                     # 1: records without the CRC
+CRC_FIELD = "crc32"
+
+
+def _crc(text: str) -> str:
+    return f"{zlib.crc32(text.encode()):08x}"
+
+
+def encode_record(record: dict) -> str:
+    """One journal line (without its newline): the record's JSON with the CRC-32 of that JSON as last field."""
+    body = json.dumps(record)
+    return f'{body[:-1]}, "{CRC_FIELD}": "{_crc(body)}"}}'
+
+
+def _decode_record(item, crc_required: bool) -> dict | None:
+    """The record of a parsed line when its CRC (if any; required from format 2) matches, else None."""
+    if not isinstance(item, dict):
+        return None
+    crc = item.pop(CRC_FIELD, None)
+    if crc is None and crc_required or crc is not None and crc != _crc(json.dumps(item)):
+        return None
+    return item if _is_record(item) else None
+
+
+def _is_record(item) -> bool:
+    """A whole evaluation record: a dict with a 6-integer design key and an integer generation."""
+    key = item.get("key") if isinstance(item, dict) else None
+    return (isinstance(key, list) and len(key) == 6 and all(type(v) is int for v in key)
+            and type(item.get("generation")) is int and isinstance(item.get("metrics", {}), dict))
 
 
 def parse_journal(data: bytes) -> tuple[dict, list[dict], int]:
-    """(header, records in file order, length of the complete lines) of a journal's bytes.
+    """(header, one record per design in order of first appearance, length of the complete lines) of a
+    journal's bytes.
 
     Only complete records count: a last line without its newline (cut short by a kill) is left out,
-    and so is any line that is not a whole JSON record (torn by a full disk); the designs they held
-    are evaluated again on resume.
+    and so is any line that is not a whole record or whose CRC does not match (torn by a full disk,
+    damaged later; a journal of format 1 has no CRC); the designs they held are evaluated again on resume. A design recorded twice (two writers) counts once: its
+    first record, unless that one is an error record and a later one exists (a retry after the cause
+    of the error was removed).
     """
     end = data.rfind(b"\n") + 1
     lines = data[:end].decode(errors="replace").splitlines()
-    header, records = {}, []
+    header, by_key = {}, {}
     for number, line in enumerate(lines):
         try:
             item = json.loads(line)
         except json.JSONDecodeError:
             continue
         if number == 0:
-            header = item if isinstance(item, dict) else {}
-        elif isinstance(item, dict):
-            records.append(item)
-    return header, records, end
+            header = item if isinstance(item, dict) and "evaluation_hash" in item else {}
+        elif (record := _decode_record(item, header.get("format", FORMAT_VERSION) >= 2)) is not None:
+            key = tuple(record["key"])
+            if key not in by_key or by_key[key].get("error"):
+                by_key[key] = record
+    return header, list(by_key.values()), end
 
 
 class EvaluationCache:
@@ -45,8 +84,10 @@ class EvaluationCache:
     The first line records the evaluation hash; each further line is one record
     ``{"key", "generation", "order", "metrics", "ok", "impact", "error", "reason", ...}`` (``error`` True:
     the evaluation raised, ``reason`` holds the message). A line cut short by a kill is dropped (and the
-    file truncated to the last complete line) on opening; ``n_errors`` counts the error records.
-    Opening a file written under another evaluation hash raises ValueError.
+    file truncated to the last complete line) on opening; so are error records of earlier sessions, so
+    that a run stopped by an evaluation error evaluates those designs again once resumed. ``n_errors``
+    counts the error records of this session. A damaged header line is written again (the file is the
+    run folder's own); a header naming another evaluation hash raises ValueError.
     """
 
     def __init__(self, path: Path, eval_hash: str):
@@ -58,21 +99,25 @@ class EvaluationCache:
         if self.path.exists() and b"\n" in self.path.read_bytes():
             self._load()
         else:
-            self.path.write_text(json.dumps({"evaluation_hash": eval_hash, "format": FORMAT_VERSION}) + "\n")
+            write_bytes_atomic(self.path, self._header())
             self.created = True
         self._handle = self.path.open("a")
+
+    def _header(self) -> bytes:
+        return (json.dumps({"evaluation_hash": self.eval_hash, "format": FORMAT_VERSION}) + "\n").encode()
 
     def _load(self) -> None:
         data = self.path.read_bytes()
         header, records, end = parse_journal(data)
-        if end < len(data):
+        if "evaluation_hash" not in header:     # header line damaged: keep the records after it
+            write_bytes_atomic(self.path, self._header() + data[data.find(b"\n") + 1:end])
+        elif end < len(data):
             with self.path.open("r+b") as handle:
                 handle.truncate(end)
-        if header.get("evaluation_hash") != self.eval_hash:
+        if header.get("evaluation_hash", self.eval_hash) != self.eval_hash:
             raise ValueError(f"{self.path} holds evaluations for evaluation hash {header.get('evaluation_hash')!r}, "
                              f"not {self.eval_hash!r}: the parameters that change an evaluation differ")
-        self.records = {tuple(record["key"]): record for record in records}
-        self.n_errors = sum(bool(r.get("error")) for r in self.records.values())
+        self.records = {tuple(record["key"]): record for record in records if not record.get("error")}
 
     def __contains__(self, key: tuple) -> bool:
         return key in self.records
@@ -86,7 +131,7 @@ class EvaluationCache:
         self.records[key] = record
         self.n_errors += bool(record.get("error"))
         try:
-            self._handle.write(json.dumps(record) + "\n")
+            self._handle.write(encode_record(record) + "\n")
             self._handle.flush()
         except OSError as error:           # a full disk names the journal, not only the errno
             raise OSError(error.errno, error.strerror or str(error), str(self.path)) from error
@@ -100,7 +145,7 @@ class EvaluationCache:
 
 
 def read_cache_records(run_dir) -> list[dict]:
-    """Every record of a run's evaluation cache, in file order (complete lines only)."""
+    """One record per design of a run's evaluation cache (:func:`parse_journal`), in order of first appearance."""
     path = Path(run_dir) / JOURNAL_FILE
     if not path.is_file():
         return []

@@ -2,14 +2,20 @@
 
 * ``run.json``: the profile (with every override) and the evaluation hash, written first;
 * ``evaluations.jsonl``: the evaluation journal (:mod:`lnss_lib.campaign.journal`);
-* ``checkpoint.pkl``: after every generation, the pickled algorithm (population, random
-  generator, termination state) and the per-generation history, written to a temporary file
-  and moved into place with ``os.replace``;
-* ``evaluations.nc``, ``front.nc``, ``history.nc`` (:func:`export_results`).
+* ``checkpoint.pkl``: after every generation, the algorithm (population, random generator,
+  termination state) and the per-generation history, pickled behind a header holding the SHA-256 of
+  the pickle and written atomically. Loading checks the checksum, and the unpickler admits only the
+  classes and functions a checkpoint holds (:data:`CHECKPOINT_GLOBALS`), so a forged or damaged file
+  is refused (:class:`CheckpointError`) instead of running code or loading silently;
+* ``evaluations.nc``, ``front.nc``, ``history.nc`` (:func:`export_results`);
+* ``run.lock``: the pid of the process that holds the run (information only: the lock itself is an
+  ``flock`` on the run folder, :class:`RunLock`).
 """
 
 from __future__ import annotations
 
+import hashlib
+import io
 import json
 import os
 import pickle
@@ -29,12 +35,13 @@ from .settings import CampaignSettings, evaluation_hash
 
 __all__ = ["load_run", "load_checkpoint", "final_population", "export_results", "write_results",
            "write_checkpoint", "start_run", "default_run_dir", "atomic_write_bytes", "check_resumable", "RunLock",
-           "LOCK_FILE",
-           "RUN_FILE", "CHECKPOINT_FILE", "RESULT_FILES", "CHECKPOINT_FORMAT"]
+           "CheckpointError", "LOCK_FILE", "RUN_FILE", "CHECKPOINT_FILE", "RESULT_FILES", "CHECKPOINT_FORMAT",
+           "CHECKPOINT_GLOBALS", "CHECKPOINT_MAGIC"]
 
 RUN_FILE, CHECKPOINT_FILE, LOCK_FILE = "run.json", "checkpoint.pkl", "run.lock"
 RESULT_FILES = ("evaluations.nc", "front.nc", "history.nc")
-CHECKPOINT_FORMAT = 1
+CHECKPOINT_FORMAT = 2                  # 1: a bare pickle; 2: header line with the SHA-256, then the pickle
+CHECKPOINT_MAGIC = b"LNSS campaign checkpoint\n"
 
 
 atomic_write_bytes = write_bytes_atomic
@@ -59,36 +66,119 @@ _MOVED_CLASSES = {("lnss_lib.optimize", "WalkerDesignProblem"): "lnss_lib.campai
                   ("lnss_lib.optimize", "CampaignSettings"): "lnss_lib.campaign.settings",
                   ("lnss_lib.optimize", "DesignGrid"): "lnss_lib.campaign.grid"}
 
+# every global a checkpoint of the NSGA-II of :func:`~lnss_lib.campaign.problem.build_algorithm` names
+# (module: names); anything else in a checkpoint file is refused
+CHECKPOINT_GLOBALS = {
+    "builtins": ("float", "int", "complex", "bool", "set", "frozenset", "slice"),
+    "collections": ("OrderedDict", "deque"),
+    "copyreg": ("_reconstructor",),
+    "numpy": ("dtype", "ndarray", "sum"),
+    "numpy._core.multiarray": ("_reconstruct", "scalar"),
+    "numpy.core.multiarray": ("_reconstruct", "scalar"),
+    "numpy.random._pcg64": ("PCG64",),
+    "numpy.random._pickle": ("__bit_generator_ctor", "__generator_ctor", "__randomstate_ctor"),
+    "numpy.random.bit_generator": ("SeedSequence", "__pyx_unpickle_SeedSequence"),
+    "lnss_lib.campaign.grid": ("DesignGrid",),
+    "lnss_lib.campaign.problem": ("WalkerDesignProblem",),
+    "lnss_lib.campaign.settings": ("CampaignSettings",),
+    "pymoo.algorithms.moo.nsga2": ("NSGA2", "binary_tournament"),
+    "pymoo.core.callback": ("Callback",),
+    "pymoo.core.duplicate": ("DefaultDuplicateElimination", "default_attr"),
+    "pymoo.core.evaluator": ("Evaluator",),
+    "pymoo.core.individual": ("Individual",),
+    "pymoo.core.initialization": ("Initialization",),
+    "pymoo.core.mating": ("Mating",),
+    "pymoo.core.population": ("Population",),
+    "pymoo.core.problem": ("ElementwiseEvaluationFunction", "LoopedElementwiseEvaluation"),
+    "pymoo.core.repair": ("NoRepair",),
+    "pymoo.core.variable": ("Real",),
+    "pymoo.operators.crossover.sbx": ("SBX",),
+    "pymoo.operators.mutation.pm": ("PM",),
+    "pymoo.operators.repair.rounding": ("RoundingRepair",),
+    "pymoo.operators.sampling.rnd": ("IntegerRandomSampling",),
+    "pymoo.operators.selection.tournament": ("TournamentSelection",),
+    "pymoo.operators.survival.rank_and_crowding.classes": ("RankAndCrowding",),
+    "pymoo.operators.survival.rank_and_crowding.metrics": ("FunctionalDiversity", "calc_crowding_distance"),
+    "pymoo.termination.collection": ("TerminationCollection",),
+    "pymoo.termination.ftol": ("MultiObjectiveSpaceTermination",),
+    "pymoo.termination.max_gen": ("MaximumGenerationTermination",),
+    "pymoo.termination.robust": ("RobustTermination",),
+    "pymoo.util.display.column": ("Column",),
+    "pymoo.util.display.display": ("Display",),
+    "pymoo.util.display.multi": ("MultiObjectiveOutput", "NumberOfNondominatedSolutions"),
+    "pymoo.util.display.output": ("NumberOfEvaluations", "NumberOfGenerations"),
+    "pymoo.util.display.single": ("AverageConstraintViolation", "MinimumConstraintViolation"),
+    "pymoo.util.nds.non_dominated_sorting": ("NonDominatedSorting",),
+    "pymoo.util.sliding_window": ("SlidingWindow",),
+}
+
+
+class CheckpointError(RuntimeError):
+    """A checkpoint file that cannot be trusted: ``path`` and the ``reason`` (damaged, or a global it may not name)."""
+
+    def __init__(self, path: Path, reason: str):
+        super().__init__(f"{path}: {reason}; delete it and resume: the evaluation cache "
+                         f"{Path(path).parent / 'evaluations.jsonl'} re-uses every design already evaluated")
+        self.path = Path(path)
+        self.reason = reason
+
 
 class _CheckpointUnpickler(pickle.Unpickler):
-    """Reads checkpoints of either layout: classes of ``lnss_lib.optimize`` load from their new modules."""
+    """Admits only :data:`CHECKPOINT_GLOBALS` (classes of ``lnss_lib.optimize`` load from their new modules)."""
+
+    def __init__(self, handle, path: Path):
+        super().__init__(handle)
+        self.path = path
 
     def find_class(self, module, name):
-        return super().find_class(_MOVED_CLASSES.get((module, name), module), name)
+        module = _MOVED_CLASSES.get((module, name), module)
+        if name not in CHECKPOINT_GLOBALS.get(module, ()):
+            raise CheckpointError(self.path, f"names {module}.{name}, which is not a class or function a campaign "
+                                             f"checkpoint holds: refused (a forged or foreign file)")
+        return super().find_class(module, name)
 
 
 def load_checkpoint(run_dir) -> dict | None:
     """The last checkpoint of a run (keys generation, algorithm, history, finished, profile_hash), or None
-    before the first. A truncated or unreadable file raises RuntimeError saying how to recover."""
+    before the first. A damaged file (checksum), a truncated one, or one naming a global outside
+    :data:`CHECKPOINT_GLOBALS` raises :class:`CheckpointError` saying how to recover."""
     path = Path(run_dir) / CHECKPOINT_FILE
     if not path.is_file():
         return None
+    data = path.read_bytes()
+    if data.startswith(CHECKPOINT_MAGIC):
+        header_end = data.find(b"\n", len(CHECKPOINT_MAGIC)) + 1
+        try:
+            header = json.loads(data[len(CHECKPOINT_MAGIC):header_end])
+            expected = str(header["sha256"])
+        except (ValueError, TypeError, KeyError):
+            raise CheckpointError(path, "is truncated or corrupt (its header line does not read)") from None
+        data = data[header_end:] if header_end else b""
+        actual = hashlib.sha256(data).hexdigest()
+        if actual != expected:
+            raise CheckpointError(path, f"is truncated or corrupt (the SHA-256 of its {len(data)} bytes is "
+                                        f"{actual[:12]}..., its header says {expected[:12]}...)")
     try:
-        with path.open("rb") as handle:
-            return _CheckpointUnpickler(handle).load()
-    except (EOFError, pickle.UnpicklingError, AttributeError, ImportError, IndexError, TypeError, ValueError) as error:
-        raise RuntimeError(f"{path} is truncated or corrupt ({type(error).__name__}: {error}); delete it and resume: "
-                           f"the evaluation cache {Path(run_dir) / 'evaluations.jsonl'} re-uses every design "
-                           f"already evaluated") from None
+        checkpoint = _CheckpointUnpickler(io.BytesIO(data), path).load()
+    except CheckpointError:
+        raise
+    except Exception as error:     # whatever a damaged pickle raises (EOFError, UnpicklingError, OverflowError, ...)
+        raise CheckpointError(path, f"is truncated or corrupt ({type(error).__name__}: {error})") from None
+    if not isinstance(checkpoint, dict) or not {"generation", "algorithm", "history"} <= set(checkpoint):
+        raise CheckpointError(path, "is truncated or corrupt (not a campaign checkpoint)")
+    return checkpoint
 
 
 def write_checkpoint(run_dir, generation: int, algorithm, history: list[dict], finished: bool,
                      profile_fingerprint: str | None = None, asked_keys: list | None = None) -> None:
-    """Pickle the algorithm and the history after ``generation`` into ``checkpoint.pkl`` (atomically)."""
+    """Pickle the algorithm and the history after ``generation`` into ``checkpoint.pkl`` behind a header
+    with the pickle's SHA-256 (atomically)."""
     profile_fingerprint = profile_fingerprint or profile_hash(load_run(run_dir)["profile"])
-    atomic_write_bytes(Path(run_dir) / CHECKPOINT_FILE, pickle.dumps(
+    payload = pickle.dumps(
         {"format": CHECKPOINT_FORMAT, "generation": generation, "algorithm": algorithm, "history": history,
-         "finished": finished, "profile_hash": profile_fingerprint, "asked_keys": list(asked_keys or [])}))
+         "finished": finished, "profile_hash": profile_fingerprint, "asked_keys": list(asked_keys or [])})
+    header = json.dumps({"format": CHECKPOINT_FORMAT, "sha256": hashlib.sha256(payload).hexdigest()})
+    atomic_write_bytes(Path(run_dir) / CHECKPOINT_FILE, CHECKPOINT_MAGIC + header.encode() + b"\n" + payload)
 
 
 def final_population(run_dir) -> tuple[np.ndarray, np.ndarray]:
@@ -184,16 +274,12 @@ def export_results(run_dir) -> tuple[xr.Dataset, xr.Dataset, xr.Dataset]:
     return evaluations, front, hist
 
 
-def write_results(run_dir, publish_dir=None) -> list[Path]:
-    """Write evaluations.nc, front.nc and history.nc (h5netcdf, atomically) into the run directory and,
-    if given, ``publish_dir``; returns the paths written."""
-    datasets = export_results(run_dir)
+def write_results(run_dir) -> list[Path]:
+    """Write evaluations.nc, front.nc and history.nc (h5netcdf, atomically) into the run directory; returns
+    the paths written (publication as the profile's campaign: :mod:`lnss_lib.campaign.publication`)."""
     written = []
-    for folder in [Path(run_dir)] + ([Path(publish_dir)] if publish_dir else []):
-        for name, ds in zip(RESULT_FILES, datasets):
-            target = folder / name
-            write_netcdf_atomic(ds, target)
-            written.append(target)
+    for name, ds in zip(RESULT_FILES, export_results(run_dir)):
+        written.append(write_netcdf_atomic(ds, Path(run_dir) / name))
     return written
 
 
@@ -231,34 +317,35 @@ def check_resumable(run_dir: Path, run: dict, checkpoint: dict | None) -> None:
 
 
 class RunLock:
-    """Advisory lock on a run folder (``run.lock``, ``fcntl.flock``) holding the owner's pid.
+    """Advisory lock on a run folder: an ``fcntl.flock`` on the folder itself, held while the process runs.
 
-    One process owns a run at a time; a second gets RuntimeError naming the owner. The kernel drops
-    the lock when its process dies, so the lock of a killed run is stale by construction: the next
-    process takes it over (and writes its own pid).
+    One process owns a run at a time; a second gets RuntimeError naming the owner. The lock is not a
+    file a user can delete: ``run.lock`` only tells the owner's pid. The kernel drops the lock when its
+    process dies, so the lock of a killed run is stale by construction: the next process takes it over
+    (and writes its own pid).
     """
 
     def __init__(self, run_dir: Path):
         import fcntl
 
         self.path = Path(run_dir) / LOCK_FILE
-        self._handle = open(self.path, "a+")
+        self._fd = os.open(run_dir, os.O_RDONLY | os.O_DIRECTORY)
         try:
-            fcntl.flock(self._handle.fileno(), fcntl.LOCK_EX | fcntl.LOCK_NB)
+            fcntl.flock(self._fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
         except OSError:
-            self._handle.seek(0)
-            owner = self._handle.read().strip() or "unknown"
-            self._handle.close()
+            os.close(self._fd)
+            try:
+                owner = self.path.read_text().strip() or "unknown"
+            except OSError:
+                owner = "unknown"
             raise RuntimeError(f"{run_dir} is in use by another campaign process (pid {owner}); wait for it to "
                                f"finish or stop it, then --resume {run_dir}") from None
-        self._handle.seek(0)
-        self._handle.truncate()
-        self._handle.write(f"{os.getpid()}\n")
-        self._handle.flush()
+        atomic_write_bytes(self.path, f"{os.getpid()}\n".encode())
 
     def release(self) -> None:
         import fcntl
 
-        if not self._handle.closed:
-            fcntl.flock(self._handle.fileno(), fcntl.LOCK_UN)
-            self._handle.close()
+        if self._fd >= 0:
+            fcntl.flock(self._fd, fcntl.LOCK_UN)
+            os.close(self._fd)
+            self._fd = -1

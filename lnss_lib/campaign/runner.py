@@ -5,7 +5,9 @@ evaluate it through the journal and a backend, tell the algorithm, and notify th
 (:mod:`lnss_lib.campaign.callbacks`: error guard, history, checkpoint, progress bars) that do the
 rest. A run killed at any moment and resumed ends with the same population as an uninterrupted
 one: designs of an interrupted generation come back from the journal, the checkpoint holds the
-algorithm and its random generator.
+algorithm and its random generator; designs the checkpoint needs whose journal lines were lost are
+evaluated again. A session that ends in ``outputs/<profile>/campaign/`` publishes the run when its
+settings are the profile's (:mod:`lnss_lib.campaign.publication`).
 """
 
 from __future__ import annotations
@@ -21,7 +23,8 @@ from ..errors import ConfigError
 from .backends import BatchEvaluator, open_backend
 from .callbacks import (Callback, CampaignStopped, Checkpointer, ErrorGuard, HistoryRecorder, ProgressBars,
                         RunState)
-from .journal import JOURNAL_FILE, EvaluationCache
+from .journal import JOURNAL_FILE, EvaluationCache, read_cache_records
+from .publication import publish_run, run_differences
 from .problem import WalkerDesignProblem, build_algorithm, build_termination
 from .rundir import (LOCK_FILE, RUN_FILE, RunLock, check_resumable, default_run_dir, load_checkpoint, load_run,
                      start_run, write_results)
@@ -38,10 +41,12 @@ def default_callbacks(progress: bool) -> list[Callback]:
 
 @dataclass
 class CampaignResult:
-    """What :func:`run_campaign` returns: the run directory, result files and headline numbers."""
+    """What :func:`run_campaign` returns: the run directory, result files, what was published (a sentence,
+    empty for a run outside ``outputs/<profile>/campaign/``) and headline numbers."""
 
     run_dir: Path
     files: list[Path]
+    publication: str
     generations: int
     n_evaluations: int
     n_feasible: int
@@ -104,8 +109,6 @@ def run_campaign(profile_name: str = "quick", *, overrides: dict | None = None, 
 
 def _remove_if_empty_run(run_dir: Path) -> None:
     """Remove a run folder this call created when no design was recorded (a rejected or failed start)."""
-    from .journal import read_cache_records
-
     if read_cache_records(run_dir):
         return
     for name in (RUN_FILE, JOURNAL_FILE, LOCK_FILE):
@@ -114,6 +117,18 @@ def _remove_if_empty_run(run_dir: Path) -> None:
         run_dir.rmdir()
     except OSError:
         pass
+
+
+def _lost_designs(checkpoint: dict | None, cache: EvaluationCache) -> list[tuple]:
+    """Designs the checkpoint needs (its population and the generation it asked for) that the journal
+    lacks: lines torn or damaged, a journal deleted, or an evaluation error to retry."""
+    if checkpoint is None:
+        return []
+    population = checkpoint["algorithm"].pop
+    keys = [tuple(k) for k in checkpoint.get("asked_keys", [])]
+    if population is not None and len(population):
+        keys += [tuple(int(v) for v in row) for row in np.rint(population.get("X"))]
+    return [k for k in dict.fromkeys(keys) if k not in cache]
 
 
 def _run_locked(run_dir: Path, profile: dict, workers, scheduler_address, progress: bool, max_generations,
@@ -136,11 +151,11 @@ def _run_locked(run_dir: Path, profile: dict, workers, scheduler_address, progre
     backend = None
     observers: list = []
     try:
-        lost = [tuple(k) for k in (checkpoint or {}).get("asked_keys", []) if tuple(k) not in cache]
+        lost = _lost_designs(checkpoint, cache)
         if lost or (not (checkpoint and checkpoint.get("finished")) and algorithm.has_next()):
             backend = open_backend(evaluation_profile(profile), settings, workers, scheduler_address)
         batch = BatchEvaluator(settings, cache, backend)
-        if lost:   # designs of the checkpointed generation whose journal line was torn: evaluate them again
+        if lost:   # designs of the checkpoint whose journal lines were torn, damaged or lost: evaluate them again
             batch.generation = len(history)
             batch(np.array(lost))
         problem.metrics_source = batch
@@ -182,11 +197,26 @@ def _run_locked(run_dir: Path, profile: dict, workers, scheduler_address, progre
         resubmitted = getattr(backend, "resubmitted", 0)
         if backend is not None:
             backend.close()
-    published = (OUTPUTS_DIR / name / "campaign").resolve()
-    files = write_results(run_dir, published if run_dir.resolve().parent == published else None) if history else []
-    return CampaignResult(run_dir=run_dir, files=files, generations=len(history),
+    files = write_results(run_dir) if history else []
+    note = _publish(run_dir, profile) if history else ""
+    return CampaignResult(run_dir=run_dir, files=files, publication=note, generations=len(history),
                           n_evaluations=history[-1]["n_evaluations_cum"] if history else 0,
                           n_feasible=history[-1]["n_feasible_cum"] if history else 0,
                           wall_s=float(sum(h["wall_s"] for h in history)),
                           session_evaluations=batch.n_backend, session_wall_s=time.perf_counter() - session_start,
-                          resubmitted=resubmitted, n_errors=cache.n_errors)
+                          resubmitted=resubmitted, n_errors=sum(bool(r.get("error")) for r in read_cache_records(run_dir)))
+
+
+def _publish(run_dir: Path, profile: dict) -> str:
+    """Publish a run found in ``outputs/<profile>/campaign/`` when it is that profile's campaign; say what was done."""
+    name = profile["profile"]["name"]
+    campaign_dir = OUTPUTS_DIR / name / "campaign"
+    if run_dir.resolve().parent != campaign_dir.resolve():
+        return ""
+    try:
+        reasons = run_differences(profile, load_profile(name))
+    except (ConfigError, ValueError) as error:
+        reasons = [f"profile {name!r} does not load ({error})"]
+    if reasons:
+        return f"not published as the campaign of profile {name!r}: {'; '.join(reasons)}"
+    return f"published as the campaign of profile {name!r}: {publish_run(run_dir, campaign_dir)}"

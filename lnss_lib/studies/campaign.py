@@ -15,17 +15,18 @@ paper's 120 x 1000 campaign takes hours on two cores, dominated by propagation.
 
 from __future__ import annotations
 
+from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
 import pandas as pd
 import xarray as xr
 
-from ..campaign import CampaignSettings, campaign_timing, read_cache_records, run_campaign, write_results
-from ..campaign.rundir import CHECKPOINT_FILE, RESULT_FILES
+from ..campaign import CampaignSettings, campaign_timing, export_results, load_run, read_cache_records, run_campaign
+from ..campaign.rundir import CHECKPOINT_FILE
 from ..paper import EVALUATIONS, FEASIBLE_DESIGNS, TABLE_5
 
-__all__ = ["settings_table", "design_grid_table", "latest_run_dir", "load_or_run", "constraint_label",
+__all__ = ["settings_table", "design_grid_table", "latest_run_dir", "CampaignRun", "load_or_run", "constraint_label",
            "constraint_table", "steady_designs_per_s", "throughput_table", "run_throughput_table", "companion_of",
            "comparison_table",
            "NON_NAVIGATION_METRICS"]
@@ -71,9 +72,14 @@ def design_grid_table(settings: CampaignSettings):
                         index=pd.Index(["a (km)", "e", "AOP (deg)", "i (deg)", "Np", "Ns"], name="variable"))
 
 
-def latest_run_dir(campaign_dir, profile_name: str) -> Path:
-    """The newest ``run_*`` directory with a checkpoint under ``campaign_dir``; FileNotFoundError naming
-    the command that makes one for ``profile_name``."""
+def latest_run_dir(campaign_dir, profile_name: str, profile: dict | None = None) -> tuple[Path, list[str]]:
+    """The run to show for ``profile`` (default: ``profile_name`` as it stands) and why it is not that
+    profile's campaign ([] when it is): the newest ``run_*`` directory with a checkpoint under
+    ``campaign_dir`` whose settings are the profile's, else the newest one. FileNotFoundError naming the
+    command that makes one when there is none."""
+    from ..campaign.publication import run_differences
+    from ..config import load_profile
+
     runs = sorted(p for p in Path(campaign_dir).glob("run_*") if (p / CHECKPOINT_FILE).is_file())
     if not runs:
         raise FileNotFoundError(
@@ -81,7 +87,11 @@ def latest_run_dir(campaign_dir, profile_name: str) -> Path:
             f"generation):\n    python -m lnss_lib campaign --profile {profile_name}\n"
             "continue an interrupted run with --resume <run dir>, or use a Dask cluster with "
             "--scheduler-address tcp://HOST:8786; then execute the notebook again")
-    return runs[-1]
+    profile = profile if profile is not None else load_profile(profile_name)
+    reasons = {run: run_differences(load_run(run)["profile"], profile) for run in runs}
+    matching = [run for run in runs if not reasons[run]]
+    run = matching[-1] if matching else runs[-1]
+    return run, reasons[run]
 
 
 def companion_of(profile_name: str) -> str:
@@ -95,30 +105,57 @@ def companion_of(profile_name: str) -> str:
     return companion
 
 
-def load_or_run(profile_name: str) -> tuple[Path, xr.Dataset, xr.Dataset, xr.Dataset, list[dict]]:
-    """(run_dir, evaluations, front, history, cache records) of the profile's campaign.
+@dataclass(frozen=True)
+class CampaignRun:
+    """The campaign a notebook shows: the run, its own profile (``run.json``), why it is shown (``note``),
+    its datasets (:func:`~lnss_lib.campaign.rundir.export_results`) and journal records."""
 
-    With ``campaign.notebook_mode = "load"`` (``paper``, ``operational``) the latest run in
-    ``outputs/<profile>/campaign/`` is loaded (its last checkpoint published, so a run still going is
-    covered); with ``"run"`` (``quick``, ``ci`` and their companions) the campaign runs here
-    (:func:`run_campaign`).
+    run_dir: Path
+    profile: dict
+    note: str
+    evaluations: xr.Dataset
+    front: xr.Dataset
+    history: xr.Dataset
+    records: list[dict]
+
+
+def load_or_run(profile_name: str, overrides: dict | str | None = None) -> CampaignRun:
+    """The campaign of ``profile_name`` with ``overrides`` (what ``reproduce --set`` passes).
+
+    With ``campaign.notebook_mode = "run"`` (``quick``, ``ci`` and their companions) the campaign runs
+    here (:func:`run_campaign`); with ``"load"`` (``paper``, ``operational``) the run in
+    ``outputs/<profile>/campaign/`` chosen by :func:`latest_run_dir` is shown, read from its journal and
+    last checkpoint (so a run still going is covered). Either way the run is published
+    (:mod:`lnss_lib.campaign.publication`) only when its settings are the profile's, and ``note`` says
+    which run is shown and, when it is not the profile's campaign, why.
     """
+    from ..campaign.publication import publish_run, run_differences
     from ..config import load_profile
     from ..outputs import output_dir
 
+    profile = load_profile(profile_name, overrides=overrides)
     campaign_dir = output_dir(profile_name, "campaign")
-    if CampaignSettings.from_profile(load_profile(profile_name)).notebook_mode == "load":
-        run_dir = latest_run_dir(campaign_dir, profile_name)
-        write_results(run_dir, campaign_dir)
-        print(f"loaded {run_dir}")
+    if CampaignSettings.from_profile(profile).notebook_mode == "load":
+        run_dir, reasons = latest_run_dir(campaign_dir, profile_name, profile)
+        how = f"loaded {run_dir}"
     else:
-        result = run_campaign(profile_name, progress=False)
+        result = run_campaign(profile_name, overrides=overrides, progress=False)
         run_dir = result.run_dir
-        print(f"ran {run_dir}: {result.generations} generations, {result.n_evaluations} unique designs in "
-              f"{result.session_wall_s:.1f} s")
-    evaluations, front, history = (xr.open_dataset(campaign_dir / name, engine="h5netcdf").load()
-                                   for name in RESULT_FILES)
-    return run_dir, evaluations, front, history, read_cache_records(run_dir)
+        how = (f"ran {run_dir}: {result.generations} generations, {result.n_evaluations} unique designs in "
+               f"{result.session_wall_s:.1f} s")
+        reasons = run_differences(load_run(run_dir)["profile"], profile)
+    run_profile = load_run(run_dir)["profile"]
+    datasets = export_results(run_dir)
+    own = run_differences(run_profile, load_profile(profile_name))
+    if reasons:
+        note = (f"{how}; it is NOT the campaign of profile {profile_name!r} as set here (no run in {campaign_dir} "
+                f"is): {'; '.join(reasons)}. Everything below is that run's, with its own settings")
+    elif own:
+        note = (f"{how}: profile {profile_name!r} with the --set overrides, not published as the campaign of the "
+                f"profile ({'; '.join(own)})")
+    else:
+        note = f"{how}: the campaign of profile {profile_name!r}, published ({publish_run(run_dir, campaign_dir, datasets)})"
+    return CampaignRun(run_dir, run_profile, note, *datasets, read_cache_records(run_dir))
 
 
 def constraint_label(metric: str, kind: str, limit: float) -> str:

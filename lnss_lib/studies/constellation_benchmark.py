@@ -143,41 +143,46 @@ def paper_entry(profile: dict) -> Entry:
                  "Malik & Yang Table 4 (2 planes x 8)")
 
 
-def _campaign_folders(profile_name: str) -> list[tuple[str, Path]]:
-    """(label, folder) of the profile's campaign (paper-faithful), of its companion (``operational``) and of
-    any subfolder holding a ``front.nc``."""
+def _campaigns(profile_name: str) -> list[tuple[str, Path, object, object]]:
+    """(label, folder, evaluations, front) of the campaign published as the profile's (paper-faithful), of
+    its companion's (``operational``) and of any other subfolder holding a ``front.nc``."""
+    import xarray as xr
+
+    from ..campaign.publication import PUBLISHED_DIR, load_published
     from .campaign import companion_of
 
     base = output_dir(profile_name, "campaign")
-    folders = [("paper-faithful", base)] if (base / "front.nc").is_file() else []
-    folders += [(sub.name, sub) for sub in sorted(base.iterdir()) if sub.is_dir() and not sub.name.startswith("run_")
-                and (sub / "front.nc").is_file()] if base.is_dir() else []
     companion = companion_of(profile_name)
-    if companion and (output_dir(companion, "campaign") / "front.nc").is_file():
-        folders.append(("operational", output_dir(companion, "campaign")))
-    return folders
+    campaigns = []
+    for label, folder in [("paper-faithful", base)] + ([("operational", output_dir(companion, "campaign"))]
+                                                       if companion else []):
+        published = load_published(folder)
+        if published is not None:
+            campaigns.append((label, published.folder, published.evaluations, published.front))
+    for sub in sorted(base.iterdir()) if base.is_dir() else []:
+        if sub.is_dir() and not sub.name.startswith("run_") and sub.name != PUBLISHED_DIR and (sub / "front.nc").is_file():
+            campaigns.append((sub.name, sub, xr.load_dataset(sub / "evaluations.nc", engine="h5netcdf"),
+                              xr.load_dataset(sub / "front.nc", engine="h5netcdf")))
+    return campaigns
 
 
 def campaign_entries(profile_name: str) -> tuple[list[Entry], list[str]]:
-    """Table 6 picks (:func:`lnss_lib.studies.pareto.table6`) of every campaign with a ``front.nc`` under
-    ``outputs/<profile>/campaign/`` (the paper-faithful one there, others in subfolders) and of the
-    profile's companion (the operational campaign, under its own Delta-V metric and bound), and notes.
+    """Table 6 picks (:func:`lnss_lib.studies.pareto.table6`) of the campaign published as the profile's
+    (``outputs/<profile>/campaign/published.json``; other campaigns in subfolders holding a ``front.nc``)
+    and of the profile's companion (the operational campaign, under its own Delta-V metric and bound), and
+    notes.
 
     The picks use the front with the Delta-V bound relaxed when no front design meets it (notebook 07's
     reading). A missing campaign gives a note, not an error.
     """
-    import xarray as xr
-
     from .pareto import analysis_front, deltav_constraint, table6
 
     entries, notes = [], []
-    folders = _campaign_folders(profile_name)
-    if not folders:
-        notes.append(f"no campaign results under {output_dir(profile_name, 'campaign')} (front.nc): campaign designs "
+    campaigns = _campaigns(profile_name)
+    if not campaigns:
+        notes.append(f"no campaign published under {output_dir(profile_name, 'campaign')}: campaign designs "
                      f"skipped; run `python -m lnss_lib campaign --profile {profile_name}`")
-    for name, folder in folders:
-        front = xr.load_dataset(folder / "front.nc", engine="h5netcdf")
-        evaluations = xr.load_dataset(folder / "evaluations.nc", engine="h5netcdf")
+    for name, folder, evaluations, front in campaigns:
         metric, limit = deltav_constraint(evaluations)      # the paper's Delta-V, or the operational estimate
         picks = table6(front, dv_max_kms_per_year=limit, dv_metric=metric)
         if not len(picks):

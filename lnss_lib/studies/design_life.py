@@ -27,7 +27,6 @@ from pathlib import Path
 
 import numpy as np
 import pandas as pd
-import xarray as xr
 from scipy.stats import spearmanr
 
 from ..constellation import WalkerDesign
@@ -57,28 +56,29 @@ def region_of(design, campaign: bool = False) -> str:
 
 
 def campaign_designs(campaign_dir: Path, n: int) -> tuple[list[tuple], str]:
-    """Up to ``n`` designs of a campaign folder and a sentence saying where they come from.
+    """Up to ``n`` designs of the campaign published in a campaign folder and a sentence saying where
+    they come from.
 
     The front (``front.nc``) when it holds designs; else the ``n`` evaluated designs of least
     constraint violation (``evaluations.nc``); else none.
     """
+    from ..campaign.publication import load_published
+
     folder = Path(campaign_dir)
-    for name, label in (("front.nc", "its front"), ("evaluations.nc", "least constraint violation")):
-        path = folder / name
-        if not path.exists():
+    published = load_published(folder)
+    for ds, label in ((published.front, "its front"), (published.evaluations, "least constraint violation")) \
+            if published else ():
+        if ds.sizes.get("design", 0) == 0:
             continue
-        with xr.open_dataset(path) as ds:
-            if ds.sizes.get("design", 0) == 0:
-                continue
-            frame = ds[list(DESIGN_KEYS) + (["constraint_violation"] if "constraint_violation" in ds else [])].to_dataframe()
+        frame = ds[list(DESIGN_KEYS) + (["constraint_violation"] if "constraint_violation" in ds else [])].to_dataframe()
         if "constraint_violation" in frame and label != "its front":
             frame = frame[np.isfinite(frame["constraint_violation"])].sort_values("constraint_violation")
         frame = frame.drop_duplicates(list(DESIGN_KEYS)).head(n)
         rows = [tuple(float(r[k]) if k not in ("n_planes", "sats_per_plane") else int(r[k]) for k in DESIGN_KEYS)
                 for _, r in frame.iterrows()]
         empty = "" if label == "its front" else " (its front is empty: no design met Table 3's bounds)"
-        return rows, f"{len(rows)} design(s) of the campaign in {folder}, {label}{empty}."
-    return [], f"no campaign designs: {folder} holds no front.nc or evaluations.nc with designs."
+        return rows, f"{len(rows)} design(s) of the campaign published in {folder}, {label}{empty}."
+    return [], f"no campaign designs: {folder} publishes no campaign with designs."
 
 
 def validation_designs(profile: dict, campaign_dir: Path | None = None) -> tuple[list[dict], str]:

@@ -29,20 +29,20 @@ TABLE6_COLUMNS = DESIGN_KEYS + METRIC_KEYS + ("why selected",)
 
 
 def load_campaign(profile_name: str) -> tuple[xr.Dataset, xr.Dataset]:
-    """(evaluations, front) of the latest campaign published under ``outputs/<profile>/campaign/``.
+    """(evaluations, front) of the campaign published as the profile's (:mod:`lnss_lib.campaign.publication`).
 
     Raises ``FileNotFoundError`` naming the command that produces them.
     """
+    from ..campaign.publication import load_published
     from ..outputs import output_dir
 
     folder = output_dir(profile_name, "campaign")
-    paths = [folder / "evaluations.nc", folder / "front.nc"]
-    missing = [p.name for p in paths if not p.is_file()]
-    if missing:
+    published = load_published(folder)
+    if published is None:
         raise FileNotFoundError(
-            f"no campaign results for profile {profile_name!r} ({', '.join(missing)} missing in {folder}); "
+            f"no campaign published for profile {profile_name!r} (no published.json in {folder}); "
             f"run: python -m lnss_lib campaign --profile {profile_name}")
-    return tuple(xr.load_dataset(p, engine="h5netcdf") for p in paths)
+    return published.evaluations, published.front
 
 
 def parse_constraints(text: str) -> list[tuple[str, str, float]]:

@@ -1,7 +1,12 @@
-"""Run directory: the NetCDF result contract of a real campaign, the command line, SIGKILL and resume."""
+"""Run directory: the NetCDF result contract of a real campaign, the command line, SIGKILL, Ctrl-C and resume,
+damaged and forged checkpoints, publication."""
 
 import json
+import os
+import signal
+import subprocess
 import sys
+import time
 
 import numpy as np
 import pytest
@@ -14,7 +19,9 @@ from lnss_lib.config import load_profile
 from lnss_lib.evaluator import context_for, evaluate_design
 from lnss_lib.keys import DESIGN_KEYS, METRIC_KEYS
 
-from .helpers import KILL_SETTINGS, SYNTHETIC, _cli, _run_until
+from lnss_lib.config import PROJECT_DIR
+
+from .helpers import CLI, KILL_SETTINGS, SYNTHETIC, _cli, _journal_count, _run_until
 
 
 def test_set_parser_and_cli_errors(capsys):
@@ -138,3 +145,144 @@ def test_checkpoint_written_by_the_old_optimize_module_still_loads(tmp_path, mon
     assert type(loaded["algorithm"].problem) is WalkerDesignProblem
     np.testing.assert_array_equal(loaded["algorithm"].pop.get("X"), checkpoint["algorithm"].pop.get("X"))
     assert run_campaign(resume=tmp_path / "run", workers=0, progress=False).generations == 2
+
+
+def test_ctrl_c_on_a_dask_campaign_is_one_line_and_resumes(synthetic_reference, tmp_path):
+    """Issue 21 item 12: Ctrl-C (SIGINT to the whole process group, as a terminal sends it) on a campaign
+    with local Dask workers: one line, exit 130, no worker left; the checkpoint resumes to the
+    uninterrupted result. Before: 67 lines of worker tracebacks."""
+    run_dir = tmp_path / "interrupted"
+    proc = subprocess.Popen(CLI + SYNTHETIC + KILL_SETTINGS + ["--workers", "2", "--run-dir", str(run_dir)],
+                            cwd=PROJECT_DIR, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True,
+                            start_new_session=True)
+    deadline = time.monotonic() + 120
+    while proc.poll() is None and _journal_count(run_dir) < 9:       # inside generation 2
+        assert time.monotonic() < deadline, "campaign did not progress"
+        time.sleep(0.02)
+    assert proc.poll() is None, proc.communicate()
+    os.killpg(proc.pid, signal.SIGINT)
+    err = proc.communicate(timeout=120)[1]
+    assert proc.returncode == 130 and err.strip() == "error: interrupted", err
+    deadline = time.monotonic() + 30
+    while subprocess.run(["pgrep", "-s", str(proc.pid)], capture_output=True).stdout:    # workers wind down
+        assert time.monotonic() < deadline, "worker processes left behind"
+        time.sleep(0.2)
+    _cli(["--resume", str(run_dir), "--workers", "0", "--no-progress"])
+    for got, want in zip(final_population(run_dir), final_population(synthetic_reference)):
+        np.testing.assert_array_equal(got, want)
+
+
+def _checkpoint_of_a_run(tmp_path):
+    from lnss_lib.campaign import run_campaign
+    from lnss_lib.campaign.rundir import CHECKPOINT_FILE
+
+    run_dir = tmp_path / "run"
+    run_campaign("ci", overrides={"campaign": {"evaluator": "synthetic", "generations": 2}}, workers=0,
+                 run_dir=run_dir, progress=False)
+    return run_dir, run_dir / CHECKPOINT_FILE
+
+
+def test_damaged_checkpoint_never_loads(tmp_path):
+    """Issue 21 item 8: 300 random one-byte corruptions and 30 truncations of a checkpoint are all refused
+    with CheckpointError (before: 93 of these 300 corruptions loaded silently)."""
+    from lnss_lib.campaign.rundir import CheckpointError, load_checkpoint
+
+    run_dir, path = _checkpoint_of_a_run(tmp_path)
+    good = path.read_bytes()
+    assert load_checkpoint(run_dir)["generation"] == 2
+    rng = np.random.default_rng(21)
+    for position, flip in zip(rng.integers(0, len(good), 300), rng.integers(1, 256, 300)):
+        damaged = bytearray(good)
+        damaged[position] ^= int(flip)
+        path.write_bytes(bytes(damaged))
+        with pytest.raises(CheckpointError, match="delete it and resume"):
+            load_checkpoint(run_dir)
+    for length in rng.integers(0, len(good), 30):         # cut short
+        path.write_bytes(good[:length])
+        with pytest.raises(CheckpointError, match="truncated or corrupt"):
+            load_checkpoint(run_dir)
+
+
+class _Exploit:
+    """Pickles as a call of ``os.system``: what a forged checkpoint would hold."""
+
+    def __init__(self, marker):
+        self.marker = marker
+
+    def __reduce__(self):
+        return os.system, (f"touch {self.marker}",)
+
+
+def test_forged_checkpoint_is_refused_without_running_code(tmp_path):
+    """Issue 21 item 9: a checkpoint that would run code when unpickled is refused (raw, with a valid checksum
+    header, nested in a plausible checkpoint, or naming an allowed module's other attributes)."""
+    import hashlib
+    import json
+    import pickle
+
+    from lnss_lib.campaign.rundir import CHECKPOINT_MAGIC, CheckpointError, load_checkpoint
+
+    run_dir, path = _checkpoint_of_a_run(tmp_path)
+    marker = tmp_path / "code_ran"
+
+    def call(module: str, name: str, argument: str) -> bytes:     # protocol 4: STACK_GLOBAL, then REDUCE
+        text = [item.encode() for item in (module, name, argument)]
+        return b"\x80\x04" + b"".join(b"\x8c" + bytes([len(t)]) + t for t in text[:2]) + b"\x93" \
+            + b"\x8c" + bytes([len(text[2])]) + text[2] + b"\x85R."
+
+    payloads = [pickle.dumps(_Exploit(marker)), pickle.dumps({"generation": 1, "algorithm": _Exploit(marker)}),
+                call("numpy", "load", "/x.npy"), call("numpy", "sum.__globals__", "x"),
+                call("lnss_lib.campaign.grid", "np.load", "/x.npy"), call("builtins", "eval", "1")]
+    for payload in payloads:
+        header = json.dumps({"format": 2, "sha256": hashlib.sha256(payload).hexdigest()}).encode()
+        for data in (payload, CHECKPOINT_MAGIC + header + b"\n" + payload):
+            path.write_bytes(data)
+            with pytest.raises(CheckpointError, match="refused"):
+                load_checkpoint(run_dir)
+            assert not marker.exists()
+
+
+def test_two_runs_publishing_at_once_publish_one_run(tmp_path):
+    """Issue 21 item 5: two campaigns of one profile publishing at once (threads here, each with its own
+    flock) while a reader loads: every load holds the three files of one run (before, the three
+    files were copied one by one into the same folder: 3 of 6 trials mixed seeds)."""
+    import threading
+
+    from lnss_lib.campaign import export_results, run_campaign
+    from lnss_lib.campaign.publication import load_published, publish_run
+
+    campaign_dir = tmp_path / "campaign"
+    runs = {}
+    for seed in (1, 2):
+        result = run_campaign("ci", overrides={"campaign": {"evaluator": "synthetic", "generations": 2, "seed": seed}},
+                              workers=0, run_dir=campaign_dir / f"run_{seed}", progress=False)
+        runs[seed] = (result.run_dir, export_results(result.run_dir))
+    seen, errors = [], []
+
+    def publisher(seed):
+        try:
+            for _ in range(4):
+                publish_run(runs[seed][0], campaign_dir, runs[seed][1])
+        except Exception as error:      # reported below
+            errors.append(error)
+
+    def reader():
+        try:
+            while any(t.is_alive() for t in writers):
+                published = load_published(campaign_dir)
+                if published is not None:
+                    seeds = {int(ds.attrs["seed"]) for ds in (published.evaluations, published.front, published.history)}
+                    seen.append((published.pointer["run_dir"], seeds))
+        except Exception as error:
+            errors.append(error)
+
+    writers = [threading.Thread(target=publisher, args=(seed,)) for seed in (1, 2)]
+    for thread in writers:
+        thread.start()
+    read = threading.Thread(target=reader)
+    read.start()
+    for thread in writers + [read]:
+        thread.join()
+    assert not errors, errors
+    assert seen and all(seeds == {int(run[-1])} for run, seeds in seen), seen
+    assert len(list((campaign_dir / "published").iterdir())) == 1     # superseded copies removed

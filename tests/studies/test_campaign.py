@@ -7,6 +7,7 @@ import pytest
 import xarray as xr
 
 from lnss_lib.campaign import CampaignSettings, run_campaign
+from lnss_lib.campaign.journal import encode_record
 from lnss_lib.config import load_profile
 from lnss_lib.keys import DESIGN_KEYS
 
@@ -112,51 +113,96 @@ def test_throughput_table_from_hand_made_history(tmp_path):
     with pytest.raises(ValueError, match="workers"):
         throughput_table(history, 3, timing, 0)
     # from a run directory: workers counted from the cache records, shares from their timings
-    records = [{"worker": w, "timing_s": {"propagation": 0.5, "dop": 0.1, "deltav": 0.1, "gps": 0.05},
-                "task_wall_s": 1.0} for w in ("a", "b", "a", "b", "b")]
-    (tmp_path / "evaluations.jsonl").write_text("\n".join(json.dumps(r) for r in [{"header": 1}] + records) + "\n")
+    records = [{"key": [i, 0, 0, 0, 0, 0], "generation": 1, "worker": w, "task_wall_s": 1.0,
+                "timing_s": {"propagation": 0.5, "dop": 0.1, "deltav": 0.1, "gps": 0.05}}
+               for i, w in enumerate(("a", "b", "a", "b", "b"))]
+    (tmp_path / "evaluations.jsonl").write_text("\n".join([json.dumps({"evaluation_hash": "h", "format": 2})]
+                                                          + [encode_record(r) for r in records]) + "\n")
     t = run_throughput_table(tmp_path, history, xr.Dataset({"feasible": ("design", [True, False])}), records)["value"]
     assert t["worker processes"] == 2 and t["unique designs evaluated"] == 5 and t["unique feasible designs"] == 1
     assert t["propagation (% of worker time)"] == pytest.approx(100 * 2.5 / 8.0)
     assert t["in-task overhead (%)"] == pytest.approx(100 * (5.0 - 2.5 - 1.25) / 8.0)
 
 
-def test_load_or_run_loads_latest_paper_run_and_runs_others(tmp_path, monkeypatch, capsys):
-    import lnss_lib.studies.campaign as study
-    import lnss_lib.outputs as pipeline
+TINY = """[profile]
+name = "{name}"
+inherits = "ci"
+[campaign]
+evaluator = "synthetic"
+generations = 2
+companion_profile = ""
+notebook_mode = "{mode}"
+"""
+
+
+@pytest.fixture
+def tiny_profiles(tmp_path, monkeypatch):
+    """Profiles ``tiny`` (notebook_mode load) and ``tinyrun`` (run): ci with the synthetic evaluator, 2
+    generations; ``outputs/`` in ``tmp_path``."""
+    import shutil
+
+    from lnss_lib import config, outputs
+    from lnss_lib.campaign import rundir, runner
+
+    params = tmp_path / "params"
+    params.mkdir()
+    for item in config.PARAMS_DIR.iterdir():
+        (params / item.name).symlink_to(item)
+    for name, mode in (("tiny", "load"), ("tinyrun", "run")):
+        (params / f"{name}.toml").write_text(TINY.format(name=name, mode=mode))
+    monkeypatch.setattr(config, "PARAMS_DIR", params)
+    for module in (outputs, rundir, runner):
+        monkeypatch.setattr(module, "OUTPUTS_DIR", tmp_path / "outputs")
+    yield tmp_path / "outputs"
+    shutil.rmtree(params)
+
+
+def test_load_or_run_shows_the_profiles_run_or_says_why_not(tiny_profiles, capsys):
+    """Issue 21 item 3: the newest run is not trusted. The run shown and published is the newest whose
+    settings are the profile's; otherwise the note names the run and the differing settings, and the
+    profile returned is the run's own."""
     from lnss_lib.campaign import export_results
+    from lnss_lib.campaign.publication import load_published
     from lnss_lib.studies.campaign import latest_run_dir, load_or_run
 
-    folders = {"paper": tmp_path / "paper", "ci": tmp_path / "ci"}
-    for folder in folders.values():
-        folder.mkdir()
-    monkeypatch.setattr(pipeline, "output_dir", lambda name, kind: folders[name])
-    with pytest.raises(FileNotFoundError, match="--profile paper"):
-        load_or_run("paper")
-    synthetic = {"campaign": {"evaluator": "synthetic", "generations": 2}}
-    run_campaign("ci", overrides=synthetic, workers=0, run_dir=folders["paper"] / "run_1", progress=False)
-    newer = run_campaign("ci", overrides={"campaign": {"evaluator": "synthetic", "generations": 3}}, workers=0,
-                         run_dir=folders["paper"] / "run_2", progress=False)
-    (folders["paper"] / "run_3").mkdir()               # no checkpoint: not a run to load
-    assert latest_run_dir(folders["paper"], "paper") == newer.run_dir
-    run_dir, ev, front, history, records = load_or_run("paper")
-    assert run_dir == newer.run_dir and f"loaded {newer.run_dir}" in capsys.readouterr().out
-    expected = export_results(newer.run_dir)
-    for got, want in zip((ev, front, history), expected):
+    folder = tiny_profiles / "tiny" / "campaign"
+    with pytest.raises(FileNotFoundError, match="--profile tiny"):
+        load_or_run("tiny")
+    own = run_campaign("tiny", workers=0, run_dir=folder / "run_1", progress=False)
+    assert own.publication.startswith("published as the campaign of profile 'tiny'")
+    longer = run_campaign("tiny", overrides={"campaign": {"generations": 3}}, workers=0, run_dir=folder / "run_2",
+                          progress=False)
+    assert longer.publication.startswith("not published") and "campaign.generations = 3 (profile: 2)" in longer.publication
+    physics = run_campaign("tiny", overrides={"gravity": {"degree": 4}}, workers=0, run_dir=folder / "run_3",
+                           progress=False)
+    assert "evaluation settings differ" in physics.publication
+    (folder / "run_4").mkdir()               # no checkpoint: not a run to load
+    assert latest_run_dir(folder, "tiny") == (own.run_dir, [])
+    shown = load_or_run("tiny")
+    assert shown.run_dir == own.run_dir and "the campaign of profile 'tiny', published" in shown.note
+    published = load_published(folder)
+    assert published.pointer["run_dir"] == "run_1" and published.pointer["evaluator"] == "synthetic"
+    for got, want, pub in zip((shown.evaluations, shown.front, shown.history), export_results(own.run_dir),
+                              (published.evaluations, published.front, published.history)):
         xr.testing.assert_identical(got.drop_attrs(), want.drop_attrs())
-    assert history.sizes["generation"] == 3 and len(records) == ev.sizes["design"]
-    real_run_campaign = study.run_campaign
-
-    def synthetic_run(name, progress):
-        result = real_run_campaign(name, overrides=synthetic, workers=0, run_dir=folders[name] / "run_x",
-                                   progress=progress)
-        study.write_results(result.run_dir, folders[name])
-        return result
-
-    monkeypatch.setattr(study, "run_campaign", synthetic_run)
-    run_dir, ev, front, history, records = load_or_run("ci")
-    assert run_dir == folders["ci"] / "run_x" and "ran " in capsys.readouterr().out
-    assert history.sizes["generation"] == 2 and len(records) == ev.sizes["design"] > 0
+        xr.testing.assert_identical(pub.drop_attrs(), want.drop_attrs())
+    # the run that matches the --set overrides is shown, and not published
+    shown = load_or_run("tiny", '{"campaign": {"generations": 3}}')
+    assert shown.run_dir == longer.run_dir and "not published" in shown.note
+    assert shown.history.sizes["generation"] == 3 and load_published(folder).pointer["run_dir"] == "run_1"
+    # no run is the profile's: the newest is shown with the reason, and its own settings
+    (own.run_dir / "checkpoint.pkl").unlink()
+    shown = load_or_run("tiny")
+    assert shown.run_dir == physics.run_dir and "NOT the campaign of profile 'tiny'" in shown.note
+    assert "gravity.degree = 4 (profile: 8)" in shown.note and shown.profile["gravity"]["degree"] == 4
+    assert load_published(folder).pointer["run_dir"] == "run_1"
+    # run mode runs the campaign with the notebook's overrides
+    ran = load_or_run("tinyrun", '{"campaign": {"generations": 3}}')
+    assert ran.history.sizes["generation"] == 3 and ran.profile["campaign"]["generations"] == 3
+    assert "not published" in ran.note and load_published(tiny_profiles / "tinyrun" / "campaign") is None
+    ran = load_or_run("tinyrun")
+    assert ran.history.sizes["generation"] == 2 and "published" in ran.note
+    assert load_published(tiny_profiles / "tinyrun" / "campaign").pointer["run_dir"] == ran.run_dir.name
 
 
 def test_campaign_figures_carry_the_data():
@@ -189,3 +235,25 @@ def test_campaign_figures_carry_the_data():
     assert len(designs_pdop_deltav(ev, front.isel(design=slice(0, 0)), 1.0, 10.0, "no front").data) == 1
     with pytest.raises(ValueError, match="positive"):
         designs_pdop_deltav(ev, front, 0.0, 10.0, "bad")
+
+
+def test_readers_follow_the_publication(tiny_profiles):
+    """Notebooks 07, 08, 10 and the index read the published run (the pointer), not files in the campaign folder."""
+    from lnss_lib import pipeline
+    from lnss_lib.campaign.publication import load_published
+    from lnss_lib.studies.design_life import campaign_designs
+    from lnss_lib.studies.pareto import load_campaign
+
+    folder = tiny_profiles / "tiny" / "campaign"
+    run_campaign("tiny", workers=0, run_dir=folder / "run_1", progress=False)
+    run_campaign("tiny", overrides={"campaign": {"seed": 7}}, workers=0, run_dir=folder / "run_2", progress=False)
+    published = load_published(folder)
+    assert published.pointer["run_dir"] == "run_1" and int(published.evaluations.attrs["seed"]) != 7
+    evaluations, front = load_campaign("tiny")
+    xr.testing.assert_identical(evaluations, published.evaluations)
+    xr.testing.assert_identical(front, published.front)
+    designs, note = campaign_designs(folder, 2)
+    assert len(designs) == 2 and f"published in {folder}" in note
+    assert campaign_designs(tiny_profiles / "nothing", 2)[0] == []
+    page = pipeline.write_index("tiny").read_text()
+    assert f"{published.folder.name}/front.nc" in page and "run_2" not in page

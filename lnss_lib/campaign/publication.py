@@ -1,0 +1,150 @@
+"""A profile's published campaign: ``outputs/<profile>/campaign/published.json`` and the folder it names.
+
+A run folder belongs to the process that holds its lock; the notebooks (06-08, 10) read instead the
+profile's publication: a folder ``published/<run>-<id>/`` holding the run's ``evaluations.nc``,
+``front.nc`` and ``history.nc``, written complete and never changed afterwards, and the pointer
+``published.json`` naming it (run, hashes, evaluator, generations), replaced atomically. Publishing
+and reading take an ``flock`` on the campaign folder (exclusive and shared), so two campaigns of one
+profile that finish at once publish one after the other and a reader always gets the three files of
+one run. A run is published as the profile's only when its stored profile is the profile's
+(:func:`run_differences` empty: same profile hash, hence same evaluator and evaluation settings).
+"""
+
+from __future__ import annotations
+
+import contextlib
+import json
+import os
+import shutil
+import tempfile
+import time
+from dataclasses import dataclass
+from pathlib import Path
+
+import xarray as xr
+
+from ..atomicio import write_netcdf_atomic, write_text_atomic
+from ..config import profile_hash
+from .rundir import RESULT_FILES, export_results, load_run
+from .settings import CampaignSettings, evaluation_hash
+
+__all__ = ["Publication", "run_differences", "publish_run", "load_published", "published_folder",
+           "POINTER_FILE", "PUBLISHED_DIR"]
+
+POINTER_FILE, PUBLISHED_DIR = "published.json", "published"
+
+
+@dataclass(frozen=True)
+class Publication:
+    """A profile's published campaign: ``pointer`` (published.json), its folder and the three datasets."""
+
+    pointer: dict
+    folder: Path
+    evaluations: xr.Dataset
+    front: xr.Dataset
+    history: xr.Dataset
+
+
+def _differing_keys(run: dict, profile: dict, prefix: str = "") -> list[str]:
+    """``key = run value (profile: value)`` for every dotted key whose values differ."""
+    lines = []
+    for key in sorted(set(run) | set(profile), key=str):
+        name = f"{prefix}{key}"
+        mine, theirs = run.get(key, "<absent>"), profile.get(key, "<absent>")
+        if isinstance(mine, dict) and isinstance(theirs, dict):
+            lines += _differing_keys(mine, theirs, f"{name}.")
+        elif mine != theirs and name not in ("profile.name", "profile.description"):
+            lines.append(f"{name} = {mine!r} (profile: {theirs!r})")
+    return lines
+
+
+def run_differences(run_profile: dict, profile: dict, limit: int = 6) -> list[str]:
+    """Why a run (its stored profile) is not ``profile``'s campaign: [] when the profile hashes agree, else
+    the evaluator, the evaluation settings and up to ``limit`` differing keys, in that order."""
+    if profile_hash(run_profile) == profile_hash(profile):
+        return []
+    reasons = []
+    run_settings, settings = CampaignSettings.from_profile(run_profile), CampaignSettings.from_profile(profile)
+    if run_settings.evaluator != settings.evaluator:
+        reasons.append(f"its evaluator is {run_settings.evaluator!r}, the profile's {settings.evaluator!r}")
+    if evaluation_hash(run_profile) != evaluation_hash(profile):
+        reasons.append("its evaluation settings differ (evaluation hash "
+                       f"{evaluation_hash(run_profile)}, the profile's {evaluation_hash(profile)})")
+    keys = _differing_keys(run_profile, profile)
+    reasons.append(f"profile hash {profile_hash(run_profile)}, the profile's {profile_hash(profile)}"
+                   + (f": {'; '.join(keys[:limit])}" + (f"; and {len(keys) - limit} more" if len(keys) > limit else "")
+                      if keys else ""))
+    return reasons
+
+
+@contextlib.contextmanager
+def _locked(campaign_dir: Path, exclusive: bool):
+    import fcntl
+
+    fd = os.open(campaign_dir, os.O_RDONLY | os.O_DIRECTORY)
+    try:
+        fcntl.flock(fd, fcntl.LOCK_EX if exclusive else fcntl.LOCK_SH)
+        yield
+    finally:
+        os.close(fd)
+
+
+def publish_run(run_dir, campaign_dir, datasets=None) -> Path:
+    """Publish ``run_dir`` as the campaign of ``campaign_dir`` (the caller checked :func:`run_differences`):
+    ``datasets`` (default :func:`~lnss_lib.campaign.rundir.export_results`) into a new folder, then the
+    pointer; superseded folders are removed. Returns the pointer's path."""
+    run_dir, campaign_dir = Path(run_dir), Path(campaign_dir)
+    datasets = datasets if datasets is not None else export_results(run_dir)
+    run = load_run(run_dir)
+    root = campaign_dir / PUBLISHED_DIR
+    with _locked(campaign_dir, exclusive=True):
+        root.mkdir(exist_ok=True)
+        folder = Path(tempfile.mkdtemp(prefix=f"{run_dir.name}-", dir=root))
+        for name, ds in zip(RESULT_FILES, datasets):
+            write_netcdf_atomic(ds, folder / name)
+        attrs = datasets[0].attrs
+        pointer = {"folder": f"{PUBLISHED_DIR}/{folder.name}", "run_dir": os.path.relpath(run_dir, campaign_dir),
+                   "profile": run["profile"]["profile"]["name"], "profile_hash": profile_hash(run["profile"]),
+                   "evaluation_hash": run["evaluation_hash"], "evaluator": attrs["evaluator"],
+                   "generations_done": int(attrs["generations_done"]), "finished": bool(attrs["finished"]),
+                   "written_utc": time.strftime("%Y-%m-%dT%H:%M:%SZ", time.gmtime())}
+        write_text_atomic(campaign_dir / POINTER_FILE, json.dumps(pointer, indent=1))
+        for old in root.iterdir():
+            if old != folder:
+                shutil.rmtree(old, ignore_errors=True)
+    return campaign_dir / POINTER_FILE
+
+
+def _pointer(campaign_dir: Path) -> dict | None:
+    path = campaign_dir / POINTER_FILE
+    if not path.is_file():
+        return None
+    try:
+        pointer = json.loads(path.read_text())
+        folder = Path(pointer["folder"])
+    except (ValueError, TypeError, KeyError):
+        raise ValueError(f"{path} is not a publication pointer (JSON naming its folder); delete it and run "
+                         f"the campaign or notebook 06 again") from None
+    if folder.is_absolute() or ".." in folder.parts:
+        raise ValueError(f"{path}: folder {str(folder)!r} is outside {campaign_dir}")
+    return pointer
+
+
+def published_folder(campaign_dir) -> Path | None:
+    """The folder of ``campaign_dir``'s publication (its files never change), or None when nothing is published."""
+    pointer = _pointer(Path(campaign_dir))
+    return Path(campaign_dir) / pointer["folder"] if pointer else None
+
+
+def load_published(campaign_dir) -> Publication | None:
+    """The publication of ``campaign_dir`` loaded into memory (one run's three files), or None."""
+    campaign_dir = Path(campaign_dir)
+    if not campaign_dir.is_dir():
+        return None
+    with _locked(campaign_dir, exclusive=False):
+        pointer = _pointer(campaign_dir)
+        if pointer is None:
+            return None
+        folder = campaign_dir / pointer["folder"]
+        datasets = [xr.load_dataset(folder / name, engine="h5netcdf") for name in RESULT_FILES]
+    return Publication(pointer, folder, *datasets)
