@@ -286,6 +286,18 @@ def test_forged_checkpoint_is_one_line_and_runs_nothing(capsys, tmp_path):
     assert not (tmp_path / "code_ran").exists()
 
 
+def test_forged_profile_name_in_a_run_folder_is_refused(capsys, tmp_path):
+    """Issue 21 item 10: a run folder's stored profile name builds output paths; a path-like name is refused."""
+    run_dir = _synthetic_run(tmp_path, extra=["--max-generations", "1"])
+    capsys.readouterr()
+    run_file = run_dir / "run.json"
+    forged = json.loads(run_file.read_text())
+    forged["profile"]["profile"]["name"] = "../../elsewhere"
+    run_file.write_text(json.dumps(forged))
+    one_line_error(capsys, main(["campaign", "--resume", str(run_dir), "--workers", "0", "--no-progress"]), 2,
+                   "profile.name", "forged")
+
+
 def test_rejected_campaign_leaves_no_folder(capsys, tmp_path):
     for bad in (["--set", "spacecraft.cr=nan"], ["--set", "campaign.population=1"], ["--set", "campaign.seed=1.5"]):
         code = main(SYNTHETIC + ["--run-dir", str(tmp_path / "new" / "run"), *bad])

@@ -18,7 +18,7 @@ from dataclasses import dataclass
 import numpy as np
 from pathlib import Path
 
-from ..config import OUTPUTS_DIR, load_profile, profile_hash, validate_profile
+from ..config import OUTPUTS_DIR, PROFILE_NAME, load_profile, profile_hash, validate_profile
 from ..errors import ConfigError
 from .backends import BatchEvaluator, open_backend
 from .callbacks import (Callback, CampaignStopped, Checkpointer, ErrorGuard, HistoryRecorder, ProgressBars,
@@ -81,6 +81,10 @@ def run_campaign(profile_name: str = "quick", *, overrides: dict | None = None, 
         run = load_run(run_dir)
         profile = run["profile"]
         validate_profile(profile, partial=True)
+        stored_name = profile.get("profile", {}).get("name")
+        if not isinstance(stored_name, str) or not PROFILE_NAME.fullmatch(stored_name):
+            raise ConfigError(f"{run_dir / RUN_FILE}: profile.name = {stored_name!r} is not a profile name "
+                              f"(letters, digits, '_' and '-'); the run folder is damaged or forged", key="profile.name")
         if evaluation_hash(profile) != run["evaluation_hash"]:
             raise ConfigError(f"{run_dir}: evaluation hash of the stored profile changed; cannot resume")
         lock = RunLock(run_dir)
