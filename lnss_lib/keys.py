@@ -4,7 +4,7 @@ from __future__ import annotations
 
 __all__ = ["DESIGN_KEYS", "INTEGER_DESIGN_KEYS", "ELEMENT_KEYS", "METRIC_KEYS", "EXTRA_METRIC_KEYS",
            "CAMPAIGN_METRIC_KEYS", "RESULT_KEYS", "TIMING_KEYS", "DELTAV_SATELLITES",
-           "requested_extra_metrics"]
+           "requested_extra_metrics", "LABELS", "label", "value_format", "format_value"]
 
 DESIGN_KEYS = ("sma_km", "ecc", "aop_deg", "inc_deg", "n_planes", "sats_per_plane")   # eq. 45 arguments
 INTEGER_DESIGN_KEYS = ("n_planes", "sats_per_plane")
@@ -23,6 +23,56 @@ RESULT_KEYS = METRIC_KEYS + ("deltav_model", "feasible", "reason", "wall_s")
 TIMING_KEYS = ("propagation", "dop", "deltav", "gps", "operational")   # operational: the extra metrics
 DELTAV_SATELLITES = ("first", "all")        # [deltav] satellites: the eq. 45 Delta-V of satellite 0, or mean over all
 _NEEDS_ALL_SATELLITES = ("dv_total_max_kms_per_year", "dv_opt_max_kms_per_year")
+
+LABELS = {                  # key -> human label with its unit: figures, tables, explorer, ``evaluate``
+    "sma_km": "semi-major axis (km)", "ecc": "eccentricity", "aop_deg": "argument of perilune (deg)",
+    "inc_deg": "inclination (deg)", "raan_deg": "RAAN (deg)", "mean_anomaly_deg": "mean anomaly (deg)",
+    "n_planes": "planes", "sats_per_plane": "satellites per plane", "n_sat": "satellites",
+    "mean_visible_sats": "mean visible LNSS satellites", "pdop_mean_3sigma": "PDOP (3-sigma mean)",
+    "pdop_avail_pct": "PDOP availability (%)", "hdop_mean_3sigma": "HDOP (3-sigma mean)",
+    "hdop_avail_pct": "HDOP availability (%)", "dv_total_kms_per_year": "Delta-V total (km/s/yr)",
+    "dv_opt_kms_per_year": "Delta-V optimised (km/s/yr)", "gps_visible_mean": "mean visible GPS satellites",
+    "gps_pdop_mean": "GPS-LNSS PDOP", "sk_dv_estimate_kms_per_year": "geometry-keeping Delta-V, mean (km/s/yr)",
+    "sk_dv_estimate_max_kms_per_year": "geometry-keeping Delta-V, worst satellite (km/s/yr)",
+    "stable_screen": "stable over the life (screen)", "screen_min_perilune_alt_km": "lowest perilune over the life (km)",
+    "dv_total_max_kms_per_year": "Delta-V total, worst satellite (km/s/yr)",
+    "dv_opt_max_kms_per_year": "Delta-V optimised, worst satellite (km/s/yr)", "deltav_model": "Delta-V model",
+    "feasible": "feasible (Table 3)", "reason": "why not feasible", "wall_s": "wall time (s)",
+}
+
+
+def label(key: str) -> str:
+    """The human label (with unit) of a design, metric or result key; an unknown key is returned as is."""
+    return LABELS.get(key, key)
+
+
+def value_format(key: str) -> str:
+    """Format spec for a quantity by its key's unit: km as integers, DOP to 2 decimals, Delta-V (km/s/yr)
+    to 3, mean counts to 2, percentages and degrees to 1, eccentricity to 3; ``".4g"`` otherwise."""
+    if key.endswith("_kms_per_year") or key in ("ecc",):
+        return ".3f"
+    if "dop" in key and not key.endswith("_pct"):
+        return ".2f"
+    if key.endswith("_km"):
+        return ".0f"
+    if key in ("mean_visible_sats", "gps_visible_mean"):
+        return ".2f"
+    if key.endswith(("_pct", "_deg")):
+        return ".1f"
+    return ".4g"
+
+
+def format_value(key: str, value) -> str:
+    """``value`` written in the format of ``key`` (:func:`value_format`); NaN as ``"-"``, text unchanged."""
+    import numbers
+
+    if isinstance(value, bool) or not isinstance(value, numbers.Real):
+        return str(value)
+    if value != value:
+        return "-"
+    if isinstance(value, numbers.Integral) or float(value).is_integer() and key in INTEGER_DESIGN_KEYS + ("n_sat",):
+        return str(int(value))
+    return format(float(value), value_format(key))
 
 
 def requested_extra_metrics(profile: dict) -> tuple[str, ...]:

@@ -1,4 +1,4 @@
-"""Running the workbook: the outputs index (thumbnails, inline tables, offline), IPC kernels for papermill,
+"""Running the workbook: the outputs index (findings first, thumbnails, inline tables, offline), IPC kernels for papermill,
 and a written HTML figure rendered by headless Chromium with the network disabled."""
 
 import shutil
@@ -6,14 +6,19 @@ import struct
 import subprocess
 import zlib
 
+import numpy as np
 import pandas as pd
 import plotly.graph_objects as go
 import pytest
+import xarray as xr
 
 import lnss_lib.figures as figures
 import lnss_lib.figures.export as export
 import lnss_lib.outputs
 import lnss_lib.pipeline as pipeline
+from lnss_lib import findings
+from lnss_lib.keys import format_value, label
+from lnss_lib.paper import FEASIBLE_DESIGNS, TABLE_4
 
 CHROMIUM = shutil.which("chromium") or shutil.which("chromium-browser") or shutil.which("google-chrome")
 needs_chromium = pytest.mark.skipif(CHROMIUM is None, reason="no Chromium on PATH (apt-get install chromium)")
@@ -59,7 +64,59 @@ def test_index_shows_the_first_rows_of_a_long_table(outputs, monkeypatch):
     monkeypatch.setattr(pipeline, "INDEX_TABLE_MAX_ROWS", 3)
     lnss_lib.outputs.save_table(pd.DataFrame({"k": range(10)}), "t", "01_long", caption="long")
     page = pipeline.write_index("t").read_text()
-    assert page.count("<tr>") == 4 and "first 3 of 10 rows" in page
+    section = page[page.index('id="nb-01"'):]   # after the findings
+    assert section.count("<tr>") == 4 and "first 3 of 10 rows" in section
+
+
+def _table4(ours_factor: float) -> pd.DataFrame:
+    ours = {k: v * ours_factor for k, v in TABLE_4.items()}
+    return pd.DataFrame({"metric": [label(k) for k in TABLE_4], "paper": list(TABLE_4.values()),
+                         "this workbook": list(ours.values()),
+                         "difference (%)": [100.0 * (ours_factor - 1.0)] * len(TABLE_4),
+                         "why": [f"reason for {k}" for k in TABLE_4]})
+
+
+def _campaign(folder, n_sat, pdop, dv):
+    n = len(n_sat)
+    ds = xr.Dataset({"n_sat": ("design", np.array(n_sat)), "pdop_mean_3sigma": ("design", np.array(pdop, float)),
+                     "dv_total_kms_per_year": ("design", np.array(dv, float)),
+                     "sma_km": ("design", np.full(n, 6143.0)), "ecc": ("design", np.full(n, 0.6)),
+                     "inc_deg": ("design", np.full(n, 51.7)), "aop_deg": ("design", np.full(n, 90.0)),
+                     "n_planes": ("design", np.full(n, 2)), "sats_per_plane": ("design", np.array(n_sat) // 2)},
+                    attrs={"constraints": "pdop_mean_3sigma <= 10,dv_total_kms_per_year <= 1", "generations_done": 1})
+    folder.mkdir(parents=True)
+    ds.to_netcdf(folder / "evaluations.nc", engine="h5netcdf")
+
+
+def test_findings_are_generated_from_the_outputs_and_open_the_index(outputs):
+    lnss_lib.outputs.save_table(_table4(1.25), "t", "05_table4", caption="Table 4")
+    for stem in ("07_fig10_pdop_availability", "07_fig8_hdop_pdop_deltav", "07_fig9_pdop_gpspdop_deltav",
+                 "05_fig4_dop_time_series"):
+        figures.save_figure(go.Figure(go.Scatter(x=[0, 1], y=[1, 2]), layout={"title": {"text": stem}}), "t", stem)
+    _campaign(outputs / "t" / "campaign", n_sat=[4, 8, 12, 6], pdop=[40.0, 3.0, 2.0, 5.0], dv=[0.5, 0.9, 0.2, 3.0])
+    page = pipeline.write_index("t").read_text()
+    start = page.index('id="findings"')
+    assert start < page.index('id="nb-05"') < page.index('id="nb-07"') and start < page.index("<figure")
+    assert page.index("07_fig8_") < page.index("07_fig9_") < page.index("07_fig10_")   # natural order
+    markdown = (outputs / "t" / findings.FINDINGS_FILE).read_text()
+    pdop = TABLE_4["pdop_mean_3sigma"]
+    row = next(line for line in markdown.splitlines() if label("pdop_mean_3sigma") in line)
+    assert f"| {format_value('pdop_mean_3sigma', pdop)} | {format_value('pdop_mean_3sigma', 1.25 * pdop)} (+25.0 %)" in row
+    assert "reason for pdop_mean_3sigma" in row and "figures/05_fig4_dop_time_series.html" in row
+    # the campaign: two designs meet both bounds, the smallest has 8 satellites and its own Delta-V
+    feasible = next(line for line in markdown.splitlines() if line.startswith("| Designs meeting Table 3"))
+    assert f"| {FEASIBLE_DESIGNS} of" in feasible and "| 2 of 4 unique designs |" in feasible
+    smallest = next(line for line in markdown.splitlines() if line.startswith("| Smallest constellation"))
+    assert f"8 satellites, {label('dv_total_kms_per_year')} {format_value('dv_total_kms_per_year', 0.9)}" in smallest
+    # outputs this run did not write are named with the notebook that writes them
+    life = next(line for line in markdown.splitlines() if line.startswith("| Design life"))
+    assert "not in this run" in life and "--only 08" in life
+
+
+def test_findings_without_outputs_say_what_to_run(outputs):
+    found = findings.collect("empty")
+    assert found and all(f.workbook == "not in this run" for f in found)
+    assert {f.why.split("--only ")[1] for f in found} == {"05", "06", "08", "10"}
 
 
 def test_kernels_use_ipc_transport():

@@ -19,7 +19,7 @@ import numpy as np
 import pandas as pd
 import xarray as xr
 
-from ..campaign.fitness import non_dominated_mask, objective_matrix
+from ..campaign.fitness import non_dominated_mask, objective_matrix, parse_constraints, satisfies
 from ..keys import DESIGN_KEYS, EXTRA_METRIC_KEYS, METRIC_KEYS
 
 __all__ = ["load_campaign", "parse_constraints", "satisfies", "pareto_front", "table6", "synthetic_campaign",
@@ -43,30 +43,6 @@ def load_campaign(profile_name: str) -> tuple[xr.Dataset, xr.Dataset]:
             f"no campaign results for profile {profile_name!r} ({', '.join(missing)} missing in {folder}); "
             f"run: python -m lnss_lib campaign --profile {profile_name}")
     return tuple(xr.load_dataset(p, engine="h5netcdf") for p in paths)
-
-
-def parse_constraints(text: str) -> list[tuple[str, str, float]]:
-    """``"pdop_mean_3sigma <= 10,pdop_avail_pct >= 70"`` -> [(metric, "max"|"min", limit), ...]."""
-    constraints = []
-    for item in filter(None, (part.strip() for part in text.split(","))):
-        for operator, kind in (("<=", "max"), (">=", "min")):
-            if operator in item:
-                metric, limit = (s.strip() for s in item.split(operator))
-                constraints.append((metric, kind, float(limit)))
-                break
-        else:
-            raise ValueError(f"cannot read constraint {item!r}; expected 'metric <= limit' or 'metric >= limit'")
-    return constraints
-
-
-def satisfies(ds: xr.Dataset, constraints) -> np.ndarray:
-    """Boolean (design,) mask of designs meeting every (metric, kind, limit) constraint (NaN fails)."""
-    ok = np.ones(ds.sizes["design"], dtype=bool)
-    for metric, kind, limit in constraints:
-        values = ds[metric].values.astype(float)
-        with np.errstate(invalid="ignore"):
-            ok &= (values <= limit) if kind == "max" else (values >= limit)
-    return ok
 
 
 def pareto_front(evaluations: xr.Dataset, *, relax: tuple[str, ...] = ()) -> xr.Dataset:
