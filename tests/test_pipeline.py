@@ -1,9 +1,11 @@
 """Running the workbook: the outputs index (findings first, thumbnails, inline tables, offline), IPC kernels for papermill,
 and a written HTML figure rendered by headless Chromium with the network disabled."""
 
+import base64
 import shutil
 import struct
 import subprocess
+import sys
 import zlib
 
 import numpy as np
@@ -216,3 +218,59 @@ def test_png_decoder_counts_dark_pixels():
     white, black = (255, 255, 255), (0, 0, 0)
     assert _non_white_pixels(png([[white, black], [black, black]])) == 3
     assert _non_white_pixels(png([[white, white]])) == 0
+
+
+def _run_figure_notebook(tmp_path, monkeypatch):
+    """Execute a two-figure notebook (one saved, one only shown) with ``reproduce``; return it converted
+    to HTML by ``jupyter nbconvert`` and the executed notebook."""
+    import nbformat
+
+    books = tmp_path / "notebooks"
+    books.mkdir()
+    nb = nbformat.v4.new_notebook(metadata={"kernelspec": {"name": "python3", "language": "python",
+                                                           "display_name": "Python 3"}})
+    nb.cells = [nbformat.v4.new_code_cell("profile_name = 'quick'", metadata={"tags": ["parameters"]}),
+                nbformat.v4.new_code_cell("import pathlib\nimport plotly.graph_objects as go\nimport lnss_lib.outputs\n"
+                                          "from lnss_lib.figures import save_figure\n"
+                                          f"lnss_lib.outputs.OUTPUTS_DIR = pathlib.Path({str(tmp_path)!r})\n"
+                                          "fig = go.Figure(go.Scatter(x=[0, 1, 2], y=[1, 3, 2], line={'width': 8}))\n"
+                                          "save_figure(fig, profile_name, '01_line')\nfig"),
+                nbformat.v4.new_code_cell("go.Figure(go.Bar(x=[1, 2], y=[2, 1])).show()")]
+    nbformat.write(nb, books / "01_figures.ipynb")
+    monkeypatch.setattr(pipeline, "NOTEBOOKS_DIR", books)
+    monkeypatch.setenv("PYTHONPATH", "")
+    assert pipeline.reproduce("ci") == 0
+    executed = tmp_path / "ci" / "notebooks" / "01_figures.ipynb"
+    subprocess.run([sys.executable, "-m", "jupyter", "nbconvert", "--to", "html", str(executed), "--output-dir",
+                    str(tmp_path / "html")], check=True, capture_output=True, timeout=300)
+    return (tmp_path / "html" / "01_figures.html").read_text(), nbformat.read(executed, as_version=4)
+
+
+def test_converted_notebook_keeps_its_figures_as_html_without_chromium(outputs, tmp_path, monkeypatch):
+    page, executed = _run_figure_notebook(tmp_path, monkeypatch)     # the fixture turns PNG export off
+    bundles = [o["data"] for c in executed.cells for o in c.get("outputs", []) if "data" in o]
+    assert len(bundles) == 2 and all({"application/vnd.plotly.v1+json", "text/html"} <= set(b) for b in bundles)
+    assert page.count("Plotly.newPlot(") == 2                    # both figures are drawn by the HTML copy ...
+    library = "plotly.js v"
+    assert sum(library in b["text/html"] for b in bundles) == 1   # ... with plotly.js inline in the first only
+    assert 'src="https://cdn.plot.ly' not in page                 # plotly.js is not loaded from the network
+
+
+@needs_chromium
+def test_converted_notebook_shows_its_figures_in_headless_chromium(outputs, tmp_path, monkeypatch):
+    monkeypatch.delenv(export.PNG_ENV)
+    page, executed = _run_figure_notebook(tmp_path, monkeypatch)
+    saved = (tmp_path / "ci" / "figures" / "01_line.png").read_bytes()
+    bundles = [o["data"] for c in executed.cells for o in c.get("outputs", []) if "data" in o]
+    assert len(bundles) == 2 and all("image/png" in b and "text/html" not in b for b in bundles)
+    assert base64.b64decode(bundles[0]["image/png"]) == saved    # the PNG save_figure drew, not a second one
+    assert page.count('src="data:image/png;base64,') == 2
+    html_file = tmp_path / "html" / "01_figures.html"
+    drawn = _non_white_pixels(screenshot_offline(html_file, tmp_path / "notebook.png", tmp_path, size=(1000, 1400)))
+    assert drawn > 5000   # a thick line and two bars; the page without figures is code cells on white
+
+
+def test_notebook_renderer_is_default_only_in_a_kernel():
+    import plotly.io as pio
+
+    assert figures.use_notebook_renderer() is False and pio.renderers.default != figures.NOTEBOOK_RENDERER
