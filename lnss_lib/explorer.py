@@ -31,7 +31,7 @@ from .config import OUTPUTS_DIR, available_profiles, deep_merge, load_profile
 from .constellation import walker_design
 from .errors import ImpactError
 from .evaluator import EvaluationContext, analyse_constellation, context_for
-from .figures import constellation_3d, dop_time_series
+from .figures import POLE_AXES, constellation_3d, dop_time_series, polar_wedges
 from .keys import DESIGN_KEYS, INTEGER_DESIGN_KEYS, METRIC_KEYS
 
 
@@ -98,25 +98,18 @@ def _toml_literal(value) -> str:
 def availability_polar_maps(dop_ds, threshold: float, *, title: str) -> go.Figure:
     """PDOP and HDOP availability (%, eq. 14: DOP < threshold, no DOP = unavailable) per south-pole node.
 
-    Radius: colatitude from the south pole (deg); angle: Moon-fixed longitude. Fixed 0-100 % colour
+    Radius: latitude (labelled); angle: Moon-fixed longitude. Fixed 0-100 % colour
     scale, so successive designs compare by colour.
     """
     from plotly.subplots import make_subplots
 
-    lat2d, lon2d = np.meshgrid(dop_ds["lat"].values, dop_ds["lon"].values, indexing="ij")
-    colat = 90.0 + lat2d
-    base = np.maximum(colat - 5.0, 0.0)
     fig = make_subplots(rows=1, cols=2, specs=[[{"type": "polar"}] * 2],
                         subplot_titles=[f"PDOP < {threshold:g} (% of time)", f"HDOP < {threshold:g} (% of time)"])
     for col, name in enumerate(("pdop", "hdop"), start=1):
         pct = 100.0 * (dop_ds[name] < threshold).mean("time").values
-        fig.add_trace(go.Barpolar(r=(np.minimum(colat + 5.0, 30.0) - base).ravel(), base=base.ravel(),
-                                  theta=lon2d.ravel(), width=10.0, name=name.upper(),
-                                  marker={"color": pct.ravel(), "coloraxis": "coloraxis", "line_width": 0},
-                                  customdata=np.stack([lat2d.ravel(), pct.ravel()], axis=1),
-                                  hovertemplate="lat %{customdata[0]:.0f} lon %{theta:.0f}: "
-                                                "%{customdata[1]:.1f} %<extra></extra>"), row=1, col=col)
-    fig.update_polars(radialaxis={"range": [0, 30], "showticklabels": False}, angularaxis={"showticklabels": False})
+        fig.add_trace(polar_wedges(pct, dop_ds["lat"].values, dop_ds["lon"].values, name.upper(), "coloraxis"),
+                      row=1, col=col)
+    fig.update_polars(**POLE_AXES)
     fig.update_layout(title=title, height=430, showlegend=False, template="plotly_white",
                       coloraxis={"colorscale": "Viridis", "cmin": 0.0, "cmax": 100.0,
                                  "colorbar": {"title": "%", "thickness": 12}})

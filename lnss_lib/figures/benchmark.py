@@ -6,7 +6,22 @@ import numpy as np
 import plotly.graph_objects as go
 from plotly.subplots import make_subplots
 
-__all__ = ["benchmark_scatter", "epoch_sensitivity_lines"]
+__all__ = ["benchmark_scatter", "epoch_sensitivity_lines", "label_positions"]
+
+LABEL_POSITIONS = ("top center", "bottom center", "middle right", "middle left", "top right", "bottom left",
+                   "bottom right", "top left")
+
+
+def label_positions(x, y, *, x_near: float = 1.0, y_near: float = 4.0) -> np.ndarray:
+    """A text position per point so that neighbours' labels go to different sides: a point within
+    ``x_near`` (x units) and ``y_near`` (y units) of k earlier points gets :data:`LABEL_POSITIONS` [k]."""
+    x, y = np.asarray(x, float), np.asarray(y, float)
+    out = np.empty(x.size, dtype=object)
+    for i in range(x.size):
+        near = np.abs(x[:i] - x[i]) <= x_near
+        near &= np.abs(y[:i] - y[i]) <= y_near
+        out[i] = LABEL_POSITIONS[int(near.sum()) % len(LABEL_POSITIONS)]
+    return out
 
 
 def benchmark_scatter(table, panels, colour: str, colour_label: str, *, title: str) -> go.Figure:
@@ -36,9 +51,10 @@ def benchmark_scatter(table, panels, colour: str, colour_label: str, *, title: s
             keep = mask & np.isfinite(y)
             if not keep.any():
                 continue
+            x = table["n_sat"].to_numpy(float)
             fig.add_trace(go.Scatter(
-                x=table["n_sat"].to_numpy(float)[keep], y=y[keep], mode="markers+text", name=name, marker=marker,
-                text=tags[keep], customdata=names[keep], textposition="top center", textfont={"size": 9},
+                x=x[keep], y=y[keep], mode="markers+text", name=name, marker=marker, text=tags[keep],
+                customdata=names[keep], textposition=label_positions(x, y)[keep], textfont={"size": 9},
                 showlegend=False,
                 hovertemplate="%{customdata}<br>%{x} satellites<br>availability %{y:.1f}%<extra></extra>"),
                 row=1, col=col)

@@ -68,6 +68,9 @@ def monthly_dop(nav, *, title: str) -> go.Figure:
             fig.add_trace(go.Scatter(x=month, y=nav[key].sel(run=name).values, mode="lines+markers", name=str(name),
                                      legendgroup=str(name), showlegend=k == 0,
                                      line={"color": _COLOURS.get(str(name))}), row=k // 2 + 1, col=k % 2 + 1)
+    for k, (key, _) in enumerate(panels):
+        if key.endswith("_pct"):     # bounded quantity on a fixed axis: 99.999... % is not a drop from 100 %
+            fig.update_yaxes(range=[0, 102], row=k // 2 + 1, col=k % 2 + 1)
     fig.update_xaxes(title_text="month of the design life")
     fig.update_layout(title=title, template="plotly_white", height=700)
     return fig
