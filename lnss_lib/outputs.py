@@ -15,6 +15,7 @@ from pathlib import Path
 
 from .atomicio import atomic_path, write_bytes_atomic, write_text_atomic
 from .config import MANIFEST_PACKAGES, OUTPUTS_DIR, PARAMS_DIR, PROJECT_DIR, load_profile, package_versions, profile_hash
+from .keys import LABELS, format_value, label
 
 __all__ = ["output_dir", "profile_dir", "write_text_atomic", "write_bytes_atomic", "atomic_path", "write_caption", "read_caption", "markdown_table",
            "save_table", "data_checksums", "package_versions", "git_revision", "write_manifest", "CAPTION_SUFFIX",
@@ -59,26 +60,31 @@ def read_caption(folder: Path, name: str) -> str:
 def markdown_table(frame, digits: int = 4) -> str:
     """Pipe-style Markdown table of a DataFrame (index included when it is not a plain range).
 
-    Floats are written with ``digits`` significant digits; NaN and None as empty cells.
+    Headers that are workbook keys show their label with unit (:data:`lnss_lib.keys.LABELS`); numbers in
+    the format of their column's quantity (:func:`lnss_lib.keys.format_value`: km as integers, DOP to 2
+    decimals, Delta-V to 3), other floats with ``digits`` significant digits; NaN and None as empty cells.
     """
     import numbers
 
     import pandas as pd
 
-    def cell(value) -> str:
+    def cell(value, column) -> str:
         if value is None or (isinstance(value, float) and value != value):
             return ""
         if isinstance(value, (bool,)) or not isinstance(value, numbers.Real):
             return str(value).replace("|", "\\|").replace("\n", " ")
         if isinstance(value, numbers.Integral):
             return str(int(value))
+        if str(column) in LABELS:
+            return format_value(str(column), value)
         return f"{float(value):.{digits}g}"
 
     show_index = not isinstance(frame.index, pd.RangeIndex)
-    header = ([str(frame.index.name or "")] if show_index else []) + [str(c) for c in frame.columns]
+    columns = ([frame.index.name] if show_index else []) + list(frame.columns)
+    header = [label(str(c)) if c is not None else "" for c in columns]
     lines = ["| " + " | ".join(header) + " |", "|" + "---|" * len(header)]
     for index, row in zip(frame.index, frame.itertuples(index=False)):
-        cells = ([cell(index)] if show_index else []) + [cell(v) for v in row]
+        cells = ([cell(index, frame.index.name)] if show_index else []) + [cell(v, c) for v, c in zip(row, frame.columns)]
         lines.append("| " + " | ".join(cells) + " |")
     return "\n".join(lines) + "\n"
 

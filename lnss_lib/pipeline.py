@@ -131,7 +131,7 @@ INDEX_STYLE = (
     "figcaption{font-size:0.9em;margin-top:6px}"
     "table{border-collapse:collapse;font-size:0.85em;margin-bottom:0.5em}"
     "td,th{border:1px solid #ccc;padding:3px 6px;text-align:right;vertical-align:top}"
-    "th{background:#f0f0f0}td.text{text-align:left}"
+    "th{background:#f0f0f0;max-width:9em;font-weight:600}td.text{text-align:left}"
     ".files{font-size:0.85em;color:#555}"
 )
 

@@ -53,3 +53,17 @@ def test_atomic_write_replaces_whole_file(tmp_path):
     target.write_text("old content that is longer")
     assert write_text_atomic(target, "new") == target
     assert target.read_text() == "new" and [p.name for p in tmp_path.iterdir()] == ["a.txt"]
+
+
+def test_tables_write_each_quantity_in_its_own_format_with_labelled_headers(outputs):
+    frame = pd.DataFrame({"sma_km": [19100.4, 6143.0], "pdop_mean_3sigma": [2.16195, 40.0],
+                          "dv_total_kms_per_year": [2.39526, 0.5], "pdop_avail_pct": [99.99999999999999, 70.0],
+                          "other": [1.23456789, 2.0]})
+    lines = markdown_table(frame).splitlines()
+    assert lines[0] == ("| semi-major axis (km) | PDOP (3-sigma mean) | Delta-V total (km/s/yr) | PDOP availability (%) "
+                        "| other |")
+    assert lines[2] == "| 19100 | 2.16 | 2.395 | 100.0 | 1.235 |"        # not 1.91e+04, not 6 digits
+    save_table(frame, "t", "formats", caption="formats")
+    page = pipeline.write_index("t").read_text()
+    assert ("<td>19100</td><td>2.16</td><td>2.395</td><td>100.0</td><td>1.235</td>" in page
+            and '<th title="sma_km">semi-major axis (km)</th>' in page)
