@@ -17,7 +17,7 @@ from .atomicio import atomic_path, write_bytes_atomic, write_text_atomic
 from .config import MANIFEST_PACKAGES, OUTPUTS_DIR, PARAMS_DIR, PROJECT_DIR, load_profile, package_versions, profile_hash
 from .keys import LABELS, format_value, label
 
-__all__ = ["output_dir", "profile_dir", "write_text_atomic", "write_bytes_atomic", "atomic_path", "write_caption", "read_caption", "markdown_table",
+__all__ = ["output_dir", "profile_dir", "display_path", "display_table", "write_text_atomic", "write_bytes_atomic", "atomic_path", "write_caption", "read_caption", "markdown_table",
            "save_table", "data_checksums", "package_versions", "git_revision", "write_manifest", "CAPTION_SUFFIX",
            "OUTPUT_KINDS", "MANIFEST_PACKAGES"]
 
@@ -28,6 +28,23 @@ CAPTION_SUFFIX = ".meta.json"
 def profile_dir(profile_name: str) -> Path:
     """``outputs/<profile>/`` (not created)."""
     return OUTPUTS_DIR / profile_name
+
+
+def display_path(path) -> str:
+    """``path`` as a record shows it: relative to the workbook folder (``outputs/quick/campaign``), never the
+    machine's absolute prefix; a path outside the workbook by its name alone."""
+    path = Path(path).resolve()
+    try:
+        return path.relative_to(PROJECT_DIR.resolve()).as_posix()
+    except ValueError:
+        return path.name
+
+
+def display_table(frame, columns=None):
+    """A copy of ``frame`` (its ``columns``) for a notebook's display: headers by their labels with units and
+    each number in the format of its quantity (:func:`lnss_lib.keys.format_value`), NaN as ``-``."""
+    shown = frame[list(columns)] if columns is not None else frame
+    return shown.apply(lambda col: col.map(lambda v: format_value(str(col.name), v))).rename(columns=lambda c: label(str(c)))
 
 
 def output_dir(profile_name: str, kind: str) -> Path:

@@ -67,3 +67,17 @@ def test_tables_write_each_quantity_in_its_own_format_with_labelled_headers(outp
     page = pipeline.write_index("t").read_text()
     assert ("<td>19100</td><td>2.16</td><td>2.395</td><td>100.0</td><td>1.235</td>" in page
             and '<th title="sma_km">semi-major axis (km)</th>' in page)
+
+
+def test_records_show_workbook_paths_and_formatted_tables():
+    import numpy as np
+
+    from lnss_lib.config import PROJECT_DIR
+    from lnss_lib.outputs import display_path, display_table
+
+    assert display_path(PROJECT_DIR / "outputs" / "quick" / "campaign") == "outputs/quick/campaign"
+    assert display_path("/somewhere/else/run_1") == "run_1"          # never a machine's absolute prefix
+    frame = pd.DataFrame({"sma_km": [19100.4], "ecc": [0.6], "impact_day": [np.nan], "region": ["frozen family"]})
+    shown = display_table(frame, ["sma_km", "impact_day", "region"])
+    assert list(shown.columns) == ["semi-major axis (km)", "impact_day", "region"]
+    assert shown.iloc[0].tolist() == ["19100", "-", "frozen family"]
