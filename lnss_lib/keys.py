@@ -31,13 +31,14 @@ LABELS = {                  # key -> human label with its unit: figures, tables,
     "mean_visible_sats": "mean visible LNSS satellites", "pdop_mean_3sigma": "PDOP (3-sigma mean)",
     "pdop_avail_pct": "PDOP availability (%)", "hdop_mean_3sigma": "HDOP (3-sigma mean)",
     "hdop_avail_pct": "HDOP availability (%)", "dv_total_kms_per_year": "Delta-V total (km/s/yr)",
-    "dv_opt_kms_per_year": "Delta-V optimised (km/s/yr)", "gps_visible_mean": "mean visible GPS satellites",
-    "gps_pdop_mean": "GPS-LNSS PDOP", "sk_dv_estimate_kms_per_year": "geometry-keeping Delta-V, mean (km/s/yr)",
+    "dv_opt_kms_per_year": "Delta-V optimised (km/s/yr)",
+    "gps_visible_mean": "GPS satellites visible (mean, first LNSS satellite)",
+    "gps_pdop_mean": "GPS-LNSS PDOP (first LNSS satellite)", "sk_dv_estimate_kms_per_year": "geometry-keeping Delta-V, mean (km/s/yr)",
     "sk_dv_estimate_max_kms_per_year": "geometry-keeping Delta-V, worst satellite (km/s/yr)",
     "stable_screen": "stable over the life (screen)", "screen_min_perilune_alt_km": "lowest perilune over the life (km)",
     "dv_total_max_kms_per_year": "Delta-V total, worst satellite (km/s/yr)",
     "dv_opt_max_kms_per_year": "Delta-V optimised, worst satellite (km/s/yr)", "deltav_model": "Delta-V model",
-    "feasible": "feasible (Table 3)", "reason": "why not feasible", "wall_s": "wall time (s)",
+    "feasible": "evaluated (no impact, valid elements)", "reason": "why not evaluated", "wall_s": "wall time (s)",
 }
 
 
