@@ -38,7 +38,7 @@ LABELS = {                  # key -> human label with its unit: figures, tables,
     "stable_screen": "stable over the life (screen)", "screen_min_perilune_alt_km": "lowest perilune over the life (km)",
     "dv_total_max_kms_per_year": "Delta-V total, worst satellite (km/s/yr)",
     "dv_opt_max_kms_per_year": "Delta-V optimised, worst satellite (km/s/yr)", "deltav_model": "Delta-V model",
-    "feasible": "evaluated (no impact, valid elements)", "reason": "why not evaluated", "wall_s": "wall time (s)",
+    "wall_s": "wall time (s)",   # "feasible" and "reason" keep their names: the evaluator and a campaign mean different things
 }
 
 
