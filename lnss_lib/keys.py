@@ -4,7 +4,7 @@ from __future__ import annotations
 
 __all__ = ["DESIGN_KEYS", "INTEGER_DESIGN_KEYS", "ELEMENT_KEYS", "METRIC_KEYS", "EXTRA_METRIC_KEYS",
            "CAMPAIGN_METRIC_KEYS", "RESULT_KEYS", "TIMING_KEYS", "DELTAV_SATELLITES",
-           "requested_extra_metrics", "LABELS", "label", "value_format", "format_value"]
+           "requested_extra_metrics", "LABELS", "label", "bound_text", "value_format", "format_value"]
 
 DESIGN_KEYS = ("sma_km", "ecc", "aop_deg", "inc_deg", "n_planes", "sats_per_plane")   # eq. 45 arguments
 INTEGER_DESIGN_KEYS = ("n_planes", "sats_per_plane")
@@ -45,6 +45,17 @@ LABELS = {                  # key -> human label with its unit: figures, tables,
 def label(key: str) -> str:
     """The human label (with unit) of a design, metric or result key; an unknown key is returned as is."""
     return LABELS.get(key, key)
+
+
+UNITS = ("km", "deg", "%", "km/s/yr", "s")        # the units a label ends with, in parentheses
+
+
+def bound_text(key: str, kind: str, limit: float) -> str:
+    """A bound in words with the unit after the limit: ``("pdop_avail_pct", "min", 70)`` ->
+    ``"PDOP availability >= 70 %"``; ``kind`` is ``"max"`` (<=) or ``"min"`` (>=)."""
+    name, _, unit = label(key).rpartition(" (")
+    name, unit = (name, " " + unit[:-1]) if name and unit[:-1] in UNITS else (label(key), "")
+    return f"{name} {'<=' if kind == 'max' else '>='} {limit:g}{unit}"
 
 
 def value_format(key: str) -> str:

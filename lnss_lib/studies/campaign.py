@@ -23,21 +23,14 @@ import xarray as xr
 
 from ..campaign import CampaignSettings, campaign_timing, read_cache_records, run_campaign, write_results
 from ..campaign.rundir import CHECKPOINT_FILE, RESULT_FILES
+from ..keys import bound_text
 from ..paper import EVALUATIONS, FEASIBLE_DESIGNS, TABLE_5
 
-__all__ = ["settings_table", "design_grid_table", "latest_run_dir", "load_or_run", "constraint_label",
+__all__ = ["settings_table", "design_grid_table", "latest_run_dir", "load_or_run",
            "constraint_table", "steady_designs_per_s", "throughput_table", "run_throughput_table", "companion_of",
            "comparison_table",
            "NON_NAVIGATION_METRICS"]
 
-CONSTRAINT_LABELS = {"pdop_mean_3sigma": ("PDOP_3sigma", ""), "pdop_avail_pct": ("PDOP availability", " %"),
-                     "hdop_mean_3sigma": ("HDOP_3sigma", ""), "hdop_avail_pct": ("HDOP availability", " %"),
-                     "dv_total_kms_per_year": ("Delta-V_total", " km/s/yr"),
-                     "dv_opt_kms_per_year": ("Delta-V_opt", " km/s/yr"),
-                     "sk_dv_estimate_kms_per_year": ("geometry-keeping Delta-V (mean)", " km/s/yr"),
-                     "sk_dv_estimate_max_kms_per_year": ("geometry-keeping Delta-V (worst satellite)", " km/s/yr"),
-                     "stable_screen": ("stable over the design life (screen)", ""),
-                     "screen_min_perilune_alt_km": ("lowest perilune over the design life (screen)", " km")}
 # bounds that are not about navigation: station keeping and design-life stability
 NON_NAVIGATION_METRICS = ("dv_total_kms_per_year", "dv_opt_kms_per_year", "sk_dv_estimate_kms_per_year",
                           "sk_dv_estimate_max_kms_per_year", "dv_total_max_kms_per_year", "dv_opt_max_kms_per_year",
@@ -121,12 +114,6 @@ def load_or_run(profile_name: str) -> tuple[Path, xr.Dataset, xr.Dataset, xr.Dat
     return run_dir, evaluations, front, history, read_cache_records(run_dir)
 
 
-def constraint_label(metric: str, kind: str, limit: float) -> str:
-    """Readable bound, e.g. ``("pdop_avail_pct", "min", 70.0)`` -> ``"PDOP availability >= 70 %"``."""
-    name, unit = CONSTRAINT_LABELS.get(metric, (metric, ""))
-    return f"{name} {'<=' if kind == 'max' else '>='} {limit:g}{unit}"
-
-
 def constraint_table(evaluations: xr.Dataset, constraints):
     """Designs meeting each campaign bound (Table 3) separately, with count and share of all designs.
 
@@ -143,7 +130,7 @@ def constraint_table(evaluations: xr.Dataset, constraints):
         values = evaluations[metric].values.astype(float)
         with np.errstate(invalid="ignore"):
             met = values <= limit if kind == "max" else values >= limit
-        checks[constraint_label(metric, kind, limit)] = met
+        checks[bound_text(metric, kind, limit)] = met
         if metric not in NON_NAVIGATION_METRICS:
             navigation &= met
     checks["navigation bounds only (no Delta-V or stability bound)"] = navigation

@@ -20,7 +20,7 @@ import pandas as pd
 import xarray as xr
 
 from ..campaign.fitness import non_dominated_mask, objective_matrix, parse_constraints, satisfies
-from ..keys import DESIGN_KEYS, EXTRA_METRIC_KEYS, METRIC_KEYS
+from ..keys import DESIGN_KEYS, EXTRA_METRIC_KEYS, METRIC_KEYS, bound_text
 
 __all__ = ["load_campaign", "parse_constraints", "satisfies", "pareto_front", "table6", "synthetic_campaign",
            "deltav_constraint", "analysis_front", "TABLE6_RULES", "TABLE6_COLUMNS"]
@@ -85,7 +85,7 @@ def analysis_front(evaluations: xr.Dataset, campaign_front: xr.Dataset) -> tuple
         return campaign_front, "feasible front"
     metric, limit = deltav_constraint(evaluations)
     return (pareto_front(evaluations, relax=(metric,)),
-            f"front with the Delta-V bound ({metric} <= {limit:g} km/s/yr) relaxed")
+            f"front with the Delta-V bound ({bound_text(metric, 'max', limit)}) relaxed")
 
 
 TABLE6_RULES = (   # (reason, rule(frame, Delta-V metric name) -> frame ranked best first)
