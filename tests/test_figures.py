@@ -174,7 +174,7 @@ def test_convergence_says_when_nothing_was_feasible():
 
 
 def test_coincident_benchmark_labels_go_to_different_sides():
-    positions = figures.label_positions([8, 8, 8, 16, 16, 3], [0.0, 0.0, 1.0, 99.3, 99.9, 0.0])
+    positions = figures.label_positions([8, 8, 8, 16, 16, 1], [0.0, 0.0, 1.0, 99.3, 99.9, 50.0])
     assert len(set(positions[:3])) == 3 and positions[3] != positions[4]
     assert positions[5] == positions[0]                        # far from the others: the default side
 

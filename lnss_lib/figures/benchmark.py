@@ -12,9 +12,10 @@ LABEL_POSITIONS = ("top center", "bottom center", "middle right", "middle left",
                    "bottom right", "top left")
 
 
-def label_positions(x, y, *, x_near: float = 1.0, y_near: float = 4.0) -> np.ndarray:
+def label_positions(x, y, *, x_near: float = 4.0, y_near: float = 4.0) -> np.ndarray:
     """A text position per point so that neighbours' labels go to different sides: a point within
-    ``x_near`` (x units) and ``y_near`` (y units) of k earlier points gets :data:`LABEL_POSITIONS` [k]."""
+    ``x_near`` (x units: a label is about four satellites wide on the benchmark's axis) and ``y_near``
+    (y units) of k earlier points gets :data:`LABEL_POSITIONS` [k]."""
     x, y = np.asarray(x, float), np.asarray(y, float)
     out = np.empty(x.size, dtype=object)
     for i in range(x.size):
