@@ -97,17 +97,17 @@ def load_or_run(profile_name: str) -> tuple[Path, xr.Dataset, xr.Dataset, xr.Dat
     (:func:`run_campaign`).
     """
     from ..config import load_profile
-    from ..outputs import output_dir
+    from ..outputs import display_path, output_dir
 
     campaign_dir = output_dir(profile_name, "campaign")
     if CampaignSettings.from_profile(load_profile(profile_name)).notebook_mode == "load":
         run_dir = latest_run_dir(campaign_dir, profile_name)
         write_results(run_dir, campaign_dir)
-        print(f"loaded {run_dir}")
+        print(f"loaded {display_path(run_dir)}")
     else:
         result = run_campaign(profile_name, progress=False)
         run_dir = result.run_dir
-        print(f"ran {run_dir}: {result.generations} generations, {result.n_evaluations} unique designs in "
+        print(f"ran {display_path(run_dir)}: {result.generations} generations, {result.n_evaluations} unique designs in "
               f"{result.session_wall_s:.1f} s")
     evaluations, front, history = (xr.open_dataset(campaign_dir / name, engine="h5netcdf").load()
                                    for name in RESULT_FILES)
