@@ -97,19 +97,18 @@ def table4_findings(root: Path) -> list[Finding]:
     if not path.is_file():
         return [_missing("Table 4: standalone ELFO", "Table 4", "05", "the Table 4 comparison")]
     rows = _read_csv(path)
-    keys = list(TABLE_4) if len(rows) == len(TABLE_4) else [None] * len(rows)   # 05_table4 lists Table 4 in order
+    keys = list(TABLE_4) if len(rows) == len(TABLE_4) else [""] * len(rows)   # 05_table4 lists Table 4 in order
     found = []
     for key, row in zip(keys, rows):
-        paper = _number(row.get("paper"))
-        shown = (lambda v: format_value(key, v)) if key else (lambda v: format(v, ".4g"))
         difference = _number(row.get("difference (%)"))
-        ours = shown(_number(row.get("this workbook")))
+        ours = format_value(key, _number(row.get("this workbook")))
         if math.isfinite(difference):
             ours += f" ({difference:+.1f} %)"
         links = _figure(root, TABLE4_FIGURES.get(key, "")) + _notebook(root, "05")
         if key in ("gps_visible_mean", "gps_pdop_mean"):
             links += _notebook(root, "03")
-        found.append(Finding(f"Table 4: {row.get('metric', '')}", shown(paper), ours, row.get("why", ""), links))
+        found.append(Finding(f"Table 4: {row.get('metric', '')}", format_value(key, _number(row.get("paper"))), ours,
+                             row.get("why", ""), links))
     return found
 
 
@@ -249,11 +248,13 @@ def findings_markdown(profile_name: str, findings: list[Finding]) -> str:
 
 def findings_html(profile_name: str, findings: list[Finding]) -> str:
     """The findings section that opens ``index.html`` (``id="findings"``)."""
+    def links(finding: Finding) -> str:
+        return " ".join(f'<a href="{html.escape(href)}">{html.escape(text)}</a>' for text, href in finding.links)
+
     rows = "".join(
         f"<tr><td class='text'>{html.escape(f.topic)}</td><td class='text'>{html.escape(f.paper)}</td>"
         f"<td class='text'><b>{html.escape(f.workbook)}</b></td><td class='text why'>{html.escape(f.why)}</td>"
-        f"<td class='text'>{' '.join(f'<a href={chr(34)}{html.escape(h)}{chr(34)}>{html.escape(t)}</a>' for t, h in f.links)}"
-        "</td></tr>" for f in findings)
+        f"<td class='text'>{links(f)}</td></tr>" for f in findings)
     return (f'<section id="findings"><h2>Findings</h2><p>Run: {html.escape(_run_line(run_summary(profile_name)))}. '
             f'Generated from this run\'s outputs beside the paper\'s values (<a href="{FINDINGS_FILE}">{FINDINGS_FILE}</a>).</p>'
             "<table class='findings'><tr><th>result</th><th>paper</th><th>this workbook</th><th>why they differ</th>"
