@@ -43,8 +43,16 @@ LABELS = {                  # key -> human label with its unit: figures, tables,
 
 
 def label(key: str) -> str:
-    """The human label (with unit) of a design, metric or result key; an unknown key is returned as is."""
-    return LABELS.get(key, key)
+    """The human label (with unit) of a design, metric or result key, also with an elevation-mask suffix
+    (``pdop_avail_pct_mask20deg`` -> ``"PDOP availability (%), 20 deg mask"``); other text is returned as is."""
+    base, mask = _unmasked(key)
+    return f"{LABELS[base]}, {mask} deg mask" if mask and base in LABELS else LABELS.get(key, key)
+
+
+def _unmasked(key: str) -> tuple[str, str]:
+    """(key without an ``_mask<N>deg`` suffix, N) or (key, "")."""
+    base, _, mask = key.rpartition("_mask")
+    return (base, mask[:-3]) if base and mask.endswith("deg") and mask[:-3].isdigit() else (key, "")
 
 
 UNITS = ("km", "deg", "%", "km/s/yr", "s")        # the units a label ends with, in parentheses
@@ -60,7 +68,9 @@ def bound_text(key: str, kind: str, limit: float) -> str:
 
 def value_format(key: str) -> str:
     """Format spec for a quantity by its key's unit: km as integers, DOP to 2 decimals, Delta-V (km/s/yr)
-    to 3, mean counts to 2, percentages and degrees to 1, eccentricity to 3; ``".4g"`` otherwise."""
+    to 3, mean counts to 2, percentages and degrees to 1, eccentricity to 3; ``".4g"`` otherwise. An
+    elevation-mask suffix (``_mask20deg``) does not change the format."""
+    key = _unmasked(key)[0]
     if key.endswith("_kms_per_year") or key in ("ecc",):
         return ".3f"
     if "dop" in key and not key.endswith("_pct"):

@@ -131,7 +131,7 @@ INDEX_STYLE = (
     "figcaption{font-size:0.9em;margin-top:6px}"
     "table{border-collapse:collapse;font-size:0.85em;margin-bottom:0.5em}"
     "td,th{border:1px solid #ccc;padding:3px 6px;text-align:right;vertical-align:top}"
-    "th{background:#f0f0f0;max-width:9em;font-weight:600}td.text{text-align:left}"
+    "th{background:#f0f0f0;max-width:9em;font-weight:600;overflow-wrap:anywhere}td.text{text-align:left}"
     ".files{font-size:0.85em;color:#555}"
 )
 
@@ -156,11 +156,12 @@ def _group(stem: str) -> str:
 
 def _cell(text: str, column: str = "") -> str:
     """One CSV cell for display: a number in the format of its column's quantity
-    (:func:`lnss_lib.keys.format_value`: km as integers, DOP to 2 decimals, Delta-V to 3), text escaped."""
+    (:func:`lnss_lib.keys.format_value`: km as integers, DOP to 2 decimals, Delta-V to 3), a metric key by
+    its label, other text escaped."""
     try:
         value = float(text)
     except ValueError:
-        return f'<td class="text">{html.escape(text)}</td>'
+        return f'<td class="text">{html.escape(label(text))}</td>'
     if text.strip().lstrip("-").isdigit():
         return f"<td>{html.escape(text.strip())}</td>"
     return f"<td>{html.escape(format_value(column, value))}</td>"

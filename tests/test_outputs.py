@@ -81,3 +81,11 @@ def test_records_show_workbook_paths_and_formatted_tables():
     shown = display_table(frame, ["sma_km", "impact_day", "region"])
     assert list(shown.columns) == ["semi-major axis (km)", "impact_day", "region"]
     assert shown.iloc[0].tolist() == ["19100", "-", "frozen family"]
+
+
+def test_mask_suffixed_keys_keep_their_label_and_format():
+    from lnss_lib.keys import format_value, label
+
+    assert label("pdop_avail_pct_mask20deg") == "PDOP availability (%), 20 deg mask"
+    assert format_value("mean_visible_sats_mask5deg", 11.33671) == "11.34"
+    assert label("table4_elfo_mask") == "table4_elfo_mask"            # not a key: unchanged
