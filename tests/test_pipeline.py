@@ -247,13 +247,23 @@ def _run_figure_notebook(tmp_path, monkeypatch):
 
 
 def test_converted_notebook_keeps_its_figures_as_html_without_chromium(outputs, tmp_path, monkeypatch):
-    page, executed = _run_figure_notebook(tmp_path, monkeypatch)     # the fixture turns PNG export off
-    bundles = [o["data"] for c in executed.cells for o in c.get("outputs", []) if "data" in o]
-    assert len(bundles) == 2 and all({"application/vnd.plotly.v1+json", "text/html"} <= set(b) for b in bundles)
-    assert page.count("Plotly.newPlot(") == 2                    # both figures are drawn by the HTML copy ...
-    library = "plotly.js v"
-    assert sum(library in b["text/html"] for b in bundles) == 1   # ... with plotly.js inline in the first only
-    assert 'src="https://cdn.plot.ly' not in page                 # plotly.js is not loaded from the network
+    """Without PNG export the display carries HTML: plotly.js inline in the first figure only, no CDN."""
+    import nbformat
+
+    monkeypatch.setattr(export, "_PLOTLYJS_SENT", False)
+    renderer = figures.NotebookRenderer()
+    bundles = [renderer.to_mimebundle(f.to_dict()) for f in (_figure(), go.Figure(go.Bar(x=[1, 2], y=[2, 1])))]
+    assert all({"application/vnd.plotly.v1+json", "text/html"} <= set(b) and "image/png" not in b for b in bundles)
+    assert ["plotly.js v" in b["text/html"] for b in bundles] == [True, False]
+    nb = nbformat.v4.new_notebook()
+    nb.cells = [nbformat.v4.new_code_cell("fig", outputs=[nbformat.v4.new_output("display_data", data=b)])
+                for b in bundles]
+    nbformat.write(nb, tmp_path / "figures.ipynb")
+    subprocess.run([sys.executable, "-m", "jupyter", "nbconvert", "--to", "html", str(tmp_path / "figures.ipynb")],
+                   check=True, capture_output=True, timeout=300)
+    page = (tmp_path / "figures.html").read_text()
+    assert page.count("Plotly.newPlot(") == 2                     # both figures drawn by their HTML copy
+    assert 'src="https://cdn.plot.ly' not in page                  # plotly.js is not loaded from the network
 
 
 @needs_chromium
