@@ -173,10 +173,23 @@ def test_convergence_says_when_nothing_was_feasible():
     assert not any("no feasible" in a.text for a in some.layout.annotations)
 
 
-def test_coincident_benchmark_labels_go_to_different_sides():
-    positions = figures.label_positions([8, 8, 8, 16, 16, 1], [0.0, 0.0, 1.0, 99.3, 99.9, 50.0])
-    assert len(set(positions[:3])) == 3 and positions[3] != positions[4]
-    assert positions[5] == positions[0]                        # far from the others: the default side
+def test_benchmark_labels_do_not_overlap():
+    from lnss_lib.figures.benchmark import LABEL_OFFSETS
+
+    x, y = [1, 3, 3, 3, 16, 16, 8], [0.0, 0.0, 0.0, 0.5, 99.3, 99.9, 50.0]
+    texts = ["lupnt_pathfinder", "ely2005_elfo_3sat", "ely2005_elfo_3sat_phased", "lupnt_example_isl_3sat",
+             "table4_elfo", "bhamidipati2023_case_c", "alone"]
+    positions = figures.label_positions(x, y, texts, x_min=-2.0)
+    boxes = []
+    for xi, yi, text, position in zip(x, y, texts, positions):
+        fx, fy = LABEL_OFFSETS[position]
+        width = 0.22 * len(text)
+        boxes.append((xi + fx * width, yi + 3.0 * fy, xi + fx * width + width, yi + 3.0 * fy + 3.0))
+    for i, a in enumerate(boxes):
+        assert a[0] >= -2.0, texts[i]                             # not beyond the axis' left edge
+        for b in boxes[:i]:
+            assert min(a[2], b[2]) <= max(a[0], b[0]) or min(a[3], b[3]) <= max(a[1], b[1]), (texts[i], positions)
+    assert positions[-1] == "top center"                          # far from the others: the default side
 
 
 def test_pareto_axes_use_the_label_registry():
