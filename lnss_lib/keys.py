@@ -4,7 +4,7 @@ from __future__ import annotations
 
 __all__ = ["DESIGN_KEYS", "INTEGER_DESIGN_KEYS", "ELEMENT_KEYS", "METRIC_KEYS", "EXTRA_METRIC_KEYS",
            "CAMPAIGN_METRIC_KEYS", "RESULT_KEYS", "TIMING_KEYS", "DELTAV_SATELLITES",
-           "requested_extra_metrics", "LABELS", "label", "bound_text", "value_format", "format_value"]
+           "requested_extra_metrics", "NON_NAVIGATION_METRICS", "LABELS", "label", "bound_text", "value_format", "format_value"]
 
 DESIGN_KEYS = ("sma_km", "ecc", "aop_deg", "inc_deg", "n_planes", "sats_per_plane")   # eq. 45 arguments
 INTEGER_DESIGN_KEYS = ("n_planes", "sats_per_plane")
@@ -23,6 +23,10 @@ RESULT_KEYS = METRIC_KEYS + ("deltav_model", "feasible", "reason", "wall_s")
 TIMING_KEYS = ("propagation", "dop", "deltav", "gps", "operational")   # operational: the extra metrics
 DELTAV_SATELLITES = ("first", "all")        # [deltav] satellites: the eq. 45 Delta-V of satellite 0, or mean over all
 _NEEDS_ALL_SATELLITES = ("dv_total_max_kms_per_year", "dv_opt_max_kms_per_year")
+# metrics of station keeping and stability: a campaign's bounds on anything else are its navigation bounds
+NON_NAVIGATION_METRICS = ("dv_total_kms_per_year", "dv_opt_kms_per_year", "sk_dv_estimate_kms_per_year",
+                          "sk_dv_estimate_max_kms_per_year", "dv_total_max_kms_per_year", "dv_opt_max_kms_per_year",
+                          "stable_screen", "screen_min_perilune_alt_km")
 
 LABELS = {                  # key -> human label with its unit: figures, tables, explorer, ``evaluate``
     "sma_km": "semi-major axis (km)", "ecc": "eccentricity", "aop_deg": "argument of perilune (deg)",

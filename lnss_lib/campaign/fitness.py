@@ -15,7 +15,7 @@ import numpy as np
 from ..keys import EXTRA_METRIC_KEYS, METRIC_KEYS
 
 __all__ = ["objective_matrix", "constraint_matrix", "constraint_violation", "non_dominated_mask", "hypervolume",
-           "metric_columns", "parse_constraints", "satisfies"]
+           "metric_columns", "parse_constraints", "satisfies", "deltav_constraint"]
 
 
 def objective_matrix(metrics: dict, objectives, nan_objective: float) -> np.ndarray:
@@ -114,3 +114,13 @@ def satisfies(ds, constraints) -> np.ndarray:
         with np.errstate(invalid="ignore"):
             ok &= (values <= limit) if kind == "max" else (values >= limit)
     return ok
+
+
+def deltav_constraint(evaluations) -> tuple[str, float]:
+    """(metric, limit) of a campaign's Delta-V bound, read from its results' ``attrs["constraints"]`` (Table 3's; a ``max`` on a metric with ``dv_`` in its
+    name, e.g. ``dv_total_kms_per_year`` or ``sk_dv_estimate_max_kms_per_year``); the paper's Delta-V
+    total and no limit (inf) when the campaign has none."""
+    bounds = [(m, v) for m, k, v in parse_constraints(evaluations.attrs["constraints"]) if k == "max" and "dv_" in m]
+    if len(bounds) > 1:
+        raise ValueError(f"the campaign has several Delta-V bounds {bounds}; expected at most one")
+    return bounds[0] if bounds else ("dv_total_kms_per_year", np.inf)

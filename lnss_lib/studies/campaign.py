@@ -23,7 +23,7 @@ import xarray as xr
 
 from ..campaign import CampaignSettings, campaign_timing, read_cache_records, run_campaign, write_results
 from ..campaign.rundir import CHECKPOINT_FILE, RESULT_FILES
-from ..keys import bound_text
+from ..keys import NON_NAVIGATION_METRICS, bound_text
 from ..paper import EVALUATIONS, FEASIBLE_DESIGNS, TABLE_5
 
 __all__ = ["settings_table", "design_grid_table", "latest_run_dir", "load_or_run",
@@ -32,9 +32,6 @@ __all__ = ["settings_table", "design_grid_table", "latest_run_dir", "load_or_run
            "NON_NAVIGATION_METRICS"]
 
 # bounds that are not about navigation: station keeping and design-life stability
-NON_NAVIGATION_METRICS = ("dv_total_kms_per_year", "dv_opt_kms_per_year", "sk_dv_estimate_kms_per_year",
-                          "sk_dv_estimate_max_kms_per_year", "dv_total_max_kms_per_year", "dv_opt_max_kms_per_year",
-                          "stable_screen", "screen_min_perilune_alt_km")
 
 
 def settings_table(settings: CampaignSettings):

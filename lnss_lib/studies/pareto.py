@@ -19,7 +19,7 @@ import numpy as np
 import pandas as pd
 import xarray as xr
 
-from ..campaign.fitness import non_dominated_mask, objective_matrix, parse_constraints, satisfies
+from ..campaign.fitness import deltav_constraint, non_dominated_mask, objective_matrix, parse_constraints, satisfies
 from ..keys import DESIGN_KEYS, EXTRA_METRIC_KEYS, METRIC_KEYS, bound_text
 
 __all__ = ["load_campaign", "parse_constraints", "satisfies", "pareto_front", "table6", "synthetic_campaign",
@@ -66,16 +66,6 @@ def pareto_front(evaluations: xr.Dataset, *, relax: tuple[str, ...] = ()) -> xr.
                                                                        for m, k, v in constraints),
                    "relaxed": ", ".join(relax)}
     return front
-
-
-def deltav_constraint(evaluations: xr.Dataset) -> tuple[str, float]:
-    """(metric, limit) of the campaign's Delta-V bound (Table 3's; a ``max`` on a metric with ``dv_`` in its
-    name, e.g. ``dv_total_kms_per_year`` or ``sk_dv_estimate_max_kms_per_year``); the paper's Delta-V
-    total and no limit (inf) when the campaign has none."""
-    bounds = [(m, v) for m, k, v in parse_constraints(evaluations.attrs["constraints"]) if k == "max" and "dv_" in m]
-    if len(bounds) > 1:
-        raise ValueError(f"the campaign has several Delta-V bounds {bounds}; expected at most one")
-    return bounds[0] if bounds else ("dv_total_kms_per_year", np.inf)
 
 
 def analysis_front(evaluations: xr.Dataset, campaign_front: xr.Dataset) -> tuple[xr.Dataset, str]:
