@@ -143,10 +143,13 @@ def _cmd_evaluate(args: argparse.Namespace) -> int:
     if args.json:
         print(json.dumps(result))
     else:
-        width = max(map(len, result))
+        from .keys import format_value, label
+
+        print(f"profile {args.profile or Path(args.profile_file).stem}" + (f", constellation {args.constellation}" if args.constellation else ""))
+        width = max(len(label(key)) for key in result)
         for key, value in result.items():
             value = ("; ".join(value) or "none") if isinstance(value, list) else value
-            print(f"{key:<{width}}  {value:.6g}" if isinstance(value, float) else f"{key:<{width}}  {value}")
+            print(f"{label(key):<{width}}  {format_value(key, value)}")
     return 0
 
 
@@ -202,21 +205,60 @@ def _cmd_bench(args: argparse.Namespace) -> int:
     return 0
 
 
+COMMANDS = {    # name -> (one-line help, description, example) for ``--help``
+    "reproduce": ("execute the notebooks headless into outputs/<profile>/",
+                  "Run the workbook's notebooks with papermill under a profile, write the executed notebooks, "
+                  "figures, tables and manifest under outputs/<profile>/, and the index.html and FINDINGS.md that "
+                  "open on the run's findings beside the paper's.",
+                  "python -m lnss_lib reproduce --profile ci --only 05 07"),
+    "propagate": ("propagate one orbit with the high-fidelity model; CSV or NetCDF out",
+                  "Propagate one Moon-centred state or element set with the profile's force model (lunar gravity "
+                  "field, third bodies, solar pressure, relativity) and write the states.",
+                  "python -m lnss_lib propagate --epoch-tdb 2025-05-01T00:00:00 --elements 6143 0.6 51.7 0 90 0 "
+                  "--days 1 --out elfo.csv"),
+    "evaluate": ("every objective of eq. 45 for one Walker design or one catalogue constellation",
+                 "Evaluate one design as the campaign does (propagation, south-pole DOP grid, station-keeping "
+                 "Delta-V, GPS link) and print every metric with its unit, or one JSON object.",
+                 "python -m lnss_lib evaluate --sma-km 6143 --ecc 0.6 --aop-deg 90 --inc-deg 51.7 --planes 2 "
+                 "--sats-per-plane 8"),
+    "campaign": ("NSGA-II design search (Section 5, Table 5), checkpointed every generation",
+                 "Search the eq. 43-44 design grid with NSGA-II under Table 3's bounds; every generation is "
+                 "checkpointed, so --resume continues an interrupted run.",
+                 "python -m lnss_lib campaign --profile ci --workers 2"),
+    "bench": ("benchmarks that print numbers",
+              "Time a part of the workbook and print the new path beside the one it replaces.",
+              "python -m lnss_lib bench dop"),
+}
+
+
+def _command(sub, name: str) -> argparse.ArgumentParser:
+    """A subcommand with its help line, description and example (:data:`COMMANDS`)."""
+    import textwrap
+
+    brief, description, example = COMMANDS[name]
+    example = " \\\n      ".join(textwrap.wrap(example, 72, break_on_hyphens=False, break_long_words=False))
+    return sub.add_parser(name, help=brief, description=textwrap.fill(description, 78),
+                          epilog=f"example:\n  {example}", formatter_class=argparse.RawDescriptionHelpFormatter)
+
+
 def build_parser() -> argparse.ArgumentParser:
-    parser = OneLineParser(prog="python -m lnss_lib", description="LNSS design workbook")
+    parser = OneLineParser(prog="python -m lnss_lib", formatter_class=argparse.RawDescriptionHelpFormatter,
+                           description="LNSS design workbook: lunar navigation constellations after Malik & Yang.",
+                           epilog="example:\n  python -m lnss_lib evaluate --constellation bhamidipati2023_case_c\n"
+                                  "run 'python -m lnss_lib COMMAND --help' for a command's options and example")
     parser.add_argument("--debug", action="store_true", help="show the traceback of an error (also accepted after "
                         "the command)")
     sub = parser.add_subparsers(dest="command", required=True, parser_class=OneLineParser)
     set_help = ("override a profile value (TOML literal: true/false, numbers, quoted strings and dates), e.g. "
                 "gravity.degree=8; repeatable; checked like the profile")
 
-    rep = sub.add_parser("reproduce", help="execute the notebooks headless into outputs/<profile>/")
+    rep = _command(sub, "reproduce")
     _add_profile(rep, "quick")
     rep.add_argument("--only", nargs="+", metavar="NAME", help="notebook names or number prefixes (e.g. 01 02_dop_grid)")
     rep.add_argument("--set", action="append", metavar="SECTION.KEY=VALUE", help=set_help)
     rep.set_defaults(func=_cmd_reproduce)
 
-    prop = sub.add_parser("propagate", help="propagate one orbit with the high-fidelity model; CSV or NetCDF out")
+    prop = _command(sub, "propagate")
     prop.add_argument("--epoch-tdb", required=True, help="start epoch, ISO calendar in TDB (e.g. 2022-11-25T00:00:00)")
     group = prop.add_mutually_exclusive_group(required=True)
     group.add_argument("--state-km", nargs=6, type=float, metavar=("X", "Y", "Z", "VX", "VY", "VZ"),
@@ -233,7 +275,7 @@ def build_parser() -> argparse.ArgumentParser:
     prop.add_argument("--set", action="append", metavar="SECTION.KEY=VALUE", help=set_help)
     prop.set_defaults(func=_cmd_propagate)
 
-    ev = sub.add_parser("evaluate", help="every objective of eq. 45 for one Walker design or one catalogue constellation")
+    ev = _command(sub, "evaluate")
     ev.add_argument("--constellation", metavar="NAME_OR_PATH",
                     help="catalogue name (params/constellations/NAME.toml) or a TOML file in that format, "
                          "instead of the Walker arguments")
@@ -253,7 +295,7 @@ def build_parser() -> argparse.ArgumentParser:
     ev.add_argument("--set", action="append", metavar="SECTION.KEY=VALUE", help=set_help)
     ev.set_defaults(func=_cmd_evaluate)
 
-    camp = sub.add_parser("campaign", help="NSGA-II design search (Section 5, Table 5), checkpointed every generation")
+    camp = _command(sub, "campaign")
     _add_profile(camp, None)
     camp.add_argument("--workers", type=int, help="Dask worker processes on this machine (default: one per core; "
                       "0 or 1: evaluate in this process)")
@@ -267,8 +309,8 @@ def build_parser() -> argparse.ArgumentParser:
     camp.add_argument("--no-progress", action="store_true", help="no progress bars")
     camp.set_defaults(func=_cmd_campaign)
 
-    bench = sub.add_parser("bench", help="benchmarks that print numbers")
-    bench.add_argument("name", choices=BENCHMARKS)
+    bench = _command(sub, "bench")
+    bench.add_argument("name", choices=BENCHMARKS, metavar="NAME", help=f"one of {', '.join(BENCHMARKS)}")
     _add_profile(bench, "paper")
     bench.add_argument("--scaling", action="store_true", help="campaign: local scaling and loopback-cluster overhead")
     bench.add_argument("--set", action="append", metavar="SECTION.KEY=VALUE", help=set_help)

@@ -76,7 +76,8 @@ def state_to_elements(state: np.ndarray, gm_km3_s2: float) -> np.ndarray:
     """Osculating elements (..., 6) [a, e, i, RAAN, AOP, M] (km, rad) from states (..., 6).
 
     RAAN is set to 0 for equatorial orbits and AOP to 0 for circular ones (the conventional
-    choice); angles are in [0, 2 pi), inclination in [0, pi].
+    choice); angles are in [0, 2 pi), inclination in [0, pi]. An orbit that is no longer closed
+    (e >= 1, e.g. a satellite escaping after a close pass) has no mean anomaly: M is NaN, a <= 0 or inf.
     """
     s = np.asarray(state, dtype=float)
     r_vec, v_vec = s[..., :3], s[..., 3:]
@@ -100,8 +101,9 @@ def state_to_elements(state: np.ndarray, gm_km3_s2: float) -> np.ndarray:
     aop = np.mod(np.arctan2(np.sum(np.cross(node_hat, e_hat) * h_hat, axis=-1), np.sum(node_hat * e_hat, axis=-1)), TWO_PI)
     r_hat = r_vec / r[..., None]
     nu = np.arctan2(np.sum(np.cross(e_hat, r_hat) * h_hat, axis=-1), np.sum(e_hat * r_hat, axis=-1))
-    E = 2.0 * np.arctan2(np.sqrt(1.0 - e) * np.sin(nu / 2.0), np.sqrt(1.0 + e) * np.cos(nu / 2.0))
-    M = np.mod(E - e * np.sin(E), TWO_PI)
+    closed = e < 1.0
+    E = 2.0 * np.arctan2(np.sqrt(np.where(closed, 1.0 - e, 0.0)) * np.sin(nu / 2.0), np.sqrt(1.0 + e) * np.cos(nu / 2.0))
+    M = np.where(closed, np.mod(E - e * np.sin(E), TWO_PI), np.nan)
     return np.stack([a, e, inc, raan, aop, M], axis=-1)
 
 

@@ -31,8 +31,8 @@ from .config import OUTPUTS_DIR, available_profiles, deep_merge, load_profile, p
 from .constellation import walker_design
 from .errors import ImpactError, InfeasibleDesignError
 from .evaluator import EvaluationContext, analyse_constellation, context_for
-from .figures import constellation_3d, dop_time_series
-from .keys import DESIGN_KEYS, INTEGER_DESIGN_KEYS, METRIC_KEYS
+from .figures import POLE_AXES, constellation_3d, dop_time_series, polar_wedges
+from .keys import DESIGN_KEYS, INTEGER_DESIGN_KEYS, METRIC_KEYS, format_value, label
 
 
 ELEMENT_FRAMES = frames.ELEMENT_FRAMES
@@ -42,12 +42,6 @@ SLIDER_LABELS = {"sma_km": "a (km)", "ecc": "e", "aop_deg": "AOP (deg)", "inc_de
                  "n_planes": "planes Np", "sats_per_plane": "sats/plane Ns"}
 CLI_FLAGS = {"sma_km": "--sma-km", "ecc": "--ecc", "aop_deg": "--aop-deg", "inc_deg": "--inc-deg",
              "n_planes": "--planes", "sats_per_plane": "--sats-per-plane"}
-METRIC_LABELS = {"n_sat": "satellites", "mean_visible_sats": "mean visible satellites",
-                 "pdop_mean_3sigma": "PDOP (3-sigma mean)", "pdop_avail_pct": "PDOP availability (%)",
-                 "hdop_mean_3sigma": "HDOP (3-sigma mean)", "hdop_avail_pct": "HDOP availability (%)",
-                 "dv_total_kms_per_year": "Delta-V total (km/s/year)",
-                 "dv_opt_kms_per_year": "Delta-V optimised (km/s/year)",
-                 "gps_visible_mean": "GPS satellites visible (first sat.)", "gps_pdop_mean": "GPS-LNSS PDOP (first sat.)"}
 SETTING_KEYS = {"frame": ("frames", "element_frame"), "model": ("deltav", "model")}
 FIGURES = ("availability", "time_series", "constellation")
 
@@ -94,25 +88,18 @@ def served_by_voila() -> bool:
 def availability_polar_maps(dop_ds, threshold: float, *, title: str) -> go.Figure:
     """PDOP and HDOP availability (%, eq. 14: DOP < threshold, no DOP = unavailable) per south-pole node.
 
-    Radius: colatitude from the south pole (deg); angle: Moon-fixed longitude. Fixed 0-100 % colour
+    Radius: latitude (labelled); angle: Moon-fixed longitude. Fixed 0-100 % colour
     scale, so successive designs compare by colour.
     """
     from plotly.subplots import make_subplots
 
-    lat2d, lon2d = np.meshgrid(dop_ds["lat"].values, dop_ds["lon"].values, indexing="ij")
-    colat = 90.0 + lat2d
-    base = np.maximum(colat - 5.0, 0.0)
     fig = make_subplots(rows=1, cols=2, specs=[[{"type": "polar"}] * 2],
                         subplot_titles=[f"PDOP < {threshold:g} (% of time)", f"HDOP < {threshold:g} (% of time)"])
     for col, name in enumerate(("pdop", "hdop"), start=1):
         pct = 100.0 * (dop_ds[name] < threshold).mean("time").values
-        fig.add_trace(go.Barpolar(r=(np.minimum(colat + 5.0, 30.0) - base).ravel(), base=base.ravel(),
-                                  theta=lon2d.ravel(), width=10.0, name=name.upper(),
-                                  marker={"color": pct.ravel(), "coloraxis": "coloraxis", "line_width": 0},
-                                  customdata=np.stack([lat2d.ravel(), pct.ravel()], axis=1),
-                                  hovertemplate="lat %{customdata[0]:.0f} lon %{theta:.0f}: "
-                                                "%{customdata[1]:.1f} %<extra></extra>"), row=1, col=col)
-    fig.update_polars(radialaxis={"range": [0, 30], "showticklabels": False}, angularaxis={"showticklabels": False})
+        fig.add_trace(polar_wedges(pct, dop_ds["lat"].values, dop_ds["lon"].values, name.upper(), "coloraxis"),
+                      row=1, col=col)
+    fig.update_polars(**POLE_AXES)
     fig.update_layout(title=title, height=430, showlegend=False, template="plotly_white",
                       coloraxis={"colorscale": "Viridis", "cmin": 0.0, "cmax": 100.0,
                                  "colorbar": {"title": "%", "thickness": 12}})
@@ -126,10 +113,11 @@ def _plotly_output(fig: go.Figure) -> dict:
                      "text/plain": f"<plotly figure: {fig.layout.title.text}>"}}
 
 
-def _fmt(value) -> str:
-    if isinstance(value, float):
-        return "&ndash;" if math.isnan(value) else f"{value:.4g}"
-    return html.escape(str(value))
+def _fmt(value, key: str = "") -> str:
+    """A table cell: a number in the format of its quantity (:func:`lnss_lib.keys.format_value`), NaN as a dash."""
+    if isinstance(value, float) and math.isnan(value):
+        return "&ndash;"
+    return html.escape(format_value(key, value))
 
 
 def _flatten(values, prefix: str = "") -> list[tuple[str, object]]:
@@ -321,7 +309,7 @@ class DesignExplorer:
         rows = []
         for key in METRIC_KEYS:
             now, before = self.current.metrics[key], prev.get(key, math.nan)
-            rows.append({"metric": key, "label": METRIC_LABELS[key], "current": now, "previous": before,
+            rows.append({"metric": key, "label": label(key), "current": now, "previous": before,
                          "delta": float(now - before)})
         return rows
 
@@ -334,18 +322,19 @@ class DesignExplorer:
         else:
             self.status.value = (f"<div style='color:#a00'><b>infeasible</b> ({where}): "
                                  f"{html.escape(cur.reason)}</div>")
-        body = "".join(f"<tr><td>{r['label']}</td><td>{_fmt(r['current'])}</td><td>{_fmt(r['previous'])}</td>"
-                       f"<td>{_fmt(r['delta'])}</td></tr>" for r in self.metrics_rows())
+        body = "".join(f"<tr><td>{html.escape(r['label'])}</td><td>{_fmt(r['current'], r['metric'])}</td>"
+                       f"<td>{_fmt(r['previous'], r['metric'])}</td><td>{_fmt(r['delta'], r['metric'])}</td></tr>"
+                       for r in self.metrics_rows())
         self.metrics_html.value = ("<table class='lnss-explorer-metrics' style='border-collapse:collapse' border='1' "
                                    "cellpadding='4'><tr><th>eq. 45 metric</th><th>this design</th>"
                                    f"<th>previous design</th><th>change</th></tr>{body}</table>")
         self.figures = {}
         if cur.study is not None:
             profile, study = self.context().profile, cur.study
-            label = ", ".join(f"{SLIDER_LABELS[k]} {v:g}" for k, v in cur.design.items())
+            design = ", ".join(f"{SLIDER_LABELS[k]} {v:g}" for k, v in cur.design.items())
             self.figures = {
                 "availability": availability_polar_maps(study["dop"], float(profile["dop"]["availability_threshold"]),
-                                                        title=f"South-pole DOP availability: {label}"),
+                                                        title=f"South-pole DOP availability: {design}"),
                 "time_series": dop_time_series(study["dop"], title="Grid-mean visibility, PDOP and HDOP"),
                 "constellation": constellation_3d(study["propagation"], title="Constellation (Moon-centred J2000)",
                                                   moon_radius_km=float(profile["constants"]["r_moon_mean_km"])),
@@ -358,8 +347,8 @@ class DesignExplorer:
             self.comparison_html.value = ""
             return
         columns = list(self.comparison[0])
-        head = "".join(f"<th>{html.escape(c)}</th>" for c in columns)
-        body = "".join("<tr>" + "".join(f"<td>{_fmt(row[c])}</td>" for c in columns) + "</tr>" for row in self.comparison)
+        head = "".join(f"<th title='{html.escape(c)}'>{html.escape(label(c))}</th>" for c in columns)
+        body = "".join("<tr>" + "".join(f"<td>{_fmt(row[c], c)}</td>" for c in columns) + "</tr>" for row in self.comparison)
         self.comparison_html.value = (f"<div style='overflow-x:auto'><table class='lnss-explorer-comparison' border='1' "
                                       f"cellpadding='3' style='border-collapse:collapse;font-size:90%'><tr>{head}</tr>"
                                       f"{body}</table></div>")

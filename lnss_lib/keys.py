@@ -4,7 +4,8 @@ from __future__ import annotations
 
 __all__ = ["DESIGN_KEYS", "INTEGER_DESIGN_KEYS", "ELEMENT_KEYS", "METRIC_KEYS", "EXTRA_METRIC_KEYS",
            "CAMPAIGN_METRIC_KEYS", "RESULT_KEYS", "VERDICT_KEYS", "TIMING_KEYS", "DELTAV_SATELLITES",
-           "requested_extra_metrics"]
+           "requested_extra_metrics", "NON_NAVIGATION_METRICS", "LABELS", "label", "bound_text", "value_format",
+           "format_value"]
 
 DESIGN_KEYS = ("sma_km", "ecc", "aop_deg", "inc_deg", "n_planes", "sats_per_plane")   # eq. 45 arguments
 INTEGER_DESIGN_KEYS = ("n_planes", "sats_per_plane")
@@ -25,6 +26,82 @@ VERDICT_KEYS = ("meets_bounds", "violated_bounds")   # evaluate CLI: the profile
 TIMING_KEYS = ("propagation", "dop", "deltav", "gps", "operational")   # operational: the extra metrics
 DELTAV_SATELLITES = ("first", "all")        # [deltav] satellites: the eq. 45 Delta-V of satellite 0, or mean over all
 _NEEDS_ALL_SATELLITES = ("dv_total_max_kms_per_year", "dv_opt_max_kms_per_year")
+# metrics of station keeping and stability: a campaign's bounds on anything else are its navigation bounds
+NON_NAVIGATION_METRICS = ("dv_total_kms_per_year", "dv_opt_kms_per_year", "sk_dv_estimate_kms_per_year",
+                          "sk_dv_estimate_max_kms_per_year", "dv_total_max_kms_per_year", "dv_opt_max_kms_per_year",
+                          "stable_screen", "screen_min_perilune_alt_km")
+
+LABELS = {                  # key -> human label with its unit: figures, tables, explorer, ``evaluate``
+    "sma_km": "semi-major axis (km)", "ecc": "eccentricity", "aop_deg": "argument of perilune (deg)",
+    "inc_deg": "inclination (deg)", "raan_deg": "RAAN (deg)", "mean_anomaly_deg": "mean anomaly (deg)",
+    "n_planes": "planes", "sats_per_plane": "satellites per plane", "n_sat": "satellites",
+    "mean_visible_sats": "mean visible LNSS satellites", "pdop_mean_3sigma": "PDOP (3-sigma mean)",
+    "pdop_avail_pct": "PDOP availability (%)", "hdop_mean_3sigma": "HDOP (3-sigma mean)",
+    "hdop_avail_pct": "HDOP availability (%)", "dv_total_kms_per_year": "Delta-V total (km/s/yr)",
+    "dv_opt_kms_per_year": "Delta-V optimised (km/s/yr)",
+    "gps_visible_mean": "GPS satellites visible (mean, first LNSS satellite)",
+    "gps_pdop_mean": "GPS-LNSS PDOP (first LNSS satellite)", "sk_dv_estimate_kms_per_year": "geometry-keeping Delta-V, mean (km/s/yr)",
+    "sk_dv_estimate_max_kms_per_year": "geometry-keeping Delta-V, worst satellite (km/s/yr)",
+    "stable_screen": "stable over the life (screen)", "screen_min_perilune_alt_km": "lowest perilune over the life (km)",
+    "dv_total_max_kms_per_year": "Delta-V total, worst satellite (km/s/yr)",
+    "dv_opt_max_kms_per_year": "Delta-V optimised, worst satellite (km/s/yr)", "deltav_model": "Delta-V model",
+    "wall_s": "wall time (s)",   # "feasible" and "reason" keep their names: the evaluator and a campaign mean different things
+}
+
+
+def label(key: str) -> str:
+    """The human label (with unit) of a design, metric or result key, also with an elevation-mask suffix
+    (``pdop_avail_pct_mask20deg`` -> ``"PDOP availability (%), 20 deg mask"``); other text is returned as is."""
+    base, mask = _unmasked(key)
+    return f"{LABELS[base]}, {mask} deg mask" if mask and base in LABELS else LABELS.get(key, key)
+
+
+def _unmasked(key: str) -> tuple[str, str]:
+    """(key without an ``_mask<N>deg`` suffix, N) or (key, "")."""
+    base, _, mask = key.rpartition("_mask")
+    return (base, mask[:-3]) if base and mask.endswith("deg") and mask[:-3].isdigit() else (key, "")
+
+
+UNITS = ("km", "deg", "%", "km/s/yr", "s")        # the units a label ends with, in parentheses
+
+
+def bound_text(key: str, kind: str, limit: float) -> str:
+    """A bound in words with the unit after the limit: ``("pdop_avail_pct", "min", 70)`` ->
+    ``"PDOP availability >= 70 %"``; ``kind`` is ``"max"`` (<=) or ``"min"`` (>=)."""
+    name, _, unit = label(key).rpartition(" (")
+    name, unit = (name, " " + unit[:-1]) if name and unit[:-1] in UNITS else (label(key), "")
+    return f"{name} {'<=' if kind == 'max' else '>='} {limit:g}{unit}"
+
+
+def value_format(key: str) -> str:
+    """Format spec for a quantity by its key's unit: km as integers, DOP to 2 decimals, Delta-V (km/s/yr)
+    to 3, mean counts to 2, percentages and degrees to 1, eccentricity to 3; ``".4g"`` otherwise. An
+    elevation-mask suffix (``_mask20deg``) does not change the format."""
+    key = _unmasked(key)[0]
+    if key.endswith("_kms_per_year") or key in ("ecc",):
+        return ".3f"
+    if "dop" in key and not key.endswith("_pct"):
+        return ".2f"
+    if key.endswith("_km"):
+        return ".0f"
+    if key in ("mean_visible_sats", "gps_visible_mean"):
+        return ".2f"
+    if key.endswith(("_pct", "_deg")):
+        return ".1f"
+    return ".4g"
+
+
+def format_value(key: str, value) -> str:
+    """``value`` written in the format of ``key`` (:func:`value_format`); NaN as ``"-"``, text unchanged."""
+    import numbers
+
+    if isinstance(value, bool) or not isinstance(value, numbers.Real):
+        return str(value)
+    if value != value:
+        return "-"
+    if isinstance(value, numbers.Integral) or float(value).is_integer() and key in INTEGER_DESIGN_KEYS + ("n_sat",):
+        return str(int(value))
+    return format(float(value), value_format(key))
 
 
 def requested_extra_metrics(profile: dict) -> tuple[str, ...]:

@@ -15,8 +15,9 @@ from pathlib import Path
 
 from .atomicio import atomic_path, write_bytes_atomic, write_text_atomic
 from .config import MANIFEST_PACKAGES, OUTPUTS_DIR, PARAMS_DIR, PROJECT_DIR, load_profile, package_versions, profile_hash
+from .keys import LABELS, format_value, label
 
-__all__ = ["output_dir", "profile_dir", "write_text_atomic", "write_bytes_atomic", "atomic_path", "write_caption", "read_caption", "markdown_table",
+__all__ = ["output_dir", "profile_dir", "display_path", "display_table", "write_text_atomic", "write_bytes_atomic", "atomic_path", "write_caption", "read_caption", "markdown_table",
            "save_table", "data_checksums", "package_versions", "git_revision", "write_manifest", "CAPTION_SUFFIX",
            "OUTPUT_KINDS", "MANIFEST_PACKAGES"]
 
@@ -27,6 +28,23 @@ CAPTION_SUFFIX = ".meta.json"
 def profile_dir(profile_name: str) -> Path:
     """``outputs/<profile>/`` (not created)."""
     return OUTPUTS_DIR / profile_name
+
+
+def display_path(path) -> str:
+    """``path`` as a record shows it: relative to the workbook folder (``outputs/quick/campaign``), never the
+    machine's absolute prefix; a path outside the workbook by its name alone."""
+    path = Path(path).resolve()
+    try:
+        return path.relative_to(PROJECT_DIR.resolve()).as_posix()
+    except ValueError:
+        return path.name
+
+
+def display_table(frame, columns=None):
+    """A copy of ``frame`` (its ``columns``) for a notebook's display: headers by their labels with units and
+    each number in the format of its quantity (:func:`lnss_lib.keys.format_value`), NaN as ``-``."""
+    shown = frame[list(columns)] if columns is not None else frame
+    return shown.apply(lambda col: col.map(lambda v: format_value(str(col.name), v))).rename(columns=lambda c: label(str(c)))
 
 
 def output_dir(profile_name: str, kind: str) -> Path:
@@ -59,26 +77,31 @@ def read_caption(folder: Path, name: str) -> str:
 def markdown_table(frame, digits: int = 4) -> str:
     """Pipe-style Markdown table of a DataFrame (index included when it is not a plain range).
 
-    Floats are written with ``digits`` significant digits; NaN and None as empty cells.
+    Headers that are workbook keys show their label with unit (:data:`lnss_lib.keys.LABELS`); numbers in
+    the format of their column's quantity (:func:`lnss_lib.keys.format_value`: km as integers, DOP to 2
+    decimals, Delta-V to 3), other floats with ``digits`` significant digits; NaN and None as empty cells.
     """
     import numbers
 
     import pandas as pd
 
-    def cell(value) -> str:
+    def cell(value, column) -> str:
         if value is None or (isinstance(value, float) and value != value):
             return ""
         if isinstance(value, (bool,)) or not isinstance(value, numbers.Real):
             return str(value).replace("|", "\\|").replace("\n", " ")
         if isinstance(value, numbers.Integral):
             return str(int(value))
+        if str(column) in LABELS:
+            return format_value(str(column), value)
         return f"{float(value):.{digits}g}"
 
     show_index = not isinstance(frame.index, pd.RangeIndex)
-    header = ([str(frame.index.name or "")] if show_index else []) + [str(c) for c in frame.columns]
+    columns = ([frame.index.name] if show_index else []) + list(frame.columns)
+    header = [label(str(c)) if c is not None else "" for c in columns]
     lines = ["| " + " | ".join(header) + " |", "|" + "---|" * len(header)]
     for index, row in zip(frame.index, frame.itertuples(index=False)):
-        cells = ([cell(index)] if show_index else []) + [cell(v) for v in row]
+        cells = ([cell(index, frame.index.name)] if show_index else []) + [cell(v, c) for v, c in zip(row, frame.columns)]
         lines.append("| " + " | ".join(cells) + " |")
     return "\n".join(lines) + "\n"
 

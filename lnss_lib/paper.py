@@ -6,7 +6,7 @@ prints the difference and its reason. Keys use :mod:`lnss_lib.keys` spellings.
 
 from __future__ import annotations
 
-__all__ = ["TABLE_4", "TABLE_5", "FEASIBLE_DESIGNS", "EVALUATIONS", "TABLE_4_LABEL"]
+__all__ = ["TABLE_4", "TABLE_5", "FEASIBLE_DESIGNS", "EVALUATIONS", "TABLE_4_LABEL", "SMALL_CONSTELLATION_SATS"]
 
 TABLE_4_LABEL = "paper (Table 4)"
 
@@ -23,3 +23,4 @@ TABLE_5 = {                         # NSGA-II settings
 
 EVALUATIONS = TABLE_5["population"] * TABLE_5["generations"]
 FEASIBLE_DESIGNS = 5622             # Section 6.2: unique feasible configurations found
+SMALL_CONSTELLATION_SATS = (6, 9)  # Section 6.2: Table 6 shows "significantly small LNSS constellation (6-9 satellites)"

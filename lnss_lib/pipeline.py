@@ -6,6 +6,7 @@ import csv
 import html
 import json
 import os
+import re
 import sys
 import time
 import uuid
@@ -13,6 +14,8 @@ from pathlib import Path
 
 from .config import PROJECT_DIR, available_profiles, load_profile
 from .errors import ConfigError
+from .findings import write_findings
+from .keys import format_value, label
 from .outputs import (CAPTION_SUFFIX, atomic_path, output_dir, profile_dir, read_caption, write_manifest,
                       write_text_atomic)
 
@@ -151,6 +154,10 @@ def reproduce(profile_name: str = DEFAULT_PROFILE, only: list[str] | None = None
 
 INDEX_STYLE = (
     "body{font-family:sans-serif;margin:2em;max-width:1400px}"
+    "table.findings{font-size:0.9em}table.findings th{text-align:left}td.why{max-width:34em;color:#333}"
+    "nav{font-size:0.9em;margin:1em 0}nav a{margin-right:1em}"
+    ".scroll{max-width:100%;overflow-x:auto}"
+    "td.text{max-width:28em;white-space:normal;overflow-wrap:anywhere}"
     ".grid{display:flex;flex-wrap:wrap;gap:16px}"
     "figure{margin:0;width:320px;border:1px solid #ddd;padding:8px;background:#fafafa}"
     "figure img{width:100%;height:auto;display:block;background:#fff}"
@@ -158,16 +165,21 @@ INDEX_STYLE = (
     "figcaption{font-size:0.9em;margin-top:6px}"
     "table{border-collapse:collapse;font-size:0.85em;margin-bottom:0.5em}"
     "td,th{border:1px solid #ccc;padding:3px 6px;text-align:right;vertical-align:top}"
-    "th{background:#f0f0f0}td.text{text-align:left}"
+    "th{background:#f0f0f0;max-width:9em;font-weight:600;overflow-wrap:anywhere}td.text{text-align:left}"
     ".files{font-size:0.85em;color:#555}"
 )
+
+
+def natural_key(name: str) -> list:
+    """Sort key that orders the digits in a name as numbers: ``07_fig8`` before ``07_fig10``."""
+    return [int(part) if part.isdigit() else part for part in re.split(r"(\d+)", name)]
 
 
 def _stems(folder: Path, suffixes: tuple[str, ...]) -> list[str]:
     if not folder.is_dir():
         return []
     return sorted({p.name[: -len(p.suffix)] for p in folder.iterdir()
-                   if p.suffix in suffixes and not p.name.endswith(CAPTION_SUFFIX)})
+                   if p.suffix in suffixes and not p.name.endswith(CAPTION_SUFFIX)}, key=natural_key)
 
 
 def _group(stem: str) -> str:
@@ -176,15 +188,17 @@ def _group(stem: str) -> str:
     return prefix if len(prefix) == 2 and prefix.isdigit() else ""
 
 
-def _cell(text: str) -> str:
-    """One CSV cell for display: numbers to 4 significant digits, text escaped."""
+def _cell(text: str, column: str = "") -> str:
+    """One CSV cell for display: a number in the format of its column's quantity
+    (:func:`lnss_lib.keys.format_value`: km as integers, DOP to 2 decimals, Delta-V to 3), a metric key by
+    its label, other text escaped."""
     try:
         value = float(text)
     except ValueError:
-        return f'<td class="text">{html.escape(text)}</td>'
+        return f'<td class="text">{html.escape(label(text))}</td>'
     if text.strip().lstrip("-").isdigit():
         return f"<td>{html.escape(text.strip())}</td>"
-    return f"<td>{value:.4g}</td>"
+    return f"<td>{html.escape(format_value(column, value))}</td>"
 
 
 def _csv_table(path: Path) -> str:
@@ -194,21 +208,23 @@ def _csv_table(path: Path) -> str:
     if not rows:
         return "<p>(empty table)</p>"
     header, body = rows[0], rows[1:]
-    out = ["<table><tr>" + "".join(f"<th>{html.escape(h)}</th>" for h in header) + "</tr>"]
-    out += ["<tr>" + "".join(_cell(c) for c in row) + "</tr>" for row in body[:INDEX_TABLE_MAX_ROWS]]
-    out.append("</table>")
+    out = ['<div class="scroll"><table><tr>' + "".join(
+        f'<th title="{html.escape(h)}">{html.escape(label(h))}</th>' for h in header) + "</tr>"]
+    out += ["<tr>" + "".join(_cell(c, h) for c, h in zip(row, header)) + "</tr>" for row in body[:INDEX_TABLE_MAX_ROWS]]
+    out.append("</table></div>")
     if len(body) > INDEX_TABLE_MAX_ROWS:
         out.append(f"<p>first {INDEX_TABLE_MAX_ROWS} of {len(body)} rows; all in the CSV.</p>")
     return "".join(out)
 
 
 def write_index(profile_name: str) -> Path:
-    """Write ``outputs/<profile>/index.html``, a page that opens offline.
+    """Write ``outputs/<profile>/index.html``, a page that opens offline, and ``FINDINGS.md`` beside it.
 
-    Grouped by notebook (the ``NN_`` prefix of each name): every figure as its PNG thumbnail with its
-    caption, linking to the interactive HTML; every table rendered inline with its caption and links to
-    the CSV and Markdown; then the executed notebooks, the published campaign's files and the manifest.
-    Captions come from the sidecars :func:`lnss_lib.figures.save_figure` and :func:`lnss_lib.outputs.save_table` write.
+    It opens on the findings (:mod:`lnss_lib.findings`: the run's headline results beside the paper's,
+    with links to the figures and sections that show them); then, grouped by notebook (the ``NN_`` prefix of each name): every figure in natural order (Figure 8 before 10) as its PNG
+    thumbnail with its caption, linking to the interactive HTML; every table rendered inline with its caption and links to
+    the CSV and Markdown; then the executed notebooks, the published campaign's files and the manifest. Captions come
+    from the sidecars :func:`lnss_lib.figures.save_figure` and :func:`lnss_lib.outputs.save_table` write.
     """
     from .campaign.publication import published_folder
 
@@ -251,7 +267,7 @@ def write_index(profile_name: str) -> Path:
         figs = [figure(s) for s in figure_stems if _group(s) == group]
         tabs = [table(s) for s in table_stems if _group(s) == group]
         notebook = executed.get(names.get(group, ""))
-        parts = [f"<h2>{html.escape(title)}</h2>"]
+        parts = [f'<h2 id="nb-{group or "other"}">{html.escape(title)}</h2>']
         if notebook is not None:
             parts.append(f"<p>executed notebook: {link(notebook, notebook.name)}</p>")
         if figs:
@@ -259,6 +275,11 @@ def write_index(profile_name: str) -> Path:
         if tabs:
             parts.append("<h3>Tables</h3>" + "".join(tabs))
         sections.append("".join(parts))
+    companion = (load_profile(profile_name)["campaign"].get("companion_profile") or None
+                 if profile_name in available_profiles() else None)
+    _, findings = write_findings(profile_name, companion)
+    contents = "".join(f'<a href="#nb-{g or "other"}">{html.escape(g or "other")}</a>' for g in
+                       sorted(groups, key=lambda g: (g == "", g)))
     published = published_folder(root / "campaign") if (root / "campaign").is_dir() else None
     campaign = sorted(published.glob("*.nc")) if published else []
     extras = [link(p, p.name) for p in campaign]
@@ -271,6 +292,7 @@ def write_index(profile_name: str) -> Path:
         f"<h1>LNSS workbook outputs, profile {html.escape(profile_name)}</h1>"
         f"<p>Written {time.strftime('%Y-%m-%d %H:%M:%S UTC', time.gmtime())}. Click a thumbnail for the "
         "interactive figure (works offline).</p>"
+        + findings + f"<nav>Outputs by notebook: {contents}</nav>"
         + ("".join(sections) if sections else "<p>no figures or tables yet</p>")
         + "<h2>Campaign and manifest</h2>"
         + ("<ul>" + "".join(f"<li>{e}</li>" for e in extras) + "</ul>" if extras else "<p>none yet</p>")

@@ -135,3 +135,24 @@ def test_ctrl_c_on_reproduce_is_one_line_exit_130(tmp_path):
         time.sleep(0.2)
     else:
         pytest.fail(f"kernel process {kernel_pid} still runs after the interrupt")
+
+
+def test_every_command_help_has_a_description_and_an_example_within_80_columns(capsys):
+    from lnss_lib.__main__ import COMMANDS
+
+    for command in COMMANDS:
+        assert main([command, "--help"]) == 0
+        text = capsys.readouterr().out
+        assert "example:" in text and f"python -m lnss_lib {command}" in text, command
+        assert " ".join(COMMANDS[command][1].split()[:4]) in " ".join(text.split())
+        body = text[text.index("\n\n"):]                     # after the usage lines (argparse's own layout)
+        assert max(map(len, body.splitlines())) <= 80, command
+
+
+def test_evaluate_prints_labels_with_units_and_the_profile(capsys):
+    assert main(["evaluate", "--constellation", "bhamidipati2023_case_c", "--profile", "ci"]) == 0
+    out = capsys.readouterr().out
+    assert out.splitlines()[0] == "profile ci, constellation bhamidipati2023_case_c"
+    assert "PDOP (3-sigma mean)" in out and "Delta-V total (km/s/yr)" in out and "dv_total_kms_per_year" not in out
+    pdop = next(line for line in out.splitlines() if line.startswith("PDOP (3-sigma mean)")).split()[-1]
+    assert len(pdop.split(".")[1]) == 2                       # DOP to 2 decimals, not 6 significant digits

@@ -24,7 +24,7 @@ from lnss_lib.__main__ import build_parser, main  # noqa: E402
 from lnss_lib.config import load_profile  # noqa: E402
 from lnss_lib.evaluator import context_for, evaluate_design  # noqa: E402
 from lnss_lib.explorer import DesignExplorer, initial_design, snap_to_grid  # noqa: E402
-from lnss_lib.keys import METRIC_KEYS  # noqa: E402
+from lnss_lib.keys import METRIC_KEYS, format_value  # noqa: E402
 
 PROFILE = "ci"
 ROOT = Path(__file__).resolve().parents[1]
@@ -88,7 +88,8 @@ def test_slider_change_updates_metrics_keeps_previous_and_equals_evaluate(explor
     rows = {row["metric"]: row for row in explorer.metrics_rows()}
     assert rows["pdop_mean_3sigma"]["delta"] == pytest.approx(
         explorer.current.metrics["pdop_mean_3sigma"] - explorer.previous.metrics["pdop_mean_3sigma"])
-    assert f"{explorer.current.metrics['pdop_mean_3sigma']:.4g}" in explorer.metrics_html.value
+    assert format_value("pdop_mean_3sigma", explorer.current.metrics["pdop_mean_3sigma"]) in explorer.metrics_html.value
+    assert "PDOP (3-sigma mean)" in explorer.metrics_html.value and "pdop_mean_3sigma" not in explorer.metrics_html.value
     for name in ("availability", "time_series", "constellation"):
         assert "application/vnd.plotly.v1+json" in explorer.outputs[name].outputs[0]["data"], name
 
@@ -96,7 +97,7 @@ def test_slider_change_updates_metrics_keeps_previous_and_equals_evaluate(explor
 def test_availability_map_averages_to_the_eq14_metric(explorer):
     """Uniform grid weights ("none"): the node mean of the per-node availability is eq. 14's percentage."""
     fig = explorer.figures["availability"]
-    pdop_map, hdop_map = (np.asarray(trace.customdata)[:, 1] for trace in fig.data)
+    pdop_map, hdop_map = (np.asarray(trace.marker.color, dtype=float) for trace in fig.data)
     assert ((pdop_map >= 0) & (pdop_map <= 100)).all()
     assert pdop_map.mean() == pytest.approx(explorer.current.metrics["pdop_avail_pct"], rel=1e-9)
     assert hdop_map.mean() == pytest.approx(explorer.current.metrics["hdop_avail_pct"], rel=1e-9)

@@ -111,3 +111,96 @@ def test_package_reexports_every_builder():
     assert {"save_figure", "LABELS"} <= set(figures.__all__)
     assert all(hasattr(figures, n) for n in figures.__all__)
 
+
+
+def _pole_maps(scale_by_frame: dict):
+    import numpy as np
+    import xarray as xr
+
+    lat, lon = np.array([-90.0, -80.0, -70.0, -60.0]), np.arange(0.0, 360.0, 30.0)
+    ramp = np.linspace(1.0, 2.0, lat.size * lon.size).reshape(lat.size, lon.size)
+    variables = [var for _, var, _ in figures.DOP_MAP_PANELS]
+    return {frame: xr.Dataset({var: (("lat", "lon"), (50.0 * ramp if var.endswith("_pct") else scale * ramp))
+                               for var in variables}, coords={"lat": lat, "lon": lon})
+            for frame, scale in scale_by_frame.items()}
+
+
+def _colour_range(fig, row: int, col: int) -> tuple[float, float]:
+    index = (row - 1) * len(figures.DOP_MAP_PANELS) + col
+    axis = fig.layout[f"coloraxis{index if index > 1 else ''}"]
+    return axis.cmin, axis.cmax
+
+
+def test_dop_maps_give_a_row_its_own_scale_when_rows_differ_by_orders_of_magnitude():
+    pdop = [var for _, var, _ in figures.DOP_MAP_PANELS].index("median_pdop") + 1
+    apart = figures.dop_polar_maps(_pole_maps({"lunar_equator_of_epoch": 1.0, "j2000": 500.0, "moon_op": 1.5}), title="t")
+    assert _colour_range(apart, 1, pdop) == pytest.approx((1.0, 2.0))       # the paper's case keeps its contrast
+    assert _colour_range(apart, 2, pdop) == pytest.approx((500.0, 1000.0))
+    close = figures.dop_polar_maps(_pole_maps({"lunar_equator_of_epoch": 1.0, "moon_op": 1.5}), title="t")
+    assert _colour_range(close, 1, pdop) == _colour_range(close, 2, pdop) == pytest.approx((1.0, 3.0))
+    availability = len(figures.DOP_MAP_PANELS)
+    assert _colour_range(apart, 3, availability) == (0.0, 100.0)              # bounded: fixed scale
+    assert list(apart.layout.polar.radialaxis.ticktext) == ["-90°", "-80°", "-70°", "-60°"]   # labelled latitudes
+    assert "elements: moon_op" in apart.layout.annotations[-1].text            # every row names its frame
+
+
+def test_monthly_availability_is_drawn_on_a_fixed_0_100_axis():
+    import numpy as np
+    import xarray as xr
+
+    nav = xr.Dataset({k: (("run", "month"), np.array([[100.0, 99.99999999999999], [100.0, 100.0]]))
+                      for k in ("pdop_avail_pct", "hdop_avail_pct", "pdop_mean_3sigma", "hdop_mean_3sigma")},
+                     coords={"run": ["controlled", "natural"], "month": [0, 1]})
+    fig = figures.monthly_dop(nav, title="t")
+    assert tuple(fig.layout.yaxis.range) == (0, 102) and tuple(fig.layout.yaxis2.range) == (0, 102)
+    assert fig.layout.yaxis3.range is None                     # DOP is unbounded: autoscaled
+
+
+def test_convergence_says_when_nothing_was_feasible():
+    import numpy as np
+    import xarray as xr
+
+    def history(feasible):
+        g = np.arange(3)
+        return xr.Dataset({"hypervolume": ("generation", np.zeros(3)), "min_cv_pop": ("generation", [3.0, 2.0, 1.0]),
+                           "n_evaluations_cum": ("generation", [6, 12, 18]),
+                           "n_feasible_cum": ("generation", feasible), "n_feasible_pop": ("generation", feasible)},
+                          coords={"generation": g})
+
+    none = figures.campaign_convergence(history([0, 0, 0]), "t")
+    assert any("no feasible design in 3 generation(s)" in a.text for a in none.layout.annotations)
+    some = figures.campaign_convergence(history([0, 1, 2]), "t")
+    assert not any("no feasible" in a.text for a in some.layout.annotations)
+
+
+def test_benchmark_labels_do_not_overlap():
+    from lnss_lib.figures.benchmark import LABEL_OFFSETS
+
+    x, y = [1, 3, 3, 3, 16, 16, 8], [0.0, 0.0, 0.0, 0.5, 99.3, 99.9, 50.0]
+    texts = ["lupnt_pathfinder", "ely2005_elfo_3sat", "ely2005_elfo_3sat_phased", "lupnt_example_isl_3sat",
+             "table4_elfo", "bhamidipati2023_case_c", "alone"]
+    positions = figures.label_positions(x, y, texts, x_min=-2.0)
+    boxes = []
+    for xi, yi, text, position in zip(x, y, texts, positions):
+        fx, fy = LABEL_OFFSETS[position]
+        width = 0.22 * len(text)
+        boxes.append((xi + fx * width, yi + 3.0 * fy, xi + fx * width + width, yi + 3.0 * fy + 3.0))
+    for i, a in enumerate(boxes):
+        assert a[0] >= -2.0, texts[i]                             # not beyond the axis' left edge
+        for b in boxes[:i]:
+            assert min(a[2], b[2]) <= max(a[0], b[0]) or min(a[3], b[3]) <= max(a[1], b[1]), (texts[i], positions)
+    assert positions[-1] == "top center"                          # far from the others: the default side
+
+
+def test_pareto_axes_use_the_label_registry():
+    import numpy as np
+    import xarray as xr
+
+    from lnss_lib.keys import label
+
+    front = xr.Dataset({k: ("design", np.arange(3.0) + 1) for k in ("hdop_mean_3sigma", "pdop_mean_3sigma",
+                        "dv_total_kms_per_year", "n_sat", "sma_km", "ecc", "inc_deg", "aop_deg", "n_planes",
+                        "sats_per_plane")})
+    fig = figures.pareto_3d(front, "hdop_mean_3sigma", "pdop_mean_3sigma", "dv_total_kms_per_year", title="t")
+    assert fig.layout.scene.xaxis.title.text == label("hdop_mean_3sigma") == "HDOP (3-sigma mean)"
+    assert fig.layout.scene.zaxis.title.text == "Delta-V total (km/s/yr)"

@@ -53,3 +53,39 @@ def test_atomic_write_replaces_whole_file(tmp_path):
     target.write_text("old content that is longer")
     assert write_text_atomic(target, "new") == target
     assert target.read_text() == "new" and [p.name for p in tmp_path.iterdir()] == ["a.txt"]
+
+
+def test_tables_write_each_quantity_in_its_own_format_with_labelled_headers(outputs):
+    frame = pd.DataFrame({"sma_km": [19100.4, 6143.0], "pdop_mean_3sigma": [2.16195, 40.0],
+                          "dv_total_kms_per_year": [2.39526, 0.5], "pdop_avail_pct": [99.99999999999999, 70.0],
+                          "other": [1.23456789, 2.0]})
+    lines = markdown_table(frame).splitlines()
+    assert lines[0] == ("| semi-major axis (km) | PDOP (3-sigma mean) | Delta-V total (km/s/yr) | PDOP availability (%) "
+                        "| other |")
+    assert lines[2] == "| 19100 | 2.16 | 2.395 | 100.0 | 1.235 |"        # not 1.91e+04, not 6 digits
+    save_table(frame, "t", "formats", caption="formats")
+    page = pipeline.write_index("t").read_text()
+    assert ("<td>19100</td><td>2.16</td><td>2.395</td><td>100.0</td><td>1.235</td>" in page
+            and '<th title="sma_km">semi-major axis (km)</th>' in page)
+
+
+def test_records_show_workbook_paths_and_formatted_tables():
+    import numpy as np
+
+    from lnss_lib.config import PROJECT_DIR
+    from lnss_lib.outputs import display_path, display_table
+
+    assert display_path(PROJECT_DIR / "outputs" / "quick" / "campaign") == "outputs/quick/campaign"
+    assert display_path("/somewhere/else/run_1") == "run_1"          # never a machine's absolute prefix
+    frame = pd.DataFrame({"sma_km": [19100.4], "ecc": [0.6], "impact_day": [np.nan], "region": ["frozen family"]})
+    shown = display_table(frame, ["sma_km", "impact_day", "region"])
+    assert list(shown.columns) == ["semi-major axis (km)", "impact_day", "region"]
+    assert shown.iloc[0].tolist() == ["19100", "-", "frozen family"]
+
+
+def test_mask_suffixed_keys_keep_their_label_and_format():
+    from lnss_lib.keys import format_value, label
+
+    assert label("pdop_avail_pct_mask20deg") == "PDOP availability (%), 20 deg mask"
+    assert format_value("mean_visible_sats_mask5deg", 11.33671) == "11.34"
+    assert label("table4_elfo_mask") == "table4_elfo_mask"            # not a key: unchanged

@@ -1,19 +1,26 @@
-"""Running the workbook: the outputs index (thumbnails, inline tables, offline), IPC kernels for papermill,
+"""Running the workbook: the outputs index (findings first, thumbnails, inline tables, offline), IPC kernels for papermill,
 and a written HTML figure rendered by headless Chromium with the network disabled."""
 
+import base64
 import shutil
 import struct
 import subprocess
+import sys
 import zlib
 
+import numpy as np
 import pandas as pd
 import plotly.graph_objects as go
 import pytest
+import xarray as xr
 
 import lnss_lib.figures as figures
 import lnss_lib.figures.export as export
 import lnss_lib.outputs
 import lnss_lib.pipeline as pipeline
+from lnss_lib import findings
+from lnss_lib.keys import format_value, label
+from lnss_lib.paper import FEASIBLE_DESIGNS, TABLE_4
 
 CHROMIUM = shutil.which("chromium") or shutil.which("chromium-browser") or shutil.which("google-chrome")
 needs_chromium = pytest.mark.skipif(CHROMIUM is None, reason="no Chromium on PATH (apt-get install chromium)")
@@ -59,7 +66,59 @@ def test_index_shows_the_first_rows_of_a_long_table(outputs, monkeypatch):
     monkeypatch.setattr(pipeline, "INDEX_TABLE_MAX_ROWS", 3)
     lnss_lib.outputs.save_table(pd.DataFrame({"k": range(10)}), "t", "01_long", caption="long")
     page = pipeline.write_index("t").read_text()
-    assert page.count("<tr>") == 4 and "first 3 of 10 rows" in page
+    section = page[page.index('id="nb-01"'):]   # after the findings
+    assert section.count("<tr>") == 4 and "first 3 of 10 rows" in section
+
+
+def _table4(ours_factor: float) -> pd.DataFrame:
+    ours = {k: v * ours_factor for k, v in TABLE_4.items()}
+    return pd.DataFrame({"metric": [label(k) for k in TABLE_4], "paper": list(TABLE_4.values()),
+                         "this workbook": list(ours.values()),
+                         "difference (%)": [100.0 * (ours_factor - 1.0)] * len(TABLE_4),
+                         "why": [f"reason for {k}" for k in TABLE_4]})
+
+
+def _campaign(folder, n_sat, pdop, dv):
+    n = len(n_sat)
+    ds = xr.Dataset({"n_sat": ("design", np.array(n_sat)), "pdop_mean_3sigma": ("design", np.array(pdop, float)),
+                     "dv_total_kms_per_year": ("design", np.array(dv, float)),
+                     "sma_km": ("design", np.full(n, 6143.0)), "ecc": ("design", np.full(n, 0.6)),
+                     "inc_deg": ("design", np.full(n, 51.7)), "aop_deg": ("design", np.full(n, 90.0)),
+                     "n_planes": ("design", np.full(n, 2)), "sats_per_plane": ("design", np.array(n_sat) // 2)},
+                    attrs={"constraints": "pdop_mean_3sigma <= 10,dv_total_kms_per_year <= 1", "generations_done": 1})
+    folder.mkdir(parents=True)
+    ds.to_netcdf(folder / "evaluations.nc", engine="h5netcdf")
+
+
+def test_findings_are_generated_from_the_outputs_and_open_the_index(outputs):
+    lnss_lib.outputs.save_table(_table4(1.25), "t", "05_table4", caption="Table 4")
+    for stem in ("07_fig10_pdop_availability", "07_fig8_hdop_pdop_deltav", "07_fig9_pdop_gpspdop_deltav",
+                 "05_fig4_dop_time_series"):
+        figures.save_figure(go.Figure(go.Scatter(x=[0, 1], y=[1, 2]), layout={"title": {"text": stem}}), "t", stem)
+    _campaign(outputs / "t" / "campaign", n_sat=[4, 8, 12, 6], pdop=[40.0, 3.0, 2.0, 5.0], dv=[0.5, 0.9, 0.2, 3.0])
+    page = pipeline.write_index("t").read_text()
+    start = page.index('id="findings"')
+    assert start < page.index('id="nb-05"') < page.index('id="nb-07"') and start < page.index("<figure")
+    assert page.index("07_fig8_") < page.index("07_fig9_") < page.index("07_fig10_")   # natural order
+    markdown = (outputs / "t" / findings.FINDINGS_FILE).read_text()
+    pdop = TABLE_4["pdop_mean_3sigma"]
+    row = next(line for line in markdown.splitlines() if label("pdop_mean_3sigma") in line)
+    assert f"| {format_value('pdop_mean_3sigma', pdop)} | {format_value('pdop_mean_3sigma', 1.25 * pdop)} (+25.0 %)" in row
+    assert "reason for pdop_mean_3sigma" in row and "figures/05_fig4_dop_time_series.html" in row
+    # the campaign: two designs meet both bounds, the smallest has 8 satellites and its own Delta-V
+    feasible = next(line for line in markdown.splitlines() if line.startswith("| Designs meeting Table 3"))
+    assert f"| {FEASIBLE_DESIGNS} of" in feasible and "| 2 of 4 unique designs |" in feasible
+    smallest = next(line for line in markdown.splitlines() if line.startswith("| Smallest constellation"))
+    assert f"8 satellites, {label('dv_total_kms_per_year')} {format_value('dv_total_kms_per_year', 0.9)}" in smallest
+    # outputs this run did not write are named with the notebook that writes them
+    life = next(line for line in markdown.splitlines() if line.startswith("| Design life"))
+    assert "not in this run" in life and "--only 08" in life
+
+
+def test_findings_without_outputs_say_what_to_run(outputs):
+    found = findings.collect("empty")
+    assert found and all(f.workbook == "not in this run" for f in found)
+    assert {f.why.split("--only ")[1] for f in found} == {"05", "06", "08", "10"}
 
 
 def test_kernels_use_ipc_transport():
@@ -178,3 +237,69 @@ def test_notebooks_take_their_profile_from_one_place(monkeypatch):
     monkeypatch.setenv(pipeline.PROFILE_ENV, "nosuch")
     with pytest.raises(ConfigError, match="LNSS_PROFILE = 'nosuch' is not a profile; available: .*ci.*quick"):
         pipeline.notebook_profile()
+
+
+def _run_figure_notebook(tmp_path, monkeypatch):
+    """Execute a two-figure notebook (one saved, one only shown) with ``reproduce``; return it converted
+    to HTML by ``jupyter nbconvert`` and the executed notebook."""
+    import nbformat
+
+    books = tmp_path / "notebooks"
+    books.mkdir()
+    nb = nbformat.v4.new_notebook(metadata={"kernelspec": {"name": "python3", "language": "python",
+                                                           "display_name": "Python 3"}})
+    nb.cells = [nbformat.v4.new_code_cell("profile_name = 'quick'", metadata={"tags": ["parameters"]}),
+                nbformat.v4.new_code_cell("import pathlib\nimport plotly.graph_objects as go\nimport lnss_lib.outputs\n"
+                                          "from lnss_lib.figures import save_figure\n"
+                                          f"lnss_lib.outputs.OUTPUTS_DIR = pathlib.Path({str(tmp_path)!r})\n"
+                                          "fig = go.Figure(go.Scatter(x=[0, 1, 2], y=[1, 3, 2], line={'width': 8}))\n"
+                                          "save_figure(fig, profile_name, '01_line')\nfig"),
+                nbformat.v4.new_code_cell("go.Figure(go.Bar(x=[1, 2], y=[2, 1])).show()")]
+    nbformat.write(nb, books / "01_figures.ipynb")
+    monkeypatch.setattr(pipeline, "NOTEBOOKS_DIR", books)
+    monkeypatch.setenv("PYTHONPATH", "")
+    assert pipeline.reproduce("ci") == 0
+    executed = tmp_path / "ci" / "notebooks" / "01_figures.ipynb"
+    subprocess.run([sys.executable, "-m", "jupyter", "nbconvert", "--to", "html", str(executed), "--output-dir",
+                    str(tmp_path / "html")], check=True, capture_output=True, timeout=300)
+    return (tmp_path / "html" / "01_figures.html").read_text(), nbformat.read(executed, as_version=4)
+
+
+def test_converted_notebook_keeps_its_figures_as_html_without_chromium(outputs, tmp_path, monkeypatch):
+    """Without PNG export the display carries HTML: plotly.js inline in the first figure only, no CDN."""
+    import nbformat
+
+    monkeypatch.setattr(export, "_PLOTLYJS_SENT", False)
+    renderer = figures.NotebookRenderer()
+    bundles = [renderer.to_mimebundle(f.to_dict()) for f in (_figure(), go.Figure(go.Bar(x=[1, 2], y=[2, 1])))]
+    assert all({"application/vnd.plotly.v1+json", "text/html"} <= set(b) and "image/png" not in b for b in bundles)
+    assert ["plotly.js v" in b["text/html"] for b in bundles] == [True, False]
+    nb = nbformat.v4.new_notebook()
+    nb.cells = [nbformat.v4.new_code_cell("fig", outputs=[nbformat.v4.new_output("display_data", data=b)])
+                for b in bundles]
+    nbformat.write(nb, tmp_path / "figures.ipynb")
+    subprocess.run([sys.executable, "-m", "jupyter", "nbconvert", "--to", "html", str(tmp_path / "figures.ipynb")],
+                   check=True, capture_output=True, timeout=300)
+    page = (tmp_path / "figures.html").read_text()
+    assert page.count("Plotly.newPlot(") == 2                     # both figures drawn by their HTML copy
+    assert 'src="https://cdn.plot.ly' not in page                  # plotly.js is not loaded from the network
+
+
+@needs_chromium
+def test_converted_notebook_shows_its_figures_in_headless_chromium(outputs, tmp_path, monkeypatch):
+    monkeypatch.delenv(export.PNG_ENV)
+    page, executed = _run_figure_notebook(tmp_path, monkeypatch)
+    saved = (tmp_path / "ci" / "figures" / "01_line.png").read_bytes()
+    bundles = [o["data"] for c in executed.cells for o in c.get("outputs", []) if "data" in o]
+    assert len(bundles) == 2 and all("image/png" in b and "text/html" not in b for b in bundles)
+    assert base64.b64decode(bundles[0]["image/png"]) == saved    # the PNG save_figure drew, not a second one
+    assert page.count('src="data:image/png;base64,') == 2
+    html_file = tmp_path / "html" / "01_figures.html"
+    drawn = _non_white_pixels(screenshot_offline(html_file, tmp_path / "notebook.png", tmp_path, size=(1000, 1400)))
+    assert drawn > 5000   # a thick line and two bars; the page without figures is code cells on white
+
+
+def test_notebook_renderer_is_default_only_in_a_kernel():
+    import plotly.io as pio
+
+    assert figures.use_notebook_renderer() is False and pio.renderers.default != figures.NOTEBOOK_RENDERER

@@ -10,6 +10,7 @@ the generation's finished history entry (``state.history[-1]``).
 from __future__ import annotations
 
 import math
+import shutil
 import sys
 import time
 from dataclasses import dataclass, field
@@ -20,9 +21,9 @@ import numpy as np
 from .fitness import constraint_matrix, constraint_violation, hypervolume, metric_columns
 from .rundir import write_checkpoint
 from .settings import CampaignSettings
-from .timing import generation_timing, timing_text
+from .timing import generation_timing
 
-__all__ = ["Callback", "RunState", "CampaignStopped", "ErrorGuard", "HistoryRecorder", "Checkpointer", "ProgressBars",
+__all__ = ["Callback", "RunState", "CampaignStopped", "ErrorGuard", "HistoryRecorder", "Checkpointer", "ProgressBars", "session_rate",
            "generation_stats", "progress_text"]
 
 
@@ -47,6 +48,7 @@ class RunState:
     wall_s: float = 0.0
     profile_hash: str | None = None
     asked_keys: list = field(default_factory=list)
+    session_start: float = 0.0          # time.perf_counter() when this session started (before the backend opened)
 
 
 class Callback:
@@ -152,39 +154,57 @@ class Checkpointer(Callback):
                          not state.algorithm.has_next(), state.profile_hash, state.asked_keys)
 
 
+BAR_COLUMNS = 80                        # the widest a progress line gets (narrower terminals: their width)
+OUTER_FORMAT = "{desc} {n_fmt}/{total_fmt} gen {percentage:3.0f}% {elapsed}<{remaining}{postfix}"
+INNER_FORMAT = "  generation {desc}: {n_fmt}/{total_fmt} designs |{bar:10}| {elapsed}{postfix}"
+
+
+def session_rate(state: RunState) -> float:
+    """Designs evaluated per second in this session so far: the rate the campaign's closing summary prints."""
+    elapsed = time.perf_counter() - state.session_start
+    return state.batch.n_backend / elapsed if elapsed > 0 else 0.0
+
+
 class ProgressBars(Callback):
-    """tqdm bars on stderr: generations of the run, and designs of the generation in progress."""
+    """tqdm bars on stderr, at most :data:`BAR_COLUMNS` wide: generations of the run and, on a terminal,
+    designs of the generation in progress (piped, one line per generation). Both show the session's
+    designs per second, the rate the closing summary reports."""
 
     def __init__(self):
         self.outer = None
         self.inner = None
-        self.t0 = 0.0
+
+    @staticmethod
+    def _columns() -> int:
+        return min(BAR_COLUMNS, shutil.get_terminal_size((BAR_COLUMNS, 24)).columns)
 
     def on_session_start(self, state: RunState) -> None:
         from tqdm import tqdm
 
-        self.outer = tqdm(total=state.settings.generations, initial=len(state.history),
-                          desc=f"campaign [{state.name}]", unit="gen", file=sys.stderr, dynamic_ncols=True)
+        self.outer = tqdm(total=state.settings.generations, initial=len(state.history), desc=state.name,
+                          file=sys.stderr, ncols=self._columns(), bar_format=OUTER_FORMAT)
 
     def on_generation_start(self, state: RunState) -> None:
         from tqdm import tqdm
 
-        self.inner = tqdm(total=state.n_designs, desc=f"gen {state.generation}", unit="design", leave=False,
-                          file=sys.stderr, dynamic_ncols=True)
-        self.t0 = time.perf_counter()
+        if sys.stderr.isatty():
+            self.inner = tqdm(total=state.n_designs, desc=str(state.generation), leave=False, file=sys.stderr,
+                              ncols=self._columns(), bar_format=INNER_FORMAT)
 
     def on_designs(self, state: RunState, n_done: int, n_total: int, n_hits: int) -> None:
+        if self.inner is None:
+            return
         self.inner.total = n_total + n_hits
         self.inner.n = n_done + n_hits
-        rate = n_done / max(time.perf_counter() - self.t0, 1e-9)
-        errors = state.cache.n_errors
-        self.inner.set_postfix_str(f"{rate:.2f} designs/s, cache hits {n_hits}"
-                                   + (f", evaluation errors {errors}" if errors else ""), refresh=True)
+        self.inner.set_postfix_str(f"{session_rate(state):.2f} designs/s" + (f", {n_hits} cached" if n_hits else ""),
+                                   refresh=True)
 
     def on_generation_end(self, state: RunState) -> None:
-        self.inner.close()
+        if self.inner is not None:
+            self.inner.close()
+            self.inner = None
+        self.outer.set_postfix_str(progress_text(state.history[-1], session_rate(state)), refresh=False)
         self.outer.update(1)
-        self.outer.set_postfix_str(progress_text(state.history[-1]))
 
     def on_session_end(self, state: RunState) -> None:
         self.outer.close()
@@ -196,12 +216,11 @@ class ProgressBars(Callback):
                 bar.close()
 
 
-def progress_text(entry: dict) -> str:
-    """Progress-bar summary of one history entry: throughput, cache hits, feasibility, best values."""
-    text = (f"{entry['designs_per_s']:.2f} designs/s, hits {entry['n_cache_hits']}, feasible "
-            f"{entry['n_feasible_pop']}/{entry['n_designs']} (all {entry['n_feasible_cum']}), "
-            f"min cv {entry['min_cv_pop']:.3g}" + (f", errors {entry['n_errors']}" if entry["n_errors"] else ""))
-    best = [f"{key[5:]} {entry[key]:.3g}" for key in ("best_n_sat", "best_pdop_mean_3sigma", "best_dv_opt_kms_per_year")
-            if key in entry and math.isfinite(entry[key])]
-    timing = timing_text(entry)
-    return text + (f", best {', '.join(best)}" if best else "") + (f", {timing}" if timing else "")
+def progress_text(entry: dict, designs_per_s: float) -> str:
+    """Progress-line summary of one history entry, most telling first (a narrow terminal cuts the tail):
+    the session's designs per second, designs meeting every bound so far and, while there is none, the
+    population's smallest constraint violation (how far the best design is from feasible), then errors."""
+    text = f"{designs_per_s:.2f} designs/s, {entry['n_feasible_cum']} feasible"
+    if entry["n_feasible_cum"] == 0:
+        text += f", violation {entry['min_cv_pop']:.2g}"
+    return text + (f", {entry['n_errors']} errors" if entry["n_errors"] else "")

@@ -15,7 +15,7 @@ import numpy as np
 from ..keys import EXTRA_METRIC_KEYS, METRIC_KEYS
 
 __all__ = ["objective_matrix", "constraint_matrix", "constraint_violation", "non_dominated_mask", "hypervolume",
-           "metric_columns"]
+           "metric_columns", "parse_constraints", "satisfies", "deltav_constraint"]
 
 
 def objective_matrix(metrics: dict, objectives, nan_objective: float) -> np.ndarray:
@@ -89,3 +89,38 @@ def metric_columns(records: list[dict], extras=()) -> dict:
     columns.update({k: np.array([r["metrics"].get(k, np.nan) for r in records], dtype=float) for k in extras})
     columns["ok"] = np.array([r["ok"] for r in records], dtype=bool)
     return columns
+
+
+def parse_constraints(text: str) -> list[tuple[str, str, float]]:
+    """``"pdop_mean_3sigma <= 10,pdop_avail_pct >= 70"`` -> [(metric, "max"|"min", limit), ...]."""
+    constraints = []
+    for item in filter(None, (part.strip() for part in text.split(","))):
+        for operator, kind in (("<=", "max"), (">=", "min")):
+            if operator in item:
+                metric, limit = (s.strip() for s in item.split(operator))
+                constraints.append((metric, kind, float(limit)))
+                break
+        else:
+            raise ValueError(f"cannot read constraint {item!r}; expected 'metric <= limit' or 'metric >= limit'")
+    return constraints
+
+
+def satisfies(ds, constraints) -> np.ndarray:
+    """Boolean (design,) mask of the designs of a dataset (``ds[metric]``: (design,)) meeting every
+    (metric, kind, limit) constraint (NaN fails)."""
+    ok = np.ones(ds.sizes["design"], dtype=bool)
+    for metric, kind, limit in constraints:
+        values = ds[metric].values.astype(float)
+        with np.errstate(invalid="ignore"):
+            ok &= (values <= limit) if kind == "max" else (values >= limit)
+    return ok
+
+
+def deltav_constraint(evaluations) -> tuple[str, float]:
+    """(metric, limit) of a campaign's Delta-V bound, read from its results' ``attrs["constraints"]`` (Table 3's; a ``max`` on a metric with ``dv_`` in its
+    name, e.g. ``dv_total_kms_per_year`` or ``sk_dv_estimate_max_kms_per_year``); the paper's Delta-V
+    total and no limit (inf) when the campaign has none."""
+    bounds = [(m, v) for m, k, v in parse_constraints(evaluations.attrs["constraints"]) if k == "max" and "dv_" in m]
+    if len(bounds) > 1:
+        raise ValueError(f"the campaign has several Delta-V bounds {bounds}; expected at most one")
+    return bounds[0] if bounds else ("dv_total_kms_per_year", np.inf)

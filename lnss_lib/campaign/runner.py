@@ -152,6 +152,7 @@ def _run_locked(run_dir: Path, profile: dict, workers, scheduler_address, progre
         algorithm.setup(problem, termination=build_termination(settings), seed=settings.seed, verbose=False)
     cache = EvaluationCache(run_dir / JOURNAL_FILE, eval_hash)
     session_start = time.perf_counter()
+    session_wall_s = None
     backend = None
     observers: list = []
     try:
@@ -164,7 +165,7 @@ def _run_locked(run_dir: Path, profile: dict, workers, scheduler_address, progre
             batch(np.array(lost))
         problem.metrics_source = batch
         state = RunState(run_dir=run_dir, name=name, settings=settings, algorithm=algorithm, cache=cache,
-                         batch=batch, history=history, profile_hash=profile_hash(profile))
+                         batch=batch, history=history, profile_hash=profile_hash(profile), session_start=session_start)
         observers = default_callbacks(progress) + list(callbacks)
 
         def notify(hook: str, *args) -> None:
@@ -188,6 +189,7 @@ def _run_locked(run_dir: Path, profile: dict, workers, scheduler_address, progre
             state.wall_s = time.perf_counter() - gen_start
             notify("on_generation_end")
             session_gens += 1
+        session_wall_s = time.perf_counter() - session_start    # evaluation time: writing the results is not in it
         notify("on_session_end")
     except CampaignStopped:
         for observer in observers:
@@ -207,7 +209,8 @@ def _run_locked(run_dir: Path, profile: dict, workers, scheduler_address, progre
                           n_evaluations=history[-1]["n_evaluations_cum"] if history else 0,
                           n_feasible=history[-1]["n_feasible_cum"] if history else 0,
                           wall_s=float(sum(h["wall_s"] for h in history)),
-                          session_evaluations=batch.n_backend, session_wall_s=time.perf_counter() - session_start,
+                          session_evaluations=batch.n_backend,
+                          session_wall_s=session_wall_s if session_wall_s is not None else time.perf_counter() - session_start,
                           resubmitted=resubmitted, n_errors=sum(bool(r.get("error")) for r in read_cache_records(run_dir)))
 
 

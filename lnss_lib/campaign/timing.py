@@ -9,7 +9,7 @@ from __future__ import annotations
 from ..keys import TIMING_KEYS
 from .journal import read_cache_records
 
-__all__ = ["campaign_timing", "steady_rate", "generation_timing", "timing_text"]
+__all__ = ["campaign_timing", "steady_rate", "generation_timing"]
 
 
 def campaign_timing(run_dir, n_workers: int, wall_s: float) -> dict:
@@ -53,12 +53,3 @@ def generation_timing(records, generation: int, n_workers: int, wall_s: float) -
     out["time_overhead_s"] = task / n - sum(out[f"time_{k}_s"] for k in TIMING_KEYS)
     out["time_campaign_s"] = max(n_workers * wall_s - task, 0.0) / n if mine else 0.0
     return out
-
-
-def timing_text(entry: dict) -> str:
-    """Progress-line summary of :func:`generation_timing` (ms per design), empty without timing keys."""
-    parts = [("prop", "time_propagation_s"), ("dop", "time_dop_s"), ("dv", "time_deltav_s"), ("gps", "time_gps_s"),
-             ("ovh", "time_overhead_s"), ("camp", "time_campaign_s")]
-    if not all(key in entry for _, key in parts):
-        return ""
-    return "ms/design " + " ".join(f"{name} {1e3 * entry[key]:.0f}" for name, key in parts)

@@ -6,6 +6,8 @@ from __future__ import annotations
 import numpy as np
 import plotly.graph_objects as go
 
+from ..keys import label
+
 
 def campaign_convergence(history, title: str) -> go.Figure:
     """NSGA-II progress per generation (history.nc of :func:`lnss_lib.optimize.export_results`): hypervolume
@@ -24,6 +26,11 @@ def campaign_convergence(history, title: str) -> go.Figure:
     fig.update_yaxes(type="log", row=1, col=2)
     fig.update_xaxes(title_text="generation")
     fig.update_layout(title=title, height=650)
+    if g.size and int(history["n_feasible_cum"].values[-1]) == 0:
+        fig.add_annotation(xref="paper", yref="paper", x=0.0, y=1.09, xanchor="left", showarrow=False,
+                           font={"color": "#b00"}, text=f"no feasible design in {g.size} generation(s): the hypervolume "
+                           "and feasible counts stay 0; progress is the smallest violation")
+        fig.update_layout(margin={"t": 120})
     return fig
 
 
@@ -39,7 +46,7 @@ def designs_pdop_deltav(evaluations, front, dv_bound: float, pdop_bound: float, 
     fig = go.Figure()
     fig.add_trace(go.Scatter(
         x=ev[dv_metric].values[shown], y=ev.pdop_mean_3sigma.values[shown], mode="markers", name="evaluated",
-        marker=dict(color=ev.n_sat.values[shown], colorscale="Viridis", showscale=True, colorbar=dict(title="n_sat"),
+        marker=dict(color=ev.n_sat.values[shown], colorscale="Viridis", showscale=True, colorbar=dict(title=label("n_sat")),
                     size=7),
         text=[f"a {a:.0f} km, e {e:.2f}, AOP {w:.0f}, i {i:.0f}, {p}x{s}, generation {gen}" for a, e, w, i, p, s, gen in zip(
             ev.sma_km.values[shown], ev.ecc.values[shown], ev.aop_deg.values[shown], ev.inc_deg.values[shown],
@@ -55,12 +62,11 @@ def designs_pdop_deltav(evaluations, front, dv_bound: float, pdop_bound: float, 
                        xanchor="left")
     fig.add_annotation(x=1.0, y=np.log10(pdop_bound), xref="paper", yref="y", text="PDOP bound", showarrow=False,
                        xanchor="right", yanchor="bottom")
-    x_all = np.append(ev.dv_total_kms_per_year.values[shown], dv_bound)
+    x_all = np.append(ev[dv_metric].values[shown], dv_bound)
     y_all = np.append(ev.pdop_mean_3sigma.values[shown], pdop_bound)
-    x_label = "Delta-V_total (km/s per satellite per year)" if dv_metric == "dv_total_kms_per_year" else f"{dv_metric} (km/s/yr)"
-    fig.update_xaxes(title_text=x_label, type="log",
+    fig.update_xaxes(title_text=label(dv_metric), type="log",
                      range=[np.log10(np.nanmin(x_all)) - 0.1, np.log10(np.nanmax(x_all)) + 0.1])
-    fig.update_yaxes(title_text="PDOP_3sigma (south-pole grid)", type="log",
+    fig.update_yaxes(title_text=f"{label('pdop_mean_3sigma')}, south-pole grid", type="log",
                      range=[np.log10(np.nanmin(y_all)) - 0.1, np.log10(np.nanmax(y_all)) + 0.1])
     fig.update_layout(title=title)
     return fig

@@ -6,6 +6,8 @@ from __future__ import annotations
 import numpy as np
 import plotly.graph_objects as go
 
+from ..keys import label
+
 _COLOURS = {"controlled": "#1f77b4", "natural": "#d62728"}
 _REGION_SYMBOLS = ["circle", "square", "diamond", "triangle-up", "x", "cross"]
 
@@ -59,15 +61,17 @@ def monthly_dop(nav, *, title: str) -> go.Figure:
     """Month-by-month PDOP/HDOP availability and 3-sigma means (eq. 9-14), one line per run."""
     from plotly.subplots import make_subplots
 
-    panels = [("pdop_avail_pct", "PDOP availability (%)"), ("hdop_avail_pct", "HDOP availability (%)"),
-              ("pdop_mean_3sigma", "PDOP 3-sigma mean"), ("hdop_mean_3sigma", "HDOP 3-sigma mean")]
-    fig = make_subplots(rows=2, cols=2, subplot_titles=[label for _, label in panels])
+    panels = ("pdop_avail_pct", "hdop_avail_pct", "pdop_mean_3sigma", "hdop_mean_3sigma")
+    fig = make_subplots(rows=2, cols=2, subplot_titles=[label(key) for key in panels])
     month = nav["month"].values + 1
     for name in nav["run"].values:
-        for k, (key, _) in enumerate(panels):
+        for k, key in enumerate(panels):
             fig.add_trace(go.Scatter(x=month, y=nav[key].sel(run=name).values, mode="lines+markers", name=str(name),
                                      legendgroup=str(name), showlegend=k == 0,
                                      line={"color": _COLOURS.get(str(name))}), row=k // 2 + 1, col=k % 2 + 1)
+    for k, key in enumerate(panels):
+        if key.endswith("_pct"):     # bounded quantity on a fixed axis: 99.999... % is not a drop from 100 %
+            fig.update_yaxes(range=[0, 102], row=k // 2 + 1, col=k % 2 + 1)
     fig.update_xaxes(title_text="month of the design life")
     fig.update_layout(title=title, template="plotly_white", height=700)
     return fig

@@ -24,18 +24,28 @@ def dop_time_series(dop_ds, *, title: str) -> go.Figure:
     return fig
 
 
+POLE_AXES = {         # polar axes of the south-pole maps: radius = colatitude from the pole, labelled as latitude
+    "radialaxis": {"range": [0, 30], "tickvals": [0, 10, 20, 30], "ticktext": ["-90°", "-80°", "-70°", "-60°"],
+                   "tickfont": {"size": 9}, "angle": 45, "showline": False},
+    "angularaxis": {"tickvals": [0, 90, 180, 270], "ticktext": ["0°E", "90°E", "180°", "270°E"], "tickfont": {"size": 9},
+                    "direction": "counterclockwise"},
+}
+
+
 def dop_grid_points(grid) -> go.Figure:
     """The receiver grid of eq. 1-2 (a :class:`lnss_lib.dop.SurfaceGrid`) in a polar plot around the south pole."""
     lat2d, lon2d = np.meshgrid(grid.lat_deg, grid.lon_deg, indexing="ij")
     fig = go.Figure(go.Scatterpolar(r=(90.0 + lat2d).ravel(), theta=lon2d.ravel(), mode="markers",
                                     marker={"size": 7},
                                     text=[f"lat {a:.0f}, lon {o:.0f}" for a, o in zip(lat2d.ravel(), lon2d.ravel())]))
-    fig.update_layout(title="South-pole receiver grid (radius: colatitude from the south pole, deg; angle: longitude)",
-                      polar={"radialaxis": {"range": [0, 32]}}, height=500, width=550)
+    fig.update_layout(title="South-pole receiver grid (radius: latitude; angle: longitude)",
+                      polar={**POLE_AXES, "radialaxis": {**POLE_AXES["radialaxis"], "range": [0, 32]}},
+                      height=500, width=550)
     return fig
 
 
-def _polar_wedges(values, lat_deg, lon_deg, name: str, coloraxis: str) -> go.Barpolar:
+def polar_wedges(values, lat_deg, lon_deg, name: str, coloraxis: str) -> go.Barpolar:
+    """One wedge per south-pole grid node (radius: colatitude from the pole), coloured by ``values`` (lat, lon)."""
     lat2d, lon2d = np.meshgrid(lat_deg, lon_deg, indexing="ij")
     colat = 90.0 + lat2d
     base = np.maximum(colat - 5.0, 0.0)
@@ -50,33 +60,49 @@ DOP_MAP_PANELS = (("mean visible", "mean_visible", "Viridis"), ("median PDOP", "
                   ("median HDOP (Moon-fixed x, y)", "median_hdop_moon_fixed", "Plasma"),
                   ("median HDOP (ENU)", "median_hdop_enu", "Plasma"),
                   ("PDOP availability (%)", "pdop_availability_pct", "Viridis"))
+SHARED_SCALE_MAX_RATIO = 10.0   # a column shares one colour scale across rows while their maxima are within this factor
+
+
+def _colour_ranges(maps: dict, var: str) -> list[tuple[float, float]]:
+    """(cmin, cmax) per row of a map column: shared while the rows' maxima differ by less than
+    :data:`SHARED_SCALE_MAX_RATIO`, else each row its own; percentages always 0-100."""
+    if var.endswith("_pct"):
+        return [(0.0, 100.0)] * len(maps)
+    ranges = [(float(np.nanmin(ds[var].values)), float(np.nanmax(ds[var].values))) for ds in maps.values()]
+    tops = [hi for _, hi in ranges if np.isfinite(hi) and hi > 0]
+    if tops and max(tops) < SHARED_SCALE_MAX_RATIO * min(tops):
+        return [(min(lo for lo, _ in ranges), max(tops))] * len(maps)
+    return ranges
 
 
 def dop_polar_maps(maps: dict, *, title: str) -> go.Figure:
     """Polar maps over the south-pole grid, one row per element frame (notebook 02; paper Table 4 metrics).
 
     ``maps``: element frame -> :func:`lnss_lib.dop.time_statistics_maps` Dataset. Each wedge is one
-    grid node; the centre disc is the pole. Every column shares one colour scale across frames.
+    grid node; the centre disc is the pole; radius labelled in latitude. A column shares one colour
+    scale across frames unless their values differ by an order of magnitude (:func:`_colour_ranges`);
+    each panel has its colour bar below it.
     """
     from plotly.subplots import make_subplots
 
     frames = list(maps)
-    ncol = len(DOP_MAP_PANELS)
-    fig = make_subplots(rows=len(frames), cols=ncol, specs=[[{"type": "polar"}] * ncol] * len(frames),
-                        subplot_titles=[f"{label}<br>{frame}" for frame in frames for label, _, _ in DOP_MAP_PANELS],
-                        vertical_spacing=0.12)
-    for row, frame in enumerate(frames, start=1):
-        ds = maps[frame]
-        for col, (label, var, _) in enumerate(DOP_MAP_PANELS, start=1):
-            fig.add_trace(_polar_wedges(ds[var].values, ds["lat"].values, ds["lon"].values, f"{label} ({frame})",
-                                        f"coloraxis{col if col > 1 else ''}"), row=row, col=col)
-    for col, (_, var, scale) in enumerate(DOP_MAP_PANELS, start=1):
-        values = np.concatenate([np.ravel(maps[f][var].values) for f in frames])
-        fig.update_layout({f"coloraxis{col if col > 1 else ''}": {
-            "colorscale": scale, "cmin": float(np.nanmin(values)), "cmax": float(np.nanmax(values)),
-            "colorbar": {"orientation": "h", "x": (col - 0.5) / ncol, "y": -0.08, "len": 0.8 / ncol, "thickness": 12}}})
-    fig.update_polars(radialaxis={"range": [0, 30], "showticklabels": False}, angularaxis={"showticklabels": False})
-    fig.update_layout(height=750, width=1400, showlegend=False, title=title)
+    ncol, nrow = len(DOP_MAP_PANELS), len(frames)
+    fig = make_subplots(rows=nrow, cols=ncol, specs=[[{"type": "polar"}] * ncol] * nrow,
+                        subplot_titles=[f"{label}<br>elements: {frame}" for frame in frames for label, _, _ in DOP_MAP_PANELS],
+                        vertical_spacing=0.16 / nrow * 2, horizontal_spacing=0.04)
+    for col, (label, var, scale) in enumerate(DOP_MAP_PANELS, start=1):
+        for row, (frame, (cmin, cmax)) in enumerate(zip(frames, _colour_ranges(maps, var)), start=1):
+            ds, index = maps[frame], (row - 1) * ncol + col
+            axis = f"coloraxis{index if index > 1 else ''}"
+            fig.add_trace(polar_wedges(ds[var].values, ds["lat"].values, ds["lon"].values, f"{label} ({frame})", axis),
+                          row=row, col=col)
+            domain = fig.layout[f"polar{index if index > 1 else ''}"].domain
+            fig.update_layout({axis: {"colorscale": scale, "cmin": cmin, "cmax": cmax, "colorbar": {
+                "orientation": "h", "x": sum(domain.x) / 2, "y": domain.y[0] - 0.02, "yanchor": "top",
+                "len": 0.8 * (domain.x[1] - domain.x[0]), "thickness": 8, "tickfont": {"size": 9}}}})
+    fig.update_polars(**POLE_AXES)
+    fig.update_layout(height=330 * nrow + 80, width=1400, showlegend=False, title=title,
+                      margin={"t": 110, "b": 50})
     return fig
 
 

@@ -3,12 +3,18 @@
 :func:`save_figure` is the one place a figure is written: ``outputs/<profile>/figures/<name>.html``
 (plotly.js from one local ``plotly.min.js`` in the same folder, no CDN), ``<name>.png`` when kaleido
 finds a Chromium, and the caption sidecar the outputs index reads.
+
+In a notebook kernel, figures are displayed by :class:`NotebookRenderer`: the plotly JSON (interactive in
+JupyterLab) with a static copy beside it for every other viewer (``nbconvert``, code-hosting sites): the
+PNG :func:`save_figure` drew, or HTML carrying plotly.js inline once per notebook when there is no Chromium.
 """
 
 from __future__ import annotations
 
 import asyncio
 import atexit
+import base64
+import hashlib
 import os
 import re
 import threading
@@ -16,6 +22,8 @@ import warnings
 from pathlib import Path
 
 import plotly.graph_objects as go
+import plotly.io as pio
+from plotly.io._base_renderers import MimetypeRenderer, PlotlyRenderer
 
 from ..outputs import atomic_path, output_dir, write_bytes_atomic, write_caption
 
@@ -23,6 +31,9 @@ PNG_ENV = "LNSS_PNG"                 # set to "off" to skip PNG export (HTML onl
 PNG_TIMEOUT_S = 120.0                 # start-up of Chromium, and rendering of one figure
 _PNG_WARNED = False
 _EXPORTER = None
+NOTEBOOK_RENDERER = "lnss_notebook"
+_PNG_BY_FIGURE: dict[str, bytes] = {}  # figure fingerprint -> the PNG save_figure drew, for the notebook display
+_PLOTLYJS_SENT = False                  # the HTML fallback carried plotly.js in this kernel already
 
 
 def chromium_path() -> str | None:
@@ -94,28 +105,78 @@ def _png_unavailable(reason: str) -> None:
         _PNG_WARNED = True
 
 
-def _write_png(fig: go.Figure, path: Path, width: int, height: int) -> bool:
-    """Write ``fig`` as PNG with a persistent kaleido browser; False (one warning) when not possible."""
+def _png_bytes(fig: go.Figure, width: int, height: int) -> bytes | None:
+    """PNG bytes of ``fig`` from a persistent kaleido browser; None (one warning) when not possible."""
     global _EXPORTER
     if os.environ.get(PNG_ENV, "").lower() in ("off", "0", "no", "false"):
         _png_unavailable(f"{PNG_ENV}={os.environ[PNG_ENV]}")
-        return False
+        return None
     if _EXPORTER == "unavailable":
-        return False
+        return None
     try:
         if _EXPORTER is None or _EXPORTER.pid != os.getpid():
             browser = chromium_path()
             if browser is None:
                 _EXPORTER = "unavailable"
                 _png_unavailable("no Chrome/Chromium found")
-                return False
+                return None
             _EXPORTER = _PngExporter(browser)
-        data = _EXPORTER.png(fig, width, height)
+        return _EXPORTER.png(fig, width, height)
     except Exception as error:  # kaleido and choreographer raise several types when the browser fails
         _EXPORTER = "unavailable"
         _png_unavailable(f"{type(error).__name__}: {error}")
+        return None
+
+
+def _fingerprint(fig_dict: dict) -> str:
+    return hashlib.sha1(pio.to_json(fig_dict, validate=False, remove_uids=False).encode()).hexdigest()
+
+
+class NotebookRenderer(MimetypeRenderer):
+    """Plotly JSON (interactive where a plotly renderer exists, as in JupyterLab) and a static copy for
+    every other viewer: the PNG :func:`save_figure` drew (or one drawn now at ``width`` x ``height``), or,
+    without a Chromium, HTML whose first figure in the kernel carries plotly.js inline (no CDN; the renderer
+    is copied per display, so that state is the module's)."""
+
+    def __init__(self, width: int = 1000, height: int = 600) -> None:
+        self.width, self.height = width, height
+
+    def to_mimebundle(self, fig_dict: dict) -> dict:
+        global _PLOTLYJS_SENT
+        key = _fingerprint(fig_dict)
+        bundle = PlotlyRenderer().to_mimebundle(fig_dict)
+        png = _PNG_BY_FIGURE.get(key) or _png_bytes(go.Figure(fig_dict), self.width, self.height)
+        if png is not None:
+            bundle["image/png"] = base64.b64encode(png).decode("ascii")
+        else:
+            bundle["text/html"] = pio.to_html(fig_dict, include_plotlyjs=not _PLOTLYJS_SENT, full_html=False,
+                                              include_mathjax=False, validate=False)
+            _PLOTLYJS_SENT = True
+        return bundle
+
+
+def use_notebook_renderer() -> bool:
+    """Make :class:`NotebookRenderer` plotly's default when running in a notebook kernel; True if it did."""
+    try:
+        from IPython import get_ipython
+    except ImportError:
+        return False
+    shell = get_ipython()
+    if shell is None or not hasattr(shell, "kernel"):
+        return False
+    if NOTEBOOK_RENDERER not in pio.renderers:
+        pio.renderers[NOTEBOOK_RENDERER] = NotebookRenderer()
+    pio.renderers.default = NOTEBOOK_RENDERER
+    return True
+
+
+def _write_png(fig: go.Figure, path: Path, width: int, height: int) -> bool:
+    """Write ``fig`` as PNG (remembered for the notebook display); False when not possible."""
+    data = _png_bytes(fig, width, height)
+    if data is None:
         return False
     write_bytes_atomic(path, data)
+    _PNG_BY_FIGURE[_fingerprint(fig.to_dict())] = data
     return True
 
 

@@ -143,7 +143,7 @@ def gps_visible_links(theta_visible_deg, share_by_prn, limits: dict, main_share:
     :func:`lnss_lib.gps.off_boresight_limits`; ``main_share``: :func:`lnss_lib.gps.main_lobe_share`."""
     from plotly.subplots import make_subplots
 
-    fig = make_subplots(rows=1, cols=2, subplot_titles=("theta_off of visible links", "share of epochs each PRN is visible"))
+    fig = make_subplots(rows=1, cols=2, subplot_titles=("off-boresight angle of visible links", "share of epochs each PRN is visible"))
     fig.add_trace(go.Histogram(x=theta_visible_deg, xbins={"start": 0, "end": 72, "size": 2}, name="visible links"), row=1, col=1)
     for x, label in ((limits["limb_with_margin_deg"], "limb + margin"), (limits["sidelobe_from_deg"], "main lobe edge"),
                      (limits["last_receivable_deg"], "C/N0 cut-off")):

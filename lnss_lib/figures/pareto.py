@@ -4,17 +4,7 @@ from __future__ import annotations
 
 import plotly.graph_objects as go
 
-
-LABELS = {
-    "n_sat": "satellites", "pdop_mean_3sigma": "PDOP (3-sigma mean)", "hdop_mean_3sigma": "HDOP (3-sigma mean)",
-    "pdop_avail_pct": "PDOP availability (%)", "hdop_avail_pct": "HDOP availability (%)",
-    "dv_total_kms_per_year": "Delta-V total (km/s/yr)", "dv_opt_kms_per_year": "Delta-V optimised (km/s/yr)",
-    "gps_visible_mean": "mean visible GPS", "gps_pdop_mean": "GPS-LNSS PDOP", "sma_km": "SMA (km)", "ecc": "eccentricity",
-    "aop_deg": "AOP (deg)", "inc_deg": "inclination (deg)", "mean_visible_sats": "mean visible LNSS satellites",
-    "sk_dv_estimate_kms_per_year": "geometry-keeping Delta-V, mean (km/s/yr)",
-    "sk_dv_estimate_max_kms_per_year": "geometry-keeping Delta-V, worst satellite (km/s/yr)",
-    "screen_min_perilune_alt_km": "lowest perilune over the life (km)", "stable_screen": "stable (screen)",
-}
+from ..keys import LABELS          # labels with units, one registry (re-exported by lnss_lib.figures)
 
 
 def _hover(ds) -> list[str]:
@@ -29,8 +19,12 @@ def pareto_3d(front, x: str, y: str, z: str, *, title: str) -> go.Figure:
         x=front[x].values, y=front[y].values, z=front[z].values, mode="markers", text=_hover(front),
         marker={"size": 5, "color": front["n_sat"].values, "colorscale": "Viridis", "colorbar": {"title": "satellites"}},
         hovertemplate="%{text}<br>" + f"{LABELS[x]} %{{x:.3g}}<br>{LABELS[y]} %{{y:.3g}}<br>{LABELS[z]} %{{z:.3g}}<extra></extra>"))
-    fig.update_layout(title=title, template="plotly_white", height=700,
-                      scene={"xaxis_title": LABELS[x], "yaxis_title": LABELS[y], "zaxis_title": LABELS[z]})
+    axis = {"title_font": {"size": 12}, "tickfont": {"size": 10}}
+    fig.update_layout(title=title, template="plotly_white", height=700, margin={"l": 10, "r": 10, "t": 60, "b": 10},
+                      scene={"xaxis": {**axis, "title": LABELS[x]}, "yaxis": {**axis, "title": LABELS[y]},
+                             "zaxis": {**axis, "title": LABELS[z]}, "aspectmode": "cube",
+                             "domain": {"x": [0.0, 0.9], "y": [0.0, 1.0]},
+                             "camera": {"eye": {"x": 1.6, "y": 1.6, "z": 1.1}}})   # pulled back: no clipped axis titles
     return fig
 
 

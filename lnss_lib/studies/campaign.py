@@ -24,25 +24,14 @@ import xarray as xr
 
 from ..campaign import CampaignSettings, campaign_timing, export_results, load_run, read_cache_records, run_campaign
 from ..campaign.rundir import CHECKPOINT_FILE
+from ..keys import NON_NAVIGATION_METRICS, bound_text
 from ..paper import EVALUATIONS, FEASIBLE_DESIGNS, TABLE_5
 
-__all__ = ["settings_table", "design_grid_table", "latest_run_dir", "CampaignRun", "load_or_run", "constraint_label",
+__all__ = ["settings_table", "design_grid_table", "latest_run_dir", "CampaignRun", "load_or_run",
            "constraint_table", "steady_designs_per_s", "throughput_table", "run_throughput_table", "companion_of",
            "comparison_table",
            "NON_NAVIGATION_METRICS"]
 
-CONSTRAINT_LABELS = {"pdop_mean_3sigma": ("PDOP_3sigma", ""), "pdop_avail_pct": ("PDOP availability", " %"),
-                     "hdop_mean_3sigma": ("HDOP_3sigma", ""), "hdop_avail_pct": ("HDOP availability", " %"),
-                     "dv_total_kms_per_year": ("Delta-V_total", " km/s/yr"),
-                     "dv_opt_kms_per_year": ("Delta-V_opt", " km/s/yr"),
-                     "sk_dv_estimate_kms_per_year": ("geometry-keeping Delta-V (mean)", " km/s/yr"),
-                     "sk_dv_estimate_max_kms_per_year": ("geometry-keeping Delta-V (worst satellite)", " km/s/yr"),
-                     "stable_screen": ("stable over the design life (screen)", ""),
-                     "screen_min_perilune_alt_km": ("lowest perilune over the design life (screen)", " km")}
-# bounds that are not about navigation: station keeping and design-life stability
-NON_NAVIGATION_METRICS = ("dv_total_kms_per_year", "dv_opt_kms_per_year", "sk_dv_estimate_kms_per_year",
-                          "sk_dv_estimate_max_kms_per_year", "dv_total_max_kms_per_year", "dv_opt_max_kms_per_year",
-                          "stable_screen", "screen_min_perilune_alt_km")
 
 
 def settings_table(settings: CampaignSettings):
@@ -131,17 +120,17 @@ def load_or_run(profile_name: str, overrides: dict | str | None = None) -> Campa
     """
     from ..campaign.publication import publish_run, run_differences
     from ..config import load_profile
-    from ..outputs import output_dir
+    from ..outputs import display_path, output_dir
 
     profile = load_profile(profile_name, overrides=overrides)
     campaign_dir = output_dir(profile_name, "campaign")
     if CampaignSettings.from_profile(profile).notebook_mode == "load":
         run_dir, reasons = latest_run_dir(campaign_dir, profile_name, profile)
-        how = f"loaded {run_dir}"
+        how = f"loaded {display_path(run_dir)}"
     else:
         result = run_campaign(profile_name, overrides=overrides, progress=False)
         run_dir = result.run_dir
-        how = (f"ran {run_dir}: {result.generations} generations, {result.n_evaluations} unique designs in "
+        how = (f"ran {display_path(run_dir)}: {result.generations} generations, {result.n_evaluations} unique designs in "
                f"{result.session_wall_s:.1f} s")
         reasons = run_differences(load_run(run_dir)["profile"], profile)
     run_profile = load_run(run_dir)["profile"]
@@ -157,11 +146,6 @@ def load_or_run(profile_name: str, overrides: dict | str | None = None) -> Campa
         note = f"{how}: the campaign of profile {profile_name!r}, published ({publish_run(run_dir, campaign_dir, datasets)})"
     return CampaignRun(run_dir, run_profile, note, *datasets, read_cache_records(run_dir))
 
-
-def constraint_label(metric: str, kind: str, limit: float) -> str:
-    """Readable bound, e.g. ``("pdop_avail_pct", "min", 70.0)`` -> ``"PDOP availability >= 70 %"``."""
-    name, unit = CONSTRAINT_LABELS.get(metric, (metric, ""))
-    return f"{name} {'<=' if kind == 'max' else '>='} {limit:g}{unit}"
 
 
 def constraint_table(evaluations: xr.Dataset, constraints):
@@ -180,7 +164,7 @@ def constraint_table(evaluations: xr.Dataset, constraints):
         values = evaluations[metric].values.astype(float)
         with np.errstate(invalid="ignore"):
             met = values <= limit if kind == "max" else values >= limit
-        checks[constraint_label(metric, kind, limit)] = met
+        checks[bound_text(metric, kind, limit)] = met
         if metric not in NON_NAVIGATION_METRICS:
             navigation &= met
     checks["navigation bounds only (no Delta-V or stability bound)"] = navigation

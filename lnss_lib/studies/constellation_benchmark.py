@@ -45,7 +45,7 @@ from ..errors import ImpactError
 from ..evaluator import analyse_constellation, context_for
 from ..frames import rotate_to_moon_fixed, rotate_with
 from ..keys import METRIC_KEYS
-from ..outputs import output_dir
+from ..outputs import display_path, output_dir
 from ..propagator import elements_deg_to_states, propagate_states
 from ..sk_estimate import sk_estimate_from_propagation
 from ..stability import screen_states
@@ -180,7 +180,7 @@ def campaign_entries(profile_name: str) -> tuple[list[Entry], list[str]]:
     entries, notes = [], []
     campaigns = _campaigns(profile_name)
     if not campaigns:
-        notes.append(f"no campaign published under {output_dir(profile_name, 'campaign')}: campaign designs "
+        notes.append(f"no campaign published under {display_path(output_dir(profile_name, 'campaign'))}: campaign designs "
                      f"skipped; run `python -m lnss_lib campaign --profile {profile_name}`")
     for name, folder, evaluations, front in campaigns:
         metric, limit = deltav_constraint(evaluations)      # the paper's Delta-V, or the operational estimate
@@ -191,7 +191,7 @@ def campaign_entries(profile_name: str) -> tuple[list[Entry], list[str]]:
             notes.append(f"{name} campaign: no front design meets every bound; Table 6 picks from the front with the "
                          "Delta-V bound relaxed")
         if not len(picks):
-            notes.append(f"{name} campaign ({folder}): no design qualifies for Table 6; none added")
+            notes.append(f"{name} campaign ({display_path(folder)}): no design qualifies for Table 6; none added")
         for k, row in picks.iterrows():
             design = WalkerDesign(row.sma_km, row.ecc, row.inc_deg, row.aop_deg, int(row.n_planes), int(row.sats_per_plane))
             label = (f"{name} campaign #{k + 1}: {int(row.n_planes)}x{int(row.sats_per_plane)}, a {row.sma_km:.0f} km, "

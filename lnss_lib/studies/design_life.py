@@ -32,6 +32,7 @@ from scipy.stats import spearmanr
 from ..constellation import WalkerDesign
 from ..designlife import run_design_life, short_arc_predictors
 from ..keys import DESIGN_KEYS
+from ..outputs import display_path
 
 __all__ = ["REGIONS", "region_of", "campaign_designs", "validation_designs", "flown_elements", "validate_design",
            "validation_table", "compare", "screen_misses", "region_summary", "verdict", "run_validation"]
@@ -77,8 +78,8 @@ def campaign_designs(campaign_dir: Path, n: int) -> tuple[list[tuple], str]:
         rows = [tuple(float(r[k]) if k not in ("n_planes", "sats_per_plane") else int(r[k]) for k in DESIGN_KEYS)
                 for _, r in frame.iterrows()]
         empty = "" if label == "its front" else " (its front is empty: no design met Table 3's bounds)"
-        return rows, f"{len(rows)} design(s) of the campaign published in {folder}, {label}{empty}."
-    return [], f"no campaign designs: {folder} publishes no campaign with designs."
+        return rows, f"{len(rows)} design(s) of the campaign published in {display_path(folder)}, {label}{empty}."
+    return [], f"no campaign designs: {display_path(folder)} publishes no campaign with designs."
 
 
 def validation_designs(profile: dict, campaign_dir: Path | None = None) -> tuple[list[dict], str]:

@@ -19,8 +19,8 @@ import numpy as np
 import pandas as pd
 import xarray as xr
 
-from ..campaign.fitness import non_dominated_mask, objective_matrix
-from ..keys import DESIGN_KEYS, EXTRA_METRIC_KEYS, METRIC_KEYS
+from ..campaign.fitness import deltav_constraint, non_dominated_mask, objective_matrix, parse_constraints, satisfies
+from ..keys import DESIGN_KEYS, EXTRA_METRIC_KEYS, METRIC_KEYS, bound_text
 
 __all__ = ["load_campaign", "parse_constraints", "satisfies", "pareto_front", "table6", "synthetic_campaign",
            "deltav_constraint", "analysis_front", "TABLE6_RULES", "TABLE6_COLUMNS"]
@@ -43,30 +43,6 @@ def load_campaign(profile_name: str) -> tuple[xr.Dataset, xr.Dataset]:
             f"no campaign published for profile {profile_name!r} (no published.json in {folder}); "
             f"run: python -m lnss_lib campaign --profile {profile_name}")
     return published.evaluations, published.front
-
-
-def parse_constraints(text: str) -> list[tuple[str, str, float]]:
-    """``"pdop_mean_3sigma <= 10,pdop_avail_pct >= 70"`` -> [(metric, "max"|"min", limit), ...]."""
-    constraints = []
-    for item in filter(None, (part.strip() for part in text.split(","))):
-        for operator, kind in (("<=", "max"), (">=", "min")):
-            if operator in item:
-                metric, limit = (s.strip() for s in item.split(operator))
-                constraints.append((metric, kind, float(limit)))
-                break
-        else:
-            raise ValueError(f"cannot read constraint {item!r}; expected 'metric <= limit' or 'metric >= limit'")
-    return constraints
-
-
-def satisfies(ds: xr.Dataset, constraints) -> np.ndarray:
-    """Boolean (design,) mask of designs meeting every (metric, kind, limit) constraint (NaN fails)."""
-    ok = np.ones(ds.sizes["design"], dtype=bool)
-    for metric, kind, limit in constraints:
-        values = ds[metric].values.astype(float)
-        with np.errstate(invalid="ignore"):
-            ok &= (values <= limit) if kind == "max" else (values >= limit)
-    return ok
 
 
 def pareto_front(evaluations: xr.Dataset, *, relax: tuple[str, ...] = ()) -> xr.Dataset:
@@ -92,16 +68,6 @@ def pareto_front(evaluations: xr.Dataset, *, relax: tuple[str, ...] = ()) -> xr.
     return front
 
 
-def deltav_constraint(evaluations: xr.Dataset) -> tuple[str, float]:
-    """(metric, limit) of the campaign's Delta-V bound (Table 3's; a ``max`` on a metric with ``dv_`` in its
-    name, e.g. ``dv_total_kms_per_year`` or ``sk_dv_estimate_max_kms_per_year``); the paper's Delta-V
-    total and no limit (inf) when the campaign has none."""
-    bounds = [(m, v) for m, k, v in parse_constraints(evaluations.attrs["constraints"]) if k == "max" and "dv_" in m]
-    if len(bounds) > 1:
-        raise ValueError(f"the campaign has several Delta-V bounds {bounds}; expected at most one")
-    return bounds[0] if bounds else ("dv_total_kms_per_year", np.inf)
-
-
 def analysis_front(evaluations: xr.Dataset, campaign_front: xr.Dataset) -> tuple[xr.Dataset, str]:
     """(front, label) for the Pareto analysis: the campaign's feasible front, or, when it is empty, the
     front with the Delta-V bound (:func:`deltav_constraint`) relaxed, labelled so."""
@@ -109,7 +75,7 @@ def analysis_front(evaluations: xr.Dataset, campaign_front: xr.Dataset) -> tuple
         return campaign_front, "feasible front"
     metric, limit = deltav_constraint(evaluations)
     return (pareto_front(evaluations, relax=(metric,)),
-            f"front with the Delta-V bound ({metric} <= {limit:g} km/s/yr) relaxed")
+            f"front with the Delta-V bound ({bound_text(metric, 'max', limit)}) relaxed")
 
 
 TABLE6_RULES = (   # (reason, rule(frame, Delta-V metric name) -> frame ranked best first)

@@ -59,7 +59,8 @@ def test_settings_and_grid_tables_follow_the_settings(settings):
 
 
 def test_constraint_table_counts_each_bound_from_the_constraints():
-    from lnss_lib.studies.campaign import constraint_label, constraint_table
+    from lnss_lib.keys import bound_text
+    from lnss_lib.studies.campaign import constraint_table
     from lnss_lib.studies.pareto import parse_constraints, satisfies, synthetic_campaign
 
     ev = synthetic_campaign(60, seed=3)
@@ -69,23 +70,23 @@ def test_constraint_table_counts_each_bound_from_the_constraints():
     ev["pdop_mean_3sigma"], ev["pdop_avail_pct"] = ("design", pdop), ("design", avail)
     constraints = parse_constraints(ev.attrs["constraints"])
     table = constraint_table(ev, constraints)
-    assert list(table.index) == ["evaluated without impact", "PDOP_3sigma <= 10", "PDOP availability >= 70 %",
-                                 "Delta-V_total <= 1 km/s/yr", "n_sat <= 20",
+    assert list(table.index) == ["evaluated without impact", "PDOP (3-sigma mean) <= 10", "PDOP availability >= 70 %",
+                                 "Delta-V total <= 1 km/s/yr", "satellites <= 20",
                                  "navigation bounds only (no Delta-V or stability bound)", "all Table 3 bounds (feasible)"]
     assert table.loc["evaluated without impact", "designs"] == 57
-    assert table.loc["PDOP_3sigma <= 10", "designs"] == int(np.sum(pdop[4:] <= 10.0))
+    assert table.loc["PDOP (3-sigma mean) <= 10", "designs"] == int(np.sum(pdop[4:] <= 10.0))
     assert table.loc["PDOP availability >= 70 %", "designs"] == int(np.sum(avail[3:] >= 70.0))
-    assert table.loc["Delta-V_total <= 1 km/s/yr", "designs"] == int(np.sum(ev.dv_total_kms_per_year.values <= 1.0))
+    assert table.loc["Delta-V total <= 1 km/s/yr", "designs"] == int(np.sum(ev.dv_total_kms_per_year.values <= 1.0))
     navigation = satisfies(ev, [c for c in constraints if c[0] != "dv_total_kms_per_year"])
     assert table.loc["navigation bounds only (no Delta-V or stability bound)", "designs"] == int(navigation.sum())
     assert table.loc["all Table 3 bounds (feasible)", "designs"] == int(ev.feasible.sum())
     np.testing.assert_allclose(table["share (%)"], 100.0 * table["designs"] / 60)
     # other bounds: labels and counts follow the constraints, not fixed Table 3 numbers
     looser = constraint_table(ev, [("pdop_mean_3sigma", "max", 5.0), ("dv_total_kms_per_year", "max", 2.0)])
-    assert looser.loc["PDOP_3sigma <= 5", "designs"] == int(np.sum(pdop[4:] <= 5.0))
-    assert looser.loc["Delta-V_total <= 2 km/s/yr", "designs"] == int(np.sum(ev.dv_total_kms_per_year.values <= 2.0))
+    assert looser.loc["PDOP (3-sigma mean) <= 5", "designs"] == int(np.sum(pdop[4:] <= 5.0))
+    assert looser.loc["Delta-V total <= 2 km/s/yr", "designs"] == int(np.sum(ev.dv_total_kms_per_year.values <= 2.0))
     assert looser.loc["navigation bounds only (no Delta-V or stability bound)", "designs"] == int(np.sum(pdop[4:] <= 5.0))
-    assert constraint_label("hdop_avail_pct", "min", 90.5) == "HDOP availability >= 90.5 %"
+    assert bound_text("hdop_avail_pct", "min", 90.5) == "HDOP availability >= 90.5 %"
     with pytest.raises(ValueError, match="'between'"):
         constraint_table(ev, [("n_sat", "between", 3.0)])
     empty = constraint_table(ev.isel(design=slice(0, 0)), constraints)

@@ -1,0 +1,267 @@
+"""The findings page: what a run concluded, beside the paper, read from the run's own outputs.
+
+:func:`collect` reads ``outputs/<profile>/`` (the manifest, the tables the notebooks wrote and the
+campaigns' ``evaluations.nc``) and returns one :class:`Finding` per headline result: Table 4 of the
+standalone ELFO with GPS (notebook 05), the campaigns against Table 3 and the smallest constellation
+(06-07), the campaign designs over the design life (08) and the published constellations (10). Paper
+values come from :mod:`lnss_lib.paper`; no number is typed here. A topic whose outputs are missing says
+which notebook writes them. :func:`findings_markdown` writes ``FINDINGS.md``; :func:`findings_html` the
+top of ``index.html`` (:func:`lnss_lib.pipeline.write_index`).
+"""
+
+from __future__ import annotations
+
+import csv
+import html
+import json
+import math
+from dataclasses import dataclass
+from pathlib import Path
+
+from .campaign.fitness import deltav_constraint, parse_constraints, satisfies
+from .campaign.publication import load_published
+from .keys import NON_NAVIGATION_METRICS, format_value, label
+from .outputs import profile_dir
+from .paper import EVALUATIONS, FEASIBLE_DESIGNS, SMALL_CONSTELLATION_SATS, TABLE_4
+
+__all__ = ["Finding", "run_summary", "collect", "findings_markdown", "findings_html", "write_findings",
+           "FINDINGS_FILE"]
+
+FINDINGS_FILE = "FINDINGS.md"
+TABLE4_FIGURES = {      # Table 4 metric -> the figure of notebook 05 that shows it
+    "mean_visible_sats": "05_fig4_dop_time_series", "pdop_mean_3sigma": "05_fig4_dop_time_series",
+    "hdop_mean_3sigma": "05_fig4_dop_time_series", "pdop_avail_pct": "05_fig4_dop_time_series",
+    "hdop_avail_pct": "05_fig4_dop_time_series", "dv_total_kms_per_year": "05_fig6_thrust",
+    "dv_opt_kms_per_year": "05_fig6_thrust", "gps_visible_mean": "05_fig7_gps", "gps_pdop_mean": "05_fig7_gps",
+}
+
+
+@dataclass(frozen=True)
+class Finding:
+    """One headline result: the paper's value, this run's, why they differ, and where it is shown.
+
+    ``links`` are (text, path relative to ``outputs/<profile>/``); a path starting with ``#`` is a
+    section of ``index.html``.
+    """
+
+    topic: str
+    paper: str
+    workbook: str
+    why: str
+    links: tuple[tuple[str, str], ...] = ()
+
+
+def _read_csv(path: Path) -> list[dict[str, str]]:
+    with path.open(newline="") as handle:
+        return list(csv.DictReader(handle))
+
+
+def _number(text) -> float:
+    try:
+        return float(text)
+    except (TypeError, ValueError):
+        return math.nan
+
+
+def _notebook(root: Path, number: str) -> tuple[tuple[str, str], ...]:
+    """Links to the index section of notebook ``number`` and to its executed copy, when there is one."""
+    books = sorted((root / "notebooks").glob(f"{number}_*.ipynb")) if (root / "notebooks").is_dir() else []
+    return ((f"section {number}", f"#nb-{number}"),) + tuple((f"notebook {number}", f"notebooks/{b.name}") for b in books)
+
+
+def _figure(root: Path, stem: str) -> tuple[tuple[str, str], ...]:
+    for suffix in (".html", ".png"):
+        if (root / "figures" / f"{stem}{suffix}").is_file():
+            return ((stem, f"figures/{stem}{suffix}"),)
+    return ()
+
+
+def _missing(topic: str, paper: str, number: str, what: str) -> Finding:
+    return Finding(topic, paper, "not in this run", f"{what} is written by notebook {number}: "
+                   f"python -m lnss_lib reproduce --only {number}")
+
+
+def run_summary(profile_name: str) -> dict:
+    """Profile, git revision, time written and notebook wall times of the run, from its manifest."""
+    path = profile_dir(profile_name) / "manifest.json"
+    manifest = json.loads(path.read_text()) if path.is_file() else {}
+    runs = manifest.get("notebooks", {})
+    return {"profile": profile_name, "git_revision": manifest.get("git_revision", "unknown"),
+            "written_utc": manifest.get("written_utc", "unknown"),
+            "notebooks": {name: run.get("status", "?") for name, run in runs.items()},
+            "wall_s": sum(float(run.get("wall_s", 0.0)) for run in runs.values())}
+
+
+def table4_findings(root: Path) -> list[Finding]:
+    """Every Table 4 row of notebook 05 (``05_table4.csv``): the paper, ours and the table's own reason."""
+    path = root / "tables" / "05_table4.csv"
+    if not path.is_file():
+        return [_missing("Table 4: standalone ELFO", "Table 4", "05", "the Table 4 comparison")]
+    rows = _read_csv(path)
+    keys = list(TABLE_4) if len(rows) == len(TABLE_4) else [""] * len(rows)   # 05_table4 lists Table 4 in order
+    found = []
+    for key, row in zip(keys, rows):
+        difference = _number(row.get("difference (%)"))
+        ours = format_value(key, _number(row.get("this workbook")))
+        if math.isfinite(difference):
+            ours += f" ({difference:+.1f} %)"
+        links = _figure(root, TABLE4_FIGURES.get(key, "")) + _notebook(root, "05")
+        if key in ("gps_visible_mean", "gps_pdop_mean"):
+            links += _notebook(root, "03")
+        found.append(Finding(f"Table 4: {row.get('metric', '')}", format_value(key, _number(row.get("paper"))), ours,
+                             row.get("why", ""), links))
+    return found
+
+
+def _campaign(profile_name: str):
+    """The evaluations of the profile's published campaign (:mod:`lnss_lib.campaign.publication`), or None."""
+    published = load_published(profile_dir(profile_name) / "campaign")
+    return None if published is None else published.evaluations
+
+
+def campaign_findings(root: Path, profile_name: str, companion: str | None) -> list[Finding]:
+    """Per campaign (this profile's and its companion's): designs meeting every Table 3 bound against the
+    paper's count, and the smallest constellation meeting them with its Delta-V against the paper's size."""
+    import numpy as np
+
+    found = []
+    for name in filter(None, (profile_name, companion)):
+        kind = "paper-faithful" if name == profile_name else "operational"
+        ds = _campaign(name)
+        if ds is None:
+            found.append(_missing(f"Campaign ({kind}, {name})", f"{FEASIBLE_DESIGNS} feasible", "06",
+                                  f"the {name} campaign"))
+            continue
+        constraints = parse_constraints(ds.attrs["constraints"])
+        dv_metric, dv_limit = deltav_constraint(ds)
+        feasible = satisfies(ds, constraints)
+        navigation = satisfies(ds, [c for c in constraints if c[0] not in NON_NAVIGATION_METRICS])
+        n = ds.sizes["design"]
+        links = _figure(root, "06_designs_pdop_dv") + _figure(root, "07_fig8_hdop_pdop_deltav") + _notebook(root, "06")
+        dv_values = ds[dv_metric].values[navigation]
+        dv_values = dv_values[np.isfinite(dv_values)]
+        lowest = (f"the lowest {label(dv_metric)} among them is {format_value(dv_metric, dv_values.min())} against "
+                  f"the bound of {dv_limit:g}" if dv_values.size else f"none of them has a {label(dv_metric)}")
+        why = (f"{int(navigation.sum())} of {n} designs meet the navigation bounds; {lowest}: the Delta-V and "
+               "stability bounds decide feasibility." if not feasible.any() else
+               f"a campaign of {ds.attrs.get('generations_done', '?')} generations finds fewer than the paper's "
+               f"{EVALUATIONS} evaluations; the designs meeting every bound are in the Pareto figures.")
+        found.append(Finding(f"Designs meeting Table 3 ({kind}, {name})",
+                             f"{FEASIBLE_DESIGNS} of at most {EVALUATIONS} evaluations",
+                             f"{int(feasible.sum())} of {n} unique designs", why, links))
+        pick = feasible if feasible.any() else navigation
+        if pick.any():
+            order = np.lexsort((ds[dv_metric].values[pick], ds["n_sat"].values[pick]))
+            i = np.flatnonzero(pick)[order[0]]
+            design = (f"a {format_value('sma_km', ds['sma_km'].values[i])} km, e {format_value('ecc', ds['ecc'].values[i])}, "
+                      f"i {format_value('inc_deg', ds['inc_deg'].values[i])} deg, "
+                      f"AOP {format_value('aop_deg', ds['aop_deg'].values[i])} deg, "
+                      f"{int(ds['n_planes'].values[i])} planes x {int(ds['sats_per_plane'].values[i])}")
+            ours = (f"{int(ds['n_sat'].values[i])} satellites, {label(dv_metric)} "
+                    f"{format_value(dv_metric, ds[dv_metric].values[i])} ({design})")
+            why = ("meets every Table 3 bound" if feasible.any() else
+                   "no design meets every bound: this is the smallest meeting the navigation bounds") + (
+                   "; the paper's Delta-V comes from its capped singular inverse (notebook 04)"
+                   if dv_metric == "dv_total_kms_per_year" else
+                   f"; the Delta-V bound applies to the {label(dv_metric)}, what an operator would fly") + "."
+        else:
+            ours, why = "none", "no design meets the navigation bounds in this short campaign"
+        found.append(Finding(f"Smallest constellation ({kind}, {name})",
+                             f"{SMALL_CONSTELLATION_SATS[0]}-{SMALL_CONSTELLATION_SATS[1]} satellites within the bounds",
+                             ours, why, _figure(root, "07_table6") + _notebook(root, "07")))
+    return found
+
+
+def design_life_findings(root: Path) -> list[Finding]:
+    """The designs of notebook 08's validation flown over the design life (``08_validation.csv``): how many
+    keep every satellite and what station keeping costs, against the paper's 1 km/s/yr design rule."""
+    path = root / "tables" / "08_validation.csv"
+    if not path.is_file():
+        return [_missing("Design life", "Delta-V <= 1 km/s/yr per satellite", "08", "the design-life validation")]
+    rows = _read_csv(path)
+    found = []
+    for region in dict.fromkeys(r.get("region", "") for r in rows):
+        chosen = [r for r in rows if r.get("region", "") == region]
+        lost = [r for r in chosen if math.isfinite(_number(r.get("impact_day")))]
+        dv = [v for v in (_number(r.get("sk_dv_kms_per_year")) for r in chosen) if math.isfinite(v)]
+        days = max(_number(r.get("life_days")) for r in chosen)
+        ours = (f"{len(chosen) - len(lost)} of {len(chosen)} keep every satellite over {days:.0f} days"
+                + (f"; station keeping {format_value('dv_total_kms_per_year', min(dv))} to "
+                   f"{format_value('dv_total_kms_per_year', max(dv))} km/s/yr" if dv else ""))
+        why = ("flown in closed loop with the full force model over the design life, where the paper judges a "
+               "10-day arc" + (f"; lost on day {', '.join(format(_number(r['impact_day']), '.0f') for r in lost)}"
+                               if lost else ""))
+        found.append(Finding(f"Design life: {region} ({len(chosen)} design(s))",
+                             "kept within 1 km/s/yr (Table 3, judged on a 10-day arc)", ours, why,
+                             _figure(root, "08_estimate_vs_closed_loop") + _notebook(root, "08")))
+    return found
+
+
+def published_findings(root: Path) -> list[Finding]:
+    """The published constellations measured on one yardstick (``10_published_comparison.csv``)."""
+    path = root / "tables" / "10_published_comparison.csv"
+    if not path.is_file():
+        return [_missing("Published constellations", "published figures", "10", "the published comparison")]
+    found = []
+    for row in _read_csv(path):
+        ours = _number(row.get("ours"))
+        if not row.get("published figure", "").endswith("availability_pct") or not math.isfinite(ours):
+            continue
+        mask = row["published figure"].split(".")[0].replace("elevation_mask_", "").replace("deg", " deg mask")
+        found.append(Finding(f"{row.get('constellation', '')}: availability ({mask}, %)",
+                             format_value("pdop_avail_pct", _number(row.get("published"))),
+                             format_value("pdop_avail_pct", ours), row.get("why they differ", ""),
+                             _figure(root, "10_benchmark_scatter") + _notebook(root, "10")))
+    return found
+
+
+def collect(profile_name: str, companion: str | None = None) -> list[Finding]:
+    """Every finding of the run under ``outputs/<profile>/``, in reading order."""
+    root = profile_dir(profile_name)
+    return (table4_findings(root) + campaign_findings(root, profile_name, companion)
+            + design_life_findings(root) + published_findings(root))
+
+
+def _run_line(summary: dict) -> str:
+    failed = [name for name, status in summary["notebooks"].items() if status != "ok"]
+    return (f"profile {summary['profile']}, commit {summary['git_revision']}, written {summary['written_utc']}, "
+            f"{len(summary['notebooks'])} notebook(s) in {summary['wall_s']:.0f} s"
+            + (f"; failed: {', '.join(failed)}" if failed else ""))
+
+
+def findings_markdown(profile_name: str, findings: list[Finding]) -> str:
+    """``FINDINGS.md``: the run, then one table row per finding with its links (relative to the file)."""
+    def cell(text: str) -> str:
+        return " ".join(str(text).split()).replace("|", "\\|")
+
+    lines = [f"# Findings: profile {profile_name}", "", f"Run: {_run_line(run_summary(profile_name))}.", "",
+             "Generated from this run's outputs; the paper's values from `lnss_lib/paper.py`.", "",
+             "| result | paper | this workbook | why they differ | shown in |", "|---|---|---|---|---|"]
+    for f in findings:
+        links = ", ".join(f"[{text}]({'index.html' + href if href.startswith('#') else href})" for text, href in f.links)
+        lines.append(f"| {cell(f.topic)} | {cell(f.paper)} | {cell(f.workbook)} | {cell(f.why)} | {links} |")
+    return "\n".join(lines) + "\n"
+
+
+def findings_html(profile_name: str, findings: list[Finding]) -> str:
+    """The findings section that opens ``index.html`` (``id="findings"``)."""
+    def links(finding: Finding) -> str:
+        return " ".join(f'<a href="{html.escape(href)}">{html.escape(text)}</a>' for text, href in finding.links)
+
+    rows = "".join(
+        f"<tr><td class='text'>{html.escape(f.topic)}</td><td class='text'>{html.escape(f.paper)}</td>"
+        f"<td class='text'><b>{html.escape(f.workbook)}</b></td><td class='text why'>{html.escape(f.why)}</td>"
+        f"<td class='text'>{links(f)}</td></tr>" for f in findings)
+    return (f'<section id="findings"><h2>Findings</h2><p>Run: {html.escape(_run_line(run_summary(profile_name)))}. '
+            f'Generated from this run\'s outputs beside the paper\'s values (<a href="{FINDINGS_FILE}">{FINDINGS_FILE}</a>).</p>'
+            "<table class='findings'><tr><th>result</th><th>paper</th><th>this workbook</th><th>why they differ</th>"
+            f"<th>shown in</th></tr>{rows}</table></section>")
+
+
+def write_findings(profile_name: str, companion: str | None = None) -> tuple[Path, str]:
+    """Write ``outputs/<profile>/FINDINGS.md``; return its path and the HTML section for the index."""
+    from .atomicio import write_text_atomic
+
+    findings = collect(profile_name, companion)
+    path = write_text_atomic(profile_dir(profile_name) / FINDINGS_FILE, findings_markdown(profile_name, findings))
+    return path, findings_html(profile_name, findings)
