@@ -132,7 +132,8 @@ def _cmd_evaluate(args: argparse.Namespace) -> int:
                               args.sats_per_plane, overrides=_overrides(args))
     from .campaign.settings import bounds_verdict
 
-    result.update(bounds_verdict(load_profile(args.profile, overrides=_overrides(args)), result))
+    profile = load_profile(args.profile, overrides=_overrides(args))
+    result.update(bounds_verdict(profile, result))
     if args.design_life_days is not None:
         from .designlife import design_life_cli
 
@@ -145,7 +146,8 @@ def _cmd_evaluate(args: argparse.Namespace) -> int:
     else:
         from .keys import format_value, label
 
-        print(f"profile {args.profile or Path(args.profile_file).stem}" + (f", constellation {args.constellation}" if args.constellation else ""))
+        print(f"profile {args.profile}" + (f", constellation {args.constellation}" if args.constellation else ""))
+        result["violated_bounds"] = bounds_verdict(profile, result, labelled=True)["violated_bounds"]
         width = max(len(label(key)) for key in result)
         for key, value in result.items():
             value = ("; ".join(value) or "none") if isinstance(value, list) else value

@@ -45,7 +45,9 @@ LABELS = {                  # key -> human label with its unit: figures, tables,
     "stable_screen": "stable over the life (screen)", "screen_min_perilune_alt_km": "lowest perilune over the life (km)",
     "dv_total_max_kms_per_year": "Delta-V total, worst satellite (km/s/yr)",
     "dv_opt_max_kms_per_year": "Delta-V optimised, worst satellite (km/s/yr)", "deltav_model": "Delta-V model",
-    "wall_s": "wall time (s)",   # "feasible" and "reason" keep their names: the evaluator and a campaign mean different things
+    "wall_s": "wall time (s)", "evaluated": "evaluated (closed orbit, no impact)", "reason": "reason not evaluated",
+    "meets_bounds": "meets every Table 3 bound", "violated_bounds": "Table 3 bounds violated",
+    "element_frame": "element frame", "epoch_used": "epoch (TDB)", "epoch_source": "epoch from",
 }
 
 

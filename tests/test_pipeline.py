@@ -2,6 +2,7 @@
 and a written HTML figure rendered by headless Chromium with the network disabled."""
 
 import base64
+import json
 import shutil
 import struct
 import subprocess
@@ -86,8 +87,14 @@ def _campaign(folder, n_sat, pdop, dv):
                      "inc_deg": ("design", np.full(n, 51.7)), "aop_deg": ("design", np.full(n, 90.0)),
                      "n_planes": ("design", np.full(n, 2)), "sats_per_plane": ("design", np.array(n_sat) // 2)},
                     attrs={"constraints": "pdop_mean_3sigma <= 10,dv_total_kms_per_year <= 1", "generations_done": 1})
-    folder.mkdir(parents=True)
-    ds.to_netcdf(folder / "evaluations.nc", engine="h5netcdf")
+    from lnss_lib.campaign.publication import POINTER_FILE, PUBLISHED_DIR
+    from lnss_lib.campaign.rundir import RESULT_FILES
+
+    published = folder / PUBLISHED_DIR / "run_1-x"      # a published campaign: the pointer and its folder
+    published.mkdir(parents=True)
+    for name in RESULT_FILES:                            # the findings read evaluations.nc only
+        ds.to_netcdf(published / name, engine="h5netcdf")
+    (folder / POINTER_FILE).write_text(json.dumps({"folder": f"{PUBLISHED_DIR}/{published.name}", "run_dir": "run_1"}))
 
 
 def test_findings_are_generated_from_the_outputs_and_open_the_index(outputs):

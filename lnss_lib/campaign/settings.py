@@ -11,7 +11,7 @@ import math
 from dataclasses import dataclass, field
 
 from ..config import EVALUATORS, NOTEBOOK_MODES, deep_merge, profile_hash
-from ..keys import METRIC_KEYS, VERDICT_KEYS, requested_extra_metrics
+from ..keys import METRIC_KEYS, VERDICT_KEYS, bound_text, format_value, label, requested_extra_metrics
 from .fitness import constraint_matrix
 from .grid import DesignGrid
 
@@ -153,16 +153,21 @@ def evaluation_profile(profile: dict) -> dict:
     return deep_merge(base, settings.overrides)
 
 
-def bounds_verdict(profile: dict, result: dict) -> dict:
+def bounds_verdict(profile: dict, result: dict, labelled: bool = False) -> dict:
     """:data:`~lnss_lib.keys.VERDICT_KEYS` of one evaluation under the profile's ``[campaign.constraints]`` (Table 3):
     ``meets_bounds`` and ``violated_bounds``, each violated bound as text with the value and the bound. A metric
     that is undefined (NaN or None: an impact, fewer than four satellites in view) violates its bound, as in the
-    campaign (:func:`~lnss_lib.campaign.fitness.constraint_matrix`)."""
+    campaign (:func:`~lnss_lib.campaign.fitness.constraint_matrix`). ``labelled``: bounds in words with units
+    (:func:`~lnss_lib.keys.bound_text`, for people) instead of keys (for programs)."""
     constraints = CampaignSettings.from_profile(profile).constraints
     value = {m: math.nan if result.get(m) is None else float(result[m]) for m in (METRIC_KEYS[0], *(c[0] for c in constraints))}
     g = constraint_matrix({m: [v] for m, v in value.items()}, constraints, math.inf)[0]
-    violated = [f"{m} = {value[m]:.6g} {'>' if kind == 'max' else '<'} {kind} {limit:g}" if math.isfinite(value[m])
-                else f"{m} undefined ({kind} {limit:g})" for (m, kind, limit), gi in zip(constraints, g) if gi > 0.0]
+    if labelled:
+        violated = [f"{label(m)} {format_value(m, value[m]) if math.isfinite(value[m]) else 'undefined'}, "
+                    f"not {bound_text(m, kind, limit)}" for (m, kind, limit), gi in zip(constraints, g) if gi > 0.0]
+    else:
+        violated = [f"{m} = {value[m]:.6g} {'>' if kind == 'max' else '<'} {kind} {limit:g}" if math.isfinite(value[m])
+                    else f"{m} undefined ({kind} {limit:g})" for (m, kind, limit), gi in zip(constraints, g) if gi > 0.0]
     return dict(zip(VERDICT_KEYS, (not violated, violated)))
 
 

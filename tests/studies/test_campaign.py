@@ -242,6 +242,7 @@ def test_readers_follow_the_publication(tiny_profiles):
     """Notebooks 07, 08, 10 and the index read the published run (the pointer), not files in the campaign folder."""
     from lnss_lib import pipeline
     from lnss_lib.campaign.publication import load_published
+    from lnss_lib.outputs import display_path
     from lnss_lib.studies.design_life import campaign_designs
     from lnss_lib.studies.pareto import load_campaign
 
@@ -254,7 +255,7 @@ def test_readers_follow_the_publication(tiny_profiles):
     xr.testing.assert_identical(evaluations, published.evaluations)
     xr.testing.assert_identical(front, published.front)
     designs, note = campaign_designs(folder, 2)
-    assert len(designs) == 2 and f"published in {folder}" in note
+    assert len(designs) == 2 and f"published in {display_path(folder)}" in note
     assert campaign_designs(tiny_profiles / "nothing", 2)[0] == []
     page = pipeline.write_index("tiny").read_text()
     assert f"{published.folder.name}/front.nc" in page and "run_2" not in page
