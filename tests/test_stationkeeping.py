@@ -184,7 +184,7 @@ def test_sampled_positions_agree_with_a_plain_propagation(life_profile, life_mod
     ensemble = {f"_x{k}": {**base, "rtol": base["rtol"] * 2 ** (k / 4), "atol": base["atol"] * 2 ** (k / 4)}
                 for k in range(-4, 5)}
     references = {"_tight": {"method": "DOP853", "rtol": 1e-12, "atol": 1e-14},
-                  "_tighter": {"method": "DOP853", "rtol": 1e-13, "atol": 1e-15}}
+                  "_tighter": {"method": "DOP853", "rtol": 1e-13, "atol": 1e-14}}
     prof = {**life_profile, "integrator": {**life_profile["integrator"], "settings": {
         **life_profile["integrator"]["settings"], **ensemble, **references}}}
     states = elements_deg_to_states(life_profile, ds.insertion_elements_deg.values, t0)   # after the initial trim

@@ -143,7 +143,7 @@ def load_or_run(profile_name: str, overrides: dict | str | None = None) -> Campa
         note = (f"{how}: profile {profile_name!r} with the --set overrides, not published as the campaign of the "
                 f"profile ({'; '.join(own)})")
     else:
-        note = f"{how}: the campaign of profile {profile_name!r}, published ({publish_run(run_dir, campaign_dir, datasets)})"
+        note = f"{how}: the campaign of profile {profile_name!r}, published ({display_path(publish_run(run_dir, campaign_dir, datasets))})"
     return CampaignRun(run_dir, run_profile, note, *datasets, read_cache_records(run_dir))
 
 
