@@ -69,7 +69,7 @@ def test_snap_to_grid_follows_table3_steps():
         snap_to_grid(float("nan"), spec)
 
 
-def test_initial_state_is_the_snapped_elfo_and_matches_evaluate(explorer):
+def test_initial_state_is_the_grid_design_nearest_the_elfo_and_matches_evaluate(explorer):
     profile = load_profile(PROFILE)
     assert explorer.design() == initial_design(profile)
     for key, slider in explorer.sliders.items():
