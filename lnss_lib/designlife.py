@@ -27,6 +27,7 @@ from .dop import dop_for_profile, grid_from_profile, summary_from_profile
 from .ephemeris import ensure_kernels, tdb_seconds
 from .errors import ConfigError, InfeasibleDesignError
 from .frames import rotate_to_moon_fixed
+from .progress import steps
 from .propagator import elements_deg_to_states, propagate_states
 from .sk_estimate import sk_estimate_from_propagation
 from .stability import screen_states
@@ -86,11 +87,10 @@ def run_design_life(profile: dict, elements_deg, life_days: float | None = None,
     step = step if sample else None
     t0 = tdb_seconds(profile["epoch"]["start_tdb"], "TDB")
     model = life_force_model(profile, t0, settings.life_days)
-    runs = {"controlled": simulate_life(profile, elements_deg, settings=settings, model=model, t0_tdb_s=t0,
-                                        sample_step_s=step)}
-    if natural:
-        runs["natural"] = simulate_life(profile, elements_deg, natural=True, settings=settings, model=model,
-                                        t0_tdb_s=t0, sample_step_s=step)
+    runs = {}
+    for name in steps(("controlled", "natural") if natural else ("controlled",), "design life", "runs"):
+        runs[name] = simulate_life(profile, elements_deg, natural=name == "natural", settings=settings, model=model,
+                                   t0_tdb_s=t0, sample_step_s=step)
     return runs
 
 

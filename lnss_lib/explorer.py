@@ -72,12 +72,38 @@ def snap_to_grid(value: float, spec: dict) -> float | int:
     return int(snapped) if isinstance(spec["step"], int) and isinstance(spec["lower"], int) else snapped
 
 
+def table4_design(profile: dict) -> dict:
+    """The profile's standalone ELFO (Table 4) as Table 3 design variables (RAAN of eq. 42 assumed)."""
+    elfo = profile["standalone_elfo"]
+    return {"sma_km": elfo["sma_km"], "ecc": elfo["ecc"], "aop_deg": elfo["aop_deg"], "inc_deg": elfo["inc_deg"],
+            "n_planes": len(elfo["raan_deg"]), "sats_per_plane": elfo["sats_per_plane"]}
+
+
 def initial_design(profile: dict) -> dict:
-    """The profile's standalone ELFO (Table 4) snapped to its Table 3 grid: the explorer's first design."""
-    elfo, variables = profile["standalone_elfo"], profile["campaign"]["variables"]
-    raw = {"sma_km": elfo["sma_km"], "ecc": elfo["ecc"], "aop_deg": elfo["aop_deg"], "inc_deg": elfo["inc_deg"],
-           "n_planes": len(elfo["raan_deg"]), "sats_per_plane": elfo["sats_per_plane"]}
+    """The explorer's first design: the grid design nearest the standalone ELFO (Table 4), variable by variable;
+    Table 4 itself where it lies on the profile's Table 3 grid (:func:`start_note` says which)."""
+    raw, variables = table4_design(profile), profile["campaign"]["variables"]
     return {key: snap_to_grid(raw[key], variables[key]) for key in DESIGN_KEYS}
+
+
+def start_note(profile: dict) -> str:
+    """One sentence on the first design: Table 4 itself, or the nearest grid design and each variable in which
+    it differs from Table 4 (a value outside Table 3's bounds said so), with both satellite counts."""
+    raw, start, variables = table4_design(profile), initial_design(profile), profile["campaign"]["variables"]
+    n_table4, n_start = raw["n_planes"] * raw["sats_per_plane"], start["n_planes"] * start["sats_per_plane"]
+    elfo = (f"the standalone ELFO (Table 4: {raw['n_planes']} planes x {raw['sats_per_plane']}, "
+            f"{n_table4} satellites)")
+    differ = []
+    for key in DESIGN_KEYS:
+        if not math.isclose(start[key], raw[key], rel_tol=0.0, abs_tol=1e-9):
+            spec = variables[key]
+            outside = (f", outside this profile's Table 3 range {format_value(key, spec['lower'])}-"
+                       f"{format_value(key, spec['upper'])}" if not spec["lower"] <= raw[key] <= spec["upper"] else "")
+            differ.append(f"{label(key)} {format_value(key, start[key])} (Table 4: {format_value(key, raw[key])}{outside})")
+    if not differ:
+        return f"First design: {elfo}, which lies on this profile's grid."
+    return (f"First design: the grid design nearest {elfo}, NOT Table 4 itself: {'; '.join(differ)}; "
+            f"{n_start} satellites instead of {n_table4}. Notebook 05 evaluates Table 4 itself.")
 
 
 def served_by_voila() -> bool:
@@ -136,7 +162,8 @@ def _lookup(table: dict, dotted: str):
 class DesignExplorer:
     """Widgets and state of the explorer; :attr:`widget` is what a notebook displays.
 
-    ``current`` and ``previous`` are :class:`Evaluation` records; ``comparison`` the rows added with
+    ``start_text`` says what the first design is (:func:`start_note`); ``current`` and ``previous`` are
+    :class:`Evaluation` records; ``comparison`` the rows added with
     the "add to comparison" button; ``figures`` the plotly figures of the current design.
     Evaluation contexts are cached per (profile, element frame, Delta-V model); ``overrides`` (a nested
     dict or its JSON, as ``reproduce --set`` passes them) apply to every profile the explorer loads.
@@ -167,6 +194,8 @@ class DesignExplorer:
             self.sliders[key] = cls(description=SLIDER_LABELS[key], continuous_update=False, style=style,
                                     layout={"width": "420px"})
         self._configure_sliders(design or initial_design(self.profile))
+        self.start_text = start_note(self.profile) if design is None else "First design: the one the explorer was given."
+        self.start_html = widgets.HTML(f"<div style='max-width:640px'>{html.escape(self.start_text)}</div>")
         self.status = widgets.HTML()
         self.metrics_html = widgets.HTML()
         self.comparison_html = widgets.HTML()
@@ -358,7 +387,7 @@ class DesignExplorer:
         """The assembled explorer: controls beside status and metrics, then the figures, comparison and export."""
         controls = widgets.VBox([self.profile_choice, self.frame_choice, self.model_choice, *self.sliders.values(),
                                  widgets.HBox([self.add_button, self.export_button]), self.write_export])
-        return widgets.VBox([widgets.HBox([controls, widgets.VBox([self.status, self.metrics_html])]),
+        return widgets.VBox([widgets.HBox([controls, widgets.VBox([self.start_html, self.status, self.metrics_html])]),
                              *(self.outputs[name] for name in FIGURES),
                              widgets.HTML("<b>comparison</b>"), self.comparison_html,
                              widgets.HTML("<b>export</b>"), self.export_text])

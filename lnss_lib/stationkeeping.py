@@ -51,6 +51,7 @@ from .forces import SCRATCH_SIZE, ForceModel
 from .maneuvers import plan_impulses
 from .mean_elements import mean_elements, relative_angles, to_element_frame, wrap_pi
 from .sk_control import SlotState, drift_band_rate, overshoot_target, predicted_exit, running_mean, tidal_mean
+from .progress import steps
 from .propagator import METHODS, STATUS_NOT_RUN, STATUS_OK, check_batch, elements_deg_to_states, integrate_one
 
 BOX_KEYS = ("ecc", "aop_deg", "inc_deg", "raan_rel_deg", "u_rel_deg")
@@ -310,7 +311,8 @@ def simulate_life(profile: dict, elements_deg, *, natural: bool = False, life_da
     geo_hist = [[] for _ in range(n_sat)]
     start = time.perf_counter()
     t = t0
-    for k_chunk in range(n_chunks):
+    for k_chunk in steps(n_chunks, f"{'natural drift' if natural else 'station keeping'}: {n_sat} satellite(s), "
+                               f"{cfg.life_days:g} days", "box checks"):
         t_next = t0 + life_s if k_chunk == n_chunks - 1 else min(t + chunk_s, t0 + life_s)
         n_win = int(window.max())
         t_win = t_next - step * np.arange(n_win, -1, -1)

@@ -23,7 +23,9 @@ pytest.importorskip("ipywidgets")
 from lnss_lib.__main__ import build_parser, main  # noqa: E402
 from lnss_lib.config import load_profile  # noqa: E402
 from lnss_lib.evaluator import context_for, evaluate_design  # noqa: E402
-from lnss_lib.explorer import DesignExplorer, initial_design, snap_to_grid  # noqa: E402
+from lnss_lib.constellation import standalone_elfo, walker_design  # noqa: E402
+from lnss_lib.explorer import DesignExplorer, initial_design, snap_to_grid, table4_design  # noqa: E402
+from lnss_lib.keys import label  # noqa: E402
 from lnss_lib.keys import METRIC_KEYS, format_value  # noqa: E402
 
 PROFILE = "ci"
@@ -67,7 +69,7 @@ def test_snap_to_grid_follows_table3_steps():
         snap_to_grid(float("nan"), spec)
 
 
-def test_initial_state_is_the_snapped_elfo_and_matches_evaluate(explorer):
+def test_initial_state_is_the_grid_design_nearest_the_elfo_and_matches_evaluate(explorer):
     profile = load_profile(PROFILE)
     assert explorer.design() == initial_design(profile)
     for key, slider in explorer.sliders.items():
@@ -75,6 +77,42 @@ def test_initial_state_is_the_snapped_elfo_and_matches_evaluate(explorer):
         assert (slider.min, slider.max, slider.step) == (spec["lower"], spec["upper"], spec["step"]), key
     assert explorer.current.feasible and explorer.previous is None
     _assert_same_metrics(explorer.current.metrics, _reference(explorer.design()))
+
+
+def test_start_says_it_is_not_table4_and_how_it_differs(explorer):
+    """Table 3 caps satellites per plane below Table 4's 8: the first design is the nearest grid design, and the
+    page says so, naming every variable that differs (with Table 4's value) and both satellite counts."""
+    profile = load_profile(PROFILE)
+    table4, start = table4_design(profile), explorer.design()
+    assert table4["sats_per_plane"] > profile["campaign"]["variables"]["sats_per_plane"]["upper"]
+    differ = [key for key in table4 if not math.isclose(start[key], table4[key], abs_tol=1e-9)]
+    assert {"sats_per_plane", "sma_km", "inc_deg"} <= set(differ)
+    text = explorer.start_text
+    assert "NOT Table 4 itself" in text and "snapped" not in text
+    for key in differ:
+        assert f"{label(key)} {format_value(key, start[key])} (Table 4: {format_value(key, table4[key])}" in text, key
+    n_table4 = table4["n_planes"] * table4["sats_per_plane"]
+    assert f"{explorer.current.metrics['n_sat']} satellites instead of {n_table4}" in text
+    assert "outside this profile's Table 3 range" in text
+    assert text.replace("'", "&#x27;") in explorer.start_html.value
+
+
+def test_start_is_table4_itself_where_the_grid_holds_it(tmp_path):
+    """On a grid that holds Table 4 the first design is the standalone ELFO: the same 16 satellites (eq. 42 RAANs,
+    M from 0) and the same metrics as evaluating :func:`standalone_elfo` directly."""
+    grid = {"campaign": {"variables": {"sma_km": {"lower": 4000.0, "upper": 24000.0, "step": 1.0},
+                                       "inc_deg": {"lower": 1.0, "upper": 90.0, "step": 0.1},
+                                       "sats_per_plane": {"lower": 1, "upper": 8, "step": 1}}}}
+    explorer = DesignExplorer(PROFILE, outputs_dir=tmp_path, overrides=grid)
+    profile = load_profile(PROFILE, overrides=grid)
+    design = explorer.design()
+    assert design == table4_design(profile)
+    elements = walker_design(profile, design["sma_km"], design["ecc"], design["inc_deg"], design["aop_deg"],
+                             design["n_planes"], design["sats_per_plane"]).elements_deg()
+    np.testing.assert_allclose(elements, standalone_elfo(profile), rtol=0.0, atol=1e-9)
+    assert "which lies on this profile's grid" in explorer.start_text and "NOT" not in explorer.start_text
+    assert explorer.current.metrics["n_sat"] == 16
+    _assert_same_metrics(explorer.current.metrics, _reference(design, grid))
 
 
 def test_slider_change_updates_metrics_keeps_previous_and_equals_evaluate(explorer):

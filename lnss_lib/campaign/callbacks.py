@@ -3,8 +3,8 @@
 :func:`~lnss_lib.campaign.runner.run_campaign` notifies each callback, in order, at the start of the
 session, at the start of each generation, as designs finish and at the end of each generation; the
 default chain is :class:`ErrorGuard`, :class:`HistoryRecorder`, :class:`Checkpointer` and (with
-``progress``) :class:`ProgressBars`; extra callbacks passed to ``run_campaign`` follow them and see
-the generation's finished history entry (``state.history[-1]``).
+``progress``) :class:`ProgressBars`; extra callbacks passed to ``run_campaign`` (the notebooks'
+:class:`CellProgressBar`) follow them and see the generation's finished history entry (``state.history[-1]``).
 """
 
 from __future__ import annotations
@@ -18,12 +18,14 @@ from pathlib import Path
 
 import numpy as np
 
+from ..progress import CellProgress
 from .fitness import constraint_matrix, constraint_violation, hypervolume, metric_columns
 from .rundir import write_checkpoint
 from .settings import CampaignSettings
 from .timing import generation_timing
 
-__all__ = ["Callback", "RunState", "CampaignStopped", "ErrorGuard", "HistoryRecorder", "Checkpointer", "ProgressBars", "session_rate",
+__all__ = ["Callback", "RunState", "CampaignStopped", "ErrorGuard", "HistoryRecorder", "Checkpointer", "ProgressBars", "CellProgressBar",
+           "session_rate",
            "generation_stats", "progress_text"]
 
 
@@ -214,6 +216,34 @@ class ProgressBars(Callback):
         for bar in (self.inner, self.outer):
             if bar is not None:
                 bar.close()
+
+
+class CellProgressBar(Callback):
+    """The run below a running notebook cell (:class:`lnss_lib.progress.CellProgress`, nothing outside a
+    kernel): generations done, then the generation in progress (designs done, the session's designs per
+    second) or the last one's :func:`progress_text`; cleared when the session ends."""
+
+    def __init__(self):
+        self.bar = None
+
+    def on_session_start(self, state: RunState) -> None:
+        self.bar = CellProgress(state.settings.generations, f"campaign {state.name}", "generations",
+                                initial=len(state.history))
+
+    def on_designs(self, state: RunState, n_done: int, n_total: int, n_hits: int) -> None:
+        self.bar.update(0, f"generation {state.generation}: {n_done + n_hits}/{n_total + n_hits} designs, "
+                           f"{session_rate(state):.2f} designs/s")
+
+    def on_generation_end(self, state: RunState) -> None:
+        self.bar.update(1, progress_text(state.history[-1], session_rate(state)))
+
+    def on_session_end(self, state: RunState) -> None:
+        self.close()
+
+    def close(self) -> None:
+        """Clear the bar (also after an error: the runner calls this when the session ends early)."""
+        if self.bar is not None:
+            self.bar.close()
 
 
 def progress_text(entry: dict, designs_per_s: float) -> str:

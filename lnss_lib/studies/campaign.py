@@ -22,7 +22,8 @@ import numpy as np
 import pandas as pd
 import xarray as xr
 
-from ..campaign import CampaignSettings, campaign_timing, export_results, load_run, read_cache_records, run_campaign
+from ..campaign import (CampaignSettings, CellProgressBar, campaign_timing, export_results, load_run, read_cache_records,
+                        run_campaign)
 from ..campaign.rundir import CHECKPOINT_FILE
 from ..keys import NON_NAVIGATION_METRICS, bound_text
 from ..paper import EVALUATIONS, FEASIBLE_DESIGNS, TABLE_5
@@ -128,7 +129,7 @@ def load_or_run(profile_name: str, overrides: dict | str | None = None) -> Campa
         run_dir, reasons = latest_run_dir(campaign_dir, profile_name, profile)
         how = f"loaded {display_path(run_dir)}"
     else:
-        result = run_campaign(profile_name, overrides=overrides, progress=False)
+        result = run_campaign(profile_name, overrides=overrides, progress=False, callbacks=[CellProgressBar()])
         run_dir = result.run_dir
         how = (f"ran {display_path(run_dir)}: {result.generations} generations, {result.n_evaluations} unique designs in "
                f"{result.session_wall_s:.1f} s")

@@ -33,6 +33,7 @@ from ..constellation import WalkerDesign
 from ..designlife import run_design_life, short_arc_predictors
 from ..keys import DESIGN_KEYS
 from ..outputs import display_path
+from ..progress import steps
 
 __all__ = ["REGIONS", "region_of", "campaign_designs", "validation_designs", "flown_elements", "validate_design",
            "validation_table", "compare", "screen_misses", "region_summary", "verdict", "run_validation"]
@@ -217,5 +218,6 @@ def run_validation(profile: dict, campaign_dir: Path | None = None) -> tuple[pd.
     section = profile["life_evaluation"]
     designs, note = validation_designs(profile, campaign_dir)
     rows = [validate_design(profile, d["design"], float(section["validation_life_days"]),
-                            int(section["validation_max_sats_per_plane"]), d["region"]) for d in designs]
+                            int(section["validation_max_sats_per_plane"]), d["region"])
+            for d in steps(designs, "design-life validation", "designs")]
     return validation_table(rows), note
