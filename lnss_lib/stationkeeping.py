@@ -398,11 +398,19 @@ def simulate_life(profile: dict, elements_deg, *, natural: bool = False, life_da
         for i in np.flatnonzero(active):
             slot[i].history.append((t_mid[i], u_rel[i]))
             geo_hist[i].append((t_mid[i], err[i, :4]))
-            if dv_used[i] >= cap_kms:
-                continue
             osc = state_to_elements(to_element_frame(y[i], rot), gm)
             if not (np.all(np.isfinite(osc)) and osc[0] > 0.0 and osc[1] < 1.0):
                 active[i], loss_t[i], loss_cause[i] = False, t, "escape (unbound orbit)"
+                continue
+            if np.isfinite(d_ecc[i]):                 # safety first, and beyond the Delta-v cap
+                target = {"a_km": 0.0, "ex": d_ecc[i] * np.cos(mel[i, 4]), "ey": d_ecc[i] * np.sin(mel[i, 4])}
+                _enqueue(queue[i], t, osc, gm, "safety", plan_impulses(osc, gm, target, max_burns=2))
+                shift = d_ecc[i] * ev[i] / max(mel[i, 1], 1e-12)
+                safe_hist[i] = [(tk, ek + shift, jk, sk) for tk, ek, jk, sk in safe_hist[i]]
+                a_hold[i], n_sets[i], last_burn[i] = mel[i, 0], n_sets[i] + 1, t
+                slot[i].history = []
+                continue
+            if dv_used[i] >= cap_kms:
                 continue
             if np.isfinite(a_hold[i]):
                 d_a, a_hold[i] = a_hold[i] - mel[i, 0], np.nan
@@ -411,12 +419,6 @@ def simulate_life(profile: dict, elements_deg, *, natural: bool = False, life_da
                              plan_impulses(osc, gm, {"a_km": d_a, "ex": 0.0, "ey": 0.0, "inc_rad": 0.0, "raan_rad": 0.0}))
                     slot[i].history = []
                     continue
-            if np.isfinite(d_ecc[i]):
-                target = {"a_km": 0.0, "ex": d_ecc[i] * np.cos(mel[i, 4]), "ey": d_ecc[i] * np.sin(mel[i, 4])}
-                _enqueue(queue[i], t, osc, gm, "safety", plan_impulses(osc, gm, target, max_burns=2))
-                shift = d_ecc[i] * ev[i] / max(mel[i, 1], 1e-12)
-                safe_hist[i] = [(tk, ek + shift, jk, sk) for tk, ek, jk, sk in safe_hist[i]]
-                a_hold[i], n_sets[i], last_burn[i] = mel[i, 0], n_sets[i] + 1, t
             if restore[i]:
                 ecc, aop = mel[i, 1], mel[i, 4]
                 target = {"a_km": 0.0, "ex": ref_ecc[i] * np.cos(ref_aop[i]) - ecc * np.cos(aop),
