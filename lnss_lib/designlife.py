@@ -2,9 +2,11 @@
 
 :func:`evaluate_design_life` flies the constellation for the design life twice with the full force
 model (:func:`lnss_lib.stationkeeping.simulate_life`, one force model shared by both runs): with
-closed-loop station keeping and with none (natural drift). From the controlled run it reports the
-Delta-V per satellite and year (mean and max), the manoeuvres, whether every box was held and the
-first impact; from the natural run the first impact of the uncontrolled constellation. Navigation
+closed-loop station keeping (``[design_life] controller``: ``"service"`` or ``"box"``) and with none
+(natural drift). From the controlled run it reports the Delta-V per satellite and year (mean and max)
+and what it pays for (``sk_dv_split`` by purpose, ``sk_dv_split_by_location``), the manoeuvres, whether
+every held quantity stayed within its tolerance, the first impact, the lowest perilune and the lost
+satellites (day, cause); from the natural run the same for the uncontrolled constellation. Navigation
 over the life (:func:`life_navigation`) is the south-pole DOP of eq. 3-14 on positions sampled
 every ``[life_evaluation] sample_step_s`` over the life, with the profile's grid, mask, threshold
 and 3-sigma filter (:func:`lnss_lib.dop.dop_for_profile`, :func:`lnss_lib.dop.summary_from_profile`),

@@ -2,8 +2,22 @@
 
 Every satellite of a constellation is propagated by the compiled engine
 (:func:`lnss_lib.propagator.integrate_one`, satellites in parallel) in chunks of
-``check_interval_days`` (at least two orbits). At the end of each chunk the mean elements
-(:mod:`lnss_lib.mean_elements`, one orbit of samples in the element frame) are compared with a box:
+``check_interval_days`` (at least two orbits). Two controllers (``[design_life] controller``):
+
+- ``"service"`` (the default; :mod:`lnss_lib.sk_service`) holds what the service needs: the perilune
+  above the floor as predicted by the averaged model (safety burns, flown even beyond the Delta-v cap),
+  the navigation of each window of sampled positions against the first window's (a violation restores
+  e, AOP and i of the satellites outside ``[design_life.box]``), and the relative node and slot within
+  ``[design_life.service]``; e, AOP and i are otherwise left to their natural motion;
+- ``"box"`` holds the fixed-element box described below.
+
+A satellite that impacts, escapes (unbound osculating or mean orbit) or whose propagation fails is
+reported (``loss_day``, ``loss_cause``) and the others fly on. Every burn is booked with its purpose
+(:data:`lnss_lib.sk_service.PURPOSES`) and where it was flown (:data:`lnss_lib.sk_service.LOCATIONS`);
+``dv_purpose_kms_per_year`` and ``dv_location_kms_per_year`` split ``dv_kms_per_year`` accordingly.
+
+The box: at the end of each chunk the mean elements (:mod:`lnss_lib.mean_elements`, one orbit of
+samples in the element frame) are compared with
 
 - mean e, AOP and i about the design's values (they place the apolune over the south pole);
 - RAAN relative to the constellation's mean RAAN (the common precession is left free);
@@ -12,9 +26,10 @@ Every satellite of a constellation is propagated by the compiled engine
 
 The design's elements are MEAN elements: at insertion each satellite's osculating a, e, i, RAAN, AOP
 and M are trimmed (:func:`trim_to_mean`, fixed point on first-orbit means, no Delta-v counted) so that
-all satellites share the design's mean a (a common osculating a at different mean anomalies leaves
-their mean a ~5 km apart, which alone drifts the slots ~100 deg in 120 days). Slot phasing is judged
-against the design's mean motion, a fixed reference that does not move with anybody's burns.
+each satellite's first-orbit mean a equals its own design a: a Walker plane's common a, a catalogue
+file's per-satellite a (designed phasing, e.g. Ely's) as given (a common osculating a at different mean
+anomalies leaves their mean a ~5 km apart, which alone drifts the slots ~100 deg in 120 days). Slot
+phasing is judged against the design's mean motion, a fixed reference that does not move with anybody's burns.
 
 A satellite out of its box (whose last correction is at least ``min_maneuver_spacing_days`` old and whose
 Delta-v cap is not spent) gets one or two impulses on the next orbit, planned from the GVEs and
@@ -461,7 +476,7 @@ def simulate_life(profile: dict, elements_deg, *, natural: bool = False, life_da
                        sample_t, r_sample if sample_step_s is not None else None)
     _add_life_report(ds, np.array(hist_rp) - r_moon, loss_t, loss_cause, r_min - r_moon, t0, life_s, natural, nav)
     ds["n_maneuver_sets"] = ("sat", n_sets)
-    ds["n_maneuver_sets"].attrs["description"] = "box corrections (each one or two burns plus a mean-a trim)"
+    ds["n_maneuver_sets"].attrs["description"] = "corrections (each one or two burns per purpose, plus a mean-a trim)"
     ds["insertion_elements_deg"] = (("sat", "element"), el_insert)
     ds["trim_residual"] = (("sat", "element"), trim_resid)
     ds["trim_residual"].attrs["description"] = ("first-orbit mean minus design at insertion (km, -, deg: i, raan, "
