@@ -348,6 +348,7 @@ def simulate_life(profile: dict, elements_deg, *, natural: bool = False, life_da
     slot = [SlotState() for _ in range(n_sat)]
     geo_hist = [[] for _ in range(n_sat)]
     safe_hist = [[] for _ in range(n_sat)]              # (t, e and j vectors J2000, lowest osculating perilune km)
+    avg_days = 2.0 * cfg.tide_period_days if service else cfg.tide_period_days
     start = time.perf_counter()
     t = t0
     for k_chunk in range(n_chunks):
@@ -446,9 +447,9 @@ def simulate_life(profile: dict, elements_deg, *, natural: bool = False, life_da
             if t - last_burn[i] < cfg.min_maneuver_spacing_days * SECONDS_PER_DAY:
                 continue
             tt, gg = zip(*geo_hist[i])
-            err_avg = np.append(running_mean(np.array(tt), np.array(gg), cfg.tide_period_days), u_rel[i])
+            err_avg = np.append(running_mean(np.array(tt), np.array(gg), avg_days), u_rel[i])
             out = np.abs(err_avg) > half
-            out[:4] &= tt[-1] - tt[0] >= 0.5 * cfg.tide_period_days * SECONDS_PER_DAY
+            out[:4] &= tt[-1] - tt[0] >= 0.5 * avg_days * SECONDS_PER_DAY
             out[4] = False
             trend = slot[i].fit(cfg.slot_fit_days, cfg.slot_quad_days, cfg.tide_period_days)
             rate_a = -1.5 * np.sqrt(gm / ref_a[i] ** 3) * (mel[i, 0] - ref_a[i]) / ref_a[i]
