@@ -112,3 +112,19 @@ def test_mean_vectors_match_the_state_vectors():
     e_vec, j_vec = mean_vectors_j2000(el[None, :], np.eye(3))
     np.testing.assert_allclose(e_vec[0], e_ref, atol=1e-12)
     np.testing.assert_allclose(j_vec[0], j_ref, atol=1e-12)
+
+
+def test_box_that_drives_satellites_out_of_lunar_orbit_reports_them_and_completes(paper_profile):
+    """a 15940 km, e 0.734, i 62.1 deg, AOP 180 deg, three planes of one satellite, one year with the box (the
+    controller of issue 11, whose burns unbind two of the orbits): the planner was handed hyperbolic elements
+    and the evaluation stopped ("elements must be 6 finite values"); now every loss is reported with its day
+    and cause and the others fly on."""
+    el = WalkerDesign(15940.0, 0.734, 62.1, 180.0, 3, 1).elements_deg()
+    ds = simulate_life(paper_profile, el, settings=LifeSettings.from_profile(paper_profile, life_days=365.0,
+                                                                             controller="box"))
+    causes = [str(c) for c in ds["loss_cause"].values]
+    assert "escape (unbound orbit)" in causes
+    lost = np.isfinite(ds["loss_day"].values)
+    assert np.all((ds["loss_day"].values[lost] > 0.0) & (ds["loss_day"].values[lost] < 365.0))
+    assert [c != "" for c in causes] == lost.tolist()
+    assert np.all(np.isfinite(ds["dv_kms_per_year"].values))
