@@ -57,7 +57,7 @@ import numba as nb
 import numpy as np
 import xarray as xr
 
-from .config import integrator_setting
+from .config import CONTROLLERS, integrator_setting
 from .constants import DAYS_PER_JULIAN_YEAR, SECONDS_PER_DAY
 from .elements import orbital_period_s, state_to_elements
 from .ephemeris import EphemerisTable, ensure_kernels, tdb_seconds
@@ -74,8 +74,6 @@ from .sk_service import (LOCATIONS, PURPOSES, ServiceSettings, burn_location, me
                          predicted_crossing_day, safety_ecc)
 from .stability import SecularField
 
-CONTROLLERS = ("service", "box")
-"""``[design_life] controller``: hold the service (:mod:`lnss_lib.sk_service`) or the fixed-element box."""
 
 BOX_KEYS = ("ecc", "aop_deg", "inc_deg", "raan_rel_deg", "u_rel_deg")
 """Box quantities (``[design_life.box]``): half-widths about the reference."""
