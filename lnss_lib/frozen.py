@@ -137,18 +137,21 @@ def _inc_at_jz_deg(e, jz):
     return np.degrees(np.arccos(np.clip(jz / np.sqrt(1.0 - np.asarray(e, dtype=float) ** 2), -1.0, 1.0)))
 
 
-def _dphi_de(model: FrozenModel, a_km: float, e: float, inc_deg: float, step: float = 1e-6) -> float:
-    """dPhi/de at AOP 90 deg along the Kozai integral j_z (central difference)."""
-    jz = np.sqrt(1.0 - e**2) * np.cos(np.radians(inc_deg))
-    ee = np.array([e - step, e + step])
-    phi = potential(model, a_km, ee, _inc_at_jz_deg(ee, jz), 90.0)
-    return float(phi[1] - phi[0]) / (2.0 * step)
+def _dphi_de(model: FrozenModel, a_km: float, e, inc_deg, step: float = 1e-6) -> np.ndarray:
+    """dPhi/de at AOP 90 deg along the Kozai integral j_z (central difference), for arrays e and inc_deg."""
+    e, inc = np.broadcast_arrays(np.atleast_1d(np.asarray(e, dtype=float)), np.atleast_1d(np.asarray(inc_deg, dtype=float)))
+    jz = np.sqrt(1.0 - e**2) * np.cos(np.radians(inc))
+    ee = np.concatenate([e - step, e + step])
+    phi = potential(model, a_km, ee, _inc_at_jz_deg(ee, np.concatenate([jz, jz])), 90.0)
+    return (phi[e.size:] - phi[:e.size]) / (2.0 * step)
 
 
 def _roots(fun, lo: float, hi: float, n: int = 361) -> list[float]:
+    """Roots of a vectorised ``fun`` on [lo, hi]: sign changes on an n-point grid, refined by brentq."""
     grid = np.linspace(lo, hi, n)
-    vals = np.array([fun(x) for x in grid])
-    return [brentq(fun, grid[k], grid[k + 1], xtol=1e-12) for k in np.flatnonzero(np.sign(vals[:-1]) * np.sign(vals[1:]) < 0)]
+    vals = fun(grid)
+    scalar = lambda x: float(fun(np.array([x]))[0])
+    return [brentq(scalar, grid[k], grid[k + 1], xtol=1e-12) for k in np.flatnonzero(np.sign(vals[:-1]) * np.sign(vals[1:]) < 0)]
 
 
 def frozen_inclination_deg(model: FrozenModel, a_km: float, e: float) -> float:
