@@ -16,9 +16,12 @@ circulates in about a year at a = 6000 km), a J2 about a pole tilted by ``eps`` 
 * any (a, e, i, AOP) moves on the level curve ``Phi = Phi_0`` at its j_z: :func:`libration` returns
   its range of e, i and AOP (a libration about AOP 90 / 270 deg, or a circulation).
 
-What the averaged model leaves out, the orbit shows on top of the libration (:func:`allowances`):
-the Earth's tide swings the orbit-averaged e-vector at twice the Earth's sidereal frequency (half a
-month) and within each orbit. The node-averaged tilts leave a yearly wobble of a few thousandths in e.
+The frame is the mean ``moon_op`` (:func:`mean_plane_axes`): z is the month-averaged Earth orbit normal,
+which regresses about the ecliptic pole in 18.6 years (1.7 deg a year), so i, AOP and the libration are
+read against the plane of the time, not axes frozen at the epoch. What the model leaves out, the orbit
+shows on top of the libration (:func:`allowances`): the Earth's tide swings the orbit-averaged e-vector
+and plane at twice the Earth's sidereal frequency (half a month) and within each orbit, and the tilted
+pole and the plane's regression make the orbit normal precess about a Laplace axis a little off z.
 """
 
 from __future__ import annotations
@@ -33,8 +36,8 @@ from .frames import orbit_plane_axes_j2000
 from .stability import (SIDEREAL_MONTH_DAYS, SecularField, averaged_potential, elements_from_vectors, secular_rates,
                         stability_settings)
 
-__all__ = ["mean_plane_axes", "FrozenModel", "orbit_vectors_deg", "mean_plane_elements", "potential", "frozen_inclination_deg", "frozen_eccentricity",
-           "libration", "allowances"]
+__all__ = ["mean_plane_axes", "FrozenModel", "orbit_vectors_deg", "mean_plane_elements", "potential",
+           "frozen_inclination_deg", "frozen_eccentricity", "libration", "allowances"]
 
 _Z = np.array([0.0, 0.0, 1.0])
 
@@ -58,10 +61,10 @@ def mean_plane_axes(field: SecularField, t_days) -> np.ndarray:
 class FrozenModel:
     """The node-averaged, axisymmetric doubly-averaged model in ``moon_op`` (z: the Earth-Moon orbit normal).
 
-    ``tide`` (3, 3) (1/s^2), diagonal and axisymmetric about z; ``j2`` the effective lunar J2 about z
-    (``J2 P2(cos tilt)``); ``gm_km3_s2``, ``r_ref_km`` of the Moon; ``pole`` (3,) the lunar pole and
+    ``tide`` (3, 3) (1/s^2), diagonal and axisymmetric about z; ``j2`` the lunar J2 about the pole
+    ``pole`` (3,) (node-averaged: :attr:`j2_axial` about z); ``gm_km3_s2``, ``r_ref_km`` of the Moon;
     ``frame_spin`` (3,) (rad/s) the turn of the Earth's orbit plane (its 18.6-year regression, the part
-    normal to z), both in the frame: they set only the forced swing of i (:func:`allowances`).
+    normal to z). The pole's tilt and the spin set only the forced swing of i (:func:`allowances`).
     """
 
     tide: np.ndarray
@@ -70,6 +73,11 @@ class FrozenModel:
     r_ref_km: float
     pole: np.ndarray = field(default_factory=lambda: _Z.copy())
     frame_spin: np.ndarray = field(default_factory=lambda: np.zeros(3))
+
+    @property
+    def j2_axial(self) -> float:
+        """The node-averaged J2 about z: ``J2 P2(cos tilt)``."""
+        return self.j2 * 0.5 * (3.0 * self.pole[2] ** 2 - 1.0)
 
     @property
     def tilt_deg(self) -> float:
@@ -96,8 +104,7 @@ class FrozenModel:
         if t_end > t_day:
             z_end = rot.T @ rot_end[:, 2]
             spin = np.cross(_Z, z_end) / ((t_end - t_day) * SECONDS_PER_DAY)
-        return cls(np.diag([side, side, tide_op[2, 2]]), field.gm_km3_s2,
-                   field.j2 * 0.5 * (3.0 * pole_op[2] ** 2 - 1.0), field.r_ref_km, pole_op, spin)
+        return cls(np.diag([side, side, tide_op[2, 2]]), field.gm_km3_s2, field.j2, field.r_ref_km, pole_op, spin)
 
     @classmethod
     def from_profile(cls, profile: dict, t0_tdb_s: float) -> "FrozenModel":
@@ -130,7 +137,7 @@ def potential(model: FrozenModel, a_km, e, inc_deg, aop_deg) -> np.ndarray:
     """Doubly-averaged potential (n,) (km^2/s^2) of orbits (broadcast arrays) in the model's frame."""
     a, e, inc, aop = np.broadcast_arrays(*(np.atleast_1d(np.asarray(x, dtype=float)) for x in (a_km, e, inc_deg, aop_deg)))
     e_vec, j_vec = orbit_vectors_deg(e, inc, aop)
-    return averaged_potential(e_vec, j_vec, a, model.tide, _Z, model.gm_km3_s2, model.j2, model.r_ref_km)
+    return averaged_potential(e_vec, j_vec, a, model.tide, _Z, model.gm_km3_s2, model.j2_axial, model.r_ref_km)
 
 
 def _inc_at_jz_deg(e, jz):
@@ -272,7 +279,7 @@ def allowances(model: FrozenModel, a_km: float, e: float, inc_deg: float, aop_de
     n = np.sqrt(model.gm_km3_s2 / a_km**3)
     ecc_orbital = 4.0 * np.pi * c * (1.0 + e) / n**2
     w_tide = _precession_rate(e_vec, j_vec, a_km, model.tide, 0.0, model)
-    w_j2 = _precession_rate(e_vec, j_vec, a_km, np.zeros((3, 3)), model.j2 / (0.5 * (3.0 * model.pole[2] ** 2 - 1.0)), model)
+    w_j2 = _precession_rate(e_vec, j_vec, a_km, np.zeros((3, 3)), model.j2, model)
     axis = w_tide * _Z + w_j2 * model.pole - model.frame_spin
     laplace = np.arctan2(np.linalg.norm(axis[:2]), abs(axis[2]))
     return {"ecc_monthly": float(ecc_monthly), "ecc_orbital": float(ecc_orbital),
