@@ -13,7 +13,8 @@ Layers (a module imports only from its own layer or a lower one):
    equations and their inverses), ``deltav`` (station-keeping budgets), ``constellation``,
    ``evaluator`` (the design evaluator).
    Design life: ``stability`` (doubly-averaged screen), ``sk_estimate`` (campaign-grade
-   geometry-keeping Delta-V), ``maneuvers`` (impulsive GVEs), ``mean_elements``, ``sk_control``,
+   geometry-keeping Delta-V), ``maneuvers`` (impulsive GVEs), ``mean_elements``, ``sk_control`` (box and
+   slot control laws), ``sk_service`` (the requirement-driven controller's decisions),
    ``stationkeeping`` (closed loop over the design life), ``designlife`` (its evaluation);
    ``catalogue`` (published constellations).
 3. Campaign engine: ``campaign`` (settings, grid, fitness, tasks, journal, backends, problem, rundir,

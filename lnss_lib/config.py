@@ -154,6 +154,12 @@ RANGES = {
 }
 for _name in ("ecc", "aop_deg", "inc_deg", "raan_rel_deg", "u_rel_deg"):
     RANGES[f"design_life.box.{_name}"] = POSITIVE
+for _name in ("safety_check_days", "safety_lead_days", "nav_window_days", "raan_rel_deg", "u_rel_deg"):
+    RANGES[f"design_life.service.{_name}"] = POSITIVE
+for _name in ("perilune_margin_km", "nav_avail_drop_pct", "nav_dop_rise_fraction"):
+    RANGES[f"design_life.service.{_name}"] = NON_NEGATIVE
+CHOICES = {"design_life.controller": ("service", "box")}
+"""String settings with a fixed set of allowed values."""
 for _name in ("gm_sun_km3_s2", "gm_earth_km3_s2", "gm_jupiter_km3_s2", "r_moon_mean_km", "r_earth_km", "r_sun_km",
               "au_km", "c_km_s"):
     RANGES[f"constants.{_name}"] = POSITIVE
@@ -223,6 +229,8 @@ def _fail(message: str, key: str, source) -> None:
 
 
 def _check_number(key: str, rule_key: str, value, source) -> None:
+    if rule_key in CHOICES and value not in CHOICES[rule_key]:
+        _fail(f"{key} = {value!r} is not allowed; allowed: {', '.join(map(repr, CHOICES[rule_key]))}", key, source)
     if isinstance(value, bool) or not isinstance(value, (int, float)):
         return
     if not math.isfinite(value) and not (rule_key in ALLOW_INFINITE and not math.isnan(value)):

@@ -2,9 +2,11 @@
 
 :func:`evaluate_design_life` flies the constellation for the design life twice with the full force
 model (:func:`lnss_lib.stationkeeping.simulate_life`, one force model shared by both runs): with
-closed-loop station keeping and with none (natural drift). From the controlled run it reports the
-Delta-V per satellite and year (mean and max), the manoeuvres, whether every box was held and the
-first impact; from the natural run the first impact of the uncontrolled constellation. Navigation
+closed-loop station keeping (``[design_life] controller``: ``"service"`` or ``"box"``) and with none
+(natural drift). From the controlled run it reports the Delta-V per satellite and year (mean and max)
+and what it pays for (``sk_dv_split`` by purpose, ``sk_dv_split_by_location``), the manoeuvres, whether
+every held quantity stayed within its tolerance, the first impact, the lowest perilune and the lost
+satellites (day, cause); from the natural run the same for the uncontrolled constellation. Navigation
 over the life (:func:`life_navigation`) is the south-pole DOP of eq. 3-14 on positions sampled
 every ``[life_evaluation] sample_step_s`` over the life, with the profile's grid, mask, threshold
 and 3-sigma filter (:func:`lnss_lib.dop.dop_for_profile`, :func:`lnss_lib.dop.summary_from_profile`),
@@ -32,12 +34,14 @@ from .stability import screen_states
 from .stationkeeping import LifeSettings, impact_day, life_force_model, simulate_life
 
 __all__ = ["LIFE_KEYS", "NAVIGATION_KEYS", "STUDY_KEYS", "life_evaluation_settings", "run_design_life", "life_metrics",
-           "life_navigation", "life_availability", "short_arc_predictors", "evaluate_design_life", "json_ready",
+           "life_navigation", "life_availability", "lost_satellites", "short_arc_predictors", "evaluate_design_life", "json_ready",
            "elements_deg_in_frame", "design_life_cli"]
 
 LIFE_KEYS = ("life_days", "impact_day", "natural_impact_day", "sk_dv_kms_per_year", "sk_dv_max_kms_per_year",
              "n_maneuvers", "box_held", "pdop_avail_pct_life", "hdop_avail_pct_life", "sk_dv_estimate_kms_per_year",
-             "stable_screen", "screen_min_perilune_alt_km")
+             "stable_screen", "screen_min_perilune_alt_km", "controller", "element_frame", "sk_dv_split",
+             "sk_dv_split_by_location", "min_perilune_alt_km", "natural_min_perilune_alt_km", "lost_satellites",
+             "natural_lost_satellites", "pdop_avail_pct_monthly", "hdop_avail_pct_monthly")
 """Keys :func:`evaluate_design_life` adds to an evaluation (the evaluate CLI's ``--design-life-days``)."""
 
 NAVIGATION_KEYS = ("pdop_avail_pct", "hdop_avail_pct", "pdop_mean_3sigma", "hdop_mean_3sigma", "mean_visible_sats",
@@ -166,17 +170,39 @@ def _day_or_none(value: float):
     return None if not np.isfinite(value) else float(value)
 
 
+def lost_satellites(ds: xr.Dataset) -> list[dict]:
+    """``[{"sat", "day", "cause"}]`` of the satellites a :func:`simulate_life` run lost (impact, escape, failed propagation)."""
+    return [{"sat": int(i), "day": float(ds["loss_day"].values[i]), "cause": str(ds["loss_cause"].values[i])}
+            for i in np.flatnonzero(np.isfinite(ds["loss_day"].values))]
+
+
 def life_metrics(runs: Mapping[str, xr.Dataset], nav: xr.Dataset | None = None) -> dict:
-    """Closed-loop and natural-drift summary of :func:`run_design_life` (and :func:`life_navigation`)."""
+    """Closed-loop and natural-drift summary of :func:`run_design_life` (and :func:`life_navigation`).
+
+    ``sk_dv_split`` (purpose -> km/s/yr) and ``sk_dv_split_by_location`` are means over the satellites, so each
+    sums to ``sk_dv_kms_per_year``; ``min_perilune_alt_km`` is the lowest osculating perilune altitude of any
+    satellite over the life (controlled; ``natural_`` for the natural drift); the monthly availabilities are
+    ``{"controlled": [...], "natural": [...]}`` per month of :func:`life_navigation`."""
     ctl = runs["controlled"]
+    nat = runs.get("natural")
     out = {"life_days": float(ctl.attrs["life_days"]), "impact_day": _day_or_none(impact_day(ctl)),
-           "natural_impact_day": _day_or_none(impact_day(runs["natural"])) if "natural" in runs else None,
+           "natural_impact_day": _day_or_none(impact_day(nat)) if nat is not None else None,
            "sk_dv_kms_per_year": float(ctl["dv_kms_per_year"].mean()),
            "sk_dv_max_kms_per_year": float(ctl["dv_kms_per_year"].max()),
-           "n_maneuvers": int(ctl["n_maneuvers"].sum()), "box_held": bool(ctl["box_held"].all())}
+           "n_maneuvers": int(ctl["n_maneuvers"].sum()), "box_held": bool(ctl["box_held"].all()),
+           "controller": str(ctl.attrs["controller"]), "element_frame": str(ctl.attrs["element_frame"]),
+           "sk_dv_split": {str(k): float(v) for k, v in ctl["dv_purpose_kms_per_year"].mean("sat").to_series().items()},
+           "sk_dv_split_by_location": {str(k): float(v) for k, v in
+                                       ctl["dv_location_kms_per_year"].mean("sat").to_series().items()},
+           "min_perilune_alt_km": float(np.nanmin(ctl["min_perilune_alt_km"].values)),
+           "natural_min_perilune_alt_km": float(np.nanmin(nat["min_perilune_alt_km"].values)) if nat is not None else None,
+           "lost_satellites": lost_satellites(ctl),
+           "natural_lost_satellites": lost_satellites(nat) if nat is not None else None}
     if nav is not None:
         out["pdop_avail_pct_life"] = life_availability(nav, "controlled", "pdop_avail_pct")
         out["hdop_avail_pct_life"] = life_availability(nav, "controlled", "hdop_avail_pct")
+        for key in ("pdop_avail_pct", "hdop_avail_pct"):
+            out[f"{key}_monthly"] = {str(run): [float(v) for v in nav[key].sel(run=run).values] for run in nav["run"].values}
     return out
 
 
@@ -224,18 +250,23 @@ def evaluate_design_life(context_or_profile, elements_deg, life_days: float | No
 
 
 def json_ready(result: dict) -> dict:
-    """``result`` with NaN floats as None and numpy scalars as Python ones (for ``json.dumps``)."""
-    out = {}
-    for key, value in result.items():
-        if isinstance(value, (np.bool_, bool)):
-            out[key] = bool(value)
-        elif isinstance(value, (np.integer, int)):
-            out[key] = int(value)
-        elif isinstance(value, (np.floating, float)):
-            out[key] = None if not math.isfinite(float(value)) else float(value)
-        else:
-            out[key] = value
-    return out
+    """``result`` with NaN floats as None and numpy scalars as Python ones, in nested dicts and lists too
+    (for ``json.dumps``)."""
+    return {key: _json_value(value) for key, value in result.items()}
+
+
+def _json_value(value):
+    if isinstance(value, Mapping):
+        return json_ready(value)
+    if isinstance(value, (list, tuple)):
+        return [_json_value(v) for v in value]
+    if isinstance(value, (np.bool_, bool)):
+        return bool(value)
+    if isinstance(value, (np.integer, int)):
+        return int(value)
+    if isinstance(value, (np.floating, float)):
+        return None if not math.isfinite(float(value)) else float(value)
+    return value
 
 
 def elements_deg_in_frame(profile: dict, states_mci, t0_tdb_s: float) -> np.ndarray:

@@ -2,8 +2,22 @@
 
 Every satellite of a constellation is propagated by the compiled engine
 (:func:`lnss_lib.propagator.integrate_one`, satellites in parallel) in chunks of
-``check_interval_days`` (at least two orbits). At the end of each chunk the mean elements
-(:mod:`lnss_lib.mean_elements`, one orbit of samples in the element frame) are compared with a box:
+``check_interval_days`` (at least two orbits). Two controllers (``[design_life] controller``):
+
+- ``"service"`` (the default; :mod:`lnss_lib.sk_service`) holds what the service needs: the perilune
+  above the floor as predicted by the averaged model (safety burns, flown even beyond the Delta-v cap),
+  the navigation of each window of sampled positions against the first window's (a violation restores
+  e, AOP and i of the satellites outside ``[design_life.box]``), and the relative node and slot within
+  ``[design_life.service]``; e, AOP and i are otherwise left to their natural motion;
+- ``"box"`` holds the fixed-element box described below.
+
+A satellite that impacts, escapes (unbound osculating or mean orbit) or whose propagation fails is
+reported (``loss_day``, ``loss_cause``) and the others fly on. Every burn is booked with its purpose
+(:data:`lnss_lib.sk_service.PURPOSES`) and where it was flown (:data:`lnss_lib.sk_service.LOCATIONS`);
+``dv_purpose_kms_per_year`` and ``dv_location_kms_per_year`` split ``dv_kms_per_year`` accordingly.
+
+The box: at the end of each chunk the mean elements (:mod:`lnss_lib.mean_elements`, one orbit of
+samples in the element frame) are compared with
 
 - mean e, AOP and i about the design's values (they place the apolune over the south pole);
 - RAAN relative to the constellation's mean RAAN (the common precession is left free);
@@ -12,9 +26,10 @@ Every satellite of a constellation is propagated by the compiled engine
 
 The design's elements are MEAN elements: at insertion each satellite's osculating a, e, i, RAAN, AOP
 and M are trimmed (:func:`trim_to_mean`, fixed point on first-orbit means, no Delta-v counted) so that
-all satellites share the design's mean a (a common osculating a at different mean anomalies leaves
-their mean a ~5 km apart, which alone drifts the slots ~100 deg in 120 days). Slot phasing is judged
-against the design's mean motion, a fixed reference that does not move with anybody's burns.
+each satellite's first-orbit mean a equals its own design a: a Walker plane's common a, a catalogue
+file's per-satellite a (designed phasing, e.g. Ely's) as given (a common osculating a at different mean
+anomalies leaves their mean a ~5 km apart, which alone drifts the slots ~100 deg in 120 days). Slot
+phasing is judged against the design's mean motion, a fixed reference that does not move with anybody's burns.
 
 A satellite out of its box (whose last correction is at least ``min_maneuver_spacing_days`` old and whose
 Delta-v cap is not spent) gets one or two impulses on the next orbit, planned from the GVEs and
@@ -46,12 +61,19 @@ from .config import integrator_setting
 from .constants import DAYS_PER_JULIAN_YEAR, SECONDS_PER_DAY
 from .elements import orbital_period_s, state_to_elements
 from .ephemeris import EphemerisTable, ensure_kernels, tdb_seconds
-from .frames import element_frame_to_j2000
 from .forces import SCRATCH_SIZE, ForceModel
-from .maneuvers import plan_impulses
+from .maneuvers import candidate_true_anomalies, mean_anomaly, plan_impulses
 from .mean_elements import mean_elements, relative_angles, to_element_frame, wrap_pi
 from .sk_control import SlotState, drift_band_rate, overshoot_target, predicted_exit, running_mean, tidal_mean
-from .propagator import METHODS, STATUS_IMPACT, STATUS_OK, elements_deg_to_states, integrate_one
+from .propagator import METHODS, STATUS_IMPACT, STATUS_OK, STATUS_TEXT, elements_deg_to_states, integrate_one
+from .dop import dop_for_profile, grid_from_profile, summary_from_profile
+from .frames import element_frame_to_j2000, rotate_to_moon_fixed
+from .sk_service import (LOCATIONS, PURPOSES, ServiceSettings, burn_location, mean_vectors_j2000, navigation_violations,
+                         predicted_crossing_day, safety_ecc)
+from .stability import SecularField
+
+CONTROLLERS = ("service", "box")
+"""``[design_life] controller``: hold the service (:mod:`lnss_lib.sk_service`) or the fixed-element box."""
 
 BOX_KEYS = ("ecc", "aop_deg", "inc_deg", "raan_rel_deg", "u_rel_deg")
 """Box quantities (``[design_life.box]``): half-widths about the reference."""
@@ -79,17 +101,22 @@ class LifeSettings:
     integrator_setting: str
     initial_trim: bool
     box: dict
+    controller: str = "service"
+    service: ServiceSettings | None = None
 
     @classmethod
     def from_profile(cls, profile: dict, **overrides) -> "LifeSettings":
         cfg = {**profile["design_life"], **{k: v for k, v in overrides.items() if v is not None}}
         box = dict(cfg.pop("box"))
+        service = ServiceSettings.from_section(dict(cfg.pop("service")))
+        if cfg.get("controller") not in CONTROLLERS:
+            raise ValueError(f"[design_life] controller = {cfg.get('controller')!r}; allowed: {', '.join(CONTROLLERS)}")
         if set(box) != set(BOX_KEYS):
             raise ValueError(f"[design_life.box] must hold exactly {BOX_KEYS}; got {sorted(box)}")
         for key, value in box.items():
             if not (np.isfinite(value) and value > 0):
                 raise ValueError(f"[design_life.box] {key} = {value!r} must be a positive number")
-        allowed = set(cls.__dataclass_fields__) - {"box"}
+        allowed = set(cls.__dataclass_fields__) - {"box", "service"}
         unknown = set(cfg) - allowed
         if unknown:
             raise ValueError(f"unknown [design_life] key(s) {sorted(unknown)}; allowed: {sorted(allowed)}")
@@ -106,7 +133,7 @@ class LifeSettings:
         integrator_setting(profile, cfg["integrator_setting"])
         if not isinstance(cfg["initial_trim"], bool):
             raise ValueError(f"[design_life] initial_trim = {cfg['initial_trim']!r} must be true or false")
-        return cls(**{**cfg, "samples_per_orbit": int(cfg["samples_per_orbit"])}, box=box)
+        return cls(**{**cfg, "samples_per_orbit": int(cfg["samples_per_orbit"])}, box=box, service=service)
 
 
 @nb.njit(cache=True, parallel=True)
@@ -198,6 +225,8 @@ def trim_to_mean(profile: dict, elements_deg, t0_tdb_s: float, model: ForceModel
     force model, compare the one-orbit mean a, e, i, RAAN and AOP with the design and shift the osculating
     values by the difference; the mean argument of latitude (at the window centre, less the design's mean
     motion over half a window) is trimmed through M. Insertion is not a manoeuvre: no Delta-v is counted.
+    A satellite whose first orbit cannot be propagated keeps its last elements (residual NaN; the life
+    propagation then reports it lost), and one whose next trim step would leave 0 <= e < 1 keeps its last step.
     Returns (trimmed elements, final mean-minus-design residual (n_sat, 6): km, -, deg x 4).
     """
     design = np.atleast_2d(np.asarray(elements_deg, dtype=float))
@@ -209,9 +238,10 @@ def trim_to_mean(profile: dict, elements_deg, t0_tdb_s: float, model: ForceModel
     osc = design.copy()
     resid = np.zeros_like(design)
     n_sat = design.shape[0]
+    done = np.zeros(n_sat, dtype=bool)
     for _ in range(int(iterations) + 1):
         states = elements_deg_to_states(profile, osc, t0_tdb_s)
-        mean = np.empty((n_sat, 6))
+        mean = np.full((n_sat, 6), np.nan)
         for i in range(n_sat):
             t_win = t0_tdb_s + period[i] * np.linspace(0.0, 1.0, n_win + 1)
             out, _, status, _ = integrate_chunk(
@@ -219,7 +249,8 @@ def trim_to_mean(profile: dict, elements_deg, t0_tdb_s: float, model: ForceModel
                 METHODS.index(integ["method"]), float(integ["rtol"]), float(integ["atol"]), r_min, 5_000_000,
                 model.kernel_args, model.field.degree)
             if status[0] != STATUS_OK:
-                raise RuntimeError(f"trim propagation failed for satellite {i} (status {status[0]})")
+                done[i] = True
+                continue
             out[0, 0] = states[i]                  # the kernel fills epochs after t0 only
             mean[i] = mean_elements(to_element_frame(out[0], rot), gm)
         u_design = np.radians(design[:, 4] + design[:, 5]) + np.pi          # one orbit: u advances 2 pi, centre at pi
@@ -228,8 +259,11 @@ def trim_to_mean(profile: dict, elements_deg, t0_tdb_s: float, model: ForceModel
                                  np.degrees(wrap_pi(mean[:, 5] - u_design))])
         if _ == iterations:
             break
-        osc[:, list(TRIM_ELEMENTS)] -= resid[:, list(TRIM_ELEMENTS)]
-        osc[:, 5] -= resid[:, 5] - resid[:, 4]      # u = aop + M: the aop trim already moved u
+        step = osc.copy()
+        step[:, list(TRIM_ELEMENTS)] -= resid[:, list(TRIM_ELEMENTS)]
+        step[:, 5] -= resid[:, 5] - resid[:, 4]     # u = aop + M: the aop trim already moved u
+        done |= ~(np.all(np.isfinite(step), axis=1) & (step[:, 0] > 0.0) & (step[:, 1] >= 0.0) & (step[:, 1] < 1.0))
+        osc = np.where(done[:, None], osc, step)
     return osc, resid
 
 
@@ -286,23 +320,34 @@ def simulate_life(profile: dict, elements_deg, *, natural: bool = False, life_da
     nom_raan, nom_u = np.radians(el[:, 3]), np.radians(el[:, 4] + el[:, 5])
     half = np.array([cfg.box["ecc"], np.radians(cfg.box["aop_deg"]), np.radians(cfg.box["inc_deg"]),
                      np.radians(cfg.box["raan_rel_deg"]), np.radians(cfg.box["u_rel_deg"])])
+    box_half = half.copy()
+    service = cfg.controller == "service"
+    svc = cfg.service
+    if service:
+        half = np.array([np.inf, np.inf, np.inf, np.radians(svc.raan_rel_deg), np.radians(svc.u_rel_deg)])
     cap_kms = cfg.dv_cap_kms_per_year * cfg.life_days / DAYS_PER_JULIAN_YEAR
+    r_moon = float(profile["constants"]["r_moon_mean_km"])
+    field = (SecularField.from_profile(profile, t0, cfg.life_days + 1.0)
+             if service and not natural else None)
+    nav = _NavigationMonitor(profile, sample_t, svc) if service and not natural and sample_t.size else None
 
     y = states.copy()
     active = np.ones(n_sat, dtype=bool)
     impact_t = np.full(n_sat, np.nan)
-    hist_t, hist_el, hist_err = [], [], []
-    burns_t = [[] for _ in range(n_sat)]
-    burns_dv = [[] for _ in range(n_sat)]
+    loss_t = np.full(n_sat, np.nan)
+    loss_cause = np.full(n_sat, "", dtype=object)
+    hist_t, hist_el, hist_err, hist_rp = [], [], [], []
+    booked = [[] for _ in range(n_sat)]                 # (t, dv_rtn, purpose, location) flown
+    queue = [[] for _ in range(n_sat)]                  # the same, planned for the next chunk
     last_burn = np.full(n_sat, -np.inf)
+    last_safety = -np.inf
     a_hold = np.full(n_sat, np.nan)
     n_sets = np.zeros(n_sat, dtype=int)
     a_tol = A_TRIM_FRACTION * half[4] / (1.5 * np.sqrt(gm / ref_a ** 3) / ref_a * cfg.slot_coast_days * SECONDS_PER_DAY)
-    pending_t = np.full((n_sat, 2), np.nan)
-    pending_dv = np.zeros((n_sat, 2, 3))
     dv_used = np.zeros(n_sat)
     slot = [SlotState() for _ in range(n_sat)]
     geo_hist = [[] for _ in range(n_sat)]
+    safe_hist = [[] for _ in range(n_sat)]              # (t, e vector J2000, j vector J2000, rp swing km)
     start = time.perf_counter()
     t = t0
     for k_chunk in range(n_chunks):
@@ -311,27 +356,34 @@ def simulate_life(profile: dict, elements_deg, *, natural: bool = False, life_da
         t_win = t_next - step * np.arange(n_win, -1, -1)
         in_chunk = np.flatnonzero((sample_t > t) & (sample_t <= t_next))
         t_out, where = np.unique(np.concatenate([t_win, sample_t[in_chunk]]), return_inverse=True)
+        pending_t, pending_dv = _flight_plan(queue)
         out_states, y_new, status, t_stop = integrate_chunk(
             y, active, t, t_out, pending_t, pending_dv, METHODS.index(integ["method"]), float(integ["rtol"]),
             float(integ["atol"]), r_min, 5_000_000, model.kernel_args, model.field.degree)
         bad = active & (status != STATUS_OK)
-        if np.any(bad & (status != STATUS_IMPACT)):
-            raise RuntimeError(f"propagation failed for satellite(s) {np.flatnonzero(bad & (status != STATUS_IMPACT))}")
         for i in np.flatnonzero(active):
-            for tb, dvb in zip(pending_t[i], pending_dv[i]):
-                if np.isfinite(tb) and (status[i] == STATUS_OK or tb <= t_stop[i]):
-                    burns_t[i].append(float(tb))
-                    burns_dv[i].append(dvb.copy())
-                    dv_used[i] += float(np.linalg.norm(dvb))
+            for burn in queue[i]:
+                if status[i] == STATUS_OK or burn[0] <= t_stop[i]:
+                    booked[i].append(burn)
+                    dv_used[i] += float(np.linalg.norm(burn[1]))
+            queue[i] = []
         seg_states = out_states[:, where[:t_win.size]]
         r_sample[:, in_chunk] = out_states[:, where[t_win.size:], :3]
-        impact_t[bad] = t_stop[bad]
+        for i in np.flatnonzero(bad):
+            loss_t[i] = t_stop[i]
+            loss_cause[i] = "impact" if status[i] == STATUS_IMPACT else f"propagation failed ({STATUS_TEXT[status[i]]})"
+        impact_t[bad & (status == STATUS_IMPACT)] = t_stop[bad & (status == STATUS_IMPACT)]
         active &= ~bad
-        pending_t[:] = np.nan
         y = np.where(active[:, None], y_new, y)
         mel = np.full((n_sat, 6), np.nan)
+        rp_min = np.full(n_sat, np.nan)
         for i in np.flatnonzero(active):
-            mel[i] = mean_elements(to_element_frame(seg_states[i, n_win - window[i]:], rot), gm)
+            win = to_element_frame(seg_states[i, n_win - window[i]:], rot)
+            mel[i] = mean_elements(win, gm)
+            rp_min[i] = np.min(_perilune_radius_km(win, gm))
+            if not (np.all(np.isfinite(mel[i])) and 0.0 < mel[i, 0] and mel[i, 1] < 1.0 and np.isfinite(rp_min[i])):
+                active[i], loss_t[i], loss_cause[i] = False, t_next, "escape (unbound orbit)"
+                mel[i], rp_min[i] = np.nan, np.nan
         raan_rel = relative_angles(mel[:, 3], nom_raan, active)
         u_rel = relative_angles(mel[:, 5], nom_u, active)
         err = np.stack([mel[:, 1] - ref_ecc, wrap_pi(mel[:, 4] - ref_aop), mel[:, 2] - ref_inc, raan_rel, u_rel], axis=1)
@@ -339,22 +391,57 @@ def simulate_life(profile: dict, elements_deg, *, natural: bool = False, life_da
         hist_t.append(t_mid)
         hist_el.append(mel)
         hist_err.append(err)
+        hist_rp.append(rp_min)
         t = t_next
         if natural or t >= t0 + life_s - 1e-6:
             continue
+        d_ecc = np.full(n_sat, np.nan)
+        restore = np.zeros(n_sat, dtype=bool)
+        if service:
+            ev, jv = mean_vectors_j2000(np.where(active[:, None], mel, 0.0), rot)
+            for i in np.flatnonzero(active):
+                safe_hist[i] = [h for h in safe_hist[i] if h[0] >= t_mid[i] - 2.0 * cfg.tide_period_days * SECONDS_PER_DAY]
+                safe_hist[i].append((t_mid[i], ev[i], jv[i], rp_min[i]))
+            if t - last_safety >= svc.safety_check_days * SECONDS_PER_DAY:
+                last_safety = t
+                d_ecc = _safety_targets(field, safe_hist, mel, active, (t - t0) / SECONDS_PER_DAY,
+                                        cfg.life_days, r_min + svc.perilune_margin_km, svc, cfg.tide_period_days)
+            if nav is not None:
+                nav.update(t, r_sample, active)
+                if nav.violated:
+                    restore = active & np.any(np.abs(err[:, :3]) > box_half[:3], axis=1)
         for i in np.flatnonzero(active):
             slot[i].history.append((t_mid[i], u_rel[i]))
             geo_hist[i].append((t_mid[i], err[i, :4]))
-            if np.isfinite(a_hold[i]) and dv_used[i] < cap_kms:
+            osc = state_to_elements(to_element_frame(y[i], rot), gm)
+            if not (np.all(np.isfinite(osc)) and osc[0] > 0.0 and osc[1] < 1.0):
+                active[i], loss_t[i], loss_cause[i] = False, t, "escape (unbound orbit)"
+                continue
+            if np.isfinite(d_ecc[i]):                 # safety first, and beyond the Delta-v cap
+                target = {"a_km": 0.0, "ex": d_ecc[i] * np.cos(mel[i, 4]), "ey": d_ecc[i] * np.sin(mel[i, 4])}
+                _enqueue(queue[i], t, osc, gm, "safety", plan_impulses(osc, gm, target, max_burns=2))
+                shift = d_ecc[i] * ev[i] / max(mel[i, 1], 1e-12)
+                safe_hist[i] = [(tk, ek + shift, jk, sk) for tk, ek, jk, sk in safe_hist[i]]
+                a_hold[i], n_sets[i], last_burn[i] = mel[i, 0], n_sets[i] + 1, t
+                slot[i].history = []
+                continue
+            if dv_used[i] >= cap_kms:
+                continue
+            if np.isfinite(a_hold[i]):
                 d_a, a_hold[i] = a_hold[i] - mel[i, 0], np.nan
                 if abs(d_a) > a_tol[i]:
-                    osc = state_to_elements(to_element_frame(y[i], rot), gm)
-                    plan = plan_impulses(osc, gm, {"a_km": d_a, "ex": 0.0, "ey": 0.0, "inc_rad": 0.0, "raan_rad": 0.0})
-                    pending_t[i, :len(plan.dt_s)] = t + plan.dt_s
-                    pending_dv[i, :len(plan.dt_s)] = plan.dv_rtn_kms
+                    _enqueue(queue[i], t, osc, gm, "a_trim",
+                             plan_impulses(osc, gm, {"a_km": d_a, "ex": 0.0, "ey": 0.0, "inc_rad": 0.0, "raan_rad": 0.0}))
                     slot[i].history = []
                     continue
-            if t - last_burn[i] < cfg.min_maneuver_spacing_days * SECONDS_PER_DAY or dv_used[i] >= cap_kms:
+            if restore[i]:
+                ecc, aop = mel[i, 1], mel[i, 4]
+                target = {"a_km": 0.0, "ex": ref_ecc[i] * np.cos(ref_aop[i]) - ecc * np.cos(aop),
+                          "ey": ref_ecc[i] * np.sin(ref_aop[i]) - ecc * np.sin(aop), "inc_rad": -err[i, 2]}
+                _enqueue(queue[i], t, osc, gm, "navigation", plan_impulses(osc, gm, target, max_burns=2))
+                geo_hist[i] = [(tk, gk - np.append(err[i, :3], 0.0)) for tk, gk in geo_hist[i]]
+                a_hold[i], n_sets[i], last_burn[i] = mel[i, 0], n_sets[i] + 1, t
+            if t - last_burn[i] < cfg.min_maneuver_spacing_days * SECONDS_PER_DAY:
                 continue
             tt, gg = zip(*geo_hist[i])
             err_avg = np.append(running_mean(np.array(tt), np.array(gg), cfg.tide_period_days), u_rel[i])
@@ -368,14 +455,15 @@ def simulate_life(profile: dict, elements_deg, *, natural: bool = False, life_da
                 out[4] = predicted_exit(*fit[:3], half[4], chunk_s + float(periods[i]))
             if not out.any():
                 continue
-            osc = state_to_elements(to_element_frame(y[i], rot), gm)
-            plan, d_a = _plan(osc, mel[i], ref_a[i], err_avg, out, fit, half, cfg, gm)
-            if plan is None:
-                continue
+            groups = [out] if not service else [np.arange(5) == k for k in (3, 4) if out[k]]
+            d_a = 0.0
+            for part in groups:
+                plan, d_a_part = _plan(osc, mel[i], ref_a[i], err_avg, part, fit, half, cfg, gm)
+                d_a += d_a_part
+                if plan is not None:
+                    _enqueue(queue[i], t, osc, gm, _purpose(part), plan)
             a_hold[i] = mel[i, 0] + d_a
             n_sets[i] += 1
-            pending_t[i, :len(plan.dt_s)] = t + plan.dt_s
-            pending_dv[i, :len(plan.dt_s)] = plan.dv_rtn_kms
             last_burn[i] = t
             if out[:4].any():
                 shift = np.where(out[:4], -err_avg[:4] - np.sign(err_avg[:4]) * cfg.target_fraction * half[:4], 0.0)
@@ -384,15 +472,144 @@ def simulate_life(profile: dict, elements_deg, *, natural: bool = False, life_da
                 slot[i].accel = fit[2]
             slot[i].history = []
     ds = _life_dataset(profile, cfg, integ, model, natural, el, t0, life_s, np.array(hist_t), np.array(hist_el),
-                       np.array(hist_err), half, burns_t, burns_dv, impact_t, cap_kms, time.perf_counter() - start,
+                       np.array(hist_err), half, booked, impact_t, loss_t, cap_kms, time.perf_counter() - start,
                        sample_t, r_sample if sample_step_s is not None else None)
+    _add_life_report(ds, np.array(hist_rp) - r_moon, loss_t, loss_cause, r_min - r_moon, t0, life_s, natural, nav)
     ds["n_maneuver_sets"] = ("sat", n_sets)
-    ds["n_maneuver_sets"].attrs["description"] = "box corrections (each one or two burns plus a mean-a trim)"
+    ds["n_maneuver_sets"].attrs["description"] = "corrections (each one or two burns per purpose, plus a mean-a trim)"
     ds["insertion_elements_deg"] = (("sat", "element"), el_insert)
     ds["trim_residual"] = (("sat", "element"), trim_resid)
     ds["trim_residual"].attrs["description"] = ("first-orbit mean minus design at insertion (km, -, deg: i, raan, "
                                                 "aop, u); NaN without the initial trim")
     return ds
+
+
+def _perilune_radius_km(states: np.ndarray, gm: float) -> np.ndarray:
+    """Osculating perilune radius a (1 - e) (km) of states (n, 6)."""
+    r, v = states[:, :3], states[:, 3:]
+    rn = np.linalg.norm(r, axis=1)
+    h = np.cross(r, v)
+    e = np.linalg.norm(np.cross(v, h) / gm - r / rn[:, None], axis=1)
+    return 1.0 / (2.0 / rn - np.sum(v * v, axis=1) / gm) * (1.0 - e)
+
+
+def _safety_targets(field, safe_hist, mel, active, t_days, life_days, floor_base_km, svc, tide_period_days):
+    """Change of mean e (n_sat,) of each satellite whose perilune the averaged model predicts below the floor
+    within ``safety_lead_days`` (NaN for the others).
+
+    Each prediction starts from the e and j vectors averaged over the last tidal period (the monthly swing of
+    the one-orbit means averaged out); the floor is ``floor_base_km`` plus the largest amount by which the
+    osculating perilune dipped below that averaged perilune over the last two tidal periods."""
+    d_ecc = np.full(mel.shape[0], np.nan)
+    idx = [i for i in np.flatnonzero(active) if safe_hist[i]]
+    if not idx:
+        return d_ecc
+    e_avg, j_avg, floor = [], [], []
+    for i in idx:
+        t_k = np.array([h[0] for h in safe_hist[i]])
+        recent = t_k >= t_k[-1] - tide_period_days * SECONDS_PER_DAY
+        e_avg.append(np.mean([h[1] for h, keep in zip(safe_hist[i], recent) if keep], axis=0))
+        j_avg.append(np.mean([h[2] for h, keep in zip(safe_hist[i], recent) if keep], axis=0))
+        rp_avg = mel[i, 0] * (1.0 - np.linalg.norm(e_avg[-1]))
+        floor.append(floor_base_km + max(0.0, max(rp_avg - h[3] for h in safe_hist[i])))
+    e_avg, j_avg, floor, a = np.array(e_avg), np.array(j_avg), np.array(floor), mel[idx, 0]
+    j_avg *= (np.sqrt(1.0 - np.sum(e_avg ** 2, axis=1)) / np.linalg.norm(j_avg, axis=1))[:, None]
+    remaining = life_days - t_days
+    day = predicted_crossing_day(field, t_days, a, e_avg, j_avg, floor, remaining)
+    day = np.where(a * (1.0 - np.linalg.norm(e_avg, axis=1)) <= floor, 0.0, day)
+    for q in np.flatnonzero(day <= svc.safety_lead_days):
+        e_now = float(np.linalg.norm(e_avg[q]))
+        d_ecc[idx[q]] = safety_ecc(field, t_days, a[q], e_avg[q], j_avg[q], floor[q], remaining) - e_now
+    return d_ecc
+
+
+class _NavigationMonitor:
+    """South-pole DOP of the sampled positions over windows of ``nav_window_days``: the first window sets the
+    requirement (:func:`lnss_lib.sk_service.navigation_violations`); ``violated`` after each closed window."""
+
+    def __init__(self, profile: dict, sample_t: np.ndarray, svc: ServiceSettings):
+        self.profile, self.sample_t, self.svc = profile, sample_t, svc
+        self.grid = grid_from_profile(profile)
+        self.start = sample_t[0]
+        self.baseline = None
+        self.violated = False
+        self.n_violations = 0
+
+    def update(self, t: float, r_sample: np.ndarray, active: np.ndarray) -> None:
+        self.violated = False
+        if t - self.start < self.svc.nav_window_days * SECONDS_PER_DAY:
+            return
+        idx = np.flatnonzero((self.sample_t > self.start) & (self.sample_t <= t))
+        self.start = t
+        if idx.size == 0:
+            return
+        tt = self.sample_t[idx]
+        r_mf = rotate_to_moon_fixed(self.profile, r_sample[:, idx], tt)
+        summary = summary_from_profile(self.profile, dop_for_profile(self.profile, r_mf, tt, grid=self.grid))
+        if self.baseline is None:
+            self.baseline = summary
+            return
+        self.violated = bool(navigation_violations(summary, self.baseline, self.svc))
+        self.n_violations += int(self.violated)
+
+
+def _enqueue(queue: list, t: float, osc: np.ndarray, gm: float, purpose: str, plan) -> None:
+    """Append the burns of ``plan`` (planned at ``t`` on osculating elements ``osc``) as (epoch, dv_rtn, purpose,
+    location) records."""
+    e, aop = float(osc[1]), float(osc[4])
+    nus = candidate_true_anomalies(e, aop)
+    n = np.sqrt(gm / osc[0] ** 3)
+    dts = np.mod(mean_anomaly(nus, e) - np.mod(osc[5], 2.0 * np.pi), 2.0 * np.pi) / n
+    for dt, dv in zip(plan.dt_s, plan.dv_rtn_kms):
+        nu = nus[int(np.argmin(np.abs(dts - dt)))]
+        queue.append((t + float(dt), np.array(dv, dtype=float), purpose, burn_location(nu, aop)))
+
+
+def _flight_plan(queue: list) -> tuple[np.ndarray, np.ndarray]:
+    """Burn epochs (n_sat, k) (NaN = none, sorted) and RTN impulses (n_sat, k, 3) for :func:`integrate_chunk`
+    from the queued records; impulses planned for the same epoch are flown as one."""
+    merged = []
+    for records in queue:
+        epochs = {}
+        for tb, dv, _, _ in records:
+            key = round(tb, 3)
+            epochs[key] = epochs.get(key, np.zeros(3)) + dv
+        merged.append(sorted(epochs.items()))
+    k = max([len(m) for m in merged] + [1])
+    burn_t = np.full((len(queue), k), np.nan)
+    burn_dv = np.zeros((len(queue), k, 3))
+    for i, items in enumerate(merged):
+        for j, (tb, dv) in enumerate(items):
+            burn_t[i, j], burn_dv[i, j] = tb, dv
+    return burn_t, burn_dv
+
+
+def _purpose(out: np.ndarray) -> str:
+    """Purpose a correction of the quantities ``out`` (order :data:`BOX_KEYS`) is booked to: the first of
+    navigation (e, AOP, i), relative node, phase."""
+    return "navigation" if out[:3].any() else ("relative_node" if out[3] else "phase")
+
+
+def _add_life_report(ds: xr.Dataset, rp_alt_km: np.ndarray, loss_t: np.ndarray, loss_cause: np.ndarray,
+                     floor_alt_km: float, t0: float, life_s: float, natural: bool, nav) -> None:
+    """Perilune, losses and the Delta-V split by purpose and location, added to ``ds`` in place."""
+    finite = np.isfinite(rp_alt_km)
+    low = np.where(finite.any(axis=0), np.min(np.where(finite, rp_alt_km, np.inf), axis=0), np.nan)
+    ds["min_perilune_alt_km"] = ("sat", np.where(ds["impact"].values, np.fmin(low, floor_alt_km), low))
+    ds["min_perilune_alt_km"].attrs["description"] = ("lowest osculating perilune altitude (km) over the one-orbit "
+                                                      "windows of the checks (at most the floor for a satellite that impacts)")
+    ds["loss_day"] = ("sat", (loss_t - t0) / SECONDS_PER_DAY)
+    ds["loss_cause"] = ("sat", np.array([str(c) for c in loss_cause], dtype=object))
+    ds["loss_cause"].attrs["description"] = "impact, escape (unbound orbit) or propagation failed (why); empty when kept"
+    span_yr = np.where(np.isfinite(loss_t), loss_t - t0, life_s) / (DAYS_PER_JULIAN_YEAR * SECONDS_PER_DAY)
+    dv = np.linalg.norm(np.nan_to_num(ds["maneuver_dv_rtn_kms"].values), axis=-1)
+    for name, dim, coord in (("dv_purpose_kms_per_year", "purpose", PURPOSES),
+                             ("dv_location_kms_per_year", "location", LOCATIONS)):
+        labels = ds[f"maneuver_{dim}"].values
+        split = np.stack([np.sum(np.where(labels == c, dv, 0.0), axis=1) for c in coord], axis=1) / span_yr[:, None]
+        ds[name] = xr.DataArray(split, dims=("sat", dim), coords={dim: list(coord)})
+        ds[name].attrs["description"] = f"Delta-V per year (over the flown span) by {dim}; sums to dv_kms_per_year"
+    ds.attrs["navigation_violations"] = -1 if nav is None else nav.n_violations
 
 
 def _sample_grid(t0: float, life_s: float, sample_step_s: float | None) -> np.ndarray:
@@ -438,33 +655,36 @@ def _plan(osc, mel, a_ref, err, out, fit, half, cfg, gm):
     return (plan if plan.dv_rtn_kms.size else None), target["a_km"]
 
 
-def _life_dataset(profile, cfg, integ, model, natural, el, t0, life_s, hist_t, hist_el, hist_err, half, burns_t,
-                  burns_dv, impact_t, cap_kms, wall_s, sample_t, r_sample) -> xr.Dataset:
+def _life_dataset(profile, cfg, integ, model, natural, el, t0, life_s, hist_t, hist_el, hist_err, half, booked,
+                  impact_t, loss_t, cap_kms, wall_s, sample_t, r_sample) -> xr.Dataset:
     n_sat = el.shape[0]
-    n_max = max([len(b) for b in burns_t] + [1])
+    n_max = max([len(b) for b in booked] + [1])
     man_t = np.full((n_sat, n_max), np.nan)
     man_dv = np.full((n_sat, n_max, 3), np.nan)
+    man_purpose = np.full((n_sat, n_max), "", dtype=object)
+    man_location = np.full((n_sat, n_max), "", dtype=object)
     for i in range(n_sat):
-        man_t[i, :len(burns_t[i])] = burns_t[i]
-        if burns_dv[i]:
-            man_dv[i, :len(burns_dv[i])] = np.array(burns_dv[i])
+        for k, (tb, dv, purpose, location) in enumerate(booked[i]):
+            man_t[i, k], man_dv[i, k], man_purpose[i, k], man_location[i, k] = tb, dv, purpose, location
     dv_total = np.nansum(np.linalg.norm(man_dv, axis=-1), axis=1)
-    impact = np.isfinite(impact_t)
-    span_s = np.where(impact, impact_t - t0, life_s)
+    impact, lost = np.isfinite(impact_t), np.isfinite(loss_t)
+    span_s = np.where(lost, loss_t - t0, life_s)
     err = hist_err.transpose(1, 0, 2)
     smooth = err.copy()
     for i in range(n_sat):
         smooth[i, :, :4] = tidal_mean(hist_t[:, i], err[i, :, :4], cfg.tide_period_days)
     max_ratio, max_ratio_orbit = (_max_ratio(np.abs(x) / half) for x in (smooth, err))
     dv_per_year = dv_total / (span_s / (DAYS_PER_JULIAN_YEAR * SECONDS_PER_DAY))   # a lost satellite: over its flown span
-    held = (~impact) & np.all(max_ratio <= 1.0 + cfg.box_tolerance, axis=1) & (dv_total <= cap_kms * (1 + 1e-9))
+    held = (~lost) & np.all(max_ratio <= 1.0 + cfg.box_tolerance, axis=1) & (dv_total <= cap_kms * (1 + 1e-9))
     mel = hist_el.transpose(1, 0, 2).copy()
     mel[..., 1:] = np.where(np.arange(6)[1:] >= 2, np.degrees(mel[..., 1:]), mel[..., 1:])
     ds = xr.Dataset(
         {
             "dv_kms_per_year": ("sat", dv_per_year),
             "dv_total_kms": ("sat", dv_total),
-            "n_maneuvers": ("sat", np.array([len(b) for b in burns_t])),
+            "n_maneuvers": ("sat", np.array([len(b) for b in booked])),
+            "maneuver_purpose": (("sat", "maneuver"), man_purpose),
+            "maneuver_location": (("sat", "maneuver"), man_location),
             "maneuver_t_tdb_s": (("sat", "maneuver"), man_t),
             "maneuver_day": (("sat", "maneuver"), (man_t - t0) / SECONDS_PER_DAY),
             "maneuver_dv_rtn_kms": (("sat", "maneuver", "rtn"), man_dv),
@@ -486,6 +706,7 @@ def _life_dataset(profile, cfg, integ, model, natural, el, t0, life_s, hist_t, h
                 "element": ["a_km", "e", "inc_deg", "raan_deg", "aop_deg", "M_deg"]},
         attrs={
             "mode": "natural drift" if natural else "closed-loop station keeping",
+            "controller": "none" if natural else cfg.controller,
             "life_days": cfg.life_days, "t0_tdb_s": t0, "integrator_setting": integ["name"],
             "integrator": f"{integ['method']} rtol {integ['rtol']:g} atol {integ['atol']:g}",
             "force_model": model.describe(), "element_frame": profile["frames"]["element_frame"],

@@ -36,6 +36,13 @@ def test_evaluate_design_life_json_keys_and_types(capsys):
     assert 0.0 <= out["sk_dv_kms_per_year"] <= out["sk_dv_max_kms_per_year"]
     for key in ("pdop_avail_pct_life", "hdop_avail_pct_life"):
         assert 0.0 <= out[key] <= 100.0
+    assert out["controller"] == "service" and out["element_frame"] == "lunar_equator_of_epoch"
+    assert sum(out["sk_dv_split"].values()) == pytest.approx(out["sk_dv_kms_per_year"], rel=1e-9, abs=1e-15)
+    assert sum(out["sk_dv_split_by_location"].values()) == pytest.approx(out["sk_dv_kms_per_year"], rel=1e-9, abs=1e-15)
+    assert 0.0 < out["natural_min_perilune_alt_km"] < 6143 * (1 - 0.6) - 1737.4 + 1.0   # below the design's 720 km
+    assert out["lost_satellites"] == [] and out["natural_lost_satellites"] == []
+    for key in ("pdop_avail_pct_monthly", "hdop_avail_pct_monthly"):
+        assert set(out[key]) == {"controlled", "natural"} and len(out[key]["controlled"]) >= 1
 
 
 def test_evaluate_prints_reason_of_infeasible_design(capsys):

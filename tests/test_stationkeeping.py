@@ -1,4 +1,5 @@
-"""Closed-loop station keeping and natural drift over short design lives (degree 8 field, fast)."""
+"""Closed-loop station keeping with the fixed-element box (``controller = "box"``) and natural drift over short
+design lives (degree 8 field, fast); the service controller is tested in test_sk_service.py."""
 
 import numpy as np
 import pytest
@@ -16,7 +17,7 @@ LIFE_DAYS = 60.0
 
 @pytest.fixture(scope="module")
 def life_profile():
-    profile = load_profile("paper", overrides={"gravity": {"degree": 8}})
+    profile = load_profile("paper", overrides={"gravity": {"degree": 8}, "design_life": {"controller": "box"}})
     ensure_kernels(profile)
     return profile
 

@@ -1,0 +1,149 @@
+"""The requirement-driven ("service") station-keeping decisions: safety, navigation, where a burn goes.
+
+The service controller (``[design_life] controller = "service"``, :func:`lnss_lib.stationkeeping.simulate_life`)
+holds what the service needs and lets every other motion run:
+
+* safety: the perilune stays above ``impact.min_altitude_km + perilune_margin_km`` plus the measured
+  short-period amplitude (one-orbit mean perilune minus the lowest osculating perilune of the orbit).
+  Every ``safety_check_days`` the doubly-averaged model (:mod:`lnss_lib.stability`, lunar J2 + Earth and
+  Sun quadrupole) predicts the mean perilune over the rest of the life (:func:`predicted_crossing_day`);
+  only a crossing within ``safety_lead_days`` is acted on, by lowering e along the e vector (a perilune /
+  apolune pair, a unchanged) by the smallest step that keeps the prediction above the floor for the
+  rest of the life (:func:`safety_ecc`);
+* navigation: the south-pole DOP of each ``nav_window_days`` of sampled positions must keep the first
+  window's availability within ``nav_avail_drop_pct`` points and its 3-sigma PDOP/HDOP within
+  ``nav_dop_rise_fraction`` (:func:`navigation_violations`); a violation restores e, AOP and i of every
+  satellite to the design's values;
+* relative geometry: relative node and slot within ``raan_rel_deg`` and ``u_rel_deg`` (the drift-band and
+  overshoot laws of :mod:`lnss_lib.sk_control`).
+
+Burns are planned by :func:`lnss_lib.maneuvers.plan_impulses` at the cheapest of the apses, nodes and
+antinodes; :func:`burn_location` names the point each one was flown at.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+from dataclasses import dataclass
+
+import numpy as np
+
+from .elements import TWO_PI
+from .stability import SecularField, integrate_secular
+
+__all__ = ["PURPOSES", "LOCATIONS", "ServiceSettings", "predicted_crossing_day", "safety_ecc", "burn_location",
+           "navigation_violations", "mean_vectors_j2000"]
+
+PURPOSES = ("safety", "navigation", "relative_node", "phase", "a_trim")
+"""What a burn is paid for (the Delta-V split of :func:`lnss_lib.stationkeeping.simulate_life`)."""
+
+LOCATIONS = ("perilune", "apolune", "node", "antinode", "other")
+"""Where a burn is flown: the apses, the nodes (u = 0, 180 deg), their quadrature (u = 90, 270 deg)."""
+
+SAFETY_RAISE_KM = (5.0, 10.0, 20.0, 50.0, 100.0, 200.0, 400.0, 800.0, 1600.0)
+"""Candidate perilune raises of a safety burn, smallest first (km)."""
+
+
+@dataclass(frozen=True)
+class ServiceSettings:
+    """``[design_life.service]`` of a profile (see params/paper.toml)."""
+
+    perilune_margin_km: float
+    safety_check_days: float
+    safety_lead_days: float
+    nav_window_days: float
+    nav_avail_drop_pct: float
+    nav_dop_rise_fraction: float
+    raan_rel_deg: float
+    u_rel_deg: float
+
+    @classmethod
+    def from_section(cls, section: dict) -> "ServiceSettings":
+        names = {f.name for f in dataclasses.fields(cls)}
+        if set(section) != names:
+            raise ValueError(f"[design_life.service] must hold exactly {sorted(names)}; got {sorted(section)}")
+        values = {k: float(v) for k, v in section.items()}
+        bad = [k for k, v in values.items() if not (np.isfinite(v) and v >= 0.0)]
+        if bad:
+            raise ValueError(f"[design_life.service] {bad[0]} = {section[bad[0]]!r} must be a number >= 0")
+        return cls(**values)
+
+
+def mean_vectors_j2000(mean_el: np.ndarray, rot_el_to_j2000: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """(e vector, j = sqrt(1 - e^2) h_hat), each (n, 3) in Moon-centred J2000, of mean elements (n, 6)
+    ``[a, e, i, raan, aop, u]`` (km, rad) in the element frame."""
+    el = np.atleast_2d(mean_el)
+    e, inc, raan, aop = el[:, 1], el[:, 2], el[:, 3], el[:, 4]
+    node = np.stack([np.cos(raan), np.sin(raan), np.zeros_like(raan)], axis=1)
+    h_hat = np.stack([np.sin(inc) * np.sin(raan), -np.sin(inc) * np.cos(raan), np.cos(inc)], axis=1)
+    across = np.cross(h_hat, node)
+    e_vec = e[:, None] * (np.cos(aop)[:, None] * node + np.sin(aop)[:, None] * across)
+    rot = np.asarray(rot_el_to_j2000, dtype=float)
+    return e_vec @ rot.T, (np.sqrt(1.0 - e * e)[:, None] * h_hat) @ rot.T
+
+
+def _shifted(field: SecularField, t_now_days: float) -> SecularField:
+    return dataclasses.replace(field, t_days=field.t_days - t_now_days)
+
+
+def predicted_crossing_day(field: SecularField, t_now_days: float, a_km, e_vec, j_vec, floor_km,
+                           horizon_days: float) -> np.ndarray:
+    """Days from ``t_now_days`` (days since the field's epoch) until the averaged model's perilune a (1 - e) of
+    each orbit (n,) reaches ``floor_km`` (radius, (n,) or scalar) within ``horizon_days``; NaN when it does not."""
+    if horizon_days <= 0.0:
+        return np.full(np.atleast_1d(a_km).size, np.nan)
+    res = integrate_secular(a_km, e_vec, j_vec, _shifted(field, t_now_days), horizon_days, floor_km=floor_km,
+                            output_step_days=max(horizon_days, 1.0))
+    return res["impact_day"]
+
+
+def safety_ecc(field: SecularField, t_now_days: float, a_km: float, e_vec, j_vec, floor_km: float,
+               horizon_days: float) -> float:
+    """Mean e after a safety burn: the e vector shortened (direction kept) by the smallest perilune raise of
+    :data:`SAFETY_RAISE_KM` whose predicted perilune stays above ``floor_km`` (radius) for ``horizon_days``;
+    where none does, the raise that delays the crossing most."""
+    e_vec = np.asarray(e_vec, dtype=float)
+    h_hat = np.asarray(j_vec, dtype=float) / np.linalg.norm(j_vec)
+    e0 = float(np.linalg.norm(e_vec))
+    e_new = np.array([max(e0 - dr / a_km, 0.0) for dr in SAFETY_RAISE_KM])
+    e_new = np.unique(e_new)[::-1]                                    # largest e (smallest raise) first
+    direction = e_vec / e0 if e0 > 0.0 else np.zeros(3)
+    ev = e_new[:, None] * direction[None, :]
+    jv = np.sqrt(1.0 - e_new ** 2)[:, None] * h_hat[None, :]
+    day = predicted_crossing_day(field, t_now_days, np.full(e_new.size, a_km), ev, jv, floor_km, horizon_days)
+    safe = np.flatnonzero(~np.isfinite(day))
+    if safe.size:
+        return float(e_new[safe[0]])
+    return float(e_new[int(np.argmax(day))])
+
+
+def burn_location(nu_rad: float, aop_rad: float, tol_rad: float = 1e-3) -> str:
+    """:data:`LOCATIONS` name of a burn at true anomaly ``nu_rad`` on an orbit of argument of perilune ``aop_rad``."""
+    def near(angle, target):
+        return abs(np.mod(angle - target + np.pi, TWO_PI) - np.pi) < tol_rad
+
+    u = nu_rad + aop_rad
+    if near(nu_rad, 0.0):
+        return "perilune"
+    if near(nu_rad, np.pi):
+        return "apolune"
+    if near(u, 0.0) or near(u, np.pi):
+        return "node"
+    if near(u, 0.5 * np.pi) or near(u, 1.5 * np.pi):
+        return "antinode"
+    return "other"
+
+
+def navigation_violations(summary: dict, baseline: dict, cfg: ServiceSettings) -> list[str]:
+    """Names of the navigation statistics of ``summary`` (a :func:`lnss_lib.dop.summary_from_profile` dict)
+    outside the requirement set by ``baseline`` (the first window's): availability may drop by
+    ``nav_avail_drop_pct`` points, 3-sigma PDOP/HDOP rise by ``nav_dop_rise_fraction``."""
+    bad = []
+    for key in ("pdop_avail_pct", "hdop_avail_pct"):
+        if summary[key] < baseline[key] - cfg.nav_avail_drop_pct:
+            bad.append(key)
+    for key in ("pdop_mean_3sigma", "hdop_mean_3sigma"):
+        ref, now = baseline[key], summary[key]
+        if np.isfinite(ref) and not now <= ref * (1.0 + cfg.nav_dop_rise_fraction):
+            bad.append(key)
+    return bad

@@ -1,0 +1,114 @@
+"""The service station-keeping controller (issue 19): it pays for what the service needs and nothing else."""
+
+import numpy as np
+import pytest
+
+from lnss_lib.config import ConfigError, load_profile
+from lnss_lib.constellation import WalkerDesign
+from lnss_lib.designlife import life_metrics
+from lnss_lib.ephemeris import ensure_kernels, tdb_seconds
+from lnss_lib.sk_service import PURPOSES, burn_location, mean_vectors_j2000
+from lnss_lib.stationkeeping import LifeSettings, life_force_model, simulate_life
+
+LIFE_DAYS = 60.0
+DRIVEN_DOWN = [[6143.0, 0.6, 70.0, 0.0, 45.0, 0.0]]
+"""Lidov-Kozai drives this perilune into the surface in about 40 days (degree-8 field, study epoch)."""
+
+
+@pytest.fixture(scope="module")
+def profile():
+    prof = load_profile("paper", overrides={"gravity": {"degree": 8}})
+    ensure_kernels(prof)
+    return prof
+
+
+@pytest.fixture(scope="module")
+def model(profile):
+    return life_force_model(profile, tdb_seconds(profile["epoch"]["start_tdb"], "TDB"), LIFE_DAYS)
+
+
+@pytest.fixture(scope="module")
+def driven_down(profile, model):
+    runs = {"controlled": simulate_life(profile, DRIVEN_DOWN, life_days=LIFE_DAYS, model=model),
+            "natural": simulate_life(profile, DRIVEN_DOWN, natural=True, life_days=LIFE_DAYS, model=model)}
+    return runs
+
+
+def test_frozen_orbit_that_keeps_the_service_flies_no_burn(profile, model):
+    """Two satellites of the Table 4 ELFO plane: its natural motion keeps the perilune far above the floor, the
+    slots and the navigation windows (positions sampled), so the service controller flies nothing."""
+    el = [[6143.0, 0.6, 51.7, 0.0, 90.0, 0.0], [6143.0, 0.6, 51.7, 0.0, 90.0, 180.0]]
+    ds = simulate_life(profile, el, life_days=LIFE_DAYS, model=model, sample_step_s=3600.0)
+    assert ds.attrs["controller"] == "service"
+    assert ds.attrs["navigation_violations"] == 0            # the monitor ran and found the requirement kept
+    assert int(ds["n_maneuvers"].sum()) == 0 and float(ds["dv_total_kms"].sum()) == 0.0
+    assert not bool(ds["impact"].any()) and bool(ds["box_held"].all())
+    assert float(ds["min_perilune_alt_km"].min()) > 300.0     # 6143 (1 - 0.6) - 1737 = 720 km, minus the swing
+
+
+def test_perilune_driven_down_gets_a_safety_burn_before_impact_and_survives(profile, driven_down):
+    natural, ctl = driven_down["natural"], driven_down["controlled"]
+    impact = float(natural["impact_day"][0])
+    assert np.isfinite(impact) and impact < LIFE_DAYS and str(natural["loss_cause"].values[0]) == "impact"
+    assert float(natural["loss_day"][0]) == pytest.approx(impact)
+    assert not bool(ctl["impact"][0]) and str(ctl["loss_cause"].values[0]) == ""
+    purposes = ctl["maneuver_purpose"].values[0]
+    days = ctl["maneuver_day"].values[0]
+    safety = purposes == "safety"
+    assert safety.any() and np.nanmax(days[safety]) < impact
+    assert set(ctl["maneuver_location"].values[0][safety]) <= {"perilune", "apolune"}   # e vector at the apses
+    floor = float(profile["impact"]["min_altitude_km"])
+    assert float(ctl["min_perilune_alt_km"][0]) > floor + profile["design_life"]["service"]["perilune_margin_km"]
+    assert float(natural["min_perilune_alt_km"][0]) <= floor
+
+
+def test_deltav_split_adds_up_to_the_total(driven_down):
+    ctl = driven_down["controlled"]
+    total = ctl["dv_kms_per_year"].values
+    assert total[0] > 0.0
+    np.testing.assert_allclose(ctl["dv_purpose_kms_per_year"].sum("purpose").values, total, rtol=1e-12)
+    np.testing.assert_allclose(ctl["dv_location_kms_per_year"].sum("location").values, total, rtol=1e-12)
+    metrics = life_metrics(driven_down)
+    assert set(metrics["sk_dv_split"]) == set(PURPOSES)
+    assert sum(metrics["sk_dv_split"].values()) == pytest.approx(metrics["sk_dv_kms_per_year"], rel=1e-12)
+    assert metrics["natural_min_perilune_alt_km"] < metrics["min_perilune_alt_km"]
+    assert metrics["lost_satellites"] == [] and metrics["natural_lost_satellites"][0]["cause"] == "impact"
+
+
+@pytest.mark.parametrize("controller", ["service", "box"])
+def test_a_design_the_trim_cannot_hold_completes(profile, model, controller):
+    """Near-circular orbits whose first-orbit mean e is larger than the design's: the insertion trim once stepped
+    to e < 0 and stopped the evaluation ("eccentricity must be in [0, 1)"); now every satellite is flown."""
+    el = WalkerDesign(11925.0, 0.005, 23.6, 152.0, 3, 1).elements_deg()
+    ds = simulate_life(profile, el, model=model, settings=LifeSettings.from_profile(profile, life_days=20.0,
+                                                                                    controller=controller))
+    assert ds.sizes["sat"] == 3 and np.all(np.isfinite(ds["dv_kms_per_year"].values))
+    assert np.all(ds["insertion_elements_deg"].values[:, 1] >= 0.0)
+
+
+def test_controller_setting_is_checked():
+    with pytest.raises(ConfigError, match="allowed: 'service', 'box'"):
+        load_profile("paper", overrides={"design_life": {"controller": "elements"}})
+
+
+def test_burn_location_names_apses_and_nodes():
+    aop = np.radians(30.0)
+    assert burn_location(0.0, aop) == "perilune" and burn_location(np.pi, aop) == "apolune"
+    assert burn_location(-aop, aop) == "node" and burn_location(np.pi / 2 - aop, aop) == "antinode"
+    assert burn_location(1.0, aop) == "other"
+
+
+def test_mean_vectors_match_the_state_vectors():
+    """e and j of elements built from the classical definitions (identity frame) against r x v of the state."""
+    from lnss_lib.elements import elements_to_state
+
+    gm = 4902.8
+    el = np.array([6143.0, 0.6, np.radians(51.7), np.radians(40.0), np.radians(90.0), 0.3])
+    state = elements_to_state(el, gm)
+    r, v = state[:3], state[3:]
+    h = np.cross(r, v)
+    e_ref = np.cross(v, h) / gm - r / np.linalg.norm(r)
+    j_ref = h / np.sqrt(gm * el[0])
+    e_vec, j_vec = mean_vectors_j2000(el[None, :], np.eye(3))
+    np.testing.assert_allclose(e_vec[0], e_ref, atol=1e-12)
+    np.testing.assert_allclose(j_vec[0], j_ref, atol=1e-12)
