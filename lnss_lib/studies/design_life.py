@@ -8,18 +8,19 @@ campaign-grade estimate from the 10-day arc (ratio and Spearman rank correlation
 which designs does the stability screen get wrong, and which regions of the design space can be
 kept at all?
 
-Verdict (the notebook prints it from the numbers, for the profile's controller and for the elements read
-in the lunar equator and in ``moon_op``; words here from a one-year life, one satellite per plane, under the
-fixed-element ``box`` controller of issue 11, before the ``service`` controller of issue 19): over weeks
-the campaign-grade estimate ranks designs by closed-loop cost, over a year only weakly: the Lidov-Kozai
-growth it sees as a 10-day slope dominates the year, and designs that need more than Table 3's 1 km/s/yr saturate the closed loop's cap, so the estimate is a screen for cheap
-designs, not a budget (it over-predicts low near-circular orbits many times over and under-predicts
-the near-equatorial low orbit). The stability screen agrees with natural drift on all designs but
-one frozen-family orbit whose mean perilune stays about 100 km up while the real one, swinging with
-the monthly terms the averaging removes, reaches the surface. High, inclined orbits (a >= 12000 km,
-i >= 70 deg) are not sustainable; the frozen family mostly not over a year (its perilunes are driven
-down within months and the cap is reached); the standalone ELFO, the low orbits and the operational
-campaign's low near-polar designs are sustainable inside their box for a few tenths of a km/s a year.
+Verdict (the notebook prints it from the numbers, for the profile's controller and for the elements read in
+the lunar equator and in ``moon_op``; words here from a one-year life, one satellite per plane, under the
+fixed-element ``box`` controller of issue 11, before the ``service`` controller of issue 19): over weeks the
+campaign-grade estimate ranks designs by closed-loop cost, over a year only weakly: the Lidov-Kozai growth it
+sees as a 10-day slope dominates the year, and designs that need more than Table 3's 1 km/s/yr saturate the
+closed loop's cap, so the estimate is a screen for cheap designs, not a budget (it over-predicts low near-
+circular orbits many times over and under-predicts the near-equatorial low orbit). The stability screen agrees
+with natural drift on all designs but one frozen-family orbit whose mean perilune stays about 100 km up while
+the real one, swinging with the monthly terms the averaging removes, reaches the surface. High, inclined
+orbits (a >= 12000 km, i >= 70 deg) are not sustainable; the frozen family mostly not over a year (its
+perilunes are driven down within months and the cap is reached); the standalone ELFO, the low orbits and the
+operational campaign's low near-polar designs are sustainable inside their box for a few tenths of a km/s a
+year.
 """
 
 from __future__ import annotations
