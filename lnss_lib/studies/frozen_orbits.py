@@ -25,7 +25,9 @@ import numpy as np
 import pandas as pd
 
 from ..catalogue import constellation_states_mci, file_epoch_profile, load_constellation
+from ..config import deep_merge
 from ..constants import DAYS_PER_JULIAN_YEAR, SECONDS_PER_DAY
+from ..designlife import life_metrics, run_design_life
 from ..ephemeris import ensure_kernels, tdb_seconds
 from ..frames import element_frame_to_j2000
 from ..frozen import (FrozenModel, allowances, frozen_eccentricity, frozen_inclination_deg, libration,
@@ -34,7 +36,7 @@ from ..propagator import propagate_states
 from ..stability import SecularField, orbit_vectors_ej, screen_states, stability_settings
 
 __all__ = ["FAMILY_ECC", "FAMILY_INC_DEG", "frozen_family", "inertial_lunar_equator", "planes_in_moon_op",
-           "orbit_rows", "published_orbits", "frozen_words", "epoch_swap", "ely_natural"]
+           "orbit_rows", "published_orbits", "frozen_words", "epoch_swap", "ely_natural", "closed_loop_anchors"]
 
 FAMILY_ECC = (0.4, 0.5, 0.6, 0.7)
 FAMILY_INC_DEG = (51.7, 54.0, 56.2, 60.0)
@@ -204,3 +206,29 @@ def ely_natural(profile: dict, life_days: float, *, degree: int | None = None, s
             "envelope_km": float(read["sma_km"][0]) * (allow["ecc_monthly"] + allow["ecc_orbital"]),
             "impact": bool(ds["impact"].values.any()), "epoch": cs.epoch_used,
             "years": life_days / DAYS_PER_JULIAN_YEAR}
+
+
+def closed_loop_anchors(profile: dict, ely_life_days: float, table4_life_days: float) -> pd.DataFrame:
+    """The anchors flown with the profile's controller (``[design_life] controller``), no DOP sampling:
+    Ely's phased constellation from its file's epoch (elements in ``moon_op``, the file's per-satellite a kept)
+    for ``ely_life_days``, and one satellite per plane of the Table 4 ELFO with its elements read in ``moon_op``
+    and in the lunar equator for ``table4_life_days``. One row each: Delta-V per satellite and year (mean, max,
+    split by purpose, m/s), manoeuvres, lowest perilune controlled and natural, satellites lost."""
+    c = load_constellation("ely2005_elfo_3sat_phased", profile)
+    cases = [("Ely (2005) phased, file epoch", deep_merge(file_epoch_profile(profile, c), {"frames": {"element_frame": "moon_op"}}),
+              c.elements_deg, ely_life_days)]
+    planes = _walker_planes((TABLE_4[0], TABLE_4[1], TABLE_4[3], TABLE_4[2], 2))
+    for frame in ("moon_op", "lunar_equator_of_epoch"):
+        cases.append((f"Table 4 ELFO, one satellite per plane, read in {frame}",
+                      deep_merge(profile, {"frames": {"element_frame": frame}}), planes, table4_life_days))
+    rows = []
+    for label, prof, elements, life in cases:
+        m = life_metrics(run_design_life(prof, elements, life, sample=False))
+        rows.append({"anchor": label, "element_frame": m["element_frame"], "controller": m["controller"],
+                     "life_days": m["life_days"], "dv_m_s_per_year": 1000.0 * m["sk_dv_kms_per_year"],
+                     "dv_max_m_s_per_year": 1000.0 * m["sk_dv_max_kms_per_year"], "n_maneuvers": m["n_maneuvers"],
+                     **{f"dv_{k}_m_s_per_year": 1000.0 * v for k, v in m["sk_dv_split"].items()},
+                     "min_perilune_alt_km": m["min_perilune_alt_km"],
+                     "natural_min_perilune_alt_km": m["natural_min_perilune_alt_km"],
+                     "lost": len(m["lost_satellites"]), "natural_lost": len(m["natural_lost_satellites"] or [])})
+    return pd.DataFrame(rows)
