@@ -26,7 +26,8 @@ pole and the plane's regression make the orbit normal precess about a Laplace ax
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+from dataclasses import dataclass
+from dataclasses import field as default_field
 
 import numpy as np
 from scipy.optimize import brentq
@@ -71,8 +72,8 @@ class FrozenModel:
     gm_km3_s2: float
     j2: float
     r_ref_km: float
-    pole: np.ndarray = field(default_factory=lambda: _Z.copy())
-    frame_spin: np.ndarray = field(default_factory=lambda: np.zeros(3))
+    pole: np.ndarray = default_field(default_factory=lambda: _Z.copy())
+    frame_spin: np.ndarray = default_field(default_factory=lambda: np.zeros(3))
 
     @property
     def j2_axial(self) -> float:
