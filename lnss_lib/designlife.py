@@ -288,7 +288,8 @@ def design_life_cli(profile_name: str, life_days: float, *, walker: tuple | None
                     overrides: dict | None = None) -> dict:
     """:data:`LIFE_KEYS` for the evaluate CLI: a Walker design ``(sma_km, ecc, aop_deg, inc_deg, n_planes,
     sats_per_plane)`` or a catalogue constellation (its states at the evaluation epoch, as elements in the
-    profile's element frame). NaN becomes None. An invalid Walker design (the evaluation says why) gives
+    profile's element frame, inserted as given: no insertion trim, so a designed per-satellite a such as
+    Ely's phasing, which its authors found by propagating those very states, is flown as published). NaN becomes None. An invalid Walker design (the evaluation says why) gives
     every key None."""
     from .config import load_profile
     from .constellation import WalkerDesign
@@ -303,6 +304,7 @@ def design_life_cli(profile_name: str, life_days: float, *, walker: tuple | None
         c = load_constellation(constellation, profile)
         if constellation_epoch == "file":
             profile = file_epoch_profile(profile, c)
+        profile = {**profile, "design_life": {**profile["design_life"], "initial_trim": False}}   # the file's states as given
         states = constellation_states_mci(profile, c, constellation_epoch)
         elements = elements_deg_in_frame(profile, states.states_mci, states.t_epoch_tdb_s)
     else:

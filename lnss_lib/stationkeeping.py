@@ -316,7 +316,7 @@ def simulate_life(profile: dict, elements_deg, *, natural: bool = False, life_da
                          f"({2.05 * periods.max() / SECONDS_PER_DAY:.2f} days)")
     n_chunks = max(1, int(np.floor(life_s / max(cfg.check_interval_days * SECONDS_PER_DAY, 2.05 * float(periods.max())))))
     chunk_s = life_s / n_chunks
-    ref_a, ref_ecc, ref_aop, ref_inc = el[:, 0], el[:, 1], np.radians(el[:, 4]), np.radians(el[:, 2])
+    ref_a, ref_ecc, ref_aop, ref_inc = el[:, 0].copy(), el[:, 1], np.radians(el[:, 4]), np.radians(el[:, 2])
     nom_raan, nom_u = np.radians(el[:, 3]), np.radians(el[:, 4] + el[:, 5])
     half = np.array([cfg.box["ecc"], np.radians(cfg.box["aop_deg"]), np.radians(cfg.box["inc_deg"]),
                      np.radians(cfg.box["raan_rel_deg"]), np.radians(cfg.box["u_rel_deg"])])
@@ -392,6 +392,8 @@ def simulate_life(profile: dict, elements_deg, *, natural: bool = False, life_da
         hist_el.append(mel)
         hist_err.append(err)
         hist_rp.append(rp_min)
+        if k_chunk == 0 and not cfg.initial_trim:      # inserted as given: slots drift against the first mean a
+            ref_a = np.where(active, mel[:, 0], ref_a)
         t = t_next
         if natural or t >= t0 + life_s - 1e-6:
             continue
