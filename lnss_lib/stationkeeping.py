@@ -347,7 +347,7 @@ def simulate_life(profile: dict, elements_deg, *, natural: bool = False, life_da
     dv_used = np.zeros(n_sat)
     slot = [SlotState() for _ in range(n_sat)]
     geo_hist = [[] for _ in range(n_sat)]
-    safe_hist = [[] for _ in range(n_sat)]              # (t, e vector J2000, j vector J2000, rp swing km)
+    safe_hist = [[] for _ in range(n_sat)]              # (t, e and j vectors J2000, lowest osculating perilune km)
     start = time.perf_counter()
     t = t0
     for k_chunk in range(n_chunks):
@@ -409,7 +409,7 @@ def simulate_life(profile: dict, elements_deg, *, natural: bool = False, life_da
                 d_ecc = _safety_targets(field, safe_hist, mel, active, (t - t0) / SECONDS_PER_DAY,
                                         cfg.life_days, r_min + svc.perilune_margin_km, svc, cfg.tide_period_days)
             if nav is not None:
-                nav.update(t, r_sample, active)
+                nav.update(t, r_sample)
                 if nav.violated:
                     restore = active & np.any(np.abs(err[:, :3]) > box_half[:3], axis=1)
         for i in np.flatnonzero(active):
@@ -537,7 +537,7 @@ class _NavigationMonitor:
         self.violated = False
         self.n_violations = 0
 
-    def update(self, t: float, r_sample: np.ndarray, active: np.ndarray) -> None:
+    def update(self, t: float, r_sample: np.ndarray) -> None:
         self.violated = False
         if t - self.start < self.svc.nav_window_days * SECONDS_PER_DAY:
             return
