@@ -213,22 +213,24 @@ def closed_loop_anchors(profile: dict, ely_life_days: float, table4_life_days: f
     Ely's phased constellation from its file's epoch (elements in ``moon_op``, the file's per-satellite a kept)
     for ``ely_life_days``, and one satellite per plane of the Table 4 ELFO with its elements read in ``moon_op``
     and in the lunar equator for ``table4_life_days``. One row each: Delta-V per satellite and year (mean, max,
-    split by purpose, m/s), manoeuvres, lowest perilune controlled and natural, satellites lost."""
+    split by purpose, m/s), manoeuvres, lowest perilune controlled and natural, satellites lost. Ely's natural
+    drift is not flown again here (:func:`ely_natural` flies it): its natural columns are NaN."""
     c = load_constellation("ely2005_elfo_3sat_phased", profile)
-    cases = [("Ely (2005) phased, file epoch", deep_merge(file_epoch_profile(profile, c), {"frames": {"element_frame": "moon_op"}}),
-              c.elements_deg, ely_life_days)]
+    ely_profile = deep_merge(file_epoch_profile(profile, c), {"frames": {"element_frame": "moon_op"}})
+    cases = [("Ely (2005) phased, file epoch", ely_profile, c.elements_deg, ely_life_days, False)]
     planes = _walker_planes((TABLE_4[0], TABLE_4[1], TABLE_4[3], TABLE_4[2], 2))
     for frame in ("moon_op", "lunar_equator_of_epoch"):
         cases.append((f"Table 4 ELFO, one satellite per plane, read in {frame}",
-                      deep_merge(profile, {"frames": {"element_frame": frame}}), planes, table4_life_days))
+                      deep_merge(profile, {"frames": {"element_frame": frame}}), planes, table4_life_days, True))
     rows = []
-    for label, prof, elements, life in cases:
-        m = life_metrics(run_design_life(prof, elements, life, sample=False))
+    for label, prof, elements, life, natural in cases:
+        m = life_metrics(run_design_life(prof, elements, life, natural=natural, sample=False))
         rows.append({"anchor": label, "element_frame": m["element_frame"], "controller": m["controller"],
                      "life_days": m["life_days"], "dv_m_s_per_year": 1000.0 * m["sk_dv_kms_per_year"],
                      "dv_max_m_s_per_year": 1000.0 * m["sk_dv_max_kms_per_year"], "n_maneuvers": m["n_maneuvers"],
                      **{f"dv_{k}_m_s_per_year": 1000.0 * v for k, v in m["sk_dv_split"].items()},
                      "min_perilune_alt_km": m["min_perilune_alt_km"],
-                     "natural_min_perilune_alt_km": m["natural_min_perilune_alt_km"],
-                     "lost": len(m["lost_satellites"]), "natural_lost": len(m["natural_lost_satellites"] or [])})
+                     "natural_min_perilune_alt_km": m["natural_min_perilune_alt_km"] if natural else np.nan,
+                     "lost": len(m["lost_satellites"]),
+                     "natural_lost": len(m["natural_lost_satellites"]) if natural else np.nan})
     return pd.DataFrame(rows)
