@@ -83,16 +83,19 @@ def _r_moon(profile: dict) -> float:
 
 def orbit_rows(model: FrozenModel, read: dict, r_moon_km: float) -> pd.DataFrame:
     """Per orbit of ``read`` (:func:`lnss_lib.frozen.mean_plane_elements`): elements in ``moon_op``, the frozen i at
-    its (a, e), its libration (ranges of e, i, AOP) and the mean perilune's lowest altitude over the cycle."""
+    its (a, e), its libration (ranges of e, i, AOP), the mean perilune's lowest altitude over the cycle and the
+    short-period dip the real perilune may add (:func:`lnss_lib.frozen.allowances`, monthly + orbital, km)."""
     rows = []
     for a, e, inc, aop in zip(read["sma_km"], read["ecc"], read["inc_deg"], read["aop_deg"]):
         lib = libration(model, a, e, inc, aop)
+        allow = allowances(model, a, e, inc, aop)
         frozen_inc = frozen_inclination_deg(model, a, e) if 0.0 < e < 1.0 else np.nan
         rows.append({"sma_km": a, "ecc_op": e, "inc_op_deg": inc, "aop_op_deg": aop, "frozen_inc_deg": frozen_inc,
                      "inc_off_frozen_deg": (inc if inc <= 90.0 else 180.0 - inc) - frozen_inc,
                      "ecc_min": lib["ecc_min"], "ecc_max": lib["ecc_max"], "ecc_swing": lib["ecc_max"] - lib["ecc_min"],
                      "aop_min_deg": lib["aop_min_deg"], "aop_max_deg": lib["aop_max_deg"], "librating": lib["librating"],
-                     "min_mean_perilune_alt_km": a * (1.0 - lib["ecc_max"]) - r_moon_km})
+                     "min_mean_perilune_alt_km": a * (1.0 - lib["ecc_max"]) - r_moon_km,
+                     "short_period_km": a * (allow["ecc_monthly"] + allow["ecc_orbital"])})
     return pd.DataFrame(rows)
 
 
