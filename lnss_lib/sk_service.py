@@ -15,7 +15,10 @@ holds what the service needs and lets every other motion run:
   ``nav_dop_rise_fraction`` (:func:`navigation_violations`); a violation restores e, AOP and i of every
   satellite to the design's values;
 * relative geometry: relative node and slot within ``raan_rel_deg`` and ``u_rel_deg`` (the drift-band and
-  overshoot laws of :mod:`lnss_lib.sk_control`).
+  overshoot laws of :mod:`lnss_lib.sk_control`). The relative node is judged on its mean over a sidereal
+  month (two tidal periods): on high orbits a check spans several days and the one-orbit means swing with
+  the month, which a shorter mean chases at up to 1 km/s/yr (and, at apolunes beyond about half the Hill
+  radius, into escape). A node correction leaves the argument of latitude free.
 
 Burns are planned by :func:`lnss_lib.maneuvers.plan_impulses` at the cheapest of the apses, nodes and
 antinodes; :func:`burn_location` names the point each one was flown at.

@@ -348,6 +348,7 @@ def simulate_life(profile: dict, elements_deg, *, natural: bool = False, life_da
     slot = [SlotState() for _ in range(n_sat)]
     geo_hist = [[] for _ in range(n_sat)]
     safe_hist = [[] for _ in range(n_sat)]              # (t, e and j vectors J2000, lowest osculating perilune km)
+    avg_days = 2.0 * cfg.tide_period_days if service else cfg.tide_period_days
     start = time.perf_counter()
     t = t0
     for k_chunk in range(n_chunks):
@@ -446,9 +447,9 @@ def simulate_life(profile: dict, elements_deg, *, natural: bool = False, life_da
             if t - last_burn[i] < cfg.min_maneuver_spacing_days * SECONDS_PER_DAY:
                 continue
             tt, gg = zip(*geo_hist[i])
-            err_avg = np.append(running_mean(np.array(tt), np.array(gg), cfg.tide_period_days), u_rel[i])
+            err_avg = np.append(running_mean(np.array(tt), np.array(gg), avg_days), u_rel[i])
             out = np.abs(err_avg) > half
-            out[:4] &= tt[-1] - tt[0] >= 0.5 * cfg.tide_period_days * SECONDS_PER_DAY
+            out[:4] &= tt[-1] - tt[0] >= 0.5 * avg_days * SECONDS_PER_DAY
             out[4] = False
             trend = slot[i].fit(cfg.slot_fit_days, cfg.slot_quad_days, cfg.tide_period_days)
             rate_a = -1.5 * np.sqrt(gm / ref_a[i] ** 3) * (mel[i, 0] - ref_a[i]) / ref_a[i]
@@ -460,7 +461,7 @@ def simulate_life(profile: dict, elements_deg, *, natural: bool = False, life_da
             groups = [out] if not service else [np.arange(5) == k for k in (3, 4) if out[k]]
             d_a = 0.0
             for part in groups:
-                plan, d_a_part = _plan(osc, mel[i], ref_a[i], err_avg, part, fit, half, cfg, gm)
+                plan, d_a_part = _plan(osc, mel[i], ref_a[i], err_avg, part, fit, half, cfg, gm, hold_u=not service)
                 d_a += d_a_part
                 if plan is not None:
                     _enqueue(queue[i], t, osc, gm, _purpose(part), plan)
@@ -625,15 +626,17 @@ def _sample_grid(t0: float, life_s: float, sample_step_s: float | None) -> np.nd
     return np.minimum(t0 + step * np.arange(int(np.floor(life_s / step + 1e-9)) + 1), t0 + life_s)
 
 
-def _plan(osc, mel, a_ref, err, out, fit, half, cfg, gm):
+def _plan(osc, mel, a_ref, err, out, fit, half, cfg, gm, hold_u=True):
     """Impulses for one satellite (None when there is nothing to fly).
 
     Each geometry quantity out of its box (``out``, order :data:`BOX_KEYS`) is aimed past its reference
     (:func:`lnss_lib.sk_control.overshoot_target`; e and AOP together as the e vector in nodal axes);
     the others are held (zero change). A slot correction sets the mean a so that the drift rate relative
     to the design's mean motion (``a_ref``) becomes :func:`lnss_lib.sk_control.drift_band_rate`; otherwise
-    a and u are held (u one orbit after the burns). The e-vector correction is thus a perilune/apolune
-    pair with no net change of a (Newton-refined in :func:`lnss_lib.maneuvers.plan_impulses`).
+    a and u are held (u one orbit after the burns; u is left free with ``hold_u=False``, as the service
+    controller's relative-node corrections do: its slot has its own drift-band control). The e-vector
+    correction is thus a perilune/apolune pair with no net change of a (Newton-refined in
+    :func:`lnss_lib.maneuvers.plan_impulses`).
     """
     n = np.sqrt(gm / a_ref ** 3)
     ecc, aop = mel[1], mel[4]
@@ -652,6 +655,7 @@ def _plan(osc, mel, a_ref, err, out, fit, half, cfg, gm):
         u0, rate, accel, _ = fit
         new_rate = drift_band_rate(u0, accel, half[4], cfg.target_fraction, cfg.slot_coast_days * SECONDS_PER_DAY)
         target["a_km"] = (new_rate - rate) / (-1.5 * n / a_ref)
+    if out[4] or not hold_u:
         del target["u_rad"]
     plan = plan_impulses(osc, gm, target, max_burns=2)
     return (plan if plan.dv_rtn_kms.size else None), target["a_km"]

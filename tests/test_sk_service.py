@@ -112,3 +112,44 @@ def test_mean_vectors_match_the_state_vectors():
     e_vec, j_vec = mean_vectors_j2000(el[None, :], np.eye(3))
     np.testing.assert_allclose(e_vec[0], e_ref, atol=1e-12)
     np.testing.assert_allclose(j_vec[0], j_ref, atol=1e-12)
+
+
+def test_box_that_drives_satellites_out_of_lunar_orbit_reports_them_and_completes(paper_profile):
+    """a 15940 km, e 0.734, i 62.1 deg, AOP 180 deg, three planes of one satellite, one year with the box (the
+    controller of issue 11, whose burns unbind two of the orbits): the planner was handed hyperbolic elements
+    and the evaluation stopped ("elements must be 6 finite values"); now every loss is reported with its day
+    and cause and the others fly on."""
+    el = WalkerDesign(15940.0, 0.734, 62.1, 180.0, 3, 1).elements_deg()
+    ds = simulate_life(paper_profile, el, settings=LifeSettings.from_profile(paper_profile, life_days=365.0,
+                                                                             controller="box"))
+    causes = [str(c) for c in ds["loss_cause"].values]
+    assert "escape (unbound orbit)" in causes
+    lost = np.isfinite(ds["loss_day"].values)
+    assert np.all((ds["loss_day"].values[lost] > 0.0) & (ds["loss_day"].values[lost] < 365.0))
+    assert [c != "" for c in causes] == lost.tolist()
+    assert np.all(np.isfinite(ds["dv_kms_per_year"].values))
+
+
+def test_a_satellite_whose_propagation_fails_is_reported_and_the_others_fly_on(profile, model, monkeypatch):
+    """The engine gives up on satellite 1 in the third chunk (as it did on a Table 6 design: 'propagation failed
+    for satellite(s) [9]' stopped the evaluation): it is reported lost with the engine's reason, satellite 0 flies
+    the whole life."""
+    from lnss_lib import stationkeeping
+    from lnss_lib.propagator import STATUS_MAX_STEPS, STATUS_TEXT
+
+    engine, calls = stationkeeping.integrate_chunk, []
+
+    def failing(y0s, active, t0, t_out, *rest):
+        states, y_end, status, t_stop = engine(y0s, active, t0, t_out, *rest)
+        if y0s.shape[0] == 2:                                   # the life loop (the insertion trim flies one at a time)
+            calls.append(t0)
+            if len(calls) == 3:
+                states[1], y_end[1], status[1], t_stop[1] = np.nan, np.nan, STATUS_MAX_STEPS, t_out[0]
+        return states, y_end, status, t_stop
+
+    monkeypatch.setattr(stationkeeping, "integrate_chunk", failing)
+    el = [[6143.0, 0.6, 51.7, 0.0, 90.0, 0.0], [6143.0, 0.6, 51.7, 0.0, 90.0, 180.0]]
+    ds = simulate_life(profile, el, life_days=10.0, model=model)
+    assert str(ds["loss_cause"].values[1]) == f"propagation failed ({STATUS_TEXT[STATUS_MAX_STEPS]})"
+    assert 0.0 < float(ds["loss_day"][1]) < 10.0 and not bool(ds["impact"][1])
+    assert str(ds["loss_cause"].values[0]) == "" and np.isfinite(ds["mean_elements"].values[0, -1, 0])
