@@ -252,6 +252,7 @@ CHOICES = {    # a text setting (or each entry of a list of texts) -> its allowe
     "campaign.evaluator": EVALUATORS, "campaign.notebook_mode": NOTEBOOK_MODES, "stability.method": STABILITY_METHODS,
     "stability.third_bodies": STABILITY_BODIES, "sk_estimate.element_frame": ELEMENT_FRAMES,
     "evaluator.extra_metrics": EXTRA_METRIC_KEYS, "design_life.controller": CONTROLLERS,
+    "life_evaluation.validation_frames": ELEMENT_FRAMES,
 }
 
 

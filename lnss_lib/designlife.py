@@ -27,6 +27,7 @@ import xarray as xr
 from .constants import SECONDS_PER_DAY
 from .dop import dop_for_profile, grid_from_profile, summary_from_profile
 from .ephemeris import ensure_kernels, tdb_seconds
+from .config import ELEMENT_FRAMES
 from .errors import ConfigError, InfeasibleDesignError
 from .frames import rotate_to_moon_fixed
 from .progress import steps
@@ -52,7 +53,8 @@ NAVIGATION_KEYS = ("pdop_avail_pct", "hdop_avail_pct", "pdop_mean_3sigma", "hdop
 
 _SETTINGS = {"sample_step_s": float, "month_days": float}
 STUDY_KEYS = ("notebook_life_days", "convergence_life_days", "convergence_sats", "validation_life_days",
-              "validation_max_sats_per_plane", "validation_front_designs", "validation_designs")
+              "validation_max_sats_per_plane", "validation_front_designs", "validation_designs",
+              "anchor_life_days", "validation_frames")
 """``[life_evaluation]`` keys read by notebook 08 and :mod:`lnss_lib.studies.design_life` only."""
 
 
@@ -62,6 +64,9 @@ def life_evaluation_settings(profile: dict) -> dict:
     unknown = set(section) - set(_SETTINGS) - set(STUDY_KEYS)
     if unknown:
         raise ValueError(f"unknown [life_evaluation] key(s) {sorted(unknown)}; allowed: {sorted(_SETTINGS) + sorted(STUDY_KEYS)}")
+    bad = [f for f in section.get("validation_frames", ()) if f not in ELEMENT_FRAMES]
+    if bad:
+        raise ValueError(f"[life_evaluation] validation_frames {bad} unknown; allowed: {list(ELEMENT_FRAMES)}")
     cfg = {}
     for key, kind in _SETTINGS.items():
         if key not in section:

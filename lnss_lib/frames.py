@@ -30,7 +30,7 @@ from .config import ELEMENT_FRAMES, POLE_FRAMES
 from .constants import ARCSEC_RAD, SECONDS_PER_DAY, SECONDS_PER_JULIAN_CENTURY
 from .ephemeris import body_states_mci, ensure_kernels, rotation
 
-__all__ = ["ELEMENT_FRAMES", "POLE_FRAMES", "element_frame_to_j2000", "moon_op_axes_j2000", "moon_op_to_j2000", "rotate_to_moon_fixed", "rotate_with", "latitude_deg",
+__all__ = ["ELEMENT_FRAMES", "POLE_FRAMES", "element_frame_to_j2000", "moon_op_axes_j2000", "orbit_plane_axes_j2000", "moon_op_to_j2000", "rotate_to_moon_fixed", "rotate_with", "latitude_deg",
            "rtn_basis", "to_rtn", "from_rtn", "J2000_JD", "NUTATION_SKIPPED_DPSI_MAS", "NUTATION_SKIPPED_DEPS_MAS",
            "utc_julian_dates", "tt_centuries", "precession_iau1976", "mean_obliquity_iau1980", "nutation_iau1980",
            "nutation_matrix", "teme_to_j2000"]
@@ -96,11 +96,19 @@ def moon_op_axes_j2000(r_earth_km: np.ndarray, v_earth_kms: np.ndarray, pole_j20
     ``r_earth_km``, ``v_earth_kms``: the Earth's position and velocity relative to the Moon (J2000);
     ``pole_j2000``: the lunar pole (any length). Pure geometry, no SPICE.
     """
-    r = np.asarray(r_earth_km, dtype=float)
-    v = np.asarray(v_earth_kms, dtype=float)
+    h = np.cross(np.asarray(r_earth_km, dtype=float), np.asarray(v_earth_kms, dtype=float))
+    return orbit_plane_axes_j2000(h, pole_j2000)
+
+
+def orbit_plane_axes_j2000(normal_j2000, pole_j2000) -> np.ndarray:
+    """Rotation (3, 3) whose columns are ``moon_op``-like axes: z along ``normal_j2000``, x along pole x z.
+
+    Pure geometry (any lengths); :func:`moon_op_axes_j2000` with the Earth's osculating orbit normal, or
+    :mod:`lnss_lib.frozen` with the month-averaged one.
+    """
     pole = np.asarray(pole_j2000, dtype=float)
-    h = np.cross(r, v)
-    z = h / np.linalg.norm(h)
+    normal = np.asarray(normal_j2000, dtype=float)
+    z = normal / np.linalg.norm(normal)
     node = np.cross(pole, z)
     norm = np.linalg.norm(node)
     if not norm > 1e-9 * np.linalg.norm(pole):

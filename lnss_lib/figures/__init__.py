@@ -4,7 +4,7 @@ Builders take datasets and return ``plotly.graph_objects.Figure``; notebooks cal
 :func:`save_figure`, which writes interactive HTML that opens offline and a PNG when kaleido finds a
 Chromium. One module per topic: :mod:`.charts` (generic lines and bars), :mod:`.propagation`,
 :mod:`.dop` (notebook 02), :mod:`.gps` (03), :mod:`.deltav` (04), :mod:`.campaign` (06),
-:mod:`.pareto` (07), :mod:`.design_life` (08), :mod:`.benchmark` (10), and :mod:`.export` (HTML and PNG writing). Figures import only foundations,
+:mod:`.pareto` (07), :mod:`.design_life` and :mod:`.frozen` (08), :mod:`.benchmark` (10), and :mod:`.export` (HTML and PNG writing). Figures import only foundations,
 :mod:`lnss_lib.outputs`, plotly and numpy: they receive datasets, never run studies or campaigns.
 """
 
@@ -18,6 +18,7 @@ from .deltav import (deltav_elements_and_rates, deltav_sampling, deltav_singular
 from .dop import (DOP_MAP_PANELS, POLE_AXES, dop_grid_points, dop_polar_maps, dop_time_series, dop_time_series_by_frame,
                   polar_wedges)
 from .export import NOTEBOOK_RENDERER, PNG_ENV, NotebookRenderer, chromium_path, figure_title, save_figure, use_notebook_renderer
+from .frozen import frozen_family_chart, perilune_envelope
 from .gps import (GPS_SENSITIVITY_GROUPS, cn0_vs_off_boresight, gps_sensitivity_scatter, gps_view_from_lnss,
                   gps_visibility_pdop, gps_visibility_pdop_vs_paper, gps_visible_links, off_boresight_geometry)
 from .pareto import LABELS, dop_against_availability, pareto_3d, variable_relationships
@@ -37,7 +38,7 @@ __all__ = [
     "campaign_convergence", "designs_pdop_deltav", "campaign_throughput",
     "benchmark_scatter", "epoch_sensitivity_lines", "label_positions",
     "life_element_histories", "maneuver_timeline", "monthly_dop", "estimate_vs_closed_loop",
-    "integrator_convergence_chart",
+    "integrator_convergence_chart", "frozen_family_chart", "perilune_envelope",
 ]
 
 use_notebook_renderer()        # in a notebook kernel: figures keep a static copy (nbconvert, code hosts)

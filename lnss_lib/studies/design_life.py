@@ -8,17 +8,19 @@ campaign-grade estimate from the 10-day arc (ratio and Spearman rank correlation
 which designs does the stability screen get wrong, and which regions of the design space can be
 kept at all?
 
-Verdict (the notebook prints it from the numbers; words here from a one-year life, one satellite per
-plane): over weeks the campaign-grade estimate ranks designs by closed-loop cost, over a year only
-weakly: the Lidov-Kozai growth it sees as a 10-day slope dominates the year, and designs that need
-more than Table 3's 1 km/s/yr saturate the closed loop's cap, so the estimate is a screen for cheap
-designs, not a budget (it over-predicts low near-circular orbits many times over and under-predicts
-the near-equatorial low orbit). The stability screen agrees with natural drift on all designs but
-one frozen-family orbit whose mean perilune stays about 100 km up while the real one, swinging with
-the monthly terms the averaging removes, reaches the surface. High, inclined orbits (a >= 12000 km,
-i >= 70 deg) are not sustainable; the frozen family mostly not over a year (its perilunes are driven
-down within months and the cap is reached); the standalone ELFO, the low orbits and the operational
-campaign's low near-polar designs are sustainable inside their box for a few tenths of a km/s a year.
+Verdict (the notebook prints it from the numbers, for the profile's controller and for the elements read in
+the lunar equator and in ``moon_op``; words here from a one-year life, one satellite per plane, under the
+fixed-element ``box`` controller of issue 11, before the ``service`` controller of issue 19): over weeks the
+campaign-grade estimate ranks designs by closed-loop cost, over a year only weakly: the Lidov-Kozai growth it
+sees as a 10-day slope dominates the year, and designs that need more than Table 3's 1 km/s/yr saturate the
+closed loop's cap, so the estimate is a screen for cheap designs, not a budget (it over-predicts low near-
+circular orbits many times over and under-predicts the near-equatorial low orbit). The stability screen agrees
+with natural drift on all designs but one frozen-family orbit whose mean perilune stays about 100 km up while
+the real one, swinging with the monthly terms the averaging removes, reaches the surface. High, inclined
+orbits (a >= 12000 km, i >= 70 deg) are not sustainable; the frozen family mostly not over a year (its
+perilunes are driven down within months and the cap is reached); the standalone ELFO, the low orbits and the
+operational campaign's low near-polar designs are sustainable inside their box for a few tenths of a km/s a
+year.
 """
 
 from __future__ import annotations
@@ -30,7 +32,7 @@ import pandas as pd
 from scipy.stats import spearmanr
 
 from ..constellation import WalkerDesign
-from ..designlife import run_design_life, short_arc_predictors
+from ..designlife import life_metrics, run_design_life, short_arc_predictors
 from ..keys import DESIGN_KEYS
 from ..outputs import display_path
 from ..progress import steps
@@ -103,7 +105,9 @@ def flown_elements(design, max_sats_per_plane: int = 0) -> np.ndarray:
 
 
 def validate_design(profile: dict, design, life_days: float, max_sats_per_plane: int = 0, region: str = "") -> dict:
-    """Closed loop and natural drift over ``life_days`` beside the estimate and the screen, for one design."""
+    """Closed loop and natural drift over ``life_days`` beside the estimate and the screen, for one design: the
+    controller and element frame flown, the Delta-V (mean, max, ``dv_<purpose>_kms_per_year`` split), the lowest
+    perilune controlled and natural, impacts, and the predictors."""
     elements = flown_elements(design, max_sats_per_plane)
     runs = run_design_life(profile, elements, life_days, sample=False)
     pred = short_arc_predictors(profile, profile, elements, life_days)
@@ -111,7 +115,12 @@ def validate_design(profile: dict, design, life_days: float, max_sats_per_plane:
     impact = ctl["impact_day"].values
     nat_impact = nat["impact_day"].values
     row = dict(zip(DESIGN_KEYS, design))
+    metrics = life_metrics(runs)
     row.update(region=region, n_sat_flown=int(elements.shape[0]), life_days=float(life_days),
+               controller=metrics["controller"], element_frame=metrics["element_frame"],
+               min_perilune_alt_km=metrics["min_perilune_alt_km"],
+               natural_min_perilune_alt_km=metrics["natural_min_perilune_alt_km"],
+               **{f"dv_{purpose}_kms_per_year": dv for purpose, dv in metrics["sk_dv_split"].items()},
                sk_dv_kms_per_year=float(ctl["dv_kms_per_year"].mean()),
                sk_dv_max_kms_per_year=float(ctl["dv_kms_per_year"].max()),
                n_maneuvers=int(ctl["n_maneuvers"].sum()), box_held=bool(ctl["box_held"].all()),
@@ -167,7 +176,8 @@ def screen_misses(table: pd.DataFrame) -> pd.DataFrame:
 
 def region_summary(table: pd.DataFrame, dv_bound_kms_per_year: float) -> pd.DataFrame:
     """Per region: designs; ``sustainable`` (no satellite lost under station keeping and every satellite's
-    closed-loop Delta-V within the bound); ``box_held`` (the box held throughout as well); ``natural_survives``."""
+    closed-loop Delta-V within the bound); ``box_held`` (every quantity the controller holds within its tolerance
+    throughout as well); ``natural_survives``."""
     sustainable = (~np.isfinite(table["impact_day"].astype(float))
                    & (table["sk_dv_max_kms_per_year"].astype(float) <= dv_bound_kms_per_year))
     frame = table.assign(sustainable=sustainable, held=sustainable & table["box_held"].astype(bool),
@@ -206,7 +216,8 @@ def verdict(table: pd.DataFrame, stats: dict, regions: pd.DataFrame, dv_bound_km
         word = ("sustainable" if r.sustainable == r.designs else "not sustainable" if r.sustainable == 0
                 else "partly sustainable")
         lines.append(f"- {r.region}: {word} ({r.sustainable} of {r.designs} keep every satellite up within "
-                     f"{dv_bound_kms_per_year:g} km/s/yr per satellite, {r.box_held} of them inside the box throughout; "
+                     f"{dv_bound_kms_per_year:g} km/s/yr per satellite, {r.box_held} of them within the controller's tolerances "
+                     f"throughout; "
                      f"{r.natural_survives} survive with no control; closed-loop median {r.dv_median_kms_per_year:.3g} "
                      f"km/s/yr).")
     return "\n".join(lines)
