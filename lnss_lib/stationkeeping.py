@@ -391,8 +391,9 @@ def simulate_life(profile: dict, elements_deg, *, natural: bool = False, life_da
         rp_min = np.full(n_sat, np.nan)
         for i in np.flatnonzero(active):
             win = to_element_frame(seg_states[i, n_win - window[i]:], rot)
-            mel[i] = mean_elements(win, gm)
-            rp_min[i] = np.min(_perilune_radius_km(win, gm))
+            with np.errstate(invalid="ignore"):     # an unbound window gives NaN elements, judged just below
+                mel[i] = mean_elements(win, gm)
+                rp_min[i] = np.min(_perilune_radius_km(win, gm))
             if not (np.all(np.isfinite(mel[i])) and 0.0 < mel[i, 0] and mel[i, 1] < 1.0 and np.isfinite(rp_min[i])):
                 active[i], loss_t[i], loss_cause[i] = False, t_next, "escape (unbound orbit)"
                 mel[i], rp_min[i] = np.nan, np.nan
