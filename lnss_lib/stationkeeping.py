@@ -41,8 +41,8 @@ perilune/apolune leaves the osculating a unchanged. A set of burns is flown whol
 (:func:`_enqueue`): never with a non-finite impulse, and, safety apart, never when its total exceeds what is
 left of the Delta-v cap (a scaled-down set would hit none of the targets it was solved for). The one-orbit
 MEAN a still moves by a few km when e or AOP change (the orbit-averaged lunar potential seen by the new orbit
-differs: 2 a^2/GM Delta<R>), so after every correction the next check measures the mean a and trims it back with a small tangential
-burn (:data:`A_TRIM_FRACTION`). The control laws are in :mod:`lnss_lib.sk_control`: e, AOP, i and
+differs: 2 a^2/GM Delta<R>), so after every correction the next check measures the mean a and trims it back
+with a small tangential burn (:data:`A_TRIM_FRACTION`). The control laws are in :mod:`lnss_lib.sk_control`: e, AOP, i and
 relative RAAN are judged on their running mean over one tidal period (the one-orbit mean e swings by
 about +-0.015 at half the sidereal month on the ELFO, hence an e box of 0.03) and aimed past the
 reference to the far side of the box; the slot is predicted from the mean-a drift rate
