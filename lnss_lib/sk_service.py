@@ -15,7 +15,11 @@ holds what the service needs and lets every other motion run:
   ``nav_dop_rise_fraction`` (:func:`navigation_violations`); a violation restores e, AOP and i of every
   satellite to the design's values;
 * relative geometry: relative node and slot within ``raan_rel_deg`` and ``u_rel_deg`` (the drift-band and
-  overshoot laws of :mod:`lnss_lib.sk_control`). The relative node is judged on its mean over a sidereal
+  overshoot laws of :mod:`lnss_lib.sk_control`). ``raan_rel_deg`` bounds the angle between the orbit plane and
+  its slot's plane, 2 asin(sin i sin(dRAAN/2)) at equal inclinations, not the RAAN difference itself: the RAAN
+  half-width is :func:`raan_half_width_rad` of the satellite's design inclination (about raan_rel / sin i; no
+  bound at all below i = raan_rel / 2, where no node difference tilts the plane that far), so a near-equatorial
+  orbit's node, which barely moves its plane, is left free. The relative node is judged on its mean over a sidereal
   month (two tidal periods): on high orbits a check spans several days and the one-orbit means swing with
   the month, which a shorter mean chases at up to 1 km/s/yr (and, at apolunes beyond about half the Hill
   radius, into escape). A node correction leaves the argument of latitude free.
@@ -35,7 +39,7 @@ from .elements import TWO_PI
 from .stability import SecularField, integrate_secular
 
 __all__ = ["PURPOSES", "LOCATIONS", "ServiceSettings", "predicted_crossing_day", "safety_ecc", "burn_location",
-           "navigation_violations", "mean_vectors_j2000"]
+           "navigation_violations", "mean_vectors_j2000", "raan_half_width_rad"]
 
 PURPOSES = ("safety", "navigation", "relative_node", "phase", "a_trim")
 """What a burn is paid for (the Delta-V split of :func:`lnss_lib.stationkeeping.simulate_life`)."""
@@ -70,6 +74,14 @@ class ServiceSettings:
         if bad:
             raise ValueError(f"[design_life.service] {bad[0]} = {section[bad[0]]!r} must be a number >= 0")
         return cls(**values)
+
+
+def raan_half_width_rad(plane_tol_rad: float, inc_rad):
+    """RAAN difference (rad) that tilts an orbit of inclination ``inc_rad`` by ``plane_tol_rad`` against a plane of
+    the same inclination: 2 asin(sin(tol / 2) / |sin i|); pi (every node) where |sin i| <= sin(tol / 2)."""
+    with np.errstate(divide="ignore", invalid="ignore"):
+        ratio = np.sin(0.5 * plane_tol_rad) / np.abs(np.sin(np.asarray(inc_rad, dtype=float)))
+        return np.where(ratio < 1.0, 2.0 * np.arcsin(np.minimum(ratio, 1.0)), np.pi)
 
 
 def mean_vectors_j2000(mean_el: np.ndarray, rot_el_to_j2000: np.ndarray) -> tuple[np.ndarray, np.ndarray]:

@@ -8,7 +8,10 @@ Every satellite of a constellation is propagated by the compiled engine
   above the floor as predicted by the averaged model (safety burns, flown even beyond the Delta-v cap),
   the navigation of each window of sampled positions against the first window's (a violation restores
   e, AOP and i of the satellites outside ``[design_life.box]``), and the relative node and slot within
-  ``[design_life.service]``; e, AOP and i are otherwise left to their natural motion;
+  ``[design_life.service]`` (the node as the tilt of the plane: a RAAN half-width of
+  :func:`lnss_lib.sk_service.raan_half_width_rad` of each satellite's design inclination, about
+  ``raan_rel_deg`` / sin i, unbounded below i = ``raan_rel_deg`` / 2); e, AOP and i are otherwise left to their
+  natural motion;
 - ``"box"`` holds the fixed-element box described below.
 
 A satellite that impacts, escapes (unbound osculating or mean orbit) or whose propagation fails is
@@ -34,10 +37,12 @@ phasing is judged against the design's mean motion, a fixed reference that does 
 A satellite out of its box (whose last correction is at least ``min_maneuver_spacing_days`` old and whose
 Delta-v cap is not spent) gets one or two impulses on the next orbit, planned from the GVEs and
 Newton-refined in two-body motion (:func:`lnss_lib.maneuvers.plan_impulses`), so an e-vector pair at
-perilune/apolune leaves the osculating a unchanged. The one-orbit MEAN a still moves by a few km when e
-or AOP change (the orbit-averaged lunar potential seen by the new orbit differs: 2 a^2/GM Delta<R>), so
-after every correction the next check measures the mean a and trims it back with a small tangential
-burn (:data:`A_TRIM_FRACTION`). The control laws are in :mod:`lnss_lib.sk_control`: e, AOP, i and
+perilune/apolune leaves the osculating a unchanged. A set of burns is flown whole or not at all
+(:func:`_enqueue`): never with a non-finite impulse, and, safety apart, never when its total exceeds what is
+left of the Delta-v cap (a scaled-down set would hit none of the targets it was solved for). The one-orbit
+MEAN a still moves by a few km when e or AOP change (the orbit-averaged lunar potential seen by the new orbit
+differs: 2 a^2/GM Delta<R>), so after every correction the next check measures the mean a and trims it back
+with a small tangential burn (:data:`A_TRIM_FRACTION`). The control laws are in :mod:`lnss_lib.sk_control`: e, AOP, i and
 relative RAAN are judged on their running mean over one tidal period (the one-orbit mean e swings by
 about +-0.015 at half the sidereal month on the ELFO, hence an e box of 0.03) and aimed past the
 reference to the far side of the box; the slot is predicted from the mean-a drift rate
@@ -71,7 +76,7 @@ from .propagator import (METHODS, STATUS_IMPACT, STATUS_NOT_RUN, STATUS_OK, STAT
 from .dop import dop_for_profile, grid_from_profile, summary_from_profile
 from .frames import element_frame_to_j2000, rotate_to_moon_fixed
 from .sk_service import (LOCATIONS, PURPOSES, ServiceSettings, burn_location, mean_vectors_j2000, navigation_violations,
-                         predicted_crossing_day, safety_ecc)
+                         predicted_crossing_day, raan_half_width_rad, safety_ecc)
 from .stability import SecularField
 
 
@@ -332,6 +337,9 @@ def simulate_life(profile: dict, elements_deg, *, natural: bool = False, life_da
     svc = cfg.service
     if service:
         half = np.array([np.inf, np.inf, np.inf, np.radians(svc.raan_rel_deg), np.radians(svc.u_rel_deg)])
+    half = np.tile(half, (n_sat, 1))                    # per satellite: the service's node half-width depends on i
+    if service:
+        half[:, 3] = raan_half_width_rad(np.radians(svc.raan_rel_deg), ref_inc)
     cap_kms = cfg.dv_cap_kms_per_year * cfg.life_days / DAYS_PER_JULIAN_YEAR
     r_moon = float(profile["constants"]["r_moon_mean_km"])
     field = (SecularField.from_profile(profile, t0, cfg.life_days + 1.0)
@@ -350,7 +358,7 @@ def simulate_life(profile: dict, elements_deg, *, natural: bool = False, life_da
     last_safety = -np.inf
     a_hold = np.full(n_sat, np.nan)
     n_sets = np.zeros(n_sat, dtype=int)
-    a_tol = A_TRIM_FRACTION * half[4] / (1.5 * np.sqrt(gm / ref_a ** 3) / ref_a * cfg.slot_coast_days * SECONDS_PER_DAY)
+    a_tol = A_TRIM_FRACTION * half[:, 4] / (1.5 * np.sqrt(gm / ref_a ** 3) / ref_a * cfg.slot_coast_days * SECONDS_PER_DAY)
     dv_used = np.zeros(n_sat)
     slot = [SlotState() for _ in range(n_sat)]
     geo_hist = [[] for _ in range(n_sat)]
@@ -434,54 +442,54 @@ def simulate_life(profile: dict, elements_deg, *, natural: bool = False, life_da
                 continue
             if np.isfinite(d_ecc[i]):                 # safety first, and beyond the Delta-v cap
                 target = {"a_km": 0.0, "ex": d_ecc[i] * np.cos(mel[i, 4]), "ey": d_ecc[i] * np.sin(mel[i, 4])}
-                _enqueue(queue[i], t, osc, gm, "safety", plan_impulses(osc, gm, target, max_burns=2))
-                shift = d_ecc[i] * ev[i] / max(mel[i, 1], 1e-12)
-                safe_hist[i] = [(tk, ek + shift, jk, sk) for tk, ek, jk, sk in safe_hist[i]]
-                a_hold[i], n_sets[i], last_burn[i] = mel[i, 0], n_sets[i] + 1, t
-                slot[i].history = []
+                if _enqueue(queue[i], t, osc, gm, [("safety", plan_impulses(osc, gm, target, max_burns=2))]):
+                    shift = d_ecc[i] * ev[i] / max(mel[i, 1], 1e-12)
+                    safe_hist[i] = [(tk, ek + shift, jk, sk) for tk, ek, jk, sk in safe_hist[i]]
+                    a_hold[i], n_sets[i], last_burn[i] = mel[i, 0], n_sets[i] + 1, t
+                    slot[i].history = []
                 continue
             if dv_used[i] >= cap_kms:
                 continue
             if np.isfinite(a_hold[i]):
                 d_a, a_hold[i] = a_hold[i] - mel[i, 0], np.nan
                 if abs(d_a) > a_tol[i]:
-                    _enqueue(queue[i], t, osc, gm, "a_trim",
-                             plan_impulses(osc, gm, {"a_km": d_a, "ex": 0.0, "ey": 0.0, "inc_rad": 0.0, "raan_rad": 0.0}))
-                    slot[i].history = []
+                    plan = plan_impulses(osc, gm, {"a_km": d_a, "ex": 0.0, "ey": 0.0, "inc_rad": 0.0, "raan_rad": 0.0})
+                    if _enqueue(queue[i], t, osc, gm, [("a_trim", plan)], _budget_kms(cap_kms, dv_used[i], queue[i])):
+                        slot[i].history = []
                     continue
             if restore[i]:
                 ecc, aop = mel[i, 1], mel[i, 4]
                 target = {"a_km": 0.0, "ex": ref_ecc[i] * np.cos(ref_aop[i]) - ecc * np.cos(aop),
                           "ey": ref_ecc[i] * np.sin(ref_aop[i]) - ecc * np.sin(aop), "inc_rad": -err[i, 2]}
-                _enqueue(queue[i], t, osc, gm, "navigation", plan_impulses(osc, gm, target, max_burns=2))
-                geo_hist[i] = [(tk, gk - np.append(err[i, :3], 0.0)) for tk, gk in geo_hist[i]]
-                a_hold[i], n_sets[i], last_burn[i] = mel[i, 0], n_sets[i] + 1, t
+                if _enqueue(queue[i], t, osc, gm, [("navigation", plan_impulses(osc, gm, target, max_burns=2))],
+                            _budget_kms(cap_kms, dv_used[i], queue[i])):
+                    geo_hist[i] = [(tk, gk - np.append(err[i, :3], 0.0)) for tk, gk in geo_hist[i]]
+                    a_hold[i], n_sets[i], last_burn[i] = mel[i, 0], n_sets[i] + 1, t
             if t - last_burn[i] < cfg.min_maneuver_spacing_days * SECONDS_PER_DAY:
                 continue
             tt, gg = zip(*geo_hist[i])
             err_avg = np.append(running_mean(np.array(tt), np.array(gg), avg_days), u_rel[i])
-            out = np.abs(err_avg) > half
+            out = np.abs(err_avg) > half[i]
             out[:4] &= tt[-1] - tt[0] >= 0.5 * avg_days * SECONDS_PER_DAY
             out[4] = False
             trend = slot[i].fit(cfg.slot_fit_days, cfg.slot_quad_days, cfg.tide_period_days)
             rate_a = -1.5 * np.sqrt(gm / ref_a[i] ** 3) * (mel[i, 0] - ref_a[i]) / ref_a[i]
             fit = (u_rel[i] if trend is None else trend[0], rate_a, 0.0, 0.0) if len(slot[i].history) >= 2 else None
             if fit is not None:
-                out[4] = predicted_exit(*fit[:3], half[4], chunk_s + float(periods[i]))
+                out[4] = predicted_exit(*fit[:3], half[i, 4], chunk_s + float(periods[i]))
             if not out.any():
                 continue
             groups = [out] if not service else [np.arange(5) == k for k in (3, 4) if out[k]]
-            d_a = 0.0
-            for part in groups:
-                plan, d_a_part = _plan(osc, mel[i], ref_a[i], err_avg, part, fit, half, cfg, gm, hold_u=not service)
-                d_a += d_a_part
-                if plan is not None:
-                    _enqueue(queue[i], t, osc, gm, _purpose(part), plan)
-            a_hold[i] = mel[i, 0] + d_a
+            plans = [(part, *_plan(osc, mel[i], ref_a[i], err_avg, part, fit, half[i], cfg, gm, hold_u=not service))
+                     for part in groups]
+            if not _enqueue(queue[i], t, osc, gm, [(_purpose(part), plan) for part, plan, _ in plans if plan is not None],
+                            _budget_kms(cap_kms, dv_used[i], queue[i])):
+                continue
+            a_hold[i] = mel[i, 0] + sum(d_a_part for _, _, d_a_part in plans)
             n_sets[i] += 1
             last_burn[i] = t
             if out[:4].any():
-                shift = np.where(out[:4], -err_avg[:4] - np.sign(err_avg[:4]) * cfg.target_fraction * half[:4], 0.0)
+                shift = np.where(out[:4], -err_avg[:4] - np.sign(err_avg[:4]) * cfg.target_fraction * half[i, :4], 0.0)
                 geo_hist[i] = [(tk, gk + shift) for tk, gk in geo_hist[i]]
             if out[4] and slot[i].history[-1][0] - slot[i].history[0][0] >= cfg.slot_quad_days * SECONDS_PER_DAY:
                 slot[i].accel = fit[2]
@@ -568,16 +576,27 @@ class _NavigationMonitor:
         self.n_violations += int(self.violated)
 
 
-def _enqueue(queue: list, t: float, osc: np.ndarray, gm: float, purpose: str, plan) -> None:
-    """Append the burns of ``plan`` (planned at ``t`` on osculating elements ``osc``) as (epoch, dv_rtn, purpose,
-    location) records."""
+def _enqueue(queue: list, t: float, osc: np.ndarray, gm: float, sets: list, budget_kms: float = np.inf) -> bool:
+    """Append the burns of ``sets`` ((purpose, plan) pairs planned at ``t`` on osculating elements ``osc``) as
+    (epoch, dv_rtn, purpose, location) records, all of them or none: none when an impulse is not finite or their
+    total Delta-v exceeds ``budget_kms``. Returns whether they were queued."""
+    total = sum(plan.dv_total_kms for _, plan in sets)
+    if not (np.isfinite(total) and total <= budget_kms):
+        return False
     e, aop = float(osc[1]), float(osc[4])
     nus = candidate_true_anomalies(e, aop)
     n = np.sqrt(gm / osc[0] ** 3)
     dts = np.mod(mean_anomaly(nus, e) - np.mod(osc[5], 2.0 * np.pi), 2.0 * np.pi) / n
-    for dt, dv in zip(plan.dt_s, plan.dv_rtn_kms):
-        nu = nus[int(np.argmin(np.abs(dts - dt)))]
-        queue.append((t + float(dt), np.array(dv, dtype=float), purpose, burn_location(nu, aop)))
+    for purpose, plan in sets:
+        for dt, dv in zip(plan.dt_s, plan.dv_rtn_kms):
+            nu = nus[int(np.argmin(np.abs(dts - dt)))]
+            queue.append((t + float(dt), np.array(dv, dtype=float), purpose, burn_location(nu, aop)))
+    return True
+
+
+def _budget_kms(cap_kms: float, used_kms: float, queued: list) -> float:
+    """Delta-v (km/s) left under the cap after ``used_kms`` flown and the burns already ``queued``."""
+    return cap_kms - used_kms - sum(float(np.linalg.norm(dv)) for _, dv, _, _ in queued)
 
 
 def _flight_plan(queue: list) -> tuple[np.ndarray, np.ndarray]:
@@ -691,7 +710,7 @@ def _life_dataset(profile, cfg, integ, model, natural, el, t0, life_s, hist_t, h
     smooth = err.copy()
     for i in range(n_sat):
         smooth[i, :, :4] = tidal_mean(hist_t[:, i], err[i, :, :4], cfg.tide_period_days)
-    max_ratio, max_ratio_orbit = (_max_ratio(np.abs(x) / half) for x in (smooth, err))
+    max_ratio, max_ratio_orbit = (_max_ratio(np.abs(x) / half[:, None, :]) for x in (smooth, err))
     dv_per_year = dv_total / (span_s / (DAYS_PER_JULIAN_YEAR * SECONDS_PER_DAY))   # a lost satellite: over its flown span
     held = (~lost) & np.all(max_ratio <= 1.0 + cfg.box_tolerance, axis=1) & (dv_total <= cap_kms * (1 + 1e-9))
     mel = hist_el.transpose(1, 0, 2).copy()
