@@ -15,28 +15,26 @@ campaign folder), elements read in the lunar equator / in ``moon_op`` (``frames.
 ``service`` controller of issue 19 (in brackets the fixed-element ``box`` of issue 11, ``design_life.controller =
 "box"``); Delta-V in km/s per satellite and year, "sustainable" = no satellite lost and each within 1 km/s/yr:
 
-- standalone ELFO: sustainable; 0.22 (all relative node, 10 burns) / nothing (box 0.42 / 0.031); lowest
-  perilune 387 / 710 km.
-- frozen family: 4 of 4 sustainable in both frames (box 1 / 4), 1 / 3 within the relative node and slot
-  tolerances throughout; median 0.25 / 0.13, at most 0.66 / 0.63 (box median 0.75 / 0.56); 156 / 86 burns (box
-  611 / 427); lowest perilune 198 / 181 km. Natural drift loses all four in the lunar equator, two in
-  ``moon_op``; the two that librate there (a 8000 and 9000 km) cost 0 and 0.03. The rest pays for the
-  perilune (safety) and the relative node.
-- high a, high i: not sustainable, 0 / 1 of 4 (box 0 / 0); three / two lose a satellite by day 50-92 despite
-  safety burns; a 12000 km i 85 keeps its perilune (52 / 235 km) for 1.1-1.3; a 15000 km i 70 is kept in
-  ``moon_op`` for 0.52.
-- low near-circular: sustainable, 3 of 3 (box 2 / 3): nothing but the i 1 deg design's relative node, 0.17 /
-  0.11 (box at the cap / 0.68); lowest perilune above 2100 km.
-- other (mid a, low i): sustainable, 3 of 3 (box 1 / 3); median 0.22 / 0, at most 0.76 / 0.15 (box median
-  0.92 / 0.86), almost all relative node.
-- in all: 11 / 12 of 15 sustainable (box 5 / 11) with 1180 / 852 burns (box 2488 / 2282); no navigation burn.
-- the campaign-grade estimate / closed loop ratio runs 0.65-13.5 / 1.07-45 (median 3.4 / 3.2; box 0.11-5.4 /
-  0.15-30); Spearman rho 0.38 (p 0.28, 10 designs) / 0.50 (p 0.25, 7) over the designs with a ratio (box 0.35 /
-  0.50), 0.74 / 0.52 over all 15 (box 0.74 / 0.80). The estimate prices holding fixed elements, which the
-  service controller does not fly: it singles out the high, inclined orbits (estimated at about 2 km/s/yr or
-  more, the only ones), and below that neither ranks nor budgets.
+- standalone ELFO: sustainable; median 0.22 (all relative node) / nothing (box 0.42 / 0.031).
+- frozen family: 4 of 4 sustainable in both frames (box 1 / 4), 2 / 3 within the relative node and slot
+  tolerances throughout; median 0.32 / 0.13, at most 0.72 / 0.61 (box median 0.75 / 0.56). Natural drift
+  loses all four in the lunar equator, two in ``moon_op``. The cost is the perilune (safety) and the
+  relative node.
+- high a, high i: not sustainable, 0 / 1 of 4 (box 0 / 0); median 0.84 / 0.65, at most 1.41 / 1.10:
+  Lidov-Kozai drives the perilunes into the Moon within three months and the safety burns either fail to
+  save them or exceed the cap.
+- low near-circular: sustainable, 3 of 3 (box 2 / 3), at most 0.003 (phase only: the relative node of the
+  i 1 deg design is held as the tilt of its plane, which a node difference barely moves).
+- other (mid a, low i): sustainable, 3 of 3 (box 1 / 3); median 0.16 / 0, at most 0.94 / 0.16.
+- in all: 11 / 12 of 15 sustainable (box 5 / 11); no design paid for navigation.
+- the campaign-grade estimate / closed loop ratio runs 1.17-37 / 1.84-48 (median 4.2 / 5.9); Spearman rho
+  0.37 (p 0.29, 10 designs) / 0.61 (p 0.15, 7) over the designs with a ratio. The estimate prices holding
+  fixed elements, which the service controller does not fly: it neither ranks nor budgets (issue 20).
 - the stability screen agrees with natural drift on 14 / 15 of 15: in the lunar equator it misses the a 9000 km
   e 0.6 i 56.2 design, whose mean perilune stays 112 km up while the real one reaches the surface on day 102.
+
+Box figures in brackets were measured before the Delta-V cap was enforced per burn set (issue 19 fixes);
+service figures after it and after the relative node became the tilt of the plane (``raan_rel_deg`` 4.7).
 """
 
 from __future__ import annotations
