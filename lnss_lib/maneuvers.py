@@ -149,13 +149,15 @@ class ImpulsePlan:
 def kepler_achieved(elements: np.ndarray, gm_km3_s2: float, dt_s, dv_rtn_kms, horizon_s: float) -> np.ndarray:
     """Change (6,) of the control set (:data:`CONTROL_ROWS`, angles wrapped) at ``horizon_s`` after the epoch
     of ``elements`` when the impulses ``dv_rtn_kms`` (k, 3) are flown at ``dt_s`` (k,) in two-body motion,
-    against the same coast without them."""
+    against the same coast without them. Impulses that open the orbit (e >= 1) give NaN, without a warning:
+    a plan with a non-finite impulse is never flown (``stationkeeping._enqueue``)."""
     el = np.asarray(elements, dtype=float)
     state, t = elements_to_state(el, gm_km3_s2), 0.0
-    for dt, dv in zip(dt_s, dv_rtn_kms):
-        state = apply_impulse(kepler_states(state_to_elements(state, gm_km3_s2), [dt - t], gm_km3_s2)[0, 0], dv)
-        t = float(dt)
-    final = kepler_states(state_to_elements(state, gm_km3_s2), [horizon_s - t], gm_km3_s2)[0, 0]
+    with np.errstate(invalid="ignore"):
+        for dt, dv in zip(dt_s, dv_rtn_kms):
+            state = apply_impulse(kepler_states(state_to_elements(state, gm_km3_s2), [dt - t], gm_km3_s2)[0, 0], dv)
+            t = float(dt)
+        final = kepler_states(state_to_elements(state, gm_km3_s2), [horizon_s - t], gm_km3_s2)[0, 0]
     nominal = kepler_states(el, [horizon_s], gm_km3_s2)[0, 0]
     diff = control_elements(state_to_elements(final, gm_km3_s2)) - control_elements(state_to_elements(nominal, gm_km3_s2))
     diff[3:] = np.mod(diff[3:] + np.pi, TWO_PI) - np.pi
