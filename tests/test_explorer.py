@@ -7,6 +7,7 @@ import json
 import math
 import os
 import shutil
+import signal
 import socket
 import subprocess
 import sys
@@ -279,12 +280,15 @@ async def _browse(url: str, chromium: str, screenshot: Path, timeout_s: float = 
     import websockets
 
     port = _free_port()
-    with tempfile.TemporaryDirectory() as profile_dir:
+    # Chromium's helper processes may still write to the profile while it closes: the group is killed and
+    # waited for, and a late write into the throw-away profile is no test failure
+    with tempfile.TemporaryDirectory(ignore_cleanup_errors=True) as profile_dir:
         browser = subprocess.Popen(
             [chromium, "--headless", "--no-sandbox", "--disable-gpu", "--disable-background-networking",
              "--no-first-run", "--disable-component-update", "--disable-sync", f"--user-data-dir={profile_dir}",
              f"--remote-debugging-port={port}", "--remote-debugging-address=127.0.0.1", "--remote-allow-origins=*",
-             "--window-size=1400,4200", "about:blank"], stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+             "--window-size=1400,4200", "about:blank"], stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL,
+            start_new_session=True)
         try:
             _wait_for_port(port, browser, 60)
             targets = json.load(urllib.request.urlopen(f"http://127.0.0.1:{port}/json", timeout=10))
@@ -329,11 +333,14 @@ async def _browse(url: str, chromium: str, screenshot: Path, timeout_s: float = 
                 screenshot.write_bytes(base64.b64decode(shot["data"]))
                 return before, await value("document.documentElement.outerHTML")
         finally:
-            browser.terminate()
+            try:
+                os.killpg(browser.pid, signal.SIGTERM)
+            except ProcessLookupError:
+                pass
             try:
                 browser.wait(timeout=20)
             except subprocess.TimeoutExpired:
-                browser.kill()
+                os.killpg(browser.pid, signal.SIGKILL)
 
 
 @pytest.mark.skipif(_chromium() is None or importlib.util.find_spec("voila") is None, reason="needs voila and Chromium")
