@@ -35,11 +35,14 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from .constants import SECONDS_PER_DAY
+from .dop import dop_for_profile, grid_from_profile, summary_from_profile
 from .elements import TWO_PI
+from .frames import rotate_to_moon_fixed
 from .stability import SecularField, integrate_secular
 
 __all__ = ["PURPOSES", "LOCATIONS", "ServiceSettings", "predicted_crossing_day", "safety_ecc", "burn_location",
-           "navigation_violations", "mean_vectors_j2000", "raan_half_width_rad"]
+           "navigation_violations", "mean_vectors_j2000", "raan_half_width_rad", "safety_targets", "NavigationMonitor"]
 
 PURPOSES = ("safety", "navigation", "relative_node", "phase", "a_trim")
 """What a burn is paid for (the Delta-V split of :func:`lnss_lib.stationkeeping.simulate_life`)."""
@@ -162,3 +165,63 @@ def navigation_violations(summary: dict, baseline: dict, cfg: ServiceSettings) -
         if np.isfinite(ref) and not now <= ref * (1.0 + cfg.nav_dop_rise_fraction):
             bad.append(key)
     return bad
+
+
+def safety_targets(field, safe_hist, mel, active, t_days, life_days, floor_base_km, svc, tide_period_days):
+    """Change of mean e (n_sat,) of each satellite whose perilune the averaged model predicts below the floor
+    within ``safety_lead_days`` (NaN for the others).
+
+    Each prediction starts from the e and j vectors averaged over the last tidal period (the monthly swing of
+    the one-orbit means averaged out); the floor is ``floor_base_km`` plus the largest amount by which the
+    osculating perilune dipped below that averaged perilune over the last two tidal periods."""
+    d_ecc = np.full(mel.shape[0], np.nan)
+    idx = [i for i in np.flatnonzero(active) if safe_hist[i]]
+    if not idx:
+        return d_ecc
+    e_avg, j_avg, floor = [], [], []
+    for i in idx:
+        t_k = np.array([h[0] for h in safe_hist[i]])
+        recent = t_k >= t_k[-1] - tide_period_days * SECONDS_PER_DAY
+        e_avg.append(np.mean([h[1] for h, keep in zip(safe_hist[i], recent) if keep], axis=0))
+        j_avg.append(np.mean([h[2] for h, keep in zip(safe_hist[i], recent) if keep], axis=0))
+        rp_avg = mel[i, 0] * (1.0 - np.linalg.norm(e_avg[-1]))
+        floor.append(floor_base_km + max(0.0, max(rp_avg - h[3] for h in safe_hist[i])))
+    e_avg, j_avg, floor, a = np.array(e_avg), np.array(j_avg), np.array(floor), mel[idx, 0]
+    j_avg *= (np.sqrt(1.0 - np.sum(e_avg ** 2, axis=1)) / np.linalg.norm(j_avg, axis=1))[:, None]
+    remaining = life_days - t_days
+    day = predicted_crossing_day(field, t_days, a, e_avg, j_avg, floor, remaining)
+    day = np.where(a * (1.0 - np.linalg.norm(e_avg, axis=1)) <= floor, 0.0, day)
+    for q in np.flatnonzero(day <= svc.safety_lead_days):
+        e_now = float(np.linalg.norm(e_avg[q]))
+        d_ecc[idx[q]] = safety_ecc(field, t_days, a[q], e_avg[q], j_avg[q], floor[q], remaining) - e_now
+    return d_ecc
+
+
+class NavigationMonitor:
+    """South-pole DOP of the sampled positions over windows of ``nav_window_days``: the first window sets the
+    requirement (:func:`navigation_violations`); ``violated`` after each closed window."""
+
+    def __init__(self, profile: dict, sample_t: np.ndarray, svc: ServiceSettings):
+        self.profile, self.sample_t, self.svc = profile, sample_t, svc
+        self.grid = grid_from_profile(profile)
+        self.start = sample_t[0]
+        self.baseline = None
+        self.violated = False
+        self.n_violations = 0
+
+    def update(self, t: float, r_sample: np.ndarray) -> None:
+        self.violated = False
+        if t - self.start < self.svc.nav_window_days * SECONDS_PER_DAY:
+            return
+        idx = np.flatnonzero((self.sample_t > self.start) & (self.sample_t <= t))
+        self.start = t
+        if idx.size == 0:
+            return
+        tt = self.sample_t[idx]
+        r_mf = rotate_to_moon_fixed(self.profile, r_sample[:, idx], tt)
+        summary = summary_from_profile(self.profile, dop_for_profile(self.profile, r_mf, tt, grid=self.grid))
+        if self.baseline is None:
+            self.baseline = summary
+            return
+        self.violated = bool(navigation_violations(summary, self.baseline, self.svc))
+        self.n_violations += int(self.violated)

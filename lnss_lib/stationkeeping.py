@@ -58,26 +58,25 @@ from __future__ import annotations
 import time
 from dataclasses import dataclass
 
-import numba as nb
 import numpy as np
 import xarray as xr
 
 from .config import CONTROLLERS, integrator_setting
 from .constants import DAYS_PER_JULIAN_YEAR, SECONDS_PER_DAY
 from .elements import orbital_period_s, state_to_elements
-from .ephemeris import EphemerisTable, ensure_kernels, tdb_seconds
-from .forces import SCRATCH_SIZE, ForceModel
+from .ephemeris import ensure_kernels, tdb_seconds
+from .forces import ForceModel
 from .maneuvers import candidate_true_anomalies, mean_anomaly, plan_impulses
 from .mean_elements import mean_elements, relative_angles, to_element_frame, wrap_pi
 from .sk_control import SlotState, drift_band_rate, overshoot_target, predicted_exit, running_mean, tidal_mean
 from .progress import steps
 from .propagator import (METHODS, STATUS_IMPACT, STATUS_NOT_RUN, STATUS_OK, STATUS_TEXT, check_batch,
-                         elements_deg_to_states, integrate_one)
-from .dop import dop_for_profile, grid_from_profile, summary_from_profile
-from .frames import element_frame_to_j2000, rotate_to_moon_fixed
-from .sk_service import (LOCATIONS, PURPOSES, ServiceSettings, burn_location, mean_vectors_j2000, navigation_violations,
-                         predicted_crossing_day, raan_half_width_rad, safety_ecc)
+                         elements_deg_to_states)
+from .frames import element_frame_to_j2000
+from .sk_service import (LOCATIONS, PURPOSES, NavigationMonitor, ServiceSettings, burn_location, mean_vectors_j2000,
+                         raan_half_width_rad, safety_targets)
 from .stability import SecularField
+from .life_propagation import integrate_chunk, life_force_model, trim_to_mean
 
 
 BOX_KEYS = ("ecc", "aop_deg", "inc_deg", "raan_rel_deg", "u_rel_deg")
@@ -139,144 +138,6 @@ class LifeSettings:
         if not isinstance(cfg["initial_trim"], bool):
             raise ValueError(f"[design_life] initial_trim = {cfg['initial_trim']!r} must be true or false")
         return cls(**{**cfg, "samples_per_orbit": int(cfg["samples_per_orbit"])}, box=box, service=service)
-
-
-@nb.njit(cache=True, parallel=True)
-def integrate_chunk(y0s, active, t0, t_out, burn_t, burn_dv_rtn, method, rtol, atol, r_min_km, max_steps,
-                    args, degree):
-    """Integrate each active satellite from (t0, y0) to t_out[-1], flying its burns on the way.
-
-    ``burn_t`` (n_sat, k) burn epochs in (t0, t_out[-1]] (NaN = none, sorted), ``burn_dv_rtn``
-    (n_sat, k, 3) impulses in the RTN axes of the state at the burn. Returns (states at t_out
-    (n_sat, n_out, 6), end states (n_sat, 6), status, stop epoch); states after an impact are NaN.
-    Outputs start as NaN and the status as "not run" (inactive satellites keep it): check them with
-    :func:`lnss_lib.propagator.check_batch`.
-    """
-    n_sat = y0s.shape[0]
-    n_out = t_out.shape[0]
-    t_end = t_out[n_out - 1]
-    states = np.full((n_sat, n_out, 6), np.nan)
-    y_end = np.full((n_sat, 6), np.nan)
-    status = np.full(n_sat, STATUS_NOT_RUN, dtype=np.int64)
-    t_stop = np.full(n_sat, np.nan)
-    for i in nb.prange(n_sat):
-        if not active[i]:
-            continue
-        work = (np.zeros(SCRATCH_SIZE), np.zeros((2, degree + 2, degree + 2)))
-        y = y0s[i].copy()
-        t = t0
-        k = 0
-        while True:
-            is_burn = k < burn_t.shape[1] and not np.isnan(burn_t[i, k])
-            t_seg = burn_t[i, k] if is_burn else t_end
-            count = 0
-            for j in range(n_out):
-                if t_out[j] > t and t_out[j] <= t_seg:
-                    count += 1
-            seg = np.empty(count + 1)
-            idx = np.empty(count, dtype=np.int64)
-            c = 0
-            for j in range(n_out):
-                if t_out[j] > t and t_out[j] <= t_seg:
-                    seg[c] = t_out[j]
-                    idx[c] = j
-                    c += 1
-            seg[count] = t_seg
-            if count > 0 and seg[count - 1] == t_seg:
-                seg = seg[:count]
-            out, st, ts, _ = integrate_one(y, t, seg, method, rtol, atol, r_min_km, max_steps, args, work)
-            for c in range(count):
-                states[i, idx[c]] = out[c]
-            if st != 0:
-                status[i] = st
-                t_stop[i] = ts
-                break
-            y = out[out.shape[0] - 1].copy()
-            t = t_seg
-            if not is_burn:
-                break
-            r = y[:3]
-            v = y[3:]
-            rn = np.sqrt(r[0] ** 2 + r[1] ** 2 + r[2] ** 2)
-            hx, hy, hz = r[1] * v[2] - r[2] * v[1], r[2] * v[0] - r[0] * v[2], r[0] * v[1] - r[1] * v[0]
-            hn = np.sqrt(hx * hx + hy * hy + hz * hz)
-            rh = r / rn
-            nh = np.array([hx, hy, hz]) / hn
-            th = np.array([nh[1] * rh[2] - nh[2] * rh[1], nh[2] * rh[0] - nh[0] * rh[2], nh[0] * rh[1] - nh[1] * rh[0]])
-            dv = burn_dv_rtn[i, k]
-            for q in range(3):
-                y[3 + q] += dv[0] * rh[q] + dv[1] * th[q] + dv[2] * nh[q]
-            k += 1
-        y_end[i] = y
-        if status[i] == STATUS_NOT_RUN:
-            status[i] = STATUS_OK
-    return states, y_end, status, t_stop
-
-
-def life_force_model(profile: dict, t0_tdb_s: float, life_days: float, degree: int | None = None) -> ForceModel:
-    """One force model whose ephemeris table spans the whole life (plus one day of margin)."""
-    ensure_kernels(profile)
-    table = EphemerisTable.build(profile, t0_tdb_s, t0_tdb_s + (life_days + 1.0) * SECONDS_PER_DAY)
-    return ForceModel.from_profile(profile, table, degree=degree)
-
-
-TRIM_ELEMENTS = (0, 1, 2, 3, 4)
-"""Columns of ``[a, e, i, raan, aop]`` trimmed so that their one-orbit means equal the design's."""
-
-
-def trim_to_mean(profile: dict, elements_deg, t0_tdb_s: float, model: ForceModel, integ: dict, *,
-                 samples_per_orbit: int = 64, iterations: int = 4) -> tuple[np.ndarray, np.ndarray]:
-    """Osculating insertion elements (n_sat, 6) (deg) whose mean elements over the first orbit equal ``elements_deg``.
-
-    The design's elements are read as MEAN elements (an operator deploys satellites with matched mean
-    periods, else a common osculating a at different mean anomalies leaves their mean a several km
-    apart and the slots drift apart by ~1 deg/day). Fixed-point iteration: propagate one orbit with the full
-    force model, compare the one-orbit mean a, e, i, RAAN and AOP with the design and shift the osculating
-    values by the difference; the mean argument of latitude (at the window centre, less the design's mean
-    motion over half a window) is trimmed through M. Insertion is not a manoeuvre: no Delta-v is counted.
-    A satellite whose first orbit cannot be propagated keeps its last elements (residual NaN; the life
-    propagation then reports it lost), and one whose next trim step would leave 0 <= e < 1 keeps its last step.
-    Returns (trimmed elements, final mean-minus-design residual (n_sat, 6): km, -, deg x 4).
-    """
-    design = np.atleast_2d(np.asarray(elements_deg, dtype=float))
-    gm = float(profile["gravity"]["gm_km3_s2"])
-    rot = element_frame_to_j2000(profile, t0_tdb_s)
-    r_min = profile["constants"]["r_moon_mean_km"] + profile["impact"]["min_altitude_km"]
-    period = orbital_period_s(design[:, 0], gm)
-    n_win = int(samples_per_orbit)
-    osc = design.copy()
-    resid = np.zeros_like(design)
-    n_sat = design.shape[0]
-    done = np.zeros(n_sat, dtype=bool)
-    for _ in range(int(iterations) + 1):
-        states = elements_deg_to_states(profile, osc, t0_tdb_s)
-        mean = np.full((n_sat, 6), np.nan)
-        for i in range(n_sat):
-            t_win = t0_tdb_s + period[i] * np.linspace(0.0, 1.0, n_win + 1)
-            out, _, status, _ = integrate_chunk(
-                states[i:i + 1], np.ones(1, dtype=bool), t0_tdb_s, t_win, np.full((1, 1), np.nan), np.zeros((1, 1, 3)),
-                METHODS.index(integ["method"]), float(integ["rtol"]), float(integ["atol"]), r_min, 5_000_000,
-                model.kernel_args, model.field.degree)
-            if status[0] != STATUS_OK:
-                if status[0] == STATUS_NOT_RUN:                 # the compiled loop lost an error: never a loss
-                    check_batch(status, np.full(1, np.nan), out, t_win, t0_tdb_s)
-                done[i] = True
-                continue
-            check_batch(status, np.full(1, np.nan), out, t_win, t0_tdb_s)     # "ok" means every sample was written
-            out[0, 0] = states[i]                  # the kernel fills epochs after t0 only
-            mean[i] = mean_elements(to_element_frame(out[0], rot), gm)
-        u_design = np.radians(design[:, 4] + design[:, 5]) + np.pi          # one orbit: u advances 2 pi, centre at pi
-        resid = np.column_stack([mean[:, 0] - design[:, 0], mean[:, 1] - design[:, 1],
-                                 np.degrees(wrap_pi(mean[:, 2:5] - np.radians(design[:, 2:5]))),
-                                 np.degrees(wrap_pi(mean[:, 5] - u_design))])
-        if _ == iterations:
-            break
-        step = osc.copy()
-        step[:, list(TRIM_ELEMENTS)] -= resid[:, list(TRIM_ELEMENTS)]
-        step[:, 5] -= resid[:, 5] - resid[:, 4]     # u = aop + M: the aop trim already moved u
-        done |= ~(np.all(np.isfinite(step), axis=1) & (step[:, 0] > 0.0) & (step[:, 1] >= 0.0) & (step[:, 1] < 1.0))
-        osc = np.where(done[:, None], osc, step)
-    return osc, resid
 
 
 def simulate_life(profile: dict, elements_deg, *, natural: bool = False, life_days: float | None = None,
@@ -344,7 +205,7 @@ def simulate_life(profile: dict, elements_deg, *, natural: bool = False, life_da
     r_moon = float(profile["constants"]["r_moon_mean_km"])
     field = (SecularField.from_profile(profile, t0, cfg.life_days + 1.0)
              if service and not natural else None)
-    nav = _NavigationMonitor(profile, sample_t, svc) if service and not natural and sample_t.size else None
+    nav = NavigationMonitor(profile, sample_t, svc) if service and not natural and sample_t.size else None
 
     y = states.copy()
     active = np.ones(n_sat, dtype=bool)
@@ -427,7 +288,7 @@ def simulate_life(profile: dict, elements_deg, *, natural: bool = False, life_da
                 safe_hist[i].append((t_mid[i], ev[i], jv[i], rp_min[i]))
             if t - last_safety >= svc.safety_check_days * SECONDS_PER_DAY:
                 last_safety = t
-                d_ecc = _safety_targets(field, safe_hist, mel, active, (t - t0) / SECONDS_PER_DAY,
+                d_ecc = safety_targets(field, safe_hist, mel, active, (t - t0) / SECONDS_PER_DAY,
                                         cfg.life_days, r_min + svc.perilune_margin_km, svc, cfg.tide_period_days)
             if nav is not None:
                 nav.update(t, r_sample)
@@ -514,66 +375,6 @@ def _perilune_radius_km(states: np.ndarray, gm: float) -> np.ndarray:
     h = np.cross(r, v)
     e = np.linalg.norm(np.cross(v, h) / gm - r / rn[:, None], axis=1)
     return 1.0 / (2.0 / rn - np.sum(v * v, axis=1) / gm) * (1.0 - e)
-
-
-def _safety_targets(field, safe_hist, mel, active, t_days, life_days, floor_base_km, svc, tide_period_days):
-    """Change of mean e (n_sat,) of each satellite whose perilune the averaged model predicts below the floor
-    within ``safety_lead_days`` (NaN for the others).
-
-    Each prediction starts from the e and j vectors averaged over the last tidal period (the monthly swing of
-    the one-orbit means averaged out); the floor is ``floor_base_km`` plus the largest amount by which the
-    osculating perilune dipped below that averaged perilune over the last two tidal periods."""
-    d_ecc = np.full(mel.shape[0], np.nan)
-    idx = [i for i in np.flatnonzero(active) if safe_hist[i]]
-    if not idx:
-        return d_ecc
-    e_avg, j_avg, floor = [], [], []
-    for i in idx:
-        t_k = np.array([h[0] for h in safe_hist[i]])
-        recent = t_k >= t_k[-1] - tide_period_days * SECONDS_PER_DAY
-        e_avg.append(np.mean([h[1] for h, keep in zip(safe_hist[i], recent) if keep], axis=0))
-        j_avg.append(np.mean([h[2] for h, keep in zip(safe_hist[i], recent) if keep], axis=0))
-        rp_avg = mel[i, 0] * (1.0 - np.linalg.norm(e_avg[-1]))
-        floor.append(floor_base_km + max(0.0, max(rp_avg - h[3] for h in safe_hist[i])))
-    e_avg, j_avg, floor, a = np.array(e_avg), np.array(j_avg), np.array(floor), mel[idx, 0]
-    j_avg *= (np.sqrt(1.0 - np.sum(e_avg ** 2, axis=1)) / np.linalg.norm(j_avg, axis=1))[:, None]
-    remaining = life_days - t_days
-    day = predicted_crossing_day(field, t_days, a, e_avg, j_avg, floor, remaining)
-    day = np.where(a * (1.0 - np.linalg.norm(e_avg, axis=1)) <= floor, 0.0, day)
-    for q in np.flatnonzero(day <= svc.safety_lead_days):
-        e_now = float(np.linalg.norm(e_avg[q]))
-        d_ecc[idx[q]] = safety_ecc(field, t_days, a[q], e_avg[q], j_avg[q], floor[q], remaining) - e_now
-    return d_ecc
-
-
-class _NavigationMonitor:
-    """South-pole DOP of the sampled positions over windows of ``nav_window_days``: the first window sets the
-    requirement (:func:`lnss_lib.sk_service.navigation_violations`); ``violated`` after each closed window."""
-
-    def __init__(self, profile: dict, sample_t: np.ndarray, svc: ServiceSettings):
-        self.profile, self.sample_t, self.svc = profile, sample_t, svc
-        self.grid = grid_from_profile(profile)
-        self.start = sample_t[0]
-        self.baseline = None
-        self.violated = False
-        self.n_violations = 0
-
-    def update(self, t: float, r_sample: np.ndarray) -> None:
-        self.violated = False
-        if t - self.start < self.svc.nav_window_days * SECONDS_PER_DAY:
-            return
-        idx = np.flatnonzero((self.sample_t > self.start) & (self.sample_t <= t))
-        self.start = t
-        if idx.size == 0:
-            return
-        tt = self.sample_t[idx]
-        r_mf = rotate_to_moon_fixed(self.profile, r_sample[:, idx], tt)
-        summary = summary_from_profile(self.profile, dop_for_profile(self.profile, r_mf, tt, grid=self.grid))
-        if self.baseline is None:
-            self.baseline = summary
-            return
-        self.violated = bool(navigation_violations(summary, self.baseline, self.svc))
-        self.n_violations += int(self.violated)
 
 
 def _enqueue(queue: list, t: float, osc: np.ndarray, gm: float, sets: list, budget_kms: float = np.inf) -> bool:

@@ -92,7 +92,7 @@ def test_planned_manoeuvre_moves_the_mean_elements(ci_profile, epoch_tdb_s):
     differ by the planned change within 5% (e vector, i, RAAN) and 1 km in a."""
     from lnss_lib.propagator import METHODS, elements_deg_to_states
     from lnss_lib.frames import element_frame_to_j2000
-    from lnss_lib.stationkeeping import integrate_chunk, life_force_model
+    from lnss_lib.life_propagation import integrate_chunk, life_force_model
 
     el_deg = np.array([[6143.0, 0.6, 51.7, 0.0, 90.0, 0.0]])
     state = elements_deg_to_states(ci_profile, el_deg, epoch_tdb_s)

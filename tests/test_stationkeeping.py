@@ -110,7 +110,7 @@ def test_initial_trim_matches_the_design_mean_a(life_profile, life_model):
     from lnss_lib.elements import orbital_period_s
     from lnss_lib.frames import element_frame_to_j2000
     from lnss_lib.mean_elements import to_element_frame
-    from lnss_lib.stationkeeping import trim_to_mean
+    from lnss_lib.life_propagation import trim_to_mean
 
     el = planes_elements_deg(6143.0, 0.6, 51.7, 90.0, [0.0], 4)
     t0 = tdb_seconds(life_profile["epoch"]["start_tdb"], "TDB")
