@@ -362,7 +362,7 @@ def classify(error: Exception) -> tuple[int, str]:
         return 2, f"no such file or folder: {error.filename}" if error.filename else _one_line(error)
     if isinstance(error, INPUT_ERRORS) or (type(error) is ValueError and _raised_by_lnss(error)):
         return 2, _one_line(error)
-    if isinstance(error, (OSError, RuntimeError)) and not isinstance(error, NotImplementedError):
+    if isinstance(error, (OSError, RuntimeError)):
         return 1, _one_line(error)
     return 1, f"internal error: {type(error).__name__}: {_one_line(error)} (run with --debug for the traceback)"
 

@@ -21,7 +21,6 @@ from dataclasses import dataclass, field, replace
 from pathlib import Path
 
 import ipywidgets as widgets
-import numpy as np
 import plotly.graph_objects as go
 import plotly.io as pio
 

@@ -133,7 +133,9 @@ def test_kernels_use_ipc_transport():
     assert manager.transport == "ipc" and manager.ip.endswith("-ipc") and "/" in manager.ip
 
 
-def test_reproduce_prints_only_progress_and_summary(outputs, tmp_path, monkeypatch, capfd):
+def _notebook_folder(tmp_path, monkeypatch, name: str, *code: str):
+    """A notebooks folder in ``tmp_path`` holding ``name``: a papermill parameters cell, then ``code`` cells;
+    ``reproduce`` reads it."""
     import nbformat
 
     books = tmp_path / "notebooks"
@@ -141,10 +143,16 @@ def test_reproduce_prints_only_progress_and_summary(outputs, tmp_path, monkeypat
     nb = nbformat.v4.new_notebook(metadata={"kernelspec": {"name": "python3", "language": "python",
                                                            "display_name": "Python 3"}})
     nb.cells = [nbformat.v4.new_code_cell("profile_name = 'quick'", metadata={"tags": ["parameters"]}),
-                nbformat.v4.new_code_cell("import os\nassert profile_name == os.environ['LNSS_PROFILE'] == 'ci'\n"
-                                          "print('ran')")]
-    nbformat.write(nb, books / "01_tiny.ipynb")
+                *(nbformat.v4.new_code_cell(text) for text in code)]
+    nbformat.write(nb, books / f"{name}.ipynb")
     monkeypatch.setattr(pipeline, "NOTEBOOKS_DIR", books)
+
+
+def test_reproduce_prints_only_progress_and_summary(outputs, tmp_path, monkeypatch, capfd):
+    import nbformat
+
+    _notebook_folder(tmp_path, monkeypatch, "01_tiny", "import os\nassert profile_name == os.environ['LNSS_PROFILE'] == 'ci'\n"
+                     "print('ran')")
     monkeypatch.setenv("PYTHONPATH", "")
     monkeypatch.setenv(pipeline.PROFILE_ENV, "quick")     # reproduce's profile wins, and reaches the kernel
     assert pipeline.reproduce("ci") == 0
@@ -251,19 +259,13 @@ def _run_figure_notebook(tmp_path, monkeypatch):
     to HTML by ``jupyter nbconvert`` and the executed notebook."""
     import nbformat
 
-    books = tmp_path / "notebooks"
-    books.mkdir()
-    nb = nbformat.v4.new_notebook(metadata={"kernelspec": {"name": "python3", "language": "python",
-                                                           "display_name": "Python 3"}})
-    nb.cells = [nbformat.v4.new_code_cell("profile_name = 'quick'", metadata={"tags": ["parameters"]}),
-                nbformat.v4.new_code_cell("import pathlib\nimport plotly.graph_objects as go\nimport lnss_lib.outputs\n"
-                                          "from lnss_lib.figures import save_figure\n"
-                                          f"lnss_lib.outputs.OUTPUTS_DIR = pathlib.Path({str(tmp_path)!r})\n"
-                                          "fig = go.Figure(go.Scatter(x=[0, 1, 2], y=[1, 3, 2], line={'width': 8}))\n"
-                                          "save_figure(fig, profile_name, '01_line')\nfig"),
-                nbformat.v4.new_code_cell("go.Figure(go.Bar(x=[1, 2], y=[2, 1])).show()")]
-    nbformat.write(nb, books / "01_figures.ipynb")
-    monkeypatch.setattr(pipeline, "NOTEBOOKS_DIR", books)
+    _notebook_folder(tmp_path, monkeypatch, "01_figures",
+                     "import pathlib\nimport plotly.graph_objects as go\nimport lnss_lib.outputs\n"
+                     "from lnss_lib.figures import save_figure\n"
+                     f"lnss_lib.outputs.OUTPUTS_DIR = pathlib.Path({str(tmp_path)!r})\n"
+                     "fig = go.Figure(go.Scatter(x=[0, 1, 2], y=[1, 3, 2], line={'width': 8}))\n"
+                     "save_figure(fig, profile_name, '01_line')\nfig",
+                     "go.Figure(go.Bar(x=[1, 2], y=[2, 1])).show()")
     monkeypatch.setenv("PYTHONPATH", "")
     assert pipeline.reproduce("ci") == 0
     executed = tmp_path / "ci" / "notebooks" / "01_figures.ipynb"

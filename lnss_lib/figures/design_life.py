@@ -25,12 +25,12 @@ def life_element_histories(runs: dict, *, sat: int = 0, title: str) -> go.Figure
     fig = make_subplots(rows=len(panels), cols=1, shared_xaxes=True, vertical_spacing=0.02)
     for name, ds in runs.items():
         day = ds["check_day"].sel(sat=sat).values
-        for k, (key, label) in enumerate(panels):
+        for k, (key, axis_title) in enumerate(panels):
             y = (np.degrees(ds["box_error"].sel(sat=sat, box="raan_rel_deg").values) if key == "raan_rel"
                  else ds["mean_elements"].sel(sat=sat, mean_element=key).values)
             fig.add_trace(go.Scatter(x=day, y=y, mode="lines", name=name, legendgroup=name, showlegend=k == 0,
                                      line={"color": _COLOURS.get(name)}), row=k + 1, col=1)
-            fig.update_yaxes(title_text=label, row=k + 1, col=1)
+            fig.update_yaxes(title_text=axis_title, row=k + 1, col=1)
     fig.update_xaxes(title_text="days since epoch (TDB)", row=len(panels), col=1)
     fig.update_layout(title=title, template="plotly_white", height=950, legend={"orientation": "h", "y": -0.08})
     return fig
