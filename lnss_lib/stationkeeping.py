@@ -28,7 +28,7 @@ samples in the element frame) are compared with
   mean along-track offset (common drift free).
 
 The design's elements are MEAN elements: at insertion each satellite's osculating a, e, i, RAAN, AOP
-and M are trimmed (:func:`trim_to_mean`, fixed point on first-orbit means, no Delta-v counted) so that
+and M are trimmed (:func:`lnss_lib.life_propagation.trim_to_mean`, fixed point on first-orbit means, no Delta-v counted) so that
 each satellite's first-orbit mean a equals its own design a: a Walker plane's common a, a catalogue
 file's per-satellite a (designed phasing, e.g. Ely's) as given (a common osculating a at different mean
 anomalies leaves their mean a ~5 km apart, which alone drifts the slots ~100 deg in 120 days). Slot
@@ -401,7 +401,7 @@ def _budget_kms(cap_kms: float, used_kms: float, queued: list) -> float:
 
 
 def _flight_plan(queue: list) -> tuple[np.ndarray, np.ndarray]:
-    """Burn epochs (n_sat, k) (NaN = none, sorted) and RTN impulses (n_sat, k, 3) for :func:`integrate_chunk`
+    """Burn epochs (n_sat, k) (NaN = none, sorted) and RTN impulses (n_sat, k, 3) for :func:`lnss_lib.life_propagation.integrate_chunk`
     from the queued records; impulses planned for the same epoch are flown as one."""
     merged = []
     for records in queue:
