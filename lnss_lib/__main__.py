@@ -135,7 +135,7 @@ def _cmd_evaluate(args: argparse.Namespace) -> int:
     profile = load_profile(args.profile, overrides=_overrides(args))
     result.update(bounds_verdict(profile, result))
     if args.design_life_days is not None:
-        from .designlife import design_life_cli
+        from .design_life.evaluation import design_life_cli
 
         result.update(design_life_cli(args.profile, args.design_life_days, constellation=args.constellation,
                                       constellation_epoch=args.constellation_epoch,

@@ -242,7 +242,7 @@ EVALUATORS = ("walker", "synthetic")
 NOTEBOOK_MODES = ("run", "load")                  # notebook 06 runs the campaign itself, or loads the latest CLI run
 STABILITY_METHODS = ("DOP853", "RK45", "Radau", "LSODA")
 STABILITY_BODIES = ("EARTH", "SUN")
-CONTROLLERS = ("service", "box")                 # design life: hold the service (sk_service) or the fixed-element box
+CONTROLLERS = ("service", "box")                 # design life: hold the service (design_life.service) or the fixed-element box
 CHOICES = {    # a text setting (or each entry of a list of texts) -> its allowed values
     "integrator.settings.*.method": METHODS, "frames.element_frame": ELEMENT_FRAMES, "frames.moon_fixed": POLE_FRAMES,
     "frames.gravity": POLE_FRAMES, "forces.third_bodies": THIRD_BODIES, "forces.shadow": SHADOW_MODELS,

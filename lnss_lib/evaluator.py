@@ -10,8 +10,8 @@ metrics, never raised, so batch callers can treat them as constraint violations.
 
 A profile may ask for the operational metrics of :data:`~lnss_lib.keys.EXTRA_METRIC_KEYS` in
 ``[evaluator] extra_metrics`` (issue 11 item 5; none in ``paper``): the geometry-keeping Delta-V
-estimate over every satellite (:mod:`lnss_lib.sk_estimate`, from the same arc), the design-life
-stability screen (:mod:`lnss_lib.stability`, from the initial states; ``stable_screen`` 1.0 or 0.0)
+estimate over every satellite (:mod:`lnss_lib.design_life.estimate`, from the same arc), the design-life
+stability screen (:mod:`lnss_lib.design_life.screen`, from the initial states; ``stable_screen`` 1.0 or 0.0)
 and the eq. 45 Delta-V's maximum over satellites. Only the requested ones are computed and returned.
 """
 
@@ -24,7 +24,9 @@ from dataclasses import dataclass
 import numpy as np
 import xarray as xr
 
-from . import deltav, dop, gps, sk_estimate, stability
+from . import deltav, dop, gps
+from .design_life import estimate as sk_estimate
+from .design_life import screen as stability
 from .config import load_profile, profile_hash, validate_profile
 from .constellation import WalkerDesign
 from .ephemeris import EphemerisTable, ensure_kernels, rotation, tdb_seconds

@@ -104,7 +104,7 @@ def orbit_plane_axes_j2000(normal_j2000, pole_j2000) -> np.ndarray:
     """Rotation (3, 3) whose columns are ``moon_op``-like axes: z along ``normal_j2000``, x along pole x z.
 
     Pure geometry (any lengths); :func:`moon_op_axes_j2000` with the Earth's osculating orbit normal, or
-    :mod:`lnss_lib.frozen` with the month-averaged one.
+    :mod:`lnss_lib.design_life.frozen` with the month-averaged one.
     """
     pole = np.asarray(pole_j2000, dtype=float)
     normal = np.asarray(normal_j2000, dtype=float)

@@ -676,7 +676,7 @@ def test_config_and_ephemeris_errors_propagate_only_impossible_designs_are_infea
 
 
 def test_design_life_lets_ephemeris_errors_through():
-    from lnss_lib.designlife import design_life_cli
+    from lnss_lib.design_life.evaluation import design_life_cli
     from lnss_lib.errors import EphemerisRangeError
 
     with pytest.raises(EphemerisRangeError):

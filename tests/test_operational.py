@@ -44,7 +44,8 @@ def test_extra_metrics_appear_only_when_asked(extra_context):
 
 
 def test_deltav_satellites_first_is_satellite_zero_and_all_is_the_mean(extra_context):
-    from lnss_lib import deltav, sk_estimate
+    from lnss_lib import deltav
+    from lnss_lib.design_life import estimate as sk_estimate
 
     profile = extra_context.profile
     elements = WalkerDesign(6143.0, 0.6, 51.7, 90.0, 2, 2).elements_deg()

@@ -220,7 +220,7 @@ def test_batch_loop_that_fails_reports_it(paper_profile, epoch_tdb_s):
 def test_station_keeping_chunk_kernel_reports_a_lost_satellite(paper_profile, epoch_tdb_s):
     from lnss_lib.errors import PropagationError
     from lnss_lib.propagator import STATUS_NON_FINITE, STATUS_NOT_RUN, STATUS_OK, check_batch, output_times
-    from lnss_lib.life_propagation import integrate_chunk
+    from lnss_lib.design_life.propagation import integrate_chunk
 
     times = output_times(epoch_tdb_s, 3600.0, 600.0)
     model = _batch_model(paper_profile, epoch_tdb_s)

@@ -17,9 +17,9 @@ from ..constants import SECONDS_PER_DAY
 from ..constellation import standalone_elfo
 from ..ephemeris import ensure_kernels, tdb_seconds
 from ..propagator import elements_deg_to_states, propagate_states
-from ..sk_estimate import sk_estimate_from_propagation
-from ..stability import screen_states
-from ..stationkeeping import LifeSettings, life_force_model, simulate_life
+from ..design_life.estimate import sk_estimate_from_propagation
+from ..design_life.screen import screen_states
+from ..design_life.closed_loop import LifeSettings, life_force_model, simulate_life
 
 
 def run(profile_name: str = "paper", overrides: dict | None = None) -> None:

@@ -15,7 +15,7 @@ import numpy as np
 from ..config import load_profile
 from ..constellation import WalkerDesign
 from ..ephemeris import ensure_kernels
-from ..stability import propagated_perilune, screen_elements, stability_settings
+from ..design_life.screen import propagated_perilune, screen_elements, stability_settings
 
 
 def validation_table(profile: dict, designs=None, life_days: float | None = None, reference: bool = True) -> list[dict]:

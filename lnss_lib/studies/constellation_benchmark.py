@@ -19,15 +19,13 @@ filtered mean DOPs move where a geometry has near-degenerate windows, and the ye
 history and the station-keeping estimate move most: the 2025-05-01 epoch matters for the design life,
 hardly for the navigation geometry. The notebook prints the numbers.
 
-Design-life metrics come from the campaign-grade estimate (:mod:`lnss_lib.sk_estimate`) and the
-stability screen (:mod:`lnss_lib.stability`); :func:`add_closed_loop_life` adds the closed-loop
-metrics of ``lnss_lib.designlife`` where that module exists.
+Design-life metrics come from the campaign-grade estimate (:mod:`lnss_lib.design_life.estimate`) and the
+stability screen (:mod:`lnss_lib.design_life.screen`); :func:`add_closed_loop_life` adds the closed-loop
+metrics of :mod:`lnss_lib.design_life.evaluation`.
 """
 
 from __future__ import annotations
 
-import importlib
-import importlib.util
 import math
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -47,8 +45,8 @@ from ..frames import rotate_to_moon_fixed, rotate_with
 from ..keys import METRIC_KEYS
 from ..outputs import display_path, output_dir
 from ..propagator import elements_deg_to_states, propagate_states
-from ..sk_estimate import sk_estimate_from_propagation
-from ..stability import screen_states
+from ..design_life.estimate import sk_estimate_from_propagation
+from ..design_life.screen import screen_states
 
 __all__ = ["TABLE4_KEY", "DOP_KEYS", "DESIGN_LIFE_KEYS", "Entry", "Benchmark", "benchmark_settings", "mask_key",
            "catalogue_entries", "paper_entry", "campaign_entries", "run_benchmark", "add_closed_loop_life",
@@ -277,24 +275,23 @@ def run_benchmark(profile_name: str, *, campaigns: bool | None = None, names=Non
 
 
 def add_closed_loop_life(bench: Benchmark, life_days: float | None = None) -> tuple[pd.DataFrame, str]:
-    """The yardstick with the closed-loop design-life metrics of ``lnss_lib.designlife`` added (prefixed
-    ``life_``), and a note. Without that module (or with ``[benchmark] closed_loop_life = false``) the table
-    comes back unchanged with a note saying why."""
-    if importlib.util.find_spec("lnss_lib.designlife") is None:
-        return bench.table, "lnss_lib.designlife is not installed: closed-loop design-life metrics not added"
+    """The yardstick with the closed-loop design-life metrics of ``lnss_lib.design_life.evaluation`` added (prefixed
+    ``life_``), and a note. With ``[benchmark] closed_loop_life = false`` the table comes back unchanged with a
+    note saying why."""
+    from ..design_life.evaluation import evaluate_design_life
+
     if not benchmark_settings(bench.profile)["closed_loop_life"]:
         return bench.table, "[benchmark] closed_loop_life = false: closed-loop design-life metrics not added"
-    designlife = importlib.import_module("lnss_lib.designlife")
     life = float(bench.profile["design_life"]["life_days"]) if life_days is None else float(life_days)
     table = bench.table.copy()
     for entry in bench.entries:
         if entry.label not in bench.analysis:
             continue
-        result = designlife.evaluate_design_life(_profile_for(bench.profile, entry), entry.elements_deg, life)
+        result = evaluate_design_life(_profile_for(bench.profile, entry), entry.elements_deg, life)
         index = table.index[table["constellation"] == entry.label][0]
         for key in DESIGN_LIFE_KEYS:
             table.loc[index, f"life_{key}"] = result.get(key, math.nan)
-    return table, f"closed-loop design-life metrics over {life:g} days (lnss_lib.designlife)"
+    return table, f"closed-loop design-life metrics over {life:g} days (lnss_lib.design_life.evaluation)"
 
 
 # ---------------------------------------------------------------- published figures beside ours

@@ -1,6 +1,6 @@
 """Notebook 08, frozen orbits: which published designs are frozen, in which frame, and do the anchors hold? (issue 19)
 
-Question: where does the frozen family of the doubly-averaged model (:mod:`lnss_lib.frozen`, the
+Question: where does the frozen family of the doubly-averaged model (:mod:`lnss_lib.design_life.frozen`, the
 Earth-Moon orbital plane ``moon_op``) lie against a, where do the Table 4 ELFO, Ely's (2005) orbits and the
 campaign's Table 6 picks sit on it when their elements are read in ``moon_op`` or in the lunar equator, does
 Ely's phased constellation keep its perilune above 100 km for ten years with no manoeuvre, and which of
@@ -27,13 +27,13 @@ import pandas as pd
 from ..catalogue import constellation_states_mci, file_epoch_profile, load_constellation
 from ..config import deep_merge
 from ..constants import DAYS_PER_JULIAN_YEAR, SECONDS_PER_DAY
-from ..designlife import life_metrics, run_design_life
+from ..design_life.evaluation import life_metrics, run_design_life
 from ..ephemeris import ensure_kernels, tdb_seconds
 from ..frames import element_frame_to_j2000
-from ..frozen import (FrozenModel, allowances, frozen_eccentricity, frozen_inclination_deg, libration,
+from ..design_life.frozen import (FrozenModel, allowances, frozen_eccentricity, frozen_inclination_deg, libration,
                       mean_plane_axes, mean_plane_elements)
 from ..propagator import propagate_states
-from ..stability import SecularField, orbit_vectors_ej, screen_states, stability_settings
+from ..design_life.screen import SecularField, orbit_vectors_ej, screen_states, stability_settings
 
 __all__ = ["FAMILY_ECC", "FAMILY_INC_DEG", "frozen_family", "inertial_lunar_equator", "planes_in_moon_op",
            "orbit_rows", "published_orbits", "frozen_words", "epoch_swap", "ely_natural", "closed_loop_anchors"]
@@ -82,9 +82,9 @@ def _r_moon(profile: dict) -> float:
 
 
 def orbit_rows(model: FrozenModel, read: dict, r_moon_km: float) -> pd.DataFrame:
-    """Per orbit of ``read`` (:func:`lnss_lib.frozen.mean_plane_elements`): elements in ``moon_op``, the frozen i at
+    """Per orbit of ``read`` (:func:`lnss_lib.design_life.frozen.mean_plane_elements`): elements in ``moon_op``, the frozen i at
     its (a, e), its libration (ranges of e, i, AOP), the mean perilune's lowest altitude over the cycle and the
-    short-period dip the real perilune may add (:func:`lnss_lib.frozen.allowances`, monthly + orbital, km)."""
+    short-period dip the real perilune may add (:func:`lnss_lib.design_life.frozen.allowances`, monthly + orbital, km)."""
     rows = []
     for a, e, inc, aop in zip(read["sma_km"], read["ecc"], read["inc_deg"], read["aop_deg"]):
         lib = libration(model, a, e, inc, aop)
@@ -177,7 +177,7 @@ def ely_natural(profile: dict, life_days: float, *, degree: int | None = None, s
     """Ely's phased constellation flown from its file's epoch for ``life_days`` with no manoeuvre.
 
     The full force model of the profile (``design_life`` integrator) gives the osculating perilune; the
-    stability screen (doubly-averaged) the mean one, and :func:`lnss_lib.frozen.allowances` the monthly and
+    stability screen (doubly-averaged) the mean one, and :func:`lnss_lib.design_life.frozen.allowances` the monthly and
     orbital terms it leaves out. Returns ``t_days``, ``perilune_alt_km`` (sat, time) and
     ``mean_perilune_alt_km`` (sat, time of the screen), their minima (``min_perilune_alt_km``,
     ``min_day``, ``min_mean_perilune_alt_km``), ``envelope_km`` (the allowance in altitude) and ``impact``.

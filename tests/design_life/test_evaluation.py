@@ -11,7 +11,7 @@ from scipy.stats import rankdata
 from lnss_lib.__main__ import main
 from lnss_lib.constants import SECONDS_PER_DAY
 from lnss_lib.constellation import WalkerDesign
-from lnss_lib.designlife import LIFE_KEYS, life_availability, life_navigation
+from lnss_lib.design_life.evaluation import LIFE_KEYS, life_availability, life_navigation
 from lnss_lib.dop import dop_for_profile, dop_summary, summary_from_profile
 from lnss_lib.frames import rotate_to_moon_fixed
 from lnss_lib.propagator import elements_deg_to_states, propagate_states
@@ -118,7 +118,7 @@ def test_validation_table_ratio_and_rank_correlation(ci_profile):
 
 
 def test_life_evaluation_settings_are_checked(ci_profile):
-    from lnss_lib.designlife import life_evaluation_settings
+    from lnss_lib.design_life.evaluation import life_evaluation_settings
 
     assert life_evaluation_settings(ci_profile)["sample_step_s"] == 900.0
     with pytest.raises(ValueError, match="unknown"):

@@ -1,11 +1,11 @@
-"""Frozen and librating orbits (lnss_lib.frozen): the Kozai limit, the integrals against the averaged equations,
+"""Frozen and librating orbits (lnss_lib.design_life.frozen): the Kozai limit, the integrals against the averaged equations,
 the lunar-J2 shift of the family, the Table 4 and Ely (2005) orbits in moon_op, and one year of the full model."""
 
 import numpy as np
 import pytest
 
-from lnss_lib import frozen as fz
-from lnss_lib import stability as st
+from lnss_lib.design_life import frozen as fz
+from lnss_lib.design_life import screen as st
 from lnss_lib.catalogue import constellation_states_mci, file_epoch_profile, load_constellation
 from lnss_lib.config import deep_merge
 from lnss_lib.propagator import elements_deg_to_states, propagate_states

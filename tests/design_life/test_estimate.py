@@ -3,7 +3,7 @@
 import numpy as np
 import pytest
 
-from lnss_lib import sk_estimate as sk
+from lnss_lib.design_life import estimate as sk
 from lnss_lib.constants import SECONDS_PER_DAY
 from lnss_lib.elements import elements_to_state
 from lnss_lib.propagator import propagate_elements

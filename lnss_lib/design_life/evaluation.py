@@ -1,7 +1,7 @@
 """A design judged over its design life (issue 11 items 4 and 6): station keeping, drift and navigation.
 
 :func:`evaluate_design_life` flies the constellation for the design life twice with the full force
-model (:func:`lnss_lib.stationkeeping.simulate_life`, one force model shared by both runs): with
+model (:func:`lnss_lib.design_life.closed_loop.simulate_life`, one force model shared by both runs): with
 closed-loop station keeping (``[design_life] controller``: ``"service"`` or ``"box"``) and with none
 (natural drift). From the controlled run it reports the Delta-V per satellite and year (mean and max)
 and what it pays for (``sk_dv_split`` by purpose, ``sk_dv_split_by_location``), the manoeuvres, whether
@@ -11,8 +11,8 @@ over the life (:func:`life_navigation`) is the south-pole DOP of eq. 3-14 on pos
 every ``[life_evaluation] sample_step_s`` over the life, with the profile's grid, mask, threshold
 and 3-sigma filter (:func:`lnss_lib.dop.dop_for_profile`, :func:`lnss_lib.dop.summary_from_profile`),
 evaluated one month at a time so memory stays bounded. Beside them, the two cheap predictors of the
-campaign: the geometry-keeping estimate from the 10-day arc (:mod:`lnss_lib.sk_estimate`) and the
-doubly-averaged stability screen for the same life (:mod:`lnss_lib.stability`).
+campaign: the geometry-keeping estimate from the 10-day arc (:mod:`lnss_lib.design_life.estimate`) and the
+doubly-averaged stability screen for the same life (:mod:`lnss_lib.design_life.screen`).
 """
 
 from __future__ import annotations
@@ -24,17 +24,17 @@ from collections.abc import Mapping
 import numpy as np
 import xarray as xr
 
-from .constants import SECONDS_PER_DAY
-from .dop import dop_for_profile, grid_from_profile, summary_from_profile
-from .ephemeris import ensure_kernels, tdb_seconds
-from .config import ELEMENT_FRAMES
-from .errors import ConfigError, InfeasibleDesignError
-from .frames import rotate_to_moon_fixed
-from .progress import steps
-from .propagator import elements_deg_to_states, propagate_states
-from .sk_estimate import sk_estimate_from_propagation
-from .stability import screen_states
-from .stationkeeping import LifeSettings, impact_day, life_force_model, simulate_life
+from ..constants import SECONDS_PER_DAY
+from ..dop import dop_for_profile, grid_from_profile, summary_from_profile
+from ..ephemeris import ensure_kernels, tdb_seconds
+from ..config import ELEMENT_FRAMES
+from ..errors import ConfigError, InfeasibleDesignError
+from ..frames import rotate_to_moon_fixed
+from ..progress import steps
+from ..propagator import elements_deg_to_states, propagate_states
+from .estimate import sk_estimate_from_propagation
+from .screen import screen_states
+from .closed_loop import LifeSettings, impact_day, life_force_model, simulate_life
 
 __all__ = ["LIFE_KEYS", "NAVIGATION_KEYS", "STUDY_KEYS", "life_evaluation_settings", "run_design_life", "life_metrics",
            "life_navigation", "life_availability", "lost_satellites", "short_arc_predictors", "evaluate_design_life", "json_ready",
@@ -88,7 +88,7 @@ def run_design_life(profile: dict, elements_deg, life_days: float | None = None,
 
     Both runs share one force model and sample positions every ``sample_step_s`` (default
     ``[life_evaluation] sample_step_s``; none with ``sample=False``). Returns ``{"controlled": ds[, "natural": ds]}`` of
-    :func:`lnss_lib.stationkeeping.simulate_life` Datasets.
+    :func:`lnss_lib.design_life.closed_loop.simulate_life` Datasets.
     """
     ensure_kernels(profile)
     settings = LifeSettings.from_profile(profile, life_days=life_days)
@@ -276,8 +276,8 @@ def _json_value(value):
 
 def elements_deg_in_frame(profile: dict, states_mci, t0_tdb_s: float) -> np.ndarray:
     """Osculating ``[a_km, e, i, RAAN, AOP, M]`` (n, 6) (km, deg) of Moon-centred J2000 states in the profile's element frame."""
-    from .elements import state_to_elements
-    from .frames import element_frame_to_j2000
+    from ..elements import state_to_elements
+    from ..frames import element_frame_to_j2000
 
     rot = element_frame_to_j2000(profile, float(t0_tdb_s))
     s = np.atleast_2d(np.asarray(states_mci, dtype=float))
@@ -293,9 +293,9 @@ def design_life_cli(profile_name: str, life_days: float, *, walker: tuple | None
     profile's element frame, inserted as given: no insertion trim, so a designed per-satellite a such as
     Ely's phasing, which its authors found by propagating those very states, is flown as published). NaN becomes None. An invalid Walker design (the evaluation says why) gives
     every key None."""
-    from .config import load_profile
-    from .constellation import WalkerDesign
-    from .evaluator import context_for
+    from ..config import load_profile
+    from ..constellation import WalkerDesign
+    from ..evaluator import context_for
 
     if not (isinstance(life_days, (int, float)) and math.isfinite(life_days) and life_days > 0):
         raise ValueError(f"--design-life-days must be a positive number of days; got {life_days!r}")
@@ -306,7 +306,7 @@ def design_life_cli(profile_name: str, life_days: float, *, walker: tuple | None
                           f"life_evaluation.sample_step_s = {step_s!r} s; allowed: a life of more than one sampling step",
                           key="--design-life-days")
     if constellation is not None:
-        from .catalogue import constellation_states_mci, file_epoch_profile, load_constellation
+        from ..catalogue import constellation_states_mci, file_epoch_profile, load_constellation
 
         c = load_constellation(constellation, profile)
         if constellation_epoch == "file":

@@ -47,11 +47,11 @@ import xarray as xr
 from scipy.integrate import solve_ivp
 from scipy.interpolate import CubicSpline
 
-from .config import STABILITY_BODIES, STABILITY_METHODS
-from .constants import SECONDS_PER_DAY
-from .ephemeris import body_states_mci, ensure_kernels, rotation, tdb_seconds
-from .frames import element_frame_to_j2000
-from .gravity import GravityField
+from ..config import STABILITY_BODIES, STABILITY_METHODS
+from ..constants import SECONDS_PER_DAY
+from ..ephemeris import body_states_mci, ensure_kernels, rotation, tdb_seconds
+from ..frames import element_frame_to_j2000
+from ..gravity import GravityField
 
 __all__ = ["StabilitySettings", "stability_settings", "SecularField", "orbit_vectors_ej", "secular_rates",
            "averaged_potential", "integrate_secular", "elements_from_vectors", "screen_states", "screen_elements",
@@ -393,7 +393,7 @@ def screen_states(profile: dict, states_mci, t0_tdb_s: float, *, field: SecularF
 
 def screen_elements(profile: dict, elements_deg, t0_tdb_s: float | None = None, **overrides) -> xr.Dataset:
     """:func:`screen_states` for elements (n, 6) [a_km, e, i, RAAN, AOP, M] (deg) in the profile's element frame."""
-    from .propagator import elements_deg_to_states
+    from ..propagator import elements_deg_to_states
 
     ensure_kernels(profile)
     t0 = tdb_seconds(profile["epoch"]["start_tdb"], "TDB") if t0_tdb_s is None else float(t0_tdb_s)
@@ -404,7 +404,7 @@ def screen_design(profile: dict, sma_km: float, ecc: float, aop_deg: float, inc_
                   sats_per_plane: int, **overrides) -> dict:
     """Summary of the screen for a Walker design: ``stable_screen``, ``screen_min_perilune_alt_km``,
     ``screen_impact_day`` (None when none), ``screen_wall_s``."""
-    from .constellation import WalkerDesign
+    from ..constellation import WalkerDesign
 
     elements = WalkerDesign(sma_km, ecc, inc_deg, aop_deg, n_planes, sats_per_plane).elements_deg()
     ds = screen_elements(profile, elements, **overrides)
@@ -417,7 +417,7 @@ _FIELDS: dict = {}
 
 
 def _cached_field(profile: dict, t0_tdb_s: float, cfg: StabilitySettings) -> SecularField:
-    from .config import profile_hash
+    from ..config import profile_hash
 
     key = (profile_hash(profile), t0_tdb_s, cfg.life_days, cfg.third_bodies, cfg.precession, cfg.average_days,
            cfg.table_step_days)
@@ -448,7 +448,7 @@ def propagated_perilune(profile: dict, elements_deg, life_days: float, *, settin
     ``perilune_alt_km`` (n, m) and ``t_days`` (m,), ``stable``, ``wall_s``. Costs seconds to tens
     of seconds per satellite-year: for notebooks, benches and the slow tests.
     """
-    from .propagator import elements_deg_to_states, propagate_states
+    from ..propagator import elements_deg_to_states, propagate_states
 
     start = time.perf_counter()
     ensure_kernels(profile)

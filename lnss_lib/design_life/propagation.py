@@ -1,20 +1,20 @@
 """The propagation kernel of the design life: each satellite integrated with the full force model from one
 station-keeping check to the next, flying its impulsive burns on the way (:func:`integrate_chunk`), the force
 model whose ephemeris table spans the life, and the trim of insertion elements to the design's mean elements.
-:mod:`lnss_lib.stationkeeping` runs the controller on top of it."""
+:mod:`lnss_lib.design_life.closed_loop` runs the controller on top of it."""
 
 from __future__ import annotations
 
 import numba as nb
 import numpy as np
 
-from .elements import orbital_period_s
-from .ephemeris import EphemerisTable, ensure_kernels
-from .constants import SECONDS_PER_DAY
-from .forces import SCRATCH_SIZE, ForceModel
-from .frames import element_frame_to_j2000
+from ..elements import orbital_period_s
+from ..ephemeris import EphemerisTable, ensure_kernels
+from ..constants import SECONDS_PER_DAY
+from ..forces import SCRATCH_SIZE, ForceModel
+from ..frames import element_frame_to_j2000
 from .mean_elements import mean_elements, to_element_frame, wrap_pi
-from .propagator import METHODS, STATUS_NOT_RUN, STATUS_OK, check_batch, elements_deg_to_states, integrate_one
+from ..propagator import METHODS, STATUS_NOT_RUN, STATUS_OK, check_batch, elements_deg_to_states, integrate_one
 
 __all__ = ["integrate_chunk", "life_force_model", "trim_to_mean", "TRIM_ELEMENTS"]
 

@@ -1,5 +1,5 @@
 """Closed-loop station keeping with the fixed-element box (``controller = "box"``) and natural drift over short
-design lives (degree 8 field, fast); the service controller is tested in test_sk_service.py."""
+design lives (degree 8 field, fast); the service controller is tested in test_service.py."""
 
 import numpy as np
 import pytest
@@ -8,9 +8,9 @@ from lnss_lib.config import load_profile
 from lnss_lib.constants import SECONDS_PER_DAY
 from lnss_lib.ephemeris import ensure_kernels, tdb_seconds
 from lnss_lib.errors import ImpactError
-from lnss_lib.mean_elements import mean_elements, relative_angles
+from lnss_lib.design_life.mean_elements import mean_elements, relative_angles
 from lnss_lib.propagator import elements_deg_to_states, propagate_states
-from lnss_lib.stationkeeping import LifeSettings, life_force_model, simulate_life
+from lnss_lib.design_life.closed_loop import LifeSettings, life_force_model, simulate_life
 
 LIFE_DAYS = 60.0
 
@@ -109,8 +109,8 @@ def test_initial_trim_matches_the_design_mean_a(life_profile, life_model):
     from lnss_lib.constellation import planes_elements_deg
     from lnss_lib.elements import orbital_period_s
     from lnss_lib.frames import element_frame_to_j2000
-    from lnss_lib.mean_elements import to_element_frame
-    from lnss_lib.life_propagation import trim_to_mean
+    from lnss_lib.design_life.mean_elements import to_element_frame
+    from lnss_lib.design_life.propagation import trim_to_mean
 
     el = planes_elements_deg(6143.0, 0.6, 51.7, 90.0, [0.0], 4)
     t0 = tdb_seconds(life_profile["epoch"]["start_tdb"], "TDB")
@@ -217,8 +217,8 @@ def test_a_burn_set_is_queued_whole_within_the_budget_and_finite_or_not_at_all()
     """The enqueue rule of the Delta-v cap: a set (e-vector pair plus a plane change) is queued whole when its total
     fits the budget, not at all when it does not (none of its burns), and never with a non-finite impulse, even with
     no budget limit (safety)."""
-    from lnss_lib.maneuvers import ImpulsePlan, plan_impulses
-    from lnss_lib.stationkeeping import _enqueue
+    from lnss_lib.design_life.manoeuvres import ImpulsePlan, plan_impulses
+    from lnss_lib.design_life.closed_loop import _enqueue
 
     gm = 4902.8
     osc = np.array([6143.0, 0.6, np.radians(51.7), 0.2, np.radians(90.0), 0.4])
