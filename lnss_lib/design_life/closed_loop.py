@@ -608,39 +608,3 @@ def integrator_convergence(profile: dict, elements_deg, *, life_days: float = 36
                        "n_rhs_reference": ("sat", runs["_reference"].n_rhs.values)},
                       coords={"setting": list(settings), "sat": np.arange(el.shape[0]), "day": day},
                       attrs={"reference": f"{ref['method']} rtol {ref['rtol']:g} atol {ref['atol']:g}"})
-
-
-def integrator_convergence_mean(profile: dict, elements_deg, *, life_days: float | None = None, degree: int | None = None,
-                                tight: dict | None = None, natural: bool = False,
-                                model: ForceModel | None = None) -> xr.Dataset:
-    """Mean-element histories and Delta-v of :func:`simulate_life` with the ``[design_life]`` integrator setting
-    against a tighter one (default DOP853 rtol 1e-12 / atol 1e-14), same force model and checks.
-
-    Returns per satellite ``max_d_ecc``, ``max_d_aop_deg``, ``max_d_inc_deg`` (largest difference of the
-    one-orbit mean histories), ``dv_total_kms`` (setting, sat) and ``n_maneuvers`` (setting, sat). In closed
-    loop the two runs may decide differently near a box edge; their Delta-v difference is then what an
-    integrator error of that size does to the budget.
-    """
-    tight = tight or {"method": "DOP853", "rtol": 1e-12, "atol": 1e-14}
-    prof = {**profile, "integrator": {**profile["integrator"],
-                                      "settings": {**profile["integrator"]["settings"], "_tight": tight}}}
-    base = LifeSettings.from_profile(prof, life_days=life_days)
-    t0 = tdb_seconds(prof["epoch"]["start_tdb"], "TDB")
-    if model is None:
-        model = life_force_model(prof, t0, base.life_days, degree)
-    names = (base.integrator_setting, "_tight")
-    runs = [simulate_life(prof, elements_deg, natural=natural, model=model, t0_tdb_s=t0,
-                          settings=LifeSettings.from_profile(prof, life_days=base.life_days, integrator_setting=name))
-            for name in names]
-    diff = np.abs(runs[0].mean_elements.values - runs[1].mean_elements.values)
-    col = list(runs[0].mean_element.values)
-    return xr.Dataset(
-        {"max_d_ecc": ("sat", np.nanmax(diff[..., col.index("e")], axis=1)),
-         "max_d_aop_deg": ("sat", np.nanmax(diff[..., col.index("aop_deg")], axis=1)),
-         "max_d_inc_deg": ("sat", np.nanmax(diff[..., col.index("inc_deg")], axis=1)),
-         "dv_total_kms": (("setting", "sat"), np.stack([r.dv_total_kms.values for r in runs])),
-         "n_maneuvers": (("setting", "sat"), np.stack([r.n_maneuvers.values for r in runs])),
-         "wall_s": ("setting", [r.attrs["wall_s"] for r in runs])},
-        coords={"setting": [names[0], "tight"], "sat": runs[0].sat.values},
-        attrs={"tight": f"{tight['method']} rtol {tight['rtol']:g} atol {tight['atol']:g}", "life_days": base.life_days,
-               "mode": runs[0].attrs["mode"], "force_model": model.describe()})

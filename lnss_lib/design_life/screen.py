@@ -55,7 +55,7 @@ from ..gravity import GravityField
 
 __all__ = ["StabilitySettings", "stability_settings", "SecularField", "orbit_vectors_ej", "secular_rates",
            "averaged_potential", "integrate_secular", "elements_from_vectors", "screen_states", "screen_elements",
-           "screen_design", "classical_j2_rates", "kozai_e_max", "circular_tide_tensor"]
+           "classical_j2_rates", "kozai_e_max", "circular_tide_tensor"]
 
 SIDEREAL_MONTH_DAYS = 27.321661
 BODIES = STABILITY_BODIES
@@ -398,19 +398,6 @@ def screen_elements(profile: dict, elements_deg, t0_tdb_s: float | None = None, 
     ensure_kernels(profile)
     t0 = tdb_seconds(profile["epoch"]["start_tdb"], "TDB") if t0_tdb_s is None else float(t0_tdb_s)
     return screen_states(profile, elements_deg_to_states(profile, elements_deg, t0), t0, **overrides)
-
-
-def screen_design(profile: dict, sma_km: float, ecc: float, aop_deg: float, inc_deg: float, n_planes: int,
-                  sats_per_plane: int, **overrides) -> dict:
-    """Summary of the screen for a Walker design: ``stable_screen``, ``screen_min_perilune_alt_km``,
-    ``screen_impact_day`` (None when none), ``screen_wall_s``."""
-    from ..constellation import WalkerDesign
-
-    elements = WalkerDesign(sma_km, ecc, inc_deg, aop_deg, n_planes, sats_per_plane).elements_deg()
-    ds = screen_elements(profile, elements, **overrides)
-    day = ds.attrs["impact_day"]
-    return {"stable_screen": ds.attrs["stable"], "screen_min_perilune_alt_km": ds.attrs["min_perilune_alt_km"],
-            "screen_impact_day": None if np.isnan(day) else day, "screen_wall_s": ds.attrs["wall_s"]}
 
 
 _FIELDS: dict = {}
