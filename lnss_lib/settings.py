@@ -12,7 +12,8 @@ set of every text setting from :data:`lnss_lib.config.CHOICES` and physical rang
 so a second validator would duplicate it; a frozen dataclass adds no dependency, cannot be changed
 after the check, and shows every setting a function depends on in its signature. The fields take the
 names and value types of ``params/paper.toml``; numbers that TOML allows as integers in a float key
-become ``float``, lists become tuples and free tables read-only mappings.
+become ``float``, lists become tuples; free tables (``gps.launch_dates``, ``campaign.constraints``, ...) stay
+plain tables, checked by the code that reads them.
 
 :attr:`Settings.hash` is computed once, at construction (the same fingerprint as
 :func:`lnss_lib.config.profile_hash`), and :meth:`Settings.to_toml` / :func:`settings_from_toml` round
@@ -37,9 +38,9 @@ __all__ = ["Settings", "Dynamics", "load_settings", "settings_from_profile", "se
 
 
 def _frozen(value):
-    """A read-only copy of a free table or list: mappings become MappingProxyType, lists tuples."""
+    """A copy of a list value as nested tuples (tables stay plain, picklable dicts)."""
     if isinstance(value, Mapping):
-        return types.MappingProxyType({key: _frozen(item) for key, item in value.items()})
+        return {key: _frozen(item) for key, item in value.items()}
     if isinstance(value, (list, tuple)):
         return tuple(_frozen(item) for item in value)
     return value
@@ -71,8 +72,8 @@ def _convert(hint, value, key: str):
     if origin in (Mapping, dict) or hint is Mapping:
         args = typing.get_args(hint)
         if args and dataclasses.is_dataclass(args[1]):
-            return types.MappingProxyType({name: _build(args[1], item, f"{key}.{name}") for name, item in value.items()})
-        return _frozen(value)
+            return {name: _build(args[1], item, f"{key}.{name}") for name, item in value.items()}
+        return copy.deepcopy(_thawed(value))         # a free table: its consumer checks its content
     return _frozen(value)
 
 
@@ -91,16 +92,50 @@ def _build(cls, table: Mapping, key: str):
     return cls(**values)
 
 
+class _Table:
+    """Read-only ``section["key"]`` access of a settings section, for code not yet moved to attributes.
+
+    Transitional (issue 22): removed once every reader uses attributes.
+    """
+
+    def __getitem__(self, key: str):
+        if key not in (item.name for item in dataclasses.fields(self) if item.init and item.name != "source"):
+            raise KeyError(key)
+        return getattr(self, key)
+
+    def get(self, key: str, default=None):
+        return self[key] if key in self.keys() else default
+
+    def keys(self) -> tuple[str, ...]:
+        return tuple(item.name for item in dataclasses.fields(self)
+                     if item.init and not item.metadata.get("derived") and item.name != "source")
+
+    def __contains__(self, key) -> bool:
+        return key in self.keys()
+
+    def __iter__(self):
+        return iter(self.keys())
+
+    def items(self):
+        return [(key, self[key]) for key in self.keys()]
+
+    def values(self):
+        return [self[key] for key in self.keys()]
+
+
+Mapping.register(_Table)
+
+
 # --- the sections, in the order of params/paper.toml ------------------------------------------------------
 
 @dataclass(frozen=True)
-class ProfileInfo:
+class ProfileInfo(_Table):
     name: str
     description: str
 
 
 @dataclass(frozen=True)
-class EpochSettings:
+class EpochSettings(_Table):
     """Study epoch (TDB) and the arc of the 10-day evaluation (Section 5.3)."""
     start_tdb: str
     duration_days: float
@@ -108,7 +143,7 @@ class EpochSettings:
 
 
 @dataclass(frozen=True)
-class SpacecraftSettings:
+class SpacecraftSettings(_Table):
     """Table 2 bus: mass, SRP area and reflectivity coefficient."""
     mass_kg: float
     area_m2: float
@@ -121,7 +156,7 @@ class SpacecraftSettings:
 
 
 @dataclass(frozen=True)
-class GravitySettings:
+class GravitySettings(_Table):
     """The lunar field (fully normalised, in ``frames.gravity``), its degree and the per-evaluation truncation."""
     file: str
     degree: int
@@ -131,7 +166,7 @@ class GravitySettings:
 
 
 @dataclass(frozen=True)
-class ForceSettings:
+class ForceSettings(_Table):
     """Perturbations beyond the lunar field (Table 2)."""
     third_bodies: tuple[str, ...]
     srp: bool
@@ -143,7 +178,7 @@ class ForceSettings:
 
 
 @dataclass(frozen=True)
-class BodyConstants:
+class BodyConstants(_Table):
     """GMs of the third bodies (DE421), radii, the astronomical unit and the speed of light."""
     gm_sun_km3_s2: float
     gm_earth_km3_s2: float
@@ -156,7 +191,7 @@ class BodyConstants:
 
 
 @dataclass(frozen=True)
-class IntegratorSetting:
+class IntegratorSetting(_Table):
     """One named integrator setting: method and tolerances."""
     method: str
     rtol: float
@@ -165,7 +200,7 @@ class IntegratorSetting:
 
 
 @dataclass(frozen=True)
-class IntegratorSettings:
+class IntegratorSettings(_Table):
     """The named integrator settings and the one the profile propagates with."""
     setting: str
     settings: Mapping[str, IntegratorSetting]
@@ -180,7 +215,7 @@ class IntegratorSettings:
 
 
 @dataclass(frozen=True)
-class FrameSettings:
+class FrameSettings(_Table):
     """Frame of the design elements, of the surface grid and of the gravity field."""
     element_frame: str
     moon_fixed: str
@@ -188,7 +223,7 @@ class FrameSettings:
 
 
 @dataclass(frozen=True)
-class EphemerisSettings:
+class EphemerisSettings(_Table):
     """SPICE kernels (relative to params/), the planetary SPK and the tabulation step of bodies and rotations."""
     kernels: tuple[str, ...]
     planetary_spk: str
@@ -196,12 +231,12 @@ class EphemerisSettings:
 
 
 @dataclass(frozen=True)
-class ImpactSettings:
+class ImpactSettings(_Table):
     min_altitude_km: float
 
 
 @dataclass(frozen=True)
-class StandaloneElfoSettings:
+class StandaloneElfoSettings(_Table):
     """Table 4: the standalone ELFO constellation."""
     sma_km: float
     ecc: float
@@ -212,7 +247,7 @@ class StandaloneElfoSettings:
 
 
 @dataclass(frozen=True)
-class CapstoneSettings:
+class CapstoneSettings(_Table):
     """CAPSTONE NRHO reference arc (HORIZONS) of the propagator validation."""
     file: str
     arc_break_tdb: str
@@ -221,17 +256,17 @@ class CapstoneSettings:
 
 
 @dataclass(frozen=True)
-class ValidationSettings:
+class ValidationSettings(_Table):
     capstone: CapstoneSettings
 
 
 @dataclass(frozen=True)
-class NotebookSettings:
+class NotebookSettings(_Table):
     timeout_s: int
 
 
 @dataclass(frozen=True)
-class DopSettings:
+class DopSettings(_Table):
     """South-pole receiver grid and DOP statistics (Section 2.1, eq. 1-14)."""
     lat_min_deg: float
     lat_max_deg: float
@@ -247,7 +282,7 @@ class DopSettings:
 
 
 @dataclass(frozen=True)
-class GpsSettings:
+class GpsSettings(_Table):
     """GPS-LNSS link budget and visibility (Section 2.2, eq. 15-24, Table 1)."""
     tle_file: str
     exclude_prn: tuple[int, ...]
@@ -273,7 +308,7 @@ class GpsSettings:
 
 
 @dataclass(frozen=True)
-class DeltaVSettings:
+class DeltaVSettings(_Table):
     """Station-keeping Delta-V of the 10-day evaluation (Section 3.1, eq. 25-41)."""
     model: str
     element_frame: str
@@ -289,12 +324,12 @@ class DeltaVSettings:
 
 
 @dataclass(frozen=True)
-class EvaluatorSettings:
+class EvaluatorSettings(_Table):
     extra_metrics: tuple[str, ...]
 
 
 @dataclass(frozen=True)
-class VariableBounds:
+class VariableBounds(_Table):
     """A design variable's grid (eq. 43-44): lower and upper bound and step."""
     lower: int | float
     upper: int | float
@@ -302,7 +337,7 @@ class VariableBounds:
 
 
 @dataclass(frozen=True)
-class CampaignSettings:
+class CampaignSettings(_Table):
     """NSGA-II campaign (Section 5, Table 5) over the Table 3 grid."""
     population: int
     generations: int
@@ -330,7 +365,7 @@ class CampaignSettings:
 
 
 @dataclass(frozen=True)
-class StabilitySettings:
+class StabilitySettings(_Table):
     """Doubly-averaged stability screen over the design life."""
     life_days: float
     third_bodies: tuple[str, ...]
@@ -348,7 +383,7 @@ class StabilitySettings:
 
 
 @dataclass(frozen=True)
-class SkEstimateSettings:
+class SkEstimateSettings(_Table):
     """Campaign-grade geometry-keeping Delta-V estimate."""
     element_frame: str
     year_days: float
@@ -357,7 +392,7 @@ class SkEstimateSettings:
 
 
 @dataclass(frozen=True)
-class BoxSettings:
+class BoxSettings(_Table):
     """Half-widths of the fixed-element box controller."""
     ecc: float
     aop_deg: float
@@ -367,7 +402,7 @@ class BoxSettings:
 
 
 @dataclass(frozen=True)
-class ServiceSettings:
+class ServiceSettings(_Table):
     """What the service controller holds: a safe perilune and the navigation service."""
     perilune_margin_km: float
     safety_check_days: float
@@ -380,7 +415,7 @@ class ServiceSettings:
 
 
 @dataclass(frozen=True)
-class DesignLifeSettings:
+class DesignLifeSettings(_Table):
     """Closed-loop station keeping over the design life."""
     life_days: float
     check_interval_days: float
@@ -401,7 +436,7 @@ class DesignLifeSettings:
 
 
 @dataclass(frozen=True)
-class BenchmarkSettings:
+class BenchmarkSettings(_Table):
     """Notebook 10: every catalogue constellation on one yardstick."""
     extra_masks_deg: tuple[float, ...]
     campaign_picks: bool
@@ -411,7 +446,7 @@ class BenchmarkSettings:
 
 
 @dataclass(frozen=True)
-class LifeEvaluationSettings:
+class LifeEvaluationSettings(_Table):
     """A design over its design life: sampling, months, and the notebook's validation sets."""
     sample_step_s: float
     month_days: float
@@ -427,7 +462,7 @@ class LifeEvaluationSettings:
 
 
 @dataclass(frozen=True)
-class Dynamics:
+class Dynamics(_Table):
     """What the force model and the propagator read: bodies, frames, field, forces, spacecraft, integrator."""
     ephemeris: EphemerisSettings
     frames: FrameSettings
@@ -445,7 +480,7 @@ class Dynamics:
 
 
 @dataclass(frozen=True)
-class Settings:
+class Settings(_Table):
     """A whole profile, checked and frozen; only the top of the workbook (command line, pipeline, studies,
     campaign set-up, explorer) holds it, and hands each kernel its section."""
     profile: ProfileInfo
@@ -513,7 +548,12 @@ def settings_from_profile(profile: Mapping) -> Settings:
     validate_profile(profile)
     sections = {item.name: _build(typing.get_type_hints(Settings)[item.name], profile[item.name], item.name)
                 for item in dataclasses.fields(Settings) if item.init and item.name != "source"}
-    return Settings(**sections, source=_frozen(profile))
+    return Settings(**sections, source=profile)
+
+
+def profile_data(profile: Settings | Mapping) -> dict:
+    """The plain TOML data of settings or of a profile dict (what run folders store and compare)."""
+    return profile.as_dict() if isinstance(profile, Settings) else _thawed(profile)
 
 
 def settings_from_toml(text: str) -> Settings:
