@@ -21,13 +21,13 @@ def _notebook_cell(item) -> bool:
 def pytest_configure(config):
     """Notebook kernels (nbval, papermill) import lnss_lib from this checkout and run under the ci profile; an
     nbval cell may take as long as the profile gives a papermill cell (unless --nbval-cell-timeout says)."""
-    from lnss_lib.config import load_profile
+    from lnss_lib.settings import load_settings
     from lnss_lib.pipeline import kernel_environment
 
     kernel_environment(NOTEBOOK_PROFILE)
     if hasattr(config.option, "nbval_cell_timeout") and not any(
             arg.startswith("--nbval-cell-timeout") for arg in config.invocation_params.args):
-        config.option.nbval_cell_timeout = float(load_profile(NOTEBOOK_PROFILE)["notebooks"]["timeout_s"])
+        config.option.nbval_cell_timeout = float(load_settings(NOTEBOOK_PROFILE)["notebooks"]["timeout_s"])
 
 
 @pytest.hookimpl(tryfirst=True)

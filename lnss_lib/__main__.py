@@ -12,8 +12,8 @@ from pathlib import Path
 
 import numpy as np
 
-from .config import (CR_AREA_MASS, CR_AREA_MASS_WHY, PACKAGE_DIR, allowed_range_text, available_profiles, in_range,
-                     load_profile, parse_sets, use_profile_file)
+from .config import CR_AREA_MASS, CR_AREA_MASS_WHY, PACKAGE_DIR, allowed_range_text, available_profiles, in_range, parse_sets, use_profile_file
+from .settings import load_settings
 from .constants import SECONDS_PER_DAY
 from .errors import ConfigError, EphemerisRangeError, InvalidOrbitError, SpiceError
 
@@ -77,7 +77,7 @@ def _cmd_propagate(args: argparse.Namespace) -> int:
     overrides = _overrides(args) or {}
     if args.degree is not None:
         overrides = {**overrides, "gravity": {**overrides.get("gravity", {}), "degree": args.degree}}
-    profile = load_profile(args.profile, overrides=overrides or None)
+    profile = load_settings(args.profile, overrides=overrides or None)
     ensure_kernels(profile)
     t0 = tdb_seconds(args.epoch_tdb, "TDB")
     check_span(t0, t0 + args.days * SECONDS_PER_DAY)
@@ -132,7 +132,7 @@ def _cmd_evaluate(args: argparse.Namespace) -> int:
                               args.sats_per_plane, overrides=_overrides(args))
     from .campaign.settings import bounds_verdict
 
-    profile = load_profile(args.profile, overrides=_overrides(args))
+    profile = load_settings(args.profile, overrides=_overrides(args))
     result.update(bounds_verdict(profile, result))
     if args.design_life_days is not None:
         from .design_life.evaluation import design_life_cli
@@ -202,7 +202,7 @@ def _cmd_bench(args: argparse.Namespace) -> int:
     if args.scaling and args.name != "campaign":
         raise ConfigError(f"--scaling applies to 'bench campaign' only; got bench {args.name}", key="--scaling")
     overrides = _overrides(args)
-    load_profile(args.profile, overrides=overrides)          # every setting checked before the benchmark starts
+    load_settings(args.profile, overrides=overrides)          # every setting checked before the benchmark starts
     module.run(profile_name=args.profile, overrides=overrides, **({"scaling_run": True} if args.scaling else {}))
     return 0
 

@@ -44,7 +44,8 @@ from pathlib import Path
 
 import numpy as np
 
-from .config import PARAMS_DIR, deep_merge, load_profile, read_toml
+from .config import PARAMS_DIR, read_toml
+from .settings import load_settings
 from .ephemeris import ensure_kernels, tdb_iso, tdb_seconds
 from .frames import element_frame_to_j2000
 from .errors import ConfigError, InfeasibleDesignError
@@ -217,7 +218,7 @@ def load_constellation(name_or_path: str | Path, profile: dict | None = None) ->
     """
     path = _resolve(name_or_path)
     data = read_toml(path)
-    profile = profile if profile is not None else load_profile("paper")
+    profile = profile if profile is not None else load_settings("paper")
     floor_km = float(profile["constants"]["r_moon_mean_km"]) + float(profile["impact"]["min_altitude_km"])
     _check_keys(path, data, TOP_KEYS_REQUIRED, TOP_KEYS_OPTIONAL, "")
     approximate = data["approximate"]
@@ -292,7 +293,7 @@ def _states_at(profile: dict, c: CatalogueConstellation, t0_tdb_s: float, source
     from .propagator import elements_deg_to_states
 
     frame = FILE_FRAMES[c.element_frame]
-    framed = deep_merge(profile, {"frames": {"element_frame": frame}})
+    framed = profile.with_overrides({"frames": {"element_frame": frame}})
     states = elements_deg_to_states(framed, c.elements_deg, t0_tdb_s)
     rot = element_frame_to_j2000(framed, t0_tdb_s, frame)
     return CatalogueStates(states, float(t0_tdb_s), tdb_iso(t0_tdb_s), source, c.element_frame, rot)
@@ -327,7 +328,7 @@ def file_epoch_profile(profile: dict, c: CatalogueConstellation) -> dict:
     metrics mean little far from the TLE epoch (see params/data/README.md).
     """
     ensure_kernels(profile)
-    return deep_merge(profile, {"epoch": {"start_tdb": tdb_iso(_file_epoch_tdb_s(c))}})
+    return profile.with_overrides({"epoch": {"start_tdb": tdb_iso(_file_epoch_tdb_s(c))}})
 
 
 def analyse_catalogue(context, c: CatalogueConstellation, epoch: str = "study", *, datasets: bool = True) -> dict:
@@ -385,7 +386,7 @@ def evaluate_catalogue_cli(profile_name: str, name_or_path: str, epoch: str = "s
     """
     from .evaluator import cli_result, context_for
 
-    profile = load_profile(profile_name, overrides=overrides)
+    profile = load_settings(profile_name, overrides=overrides)
     c = load_constellation(name_or_path, profile)
     _refuse_approximate(c)
     if epoch == "file":

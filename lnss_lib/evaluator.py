@@ -27,7 +27,7 @@ import xarray as xr
 from . import deltav, dop, gps
 from .design_life import estimate as sk_estimate
 from .design_life import screen as stability
-from .config import load_profile, profile_hash, validate_profile
+from .settings import load_settings
 from .constellation import WalkerDesign
 from .ephemeris import EphemerisTable, ensure_kernels, rotation, tdb_seconds
 from .constants import SECONDS_PER_DAY
@@ -56,7 +56,6 @@ class EvaluationContext:
     def from_profile(cls, profile: dict) -> "EvaluationContext":
         """Tables, force model, Moon-fixed rotations, grid and GPS states over the profile's arc (profile checked
         by :func:`~lnss_lib.config.validate_profile` first, then the settings of the requested extra metrics)."""
-        validate_profile(profile, partial=True)   # an evaluation profile has no [campaign]
         extras = requested_extra_metrics(profile)
         deltav.deltav_settings(profile)
         if any(k.startswith("sk_dv_estimate") for k in extras):
@@ -79,7 +78,7 @@ _CONTEXTS: dict[str, EvaluationContext] = {}
 
 def context_for(profile: dict) -> EvaluationContext:
     """The process-wide :class:`EvaluationContext` of a profile (built on first use)."""
-    key = profile_hash(profile)
+    key = profile.hash
     if key not in _CONTEXTS:
         _CONTEXTS[key] = EvaluationContext.from_profile(profile)
     return _CONTEXTS[key]
@@ -255,7 +254,7 @@ def evaluate_cli(profile_name: str, sma_km: float, ecc: float, aop_deg: float, i
     """:func:`evaluate_design` under a named profile (with ``overrides``) with exactly the CLI's JSON keys
     (:func:`cli_result`); the design is checked before any kernel loads."""
     check_design(sma_km, ecc, aop_deg, inc_deg, n_planes, sats_per_plane)
-    context = context_for(load_profile(profile_name, overrides=overrides))
+    context = context_for(load_settings(profile_name, overrides=overrides))
     return cli_result(context, evaluate_design(context, sma_km, ecc, aop_deg, inc_deg, n_planes, sats_per_plane))
 
 

@@ -12,6 +12,8 @@ that reproduces them. The state logic runs without a browser: tests set widget v
 
 from __future__ import annotations
 
+from collections.abc import Mapping
+
 import html
 import json
 import math
@@ -26,7 +28,8 @@ import plotly.io as pio
 
 from . import deltav, frames
 from .atomicio import write_text_atomic
-from .config import OUTPUTS_DIR, available_profiles, deep_merge, load_profile, profile_path, toml_literal
+from .config import OUTPUTS_DIR, available_profiles, deep_merge, profile_path, toml_literal
+from .settings import load_settings
 from .constellation import walker_design
 from .errors import ImpactError, InfeasibleDesignError
 from .evaluator import EvaluationContext, analyse_constellation, context_for
@@ -147,14 +150,14 @@ def _fmt(value, key: str = "") -> str:
 
 def _flatten(values, prefix: str = "") -> list[tuple[str, object]]:
     """``[("key.sub", value), ...]`` of a nested overrides table."""
-    if not isinstance(values, dict):
+    if not isinstance(values, Mapping):
         return [(prefix, values)]
     return [item for key, value in values.items() for item in _flatten(value, f"{prefix}.{key}" if prefix else key)]
 
 
 def _lookup(table: dict, dotted: str):
     for part in dotted.split("."):
-        table = table.get(part) if isinstance(table, dict) else None
+        table = table.get(part) if isinstance(table, Mapping) else None
     return table
 
 
@@ -178,7 +181,7 @@ class DesignExplorer:
         self.previous: Evaluation | None = None
         self.comparison: list[dict] = []
         self.figures: dict[str, go.Figure] = {}
-        self.profile = load_profile(profile_name, overrides=self.overrides)
+        self.profile = load_settings(profile_name, overrides=self.overrides)
         style = {"description_width": "110px"}
         choices = available_profiles() + ([] if profile_name in available_profiles() else [profile_name])
         self.profile_choice = widgets.Dropdown(options=choices, value=profile_name,
@@ -243,7 +246,7 @@ class DesignExplorer:
         """The cached :class:`EvaluationContext` of the chosen (profile, element frame, Delta-V model)."""
         key = (self.profile_choice.value, self.frame_choice.value, self.model_choice.value)
         if key not in self._contexts:
-            self._contexts[key] = context_for(load_profile(key[0], overrides=deep_merge(self.overrides,
+            self._contexts[key] = context_for(load_settings(key[0], overrides=deep_merge(self.overrides,
                                                                                           self.settings())))
         return self._contexts[key]
 
@@ -283,7 +286,7 @@ class DesignExplorer:
 
     def _on_profile(self, change) -> None:
         design = self.design()
-        self.profile = load_profile(change["new"], overrides=self.overrides)
+        self.profile = load_settings(change["new"], overrides=self.overrides)
         self._configure_sliders(design)
         self.refresh()
 
@@ -305,7 +308,7 @@ class DesignExplorer:
         ``outputs/<profile>/explorer/<name>.toml`` (written atomically); ``path`` is None otherwise.
         """
         design, name = self.design(), self.profile_choice.value
-        base = load_profile(name)
+        base = load_settings(name)
         argv = (["evaluate", "--profile", name] if name in available_profiles()
                 else ["evaluate", "--profile-file", str(profile_path(name))])    # a reproduce --profile-file run
         for key in DESIGN_KEYS:

@@ -14,7 +14,8 @@ import time
 from pathlib import Path
 
 from .atomicio import atomic_path, write_bytes_atomic, write_text_atomic
-from .config import MANIFEST_PACKAGES, OUTPUTS_DIR, PARAMS_DIR, PROJECT_DIR, load_profile, package_versions, profile_hash
+from .config import MANIFEST_PACKAGES, OUTPUTS_DIR, PARAMS_DIR, PROJECT_DIR, package_versions
+from .settings import load_settings
 from .keys import LABELS, format_value, label
 
 __all__ = ["output_dir", "profile_dir", "display_path", "display_table", "write_text_atomic", "write_bytes_atomic", "atomic_path", "write_caption", "read_caption", "markdown_table",
@@ -145,14 +146,14 @@ def git_revision() -> str:
 
 def write_manifest(profile_name: str, runs: dict[str, dict]) -> Path:
     """Write ``outputs/<profile>/manifest.json``: parameters, versions, data checksums, notebook runs."""
-    profile = load_profile(profile_name)
+    profile = load_settings(profile_name)
     path = profile_dir(profile_name) / "manifest.json"
     path.parent.mkdir(parents=True, exist_ok=True)
     previous = json.loads(path.read_text()).get("notebooks", {}) if path.is_file() else {}
     manifest = {
         "profile": profile_name,
-        "profile_hash": profile_hash(profile),
-        "parameters": profile,
+        "profile_hash": profile.hash,
+        "parameters": profile.as_dict(),
         "git_revision": git_revision(),
         "written_utc": time.strftime("%Y-%m-%dT%H:%M:%SZ", time.gmtime()),
         "platform": platform.platform(),

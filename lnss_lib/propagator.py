@@ -22,7 +22,7 @@ import xarray as xr
 from scipy.integrate._ivp import dop853_coefficients as _dop853
 from scipy.integrate._ivp.rk import RK45 as _RK45
 
-from .config import METHODS, SEMI_MAJOR_AXIS, SEMI_MAJOR_AXIS_WHY, allowed_range_text, in_range, integrator_setting
+from .config import METHODS, SEMI_MAJOR_AXIS, SEMI_MAJOR_AXIS_WHY, allowed_range_text, in_range
 from .constants import EARTH_MOON_DISTANCE_KM, MAX_OUTPUT_SAMPLES, SECONDS_PER_DAY
 from .elements import elements_to_state, validate_elements
 from .errors import ConfigError, ImpactError, PropagationError
@@ -361,7 +361,7 @@ def propagate_states(profile: dict, states_mci, t0_tdb_s: float, duration_s: flo
     """
     states = _check_states(states_mci)
     batch = states.shape[0] > 1 if batch is None else batch
-    integ = integrator_setting(profile, setting)
+    integ = profile.integrator.named(setting)
     if integ["method"] not in METHODS:
         raise ValueError(f"unknown integration method {integ['method']!r}; allowed: {METHODS}")
     times = output_times(t0_tdb_s, duration_s, step_s)

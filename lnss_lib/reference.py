@@ -12,7 +12,6 @@ import numpy as np
 import spiceypy as spice
 from scipy.integrate import solve_ivp
 
-from .config import integrator_setting
 from .ephemeris import NAIF_BODY, ensure_kernels, spice_errors
 from .forces import shadow_factor
 from .gravity import GravityField
@@ -120,7 +119,7 @@ class ReferenceModel:
 def propagate_reference(profile: dict, state_mci: np.ndarray, t0_tdb_s: float, duration_s: float, *,
                         setting: str | None = None, degree: int | None = None) -> tuple[np.ndarray, int]:
     """Final Moon-centred J2000 state after ``duration_s`` and the number of force evaluations."""
-    integ = integrator_setting(profile, setting)
+    integ = profile.integrator.named(setting)
     model = ReferenceModel(profile, degree=degree)
     sol = solve_ivp(model.rhs, (t0_tdb_s, t0_tdb_s + duration_s), np.asarray(state_mci, dtype=float),
                     method=integ["method"], rtol=integ["rtol"], atol=integ["atol"])

@@ -14,7 +14,7 @@ from pathlib import Path
 import numpy as np
 import xarray as xr
 
-from .config import data_path, deep_merge
+from .config import data_path
 from .constants import SECONDS_PER_DAY
 from .ephemeris import EphemerisTable, ensure_kernels, tdb_seconds
 from .forces import ForceModel
@@ -167,7 +167,7 @@ def variant_differences(profile: dict, state_mci: np.ndarray, t0_tdb_s: float, d
     for overrides in variants.values():
         overrides = dict(overrides)
         variant_setting = overrides.pop("_setting", setting)
-        other = propagate_states(deep_merge(profile, overrides), state_mci[None, :], t0_tdb_s, duration_s, step_s,
+        other = propagate_states(profile.with_overrides(overrides), state_mci[None, :], t0_tdb_s, duration_s, step_s,
                                  setting=variant_setting)
         diffs.append(np.linalg.norm(other.r_mci_km.values[0] - base.r_mci_km.values[0], axis=1))
     return xr.Dataset({"difference_km": (("variant", "time"), np.array(diffs))},

@@ -3,12 +3,12 @@
 import numpy as np
 import pytest
 
-from lnss_lib.config import load_profile
+from lnss_lib.settings import load_settings
 from lnss_lib.ephemeris import ensure_kernels, tdb_seconds
 
 
 def _loaded(name: str) -> dict:
-    profile = load_profile(name)
+    profile = load_settings(name)
     ensure_kernels(profile)
     return profile
 
@@ -31,7 +31,7 @@ def epoch_tdb_s(paper_profile):
 @pytest.fixture(scope="session")
 def two_body_profile():
     """Point-mass Moon only: every perturbation switched off."""
-    profile = load_profile("paper", overrides={
+    profile = load_settings("paper", overrides={
         "gravity": {"degree": 0},
         "forces": {"third_bodies": [], "srp": False, "albedo": False, "relativity": False},
         "integrator": {"setting": "converged"},

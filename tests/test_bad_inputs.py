@@ -17,7 +17,8 @@ import xarray as xr
 from lnss_lib import config
 from lnss_lib.__main__ import main
 from lnss_lib.campaign.rundir import RunLock
-from lnss_lib.config import PROJECT_DIR, load_profile
+from lnss_lib.config import PROJECT_DIR
+from lnss_lib.settings import load_settings
 from lnss_lib.errors import ConfigError, SpiceError
 
 EPOCH = ["--epoch-tdb", "2025-05-01T00:00:00"]
@@ -182,9 +183,9 @@ def test_profile_file_errors_name_file_and_line(capsys, params_dir, text, needle
 
 def test_python_api_checks_the_same_values():
     with pytest.raises(ConfigError, match="spacecraft.cr = nan"):
-        load_profile("ci", overrides={"spacecraft": {"cr": float("nan")}})
+        load_settings("ci", overrides={"spacecraft": {"cr": float("nan")}})
     with pytest.raises(ConfigError, match="unknown key gps.gain_fle"):
-        load_profile("ci", overrides={"gps": {"gain_fle": "x.csv"}})
+        load_settings("ci", overrides={"gps": {"gain_fle": "x.csv"}})
     from lnss_lib.gps import load_gain_pattern
 
     for path, content, needle in (("empty.csv", "", "header line"), ("text.csv", "off_boresight_deg,g\n0,1\nx,2\n", "line 3"),
@@ -406,7 +407,7 @@ def test_profile_file_runs_and_writes_under_its_stem(capsys, tmp_path, own_outpu
     assert main(command) == 0, capsys.readouterr().err
     assert [p.name for p in own_outputs.iterdir()] == ["mine"]
     assert sorted(os.listdir(profile_file.parent)) == ["mine.toml"]
-    assert load_profile("mine")["profile"]["name"] == "mine"
+    assert load_settings("mine")["profile"]["name"] == "mine"
 
 
 @pytest.mark.parametrize("file_name, needle", [("x y.toml", "'x y' is not allowed"), ("ci.toml", "params/ci.toml"),
@@ -615,13 +616,13 @@ def _bad_text(key: str):
 def test_every_text_setting_is_checked_against_its_allowed_values(key):
     """Each text setting refuses an unknown value before any work, naming the key and what is allowed."""
     with pytest.raises(ConfigError, match="allowed") as caught:
-        load_profile("ci", overrides=_bad_text(key))
+        load_settings("ci", overrides=_bad_text(key))
     assert key.replace("*", "paper") in str(caught.value) and "NOSUCH" in str(caught.value)
     if key in config.CHOICES:
         assert all(repr(v) in str(caught.value) for v in config.CHOICES[key])
     if not key.startswith("campaign."):
         with pytest.raises(ConfigError, match="allowed"):    # and in campaign.overrides, which evaluations use
-            load_profile("ci", overrides={"campaign": {"overrides": _bad_text(key)}})
+            load_settings("ci", overrides={"campaign": {"overrides": _bad_text(key)}})
 
 
 # text keys whose values are not a fixed set: data paths (confined by the loader), free text, names checked
@@ -644,7 +645,7 @@ def _text_keys(table: dict, prefix: str = "", rule: str = ""):
 def test_no_text_setting_escapes_the_checks(profile_name):
     """A new text setting must get an allowed set (config.CHOICES / FORMS / SETTING_NAMES) or be declared open."""
     checked = set(config.CHOICES) | set(config.FORMS) | set(config.SETTING_NAMES) | OPEN_TEXT
-    unchecked = [key for key, rule in _text_keys(load_profile(profile_name)) if rule not in checked]
+    unchecked = [key for key, rule in _text_keys(load_settings(profile_name)) if rule not in checked]
     assert not unchecked, unchecked
 
 

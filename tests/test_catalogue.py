@@ -8,7 +8,7 @@ import pytest
 from lnss_lib.catalogue import (CATALOGUE_DIR, EXTRA_RESULT_KEYS, FILE_FRAMES, constellation_states_mci,
                                 evaluate_catalogue, evaluate_catalogue_cli, list_catalogue, load_constellation,
                                 true_to_mean_anomaly_deg)
-from lnss_lib.config import load_profile
+from lnss_lib.settings import load_settings
 from lnss_lib.constellation import WalkerDesign
 from lnss_lib.elements import elements_to_state, state_to_elements
 from lnss_lib.ephemeris import file_sha256
@@ -119,7 +119,7 @@ def test_user_file_in_a_workbook_frame_gives_the_walker_states_exactly(paper_pro
 
 @pytest.fixture(scope="module")
 def ci_context():
-    return context_for(load_profile("ci"))
+    return context_for(load_settings("ci"))
 
 
 def test_user_file_and_walker_design_give_identical_metrics(ci_context, tmp_path):
@@ -200,14 +200,13 @@ def test_frames_of_the_catalogue_are_known():
 
 def test_bhamidipati_case_c_is_the_table_4_elfo_in_the_moon_op_frame(ci_context):
     """Same a, e, i, AOP, RAANs and phasing as Table 4: identical to the profile path with element_frame = moon_op."""
-    from lnss_lib.config import deep_merge
     from lnss_lib.constellation import standalone_elfo
     from lnss_lib.evaluator import evaluate_constellation
 
     c = load_constellation("bhamidipati2023_case_c", ci_context.profile)
     assert np.array_equal(c.elements_deg, standalone_elfo(ci_context.profile))
     ours = evaluate_catalogue(ci_context, c)
-    op_profile = deep_merge(ci_context.profile, {"frames": {"element_frame": "moon_op"}})
+    op_profile = ci_context.profile.with_overrides({"frames": {"element_frame": "moon_op"}})
     theirs = evaluate_constellation(context_for(op_profile), standalone_elfo(op_profile))
     for key in METRIC_KEYS:
         assert ours[key] == theirs[key], key

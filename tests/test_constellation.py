@@ -3,7 +3,7 @@
 import numpy as np
 import pytest
 
-from lnss_lib.config import load_profile
+from lnss_lib.settings import load_settings
 from lnss_lib.constellation import (
     WalkerDesign,
     explicit_constellation,
@@ -63,7 +63,7 @@ def test_perilune_below_surface(profile):
 
 
 def test_min_altitude_raises_the_floor():
-    strict = load_profile("ci", overrides={"impact": {"min_altitude_km": 200.0}})
+    strict = load_settings("ci", overrides={"impact": {"min_altitude_km": 200.0}})
     with pytest.raises(ValueError, match="perilune"):
         walker_design(strict, 1900.0, 0.0, 50.0, 90.0, 2, 2)
 

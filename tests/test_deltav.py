@@ -10,7 +10,7 @@ import xarray as xr
 
 from lnss_lib import deltav as dv
 from lnss_lib import frames, gve
-from lnss_lib.config import load_profile
+from lnss_lib.settings import load_settings
 from lnss_lib.elements import elements_to_state, orbital_period_s
 from orbit_cases import GM, J2, R_REF, YEAR_S, integrate, j2_acceleration, make_j2_arc
 
@@ -138,7 +138,7 @@ def _dataset(t, states):
 
 def test_deltav_from_propagation_dataset(j2_arc):
     _, t, states = j2_arc
-    profile = load_profile("ci")
+    profile = load_settings("ci")
     ds = _dataset(t, states)
     out = dv.deltav_from_propagation(profile, ds, sat=0, model="secular", element_frame="j2000")
     assert out.attrs["deltav_model"] == "secular"
@@ -171,7 +171,7 @@ def test_bad_inputs_are_rejected(j2_arc):
     with pytest.raises(ValueError, match="increasing"):
         gve.element_rates(t[::-1], gve.osculating_elements(states, GM))
     with pytest.raises(ValueError, match="satellite 3"):
-        dv.deltav_from_propagation(load_profile("ci"), _dataset(t, states), sat=3)
+        dv.deltav_from_propagation(load_settings("ci"), _dataset(t, states), sat=3)
 
 
 def test_lsq_recovers_the_force_model_perturbation():
@@ -180,7 +180,7 @@ def test_lsq_recovers_the_force_model_perturbation():
     from lnss_lib.ephemeris import ensure_kernels
     from lnss_lib.propagator import propagate_elements
 
-    profile = load_profile("ci")
+    profile = load_settings("ci")
     ensure_kernels(profile)
     ds = propagate_elements(profile, [[6143.0, 0.6, 51.7, 0.0, 90.0, 0.0]], duration_s=86400.0, step_s=300.0,
                             setting="converged")

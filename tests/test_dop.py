@@ -4,7 +4,7 @@ import numpy as np
 import pytest
 import xarray as xr
 
-from lnss_lib.config import load_profile
+from lnss_lib.settings import load_settings
 from lnss_lib.geometry import availability_pct
 from lnss_lib.dop import (
     dop_from_propagation,
@@ -59,7 +59,7 @@ def single_point_grid(lat_deg, lon_deg):
 
 
 def test_paper_grid_has_144_points_with_repeated_pole():
-    grid = grid_from_profile(load_profile("ci"))
+    grid = grid_from_profile(load_settings("ci"))
     assert grid.n_points == 144 and grid.shape == (4, 36)
     np.testing.assert_allclose(grid.lat_deg, [-90.0, -80.0, -70.0, -60.0])
     np.testing.assert_allclose(grid.lon_deg, np.arange(0.0, 351.0, 10.0))
@@ -204,7 +204,7 @@ def test_bad_inputs():
 def test_dop_from_propagation_rotates_to_moon_fixed():
     from lnss_lib.ephemeris import ensure_kernels, rotation, tdb_seconds
 
-    profile = load_profile("ci")
+    profile = load_settings("ci")
     ensure_kernels(profile)
     times = tdb_seconds(profile["epoch"]["start_tdb"]) + 3600.0 * np.arange(4)
     rng = np.random.default_rng(3)
@@ -244,7 +244,7 @@ def test_compiled_grid_pass_matches_dop_kernel_bit_for_bit(los_axes):
     r = _walker_positions_mf()
     r[3, 10:20] = np.nan                                   # an impacted satellite is never visible
     r[7, :, :] = r[8, :, :]                                # coincident satellites: singular geometries appear
-    grid = grid_from_profile(load_profile("paper"))
+    grid = grid_from_profile(load_settings("paper"))
     points, up = grid.r_mf_km.reshape(-1, 3), grid.up.reshape(-1, 3)
     for mask in (5.0, 30.0, -5.0):
         old = dop_kernel(r, points, up, mask, los_axes)

@@ -8,7 +8,8 @@ import sys
 import numpy as np
 import pytest
 
-from lnss_lib.config import PROJECT_DIR, load_profile
+from lnss_lib.config import PROJECT_DIR
+from lnss_lib.settings import load_settings
 from lnss_lib.evaluator import METRIC_KEYS, RESULT_KEYS, context_for, evaluate_constellation, evaluate_design
 from lnss_lib.keys import VERDICT_KEYS
 
@@ -19,7 +20,7 @@ CLI_KEYS = {"n_sat", "mean_visible_sats", "pdop_mean_3sigma", "pdop_avail_pct", 
 
 @pytest.fixture(scope="module")
 def context():
-    return context_for(load_profile("ci"))
+    return context_for(load_settings("ci"))
 
 
 def test_elfo_metrics_are_physical(context):
@@ -120,6 +121,6 @@ def test_campaign_path_matches_study_path_and_reuses_run_geometry(context, monke
     monkeypatch.setattr(dop, "surface_grid", forbidden)
     monkeypatch.setattr(dop, "grid_from_profile", forbidden)
     campaign = evaluate_constellation(context, elements)
-    assert context_for(load_profile("ci")) is context
+    assert context_for(load_settings("ci")) is context
     for key in METRIC_KEYS:
         assert campaign[key] == pytest.approx(study[key], rel=1e-11, nan_ok=True), key

@@ -22,7 +22,7 @@ import pytest
 pytest.importorskip("ipywidgets")
 
 from lnss_lib.__main__ import build_parser, main  # noqa: E402
-from lnss_lib.config import load_profile  # noqa: E402
+from lnss_lib.settings import load_settings  # noqa: E402
 from lnss_lib.evaluator import context_for, evaluate_design  # noqa: E402
 from lnss_lib.constellation import standalone_elfo, walker_design  # noqa: E402
 from lnss_lib.explorer import DesignExplorer, initial_design, snap_to_grid, table4_design  # noqa: E402
@@ -46,7 +46,7 @@ def _set(explorer, **values):
 
 
 def _reference(design, overrides=None):
-    context = context_for(load_profile(PROFILE, overrides=overrides))
+    context = context_for(load_settings(PROFILE, overrides=overrides))
     return evaluate_design(context, design["sma_km"], design["ecc"], design["aop_deg"], design["inc_deg"],
                            design["n_planes"], design["sats_per_plane"])
 
@@ -71,7 +71,7 @@ def test_snap_to_grid_follows_table3_steps():
 
 
 def test_initial_state_is_the_grid_design_nearest_the_elfo_and_matches_evaluate(explorer):
-    profile = load_profile(PROFILE)
+    profile = load_settings(PROFILE)
     assert explorer.design() == initial_design(profile)
     for key, slider in explorer.sliders.items():
         spec = profile["campaign"]["variables"][key]
@@ -83,7 +83,7 @@ def test_initial_state_is_the_grid_design_nearest_the_elfo_and_matches_evaluate(
 def test_start_says_it_is_not_table4_and_how_it_differs(explorer):
     """Table 3 caps satellites per plane below Table 4's 8: the first design is the nearest grid design, and the
     page says so, naming every variable that differs (with Table 4's value) and both satellite counts."""
-    profile = load_profile(PROFILE)
+    profile = load_settings(PROFILE)
     table4, start = table4_design(profile), explorer.design()
     assert table4["sats_per_plane"] > profile["campaign"]["variables"]["sats_per_plane"]["upper"]
     differ = [key for key in table4 if not math.isclose(start[key], table4[key], abs_tol=1e-9)]
@@ -105,7 +105,7 @@ def test_start_is_table4_itself_where_the_grid_holds_it(tmp_path):
                                        "inc_deg": {"lower": 1.0, "upper": 90.0, "step": 0.1},
                                        "sats_per_plane": {"lower": 1, "upper": 8, "step": 1}}}}
     explorer = DesignExplorer(PROFILE, outputs_dir=tmp_path, overrides=grid)
-    profile = load_profile(PROFILE, overrides=grid)
+    profile = load_settings(PROFILE, overrides=grid)
     design = explorer.design()
     assert design == table4_design(profile)
     elements = walker_design(profile, design["sma_km"], design["ecc"], design["inc_deg"], design["aop_deg"],
@@ -385,8 +385,8 @@ def test_exported_command_passes_the_command_line_checks(tmp_path):
     exported = explorer.export()
     assert shlex.split(exported["command"])[3:] == exported["argv"]
     args = build_parser().parse_args(exported["argv"])
-    profile = load_profile(args.profile, overrides=parse_sets(args.set))
-    assert profile["forces"]["relativity"] is False and profile["forces"]["third_bodies"] == ["SUN", "EARTH"]
+    profile = load_settings(args.profile, overrides=parse_sets(args.set))
+    assert profile["forces"]["relativity"] is False and profile["forces"]["third_bodies"] == ("SUN", "EARTH")
     assert profile == explorer.context().profile
 
 
@@ -402,6 +402,6 @@ def test_export_of_a_profile_file_names_the_file(tmp_path, monkeypatch):
     exported = explorer.export()
     args = build_parser().parse_args(exported["argv"])
     assert args.profile_file == str(path)
-    loaded = load_profile(config.use_profile_file(args.profile_file))
+    loaded = load_settings(config.use_profile_file(args.profile_file))
     assert loaded["profile"]["name"] == "mine"
-    assert config.profile_hash(loaded) == config.profile_hash(explorer.context().profile)   # contexts are shared by hash
+    assert loaded.hash == explorer.context().profile.hash   # contexts are shared by hash

@@ -12,7 +12,7 @@ import pytest
 import spiceypy as spice
 
 from lnss_lib import frames
-from lnss_lib.config import load_profile
+from lnss_lib.settings import load_settings
 from lnss_lib.ephemeris import rotation, tdb_seconds
 from orbit_cases import random_elements, state_from_nu
 
@@ -106,10 +106,10 @@ def test_lunar_equator_element_frame(paper_profile, epoch_tdb_s):
     assert np.allclose(pole_j2000, moon_pole, atol=1e-14)
     tilt_deg = np.degrees(np.arccos(pole_j2000[2]))
     assert 20.0 < tilt_deg < 26.0  # the lunar pole is about 22 deg from the J2000 pole
-    j2000 = load_profile("paper", overrides={"frames": {"element_frame": "j2000"}})
+    j2000 = load_settings("paper", overrides={"frames": {"element_frame": "j2000"}})
     assert np.array_equal(frames.element_frame_to_j2000(j2000, epoch_tdb_s), np.eye(3))
     with pytest.raises(ValueError, match="ecliptic"):        # refused when the profile loads
-        load_profile("paper", overrides={"frames": {"element_frame": "ecliptic"}})
+        load_settings("paper", overrides={"frames": {"element_frame": "ecliptic"}})
     bad = {**paper_profile, "frames": {**paper_profile["frames"], "element_frame": "ecliptic"}}
     with pytest.raises(ValueError, match="ecliptic"):        # and by the kernel, for a profile built in code
         frames.element_frame_to_j2000(bad, epoch_tdb_s)

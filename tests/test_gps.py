@@ -172,13 +172,13 @@ def test_pdop_along_axis_splits_the_trace():
 
 
 def test_campaign_link_metrics_equal_the_dataset_summary():
-    from lnss_lib.config import load_profile
+    from lnss_lib.settings import load_settings
     from lnss_lib.constellation import WalkerDesign
     from lnss_lib.evaluator import analyse_states, context_for
     from lnss_lib.gps import gps_link, gps_link_metrics, gps_link_summary
     from lnss_lib.propagator import elements_deg_to_states
 
-    context = context_for(load_profile("ci"))
+    context = context_for(load_settings("ci"))
     elements = WalkerDesign(6143.0, 0.6, 51.7, 90.0, 2, 2).elements_deg()
     ds = analyse_states(context, elements, elements_deg_to_states(context.profile, elements, context.t0_tdb_s))[
         "propagation"]

@@ -127,7 +127,7 @@ def test_truncation_degree_keeps_the_dropped_part_below_the_tolerance(paper_prof
                                       [15000.0, 0.8, 60.0, 0.0, 90.0, 0.0]])     # high and eccentric
 @pytest.mark.parametrize("setting", ["paper", "converged"])
 def test_truncated_field_moves_ten_day_positions_by_less_than_a_metre(paper_profile, epoch_tdb_s, elements, setting):
-    from lnss_lib.config import load_profile
+    from lnss_lib.settings import load_settings
     from lnss_lib.ephemeris import EphemerisTable
     from lnss_lib.forces import ForceModel
     from lnss_lib.propagator import elements_deg_to_states, propagate_states
@@ -137,7 +137,7 @@ def test_truncated_field_moves_ten_day_positions_by_less_than_a_metre(paper_prof
     y0 = elements_deg_to_states(paper_profile, [elements], epoch_tdb_s)
     runs = {}
     for tol in (0.0, 1e-15):
-        profile = load_profile("paper", overrides={"gravity": {"truncation_kms2": tol}})
+        profile = load_settings("paper", overrides={"gravity": {"truncation_kms2": tol}})
         runs[tol] = propagate_states(profile, y0, epoch_tdb_s, duration, 900.0, setting=setting,
                                      model=ForceModel.from_profile(profile, table)).r_mci_km.values[0]
     moved_m = 1e3 * np.max(np.linalg.norm(runs[1e-15] - runs[0.0], axis=-1))

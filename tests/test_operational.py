@@ -10,7 +10,7 @@ import xarray as xr
 from lnss_lib.campaign import CampaignSettings, run_campaign, synthetic_evaluation
 from lnss_lib.campaign.fitness import constraint_matrix
 from lnss_lib.campaign.settings import evaluation_hash
-from lnss_lib.config import load_profile
+from lnss_lib.settings import load_settings
 from lnss_lib.constellation import WalkerDesign
 from lnss_lib.errors import ConfigError
 from lnss_lib.evaluator import analyse_states, context_for, evaluate_design
@@ -25,11 +25,11 @@ KOZAI_3X1 = (18000.0, 0.4, 90.0, 80.0, 3, 1)     # high and inclined: the Earth'
 
 @pytest.fixture(scope="module")
 def extra_context():
-    return context_for(load_profile("ci", overrides=ALL_EXTRAS))
+    return context_for(load_settings("ci", overrides=ALL_EXTRAS))
 
 
 def test_extra_metrics_appear_only_when_asked(extra_context):
-    plain = evaluate_design(context_for(load_profile("ci")), *ELFO_2X2)
+    plain = evaluate_design(context_for(load_settings("ci")), *ELFO_2X2)
     assert not set(EXTRA_METRIC_KEYS) & set(plain)
     result = evaluate_design(extra_context, *ELFO_2X2)
     assert result["evaluated"] and all(math.isfinite(result[k]) for k in EXTRA_METRIC_KEYS)
@@ -57,7 +57,7 @@ def test_deltav_satellites_first_is_satellite_zero_and_all_is_the_mean(extra_con
     assert out["deltav"].attrs["dv_total_kms_per_year"] == pytest.approx(float(per_sat.dv_total_kms_per_year[0]))
     estimate = sk_estimate.sk_estimate_from_propagation(profile, out["propagation"])
     assert metrics["sk_dv_estimate_max_kms_per_year"] == pytest.approx(estimate["sk_dv_estimate_max_kms_per_year"])
-    first = evaluate_design(context_for(load_profile("ci")), *ELFO_2X2)
+    first = evaluate_design(context_for(load_settings("ci")), *ELFO_2X2)
     assert first["dv_total_kms_per_year"] == pytest.approx(float(per_sat.dv_total_kms_per_year[0]))
 
 
@@ -87,27 +87,27 @@ def test_infeasible_design_has_nan_extras(extra_context):
 ])
 def test_bad_extra_metrics_are_config_errors(overrides, key):
     with pytest.raises(ConfigError) as error:
-        requested_extra_metrics(load_profile("paper", overrides=overrides))
+        requested_extra_metrics(load_settings("paper", overrides=overrides))
     assert error.value.key == key
 
 
 def test_campaign_names_are_checked_against_the_requested_metrics():
     with pytest.raises(ValueError, match="extra_metrics"):
-        CampaignSettings.from_profile(load_profile("paper", overrides={"campaign": {"objectives": ["n_sat", "sk_dv_estimate_kms_per_year"]}}))
+        CampaignSettings.from_profile(load_settings("paper", overrides={"campaign": {"objectives": ["n_sat", "sk_dv_estimate_kms_per_year"]}}))
     with pytest.raises(ValueError, match="stable_screen"):
-        CampaignSettings.from_profile(load_profile("paper", overrides={"campaign": {"constraints": {"stable_screen": {"min": 1}}}}))
+        CampaignSettings.from_profile(load_settings("paper", overrides={"campaign": {"constraints": {"stable_screen": {"min": 1}}}}))
     with pytest.raises(ValueError, match="notebook_mode"):
-        CampaignSettings.from_profile(load_profile("paper", overrides={"campaign": {"notebook_mode": "maybe"}}))
+        CampaignSettings.from_profile(load_settings("paper", overrides={"campaign": {"notebook_mode": "maybe"}}))
     with pytest.raises(ValueError, match="companion_profile"):
-        CampaignSettings.from_profile(load_profile("paper", overrides={"campaign": {"companion_profile": "paper"}}))
+        CampaignSettings.from_profile(load_settings("paper", overrides={"campaign": {"companion_profile": "paper"}}))
     with pytest.raises(ValueError, match="satellites"):
-        context_for(load_profile("ci", overrides={"deltav": {"satellites": "some"}}))
+        context_for(load_settings("ci", overrides={"deltav": {"satellites": "some"}}))
 
 
 def test_operational_profiles_load_and_validate():
-    paper = CampaignSettings.from_profile(load_profile("paper"))
+    paper = CampaignSettings.from_profile(load_settings("paper"))
     for name in ("operational", "quick_operational", "ci_operational"):
-        profile = load_profile(name)
+        profile = load_settings(name)
         s = CampaignSettings.from_profile(profile)
         assert profile["dop"]["los_axes"] == "enu" and profile["deltav"]["satellites"] == "first"
         assert set(s.extra_metrics) == {"sk_dv_estimate_kms_per_year", "sk_dv_estimate_max_kms_per_year",
@@ -121,10 +121,10 @@ def test_operational_profiles_load_and_validate():
         assert dict(s.hypervolume) == {"n_sat": 20.0, "pdop_mean_3sigma": 10.0, "hdop_mean_3sigma": 10.0,
                                        "sk_dv_estimate_kms_per_year": 1.0}
         assert s.companion_profile == "" and np.array_equal(s.grid.n_levels, paper.grid.n_levels)
-    assert CampaignSettings.from_profile(load_profile("operational")).notebook_mode == "load"
-    assert evaluation_hash(load_profile("quick_operational")) == evaluation_hash(load_profile("operational"))
-    assert CampaignSettings.from_profile(load_profile("quick")).companion_profile == "quick_operational"
-    assert CampaignSettings.from_profile(load_profile("ci")).companion_profile == "ci_operational"
+    assert CampaignSettings.from_profile(load_settings("operational")).notebook_mode == "load"
+    assert evaluation_hash(load_settings("quick_operational")) == evaluation_hash(load_settings("operational"))
+    assert CampaignSettings.from_profile(load_settings("quick")).companion_profile == "quick_operational"
+    assert CampaignSettings.from_profile(load_settings("ci")).companion_profile == "ci_operational"
 
 
 @pytest.mark.parametrize("base, companion", [("quick", "quick_operational"), ("ci", "ci_operational")])
@@ -135,7 +135,7 @@ def test_companions_differ_from_their_base_only_where_operational_does(base, com
     from lnss_lib.config import PARAMS_DIR
 
     own = tomllib.loads((PARAMS_DIR / "operational.toml").read_text())
-    a, b = load_profile(base), load_profile(companion)
+    a, b = load_settings(base).as_dict(), load_settings(companion).as_dict()
     for section in set(a) | set(b):
         if section in ("profile", "campaign"):
             continue
@@ -146,14 +146,14 @@ def test_companions_differ_from_their_base_only_where_operational_does(base, com
 
 
 def test_synthetic_extras_are_labelled_stand_ins():
-    profile = load_profile("ci", overrides=ALL_EXTRAS)
+    profile = load_settings("ci", overrides=ALL_EXTRAS)
     stable = synthetic_evaluation(profile, 6143.0, 0.6, 90.0, 51.7, 2, 4)
     kozai = synthetic_evaluation(profile, 18000.0, 0.4, 90.0, 80.0, 3, 1)
     hit = synthetic_evaluation(profile, 4000.0, 0.8, 90.0, 50.0, 2, 2)
     assert stable["stable_screen"] == 1.0 and kozai["stable_screen"] == 0.0
     assert all(math.isfinite(stable[k]) for k in EXTRA_METRIC_KEYS)
     assert all(math.isnan(hit[k]) for k in EXTRA_METRIC_KEYS)
-    assert not set(EXTRA_METRIC_KEYS) & set(synthetic_evaluation(load_profile("ci"), 6143.0, 0.6, 90.0, 51.7, 2, 4))
+    assert not set(EXTRA_METRIC_KEYS) & set(synthetic_evaluation(load_settings("ci"), 6143.0, 0.6, 90.0, 51.7, 2, 4))
 
 
 def test_synthetic_campaign_under_the_operational_objectives(tmp_path):

@@ -30,9 +30,8 @@ def test_two_body_conserves_energy_and_angular_momentum(two_body_profile, epoch_
 
 
 def test_j2_secular_rates_match_analytic(paper_profile, epoch_tdb_s):
-    profile = {**paper_profile, "forces": {**paper_profile["forces"], "third_bodies": [], "srp": False,
-                                           "albedo": False, "relativity": False},
-               "integrator": {**paper_profile["integrator"], "setting": "converged"}}
+    profile = paper_profile.with_overrides({"forces": {"third_bodies": [], "srp": False, "albedo": False, "relativity": False},
+                                            "integrator": {"setting": "converged"}})
     duration = 10 * 86400.0
     table = EphemerisTable.build(profile, epoch_tdb_s, epoch_tdb_s + duration)
     model = ForceModel.from_profile(profile, table, degree=2)
@@ -89,7 +88,7 @@ def test_dense_output_matches_integration_ending_at_the_sample(paper_profile, ep
 
 
 def load_overrides(profile, method, rtol, atol):
-    return {**profile, "integrator": {"setting": "tight", "settings": {"tight": {"method": method, "rtol": rtol, "atol": atol}}}}
+    return profile.with_overrides({"integrator": {"setting": "tight", "settings": {"tight": {"method": method, "rtol": rtol, "atol": atol}}}})
 
 
 def test_force_model_matches_reference_implementation(paper_profile, epoch_tdb_s, rng):
@@ -164,7 +163,7 @@ def test_impact_raises_for_single_and_flags_in_batch(paper_profile, epoch_tdb_s)
 
 
 def test_minimum_altitude_parameter(paper_profile, epoch_tdb_s):
-    profile = {**paper_profile, "impact": {"min_altitude_km": 800.0}}
+    profile = paper_profile.with_overrides({"impact": {"min_altitude_km": 800.0}})
     with pytest.raises(ValueError, match="minimum altitude 800.0 km"):
         propagate_elements(profile, [ELFO], t0_tdb_s=epoch_tdb_s, duration_s=3600.0)
 

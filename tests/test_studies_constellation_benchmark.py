@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 
 from lnss_lib.catalogue import evaluate_catalogue_cli, load_constellation
-from lnss_lib.config import load_profile
+from lnss_lib.settings import load_settings
 from lnss_lib.ephemeris import ensure_kernels, tdb_seconds
 from lnss_lib.keys import METRIC_KEYS
 from lnss_lib.studies import constellation_benchmark as cb
@@ -105,7 +105,7 @@ def test_epoch_sensitivity_at_the_study_epoch_matches_the_yardstick(bench):
 
 
 def test_moon_node_regresses_half_a_turn_in_half_a_nodal_period():
-    profile = load_profile(PROFILE)
+    profile = load_settings(PROFILE)
     ensure_kernels(profile)
     t0 = tdb_seconds("2025-05-01T00:00:00", "TDB")
     half = 0.5 * 6798.38 * 86400.0
@@ -116,7 +116,7 @@ def test_moon_node_regresses_half_a_turn_in_half_a_nodal_period():
 
 
 def test_settings_are_checked():
-    profile = load_profile(PROFILE)
+    profile = load_settings(PROFILE)
     assert cb.benchmark_settings(profile)["epochs_tdb"]
     with pytest.raises(ValueError, match="unknown"):
         cb.benchmark_settings({**profile, "benchmark": {**profile["benchmark"], "masks": [1.0]}})

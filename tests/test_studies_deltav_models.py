@@ -5,7 +5,7 @@ import pytest
 import xarray as xr
 
 from lnss_lib import deltav as dv
-from lnss_lib.config import load_profile
+from lnss_lib.settings import load_settings
 from lnss_lib.frames import ELEMENT_FRAMES
 from lnss_lib.studies import deltav_models as dm
 from orbit_cases import GM, J2, R_REF, YEAR_S, make_j2_arc
@@ -29,7 +29,7 @@ def test_dataset_states_and_tables_from_a_result(j2_arc):
     el0, t, states = j2_arc
     ds = _dataset(t, states)
     np.testing.assert_array_equal(dv.dataset_states(ds), states)
-    res = dv.deltav_from_propagation(load_profile("ci"), ds, sat=0, element_frame="j2000")
+    res = dv.deltav_from_propagation(load_settings("ci"), ds, sat=0, element_frame="j2000")
     table = dm.model_comparison_table(res)
     assert table.index.tolist() == [*dv.MODELS, "paper (Table 4)"]
     assert table.loc["paper (Table 4)", "opt / total"] == pytest.approx(0.37 / 0.50)
@@ -98,7 +98,7 @@ def test_recovery_sampling_and_frame_tables_on_the_elfo():
     from lnss_lib.ephemeris import ensure_kernels
     from lnss_lib.propagator import propagate_elements
 
-    profile = load_profile("ci")
+    profile = load_settings("ci")
     ensure_kernels(profile)
     first = [[6143.0, 0.6, 51.7, 0.0, 90.0, 0.0]]
     table, data = dm.lsq_recovery_study(profile, first, [300.0], integrators=("converged",))

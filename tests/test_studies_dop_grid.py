@@ -6,7 +6,7 @@ import pytest
 import xarray as xr
 
 from lnss_lib import frames
-from lnss_lib.config import load_profile
+from lnss_lib.settings import load_settings
 from lnss_lib.dop import surface_grid
 from lnss_lib.studies import dop_grid as dg
 
@@ -98,7 +98,7 @@ def test_degenerate_geometry_rows_by_hand():
 def elfo_study():
     from lnss_lib.constellation import standalone_elfo
 
-    profile = load_profile("ci")
+    profile = load_settings("ci")
     return profile, dg.element_frame_study("ci", standalone_elfo(profile))
 
 

@@ -9,7 +9,8 @@ import pytest
 from sgp4.io import compute_checksum
 
 from lnss_lib import tle
-from lnss_lib.config import data_path, load_profile
+from lnss_lib.config import data_path
+from lnss_lib.settings import load_settings
 
 @pytest.fixture(scope="module")
 def profile(ci_profile):
@@ -89,7 +90,7 @@ def test_prn_and_launch_exclusions(profile, tle_lines, tmp_path):
     # Profile default: launched after the simulation epoch (2025-05-01) -> GPS BIII-8 (PRN 21, 2025-05-30) out.
     kept, table = tle.gps_catalogue(profile)
     assert 21 not in {r.prn for r in kept} and len(kept) == len(records) - 1
-    later = load_profile("ci", {"epoch": {"start_tdb": "2025-06-15T00:00:00"}})
+    later = load_settings("ci", {"epoch": {"start_tdb": "2025-06-15T00:00:00"}})
     assert len(tle.gps_catalogue(later)[0]) == len(records)
 
 

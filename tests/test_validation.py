@@ -50,10 +50,9 @@ def test_horizons_reader_rejects_other_files(tmp_path):
 
 
 def test_without_term_switches_one_term_off(paper_profile):
-    from lnss_lib.config import deep_merge
     from lnss_lib.validation import without_term
 
-    assert deep_merge(paper_profile, without_term(paper_profile, "SUN"))["forces"]["third_bodies"] == ["EARTH", "JUPITER"]
+    assert paper_profile.with_overrides(without_term(paper_profile, "SUN")).forces.third_bodies == ("EARTH", "JUPITER")
     assert without_term(paper_profile, "harmonics") == {"gravity": {"degree": 0}}
     assert without_term(paper_profile, "srp") == {"forces": {"srp": False}}
     with pytest.raises(ValueError, match="'drag'"):

@@ -19,7 +19,8 @@ from pathlib import Path
 import numba
 import numpy as np
 
-from ..config import PARAMS_DIR, deep_merge, load_profile
+from ..config import PARAMS_DIR, deep_merge
+from ..settings import load_settings
 from ..campaign import CampaignSettings, load_checkpoint, read_cache_records, run_campaign
 from ..campaign.timing import campaign_timing, steady_rate
 from ..paper import EVALUATIONS
@@ -48,7 +49,7 @@ def _short_campaign(profile_name: str, population: int, generations: int, worker
 def _projection(profile_name: str, population: int, generations: int, workers: int | None,
                 overrides: dict | None = None) -> dict:
     """Short campaign at ``profile_name``'s fidelity and its 120 x 1000 projection; prints the numbers."""
-    profile = load_profile(profile_name, overrides=overrides)
+    profile = load_settings(profile_name, overrides=overrides)
     run = _short_campaign(profile_name, population, generations, workers, overrides)
     timing, history, wall = run["timing"], run["history"], run["wall_s"]
     n = timing["n_evaluations"]
@@ -176,7 +177,7 @@ def run(profile_name: str = "paper", generations: int | None = None, population:
     ``params/operational.toml`` exists its projection is printed beside the profile's. ``overrides``
     (``--set``) apply to every campaign run here.
     """
-    settings = CampaignSettings.from_profile(load_profile(profile_name, overrides=overrides))
+    settings = CampaignSettings.from_profile(load_settings(profile_name, overrides=overrides))
     population = population or min(settings.population, 32)
     generations = generations or min(settings.generations, 8)
     out = {profile_name: _projection(profile_name, population, generations, workers, overrides)}

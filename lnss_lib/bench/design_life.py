@@ -12,7 +12,7 @@ import time
 
 import numpy as np
 
-from ..config import load_profile
+from ..settings import load_settings
 from ..constants import SECONDS_PER_DAY
 from ..constellation import standalone_elfo
 from ..ephemeris import ensure_kernels, tdb_seconds
@@ -23,7 +23,7 @@ from ..design_life.closed_loop import LifeSettings, life_force_model, simulate_l
 
 
 def run(profile_name: str = "paper", overrides: dict | None = None) -> None:
-    profile = load_profile(profile_name, overrides=overrides)
+    profile = load_settings(profile_name, overrides=overrides)
     ensure_kernels(profile)
     settings = LifeSettings.from_profile(profile)
     el = standalone_elfo(profile)

@@ -11,7 +11,7 @@ import time
 
 import numpy as np
 
-from ..config import load_profile
+from ..settings import load_settings
 from ..constellation import WalkerDesign
 from ..dop import dop_arrays, dop_for_profile, dop_kernel, grid_from_profile, metrics_from_profile, summary_from_profile
 from ..elements import kepler_states
@@ -44,7 +44,7 @@ def run(profile_name: str = "paper", repeats: int = 9, overrides: dict | None = 
     Both run alternately in one loop so machine load hits them alike; prints min and median (ms)
     and the largest relative difference of the summary metrics. Returns the numbers.
     """
-    profile = load_profile(profile_name, overrides=overrides)
+    profile = load_settings(profile_name, overrides=overrides)
     grid = grid_from_profile(profile)
     r_mf_km = _positions_km(profile, 961, 900.0)
     points, up = grid.r_mf_km.reshape(-1, 3), grid.up.reshape(-1, 3)

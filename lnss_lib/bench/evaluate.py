@@ -10,13 +10,12 @@ campaign worker; the two paths alternate design by design so machine load hits b
 
 from __future__ import annotations
 
-import copy
 import time
 
 import numba
 import numpy as np
 
-from ..config import load_profile
+from ..settings import load_settings
 from ..constellation import WalkerDesign
 from ..evaluator import EvaluationContext, analyse_constellation, evaluate_constellation
 from ..errors import ImpactError
@@ -45,9 +44,8 @@ def _designs(profile: dict, n: int, seed: int = 12) -> list[WalkerDesign]:
 def run(profile_name: str = "paper", n_designs: int = 12, repeats: int = 2, overrides: dict | None = None) -> dict:
     """Print old and new per-design times (20-satellite ELFO design and a Table 3 sample) and projections."""
     numba.set_num_threads(1)
-    profile = load_profile(profile_name, overrides=overrides)
-    full = copy.deepcopy(profile)
-    full["gravity"]["truncation_kms2"] = 0.0
+    profile = load_settings(profile_name, overrides=overrides)
+    full = profile.with_overrides({"gravity": {"truncation_kms2": 0.0}})
     start = time.perf_counter()
     new_ctx = EvaluationContext.from_profile(profile)
     old_ctx = EvaluationContext.from_profile(full)

@@ -10,12 +10,11 @@ printed as the recommendation.
 
 from __future__ import annotations
 
-import copy
 import time
 
 import numpy as np
 
-from ..config import load_profile
+from ..settings import load_settings
 from ..constants import SECONDS_PER_DAY
 from ..ephemeris import EphemerisTable, ensure_kernels, tdb_seconds
 from ..forces import ForceModel
@@ -28,9 +27,7 @@ REFERENCE = ("DOP853", 1e-12, 1e-14)
 
 
 def _with_setting(profile: dict, method: str, rtol: float, atol: float) -> dict:
-    out = copy.deepcopy(profile)
-    out["integrator"]["settings"]["candidate"] = {"method": method, "rtol": rtol, "atol": atol}
-    return out
+    return profile.with_overrides({"integrator": {"settings": {"candidate": {"method": method, "rtol": rtol, "atol": atol}}}})
 
 
 def candidate_table(profile: dict, days: float = 10.0) -> list[dict]:
@@ -40,8 +37,7 @@ def candidate_table(profile: dict, days: float = 10.0) -> list[dict]:
     duration = days * SECONDS_PER_DAY
     table = EphemerisTable.build(profile, t0, t0 + duration)
     model = ForceModel.from_profile(profile, table)
-    full = copy.deepcopy(profile)
-    full["gravity"]["truncation_kms2"] = 0.0
+    full = profile.with_overrides({"gravity": {"truncation_kms2": 0.0}})
     full_model = ForceModel.from_profile(full, table)
     rows = []
     for name, elements in ORBITS.items():
@@ -62,7 +58,7 @@ def candidate_table(profile: dict, days: float = 10.0) -> list[dict]:
 
 
 def run(profile_name: str = "paper", limit_m: float = 100.0, overrides: dict | None = None) -> list[dict]:
-    profile = load_profile(profile_name, overrides=overrides)
+    profile = load_settings(profile_name, overrides=overrides)
     rows = candidate_table(profile)
     print(f"10-day error against {REFERENCE[0]} {REFERENCE[1]:g}/{REFERENCE[2]:g} (full field); candidates with "
           f"[{profile_name}] forces, gravity truncation {profile['gravity'].get('truncation_kms2', 0.0):g} km/s^2")

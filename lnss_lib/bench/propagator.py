@@ -11,7 +11,7 @@ import time
 import numba as nb
 import numpy as np
 
-from ..config import load_profile
+from ..settings import load_settings
 from ..constants import SECONDS_PER_DAY
 from ..ephemeris import EphemerisTable, ensure_kernels, tdb_seconds
 from ..forces import SCRATCH_SIZE, ForceModel, acceleration
@@ -29,7 +29,7 @@ def _evaluation_loop(n, t0, y, args, work, scratch, terms, out):
 
 
 def run(profile_name: str = "paper", overrides: dict | None = None) -> None:
-    profile = load_profile(profile_name, overrides=overrides)
+    profile = load_settings(profile_name, overrides=overrides)
     ensure_kernels(profile)
     elfo = profile["standalone_elfo"]
     elements = [[elfo["sma_km"], elfo["ecc"], elfo["inc_deg"], elfo["raan_deg"][0], elfo["aop_deg"], 0.0]]

@@ -12,7 +12,7 @@ import time
 
 import numpy as np
 
-from ..config import load_profile
+from ..settings import load_settings
 from ..constellation import WalkerDesign
 from ..ephemeris import ensure_kernels
 from ..design_life.screen import propagated_perilune, screen_elements, stability_settings
@@ -44,7 +44,7 @@ def validation_table(profile: dict, designs=None, life_days: float | None = None
 
 
 def run(profile_name: str = "paper", reference: bool = True, overrides: dict | None = None) -> None:
-    profile = load_profile(profile_name, overrides=overrides)
+    profile = load_settings(profile_name, overrides=overrides)
     ensure_kernels(profile)
     start = time.perf_counter()
     screen_elements(profile, WalkerDesign(6143.0, 0.6, 51.7, 90.0, 4, 5).elements_deg())

@@ -7,6 +7,8 @@ eq. 44, ``X_j = min(max(L_j + dX_j x_j, L_j), U_j)``, with Np and Ns rounded to 
 
 from __future__ import annotations
 
+from collections.abc import Mapping
+
 import math
 from dataclasses import dataclass
 
@@ -37,7 +39,7 @@ class DesignGrid:
         rows = []
         for name in DESIGN_KEYS:
             spec = variables[name]
-            if not isinstance(spec, dict) or set(spec) != {"lower", "upper", "step"}:
+            if not isinstance(spec, Mapping) or set(spec) != {"lower", "upper", "step"}:
                 raise ValueError(f"campaign.variables.{name} must be {{lower, upper, step}}; got {spec!r}")
             lo, hi, step = (float(spec[k]) for k in ("lower", "upper", "step"))
             if not all(map(math.isfinite, (lo, hi, step))) or step <= 0.0 or hi <= lo:

@@ -12,6 +12,8 @@ one run. A run is published as the profile's only when its stored profile is the
 
 from __future__ import annotations
 
+from collections.abc import Mapping
+
 import contextlib
 import json
 import os
@@ -25,6 +27,7 @@ import xarray as xr
 
 from ..atomicio import write_netcdf_atomic, write_text_atomic
 from ..config import profile_hash
+from ..settings import profile_data
 from .rundir import RESULT_FILES, export_results, load_run
 from .settings import CampaignSettings, evaluation_hash
 
@@ -51,7 +54,7 @@ def _differing_keys(run: dict, profile: dict, prefix: str = "") -> list[str]:
     for key in sorted(set(run) | set(profile), key=str):
         name = f"{prefix}{key}"
         mine, theirs = run.get(key, "<absent>"), profile.get(key, "<absent>")
-        if isinstance(mine, dict) and isinstance(theirs, dict):
+        if isinstance(mine, Mapping) and isinstance(theirs, Mapping):
             lines += _differing_keys(mine, theirs, f"{name}.")
         elif mine != theirs and name not in ("profile.name", "profile.description"):
             lines.append(f"{name} = {mine!r} (profile: {theirs!r})")
@@ -61,6 +64,7 @@ def _differing_keys(run: dict, profile: dict, prefix: str = "") -> list[str]:
 def run_differences(run_profile: dict, profile: dict, limit: int = 6) -> list[str]:
     """Why a run (its stored profile) is not ``profile``'s campaign: [] when the profile hashes agree, else
     the evaluator, the evaluation settings and up to ``limit`` differing keys, in that order."""
+    run_profile, profile = profile_data(run_profile), profile_data(profile)
     if profile_hash(run_profile) == profile_hash(profile):
         return []
     reasons = []

@@ -18,7 +18,8 @@ from dataclasses import dataclass
 import numpy as np
 from pathlib import Path
 
-from ..config import OUTPUTS_DIR, PROFILE_NAME, load_profile, profile_hash, validate_profile
+from ..config import OUTPUTS_DIR, PROFILE_NAME, profile_hash, validate_profile
+from ..settings import load_settings
 from ..errors import ConfigError
 from .backends import BatchEvaluator, open_backend
 from .callbacks import (Callback, CampaignStopped, Checkpointer, ErrorGuard, HistoryRecorder, ProgressBars,
@@ -90,7 +91,7 @@ def run_campaign(profile_name: str = "quick", *, overrides: dict | None = None, 
         lock = RunLock(run_dir)
         created = False
     else:
-        profile = load_profile(profile_name, overrides=overrides)
+        profile = load_settings(profile_name, overrides=overrides).as_dict()
         CampaignSettings.from_profile(profile)
         evaluation_profile(profile)
         run_dir = Path(run_dir) if run_dir is not None else default_run_dir(profile_name)
@@ -221,7 +222,7 @@ def _publish(run_dir: Path, profile: dict) -> str:
     if run_dir.resolve().parent != campaign_dir.resolve():
         return ""
     try:
-        reasons = run_differences(profile, load_profile(name))
+        reasons = run_differences(profile, load_settings(name).as_dict())
     except (ConfigError, ValueError) as error:
         reasons = [f"profile {name!r} does not load ({error})"]
     if reasons:

@@ -6,11 +6,14 @@ a run's journal is never re-used under other physics.
 
 from __future__ import annotations
 
+from collections.abc import Mapping
+
 import copy
 import math
 from dataclasses import dataclass, field
 
-from ..config import EVALUATORS, NOTEBOOK_MODES, deep_merge, profile_hash
+from ..config import EVALUATORS, NOTEBOOK_MODES, profile_hash
+from ..settings import Settings, profile_data, settings_from_profile
 from ..keys import METRIC_KEYS, VERDICT_KEYS, bound_text, format_value, label, requested_extra_metrics
 from .fitness import constraint_matrix
 from .grid import DesignGrid
@@ -87,7 +90,7 @@ class CampaignSettings:
         for metric, spec in c.get("constraints", {}).items():
             if spec == OFF:
                 continue
-            if metric not in metric_keys or not isinstance(spec, dict) or len(spec) != 1 \
+            if metric not in metric_keys or not isinstance(spec, Mapping) or len(spec) != 1 \
                     or next(iter(spec)) not in ("min", "max"):
                 raise ValueError(f"campaign.constraints.{metric}: need a metric of {', '.join(metric_keys)} "
                                  f"and exactly one of {{min = value}}, {{max = value}} or {OFF!r}; got {spec!r}")
@@ -146,11 +149,10 @@ class CampaignSettings:
         )
 
 
-def evaluation_profile(profile: dict) -> dict:
-    """The profile an evaluation runs under: ``campaign.overrides`` merged in, no campaign section."""
+def evaluation_profile(profile: dict) -> Settings:
+    """The settings an evaluation runs under: the profile with ``campaign.overrides`` merged in."""
     settings = CampaignSettings.from_profile(profile)
-    base = {k: v for k, v in profile.items() if k != "campaign"}
-    return deep_merge(base, settings.overrides)
+    return settings_from_profile(profile).with_overrides(settings.overrides)
 
 
 def bounds_verdict(profile: dict, result: dict, labelled: bool = False) -> dict:
@@ -179,6 +181,7 @@ def evaluation_hash(profile: dict) -> str:
     that a 10-day evaluation never reads (``NON_EVALUATION_SECTIONS``: notebooks, design life); the grid
     (``campaign.variables``), ``campaign.overrides`` and ``campaign.evaluator`` stay in.
     """
+    profile = profile_data(profile)
     CampaignSettings.from_profile(profile)
     content = {k: copy.deepcopy(v) for k, v in profile.items() if k not in NON_EVALUATION_SECTIONS}
     for key in CAMPAIGN_ONLY_KEYS:

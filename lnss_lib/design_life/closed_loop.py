@@ -61,7 +61,7 @@ from dataclasses import dataclass
 import numpy as np
 import xarray as xr
 
-from ..config import CONTROLLERS, integrator_setting
+from ..config import CONTROLLERS
 from ..constants import DAYS_PER_JULIAN_YEAR, SECONDS_PER_DAY
 from ..elements import orbital_period_s, state_to_elements
 from ..ephemeris import ensure_kernels, tdb_seconds
@@ -134,7 +134,7 @@ class LifeSettings:
             raise ValueError("[design_life] min_maneuver_spacing_days and box_tolerance must be >= 0")
         if int(cfg["samples_per_orbit"]) < 16:
             raise ValueError(f"[design_life] samples_per_orbit = {cfg['samples_per_orbit']!r} must be >= 16")
-        integrator_setting(profile, cfg["integrator_setting"])
+        profile.integrator.named(cfg["integrator_setting"])
         if not isinstance(cfg["initial_trim"], bool):
             raise ValueError(f"[design_life] initial_trim = {cfg['initial_trim']!r} must be true or false")
         return cls(**{**cfg, "samples_per_orbit": int(cfg["samples_per_orbit"])}, box=box, service=service)
@@ -169,7 +169,7 @@ def simulate_life(profile: dict, elements_deg, *, natural: bool = False, life_da
         model = life_force_model(profile, t0, cfg.life_days, degree)
     elif model.table.t0_tdb_s > t0 or model.table.t_end_tdb_s < t0 + life_s:
         raise ValueError("the force model's ephemeris table does not span the design life")
-    integ = integrator_setting(profile, cfg.integrator_setting)
+    integ = profile.integrator.named(cfg.integrator_setting)
     el_insert, trim_resid = (trim_to_mean(profile, el, t0, model, integ, samples_per_orbit=cfg.samples_per_orbit)
                              if cfg.initial_trim else (el.copy(), np.full_like(el, np.nan)))
     states = elements_deg_to_states(profile, el_insert, t0)
@@ -589,8 +589,7 @@ def integrator_convergence(profile: dict, elements_deg, *, life_days: float = 36
     from ..propagator import propagate_states
 
     ref = reference or {"method": "DOP853", "rtol": 1e-12, "atol": 1e-14}
-    prof = {**profile, "integrator": {**profile["integrator"],
-                                      "settings": {**profile["integrator"]["settings"], "_reference": ref}}}
+    prof = profile.with_overrides({"integrator": {"settings": {"_reference": ref}}})
     ensure_kernels(prof)
     t0 = tdb_seconds(prof["epoch"]["start_tdb"], "TDB")
     el = np.atleast_2d(np.asarray(elements_deg, dtype=float))

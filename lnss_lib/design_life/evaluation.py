@@ -293,13 +293,13 @@ def design_life_cli(profile_name: str, life_days: float, *, walker: tuple | None
     profile's element frame, inserted as given: no insertion trim, so a designed per-satellite a such as
     Ely's phasing, which its authors found by propagating those very states, is flown as published). NaN becomes None. An invalid Walker design (the evaluation says why) gives
     every key None."""
-    from ..config import load_profile
+    from ..settings import load_settings
     from ..constellation import WalkerDesign
     from ..evaluator import context_for
 
     if not (isinstance(life_days, (int, float)) and math.isfinite(life_days) and life_days > 0):
         raise ValueError(f"--design-life-days must be a positive number of days; got {life_days!r}")
-    profile = load_profile(profile_name, overrides=overrides)
+    profile = load_settings(profile_name, overrides=overrides)
     step_s = life_evaluation_settings(profile)["sample_step_s"]
     if not life_days * SECONDS_PER_DAY > step_s:
         raise ConfigError(f"--design-life-days {life_days!r} ({life_days * SECONDS_PER_DAY:g} s) is not longer than "
@@ -311,7 +311,7 @@ def design_life_cli(profile_name: str, life_days: float, *, walker: tuple | None
         c = load_constellation(constellation, profile)
         if constellation_epoch == "file":
             profile = file_epoch_profile(profile, c)
-        profile = {**profile, "design_life": {**profile["design_life"], "initial_trim": False}}   # the file's states as given
+        profile = profile.with_overrides({"design_life": {"initial_trim": False}})   # the file's states as given
         states = constellation_states_mci(profile, c, constellation_epoch)
         elements = elements_deg_in_frame(profile, states.states_mci, states.t_epoch_tdb_s)
     else:

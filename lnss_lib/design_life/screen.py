@@ -404,9 +404,8 @@ _FIELDS: dict = {}
 
 
 def _cached_field(profile: dict, t0_tdb_s: float, cfg: StabilitySettings) -> SecularField:
-    from ..config import profile_hash
 
-    key = (profile_hash(profile), t0_tdb_s, cfg.life_days, cfg.third_bodies, cfg.precession, cfg.average_days,
+    key = (profile.hash, t0_tdb_s, cfg.life_days, cfg.third_bodies, cfg.precession, cfg.average_days,
            cfg.table_step_days)
     if key not in _FIELDS:
         _FIELDS[key] = SecularField.from_profile(profile, t0_tdb_s, cfg.life_days, cfg)

@@ -68,7 +68,7 @@ def latest_run_dir(campaign_dir, profile_name: str, profile: dict | None = None)
     ``campaign_dir`` whose settings are the profile's, else the newest one. FileNotFoundError naming the
     command that makes one when there is none."""
     from ..campaign.publication import run_differences
-    from ..config import load_profile
+    from ..settings import load_settings
 
     runs = sorted(p for p in Path(campaign_dir).glob("run_*") if (p / CHECKPOINT_FILE).is_file())
     if not runs:
@@ -77,7 +77,7 @@ def latest_run_dir(campaign_dir, profile_name: str, profile: dict | None = None)
             f"generation):\n    python -m lnss_lib campaign --profile {profile_name}\n"
             "continue an interrupted run with --resume <run dir>, or use a Dask cluster with "
             "--scheduler-address tcp://HOST:8786; then execute the notebook again")
-    profile = profile if profile is not None else load_profile(profile_name)
+    profile = profile if profile is not None else load_settings(profile_name)
     reasons = {run: run_differences(load_run(run)["profile"], profile) for run in runs}
     matching = [run for run in runs if not reasons[run]]
     run = matching[-1] if matching else runs[-1]
@@ -86,10 +86,10 @@ def latest_run_dir(campaign_dir, profile_name: str, profile: dict | None = None)
 
 def companion_of(profile_name: str) -> str:
     """The profile's ``campaign.companion_profile`` ("" when none), checked to load and to name no companion itself."""
-    from ..config import load_profile
+    from ..settings import load_settings
 
-    companion = CampaignSettings.from_profile(load_profile(profile_name)).companion_profile
-    if companion and CampaignSettings.from_profile(load_profile(companion)).companion_profile:
+    companion = CampaignSettings.from_profile(load_settings(profile_name)).companion_profile
+    if companion and CampaignSettings.from_profile(load_settings(companion)).companion_profile:
         raise ValueError(f"profile {profile_name!r}: its companion {companion!r} names a companion itself; "
                          "companions are one level deep")
     return companion
@@ -120,10 +120,10 @@ def load_or_run(profile_name: str, overrides: dict | str | None = None) -> Campa
     which run is shown and, when it is not the profile's campaign, why.
     """
     from ..campaign.publication import publish_run, run_differences
-    from ..config import load_profile
+    from ..settings import load_settings
     from ..outputs import display_path, output_dir
 
-    profile = load_profile(profile_name, overrides=overrides)
+    profile = load_settings(profile_name, overrides=overrides)
     campaign_dir = output_dir(profile_name, "campaign")
     if CampaignSettings.from_profile(profile).notebook_mode == "load":
         run_dir, reasons = latest_run_dir(campaign_dir, profile_name, profile)
@@ -136,7 +136,7 @@ def load_or_run(profile_name: str, overrides: dict | str | None = None) -> Campa
         reasons = run_differences(load_run(run_dir)["profile"], profile)
     run_profile = load_run(run_dir)["profile"]
     datasets = export_results(run_dir)
-    own = run_differences(run_profile, load_profile(profile_name))
+    own = run_differences(run_profile, load_settings(profile_name))
     if reasons:
         note = (f"{how}; it is NOT the campaign of profile {profile_name!r} as set here (no run in {campaign_dir} "
                 f"is): {'; '.join(reasons)}. Everything below is that run's, with its own settings")

@@ -26,6 +26,7 @@ metrics of :mod:`lnss_lib.design_life.evaluation`.
 
 from __future__ import annotations
 
+from collections.abc import Mapping
 import math
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -34,7 +35,7 @@ import numpy as np
 import pandas as pd
 
 from ..catalogue import FILE_FRAMES, analyse_catalogue, constellation_states_mci, list_catalogue, load_constellation
-from ..config import deep_merge, load_profile
+from ..settings import load_settings
 from ..constants import SECONDS_PER_DAY
 from ..constellation import WalkerDesign, standalone_elfo
 from ..dop import dop_for_profile, elevation_deg, summary_from_profile
@@ -209,7 +210,7 @@ def _nan_row(entry: Entry, masks) -> dict:
 
 def _profile_for(profile: dict, entry: Entry) -> dict:
     if entry.kind == "catalogue":
-        return deep_merge(profile, {"frames": {"element_frame": FILE_FRAMES[entry.element_frame]}})
+        return profile.with_overrides({"frames": {"element_frame": FILE_FRAMES[entry.element_frame]}})
     return profile
 
 
@@ -232,7 +233,7 @@ def _evaluate_entry(context, entry: Entry, masks) -> tuple[dict, dict | None]:
     r_mf = rotate_with(context.rot_to_moon_fixed, study["propagation"].r_mci_km.values)
     study["r_mf_km"] = r_mf
     for mask in masks:
-        masked = deep_merge(profile, {"dop": {"elevation_mask_deg": float(mask)}})
+        masked = profile.with_overrides({"dop": {"elevation_mask_deg": float(mask)}})
         summary = summary_from_profile(masked, dop_for_profile(masked, r_mf, context.times, grid=context.grid))
         row.update({mask_key(k, mask): summary[k] for k in DOP_KEYS})
     screen = screen_states(profile, states, context.t0_tdb_s)
@@ -257,7 +258,7 @@ def run_benchmark(profile_name: str, *, campaigns: bool | None = None, names=Non
     geometry-keeping estimate (``sk_dv_estimate_kms_per_year`` mean over satellites, ``..._max_...``).
     ``campaigns`` overrides ``[benchmark] campaign_picks``; ``names`` restricts the catalogue (default: all).
     """
-    profile = load_profile(profile_name, overrides=overrides)
+    profile = load_settings(profile_name, overrides=overrides)
     cfg = benchmark_settings(profile)
     context = context_for(profile)
     entries = [paper_entry(profile)] + catalogue_entries(profile, names)
@@ -328,7 +329,7 @@ def _node_rms(values: np.ndarray) -> np.ndarray:
 
 
 def _dop_counterparts(profile: dict, r_mf: np.ndarray, times: np.ndarray, grid, mask_deg: float, uere_m: float) -> dict:
-    masked = deep_merge(profile, {"dop": {"elevation_mask_deg": float(mask_deg)}})
+    masked = profile.with_overrides({"dop": {"elevation_mask_deg": float(mask_deg)}})
     ds_xy = dop_for_profile(masked, r_mf, times, grid=grid)
     ds_en = dop_for_profile(masked, r_mf, times, grid=grid, los_axes="enu")
     summary = summary_from_profile(masked, ds_xy)
@@ -401,7 +402,7 @@ def _bhamidipati_rows(bench: Benchmark, entry: Entry, study: dict, our: str) -> 
     context = context_for(bench.profile)
     rows = []
     for table_key, table in entry.catalogue.published.items():
-        if not isinstance(table, dict) or "elevation_mask_deg" not in table:
+        if not isinstance(table, Mapping) or "elevation_mask_deg" not in table:
             continue
         mask, uere = float(table["elevation_mask_deg"]), float(table["lunar_uere_m"])
         ours = _dop_counterparts(bench.profile, study["r_mf_km"], context.times, context.grid, mask, uere)
@@ -467,13 +468,13 @@ def epoch_sensitivity(profile_name: str, *, epochs=None, names=None, overrides=N
     the geometry-keeping estimate; ``moon_node_deg`` is the phase of the 18.6-year nodal cycle. The
     GPS link is left out: its TLEs (2025) do not reach other epochs.
     """
-    base = load_profile(profile_name, overrides=overrides)
+    base = load_settings(profile_name, overrides=overrides)
     cfg = benchmark_settings(base)
     epochs = cfg["epochs_tdb"] if epochs is None else epochs
     names = cfg["epoch_constellations"] if names is None else names
     rows = []
     for epoch in epochs:
-        profile = deep_merge(base, {"epoch": {"start_tdb": epoch}})
+        profile = base.with_overrides({"epoch": {"start_tdb": epoch}})
         ensure_kernels(profile)
         t0 = tdb_seconds(epoch, "TDB")
         duration = float(profile["epoch"]["duration_days"]) * SECONDS_PER_DAY
@@ -486,7 +487,7 @@ def epoch_sensitivity(profile_name: str, *, epochs=None, names=None, overrides=N
                 times = ds["time"].values.astype(float)
                 r_mf = rotate_to_moon_fixed(profile, ds["r_mci_km"].values, times)
                 for mask in [float(profile["dop"]["elevation_mask_deg"])] + [float(m) for m in cfg["extra_masks_deg"]]:
-                    masked = deep_merge(profile, {"dop": {"elevation_mask_deg": mask}})
+                    masked = profile.with_overrides({"dop": {"elevation_mask_deg": mask}})
                     summary = summary_from_profile(masked, dop_for_profile(masked, r_mf, times))
                     row.update({mask_key(k, mask): summary[k] for k in DOP_KEYS})
                 row["sk_dv_estimate_kms_per_year"] = sk_estimate_from_propagation(profile, ds)["sk_dv_estimate_kms_per_year"]

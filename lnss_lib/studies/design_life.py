@@ -9,7 +9,7 @@ which designs does the stability screen get wrong, and which regions of the desi
 kept at all?
 
 Verdict (the notebook prints it from the numbers, for the profile's controller and both element frames). Words
-here from ``run_validation(load_profile("paper", overrides={"life_evaluation": {"validation_life_days": 365,
+here from ``run_validation(load_settings("paper", overrides={"life_evaluation": {"validation_life_days": 365,
 "validation_max_sats_per_plane": 1}}))``: one year, one satellite per plane, the 15 ``validation_designs`` (no
 campaign folder), elements read in the lunar equator / in ``moon_op`` (``frames.element_frame``), under the
 ``service`` controller of issue 19 (in brackets the fixed-element ``box`` of issue 11, ``design_life.controller =

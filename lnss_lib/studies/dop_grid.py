@@ -23,7 +23,7 @@ import numpy as np
 import pandas as pd
 import xarray as xr
 
-from ..config import load_profile
+from ..settings import load_settings
 from ..constellation import two_body_positions_mci
 from ..dop import (LOS_AXES, SurfaceGrid, check_positions, dop_for_profile, dop_from_propagation, elevation_deg, grid_from_profile,
                    summary_from_profile)
@@ -162,12 +162,12 @@ def element_frame_study(profile_name: str, elements_deg, *, frames=ELEMENT_FRAME
     for frame in frames:
         if frame not in ELEMENT_FRAMES:
             raise ValueError(f"unknown element frame {frame!r}; allowed: {', '.join(ELEMENT_FRAMES)}")
-    profiles = {frame: load_profile(profile_name, overrides={"frames": {"element_frame": frame}}) for frame in frames}
+    profiles = {frame: load_settings(profile_name, overrides={"frames": {"element_frame": frame}}) for frame in frames}
     propagation = {frame: propagate_elements(profiles[frame], elements_deg) for frame in frames}
     dop = {(frame, axes): dop_from_propagation(profiles[frame], propagation[frame], los_axes=axes)
            for frame in frames for axes in los_axes}
     return FrameStudy(profile_name, np.asarray(elements_deg, dtype=float), profiles, propagation, dop,
-                      grid_from_profile(load_profile(profile_name)))
+                      grid_from_profile(load_settings(profile_name)))
 
 
 def apolune_latitude_table(study: FrameStudy, sats_per_plane: int) -> pd.DataFrame:
@@ -198,7 +198,7 @@ def frame_study_summaries(study: FrameStudy, default_frame: str = "lunar_equator
     times = study.propagation[study.frames[0]]["time"].values
     r_two_body = rotate_to_moon_fixed(base, two_body_positions_mci(base, study.elements_deg, times), times)
     out[f"{label}, two-body"] = summary_from_profile(base, dop_for_profile(base, r_two_body, times))
-    weighted = load_profile(study.profile_name, overrides={"frames": {"element_frame": default_frame},
+    weighted = load_settings(study.profile_name, overrides={"frames": {"element_frame": default_frame},
                                                            "dop": {"area_weighting": "cell_area"}})
     out[f"{label}, cell-area weighted"] = summary_from_profile(
         weighted, dop_from_propagation(weighted, study.propagation[default_frame], grid=grid_from_profile(weighted)))

@@ -25,7 +25,6 @@ import numpy as np
 import pandas as pd
 
 from ..catalogue import constellation_states_mci, file_epoch_profile, load_constellation
-from ..config import deep_merge
 from ..constants import DAYS_PER_JULIAN_YEAR, SECONDS_PER_DAY
 from ..design_life.evaluation import life_metrics, run_design_life
 from ..ephemeris import ensure_kernels, tdb_seconds
@@ -219,12 +218,12 @@ def closed_loop_anchors(profile: dict, ely_life_days: float, table4_life_days: f
     split by purpose, m/s), manoeuvres, lowest perilune controlled and natural, satellites lost. Ely's natural
     drift is not flown again here (:func:`ely_natural` flies it): its natural columns are NaN."""
     c = load_constellation("ely2005_elfo_3sat_phased", profile)
-    ely_profile = deep_merge(file_epoch_profile(profile, c), {"frames": {"element_frame": "moon_op"}})
+    ely_profile = file_epoch_profile(profile, c).with_overrides({"frames": {"element_frame": "moon_op"}})
     cases = [("Ely (2005) phased, file epoch", ely_profile, c.elements_deg, ely_life_days, False)]
     planes = _walker_planes((TABLE_4[0], TABLE_4[1], TABLE_4[3], TABLE_4[2], 2))
     for frame in ("moon_op", "lunar_equator_of_epoch"):
         cases.append((f"Table 4 ELFO, one satellite per plane, read in {frame}",
-                      deep_merge(profile, {"frames": {"element_frame": frame}}), planes, table4_life_days, True))
+                      profile.with_overrides({"frames": {"element_frame": frame}}), planes, table4_life_days, True))
     rows = []
     for label, prof, elements, life, natural in cases:
         m = life_metrics(run_design_life(prof, elements, life, natural=natural, sample=False))

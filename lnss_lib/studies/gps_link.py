@@ -20,7 +20,6 @@ import numpy as np
 import pandas as pd
 import xarray as xr
 
-from ..config import deep_merge
 from ..constants import BOLTZMANN_J_K, SECONDS_PER_DAY
 from ..constellation import two_body_positions_mci
 from ..geometry import filtered_mean
@@ -256,7 +255,7 @@ def sensitivity_table(profile: dict, gps: xr.Dataset, lnss: xr.Dataset, elements
     times = lnss["time"].values
     sens = gps_link_sensitivity(profile, gps, lnss, sensitivity_variants(profile))
     extra = {"Keplerian ELFO orbit": gps_link_summary(gps_link(profile, gps, two_body_positions_mci(profile, el[:1], times)))}
-    p_j2000 = deep_merge(profile, {"frames": {"element_frame": "j2000"}})
+    p_j2000 = profile.with_overrides({"frames": {"element_frame": "j2000"}})
     extra["elements in J2000 equator"] = gps_link_summary(gps_link(p_j2000, gps, propagate_elements(p_j2000, el[:1])))
     for shift_days in phase_shifts_days:
         shifted = gps_states_mci(profile, times, sgp4_offset_s=shift_days * SECONDS_PER_DAY)

@@ -14,14 +14,15 @@ import pytest
 import xarray as xr
 
 from lnss_lib.campaign import final_population, read_cache_records, synthetic_evaluation
-from lnss_lib.config import PROJECT_DIR, load_profile
+from lnss_lib.config import PROJECT_DIR
+from lnss_lib.settings import load_settings
 from lnss_lib.keys import METRIC_KEYS
 
 from .helpers import CLI, KILL_SETTINGS, SYNTHETIC, _cli, _journal_count
 
 
 def test_synthetic_evaluator_flags_impact():
-    profile = load_profile("ci")
+    profile = load_settings("ci")
     hit = synthetic_evaluation(profile, 4000.0, 0.8, 90.0, 50.0, 2, 2)
     assert hit["impact"] and not hit["evaluated"] and math.isnan(hit["pdop_mean_3sigma"]) and hit["n_sat"] == 4
     ok = synthetic_evaluation(profile, 8000.0, 0.5, 90.0, 80.0, 4, 4)

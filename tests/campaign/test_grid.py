@@ -4,7 +4,7 @@ import numpy as np
 import pytest
 
 from lnss_lib.campaign import CampaignSettings, evaluation_hash
-from lnss_lib.config import load_profile
+from lnss_lib.settings import load_settings
 
 
 def test_grid_eq43_44_round_trip_bounds_and_rounding(settings, rng):
@@ -27,7 +27,7 @@ def test_grid_eq43_44_round_trip_bounds_and_rounding(settings, rng):
 
 
 def test_bad_settings_raise_clear_errors():
-    profile = load_profile("ci")
+    profile = load_settings("ci")
     cases = [({"objectives": ["n_sat", "-pdop"]}, "campaign.objectives"),
              ({"constraints": {"pdop_mean_3sigma": {"max": 10.0, "min": 1.0}}}, "campaign.constraints"),
              ({"variables": {"ecc": {"lower": 0.5, "upper": 0.1, "step": 0.01}}}, "campaign.variables.ecc"),
@@ -37,19 +37,20 @@ def test_bad_settings_raise_clear_errors():
              ({"crossover_prob": 1.5}, "campaign.crossover_prob")]
     for change, message in cases:
         with pytest.raises(ValueError, match=message):     # at load (config) or from the campaign settings
-            CampaignSettings.from_profile(load_profile("ci", overrides={"campaign": change}))
+            CampaignSettings.from_profile(load_settings("ci", overrides={"campaign": change}))
+    profile = profile.as_dict()
     del profile["campaign"]
     with pytest.raises(ValueError, match=r"no \[campaign\] section"):
         CampaignSettings.from_profile(profile)
 
 
 def test_evaluation_hash_ignores_campaign_only_keys():
-    base = evaluation_hash(load_profile("ci"))
+    base = evaluation_hash(load_settings("ci"))
     for change in ({"campaign": {"population": 50, "seed": 9, "objectives": ["n_sat"], "generations": 2}},
                    {"campaign": {"constraints": {"n_sat": {"max": 12}}}}):
-        assert evaluation_hash(load_profile("ci", overrides=change)) == base
+        assert evaluation_hash(load_settings("ci", overrides=change)) == base
     for change in ({"gravity": {"degree": 10}}, {"campaign": {"evaluator": "synthetic"}},
                    {"campaign": {"variables": {"ecc": {"lower": 0.0, "upper": 0.8, "step": 0.02}}}},
                    {"campaign": {"overrides": {"epoch": {"duration_days": 1.0}}}}):
-        assert evaluation_hash(load_profile("ci", overrides=change)) != base
-    assert evaluation_hash(load_profile("quick")) == evaluation_hash(load_profile("paper"))
+        assert evaluation_hash(load_settings("ci", overrides=change)) != base
+    assert evaluation_hash(load_settings("quick")) == evaluation_hash(load_settings("paper"))

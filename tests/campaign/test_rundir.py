@@ -15,7 +15,8 @@ import xarray as xr
 from lnss_lib.__main__ import main
 from lnss_lib.config import parse_sets as _parse_sets
 from lnss_lib.campaign import CampaignSettings, final_population, read_cache_records
-from lnss_lib.config import PROJECT_DIR, load_profile
+from lnss_lib.config import PROJECT_DIR
+from lnss_lib.settings import load_settings
 from lnss_lib.evaluator import context_for, evaluate_design
 from lnss_lib.keys import DESIGN_KEYS, METRIC_KEYS
 
@@ -32,7 +33,7 @@ def test_set_parser_and_cli_errors(capsys):
 
 
 def test_real_campaign_netcdf_contract(real_run):
-    settings = CampaignSettings.from_profile(load_profile("ci"))
+    settings = CampaignSettings.from_profile(load_settings("ci"))
     ev = xr.open_dataset(real_run.run_dir / "evaluations.nc", engine="h5netcdf").load()
     front = xr.open_dataset(real_run.run_dir / "front.nc", engine="h5netcdf").load()
     history = xr.open_dataset(real_run.run_dir / "history.nc", engine="h5netcdf").load()
@@ -90,7 +91,7 @@ def test_real_campaign_cache_holds_a_fresh_evaluation(real_run):
     ev = xr.open_dataset(real_run.run_dir / "evaluations.nc", engine="h5netcdf").load()
     ok = np.flatnonzero(~np.isnan(ev.pdop_avail_pct.values))
     row = ev.isel(design=int(ok[-1]))
-    fresh = evaluate_design(context_for(load_profile("ci")), **{k: row[k].item() for k in DESIGN_KEYS})
+    fresh = evaluate_design(context_for(load_settings("ci")), **{k: row[k].item() for k in DESIGN_KEYS})
     for key in METRIC_KEYS:
         np.testing.assert_allclose(fresh[key], row[key].item(), rtol=1e-12, equal_nan=True)
 

@@ -4,7 +4,7 @@ design lives (degree 8 field, fast); the service controller is tested in test_se
 import numpy as np
 import pytest
 
-from lnss_lib.config import load_profile
+from lnss_lib.settings import load_settings
 from lnss_lib.constants import SECONDS_PER_DAY
 from lnss_lib.ephemeris import ensure_kernels, tdb_seconds
 from lnss_lib.errors import ImpactError
@@ -17,7 +17,7 @@ LIFE_DAYS = 60.0
 
 @pytest.fixture(scope="module")
 def life_profile():
-    profile = load_profile("paper", overrides={"gravity": {"degree": 8}, "design_life": {"controller": "box"}})
+    profile = load_settings("paper", overrides={"gravity": {"degree": 8}, "design_life": {"controller": "box"}})
     ensure_kernels(profile)
     return profile
 
@@ -105,7 +105,6 @@ def test_initial_trim_matches_the_design_mean_a(life_profile, life_model):
     """The design's a is a MEAN a: after the trim, an independent propagation (propagate_states) of the first
     orbit of each insertion state averages to the design a within 0.01 km (untrimmed, satellites at
     different mean anomalies are > 1 km apart: the slots would drift ~0.2 deg/day per km)."""
-    from lnss_lib.config import integrator_setting
     from lnss_lib.constellation import planes_elements_deg
     from lnss_lib.elements import orbital_period_s
     from lnss_lib.frames import element_frame_to_j2000
@@ -117,7 +116,7 @@ def test_initial_trim_matches_the_design_mean_a(life_profile, life_model):
     gm = float(life_profile["gravity"]["gm_km3_s2"])
     period = float(orbital_period_s(6143.0, gm))
     rot = element_frame_to_j2000(life_profile, t0)
-    insert, resid = trim_to_mean(life_profile, el, t0, life_model, integrator_setting(life_profile, "design_life"))
+    insert, resid = trim_to_mean(life_profile, el, t0, life_model, life_profile.integrator.named("design_life"))
     assert np.all(np.abs(resid[:, 0]) < 0.01)
 
     def first_orbit_mean_a(elements):
@@ -186,8 +185,7 @@ def test_sampled_positions_agree_with_a_plain_propagation(life_profile, life_mod
                 for k in range(-4, 5)}
     references = {"_tight": {"method": "DOP853", "rtol": 1e-12, "atol": 1e-14},
                   "_tighter": {"method": "DOP853", "rtol": 1e-13, "atol": 1e-14}}
-    prof = {**life_profile, "integrator": {**life_profile["integrator"], "settings": {
-        **life_profile["integrator"]["settings"], **ensemble, **references}}}
+    prof = life_profile.with_overrides({"integrator": {"settings": {**ensemble, **references}}})
     states = elements_deg_to_states(life_profile, ds.insertion_elements_deg.values, t0)   # after the initial trim
     r = {name: propagate_states(prof, states, t0, life * SECONDS_PER_DAY, step_s, batch=True, model=life_model,
                                 setting=name).r_mci_km.transpose("sat", "time", "xyz").values
@@ -241,7 +239,7 @@ def test_box_never_flies_past_the_deltav_cap():
     sets planned as the tide drives e up used to be checked only against what was already flown, so the last one
     went past the cap (0.2229 / 0.2203 km/s; over a year, with the full field, burns of 5.5 and 4.2 km/s unbound
     a satellite). Every satellite stays within the cap and every burn is finite."""
-    profile = load_profile("paper", overrides={"gravity": {"degree": 8}, "design_life": {"controller": "box"},
+    profile = load_settings("paper", overrides={"gravity": {"degree": 8}, "design_life": {"controller": "box"},
                                                "frames": {"element_frame": "moon_op"}})
     from lnss_lib.constellation import WalkerDesign
 

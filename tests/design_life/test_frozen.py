@@ -7,7 +7,6 @@ import pytest
 from lnss_lib.design_life import frozen as fz
 from lnss_lib.design_life import screen as st
 from lnss_lib.catalogue import constellation_states_mci, file_epoch_profile, load_constellation
-from lnss_lib.config import deep_merge
 from lnss_lib.propagator import elements_deg_to_states, propagate_states
 from lnss_lib.studies.frozen_orbits import epoch_swap
 
@@ -122,7 +121,7 @@ def test_a_frozen_and_a_librating_orbit_flown_a_year_with_the_full_model_stay_wi
     field, model = lunar
     a, e = 6143.0, 0.6
     orbits = [(a, e, fz.frozen_inclination_deg(model, a, e), 90.0), (a, e, 45.0, 90.0)]
-    profile = deep_merge(paper_profile, {"frames": {"element_frame": "moon_op"}})
+    profile = paper_profile.with_overrides({"frames": {"element_frame": "moon_op"}})
     states = elements_deg_to_states(profile, [[a_, e_, i_, 0.0, w_, 0.0] for a_, e_, i_, w_ in orbits], epoch_tdb_s)
     ds = propagate_states(paper_profile, states, epoch_tdb_s, 365.0 * 86400.0, 6 * 3600.0, setting="design_life",
                           degree=8, batch=True)

@@ -3,7 +3,8 @@
 import numpy as np
 import pytest
 
-from lnss_lib.config import ConfigError, load_profile
+from lnss_lib.config import ConfigError
+from lnss_lib.settings import load_settings
 from lnss_lib.constellation import WalkerDesign
 from lnss_lib.design_life.evaluation import life_metrics
 from lnss_lib.ephemeris import ensure_kernels, tdb_seconds
@@ -17,7 +18,7 @@ DRIVEN_DOWN = [[6143.0, 0.6, 70.0, 0.0, 45.0, 0.0]]
 
 @pytest.fixture(scope="module")
 def profile():
-    prof = load_profile("paper", overrides={"gravity": {"degree": 8}})
+    prof = load_settings("paper", overrides={"gravity": {"degree": 8}})
     ensure_kernels(prof)
     return prof
 
@@ -88,7 +89,7 @@ def test_a_design_the_trim_cannot_hold_completes(profile, model, controller):
 
 def test_controller_setting_is_checked():
     with pytest.raises(ConfigError, match="allowed: 'service', 'box'"):
-        load_profile("paper", overrides={"design_life": {"controller": "elements"}})
+        load_settings("paper", overrides={"design_life": {"controller": "elements"}})
 
 
 def test_burn_location_names_apses_and_nodes():
@@ -131,7 +132,7 @@ def test_relative_node_is_held_as_the_tilt_of_the_plane(profile, inc_deg, tol_de
     tilts the plane by 2 deg, so the node is left free; the same design polar, with a tolerance that its few
     hundredths of a degree of relative RAAN exceed, is held."""
     el = WalkerDesign(5000.0, 0.05, inc_deg, 180.0, 2, 1).elements_deg()
-    prof = load_profile("paper", overrides={"gravity": {"degree": 8},
+    prof = load_settings("paper", overrides={"gravity": {"degree": 8},
                                             "design_life": {"service": {"raan_rel_deg": tol_deg}}})
     ds = simulate_life(prof, el, life_days=16.0)
     raan_err = np.abs(ds["box_error_tidal_mean"].sel(box="raan_rel_deg").values)

@@ -8,13 +8,13 @@ import xarray as xr
 
 from lnss_lib.campaign import CampaignSettings, run_campaign
 from lnss_lib.campaign.journal import encode_record
-from lnss_lib.config import load_profile
+from lnss_lib.settings import load_settings
 from lnss_lib.keys import DESIGN_KEYS
 
 
 @pytest.fixture(scope="module")
 def settings():
-    return CampaignSettings.from_profile(load_profile("paper"))
+    return CampaignSettings.from_profile(load_settings("paper"))
 
 
 def _history(n_evaluated, wall_s, n_cache_hits, n_designs):
@@ -50,7 +50,7 @@ def test_settings_and_grid_tables_follow_the_settings(settings):
     assert changed.loc["Mutation function", "note"].endswith("1/6")
     assert changed.loc["Seed", "this profile"] == 11
     grid = design_grid_table(settings)
-    spec = load_profile("paper")["campaign"]["variables"]
+    spec = load_settings("paper")["campaign"]["variables"]
     for label, key in zip(grid.index, DESIGN_KEYS):
         v = spec[key]
         assert (grid.loc[label, "lower"], grid.loc[label, "upper"], grid.loc[label, "step"]) == (
