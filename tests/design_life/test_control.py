@@ -5,7 +5,7 @@ loop that has nothing to do."""
 import numpy as np
 import pytest
 
-from lnss_lib.config import load_profile
+from lnss_lib.settings import load_settings
 from lnss_lib.constants import SECONDS_PER_DAY
 from lnss_lib.design_life.closed_loop import BOX_KEYS, LifeSettings, _plan
 from lnss_lib.design_life.control import (SlotState, drift_band_rate, overshoot_target, predicted_exit, running_mean,
@@ -115,7 +115,7 @@ def test_box_plan_brings_an_aop_out_of_its_band_back_inside(sign):
     flight over one orbit) the AOP sits at target_fraction of the half-width on the other side, e, i and RAAN
     stay inside their boxes, each to the planner's residual of its row (a and u, which two burns cannot also
     hold, are left to the next check's trim); the Delta-V is at least the GVE bound on the e-vector turn."""
-    cfg = LifeSettings.from_profile(load_profile("paper"))
+    cfg = LifeSettings.from_profile(load_settings("paper"))
     half = np.array([cfg.box["ecc"], *np.radians([cfg.box[k] for k in BOX_KEYS[1:]])])
     err = np.zeros(5)
     err[1] = sign * 1.2 * half[1]
@@ -147,7 +147,7 @@ def test_a_design_inside_a_wide_box_flies_no_burn_and_matches_its_natural_drift(
     life, nothing is out, so nothing is flown: zero burns, zero Delta-V, the box held, and the controlled run
     is the natural one (same lowest perilune, same monthly availability)."""
     wide = {"ecc": 0.3, "aop_deg": 60.0, "inc_deg": 30.0, "raan_rel_deg": 60.0, "u_rel_deg": 170.0}
-    profile = load_profile("ci", overrides={"design_life": {"controller": "box", "box": wide}})
+    profile = load_settings("ci", overrides={"design_life": {"controller": "box", "box": wide}})
     elements = [[6143.0, 0.6, 51.7, 0.0, 90.0, 0.0], [6143.0, 0.6, 51.7, 180.0, 90.0, 180.0]]
     out = evaluate_design_life(profile, elements, 6.0)
     assert out["n_maneuvers"] == 0 and out["sk_dv_kms_per_year"] == 0.0 and out["sk_dv_max_kms_per_year"] == 0.0
