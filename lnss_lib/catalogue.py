@@ -45,6 +45,7 @@ from pathlib import Path
 import numpy as np
 
 from .config import PARAMS_DIR, deep_merge, load_profile, read_toml
+from .elements import mean_anomaly_from_true
 from .ephemeris import ensure_kernels, tdb_iso, tdb_seconds
 from .frames import element_frame_to_j2000
 from .errors import ConfigError, InfeasibleDesignError
@@ -159,8 +160,7 @@ def true_to_mean_anomaly_deg(true_anomaly_deg, e) -> np.ndarray:
     ecc = np.asarray(e, dtype=float)
     if np.any(~np.isfinite(ecc) | (ecc < 0.0) | (ecc >= 1.0)):
         raise ValueError(f"eccentricity must be in [0, 1); got {ecc!r}")
-    ecc_anomaly = 2.0 * np.arctan2(np.sqrt(1.0 - ecc) * np.sin(nu / 2.0), np.sqrt(1.0 + ecc) * np.cos(nu / 2.0))
-    return np.mod(np.degrees(ecc_anomaly - ecc * np.sin(ecc_anomaly)), 360.0)
+    return np.mod(np.degrees(mean_anomaly_from_true(nu, ecc)), 360.0)
 
 
 def _resolve(name_or_path: str | Path) -> Path:

@@ -29,6 +29,7 @@ from .config import load_profile, profile_hash, validate_profile
 from .constellation import WalkerDesign
 from .ephemeris import EphemerisTable, ensure_kernels, rotation, tdb_seconds
 from .constants import SECONDS_PER_DAY
+from .elements import vis_viva_sma_km
 from .forces import ForceModel
 from .frames import rotate_with
 from .errors import ConfigError, ImpactError, InfeasibleDesignError
@@ -183,7 +184,7 @@ def _operational_metrics(context: EvaluationContext, ds: xr.Dataset, states: np.
         gm = float(profile["gravity"]["gm_km3_s2"])
         r = np.linalg.norm(ds["r_mci_km"].values, axis=-1)
         v2 = np.sum(ds["v_mci_kms"].values ** 2, axis=-1)
-        a_mean = np.mean(1.0 / (2.0 / r - v2 / gm), axis=1)             # vis-viva, as the estimate's arc test
+        a_mean = np.mean(vis_viva_sma_km(r, v2, gm), axis=1)             # vis-viva, as the estimate's arc test
         arc_s = float(ds["time"].values[-1] - ds["time"].values[0])
         if arc_s >= float(cfg["min_periods"]) * 2.0 * np.pi * np.sqrt(np.max(a_mean) ** 3 / gm) * (1.0 + 1e-9):
             estimate = sk_estimate.sk_estimate_from_propagation(profile, ds)

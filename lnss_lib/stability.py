@@ -48,7 +48,8 @@ from scipy.integrate import solve_ivp
 from scipy.interpolate import CubicSpline
 
 from .config import STABILITY_BODIES, STABILITY_METHODS
-from .constants import SECONDS_PER_DAY
+from .constants import DAYS_PER_JULIAN_YEAR, SECONDS_PER_DAY
+from .elements import eccentricity_vector, vis_viva_sma_km
 from .ephemeris import body_states_mci, ensure_kernels, rotation, tdb_seconds
 from .frames import element_frame_to_j2000
 from .gravity import GravityField
@@ -61,7 +62,7 @@ SIDEREAL_MONTH_DAYS = 27.321661
 BODIES = STABILITY_BODIES
 NON_SCREEN_KEYS = ("validation_designs", "validation_degree", "validation_step_s")   # read by the bench only
 DEFAULT_SETTINGS = {
-    "life_days": 365.25,                # design life integrated by the screen
+    "life_days": DAYS_PER_JULIAN_YEAR,                # design life integrated by the screen
     "third_bodies": ["EARTH", "SUN"],   # quadrupole tides included
     "precession": True,                 # let the Earth's orbit plane and the lunar pole move (SPICE)
     "average_days": SIDEREAL_MONTH_DAYS,  # running-mean window of the tide tensor
@@ -200,11 +201,11 @@ def orbit_vectors_ej(states: np.ndarray, gm_km3_s2: float) -> tuple[np.ndarray, 
     s = np.atleast_2d(np.asarray(states, dtype=float))
     r, v = s[:, :3], s[:, 3:]
     rn = np.linalg.norm(r, axis=1)
-    a = 1.0 / (2.0 / rn - np.sum(v * v, axis=1) / gm_km3_s2)
+    a = vis_viva_sma_km(rn, np.sum(v * v, axis=1), gm_km3_s2)
     if np.any(~(a > 0.0)):
         raise ValueError(f"the screen needs bound orbits; got a = {a[~(a > 0.0)][0]!r} km")
     h = np.cross(r, v)
-    e_vec = np.cross(v, h) / gm_km3_s2 - r / rn[:, None]
+    e_vec = eccentricity_vector(r, v, gm_km3_s2, h, rn)
     return a, e_vec, h / np.sqrt(gm_km3_s2 * a)[:, None]
 
 
@@ -463,9 +464,8 @@ def propagated_perilune(profile: dict, elements_deg, life_days: float, *, settin
     safe = np.where(finite[..., None], sv, states[:, None, :])
     r, v = safe[..., :3], safe[..., 3:]
     rn = np.linalg.norm(r, axis=-1)
-    a = 1.0 / (2.0 / rn - np.sum(v * v, axis=-1) / gm)
-    h = np.cross(r, v)
-    e = np.linalg.norm(np.cross(v, h) / gm - r / rn[..., None], axis=-1)
+    a = vis_viva_sma_km(rn, np.sum(v * v, axis=-1), gm)
+    e = np.linalg.norm(eccentricity_vector(r, v, gm, r_km=rn), axis=-1)
     alt = np.where(finite, a * (1.0 - e) - r_moon, np.nan)
     impact = ds["impact"].values.astype(bool)
     impact_day = np.where(impact, (ds["impact_t_tdb_s"].values - t0) / SECONDS_PER_DAY, np.nan)

@@ -63,7 +63,7 @@ import xarray as xr
 
 from .config import CONTROLLERS, integrator_setting
 from .constants import DAYS_PER_JULIAN_YEAR, SECONDS_PER_DAY
-from .elements import orbital_period_s, state_to_elements
+from .elements import eccentricity_vector, orbital_period_s, state_to_elements, vis_viva_sma_km
 from .ephemeris import ensure_kernels, tdb_seconds
 from .forces import ForceModel
 from .maneuvers import candidate_true_anomalies, mean_anomaly, plan_impulses
@@ -372,9 +372,8 @@ def _perilune_radius_km(states: np.ndarray, gm: float) -> np.ndarray:
     """Osculating perilune radius a (1 - e) (km) of states (n, 6)."""
     r, v = states[:, :3], states[:, 3:]
     rn = np.linalg.norm(r, axis=1)
-    h = np.cross(r, v)
-    e = np.linalg.norm(np.cross(v, h) / gm - r / rn[:, None], axis=1)
-    return 1.0 / (2.0 / rn - np.sum(v * v, axis=1) / gm) * (1.0 - e)
+    e = np.linalg.norm(eccentricity_vector(r, v, gm, r_km=rn), axis=1)
+    return vis_viva_sma_km(rn, np.sum(v * v, axis=1), gm) * (1.0 - e)
 
 
 def _enqueue(queue: list, t: float, osc: np.ndarray, gm: float, sets: list, budget_kms: float = np.inf) -> bool:

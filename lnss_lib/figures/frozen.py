@@ -6,6 +6,8 @@ from __future__ import annotations
 import numpy as np
 import plotly.graph_objects as go
 
+from ..constants import DAYS_PER_JULIAN_YEAR
+
 _READ_SYMBOLS = {"moon_op": "circle", "lunar equator": "diamond-open"}
 _VERDICT_COLOURS = {"frozen": "#2ca02c", "librating": "#1f77b4", "circulating": "#ff7f0e",
                     "reaches the surface": "#d62728"}
@@ -53,8 +55,8 @@ def perilune_envelope(t_days, perilune_alt_km, mean_t_days, mean_perilune_alt_km
     """Osculating perilune altitude (sat, time) of the full model against the doubly-averaged one (sat, time) less
     ``envelope_km`` (the short-period allowance), with the altitude floor ``floor_km``."""
     fig = go.Figure()
-    years = np.asarray(t_days) / 365.25
-    mean_years = np.asarray(mean_t_days) / 365.25
+    years = np.asarray(t_days) / DAYS_PER_JULIAN_YEAR
+    mean_years = np.asarray(mean_t_days) / DAYS_PER_JULIAN_YEAR
     for k, name in enumerate(names):
         fig.add_trace(go.Scatter(x=years, y=perilune_alt_km[k], mode="lines", name=f"{name}: full model",
                                  line={"width": 0.6}))

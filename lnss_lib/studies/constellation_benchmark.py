@@ -37,7 +37,7 @@ import pandas as pd
 
 from ..catalogue import FILE_FRAMES, analyse_catalogue, constellation_states_mci, list_catalogue, load_constellation
 from ..config import deep_merge, load_profile
-from ..constants import SECONDS_PER_DAY
+from ..constants import DAYS_PER_JULIAN_YEAR, SECONDS_PER_DAY
 from ..constellation import WalkerDesign, standalone_elfo
 from ..dop import dop_for_profile, elevation_deg, summary_from_profile
 from ..ephemeris import body_states_mci, ensure_kernels, rotation, tdb_seconds
@@ -483,7 +483,7 @@ def epoch_sensitivity(profile_name: str, *, epochs=None, names=None, overrides=N
         for name in names:
             states = _epoch_states(profile, name, t0)
             ds = propagate_states(profile, states, t0, duration, float(profile["epoch"]["step_s"]), batch=True)
-            row = {"epoch_tdb": epoch, "year": 2000.0 + (t0 / SECONDS_PER_DAY) / 365.25, "moon_node_deg": _moon_node_deg(t0),
+            row = {"epoch_tdb": epoch, "year": 2000.0 + (t0 / SECONDS_PER_DAY) / DAYS_PER_JULIAN_YEAR, "moon_node_deg": _moon_node_deg(t0),
                    "constellation": name, "n_sat": states.shape[0], "impact": bool(ds.impact.any())}
             if not row["impact"]:
                 times = ds["time"].values.astype(float)
