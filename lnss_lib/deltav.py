@@ -8,7 +8,7 @@ per satellite per year (x 365.25 d / arc length, Section 4).
 
 Conventions: ``T`` is the RTN acceleration that *produces* the observed drift (R along r, N along
 h = r x v, T = N x R); the station-keeping thrust is -T, of the same magnitude. Accelerations in
-km/s^2, elements ``[a_km, e, i, raan, aop, nu]`` in km and rad (nu: true anomaly).
+km/s^2, elements ``[sma_km, e, i, raan, aop, nu]`` in km and rad (nu: true anomaly).
 
 Three models (``MODELS``), all reported:
 
@@ -273,7 +273,7 @@ def _secular_from_vectors(t: np.ndarray, vectors: np.ndarray, gm_km3_s2: float, 
             "aop_dot": aop_dot, "axis_cos": float(axis_cos), "period_s": float(period)}
 
 
-def secular_deltav_rates(a_km, e, natural_rates: np.ndarray, axis_cos, gm_km3_s2: float) -> dict:
+def secular_deltav_rates(sma_km, e, natural_rates: np.ndarray, axis_cos, gm_km3_s2: float) -> dict:
     """Delta-V rates (km/s per s) that cancel secular drifts, by part; dict of (...,) arrays.
 
     Linearised, optimally placed impulses derived from the GVEs (the small-change limits of
@@ -296,7 +296,7 @@ def secular_deltav_rates(a_km, e, natural_rates: np.ndarray, axis_cos, gm_km3_s2
     ``total`` is the sum of the parts (in-plane and out-of-plane corrections share nothing).
     """
     q = np.asarray(natural_rates, dtype=float)
-    a = np.asarray(a_km, dtype=float)
+    a = np.asarray(sma_km, dtype=float)
     e = np.asarray(e, dtype=float)
     p = a * (1.0 - e * e)
     h = np.sqrt(gm_km3_s2 * p)

@@ -1,6 +1,6 @@
 """Classical Keplerian elements <-> Cartesian states (pure, vectorised numpy kernels).
 
-Elements are ``(a_km, e, i_rad, raan_rad, aop_rad, M_rad)``, referred to whatever frame the
+Elements are ``(sma_km, e, i_rad, raan_rad, aop_rad, M_rad)``, referred to whatever frame the
 Cartesian state is in; :func:`lnss_lib.ephemeris.element_frame_to_j2000` supplies the rotation
 between the element frame and Moon-centred J2000. Angles are radians here; degree conversion
 belongs to the callers that read user input.
@@ -19,10 +19,10 @@ __all__ = ["TWO_PI", "validate_elements", "solve_kepler", "eccentric_anomaly_fro
 TWO_PI = 2.0 * np.pi
 
 
-def validate_elements(a_km, e, r_body_km: float, min_altitude_km: float = 0.0) -> None:
+def validate_elements(sma_km, e, r_body_km: float, min_altitude_km: float = 0.0) -> None:
     """Raise :class:`~lnss_lib.errors.InvalidOrbitError` (a ValueError) naming the bad value if elements are not a
     closed orbit above the surface."""
-    a = np.atleast_1d(np.asarray(a_km, dtype=float))
+    a = np.atleast_1d(np.asarray(sma_km, dtype=float))
     ecc = np.atleast_1d(np.asarray(e, dtype=float))
     if np.any(~np.isfinite(a)) or np.any(a <= 0.0):
         raise InvalidOrbitError(f"semi-major axis must be positive and finite (km); got {a[(a <= 0) | ~np.isfinite(a)][0]!r}")
@@ -164,6 +164,6 @@ def kepler_states(elements: np.ndarray, dt_s: np.ndarray, gm_km3_s2: float) -> n
     return elements_to_state(series, gm_km3_s2)
 
 
-def orbital_period_s(a_km, gm_km3_s2: float):
+def orbital_period_s(sma_km, gm_km3_s2: float):
     """Keplerian period (s)."""
-    return TWO_PI * np.sqrt(np.asarray(a_km, dtype=float) ** 3 / gm_km3_s2)
+    return TWO_PI * np.sqrt(np.asarray(sma_km, dtype=float) ** 3 / gm_km3_s2)

@@ -7,7 +7,7 @@ and :func:`paper_thrust` (the paper's sequential eq. 30-35, misprints corrected)
 from finite differences of osculating elements (:func:`osculating_elements`, :func:`element_rates`)
 or of the orbit vectors a, e_vec, h_hat (:func:`orbit_vectors`, :func:`natural_rates_from_states`).
 
-Conventions: elements ``[a_km, e, i, raan, aop, nu]`` in km and rad (nu: true anomaly), time along
+Conventions: elements ``[sma_km, e, i, raan, aop, nu]`` in km and rad (nu: true anomaly), time along
 axis -2 of state and element arrays, accelerations in km/s^2, rates in km/s, 1/s, rad/s.
 """
 
@@ -39,7 +39,7 @@ def check_epochs(t: np.ndarray, series: np.ndarray) -> None:
 
 
 def osculating_elements(states: np.ndarray, gm_km3_s2: float) -> np.ndarray:
-    """Osculating ``[a_km, e, i, raan, aop, nu]`` (..., n, 6) of states (..., n, 6), angles unwrapped in time.
+    """Osculating ``[sma_km, e, i, raan, aop, nu]`` (..., n, 6) of states (..., n, 6), angles unwrapped in time.
 
     Time runs along axis -2. The argument of latitude theta is taken from the geometry (well
     defined for circular orbits) and nu = theta - aop, so theta = aop + nu holds exactly.
@@ -75,7 +75,7 @@ def element_rates(t_tdb_s: np.ndarray, elements: np.ndarray) -> np.ndarray:
 
 def orbit_quantities(elements: np.ndarray, gm_km3_s2: float):
     """(a, e, i, nu, theta = aop + nu, p = a (1 - e^2), h = sqrt(GM p), r = p / (1 + e cos(nu))) of elements
-    (..., 6) ``[a_km, e, i, raan, aop, nu]`` (km, rad): the conic quantities every GVE form here uses."""
+    (..., 6) ``[sma_km, e, i, raan, aop, nu]`` (km, rad): the conic quantities every GVE form here uses."""
     el = np.asarray(elements, dtype=float)
     a, e, inc, _, aop, nu = (el[..., k] for k in range(6))
     p = a * (1.0 - e * e)
@@ -135,7 +135,7 @@ def natural_rates_from_elements(elements: np.ndarray, rates: np.ndarray) -> np.n
 
 
 def orbit_vectors(states: np.ndarray, gm_km3_s2: float) -> np.ndarray:
-    """[a_km, e_vec (3), h_hat (3)] (..., n, 7) of states (..., n, 6): SMA, eccentricity vector, orbit normal."""
+    """[sma_km, e_vec (3), h_hat (3)] (..., n, 7) of states (..., n, 6): SMA, eccentricity vector, orbit normal."""
     s = np.asarray(states, dtype=float)
     r_vec, v_vec = s[..., :3], s[..., 3:6]
     r = np.linalg.norm(r_vec, axis=-1, keepdims=True)

@@ -160,7 +160,7 @@ def plan_impulses(elements: np.ndarray, gm_km3_s2: float, target: dict, *, horiz
     """
     el = np.asarray(elements, dtype=float)
     if el.shape != (6,) or not np.all(np.isfinite(el)):
-        raise ValueError(f"elements must be 6 finite values [a_km, e, i, raan, aop, M] (rad); got {el!r}")
+        raise ValueError(f"elements must be 6 finite values [sma_km, e, i, raan, aop, M] (rad); got {el!r}")
     unknown = set(target) - set(CONTROL_ROWS)
     if unknown or not target:
         raise ValueError(f"target must name rows of {CONTROL_ROWS}; got {sorted(target)}")

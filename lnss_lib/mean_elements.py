@@ -27,7 +27,7 @@ def to_element_frame(states_mci: np.ndarray, rot_el_to_j2000: np.ndarray) -> np.
 
 
 def mean_elements(states: np.ndarray, gm_km3_s2: float) -> np.ndarray:
-    """Mean ``[a_km, e, i, raan, aop, u]`` (..., 6) (rad) of states (..., n, 6) spanning one orbit.
+    """Mean ``[sma_km, e, i, raan, aop, u]`` (..., 6) (rad) of states (..., n, 6) spanning one orbit.
 
     The n samples (along axis -2) must be equally spaced in time and cover one orbital period
     (first and last sample one period apart count once each half: trapezoidal weights).

@@ -197,7 +197,7 @@ def _gravity_constants(profile: dict) -> tuple[float, float, float]:
 
 
 def orbit_vectors_ej(states: np.ndarray, gm_km3_s2: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """(a_km (n,), e vector (n, 3), j = sqrt(1 - e^2) h_hat (n, 3)) of osculating states (n, 6)."""
+    """(sma_km (n,), e vector (n, 3), j = sqrt(1 - e^2) h_hat (n, 3)) of osculating states (n, 6)."""
     s = np.atleast_2d(np.asarray(states, dtype=float))
     r, v = s[:, :3], s[:, 3:]
     rn = np.linalg.norm(r, axis=1)
@@ -209,23 +209,23 @@ def orbit_vectors_ej(states: np.ndarray, gm_km3_s2: float) -> tuple[np.ndarray, 
     return a, e_vec, h / np.sqrt(gm_km3_s2 * a)[:, None]
 
 
-def _gradients(e_vec, j_vec, a_km, tide, pole, gm, j2, r_ref):
+def _gradients(e_vec, j_vec, sma_km, tide, pole, gm, j2, r_ref):
     """grad_e Phi and grad_j Phi (n, 3) (km^2/s^2) of the averaged potential."""
-    a2 = (a_km**2)[:, None]
+    a2 = (sma_km**2)[:, None]
     s = np.trace(tide)
     grad_e = -0.25 * a2 * (-12.0 * s * e_vec + 30.0 * e_vec @ tide)
     grad_j = -0.25 * a2 * (-6.0 * j_vec @ tide)
     jn = np.linalg.norm(j_vec, axis=1)[:, None]
     jk = (j_vec @ pole)[:, None]
-    c = (gm * j2 * r_ref**2 / (4.0 * a_km**3))[:, None]
+    c = (gm * j2 * r_ref**2 / (4.0 * sma_km**3))[:, None]
     grad_j = grad_j + c * (-3.0 * j_vec / jn**5 - 6.0 * jk * pole / jn**5 + 15.0 * jk**2 * j_vec / jn**7)
     return grad_e, grad_j
 
 
-def averaged_potential(e_vec, j_vec, a_km, tide, pole, gm_km3_s2: float, j2: float, r_ref_km: float) -> np.ndarray:
+def averaged_potential(e_vec, j_vec, sma_km, tide, pole, gm_km3_s2: float, j2: float, r_ref_km: float) -> np.ndarray:
     """Doubly-averaged potential per unit mass (n,) (km^2/s^2), tide plus J2 (see module docstring)."""
     e_vec, j_vec = np.atleast_2d(e_vec), np.atleast_2d(j_vec)
-    a = np.atleast_1d(np.asarray(a_km, dtype=float))
+    a = np.atleast_1d(np.asarray(sma_km, dtype=float))
     s = np.trace(tide)
     tide_part = -0.25 * a**2 * (s * (1.0 - 6.0 * np.sum(e_vec**2, axis=1))
                                 - 3.0 * np.einsum("ni,ij,nj->n", j_vec, tide, j_vec)
@@ -235,10 +235,10 @@ def averaged_potential(e_vec, j_vec, a_km, tide, pole, gm_km3_s2: float, j2: flo
     return tide_part + gm_km3_s2 * j2 * r_ref_km**2 / (4.0 * a**3) * (jn**-3 - 3.0 * jk**2 * jn**-5)
 
 
-def secular_rates(e_vec, j_vec, a_km, tide, pole, gm_km3_s2: float, j2: float, r_ref_km: float):
-    """Milankovitch rates (de/dt, dj/dt), each (n, 3) in 1/s, of vectors (n, 3) with a_km (n,)."""
+def secular_rates(e_vec, j_vec, sma_km, tide, pole, gm_km3_s2: float, j2: float, r_ref_km: float):
+    """Milankovitch rates (de/dt, dj/dt), each (n, 3) in 1/s, of vectors (n, 3) with sma_km (n,)."""
     e_vec, j_vec = np.atleast_2d(e_vec), np.atleast_2d(j_vec)
-    a = np.atleast_1d(np.asarray(a_km, dtype=float))
+    a = np.atleast_1d(np.asarray(sma_km, dtype=float))
     grad_e, grad_j = _gradients(e_vec, j_vec, a, np.asarray(tide), np.asarray(pole), gm_km3_s2, j2, r_ref_km)
     inv_l = (1.0 / np.sqrt(gm_km3_s2 * a))[:, None]
     de = -inv_l * (np.cross(j_vec, grad_e) + np.cross(e_vec, grad_j))
@@ -247,10 +247,10 @@ def secular_rates(e_vec, j_vec, a_km, tide, pole, gm_km3_s2: float, j2: float, r
 
 
 @nb.njit(cache=True)
-def _rhs_kernel(y: np.ndarray, a_km: np.ndarray, tide: np.ndarray, pole: np.ndarray, gm: float, j2: float,
+def _rhs_kernel(y: np.ndarray, sma_km: np.ndarray, tide: np.ndarray, pole: np.ndarray, gm: float, j2: float,
                 r_ref: float, scale: float) -> np.ndarray:
     """Compiled :func:`secular_rates` on a flat state [e (3), j (3)] per orbit, times ``scale``."""
-    n = a_km.size
+    n = sma_km.size
     out = np.empty(6 * n)
     s = tide[0, 0] + tide[1, 1] + tide[2, 2]
     ge = np.empty(3)
@@ -258,7 +258,7 @@ def _rhs_kernel(y: np.ndarray, a_km: np.ndarray, tide: np.ndarray, pole: np.ndar
     for q in range(n):
         e = y[6 * q:6 * q + 3]
         j = y[6 * q + 3:6 * q + 6]
-        a = a_km[q]
+        a = sma_km[q]
         jn = np.sqrt(j[0] * j[0] + j[1] * j[1] + j[2] * j[2])
         jk = j[0] * pole[0] + j[1] * pole[1] + j[2] * pole[2]
         c = gm * j2 * r_ref * r_ref / (4.0 * a * a * a)
@@ -277,7 +277,7 @@ def _rhs_kernel(y: np.ndarray, a_km: np.ndarray, tide: np.ndarray, pole: np.ndar
     return out
 
 
-def integrate_secular(a_km, e0, j0, field: SecularField, life_days: float, *, floor_km=None,
+def integrate_secular(sma_km, e0, j0, field: SecularField, life_days: float, *, floor_km=None,
                       method: str = "DOP853", rtol: float = 1e-9, atol: float = 1e-11,
                       output_step_days: float = 1.0) -> dict:
     """Integrate orbits (n,) from (e0, j0) (n, 3) for ``life_days``; stop an orbit whose perilune reaches ``floor_km``.
@@ -285,7 +285,7 @@ def integrate_secular(a_km, e0, j0, field: SecularField, life_days: float, *, fl
     Returns ``t_days`` (m,), ``e`` and ``j`` (n, m, 3) (NaN after an impact), ``impact_day`` (n,)
     (NaN when none; located by a solve_ivp event to the integrator's accuracy), ``n_rhs``.
     """
-    a = np.atleast_1d(np.asarray(a_km, dtype=float))
+    a = np.atleast_1d(np.asarray(sma_km, dtype=float))
     y0 = np.concatenate([np.atleast_2d(e0), np.atleast_2d(j0)], axis=1)
     n = a.size
     if y0.shape != (n, 6) or not np.all(np.isfinite(y0)):
@@ -393,7 +393,7 @@ def screen_states(profile: dict, states_mci, t0_tdb_s: float, *, field: SecularF
 
 
 def screen_elements(profile: dict, elements_deg, t0_tdb_s: float | None = None, **overrides) -> xr.Dataset:
-    """:func:`screen_states` for elements (n, 6) [a_km, e, i, RAAN, AOP, M] (deg) in the profile's element frame."""
+    """:func:`screen_states` for elements (n, 6) [sma_km, e, i, RAAN, AOP, M] (deg) in the profile's element frame."""
     from .propagator import elements_deg_to_states
 
     ensure_kernels(profile)
@@ -407,7 +407,7 @@ def screen_design(profile: dict, sma_km: float, ecc: float, aop_deg: float, inc_
     ``screen_impact_day`` (None when none), ``screen_wall_s``."""
     from .constellation import WalkerDesign
 
-    elements = WalkerDesign(sma_km, ecc, inc_deg, aop_deg, n_planes, sats_per_plane).elements_deg()
+    elements = WalkerDesign(sma_km, ecc, aop_deg, inc_deg, n_planes, sats_per_plane).elements_deg()
     ds = screen_elements(profile, elements, **overrides)
     day = ds.attrs["impact_day"]
     return {"stable_screen": ds.attrs["stable"], "screen_min_perilune_alt_km": ds.attrs["min_perilune_alt_km"],
@@ -427,10 +427,10 @@ def _cached_field(profile: dict, t0_tdb_s: float, cfg: StabilitySettings) -> Sec
     return _FIELDS[key]
 
 
-def classical_j2_rates(a_km, e, inc_rad, gm_km3_s2: float, j2: float, r_ref_km: float) -> tuple:
+def classical_j2_rates(sma_km, e, inc_rad, gm_km3_s2: float, j2: float, r_ref_km: float) -> tuple:
     """Secular (RAAN-dot, AOP-dot) (rad/s) of J2 (Vallado eq. 9-41, 9-42), mean motion sqrt(GM / a^3)."""
-    n = np.sqrt(gm_km3_s2 / np.asarray(a_km, float) ** 3)
-    k = 1.5 * n * j2 * (r_ref_km / (np.asarray(a_km, float) * (1.0 - np.asarray(e, float) ** 2))) ** 2
+    n = np.sqrt(gm_km3_s2 / np.asarray(sma_km, float) ** 3)
+    k = 1.5 * n * j2 * (r_ref_km / (np.asarray(sma_km, float) * (1.0 - np.asarray(e, float) ** 2))) ** 2
     return -k * np.cos(inc_rad), 0.5 * k * (5.0 * np.cos(inc_rad) ** 2 - 1.0)
 
 

@@ -145,7 +145,7 @@ def simulate_life(profile: dict, elements_deg, *, natural: bool = False, life_da
                   settings: LifeSettings | None = None, sample_step_s: float | None = None) -> xr.Dataset:
     """Station keeping (or, with ``natural=True``, natural drift) of a constellation over its design life.
 
-    ``elements_deg`` (n_sat, 6) ``[a_km, e, inc_deg, raan_deg, aop_deg, M_deg]`` in the profile's
+    ``elements_deg`` (n_sat, 6) ``[sma_km, e, inc_deg, raan_deg, aop_deg, M_deg]`` in the profile's
     element frame at the start (default: the profile's epoch) are also the references of the box.
     Returns a Dataset with dims ``sat``, ``check`` (mean-element history, one per chunk) and
     ``maneuver``: per satellite ``dv_kms_per_year`` (over the life, or over the flown span of a lost satellite), ``dv_total_kms``, ``n_maneuvers``,

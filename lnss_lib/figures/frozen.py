@@ -25,7 +25,7 @@ def frozen_family_chart(family, orbits, *, title: str) -> go.Figure:
                         subplot_titles=("frozen i (to the Earth-Moon plane) against a", "frozen e against a"))
     for col, (prefix, y_key) in enumerate((("i at", "inc_deg"), ("e at", "ecc")), start=1):
         for curve, rows in family[family["curve"].str.startswith(prefix)].groupby("curve", sort=False):
-            fig.add_trace(go.Scatter(x=rows["a_km"], y=rows[y_key], mode="lines", name=curve, line={"width": 1.5},
+            fig.add_trace(go.Scatter(x=rows["sma_km"], y=rows[y_key], mode="lines", name=curve, line={"width": 1.5},
                                      legendgroup="family"), row=1, col=col)
     inc = np.where(orbits["inc_op_deg"] <= 90.0, orbits["inc_op_deg"], 180.0 - orbits["inc_op_deg"])
     for (read_in, verdict), rows in orbits.assign(inc_plot=inc).groupby(["read_in", "verdict"], sort=False):

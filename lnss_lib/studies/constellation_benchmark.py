@@ -193,7 +193,7 @@ def campaign_entries(profile_name: str) -> tuple[list[Entry], list[str]]:
         if not len(picks):
             notes.append(f"{name} campaign ({display_path(folder)}): no design qualifies for Table 6; none added")
         for k, row in picks.iterrows():
-            design = WalkerDesign(row.sma_km, row.ecc, row.inc_deg, row.aop_deg, int(row.n_planes), int(row.sats_per_plane))
+            design = WalkerDesign(row.sma_km, row.ecc, row.aop_deg, row.inc_deg, int(row.n_planes), int(row.sats_per_plane))
             label = (f"{name} campaign #{k + 1}: {int(row.n_planes)}x{int(row.sats_per_plane)}, a {row.sma_km:.0f} km, "
                      f"e {row.ecc:.2f}, i {row.inc_deg:.0f}, AOP {row.aop_deg:.0f}")
             entries.append(Entry(label, "campaign", design.n_sat, design.elements_deg(), None, row["why selected"]))
