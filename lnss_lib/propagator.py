@@ -425,7 +425,7 @@ def _as_dataset(out, times, status, t_stop, n_rhs, profile, integ, model) -> xr.
     return ds
 
 
-ELEMENT_RANGES = (("semi-major axis a_km", SEMI_MAJOR_AXIS), ("eccentricity e", (0.0, 1.0, False, True)),
+ELEMENT_RANGES = (("semi-major axis sma_km", SEMI_MAJOR_AXIS), ("eccentricity e", (0.0, 1.0, False, True)),
                   ("inclination inc_deg", (0.0, 180.0, False, False)), ("raan_deg", (None, None, False, False)),
                   ("aop_deg", (None, None, False, False)), ("mean_anomaly_deg", (None, None, False, False)))
 
