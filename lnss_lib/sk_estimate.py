@@ -47,7 +47,7 @@ import xarray as xr
 
 from .constants import DAYS_PER_JULIAN_YEAR, SECONDS_PER_DAY
 from .deltav import orbit_mean, orbit_vectors
-from .elements import mean_anomaly_from_true
+from .elements import eccentric_anomaly_from_true
 from .frames import ELEMENT_FRAMES, element_frame_to_j2000
 
 __all__ = ["PARTS", "DEFAULT_SETTINGS", "sk_estimate_settings", "mean_drift", "sk_estimate_arrays",
@@ -90,7 +90,8 @@ def _mean_argument_of_latitude(r: np.ndarray, e_vec: np.ndarray, h_hat: np.ndarr
     cos_nu_e = np.sum(r * e_vec, axis=-1)
     sin_nu_e = np.sum(np.cross(e_vec, r) * h_hat, axis=-1)
     nu = np.arctan2(sin_nu_e, cos_nu_e)                                           # exact angles times |r| e
-    return theta - nu + mean_anomaly_from_true(nu, e)
+    ecc_anomaly = eccentric_anomaly_from_true(nu, e)
+    return theta - nu + ecc_anomaly - e * np.sin(ecc_anomaly)          # (theta - nu + E) - e sin E: kept in this order
 
 
 def mean_drift(t_tdb_s: np.ndarray, states: np.ndarray, gm_km3_s2: float, min_periods: float = 2.0) -> dict:
