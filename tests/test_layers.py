@@ -3,7 +3,7 @@
 1 foundations (``config``, ``settings``, ``constants``, ``paper``, ``keys``, ``errors``, ``atomicio``, ``progress``); 2 physics
 kernels (every other top-level module: a new physics module is a kernel without editing this file); 3 the campaign
 engine (``campaign/``); 4 presentation and studies (``outputs``, ``pipeline``, ``figures/``,
-``studies/``, ``explorer``); 5 the command line and benchmarks (``__main__``, ``bench/``).
+``studies/``, ``explorer``); 5 the command line and benchmarks (``__main__``, ``cli``, ``bench/``).
 Every ``import`` counts, including those inside functions. Also: no import cycles, kernels stay free
 of pandas/plotly/pymoo/Dask/papermill, only the top layer imports ``studies`` and ``figures``, figures
 read only foundations and ``outputs``, and each module imports on its own in a fresh interpreter
@@ -24,7 +24,7 @@ PACKAGE_DIR = Path(__file__).resolve().parents[1] / PACKAGE
 FOUNDATIONS = {"config", "settings", "constants", "paper", "keys", "errors", "atomicio", "progress"}
 CAMPAIGN = {"campaign"}
 PRESENTATION = {"outputs", "pipeline", "findings", "figures", "studies", "explorer"}
-TOP = {"__main__", "bench"}
+TOP = {"__main__", "cli", "bench"}
 LAYER_NAMES = {1: "foundations", 2: "kernels", 3: "campaign", 4: "presentation/studies", 5: "command line/bench"}
 HEAVY_FOR_KERNELS = {"pandas", "plotly", "pymoo", "dask", "distributed", "papermill"}
 FRONT_ENDS = {"studies", "figures"}          # imported only by the top layer (and notebooks, tests)
