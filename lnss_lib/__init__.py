@@ -19,7 +19,7 @@ Layers (a module imports only from its own layer or a lower one):
    runner and callbacks, timing).
 4. Presentation and studies: ``outputs``, ``pipeline``, ``figures``, ``studies`` (one module per
    notebook; each docstring states the question and the verdict), ``explorer``.
-   Top: ``__main__``, ``bench``.
+   Top: ``__main__`` (argument parsing), ``cli`` (the evaluate command's results), ``bench``.
 """
 
 __version__ = "0.1.0"

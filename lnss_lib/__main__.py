@@ -33,7 +33,7 @@ def _require(flag: str, value, spec: tuple, integer: bool = False, why: str = ""
 
 
 def _overrides(args: argparse.Namespace) -> dict | None:
-    """``--set SECTION.KEY=VALUE`` items as a nested overrides dict (checked by load_profile), or None."""
+    """``--set SECTION.KEY=VALUE`` items as a nested overrides dict (checked by load_settings), or None."""
     return parse_sets(getattr(args, "set", None)) or None
 
 
@@ -116,7 +116,7 @@ def _cmd_evaluate(args: argparse.Namespace) -> int:
         given = [flag for flag, value in walker.items() if value is not None]
         if given:
             raise ConfigError(f"--constellation replaces the Walker arguments; drop {', '.join(given)}")
-        from .catalogue import evaluate_catalogue_cli
+        from .cli import evaluate_catalogue_cli
 
         result = evaluate_catalogue_cli(args.profile, args.constellation, epoch=args.constellation_epoch,
                                         overrides=_overrides(args))
@@ -125,7 +125,7 @@ def _cmd_evaluate(args: argparse.Namespace) -> int:
         if missing:
             raise ConfigError(f"evaluate needs --constellation NAME_OR_PATH or all Walker arguments; "
                               f"missing {', '.join(missing)}")
-        from .evaluator import evaluate_cli
+        from .cli import evaluate_cli
 
         _check_walker(args)
         result = evaluate_cli(args.profile, args.sma_km, args.ecc, args.aop_deg, args.inc_deg, args.planes,
@@ -135,7 +135,7 @@ def _cmd_evaluate(args: argparse.Namespace) -> int:
     profile = load_settings(args.profile, overrides=_overrides(args))
     result.update(bounds_verdict(profile, result))
     if args.design_life_days is not None:
-        from .design_life.evaluation import design_life_cli
+        from .cli import design_life_cli
 
         result.update(design_life_cli(args.profile, args.design_life_days, constellation=args.constellation,
                                       constellation_epoch=args.constellation_epoch,
@@ -159,7 +159,7 @@ def _check_walker(args: argparse.Namespace) -> None:
     """The Walker arguments checked (evaluator.check_design) with the message naming the flag."""
     from .evaluator import check_design
 
-    flags = {"a_km": "--sma-km", "e": "--ecc", "inc_deg": "--inc-deg", "aop_deg": "--aop-deg",
+    flags = {"sma_km": "--sma-km", "e": "--ecc", "inc_deg": "--inc-deg", "aop_deg": "--aop-deg",
              "n_planes": "--planes", "sats_per_plane": "--sats-per-plane"}
     try:
         check_design(args.sma_km, args.ecc, args.aop_deg, args.inc_deg, args.planes, args.sats_per_plane)

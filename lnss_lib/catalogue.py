@@ -46,13 +46,14 @@ import numpy as np
 
 from .config import PARAMS_DIR, read_toml
 from .settings import load_settings
+from .elements import mean_anomaly_from_true
 from .ephemeris import ensure_kernels, tdb_iso, tdb_seconds
 from .frames import element_frame_to_j2000
 from .errors import ConfigError, InfeasibleDesignError
 
 __all__ = ["CATALOGUE_DIR", "FILE_FRAMES", "CatalogueConstellation", "CatalogueStates", "list_catalogue",
            "load_constellation", "true_to_mean_anomaly_deg", "constellation_states_mci", "file_epoch_profile",
-           "analyse_catalogue", "evaluate_catalogue", "evaluate_catalogue_cli"]
+           "analyse_catalogue", "evaluate_catalogue", "refuse_approximate"]
 
 CATALOGUE_DIR = PARAMS_DIR / "constellations"
 NOT_GIVEN = "not given"
@@ -160,8 +161,7 @@ def true_to_mean_anomaly_deg(true_anomaly_deg, e) -> np.ndarray:
     ecc = np.asarray(e, dtype=float)
     if np.any(~np.isfinite(ecc) | (ecc < 0.0) | (ecc >= 1.0)):
         raise ValueError(f"eccentricity must be in [0, 1); got {ecc!r}")
-    ecc_anomaly = 2.0 * np.arctan2(np.sqrt(1.0 - ecc) * np.sin(nu / 2.0), np.sqrt(1.0 + ecc) * np.cos(nu / 2.0))
-    return np.mod(np.degrees(ecc_anomaly - ecc * np.sin(ecc_anomaly)), 360.0)
+    return np.mod(np.degrees(mean_anomaly_from_true(nu, ecc)), 360.0)
 
 
 def _resolve(name_or_path: str | Path) -> Path:
@@ -275,7 +275,8 @@ def list_catalogue(profile: dict | None = None) -> list[dict]:
     return rows
 
 
-def _refuse_approximate(c: CatalogueConstellation) -> None:
+def refuse_approximate(c: CatalogueConstellation) -> None:
+    """ConfigError for an approximate entry (no geometry to evaluate)."""
     if c.approximate:
         raise ConfigError(
             f"{c.path}: {c.key!r} is an approximate entry (approximate = true): its sources give no eccentricity, "
@@ -315,7 +316,7 @@ def constellation_states_mci(profile: dict, c: CatalogueConstellation, epoch: st
     """
     if epoch not in EPOCH_CHOICES:
         raise ValueError(f"epoch must be one of {', '.join(EPOCH_CHOICES)}; got {epoch!r}")
-    _refuse_approximate(c)
+    refuse_approximate(c)
     ensure_kernels(profile)
     t0 = _file_epoch_tdb_s(c) if epoch == "file" else tdb_seconds(profile["epoch"]["start_tdb"], "TDB")
     return _states_at(profile, c, t0, _epoch_source(c, epoch))
@@ -344,7 +345,7 @@ def analyse_catalogue(context, c: CatalogueConstellation, epoch: str = "study", 
 
     if epoch not in EPOCH_CHOICES:
         raise ValueError(f"epoch must be one of {', '.join(EPOCH_CHOICES)}; got {epoch!r}")
-    _refuse_approximate(c)
+    refuse_approximate(c)
     if epoch == "file" and abs(_file_epoch_tdb_s(c) - context.t0_tdb_s) > 1e-3:
         raise ValueError(f"{c.key}: the evaluation context starts at {tdb_iso(context.t0_tdb_s)} TDB, not at the "
                          f"file's epoch {c.epoch} {c.time_scale}: build it from file_epoch_profile(profile, constellation)")
@@ -376,20 +377,3 @@ def evaluate_catalogue(context, c: CatalogueConstellation, epoch: str = "study")
     result.update(name=c.key, approximate=c.approximate, element_frame=c.element_frame,
                   epoch_used=tdb_iso(context.t0_tdb_s), epoch_source=_epoch_source(c, epoch))
     return result
-
-
-def evaluate_catalogue_cli(profile_name: str, name_or_path: str, epoch: str = "study", overrides: dict | None = None) -> dict:
-    """:func:`evaluate_catalogue` under a named profile with the evaluate CLI's JSON keys plus the labels.
-
-    The keys are those of :func:`lnss_lib.evaluator.cli_result` followed by ``name``, ``approximate``,
-    ``element_frame``, ``epoch_used`` and ``epoch_source``; NaN becomes None (JSON null).
-    """
-    from .evaluator import cli_result, context_for
-
-    profile = load_settings(profile_name, overrides=overrides)
-    c = load_constellation(name_or_path, profile)
-    _refuse_approximate(c)
-    if epoch == "file":
-        profile = file_epoch_profile(profile, c)
-    context = context_for(profile)
-    return cli_result(context, evaluate_catalogue(context, c, epoch), EXTRA_RESULT_KEYS)

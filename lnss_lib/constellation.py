@@ -56,7 +56,7 @@ def _surface_limits(profile: dict) -> tuple[float, float]:
     return float(profile["constants"]["r_moon_mean_km"]), float(profile["impact"]["min_altitude_km"])
 
 
-def planes_elements_deg(a_km: float, e: float, inc_deg: float, aop_deg: float,
+def planes_elements_deg(sma_km: float, e: float, inc_deg: float, aop_deg: float,
                         raan_deg, sats_per_plane: int) -> np.ndarray:
     """Elements (nsat, 6) of planes with the given RAANs, ``sats_per_plane`` satellites each.
 
@@ -73,7 +73,7 @@ def planes_elements_deg(a_km: float, e: float, inc_deg: float, aop_deg: float,
     m_col = np.tile(mean_anomalies, raans.size)
     n = raan_col.size
     return np.column_stack([
-        np.full(n, float(a_km)), np.full(n, float(e)), np.full(n, float(inc_deg)),
+        np.full(n, float(sma_km)), np.full(n, float(e)), np.full(n, float(inc_deg)),
         np.mod(raan_col, 360.0), np.full(n, float(np.mod(aop_deg, 360.0))), np.mod(m_col, 360.0),
     ])
 
@@ -83,15 +83,16 @@ class WalkerDesign:
     """Walker-type design of Table 3: ``n_planes`` planes, ``sats_per_plane`` satellites each.
 
     RAAN of plane p is ``raan_offset_deg + (p - 1) 360 / Np`` (eq. 42, offset 0 in the paper);
-    satellites are equally spaced in mean anomaly from M = 0. Angles in degrees, ``a_km`` in km.
+    satellites are equally spaced in mean anomaly from M = 0. Angles in degrees, ``sma_km`` in km. The
+    fields before ``raan_offset_deg`` are :data:`lnss_lib.keys.DESIGN_KEYS`, in that order.
     Construction checks e in [0, 1), a > 0, inclination in [0, 180] deg and positive integer
     counts; :func:`walker_design` also checks the perilune against the lunar surface.
     """
 
-    a_km: float
-    e: float
-    inc_deg: float
+    sma_km: float
+    ecc: float
     aop_deg: float
+    inc_deg: float
     n_planes: int
     sats_per_plane: int
     raan_offset_deg: float = 0.0
@@ -99,7 +100,7 @@ class WalkerDesign:
     def __post_init__(self) -> None:
         object.__setattr__(self, "n_planes", _positive_int(self.n_planes, "n_planes (Np)"))
         object.__setattr__(self, "sats_per_plane", _positive_int(self.sats_per_plane, "sats_per_plane (Ns)"))
-        validate_elements(self.a_km, self.e, r_body_km=0.0)
+        validate_elements(self.sma_km, self.ecc, r_body_km=0.0)
         _check_inclination(self.inc_deg)
         _check_finite_angles([self.aop_deg, self.raan_offset_deg], "aop_deg and raan_offset_deg")
 
@@ -113,23 +114,23 @@ class WalkerDesign:
         return np.mod(self.raan_offset_deg + np.arange(self.n_planes) * 360.0 / self.n_planes, 360.0)
 
     def elements_deg(self) -> np.ndarray:
-        """Elements (n_sat, 6) ``[a_km, e, inc_deg, raan_deg, aop_deg, M_deg]``, plane by plane."""
-        return planes_elements_deg(self.a_km, self.e, self.inc_deg, self.aop_deg,
+        """Elements (n_sat, 6) ``[sma_km, ecc, inc_deg, raan_deg, aop_deg, M_deg]``, plane by plane."""
+        return planes_elements_deg(self.sma_km, self.ecc, self.inc_deg, self.aop_deg,
                                    self.raan_deg(), self.sats_per_plane)
 
 
-def walker_design(profile: dict, a_km: float, e: float, inc_deg: float, aop_deg: float,
+def walker_design(profile: dict, sma_km: float, ecc: float, aop_deg: float, inc_deg: float,
                   n_planes: int, sats_per_plane: int, raan_offset_deg: float = 0.0) -> WalkerDesign:
     """A :class:`WalkerDesign` whose perilune a(1 - e) clears the surface (``constants.r_moon_mean_km``
     + ``impact.min_altitude_km``); ``ValueError`` naming the bad value otherwise."""
-    design = WalkerDesign(a_km, e, inc_deg, aop_deg, n_planes, sats_per_plane, raan_offset_deg)
+    design = WalkerDesign(sma_km, ecc, aop_deg, inc_deg, n_planes, sats_per_plane, raan_offset_deg)
     r_body_km, min_alt_km = _surface_limits(profile)
-    validate_elements(design.a_km, design.e, r_body_km, min_alt_km)
+    validate_elements(design.sma_km, design.ecc, r_body_km, min_alt_km)
     return design
 
 
 def explicit_constellation(profile: dict, elements_deg) -> np.ndarray:
-    """Validated (nsat, 6) array from any list of element sets ``[a_km, e, inc_deg, raan_deg, aop_deg, M_deg]``.
+    """Validated (nsat, 6) array from any list of element sets ``[sma_km, e, inc_deg, raan_deg, aop_deg, M_deg]``.
 
     Checks shape, closed orbits above the surface (as :func:`walker_design`), inclination in
     [0, 180] deg and finite angles; RAAN, AOP and M are wrapped to [0, 360).

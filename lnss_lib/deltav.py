@@ -8,7 +8,7 @@ per satellite per year (x 365.25 d / arc length, Section 4).
 
 Conventions: ``T`` is the RTN acceleration that *produces* the observed drift (R along r, N along
 h = r x v, T = N x R); the station-keeping thrust is -T, of the same magnitude. Accelerations in
-km/s^2, elements ``[a_km, e, i, raan, aop, nu]`` in km and rad (nu: true anomaly).
+km/s^2, elements ``[sma_km, e, i, raan, aop, nu]`` in km and rad (nu: true anomaly).
 
 Three models (``MODELS``), all reported:
 
@@ -40,7 +40,7 @@ import xarray as xr
 from scipy.optimize import minimize
 
 from .config import DELTAV_MODELS, LSQ_RATES
-from .constants import SECONDS_PER_DAY
+from .constants import DAYS_PER_JULIAN_YEAR, SECONDS_PER_DAY
 from .frames import ELEMENT_FRAMES, element_frame_to_j2000, to_rtn
 from .gve import (NATURAL_RATE_NAMES, PAPER_NORMAL, PAPER_RADIAL, RATE_NAMES, check_epochs, element_rates, lsq_thrust,
                   natural_rates_from_elements, orbit_vectors, osculating_elements, paper_thrust, project_natural)
@@ -62,7 +62,7 @@ SECULAR_PARTS = ("sma", "ecc_vector", "plane")
 DEFAULT_SETTINGS = {
     "model": "lsq",
     "element_frame": "j2000",
-    "year_days": 365.25,
+    "year_days": DAYS_PER_JULIAN_YEAR,
     "lsq_rates": "vectors",
     "paper_normal": "weighted",
     "paper_radial": "weighted",
@@ -180,7 +180,7 @@ def trapezoid_deltav(t_tdb_s: np.ndarray, t_total_kms2: np.ndarray) -> np.ndarra
     return np.trapezoid(np.asarray(t_total_kms2, dtype=float), np.asarray(t_tdb_s, dtype=float), axis=-1)
 
 
-def per_year_factor(t_tdb_s: np.ndarray, year_days: float = 365.25) -> float:
+def per_year_factor(t_tdb_s: np.ndarray, year_days: float = DAYS_PER_JULIAN_YEAR) -> float:
     """Scale from an arc's Delta-V to a year's: year_days days / (t_end - t_start) (Section 4)."""
     t = np.asarray(t_tdb_s, dtype=float)
     span = float(t[-1] - t[0])
@@ -273,7 +273,7 @@ def _secular_from_vectors(t: np.ndarray, vectors: np.ndarray, gm_km3_s2: float, 
             "aop_dot": aop_dot, "axis_cos": float(axis_cos), "period_s": float(period)}
 
 
-def secular_deltav_rates(a_km, e, natural_rates: np.ndarray, axis_cos, gm_km3_s2: float) -> dict:
+def secular_deltav_rates(sma_km, e, natural_rates: np.ndarray, axis_cos, gm_km3_s2: float) -> dict:
     """Delta-V rates (km/s per s) that cancel secular drifts, by part; dict of (...,) arrays.
 
     Linearised, optimally placed impulses derived from the GVEs (the small-change limits of
@@ -296,7 +296,7 @@ def secular_deltav_rates(a_km, e, natural_rates: np.ndarray, axis_cos, gm_km3_s2
     ``total`` is the sum of the parts (in-plane and out-of-plane corrections share nothing).
     """
     q = np.asarray(natural_rates, dtype=float)
-    a = np.asarray(a_km, dtype=float)
+    a = np.asarray(sma_km, dtype=float)
     e = np.asarray(e, dtype=float)
     p = a * (1.0 - e * e)
     h = np.sqrt(gm_km3_s2 * p)

@@ -1,6 +1,6 @@
 """Classical Keplerian elements <-> Cartesian states (pure, vectorised numpy kernels).
 
-Elements are ``(a_km, e, i_rad, raan_rad, aop_rad, M_rad)``, referred to whatever frame the
+Elements are ``(sma_km, e, i_rad, raan_rad, aop_rad, M_rad)``, referred to whatever frame the
 Cartesian state is in; :func:`lnss_lib.ephemeris.element_frame_to_j2000` supplies the rotation
 between the element frame and Moon-centred J2000. Angles are radians here; degree conversion
 belongs to the callers that read user input.
@@ -12,16 +12,17 @@ import numpy as np
 
 from .errors import InvalidOrbitError
 
-__all__ = ["TWO_PI", "validate_elements", "solve_kepler", "elements_to_state", "state_to_elements",
-           "kepler_states", "orbital_period_s"]
+__all__ = ["TWO_PI", "validate_elements", "solve_kepler", "eccentric_anomaly_from_true", "true_anomaly_from_eccentric",
+           "mean_anomaly_from_true", "true_anomaly_from_mean", "vis_viva_sma_km", "eccentricity_vector",
+           "elements_to_state", "state_to_elements", "kepler_states", "orbital_period_s"]
 
 TWO_PI = 2.0 * np.pi
 
 
-def validate_elements(a_km, e, r_body_km: float, min_altitude_km: float = 0.0) -> None:
+def validate_elements(sma_km, e, r_body_km: float, min_altitude_km: float = 0.0) -> None:
     """Raise :class:`~lnss_lib.errors.InvalidOrbitError` (a ValueError) naming the bad value if elements are not a
     closed orbit above the surface."""
-    a = np.atleast_1d(np.asarray(a_km, dtype=float))
+    a = np.atleast_1d(np.asarray(sma_km, dtype=float))
     ecc = np.atleast_1d(np.asarray(e, dtype=float))
     if np.any(~np.isfinite(a)) or np.any(a <= 0.0):
         raise InvalidOrbitError(f"semi-major axis must be positive and finite (km); got {a[(a <= 0) | ~np.isfinite(a)][0]!r}")
@@ -49,6 +50,51 @@ def solve_kepler(mean_anomaly_rad: np.ndarray, e: np.ndarray, tol: float = 1e-14
         if np.all(np.abs(step) < tol):
             break
     return E
+
+
+def eccentric_anomaly_from_true(true_anomaly_rad, e):
+    """Eccentric anomaly E (rad, in [-pi, pi]) of a true anomaly nu (rad), elliptic orbits (0 <= e < 1).
+
+    E = 2 atan2(sqrt(1 - e) sin(nu / 2), sqrt(1 + e) cos(nu / 2)): the half-angle relation
+    tan(E / 2) = sqrt((1 - e) / (1 + e)) tan(nu / 2) with the quadrant kept.
+    """
+    nu = np.asarray(true_anomaly_rad, dtype=float)
+    return 2.0 * np.arctan2(np.sqrt(1.0 - e) * np.sin(nu / 2.0), np.sqrt(1.0 + e) * np.cos(nu / 2.0))
+
+
+def true_anomaly_from_eccentric(eccentric_anomaly_rad, e):
+    """True anomaly nu (rad, in [-pi, pi]) of an eccentric anomaly E (rad): the inverse of
+    :func:`eccentric_anomaly_from_true`, nu = 2 atan2(sqrt(1 + e) sin(E / 2), sqrt(1 - e) cos(E / 2))."""
+    E = np.asarray(eccentric_anomaly_rad, dtype=float)
+    return 2.0 * np.arctan2(np.sqrt(1.0 + e) * np.sin(E / 2.0), np.sqrt(1.0 - e) * np.cos(E / 2.0))
+
+
+def mean_anomaly_from_true(true_anomaly_rad, e):
+    """Mean anomaly M = E - e sin E (rad, Kepler's equation) of a true anomaly (rad), not wrapped: in
+    [-pi, pi] like E (callers wrap to [0, 2 pi) or [0, 360) deg as they need)."""
+    E = eccentric_anomaly_from_true(true_anomaly_rad, e)
+    return E - e * np.sin(E)
+
+
+def true_anomaly_from_mean(mean_anomaly_rad, e):
+    """True anomaly (rad, in [-pi, pi]) of a mean anomaly (rad): Kepler's equation by :func:`solve_kepler`."""
+    return true_anomaly_from_eccentric(solve_kepler(mean_anomaly_rad, e), e)
+
+
+def vis_viva_sma_km(r_km, v2_km2_s2, gm_km3_s2: float):
+    """Semi-major axis (km) from the radius (km) and the squared speed (km^2/s^2) by vis-viva,
+    v^2 = GM (2 / r - 1 / a): a = 1 / (2 / r - v^2 / GM). Negative for an open orbit, inf for a parabola."""
+    return 1.0 / (2.0 / r_km - v2_km2_s2 / gm_km3_s2)
+
+
+def eccentricity_vector(r_vec_km, v_vec_kms, gm_km3_s2: float, h_vec=None, r_km=None):
+    """Eccentricity vector (..., 3) e = v x h / GM - r / |r| of positions (..., 3) (km) and velocities (km/s).
+
+    ``h_vec`` = r x v and ``r_km`` = |r| (...,) are computed when not given (callers that have them pass them).
+    """
+    h = np.cross(r_vec_km, v_vec_kms) if h_vec is None else h_vec
+    r = np.linalg.norm(r_vec_km, axis=-1) if r_km is None else r_km
+    return np.cross(v_vec_kms, h) / gm_km3_s2 - r_vec_km / r[..., None]
 
 
 def elements_to_state(elements: np.ndarray, gm_km3_s2: float) -> np.ndarray:
@@ -88,7 +134,7 @@ def state_to_elements(state: np.ndarray, gm_km3_s2: float) -> np.ndarray:
     rv = np.sum(r_vec * v_vec, axis=-1)
     e_vec = ((v2 - gm_km3_s2 / r)[..., None] * r_vec - rv[..., None] * v_vec) / gm_km3_s2
     e = np.linalg.norm(e_vec, axis=-1)
-    a = 1.0 / (2.0 / r - v2 / gm_km3_s2)
+    a = vis_viva_sma_km(r, v2, gm_km3_s2)
     inc = np.arccos(np.clip(h_vec[..., 2] / h, -1.0, 1.0))
     node = np.stack([-h_vec[..., 1], h_vec[..., 0], np.zeros_like(h)], axis=-1)
     n_norm = np.linalg.norm(node, axis=-1)
@@ -102,8 +148,7 @@ def state_to_elements(state: np.ndarray, gm_km3_s2: float) -> np.ndarray:
     r_hat = r_vec / r[..., None]
     nu = np.arctan2(np.sum(np.cross(e_hat, r_hat) * h_hat, axis=-1), np.sum(e_hat * r_hat, axis=-1))
     closed = e < 1.0
-    E = 2.0 * np.arctan2(np.sqrt(np.where(closed, 1.0 - e, 0.0)) * np.sin(nu / 2.0), np.sqrt(1.0 + e) * np.cos(nu / 2.0))
-    M = np.where(closed, np.mod(E - e * np.sin(E), TWO_PI), np.nan)
+    M = np.where(closed, np.mod(mean_anomaly_from_true(nu, np.where(closed, e, 0.0)), TWO_PI), np.nan)
     return np.stack([a, e, inc, raan, aop, M], axis=-1)
 
 
@@ -119,6 +164,6 @@ def kepler_states(elements: np.ndarray, dt_s: np.ndarray, gm_km3_s2: float) -> n
     return elements_to_state(series, gm_km3_s2)
 
 
-def orbital_period_s(a_km, gm_km3_s2: float):
+def orbital_period_s(sma_km, gm_km3_s2: float):
     """Keplerian period (s)."""
-    return TWO_PI * np.sqrt(np.asarray(a_km, dtype=float) ** 3 / gm_km3_s2)
+    return TWO_PI * np.sqrt(np.asarray(sma_km, dtype=float) ** 3 / gm_km3_s2)

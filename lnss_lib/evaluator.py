@@ -27,14 +27,14 @@ import xarray as xr
 from . import deltav, dop, gps
 from .design_life import estimate as sk_estimate
 from .design_life import screen as stability
-from .settings import load_settings
 from .constellation import WalkerDesign
 from .ephemeris import EphemerisTable, ensure_kernels, rotation, tdb_seconds
 from .constants import SECONDS_PER_DAY
+from .elements import vis_viva_sma_km
 from .forces import ForceModel
 from .frames import rotate_with
 from .errors import ConfigError, ImpactError, InfeasibleDesignError
-from .keys import METRIC_KEYS, RESULT_KEYS, TIMING_KEYS, requested_extra_metrics
+from .keys import METRIC_KEYS, TIMING_KEYS, requested_extra_metrics
 from .propagator import check_elements_deg, elements_deg_to_states, output_times, propagate_states
 
 
@@ -184,7 +184,7 @@ def _operational_metrics(context: EvaluationContext, ds: xr.Dataset, states: np.
         gm = float(profile["gravity"]["gm_km3_s2"])
         r = np.linalg.norm(ds["r_mci_km"].values, axis=-1)
         v2 = np.sum(ds["v_mci_kms"].values ** 2, axis=-1)
-        a_mean = np.mean(1.0 / (2.0 / r - v2 / gm), axis=1)             # vis-viva, as the estimate's arc test
+        a_mean = np.mean(vis_viva_sma_km(r, v2, gm), axis=1)             # vis-viva, as the estimate's arc test
         arc_s = float(ds["time"].values[-1] - ds["time"].values[0])
         if arc_s >= float(cfg["min_periods"]) * 2.0 * np.pi * np.sqrt(np.max(a_mean) ** 3 / gm) * (1.0 + 1e-9):
             estimate = sk_estimate.sk_estimate_from_propagation(profile, ds)
@@ -200,7 +200,7 @@ def _operational_metrics(context: EvaluationContext, ds: xr.Dataset, states: np.
 
 
 def evaluate_constellation(context: EvaluationContext, elements_deg) -> dict:
-    """Every quantity of eq. 45 for satellites given by elements (n, 6) [a_km, e, i, RAAN, AOP, M] (deg).
+    """Every quantity of eq. 45 for satellites given by elements (n, 6) [sma_km, e, i, RAAN, AOP, M] (deg).
 
     Returns a dict with :data:`RESULT_KEYS`, the profile's extra metrics, ``reason`` ("" when evaluated),
     ``impact`` and ``timing_s`` (seconds spent in propagation, DOP, Delta-V, GPS link and operational metrics). ``evaluated`` is False
@@ -231,7 +231,7 @@ def evaluate_design(context: EvaluationContext, sma_km: float, ecc: float, aop_d
     infeasible with its ``reason``.
     """
     check_design(sma_km, ecc, aop_deg, inc_deg, n_planes, sats_per_plane)
-    design = WalkerDesign(sma_km, ecc, inc_deg, aop_deg, n_planes, sats_per_plane)
+    design = WalkerDesign(sma_km, ecc, aop_deg, inc_deg, n_planes, sats_per_plane)
     return evaluate_constellation(context, design.elements_deg())
 
 
@@ -247,20 +247,3 @@ def check_design(sma_km, ecc, aop_deg, inc_deg, n_planes, sats_per_plane) -> Non
         if isinstance(value, bool) or not isinstance(value, (int, float, np.integer, np.floating)):
             raise ConfigError(f"{name} = {value!r} is not a number", key=name)
     check_elements_deg([[sma_km, ecc, inc_deg, 0.0, aop_deg, 0.0]])
-
-
-def evaluate_cli(profile_name: str, sma_km: float, ecc: float, aop_deg: float, inc_deg: float, n_planes: int,
-                 sats_per_plane: int, overrides: dict | None = None) -> dict:
-    """:func:`evaluate_design` under a named profile (with ``overrides``) with exactly the CLI's JSON keys
-    (:func:`cli_result`); the design is checked before any kernel loads."""
-    check_design(sma_km, ecc, aop_deg, inc_deg, n_planes, sats_per_plane)
-    context = context_for(load_settings(profile_name, overrides=overrides))
-    return cli_result(context, evaluate_design(context, sma_km, ecc, aop_deg, inc_deg, n_planes, sats_per_plane))
-
-
-def cli_result(context: EvaluationContext, result: dict, extra_keys: tuple[str, ...] = ()) -> dict:
-    """The evaluate CLI's keys of a result: :data:`RESULT_KEYS`, the profile's extra metrics (None when not
-    evaluated), then ``extra_keys``; NaN becomes None (JSON null)."""
-    keys = RESULT_KEYS + context.extra_metrics + extra_keys
-    return {key: (None if isinstance(result.get(key), float) and math.isnan(result[key]) else result.get(key))
-            for key in keys}

@@ -7,7 +7,7 @@ and :func:`paper_thrust` (the paper's sequential eq. 30-35, misprints corrected)
 from finite differences of osculating elements (:func:`osculating_elements`, :func:`element_rates`)
 or of the orbit vectors a, e_vec, h_hat (:func:`orbit_vectors`, :func:`natural_rates_from_states`).
 
-Conventions: elements ``[a_km, e, i, raan, aop, nu]`` in km and rad (nu: true anomaly), time along
+Conventions: elements ``[sma_km, e, i, raan, aop, nu]`` in km and rad (nu: true anomaly), time along
 axis -2 of state and element arrays, accelerations in km/s^2, rates in km/s, 1/s, rad/s.
 """
 
@@ -16,10 +16,10 @@ from __future__ import annotations
 import numpy as np
 
 from .config import PAPER_NORMAL, PAPER_RADIAL
-from .elements import state_to_elements
+from .elements import eccentricity_vector, state_to_elements, vis_viva_sma_km
 
 __all__ = ["RATE_NAMES", "NATURAL_RATE_NAMES", "PAPER_NORMAL", "PAPER_RADIAL", "check_epochs", "osculating_elements",
-           "element_rates", "gve_matrix", "gve_rates", "natural_rates_from_elements", "orbit_vectors",
+           "element_rates", "orbit_quantities", "gve_matrix", "gve_rates", "natural_rates_from_elements", "orbit_vectors",
            "project_natural", "natural_rates_from_states", "natural_gve_matrix", "lsq_thrust", "paper_thrust"]
 
 RATE_NAMES = ("a", "e", "i", "raan", "aop")
@@ -39,7 +39,7 @@ def check_epochs(t: np.ndarray, series: np.ndarray) -> None:
 
 
 def osculating_elements(states: np.ndarray, gm_km3_s2: float) -> np.ndarray:
-    """Osculating ``[a_km, e, i, raan, aop, nu]`` (..., n, 6) of states (..., n, 6), angles unwrapped in time.
+    """Osculating ``[sma_km, e, i, raan, aop, nu]`` (..., n, 6) of states (..., n, 6), angles unwrapped in time.
 
     Time runs along axis -2. The argument of latitude theta is taken from the geometry (well
     defined for circular orbits) and nu = theta - aop, so theta = aop + nu holds exactly.
@@ -73,7 +73,9 @@ def element_rates(t_tdb_s: np.ndarray, elements: np.ndarray) -> np.ndarray:
     return np.gradient(el[..., :5], t, axis=-2, edge_order=2)
 
 
-def _orbit_quantities(elements: np.ndarray, gm_km3_s2: float):
+def orbit_quantities(elements: np.ndarray, gm_km3_s2: float):
+    """(a, e, i, nu, theta = aop + nu, p = a (1 - e^2), h = sqrt(GM p), r = p / (1 + e cos(nu))) of elements
+    (..., 6) ``[sma_km, e, i, raan, aop, nu]`` (km, rad): the conic quantities every GVE form here uses."""
     el = np.asarray(elements, dtype=float)
     a, e, inc, _, aop, nu = (el[..., k] for k in range(6))
     p = a * (1.0 - e * e)
@@ -83,23 +85,30 @@ def _orbit_quantities(elements: np.ndarray, gm_km3_s2: float):
     return a, e, inc, nu, theta, p, h, r
 
 
-def gve_matrix(elements: np.ndarray, gm_km3_s2: float) -> np.ndarray:
+def gve_matrix(elements: np.ndarray, gm_km3_s2: float, *, e_times_aop: bool = False) -> np.ndarray:
     """Matrix B (..., 5, 3) of the GVEs (eq. 25-29): d[a, e, i, raan, aop]/dt = B [T_R, T_T, T_N].
 
     Standard forms (e.g. Vallado, Fundamentals of Astrodynamics, Gauss form); eq. 26 with its
     ``r e`` term inside the T_T bracket: e-dot = [p sin(nu) T_R + ((p + r) cos(nu) + r e) T_T] / h.
-    Singular for e = 0 (aop row) and sin(i) = 0 (raan, aop rows).
+    Singular for e = 0 (aop row) and sin(i) = 0 (raan, aop rows). With ``e_times_aop`` the last row
+    is e aop-dot = [-p cos(nu) T_R + (p + r) sin(nu) T_T - e r sin(theta) cot(i) T_N] / h instead,
+    finite as e -> 0 (the form the impulsive control set of :mod:`lnss_lib.design_life.manoeuvres` builds on).
+    Impulsive form: the same B maps an RTN impulse (km/s) to the element changes.
     """
-    a, e, inc, nu, theta, p, h, r = _orbit_quantities(elements, gm_km3_s2)
+    a, e, inc, nu, theta, p, h, r = orbit_quantities(elements, gm_km3_s2)
     sn, cn, st, ct = np.sin(nu), np.cos(nu), np.sin(theta), np.cos(theta)
     zero = np.zeros_like(a)
     cot_i = np.cos(inc) / np.sin(inc)
+    if e_times_aop:
+        row_aop = [-p * cn / h, (p + r) * sn / h, -e * r * st * cot_i / h]
+    else:
+        row_aop = [-p * cn / (h * e), (p + r) * sn / (h * e), -r * st * cot_i / h]
     rows = [
         [2.0 * a * a / h * e * sn, 2.0 * a * a / h * p / r, zero],
         [p * sn / h, ((p + r) * cn + r * e) / h, zero],
         [zero, zero, r * ct / h],
         [zero, zero, r * st / (h * np.sin(inc))],
-        [-p * cn / (h * e), (p + r) * sn / (h * e), -r * st * cot_i / h],
+        row_aop,
     ]
     return np.stack([np.stack(row, axis=-1) for row in rows], axis=-2)
 
@@ -126,14 +135,14 @@ def natural_rates_from_elements(elements: np.ndarray, rates: np.ndarray) -> np.n
 
 
 def orbit_vectors(states: np.ndarray, gm_km3_s2: float) -> np.ndarray:
-    """[a_km, e_vec (3), h_hat (3)] (..., n, 7) of states (..., n, 6): SMA, eccentricity vector, orbit normal."""
+    """[sma_km, e_vec (3), h_hat (3)] (..., n, 7) of states (..., n, 6): SMA, eccentricity vector, orbit normal."""
     s = np.asarray(states, dtype=float)
     r_vec, v_vec = s[..., :3], s[..., 3:6]
     r = np.linalg.norm(r_vec, axis=-1, keepdims=True)
     v2 = np.sum(v_vec * v_vec, axis=-1, keepdims=True)
     h_vec = np.cross(r_vec, v_vec)
-    e_vec = np.cross(v_vec, h_vec) / gm_km3_s2 - r_vec / r
-    a = 1.0 / (2.0 / r - v2 / gm_km3_s2)
+    e_vec = eccentricity_vector(r_vec, v_vec, gm_km3_s2, h_vec, r[..., 0])
+    a = vis_viva_sma_km(r, v2, gm_km3_s2)
     return np.concatenate([a, e_vec, h_vec / np.linalg.norm(h_vec, axis=-1, keepdims=True)], axis=-1)
 
 
@@ -183,7 +192,7 @@ def natural_gve_matrix(elements: np.ndarray, gm_km3_s2: float) -> np.ndarray:
     e (aop-dot + cos(i) raan-dot) = (-p cos(nu) T_R + (p + r) sin(nu) T_T) / h (eq. 29 + cos(i) eq. 28:
     the T_N coupling cancels); i-dot = r cos(theta) T_N / h; sin(i) raan-dot = r sin(theta) T_N / h.
     """
-    a, e, inc, nu, theta, p, h, r = _orbit_quantities(elements, gm_km3_s2)
+    a, e, inc, nu, theta, p, h, r = orbit_quantities(elements, gm_km3_s2)
     sn, cn = np.sin(nu), np.cos(nu)
     zero = np.zeros_like(a)
     rows = [
@@ -261,7 +270,7 @@ def paper_thrust(elements: np.ndarray, rates: np.ndarray, gm_km3_s2: float, *, n
         raise ValueError(f"unknown paper normal combination {normal!r}; allowed: {', '.join(PAPER_NORMAL)}")
     if radial not in PAPER_RADIAL:
         raise ValueError(f"unknown paper radial combination {radial!r}; allowed: {', '.join(PAPER_RADIAL)}")
-    a, e, inc, nu, theta, p, h, r = _orbit_quantities(elements, gm_km3_s2)
+    a, e, inc, nu, theta, p, h, r = orbit_quantities(elements, gm_km3_s2)
     rate = np.asarray(rates, dtype=float)
     a_dot, e_dot, i_dot, raan_dot, aop_dot = (rate[..., k] for k in range(5))
     sn, cn, st, ct, si = np.sin(nu), np.cos(nu), np.sin(theta), np.cos(theta), np.sin(inc)

@@ -97,7 +97,7 @@ def reproduce(profile_name: str = DEFAULT_PROFILE, only: list[str] | None = None
     """Execute the notebooks in order under a profile; stop at the first failure. Returns an exit code.
 
     ``overrides`` (a nested dict, e.g. from ``--set``) is checked here, before any notebook runs, and
-    reaches each notebook as the papermill parameter ``overrides_json`` for its ``load_profile``.
+    reaches each notebook as the papermill parameter ``overrides_json`` for its ``load_settings``.
     Kernels run over IPC sockets (:func:`ipc_kernel_manager_class`) with their own log in
     ``notebooks/kernels.log``, so the progress bar is the only output unless a notebook fails; Ctrl-C
     ends the run with one line (exit 130). Each executed notebook is written to a temporary file and moved

@@ -425,21 +425,21 @@ def _as_dataset(out, times, status, t_stop, n_rhs, profile, integ, model) -> xr.
     return ds
 
 
-ELEMENT_RANGES = (("semi-major axis a_km", SEMI_MAJOR_AXIS), ("eccentricity e", (0.0, 1.0, False, True)),
+ELEMENT_RANGES = (("semi-major axis sma_km", SEMI_MAJOR_AXIS), ("eccentricity e", (0.0, 1.0, False, True)),
                   ("inclination inc_deg", (0.0, 180.0, False, False)), ("raan_deg", (None, None, False, False)),
                   ("aop_deg", (None, None, False, False)), ("mean_anomaly_deg", (None, None, False, False)))
 
 
 def check_elements_deg(elements_deg) -> np.ndarray:
-    """Elements (n, 6) [a_km, e, i, RAAN, AOP, M] (deg) as floats, every value finite and in its domain
+    """Elements (n, 6) [sma_km, e, i, RAAN, AOP, M] (deg) as floats, every value finite and in its domain
     (0 < a <= the Moon's Hill radius, 0 <= e < 1, 0 <= i <= 180 deg); ConfigError naming the element, the value,
     the range and, for a, why."""
     try:
         el = np.atleast_2d(np.asarray(elements_deg, dtype=float))
     except (TypeError, ValueError):
-        raise ConfigError(f"elements must be numbers [a_km, e, i, RAAN, AOP, M]; got {elements_deg!r}") from None
+        raise ConfigError(f"elements must be numbers [sma_km, e, i, RAAN, AOP, M]; got {elements_deg!r}") from None
     if el.ndim != 2 or el.shape[1] != 6:
-        raise ConfigError(f"elements must have shape (n_sat, 6) [a_km, e, i, RAAN, AOP, M] in degrees; got {el.shape}")
+        raise ConfigError(f"elements must have shape (n_sat, 6) [sma_km, e, i, RAAN, AOP, M] in degrees; got {el.shape}")
     for col, (name, spec) in enumerate(ELEMENT_RANGES):
         for row, value in enumerate(el[:, col]):
             if not np.isfinite(value) or not in_range(value, spec):
@@ -451,14 +451,14 @@ def check_elements_deg(elements_deg) -> np.ndarray:
 
 
 def elements_deg_to_states(profile: dict, elements_deg, t0_tdb_s: float) -> np.ndarray:
-    """Moon-centred J2000 states (n, 6) of elements (n, 6) [a_km, e, i, RAAN, AOP, M] (deg) in the element frame.
+    """Moon-centred J2000 states (n, 6) of elements (n, 6) [sma_km, e, i, RAAN, AOP, M] (deg) in the element frame.
 
     Raises ``ValueError`` for e outside [0, 1), non-positive a, or a perilune below the surface plus
     the minimum altitude.
     """
     el = np.atleast_2d(np.asarray(elements_deg, dtype=float))
     if el.ndim != 2 or el.shape[1] != 6:
-        raise ValueError(f"elements must have shape (n_sat, 6) [a_km, e, i, RAAN, AOP, M] in degrees; got {el.shape}")
+        raise ValueError(f"elements must have shape (n_sat, 6) [sma_km, e, i, RAAN, AOP, M] in degrees; got {el.shape}")
     validate_elements(el[:, 0], el[:, 1], profile["constants"]["r_moon_mean_km"], profile["impact"]["min_altitude_km"])
     bad = ~np.isfinite(el[:, 2:])
     if bad.any():
@@ -476,7 +476,7 @@ def elements_deg_to_states(profile: dict, elements_deg, t0_tdb_s: float) -> np.n
 def propagate_elements(profile: dict, elements_deg, *, setting: str | None = None, degree: int | None = None,
                        t0_tdb_s: float | None = None, duration_s: float | None = None, step_s: float | None = None,
                        batch: bool | None = None, model: ForceModel | None = None) -> xr.Dataset:
-    """Propagate satellites given by elements (n, 6) [a_km, e, inc, RAAN, AOP, M] (deg) in the profile's element frame.
+    """Propagate satellites given by elements (n, 6) [sma_km, e, inc, RAAN, AOP, M] (deg) in the profile's element frame.
 
     Defaults: the profile's epoch, duration and sampling step.
     """

@@ -58,7 +58,7 @@ BAD_VALUES = [
     (["propagate", *EPOCH, *ELFO, "--days", "1", "--srp-cr-area-mass", "inf"], "--srp-cr-area-mass inf"),
     (["propagate", *EPOCH, *ELFO, "--days", "1", "--degree", "101"], "--degree 101"),
     (elements("6143", "1.0", "51.7", "0", "90", "0"), "e = 1.0"),
-    (elements("0", "0.6", "51.7", "0", "90", "0"), "a_km = 0.0"),
+    (elements("0", "0.6", "51.7", "0", "90", "0"), "sma_km = 0.0"),
     (elements("6143", "0.6", "181", "0", "90", "0"), "inc_deg = 181.0"),
     (elements("6143", "0.6", "-1", "0", "90", "0"), "inc_deg = -1.0"),
     (elements("6143", "nan", "51.7", "0", "90", "0"), "e = nan"),
@@ -72,7 +72,7 @@ BAD_VALUES = [
     # evaluate: the same element checks, and the counts
     (walker(ecc="1.0"), "--ecc"),
     (walker(ecc="nan"), "e = nan"),
-    (walker(sma_km="-5"), "a_km = -5.0"),
+    (walker(sma_km="-5"), "sma_km = -5.0"),
     (walker(inc_deg="200"), "inc_deg = 200.0"),
     (walker(planes="0"), "n_planes = 0"),
     (walker(sats_per_plane="0"), "sats_per_plane = 0"),
@@ -470,20 +470,20 @@ def test_no_message_prints_a_line_of_a_file(tmp_path):
 
 def test_internal_errors_are_not_bad_input(capsys, monkeypatch):
     """A KeyError (or any unexpected exception) is a failure with the traceback on request, not bad input."""
-    from lnss_lib import evaluator
+    from lnss_lib import cli
 
     for error in (KeyError("inc"), KeyError((191, 34, 9, 70, 1, 1)), TypeError("unsupported operand")):
         def broken(*args, _error=error, **kwargs):
             raise _error
 
-        monkeypatch.setattr(evaluator, "evaluate_cli", broken)
+        monkeypatch.setattr(cli, "evaluate_cli", broken)
         one_line_error(capsys, main(walker()), 1, f"internal error: {type(error).__name__}: ",
                        "(run with --debug for the traceback)")
 
     def numpy_fails(*args, **kwargs):
         return np.linspace(0.0, 1.0, -1)           # a ValueError raised inside numpy: a bug, not bad input
 
-    monkeypatch.setattr(evaluator, "evaluate_cli", numpy_fails)
+    monkeypatch.setattr(cli, "evaluate_cli", numpy_fails)
     one_line_error(capsys, main(walker()), 1, "internal error: ValueError: ")
     assert main(walker() + ["--debug"]) == 1
     err = capsys.readouterr().err
@@ -677,7 +677,7 @@ def test_config_and_ephemeris_errors_propagate_only_impossible_designs_are_infea
 
 
 def test_design_life_lets_ephemeris_errors_through():
-    from lnss_lib.design_life.evaluation import design_life_cli
+    from lnss_lib.cli import design_life_cli
     from lnss_lib.errors import EphemerisRangeError
 
     with pytest.raises(EphemerisRangeError):
@@ -699,9 +699,9 @@ ABSURD = [
      ("spacecraft.mass_kg = 1e-300", "[0.001, 1e+06]")),
     (walker() + ["--set", "spacecraft.area_m2=1e12"], ("cr * area_m2 / mass_kg", "solar sails")),
     (walker() + ["--set", "spacecraft.cr=3"], ("spacecraft.cr = 3", "perfect mirror")),
-    (walker(sma_km="1e5"), ("a_km = 100000.0", "Hill sphere (61,500 km)")),
-    (walker(sma_km="1e12"), ("a_km = 1000000000000.0", "Hill sphere")),
-    (elements("1e5", "0.1", "51.7", "0", "90", "0"), ("a_km = 100000.0", "Hill sphere")),
+    (walker(sma_km="1e5"), ("sma_km = 100000.0", "Hill sphere (61,500 km)")),
+    (walker(sma_km="1e12"), ("sma_km = 1000000000000.0", "Hill sphere")),
+    (elements("1e5", "0.1", "51.7", "0", "90", "0"), ("sma_km = 100000.0", "Hill sphere")),
     (["propagate", *EPOCH, "--state-km", "1e6", "0", "0", "0", "0.1", "0", "--days", "1"], ("1e+06 km", "Earth-Moon distance")),
     (["propagate", *EPOCH, *ELFO, "--days", "10", "--step-s", "1e-6"], ("samples", "at most 10,000,000")),
     (walker() + ["--set", "standalone_elfo.sma_km=1e5"], ("standalone_elfo.sma_km = 100000.0", "Hill sphere")),

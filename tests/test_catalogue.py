@@ -6,21 +6,22 @@ import numpy as np
 import pytest
 
 from lnss_lib.catalogue import (CATALOGUE_DIR, EXTRA_RESULT_KEYS, FILE_FRAMES, constellation_states_mci,
-                                evaluate_catalogue, evaluate_catalogue_cli, list_catalogue, load_constellation,
-                                true_to_mean_anomaly_deg)
+                                evaluate_catalogue, list_catalogue, load_constellation, true_to_mean_anomaly_deg)
+from lnss_lib.cli import evaluate_catalogue_cli
 from lnss_lib.settings import load_settings
 from lnss_lib.constellation import WalkerDesign
 from lnss_lib.elements import elements_to_state, state_to_elements
 from lnss_lib.ephemeris import file_sha256
 from lnss_lib.errors import ConfigError
-from lnss_lib.evaluator import METRIC_KEYS, RESULT_KEYS, context_for, evaluate_design
+from lnss_lib.evaluator import METRIC_KEYS, context_for, evaluate_design
+from lnss_lib.keys import RESULT_KEYS
 from lnss_lib.propagator import elements_deg_to_states
 
 CATALOGUE = sorted(p.stem for p in CATALOGUE_DIR.glob("*.toml"))
 EXACT = [k for k in CATALOGUE if not load_constellation(k).approximate]
 SMA_TOL_KM = 1e-6
 ANGLE_TOL_DEG = 1e-8
-WALKER = WalkerDesign(6143.0, 0.6, 51.7, 90.0, 2, 2)
+WALKER = WalkerDesign(6143.0, 0.6, 90.0, 51.7, 2, 2)
 
 
 def _user_file(path, elements_deg, frame="lunar_equator_of_epoch", epoch="not given", time_scale="not given",
@@ -126,7 +127,7 @@ def test_user_file_and_walker_design_give_identical_metrics(ci_context, tmp_path
     assert ci_context.profile["frames"]["element_frame"] == "lunar_equator_of_epoch"
     c = load_constellation(_user_file(tmp_path / "walker.toml", WALKER.elements_deg()), ci_context.profile)
     ours = evaluate_catalogue(ci_context, c)
-    walker = evaluate_design(ci_context, WALKER.a_km, WALKER.e, WALKER.aop_deg, WALKER.inc_deg, WALKER.n_planes,
+    walker = evaluate_design(ci_context, WALKER.sma_km, WALKER.ecc, WALKER.aop_deg, WALKER.inc_deg, WALKER.n_planes,
                              WALKER.sats_per_plane)
     assert ours["evaluated"] and ours["n_sat"] == 4
     for key in METRIC_KEYS:

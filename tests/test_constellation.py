@@ -19,7 +19,7 @@ def profile(ci_profile):
 
 
 def test_walker_raan_and_mean_anomaly_spacing(profile):
-    design = walker_design(profile, 8000.0, 0.3, 60.0, 45.0, n_planes=5, sats_per_plane=3)
+    design = walker_design(profile, 8000.0, 0.3, 45.0, 60.0, n_planes=5, sats_per_plane=3)
     el = design.elements_deg()
     assert design.n_sat == 15 and el.shape == (15, 6)
     raan = el[:, 3].reshape(5, 3)
@@ -32,7 +32,7 @@ def test_walker_raan_and_mean_anomaly_spacing(profile):
 
 
 def test_walker_raan_offset_wraps(profile):
-    el = walker_design(profile, 8000.0, 0.1, 30.0, 10.0, 4, 1, raan_offset_deg=300.0).elements_deg()
+    el = walker_design(profile, 8000.0, 0.1, 10.0, 30.0, 4, 1, raan_offset_deg=300.0).elements_deg()
     np.testing.assert_allclose(el[:, 3], [300.0, 30.0, 120.0, 210.0])
 
 
@@ -48,16 +48,16 @@ def test_standalone_elfo_matches_table_4(profile):
 @pytest.mark.parametrize("e", [1.0, 1.2, -0.1, float("nan")])
 def test_bad_eccentricity(profile, e):
     with pytest.raises(ValueError, match="eccentricity"):
-        walker_design(profile, 8000.0, e, 50.0, 90.0, 2, 2)
+        walker_design(profile, 8000.0, e, 90.0, 50.0, 2, 2)
 
 
 def test_perilune_below_surface(profile):
     # a(1 - e) = 6143 * 0.3 = 1843 km > 1737.4 km is fine; e = 0.75 gives 1535.75 km: below the surface.
-    walker_design(profile, 6143.0, 0.7, 50.0, 90.0, 2, 2)
+    walker_design(profile, 6143.0, 0.7, 90.0, 50.0, 2, 2)
     with pytest.raises(ValueError, match="perilune"):
-        walker_design(profile, 6143.0, 0.75, 50.0, 90.0, 2, 2)
+        walker_design(profile, 6143.0, 0.75, 90.0, 50.0, 2, 2)
     with pytest.raises(ValueError, match="perilune"):
-        walker_design(profile, 1500.0, 0.0, 50.0, 90.0, 2, 2)
+        walker_design(profile, 1500.0, 0.0, 90.0, 50.0, 2, 2)
     with pytest.raises(ValueError, match="perilune"):
         explicit_constellation(profile, [[6143.0, 0.6, 51.7, 0.0, 90.0, 0.0], [1700.0, 0.0, 10.0, 0.0, 0.0, 0.0]])
 
@@ -65,25 +65,25 @@ def test_perilune_below_surface(profile):
 def test_min_altitude_raises_the_floor():
     strict = load_settings("ci", overrides={"impact": {"min_altitude_km": 200.0}})
     with pytest.raises(ValueError, match="perilune"):
-        walker_design(strict, 1900.0, 0.0, 50.0, 90.0, 2, 2)
+        walker_design(strict, 1900.0, 0.0, 90.0, 50.0, 2, 2)
 
 
 @pytest.mark.parametrize("value", [0, -2, 2.5, True, "3", None, float("inf")])
 def test_counts_must_be_positive_integers(profile, value):
     with pytest.raises(ValueError, match="positive integer"):
-        walker_design(profile, 8000.0, 0.1, 50.0, 90.0, value, 2)
+        walker_design(profile, 8000.0, 0.1, 90.0, 50.0, value, 2)
     with pytest.raises(ValueError, match="positive integer"):
-        WalkerDesign(8000.0, 0.1, 50.0, 90.0, 2, value)
+        WalkerDesign(8000.0, 0.1, 90.0, 50.0, 2, value)
 
 
 def test_integral_counts_accepted(profile):
-    design = walker_design(profile, 8000.0, 0.1, 50.0, 90.0, np.int64(3), 2.0)
+    design = walker_design(profile, 8000.0, 0.1, 90.0, 50.0, np.int64(3), 2.0)
     assert design.n_planes == 3 and design.sats_per_plane == 2 and isinstance(design.sats_per_plane, int)
 
 
 def test_bad_inclination_and_shape(profile):
     with pytest.raises(ValueError, match="inclination"):
-        walker_design(profile, 8000.0, 0.1, 190.0, 90.0, 2, 2)
+        walker_design(profile, 8000.0, 0.1, 90.0, 190.0, 2, 2)
     with pytest.raises(ValueError, match="shape"):
         explicit_constellation(profile, [[8000.0, 0.1, 50.0, 0.0, 90.0]])
 
@@ -97,7 +97,7 @@ def test_two_body_positions_follow_kepler(profile):
     from lnss_lib.ephemeris import ensure_kernels, tdb_seconds
 
     ensure_kernels(profile)
-    el = walker_design(profile, 6143.0, 0.6, 51.7, 90.0, 2, 2).elements_deg()
+    el = walker_design(profile, 6143.0, 0.6, 90.0, 51.7, 2, 2).elements_deg()
     gm = profile["gravity"]["gm_km3_s2"]
     period_s = 2.0 * np.pi * np.sqrt(6143.0**3 / gm)
     t0 = tdb_seconds(profile["epoch"]["start_tdb"])

@@ -232,7 +232,7 @@ def _walker_positions_mf(n_epochs=97, step_s=900.0):
     from lnss_lib.constellation import WalkerDesign
     from lnss_lib.elements import kepler_states
 
-    el_deg = WalkerDesign(6143.0, 0.6, 51.7, 90.0, 5, 4).elements_deg()
+    el_deg = WalkerDesign(6143.0, 0.6, 90.0, 51.7, 5, 4).elements_deg()
     el = np.concatenate([el_deg[:, :2], np.radians(el_deg[:, 2:])], axis=1)
     return kepler_states(el, step_s * np.arange(n_epochs), 4902.8)[..., :3]
 

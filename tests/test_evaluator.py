@@ -10,7 +10,8 @@ import pytest
 
 from lnss_lib.config import PROJECT_DIR
 from lnss_lib.settings import load_settings
-from lnss_lib.evaluator import METRIC_KEYS, RESULT_KEYS, context_for, evaluate_constellation, evaluate_design
+from lnss_lib.evaluator import METRIC_KEYS, context_for, evaluate_constellation, evaluate_design
+from lnss_lib.keys import RESULT_KEYS
 from lnss_lib.keys import VERDICT_KEYS
 
 CLI_KEYS = {"n_sat", "mean_visible_sats", "pdop_mean_3sigma", "pdop_avail_pct", "hdop_mean_3sigma", "hdop_avail_pct",
@@ -37,7 +38,7 @@ def test_elfo_metrics_are_physical(context):
 def test_constellation_and_design_agree(context):
     from lnss_lib.constellation import WalkerDesign
 
-    elements = WalkerDesign(6143.0, 0.6, 51.7, 90.0, 2, 2).elements_deg()
+    elements = WalkerDesign(6143.0, 0.6, 90.0, 51.7, 2, 2).elements_deg()
     a = evaluate_constellation(context, elements)
     b = evaluate_design(context, 6143.0, 0.6, 90.0, 51.7, 2, 2)
     for key in METRIC_KEYS:
@@ -57,7 +58,7 @@ def test_infeasible_designs_are_flagged_not_raised(context):
 
 @pytest.mark.parametrize("design, key", [((6143.0, 1.2, 90.0, 51.7, 2, 2), "e = 1.2"),
                                          ((6143.0, 0.6, 90.0, 51.7, 0, 2), "n_planes = 0"),
-                                         ((float("nan"), 0.6, 90.0, 51.7, 2, 2), "a_km = nan"),
+                                         ((float("nan"), 0.6, 90.0, 51.7, 2, 2), "sma_km = nan"),
                                          ((6143.0, 0.6, 90.0, 181.0, 2, 2), "inc_deg = 181")])
 def test_invalid_input_is_an_error_not_an_infeasible_design(context, design, key):
     from lnss_lib.errors import ConfigError
@@ -88,7 +89,7 @@ def test_metrics_come_from_the_right_parts(context):
     from lnss_lib.gps import gps_link_summary
     from lnss_lib.evaluator import analyse_constellation
 
-    study = analyse_constellation(context, WalkerDesign(6143.0, 0.6, 51.7, 90.0, 2, 3).elements_deg())
+    study = analyse_constellation(context, WalkerDesign(6143.0, 0.6, 90.0, 51.7, 2, 3).elements_deg())
     metrics, profile = study["metrics"], context.profile
     grid = summary_from_profile(profile, study["dop"])
     assert grid["pdop_avail_pct"] != grid["hdop_avail_pct"]
@@ -111,7 +112,7 @@ def test_campaign_path_matches_study_path_and_reuses_run_geometry(context, monke
     from lnss_lib.constellation import WalkerDesign
     from lnss_lib.evaluator import analyse_constellation
 
-    elements = WalkerDesign(6143.0, 0.6, 51.7, 90.0, 2, 3).elements_deg()
+    elements = WalkerDesign(6143.0, 0.6, 90.0, 51.7, 2, 3).elements_deg()
     study = analyse_constellation(context, elements)["metrics"]
 
     def forbidden(*args, **kwargs):

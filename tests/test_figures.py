@@ -59,7 +59,7 @@ def test_constellation_3d_draws_moon_and_every_orbit():
     from lnss_lib.constellation import WalkerDesign
     from lnss_lib.elements import elements_to_state
 
-    el = WalkerDesign(6143.0, 0.6, 51.7, 90.0, 2, 3).elements_deg()
+    el = WalkerDesign(6143.0, 0.6, 90.0, 51.7, 2, 3).elements_deg()
     series = np.repeat(np.concatenate([el[:, :2], np.radians(el[:, 2:])], axis=1)[:, None, :], 50, axis=1)
     series[..., 5] += np.linspace(0.0, 2 * np.pi, 50)
     r = elements_to_state(series, 4902.8)[..., :3]

@@ -7,7 +7,7 @@ from lnss_lib.figures import frozen_family_chart, perilune_envelope
 
 
 def test_frozen_family_chart_draws_each_curve_and_orbit():
-    family = pd.DataFrame({"a_km": [5000.0, 9000.0] * 2, "curve": ["i at e = 0.6"] * 2 + ["e at i = 56.2 deg"] * 2,
+    family = pd.DataFrame({"sma_km": [5000.0, 9000.0] * 2, "curve": ["i at e = 0.6"] * 2 + ["e at i = 56.2 deg"] * 2,
                            "inc_deg": [53.9, 52.0, 56.2, 56.2], "ecc": [0.6, 0.6, 0.65, 0.69]})
     orbits = pd.DataFrame({"orbit": ["A", "B"], "read_in": ["moon_op", "lunar equator"], "epoch": ["study"] * 2,
                            "sma_km": [6143.0, 6143.0], "ecc_op": [0.6, 0.6], "inc_op_deg": [51.7, 128.3],

@@ -179,7 +179,7 @@ def test_campaign_link_metrics_equal_the_dataset_summary():
     from lnss_lib.propagator import elements_deg_to_states
 
     context = context_for(load_settings("ci"))
-    elements = WalkerDesign(6143.0, 0.6, 51.7, 90.0, 2, 2).elements_deg()
+    elements = WalkerDesign(6143.0, 0.6, 90.0, 51.7, 2, 2).elements_deg()
     ds = analyse_states(context, elements, elements_deg_to_states(context.profile, elements, context.t0_tdb_s))[
         "propagation"]
     reference = gps_link_summary(gps_link(context.profile, context.gps_states, ds, sats="first"))

@@ -100,3 +100,15 @@ def test_paper_divisor_floor_and_cap():
     w2 = gve.paper_thrust(el, rates, GM, divisor_floor=1e-6)
     assert w1["T_N"][0] == w2["T_N"][0]
     assert w1["T_R"][0] == pytest.approx(w2["T_R"][0], rel=1e-12)
+
+
+def test_e_times_aop_row_is_regular_and_equals_e_times_the_aop_row():
+    """The one GVE matrix (issue 22 item 4): the regular last row is e times the aop row, and finite at e = 0."""
+    el = np.array([[6143.0, 0.6, np.radians(51.7), 0.3, np.radians(90.0), 1.0],
+                   [9000.0, 1e-4, np.radians(20.0), 2.0, np.radians(300.0), 4.0]])
+    b, reg = gve.gve_matrix(el, GM), gve.gve_matrix(el, GM, e_times_aop=True)
+    assert np.array_equal(b[:, :4], reg[:, :4])
+    np.testing.assert_allclose(reg[:, 4], el[:, 1:2] * b[:, 4], rtol=1e-14, atol=0)
+    circular = el.copy()
+    circular[:, 1] = 0.0
+    assert np.all(np.isfinite(gve.gve_matrix(circular, GM, e_times_aop=True)))

@@ -4,7 +4,7 @@
 kernels (every other top-level module: a new physics module is a kernel without editing this file; and the
 ``design_life/`` package, named in :data:`KERNEL_PACKAGES`); 3 the campaign
 engine (``campaign/``); 4 presentation and studies (``outputs``, ``pipeline``, ``figures/``,
-``studies/``, ``explorer``); 5 the command line and benchmarks (``__main__``, ``bench/``).
+``studies/``, ``explorer``); 5 the command line and benchmarks (``__main__``, ``cli``, ``bench/``).
 Every ``import`` counts, including those inside functions. Also: no import cycles, kernels stay free
 of pandas/plotly/pymoo/Dask/papermill, only the top layer imports ``studies`` and ``figures``, figures
 read only foundations and ``outputs``, and each module imports on its own in a fresh interpreter
@@ -25,7 +25,7 @@ PACKAGE_DIR = Path(__file__).resolve().parents[1] / PACKAGE
 FOUNDATIONS = {"config", "settings", "constants", "paper", "keys", "errors", "atomicio", "progress"}
 CAMPAIGN = {"campaign"}
 PRESENTATION = {"outputs", "pipeline", "findings", "figures", "studies", "explorer"}
-TOP = {"__main__", "bench"}
+TOP = {"__main__", "cli", "bench"}
 KERNEL_PACKAGES = {"design_life"}                # layer-2 packages (a subject spread over several modules)
 DESIGN_LIFE_MODULES = ("screen", "estimate", "manoeuvres", "mean_elements", "control", "service", "propagation",
                        "closed_loop", "evaluation", "frozen")

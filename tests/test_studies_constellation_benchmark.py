@@ -5,7 +5,8 @@ import math
 import numpy as np
 import pytest
 
-from lnss_lib.catalogue import evaluate_catalogue_cli, load_constellation
+from lnss_lib.catalogue import load_constellation
+from lnss_lib.cli import evaluate_catalogue_cli
 from lnss_lib.settings import load_settings
 from lnss_lib.ephemeris import ensure_kernels, tdb_seconds
 from lnss_lib.keys import METRIC_KEYS

@@ -20,7 +20,7 @@ from ..elements import kepler_states
 def _positions_km(profile: dict, n_epochs: int, step_s: float) -> np.ndarray:
     """Keplerian positions (20, n_epochs, 3) km of the benchmark design."""
     gm = float(profile["gravity"]["gm_km3_s2"])
-    el_deg = WalkerDesign(6143.0, 0.6, 51.7, 90.0, 5, 4).elements_deg()
+    el_deg = WalkerDesign(6143.0, 0.6, 90.0, 51.7, 5, 4).elements_deg()
     el = np.concatenate([el_deg[:, :2], np.radians(el_deg[:, 2:])], axis=1)
     return kepler_states(el, step_s * np.arange(n_epochs), gm)[..., :3]
 

@@ -29,11 +29,11 @@ def _designs(profile: dict, n: int, seed: int = 12) -> list[WalkerDesign]:
     """``n`` Walker designs drawn uniformly from the campaign grid (Table 3) that do not start inside the Moon."""
     grid = CampaignSettings.from_profile(profile).grid
     rng = np.random.default_rng(seed)
-    out = [WalkerDesign(6143.0, 0.6, 51.7, 90.0, 4, 5)]
+    out = [WalkerDesign(6143.0, 0.6, 90.0, 51.7, 4, 5)]
     while len(out) < n:
         d = grid.designs(rng.integers(0, grid.n_levels + 1).reshape(1, -1))[0]
         try:
-            design = WalkerDesign(d["sma_km"], d["ecc"], d["inc_deg"], d["aop_deg"], d["n_planes"], d["sats_per_plane"])
+            design = WalkerDesign(d["sma_km"], d["ecc"], d["aop_deg"], d["inc_deg"], d["n_planes"], d["sats_per_plane"])
             design.elements_deg()
         except ValueError:
             continue
@@ -85,7 +85,7 @@ def run(profile_name: str = "paper", n_designs: int = 12, repeats: int = 2, over
         diff = max(abs(n[k] - o[k]) / max(abs(o[k]), 1e-300) for k in ("pdop_mean_3sigma", "hdop_mean_3sigma",
                                                                        "pdop_avail_pct", "dv_total_kms_per_year",
                                                                        "gps_visible_mean") if o[k] == o[k])
-        print(f"  a {design.a_km:7.0f} e {design.e:4.2f} i {design.inc_deg:4.0f} w {design.aop_deg:5.0f} "
+        print(f"  a {design.sma_km:7.0f} e {design.ecc:4.2f} i {design.inc_deg:4.0f} w {design.aop_deg:5.0f} "
               f"{design.n_planes}x{design.sats_per_plane}: {o['wall_s']:.3f} -> {n['wall_s']:.3f} ("
               + ", ".join(f"{k} {o['timing_s'][k]:.3f}->{n['timing_s'][k]:.3f}" for k in PARTS)
               + f"); metrics max rel diff {diff:.1e}")

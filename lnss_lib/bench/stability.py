@@ -26,7 +26,7 @@ def validation_table(profile: dict, designs=None, life_days: float | None = None
     days = cfg.life_days if life_days is None else float(life_days)
     rows = []
     for d in designs if designs is not None else section["validation_designs"]:
-        design = WalkerDesign(d[0], d[1], d[3], d[2], int(d[4]), int(d[5]))
+        design = WalkerDesign(d[0], d[1], d[2], d[3], int(d[4]), int(d[5]))
         elements = design.elements_deg()
         screen = screen_elements(profile, elements, life_days=days)
         row = {"design": list(d), "n_sat": design.n_sat, "screen_stable": screen.attrs["stable"],
@@ -47,9 +47,9 @@ def run(profile_name: str = "paper", reference: bool = True, overrides: dict | N
     profile = load_settings(profile_name, overrides=overrides)
     ensure_kernels(profile)
     start = time.perf_counter()
-    screen_elements(profile, WalkerDesign(6143.0, 0.6, 51.7, 90.0, 4, 5).elements_deg())
+    screen_elements(profile, WalkerDesign(6143.0, 0.6, 90.0, 51.7, 4, 5).elements_deg())
     print(f"first screen (SPICE tide table, JIT): {time.perf_counter() - start:.2f} s")
-    walls = [screen_elements(profile, WalkerDesign(6143.0, 0.6, 51.7, 90.0, 4, 5).elements_deg()).attrs["wall_s"]
+    walls = [screen_elements(profile, WalkerDesign(6143.0, 0.6, 90.0, 51.7, 4, 5).elements_deg()).attrs["wall_s"]
              for _ in range(3)]
     print(f"screen, 20-satellite ELFO-like design (4 planes), {stability_settings(profile).life_days} days: "
           f"median {np.median(walls):.3f} s")

@@ -63,7 +63,7 @@ import xarray as xr
 
 from ..config import CONTROLLERS
 from ..constants import DAYS_PER_JULIAN_YEAR, SECONDS_PER_DAY
-from ..elements import orbital_period_s, state_to_elements
+from ..elements import eccentricity_vector, orbital_period_s, state_to_elements, vis_viva_sma_km
 from ..ephemeris import ensure_kernels, tdb_seconds
 from ..forces import ForceModel
 from .manoeuvres import candidate_true_anomalies, mean_anomaly, plan_impulses
@@ -145,7 +145,7 @@ def simulate_life(profile: dict, elements_deg, *, natural: bool = False, life_da
                   settings: LifeSettings | None = None, sample_step_s: float | None = None) -> xr.Dataset:
     """Station keeping (or, with ``natural=True``, natural drift) of a constellation over its design life.
 
-    ``elements_deg`` (n_sat, 6) ``[a_km, e, inc_deg, raan_deg, aop_deg, M_deg]`` in the profile's
+    ``elements_deg`` (n_sat, 6) ``[sma_km, e, inc_deg, raan_deg, aop_deg, M_deg]`` in the profile's
     element frame at the start (default: the profile's epoch) are also the references of the box.
     Returns a Dataset with dims ``sat``, ``check`` (mean-element history, one per chunk) and
     ``maneuver``: per satellite ``dv_kms_per_year`` (over the life, or over the flown span of a lost satellite), ``dv_total_kms``, ``n_maneuvers``,
@@ -372,9 +372,8 @@ def _perilune_radius_km(states: np.ndarray, gm: float) -> np.ndarray:
     """Osculating perilune radius a (1 - e) (km) of states (n, 6)."""
     r, v = states[:, :3], states[:, 3:]
     rn = np.linalg.norm(r, axis=1)
-    h = np.cross(r, v)
-    e = np.linalg.norm(np.cross(v, h) / gm - r / rn[:, None], axis=1)
-    return 1.0 / (2.0 / rn - np.sum(v * v, axis=1) / gm) * (1.0 - e)
+    e = np.linalg.norm(eccentricity_vector(r, v, gm, r_km=rn), axis=1)
+    return vis_viva_sma_km(rn, np.sum(v * v, axis=1), gm) * (1.0 - e)
 
 
 def _enqueue(queue: list, t: float, osc: np.ndarray, gm: float, sets: list, budget_kms: float = np.inf) -> bool:

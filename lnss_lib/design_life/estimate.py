@@ -45,8 +45,9 @@ import time
 import numpy as np
 import xarray as xr
 
-from ..constants import SECONDS_PER_DAY
+from ..constants import DAYS_PER_JULIAN_YEAR, SECONDS_PER_DAY
 from ..deltav import orbit_mean, orbit_vectors
+from ..elements import eccentric_anomaly_from_true
 from ..frames import ELEMENT_FRAMES, element_frame_to_j2000
 
 __all__ = ["PARTS", "DEFAULT_SETTINGS", "sk_estimate_settings", "mean_drift", "sk_estimate_arrays",
@@ -55,7 +56,7 @@ __all__ = ["PARTS", "DEFAULT_SETTINGS", "sk_estimate_settings", "mean_drift", "s
 PARTS = ("ecc_vector", "plane", "sma", "along_track")
 DEFAULT_SETTINGS = {
     "element_frame": "lunar_equator_of_epoch",   # pole k of the turning frame: z of this frame
-    "year_days": 365.25,
+    "year_days": DAYS_PER_JULIAN_YEAR,
     "min_periods": 2.0,                          # the arc must hold this many orbits
     "along_track_rebias_per_year": 1.0,          # one-time along-track biases counted per year
 }
@@ -89,8 +90,8 @@ def _mean_argument_of_latitude(r: np.ndarray, e_vec: np.ndarray, h_hat: np.ndarr
     cos_nu_e = np.sum(r * e_vec, axis=-1)
     sin_nu_e = np.sum(np.cross(e_vec, r) * h_hat, axis=-1)
     nu = np.arctan2(sin_nu_e, cos_nu_e)                                           # exact angles times |r| e
-    ecc_anomaly = 2.0 * np.arctan2(np.sqrt(1.0 - e) * np.sin(0.5 * nu), np.sqrt(1.0 + e) * np.cos(0.5 * nu))
-    return theta - nu + ecc_anomaly - e * np.sin(ecc_anomaly)
+    ecc_anomaly = eccentric_anomaly_from_true(nu, e)
+    return theta - nu + ecc_anomaly - e * np.sin(ecc_anomaly)          # (theta - nu + E) - e sin E: kept in this order
 
 
 def mean_drift(t_tdb_s: np.ndarray, states: np.ndarray, gm_km3_s2: float, min_periods: float = 2.0) -> dict:
@@ -126,7 +127,7 @@ def mean_drift(t_tdb_s: np.ndarray, states: np.ndarray, gm_km3_s2: float, min_pe
             "h_hat_dot": slope[:, 4:7], "u_dot": slope[:, 7]}
 
 
-def sk_estimate_arrays(drift: dict, gm_km3_s2: float, year_days: float = 365.25,
+def sk_estimate_arrays(drift: dict, gm_km3_s2: float, year_days: float = DAYS_PER_JULIAN_YEAR,
                        along_track_rebias_per_year: float = 1.0) -> dict:
     """Geometry-keeping Delta-V (km/s per year) by part and ``total`` (n_sat,) from :func:`mean_drift`.
 

@@ -28,7 +28,6 @@ from ..constants import SECONDS_PER_DAY
 from ..dop import dop_for_profile, grid_from_profile, summary_from_profile
 from ..ephemeris import ensure_kernels, tdb_seconds
 from ..config import ELEMENT_FRAMES
-from ..errors import ConfigError, InfeasibleDesignError
 from ..frames import rotate_to_moon_fixed
 from ..progress import steps
 from ..propagator import elements_deg_to_states, propagate_states
@@ -38,7 +37,7 @@ from .closed_loop import LifeSettings, impact_day, life_force_model, simulate_li
 
 __all__ = ["LIFE_KEYS", "NAVIGATION_KEYS", "STUDY_KEYS", "life_evaluation_settings", "run_design_life", "life_metrics",
            "life_navigation", "life_availability", "lost_satellites", "short_arc_predictors", "evaluate_design_life", "json_ready",
-           "elements_deg_in_frame", "design_life_cli"]
+           "elements_deg_in_frame"]
 
 LIFE_KEYS = ("life_days", "impact_day", "natural_impact_day", "sk_dv_kms_per_year", "sk_dv_max_kms_per_year",
              "n_maneuvers", "box_held", "pdop_avail_pct_life", "hdop_avail_pct_life", "sk_dv_estimate_kms_per_year",
@@ -230,7 +229,7 @@ def short_arc_predictors(context_or_profile, profile: dict, elements: np.ndarray
 
 def evaluate_design_life(context_or_profile, elements_deg, life_days: float | None = None, *,
                          keep: bool = False) -> dict:
-    """:data:`LIFE_KEYS` for elements (n, 6) ``[a_km, e, i, RAAN, AOP, M]`` (deg, the profile's element frame).
+    """:data:`LIFE_KEYS` for elements (n, 6) ``[sma_km, e, i, RAAN, AOP, M]`` (deg, the profile's element frame).
 
     ``context_or_profile``: an :class:`lnss_lib.evaluator.EvaluationContext` (its force model is
     reused for the short arc) or a profile dict. ``life_days`` defaults to ``[design_life]``.
@@ -275,7 +274,7 @@ def _json_value(value):
 
 
 def elements_deg_in_frame(profile: dict, states_mci, t0_tdb_s: float) -> np.ndarray:
-    """Osculating ``[a_km, e, i, RAAN, AOP, M]`` (n, 6) (km, deg) of Moon-centred J2000 states in the profile's element frame."""
+    """Osculating ``[sma_km, e, i, RAAN, AOP, M]`` (n, 6) (km, deg) of Moon-centred J2000 states in the profile's element frame."""
     from ..elements import state_to_elements
     from ..frames import element_frame_to_j2000
 
@@ -283,43 +282,3 @@ def elements_deg_in_frame(profile: dict, states_mci, t0_tdb_s: float) -> np.ndar
     s = np.atleast_2d(np.asarray(states_mci, dtype=float))
     el = state_to_elements(np.concatenate([s[:, :3] @ rot, s[:, 3:] @ rot], axis=1), float(profile["gravity"]["gm_km3_s2"]))
     return np.column_stack([el[:, :2], np.degrees(el[:, 2:])])
-
-
-def design_life_cli(profile_name: str, life_days: float, *, walker: tuple | None = None,
-                    constellation: str | None = None, constellation_epoch: str = "study",
-                    overrides: dict | None = None) -> dict:
-    """:data:`LIFE_KEYS` for the evaluate CLI: a Walker design ``(sma_km, ecc, aop_deg, inc_deg, n_planes,
-    sats_per_plane)`` or a catalogue constellation (its states at the evaluation epoch, as elements in the
-    profile's element frame, inserted as given: no insertion trim, so a designed per-satellite a such as
-    Ely's phasing, which its authors found by propagating those very states, is flown as published). NaN becomes None. An invalid Walker design (the evaluation says why) gives
-    every key None."""
-    from ..settings import load_settings
-    from ..constellation import WalkerDesign
-    from ..evaluator import context_for
-
-    if not (isinstance(life_days, (int, float)) and math.isfinite(life_days) and life_days > 0):
-        raise ValueError(f"--design-life-days must be a positive number of days; got {life_days!r}")
-    profile = load_settings(profile_name, overrides=overrides)
-    step_s = life_evaluation_settings(profile)["sample_step_s"]
-    if not life_days * SECONDS_PER_DAY > step_s:
-        raise ConfigError(f"--design-life-days {life_days!r} ({life_days * SECONDS_PER_DAY:g} s) is not longer than "
-                          f"life_evaluation.sample_step_s = {step_s!r} s; allowed: a life of more than one sampling step",
-                          key="--design-life-days")
-    if constellation is not None:
-        from ..catalogue import constellation_states_mci, file_epoch_profile, load_constellation
-
-        c = load_constellation(constellation, profile)
-        if constellation_epoch == "file":
-            profile = file_epoch_profile(profile, c)
-        profile = profile.with_overrides({"design_life": {"initial_trim": False}})   # the file's states as given
-        states = constellation_states_mci(profile, c, constellation_epoch)
-        elements = elements_deg_in_frame(profile, states.states_mci, states.t_epoch_tdb_s)
-    else:
-        sma_km, ecc, aop_deg, inc_deg, n_planes, sats_per_plane = walker
-        try:
-            elements = WalkerDesign(sma_km, ecc, inc_deg, aop_deg, n_planes, sats_per_plane).elements_deg()
-            elements_deg_to_states(profile, elements, tdb_seconds(profile["epoch"]["start_tdb"], "TDB"))
-        except InfeasibleDesignError:
-            return {key: None for key in LIFE_KEYS}
-    result = evaluate_design_life(context_for(profile), elements, float(life_days))
-    return json_ready({key: result[key] for key in LIFE_KEYS})

@@ -126,7 +126,7 @@ def orbit_vectors_deg(e, inc_deg, aop_deg, raan_deg=0.0) -> tuple[np.ndarray, np
 
 
 def mean_plane_elements(field: SecularField, elements_deg, rot_el_to_j2000: np.ndarray, t_day: float = 0.0) -> dict:
-    """Elements (n, 6) [a_km, e, i, RAAN, AOP, M] (deg) given in a frame (``x_j2000 = rot x``) read in the mean
+    """Elements (n, 6) [sma_km, e, i, RAAN, AOP, M] (deg) given in a frame (``x_j2000 = rot x``) read in the mean
     ``moon_op`` frame at ``t_day`` (:func:`mean_plane_axes`): ``sma_km``, ``ecc``, ``inc_deg``, ``raan_deg``, ``aop_deg``."""
     el = np.atleast_2d(np.asarray(elements_deg, dtype=float))
     e_vec, j_vec = orbit_vectors_deg(el[:, 1], el[:, 2], el[:, 4], el[:, 3])
@@ -134,9 +134,9 @@ def mean_plane_elements(field: SecularField, elements_deg, rot_el_to_j2000: np.n
     return {"sma_km": el[:, 0], **elements_from_vectors(e_vec, j_vec, rot)}
 
 
-def potential(model: FrozenModel, a_km, e, inc_deg, aop_deg) -> np.ndarray:
+def potential(model: FrozenModel, sma_km, e, inc_deg, aop_deg) -> np.ndarray:
     """Doubly-averaged potential (n,) (km^2/s^2) of orbits (broadcast arrays) in the model's frame."""
-    a, e, inc, aop = np.broadcast_arrays(*(np.atleast_1d(np.asarray(x, dtype=float)) for x in (a_km, e, inc_deg, aop_deg)))
+    a, e, inc, aop = np.broadcast_arrays(*(np.atleast_1d(np.asarray(x, dtype=float)) for x in (sma_km, e, inc_deg, aop_deg)))
     e_vec, j_vec = orbit_vectors_deg(e, inc, aop)
     return averaged_potential(e_vec, j_vec, a, model.tide, _Z, model.gm_km3_s2, model.j2_axial, model.r_ref_km)
 
@@ -145,12 +145,12 @@ def _inc_at_jz_deg(e, jz):
     return np.degrees(np.arccos(np.clip(jz / np.sqrt(1.0 - np.asarray(e, dtype=float) ** 2), -1.0, 1.0)))
 
 
-def _dphi_de(model: FrozenModel, a_km: float, e, inc_deg, step: float = 1e-6) -> np.ndarray:
+def _dphi_de(model: FrozenModel, sma_km: float, e, inc_deg, step: float = 1e-6) -> np.ndarray:
     """dPhi/de at AOP 90 deg along the Kozai integral j_z (central difference), for arrays e and inc_deg."""
     e, inc = np.broadcast_arrays(np.atleast_1d(np.asarray(e, dtype=float)), np.atleast_1d(np.asarray(inc_deg, dtype=float)))
     jz = np.sqrt(1.0 - e**2) * np.cos(np.radians(inc))
     ee = np.concatenate([e - step, e + step])
-    phi = potential(model, a_km, ee, _inc_at_jz_deg(ee, np.concatenate([jz, jz])), 90.0)
+    phi = potential(model, sma_km, ee, _inc_at_jz_deg(ee, np.concatenate([jz, jz])), 90.0)
     return (phi[e.size:] - phi[:e.size]) / (2.0 * step)
 
 
@@ -162,31 +162,31 @@ def _roots(fun, lo: float, hi: float, n: int = 361) -> list[float]:
     return [brentq(scalar, grid[k], grid[k + 1], xtol=1e-12) for k in np.flatnonzero(np.sign(vals[:-1]) * np.sign(vals[1:]) < 0)]
 
 
-def frozen_inclination_deg(model: FrozenModel, a_km: float, e: float) -> float:
-    """Inclination (deg, prograde) to z of the orbit of semi-major axis ``a_km`` and eccentricity ``e`` frozen
+def frozen_inclination_deg(model: FrozenModel, sma_km: float, e: float) -> float:
+    """Inclination (deg, prograde) to z of the orbit of semi-major axis ``sma_km`` and eccentricity ``e`` frozen
     at AOP 90 / 270 deg; the root nearest the Kozai family ``e^2 + (5/3) cos^2 i = 1`` where there are
     several, NaN where there is none (retrograde: 180 deg minus it)."""
-    if not (0.0 < e < 1.0 and a_km > 0.0):
-        raise ValueError(f"need 0 < e < 1 and a_km > 0; got e = {e!r}, a_km = {a_km!r}")
-    roots = _roots(lambda inc: _dphi_de(model, a_km, e, inc), 0.5, 89.999)
+    if not (0.0 < e < 1.0 and sma_km > 0.0):
+        raise ValueError(f"need 0 < e < 1 and sma_km > 0; got e = {e!r}, sma_km = {sma_km!r}")
+    roots = _roots(lambda inc: _dphi_de(model, sma_km, e, inc), 0.5, 89.999)
     kozai = np.degrees(np.arccos(min(1.0, np.sqrt(0.6 * (1.0 - e**2)))))
     return float(min(roots, key=lambda r: abs(r - kozai))) if roots else float("nan")
 
 
-def frozen_eccentricity(model: FrozenModel, a_km: float, inc_deg: float, *, min_perilune_km: float = 0.0) -> float:
-    """Eccentricity of the orbit of semi-major axis ``a_km`` and inclination ``inc_deg`` frozen at AOP 90 / 270
+def frozen_eccentricity(model: FrozenModel, sma_km: float, inc_deg: float, *, min_perilune_km: float = 0.0) -> float:
+    """Eccentricity of the orbit of semi-major axis ``sma_km`` and inclination ``inc_deg`` frozen at AOP 90 / 270
     deg, with perilune radius above ``min_perilune_km``; the root nearest the Kozai family, NaN where none."""
-    if not (0.0 < inc_deg < 180.0 and a_km > 0.0):
-        raise ValueError(f"need 0 < inc_deg < 180 and a_km > 0; got inc_deg = {inc_deg!r}, a_km = {a_km!r}")
-    e_hi = min(0.999, 1.0 - min_perilune_km / a_km)
+    if not (0.0 < inc_deg < 180.0 and sma_km > 0.0):
+        raise ValueError(f"need 0 < inc_deg < 180 and sma_km > 0; got inc_deg = {inc_deg!r}, sma_km = {sma_km!r}")
+    e_hi = min(0.999, 1.0 - min_perilune_km / sma_km)
     if e_hi <= 1e-3:
         return float("nan")
-    roots = _roots(lambda e: _dphi_de(model, a_km, e, inc_deg), 1e-3, e_hi)
+    roots = _roots(lambda e: _dphi_de(model, sma_km, e, inc_deg), 1e-3, e_hi)
     kozai = np.sqrt(max(0.0, 1.0 - 5.0 / 3.0 * np.cos(np.radians(inc_deg)) ** 2))
     return float(min(roots, key=lambda r: abs(r - kozai))) if roots else float("nan")
 
 
-def libration(model: FrozenModel, a_km: float, e: float, inc_deg: float, aop_deg: float, *, n_grid: int = 4001) -> dict:
+def libration(model: FrozenModel, sma_km: float, e: float, inc_deg: float, aop_deg: float, *, n_grid: int = 4001) -> dict:
     """The level curve of the orbit (a, e, i, AOP) at its Kozai integral: ranges of e, i and AOP.
 
     Returns ``ecc_min``, ``ecc_max``, ``inc_min_deg``, ``inc_max_deg``, ``aop_min_deg``, ``aop_max_deg``
@@ -194,20 +194,20 @@ def libration(model: FrozenModel, a_km: float, e: float, inc_deg: float, aop_deg
     (AOP stays on one side of the line of nodes: about 90 deg or about 270 deg), ``centre_aop_deg``
     (90 or 270; NaN when circulating) and ``jz`` (``sqrt(1 - e^2) cos i``).
     """
-    if not (0.0 < e < 1.0 and a_km > 0.0 and 0.0 < inc_deg < 180.0):
-        raise ValueError(f"need 0 < e < 1, a_km > 0 and 0 < inc_deg < 180; got e = {e!r}, a_km = {a_km!r}, "
+    if not (0.0 < e < 1.0 and sma_km > 0.0 and 0.0 < inc_deg < 180.0):
+        raise ValueError(f"need 0 < e < 1, sma_km > 0 and 0 < inc_deg < 180; got e = {e!r}, sma_km = {sma_km!r}, "
                          f"inc_deg = {inc_deg!r}")
     jz = np.sqrt(1.0 - e**2) * np.cos(np.radians(inc_deg))
     e_top = np.sqrt(1.0 - jz**2)                      # i -> 0 (or 180) on the Kozai integral
-    phi0 = float(potential(model, a_km, e, inc_deg, aop_deg)[0])
+    phi0 = float(potential(model, sma_km, e, inc_deg, aop_deg)[0])
 
     def sin2_aop(ee):
         """sin^2 AOP on the level curve at eccentricity ee (Phi = A + B sin^2 AOP along j_z)."""
         ee = np.atleast_1d(ee)
         inc = _inc_at_jz_deg(ee, jz)
-        base = potential(model, a_km, ee, inc, 0.0)
+        base = potential(model, sma_km, ee, inc, 0.0)
         with np.errstate(divide="ignore", invalid="ignore"):
-            return (phi0 - base) / (potential(model, a_km, ee, inc, 90.0) - base)
+            return (phi0 - base) / (potential(model, sma_km, ee, inc, 90.0) - base)
 
     def edge(direction: int) -> tuple[float, bool]:
         """Far end of the level curve from e in ``direction``; True where it ends at AOP 90/270 (a turning point)."""
@@ -240,14 +240,14 @@ def libration(model: FrozenModel, a_km: float, e: float, inc_deg: float, aop_deg
             "centre_aop_deg": centre, "jz": float(jz)}
 
 
-def _precession_rate(e_vec, j_vec, a_km, tide, j2, model: FrozenModel) -> float:
+def _precession_rate(e_vec, j_vec, sma_km, tide, j2, model: FrozenModel) -> float:
     """Signed rate (rad/s) at which j turns about z under ``tide`` and a J2 about z."""
-    _, dj = secular_rates(e_vec, j_vec, a_km, tide, _Z, model.gm_km3_s2, j2, model.r_ref_km)
+    _, dj = secular_rates(e_vec, j_vec, sma_km, tide, _Z, model.gm_km3_s2, j2, model.r_ref_km)
     turn = np.cross(_Z, j_vec[0])
     return float(dj[0] @ turn / (turn @ turn))
 
 
-def allowances(model: FrozenModel, a_km: float, e: float, inc_deg: float, aop_deg: float) -> dict:
+def allowances(model: FrozenModel, sma_km: float, e: float, inc_deg: float, aop_deg: float) -> dict:
     """What the node-averaged, doubly-averaged model leaves out: bounds on the real orbit's excursions past
     the :func:`libration` ranges (e dimensionless, angles in deg).
 
@@ -272,15 +272,15 @@ def allowances(model: FrozenModel, a_km: float, e: float, inc_deg: float, aop_de
     rates_e, rates_i = [], []
     for phi in np.radians(np.arange(0.0, 180.0, 2.0)):
         q = 0.5 * c * (np.cos(phi) * (np.outer(x, x) - np.outer(y, y)) + np.sin(phi) * (np.outer(x, y) + np.outer(y, x)))
-        de, dj = secular_rates(e_vec, j_vec, a_km, q, _Z, model.gm_km3_s2, 0.0, model.r_ref_km)
+        de, dj = secular_rates(e_vec, j_vec, sma_km, q, _Z, model.gm_km3_s2, 0.0, model.r_ref_km)
         rates_e.append(np.linalg.norm(de[0]))
         rates_i.append(np.linalg.norm(np.cross(dj[0], j_vec[0])) / np.sum(j_vec[0] ** 2))
     n_month = 2.0 * np.pi / (SIDEREAL_MONTH_DAYS * SECONDS_PER_DAY)
     ecc_monthly, inc_monthly = max(rates_e) / (2.0 * n_month), np.degrees(max(rates_i) / (2.0 * n_month))
-    n = np.sqrt(model.gm_km3_s2 / a_km**3)
+    n = np.sqrt(model.gm_km3_s2 / sma_km**3)
     ecc_orbital = 4.0 * np.pi * c * (1.0 + e) / n**2
-    w_tide = _precession_rate(e_vec, j_vec, a_km, model.tide, 0.0, model)
-    w_j2 = _precession_rate(e_vec, j_vec, a_km, np.zeros((3, 3)), model.j2, model)
+    w_tide = _precession_rate(e_vec, j_vec, sma_km, model.tide, 0.0, model)
+    w_j2 = _precession_rate(e_vec, j_vec, sma_km, np.zeros((3, 3)), model.j2, model)
     axis = w_tide * _Z + w_j2 * model.pole - model.frame_spin
     laplace = np.arctan2(np.linalg.norm(axis[:2]), abs(axis[2]))
     return {"ecc_monthly": float(ecc_monthly), "ecc_orbital": float(ecc_orbital),

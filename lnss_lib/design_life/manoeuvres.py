@@ -24,8 +24,10 @@ from itertools import combinations
 
 import numpy as np
 
-from ..elements import TWO_PI, elements_to_state, kepler_states, solve_kepler, state_to_elements
+from ..elements import (TWO_PI, elements_to_state, kepler_states, mean_anomaly_from_true, state_to_elements,
+                       true_anomaly_from_mean)
 from ..frames import rtn_basis
+from ..gve import gve_matrix, orbit_quantities
 
 CONTROL_ROWS = ("a_km", "ex", "ey", "inc_rad", "raan_rad", "u_rad")
 """Rows of the control element set: a, the eccentricity vector in the orbit's nodal axes, i, RAAN and
@@ -39,27 +41,16 @@ def apply_impulse(state: np.ndarray, dv_rtn_kms: np.ndarray) -> np.ndarray:
     return s
 
 
-def _orbit_terms(elements: np.ndarray, gm_km3_s2: float):
-    el = np.asarray(elements, dtype=float)
-    a, e, inc, aop = el[..., 0], el[..., 1], el[..., 2], el[..., 4]
-    nu = true_anomaly(el[..., 5], e)
-    p = a * (1.0 - e * e)
-    h = np.sqrt(gm_km3_s2 * p)
-    r = p / (1.0 + e * np.cos(nu))
-    return a, e, inc, aop, nu, aop + nu, p, h, r
-
-
-def true_anomaly(mean_anomaly_rad, e):
-    """True anomaly (rad) of a mean anomaly (rad) and eccentricity."""
-    E = solve_kepler(mean_anomaly_rad, e)
-    return 2.0 * np.arctan2(np.sqrt(1.0 + e) * np.sin(E / 2.0), np.sqrt(1.0 - e) * np.cos(E / 2.0))
+def _with_true_anomaly(elements: np.ndarray) -> np.ndarray:
+    """Elements (..., 6) ``[a, e, i, raan, aop, nu]`` of ``[a, e, i, raan, aop, M]``: the set :mod:`lnss_lib.gve` takes."""
+    el = np.array(elements, dtype=float)
+    el[..., 5] = true_anomaly_from_mean(el[..., 5], el[..., 1])
+    return el
 
 
 def mean_anomaly(true_anomaly_rad, e):
     """Mean anomaly (rad, in [0, 2 pi)) of a true anomaly (rad) and eccentricity."""
-    nu = np.asarray(true_anomaly_rad, dtype=float)
-    E = 2.0 * np.arctan2(np.sqrt(1.0 - e) * np.sin(nu / 2.0), np.sqrt(1.0 + e) * np.cos(nu / 2.0))
-    return np.mod(E - e * np.sin(E), TWO_PI)
+    return np.mod(mean_anomaly_from_true(true_anomaly_rad, e), TWO_PI)
 
 
 def impulsive_gve_matrix(elements: np.ndarray, gm_km3_s2: float) -> np.ndarray:
@@ -72,19 +63,12 @@ def impulsive_gve_matrix(elements: np.ndarray, gm_km3_s2: float) -> np.ndarray:
     - cos(i) draan; dM = b/(a h e) ((p cos(nu) - 2 r e) dv_R - (p + r) sin(nu) dv_T). Singular at e = 0 and
     sin(i) = 0; :func:`control_gve_matrix` is not.
     """
-    a, e, inc, aop, nu, theta, p, h, r = _orbit_terms(elements, gm_km3_s2)
-    sn, cn, st, ct = np.sin(nu), np.cos(nu), np.sin(theta), np.cos(theta)
-    zero = np.zeros_like(a)
+    el = _with_true_anomaly(elements)
+    a, e, inc, nu, theta, p, h, r = orbit_quantities(el, gm_km3_s2)
+    sn, cn = np.sin(nu), np.cos(nu)
     beta = np.sqrt(1.0 - e * e)
-    rows = [
-        [2.0 * a * a / h * e * sn, 2.0 * a * a / h * p / r, zero],
-        [p * sn / h, ((p + r) * cn + r * e) / h, zero],
-        [zero, zero, r * ct / h],
-        [zero, zero, r * st / (h * np.sin(inc))],
-        [-p * cn / (h * e), (p + r) * sn / (h * e), -r * st * np.cos(inc) / (h * np.sin(inc))],
-        [beta / (h * e) * (p * cn - 2.0 * r * e), -beta / (h * e) * (p + r) * sn, zero],
-    ]
-    return np.stack([np.stack(row, axis=-1) for row in rows], axis=-2)
+    row_m = np.stack([beta / (h * e) * (p * cn - 2.0 * r * e), -beta / (h * e) * (p + r) * sn, np.zeros_like(a)], axis=-1)
+    return np.concatenate([gve_matrix(el, gm_km3_s2), row_m[..., None, :]], axis=-2)
 
 
 def control_gve_matrix(elements: np.ndarray, gm_km3_s2: float) -> np.ndarray:
@@ -94,23 +78,18 @@ def control_gve_matrix(elements: np.ndarray, gm_km3_s2: float) -> np.ndarray:
     d(aop) + dM are finite as e -> 0 (with (beta - 1)/e = -e/(1 + beta), beta = sqrt(1 - e^2)).
     Only the RAAN row (and the N column of the aop-bearing rows) keeps 1/sin(i).
     """
-    a, e, inc, aop, nu, theta, p, h, r = _orbit_terms(elements, gm_km3_s2)
-    sn, cn, st, ct = np.sin(nu), np.cos(nu), np.sin(theta), np.cos(theta)
-    zero = np.zeros_like(a)
+    el = _with_true_anomaly(elements)
+    a, e, inc, nu, theta, p, h, r = orbit_quantities(el, gm_km3_s2)
+    st = np.sin(theta)
     beta = np.sqrt(1.0 - e * e)
     cot_i = np.cos(inc) / np.sin(inc)
-    row_a = [2.0 * a * a / h * e * sn, 2.0 * a * a / h * p / r, zero]
-    row_e = [p * sn / h, ((p + r) * cn + r * e) / h, zero]
-    row_e_daop = [-p * cn / h, (p + r) * sn / h, -e * r * st * cot_i / h]
-    ca, sa = np.cos(aop), np.sin(aop)
-    row_ex = [ca * x - sa * y for x, y in zip(row_e, row_e_daop)]
-    row_ey = [sa * x + ca * y for x, y in zip(row_e, row_e_daop)]
-    row_i = [zero, zero, r * ct / h]
-    row_raan = [zero, zero, r * st / (h * np.sin(inc))]
+    b = gve_matrix(el, gm_km3_s2, e_times_aop=True)         # rows a, e, i, raan, e aop-dot
+    row_e, row_e_daop = b[..., 1, :], b[..., 4, :]
+    ca, sa = np.cos(el[..., 4])[..., None], np.sin(el[..., 4])[..., None]
     k = e / (1.0 + beta)
-    row_u = [-p * cn / h * k - 2.0 * r * beta / h, (p + r) * sn / h * k, -r * st * cot_i / h]
-    rows = [row_a, row_ex, row_ey, row_i, row_raan, row_u]
-    return np.stack([np.stack(row, axis=-1) for row in rows], axis=-2)
+    row_u = np.stack([row_e_daop[..., 0] * k - 2.0 * r * beta / h, row_e_daop[..., 1] * k, -r * st * cot_i / h], axis=-1)
+    rows = [b[..., 0, :], ca * row_e - sa * row_e_daop, sa * row_e + ca * row_e_daop, b[..., 2, :], b[..., 3, :], row_u]
+    return np.stack(rows, axis=-2)
 
 
 def control_elements(elements: np.ndarray) -> np.ndarray:
@@ -181,7 +160,7 @@ def plan_impulses(elements: np.ndarray, gm_km3_s2: float, target: dict, *, horiz
     """
     el = np.asarray(elements, dtype=float)
     if el.shape != (6,) or not np.all(np.isfinite(el)):
-        raise ValueError(f"elements must be 6 finite values [a_km, e, i, raan, aop, M] (rad); got {el!r}")
+        raise ValueError(f"elements must be 6 finite values [sma_km, e, i, raan, aop, M] (rad); got {el!r}")
     unknown = set(target) - set(CONTROL_ROWS)
     if unknown or not target:
         raise ValueError(f"target must name rows of {CONTROL_ROWS}; got {sorted(target)}")

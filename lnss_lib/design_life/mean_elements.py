@@ -13,7 +13,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..elements import TWO_PI, state_to_elements
+from ..elements import TWO_PI, eccentricity_vector, state_to_elements, vis_viva_sma_km
 
 MEAN_ELEMENTS = ("a_km", "e", "inc_rad", "raan_rad", "aop_rad", "u_rad")
 """Columns of :func:`mean_elements`: u is the mean argument of latitude aop + M."""
@@ -27,7 +27,7 @@ def to_element_frame(states_mci: np.ndarray, rot_el_to_j2000: np.ndarray) -> np.
 
 
 def mean_elements(states: np.ndarray, gm_km3_s2: float) -> np.ndarray:
-    """Mean ``[a_km, e, i, raan, aop, u]`` (..., 6) (rad) of states (..., n, 6) spanning one orbit.
+    """Mean ``[sma_km, e, i, raan, aop, u]`` (..., 6) (rad) of states (..., n, 6) spanning one orbit.
 
     The n samples (along axis -2) must be equally spaced in time and cover one orbital period
     (first and last sample one period apart count once each half: trapezoidal weights).
@@ -43,8 +43,8 @@ def mean_elements(states: np.ndarray, gm_km3_s2: float) -> np.ndarray:
     r = np.linalg.norm(r_vec, axis=-1, keepdims=True)
     v2 = np.sum(v_vec * v_vec, axis=-1, keepdims=True)
     h_vec = np.cross(r_vec, v_vec)
-    e_vec = np.cross(v_vec, h_vec) / gm_km3_s2 - r_vec / r
-    a = 1.0 / (2.0 / r[..., 0] - v2[..., 0] / gm_km3_s2)
+    e_vec = eccentricity_vector(r_vec, v_vec, gm_km3_s2, h_vec, r[..., 0])
+    a = vis_viva_sma_km(r[..., 0], v2[..., 0], gm_km3_s2)
     h_hat = h_vec / np.linalg.norm(h_vec, axis=-1, keepdims=True)
     a_mean = np.einsum("...n,n->...", a, w)
     e_mean = np.einsum("...nk,n->...k", e_vec, w)

@@ -48,7 +48,8 @@ from scipy.integrate import solve_ivp
 from scipy.interpolate import CubicSpline
 
 from ..config import STABILITY_BODIES, STABILITY_METHODS
-from ..constants import SECONDS_PER_DAY
+from ..constants import DAYS_PER_JULIAN_YEAR, SECONDS_PER_DAY
+from ..elements import eccentricity_vector, vis_viva_sma_km
 from ..ephemeris import body_states_mci, ensure_kernels, rotation, tdb_seconds
 from ..frames import element_frame_to_j2000
 from ..gravity import GravityField
@@ -61,7 +62,7 @@ SIDEREAL_MONTH_DAYS = 27.321661
 BODIES = STABILITY_BODIES
 NON_SCREEN_KEYS = ("validation_designs", "validation_degree", "validation_step_s")   # read by the bench only
 DEFAULT_SETTINGS = {
-    "life_days": 365.25,                # design life integrated by the screen
+    "life_days": DAYS_PER_JULIAN_YEAR,                # design life integrated by the screen
     "third_bodies": ["EARTH", "SUN"],   # quadrupole tides included
     "precession": True,                 # let the Earth's orbit plane and the lunar pole move (SPICE)
     "average_days": SIDEREAL_MONTH_DAYS,  # running-mean window of the tide tensor
@@ -196,35 +197,35 @@ def _gravity_constants(profile: dict) -> tuple[float, float, float]:
 
 
 def orbit_vectors_ej(states: np.ndarray, gm_km3_s2: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """(a_km (n,), e vector (n, 3), j = sqrt(1 - e^2) h_hat (n, 3)) of osculating states (n, 6)."""
+    """(sma_km (n,), e vector (n, 3), j = sqrt(1 - e^2) h_hat (n, 3)) of osculating states (n, 6)."""
     s = np.atleast_2d(np.asarray(states, dtype=float))
     r, v = s[:, :3], s[:, 3:]
     rn = np.linalg.norm(r, axis=1)
-    a = 1.0 / (2.0 / rn - np.sum(v * v, axis=1) / gm_km3_s2)
+    a = vis_viva_sma_km(rn, np.sum(v * v, axis=1), gm_km3_s2)
     if np.any(~(a > 0.0)):
         raise ValueError(f"the screen needs bound orbits; got a = {a[~(a > 0.0)][0]!r} km")
     h = np.cross(r, v)
-    e_vec = np.cross(v, h) / gm_km3_s2 - r / rn[:, None]
+    e_vec = eccentricity_vector(r, v, gm_km3_s2, h, rn)
     return a, e_vec, h / np.sqrt(gm_km3_s2 * a)[:, None]
 
 
-def _gradients(e_vec, j_vec, a_km, tide, pole, gm, j2, r_ref):
+def _gradients(e_vec, j_vec, sma_km, tide, pole, gm, j2, r_ref):
     """grad_e Phi and grad_j Phi (n, 3) (km^2/s^2) of the averaged potential."""
-    a2 = (a_km**2)[:, None]
+    a2 = (sma_km**2)[:, None]
     s = np.trace(tide)
     grad_e = -0.25 * a2 * (-12.0 * s * e_vec + 30.0 * e_vec @ tide)
     grad_j = -0.25 * a2 * (-6.0 * j_vec @ tide)
     jn = np.linalg.norm(j_vec, axis=1)[:, None]
     jk = (j_vec @ pole)[:, None]
-    c = (gm * j2 * r_ref**2 / (4.0 * a_km**3))[:, None]
+    c = (gm * j2 * r_ref**2 / (4.0 * sma_km**3))[:, None]
     grad_j = grad_j + c * (-3.0 * j_vec / jn**5 - 6.0 * jk * pole / jn**5 + 15.0 * jk**2 * j_vec / jn**7)
     return grad_e, grad_j
 
 
-def averaged_potential(e_vec, j_vec, a_km, tide, pole, gm_km3_s2: float, j2: float, r_ref_km: float) -> np.ndarray:
+def averaged_potential(e_vec, j_vec, sma_km, tide, pole, gm_km3_s2: float, j2: float, r_ref_km: float) -> np.ndarray:
     """Doubly-averaged potential per unit mass (n,) (km^2/s^2), tide plus J2 (see module docstring)."""
     e_vec, j_vec = np.atleast_2d(e_vec), np.atleast_2d(j_vec)
-    a = np.atleast_1d(np.asarray(a_km, dtype=float))
+    a = np.atleast_1d(np.asarray(sma_km, dtype=float))
     s = np.trace(tide)
     tide_part = -0.25 * a**2 * (s * (1.0 - 6.0 * np.sum(e_vec**2, axis=1))
                                 - 3.0 * np.einsum("ni,ij,nj->n", j_vec, tide, j_vec)
@@ -234,10 +235,10 @@ def averaged_potential(e_vec, j_vec, a_km, tide, pole, gm_km3_s2: float, j2: flo
     return tide_part + gm_km3_s2 * j2 * r_ref_km**2 / (4.0 * a**3) * (jn**-3 - 3.0 * jk**2 * jn**-5)
 
 
-def secular_rates(e_vec, j_vec, a_km, tide, pole, gm_km3_s2: float, j2: float, r_ref_km: float):
-    """Milankovitch rates (de/dt, dj/dt), each (n, 3) in 1/s, of vectors (n, 3) with a_km (n,)."""
+def secular_rates(e_vec, j_vec, sma_km, tide, pole, gm_km3_s2: float, j2: float, r_ref_km: float):
+    """Milankovitch rates (de/dt, dj/dt), each (n, 3) in 1/s, of vectors (n, 3) with sma_km (n,)."""
     e_vec, j_vec = np.atleast_2d(e_vec), np.atleast_2d(j_vec)
-    a = np.atleast_1d(np.asarray(a_km, dtype=float))
+    a = np.atleast_1d(np.asarray(sma_km, dtype=float))
     grad_e, grad_j = _gradients(e_vec, j_vec, a, np.asarray(tide), np.asarray(pole), gm_km3_s2, j2, r_ref_km)
     inv_l = (1.0 / np.sqrt(gm_km3_s2 * a))[:, None]
     de = -inv_l * (np.cross(j_vec, grad_e) + np.cross(e_vec, grad_j))
@@ -246,10 +247,10 @@ def secular_rates(e_vec, j_vec, a_km, tide, pole, gm_km3_s2: float, j2: float, r
 
 
 @nb.njit(cache=True)
-def _rhs_kernel(y: np.ndarray, a_km: np.ndarray, tide: np.ndarray, pole: np.ndarray, gm: float, j2: float,
+def _rhs_kernel(y: np.ndarray, sma_km: np.ndarray, tide: np.ndarray, pole: np.ndarray, gm: float, j2: float,
                 r_ref: float, scale: float) -> np.ndarray:
     """Compiled :func:`secular_rates` on a flat state [e (3), j (3)] per orbit, times ``scale``."""
-    n = a_km.size
+    n = sma_km.size
     out = np.empty(6 * n)
     s = tide[0, 0] + tide[1, 1] + tide[2, 2]
     ge = np.empty(3)
@@ -257,7 +258,7 @@ def _rhs_kernel(y: np.ndarray, a_km: np.ndarray, tide: np.ndarray, pole: np.ndar
     for q in range(n):
         e = y[6 * q:6 * q + 3]
         j = y[6 * q + 3:6 * q + 6]
-        a = a_km[q]
+        a = sma_km[q]
         jn = np.sqrt(j[0] * j[0] + j[1] * j[1] + j[2] * j[2])
         jk = j[0] * pole[0] + j[1] * pole[1] + j[2] * pole[2]
         c = gm * j2 * r_ref * r_ref / (4.0 * a * a * a)
@@ -276,7 +277,7 @@ def _rhs_kernel(y: np.ndarray, a_km: np.ndarray, tide: np.ndarray, pole: np.ndar
     return out
 
 
-def integrate_secular(a_km, e0, j0, field: SecularField, life_days: float, *, floor_km=None,
+def integrate_secular(sma_km, e0, j0, field: SecularField, life_days: float, *, floor_km=None,
                       method: str = "DOP853", rtol: float = 1e-9, atol: float = 1e-11,
                       output_step_days: float = 1.0) -> dict:
     """Integrate orbits (n,) from (e0, j0) (n, 3) for ``life_days``; stop an orbit whose perilune reaches ``floor_km``.
@@ -284,7 +285,7 @@ def integrate_secular(a_km, e0, j0, field: SecularField, life_days: float, *, fl
     Returns ``t_days`` (m,), ``e`` and ``j`` (n, m, 3) (NaN after an impact), ``impact_day`` (n,)
     (NaN when none; located by a solve_ivp event to the integrator's accuracy), ``n_rhs``.
     """
-    a = np.atleast_1d(np.asarray(a_km, dtype=float))
+    a = np.atleast_1d(np.asarray(sma_km, dtype=float))
     y0 = np.concatenate([np.atleast_2d(e0), np.atleast_2d(j0)], axis=1)
     n = a.size
     if y0.shape != (n, 6) or not np.all(np.isfinite(y0)):
@@ -392,7 +393,7 @@ def screen_states(profile: dict, states_mci, t0_tdb_s: float, *, field: SecularF
 
 
 def screen_elements(profile: dict, elements_deg, t0_tdb_s: float | None = None, **overrides) -> xr.Dataset:
-    """:func:`screen_states` for elements (n, 6) [a_km, e, i, RAAN, AOP, M] (deg) in the profile's element frame."""
+    """:func:`screen_states` for elements (n, 6) [sma_km, e, i, RAAN, AOP, M] (deg) in the profile's element frame."""
     from ..propagator import elements_deg_to_states
 
     ensure_kernels(profile)
@@ -412,10 +413,10 @@ def _cached_field(profile: dict, t0_tdb_s: float, cfg: StabilitySettings) -> Sec
     return _FIELDS[key]
 
 
-def classical_j2_rates(a_km, e, inc_rad, gm_km3_s2: float, j2: float, r_ref_km: float) -> tuple:
+def classical_j2_rates(sma_km, e, inc_rad, gm_km3_s2: float, j2: float, r_ref_km: float) -> tuple:
     """Secular (RAAN-dot, AOP-dot) (rad/s) of J2 (Vallado eq. 9-41, 9-42), mean motion sqrt(GM / a^3)."""
-    n = np.sqrt(gm_km3_s2 / np.asarray(a_km, float) ** 3)
-    k = 1.5 * n * j2 * (r_ref_km / (np.asarray(a_km, float) * (1.0 - np.asarray(e, float) ** 2))) ** 2
+    n = np.sqrt(gm_km3_s2 / np.asarray(sma_km, float) ** 3)
+    k = 1.5 * n * j2 * (r_ref_km / (np.asarray(sma_km, float) * (1.0 - np.asarray(e, float) ** 2))) ** 2
     return -k * np.cos(inc_rad), 0.5 * k * (5.0 * np.cos(inc_rad) ** 2 - 1.0)
 
 
@@ -449,9 +450,8 @@ def propagated_perilune(profile: dict, elements_deg, life_days: float, *, settin
     safe = np.where(finite[..., None], sv, states[:, None, :])
     r, v = safe[..., :3], safe[..., 3:]
     rn = np.linalg.norm(r, axis=-1)
-    a = 1.0 / (2.0 / rn - np.sum(v * v, axis=-1) / gm)
-    h = np.cross(r, v)
-    e = np.linalg.norm(np.cross(v, h) / gm - r / rn[..., None], axis=-1)
+    a = vis_viva_sma_km(rn, np.sum(v * v, axis=-1), gm)
+    e = np.linalg.norm(eccentricity_vector(r, v, gm, r_km=rn), axis=-1)
     alt = np.where(finite, a * (1.0 - e) - r_moon, np.nan)
     impact = ds["impact"].values.astype(bool)
     impact_day = np.where(impact, (ds["impact_t_tdb_s"].values - t0) / SECONDS_PER_DAY, np.nan)

@@ -104,18 +104,18 @@ def _shifted(field: SecularField, t_now_days: float) -> SecularField:
     return dataclasses.replace(field, t_days=field.t_days - t_now_days)
 
 
-def predicted_crossing_day(field: SecularField, t_now_days: float, a_km, e_vec, j_vec, floor_km,
+def predicted_crossing_day(field: SecularField, t_now_days: float, sma_km, e_vec, j_vec, floor_km,
                            horizon_days: float) -> np.ndarray:
     """Days from ``t_now_days`` (days since the field's epoch) until the averaged model's perilune a (1 - e) of
     each orbit (n,) reaches ``floor_km`` (radius, (n,) or scalar) within ``horizon_days``; NaN when it does not."""
     if horizon_days <= 0.0:
-        return np.full(np.atleast_1d(a_km).size, np.nan)
-    res = integrate_secular(a_km, e_vec, j_vec, _shifted(field, t_now_days), horizon_days, floor_km=floor_km,
+        return np.full(np.atleast_1d(sma_km).size, np.nan)
+    res = integrate_secular(sma_km, e_vec, j_vec, _shifted(field, t_now_days), horizon_days, floor_km=floor_km,
                             output_step_days=max(horizon_days, 1.0))
     return res["impact_day"]
 
 
-def safety_ecc(field: SecularField, t_now_days: float, a_km: float, e_vec, j_vec, floor_km: float,
+def safety_ecc(field: SecularField, t_now_days: float, sma_km: float, e_vec, j_vec, floor_km: float,
                horizon_days: float) -> float:
     """Mean e after a safety burn: the e vector shortened (direction kept) by the smallest perilune raise of
     :data:`SAFETY_RAISE_KM` whose predicted perilune stays above ``floor_km`` (radius) for ``horizon_days``;
@@ -123,12 +123,12 @@ def safety_ecc(field: SecularField, t_now_days: float, a_km: float, e_vec, j_vec
     e_vec = np.asarray(e_vec, dtype=float)
     h_hat = np.asarray(j_vec, dtype=float) / np.linalg.norm(j_vec)
     e0 = float(np.linalg.norm(e_vec))
-    e_new = np.array([max(e0 - dr / a_km, 0.0) for dr in SAFETY_RAISE_KM])
+    e_new = np.array([max(e0 - dr / sma_km, 0.0) for dr in SAFETY_RAISE_KM])
     e_new = np.unique(e_new)[::-1]                                    # largest e (smallest raise) first
     direction = e_vec / e0 if e0 > 0.0 else np.zeros(3)
     ev = e_new[:, None] * direction[None, :]
     jv = np.sqrt(1.0 - e_new ** 2)[:, None] * h_hat[None, :]
-    day = predicted_crossing_day(field, t_now_days, np.full(e_new.size, a_km), ev, jv, floor_km, horizon_days)
+    day = predicted_crossing_day(field, t_now_days, np.full(e_new.size, sma_km), ev, jv, floor_km, horizon_days)
     safe = np.flatnonzero(~np.isfinite(day))
     if safe.size:
         return float(e_new[safe[0]])

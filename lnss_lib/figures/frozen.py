@@ -6,6 +6,8 @@ from __future__ import annotations
 import numpy as np
 import plotly.graph_objects as go
 
+from ..constants import DAYS_PER_JULIAN_YEAR
+
 _READ_SYMBOLS = {"moon_op": "circle", "lunar equator": "diamond-open"}
 _VERDICT_COLOURS = {"frozen": "#2ca02c", "librating": "#1f77b4", "circulating": "#ff7f0e",
                     "reaches the surface": "#d62728"}
@@ -23,7 +25,7 @@ def frozen_family_chart(family, orbits, *, title: str) -> go.Figure:
                         subplot_titles=("frozen i (to the Earth-Moon plane) against a", "frozen e against a"))
     for col, (prefix, y_key) in enumerate((("i at", "inc_deg"), ("e at", "ecc")), start=1):
         for curve, rows in family[family["curve"].str.startswith(prefix)].groupby("curve", sort=False):
-            fig.add_trace(go.Scatter(x=rows["a_km"], y=rows[y_key], mode="lines", name=curve, line={"width": 1.5},
+            fig.add_trace(go.Scatter(x=rows["sma_km"], y=rows[y_key], mode="lines", name=curve, line={"width": 1.5},
                                      legendgroup="family"), row=1, col=col)
     inc = np.where(orbits["inc_op_deg"] <= 90.0, orbits["inc_op_deg"], 180.0 - orbits["inc_op_deg"])
     for (read_in, verdict), rows in orbits.assign(inc_plot=inc).groupby(["read_in", "verdict"], sort=False):
@@ -53,8 +55,8 @@ def perilune_envelope(t_days, perilune_alt_km, mean_t_days, mean_perilune_alt_km
     """Osculating perilune altitude (sat, time) of the full model against the doubly-averaged one (sat, time) less
     ``envelope_km`` (the short-period allowance), with the altitude floor ``floor_km``."""
     fig = go.Figure()
-    years = np.asarray(t_days) / 365.25
-    mean_years = np.asarray(mean_t_days) / 365.25
+    years = np.asarray(t_days) / DAYS_PER_JULIAN_YEAR
+    mean_years = np.asarray(mean_t_days) / DAYS_PER_JULIAN_YEAR
     for k, name in enumerate(names):
         fig.add_trace(go.Scatter(x=years, y=perilune_alt_km[k], mode="lines", name=f"{name}: full model",
                                  line={"width": 0.6}))

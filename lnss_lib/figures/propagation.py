@@ -10,7 +10,7 @@ import plotly.graph_objects as go
 def elements_history(t_days, elements_deg, *, title: str) -> go.Figure:
     """Osculating a, e, i, RAAN, AOP (paper Figure 5 style) in five stacked panels.
 
-    ``elements_deg``: (n, 6) [a_km, e, i, RAAN, AOP, M] with angles in degrees.
+    ``elements_deg``: (n, 6) [sma_km, e, i, RAAN, AOP, M] with angles in degrees.
     """
     from plotly.subplots import make_subplots
 

@@ -36,7 +36,7 @@ import pandas as pd
 
 from ..catalogue import FILE_FRAMES, analyse_catalogue, constellation_states_mci, list_catalogue, load_constellation
 from ..settings import load_settings
-from ..constants import SECONDS_PER_DAY
+from ..constants import DAYS_PER_JULIAN_YEAR, SECONDS_PER_DAY
 from ..constellation import WalkerDesign, standalone_elfo
 from ..dop import dop_for_profile, elevation_deg, summary_from_profile
 from ..ephemeris import body_states_mci, ensure_kernels, rotation, tdb_seconds
@@ -192,7 +192,7 @@ def campaign_entries(profile_name: str) -> tuple[list[Entry], list[str]]:
         if not len(picks):
             notes.append(f"{name} campaign ({display_path(folder)}): no design qualifies for Table 6; none added")
         for k, row in picks.iterrows():
-            design = WalkerDesign(row.sma_km, row.ecc, row.inc_deg, row.aop_deg, int(row.n_planes), int(row.sats_per_plane))
+            design = WalkerDesign(row.sma_km, row.ecc, row.aop_deg, row.inc_deg, int(row.n_planes), int(row.sats_per_plane))
             label = (f"{name} campaign #{k + 1}: {int(row.n_planes)}x{int(row.sats_per_plane)}, a {row.sma_km:.0f} km, "
                      f"e {row.ecc:.2f}, i {row.inc_deg:.0f}, AOP {row.aop_deg:.0f}")
             entries.append(Entry(label, "campaign", design.n_sat, design.elements_deg(), None, row["why selected"]))
@@ -481,7 +481,7 @@ def epoch_sensitivity(profile_name: str, *, epochs=None, names=None, overrides=N
         for name in names:
             states = _epoch_states(profile, name, t0)
             ds = propagate_states(profile, states, t0, duration, float(profile["epoch"]["step_s"]), batch=True)
-            row = {"epoch_tdb": epoch, "year": 2000.0 + (t0 / SECONDS_PER_DAY) / 365.25, "moon_node_deg": _moon_node_deg(t0),
+            row = {"epoch_tdb": epoch, "year": 2000.0 + (t0 / SECONDS_PER_DAY) / DAYS_PER_JULIAN_YEAR, "moon_node_deg": _moon_node_deg(t0),
                    "constellation": name, "n_sat": states.shape[0], "impact": bool(ds.impact.any())}
             if not row["impact"]:
                 times = ds["time"].values.astype(float)

@@ -20,7 +20,7 @@ import numpy as np
 import pandas as pd
 import xarray as xr
 
-from ..constants import SECONDS_PER_DAY
+from ..constants import DAYS_PER_JULIAN_YEAR, SECONDS_PER_DAY
 from ..deltav import (MODELS, OSCULATING_MODELS, SECULAR_PARTS, dataset_states, deltav_arrays, deltav_from_propagation,
                       deltav_settings, perturbing_acceleration_rtn, slsqp_tmax, thrust_total, tmax_closed_form,
                       trapezoid_deltav)
@@ -259,7 +259,7 @@ def _nearest_step(index, integrator: str, step_s: float) -> float:
 def model_findings(*, summary: pd.DataFrame, recovery: pd.DataFrame, recovery_data: dict, sampling: pd.DataFrame,
                    frames_table: pd.DataFrame, windows: pd.DataFrame, span_days: float, constellation: pd.DataFrame,
                    secular_parts: dict, singular: pd.DataFrame, integrator: str, step_s: float,
-                   year_days: float = 365.25, paper: dict | None = None) -> list[str]:
+                   year_days: float = DAYS_PER_JULIAN_YEAR, paper: dict | None = None) -> list[str]:
     """Markdown bullet lines with the numbers notebook 04 discusses, each read from the tables it builds.
 
     ``summary``: :func:`model_comparison_table`; ``recovery`` and ``recovery_data``: :func:`lsq_recovery_study`;

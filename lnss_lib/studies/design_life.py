@@ -113,7 +113,7 @@ def validation_designs(profile: dict, campaign_dir: Path | None = None) -> tuple
 def flown_elements(design, max_sats_per_plane: int = 0) -> np.ndarray:
     """Walker elements (n, 6) of a design, at most ``max_sats_per_plane`` per plane (0: all) at the design's slots."""
     a, e, aop, inc, n_planes, spp = design
-    el = WalkerDesign(a, e, inc, aop, int(n_planes), int(spp)).elements_deg()
+    el = WalkerDesign(a, e, aop, inc, int(n_planes), int(spp)).elements_deg()
     k = int(spp) if max_sats_per_plane <= 0 else min(int(spp), int(max_sats_per_plane))
     return el.reshape(int(n_planes), int(spp), 6)[:, :k].reshape(-1, 6)
 

@@ -39,21 +39,21 @@ __all__ = ["FAMILY_ECC", "FAMILY_INC_DEG", "frozen_family", "inertial_lunar_equa
 
 FAMILY_ECC = (0.4, 0.5, 0.6, 0.7)
 FAMILY_INC_DEG = (51.7, 54.0, 56.2, 60.0)
-TABLE_4 = (6143.0, 0.6, 51.7, 90.0)            # a_km, e, i, AOP of the standalone ELFO; planes at RAAN 0 and 180
+TABLE_4 = (6143.0, 0.6, 51.7, 90.0)            # sma_km, e, i, AOP of the standalone ELFO; planes at RAAN 0 and 180
 FROZEN_SWING = 0.03                            # e swing below which an orbit is called frozen (the box's old half-width)
 
 
-def frozen_family(model: FrozenModel, a_km) -> pd.DataFrame:
-    """Frozen i (deg) for each e of :data:`FAMILY_ECC` and frozen e for each i of :data:`FAMILY_INC_DEG`, against a_km.
+def frozen_family(model: FrozenModel, sma_km) -> pd.DataFrame:
+    """Frozen i (deg) for each e of :data:`FAMILY_ECC` and frozen e for each i of :data:`FAMILY_INC_DEG`, against sma_km.
 
-    Long table: ``a_km``, ``curve`` ("i at e = .." or "e at i = .."), ``inc_deg``, ``ecc``.
+    Long table: ``sma_km``, ``curve`` ("i at e = .." or "e at i = .."), ``inc_deg``, ``ecc``.
     """
     rows = []
-    for a in np.asarray(a_km, dtype=float):
+    for a in np.asarray(sma_km, dtype=float):
         for e in FAMILY_ECC:
-            rows.append({"a_km": a, "curve": f"i at e = {e:g}", "ecc": e, "inc_deg": frozen_inclination_deg(model, a, e)})
+            rows.append({"sma_km": a, "curve": f"i at e = {e:g}", "ecc": e, "inc_deg": frozen_inclination_deg(model, a, e)})
         for inc in FAMILY_INC_DEG:
-            rows.append({"a_km": a, "curve": f"e at i = {inc:g} deg", "inc_deg": inc, "ecc": frozen_eccentricity(model, a, inc)})
+            rows.append({"sma_km": a, "curve": f"e at i = {inc:g} deg", "inc_deg": inc, "ecc": frozen_eccentricity(model, a, inc)})
     return pd.DataFrame(rows)
 
 

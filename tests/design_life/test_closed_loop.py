@@ -173,8 +173,8 @@ def test_sampled_positions_agree_with_a_plain_propagation(life_profile, life_mod
     from lnss_lib.constellation import planes_elements_deg
     from lnss_lib.elements import elements_to_state
 
-    a_km, ecc = 6143.0, 0.6
-    el = planes_elements_deg(a_km, ecc, 51.7, 90.0, [0.0, 180.0], 1)
+    sma_km, ecc = 6143.0, 0.6
+    el = planes_elements_deg(sma_km, ecc, 51.7, 90.0, [0.0, 180.0], 1)
     step_s, life = 6 * 3600.0, 10.0
     ds = simulate_life(life_profile, el, natural=True, life_days=life, model=life_model, sample_step_s=step_s)
     t0 = ds.attrs["t0_tdb_s"]
@@ -196,7 +196,7 @@ def test_sampled_positions_agree_with_a_plain_propagation(life_profile, life_mod
     err_sampled = np.linalg.norm(ds.r_mci_km.values - tight, axis=-1)
     assert np.all(np.isfinite(err_sampled)) and err_sampled.max() <= 2.0 * envelope_km, (err_sampled.max(), envelope_km)
     gm = life_profile["gravity"]["gm_km3_s2"]
-    v_apolune_kms = np.linalg.norm(elements_to_state(np.array([a_km, ecc, 0.0, 0.0, 0.0, np.pi]), gm)[3:])
+    v_apolune_kms = np.linalg.norm(elements_to_state(np.array([sma_km, ecc, 0.0, 0.0, 0.0, np.pi]), gm)[3:])
     assert 2.0 * envelope_km < 5.0 * v_apolune_kms, (envelope_km, v_apolune_kms)
     assert np.linalg.norm(tight - r["_tighter"], axis=-1).max() < 0.1 * envelope_km
     with pytest.raises(ValueError, match="sample_step_s"):
@@ -243,7 +243,7 @@ def test_box_never_flies_past_the_deltav_cap():
                                                "frames": {"element_frame": "moon_op"}})
     from lnss_lib.constellation import WalkerDesign
 
-    ds = simulate_life(profile, WalkerDesign(24000.0, 0.2, 90.0, 75.0, 2, 1).elements_deg(), life_days=80.0)
+    ds = simulate_life(profile, WalkerDesign(24000.0, 0.2, 75.0, 90.0, 2, 1).elements_deg(), life_days=80.0)
     cap_kms = ds.attrs["dv_cap_kms_per_year"] * 80.0 / 365.25
     assert ds["n_maneuvers"].values.min() > 0
     assert np.all(ds["dv_total_kms"].values <= cap_kms * (1.0 + 1e-12))

@@ -62,7 +62,7 @@ def test_evaluate_prints_reason_of_infeasible_design(capsys):
 def sampled_life(ci_profile, epoch_tdb_s):
     """A stand-in for a sampled simulate_life Dataset: 2 ELFO satellites over 3 days at 900 s, satellite 1 'lost' on day 2."""
     t0 = epoch_tdb_s
-    el = WalkerDesign(6143.0, 0.6, 51.7, 90.0, 2, 1).elements_deg()
+    el = WalkerDesign(6143.0, 0.6, 90.0, 51.7, 2, 1).elements_deg()
     ds = propagate_states(ci_profile, elements_deg_to_states(ci_profile, el, t0), t0, 3 * SECONDS_PER_DAY, 900.0,
                           batch=True)
     t = ds["time"].values

@@ -75,7 +75,7 @@ def test_settings_reject_unknown_keys_and_bad_values(paper_profile):
 
 
 def test_planes_are_integrated_once(paper_profile):
-    ds = st.screen_elements(paper_profile, WalkerDesign(6143.0, 0.6, 51.7, 90.0, 4, 5).elements_deg(), life_days=30.0)
+    ds = st.screen_elements(paper_profile, WalkerDesign(6143.0, 0.6, 90.0, 51.7, 4, 5).elements_deg(), life_days=30.0)
     assert ds.attrs["n_orbits"] == 4 and ds.sizes["sat"] == 20
     np.testing.assert_array_equal(ds.ecc.values[0], ds.ecc.values[4])
 
@@ -89,7 +89,7 @@ def test_screen_agrees_with_the_full_model_on_a_stable_and_an_impacting_design(p
     assert screen.attrs["stable"] and ref["stable"]
     np.testing.assert_allclose(screen.min_perilune_alt_km.values, ref["min_perilune_alt_km"], atol=150.0)
     # impacting: a = 18000 km, i = 80 deg, 3 planes: Lidov-Kozai drives every perilune into the surface
-    high = WalkerDesign(18000.0, 0.4, 80.0, 90.0, 3, 1).elements_deg()
+    high = WalkerDesign(18000.0, 0.4, 90.0, 80.0, 3, 1).elements_deg()
     screen = st.screen_elements(paper_profile, high, life_days=60.0)
     ref = st.propagated_perilune(paper_profile, high, 60.0, degree=8)
     assert not screen.attrs["stable"] and not ref["stable"]

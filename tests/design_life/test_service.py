@@ -80,7 +80,7 @@ def test_deltav_split_adds_up_to_the_total(driven_down):
 def test_a_design_the_trim_cannot_hold_completes(profile, model, controller):
     """Near-circular orbits whose first-orbit mean e is larger than the design's: the insertion trim once stepped
     to e < 0 and stopped the evaluation ("eccentricity must be in [0, 1)"); now every satellite is flown."""
-    el = WalkerDesign(11925.0, 0.005, 23.6, 152.0, 3, 1).elements_deg()
+    el = WalkerDesign(11925.0, 0.005, 152.0, 23.6, 3, 1).elements_deg()
     ds = simulate_life(profile, el, model=model, settings=LifeSettings.from_profile(profile, life_days=20.0,
                                                                                     controller=controller))
     assert ds.sizes["sat"] == 3 and np.all(np.isfinite(ds["dv_kms_per_year"].values))
@@ -131,7 +131,7 @@ def test_relative_node_is_held_as_the_tilt_of_the_plane(profile, inc_deg, tol_de
     days its mean relative RAAN runs past a 2 deg tolerance (the RAAN rule burned there), but at i = 1 deg no node
     tilts the plane by 2 deg, so the node is left free; the same design polar, with a tolerance that its few
     hundredths of a degree of relative RAAN exceed, is held."""
-    el = WalkerDesign(5000.0, 0.05, inc_deg, 180.0, 2, 1).elements_deg()
+    el = WalkerDesign(5000.0, 0.05, 180.0, inc_deg, 2, 1).elements_deg()
     prof = load_settings("paper", overrides={"gravity": {"degree": 8},
                                             "design_life": {"service": {"raan_rel_deg": tol_deg}}})
     ds = simulate_life(prof, el, life_days=16.0)
@@ -161,7 +161,7 @@ def test_box_that_drives_satellites_out_of_lunar_orbit_reports_them_and_complete
     controller of issue 11, whose burns unbind two of the orbits): the planner was handed hyperbolic elements
     and the evaluation stopped ("elements must be 6 finite values"); now every loss is reported with its day
     and cause and the others fly on."""
-    el = WalkerDesign(15940.0, 0.734, 62.1, 180.0, 3, 1).elements_deg()
+    el = WalkerDesign(15940.0, 0.734, 180.0, 62.1, 3, 1).elements_deg()
     ds = simulate_life(paper_profile, el, settings=LifeSettings.from_profile(paper_profile, life_days=365.0,
                                                                              controller="box"))
     causes = [str(c) for c in ds["loss_cause"].values]
