@@ -4,7 +4,7 @@
   constellation's Keplerian elements are given (lunar equator of epoch, J2000, or the Moon
   orbital-plane frame ``moon_op`` of Ely 2005 / LuPNT).
 * **Moon-fixed rotation** (:func:`rotate_to_moon_fixed`, :func:`rotate_with`): Moon-centred J2000
-  to the profile's ``frames.moon_fixed`` frame through SPICE.
+  to the ``frames.moon_fixed`` frame through SPICE.
 * **RTN** (:func:`rtn_basis`, :func:`to_rtn`, :func:`from_rtn`): radial, transverse, normal axes
   of an orbit state (the axes of the Gauss equations, :mod:`lnss_lib.gve`).
 * **Time scales and TEME -> J2000** (paper Section 2.2, for SGP4's GPS states): SGP4 gives positions

@@ -21,7 +21,8 @@ def test_arcs_split_at_the_join(arcs):
 def test_first_arc_with_nominal_srp_within_3_km(paper_profile, arcs):
     arc = propagate_arc(paper_profile.dynamics, paper_profile.validation.capstone, arcs[0], srp_cr_area_mass_m2_kg=0.04)
     assert arc.pos_error_km.values[-1] <= 3.0
-    no_srp = propagate_arc(paper_profile.dynamics, paper_profile.validation.capstone, arcs[0], srp_cr_area_mass_m2_kg=0.0)
+    no_srp = propagate_arc(paper_profile.dynamics, paper_profile.validation.capstone, arcs[0],
+                           srp_cr_area_mass_m2_kg=0.0)
     assert no_srp.pos_error_km.values[-1] > 2 * arc.pos_error_km.values[-1]
 
 
@@ -67,7 +68,8 @@ def test_variant_differences_zero_for_the_same_model_and_not_for_another(paper_p
 
     dynamics = paper_profile.dynamics
     state = elements_deg_to_states(dynamics, [[6143.0, 0.6, 51.7, 0.0, 90.0, 0.0]], epoch_tdb_s)[0]
-    variants = {"same": dynamics, "no Earth": paper_profile.with_overrides(without_term(paper_profile.forces, "EARTH")).dynamics}
+    no_earth = paper_profile.with_overrides(without_term(paper_profile.forces, "EARTH")).dynamics
+    variants = {"same": dynamics, "no Earth": no_earth}
     diff = variant_differences(dynamics, state, epoch_tdb_s, 7200.0, 900.0, variants).difference_km
     assert np.all(diff.sel(variant="same").values == 0.0)
     assert diff.sel(variant="no Earth").values[-1] > 1e-6

@@ -28,7 +28,8 @@ REFERENCE = ("DOP853", 1e-12, 1e-14)
 
 def _with_setting(settings: Settings, method: str, rtol: float, atol: float) -> Dynamics:
     """The dynamics of ``settings`` with an integrator setting "candidate" (method, rtol, atol)."""
-    return settings.with_overrides({"integrator": {"settings": {"candidate": {"method": method, "rtol": rtol, "atol": atol}}}}).dynamics
+    candidate = {"method": method, "rtol": rtol, "atol": atol}
+    return settings.with_overrides({"integrator": {"settings": {"candidate": candidate}}}).dynamics
 
 
 def candidate_table(settings: Settings, days: float = 10.0) -> list[dict]:
