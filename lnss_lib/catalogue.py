@@ -295,8 +295,8 @@ def _states_at(profile: dict, c: CatalogueConstellation, t0_tdb_s: float, source
 
     frame = FILE_FRAMES[c.element_frame]
     framed = profile.with_overrides({"frames": {"element_frame": frame}})
-    states = elements_deg_to_states(framed, c.elements_deg, t0_tdb_s)
-    rot = element_frame_to_j2000(framed, t0_tdb_s, frame)
+    states = elements_deg_to_states(framed.dynamics, c.elements_deg, t0_tdb_s)
+    rot = element_frame_to_j2000(framed.dynamics, t0_tdb_s, frame)
     return CatalogueStates(states, float(t0_tdb_s), tdb_iso(t0_tdb_s), source, c.element_frame, rot)
 
 
@@ -317,7 +317,7 @@ def constellation_states_mci(profile: dict, c: CatalogueConstellation, epoch: st
     if epoch not in EPOCH_CHOICES:
         raise ValueError(f"epoch must be one of {', '.join(EPOCH_CHOICES)}; got {epoch!r}")
     refuse_approximate(c)
-    ensure_kernels(profile)
+    ensure_kernels(profile.ephemeris)
     t0 = _file_epoch_tdb_s(c) if epoch == "file" else tdb_seconds(profile["epoch"]["start_tdb"], "TDB")
     return _states_at(profile, c, t0, _epoch_source(c, epoch))
 
@@ -328,7 +328,7 @@ def file_epoch_profile(profile: dict, c: CatalogueConstellation) -> dict:
     The GPS constellation is still the profile's TLE set propagated by SGP4 to that epoch: its
     metrics mean little far from the TLE epoch (see params/data/README.md).
     """
-    ensure_kernels(profile)
+    ensure_kernels(profile.ephemeris)
     return profile.with_overrides({"epoch": {"start_tdb": tdb_iso(_file_epoch_tdb_s(c))}})
 
 

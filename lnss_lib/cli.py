@@ -91,7 +91,7 @@ def design_life_cli(profile_name: str, life_days: float, *, walker: tuple | None
     else:
         try:
             elements = WalkerDesign(*walker).elements_deg()
-            elements_deg_to_states(profile, elements, tdb_seconds(profile["epoch"]["start_tdb"], "TDB"))
+            elements_deg_to_states(profile.dynamics, elements, tdb_seconds(profile["epoch"]["start_tdb"], "TDB"))
         except InfeasibleDesignError:
             return {key: None for key in LIFE_KEYS}
     result = evaluate_design_life(context_for(profile), elements, float(life_days))

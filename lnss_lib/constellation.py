@@ -173,6 +173,6 @@ def two_body_positions_mci(profile: dict, elements_deg, t_tdb_s) -> np.ndarray:
     el = explicit_constellation(profile, elements_deg)
     times = np.atleast_1d(np.asarray(t_tdb_s, dtype=float))
     el_rad = np.concatenate([el[:, :2], np.radians(el[:, 2:])], axis=1)
-    ensure_kernels(profile)
-    rot = element_frame_to_j2000(profile, float(times[0]))
+    ensure_kernels(profile.ephemeris)
+    rot = element_frame_to_j2000(profile.dynamics, float(times[0]))
     return kepler_states(el_rad, times - times[0], float(profile["gravity"]["gm_km3_s2"]))[..., :3] @ rot.T

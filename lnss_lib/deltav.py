@@ -379,7 +379,7 @@ def perturbing_acceleration_rtn(profile: dict, t_tdb_s: np.ndarray, states_mci: 
     """The force model's non-Keplerian acceleration (n, 3) in RTN (km/s^2): all terms but ``central``."""
     from .forces import acceleration_breakdown
 
-    terms = acceleration_breakdown(profile, t_tdb_s, states_mci, degree=degree)
+    terms = acceleration_breakdown(profile.dynamics, t_tdb_s, states_mci, degree=degree)
     perturbing = sum(value for key, value in terms.items() if key != "central")
     return to_rtn(perturbing, states_mci)
 
@@ -405,7 +405,7 @@ def deltav_from_propagation(profile: dict, ds: xr.Dataset, sat: int = 0, model: 
     if not np.all(np.isfinite(states)):
         raise ValueError(f"satellite {sat} has non-finite states (impact or failed propagation); no Delta-V")
     gm = float(profile["gravity"]["gm_km3_s2"])
-    rot = element_frame_to_j2000(profile, float(t[0]), cfg["element_frame"])
+    rot = element_frame_to_j2000(profile.dynamics, float(t[0]), cfg["element_frame"])
     res = deltav_arrays(t, _rotate_states(states, rot), gm, {k: v for k, v in cfg.items() if k != "model"})
     el, rates = res["elements"], res["rates"]
     osc = list(OSCULATING_MODELS)
@@ -461,7 +461,7 @@ def deltav_per_satellite(profile: dict, ds: xr.Dataset, model: str | None = None
     total = np.full((states.shape[0], len(MODELS)), np.nan)
     opt = np.full_like(total, np.nan)
     if np.any(finite):
-        rot = element_frame_to_j2000(profile, float(t[0]), cfg["element_frame"])
+        rot = element_frame_to_j2000(profile.dynamics, float(t[0]), cfg["element_frame"])
         res = deltav_arrays(t, _rotate_states(states[finite], rot), gm, {k: v for k, v in cfg.items() if k != "model"})
         total[finite] = np.stack([res["dv_total"][m] for m in MODELS], axis=-1)
         opt[finite] = np.stack([res["dv_opt"][m] for m in MODELS], axis=-1)

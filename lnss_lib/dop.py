@@ -455,7 +455,7 @@ def dop_from_propagation(profile: dict, ds: xr.Dataset, *, los_axes: str | None 
     """
     r_mci = ds["r_mci_km"].transpose("sat", "time", "xyz").values
     times = ds["time"].values.astype(float)
-    return dop_for_profile(profile, rotate_to_moon_fixed(profile, r_mci, times), times,
+    return dop_for_profile(profile, rotate_to_moon_fixed(profile.dynamics, r_mci, times), times,
                            los_axes=los_axes, grid=grid)
 
 

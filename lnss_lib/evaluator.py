@@ -62,12 +62,12 @@ class EvaluationContext:
             sk_estimate.sk_estimate_settings(profile)
         if any(k.startswith(("stable", "screen")) for k in extras):
             stability.stability_settings(profile)
-        ensure_kernels(profile)
+        ensure_kernels(profile.ephemeris)
         epoch = profile["epoch"]
         t0 = tdb_seconds(epoch["start_tdb"], "TDB")
         times = output_times(t0, epoch["duration_days"] * SECONDS_PER_DAY, epoch["step_s"])
-        table = EphemerisTable.build(profile, t0, float(times[-1]))
-        model = ForceModel.from_profile(profile, table)
+        table = EphemerisTable.build(profile.dynamics, t0, float(times[-1]))
+        model = ForceModel.build(profile.dynamics, table)
         rot = rotation("J2000", profile["frames"]["moon_fixed"], times)
         return cls(profile, t0, times, model, rot, dop.grid_from_profile(profile), gps.gps_states_mci(profile, times),
                    extras)
@@ -99,7 +99,7 @@ def analyse_constellation(context: EvaluationContext, elements_deg) -> dict:
     :class:`~lnss_lib.propagator.ImpactError` for an orbit that hits the Moon.
     """
     elements = np.atleast_2d(np.asarray(elements_deg, dtype=float))
-    return analyse_states(context, elements, elements_deg_to_states(context.profile, elements, context.t0_tdb_s))
+    return analyse_states(context, elements, elements_deg_to_states(context.profile.dynamics, elements, context.t0_tdb_s))
 
 
 def analyse_states(context: EvaluationContext, elements: np.ndarray, states: np.ndarray,
@@ -111,7 +111,7 @@ def analyse_states(context: EvaluationContext, elements: np.ndarray, states: np.
     profile = context.profile
     times = context.times
     clock = [time.perf_counter()]
-    ds = propagate_states(profile, states, context.t0_tdb_s, float(times[-1] - times[0]), profile["epoch"]["step_s"],
+    ds = propagate_states(profile.dynamics, states, context.t0_tdb_s, float(times[-1] - times[0]), profile["epoch"]["step_s"],
                           batch=True, model=context.model)
     if bool(ds.impact.any()):
         first = int(np.argmax(ds.impact.values))
@@ -213,7 +213,7 @@ def evaluate_constellation(context: EvaluationContext, elements_deg) -> dict:
     n_sat = elements.shape[0]
     model_name = deltav.deltav_settings(context.profile)["model"]
     try:
-        states = elements_deg_to_states(context.profile, elements, context.t0_tdb_s)
+        states = elements_deg_to_states(context.profile.dynamics, elements, context.t0_tdb_s)
     except InfeasibleDesignError as error:
         return _infeasible(n_sat, f"invalid elements: {error}", model_name, start, context.extra_metrics)
     try:

@@ -67,7 +67,7 @@ def gps_states_mci(profile: dict, t_tdb_s, *, tle_path: str | Path | None = None
     stay at t: a GPS phase (along-track) error, to test how much the back-propagation matters.
     Results are cached per (file, exclusions, epochs, offset): compute once, reuse across designs.
     """
-    ensure_kernels(profile)
+    ensure_kernels(profile.ephemeris)
     t = np.atleast_1d(np.asarray(t_tdb_s, dtype=float))
     cfg = profile["gps"]
     path = Path(tle_path) if tle_path is not None else data_path(cfg["tle_file"])

@@ -114,8 +114,8 @@ def test_true_anomaly_becomes_mean_anomaly(paper_profile):
 def test_user_file_in_a_workbook_frame_gives_the_walker_states_exactly(paper_profile, tmp_path, frame):
     c = load_constellation(_user_file(tmp_path / "walker.toml", WALKER.elements_deg(), frame), paper_profile)
     s = constellation_states_mci(paper_profile, c)
-    profile = {**paper_profile, "frames": {**paper_profile["frames"], "element_frame": frame}}
-    assert np.array_equal(s.states_mci, elements_deg_to_states(profile, WALKER.elements_deg(), s.t_epoch_tdb_s))
+    profile = paper_profile.with_overrides({"frames": {"element_frame": frame}})
+    assert np.array_equal(s.states_mci, elements_deg_to_states(profile.dynamics, WALKER.elements_deg(), s.t_epoch_tdb_s))
 
 
 @pytest.fixture(scope="module")

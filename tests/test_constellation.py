@@ -96,7 +96,7 @@ def test_explicit_constellation_wraps_angles(profile):
 def test_two_body_positions_follow_kepler(profile):
     from lnss_lib.ephemeris import ensure_kernels, tdb_seconds
 
-    ensure_kernels(profile)
+    ensure_kernels(profile.ephemeris)
     el = walker_design(profile, 6143.0, 0.6, 90.0, 51.7, 2, 2).elements_deg()
     gm = profile["gravity"]["gm_km3_s2"]
     period_s = 2.0 * np.pi * np.sqrt(6143.0**3 / gm)

@@ -181,8 +181,8 @@ def test_lsq_recovers_the_force_model_perturbation():
     from lnss_lib.propagator import propagate_elements
 
     profile = load_settings("ci")
-    ensure_kernels(profile)
-    ds = propagate_elements(profile, [[6143.0, 0.6, 51.7, 0.0, 90.0, 0.0]], duration_s=86400.0, step_s=300.0,
+    ensure_kernels(profile.ephemeris)
+    ds = propagate_elements(profile.dynamics, profile.epoch, [[6143.0, 0.6, 51.7, 0.0, 90.0, 0.0]], duration_s=86400.0, step_s=300.0,
                             setting="converged")
     t = ds["time"].values
     states = np.concatenate([ds["r_mci_km"].values[0], ds["v_mci_kms"].values[0]], axis=-1)

@@ -205,7 +205,7 @@ def test_dop_from_propagation_rotates_to_moon_fixed():
     from lnss_lib.ephemeris import ensure_kernels, rotation, tdb_seconds
 
     profile = load_settings("ci")
-    ensure_kernels(profile)
+    ensure_kernels(profile.ephemeris)
     times = tdb_seconds(profile["epoch"]["start_tdb"]) + 3600.0 * np.arange(4)
     rng = np.random.default_rng(3)
     r_mf = rng.normal(size=(8, 4, 3))

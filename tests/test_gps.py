@@ -180,7 +180,7 @@ def test_campaign_link_metrics_equal_the_dataset_summary():
 
     context = context_for(load_settings("ci"))
     elements = WalkerDesign(6143.0, 0.6, 90.0, 51.7, 2, 2).elements_deg()
-    ds = analyse_states(context, elements, elements_deg_to_states(context.profile, elements, context.t0_tdb_s))[
+    ds = analyse_states(context, elements, elements_deg_to_states(context.profile.dynamics, elements, context.t0_tdb_s))[
         "propagation"]
     reference = gps_link_summary(gps_link(context.profile, context.gps_states, ds, sats="first"))
     for _ in range(2):                                   # second call: cached gain pattern and GPS arrays

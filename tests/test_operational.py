@@ -49,7 +49,7 @@ def test_deltav_satellites_first_is_satellite_zero_and_all_is_the_mean(extra_con
 
     profile = extra_context.profile
     elements = WalkerDesign(6143.0, 0.6, 90.0, 51.7, 2, 2).elements_deg()
-    out = analyse_states(extra_context, elements, elements_deg_to_states(profile, elements, extra_context.t0_tdb_s))
+    out = analyse_states(extra_context, elements, elements_deg_to_states(profile.dynamics, elements, extra_context.t0_tdb_s))
     per_sat = deltav.deltav_per_satellite(profile, out["propagation"]).sel(model_all=profile["deltav"]["model"])
     metrics = out["metrics"]
     assert metrics["dv_total_kms_per_year"] == pytest.approx(float(per_sat.dv_total_kms_per_year.mean()))

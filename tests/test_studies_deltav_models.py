@@ -99,7 +99,7 @@ def test_recovery_sampling_and_frame_tables_on_the_elfo():
     from lnss_lib.propagator import propagate_elements
 
     profile = load_settings("ci")
-    ensure_kernels(profile)
+    ensure_kernels(profile.ephemeris)
     first = [[6143.0, 0.6, 51.7, 0.0, 90.0, 0.0]]
     table, data = dm.lsq_recovery_study(profile, first, [300.0], integrators=("converged",))
     row = table.loc[("converged", 300.0)]
@@ -110,7 +110,7 @@ def test_recovery_sampling_and_frame_tables_on_the_elfo():
     sampling = dm.sampling_sweep(profile, first, (300.0, 900.0), integrators=("converged",))
     assert sampling.loc[("converged", 300.0), "lsq total"] == pytest.approx(row["dv lsq"], rel=1e-12)
     assert sampling.loc[("converged", 900.0), "lsq total"] == pytest.approx(row["dv truth (km/s/yr)"], rel=0.1)
-    ds = propagate_elements(profile, first)
+    ds = propagate_elements(profile.dynamics, profile.epoch, first)
     frames = dm.element_frame_table(profile, ds)
     assert frames.index.tolist() == list(ELEMENT_FRAMES)
     assert frames.loc["j2000", "lsq total"] == pytest.approx(frames.loc["lunar_equator_of_epoch", "lsq total"], rel=1e-6)

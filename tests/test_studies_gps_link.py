@@ -112,7 +112,7 @@ def elfo_link(profile):
     from lnss_lib.propagator import propagate_elements
 
     elements = standalone_elfo(profile)[:1]
-    prop = propagate_elements(profile, elements)
+    prop = propagate_elements(profile.dynamics, profile.epoch, elements)
     return elements, prop, gps.gps_states_mci(profile, prop["time"].values)
 
 

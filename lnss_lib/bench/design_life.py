@@ -24,15 +24,15 @@ from ..design_life.closed_loop import LifeSettings, life_force_model, simulate_l
 
 def run(profile_name: str = "paper", overrides: dict | None = None) -> None:
     profile = load_settings(profile_name, overrides=overrides)
-    ensure_kernels(profile)
+    ensure_kernels(profile.ephemeris)
     settings = LifeSettings.from_profile(profile)
     el = standalone_elfo(profile)
     t0 = tdb_seconds(profile["epoch"]["start_tdb"], "TDB")
-    states = elements_deg_to_states(profile, el, t0)
+    states = elements_deg_to_states(profile.dynamics, el, t0)
     print(f"standalone ELFO, {el.shape[0]} satellites, profile {profile_name}, design life {settings.life_days:g} days")
 
     start = time.perf_counter()
-    arc = propagate_states(profile, states, t0, float(profile["epoch"]["duration_days"]) * SECONDS_PER_DAY,
+    arc = propagate_states(profile.dynamics, states, t0, float(profile["epoch"]["duration_days"]) * SECONDS_PER_DAY,
                            float(profile["epoch"]["step_s"]), batch=True)
     arc_s = time.perf_counter() - start
     estimate = [sk_estimate_from_propagation(profile, arc) for _ in range(3)]

@@ -159,10 +159,10 @@ def simulate_life(profile: dict, elements_deg, *, natural: bool = False, life_da
     metrics over the design life. Raises ``ValueError`` for invalid elements or sample step.
     """
     cfg = settings or LifeSettings.from_profile(profile, life_days=life_days)
-    ensure_kernels(profile)
+    ensure_kernels(profile.ephemeris)
     el = np.atleast_2d(np.asarray(elements_deg, dtype=float))
     t0 = tdb_seconds(profile["epoch"]["start_tdb"], "TDB") if t0_tdb_s is None else float(t0_tdb_s)
-    elements_deg_to_states(profile, el, t0)
+    elements_deg_to_states(profile.dynamics, el, t0)
     gm = float(profile["gravity"]["gm_km3_s2"])
     life_s = cfg.life_days * SECONDS_PER_DAY
     if model is None:
@@ -172,8 +172,8 @@ def simulate_life(profile: dict, elements_deg, *, natural: bool = False, life_da
     integ = profile.integrator.named(cfg.integrator_setting)
     el_insert, trim_resid = (trim_to_mean(profile, el, t0, model, integ, samples_per_orbit=cfg.samples_per_orbit)
                              if cfg.initial_trim else (el.copy(), np.full_like(el, np.nan)))
-    states = elements_deg_to_states(profile, el_insert, t0)
-    rot = element_frame_to_j2000(profile, t0)
+    states = elements_deg_to_states(profile.dynamics, el_insert, t0)
+    rot = element_frame_to_j2000(profile.dynamics, t0)
     r_min = profile["constants"]["r_moon_mean_km"] + profile["impact"]["min_altitude_km"]
 
     n_sat = el.shape[0]
@@ -589,14 +589,14 @@ def integrator_convergence(profile: dict, elements_deg, *, life_days: float = 36
 
     ref = reference or {"method": "DOP853", "rtol": 1e-12, "atol": 1e-14}
     prof = profile.with_overrides({"integrator": {"settings": {"_reference": ref}}})
-    ensure_kernels(prof)
+    ensure_kernels(prof.ephemeris)
     t0 = tdb_seconds(prof["epoch"]["start_tdb"], "TDB")
     el = np.atleast_2d(np.asarray(elements_deg, dtype=float))
-    states = elements_deg_to_states(prof, el, t0)
+    states = elements_deg_to_states(prof.dynamics, el, t0)
     model = life_force_model(prof, t0, life_days, degree)
     runs = {}
     for name in (*settings, "_reference"):
-        runs[name] = propagate_states(prof, states, t0, life_days * SECONDS_PER_DAY, step_days * SECONDS_PER_DAY,
+        runs[name] = propagate_states(prof.dynamics, states, t0, life_days * SECONDS_PER_DAY, step_days * SECONDS_PER_DAY,
                                       batch=True, model=model, setting=name)
     r_ref = runs["_reference"].r_mci_km.values
     diff = np.stack([np.linalg.norm(runs[s].r_mci_km.values - r_ref, axis=-1) for s in settings])

@@ -172,7 +172,7 @@ def sk_estimate_from_propagation(profile: dict, ds: xr.Dataset, **overrides) -> 
     cfg = sk_estimate_settings(profile, **overrides)
     t = ds["time"].values.astype(float)
     states = np.concatenate([ds["r_mci_km"].values, ds["v_mci_kms"].values], axis=-1)
-    rot = element_frame_to_j2000(profile, float(t[0]), cfg["element_frame"])
+    rot = element_frame_to_j2000(profile.dynamics, float(t[0]), cfg["element_frame"])
     states = np.concatenate([states[..., :3] @ rot, states[..., 3:] @ rot], axis=-1)
     gm = float(profile["gravity"]["gm_km3_s2"])
     parts = sk_estimate_arrays(mean_drift(t, states, gm, float(cfg["min_periods"])), gm, float(cfg["year_days"]),

@@ -89,7 +89,7 @@ def run_design_life(profile: dict, elements_deg, life_days: float | None = None,
     ``[life_evaluation] sample_step_s``; none with ``sample=False``). Returns ``{"controlled": ds[, "natural": ds]}`` of
     :func:`lnss_lib.design_life.closed_loop.simulate_life` Datasets.
     """
-    ensure_kernels(profile)
+    ensure_kernels(profile.ephemeris)
     settings = LifeSettings.from_profile(profile, life_days=life_days)
     step = life_evaluation_settings(profile)["sample_step_s"] if sample_step_s is None else float(sample_step_s)
     step = step if sample else None
@@ -139,7 +139,7 @@ def life_navigation(profile: dict, life_ds, *, month_days: float | None = None) 
         idx = np.flatnonzero(month == m)
         for k, ds in enumerate(runs.values()):
             r_mci = ds["r_mci_km"].transpose("sat", "sample", "xyz").values[:, idx]
-            summary = summary_from_profile(profile, dop_for_profile(profile, rotate_to_moon_fixed(profile, r_mci, t[idx]),
+            summary = summary_from_profile(profile, dop_for_profile(profile, rotate_to_moon_fixed(profile.dynamics, r_mci, t[idx]),
                                                                     t[idx], grid=grid))
             for key in NAVIGATION_KEYS:
                 stats[key][k, m] = summary[key]
@@ -215,9 +215,9 @@ def short_arc_predictors(context_or_profile, profile: dict, elements: np.ndarray
     stability screen for ``life_days``: ``sk_dv_estimate_kms_per_year``, ``stable_screen``,
     ``screen_min_perilune_alt_km``, ``screen_impact_day`` (None when none)."""
     t0 = tdb_seconds(profile["epoch"]["start_tdb"], "TDB")
-    states = elements_deg_to_states(profile, elements, t0)
+    states = elements_deg_to_states(profile.dynamics, elements, t0)
     model = None if isinstance(context_or_profile, Mapping) else context_or_profile.model
-    arc = propagate_states(profile, states, t0, float(profile["epoch"]["duration_days"]) * SECONDS_PER_DAY,
+    arc = propagate_states(profile.dynamics, states, t0, float(profile["epoch"]["duration_days"]) * SECONDS_PER_DAY,
                            float(profile["epoch"]["step_s"]), batch=True, model=model)
     estimate = (float("nan") if bool(arc["impact"].any())
                 else sk_estimate_from_propagation(profile, arc)["sk_dv_estimate_kms_per_year"])
@@ -278,7 +278,7 @@ def elements_deg_in_frame(profile: dict, states_mci, t0_tdb_s: float) -> np.ndar
     from ..elements import state_to_elements
     from ..frames import element_frame_to_j2000
 
-    rot = element_frame_to_j2000(profile, float(t0_tdb_s))
+    rot = element_frame_to_j2000(profile.dynamics, float(t0_tdb_s))
     s = np.atleast_2d(np.asarray(states_mci, dtype=float))
     el = state_to_elements(np.concatenate([s[:, :3] @ rot, s[:, 3:] @ rot], axis=1), float(profile["gravity"]["gm_km3_s2"]))
     return np.column_stack([el[:, :2], np.degrees(el[:, 2:])])

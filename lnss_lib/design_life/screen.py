@@ -159,7 +159,7 @@ class SecularField:
                      settings: StabilitySettings | None = None) -> "SecularField":
         """T and k from SPICE over the design life (running one-month mean), J2 from the gravity file."""
         cfg = settings or stability_settings(profile)
-        ensure_kernels(profile)
+        ensure_kernels(profile.ephemeris)
         step, window = cfg.table_step_days, cfg.average_days
         half = int(np.ceil(0.5 * window / step))
         n_out = int(np.ceil(life_days / step)) + 1 if cfg.precession else 1
@@ -192,7 +192,7 @@ class SecularField:
 
 
 def _gravity_constants(profile: dict) -> tuple[float, float, float]:
-    field = GravityField.from_profile(profile, degree=2)
+    field = GravityField.from_settings(profile.gravity, degree=2)
     return field.gm_km3_s2, float(-field.cnm[2, 0] * np.sqrt(5.0)), field.r_ref_km
 
 
@@ -373,7 +373,7 @@ def screen_states(profile: dict, states_mci, t0_tdb_s: float, *, field: SecularF
                             method=cfg.method, rtol=cfg.rtol, atol=cfg.atol, output_step_days=cfg.output_step_days)
     inverse = np.asarray(inverse).ravel()
     e_hist, j_hist = res["e"][inverse], res["j"][inverse]
-    rot = element_frame_to_j2000(profile, float(t0_tdb_s)).T
+    rot = element_frame_to_j2000(profile.dynamics, float(t0_tdb_s)).T
     el = elements_from_vectors(e_hist, j_hist, rot)
     alt = a[:, None] * (1.0 - el["ecc"]) - r_moon
     impact_day = res["impact_day"][inverse]
@@ -396,9 +396,9 @@ def screen_elements(profile: dict, elements_deg, t0_tdb_s: float | None = None, 
     """:func:`screen_states` for elements (n, 6) [sma_km, e, i, RAAN, AOP, M] (deg) in the profile's element frame."""
     from ..propagator import elements_deg_to_states
 
-    ensure_kernels(profile)
+    ensure_kernels(profile.ephemeris)
     t0 = tdb_seconds(profile["epoch"]["start_tdb"], "TDB") if t0_tdb_s is None else float(t0_tdb_s)
-    return screen_states(profile, elements_deg_to_states(profile, elements_deg, t0), t0, **overrides)
+    return screen_states(profile, elements_deg_to_states(profile.dynamics, elements_deg, t0), t0, **overrides)
 
 
 _FIELDS: dict = {}
@@ -438,10 +438,10 @@ def propagated_perilune(profile: dict, elements_deg, life_days: float, *, settin
     from ..propagator import elements_deg_to_states, propagate_states
 
     start = time.perf_counter()
-    ensure_kernels(profile)
+    ensure_kernels(profile.ephemeris)
     t0 = tdb_seconds(profile["epoch"]["start_tdb"], "TDB")
-    states = elements_deg_to_states(profile, elements_deg, t0)
-    ds = propagate_states(profile, states, t0, life_days * SECONDS_PER_DAY, step_s, setting=setting, degree=degree,
+    states = elements_deg_to_states(profile.dynamics, elements_deg, t0)
+    ds = propagate_states(profile.dynamics, states, t0, life_days * SECONDS_PER_DAY, step_s, setting=setting, degree=degree,
                           batch=True)
     gm = float(profile["gravity"]["gm_km3_s2"])
     r_moon = float(profile["constants"]["r_moon_mean_km"])

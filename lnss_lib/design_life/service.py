@@ -218,7 +218,7 @@ class NavigationMonitor:
         if idx.size == 0:
             return
         tt = self.sample_t[idx]
-        r_mf = rotate_to_moon_fixed(self.profile, r_sample[:, idx], tt)
+        r_mf = rotate_to_moon_fixed(self.profile.dynamics, r_sample[:, idx], tt)
         summary = summary_from_profile(self.profile, dop_for_profile(self.profile, r_mf, tt, grid=self.grid))
         if self.baseline is None:
             self.baseline = summary

@@ -225,7 +225,7 @@ def _evaluate_entry(context, entry: Entry, masks) -> tuple[dict, dict | None]:
             states = study["states"].states_mci
         else:
             study = analyse_constellation(context, entry.elements_deg)
-            states = elements_deg_to_states(profile, entry.elements_deg, context.t0_tdb_s)
+            states = elements_deg_to_states(profile.dynamics, entry.elements_deg, context.t0_tdb_s)
     except ImpactError as error:
         row["status"] = f"{entry.note}; {error}"
         return row, None
@@ -455,7 +455,7 @@ def _moon_node_deg(t_tdb_s: float) -> float:
 
 def _epoch_states(profile: dict, name: str, t0: float) -> np.ndarray:
     if name == TABLE4_KEY:
-        return elements_deg_to_states(profile, standalone_elfo(profile), t0)
+        return elements_deg_to_states(profile.dynamics, standalone_elfo(profile), t0)
     return constellation_states_mci(profile, load_constellation(name, profile)).states_mci
 
 
@@ -475,17 +475,17 @@ def epoch_sensitivity(profile_name: str, *, epochs=None, names=None, overrides=N
     rows = []
     for epoch in epochs:
         profile = base.with_overrides({"epoch": {"start_tdb": epoch}})
-        ensure_kernels(profile)
+        ensure_kernels(profile.ephemeris)
         t0 = tdb_seconds(epoch, "TDB")
         duration = float(profile["epoch"]["duration_days"]) * SECONDS_PER_DAY
         for name in names:
             states = _epoch_states(profile, name, t0)
-            ds = propagate_states(profile, states, t0, duration, float(profile["epoch"]["step_s"]), batch=True)
+            ds = propagate_states(profile.dynamics, states, t0, duration, float(profile["epoch"]["step_s"]), batch=True)
             row = {"epoch_tdb": epoch, "year": 2000.0 + (t0 / SECONDS_PER_DAY) / DAYS_PER_JULIAN_YEAR, "moon_node_deg": _moon_node_deg(t0),
                    "constellation": name, "n_sat": states.shape[0], "impact": bool(ds.impact.any())}
             if not row["impact"]:
                 times = ds["time"].values.astype(float)
-                r_mf = rotate_to_moon_fixed(profile, ds["r_mci_km"].values, times)
+                r_mf = rotate_to_moon_fixed(profile.dynamics, ds["r_mci_km"].values, times)
                 for mask in [float(profile["dop"]["elevation_mask_deg"])] + [float(m) for m in cfg["extra_masks_deg"]]:
                     masked = profile.with_overrides({"dop": {"elevation_mask_deg": mask}})
                     summary = summary_from_profile(masked, dop_for_profile(masked, r_mf, times))

@@ -115,7 +115,7 @@ def lsq_recovery_study(profile: dict, elements_deg, steps_s, *, integrators=("pa
     rows, data = {}, {}
     for setting in integrators:
         for step in steps_s:
-            d = propagate_elements(profile, elements_deg, step_s=step, setting=setting)
+            d = propagate_elements(profile.dynamics, profile.epoch, elements_deg, step_s=step, setting=setting)
             t = d["time"].values
             rows[(setting, step)], truth, out = lsq_recovery(profile, t, dataset_states(d), settings)
             data[(setting, step)] = (t, truth, out)
@@ -133,7 +133,7 @@ def sampling_sweep(profile: dict, elements_deg, steps_s=(60.0, 300.0, 900.0, 180
     rows = []
     for setting in integrators:
         for step in steps_s:
-            d = propagate_elements(profile, elements_deg, step_s=step, setting=setting)
+            d = propagate_elements(profile.dynamics, profile.epoch, elements_deg, step_s=step, setting=setting)
             out = deltav_arrays(d["time"].values, dataset_states(d), gm, kernel_settings(settings))
             rows.append({"integrator": setting, "step_s": step, **budget_row(out)})
     return pd.DataFrame(rows).set_index(["integrator", "step_s"])

@@ -163,7 +163,7 @@ def element_frame_study(profile_name: str, elements_deg, *, frames=ELEMENT_FRAME
         if frame not in ELEMENT_FRAMES:
             raise ValueError(f"unknown element frame {frame!r}; allowed: {', '.join(ELEMENT_FRAMES)}")
     profiles = {frame: load_settings(profile_name, overrides={"frames": {"element_frame": frame}}) for frame in frames}
-    propagation = {frame: propagate_elements(profiles[frame], elements_deg) for frame in frames}
+    propagation = {frame: propagate_elements(profiles[frame].dynamics, profiles[frame].epoch, elements_deg) for frame in frames}
     dop = {(frame, axes): dop_from_propagation(profiles[frame], propagation[frame], los_axes=axes)
            for frame in frames for axes in los_axes}
     return FrameStudy(profile_name, np.asarray(elements_deg, dtype=float), profiles, propagation, dop,
@@ -179,7 +179,7 @@ def apolune_latitude_table(study: FrameStudy, sats_per_plane: int) -> pd.DataFra
     for frame, profile in study.profiles.items():
         t0 = float(study.propagation[frame]["time"].values[0])
         times = np.array([t0, t0 + 0.5 * orbital_period_s(el[0, 0], profile["gravity"]["gm_km3_s2"])])
-        r_mf = rotate_to_moon_fixed(profile, two_body_positions_mci(profile, el[leaders], times), times)[:, 1]
+        r_mf = rotate_to_moon_fixed(profile.dynamics, two_body_positions_mci(profile, el[leaders], times), times)[:, 1]
         lat = latitude_deg(r_mf)
         rows.append({"element frame": frame,
                      **{f"apolune latitude plane {k + 1} (deg)": lat[k] for k in range(len(leaders))}})
@@ -196,13 +196,13 @@ def frame_study_summaries(study: FrameStudy, default_frame: str = "lunar_equator
     base = study.profiles[default_frame]
     label = f"{default_frame} / {base['dop']['los_axes']}"
     times = study.propagation[study.frames[0]]["time"].values
-    r_two_body = rotate_to_moon_fixed(base, two_body_positions_mci(base, study.elements_deg, times), times)
+    r_two_body = rotate_to_moon_fixed(base.dynamics, two_body_positions_mci(base, study.elements_deg, times), times)
     out[f"{label}, two-body"] = summary_from_profile(base, dop_for_profile(base, r_two_body, times))
     weighted = load_settings(study.profile_name, overrides={"frames": {"element_frame": default_frame},
                                                            "dop": {"area_weighting": "cell_area"}})
     out[f"{label}, cell-area weighted"] = summary_from_profile(
         weighted, dop_from_propagation(weighted, study.propagation[default_frame], grid=grid_from_profile(weighted)))
-    converged = propagate_elements(base, study.elements_deg, setting="converged")
+    converged = propagate_elements(base.dynamics, base.epoch, study.elements_deg, setting="converged")
     out[f"{label}, converged integrator"] = summary_from_profile(base, dop_from_propagation(base, converged))
     return out
 
@@ -227,8 +227,8 @@ def degenerate_geometry_table(study: FrameStudy, sats_per_plane: int) -> pd.Data
         t = prop["time"].values
         r_mci = prop["r_mci_km"].transpose("sat", "time", "xyz").values
         v_mci = prop["v_mci_kms"].transpose("sat", "time", "xyz").values
-        r_mf = rotate_to_moon_fixed(profile, r_mci, t)
-        h_mf = rotate_to_moon_fixed(profile, np.cross(r_mci, v_mci), t)
+        r_mf = rotate_to_moon_fixed(profile.dynamics, r_mci, t)
+        h_mf = rotate_to_moon_fixed(profile.dynamics, np.cross(r_mci, v_mci), t)
         h_mf /= np.linalg.norm(h_mf, axis=-1, keepdims=True)
         counts, angle = plane_visibility(r_mf, h_mf, study.grid, float(profile["dop"]["elevation_mask_deg"]),
                                          sats_per_plane)

@@ -59,7 +59,7 @@ def frozen_family(model: FrozenModel, sma_km) -> pd.DataFrame:
 
 def inertial_lunar_equator(profile: dict, t_tdb_s: float) -> np.ndarray:
     """Rotation to J2000 of the lunar equator at t with x along the J2000 x-axis projected on it (RAAN origin fixed in space)."""
-    pole = element_frame_to_j2000(profile, t_tdb_s, "lunar_equator_of_epoch")[:, 2]
+    pole = element_frame_to_j2000(profile.dynamics, t_tdb_s, "lunar_equator_of_epoch")[:, 2]
     x = np.array([1.0, 0.0, 0.0]) - pole[0] * pole
     x /= np.linalg.norm(x)
     return np.column_stack([x, np.cross(pole, x), pole])
@@ -109,10 +109,10 @@ def published_orbits(profile: dict, designs: list[tuple[str, np.ndarray]] = ()) 
     distinct RAAN is kept) read in ``moon_op`` and in the lunar equator of the study epoch, and Ely's and Lunar
     Pathfinder's orbits (catalogue, ``moon_op``) at their file epoch and the study epoch, placed on the frozen
     family: :func:`orbit_rows` with ``orbit``, ``read_in``, ``epoch`` and ``verdict`` columns."""
-    ensure_kernels(profile)
+    ensure_kernels(profile.ephemeris)
     t0 = tdb_seconds(profile["epoch"]["start_tdb"], "TDB")
     field, model = _model_at(profile, t0)
-    frames = {"moon_op": mean_plane_axes(field, [0.0])[0], "lunar equator": element_frame_to_j2000(profile, t0, "lunar_equator_of_epoch")}
+    frames = {"moon_op": mean_plane_axes(field, [0.0])[0], "lunar equator": element_frame_to_j2000(profile.dynamics, t0, "lunar_equator_of_epoch")}
     entries = [("Table 4 ELFO", _walker_planes((TABLE_4[0], TABLE_4[1], TABLE_4[3], TABLE_4[2], 2)))]
     for label, elements in designs:
         el = np.atleast_2d(np.asarray(elements, dtype=float))
@@ -157,14 +157,14 @@ def epoch_swap(profile: dict, shifts_days, *, origin: str = "lunar_equator_of_ep
     ``inertial`` (from the J2000 x-axis projected on the lunar equator of the study epoch)."""
     if origin not in ("lunar_equator_of_epoch", "inertial"):
         raise ValueError(f"origin must be 'lunar_equator_of_epoch' or 'inertial'; got {origin!r}")
-    ensure_kernels(profile)
+    ensure_kernels(profile.ephemeris)
     t0 = tdb_seconds(profile["epoch"]["start_tdb"], "TDB")
     planes = _walker_planes((TABLE_4[0], TABLE_4[1], TABLE_4[3], TABLE_4[2], 2))
     rows = []
     for shift in np.atleast_1d(np.asarray(shifts_days, dtype=float)):
         t = t0 + shift * SECONDS_PER_DAY
         rot = inertial_lunar_equator(profile, t0) if origin == "inertial" else element_frame_to_j2000(
-            profile, t, "lunar_equator_of_epoch")
+            profile.dynamics, t, "lunar_equator_of_epoch")
         table = planes_in_moon_op(profile, t, rot, planes)
         for k, r in enumerate(table.itertuples()):
             rows.append({"shift_days": float(shift), "origin": origin, "plane": k + 1, "inc_op_deg": r.inc_op_deg,
@@ -184,7 +184,7 @@ def ely_natural(profile: dict, life_days: float, *, degree: int | None = None, s
     c = load_constellation("ely2005_elfo_3sat_phased", profile)
     fprof = file_epoch_profile(profile, c)
     cs = constellation_states_mci(profile, c, "file")
-    ds = propagate_states(fprof, cs.states_mci, cs.t_epoch_tdb_s, life_days * SECONDS_PER_DAY, step_s,
+    ds = propagate_states(fprof.dynamics, cs.states_mci, cs.t_epoch_tdb_s, life_days * SECONDS_PER_DAY, step_s,
                           setting="design_life", degree=degree, batch=True)
     gm = float(profile["gravity"]["gm_km3_s2"])
     r_moon = _r_moon(profile)

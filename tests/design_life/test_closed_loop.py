@@ -18,7 +18,7 @@ LIFE_DAYS = 60.0
 @pytest.fixture(scope="module")
 def life_profile():
     profile = load_settings("paper", overrides={"gravity": {"degree": 8}, "design_life": {"controller": "box"}})
-    ensure_kernels(profile)
+    ensure_kernels(profile.ephemeris)
     return profile
 
 
@@ -60,9 +60,9 @@ def test_impact_is_reported_with_its_day(life_profile, life_model):
     ds = simulate_life(life_profile, el, natural=True, life_days=LIFE_DAYS, model=life_model)
     assert bool(ds.impact[0]) and not bool(ds.box_held[0])
     t0 = ds.attrs["t0_tdb_s"]
-    states = elements_deg_to_states(life_profile, ds.insertion_elements_deg.values, t0)   # after the initial trim
+    states = elements_deg_to_states(life_profile.dynamics, ds.insertion_elements_deg.values, t0)   # after the initial trim
     with pytest.raises(ImpactError) as caught:
-        propagate_states(life_profile, states, t0, LIFE_DAYS * SECONDS_PER_DAY, 3600.0, model=life_model,
+        propagate_states(life_profile.dynamics, states, t0, LIFE_DAYS * SECONDS_PER_DAY, 3600.0, model=life_model,
                          setting="design_life")
     assert caught.value.sat == 0
     assert abs(float(ds.impact_day[0]) - caught.value.days) < 0.05
@@ -115,12 +115,12 @@ def test_initial_trim_matches_the_design_mean_a(life_profile, life_model):
     t0 = tdb_seconds(life_profile["epoch"]["start_tdb"], "TDB")
     gm = float(life_profile["gravity"]["gm_km3_s2"])
     period = float(orbital_period_s(6143.0, gm))
-    rot = element_frame_to_j2000(life_profile, t0)
+    rot = element_frame_to_j2000(life_profile.dynamics, t0)
     insert, resid = trim_to_mean(life_profile, el, t0, life_model, life_profile.integrator.named("design_life"))
     assert np.all(np.abs(resid[:, 0]) < 0.01)
 
     def first_orbit_mean_a(elements):
-        ds = propagate_states(life_profile, elements_deg_to_states(life_profile, elements, t0), t0, period,
+        ds = propagate_states(life_profile.dynamics, elements_deg_to_states(life_profile.dynamics, elements, t0), t0, period,
                               period / 128, batch=True, model=life_model, setting="design_life")
         states = np.concatenate([ds.r_mci_km.transpose("sat", "time", "xyz").values,
                                  ds.v_mci_kms.transpose("sat", "time", "xyz").values], axis=-1)
@@ -186,8 +186,8 @@ def test_sampled_positions_agree_with_a_plain_propagation(life_profile, life_mod
     references = {"_tight": {"method": "DOP853", "rtol": 1e-12, "atol": 1e-14},
                   "_tighter": {"method": "DOP853", "rtol": 1e-13, "atol": 1e-14}}
     prof = life_profile.with_overrides({"integrator": {"settings": {**ensemble, **references}}})
-    states = elements_deg_to_states(life_profile, ds.insertion_elements_deg.values, t0)   # after the initial trim
-    r = {name: propagate_states(prof, states, t0, life * SECONDS_PER_DAY, step_s, batch=True, model=life_model,
+    states = elements_deg_to_states(life_profile.dynamics, ds.insertion_elements_deg.values, t0)   # after the initial trim
+    r = {name: propagate_states(prof.dynamics, states, t0, life * SECONDS_PER_DAY, step_s, batch=True, model=life_model,
                                 setting=name).r_mci_km.transpose("sat", "time", "xyz").values
          for name in (*ensemble, *references)}
     tight = r["_tight"]

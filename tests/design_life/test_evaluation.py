@@ -63,8 +63,8 @@ def sampled_life(ci_profile, epoch_tdb_s):
     """A stand-in for a sampled simulate_life Dataset: 2 ELFO satellites over 3 days at 900 s, satellite 1 'lost' on day 2."""
     t0 = epoch_tdb_s
     el = WalkerDesign(6143.0, 0.6, 90.0, 51.7, 2, 1).elements_deg()
-    ds = propagate_states(ci_profile, elements_deg_to_states(ci_profile, el, t0), t0, 3 * SECONDS_PER_DAY, 900.0,
-                          batch=True)
+    ds = propagate_states(ci_profile.dynamics, elements_deg_to_states(ci_profile.dynamics, el, t0), t0,
+                          3 * SECONDS_PER_DAY, 900.0, batch=True)
     t = ds["time"].values
     r = ds["r_mci_km"].transpose("sat", "time", "xyz").values.copy()
     r[1, t - t0 > 2 * SECONDS_PER_DAY] = np.nan
@@ -83,13 +83,13 @@ def test_life_navigation_months_match_direct_dop_summary(ci_profile, sampled_lif
     for m, (lo, hi, closed) in enumerate(bounds):
         idx = np.flatnonzero((day >= lo - 1e-9) & ((day <= hi + 1e-9) if closed else (day < hi - 1e-9)))
         direct = summary_from_profile(ci_profile, dop_for_profile(ci_profile, rotate_to_moon_fixed(
-            ci_profile, r[:, idx], t[idx]), t[idx]))
+            ci_profile.dynamics, r[:, idx], t[idx]), t[idx]))
         for key in ("pdop_avail_pct", "hdop_avail_pct", "pdop_mean_3sigma", "hdop_mean_3sigma", "mean_visible_sats"):
             assert nav[key].sel(run="controlled", month=m).item() == pytest.approx(direct[key], rel=1e-12, nan_ok=True)
         assert nav["n_epochs"].sel(run="controlled", month=m).item() == idx.size
         total += idx.size
     assert total == t.size
-    whole = dop_summary(dop_for_profile(ci_profile, rotate_to_moon_fixed(ci_profile, r, t), t),
+    whole = dop_summary(dop_for_profile(ci_profile, rotate_to_moon_fixed(ci_profile.dynamics, r, t), t),
                         threshold=float(ci_profile["dop"]["availability_threshold"]))
     for key in ("pdop_avail_pct", "hdop_avail_pct"):
         assert life_availability(nav, "controlled", key) == pytest.approx(whole[key], rel=1e-12)

@@ -122,8 +122,8 @@ def test_a_frozen_and_a_librating_orbit_flown_a_year_with_the_full_model_stay_wi
     a, e = 6143.0, 0.6
     orbits = [(a, e, fz.frozen_inclination_deg(model, a, e), 90.0), (a, e, 45.0, 90.0)]
     profile = paper_profile.with_overrides({"frames": {"element_frame": "moon_op"}})
-    states = elements_deg_to_states(profile, [[a_, e_, i_, 0.0, w_, 0.0] for a_, e_, i_, w_ in orbits], epoch_tdb_s)
-    ds = propagate_states(paper_profile, states, epoch_tdb_s, 365.0 * 86400.0, 6 * 3600.0, setting="design_life",
+    states = elements_deg_to_states(profile.dynamics, [[a_, e_, i_, 0.0, w_, 0.0] for a_, e_, i_, w_ in orbits], epoch_tdb_s)
+    ds = propagate_states(paper_profile.dynamics, states, epoch_tdb_s, 365.0 * 86400.0, 6 * 3600.0, setting="design_life",
                           degree=8, batch=True)
     rot = fz.mean_plane_axes(field, (ds["time"].values - epoch_tdb_s) / 86400.0)
     for k, orbit in enumerate(orbits):

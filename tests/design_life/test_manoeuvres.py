@@ -95,8 +95,8 @@ def test_planned_manoeuvre_moves_the_mean_elements(ci_profile, epoch_tdb_s):
     from lnss_lib.design_life.propagation import integrate_chunk, life_force_model
 
     el_deg = np.array([[6143.0, 0.6, 51.7, 0.0, 90.0, 0.0]])
-    state = elements_deg_to_states(ci_profile, el_deg, epoch_tdb_s)
-    rot = element_frame_to_j2000(ci_profile, epoch_tdb_s)
+    state = elements_deg_to_states(ci_profile.dynamics, el_deg, epoch_tdb_s)
+    rot = element_frame_to_j2000(ci_profile.dynamics, epoch_tdb_s)
     osc = state_to_elements(to_element_frame(state[0], rot), GM)
     target = {"ex": 2e-3, "ey": -3e-3, "inc_rad": np.radians(0.2), "raan_rad": np.radians(0.2), "a_km": 0.0}
     plan = plan_impulses(osc, GM, target)

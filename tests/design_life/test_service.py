@@ -19,7 +19,7 @@ DRIVEN_DOWN = [[6143.0, 0.6, 70.0, 0.0, 45.0, 0.0]]
 @pytest.fixture(scope="module")
 def profile():
     prof = load_settings("paper", overrides={"gravity": {"degree": 8}})
-    ensure_kernels(prof)
+    ensure_kernels(prof.ephemeris)
     return prof
 
 
