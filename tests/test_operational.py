@@ -86,7 +86,7 @@ def test_infeasible_design_has_nan_extras(extra_context):
 ])
 def test_bad_extra_metrics_are_config_errors(overrides, key):
     with pytest.raises(ConfigError) as error:
-        requested_extra_metrics(load_settings("paper", overrides=overrides))
+        load_settings("paper", overrides=overrides)
     assert error.value.key == key
 
 

@@ -78,7 +78,7 @@ class CampaignSettings:
                 raise ValueError(f"campaign.{key} = {value!r} is outside [{low}, {high}]")
             return kind(value)
 
-        extras = requested_extra_metrics(profile)
+        extras = requested_extra_metrics(profile.evaluator)
         metric_keys = METRIC_KEYS + extras       # what the evaluator returns
         objectives = tuple(c.get("objectives", ()))
         bad = [o for o in objectives if not isinstance(o, str) or o.lstrip("-") not in metric_keys]
