@@ -2,11 +2,6 @@
 
 from __future__ import annotations
 
-from typing import TYPE_CHECKING
-
-if TYPE_CHECKING:
-    from .settings import EvaluatorSettings
-
 __all__ = ["DESIGN_KEYS", "INTEGER_DESIGN_KEYS", "ELEMENT_KEYS", "METRIC_KEYS", "EXTRA_METRIC_KEYS",
            "CAMPAIGN_METRIC_KEYS", "RESULT_KEYS", "VERDICT_KEYS", "TIMING_KEYS", "DELTAV_SATELLITES",
            "NEEDS_ALL_SATELLITES",
@@ -112,7 +107,8 @@ def format_value(key: str, value) -> str:
     return format(float(value), value_format(key))
 
 
-def requested_extra_metrics(evaluator: EvaluatorSettings) -> tuple[str, ...]:
-    """``[evaluator] extra_metrics``: distinct names of :data:`EXTRA_METRIC_KEYS` (the Delta-V maxima need
+def requested_extra_metrics(evaluator) -> tuple[str, ...]:
+    """``[evaluator] extra_metrics`` of the ``[evaluator]`` section (:class:`lnss_lib.settings.EvaluatorSettings`;
+    keys sits below settings, so no import): distinct names of :data:`EXTRA_METRIC_KEYS` (the Delta-V maxima need
     ``[deltav] satellites = "all"``), all checked at load (:mod:`lnss_lib.config`)."""
     return tuple(evaluator.extra_metrics)
