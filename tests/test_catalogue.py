@@ -112,7 +112,7 @@ def test_true_anomaly_becomes_mean_anomaly(paper_profile):
 
 @pytest.mark.parametrize("frame", ["lunar_equator_of_epoch", "j2000", "moon_op"])
 def test_user_file_in_a_workbook_frame_gives_the_walker_states_exactly(paper_profile, tmp_path, frame):
-    c = load_constellation(_user_file(tmp_path / "walker.toml", WALKER.elements_deg(), frame), paper_profile)
+    c = load_constellation(_user_file(tmp_path / "walker.toml", WALKER.elements_deg(), frame), paper_profile.dynamics)
     s = constellation_states_mci(paper_profile.dynamics, paper_profile.epoch.start_tdb, c)
     profile = {**paper_profile, "frames": {**paper_profile["frames"], "element_frame": frame}}
     assert np.array_equal(s.states_mci, elements_deg_to_states(profile, WALKER.elements_deg(), s.t_epoch_tdb_s))
@@ -124,8 +124,8 @@ def ci_context():
 
 
 def test_user_file_and_walker_design_give_identical_metrics(ci_context, tmp_path):
-    assert ci_context.settings["frames"]["element_frame"] == "lunar_equator_of_epoch"
-    c = load_constellation(_user_file(tmp_path / "walker.toml", WALKER.elements_deg()), ci_context.settings)
+    assert ci_context.settings.frames.element_frame == "lunar_equator_of_epoch"
+    c = load_constellation(_user_file(tmp_path / "walker.toml", WALKER.elements_deg()), ci_context.dynamics)
     ours = evaluate_catalogue(ci_context, c)
     walker = evaluate_design(ci_context, WALKER.sma_km, WALKER.ecc, WALKER.aop_deg, WALKER.inc_deg, WALKER.n_planes,
                              WALKER.sats_per_plane)
