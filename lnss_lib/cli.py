@@ -49,7 +49,7 @@ def evaluate_catalogue_cli(profile_name: str, name_or_path: str, epoch: str = "s
     from .evaluator import context_for
 
     profile = load_settings(profile_name, overrides=overrides)
-    c = load_constellation(name_or_path, profile)
+    c = load_constellation(name_or_path, profile.dynamics)
     refuse_approximate(c)
     if epoch == "file":
         profile = file_epoch_profile(profile, c)
@@ -82,11 +82,11 @@ def design_life_cli(profile_name: str, life_days: float, *, walker: tuple | None
     if constellation is not None:
         from .catalogue import constellation_states_mci, file_epoch_profile, load_constellation
 
-        c = load_constellation(constellation, profile)
+        c = load_constellation(constellation, profile.dynamics)
         if constellation_epoch == "file":
             profile = file_epoch_profile(profile, c)
         profile = profile.with_overrides({"design_life": {"initial_trim": False}})   # the file's states as given
-        states = constellation_states_mci(profile, c, constellation_epoch)
+        states = constellation_states_mci(profile.dynamics, profile.epoch.start_tdb, c, constellation_epoch)
         elements = elements_deg_in_frame(profile, states.states_mci, states.t_epoch_tdb_s)
     else:
         try:

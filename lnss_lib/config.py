@@ -26,7 +26,7 @@ from pathlib import Path
 from .constants import (CR_AREA_MASS_MAX_M2_KG, CR_MAX, MOON_HILL_RADIUS_KM, SECONDS_PER_DAY,
                         SPACECRAFT_MASS_RANGE_KG, TOLERANCE_FLOOR)
 from .errors import ConfigError
-from .keys import DELTAV_SATELLITES, EXTRA_METRIC_KEYS
+from .keys import DELTAV_SATELLITES, EXTRA_METRIC_KEYS, NEEDS_ALL_SATELLITES
 
 PACKAGE_DIR = Path(__file__).resolve().parent
 PROJECT_DIR = PACKAGE_DIR.parent
@@ -201,8 +201,9 @@ RANGES = {
     "dop.filter_sigma": POSITIVE,
     "gps.frequency_mhz": POSITIVE, "gps.noise_temperature_k": POSITIVE, "gps.beam_mask_deg": (0.0, 180.0, True, False),
     "gps.atmosphere_margin_deg": NON_NEGATIVE, "gps.sidelobe_from_deg": (0.0, 180.0, False, False),
-    "deltav.year_days": POSITIVE, "deltav.paper_divisor_floor": (0.0, 1.0, True, False),
-    "deltav.paper_cap_kms2": POSITIVE, "deltav.secular_min_periods": POSITIVE, "deltav.slsqp_lambda": NON_NEGATIVE,
+    "deltav.year_days": POSITIVE, "deltav.paper_divisor_floor": (0.0, 1.0, False, True),
+    "deltav.paper_cap_kms2": POSITIVE, "deltav.secular_min_periods": (1.0, None, True, False),
+    "deltav.slsqp_lambda": NON_NEGATIVE,
     "campaign.max_errors": (0, None, False, False),
     "stability.life_days": POSITIVE, "stability.average_days": POSITIVE, "stability.table_step_days": POSITIVE,
     "stability.rtol": TOLERANCE, "stability.atol": TOLERANCE, "stability.output_step_days": POSITIVE,
@@ -223,6 +224,9 @@ WHY = {   # the physical or numerical reason of a range, quoted in the message
     "spacecraft.mass_kg": "from a gram (chip-scale satellites) to 1000 t",
     "spacecraft.cr": "Cr = 1 + specular reflectivity: 2 is a perfect mirror",
     "standalone_elfo.sma_km": SEMI_MAJOR_AXIS_WHY,
+    "deltav.paper_divisor_floor": "a floor of 0 is the paper's literal divisors (notebook 04's sweep); 1 or more "
+                                  "would replace every divisor",
+    "deltav.secular_min_periods": "the secular trend needs at least two one-orbit windows",
 }
 
 # Allowed values of the text settings (one copy: the modules that read a setting import its tuple from here).
@@ -454,12 +458,21 @@ def _lookup(profile: dict, key: str):
 
 def _check_across(profile: dict, source) -> None:
     """Rules across keys, wherever a (partial) profile holds every key a rule needs: setting names name an
-    ``[integrator.settings.*]`` table; Cr A/m of the spacecraft is a spacecraft's."""
+    ``[integrator.settings.*]`` table; ``[evaluator] extra_metrics`` are distinct, and the Delta-V maxima among
+    them need ``[deltav] satellites = "all"``; Cr A/m of the spacecraft is a spacecraft's."""
     settings = _lookup(profile, "integrator.settings")
     for key in SETTING_NAMES:
         name = _lookup(profile, key)
         if settings is not None and name is not None and name not in settings:
             _fail(f"{key} = {name!r} names no [integrator.settings.*]; allowed: {', '.join(settings)}", key, source)
+    extras = _lookup(profile, "evaluator.extra_metrics")
+    if isinstance(extras, list) and len(set(extras)) != len(extras):
+        _fail(f"[evaluator] extra_metrics must be distinct names; got {extras!r}", "evaluator.extra_metrics", source)
+    satellites = _lookup(profile, "deltav.satellites")
+    needs_all = [n for n in extras or () if n in NEEDS_ALL_SATELLITES]
+    if needs_all and satellites is not None and satellites != "all":
+        _fail(f"[evaluator] extra_metrics {needs_all} are maxima over satellites: they need "
+              f'[deltav] satellites = "all"; got {satellites!r}', "deltav.satellites", source)
     craft = [_lookup(profile, f"spacecraft.{k}") for k in ("cr", "area_m2", "mass_kg")]
     if None not in craft and craft[2] > 0 and not in_range(craft[0] * craft[1] / craft[2], CR_AREA_MASS):
         _fail(f"spacecraft cr * area_m2 / mass_kg = {craft[0] * craft[1] / craft[2]:.6g} m^2/kg is out of range; "

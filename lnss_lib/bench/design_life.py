@@ -26,7 +26,7 @@ def run(profile_name: str = "paper", overrides: dict | None = None) -> None:
     profile = load_settings(profile_name, overrides=overrides)
     ensure_kernels(profile.ephemeris)
     settings = LifeSettings.from_profile(profile)
-    el = standalone_elfo(profile)
+    el = standalone_elfo(profile.standalone_elfo, profile.dynamics)
     t0 = tdb_seconds(profile["epoch"]["start_tdb"], "TDB")
     states = elements_deg_to_states(profile.dynamics, el, t0)
     print(f"standalone ELFO, {el.shape[0]} satellites, profile {profile_name}, design life {settings.life_days:g} days")

@@ -14,7 +14,7 @@ from dataclasses import dataclass, field
 
 from ..config import EVALUATORS, NOTEBOOK_MODES, profile_hash
 from ..settings import Settings, profile_data, settings_from_profile
-from ..keys import METRIC_KEYS, VERDICT_KEYS, bound_text, format_value, label, requested_extra_metrics
+from ..keys import METRIC_KEYS, VERDICT_KEYS, bound_text, format_value, label
 from .fitness import constraint_matrix
 from .grid import DesignGrid
 
@@ -78,7 +78,7 @@ class CampaignSettings:
                 raise ValueError(f"campaign.{key} = {value!r} is outside [{low}, {high}]")
             return kind(value)
 
-        extras = requested_extra_metrics(profile)
+        extras = tuple(profile.get("evaluator", {}).get("extra_metrics", ()))   # checked at load (config)
         metric_keys = METRIC_KEYS + extras       # what the evaluator returns
         objectives = tuple(c.get("objectives", ()))
         bad = [o for o in objectives if not isinstance(o, str) or o.lstrip("-") not in metric_keys]

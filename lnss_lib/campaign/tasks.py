@@ -34,7 +34,7 @@ def synthetic_evaluation(profile: dict, sma_km: float, ecc: float, aop_deg: floa
         time.sleep(delay_s)
     n_sat = int(n_planes) * int(sats_per_plane)
     r_min = float(profile["constants"]["r_moon_mean_km"]) + float(profile["impact"]["min_altitude_km"])
-    extras = requested_extra_metrics(profile)
+    extras = requested_extra_metrics(profile.evaluator)
     result = {"deltav_model": "synthetic", "timing_s": dict.fromkeys(TIMING_KEYS, 0.0)}
     if sma_km * (1.0 - ecc) < r_min:
         result.update({k: math.nan for k in METRIC_KEYS + extras}, n_sat=n_sat, evaluated=False, impact=True,

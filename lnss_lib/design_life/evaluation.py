@@ -9,7 +9,7 @@ every held quantity stayed within its tolerance, the first impact, the lowest pe
 satellites (day, cause); from the natural run the same for the uncontrolled constellation. Navigation
 over the life (:func:`life_navigation`) is the south-pole DOP of eq. 3-14 on positions sampled
 every ``[life_evaluation] sample_step_s`` over the life, with the profile's grid, mask, threshold
-and 3-sigma filter (:func:`lnss_lib.dop.dop_for_profile`, :func:`lnss_lib.dop.summary_from_profile`),
+and 3-sigma filter (:func:`lnss_lib.dop.dop_for_settings`, :func:`lnss_lib.dop.summary_for_settings`),
 evaluated one month at a time so memory stays bounded. Beside them, the two cheap predictors of the
 campaign: the geometry-keeping estimate from the 10-day arc (:mod:`lnss_lib.design_life.estimate`) and the
 doubly-averaged stability screen for the same life (:mod:`lnss_lib.design_life.screen`).
@@ -25,7 +25,7 @@ import numpy as np
 import xarray as xr
 
 from ..constants import SECONDS_PER_DAY
-from ..dop import dop_for_profile, grid_from_profile, summary_from_profile
+from ..dop import SurfaceGrid, dop_for_settings, summary_for_settings
 from ..ephemeris import ensure_kernels, tdb_seconds
 from ..config import ELEMENT_FRAMES
 from ..frames import rotate_to_moon_fixed
@@ -114,7 +114,7 @@ def life_navigation(profile: dict, life_ds, *, month_days: float | None = None) 
 
     ``life_ds``: one :func:`simulate_life` Dataset sampled with ``sample_step_s`` or a mapping
     run name -> Dataset (e.g. :func:`run_design_life`'s controlled and natural runs). Every month
-    (``month_days``, default ``[life_evaluation]``) is one :func:`lnss_lib.dop.dop_for_profile` call
+    (``month_days``, default ``[life_evaluation]``) is one :func:`lnss_lib.dop.dop_for_settings` call
     on that month's samples. Variables :data:`NAVIGATION_KEYS` and ``n_epochs`` (run, month);
     coordinates ``month_start_day``, ``month_end_day``.
     """
@@ -122,7 +122,7 @@ def life_navigation(profile: dict, life_ds, *, month_days: float | None = None) 
     month_days = life_evaluation_settings(profile)["month_days"] if month_days is None else float(month_days)
     if not (math.isfinite(month_days) and month_days > 0):
         raise ValueError(f"month_days = {month_days!r} must be positive")
-    grid = grid_from_profile(profile)
+    grid = SurfaceGrid.from_settings(profile.dop, profile.constants.r_moon_mean_km)
     first = next(iter(runs.values()))
     for name, ds in runs.items():
         if "r_mci_km" not in ds:
@@ -139,8 +139,8 @@ def life_navigation(profile: dict, life_ds, *, month_days: float | None = None) 
         idx = np.flatnonzero(month == m)
         for k, ds in enumerate(runs.values()):
             r_mci = ds["r_mci_km"].transpose("sat", "sample", "xyz").values[:, idx]
-            summary = summary_from_profile(profile, dop_for_profile(profile, rotate_to_moon_fixed(profile.dynamics, r_mci, t[idx]),
-                                                                    t[idx], grid=grid))
+            summary = summary_for_settings(profile.dop, dop_for_settings(profile.dop, rotate_to_moon_fixed(profile.dynamics, r_mci, t[idx]),
+                                                                         t[idx], grid))
             for key in NAVIGATION_KEYS:
                 stats[key][k, m] = summary[key]
             n_epochs[k, m] = idx.size

@@ -36,7 +36,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..constants import SECONDS_PER_DAY
-from ..dop import dop_for_profile, grid_from_profile, summary_from_profile
+from ..dop import SurfaceGrid, dop_for_settings, summary_for_settings
 from ..elements import TWO_PI
 from ..frames import rotate_to_moon_fixed
 from .screen import SecularField, integrate_secular
@@ -153,7 +153,7 @@ def burn_location(nu_rad: float, aop_rad: float, tol_rad: float = 1e-3) -> str:
 
 
 def navigation_violations(summary: dict, baseline: dict, cfg: ServiceSettings) -> list[str]:
-    """Names of the navigation statistics of ``summary`` (a :func:`lnss_lib.dop.summary_from_profile` dict)
+    """Names of the navigation statistics of ``summary`` (a :func:`lnss_lib.dop.summary_for_settings` dict)
     outside the requirement set by ``baseline`` (the first window's): availability may drop by
     ``nav_avail_drop_pct`` points, 3-sigma PDOP/HDOP rise by ``nav_dop_rise_fraction``."""
     bad = []
@@ -203,7 +203,7 @@ class NavigationMonitor:
 
     def __init__(self, profile: dict, sample_t: np.ndarray, svc: ServiceSettings):
         self.profile, self.sample_t, self.svc = profile, sample_t, svc
-        self.grid = grid_from_profile(profile)
+        self.grid = SurfaceGrid.from_settings(profile.dop, profile.constants.r_moon_mean_km)
         self.start = sample_t[0]
         self.baseline = None
         self.violated = False
@@ -219,7 +219,7 @@ class NavigationMonitor:
             return
         tt = self.sample_t[idx]
         r_mf = rotate_to_moon_fixed(self.profile.dynamics, r_sample[:, idx], tt)
-        summary = summary_from_profile(self.profile, dop_for_profile(self.profile, r_mf, tt, grid=self.grid))
+        summary = summary_for_settings(self.profile.dop, dop_for_settings(self.profile.dop, r_mf, tt, self.grid))
         if self.baseline is None:
             self.baseline = summary
             return

@@ -38,7 +38,7 @@ from ..catalogue import FILE_FRAMES, analyse_catalogue, constellation_states_mci
 from ..settings import load_settings
 from ..constants import DAYS_PER_JULIAN_YEAR, SECONDS_PER_DAY
 from ..constellation import WalkerDesign, standalone_elfo
-from ..dop import dop_for_profile, elevation_deg, summary_from_profile
+from ..dop import SurfaceGrid, dop_for_settings, elevation_deg, summary_for_settings
 from ..ephemeris import body_states_mci, ensure_kernels, rotation, tdb_seconds
 from ..errors import ImpactError
 from ..evaluator import analyse_constellation, context_for
@@ -117,13 +117,13 @@ class Benchmark:
 def catalogue_entries(profile: dict, names=None) -> list[Entry]:
     """Every catalogue file (or those named) as an :class:`Entry`; approximate ones listed with the reason
     they are not evaluated."""
-    keys = [row["key"] for row in list_catalogue(profile)]
+    keys = [row["key"] for row in list_catalogue(profile.dynamics)]
     unknown = sorted(set(names or ()) - set(keys))
     if unknown:
         raise ValueError(f"unknown catalogue constellation(s) {unknown}; catalogue: {', '.join(keys)}")
     entries = []
-    for row in (r for r in list_catalogue(profile) if names is None or r["key"] in names):
-        c = load_constellation(row["key"], profile)
+    for row in (r for r in list_catalogue(profile.dynamics) if names is None or r["key"] in names):
+        c = load_constellation(row["key"], profile.dynamics)
         if c.approximate:
             entries.append(Entry(c.key, "catalogue (approximate)", c.n_sat, None, None,
                                  "not evaluated: approximate entry, its sources give no eccentricity, inclination, "
@@ -137,7 +137,7 @@ def catalogue_entries(profile: dict, names=None) -> list[Entry]:
 
 def paper_entry(profile: dict) -> Entry:
     """The paper's Table 4 standalone ELFO, elements in the profile's element frame."""
-    elements = standalone_elfo(profile)
+    elements = standalone_elfo(profile.standalone_elfo, profile.dynamics)
     return Entry(TABLE4_KEY, "paper", elements.shape[0], elements, profile["frames"]["element_frame"],
                  "Malik & Yang Table 4 (2 planes x 8)")
 
@@ -215,7 +215,7 @@ def _profile_for(profile: dict, entry: Entry) -> dict:
 
 
 def _evaluate_entry(context, entry: Entry, masks) -> tuple[dict, dict | None]:
-    profile = context.profile
+    profile = context.settings
     row = _nan_row(entry, masks)
     if not entry.evaluated:
         return row, None
@@ -234,7 +234,7 @@ def _evaluate_entry(context, entry: Entry, masks) -> tuple[dict, dict | None]:
     study["r_mf_km"] = r_mf
     for mask in masks:
         masked = profile.with_overrides({"dop": {"elevation_mask_deg": float(mask)}})
-        summary = summary_from_profile(masked, dop_for_profile(masked, r_mf, context.times, grid=context.grid))
+        summary = summary_for_settings(masked.dop, dop_for_settings(masked.dop, r_mf, context.times, context.grid))
         row.update({mask_key(k, mask): summary[k] for k in DOP_KEYS})
     screen = screen_states(profile, states, context.t0_tdb_s)
     row.update(screen_min_perilune_alt_km=screen.attrs["min_perilune_alt_km"], stable_screen=screen.attrs["stable"],
@@ -330,9 +330,9 @@ def _node_rms(values: np.ndarray) -> np.ndarray:
 
 def _dop_counterparts(profile: dict, r_mf: np.ndarray, times: np.ndarray, grid, mask_deg: float, uere_m: float) -> dict:
     masked = profile.with_overrides({"dop": {"elevation_mask_deg": float(mask_deg)}})
-    ds_xy = dop_for_profile(masked, r_mf, times, grid=grid)
-    ds_en = dop_for_profile(masked, r_mf, times, grid=grid, los_axes="enu")
-    summary = summary_from_profile(masked, ds_xy)
+    ds_xy = dop_for_settings(masked.dop, r_mf, times, grid)
+    ds_en = dop_for_settings(masked.dop, r_mf, times, grid, los_axes="enu")
+    summary = summary_for_settings(masked.dop, ds_xy)
     pdop, hdop = ds_en["pdop"].values, ds_en["hdop"].values
     with np.errstate(invalid="ignore"):
         usable = pdop < float(profile["dop"]["availability_threshold"])        # eq. 14: a fix is reported
@@ -455,8 +455,9 @@ def _moon_node_deg(t_tdb_s: float) -> float:
 
 def _epoch_states(profile: dict, name: str, t0: float) -> np.ndarray:
     if name == TABLE4_KEY:
-        return elements_deg_to_states(profile.dynamics, standalone_elfo(profile), t0)
-    return constellation_states_mci(profile, load_constellation(name, profile)).states_mci
+        return elements_deg_to_states(profile.dynamics, standalone_elfo(profile.standalone_elfo, profile.dynamics), t0)
+    return constellation_states_mci(profile.dynamics, profile.epoch.start_tdb,
+                                    load_constellation(name, profile.dynamics)).states_mci
 
 
 def epoch_sensitivity(profile_name: str, *, epochs=None, names=None, overrides=None) -> pd.DataFrame:
@@ -488,7 +489,8 @@ def epoch_sensitivity(profile_name: str, *, epochs=None, names=None, overrides=N
                 r_mf = rotate_to_moon_fixed(profile.dynamics, ds["r_mci_km"].values, times)
                 for mask in [float(profile["dop"]["elevation_mask_deg"])] + [float(m) for m in cfg["extra_masks_deg"]]:
                     masked = profile.with_overrides({"dop": {"elevation_mask_deg": mask}})
-                    summary = summary_from_profile(masked, dop_for_profile(masked, r_mf, times))
+                    summary = summary_for_settings(masked.dop, dop_for_settings(
+                        masked.dop, r_mf, times, SurfaceGrid.from_settings(masked.dop, masked.constants.r_moon_mean_km)))
                     row.update({mask_key(k, mask): summary[k] for k in DOP_KEYS})
                 row["sk_dv_estimate_kms_per_year"] = sk_estimate_from_propagation(profile, ds)["sk_dv_estimate_kms_per_year"]
             screen = screen_states(profile, states, t0)

@@ -124,10 +124,10 @@ def published_orbits(profile: dict, designs: list[tuple[str, np.ndarray]] = ()) 
             tables.append(t.assign(orbit=[f"{label} plane {k + 1}" for k in range(len(t))], read_in=read_in,
                                    epoch="study"))
     for key in ("ely2005_elfo_3sat_phased", "lupnt_pathfinder"):
-        c = load_constellation(key, profile)
+        c = load_constellation(key, profile.dynamics)
         first = c.elements_deg[:1]
         for epoch in ("file", "study"):
-            cs = constellation_states_mci(profile, c, epoch)
+            cs = constellation_states_mci(profile.dynamics, profile.epoch.start_tdb, c, epoch)
             f, m = _model_at(profile, cs.t_epoch_tdb_s)
             t = orbit_rows(m, mean_plane_elements(f, first, cs.rot_to_j2000), _r_moon(profile))
             tables.append(t.assign(orbit=c.name.split(":")[0], read_in=c.element_frame, epoch=cs.epoch_used))
@@ -181,9 +181,9 @@ def ely_natural(profile: dict, life_days: float, *, degree: int | None = None, s
     ``mean_perilune_alt_km`` (sat, time of the screen), their minima (``min_perilune_alt_km``,
     ``min_day``, ``min_mean_perilune_alt_km``), ``envelope_km`` (the allowance in altitude) and ``impact``.
     """
-    c = load_constellation("ely2005_elfo_3sat_phased", profile)
+    c = load_constellation("ely2005_elfo_3sat_phased", profile.dynamics)
     fprof = file_epoch_profile(profile, c)
-    cs = constellation_states_mci(profile, c, "file")
+    cs = constellation_states_mci(profile.dynamics, profile.epoch.start_tdb, c, "file")
     ds = propagate_states(fprof.dynamics, cs.states_mci, cs.t_epoch_tdb_s, life_days * SECONDS_PER_DAY, step_s,
                           setting="design_life", degree=degree, batch=True)
     gm = float(profile["gravity"]["gm_km3_s2"])
@@ -217,7 +217,7 @@ def closed_loop_anchors(profile: dict, ely_life_days: float, table4_life_days: f
     and in the lunar equator for ``table4_life_days``. One row each: Delta-V per satellite and year (mean, max,
     split by purpose, m/s), manoeuvres, lowest perilune controlled and natural, satellites lost. Ely's natural
     drift is not flown again here (:func:`ely_natural` flies it): its natural columns are NaN."""
-    c = load_constellation("ely2005_elfo_3sat_phased", profile)
+    c = load_constellation("ely2005_elfo_3sat_phased", profile.dynamics)
     ely_profile = file_epoch_profile(profile, c).with_overrides({"frames": {"element_frame": "moon_op"}})
     cases = [("Ely (2005) phased, file epoch", ely_profile, c.elements_deg, ely_life_days, False)]
     planes = _walker_planes((TABLE_4[0], TABLE_4[1], TABLE_4[3], TABLE_4[2], 2))

@@ -143,8 +143,8 @@ def test_a_frozen_and_a_librating_orbit_flown_a_year_with_the_full_model_stay_wi
 def test_ely_phased_constellation_keeps_its_mean_perilune_above_100_km_for_ten_years(paper_profile):
     # Ely (2005, p. 310): ten years with no manoeuvre, perilune above 100 km. Averaged model (cheap) here; the
     # full model is notebook 08's anchor. The mean perilune clears 100 km by more than the monthly tidal swing.
-    c = load_constellation("ely2005_elfo_3sat_phased", paper_profile)
-    cs = constellation_states_mci(paper_profile, c, "file")
+    c = load_constellation("ely2005_elfo_3sat_phased", paper_profile.dynamics)
+    cs = constellation_states_mci(paper_profile.dynamics, paper_profile.epoch.start_tdb, c, "file")
     screen = st.screen_states(file_epoch_profile(paper_profile, c), cs.states_mci, cs.t_epoch_tdb_s, life_days=3652.5)
     field = st.SecularField.from_profile(paper_profile, cs.t_epoch_tdb_s, 30.0)
     read = fz.mean_plane_elements(field, c.elements_deg[:1], cs.rot_to_j2000)
