@@ -135,7 +135,7 @@ def sampling_sweep(profile: Settings, elements_deg, steps_s=(60.0, 300.0, 900.0,
     rows = []
     for setting in integrators:
         for step in steps_s:
-            d = propagate_elements(profile, elements_deg, step_s=step, setting=setting)
+            d = propagate_elements(profile.dynamics, profile.epoch, elements_deg, step_s=step, setting=setting)
             out = deltav_arrays(d["time"].values, dataset_states(d), gm, deltav)
             rows.append({"integrator": setting, "step_s": step, **budget_row(out)})
     return pd.DataFrame(rows).set_index(["integrator", "step_s"])

@@ -163,7 +163,7 @@ def element_frame_study(profile_name: str, elements_deg, *, frames=ELEMENT_FRAME
         if frame not in ELEMENT_FRAMES:
             raise ValueError(f"unknown element frame {frame!r}; allowed: {', '.join(ELEMENT_FRAMES)}")
     profiles = {frame: load_settings(profile_name, overrides={"frames": {"element_frame": frame}}) for frame in frames}
-    propagation = {frame: propagate_elements(profiles[frame], elements_deg) for frame in frames}
+    propagation = {frame: propagate_elements(profiles[frame].dynamics, profiles[frame].epoch, elements_deg) for frame in frames}
     dop = {(frame, axes): dop_from_propagation(profiles[frame].dop, profiles[frame].dynamics, propagation[frame],
                                                los_axes=axes)
            for frame in frames for axes in los_axes}
@@ -205,7 +205,7 @@ def frame_study_summaries(study: FrameStudy, default_frame: str = "lunar_equator
                                                            "dop": {"area_weighting": "cell_area"}})
     out[f"{label}, cell-area weighted"] = summary_for_settings(
         weighted.dop, dop_from_propagation(weighted.dop, weighted.dynamics, study.propagation[default_frame]))
-    converged = propagate_elements(base, study.elements_deg, setting="converged")
+    converged = propagate_elements(base.dynamics, base.epoch, study.elements_deg, setting="converged")
     out[f"{label}, converged integrator"] = summary_for_settings(
         base.dop, dop_from_propagation(base.dop, base.dynamics, converged, grid=study.grid))
     return out

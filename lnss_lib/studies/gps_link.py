@@ -267,7 +267,7 @@ def sensitivity_table(profile: Settings, gps: xr.Dataset, lnss: xr.Dataset, elem
                                                                two_body_positions_mci(profile.dynamics, el[:1], times)))}
     p_j2000 = profile.with_overrides({"frames": {"element_frame": "j2000"}})
     extra["elements in J2000 equator"] = gps_link_summary(gps_link(gps_cfg, constants, gps,
-                                                                   propagate_elements(p_j2000, el[:1])))
+                                                                   propagate_elements(p_j2000.dynamics, p_j2000.epoch, el[:1])))
     for shift_days in phase_shifts_days:
         shifted = gps_states_mci(gps_cfg, profile.epoch.start_tdb, times, sgp4_offset_s=shift_days * SECONDS_PER_DAY)
         extra[f"GPS phase: SGP4 at t {shift_days:+.0f} d"] = gps_link_summary(gps_link(gps_cfg, constants, shifted, lnss))
