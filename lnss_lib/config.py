@@ -26,7 +26,8 @@ from pathlib import Path
 from .constants import (CR_AREA_MASS_MAX_M2_KG, CR_MAX, MOON_HILL_RADIUS_KM, SECONDS_PER_DAY,
                         SPACECRAFT_MASS_RANGE_KG, TOLERANCE_FLOOR)
 from .errors import ConfigError
-from .keys import DELTAV_SATELLITES, EXTRA_METRIC_KEYS
+from .keys import (_NEEDS_ALL_SATELLITES, DELTAV_SATELLITES, DESIGN_KEYS, EXTRA_METRIC_KEYS, INTEGER_DESIGN_KEYS,
+                   METRIC_KEYS)
 
 PACKAGE_DIR = Path(__file__).resolve().parent
 PROJECT_DIR = PACKAGE_DIR.parent
@@ -203,7 +204,14 @@ RANGES = {
     "gps.atmosphere_margin_deg": NON_NEGATIVE, "gps.sidelobe_from_deg": (0.0, 180.0, False, False),
     "deltav.year_days": POSITIVE, "deltav.paper_divisor_floor": (0.0, 1.0, True, False),
     "deltav.paper_cap_kms2": POSITIVE, "deltav.secular_min_periods": POSITIVE, "deltav.slsqp_lambda": NON_NEGATIVE,
-    "campaign.max_errors": (0, None, False, False),
+    "campaign.max_errors": (0, None, False, False), "campaign.population": (2, None, False, False),
+    "campaign.generations": (1, None, False, False), "campaign.crossover_prob": (0.0, 1.0, False, False),
+    "campaign.crossover_eta": NON_NEGATIVE, "campaign.mutation_eta": NON_NEGATIVE,
+    "campaign.mutation_prob_var": (0.0, 1.0, False, False), "campaign.seed": (0, None, False, False),
+    "campaign.ftol": NON_NEGATIVE, "campaign.ftol_period": (1, None, False, False),
+    "campaign.nan_objective": NON_NEGATIVE, "campaign.nan_violation": NON_NEGATIVE,
+    "campaign.synthetic_delay_s": NON_NEGATIVE, "campaign.max_resubmits": (0, None, False, False),
+    "campaign.numba_threads_per_worker": (0, None, False, False),
     "stability.life_days": POSITIVE, "stability.average_days": POSITIVE, "stability.table_step_days": POSITIVE,
     "stability.rtol": TOLERANCE, "stability.atol": TOLERANCE, "stability.output_step_days": POSITIVE,
     "stability.margin_km": NON_NEGATIVE, "stability.validation_degree": (0, 100, False, False),
@@ -437,6 +445,8 @@ def validate_profile(profile: dict, *, partial: bool = False, source=None) -> No
         raise ConfigError(f"a profile is a table of sections; got {profile!r}")
     _walk(profile, _reference(), "", "", partial, source)
     _check_across(profile, source)
+    if not partial:
+        _check_campaign(profile, source)
     overrides = _lookup(profile, "campaign.overrides")
     if overrides:                                   # the profile campaign evaluations use
         _check_across(deep_merge(profile, overrides), source)
@@ -464,6 +474,77 @@ def _check_across(profile: dict, source) -> None:
     if None not in craft and craft[2] > 0 and not in_range(craft[0] * craft[1] / craft[2], CR_AREA_MASS):
         _fail(f"spacecraft cr * area_m2 / mass_kg = {craft[0] * craft[1] / craft[2]:.6g} m^2/kg is out of range; "
               f"allowed: {allowed_range_text(CR_AREA_MASS)} ({CR_AREA_MASS_WHY})", "spacecraft.area_m2", source)
+    extras, satellites = _lookup(profile, "evaluator.extra_metrics"), _lookup(profile, "deltav.satellites")
+    needs_all = [name for name in extras or () if name in _NEEDS_ALL_SATELLITES]
+    if needs_all and satellites is not None and satellites != "all":
+        _fail(f"deltav.satellites = {satellites!r} is not allowed with [evaluator] extra_metrics {needs_all} (maxima "
+              f"over satellites); allowed: 'all'", "deltav.satellites", source)
+
+
+CAMPAIGN_OFF = "off"          # a campaign constraint or hypervolume entry set to "off" drops an inherited one
+
+
+def _is_number(value) -> bool:
+    return not isinstance(value, bool) and isinstance(value, (int, float)) and math.isfinite(value)
+
+
+def _check_campaign(profile: dict, source) -> None:
+    """Rules of the free tables and names of a complete profile's ``[campaign]`` (the campaign plan reads them
+    unchecked): objectives and bounds name metrics (:data:`METRIC_KEYS` and ``[evaluator] extra_metrics``), a
+    constraint is ``{min = x}`` or ``{max = x}``, a hypervolume reference is positive, the grid of every design
+    variable has finite ``lower < upper`` and ``step > 0`` (semi-major axes in the Hill sphere; integer bounds
+    ``>= 1`` and integer steps for the plane and satellite counts), a companion is another profile."""
+    campaign = profile["campaign"]
+    metrics = METRIC_KEYS + tuple(profile["evaluator"]["extra_metrics"])
+    metric_text = f"{', '.join(metrics)} (extra metrics: list them in [evaluator] extra_metrics)"
+    objectives = campaign["objectives"]
+    names = [o.lstrip("-") if isinstance(o, str) else o for o in objectives]
+    bad = [o for o, name in zip(objectives, names) if name not in metrics]
+    if not objectives or bad or len(set(names)) != len(names):
+        _fail(f"campaign.objectives = {objectives!r} is not allowed" + (f" ({bad!r} unknown)" if bad else "")
+              + f"; allowed: distinct metric names, '-' first to maximise, from {metric_text}", "campaign.objectives",
+              source)
+    for metric, spec in campaign["constraints"].items():
+        key = f"campaign.constraints.{metric}"
+        if spec == CAMPAIGN_OFF:
+            continue
+        if metric not in metrics:
+            _fail(f"unknown metric {key}; allowed: {metric_text}", key, source)
+        if not isinstance(spec, dict) or len(spec) != 1 or next(iter(spec)) not in ("min", "max") \
+                or not _is_number(next(iter(spec.values()))):
+            _fail(f"{key} = {spec!r} is not allowed; allowed: exactly one of {{min = number}}, {{max = number}} "
+                  f"or {CAMPAIGN_OFF!r}", key, source)
+    for metric, ref in campaign["hypervolume"].items():
+        key = f"campaign.hypervolume.{metric}"
+        if ref == CAMPAIGN_OFF:
+            continue
+        if metric not in metrics:
+            _fail(f"unknown metric {key}; allowed: {metric_text}", key, source)
+        if not _is_number(ref) or ref <= 0:
+            _fail(f"{key} = {ref!r} is not allowed; allowed: a positive reference value or {CAMPAIGN_OFF!r}", key, source)
+    variables = campaign["variables"]
+    if set(variables) != set(DESIGN_KEYS):
+        _fail(f"campaign.variables names {', '.join(variables)}; allowed: exactly {', '.join(DESIGN_KEYS)}",
+              "campaign.variables", source)
+    for name in DESIGN_KEYS:
+        key, spec = f"campaign.variables.{name}", variables[name]
+        if not isinstance(spec, dict) or set(spec) != {"lower", "upper", "step"} \
+                or not all(_is_number(spec[k]) for k in spec):
+            _fail(f"{key} = {spec!r} is not allowed; allowed: {{lower = number, upper = number, step = number}}",
+                  key, source)
+        lower, upper, step = (spec[k] for k in ("lower", "upper", "step"))
+        if step <= 0 or upper <= lower:
+            _fail(f"{key} = {spec!r} is not allowed; allowed: lower < upper and step > 0", key, source)
+        if name == "sma_km" and not (in_range(lower, SEMI_MAJOR_AXIS) and in_range(upper, SEMI_MAJOR_AXIS)):
+            _fail(f"{key} = {spec!r} is out of range; allowed: bounds in {allowed_range_text(SEMI_MAJOR_AXIS)} "
+                  f"({SEMI_MAJOR_AXIS_WHY})", key, source)
+        if name in INTEGER_DESIGN_KEYS and (any(v != round(v) for v in (lower, upper, step)) or lower < 1):
+            _fail(f"{key} = {spec!r} is not allowed; allowed: integer bounds >= 1 and an integer step (a count)",
+                  key, source)
+    companion = campaign["companion_profile"]
+    if companion and companion == profile["profile"].get("name"):
+        _fail(f"campaign.companion_profile = {companion!r} is this profile; allowed: \"\" (none) or another profile",
+              "campaign.companion_profile", source)
 
 
 def parse_sets(items) -> dict:

@@ -20,14 +20,14 @@ from ..constellation import WalkerDesign
 from ..evaluator import EvaluationContext, analyse_constellation, evaluate_constellation
 from ..errors import ImpactError
 from ..paper import EVALUATIONS
-from ..campaign import CampaignSettings
+from ..campaign import CampaignPlan
 
 PARTS = ("propagation", "dop", "deltav", "gps")
 
 
 def _designs(profile: dict, n: int, seed: int = 12) -> list[WalkerDesign]:
     """``n`` Walker designs drawn uniformly from the campaign grid (Table 3) that do not start inside the Moon."""
-    grid = CampaignSettings.from_profile(profile).grid
+    grid = CampaignPlan.of(profile).grid
     rng = np.random.default_rng(seed)
     out = [WalkerDesign(6143.0, 0.6, 90.0, 51.7, 4, 5)]
     while len(out) < n:
