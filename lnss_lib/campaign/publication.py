@@ -48,32 +48,32 @@ class Publication:
     history: xr.Dataset
 
 
-def _differing_keys(run: dict, profile: dict, prefix: str = "") -> list[str]:
+def _differing_keys(run: dict, theirs: dict, prefix: str = "") -> list[str]:
     """``key = run value (profile: value)`` for every dotted key whose values differ."""
     lines = []
-    for key in sorted(set(run) | set(profile), key=str):
+    for key in sorted(set(run) | set(theirs), key=str):
         name = f"{prefix}{key}"
-        mine, theirs = run.get(key, "<absent>"), profile.get(key, "<absent>")
-        if isinstance(mine, Mapping) and isinstance(theirs, Mapping):
-            lines += _differing_keys(mine, theirs, f"{name}.")
-        elif mine != theirs and name not in ("profile.name", "profile.description"):
-            lines.append(f"{name} = {mine!r} (profile: {theirs!r})")
+        mine, other = run.get(key, "<absent>"), theirs.get(key, "<absent>")
+        if isinstance(mine, Mapping) and isinstance(other, Mapping):
+            lines += _differing_keys(mine, other, f"{name}.")
+        elif mine != other and name not in ("profile.name", "profile.description"):
+            lines.append(f"{name} = {mine!r} (profile: {other!r})")
     return lines
 
 
-def _hash(profile: Settings | Mapping) -> str:
+def _hash(settings: Settings | Mapping) -> str:
     """The profile hash of settings (computed once, when they were built) or of a stored profile dict."""
-    return profile.hash if isinstance(profile, Settings) else profile_hash(profile_data(profile))
+    return settings.hash if isinstance(settings, Settings) else profile_hash(profile_data(settings))
 
 
-def run_differences(run_profile: Settings | Mapping, profile: Settings | Mapping, limit: int = 6) -> list[str]:
-    """Why a run (its settings, or the profile dict its ``run.json`` stored) is not ``profile``'s campaign: []
+def run_differences(run: Settings | Mapping, settings: Settings | Mapping, limit: int = 6) -> list[str]:
+    """Why a run (its settings, or the profile dict its ``run.json`` stored) is not the campaign of ``settings``: []
     when the profile hashes agree, else the evaluator, the evaluation settings and up to ``limit`` differing
     keys, in that order (nothing is validated: a stored dict is compared as it is)."""
-    run_hash, hash_ = _hash(run_profile), _hash(profile)
+    run_hash, hash_ = _hash(run), _hash(settings)
     if run_hash == hash_:
         return []
-    run_profile, profile = profile_data(run_profile), profile_data(profile)
+    run_profile, profile = profile_data(run), profile_data(settings)
     reasons = []
     run_evaluator, evaluator = (p.get("campaign", {}).get("evaluator") for p in (run_profile, profile))
     if run_evaluator != evaluator:

@@ -244,11 +244,12 @@ def export_results(run_dir) -> tuple[xr.Dataset, xr.Dataset, xr.Dataset]:
 
     run = load_run(run_dir)
     profile = run["profile"]
-    settings = CampaignPlan.of(settings_from_profile(profile))
+    run_settings = settings_from_profile(profile)
+    settings = CampaignPlan.of(run_settings)
     checkpoint = load_checkpoint(run_dir)
     history = checkpoint["history"] if checkpoint else []
     attrs = {
-        "profile": profile["profile"]["name"],
+        "profile": run_settings.name,
         "objectives": ",".join(settings.objectives),
         "constraints": ",".join(f"{m} {'<=' if k == 'max' else '>='} {v:g}" for m, k, v in settings.constraints),
         "parameters": json.dumps(profile, sort_keys=True),
