@@ -504,24 +504,19 @@ def _check_campaign(profile: dict, source) -> None:
         _fail(f"campaign.objectives = {objectives!r} is not allowed" + (f" ({bad!r} unknown)" if bad else "")
               + f"; allowed: distinct metric names, '-' first to maximise, from {metric_text}", "campaign.objectives",
               source)
-    for metric, spec in campaign["constraints"].items():
-        key = f"campaign.constraints.{metric}"
-        if spec == CAMPAIGN_OFF:
-            continue
-        if metric not in metrics:
-            _fail(f"unknown metric {key}; allowed: {metric_text}", key, source)
-        if not isinstance(spec, dict) or len(spec) != 1 or next(iter(spec)) not in ("min", "max") \
-                or not _is_number(next(iter(spec.values()))):
-            _fail(f"{key} = {spec!r} is not allowed; allowed: exactly one of {{min = number}}, {{max = number}} "
-                  f"or {CAMPAIGN_OFF!r}", key, source)
-    for metric, ref in campaign["hypervolume"].items():
-        key = f"campaign.hypervolume.{metric}"
-        if ref == CAMPAIGN_OFF:
-            continue
-        if metric not in metrics:
-            _fail(f"unknown metric {key}; allowed: {metric_text}", key, source)
-        if not _is_number(ref) or ref <= 0:
-            _fail(f"{key} = {ref!r} is not allowed; allowed: a positive reference value or {CAMPAIGN_OFF!r}", key, source)
+    entries = {   # table -> (test of an entry's value, what is allowed)
+        "constraints": (lambda spec: isinstance(spec, dict) and len(spec) == 1 and next(iter(spec)) in ("min", "max")
+                        and _is_number(next(iter(spec.values()))), "exactly one of {min = number}, {max = number}"),
+        "hypervolume": (lambda ref: _is_number(ref) and ref > 0, "a positive reference value")}
+    for table, (ok, allowed) in entries.items():
+        for metric, value in campaign[table].items():
+            key = f"campaign.{table}.{metric}"
+            if value == CAMPAIGN_OFF:
+                continue
+            if metric not in metrics:
+                _fail(f"unknown metric {key}; allowed: {metric_text}", key, source)
+            if not ok(value):
+                _fail(f"{key} = {value!r} is not allowed; allowed: {allowed} or {CAMPAIGN_OFF!r}", key, source)
     variables = campaign["variables"]
     if set(variables) != set(DESIGN_KEYS):
         _fail(f"campaign.variables names {', '.join(variables)}; allowed: exactly {', '.join(DESIGN_KEYS)}",
