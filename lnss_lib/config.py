@@ -438,7 +438,7 @@ def validate_profile(profile: dict, *, partial: bool = False, source=None) -> No
     Keys and value types follow ``params/paper.toml`` (integers where it has integers; floats accept
     integers); numbers are finite and inside :data:`RANGES`; ``integrator.setting`` names one of
     ``integrator.settings``. Tables in :data:`FREE_TABLES` take any keys (their numbers must be
-    finite; the campaign settings check their content). Raises :class:`ConfigError` naming the key,
+    finite; :func:`_check_campaign` checks the campaign's). Raises :class:`ConfigError` naming the key,
     the value and what is allowed (with the file and line when ``source`` is a path).
     """
     if not isinstance(profile, dict):
