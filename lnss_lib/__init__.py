@@ -12,11 +12,9 @@ Layers (a module imports only from its own layer or a lower one):
    availability), ``dop`` (south-pole grid), ``gps`` (GPS states and link), ``gve`` (Gauss variational
    equations and their inverses), ``deltav`` (station-keeping budgets), ``constellation``,
    ``evaluator`` (the design evaluator).
-   Design life: ``stability`` (doubly-averaged screen), ``sk_estimate`` (campaign-grade
-   geometry-keeping Delta-V), ``maneuvers`` (impulsive GVEs), ``mean_elements``, ``sk_control`` (box and
-   slot control laws), ``sk_service`` (the requirement-driven controller's decisions),
-   ``stationkeeping`` (closed loop over the design life), ``designlife`` (its evaluation);
-   ``catalogue`` (published constellations).
+   ``design_life`` (the design-life package: averaged model and screen, estimate, manoeuvres, control,
+   closed loop, evaluation, frozen orbits; its docstring draws the picture); ``catalogue`` (published
+   constellations).
 3. Campaign engine: ``campaign`` (settings, grid, fitness, tasks, journal, backends, problem, rundir,
    runner and callbacks, timing).
 4. Presentation and studies: ``outputs``, ``pipeline``, ``figures``, ``studies`` (one module per

@@ -78,14 +78,14 @@ def _cmd_propagate(args: argparse.Namespace) -> int:
     if args.degree is not None:
         overrides = {**overrides, "gravity": {**overrides.get("gravity", {}), "degree": args.degree}}
     profile = load_settings(args.profile, overrides=overrides or None)
-    ensure_kernels(profile)
+    ensure_kernels(profile.ephemeris)
     t0 = tdb_seconds(args.epoch_tdb, "TDB")
     check_span(t0, t0 + args.days * SECONDS_PER_DAY)
     if args.elements is not None:
-        state = elements_deg_to_states(profile, [args.elements], t0)
+        state = elements_deg_to_states(profile.dynamics, [args.elements], t0)
     else:
         state = np.array([args.state_km])
-    ds = propagate_states(profile, state, t0, args.days * SECONDS_PER_DAY, args.step_s, setting=args.setting,
+    ds = propagate_states(profile.dynamics, state, t0, args.days * SECONDS_PER_DAY, args.step_s, setting=args.setting,
                           srp_cr_area_mass_m2_kg=args.srp_cr_area_mass)
     if out is not None and out.suffix == ".nc":
         write_netcdf_atomic(ds, out)

@@ -37,6 +37,7 @@ inclination, node, perilune or phasing: they are listed with ``approximate = Tru
 
 from __future__ import annotations
 
+import dataclasses
 import math
 from dataclasses import dataclass, field
 from datetime import datetime
@@ -45,7 +46,7 @@ from pathlib import Path
 import numpy as np
 
 from .config import PARAMS_DIR, read_toml
-from .settings import load_settings
+from .settings import Dynamics, Settings, load_settings
 from .elements import mean_anomaly_from_true
 from .ephemeris import ensure_kernels, tdb_iso, tdb_seconds
 from .frames import element_frame_to_j2000
@@ -208,18 +209,17 @@ def _parse_satellites(path: Path, sats, approximate: bool, floor_km: float):
     return tuple(names), np.array(rows, dtype=float)
 
 
-def load_constellation(name_or_path: str | Path, profile: dict | None = None) -> CatalogueConstellation:
+def load_constellation(name_or_path: str | Path, dynamics: Dynamics | None = None) -> CatalogueConstellation:
     """A checked :class:`CatalogueConstellation` from a catalogue name (file stem) or a TOML path.
 
     Raises :class:`~lnss_lib.errors.ConfigError` naming the file and the bad key for a malformed
     file (missing or unknown key, wrong type, non-finite value, e outside [0, 1), unknown frame,
-    anomaly type or time scale, unreadable epoch, perilune below the surface). ``profile`` supplies
+    anomaly type or time scale, unreadable epoch, perilune below the surface). ``dynamics`` supplies
     the surface (``constants.r_moon_mean_km`` + ``impact.min_altitude_km``; default: the paper's).
     """
     path = _resolve(name_or_path)
     data = read_toml(path)
-    profile = profile if profile is not None else load_settings("paper")
-    floor_km = float(profile["constants"]["r_moon_mean_km"]) + float(profile["impact"]["min_altitude_km"])
+    floor_km = (dynamics if dynamics is not None else load_settings("paper").dynamics).r_impact_km
     _check_keys(path, data, TOP_KEYS_REQUIRED, TOP_KEYS_OPTIONAL, "")
     approximate = data["approximate"]
     if not isinstance(approximate, bool):
@@ -265,11 +265,12 @@ def load_constellation(name_or_path: str | Path, profile: dict | None = None) ->
         published=published, notes=text.get("notes", ""))
 
 
-def list_catalogue(profile: dict | None = None) -> list[dict]:
-    """One row per catalogue file: key, n_sat, element_frame, epoch, time_scale, anomaly, approximate, name."""
+def list_catalogue(dynamics: Dynamics | None = None) -> list[dict]:
+    """One row per catalogue file: key, n_sat, element_frame, epoch, time_scale, anomaly, approximate, name
+    (``dynamics``: the surface, as :func:`load_constellation`)."""
     rows = []
     for path in sorted(CATALOGUE_DIR.glob("*.toml")):
-        c = load_constellation(path, profile)
+        c = load_constellation(path, dynamics)
         rows.append({"key": c.key, "n_sat": c.n_sat, "element_frame": c.element_frame, "epoch": c.epoch,
                      "time_scale": c.time_scale, "anomaly": c.anomaly, "approximate": c.approximate, "name": c.name})
     return rows
@@ -290,11 +291,11 @@ def _file_epoch_tdb_s(c: CatalogueConstellation) -> float:
     return tdb_seconds(c.epoch, c.time_scale)
 
 
-def _states_at(profile: dict, c: CatalogueConstellation, t0_tdb_s: float, source: str) -> CatalogueStates:
+def _states_at(dynamics: Dynamics, c: CatalogueConstellation, t0_tdb_s: float, source: str) -> CatalogueStates:
     from .propagator import elements_deg_to_states
 
     frame = FILE_FRAMES[c.element_frame]
-    framed = profile.with_overrides({"frames": {"element_frame": frame}})
+    framed = dataclasses.replace(dynamics, frames=dataclasses.replace(dynamics.frames, element_frame=frame))
     states = elements_deg_to_states(framed, c.elements_deg, t0_tdb_s)
     rot = element_frame_to_j2000(framed, t0_tdb_s, frame)
     return CatalogueStates(states, float(t0_tdb_s), tdb_iso(t0_tdb_s), source, c.element_frame, rot)
@@ -306,10 +307,11 @@ def _epoch_source(c: CatalogueConstellation, epoch: str) -> str:
     return f"study epoch (file gives {'none' if c.epoch is None else f'{c.epoch} {c.time_scale}'})"
 
 
-def constellation_states_mci(profile: dict, c: CatalogueConstellation, epoch: str = "study") -> CatalogueStates:
+def constellation_states_mci(dynamics: Dynamics, start_tdb: str, c: CatalogueConstellation,
+                             epoch: str = "study") -> CatalogueStates:
     """Moon-centred J2000 states of a constellation at the study epoch or the file's epoch.
 
-    ``epoch``: ``"study"`` (elements read at ``profile["epoch"]["start_tdb"]`` in their frame built
+    ``epoch``: ``"study"`` (elements read at the study epoch ``start_tdb`` (TDB) in their frame built
     then) or ``"file"`` (at the file's epoch); see the module docstring for why ``"study"`` is the
     default. Uses :func:`lnss_lib.propagator.elements_deg_to_states` with the file's frame, so a
     file in the profile's own frame gives exactly the states of the same elements_deg array.
@@ -317,19 +319,19 @@ def constellation_states_mci(profile: dict, c: CatalogueConstellation, epoch: st
     if epoch not in EPOCH_CHOICES:
         raise ValueError(f"epoch must be one of {', '.join(EPOCH_CHOICES)}; got {epoch!r}")
     refuse_approximate(c)
-    ensure_kernels(profile)
-    t0 = _file_epoch_tdb_s(c) if epoch == "file" else tdb_seconds(profile["epoch"]["start_tdb"], "TDB")
-    return _states_at(profile, c, t0, _epoch_source(c, epoch))
+    ensure_kernels(dynamics.ephemeris)
+    t0 = _file_epoch_tdb_s(c) if epoch == "file" else tdb_seconds(start_tdb, "TDB")
+    return _states_at(dynamics, c, t0, _epoch_source(c, epoch))
 
 
-def file_epoch_profile(profile: dict, c: CatalogueConstellation) -> dict:
-    """``profile`` with its study epoch moved to the file's epoch (TDB, to the millisecond), for ``epoch="file"``.
+def file_epoch_profile(settings: Settings, c: CatalogueConstellation) -> Settings:
+    """``settings`` with the study epoch moved to the file's epoch (TDB, to the millisecond), for ``epoch="file"``.
 
     The GPS constellation is still the profile's TLE set propagated by SGP4 to that epoch: its
     metrics mean little far from the TLE epoch (see params/data/README.md).
     """
-    ensure_kernels(profile)
-    return profile.with_overrides({"epoch": {"start_tdb": tdb_iso(_file_epoch_tdb_s(c))}})
+    ensure_kernels(settings.ephemeris)
+    return settings.with_overrides({"epoch": {"start_tdb": tdb_iso(_file_epoch_tdb_s(c))}})
 
 
 def analyse_catalogue(context, c: CatalogueConstellation, epoch: str = "study", *, datasets: bool = True) -> dict:
@@ -349,7 +351,7 @@ def analyse_catalogue(context, c: CatalogueConstellation, epoch: str = "study", 
     if epoch == "file" and abs(_file_epoch_tdb_s(c) - context.t0_tdb_s) > 1e-3:
         raise ValueError(f"{c.key}: the evaluation context starts at {tdb_iso(context.t0_tdb_s)} TDB, not at the "
                          f"file's epoch {c.epoch} {c.time_scale}: build it from file_epoch_profile(profile, constellation)")
-    states = _states_at(context.profile, c, context.t0_tdb_s, _epoch_source(c, epoch))
+    states = _states_at(context.dynamics, c, context.t0_tdb_s, _epoch_source(c, epoch))
     return {**analyse_states(context, c.elements_deg, states.states_mci, datasets=datasets), "states": states}
 
 
@@ -366,14 +368,13 @@ def evaluate_catalogue(context, c: CatalogueConstellation, epoch: str = "study")
     """
     import time
 
-    from .deltav import deltav_settings
     from .evaluator import _infeasible
 
     start = time.perf_counter()
     try:
         result = analyse_catalogue(context, c, epoch, datasets=False)["metrics"]
     except InfeasibleDesignError as error:      # only a physically impossible design; any other error propagates
-        result = _infeasible(c.n_sat, str(error), deltav_settings(context.profile)["model"], start)
+        result = _infeasible(c.n_sat, str(error), context.deltav.model, start)
     result.update(name=c.key, approximate=c.approximate, element_frame=c.element_frame,
                   epoch_used=tdb_iso(context.t0_tdb_s), epoch_source=_epoch_source(c, epoch))
     return result

@@ -2,7 +2,7 @@
 design life under a named profile, with exactly the command's JSON keys (NaN as None).
 
 Top layer with ``__main__`` (tests/test_layers.py): the kernels (:mod:`lnss_lib.evaluator`,
-:mod:`lnss_lib.catalogue`, :mod:`lnss_lib.designlife`) compute, this module names the profile and shapes the
+:mod:`lnss_lib.catalogue`, :mod:`lnss_lib.design_life.evaluation`) compute, this module names the profile and shapes the
 answer for the command line.
 """
 
@@ -49,7 +49,7 @@ def evaluate_catalogue_cli(profile_name: str, name_or_path: str, epoch: str = "s
     from .evaluator import context_for
 
     profile = load_settings(profile_name, overrides=overrides)
-    c = load_constellation(name_or_path, profile)
+    c = load_constellation(name_or_path, profile.dynamics)
     refuse_approximate(c)
     if epoch == "file":
         profile = file_epoch_profile(profile, c)
@@ -60,13 +60,13 @@ def evaluate_catalogue_cli(profile_name: str, name_or_path: str, epoch: str = "s
 def design_life_cli(profile_name: str, life_days: float, *, walker: tuple | None = None,
                     constellation: str | None = None, constellation_epoch: str = "study",
                     overrides: dict | None = None) -> dict:
-    """:data:`lnss_lib.designlife.LIFE_KEYS` for the evaluate CLI: a Walker design ``(sma_km, ecc, aop_deg,
+    """:data:`lnss_lib.design_life.evaluation.LIFE_KEYS` for the evaluate CLI: a Walker design ``(sma_km, ecc, aop_deg,
     inc_deg, n_planes, sats_per_plane)`` or a catalogue constellation (its states at the evaluation epoch, as
     elements in the profile's element frame, inserted as given: no insertion trim, so a designed per-satellite
     a such as Ely's phasing, which its authors found by propagating those very states, is flown as published).
     NaN becomes None. An invalid Walker design (the evaluation says why) gives every key None."""
     from .constellation import WalkerDesign
-    from .designlife import LIFE_KEYS, elements_deg_in_frame, evaluate_design_life, json_ready
+    from .design_life.evaluation import LIFE_KEYS, elements_deg_in_frame, evaluate_design_life, json_ready
     from .ephemeris import tdb_seconds
     from .evaluator import context_for
     from .propagator import elements_deg_to_states
@@ -82,16 +82,16 @@ def design_life_cli(profile_name: str, life_days: float, *, walker: tuple | None
     if constellation is not None:
         from .catalogue import constellation_states_mci, file_epoch_profile, load_constellation
 
-        c = load_constellation(constellation, profile)
+        c = load_constellation(constellation, profile.dynamics)
         if constellation_epoch == "file":
             profile = file_epoch_profile(profile, c)
         profile = profile.with_overrides({"design_life": {"initial_trim": False}})   # the file's states as given
-        states = constellation_states_mci(profile, c, constellation_epoch)
+        states = constellation_states_mci(profile.dynamics, profile.epoch.start_tdb, c, constellation_epoch)
         elements = elements_deg_in_frame(profile, states.states_mci, states.t_epoch_tdb_s)
     else:
         try:
             elements = WalkerDesign(*walker).elements_deg()
-            elements_deg_to_states(profile, elements, tdb_seconds(profile.epoch.start_tdb, "TDB"))
+            elements_deg_to_states(profile.dynamics, elements, tdb_seconds(profile.epoch.start_tdb, "TDB"))
         except InfeasibleDesignError:
             return {key: None for key in LIFE_KEYS}
     result = evaluate_design_life(context_for(profile), elements, float(life_days))

@@ -26,8 +26,8 @@ from pathlib import Path
 from .constants import (CR_AREA_MASS_MAX_M2_KG, CR_MAX, MOON_HILL_RADIUS_KM, SECONDS_PER_DAY,
                         SPACECRAFT_MASS_RANGE_KG, TOLERANCE_FLOOR)
 from .errors import ConfigError
-from .keys import (_NEEDS_ALL_SATELLITES, DELTAV_SATELLITES, DESIGN_KEYS, EXTRA_METRIC_KEYS, INTEGER_DESIGN_KEYS,
-                   METRIC_KEYS)
+from .keys import (DELTAV_SATELLITES, DESIGN_KEYS, EXTRA_METRIC_KEYS, INTEGER_DESIGN_KEYS, METRIC_KEYS,
+                   NEEDS_ALL_SATELLITES)
 
 PACKAGE_DIR = Path(__file__).resolve().parent
 PROJECT_DIR = PACKAGE_DIR.parent
@@ -202,8 +202,9 @@ RANGES = {
     "dop.filter_sigma": POSITIVE,
     "gps.frequency_mhz": POSITIVE, "gps.noise_temperature_k": POSITIVE, "gps.beam_mask_deg": (0.0, 180.0, True, False),
     "gps.atmosphere_margin_deg": NON_NEGATIVE, "gps.sidelobe_from_deg": (0.0, 180.0, False, False),
-    "deltav.year_days": POSITIVE, "deltav.paper_divisor_floor": (0.0, 1.0, True, False),
-    "deltav.paper_cap_kms2": POSITIVE, "deltav.secular_min_periods": POSITIVE, "deltav.slsqp_lambda": NON_NEGATIVE,
+    "deltav.year_days": POSITIVE, "deltav.paper_divisor_floor": (0.0, 1.0, False, True),
+    "deltav.paper_cap_kms2": POSITIVE, "deltav.secular_min_periods": (1.0, None, True, False),
+    "deltav.slsqp_lambda": NON_NEGATIVE,
     "campaign.max_errors": (0, None, False, False), "campaign.population": (2, None, False, False),
     "campaign.generations": (1, None, False, False), "campaign.crossover_prob": (0.0, 1.0, False, False),
     "campaign.crossover_eta": NON_NEGATIVE, "campaign.mutation_eta": NON_NEGATIVE,
@@ -231,6 +232,9 @@ WHY = {   # the physical or numerical reason of a range, quoted in the message
     "spacecraft.mass_kg": "from a gram (chip-scale satellites) to 1000 t",
     "spacecraft.cr": "Cr = 1 + specular reflectivity: 2 is a perfect mirror",
     "standalone_elfo.sma_km": SEMI_MAJOR_AXIS_WHY,
+    "deltav.paper_divisor_floor": "a floor of 0 is the paper's literal divisors (notebook 04's sweep); 1 or more "
+                                  "would replace every divisor",
+    "deltav.secular_min_periods": "the secular trend needs at least two one-orbit windows",
 }
 
 # Allowed values of the text settings (one copy: the modules that read a setting import its tuple from here).
@@ -250,7 +254,7 @@ EVALUATORS = ("walker", "synthetic")
 NOTEBOOK_MODES = ("run", "load")                  # notebook 06 runs the campaign itself, or loads the latest CLI run
 STABILITY_METHODS = ("DOP853", "RK45", "Radau", "LSODA")
 STABILITY_BODIES = ("EARTH", "SUN")
-CONTROLLERS = ("service", "box")                 # design life: hold the service (sk_service) or the fixed-element box
+CONTROLLERS = ("service", "box")                 # design life: hold the service (design_life.service) or the fixed-element box
 CHOICES = {    # a text setting (or each entry of a list of texts) -> its allowed values
     "integrator.settings.*.method": METHODS, "frames.element_frame": ELEMENT_FRAMES, "frames.moon_fixed": POLE_FRAMES,
     "frames.gravity": POLE_FRAMES, "forces.third_bodies": THIRD_BODIES, "forces.shadow": SHADOW_MODELS,
@@ -464,21 +468,25 @@ def _lookup(profile: dict, key: str):
 
 def _check_across(profile: dict, source) -> None:
     """Rules across keys, wherever a (partial) profile holds every key a rule needs: setting names name an
-    ``[integrator.settings.*]`` table; Cr A/m of the spacecraft is a spacecraft's."""
+    ``[integrator.settings.*]`` table; ``[evaluator] extra_metrics`` are distinct, and the Delta-V maxima among
+    them need ``[deltav] satellites = "all"``; Cr A/m of the spacecraft is a spacecraft's."""
     settings = _lookup(profile, "integrator.settings")
     for key in SETTING_NAMES:
         name = _lookup(profile, key)
         if settings is not None and name is not None and name not in settings:
             _fail(f"{key} = {name!r} names no [integrator.settings.*]; allowed: {', '.join(settings)}", key, source)
+    extras = _lookup(profile, "evaluator.extra_metrics")
+    if isinstance(extras, list) and len(set(extras)) != len(extras):
+        _fail(f"[evaluator] extra_metrics must be distinct names; got {extras!r}", "evaluator.extra_metrics", source)
+    satellites = _lookup(profile, "deltav.satellites")
+    needs_all = [n for n in extras or () if n in NEEDS_ALL_SATELLITES]
+    if needs_all and satellites is not None and satellites != "all":
+        _fail(f"[evaluator] extra_metrics {needs_all} are maxima over satellites: they need "
+              f'[deltav] satellites = "all"; got {satellites!r}', "deltav.satellites", source)
     craft = [_lookup(profile, f"spacecraft.{k}") for k in ("cr", "area_m2", "mass_kg")]
     if None not in craft and craft[2] > 0 and not in_range(craft[0] * craft[1] / craft[2], CR_AREA_MASS):
         _fail(f"spacecraft cr * area_m2 / mass_kg = {craft[0] * craft[1] / craft[2]:.6g} m^2/kg is out of range; "
               f"allowed: {allowed_range_text(CR_AREA_MASS)} ({CR_AREA_MASS_WHY})", "spacecraft.area_m2", source)
-    extras, satellites = _lookup(profile, "evaluator.extra_metrics"), _lookup(profile, "deltav.satellites")
-    needs_all = [name for name in extras or () if name in _NEEDS_ALL_SATELLITES]
-    if needs_all and satellites is not None and satellites != "all":
-        _fail(f"deltav.satellites = {satellites!r} is not allowed with [evaluator] extra_metrics {needs_all} (maxima "
-              f"over satellites); allowed: 'all'", "deltav.satellites", source)
 
 
 CAMPAIGN_OFF = "off"          # a campaign constraint or hypervolume entry set to "off" drops an inherited one

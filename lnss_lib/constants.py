@@ -30,7 +30,7 @@ WGS84_B_KM = WGS84_A_KM * (1.0 - 1.0 / WGS84_INV_FLATTENING)
 
 TOLERANCE_FLOOR = 1e-14             # integrator rtol/atol: about 100 machine epsilons (45); below, the error test asks
                                     # for what rounding cannot resolve (the tightest setting in use, the DOP853 1e-12/1e-14
-                                    # reference of bench integrator and stationkeeping.integrator_convergence, sits on it)
+                                    # reference of bench integrator and design_life.closed_loop.integrator_convergence, sits on it)
 
 # Sanity ranges of physical inputs (issue 21 item 4): values outside are no lunar spacecraft or orbit.
 EARTH_MOON_DISTANCE_KM = 384400.0   # mean; beyond it the Earth, not the Moon, is the central body

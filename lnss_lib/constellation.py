@@ -16,6 +16,7 @@ from __future__ import annotations
 
 import numbers
 from dataclasses import dataclass
+from typing import TYPE_CHECKING
 
 import numpy as np
 
@@ -23,6 +24,9 @@ from .elements import kepler_states, validate_elements
 from .ephemeris import ensure_kernels
 from .frames import element_frame_to_j2000
 from .keys import ELEMENT_KEYS
+
+if TYPE_CHECKING:
+    from .settings import Dynamics, StandaloneElfoSettings
 
 __all__ = ["planes_elements_deg", "WalkerDesign", "walker_design", "explicit_constellation", "standalone_elfo",
            "two_body_positions_mci"]
@@ -51,9 +55,9 @@ def _check_finite_angles(values, name: str) -> None:
         raise ValueError(f"{name} must be finite (deg); got {arr[~np.isfinite(arr)][0]!r}")
 
 
-def _surface_limits(profile: dict) -> tuple[float, float]:
-    """(mean lunar radius km, minimum altitude km) from a profile: the perilune floor."""
-    return float(profile["constants"]["r_moon_mean_km"]), float(profile["impact"]["min_altitude_km"])
+def _surface_limits(dynamics: Dynamics) -> tuple[float, float]:
+    """(mean lunar radius km, minimum altitude km): the perilune floor."""
+    return dynamics.constants.r_moon_mean_km, dynamics.impact.min_altitude_km
 
 
 def planes_elements_deg(sma_km: float, e: float, inc_deg: float, aop_deg: float,
@@ -119,17 +123,17 @@ class WalkerDesign:
                                    self.raan_deg(), self.sats_per_plane)
 
 
-def walker_design(profile: dict, sma_km: float, ecc: float, aop_deg: float, inc_deg: float,
+def walker_design(dynamics: Dynamics, sma_km: float, ecc: float, aop_deg: float, inc_deg: float,
                   n_planes: int, sats_per_plane: int, raan_offset_deg: float = 0.0) -> WalkerDesign:
     """A :class:`WalkerDesign` whose perilune a(1 - e) clears the surface (``constants.r_moon_mean_km``
     + ``impact.min_altitude_km``); ``ValueError`` naming the bad value otherwise."""
     design = WalkerDesign(sma_km, ecc, aop_deg, inc_deg, n_planes, sats_per_plane, raan_offset_deg)
-    r_body_km, min_alt_km = _surface_limits(profile)
+    r_body_km, min_alt_km = _surface_limits(dynamics)
     validate_elements(design.sma_km, design.ecc, r_body_km, min_alt_km)
     return design
 
 
-def explicit_constellation(profile: dict, elements_deg) -> np.ndarray:
+def explicit_constellation(dynamics: Dynamics, elements_deg) -> np.ndarray:
     """Validated (nsat, 6) array from any list of element sets ``[sma_km, e, inc_deg, raan_deg, aop_deg, M_deg]``.
 
     Checks shape, closed orbits above the surface (as :func:`walker_design`), inclination in
@@ -142,7 +146,7 @@ def explicit_constellation(profile: dict, elements_deg) -> np.ndarray:
         raise ValueError(
             f"elements_deg must have shape (nsat, 6) with columns {', '.join(ELEMENT_KEYS)}; got shape {el.shape}"
         )
-    r_body_km, min_alt_km = _surface_limits(profile)
+    r_body_km, min_alt_km = _surface_limits(dynamics)
     validate_elements(el[:, 0], el[:, 1], r_body_km, min_alt_km)
     _check_inclination(el[:, 2])
     _check_finite_angles(el[:, 3:], "raan_deg, aop_deg and M_deg")
@@ -150,29 +154,28 @@ def explicit_constellation(profile: dict, elements_deg) -> np.ndarray:
     return el
 
 
-def standalone_elfo(profile: dict) -> np.ndarray:
-    """Elements (nsat, 6) of the paper's standalone ELFO (Table 4) from ``profile["standalone_elfo"]``.
+def standalone_elfo(elfo: StandaloneElfoSettings, dynamics: Dynamics) -> np.ndarray:
+    """Elements (nsat, 6) of the paper's standalone ELFO (Table 4) from ``[standalone_elfo]``, checked against
+    the surface (:func:`explicit_constellation`).
 
     Planes at the listed RAANs (0 and 180 deg), ``sats_per_plane`` (8) satellites each equally
     spaced in mean anomaly from M = 0: 16 satellites, a = 6143 km, e = 0.6, i = 51.7 deg,
     AOP = 90 deg.
     """
-    cfg = profile["standalone_elfo"]
-    el = planes_elements_deg(cfg["sma_km"], cfg["ecc"], cfg["inc_deg"], cfg["aop_deg"],
-                             cfg["raan_deg"], cfg["sats_per_plane"])
-    return explicit_constellation(profile, el)
+    el = planes_elements_deg(elfo.sma_km, elfo.ecc, elfo.inc_deg, elfo.aop_deg, elfo.raan_deg, elfo.sats_per_plane)
+    return explicit_constellation(dynamics, el)
 
 
-def two_body_positions_mci(profile: dict, elements_deg, t_tdb_s) -> np.ndarray:
+def two_body_positions_mci(dynamics: Dynamics, elements_deg, t_tdb_s) -> np.ndarray:
     """Keplerian (two-body) positions (nsat, ntime, 3) km in Moon-centred J2000 at TDB epochs.
 
-    ``elements_deg`` (nsat, 6) hold at the first epoch ``t_tdb_s[0]`` in the profile's element
-    frame (rotated with :func:`lnss_lib.frames.element_frame_to_j2000`); the mean anomaly
+    ``elements_deg`` (nsat, 6) hold at the first epoch ``t_tdb_s[0]`` in the element frame
+    ``dynamics.frames.element_frame`` (rotated with :func:`lnss_lib.frames.element_frame_to_j2000`); the mean anomaly
     advances at sqrt(GM / a^3) with ``gravity.gm_km3_s2``. A reference for the propagated orbits.
     """
-    el = explicit_constellation(profile, elements_deg)
+    el = explicit_constellation(dynamics, elements_deg)
     times = np.atleast_1d(np.asarray(t_tdb_s, dtype=float))
     el_rad = np.concatenate([el[:, :2], np.radians(el[:, 2:])], axis=1)
-    ensure_kernels(profile)
-    rot = element_frame_to_j2000(profile, float(times[0]))
-    return kepler_states(el_rad, times - times[0], float(profile["gravity"]["gm_km3_s2"]))[..., :3] @ rot.T
+    ensure_kernels(dynamics.ephemeris)
+    rot = element_frame_to_j2000(dynamics, float(times[0]))
+    return kepler_states(el_rad, times - times[0], dynamics.gravity.gm_km3_s2)[..., :3] @ rot.T

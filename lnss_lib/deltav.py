@@ -35,18 +35,23 @@ The optimised thrust of eq. 38-41 has a closed form (:func:`tmax_closed_form`); 
 
 from __future__ import annotations
 
+import dataclasses
+from typing import TYPE_CHECKING
+
 import numpy as np
 import xarray as xr
 from scipy.optimize import minimize
 
-from .config import DELTAV_MODELS, LSQ_RATES
+from .config import DELTAV_MODELS, LSQ_RATES, validate_profile
 from .constants import DAYS_PER_JULIAN_YEAR, SECONDS_PER_DAY
 from .frames import ELEMENT_FRAMES, element_frame_to_j2000, to_rtn
 from .gve import (NATURAL_RATE_NAMES, PAPER_NORMAL, PAPER_RADIAL, RATE_NAMES, check_epochs, element_rates, lsq_thrust,
                   natural_rates_from_elements, orbit_vectors, osculating_elements, paper_thrust, project_natural)
-from .keys import DELTAV_SATELLITES
 
-__all__ = ["MODELS", "OSCULATING_MODELS", "LSQ_RATES", "SECULAR_PARTS", "DEFAULT_SETTINGS", "deltav_settings",
+if TYPE_CHECKING:
+    from .settings import DeltaVSettings, Dynamics
+
+__all__ = ["MODELS", "OSCULATING_MODELS", "LSQ_RATES", "SECULAR_PARTS", "with_overrides",
            "thrust_total", "tmax_closed_form", "slsqp_tmax", "trapezoid_deltav", "per_year_factor", "orbit_mean",
            "secular_drift", "secular_deltav_rates", "deltav_arrays", "perturbing_acceleration_rtn",
            "deltav_from_propagation", "deltav_per_satellite", "dataset_states",
@@ -59,55 +64,21 @@ MODELS = DELTAV_MODELS
 OSCULATING_MODELS = ("paper", "lsq")
 SECULAR_PARTS = ("sma", "ecc_vector", "plane")
 
-DEFAULT_SETTINGS = {
-    "model": "lsq",
-    "element_frame": "j2000",
-    "year_days": DAYS_PER_JULIAN_YEAR,
-    "lsq_rates": "vectors",
-    "paper_normal": "weighted",
-    "paper_radial": "weighted",
-    "paper_divisor_floor": 1e-3,
-    "paper_cap_kms2": 1.0,
-    "secular_min_periods": 2.0,
-    "slsqp_lambda": 20.0,
-    "satellites": "first",       # evaluator: the design's budget from satellite 0 ("first") or the mean over "all"
-}
-
 
 # ----------------------------------------------------------------------------------------------
 # settings
 # ----------------------------------------------------------------------------------------------
 
-def deltav_settings(profile: dict | None = None, **overrides) -> dict:
-    """The ``[deltav]`` settings of a profile (defaults :data:`DEFAULT_SETTINGS`) with ``overrides``.
-
-    Raises ``ValueError`` naming a bad value and the allowed ones.
-    """
-    settings = dict(DEFAULT_SETTINGS)
-    if profile is not None:
-        settings.update(profile.get("deltav", {}))
-    settings.update({k: v for k, v in overrides.items() if v is not None})
-    unknown = set(settings) - set(DEFAULT_SETTINGS)
-    if unknown:
-        raise ValueError(f"unknown [deltav] setting(s) {sorted(unknown)}; allowed: {sorted(DEFAULT_SETTINGS)}")
-    choices = {"model": MODELS, "element_frame": ELEMENT_FRAMES, "lsq_rates": LSQ_RATES,
-               "paper_normal": PAPER_NORMAL, "paper_radial": PAPER_RADIAL, "satellites": DELTAV_SATELLITES}
-    for key, allowed in choices.items():
-        if settings[key] not in allowed:
-            raise ValueError(f"[deltav] {key} = {settings[key]!r} is not allowed; allowed: {', '.join(allowed)}")
-    if not 0.0 <= float(settings["paper_divisor_floor"]) < 1.0:
-        raise ValueError(f"[deltav] paper_divisor_floor = {settings['paper_divisor_floor']!r} must be in [0, 1)")
-    if not float(settings["paper_cap_kms2"]) > 0.0:
-        raise ValueError(f"[deltav] paper_cap_kms2 = {settings['paper_cap_kms2']!r} must be positive "
-                         "(km/s^2; 1.0 or more means no cap in practice)")
-    if not float(settings["year_days"]) > 0.0:
-        raise ValueError(f"[deltav] year_days = {settings['year_days']!r} must be positive")
-    if not float(settings["secular_min_periods"]) > 1.0:
-        raise ValueError(f"[deltav] secular_min_periods = {settings['secular_min_periods']!r} must be > 1 "
-                         "(the trend needs at least two one-orbit windows)")
-    if not float(settings["slsqp_lambda"]) >= 0.0:
-        raise ValueError(f"[deltav] slsqp_lambda = {settings['slsqp_lambda']!r} must be >= 0")
-    return settings
+def with_overrides(deltav: DeltaVSettings, **overrides) -> DeltaVSettings:
+    """``deltav`` (the ``[deltav]`` section) with ``overrides`` (None values ignored; e.g. a study's
+    ``element_frame="lunar_equator_of_epoch"``), checked as the profile is (:func:`lnss_lib.config.validate_profile`:
+    keys, types, ranges, allowed values); the section itself when nothing changes."""
+    changed = {k: v for k, v in overrides.items() if v is not None}
+    if not changed:
+        return deltav
+    validate_profile({"deltav": changed}, partial=True, source="overrides")
+    return dataclasses.replace(deltav, **{k: float(v) if isinstance(getattr(deltav, k), float) else v
+                                          for k, v in changed.items()})
 
 
 # ----------------------------------------------------------------------------------------------
@@ -314,8 +285,9 @@ def secular_deltav_rates(sma_km, e, natural_rates: np.ndarray, axis_cos, gm_km3_
 # the whole kernel on arrays
 # ----------------------------------------------------------------------------------------------
 
-def deltav_arrays(t_tdb_s: np.ndarray, states: np.ndarray, gm_km3_s2: float, settings: dict | None = None) -> dict:
-    """Every model's Delta-V from one arc of states (..., n, 6) in the GVE element frame.
+def deltav_arrays(t_tdb_s: np.ndarray, states: np.ndarray, gm_km3_s2: float, deltav: DeltaVSettings) -> dict:
+    """Every model's Delta-V from one arc of states (..., n, 6) in the GVE element frame, with the ``[deltav]``
+    settings ``deltav`` (its ``model`` does not enter: every model is computed).
 
     Returns a dict of arrays: ``elements`` (..., n, 6) and their finite-difference ``rates``
     (..., n, 5); ``natural_rates`` (..., n, 5) used by ``lsq``; for ``paper`` and ``lsq``:
@@ -326,21 +298,21 @@ def deltav_arrays(t_tdb_s: np.ndarray, states: np.ndarray, gm_km3_s2: float, set
     thrust; its optimised budget equals its total (already a minimum-cost impulsive budget, so
     eq. 38-41 do not apply); it is NaN for an arc shorter than ``secular_min_periods`` orbits.
     """
-    cfg = deltav_settings(None, **(settings or {}))
+    cfg = deltav
     t = np.asarray(t_tdb_s, dtype=float)
     elements = osculating_elements(states, gm_km3_s2)
     rates = element_rates(t, elements)
     vectors = orbit_vectors(states, gm_km3_s2)
     check_epochs(t, vectors)
-    if cfg["lsq_rates"] == "vectors":
+    if cfg.lsq_rates == "vectors":
         natural = project_natural(vectors, np.gradient(vectors, t, axis=-2, edge_order=2))[0]
     else:
         natural = natural_rates_from_elements(elements, rates)
-    factor = per_year_factor(t, cfg["year_days"])
+    factor = per_year_factor(t, cfg.year_days)
     out = {"elements": elements, "rates": rates, "natural_rates": natural, "per_year_factor": factor,
            "dv_total": {}, "dv_opt": {}}
-    paper = paper_thrust(elements, rates, gm_km3_s2, normal=cfg["paper_normal"], radial=cfg["paper_radial"],
-                         divisor_floor=float(cfg["paper_divisor_floor"]), cap_kms2=float(cfg["paper_cap_kms2"]))
+    paper = paper_thrust(elements, rates, gm_km3_s2, normal=cfg.paper_normal, radial=cfg.paper_radial,
+                         divisor_floor=cfg.paper_divisor_floor, cap_kms2=cfg.paper_cap_kms2)
     lsq, residual = lsq_thrust(elements, natural, gm_km3_s2)
     out["paper_estimates"] = paper
     out["lsq_residual"] = residual
@@ -352,9 +324,9 @@ def deltav_arrays(t_tdb_s: np.ndarray, states: np.ndarray, gm_km3_s2: float, set
         out[f"T_opt_{name}"] = opt
         out["dv_total"][name] = trapezoid_deltav(t, total) * factor
         out["dv_opt"][name] = trapezoid_deltav(t, opt) * factor
-    sec = _secular_from_vectors(t, vectors, gm_km3_s2, float(cfg["secular_min_periods"]), "nan")
+    sec = _secular_from_vectors(t, vectors, gm_km3_s2, cfg.secular_min_periods, "nan")
     parts = secular_deltav_rates(sec["a_km"], sec["e"], sec["natural_rates"], sec["axis_cos"], gm_km3_s2)
-    year_s = float(cfg["year_days"]) * SECONDS_PER_DAY
+    year_s = cfg.year_days * SECONDS_PER_DAY
     out["secular"] = sec
     out["secular_parts"] = parts
     out["dv_total"]["secular"] = parts["total"] * year_s
@@ -374,18 +346,18 @@ def _rotate_states(states: np.ndarray, rot_to_j2000: np.ndarray) -> np.ndarray:
     return np.concatenate([states[..., :3] @ rot_to_j2000, states[..., 3:] @ rot_to_j2000], axis=-1)
 
 
-def perturbing_acceleration_rtn(profile: dict, t_tdb_s: np.ndarray, states_mci: np.ndarray, *,
+def perturbing_acceleration_rtn(dynamics: Dynamics, t_tdb_s: np.ndarray, states_mci: np.ndarray, *,
                                 degree: int | None = None) -> np.ndarray:
     """The force model's non-Keplerian acceleration (n, 3) in RTN (km/s^2): all terms but ``central``."""
     from .forces import acceleration_breakdown
 
-    terms = acceleration_breakdown(profile, t_tdb_s, states_mci, degree=degree)
+    terms = acceleration_breakdown(dynamics, t_tdb_s, states_mci, degree=degree)
     perturbing = sum(value for key, value in terms.items() if key != "central")
     return to_rtn(perturbing, states_mci)
 
 
-def deltav_from_propagation(profile: dict, ds: xr.Dataset, sat: int = 0, model: str | None = None,
-                            **overrides) -> xr.Dataset:
+def deltav_from_propagation(deltav: DeltaVSettings, dynamics: Dynamics, ds: xr.Dataset, sat: int = 0,
+                            model: str | None = None, **overrides) -> xr.Dataset:
     """Delta-V of satellite ``sat`` of a propagator Dataset, every model; time series and summary.
 
     Data variables: the osculating elements and their rates (time), ``T_rtn_kms2`` (model, time,
@@ -393,10 +365,11 @@ def deltav_from_propagation(profile: dict, ds: xr.Dataset, sat: int = 0, model: 
     ``natural_rate`` (time, natural) and ``lsq_residual_per_s`` (time), the secular mean orbit, its
     natural rates and cost parts (part), and the summary
     ``dv_total_kms_per_year`` and ``dv_opt_kms_per_year`` (model_all: paper, lsq, secular).
-    Attributes name the chosen model (``model`` or the profile's ``[deltav] model``) and its two
-    budgets. ``overrides`` replace ``[deltav]`` settings (e.g. ``element_frame="lunar_equator_of_epoch"``).
+    Attributes name the chosen model (``model`` or ``deltav.model``) and its two budgets. ``overrides``
+    replace ``[deltav]`` settings (:func:`with_overrides`, e.g. ``element_frame="lunar_equator_of_epoch"``).
+    ``dynamics`` gives GM (``gravity.gm_km3_s2``) and the element frame's rotation to J2000.
     """
-    cfg = deltav_settings(profile, model=model, **overrides)
+    cfg = with_overrides(deltav, model=model, **overrides)
     if sat not in ds["sat"].values:
         raise ValueError(f"satellite {sat!r} is not in the dataset; available: {ds['sat'].values.tolist()}")
     one = ds.sel(sat=sat)
@@ -404,9 +377,9 @@ def deltav_from_propagation(profile: dict, ds: xr.Dataset, sat: int = 0, model: 
     states = _states_from_dataset(one)
     if not np.all(np.isfinite(states)):
         raise ValueError(f"satellite {sat} has non-finite states (impact or failed propagation); no Delta-V")
-    gm = float(profile["gravity"]["gm_km3_s2"])
-    rot = element_frame_to_j2000(profile, float(t[0]), cfg["element_frame"])
-    res = deltav_arrays(t, _rotate_states(states, rot), gm, {k: v for k, v in cfg.items() if k != "model"})
+    gm = dynamics.gravity.gm_km3_s2
+    rot = element_frame_to_j2000(dynamics, float(t[0]), cfg.element_frame)
+    res = deltav_arrays(t, _rotate_states(states, rot), gm, cfg)
     el, rates = res["elements"], res["rates"]
     osc = list(OSCULATING_MODELS)
     out = xr.Dataset(
@@ -425,7 +398,7 @@ def deltav_from_propagation(profile: dict, ds: xr.Dataset, sat: int = 0, model: 
             "secular_mean_inc_rad": res["secular"]["inc_rad"],
             "secular_raan_dot_rad_s": res["secular"]["raan_dot"],
             "secular_aop_dot_rad_s": res["secular"]["aop_dot"],
-            "secular_dv_kms_per_year": ("part", [res["secular_parts"][k] * float(cfg["year_days"]) * SECONDS_PER_DAY
+            "secular_dv_kms_per_year": ("part", [res["secular_parts"][k] * cfg.year_days * SECONDS_PER_DAY
                                                  for k in SECULAR_PARTS]),
             "dv_total_kms_per_year": ("model_all", [res["dv_total"][m] for m in MODELS]),
             "dv_opt_kms_per_year": ("model_all", [res["dv_opt"][m] for m in MODELS]),
@@ -434,12 +407,12 @@ def deltav_from_propagation(profile: dict, ds: xr.Dataset, sat: int = 0, model: 
                 "rtn": ["R", "T", "N"],
                 "part": list(SECULAR_PARTS), "model_all": list(MODELS), "sat": sat},
         attrs={
-            "deltav_model": cfg["model"],
-            "dv_total_kms_per_year": float(res["dv_total"][cfg["model"]]),
-            "dv_opt_kms_per_year": float(res["dv_opt"][cfg["model"]]),
+            "deltav_model": cfg.model,
+            "dv_total_kms_per_year": float(res["dv_total"][cfg.model]),
+            "dv_opt_kms_per_year": float(res["dv_opt"][cfg.model]),
             "per_year_factor": res["per_year_factor"],
-            "element_frame": cfg["element_frame"],
-            "settings": repr({k: cfg[k] for k in sorted(cfg)}),
+            "element_frame": cfg.element_frame,
+            "settings": repr(dict(sorted(dataclasses.asdict(cfg).items()))),
             "units": "elements km and rad; rates km/s, 1/s, rad/s; thrust km/s^2; Delta-V km/s per satellite per year",
             "sign": "T is the acceleration that produces the drift; the station-keeping thrust is -T",
         },
@@ -448,27 +421,29 @@ def deltav_from_propagation(profile: dict, ds: xr.Dataset, sat: int = 0, model: 
     return out
 
 
-def deltav_per_satellite(profile: dict, ds: xr.Dataset, model: str | None = None, **overrides) -> xr.Dataset:
+def deltav_per_satellite(deltav: DeltaVSettings, dynamics: Dynamics, ds: xr.Dataset, model: str | None = None,
+                         **overrides) -> xr.Dataset:
     """Per-satellite budgets of every model (dims sat, model_all), km/s per satellite per year.
 
-    Satellites with non-finite states (impact) get NaN. Attributes name the chosen model.
+    Satellites with non-finite states (impact) get NaN. Attributes name the chosen model. Arguments as
+    :func:`deltav_from_propagation`.
     """
-    cfg = deltav_settings(profile, model=model, **overrides)
+    cfg = with_overrides(deltav, model=model, **overrides)
     t = ds["time"].values.astype(float)
     states = _states_from_dataset(ds)
     finite = np.all(np.isfinite(states), axis=(1, 2))
-    gm = float(profile["gravity"]["gm_km3_s2"])
+    gm = dynamics.gravity.gm_km3_s2
     total = np.full((states.shape[0], len(MODELS)), np.nan)
     opt = np.full_like(total, np.nan)
     if np.any(finite):
-        rot = element_frame_to_j2000(profile, float(t[0]), cfg["element_frame"])
-        res = deltav_arrays(t, _rotate_states(states[finite], rot), gm, {k: v for k, v in cfg.items() if k != "model"})
+        rot = element_frame_to_j2000(dynamics, float(t[0]), cfg.element_frame)
+        res = deltav_arrays(t, _rotate_states(states[finite], rot), gm, cfg)
         total[finite] = np.stack([res["dv_total"][m] for m in MODELS], axis=-1)
         opt[finite] = np.stack([res["dv_opt"][m] for m in MODELS], axis=-1)
     return xr.Dataset(
         {"dv_total_kms_per_year": (("sat", "model_all"), total), "dv_opt_kms_per_year": (("sat", "model_all"), opt)},
         coords={"sat": ds["sat"].values, "model_all": list(MODELS)},
-        attrs={"deltav_model": cfg["model"], "element_frame": cfg["element_frame"],
+        attrs={"deltav_model": cfg.model, "element_frame": cfg.element_frame,
                "units": "km/s per satellite per year"},
     )
 

@@ -23,6 +23,7 @@ visible satellites; optionally area-weighted.
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import TYPE_CHECKING
 
 import numba as nb
 import numpy as np
@@ -34,9 +35,12 @@ from .frames import rotate_to_moon_fixed
 from .geometry import (availability_pct, block_inverse, normal_matrix_entries, position_block_inverse, sigma_filtered_mean,
                        weighted_dop_stats)
 
-__all__ = ["LOS_AXES", "WEIGHTINGS", "SurfaceGrid", "surface_grid", "grid_from_profile", "elevation_deg", "dop_kernel",
-           "check_positions", "dop_arrays", "dop_metrics", "metrics_from_profile", "dop_grid", "dop_summary",
-           "dop_for_profile", "dop_from_propagation", "summary_from_profile"]
+if TYPE_CHECKING:
+    from .settings import DopSettings, Dynamics
+
+__all__ = ["LOS_AXES", "WEIGHTINGS", "SurfaceGrid", "surface_grid", "elevation_deg", "dop_kernel",
+           "check_positions", "dop_arrays", "dop_metrics", "metrics_for_settings", "dop_grid", "dop_summary",
+           "dop_for_settings", "dop_from_propagation", "summary_for_settings"]
 
 WEIGHTINGS = AREA_WEIGHTINGS
 
@@ -69,6 +73,13 @@ class SurfaceGrid:
     @property
     def shape(self) -> tuple[int, int]:
         return self.lat_deg.size, self.lon_deg.size
+
+    @classmethod
+    def from_settings(cls, dop: DopSettings, radius_km: float) -> "SurfaceGrid":
+        """The :func:`surface_grid` described by ``[dop]`` on a sphere of ``radius_km`` (the mean lunar
+        radius, ``constants.r_moon_mean_km``)."""
+        return surface_grid(dop.lat_min_deg, dop.lat_max_deg, dop.lat_step_deg, dop.lon_min_deg, dop.lon_max_deg,
+                            dop.lon_step_deg, radius_km=radius_km, weighting=dop.area_weighting)
 
 
 def _inclusive_range(start: float, stop: float, step: float, name: str) -> np.ndarray:
@@ -126,14 +137,6 @@ def surface_grid(lat_min_deg: float = -90.0, lat_max_deg: float = -60.0, lat_ste
     north = np.stack([-sphi * clam, -sphi * slam, cphi], axis=-1)
     weight = _area_weights(lat, float(lat_step_deg), lon.size, weighting)
     return SurfaceGrid(lat, lon, float(radius_km), weighting, radius_km * up, east, north, up, weight)
-
-
-def grid_from_profile(profile: dict) -> SurfaceGrid:
-    """The :func:`surface_grid` described by ``profile["dop"]`` on the mean lunar sphere."""
-    cfg = profile["dop"]
-    return surface_grid(cfg["lat_min_deg"], cfg["lat_max_deg"], cfg["lat_step_deg"],
-                        cfg["lon_min_deg"], cfg["lon_max_deg"], cfg["lon_step_deg"],
-                        radius_km=profile["constants"]["r_moon_mean_km"], weighting=cfg["area_weighting"])
 
 
 def check_positions(r_mf_km) -> np.ndarray:
@@ -351,12 +354,10 @@ def dop_metrics(r_mf_km, grid: SurfaceGrid, *, elevation_mask_deg: float = 5.0, 
     }
 
 
-def metrics_from_profile(profile: dict, r_mf_km, grid: SurfaceGrid | None = None) -> dict[str, float]:
-    """:func:`dop_metrics` with the grid, mask, LOS axes, threshold and filter width of ``profile["dop"]``."""
-    cfg = profile["dop"]
-    return dop_metrics(r_mf_km, grid or grid_from_profile(profile), elevation_mask_deg=float(cfg["elevation_mask_deg"]),
-                       los_axes=cfg["los_axes"], threshold=float(cfg["availability_threshold"]),
-                       n_sigma=float(cfg["filter_sigma"]))
+def metrics_for_settings(dop: DopSettings, r_mf_km, grid: SurfaceGrid) -> dict[str, float]:
+    """:func:`dop_metrics` on ``grid`` with the mask, LOS axes, threshold and filter width of ``[dop]``."""
+    return dop_metrics(r_mf_km, grid, elevation_mask_deg=dop.elevation_mask_deg, los_axes=dop.los_axes,
+                       threshold=dop.availability_threshold, n_sigma=dop.filter_sigma)
 
 
 def dop_grid(r_mf_km, grid: SurfaceGrid, *, t_tdb_s=None, elevation_mask_deg: float = 5.0,
@@ -437,29 +438,27 @@ def dop_summary(ds: xr.Dataset, *, threshold: float = 15.0, n_sigma: float = 3.0
     }
 
 
-def dop_for_profile(profile: dict, r_mf_km, t_tdb_s, *, los_axes: str | None = None,
-                    grid: SurfaceGrid | None = None) -> xr.Dataset:
-    """:func:`dop_grid` with the grid, mask and LOS axes of ``profile["dop"]`` (overridable)."""
-    cfg = profile["dop"]
-    return dop_grid(r_mf_km, grid or grid_from_profile(profile), t_tdb_s=t_tdb_s,
-                    elevation_mask_deg=float(cfg["elevation_mask_deg"]),
-                    los_axes=los_axes or cfg["los_axes"])
+def dop_for_settings(dop: DopSettings, r_mf_km, t_tdb_s, grid: SurfaceGrid, *,
+                     los_axes: str | None = None) -> xr.Dataset:
+    """:func:`dop_grid` on ``grid`` with the mask and LOS axes of ``[dop]`` (the axes overridable)."""
+    return dop_grid(r_mf_km, grid, t_tdb_s=t_tdb_s, elevation_mask_deg=dop.elevation_mask_deg,
+                    los_axes=los_axes or dop.los_axes)
 
 
-def dop_from_propagation(profile: dict, ds: xr.Dataset, *, los_axes: str | None = None,
+def dop_from_propagation(dop: DopSettings, dynamics: Dynamics, ds: xr.Dataset, *, los_axes: str | None = None,
                          grid: SurfaceGrid | None = None) -> xr.Dataset:
     """DOP grid for a propagator Dataset (``r_mci_km`` (sat, time, xyz), ``time`` TDB s).
 
-    Rotates to the Moon-fixed frame with SPICE (:func:`lnss_lib.frames.rotate_to_moon_fixed`) and calls
-    :func:`dop_for_profile`.
+    Rotates to the Moon-fixed frame (``dynamics.frames.moon_fixed``) with SPICE
+    (:func:`lnss_lib.frames.rotate_to_moon_fixed`) and calls :func:`dop_for_settings`; the grid defaults to
+    ``[dop]``'s on the mean lunar sphere (``dynamics.constants.r_moon_mean_km``).
     """
     r_mci = ds["r_mci_km"].transpose("sat", "time", "xyz").values
     times = ds["time"].values.astype(float)
-    return dop_for_profile(profile, rotate_to_moon_fixed(profile, r_mci, times), times,
-                           los_axes=los_axes, grid=grid)
+    grid = grid or SurfaceGrid.from_settings(dop, dynamics.constants.r_moon_mean_km)
+    return dop_for_settings(dop, rotate_to_moon_fixed(dynamics, r_mci, times), times, grid, los_axes=los_axes)
 
 
-def summary_from_profile(profile: dict, ds: xr.Dataset) -> dict[str, float]:
-    """:func:`dop_summary` with the threshold and filter width of ``profile["dop"]``."""
-    cfg = profile["dop"]
-    return dop_summary(ds, threshold=float(cfg["availability_threshold"]), n_sigma=float(cfg["filter_sigma"]))
+def summary_for_settings(dop: DopSettings, ds: xr.Dataset) -> dict[str, float]:
+    """:func:`dop_summary` with the threshold and filter width of ``[dop]``."""
+    return dop_summary(ds, threshold=dop.availability_threshold, n_sigma=dop.filter_sigma)

@@ -24,6 +24,7 @@ import spiceypy.utils.exceptions
 
 from .config import SKYFIELD_DATA, data_path
 from .errors import ConfigError, EphemerisRangeError, SpiceError
+from .settings import Dynamics, EphemerisSettings
 
 __all__ = ["NAIF_BODY", "planetary_spk_path", "kernel_paths", "load_kernels", "ensure_kernels", "tdb_seconds", "kernel_span_tdb_s", "check_span",
            "tdb_iso", "spice_errors", "body_states_mci", "rotation_and_rate", "rotation", "hermite_cubic", "EphemerisTable",
@@ -43,10 +44,9 @@ def planetary_spk_path(spec: str = "skyfield-data:de421.bsp") -> Path:
     return data_path(spec, "ephemeris.planetary_spk")
 
 
-def kernel_paths(profile: dict) -> list[Path]:
-    """Every kernel a profile uses, in load order (planetary SPK first)."""
-    eph = profile["ephemeris"]
-    return [planetary_spk_path(eph["planetary_spk"])] + [data_path(k, "ephemeris.kernels") for k in eph["kernels"]]
+def kernel_paths(ephemeris: EphemerisSettings) -> list[Path]:
+    """Every kernel the ephemeris settings name, in load order (planetary SPK first)."""
+    return [planetary_spk_path(ephemeris.planetary_spk)] + [data_path(k, "ephemeris.kernels") for k in ephemeris.kernels]
 
 
 @contextlib.contextmanager
@@ -86,9 +86,9 @@ def load_kernels(paths: list[Path]) -> None:
         _LOADED.add(key)
 
 
-def ensure_kernels(profile: dict) -> None:
-    """Load the kernels a profile names (idempotent)."""
-    load_kernels(kernel_paths(profile))
+def ensure_kernels(ephemeris: EphemerisSettings) -> None:
+    """Load the kernels the ephemeris settings name (idempotent)."""
+    load_kernels(kernel_paths(ephemeris))
 
 
 def tdb_seconds(calendar: str, scale: str = "TDB") -> float:
@@ -100,7 +100,7 @@ def tdb_seconds(calendar: str, scale: str = "TDB") -> float:
     if scale not in ("TDB", "UTC"):
         raise ValueError(f"unknown time scale {scale!r}; allowed: 'TDB', 'UTC'")
     if not _LOADED:
-        raise RuntimeError("SPICE kernels are not loaded: call ensure_kernels(profile) first")
+        raise RuntimeError("SPICE kernels are not loaded: call ensure_kernels(settings.ephemeris) first")
     if not isinstance(calendar, str) or not calendar.strip():
         raise ConfigError(f"epoch {calendar!r} is not an ISO calendar date; expected YYYY-MM-DDTHH:MM:SS ({scale})")
     try:
@@ -230,19 +230,18 @@ class EphemerisTable:
     rot_pa_rate: np.ndarray
 
     @classmethod
-    def build(cls, profile: dict, t_start_tdb_s: float, t_end_tdb_s: float,
+    def build(cls, dynamics: Dynamics, t_start_tdb_s: float, t_end_tdb_s: float,
               body_names: tuple[str, ...] = ("SUN", "EARTH", "JUPITER")) -> "EphemerisTable":
-        """Sample SPICE over [t_start, t_end] (with two nodes of margin each side)."""
-        ensure_kernels(profile)
-        step = float(profile["ephemeris"]["table_step_s"])
-        if not step > 0:
-            raise ValueError(f"ephemeris.table_step_s must be positive (s); got {step!r}")
+        """Sample SPICE over [t_start, t_end] (with two nodes of margin each side), every
+        ``ephemeris.table_step_s``, with the rotation to ``frames.gravity``."""
+        ensure_kernels(dynamics.ephemeris)
+        step = dynamics.ephemeris.table_step_s
         t_lo, t_hi = min(t_start_tdb_s, t_end_tdb_s), max(t_start_tdb_s, t_end_tdb_s)
         n = int(np.ceil((t_hi - t_lo) / step)) + 5
         times = t_lo - 2 * step + step * np.arange(n)
         check_span(float(times[0]), float(times[-1]))
         bodies = np.stack([body_states_mci(b, times) for b in body_names], axis=1)
-        rot, rate = rotation_and_rate("J2000", profile["frames"]["gravity"], times)
+        rot, rate = rotation_and_rate("J2000", dynamics.frames.gravity, times)
         return cls(float(times[0]), step, tuple(body_names), bodies,
                    rot.reshape(n, 9).copy(), rate.reshape(n, 9).copy())
 

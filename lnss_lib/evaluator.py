@@ -10,8 +10,8 @@ metrics, never raised, so batch callers can treat them as constraint violations.
 
 A profile may ask for the operational metrics of :data:`~lnss_lib.keys.EXTRA_METRIC_KEYS` in
 ``[evaluator] extra_metrics`` (issue 11 item 5; none in ``paper``): the geometry-keeping Delta-V
-estimate over every satellite (:mod:`lnss_lib.sk_estimate`, from the same arc), the design-life
-stability screen (:mod:`lnss_lib.stability`, from the initial states; ``stable_screen`` 1.0 or 0.0)
+estimate over every satellite (:mod:`lnss_lib.design_life.estimate`, from the same arc), the design-life
+stability screen (:mod:`lnss_lib.design_life.screen`, from the initial states; ``stable_screen`` 1.0 or 0.0)
 and the eq. 45 Delta-V's maximum over satellites. Only the requested ones are computed and returned.
 """
 
@@ -19,12 +19,15 @@ from __future__ import annotations
 
 import math
 import time
-from dataclasses import dataclass
+from dataclasses import dataclass, field
+from typing import TYPE_CHECKING
 
 import numpy as np
 import xarray as xr
 
-from . import deltav, dop, gps, sk_estimate, stability
+from . import deltav, dop, gps
+from .design_life import estimate as sk_estimate
+from .design_life import screen as stability
 from .constellation import WalkerDesign
 from .ephemeris import EphemerisTable, ensure_kernels, rotation, tdb_seconds
 from .constants import SECONDS_PER_DAY
@@ -35,13 +38,17 @@ from .errors import ConfigError, ImpactError, InfeasibleDesignError
 from .keys import METRIC_KEYS, TIMING_KEYS, requested_extra_metrics
 from .propagator import check_elements_deg, elements_deg_to_states, output_times, propagate_states
 
+if TYPE_CHECKING:
+    from .settings import DeltaVSettings, DopSettings, Dynamics, GpsSettings, Settings
 
 
 @dataclass
 class EvaluationContext:
-    """Everything a run shares across design evaluations (build with :meth:`from_profile`)."""
+    """Everything a run shares across design evaluations, built once a process (:meth:`build`): the settings
+    sections the evaluation reads, the tables and force model, the Moon-fixed rotations, the grid and the GPS
+    states. ``settings`` (the whole tree) stays for the propagator and the extra metrics' modules."""
 
-    profile: dict
+    settings: Settings
     t0_tdb_s: float
     times: np.ndarray
     model: ForceModel
@@ -50,35 +57,44 @@ class EvaluationContext:
     gps_states: xr.Dataset
     extra_metrics: tuple[str, ...] = ()
 
+    dynamics: Dynamics = field(init=False, repr=False)        # the sections each design reads, taken once
+    dop: DopSettings = field(init=False, repr=False)
+    gps: GpsSettings = field(init=False, repr=False)
+    deltav: DeltaVSettings = field(init=False, repr=False)
+
+    def __post_init__(self):
+        self.dynamics, self.dop, self.gps, self.deltav = (self.settings.dynamics, self.settings.dop, self.settings.gps,
+                                                          self.settings.deltav)
+
+    @property
+    def profile(self) -> Settings:
+        """Transitional name of :attr:`settings` (the design-life modules still read ``context.profile``)."""
+        return self.settings
+
     @classmethod
-    def from_profile(cls, profile: dict) -> "EvaluationContext":
-        """Tables, force model, Moon-fixed rotations, grid and GPS states over the profile's arc (profile checked
-        by :func:`~lnss_lib.config.validate_profile` first, then the settings of the requested extra metrics)."""
-        extras = requested_extra_metrics(profile)
-        deltav.deltav_settings(profile)
-        if any(k.startswith("sk_dv_estimate") for k in extras):
-            sk_estimate.sk_estimate_settings(profile)
-        if any(k.startswith(("stable", "screen")) for k in extras):
-            stability.stability_settings(profile)
-        ensure_kernels(profile)
-        epoch = profile["epoch"]
-        t0 = tdb_seconds(epoch["start_tdb"], "TDB")
-        times = output_times(t0, epoch["duration_days"] * SECONDS_PER_DAY, epoch["step_s"])
-        table = EphemerisTable.build(profile, t0, float(times[-1]))
-        model = ForceModel.from_profile(profile, table)
-        rot = rotation("J2000", profile["frames"]["moon_fixed"], times)
-        return cls(profile, t0, times, model, rot, dop.grid_from_profile(profile), gps.gps_states_mci(profile, times),
-                   extras)
+    def build(cls, settings: Settings) -> "EvaluationContext":
+        """Tables, force model, Moon-fixed rotations, grid and GPS states over the settings' arc (checked at load)."""
+        profile = settings
+        ensure_kernels(profile.ephemeris)
+        epoch = settings.epoch
+        t0 = tdb_seconds(epoch.start_tdb, "TDB")
+        times = output_times(t0, epoch.duration_days * SECONDS_PER_DAY, epoch.step_s)
+        table = EphemerisTable.build(profile.dynamics, t0, float(times[-1]))
+        model = ForceModel.build(profile.dynamics, table)
+        rot = rotation("J2000", settings.frames.moon_fixed, times)
+        grid = dop.SurfaceGrid.from_settings(settings.dop, settings.constants.r_moon_mean_km)
+        return cls(settings, t0, times, model, rot, grid, gps.gps_states_mci(settings.gps, epoch.start_tdb, times),
+                   requested_extra_metrics(settings.evaluator))
 
 
 _CONTEXTS: dict[str, EvaluationContext] = {}
 
 
-def context_for(profile: dict) -> EvaluationContext:
-    """The process-wide :class:`EvaluationContext` of a profile (built on first use)."""
-    key = profile.hash
+def context_for(settings: Settings) -> EvaluationContext:
+    """The process-wide :class:`EvaluationContext` of some settings (built on first use, keyed by their hash)."""
+    key = settings.hash
     if key not in _CONTEXTS:
-        _CONTEXTS[key] = EvaluationContext.from_profile(profile)
+        _CONTEXTS[key] = EvaluationContext.build(settings)
     return _CONTEXTS[key]
 
 
@@ -97,19 +113,19 @@ def analyse_constellation(context: EvaluationContext, elements_deg) -> dict:
     :class:`~lnss_lib.propagator.ImpactError` for an orbit that hits the Moon.
     """
     elements = np.atleast_2d(np.asarray(elements_deg, dtype=float))
-    return analyse_states(context, elements, elements_deg_to_states(context.profile, elements, context.t0_tdb_s))
+    return analyse_states(context, elements, elements_deg_to_states(context.settings.dynamics, elements, context.t0_tdb_s))
 
 
 def analyse_states(context: EvaluationContext, elements: np.ndarray, states: np.ndarray,
                     datasets: bool = True) -> dict:
     """Propagation and metrics; without ``datasets`` the campaign's path: no grid or link Dataset, the DOP
-    grid compiled (:func:`lnss_lib.dop.metrics_from_profile`, same metrics to ~1e-12 relative) and the
+    grid compiled (:func:`lnss_lib.dop.metrics_for_settings`, same metrics to ~1e-12 relative) and the
     GPS link from arrays (:func:`lnss_lib.gps.gps_link_metrics`, bit for bit)."""
     start = time.perf_counter()
-    profile = context.profile
+    profile = context.settings
     times = context.times
     clock = [time.perf_counter()]
-    ds = propagate_states(profile, states, context.t0_tdb_s, float(times[-1] - times[0]), profile["epoch"]["step_s"],
+    ds = propagate_states(profile.dynamics, states, context.t0_tdb_s, float(times[-1] - times[0]), profile.epoch.step_s,
                           batch=True, model=context.model)
     if bool(ds.impact.any()):
         first = int(np.argmax(ds.impact.values))
@@ -121,19 +137,20 @@ def analyse_states(context: EvaluationContext, elements: np.ndarray, states: np.
     clock.append(time.perf_counter())
     r_mf = rotate_with(context.rot_to_moon_fixed, ds.r_mci_km.values)
     if datasets:
-        grid_ds = dop.dop_for_profile(profile, r_mf, times, grid=context.grid)
-        dop_stats = dop.summary_from_profile(profile, grid_ds)
+        grid_ds = dop.dop_for_settings(context.dop, r_mf, times, context.grid)
+        dop_stats = dop.summary_for_settings(context.dop, grid_ds)
     else:
-        grid_ds, dop_stats = None, dop.metrics_from_profile(profile, r_mf, context.grid)
+        grid_ds, dop_stats = None, dop.metrics_for_settings(context.dop, r_mf, context.grid)
     clock.append(time.perf_counter())
-    dv = deltav.deltav_from_propagation(profile, ds, sat=0)
-    dv_budget = _design_deltav(profile, ds, dv)
+    dv = deltav.deltav_from_propagation(context.deltav, context.dynamics, ds, sat=0)
+    dv_budget = _design_deltav(context.deltav, context.dynamics, ds, dv)
     clock.append(time.perf_counter())
     if datasets:
-        link = gps.gps_link(profile, context.gps_states, ds, sats="first")
+        link = gps.gps_link(context.gps, context.dynamics.constants, context.gps_states, ds, sats="first")
         link_stats = gps.gps_link_summary(link)
     else:
-        link, link_stats = None, gps.gps_link_metrics(profile, context.gps_states, ds["r_mci_km"].values)
+        link, link_stats = None, gps.gps_link_metrics(context.gps, context.dynamics.constants, context.gps_states,
+                                                      ds["r_mci_km"].values)
     clock.append(time.perf_counter())
     extras = _operational_metrics(context, ds, states, dv_budget)
     clock.append(time.perf_counter())
@@ -159,12 +176,12 @@ def analyse_states(context: EvaluationContext, elements: np.ndarray, states: np.
     return {"propagation": ds, "dop": grid_ds, "deltav": dv, "gps_link": link, "metrics": metrics}
 
 
-def _design_deltav(profile: dict, ds: xr.Dataset, dv_first: xr.Dataset) -> dict:
+def _design_deltav(settings: DeltaVSettings, dynamics: Dynamics, ds: xr.Dataset, dv_first: xr.Dataset) -> dict:
     """The design's eq. 45 Delta-V budgets: satellite 0's (``[deltav] satellites = "first"``, the paper's
     Section 5.3 practice) or the mean over every satellite (``"all"``), then also the maxima."""
-    if deltav.deltav_settings(profile)["satellites"] == "first":
+    if settings.satellites == "first":
         return {k: float(dv_first.attrs[k]) for k in ("dv_total_kms_per_year", "dv_opt_kms_per_year")}
-    per_sat = deltav.deltav_per_satellite(profile, ds).sel(model_all=dv_first.attrs["deltav_model"])
+    per_sat = deltav.deltav_per_satellite(settings, dynamics, ds).sel(model_all=dv_first.attrs["deltav_model"])
     out = {}
     for key in ("dv_total", "dv_opt"):
         values = per_sat[f"{key}_kms_per_year"].values
@@ -175,16 +192,16 @@ def _design_deltav(profile: dict, ds: xr.Dataset, dv_first: xr.Dataset) -> dict:
 
 def _operational_metrics(context: EvaluationContext, ds: xr.Dataset, states: np.ndarray, dv_budget: dict) -> dict:
     """The requested extra metrics (``context.extra_metrics``); NaN for an estimate the arc cannot give."""
-    profile, wanted = context.profile, context.extra_metrics
+    profile, wanted = context.settings, context.extra_metrics
     out = {k: dv_budget[k] for k in wanted if k in dv_budget}
     if any(k.startswith("sk_dv_estimate") for k in wanted):
-        cfg = sk_estimate.sk_estimate_settings(profile)
-        gm = float(profile["gravity"]["gm_km3_s2"])
+        min_periods = profile.sk_estimate.min_periods
+        gm = context.dynamics.gravity.gm_km3_s2
         r = np.linalg.norm(ds["r_mci_km"].values, axis=-1)
         v2 = np.sum(ds["v_mci_kms"].values ** 2, axis=-1)
         a_mean = np.mean(vis_viva_sma_km(r, v2, gm), axis=1)             # vis-viva, as the estimate's arc test
         arc_s = float(ds["time"].values[-1] - ds["time"].values[0])
-        if arc_s >= float(cfg["min_periods"]) * 2.0 * np.pi * np.sqrt(np.max(a_mean) ** 3 / gm) * (1.0 + 1e-9):
+        if arc_s >= min_periods * 2.0 * np.pi * np.sqrt(np.max(a_mean) ** 3 / gm) * (1.0 + 1e-9):
             estimate = sk_estimate.sk_estimate_from_propagation(profile, ds)
         else:
             estimate = dict.fromkeys(("sk_dv_estimate_kms_per_year", "sk_dv_estimate_max_kms_per_year"), math.nan)
@@ -209,9 +226,9 @@ def evaluate_constellation(context: EvaluationContext, elements_deg) -> dict:
     start = time.perf_counter()
     elements = np.atleast_2d(np.asarray(elements_deg, dtype=float))
     n_sat = elements.shape[0]
-    model_name = deltav.deltav_settings(context.profile)["model"]
+    model_name = context.deltav.model
     try:
-        states = elements_deg_to_states(context.profile, elements, context.t0_tdb_s)
+        states = elements_deg_to_states(context.settings.dynamics, elements, context.t0_tdb_s)
     except InfeasibleDesignError as error:
         return _infeasible(n_sat, f"invalid elements: {error}", model_name, start, context.extra_metrics)
     try:

@@ -260,7 +260,7 @@ class DesignExplorer:
         record = Evaluation(self.profile_choice.value, self.frame_choice.value, self.model_choice.value, design,
                             {key: math.nan for key in METRIC_KEYS})
         try:
-            elements = walker_design(context.profile, design["sma_km"], design["ecc"], design["aop_deg"],
+            elements = walker_design(context.dynamics, design["sma_km"], design["ecc"], design["aop_deg"],
                                      design["inc_deg"], design["n_planes"], design["sats_per_plane"]).elements_deg()
         except InfeasibleDesignError as error:      # no closed orbit above the surface; other errors propagate
             record.metrics["n_sat"] = design["n_planes"] * design["sats_per_plane"]

@@ -15,10 +15,11 @@ from dataclasses import dataclass
 import numba as nb
 import numpy as np
 
-from .config import CR_AREA_MASS, CR_AREA_MASS_WHY, SHADOW_MODELS, THIRD_BODIES, allowed_range_text, in_range
+from .config import CR_AREA_MASS, CR_AREA_MASS_WHY, THIRD_BODIES, allowed_range_text, in_range
 from .ephemeris import EphemerisTable, hermite_cubic
 from .errors import ConfigError
 from .gravity import GravityField, harmonic_acceleration, truncation_degree
+from .settings import Dynamics
 
 __all__ = ["BODY_ORDER", "SCRATCH_SIZE", "TERMS", "ForceModel", "shadow_factor", "acceleration_terms",
            "acceleration", "acceleration_breakdown"]
@@ -29,14 +30,13 @@ TERMS = ("central", "harmonics", "SUN", "EARTH", "JUPITER", "srp", "relativity",
 
 # indices into the scalar parameter vector of the kernels
 GM, R_REF, R_MOON, R_EARTH, R_SUN, AU, C_LIGHT, SRP_K, ALBEDO, SOLAR_P, GRAV_TRUNC = range(11)
-SCALAR_NAMES = ("gm", "r_ref", "r_moon", "r_earth", "r_sun", "au", "c_light", "srp_k", "albedo", "solar_p", "grav_trunc_kms2")
 # indices into the flag vector
 F_HARMONICS, F_SUN, F_EARTH, F_JUPITER, F_SRP, F_SHADOW, F_REL, F_ALBEDO = range(8)
 
 
 @dataclass(frozen=True)
 class ForceModel:
-    """Everything the compiled acceleration needs, built once per run from a profile."""
+    """Everything the compiled acceleration needs, built once per run from the dynamics settings."""
 
     scalars: np.ndarray
     flags: np.ndarray
@@ -45,53 +45,50 @@ class ForceModel:
     field: GravityField
 
     @classmethod
-    def from_profile(cls, profile: dict, table: EphemerisTable, *, degree: int | None = None,
-                     srp_cr_area_mass_m2_kg: float | None = None) -> "ForceModel":
-        """Force model of a profile; ``degree`` and Cr*A/m (m^2/kg) may override the profile's."""
+    def build(cls, dynamics: Dynamics, table: EphemerisTable, *, degree: int | None = None,
+              srp_cr_area_mass_m2_kg: float | None = None) -> "ForceModel":
+        """Force model of the dynamics settings; ``degree`` and Cr*A/m (m^2/kg) may override theirs.
+
+        The settings were checked when loaded (third bodies, shadow model, finite constants); checked
+        here are the arguments, the table and the field file's coefficients.
+        """
         if tuple(table.body_names) != BODY_ORDER:
             raise ValueError(f"ephemeris table must hold {BODY_ORDER}; got {table.body_names}")
-        const, forces, craft = profile["constants"], profile["forces"], profile["spacecraft"]
-        field = GravityField.from_profile(profile, degree)
+        const, forces = dynamics.constants, dynamics.forces
+        field = GravityField.from_settings(dynamics.gravity, degree)
         if srp_cr_area_mass_m2_kg is None:
-            srp_cr_area_mass_m2_kg = craft["cr"] * craft["area_m2"] / craft["mass_kg"]
+            craft = dynamics.spacecraft
+            srp_cr_area_mass_m2_kg = craft.cr * craft.area_m2 / craft.mass_kg
         if not (isinstance(srp_cr_area_mass_m2_kg, (int, float, np.floating)) and np.isfinite(srp_cr_area_mass_m2_kg)
                 and in_range(srp_cr_area_mass_m2_kg, CR_AREA_MASS)):
             raise ConfigError(f"Cr*A/m = {srp_cr_area_mass_m2_kg!r} m^2/kg is not allowed; allowed: a finite number "
                               f"in {allowed_range_text(CR_AREA_MASS)} ({CR_AREA_MASS_WHY})", key="srp_cr_area_mass_m2_kg")
         if not (np.all(np.isfinite(field.cnm)) and np.all(np.isfinite(field.snm))):
-            raise ConfigError(f"gravity field {profile['gravity']['file']} holds non-finite coefficients",
+            raise ConfigError(f"gravity field {dynamics.gravity.file} holds non-finite coefficients",
                               key="gravity.file")
-        solar_pressure_n_m2 = forces["solar_flux_w_m2"] / (const["c_km_s"] * 1e3)
+        solar_pressure_n_m2 = forces.solar_flux_w_m2 / (const.c_km_s * 1e3)
         scalars = np.zeros(11)
         scalars[GM] = field.gm_km3_s2
         scalars[R_REF] = field.r_ref_km
-        scalars[R_MOON] = const["r_moon_mean_km"]
-        scalars[R_EARTH] = const["r_earth_km"]
-        scalars[R_SUN] = const["r_sun_km"]
-        scalars[AU] = const["au_km"]
-        scalars[C_LIGHT] = const["c_km_s"]
+        scalars[R_MOON] = const.r_moon_mean_km
+        scalars[R_EARTH] = const.r_earth_km
+        scalars[R_SUN] = const.r_sun_km
+        scalars[AU] = const.au_km
+        scalars[C_LIGHT] = const.c_km_s
         scalars[SRP_K] = solar_pressure_n_m2 * srp_cr_area_mass_m2_kg * 1e-3  # km/s^2 at 1 au
-        scalars[ALBEDO] = forces["earth_albedo"]
+        scalars[ALBEDO] = forces.earth_albedo
         scalars[SOLAR_P] = solar_pressure_n_m2
         scalars[GRAV_TRUNC] = field.truncation_kms2   # per-evaluation degree truncation (gravity.truncation_degree)
-        if not np.all(np.isfinite(scalars)):
-            raise ConfigError(f"force model constants must be finite; got {dict(zip(SCALAR_NAMES, scalars))}")
-        unknown = set(forces["third_bodies"]) - set(BODY_ORDER)
-        if unknown:
-            raise ValueError(f"unknown third bodies {sorted(unknown)}; allowed: {BODY_ORDER}")
-        if forces["shadow"] not in SHADOW_MODELS:
-            raise ConfigError(f"forces.shadow = {forces['shadow']!r} is not allowed; allowed: {', '.join(SHADOW_MODELS)}",
-                              key="forces.shadow")
         flags = np.zeros(8, dtype=np.int64)
         flags[F_HARMONICS] = 1
-        flags[F_SUN] = "SUN" in forces["third_bodies"]
-        flags[F_EARTH] = "EARTH" in forces["third_bodies"]
-        flags[F_JUPITER] = "JUPITER" in forces["third_bodies"]
-        flags[F_SRP] = bool(forces["srp"])
-        flags[F_SHADOW] = forces["shadow"] == "conical"
-        flags[F_REL] = bool(forces["relativity"])
-        flags[F_ALBEDO] = bool(forces["albedo"])
-        gm_bodies = np.array([const["gm_sun_km3_s2"], const["gm_earth_km3_s2"], const["gm_jupiter_km3_s2"]])
+        flags[F_SUN] = "SUN" in forces.third_bodies
+        flags[F_EARTH] = "EARTH" in forces.third_bodies
+        flags[F_JUPITER] = "JUPITER" in forces.third_bodies
+        flags[F_SRP] = bool(forces.srp)
+        flags[F_SHADOW] = forces.shadow == "conical"
+        flags[F_REL] = bool(forces.relativity)
+        flags[F_ALBEDO] = bool(forces.albedo)
+        gm_bodies = np.array([const.gm_sun_km3_s2, const.gm_earth_km3_s2, const.gm_jupiter_km3_s2])
         return cls(scalars, flags, gm_bodies, table, field)
 
     @property
@@ -243,7 +240,7 @@ def acceleration(t: float, y: np.ndarray, args: tuple, work: np.ndarray, scratch
         out[j] = s
 
 
-def acceleration_breakdown(profile: dict, t_tdb_s: np.ndarray, state_mci: np.ndarray, *, degree: int | None = None,
+def acceleration_breakdown(dynamics: Dynamics, t_tdb_s: np.ndarray, state_mci: np.ndarray, *, degree: int | None = None,
                            srp_cr_area_mass_m2_kg: float | None = None, model: ForceModel | None = None) -> dict:
     """Each force term (km/s^2, Moon-centred J2000) at epochs ``t_tdb_s`` (n,) and states (n, 6).
 
@@ -252,8 +249,8 @@ def acceleration_breakdown(profile: dict, t_tdb_s: np.ndarray, state_mci: np.nda
     times = np.atleast_1d(np.asarray(t_tdb_s, dtype=float))
     states = np.atleast_2d(np.asarray(state_mci, dtype=float))
     if model is None:
-        table = EphemerisTable.build(profile, float(times.min()), float(times.max()))
-        model = ForceModel.from_profile(profile, table, degree=degree, srp_cr_area_mass_m2_kg=srp_cr_area_mass_m2_kg)
+        table = EphemerisTable.build(dynamics, float(times.min()), float(times.max()))
+        model = ForceModel.build(dynamics, table, degree=degree, srp_cr_area_mass_m2_kg=srp_cr_area_mass_m2_kg)
     elif times.min() < model.table.t0_tdb_s or times.max() > model.table.t_end_tdb_s:
         raise ValueError("epochs outside the force model's ephemeris table "
                          f"[{model.table.t0_tdb_s:.0f}, {model.table.t_end_tdb_s:.0f}] s TDB")

@@ -4,7 +4,7 @@
   constellation's Keplerian elements are given (lunar equator of epoch, J2000, or the Moon
   orbital-plane frame ``moon_op`` of Ely 2005 / LuPNT).
 * **Moon-fixed rotation** (:func:`rotate_to_moon_fixed`, :func:`rotate_with`): Moon-centred J2000
-  to the profile's ``frames.moon_fixed`` frame through SPICE.
+  to the ``frames.moon_fixed`` frame through SPICE.
 * **RTN** (:func:`rtn_basis`, :func:`to_rtn`, :func:`from_rtn`): radial, transverse, normal axes
   of an orbit state (the axes of the Gauss equations, :mod:`lnss_lib.gve`).
 * **Time scales and TEME -> J2000** (paper Section 2.2, for SGP4's GPS states): SGP4 gives positions
@@ -29,6 +29,7 @@ import spiceypy as spice
 from .config import ELEMENT_FRAMES, POLE_FRAMES
 from .constants import ARCSEC_RAD, SECONDS_PER_DAY, SECONDS_PER_JULIAN_CENTURY
 from .ephemeris import body_states_mci, ensure_kernels, rotation
+from .settings import Dynamics
 
 __all__ = ["ELEMENT_FRAMES", "POLE_FRAMES", "element_frame_to_j2000", "moon_op_axes_j2000", "orbit_plane_axes_j2000", "moon_op_to_j2000", "rotate_to_moon_fixed", "rotate_with", "latitude_deg",
            "rtn_basis", "to_rtn", "from_rtn", "J2000_JD", "NUTATION_SKIPPED_DPSI_MAS", "NUTATION_SKIPPED_DEPS_MAS",
@@ -43,22 +44,23 @@ J2000_JD = 2451545.0
 
 
 
-def element_frame_to_j2000(profile: dict, t_epoch_tdb_s: float, frame: str | None = None) -> np.ndarray:
-    """Rotation from an element frame (default: the profile's) to J2000 (x_j2000 = R x_elements).
+def element_frame_to_j2000(dynamics: Dynamics, t_epoch_tdb_s: float, frame: str | None = None) -> np.ndarray:
+    """Rotation from an element frame (default: ``frames.element_frame``) to J2000 (x_j2000 = R x_elements).
 
     ``lunar_equator_of_epoch``: the Moon-fixed frame (``frames.moon_fixed``) frozen at the epoch,
     so inclinations are to the lunar equator and RAAN is counted from the prime meridian at epoch.
     ``j2000``: identity (elements in the Earth's mean equator and equinox of J2000).
     ``moon_op``: the Moon orbital-plane frame built at the epoch (:func:`moon_op_to_j2000`).
+    ``dynamics`` gives the frames and the kernels (loaded here when needed).
     """
-    frame = profile["frames"]["element_frame"] if frame is None else frame
+    frame = dynamics.frames.element_frame if frame is None else frame
     if frame == "j2000":
         return np.eye(3)
     if frame == "lunar_equator_of_epoch":
-        ensure_kernels(profile)
-        return rotation(profile["frames"]["moon_fixed"], "J2000", t_epoch_tdb_s)[0]
+        ensure_kernels(dynamics.ephemeris)
+        return rotation(dynamics.frames.moon_fixed, "J2000", t_epoch_tdb_s)[0]
     if frame == "moon_op":
-        ensure_kernels(profile)
+        ensure_kernels(dynamics.ephemeris)
         return moon_op_to_j2000(float(t_epoch_tdb_s))
     raise ValueError(f"unknown element frame {frame!r}; allowed: {', '.join(map(repr, ELEMENT_FRAMES))}")
 
@@ -104,7 +106,7 @@ def orbit_plane_axes_j2000(normal_j2000, pole_j2000) -> np.ndarray:
     """Rotation (3, 3) whose columns are ``moon_op``-like axes: z along ``normal_j2000``, x along pole x z.
 
     Pure geometry (any lengths); :func:`moon_op_axes_j2000` with the Earth's osculating orbit normal, or
-    :mod:`lnss_lib.frozen` with the month-averaged one.
+    :mod:`lnss_lib.design_life.frozen` with the month-averaged one.
     """
     pole = np.asarray(pole_j2000, dtype=float)
     normal = np.asarray(normal_j2000, dtype=float)
@@ -135,10 +137,10 @@ def moon_op_to_j2000(t_epoch_tdb_s: float, pole_frame: str = "MOON_ME") -> np.nd
     return moon_op_axes_j2000(earth[:3], earth[3:], pole)
 
 
-def rotate_to_moon_fixed(profile: dict, r_mci_km: np.ndarray, t_tdb_s: np.ndarray) -> np.ndarray:
+def rotate_to_moon_fixed(dynamics: Dynamics, r_mci_km: np.ndarray, t_tdb_s: np.ndarray) -> np.ndarray:
     """Moon-centred J2000 positions (sat, time, 3) -> Moon-fixed (``frames.moon_fixed``) positions."""
-    ensure_kernels(profile)
-    return rotate_with(rotation("J2000", profile["frames"]["moon_fixed"], np.asarray(t_tdb_s, dtype=float)), r_mci_km)
+    ensure_kernels(dynamics.ephemeris)
+    return rotate_with(rotation("J2000", dynamics.frames.moon_fixed, np.asarray(t_tdb_s, dtype=float)), r_mci_km)
 
 
 def rotate_with(rot: np.ndarray, vectors) -> np.ndarray:

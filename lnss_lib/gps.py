@@ -18,10 +18,12 @@ J2000, ``r_teme_km`` Earth-centred TEME, ``t_tdb_s`` TDB seconds past J2000 (SPI
 from __future__ import annotations
 
 import csv
+import dataclasses
 import hashlib
 from dataclasses import dataclass
 from functools import lru_cache
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import numba as nb
 import numpy as np
@@ -30,15 +32,18 @@ from sgp4.api import Satrec, SatrecArray
 
 from .config import data_path
 from .constants import BOLTZMANN_J_K, C_M_S, MIN_VISIBLE, WGS84_A_KM, WGS84_B_KM
-from .ephemeris import body_states_mci, ensure_kernels
+from .ephemeris import body_states_mci
 from .errors import ConfigError
 from .frames import teme_to_j2000, tt_centuries, utc_julian_dates
 from .geometry import block_inverse, filtered_mean, normal_matrix_entries, position_block_inverse
 from .tle import TleRecord, gps_catalogue
 
+if TYPE_CHECKING:
+    from .settings import BodyConstants, GpsSettings
+
 __all__ = ["propagate_teme", "gps_states_mci", "lunar_occultation", "off_boresight_deg", "earth_occultation",
            "ray_hits_ellipsoid", "free_space_loss_db", "cn0_dbhz", "pdop_kernel", "pdop_along_axis", "GainPattern",
-           "load_gain_pattern", "gain_from_profile", "gps_link", "gps_link_metrics", "gps_link_summary"]
+           "load_gain_pattern", "gain_for_settings", "gps_link", "gps_link_metrics", "gps_link_summary"]
 
 
 def propagate_teme(records: list[TleRecord], jd_utc: np.ndarray, fr_utc: np.ndarray) -> np.ndarray:
@@ -55,7 +60,7 @@ _STATE_CACHE: dict[str, xr.Dataset] = {}
 _STATE_CACHE_SIZE = 8
 
 
-def gps_states_mci(profile: dict, t_tdb_s, *, tle_path: str | Path | None = None,
+def gps_states_mci(gps: GpsSettings, start_tdb: str, t_tdb_s, *, tle_path: str | Path | None = None,
                    sgp4_offset_s: float = 0.0) -> xr.Dataset:
     """GPS positions at TDB epochs: Dataset (gps, time, xyz) with ``r_mci_km``, ``r_eci_km``, ``r_teme_km``.
 
@@ -66,21 +71,22 @@ def gps_states_mci(profile: dict, t_tdb_s, *, tle_path: str | Path | None = None
     backwards. ``sgp4_offset_s`` evaluates SGP4 at t + offset while the Earth and the frame rotation
     stay at t: a GPS phase (along-track) error, to test how much the back-propagation matters.
     Results are cached per (file, exclusions, epochs, offset): compute once, reuse across designs.
+    ``gps``: the ``[gps]`` section (TLE file and exclusions); ``start_tdb``: the study epoch
+    (``epoch.start_tdb``, the default launch cut-off). The SPICE kernels must be loaded
+    (:func:`lnss_lib.ephemeris.ensure_kernels`, as for the epochs ``t_tdb_s`` themselves).
     """
-    ensure_kernels(profile)
     t = np.atleast_1d(np.asarray(t_tdb_s, dtype=float))
-    cfg = profile["gps"]
-    path = Path(tle_path) if tle_path is not None else data_path(cfg["tle_file"])
-    selection = {k: str(cfg.get(k)) for k in ("exclude_prn", "exclude_launched_after", "exclude_launches_from",
-                                               "launch_dates")}
+    path = Path(tle_path) if tle_path is not None else data_path(gps.tle_file)
+    selection = {k: str(getattr(gps, k)) for k in ("exclude_prn", "exclude_launched_after", "exclude_launches_from",
+                                                    "launch_dates")}
     key = hashlib.sha256(b"".join([
-        path.read_bytes(), repr(sorted(selection.items())).encode(), profile["epoch"]["start_tdb"].encode(),
+        path.read_bytes(), repr(sorted(selection.items())).encode(), start_tdb.encode(),
         t.tobytes(), repr(float(sgp4_offset_s)).encode()])).hexdigest()
     if key in _STATE_CACHE:
         return _STATE_CACHE[key]
     if len(_STATE_CACHE) >= _STATE_CACHE_SIZE:
         _STATE_CACHE.clear()
-    records, _ = gps_catalogue(profile, path)
+    records, _ = gps_catalogue(gps, start_tdb, path)
     jd, fr = utc_julian_dates(t + float(sgp4_offset_s))
     r_teme = propagate_teme(records, jd, fr)
     rot = teme_to_j2000(tt_centuries(t))
@@ -284,11 +290,11 @@ def load_gain_pattern(path: str | Path, column: str) -> GainPattern:
     return GainPattern(theta, table[column], f"{path.name}:{column}")
 
 
-def gain_from_profile(profile: dict) -> GainPattern:
-    """The profile's transmit pattern: ``gps.gain_file`` / ``gps.gain_column`` with the sidelobe offset."""
-    cfg = profile["gps"]
-    pattern = load_gain_pattern(data_path(cfg["gain_file"]), cfg["gain_column"])
-    return pattern.with_sidelobes(float(cfg["sidelobe_from_deg"]), float(cfg["sidelobe_offset_db"]))
+def gain_for_settings(gps: GpsSettings) -> GainPattern:
+    """The ``[gps]`` transmit pattern: ``gain_file`` / ``gain_column`` with the sidelobe offset (read once a
+    process)."""
+    return _cached_gain(str(data_path(gps.gain_file)), gps.gain_column, float(gps.sidelobe_from_deg),
+                        float(gps.sidelobe_offset_db))
 
 
 # --------------------------------------------------------------------------------------------
@@ -309,20 +315,22 @@ def _lnss_positions(lnss, times: np.ndarray) -> np.ndarray:
     return r
 
 
-def _link_settings(profile: dict, overrides: dict) -> tuple[dict, GainPattern]:
-    """The ``[gps]`` settings with ``overrides`` and the transmit pattern; ``ValueError`` for an unknown key."""
-    cfg = {**profile["gps"], **{k: v for k, v in overrides.items() if k != "gain"}}
-    unknown = set(overrides) - set(profile["gps"]) - {"gain"}
+def _link_settings(gps: GpsSettings, overrides: dict) -> tuple[GpsSettings, GainPattern]:
+    """``[gps]`` with ``overrides`` (any ``[gps]`` key, numbers of a float key as floats) and the transmit pattern
+    (``overrides["gain"]`` or ``[gps]``'s); ``ValueError`` for an unknown key."""
+    names = [item.name for item in dataclasses.fields(gps) if item.init]
+    unknown = set(overrides) - set(names) - {"gain"}
     if unknown:
-        raise ValueError(f"unknown GPS link setting(s) {sorted(unknown)}; allowed: {sorted(profile['gps'])} or 'gain'")
-    gain = overrides.get("gain") or _cached_gain(str(data_path(cfg["gain_file"])), cfg["gain_column"],
-                                                 float(cfg["sidelobe_from_deg"]), float(cfg["sidelobe_offset_db"]))
-    return cfg, gain
+        raise ValueError(f"unknown GPS link setting(s) {sorted(unknown)}; allowed: {sorted(names)} or 'gain'")
+    changed = {k: float(v) if isinstance(getattr(gps, k), float) and not isinstance(v, bool) else v
+               for k, v in overrides.items() if k != "gain"}
+    cfg = dataclasses.replace(gps, **changed) if changed else gps
+    return cfg, overrides.get("gain") or gain_for_settings(cfg)
 
 
 @lru_cache(maxsize=16)
 def _cached_gain(path: str, column: str, from_deg: float, offset_db: float) -> GainPattern:
-    """:func:`gain_from_profile` read once per process (the file is not re-read for every design)."""
+    """:func:`gain_for_settings` read once per process (the file is not re-read for every design)."""
     return load_gain_pattern(path, column).with_sidelobes(from_deg, offset_db)
 
 
@@ -344,29 +352,26 @@ def _gps_arrays(gps: xr.Dataset) -> tuple:
     return arrays
 
 
-def _link_arrays(profile: dict, cfg: dict, gain: GainPattern, gps: xr.Dataset, r_lnss: np.ndarray) -> dict:
+def _link_arrays(constants: BodyConstants, cfg: GpsSettings, gain: GainPattern, gps_states: xr.Dataset,
+                 r_lnss: np.ndarray) -> dict:
     """Every array of :func:`gps_link` for LNSS positions ``r_lnss`` (sat, time, 1, 3), Moon-centred J2000 km."""
-    _, r_gps_mci, r_gps_eci, r_gps_teme, earth, rot = _gps_arrays(gps)
+    _, r_gps_mci, r_gps_eci, r_gps_teme, earth, rot = _gps_arrays(gps_states)
     r_lnss_eci = r_lnss - earth
     r_lnss_teme = np.einsum("tji,stgj->stgi", rot, r_lnss_eci)
-    r_moon = float(profile["constants"]["r_moon_mean_km"])
-    r_earth = float(profile["constants"]["r_earth_km"])
-    moon_blocked = lunar_occultation(r_lnss, r_gps_mci, r_moon)
+    moon_blocked = lunar_occultation(r_lnss, r_gps_mci, constants.r_moon_mean_km)
     theta = off_boresight_deg(r_gps_eci, r_lnss_eci)
-    earth_blocked = earth_occultation(theta, r_gps_eci, r_earth, float(cfg["atmosphere_margin_deg"]))
+    earth_blocked = earth_occultation(theta, r_gps_eci, constants.r_earth_km, cfg.atmosphere_margin_deg)
     ellipsoid_blocked = ray_hits_ellipsoid(r_gps_teme, r_lnss_teme,
-                                           WGS84_A_KM, WGS84_B_KM) if cfg["ellipsoid_test"] else np.zeros_like(theta, bool)
-    outside_beam = theta > float(cfg["beam_mask_deg"])
+                                           WGS84_A_KM, WGS84_B_KM) if cfg.ellipsoid_test else np.zeros_like(theta, bool)
+    outside_beam = theta > cfg.beam_mask_deg
     los = r_gps_mci - r_lnss
     range_km = np.linalg.norm(los, axis=-1)
     g_tx = gain(theta)
-    cn0 = cn0_dbhz(g_tx, range_km, p_tx_dbw=float(cfg["p_tx_dbw"]),
-                   losses_db=float(cfg["l_tx_db"]) + float(cfg["l_pol_db"]), g_rx_dbi=float(cfg["g_rx_dbi"]),
-                   frequency_hz=float(cfg["frequency_mhz"]) * 1e6,
-                   noise_temperature_k=float(cfg["noise_temperature_k"]))
-    strong = np.nan_to_num(cn0, nan=-np.inf) >= float(cfg["cn0_threshold_dbhz"])
+    cn0 = cn0_dbhz(g_tx, range_km, p_tx_dbw=cfg.p_tx_dbw, losses_db=cfg.l_tx_db + cfg.l_pol_db, g_rx_dbi=cfg.g_rx_dbi,
+                   frequency_hz=cfg.frequency_mhz * 1e6, noise_temperature_k=cfg.noise_temperature_k)
+    strong = np.nan_to_num(cn0, nan=-np.inf) >= cfg.cn0_threshold_dbhz
     visible = ~moon_blocked & ~earth_blocked & ~ellipsoid_blocked & ~outside_beam & strong
-    pdop = pdop_kernel(los / range_km[..., None], visible, bool(cfg["clock_column"]))
+    pdop = pdop_kernel(los / range_km[..., None], visible, bool(cfg.clock_column))
     return {"theta_off_deg": theta, "range_km": range_km, "gain_dbi": g_tx, "cn0_dbhz": cn0,
             "moon_blocked": moon_blocked, "earth_blocked": earth_blocked, "ellipsoid_blocked": ellipsoid_blocked,
             "outside_beam": outside_beam, "above_threshold": strong, "visible": visible, "pdop": pdop}
@@ -452,7 +457,8 @@ def _link_kernel(r_lnss, r_gps_mci, r_gps_eci, r_gps_teme, earth, rot, theta_tab
         pdop[t] = np.sqrt(max(ixx + iyy + izz, 0.0)) if ok else np.inf
 
 
-def gps_link_metrics(profile: dict, gps: xr.Dataset, r_lnss_mci_km: np.ndarray) -> dict[str, float]:
+def gps_link_metrics(gps: GpsSettings, constants: BodyConstants, gps_states: xr.Dataset,
+                     r_lnss_mci_km: np.ndarray) -> dict[str, float]:
     """:func:`gps_link_summary` of :func:`gps_link` (first satellite) without the Dataset: the campaign's path.
 
     ``r_lnss_mci_km`` (sat, time, 3) on the GPS dataset's epochs; the first satellite is used, as in
@@ -460,32 +466,31 @@ def gps_link_metrics(profile: dict, gps: xr.Dataset, r_lnss_mci_km: np.ndarray) 
     libm and numpy's vectorised arccos/log10 may round differently, so the metrics agree to ~1e-12
     unless a link sits exactly on a threshold (``tests/test_gps.py`` checks the agreement).
     """
-    cfg, gain = _link_settings(profile, {})
-    r = np.ascontiguousarray(_lnss_positions(r_lnss_mci_km, gps["time"].values)[0])
-    _, r_gps_mci, r_gps_eci, r_gps_teme, earth, rot = _gps_arrays(gps)
-    if not cfg["noise_temperature_k"] > 0.0:
-        raise ValueError(f"noise temperature must be positive (K); got {cfg['noise_temperature_k']!r}")
-    wavelength_m = C_M_S / (float(cfg["frequency_mhz"]) * 1e6)
+    cfg, gain = gps, gain_for_settings(gps)
+    r = np.ascontiguousarray(_lnss_positions(r_lnss_mci_km, gps_states["time"].values)[0])
+    _, r_gps_mci, r_gps_eci, r_gps_teme, earth, rot = _gps_arrays(gps_states)
+    wavelength_m = C_M_S / (cfg.frequency_mhz * 1e6)
     ntime = r.shape[0]
     n_visible = np.full(ntime, -1, dtype=np.int64)      # -1: not computed (checked after the kernel)
     pdop = np.full(ntime, np.nan)
     _link_kernel(r, r_gps_mci[0], r_gps_eci[0], r_gps_teme[0], np.ascontiguousarray(earth[0, :, 0]), rot,
                  np.asarray(gain.off_boresight_deg, dtype=float), np.asarray(gain.gain_dbi, dtype=float),
-                 float(profile["constants"]["r_moon_mean_km"]), float(profile["constants"]["r_earth_km"]),
-                 float(cfg["atmosphere_margin_deg"]), float(cfg["beam_mask_deg"]), bool(cfg["ellipsoid_test"]),
-                 WGS84_A_KM, WGS84_B_KM,
-                 float(cfg["p_tx_dbw"]) - (float(cfg["l_tx_db"]) + float(cfg["l_pol_db"])) + float(cfg["g_rx_dbi"]),
-                 4.0 * np.pi * 1e3 / wavelength_m, 10.0 * np.log10(BOLTZMANN_J_K * float(cfg["noise_temperature_k"])),
-                 float(cfg["cn0_threshold_dbhz"]), bool(cfg["clock_column"]), n_visible, pdop)
+                 constants.r_moon_mean_km, constants.r_earth_km,
+                 cfg.atmosphere_margin_deg, cfg.beam_mask_deg, cfg.ellipsoid_test, WGS84_A_KM, WGS84_B_KM,
+                 cfg.p_tx_dbw - (cfg.l_tx_db + cfg.l_pol_db) + cfg.g_rx_dbi,
+                 4.0 * np.pi * 1e3 / wavelength_m, 10.0 * np.log10(BOLTZMANN_J_K * cfg.noise_temperature_k),
+                 cfg.cn0_threshold_dbhz, cfg.clock_column, n_visible, pdop)
     if np.any(n_visible < 0):
         raise RuntimeError(f"the GPS link kernel left {int(np.sum(n_visible < 0))} of {ntime} epochs not computed")
-    return _summary(pdop[None], n_visible[None], cfg["pdop_filter"])
+    return _summary(pdop[None], n_visible[None], cfg.pdop_filter)
 
 
-def gps_link(profile: dict, gps: xr.Dataset, lnss, *, sats="first", **overrides) -> xr.Dataset:
+def gps_link(gps: GpsSettings, constants: BodyConstants, gps_states: xr.Dataset, lnss, *, sats="first",
+             **overrides) -> xr.Dataset:
     """GPS-LNSS visibility, C/N0 and PDOP (eq. 15-24, Section 2.2.4) on the GPS dataset's epochs.
 
-    ``gps``: from :func:`gps_states_mci`; ``lnss``: a propagation Dataset (``r_mci_km`` (sat, time,
+    ``gps``: the ``[gps]`` section; ``constants``: the Moon's and the Earth's radii; ``gps_states``: from
+    :func:`gps_states_mci`; ``lnss``: a propagation Dataset (``r_mci_km`` (sat, time,
     xyz)) or an array (sat, time, 3) of Moon-centred J2000 km. ``sats``: "first" (the paper's
     choice), "all", or a list of satellite indices. ``overrides``: any ``[gps]`` key (e.g.
     ``noise_temperature_k=150``, ``beam_mask_deg=60``, ``clock_column=False``) or ``gain``: a
@@ -498,8 +503,8 @@ def gps_link(profile: dict, gps: xr.Dataset, lnss, *, sats="first", **overrides)
     ``gain_dbi``, ``cn0_dbhz``, the blocking masks and ``visible``; (sat, time): ``n_visible``,
     ``pdop`` (NaN below 4 visible).
     """
-    cfg, gain = _link_settings(profile, overrides)
-    times = gps["time"].values
+    cfg, gain = _link_settings(gps, overrides)
+    times = gps_states["time"].values
     r_all = _lnss_positions(lnss, times)
     if isinstance(sats, str):
         if sats not in ("first", "all"):
@@ -510,7 +515,7 @@ def gps_link(profile: dict, gps: xr.Dataset, lnss, *, sats="first", **overrides)
         if any(s < 0 or s >= r_all.shape[0] for s in index):
             raise ValueError(f"satellite index out of range 0..{r_all.shape[0] - 1}: {index}")
     r_lnss = r_all[index][:, :, None, :]                                  # (sat, time, 1, 3)
-    arrays = _link_arrays(profile, cfg, gain, gps, r_lnss)
+    arrays = _link_arrays(constants, cfg, gain, gps_states, r_lnss)
     visible, pdop = arrays["visible"], arrays["pdop"]
     dims = ("sat", "time", "gps")
     ds = xr.Dataset(
@@ -520,11 +525,11 @@ def gps_link(profile: dict, gps: xr.Dataset, lnss, *, sats="first", **overrides)
                                                         "outside_beam", "above_threshold", "visible")},
             "n_visible": (("sat", "time"), visible.sum(axis=-1)), "pdop": (("sat", "time"), pdop),
         },
-        coords={"sat": index, "time": times, "gps": gps["gps"].values, "prn": ("gps", gps["prn"].values),
-                "name": ("gps", gps["name"].values)},
-        attrs={"gain_pattern": gain.source, "noise_temperature_k": float(cfg["noise_temperature_k"]),
-               "beam_mask_deg": float(cfg["beam_mask_deg"]), "clock_column": int(bool(cfg["clock_column"])),
-               "cn0_threshold_dbhz": float(cfg["cn0_threshold_dbhz"]), "pdop_filter": cfg["pdop_filter"],
+        coords={"sat": index, "time": times, "gps": gps_states["gps"].values, "prn": ("gps", gps_states["prn"].values),
+                "name": ("gps", gps_states["name"].values)},
+        attrs={"gain_pattern": gain.source, "noise_temperature_k": cfg.noise_temperature_k,
+               "beam_mask_deg": cfg.beam_mask_deg, "clock_column": int(cfg.clock_column),
+               "cn0_threshold_dbhz": cfg.cn0_threshold_dbhz, "pdop_filter": cfg.pdop_filter,
                "frame": "Moon-centred J2000", "time_scale": "TDB seconds past J2000"},
     )
     ds["pdop"].attrs["long_name"] = "GPS-LNSS PDOP (eq. 5-7), NaN with fewer than 4 visible"

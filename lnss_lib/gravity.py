@@ -17,6 +17,7 @@ import numpy as np
 
 from .config import data_path
 from .errors import ConfigError
+from .settings import GravitySettings
 
 __all__ = ["MAX_FILE_DEGREE", "GravityField", "recursion_coefficients", "degree_bound_factors", "truncation_degree",
            "omitted_bound", "harmonic_acceleration", "harmonic_potential"]
@@ -80,14 +81,11 @@ class GravityField:
         return cls(int(degree), float(gm_km3_s2), float(r_ref_km), cnm, snm, coef, float(truncation_kms2))
 
     @classmethod
-    def from_profile(cls, profile: dict, degree: int | None = None) -> "GravityField":
-        """The field a profile names, at its degree unless ``degree`` overrides it."""
-        grav = profile["gravity"]
-        chosen = degree if degree is not None else grav["degree"]
-        if isinstance(chosen, float) and chosen.is_integer():
-            chosen = int(chosen)
-        return cls.from_file(data_path(grav["file"]), chosen, grav["gm_km3_s2"], grav["r_ref_km"],
-                             float(grav.get("truncation_kms2", 0.0)))
+    def from_settings(cls, gravity: GravitySettings, degree: int | None = None) -> "GravityField":
+        """The field the gravity settings name, at their degree unless ``degree`` overrides it."""
+        chosen = gravity.degree if degree is None else degree
+        return cls.from_file(data_path(gravity.file), chosen, gravity.gm_km3_s2, gravity.r_ref_km,
+                             gravity.truncation_kms2)
 
     def workspace(self) -> np.ndarray:
         """Scratch array for :func:`harmonic_acceleration` (V and W, degree + 2 squared each)."""

@@ -92,7 +92,7 @@ def gve_matrix(elements: np.ndarray, gm_km3_s2: float, *, e_times_aop: bool = Fa
     ``r e`` term inside the T_T bracket: e-dot = [p sin(nu) T_R + ((p + r) cos(nu) + r e) T_T] / h.
     Singular for e = 0 (aop row) and sin(i) = 0 (raan, aop rows). With ``e_times_aop`` the last row
     is e aop-dot = [-p cos(nu) T_R + (p + r) sin(nu) T_T - e r sin(theta) cot(i) T_N] / h instead,
-    finite as e -> 0 (the form the impulsive control set of :mod:`lnss_lib.maneuvers` builds on).
+    finite as e -> 0 (the form the impulsive control set of :mod:`lnss_lib.design_life.manoeuvres` builds on).
     Impulsive form: the same B maps an RTN impulse (km/s) to the element changes.
     """
     a, e, inc, nu, theta, p, h, r = orbit_quantities(elements, gm_km3_s2)

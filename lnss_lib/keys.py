@@ -4,6 +4,7 @@ from __future__ import annotations
 
 __all__ = ["DESIGN_KEYS", "INTEGER_DESIGN_KEYS", "ELEMENT_KEYS", "METRIC_KEYS", "EXTRA_METRIC_KEYS",
            "CAMPAIGN_METRIC_KEYS", "RESULT_KEYS", "VERDICT_KEYS", "TIMING_KEYS", "DELTAV_SATELLITES",
+           "NEEDS_ALL_SATELLITES",
            "requested_extra_metrics", "NON_NAVIGATION_METRICS", "LABELS", "label", "bound_text", "value_format",
            "format_value"]
 
@@ -25,7 +26,7 @@ RESULT_KEYS = METRIC_KEYS + ("deltav_model", "evaluated", "reason", "wall_s")
 VERDICT_KEYS = ("meets_bounds", "violated_bounds")   # evaluate CLI: the profile's [campaign.constraints] (Table 3)
 TIMING_KEYS = ("propagation", "dop", "deltav", "gps", "operational")   # operational: the extra metrics
 DELTAV_SATELLITES = ("first", "all")        # [deltav] satellites: the eq. 45 Delta-V of satellite 0, or mean over all
-_NEEDS_ALL_SATELLITES = ("dv_total_max_kms_per_year", "dv_opt_max_kms_per_year")
+NEEDS_ALL_SATELLITES = ("dv_total_max_kms_per_year", "dv_opt_max_kms_per_year")
 # metrics of station keeping and stability: a campaign's bounds on anything else are its navigation bounds
 NON_NAVIGATION_METRICS = ("dv_total_kms_per_year", "dv_opt_kms_per_year", "sk_dv_estimate_kms_per_year",
                           "sk_dv_estimate_max_kms_per_year", "dv_total_max_kms_per_year", "dv_opt_max_kms_per_year",
@@ -106,24 +107,8 @@ def format_value(key: str, value) -> str:
     return format(float(value), value_format(key))
 
 
-def requested_extra_metrics(profile: dict) -> tuple[str, ...]:
-    """``[evaluator] extra_metrics`` of a profile, checked: distinct names of :data:`EXTRA_METRIC_KEYS`
-    (the Delta-V maxima need ``[deltav] satellites = "all"``); ConfigError naming the bad entry."""
-    from .errors import ConfigError
-
-    section = profile.get("evaluator", {})
-    unknown = set(section) - {"extra_metrics"}
-    if unknown:
-        raise ConfigError(f"unknown [evaluator] setting(s) {sorted(unknown)}; allowed: extra_metrics",
-                          key=f"evaluator.{sorted(unknown)[0]}")
-    names = section.get("extra_metrics", [])
-    if not isinstance(names, (list, tuple)) or any(not isinstance(n, str) or n not in EXTRA_METRIC_KEYS for n in names) \
-            or len(set(names)) != len(names):
-        raise ConfigError(f"[evaluator] extra_metrics must be a list of distinct names from "
-                          f"{', '.join(EXTRA_METRIC_KEYS)}; got {names!r}", key="evaluator.extra_metrics")
-    satellites = profile.get("deltav", {}).get("satellites", "first")
-    needs_all = [n for n in names if n in _NEEDS_ALL_SATELLITES]
-    if needs_all and satellites != "all":
-        raise ConfigError(f"[evaluator] extra_metrics {needs_all} are maxima over satellites: they need "
-                          f'[deltav] satellites = "all"; got {satellites!r}', key="deltav.satellites")
-    return tuple(names)
+def requested_extra_metrics(evaluator) -> tuple[str, ...]:
+    """``[evaluator] extra_metrics`` of the ``[evaluator]`` section (:class:`lnss_lib.settings.EvaluatorSettings`;
+    keys sits below settings, so no import): distinct names of :data:`EXTRA_METRIC_KEYS` (the Delta-V maxima need
+    ``[deltav] satellites = "all"``), all checked at load (:mod:`lnss_lib.config`)."""
+    return tuple(evaluator.extra_metrics)

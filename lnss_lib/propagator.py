@@ -29,6 +29,7 @@ from .errors import ConfigError, ImpactError, PropagationError
 from .ephemeris import EphemerisTable, check_span, ensure_kernels, tdb_iso, tdb_seconds
 from .forces import SCRATCH_SIZE, SOLAR_P, SRP_K, TERMS, ForceModel, acceleration
 from .frames import element_frame_to_j2000
+from .settings import Dynamics, EpochSettings, IntegratorSetting
 
 __all__ = ["METHODS", "STATUS_TEXT", "check_batch", "check_elements_deg", "integrate_one", "integrate_many", "output_times", "propagate_states",
            "elements_deg_to_states", "propagate_elements"]
@@ -349,7 +350,7 @@ def output_times(t0_tdb_s: float, duration_s: float, step_s: float) -> np.ndarra
     return times
 
 
-def propagate_states(profile: dict, states_mci, t0_tdb_s: float, duration_s: float, step_s: float, *,
+def propagate_states(dynamics: Dynamics, states_mci, t0_tdb_s: float, duration_s: float, step_s: float, *,
                      setting: str | None = None, degree: int | None = None,
                      srp_cr_area_mass_m2_kg: float | None = None, batch: bool | None = None,
                      model: ForceModel | None = None, max_steps: int = 5_000_000) -> xr.Dataset:
@@ -357,41 +358,39 @@ def propagate_states(profile: dict, states_mci, t0_tdb_s: float, duration_s: flo
 
     Returns a Dataset (dims ``sat``, ``time``, ``xyz``) sampled every ``step_s`` seconds. With one
     satellite (unless ``batch=True``) an impact raises :class:`ImpactError`; in batch mode it is
-    flagged. ``model`` reuses a prepared :class:`ForceModel` (its table must span the arc).
+    flagged. ``model`` reuses a prepared :class:`ForceModel` (its table must span the arc); ``setting``
+    names one of ``dynamics.integrator``'s settings (default: its own).
     """
     states = _check_states(states_mci)
     batch = states.shape[0] > 1 if batch is None else batch
-    integ = profile.integrator.named(setting)
-    if integ["method"] not in METHODS:
-        raise ValueError(f"unknown integration method {integ['method']!r}; allowed: {METHODS}")
+    integ = dynamics.integrator.named(setting)
     times = output_times(t0_tdb_s, duration_s, step_s)
     if model is None:
-        ensure_kernels(profile)
-        table = EphemerisTable.build(profile, t0_tdb_s, times[-1])
-        model = ForceModel.from_profile(profile, table, degree=degree, srp_cr_area_mass_m2_kg=srp_cr_area_mass_m2_kg)
+        table = EphemerisTable.build(dynamics, t0_tdb_s, times[-1])
+        model = ForceModel.build(dynamics, table, degree=degree, srp_cr_area_mass_m2_kg=srp_cr_area_mass_m2_kg)
     else:
         if degree is not None or srp_cr_area_mass_m2_kg is not None:
             raise ValueError("degree and srp_cr_area_mass_m2_kg belong to the force model: pass them to "
-                             "ForceModel.from_profile, not together with model=")
+                             "ForceModel.build, not together with model=")
         if model.table.t0_tdb_s > t0_tdb_s or model.table.t_end_tdb_s < times[-1]:
             raise ValueError("the force model's ephemeris table does not span the requested arc")
-    r_min = profile["constants"]["r_moon_mean_km"] + profile["impact"]["min_altitude_km"]
+    r_min = dynamics.r_impact_km
     radius = np.linalg.norm(states[:, :3], axis=1)
     if np.any(radius < r_min) and not batch:
         raise ImpactError(f"initial radius {radius.min():.1f} km is below {r_min:.1f} km (surface + minimum altitude)",
                           sat=int(np.argmin(radius)), t_tdb_s=float(t0_tdb_s), days=0.0)
-    out, status, t_stop, n_rhs = integrate_many(states, float(t0_tdb_s), times, METHODS.index(integ["method"]),
-                                                float(integ["rtol"]), float(integ["atol"]), r_min, max_steps,
+    out, status, t_stop, n_rhs = integrate_many(states, float(t0_tdb_s), times, METHODS.index(integ.method),
+                                                integ.rtol, integ.atol, r_min, max_steps,
                                                 model.kernel_args, model.field.degree)
     impact = check_batch(status, t_stop, out, times, float(t0_tdb_s))
     if not batch and impact[0]:
         days = (t_stop[0] - t0_tdb_s) / SECONDS_PER_DAY
         raise ImpactError(f"orbit hits the Moon (radius below {r_min:.1f} km) at {tdb_iso(t_stop[0])} TDB, "
                           f"{days:.3f} days after the start", sat=0, t_tdb_s=float(t_stop[0]), days=float(days))
-    return _as_dataset(out, times, status, t_stop, n_rhs, profile, integ, model)
+    return _as_dataset(out, times, status, t_stop, n_rhs, integ, model)
 
 
-def _as_dataset(out, times, status, t_stop, n_rhs, profile, integ, model) -> xr.Dataset:
+def _as_dataset(out, times, status, t_stop, n_rhs, integ: IntegratorSetting, model: ForceModel) -> xr.Dataset:
     n_sat = out.shape[0]
     valid = np.all(np.isfinite(out), axis=2)
     ds = xr.Dataset(
@@ -410,10 +409,10 @@ def _as_dataset(out, times, status, t_stop, n_rhs, profile, integ, model) -> xr.
             "time_scale": "TDB; coordinate time is seconds past J2000 TDB",
             "epoch_tdb": tdb_iso(times[0]),
             "force_model": model.describe(),
-            "integrator": integ["method"],
-            "integrator_setting": integ["name"],
-            "rtol": float(integ["rtol"]),
-            "atol": float(integ["atol"]),
+            "integrator": integ.method,
+            "integrator_setting": integ.name,
+            "rtol": integ.rtol,
+            "atol": integ.atol,
             "gm_km3_s2": model.field.gm_km3_s2,
             "srp_cr_area_mass_m2_kg": float(model.scalars[SRP_K] / model.scalars[SOLAR_P] * 1e3),
             "output": "quintic Hermite interpolation between integrator steps",
@@ -450,7 +449,7 @@ def check_elements_deg(elements_deg) -> np.ndarray:
     return el
 
 
-def elements_deg_to_states(profile: dict, elements_deg, t0_tdb_s: float) -> np.ndarray:
+def elements_deg_to_states(dynamics: Dynamics, elements_deg, t0_tdb_s: float) -> np.ndarray:
     """Moon-centred J2000 states (n, 6) of elements (n, 6) [sma_km, e, i, RAAN, AOP, M] (deg) in the element frame.
 
     Raises ``ValueError`` for e outside [0, 1), non-positive a, or a perilune below the surface plus
@@ -459,7 +458,7 @@ def elements_deg_to_states(profile: dict, elements_deg, t0_tdb_s: float) -> np.n
     el = np.atleast_2d(np.asarray(elements_deg, dtype=float))
     if el.ndim != 2 or el.shape[1] != 6:
         raise ValueError(f"elements must have shape (n_sat, 6) [sma_km, e, i, RAAN, AOP, M] in degrees; got {el.shape}")
-    validate_elements(el[:, 0], el[:, 1], profile["constants"]["r_moon_mean_km"], profile["impact"]["min_altitude_km"])
+    validate_elements(el[:, 0], el[:, 1], dynamics.constants.r_moon_mean_km, dynamics.impact.min_altitude_km)
     bad = ~np.isfinite(el[:, 2:])
     if bad.any():
         row, col = np.argwhere(bad)[0]
@@ -468,26 +467,26 @@ def elements_deg_to_states(profile: dict, elements_deg, t0_tdb_s: float) -> np.n
     check_span(t0_tdb_s, t0_tdb_s)
     el_rad = el.copy()
     el_rad[:, 2:] = np.radians(el[:, 2:])
-    states_frame = elements_to_state(el_rad, profile["gravity"]["gm_km3_s2"])
-    rot = element_frame_to_j2000(profile, t0_tdb_s)
+    states_frame = elements_to_state(el_rad, dynamics.gravity.gm_km3_s2)
+    rot = element_frame_to_j2000(dynamics, t0_tdb_s)
     return np.concatenate([states_frame[:, :3] @ rot.T, states_frame[:, 3:] @ rot.T], axis=1)
 
 
-def propagate_elements(profile: dict, elements_deg, *, setting: str | None = None, degree: int | None = None,
-                       t0_tdb_s: float | None = None, duration_s: float | None = None, step_s: float | None = None,
-                       batch: bool | None = None, model: ForceModel | None = None) -> xr.Dataset:
-    """Propagate satellites given by elements (n, 6) [sma_km, e, inc, RAAN, AOP, M] (deg) in the profile's element frame.
+def propagate_elements(dynamics: Dynamics, epoch: EpochSettings, elements_deg, *, setting: str | None = None,
+                       degree: int | None = None, t0_tdb_s: float | None = None, duration_s: float | None = None,
+                       step_s: float | None = None, batch: bool | None = None,
+                       model: ForceModel | None = None) -> xr.Dataset:
+    """Propagate satellites given by elements (n, 6) [sma_km, e, inc, RAAN, AOP, M] (deg) in ``frames.element_frame``.
 
-    Defaults: the profile's epoch, duration and sampling step.
+    Defaults: the ``epoch`` settings' start, duration and sampling step.
     """
-    ensure_kernels(profile)
-    epoch = profile["epoch"]
-    t0 = tdb_seconds(epoch["start_tdb"], "TDB") if t0_tdb_s is None else float(t0_tdb_s)
-    duration = epoch["duration_days"] * SECONDS_PER_DAY if duration_s is None else float(duration_s)
-    step = epoch["step_s"] if step_s is None else float(step_s)
-    states = elements_deg_to_states(profile, elements_deg, t0)
-    ds = propagate_states(profile, states, t0, duration, step, setting=setting, degree=degree, batch=batch, model=model)
+    ensure_kernels(dynamics.ephemeris)
+    t0 = tdb_seconds(epoch.start_tdb, "TDB") if t0_tdb_s is None else float(t0_tdb_s)
+    duration = epoch.duration_days * SECONDS_PER_DAY if duration_s is None else float(duration_s)
+    step = epoch.step_s if step_s is None else float(step_s)
+    states = elements_deg_to_states(dynamics, elements_deg, t0)
+    ds = propagate_states(dynamics, states, t0, duration, step, setting=setting, degree=degree, batch=batch, model=model)
     ds["elements_deg"] = (("sat", "element"), np.atleast_2d(np.asarray(elements_deg, dtype=float)))
     ds = ds.assign_coords(element=["a_km", "e", "inc_deg", "raan_deg", "aop_deg", "mean_anomaly_deg"])
-    ds.attrs["element_frame"] = profile["frames"]["element_frame"]
+    ds.attrs["element_frame"] = dynamics.frames.element_frame
     return ds

@@ -16,11 +16,15 @@ import datetime as dt
 import re
 from dataclasses import dataclass
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 from sgp4.api import Satrec
 from sgp4.io import compute_checksum
 
 from .config import data_path
+
+if TYPE_CHECKING:
+    from .settings import GpsSettings
 
 __all__ = ["TleRecord", "read_tle", "launch_date", "select_satellites", "gps_catalogue", "SELECTION_COLUMNS"]
 
@@ -207,21 +211,17 @@ def select_satellites(records: list[TleRecord], *, exclude_prn=(), launched_afte
     return kept, rows
 
 
-def gps_catalogue(profile: dict, tle_path: str | Path | None = None) -> tuple[list[TleRecord], list[dict]]:
-    """Read the profile's (or a user's) TLE file and apply the profile's ``[gps]`` exclusions."""
-    cfg = profile["gps"]
-    path = Path(tle_path) if tle_path is not None else data_path(cfg["tle_file"])
-    after = str(cfg.get("exclude_launched_after", "epoch"))
+def gps_catalogue(gps: GpsSettings, start_tdb: str,
+                  tle_path: str | Path | None = None) -> tuple[list[TleRecord], list[dict]]:
+    """Read the ``[gps]`` TLE file (or a user's) and apply the ``[gps]`` exclusions; ``start_tdb`` (the study
+    epoch, ``epoch.start_tdb``) is the launch cut-off of ``exclude_launched_after = "epoch"``."""
+    path = Path(tle_path) if tle_path is not None else data_path(gps.tle_file)
+    after = gps.exclude_launched_after
     if after == "epoch":
-        cutoff = dt.date.fromisoformat(profile["epoch"]["start_tdb"][:10])
+        cutoff = dt.date.fromisoformat(start_tdb[:10])
     elif after == "none":
         cutoff = None
     else:
-        try:
-            cutoff = dt.date.fromisoformat(after)
-        except ValueError:
-            raise ValueError(
-                f"gps.exclude_launched_after must be 'epoch', 'none' or an ISO date; got {after!r}") from None
-    return select_satellites(read_tle(path), exclude_prn=cfg.get("exclude_prn", []), launched_after=cutoff,
-                             launches_from=cfg.get("exclude_launches_from") or None,
-                             launch_dates=cfg.get("launch_dates", {}))
+        cutoff = dt.date.fromisoformat(after)          # an ISO date: checked at load (config.FORMS)
+    return select_satellites(read_tle(path), exclude_prn=gps.exclude_prn, launched_after=cutoff,
+                             launches_from=gps.exclude_launches_from or None, launch_dates=gps.launch_dates)

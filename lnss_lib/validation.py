@@ -9,6 +9,7 @@ Cr*A/m by Gauss-Newton least squares on an arc's position residuals.
 from __future__ import annotations
 
 import re
+from collections.abc import Mapping
 from pathlib import Path
 
 import numpy as np
@@ -19,6 +20,7 @@ from .constants import SECONDS_PER_DAY
 from .ephemeris import EphemerisTable, ensure_kernels, tdb_seconds
 from .forces import ForceModel
 from .propagator import propagate_states
+from .settings import CapstoneSettings, Dynamics, EphemerisSettings, ForceSettings
 
 _RECORD = re.compile(
     r"^\s*(?P<jd>\d+\.\d+)\s*=\s*A\.D\.\s*(?P<cal>\S+\s+\S+)\s+TDB\s*$\s*"
@@ -58,55 +60,54 @@ def read_horizons_vectors(path: Path) -> xr.Dataset:
     )
 
 
-def capstone_arcs(profile: dict) -> list[xr.Dataset]:
-    """The Horizons CAPSTONE ephemeris split at the configured break into clean arcs."""
-    ensure_kernels(profile)
-    cfg = profile["validation"]["capstone"]
-    ref = read_horizons_vectors(data_path(cfg["file"]))
-    t_break = tdb_seconds(cfg["arc_break_tdb"], "TDB")
+def capstone_arcs(capstone: CapstoneSettings, ephemeris: EphemerisSettings) -> list[xr.Dataset]:
+    """The Horizons CAPSTONE ephemeris split at ``capstone.arc_break_tdb`` into clean arcs."""
+    ensure_kernels(ephemeris)
+    ref = read_horizons_vectors(data_path(capstone.file))
+    t_break = tdb_seconds(capstone.arc_break_tdb, "TDB")
     first = ref.sel(time=ref.time <= t_break)
     second = ref.sel(time=ref.time > t_break)
     return [first, second]
 
 
-def one_step_residuals(profile: dict, ref: xr.Dataset, *, srp_cr_area_mass_m2_kg: float | None = None) -> xr.Dataset:
+def one_step_residuals(dynamics: Dynamics, capstone: CapstoneSettings, ref: xr.Dataset, *,
+                       srp_cr_area_mass_m2_kg: float | None = None) -> xr.Dataset:
     """Propagate every Horizons state to the next epoch and return |prediction - Horizons| (km).
 
     Over one 10-minute sample the force model is good to metres, so a jump of the residual marks a
     manoeuvre or a join between orbit solutions: only arcs between such epochs are comparable.
+    Defaults: ``capstone``'s Cr*A/m and integrator setting.
     """
-    cfg = profile["validation"]["capstone"]
-    cr_am = cfg["srp_cr_area_mass_m2_kg"] if srp_cr_area_mass_m2_kg is None else srp_cr_area_mass_m2_kg
+    cr_am = capstone.srp_cr_area_mass_m2_kg if srp_cr_area_mass_m2_kg is None else srp_cr_area_mass_m2_kg
     times = ref.time.values
-    table = EphemerisTable.build(profile, float(times[0]), float(times[-1]))
-    model = ForceModel.from_profile(profile, table, srp_cr_area_mass_m2_kg=cr_am)
+    table = EphemerisTable.build(dynamics, float(times[0]), float(times[-1]))
+    model = ForceModel.build(dynamics, table, srp_cr_area_mass_m2_kg=cr_am)
     states = np.concatenate([ref.r_mci_km.values, ref.v_mci_kms.values], axis=1)
     residual = np.empty(len(times) - 1)
     for k in range(len(times) - 1):
         dt = float(times[k + 1] - times[k])
-        ds = propagate_states(profile, states[k][None, :], float(times[k]), dt, dt,
-                              setting=cfg["integrator_setting"], model=model)
+        ds = propagate_states(dynamics, states[k][None, :], float(times[k]), dt, dt,
+                              setting=capstone.integrator_setting, model=model)
         residual[k] = np.linalg.norm(ds.r_mci_km.values[0, -1] - states[k + 1, :3])
     return xr.Dataset({"one_step_error_km": ("time", residual)}, coords={"time": times[1:]},
                       attrs={"meaning": "error of a one-sample propagation ending at each epoch"})
 
 
-def propagate_arc(profile: dict, arc: xr.Dataset, *, srp_cr_area_mass_m2_kg: float | None = None,
-                  setting: str | None = None, degree: int | None = None,
-                  overrides_profile: dict | None = None) -> xr.Dataset:
+def propagate_arc(dynamics: Dynamics, capstone: CapstoneSettings, arc: xr.Dataset, *,
+                  srp_cr_area_mass_m2_kg: float | None = None, setting: str | None = None,
+                  degree: int | None = None) -> xr.Dataset:
     """Propagate from an arc's first Horizons state over the arc, sampled at the Horizons epochs.
 
-    Returns the arc with ``r_prop_km`` and ``pos_error_km`` (|propagated - Horizons|) added.
+    Defaults: ``capstone``'s Cr*A/m and integrator setting. Returns the arc with ``r_prop_km`` and
+    ``pos_error_km`` (|propagated - Horizons|) added.
     """
-    prof = overrides_profile or profile
-    cfg = profile["validation"]["capstone"]
     times = arc.time.values
     step = float(np.median(np.diff(times)))
     y0 = np.concatenate([arc.r_mci_km.values[0], arc.v_mci_kms.values[0]])
     if srp_cr_area_mass_m2_kg is None:
-        srp_cr_area_mass_m2_kg = cfg["srp_cr_area_mass_m2_kg"]
-    ds = propagate_states(prof, y0[None, :], float(times[0]), float(times[-1] - times[0]), step,
-                          setting=setting or cfg["integrator_setting"], degree=degree,
+        srp_cr_area_mass_m2_kg = capstone.srp_cr_area_mass_m2_kg
+    ds = propagate_states(dynamics, y0[None, :], float(times[0]), float(times[-1] - times[0]), step,
+                          setting=setting or capstone.integrator_setting, degree=degree,
                           srp_cr_area_mass_m2_kg=srp_cr_area_mass_m2_kg)
     r_prop = ds.r_mci_km.isel(sat=0).sel(time=times, method="nearest").values
     out = arc.copy()
@@ -117,21 +118,21 @@ def propagate_arc(profile: dict, arc: xr.Dataset, *, srp_cr_area_mass_m2_kg: flo
     return out
 
 
-def estimate_srp(profile: dict, arc: xr.Dataset, *, initial_m2_kg: float | None = None, iterations: int = 6,
-                 setting: str | None = None) -> dict:
+def estimate_srp(dynamics: Dynamics, capstone: CapstoneSettings, arc: xr.Dataset, *,
+                 initial_m2_kg: float | None = None, iterations: int = 6, setting: str | None = None) -> dict:
     """Least-squares estimate of Cr*A/m (m^2/kg) from an arc's position residuals (Gauss-Newton).
 
     The partial derivative of the positions is taken by central differences; the initial state is
     held at the Horizons value. Returns the estimate, its formal 1-sigma (from the residual RMS),
     the RMS and end errors, and the iteration history.
     """
-    p = profile["validation"]["capstone"]["srp_cr_area_mass_m2_kg"] if initial_m2_kg is None else initial_m2_kg
+    p = capstone.srp_cr_area_mass_m2_kg if initial_m2_kg is None else initial_m2_kg
     history = []
     for _ in range(iterations):
         delta = max(1e-4, 0.02 * abs(p))
-        base = propagate_arc(profile, arc, srp_cr_area_mass_m2_kg=p, setting=setting)
-        plus = propagate_arc(profile, arc, srp_cr_area_mass_m2_kg=p + delta, setting=setting)
-        minus = propagate_arc(profile, arc, srp_cr_area_mass_m2_kg=max(p - delta, 0.0), setting=setting)
+        base = propagate_arc(dynamics, capstone, arc, srp_cr_area_mass_m2_kg=p, setting=setting)
+        plus = propagate_arc(dynamics, capstone, arc, srp_cr_area_mass_m2_kg=p + delta, setting=setting)
+        minus = propagate_arc(dynamics, capstone, arc, srp_cr_area_mass_m2_kg=max(p - delta, 0.0), setting=setting)
         width = delta + min(delta, p)
         partial = ((plus.r_prop_km - minus.r_prop_km) / width).values.ravel()
         residual = (arc.r_mci_km - base.r_prop_km).values.ravel()
@@ -140,7 +141,7 @@ def estimate_srp(profile: dict, arc: xr.Dataset, *, initial_m2_kg: float | None 
         p = max(p + step, 0.0)
         if abs(step) < 1e-6 * max(p, 1e-6):
             break
-    final = propagate_arc(profile, arc, srp_cr_area_mass_m2_kg=p, setting=setting)
+    final = propagate_arc(dynamics, capstone, arc, srp_cr_area_mass_m2_kg=p, setting=setting)
     residual = (arc.r_mci_km - final.r_prop_km).values.ravel()
     dof = max(residual.size - 1, 1)
     sigma = float(np.sqrt(residual @ residual / dof / (partial @ partial)))
@@ -154,31 +155,28 @@ def estimate_srp(profile: dict, arc: xr.Dataset, *, initial_m2_kg: float | None 
     }
 
 
-def variant_differences(profile: dict, state_mci: np.ndarray, t0_tdb_s: float, duration_s: float, step_s: float,
-                        variants: dict[str, dict], *, setting: str | None = None) -> xr.Dataset:
-    """Position difference (km) against the profile's own model of each variant (profile overrides).
+def variant_differences(dynamics: Dynamics, state_mci: np.ndarray, t0_tdb_s: float, duration_s: float, step_s: float,
+                        variants: Mapping[str, Dynamics]) -> xr.Dataset:
+    """Position difference (km) of each variant model against ``dynamics``, from one state.
 
-    ``variants`` maps a label to a nested dict of overrides (for example
-    ``{"no Sun": {"forces": {"third_bodies": ["EARTH", "JUPITER"]}}}``); a ``"_setting"`` key in an
-    override picks another integrator setting. Returns ``difference_km`` (variant, time).
+    ``variants`` maps a label to other dynamics settings (for example
+    ``settings.with_overrides(without_term(settings.forces, "SUN")).dynamics``); each model, the
+    baseline included, propagates with its own ``integrator.setting``. Returns ``difference_km`` (variant, time).
     """
-    base = propagate_states(profile, state_mci[None, :], t0_tdb_s, duration_s, step_s, setting=setting)
+    base = propagate_states(dynamics, state_mci[None, :], t0_tdb_s, duration_s, step_s)
     diffs = []
-    for overrides in variants.values():
-        overrides = dict(overrides)
-        variant_setting = overrides.pop("_setting", setting)
-        other = propagate_states(profile.with_overrides(overrides), state_mci[None, :], t0_tdb_s, duration_s, step_s,
-                                 setting=variant_setting)
+    for other_dynamics in variants.values():
+        other = propagate_states(other_dynamics, state_mci[None, :], t0_tdb_s, duration_s, step_s)
         diffs.append(np.linalg.norm(other.r_mci_km.values[0] - base.r_mci_km.values[0], axis=1))
     return xr.Dataset({"difference_km": (("variant", "time"), np.array(diffs))},
                       coords={"variant": list(variants), "time": base.time.values},
                       attrs={"baseline": base.attrs["force_model"], "integrator": base.attrs["integrator"]})
 
 
-def without_term(profile: dict, term: str) -> dict:
-    """Profile overrides that switch one force term off: a third body, ``harmonics``, ``srp``, ``relativity``, ``albedo``."""
+def without_term(forces: ForceSettings, term: str) -> dict:
+    """Settings overrides that switch one force term off: a third body, ``harmonics``, ``srp``, ``relativity``, ``albedo``."""
     if term in ("SUN", "EARTH", "JUPITER"):
-        return {"forces": {"third_bodies": [b for b in profile["forces"]["third_bodies"] if b != term]}}
+        return {"forces": {"third_bodies": [b for b in forces.third_bodies if b != term]}}
     if term == "harmonics":
         return {"gravity": {"degree": 0}}
     if term in ("srp", "relativity", "albedo"):

@@ -9,7 +9,7 @@ from lnss_lib.ephemeris import ensure_kernels, tdb_seconds
 
 def _loaded(name: str) -> dict:
     profile = load_settings(name)
-    ensure_kernels(profile)
+    ensure_kernels(profile.ephemeris)
     return profile
 
 
@@ -36,7 +36,7 @@ def two_body_profile():
         "forces": {"third_bodies": [], "srp": False, "albedo": False, "relativity": False},
         "integrator": {"setting": "converged"},
     })
-    ensure_kernels(profile)
+    ensure_kernels(profile.ephemeris)
     return profile
 
 

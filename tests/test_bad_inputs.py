@@ -658,7 +658,8 @@ def test_config_and_ephemeris_errors_propagate_only_impossible_designs_are_infea
     from lnss_lib.errors import EphemerisRangeError, ImpactError
     from lnss_lib.ephemeris import tdb_seconds
 
-    context = SimpleNamespace(profile=ci_profile, t0_tdb_s=tdb_seconds("2060-01-01T00:00:00", "TDB"), extra_metrics=())
+    context = SimpleNamespace(settings=ci_profile, deltav=ci_profile.deltav, t0_tdb_s=tdb_seconds("2060-01-01T00:00:00", "TDB"),
+                              extra_metrics=())
     elfo = [[6143.0, 0.6, 51.7, 0.0, 90.0, 0.0]]
     with pytest.raises(EphemerisRangeError):
         evaluator.evaluate_constellation(context, elfo)

@@ -59,12 +59,12 @@ def test_listing_labels_the_approximate_entry():
 @pytest.mark.parametrize("key", EXACT)
 @pytest.mark.parametrize("epoch", ["study", "file"])
 def test_every_file_round_trips_in_its_own_frame(paper_profile, key, epoch):
-    c = load_constellation(key, paper_profile)
+    c = load_constellation(key, paper_profile.dynamics)
     if epoch == "file" and c.epoch is None:
         with pytest.raises(ConfigError, match="no epoch"):
-            constellation_states_mci(paper_profile, c, epoch)
+            constellation_states_mci(paper_profile.dynamics, paper_profile.epoch.start_tdb, c, epoch)
         return
-    s = constellation_states_mci(paper_profile, c, epoch)
+    s = constellation_states_mci(paper_profile.dynamics, paper_profile.epoch.start_tdb, c, epoch)
     assert s.states_mci.shape == (c.n_sat, 6) and np.all(np.isfinite(s.states_mci))
     assert s.epoch_source == "file" if epoch == "file" else s.epoch_source.startswith("study epoch")
     rot = s.rot_to_j2000
@@ -81,11 +81,11 @@ def test_every_file_round_trips_in_its_own_frame(paper_profile, key, epoch):
 
 
 def test_epoch_choice_matters_only_for_frames_that_follow_the_moon(paper_profile):
-    inertial = load_constellation("lupnt_example_isl_3sat", paper_profile)
-    a, b = (constellation_states_mci(paper_profile, inertial, e) for e in ("study", "file"))
+    inertial = load_constellation("lupnt_example_isl_3sat", paper_profile.dynamics)
+    a, b = (constellation_states_mci(paper_profile.dynamics, paper_profile.epoch.start_tdb, inertial, e) for e in ("study", "file"))
     assert np.array_equal(a.states_mci, b.states_mci) and a.t_epoch_tdb_s != b.t_epoch_tdb_s
-    op = load_constellation("ely2005_elfo_3sat", paper_profile)
-    a, b = (constellation_states_mci(paper_profile, op, e) for e in ("study", "file"))
+    op = load_constellation("ely2005_elfo_3sat", paper_profile.dynamics)
+    a, b = (constellation_states_mci(paper_profile.dynamics, paper_profile.epoch.start_tdb, op, e) for e in ("study", "file"))
     assert np.max(np.abs(a.states_mci[:, :3] - b.states_mci[:, :3])) > 100.0
     assert b.epoch_used.startswith("2009-07-15T01:00:00") and a.epoch_used.startswith("2025-05-01T00:00:00")
     assert a.epoch_source == "study epoch (file gives 2009-07-15T01:00:00 TDB)"
@@ -93,7 +93,7 @@ def test_epoch_choice_matters_only_for_frames_that_follow_the_moon(paper_profile
 
 def test_true_anomaly_becomes_mean_anomaly(paper_profile):
     """Independent check: the state built from the converted M has the written true anomaly."""
-    c = load_constellation("cislunar_nav_6sat_optimized", paper_profile)
+    c = load_constellation("cislunar_nav_6sat_optimized", paper_profile.dynamics)
     assert c.anomaly == "true"
     el = c.elements_deg.copy()
     el[:, 2:] = np.radians(el[:, 2:])
@@ -112,10 +112,10 @@ def test_true_anomaly_becomes_mean_anomaly(paper_profile):
 
 @pytest.mark.parametrize("frame", ["lunar_equator_of_epoch", "j2000", "moon_op"])
 def test_user_file_in_a_workbook_frame_gives_the_walker_states_exactly(paper_profile, tmp_path, frame):
-    c = load_constellation(_user_file(tmp_path / "walker.toml", WALKER.elements_deg(), frame), paper_profile)
-    s = constellation_states_mci(paper_profile, c)
-    profile = {**paper_profile, "frames": {**paper_profile["frames"], "element_frame": frame}}
-    assert np.array_equal(s.states_mci, elements_deg_to_states(profile, WALKER.elements_deg(), s.t_epoch_tdb_s))
+    c = load_constellation(_user_file(tmp_path / "walker.toml", WALKER.elements_deg(), frame), paper_profile.dynamics)
+    s = constellation_states_mci(paper_profile.dynamics, paper_profile.epoch.start_tdb, c)
+    profile = paper_profile.with_overrides({"frames": {"element_frame": frame}})
+    assert np.array_equal(s.states_mci, elements_deg_to_states(profile.dynamics, WALKER.elements_deg(), s.t_epoch_tdb_s))
 
 
 @pytest.fixture(scope="module")
@@ -124,8 +124,8 @@ def ci_context():
 
 
 def test_user_file_and_walker_design_give_identical_metrics(ci_context, tmp_path):
-    assert ci_context.profile["frames"]["element_frame"] == "lunar_equator_of_epoch"
-    c = load_constellation(_user_file(tmp_path / "walker.toml", WALKER.elements_deg()), ci_context.profile)
+    assert ci_context.settings.frames.element_frame == "lunar_equator_of_epoch"
+    c = load_constellation(_user_file(tmp_path / "walker.toml", WALKER.elements_deg()), ci_context.dynamics)
     ours = evaluate_catalogue(ci_context, c)
     walker = evaluate_design(ci_context, WALKER.sma_km, WALKER.ecc, WALKER.aop_deg, WALKER.inc_deg, WALKER.n_planes,
                              WALKER.sats_per_plane)
@@ -144,11 +144,11 @@ def test_cli_function_returns_the_evaluate_keys_plus_labels():
 
 
 def test_approximate_entry_loads_but_is_not_evaluated(paper_profile):
-    c = load_constellation("moonlight_lcns_approx", paper_profile)
+    c = load_constellation("moonlight_lcns_approx", paper_profile.dynamics)
     assert c.approximate and c.elements_deg is None and c.element_frame is None and c.n_sat == 5
     assert list(c.approximate_a_km) == [6000.0, 10000.0, 10000.0, 10000.0, 10000.0]
     with pytest.raises(ConfigError, match="approximate") as info:
-        constellation_states_mci(paper_profile, c)
+        constellation_states_mci(paper_profile.dynamics, paper_profile.epoch.start_tdb, c)
     assert info.value.key == "approximate"
     with pytest.raises(ConfigError, match="approximate"):
         evaluate_catalogue_cli("ci", "moonlight_lcns_approx")
@@ -204,12 +204,12 @@ def test_bhamidipati_case_c_is_the_table_4_elfo_in_the_moon_op_frame(ci_context)
     from lnss_lib.constellation import standalone_elfo
     from lnss_lib.evaluator import evaluate_constellation
 
-    c = load_constellation("bhamidipati2023_case_c", ci_context.profile)
-    assert np.array_equal(c.elements_deg, standalone_elfo(ci_context.profile))
+    c = load_constellation("bhamidipati2023_case_c", ci_context.dynamics)
+    assert np.array_equal(c.elements_deg, standalone_elfo(ci_context.settings.standalone_elfo, ci_context.dynamics))
     ours = evaluate_catalogue(ci_context, c)
-    op_profile = ci_context.profile.with_overrides({"frames": {"element_frame": "moon_op"}})
-    theirs = evaluate_constellation(context_for(op_profile), standalone_elfo(op_profile))
+    op_profile = ci_context.settings.with_overrides({"frames": {"element_frame": "moon_op"}})
+    theirs = evaluate_constellation(context_for(op_profile), standalone_elfo(op_profile.standalone_elfo, op_profile.dynamics))
     for key in METRIC_KEYS:
         assert ours[key] == theirs[key], key
-    lunar = evaluate_constellation(ci_context, standalone_elfo(ci_context.profile))
+    lunar = evaluate_constellation(ci_context, standalone_elfo(ci_context.settings.standalone_elfo, ci_context.dynamics))
     assert ours["mean_visible_sats"] != lunar["mean_visible_sats"]    # the frame changes the geometry

@@ -12,7 +12,10 @@ from lnss_lib import deltav as dv
 from lnss_lib import frames, gve
 from lnss_lib.settings import load_settings
 from lnss_lib.elements import elements_to_state, orbital_period_s
+from lnss_lib.errors import ConfigError
 from orbit_cases import GM, J2, R_REF, YEAR_S, integrate, j2_acceleration, make_j2_arc
+
+DELTAV = load_settings("paper").deltav
 
 
 @pytest.fixture(scope="module")
@@ -66,7 +69,7 @@ def test_keplerian_arc_costs_nothing():
     t = np.arange(0.0, 10 * 86400.0 + 1, 900.0)
     series = np.tile(el, (t.size, 1))
     series[:, 5] = np.sqrt(GM / el[0] ** 3) * t
-    res = dv.deltav_arrays(t, elements_to_state(series, GM), GM)
+    res = dv.deltav_arrays(t, elements_to_state(series, GM), GM, DELTAV)
     for model in dv.MODELS:
         assert res["dv_total"][model] < 1e-9
         assert res["dv_opt"][model] < 1e-9
@@ -76,8 +79,8 @@ def test_per_year_budget_follows_the_arc(j2_arc):
     """A steady process gives the same per-year budget from a short and a long arc."""
     _, t, states = j2_arc
     n = t.size
-    half = dv.deltav_arrays(t[: n // 2], states[: n // 2], GM)
-    full = dv.deltav_arrays(t, states, GM)
+    half = dv.deltav_arrays(t[: n // 2], states[: n // 2], GM, DELTAV)
+    full = dv.deltav_arrays(t, states, GM, DELTAV)
     assert full["per_year_factor"] == pytest.approx(half["per_year_factor"] * (t[n // 2 - 1] - t[0]) / (t[-1] - t[0]))
     for model in dv.MODELS:
         assert half["dv_total"][model] == pytest.approx(full["dv_total"][model], rel=0.03), model
@@ -85,7 +88,7 @@ def test_per_year_budget_follows_the_arc(j2_arc):
 
 def test_lsq_recovers_the_j2_acceleration(j2_arc):
     _, t, states = j2_arc
-    res = dv.deltav_arrays(t, states, GM)
+    res = dv.deltav_arrays(t, states, GM, DELTAV)
     truth = frames.to_rtn(np.stack([j2_acceleration(s[:3]) for s in states]), states)
     inner = slice(2, -2)
     err = np.linalg.norm(res["T_rtn_lsq"][inner] - truth[inner], axis=1)
@@ -98,7 +101,7 @@ def test_secular_model_gives_textbook_plane_change_for_j2(j2_arc):
     """J2 only: mean a, e, i do not drift; the node regresses at -1.5 n J2 (R/p)^2 cos i and the
     budget is the textbook plane change v sin(i) |dRAAN/dt| per unit time (Vallado, small angle)."""
     _, t, states = j2_arc
-    res = dv.deltav_arrays(t, states, GM)
+    res = dv.deltav_arrays(t, states, GM, DELTAV)
     sec = res["secular"]
     a, e, inc = sec["a_km"], sec["e"], sec["inc_rad"]
     n = np.sqrt(GM / a**3)
@@ -121,7 +124,7 @@ def test_constant_tangential_thrust_costs_the_thrust():
     el0 = np.array([3000.0, 0.0, np.radians(40.0), 0.0, 0.0, 0.0])
     t = np.arange(0.0, 4.0 * orbital_period_s(el0[0], GM), 120.0)
     states = integrate(elements_to_state(el0, GM), t, lambda y: frames.from_rtn(np.array([0.0, thrust, 0.0]), y))
-    res = dv.deltav_arrays(t, states, GM)
+    res = dv.deltav_arrays(t, states, GM, DELTAV)
     np.testing.assert_allclose(res["T_rtn_lsq"], np.broadcast_to([0.0, thrust, 0.0], (t.size, 3)), atol=1e-3 * thrust)
     assert res["dv_total"]["lsq"] == pytest.approx(thrust * YEAR_S, rel=1e-3)
     assert res["secular_parts"]["sma"] == pytest.approx(thrust, rel=1e-3)
@@ -140,7 +143,7 @@ def test_deltav_from_propagation_dataset(j2_arc):
     _, t, states = j2_arc
     profile = load_settings("ci")
     ds = _dataset(t, states)
-    out = dv.deltav_from_propagation(profile, ds, sat=0, model="secular", element_frame="j2000")
+    out = dv.deltav_from_propagation(profile.deltav, profile.dynamics, ds, sat=0, model="secular", element_frame="j2000")
     assert out.attrs["deltav_model"] == "secular"
     chosen = float(out["dv_total_kms_per_year"].sel(model_all="secular"))
     assert out.attrs["dv_total_kms_per_year"] == pytest.approx(chosen)
@@ -148,30 +151,47 @@ def test_deltav_from_propagation_dataset(j2_arc):
     assert out["T_total_kms2"].dims == ("model", "time")
     np.testing.assert_allclose(out["T_total_kms2"].sel(model="lsq"),
                                np.linalg.norm(out["T_rtn_kms2"].sel(model="lsq"), axis=-1))
-    per_sat = dv.deltav_per_satellite(profile, ds, element_frame="j2000")
+    per_sat = dv.deltav_per_satellite(profile.deltav, profile.dynamics, ds, element_frame="j2000")
     np.testing.assert_allclose(per_sat["dv_total_kms_per_year"].sel(sat=0), out["dv_total_kms_per_year"])
 
 
 def test_bad_inputs_are_rejected(j2_arc):
     _, t, states = j2_arc
-    with pytest.raises(ValueError, match="model"):
-        dv.deltav_settings(None, model="osculating")
-    with pytest.raises(ValueError, match="element_frame"):
-        dv.deltav_settings(None, element_frame="ecliptic")
-    with pytest.raises(ValueError, match="paper_divisor_floor"):
-        dv.deltav_settings(None, paper_divisor_floor=-1.0)
-    with pytest.raises(ValueError, match="unknown"):
-        dv.deltav_settings(None, lsq_weights="x")
     with pytest.raises(ValueError, match="orbital periods"):
         dv.secular_drift(t[:50], states[:50], GM)
-    short = dv.deltav_arrays(t[:50], states[:50], GM)
+    short = dv.deltav_arrays(t[:50], states[:50], GM, DELTAV)
     assert np.isnan(short["dv_total"]["secular"]) and np.isfinite(short["dv_total"]["lsq"])
-    with pytest.raises(ValueError, match="lsq_rates"):
-        dv.deltav_settings(None, lsq_rates="splines")
     with pytest.raises(ValueError, match="increasing"):
         gve.element_rates(t[::-1], gve.osculating_elements(states, GM))
+    ci = load_settings("ci")
     with pytest.raises(ValueError, match="satellite 3"):
-        dv.deltav_from_propagation(load_settings("ci"), _dataset(t, states), sat=3)
+        dv.deltav_from_propagation(ci.deltav, ci.dynamics, _dataset(t, states), sat=3)
+
+
+@pytest.mark.parametrize("bad, key", [
+    ({"model": "osculating"}, "deltav.model"),
+    ({"element_frame": "ecliptic"}, "deltav.element_frame"),
+    ({"paper_divisor_floor": -1.0}, "deltav.paper_divisor_floor"),
+    ({"paper_divisor_floor": 1.0}, "deltav.paper_divisor_floor"),
+    ({"secular_min_periods": 1.0}, "deltav.secular_min_periods"),
+    ({"lsq_weights": "x"}, "deltav.lsq_weights"),
+    ({"lsq_rates": "splines"}, "deltav.lsq_rates"),
+])
+def test_bad_deltav_settings_are_config_errors_at_load_and_in_overrides(bad, key):
+    """[deltav] is checked once, at load (config.py); a study's overrides are checked the same way."""
+    with pytest.raises(ConfigError) as error:
+        load_settings("paper", overrides={"deltav": bad})
+    assert error.value.key == key
+    with pytest.raises(ConfigError) as error:
+        dv.with_overrides(DELTAV, **bad)
+    assert error.value.key == key
+
+
+def test_deltav_overrides_keep_the_section_when_nothing_changes():
+    assert dv.with_overrides(DELTAV) is DELTAV and dv.with_overrides(DELTAV, model=None) is DELTAV
+    floor0 = dv.with_overrides(DELTAV, paper_divisor_floor=0, model="paper")
+    assert floor0.paper_divisor_floor == 0.0 and isinstance(floor0.paper_divisor_floor, float)
+    assert floor0.model == "paper" and floor0.year_days == DELTAV.year_days
 
 
 def test_lsq_recovers_the_force_model_perturbation():
@@ -181,18 +201,18 @@ def test_lsq_recovers_the_force_model_perturbation():
     from lnss_lib.propagator import propagate_elements
 
     profile = load_settings("ci")
-    ensure_kernels(profile)
-    ds = propagate_elements(profile, [[6143.0, 0.6, 51.7, 0.0, 90.0, 0.0]], duration_s=86400.0, step_s=300.0,
+    ensure_kernels(profile.ephemeris)
+    ds = propagate_elements(profile.dynamics, profile.epoch, [[6143.0, 0.6, 51.7, 0.0, 90.0, 0.0]], duration_s=86400.0, step_s=300.0,
                             setting="converged")
     t = ds["time"].values
     states = np.concatenate([ds["r_mci_km"].values[0], ds["v_mci_kms"].values[0]], axis=-1)
-    truth = dv.perturbing_acceleration_rtn(profile, t, states)
-    res = dv.deltav_arrays(t, states, profile["gravity"]["gm_km3_s2"])
+    truth = dv.perturbing_acceleration_rtn(profile.dynamics, t, states)
+    res = dv.deltav_arrays(t, states, profile.gravity.gm_km3_s2, profile.deltav)
     err = np.linalg.norm(res["T_rtn_lsq"] - truth, axis=1) / np.linalg.norm(truth, axis=1)
     assert np.median(err) < 0.01
     dv_truth = dv.trapezoid_deltav(t, np.linalg.norm(truth, axis=1)) * res["per_year_factor"]
     assert res["dv_total"]["lsq"] == pytest.approx(dv_truth, rel=0.02)
-    out = dv.deltav_from_propagation(profile, ds, element_frame="lunar_equator_of_epoch")
+    out = dv.deltav_from_propagation(profile.deltav, profile.dynamics, ds, element_frame="lunar_equator_of_epoch")
     assert out.attrs["dv_total_kms_per_year"] == pytest.approx(res["dv_total"]["lsq"], rel=1e-6)
 
 

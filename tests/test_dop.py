@@ -7,11 +7,11 @@ import xarray as xr
 from lnss_lib.settings import load_settings
 from lnss_lib.geometry import availability_pct
 from lnss_lib.dop import (
+    SurfaceGrid,
     dop_from_propagation,
     dop_grid,
     dop_summary,
     elevation_deg,
-    grid_from_profile,
     surface_grid,
 )
 
@@ -59,7 +59,8 @@ def single_point_grid(lat_deg, lon_deg):
 
 
 def test_paper_grid_has_144_points_with_repeated_pole():
-    grid = grid_from_profile(load_settings("ci"))
+    ci = load_settings("ci")
+    grid = SurfaceGrid.from_settings(ci.dop, ci.constants.r_moon_mean_km)
     assert grid.n_points == 144 and grid.shape == (4, 36)
     np.testing.assert_allclose(grid.lat_deg, [-90.0, -80.0, -70.0, -60.0])
     np.testing.assert_allclose(grid.lon_deg, np.arange(0.0, 351.0, 10.0))
@@ -205,7 +206,7 @@ def test_dop_from_propagation_rotates_to_moon_fixed():
     from lnss_lib.ephemeris import ensure_kernels, rotation, tdb_seconds
 
     profile = load_settings("ci")
-    ensure_kernels(profile)
+    ensure_kernels(profile.ephemeris)
     times = tdb_seconds(profile["epoch"]["start_tdb"]) + 3600.0 * np.arange(4)
     rng = np.random.default_rng(3)
     r_mf = rng.normal(size=(8, 4, 3))
@@ -217,8 +218,8 @@ def test_dop_from_propagation_rotates_to_moon_fixed():
         {"r_mci_km": (("sat", "time", "xyz"), r_mci)},
         coords={"sat": np.arange(8), "time": times, "xyz": ["x", "y", "z"]},
     )
-    via_propagation = dop_from_propagation(profile, prop)
-    direct = dop_grid(r_mf, grid_from_profile(profile), t_tdb_s=times)
+    via_propagation = dop_from_propagation(profile.dop, profile.dynamics, prop)
+    direct = dop_grid(r_mf, SurfaceGrid.from_settings(profile.dop, profile.constants.r_moon_mean_km), t_tdb_s=times)
     np.testing.assert_array_equal(via_propagation["n_visible"].values, direct["n_visible"].values)
     np.testing.assert_allclose(via_propagation["pdop"].values, direct["pdop"].values, rtol=1e-9)
     assert via_propagation["n_visible"].values.max() >= 4
@@ -244,7 +245,8 @@ def test_compiled_grid_pass_matches_dop_kernel_bit_for_bit(los_axes):
     r = _walker_positions_mf()
     r[3, 10:20] = np.nan                                   # an impacted satellite is never visible
     r[7, :, :] = r[8, :, :]                                # coincident satellites: singular geometries appear
-    grid = grid_from_profile(load_settings("paper"))
+    paper = load_settings("paper")
+    grid = SurfaceGrid.from_settings(paper.dop, paper.constants.r_moon_mean_km)
     points, up = grid.r_mf_km.reshape(-1, 3), grid.up.reshape(-1, 3)
     for mask in (5.0, 30.0, -5.0):
         old = dop_kernel(r, points, up, mask, los_axes)

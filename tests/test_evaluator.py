@@ -85,13 +85,13 @@ def test_metrics_come_from_the_right_parts(context):
     A sparse design, so that PDOP and HDOP availabilities and means all differ from each other.
     """
     from lnss_lib.constellation import WalkerDesign
-    from lnss_lib.dop import summary_from_profile
+    from lnss_lib.dop import summary_for_settings
     from lnss_lib.gps import gps_link_summary
     from lnss_lib.evaluator import analyse_constellation
 
     study = analyse_constellation(context, WalkerDesign(6143.0, 0.6, 90.0, 51.7, 2, 3).elements_deg())
-    metrics, profile = study["metrics"], context.profile
-    grid = summary_from_profile(profile, study["dop"])
+    metrics = study["metrics"]
+    grid = summary_for_settings(context.dop, study["dop"])
     assert grid["pdop_avail_pct"] != grid["hdop_avail_pct"]
     assert metrics["pdop_avail_pct"] == grid["pdop_avail_pct"]
     assert metrics["hdop_avail_pct"] == grid["hdop_avail_pct"]
@@ -120,7 +120,7 @@ def test_campaign_path_matches_study_path_and_reuses_run_geometry(context, monke
 
     monkeypatch.setattr(evaluator, "rotation", forbidden)
     monkeypatch.setattr(dop, "surface_grid", forbidden)
-    monkeypatch.setattr(dop, "grid_from_profile", forbidden)
+    monkeypatch.setattr(dop.SurfaceGrid, "from_settings", forbidden)
     campaign = evaluate_constellation(context, elements)
     assert context_for(load_settings("ci")) is context
     for key in METRIC_KEYS:

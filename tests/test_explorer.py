@@ -108,9 +108,9 @@ def test_start_is_table4_itself_where_the_grid_holds_it(tmp_path):
     profile = load_settings(PROFILE, overrides=grid)
     design = explorer.design()
     assert design == table4_design(profile.standalone_elfo)
-    elements = walker_design(profile, design["sma_km"], design["ecc"], design["aop_deg"], design["inc_deg"],
+    elements = walker_design(profile.dynamics, design["sma_km"], design["ecc"], design["aop_deg"], design["inc_deg"],
                              design["n_planes"], design["sats_per_plane"]).elements_deg()
-    np.testing.assert_allclose(elements, standalone_elfo(profile), rtol=0.0, atol=1e-9)
+    np.testing.assert_allclose(elements, standalone_elfo(profile.standalone_elfo, profile.dynamics), rtol=0.0, atol=1e-9)
     assert "which lies on this profile's grid" in explorer.start_text and "NOT" not in explorer.start_text
     assert explorer.current.metrics["n_sat"] == 16
     _assert_same_metrics(explorer.current.metrics, _reference(design, grid))

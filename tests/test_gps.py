@@ -23,19 +23,19 @@ def profile(ci_profile):
 
 
 def test_sgp4_radius_at_tle_epoch_and_states_dataset(profile):
-    records, _ = tle.gps_catalogue(profile)
+    records, _ = tle.gps_catalogue(profile.gps, profile.epoch.start_tdb)
     epochs = np.array([(r.epoch_utc - dt.datetime(2000, 1, 1, 12)).total_seconds() / 86400.0 for r in records])
     jd = 2451545.0 + np.floor(epochs)
     r = np.stack([gps.propagate_teme([rec], jd[k:k + 1], (epochs - np.floor(epochs))[k:k + 1])[0, 0]
                   for k, rec in enumerate(records)])
     assert np.all(np.abs(np.linalg.norm(r, axis=-1) - 26560.0) < 500.0)
     t = tdb_seconds(profile["epoch"]["start_tdb"]) + np.array([0.0, 900.0])
-    ds = gps.gps_states_mci(profile, t)
+    ds = gps.gps_states_mci(profile.gps, profile.epoch.start_tdb, t)
     assert ds["r_mci_km"].dims == ("gps", "time", "xyz") and 21 not in ds["prn"].values
     earth = spice.spkpos("EARTH", t.tolist(), "J2000", "NONE", "MOON")[0]
     assert np.allclose(ds["r_mci_km"].values - ds["r_eci_km"].values, np.asarray(earth)[None], atol=1e-9)
     assert np.allclose(np.linalg.norm(ds["r_eci_km"], axis=-1), np.linalg.norm(ds["r_teme_km"], axis=-1))
-    assert gps.gps_states_mci(profile, t) is ds
+    assert gps.gps_states_mci(profile.gps, profile.epoch.start_tdb, t) is ds
 
 
 # ------------------------------------------------------------------------------- geometry
@@ -140,11 +140,11 @@ def test_invisible_rows_do_not_count():
 
 def test_gps_link_masks_consistent(profile):
     t = tdb_seconds(profile["epoch"]["start_tdb"]) + 900.0 * np.arange(8)
-    states = gps.gps_states_mci(profile, t)
+    states = gps.gps_states_mci(profile.gps, profile.epoch.start_tdb, t)
     # An LNSS satellite 8000 km from the Moon's centre, rotating about the Moon.
     ang = np.linspace(0.0, 2.0, t.size)
     r_lnss = 8000.0 * np.stack([np.cos(ang), np.sin(ang), 0.3 * np.ones_like(ang)], axis=-1)
-    ds = gps.gps_link(profile, states, r_lnss[None])
+    ds = gps.gps_link(profile.gps, profile.constants, states, r_lnss[None])
     assert ds["visible"].dims == ("sat", "time", "gps") and ds.sizes["sat"] == 1
     vis = ds["visible"].values
     theta = ds["theta_off_deg"].values
@@ -152,14 +152,14 @@ def test_gps_link_masks_consistent(profile):
     assert np.all(ds["cn0_dbhz"].values[vis] >= 15.0)
     assert np.array_equal(ds["n_visible"].values, vis.sum(-1))
     assert np.array_equal(np.isfinite(ds["pdop"].values), ds["n_visible"].values >= 4)
-    colder = gps.gps_link(profile, states, r_lnss[None], noise_temperature_k=100.0)
+    colder = gps.gps_link(profile.gps, profile.constants, states, r_lnss[None], noise_temperature_k=100.0)
     assert np.all(colder["visible"].values >= vis)                 # a lower T only adds links
     summary = gps.gps_link_summary(ds)
     assert summary["gps_visible_mean"] == pytest.approx(vis.sum(-1).mean())
     with pytest.raises(ValueError, match="unknown GPS link setting"):
-        gps.gps_link(profile, states, r_lnss[None], noise_temp=1.0)
+        gps.gps_link(profile.gps, profile.constants, states, r_lnss[None], noise_temp=1.0)
     with pytest.raises(ValueError, match="shape"):
-        gps.gps_link(profile, states, r_lnss[None, :3])
+        gps.gps_link(profile.gps, profile.constants, states, r_lnss[None, :3])
 
 
 def test_pdop_along_axis_splits_the_trace():
@@ -180,11 +180,11 @@ def test_campaign_link_metrics_equal_the_dataset_summary():
 
     context = context_for(load_settings("ci"))
     elements = WalkerDesign(6143.0, 0.6, 90.0, 51.7, 2, 2).elements_deg()
-    ds = analyse_states(context, elements, elements_deg_to_states(context.profile, elements, context.t0_tdb_s))[
+    ds = analyse_states(context, elements, elements_deg_to_states(context.settings.dynamics, elements, context.t0_tdb_s))[
         "propagation"]
-    reference = gps_link_summary(gps_link(context.profile, context.gps_states, ds, sats="first"))
+    reference = gps_link_summary(gps_link(context.gps, context.dynamics.constants, context.gps_states, ds, sats="first"))
     for _ in range(2):                                   # second call: cached gain pattern and GPS arrays
-        new = gps_link_metrics(context.profile, context.gps_states, ds["r_mci_km"].values)
+        new = gps_link_metrics(context.gps, context.dynamics.constants, context.gps_states, ds["r_mci_km"].values)
         assert set(new) == set(reference)
         for key, value in reference.items():
             assert new[key] == pytest.approx(value, rel=1e-11, nan_ok=True), key

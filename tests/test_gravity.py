@@ -34,7 +34,7 @@ def _numerical_gradient(field, r, h=1e-2):
 @pytest.mark.parametrize("r_km", [[1800.0, 300.0, -400.0], [0.0, 0.0, 1900.0], [0.0, 0.0, -2100.0],
                                   [1e-7, -1e-7, 1745.0], [-2500.0, 1000.0, 900.0]])
 def test_acceleration_is_gradient_of_potential_including_poles(paper_profile, degree, r_km):
-    field = GravityField.from_profile(paper_profile, degree)
+    field = GravityField.from_settings(paper_profile.gravity, degree)
     r = np.asarray(r_km)
     acc = _accel(field, r)
     grad = _numerical_gradient(field, r)
@@ -44,7 +44,7 @@ def test_acceleration_is_gradient_of_potential_including_poles(paper_profile, de
 
 
 def test_matches_independent_spherical_formulation(paper_profile, rng):
-    field = GravityField.from_profile(paper_profile, 30)
+    field = GravityField.from_settings(paper_profile.gravity, 30)
     for _ in range(20):
         direction = rng.normal(size=3)
         r = direction / np.linalg.norm(direction) * rng.uniform(1740.0, 8000.0)
@@ -55,7 +55,7 @@ def test_matches_independent_spherical_formulation(paper_profile, rng):
 
 
 def test_zonal_j2_matches_closed_form(paper_profile):
-    full = GravityField.from_profile(paper_profile, 2)
+    full = GravityField.from_settings(paper_profile.gravity, 2)
     cnm = np.zeros_like(full.cnm)
     cnm[0, 0] = 1.0
     cnm[2, 0] = full.cnm[2, 0]
@@ -73,16 +73,16 @@ def test_zonal_j2_matches_closed_form(paper_profile):
 
 def test_bad_degree_rejected(paper_profile):
     with pytest.raises(ValueError, match="degree"):
-        GravityField.from_profile(paper_profile, 101)
+        GravityField.from_settings(paper_profile.gravity, 101)
     with pytest.raises(ValueError, match="degree"):
-        GravityField.from_profile(paper_profile, -1)
+        GravityField.from_settings(paper_profile.gravity, -1)
 
 
 def test_degree_bound_holds_against_the_full_field_at_many_radii(paper_profile, rng):
     """|a_30 - a_N| <= sum_{n > N} GM / r^2 (R / r)^n K_n for every N, radius and direction tried."""
     from lnss_lib.gravity import omitted_bound
 
-    field = GravityField.from_profile(paper_profile)
+    field = GravityField.from_settings(paper_profile.gravity)
     worst = 0.0
     for r_km in np.geomspace(1738.0, 30000.0, 25):
         for _ in range(12):
@@ -102,7 +102,7 @@ def test_degree_bound_holds_against_the_full_field_at_many_radii(paper_profile, 
 def test_truncation_degree_keeps_the_dropped_part_below_the_tolerance(paper_profile, rng):
     from lnss_lib.gravity import omitted_bound, truncation_degree
 
-    field = GravityField.from_profile(paper_profile)
+    field = GravityField.from_settings(paper_profile.gravity)
     gm, r_ref = field.gm_km3_s2, field.r_ref_km
     previous = field.degree
     for r_km in np.geomspace(1738.0, 40000.0, 60):
@@ -119,8 +119,11 @@ def test_truncation_degree_keeps_the_dropped_part_below_the_tolerance(paper_prof
     assert truncation_degree(1740.0, field.coef, gm, r_ref, field.degree, 1e-15) == field.degree
     assert truncation_degree(24000.0, field.coef, gm, r_ref, field.degree, 1e-15) < 8
     assert truncation_degree(24000.0, field.coef, gm, r_ref, field.degree, 0.0) == field.degree
-    with pytest.raises(ValueError, match="truncation"):
-        GravityField.from_profile({**paper_profile, "gravity": {**paper_profile["gravity"], "truncation_kms2": -1.0}})
+    from lnss_lib.errors import ConfigError
+    from lnss_lib.settings import load_settings
+
+    with pytest.raises(ConfigError, match="gravity.truncation_kms2"):       # checked once, when the settings load
+        load_settings("paper", overrides={"gravity": {"truncation_kms2": -1.0}})
 
 
 @pytest.mark.parametrize("elements", [[6143.0, 0.6, 51.7, 0.0, 90.0, 0.0],       # the ELFO
@@ -133,12 +136,12 @@ def test_truncated_field_moves_ten_day_positions_by_less_than_a_metre(paper_prof
     from lnss_lib.propagator import elements_deg_to_states, propagate_states
 
     duration = 10 * 86400.0
-    table = EphemerisTable.build(paper_profile, epoch_tdb_s, epoch_tdb_s + duration)
-    y0 = elements_deg_to_states(paper_profile, [elements], epoch_tdb_s)
+    table = EphemerisTable.build(paper_profile.dynamics, epoch_tdb_s, epoch_tdb_s + duration)
+    y0 = elements_deg_to_states(paper_profile.dynamics, [elements], epoch_tdb_s)
     runs = {}
     for tol in (0.0, 1e-15):
         profile = load_settings("paper", overrides={"gravity": {"truncation_kms2": tol}})
-        runs[tol] = propagate_states(profile, y0, epoch_tdb_s, duration, 900.0, setting=setting,
-                                     model=ForceModel.from_profile(profile, table)).r_mci_km.values[0]
+        runs[tol] = propagate_states(profile.dynamics, y0, epoch_tdb_s, duration, 900.0, setting=setting,
+                                     model=ForceModel.build(profile.dynamics, table)).r_mci_km.values[0]
     moved_m = 1e3 * np.max(np.linalg.norm(runs[1e-15] - runs[0.0], axis=-1))
     assert moved_m < 1.0

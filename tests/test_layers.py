@@ -1,7 +1,8 @@
 """The layering of lnss_lib (issue 10), read from the source: a module imports only its own layer or lower.
 
 1 foundations (``config``, ``settings``, ``constants``, ``paper``, ``keys``, ``errors``, ``atomicio``, ``progress``); 2 physics
-kernels (every other top-level module: a new physics module is a kernel without editing this file); 3 the campaign
+kernels (every other top-level module: a new physics module is a kernel without editing this file; and the
+``design_life/`` package, named in :data:`KERNEL_PACKAGES`); 3 the campaign
 engine (``campaign/``); 4 presentation and studies (``outputs``, ``pipeline``, ``figures/``,
 ``studies/``, ``explorer``); 5 the command line and benchmarks (``__main__``, ``cli``, ``bench/``).
 Every ``import`` counts, including those inside functions. Also: no import cycles, kernels stay free
@@ -25,6 +26,9 @@ FOUNDATIONS = {"config", "settings", "constants", "paper", "keys", "errors", "at
 CAMPAIGN = {"campaign"}
 PRESENTATION = {"outputs", "pipeline", "findings", "figures", "studies", "explorer"}
 TOP = {"__main__", "cli", "bench"}
+KERNEL_PACKAGES = {"design_life"}                # layer-2 packages (a subject spread over several modules)
+DESIGN_LIFE_MODULES = ("screen", "estimate", "manoeuvres", "mean_elements", "control", "service", "propagation",
+                       "closed_loop", "evaluation", "frozen")
 LAYER_NAMES = {1: "foundations", 2: "kernels", 3: "campaign", 4: "presentation/studies", 5: "command line/bench"}
 HEAVY_FOR_KERNELS = {"pandas", "plotly", "pymoo", "dask", "distributed", "papermill"}
 FRONT_ENDS = {"studies", "figures"}          # imported only by the top layer (and notebooks, tests)
@@ -168,11 +172,21 @@ GRAPH, EXTERNAL = import_graph()
 def test_every_module_is_seen_and_classified():
     assert {"lnss_lib.config", "lnss_lib.propagator", "lnss_lib.figures", "lnss_lib.figures.export",
             "lnss_lib.outputs", "lnss_lib.pipeline", "lnss_lib.__main__"} <= set(GRAPH)
-    assert layer_of("lnss_lib.stationkeeping") == 2 and layer_of("lnss_lib.campaign.runner") == 3
+    assert layer_of("lnss_lib.design_life.closed_loop") == 2 and layer_of("lnss_lib.campaign.runner") == 3
+    assert layer_of("lnss_lib.design_life") == 2 and layer_of("lnss_lib.design_life.evaluation") == 2
+    assert {f"lnss_lib.design_life.{m}" for m in DESIGN_LIFE_MODULES} <= set(GRAPH)
+    assert "lnss_lib.design_life.screen" in GRAPH["lnss_lib.design_life.service"]   # relative import in the package
     assert layer_of("lnss_lib.figures.dop") == 4 and layer_of("lnss_lib.bench.dop") == 5
     assert "lnss_lib.outputs" in GRAPH["lnss_lib.figures.export"]     # relative import two levels up
     assert "lnss_lib.figures.charts" in GRAPH["lnss_lib.figures.dop"]
     assert "lnss_lib.ephemeris" in GRAPH["lnss_lib.outputs"]          # an import inside a function
+
+
+def test_every_subpackage_is_named_in_its_layer():
+    """A new top-level module is a kernel by default; a new subpackage must be placed in a layer by name."""
+    subpackages = {m.split(".")[1] for m in GRAPH if m.count(".") >= 2}
+    assert subpackages - (CAMPAIGN | PRESENTATION | TOP | KERNEL_PACKAGES) == set()
+    assert KERNEL_PACKAGES <= subpackages
 
 
 def test_no_module_imports_a_higher_layer():

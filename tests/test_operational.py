@@ -14,7 +14,7 @@ from lnss_lib.settings import load_settings
 from lnss_lib.constellation import WalkerDesign
 from lnss_lib.errors import ConfigError
 from lnss_lib.evaluator import analyse_states, context_for, evaluate_design
-from lnss_lib.keys import EXTRA_METRIC_KEYS, METRIC_KEYS, requested_extra_metrics
+from lnss_lib.keys import EXTRA_METRIC_KEYS, METRIC_KEYS
 from lnss_lib.propagator import elements_deg_to_states
 from lnss_lib.studies.pareto import deltav_constraint, table6
 
@@ -44,12 +44,14 @@ def test_extra_metrics_appear_only_when_asked(extra_context):
 
 
 def test_deltav_satellites_first_is_satellite_zero_and_all_is_the_mean(extra_context):
-    from lnss_lib import deltav, sk_estimate
+    from lnss_lib import deltav
+    from lnss_lib.design_life import estimate as sk_estimate
 
-    profile = extra_context.profile
+    profile = extra_context.settings
     elements = WalkerDesign(6143.0, 0.6, 90.0, 51.7, 2, 2).elements_deg()
-    out = analyse_states(extra_context, elements, elements_deg_to_states(profile, elements, extra_context.t0_tdb_s))
-    per_sat = deltav.deltav_per_satellite(profile, out["propagation"]).sel(model_all=profile["deltav"]["model"])
+    out = analyse_states(extra_context, elements, elements_deg_to_states(profile.dynamics, elements, extra_context.t0_tdb_s))
+    per_sat = deltav.deltav_per_satellite(profile.deltav, profile.dynamics, out["propagation"]).sel(
+        model_all=profile.deltav.model)
     metrics = out["metrics"]
     assert metrics["dv_total_kms_per_year"] == pytest.approx(float(per_sat.dv_total_kms_per_year.mean()))
     assert metrics["dv_total_max_kms_per_year"] == pytest.approx(float(per_sat.dv_total_kms_per_year.max()))
@@ -86,7 +88,7 @@ def test_infeasible_design_has_nan_extras(extra_context):
 ])
 def test_bad_extra_metrics_are_config_errors(overrides, key):
     with pytest.raises(ConfigError) as error:
-        requested_extra_metrics(load_settings("paper", overrides=overrides))
+        load_settings("paper", overrides=overrides)
     assert error.value.key == key
 
 

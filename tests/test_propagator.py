@@ -16,7 +16,7 @@ ELFO = [6143.0, 0.6, 51.7, 0.0, 90.0, 0.0]
 
 
 def test_two_body_conserves_energy_and_angular_momentum(two_body_profile, epoch_tdb_s):
-    ds = propagate_elements(two_body_profile, [ELFO], t0_tdb_s=epoch_tdb_s, duration_s=5 * 86400.0)
+    ds = propagate_elements(two_body_profile.dynamics, two_body_profile.epoch, [ELFO], t0_tdb_s=epoch_tdb_s, duration_s=5 * 86400.0)
     r, v = ds.r_mci_km.values[0], ds.v_mci_kms.values[0]
     gm = ds.attrs["gm_km3_s2"]
     energy = 0.5 * np.sum(v * v, axis=1) - gm / np.linalg.norm(r, axis=1)
@@ -33,13 +33,13 @@ def test_j2_secular_rates_match_analytic(paper_profile, epoch_tdb_s):
     profile = paper_profile.with_overrides({"forces": {"third_bodies": [], "srp": False, "albedo": False, "relativity": False},
                                             "integrator": {"setting": "converged"}})
     duration = 10 * 86400.0
-    table = EphemerisTable.build(profile, epoch_tdb_s, epoch_tdb_s + duration)
-    model = ForceModel.from_profile(profile, table, degree=2)
+    table = EphemerisTable.build(profile.dynamics, epoch_tdb_s, epoch_tdb_s + duration)
+    model = ForceModel.build(profile.dynamics, table, degree=2)
     cnm = np.zeros_like(model.field.cnm)
     cnm[0, 0], cnm[2, 0] = 1.0, model.field.cnm[2, 0]
     model = dataclasses.replace(model, field=dataclasses.replace(model.field, cnm=cnm, snm=np.zeros_like(cnm)))
     a, e, inc = 3000.0, 0.1, 50.0
-    ds = propagate_elements(profile, [[a, e, inc, 30.0, 40.0, 0.0]], t0_tdb_s=epoch_tdb_s, duration_s=duration,
+    ds = propagate_elements(profile.dynamics, profile.epoch, [[a, e, inc, 30.0, 40.0, 0.0]], t0_tdb_s=epoch_tdb_s, duration_s=duration,
                             step_s=300.0, model=model)
     # elements in the lunar (MOON_PA) equator frozen at the epoch: inertial, and the field's equator
     rot = rotation("J2000", "MOON_PA", [epoch_tdb_s])[0]
@@ -60,9 +60,9 @@ def test_j2_secular_rates_match_analytic(paper_profile, epoch_tdb_s):
 def test_integrator_takes_scipy_steps(paper_profile, epoch_tdb_s):
     """Same tableau and controller as solve_ivp: identical evaluation counts and end states."""
     duration = 86400.0
-    table = EphemerisTable.build(paper_profile, epoch_tdb_s, epoch_tdb_s + duration)
-    model = ForceModel.from_profile(paper_profile, table)
-    y0 = elements_deg_to_states(paper_profile, [ELFO], epoch_tdb_s)[0]
+    table = EphemerisTable.build(paper_profile.dynamics, epoch_tdb_s, epoch_tdb_s + duration)
+    model = ForceModel.build(paper_profile.dynamics, table)
+    y0 = elements_deg_to_states(paper_profile.dynamics, [ELFO], epoch_tdb_s)[0]
     args, work, scratch, terms, acc = model.kernel_args, model.field.workspace(), np.zeros(SCRATCH_SIZE), np.zeros((8, 3)), np.zeros(3)
 
     def rhs(t, y):
@@ -72,7 +72,7 @@ def test_integrator_takes_scipy_steps(paper_profile, epoch_tdb_s):
     for setting in ("paper", "converged"):
         cfg = paper_profile["integrator"]["settings"][setting]
         sol = solve_ivp(rhs, (epoch_tdb_s, epoch_tdb_s + duration), y0, method=cfg["method"], rtol=cfg["rtol"], atol=cfg["atol"])
-        ds = propagate_states(paper_profile, y0[None], epoch_tdb_s, duration, 900.0, setting=setting, model=model)
+        ds = propagate_states(paper_profile.dynamics, y0[None], epoch_tdb_s, duration, 900.0, setting=setting, model=model)
         assert int(ds.n_rhs[0]) == sol.nfev
         assert np.linalg.norm(ds.r_mci_km.values[0, -1] - sol.y[:3, -1]) < 1e-6
 
@@ -80,9 +80,9 @@ def test_integrator_takes_scipy_steps(paper_profile, epoch_tdb_s):
 def test_dense_output_matches_integration_ending_at_the_sample(paper_profile, epoch_tdb_s):
     """Interpolated samples (quintic Hermite between steps) against runs whose last step ends exactly there."""
     fine = load_overrides(paper_profile, "DOP853", 1e-12, 1e-14)
-    day = propagate_elements(fine, [ELFO], t0_tdb_s=epoch_tdb_s, duration_s=86400.0, step_s=900.0)
+    day = propagate_elements(fine.dynamics, fine.epoch, [ELFO], t0_tdb_s=epoch_tdb_s, duration_s=86400.0, step_s=900.0)
     for k in (7, 31, 58, 90):
-        exact = propagate_elements(fine, [ELFO], t0_tdb_s=epoch_tdb_s, duration_s=900.0 * k, step_s=900.0 * k)
+        exact = propagate_elements(fine.dynamics, fine.epoch, [ELFO], t0_tdb_s=epoch_tdb_s, duration_s=900.0 * k, step_s=900.0 * k)
         assert np.linalg.norm(day.r_mci_km.values[0, k] - exact.r_mci_km.values[0, -1]) < 1e-5      # 1 cm
         assert np.linalg.norm(day.v_mci_kms.values[0, k] - exact.v_mci_kms.values[0, -1]) < 1e-7    # 0.1 mm/s
 
@@ -92,11 +92,11 @@ def load_overrides(profile, method, rtol, atol):
 
 
 def test_force_model_matches_reference_implementation(paper_profile, epoch_tdb_s, rng):
-    ref = ReferenceModel(paper_profile)
+    ref = ReferenceModel(paper_profile.dynamics)
     times = epoch_tdb_s + rng.uniform(0, 9 * 86400.0, 10)
-    states = elements_deg_to_states(paper_profile, [[6143.0, 0.6, 51.7, 10.0, 90.0, m] for m in np.linspace(0, 330, 10)],
+    states = elements_deg_to_states(paper_profile.dynamics, [[6143.0, 0.6, 51.7, 10.0, 90.0, m] for m in np.linspace(0, 330, 10)],
                                     epoch_tdb_s)
-    terms = acceleration_breakdown(paper_profile, times, states)
+    terms = acceleration_breakdown(paper_profile.dynamics, times, states)
     total = sum(terms[k] for k in TERMS)
     for k in range(len(times)):
         expected = ref.acceleration(times[k], states[k, :3], states[k, 3:])
@@ -115,7 +115,7 @@ def test_force_terms_have_expected_sizes(paper_profile, epoch_tdb_s):
     v = np.cross([0.0, 0.0, 1.0], r)
     v *= np.sqrt(4902.7999671 / 9000.0) / np.linalg.norm(v)
     terms = {k: np.linalg.norm(x[0]) for k, x in
-             acceleration_breakdown(paper_profile, [epoch_tdb_s], np.concatenate([r, v])[None]).items()}
+             acceleration_breakdown(paper_profile.dynamics, [epoch_tdb_s], np.concatenate([r, v])[None]).items()}
     assert terms["central"] == pytest.approx(4902.7999671 / 9000.0 ** 2, rel=1e-12)
     d_earth, d_sun = np.linalg.norm(earth), np.linalg.norm(sun)
     tidal = lambda gm, d: gm * 9000.0 / d ** 3                # noqa: E731, differential (tidal) scale
@@ -153,9 +153,9 @@ def test_conical_shadow_closed_forms():
 def test_impact_raises_for_single_and_flags_in_batch(paper_profile, epoch_tdb_s):
     falling = np.array([[2000.0, 0.0, 0.0, -0.5, 0.2, 0.0]])
     with pytest.raises(ImpactError, match="hits the Moon"):
-        propagate_states(paper_profile, falling, epoch_tdb_s, 86400.0, 900.0)
-    healthy = elements_deg_to_states(paper_profile, [ELFO], epoch_tdb_s)
-    ds = propagate_states(paper_profile, np.vstack([healthy, falling]), epoch_tdb_s, 86400.0, 900.0)
+        propagate_states(paper_profile.dynamics, falling, epoch_tdb_s, 86400.0, 900.0)
+    healthy = elements_deg_to_states(paper_profile.dynamics, [ELFO], epoch_tdb_s)
+    ds = propagate_states(paper_profile.dynamics, np.vstack([healthy, falling]), epoch_tdb_s, 86400.0, 900.0)
     assert ds.impact.values.tolist() == [False, True]
     assert np.isfinite(ds.impact_t_tdb_s.values[1]) and ds.impact_t_tdb_s.values[1] - epoch_tdb_s < 3600.0
     assert ds.valid.values[0].all() and not ds.valid.values[1, -1]
@@ -165,22 +165,22 @@ def test_impact_raises_for_single_and_flags_in_batch(paper_profile, epoch_tdb_s)
 def test_minimum_altitude_parameter(paper_profile, epoch_tdb_s):
     profile = paper_profile.with_overrides({"impact": {"min_altitude_km": 800.0}})
     with pytest.raises(ValueError, match="minimum altitude 800.0 km"):
-        propagate_elements(profile, [ELFO], t0_tdb_s=epoch_tdb_s, duration_s=3600.0)
+        propagate_elements(profile.dynamics, profile.epoch, [ELFO], t0_tdb_s=epoch_tdb_s, duration_s=3600.0)
 
 
 def test_bad_inputs_rejected(paper_profile, epoch_tdb_s):
     with pytest.raises(ValueError, match="eccentricity"):
-        propagate_elements(paper_profile, [[6143.0, 1.0, 51.7, 0, 90, 0]], duration_s=3600.0)
+        propagate_elements(paper_profile.dynamics, paper_profile.epoch, [[6143.0, 1.0, 51.7, 0, 90, 0]], duration_s=3600.0)
     with pytest.raises(ValueError, match="shape"):
-        propagate_states(paper_profile, np.zeros((2, 5)), epoch_tdb_s, 3600.0, 900.0)
+        propagate_states(paper_profile.dynamics, np.zeros((2, 5)), epoch_tdb_s, 3600.0, 900.0)
     with pytest.raises(ValueError, match="duration"):
-        propagate_states(paper_profile, np.ones((1, 6)) * 3000, epoch_tdb_s, -1.0, 900.0)
+        propagate_states(paper_profile.dynamics, np.ones((1, 6)) * 3000, epoch_tdb_s, -1.0, 900.0)
     with pytest.raises(ValueError, match="integrator setting"):
-        propagate_elements(paper_profile, [ELFO], setting="sloppy", duration_s=3600.0)
+        propagate_elements(paper_profile.dynamics, paper_profile.epoch, [ELFO], setting="sloppy", duration_s=3600.0)
 
 
 def test_dataset_layout(paper_profile, epoch_tdb_s):
-    ds = propagate_elements(paper_profile, [ELFO, [6143.0, 0.6, 51.7, 180.0, 90.0, 0.0]], duration_s=86400.0)
+    ds = propagate_elements(paper_profile.dynamics, paper_profile.epoch, [ELFO, [6143.0, 0.6, 51.7, 180.0, 90.0, 0.0]], duration_s=86400.0)
     assert ds.r_mci_km.dims == ("sat", "time", "xyz")
     assert ds.sizes["time"] == 97 and ds.time.values[1] - ds.time.values[0] == 900.0
     assert ds.time.values[0] == epoch_tdb_s
@@ -193,7 +193,7 @@ def test_dataset_layout(paper_profile, epoch_tdb_s):
 # ---- batch kernels report what they did not do (issue 21 item 1) ------------------------------------------------
 
 def _batch_model(profile, t0, hours=1.0):
-    return ForceModel.from_profile(profile, EphemerisTable.build(profile, t0, t0 + hours * 3600.0), degree=2)
+    return ForceModel.build(profile.dynamics, EphemerisTable.build(profile.dynamics, t0, t0 + hours * 3600.0), degree=2)
 
 
 def test_batch_loop_that_fails_reports_it(paper_profile, epoch_tdb_s):
@@ -205,7 +205,7 @@ def test_batch_loop_that_fails_reports_it(paper_profile, epoch_tdb_s):
 
     times = output_times(epoch_tdb_s, 3600.0, 600.0)
     model = _batch_model(paper_profile, epoch_tdb_s)
-    y0 = elements_deg_to_states(paper_profile, [ELFO, ELFO], epoch_tdb_s)
+    y0 = elements_deg_to_states(paper_profile.dynamics, [ELFO, ELFO], epoch_tdb_s)
     args = (model.kernel_args, model.field.degree)
     out, status, t_stop, _ = integrate_many(y0, epoch_tdb_s, times, 0, 1e-300, 1e-300, 1737.4, 100_000, *args)
     assert np.all(status == STATUS_NON_FINITE) and np.all(np.isnan(out[:, 1:]))
@@ -219,11 +219,11 @@ def test_batch_loop_that_fails_reports_it(paper_profile, epoch_tdb_s):
 def test_station_keeping_chunk_kernel_reports_a_lost_satellite(paper_profile, epoch_tdb_s):
     from lnss_lib.errors import PropagationError
     from lnss_lib.propagator import STATUS_NON_FINITE, STATUS_NOT_RUN, STATUS_OK, check_batch, output_times
-    from lnss_lib.life_propagation import integrate_chunk
+    from lnss_lib.design_life.propagation import integrate_chunk
 
     times = output_times(epoch_tdb_s, 3600.0, 600.0)
     model = _batch_model(paper_profile, epoch_tdb_s)
-    y0 = elements_deg_to_states(paper_profile, [ELFO, ELFO, ELFO], epoch_tdb_s)
+    y0 = elements_deg_to_states(paper_profile.dynamics, [ELFO, ELFO, ELFO], epoch_tdb_s)
     active = np.array([True, False, True])
     no_burns = (np.full((3, 1), np.nan), np.zeros((3, 1, 3)))
     for rtol, expected in ((1e-300, STATUS_NON_FINITE), (1e-6, STATUS_OK)):

@@ -107,7 +107,7 @@ def test_epoch_sensitivity_at_the_study_epoch_matches_the_yardstick(bench):
 
 def test_moon_node_regresses_half_a_turn_in_half_a_nodal_period():
     profile = load_settings(PROFILE)
-    ensure_kernels(profile)
+    ensure_kernels(profile.ephemeris)
     t0 = tdb_seconds("2025-05-01T00:00:00", "TDB")
     half = 0.5 * 6798.38 * 86400.0
     turn = (cb._moon_node_deg(t0) - cb._moon_node_deg(t0 + half)) % 360.0     # regression: the node moves west

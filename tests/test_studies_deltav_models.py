@@ -29,7 +29,8 @@ def test_dataset_states_and_tables_from_a_result(j2_arc):
     el0, t, states = j2_arc
     ds = _dataset(t, states)
     np.testing.assert_array_equal(dv.dataset_states(ds), states)
-    res = dv.deltav_from_propagation(load_settings("ci"), ds, sat=0, element_frame="j2000")
+    ci = load_settings("ci")
+    res = dv.deltav_from_propagation(ci.deltav, ci.dynamics, ds, sat=0, element_frame="j2000")
     table = dm.model_comparison_table(res)
     assert table.index.tolist() == [*dv.MODELS, "paper (Table 4)"]
     assert table.loc["paper (Table 4)", "opt / total"] == pytest.approx(0.37 / 0.50)
@@ -44,7 +45,7 @@ def test_dataset_states_and_tables_from_a_result(j2_arc):
 
 def test_singularity_sweep_floor_and_cap(j2_arc):
     _, t, states = j2_arc
-    sweep = dm.singularity_sweep(t, states, GM, floors=(1e-1, 1e-3, 0.0), caps_kms2=(1e-5, 1e-7, 2e-8))
+    sweep = dm.singularity_sweep(t, states, GM, load_settings("paper").deltav, floors=(1e-1, 1e-3, 0.0), caps_kms2=(1e-5, 1e-7, 2e-8))
     assert len(sweep) == 4 * 3 + 3 * 2
     corrected = sweep.xs("corrected (weighted eq. 32, 35)", level="variant")
     uncapped = corrected.xs("none", level="cap (km/s^2)")["dv total"]
@@ -60,7 +61,7 @@ def test_singularity_sweep_floor_and_cap(j2_arc):
 def test_secular_windows_of_a_j2_arc(j2_arc):
     _, t, states = j2_arc
     window_s = (t[-1] - t[0]) / 2.0
-    windows = dm.secular_window_sweep(t, states, GM, window_s)
+    windows = dm.secular_window_sweep(t, states, GM, window_s, load_settings("paper").deltav)
     starts = windows.index.get_level_values("window start (days)")
     n_win = int(round(window_s / 60.0))
     np.testing.assert_allclose(starts[:-1], np.arange(len(starts) - 1) * (n_win // 4) * 60.0 / 86400.0)
@@ -71,7 +72,7 @@ def test_secular_windows_of_a_j2_arc(j2_arc):
     spread = dm.window_spread(windows, window_s / 86400.0)
     assert spread["lsq"] == (windows["lsq total"].iloc[:-1].min(), windows["lsq total"].iloc[:-1].max())
     with pytest.raises(ValueError, match="window"):
-        dm.secular_window_sweep(t, states, GM, 2.0 * (t[-1] - t[0]))
+        dm.secular_window_sweep(t, states, GM, 2.0 * (t[-1] - t[0]), load_settings("paper").deltav)
 
 
 def test_slsqp_check_and_constellation_tables():
@@ -99,7 +100,7 @@ def test_recovery_sampling_and_frame_tables_on_the_elfo():
     from lnss_lib.propagator import propagate_elements
 
     profile = load_settings("ci")
-    ensure_kernels(profile)
+    ensure_kernels(profile.ephemeris)
     first = [[6143.0, 0.6, 51.7, 0.0, 90.0, 0.0]]
     table, data = dm.lsq_recovery_study(profile, first, [300.0], integrators=("converged",))
     row = table.loc[("converged", 300.0)]
@@ -110,11 +111,11 @@ def test_recovery_sampling_and_frame_tables_on_the_elfo():
     sampling = dm.sampling_sweep(profile, first, (300.0, 900.0), integrators=("converged",))
     assert sampling.loc[("converged", 300.0), "lsq total"] == pytest.approx(row["dv lsq"], rel=1e-12)
     assert sampling.loc[("converged", 900.0), "lsq total"] == pytest.approx(row["dv truth (km/s/yr)"], rel=0.1)
-    ds = propagate_elements(profile, first)
-    frames = dm.element_frame_table(profile, ds)
+    ds = propagate_elements(profile.dynamics, profile.epoch, first)
+    frames = dm.element_frame_table(profile.deltav, profile.dynamics, ds)
     assert frames.index.tolist() == list(ELEMENT_FRAMES)
     assert frames.loc["j2000", "lsq total"] == pytest.approx(frames.loc["lunar_equator_of_epoch", "lsq total"], rel=1e-6)
-    near = dm.singular_proximity(dv.deltav_from_propagation(profile, ds))
+    near = dm.singular_proximity(dv.deltav_from_propagation(profile.deltav, profile.dynamics, ds))
     assert 0.0 <= near["min_abs_sin_nu"] < 0.05     # the ELFO starts at perilune: nu = 0 is sampled
 
 

@@ -99,7 +99,7 @@ def elfo_study():
     from lnss_lib.constellation import standalone_elfo
 
     profile = load_settings("ci")
-    return profile, dg.element_frame_study("ci", standalone_elfo(profile))
+    return profile, dg.element_frame_study("ci", standalone_elfo(profile.standalone_elfo, profile.dynamics))
 
 
 def test_frame_study_tables_are_consistent(elfo_study):

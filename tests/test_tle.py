@@ -88,10 +88,10 @@ def test_prn_and_launch_exclusions(profile, tle_lines, tmp_path):
     kept, _ = tle.select_satellites(records, launches_from="2024-242")
     assert {r.prn for r in kept} == {r.prn for r in records} - {1, 21}
     # Profile default: launched after the simulation epoch (2025-05-01) -> GPS BIII-8 (PRN 21, 2025-05-30) out.
-    kept, table = tle.gps_catalogue(profile)
+    kept, table = tle.gps_catalogue(profile.gps, profile.epoch.start_tdb)
     assert 21 not in {r.prn for r in kept} and len(kept) == len(records) - 1
     later = load_settings("ci", {"epoch": {"start_tdb": "2025-06-15T00:00:00"}})
-    assert len(tle.gps_catalogue(later)[0]) == len(records)
+    assert len(tle.gps_catalogue(later.gps, later.epoch.start_tdb)[0]) == len(records)
 
 
 def test_launch_date_estimate_from_revolution_count(tle_lines, tmp_path):

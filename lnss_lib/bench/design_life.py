@@ -17,22 +17,22 @@ from ..constants import SECONDS_PER_DAY
 from ..constellation import standalone_elfo
 from ..ephemeris import ensure_kernels, tdb_seconds
 from ..propagator import elements_deg_to_states, propagate_states
-from ..sk_estimate import sk_estimate_from_propagation
-from ..stability import screen_states
-from ..stationkeeping import LifeSettings, life_force_model, simulate_life
+from ..design_life.estimate import sk_estimate_from_propagation
+from ..design_life.screen import screen_states
+from ..design_life.closed_loop import LifeSettings, life_force_model, simulate_life
 
 
 def run(profile_name: str = "paper", overrides: dict | None = None) -> None:
     profile = load_settings(profile_name, overrides=overrides)
-    ensure_kernels(profile)
+    ensure_kernels(profile.ephemeris)
     settings = LifeSettings.from_profile(profile)
-    el = standalone_elfo(profile)
+    el = standalone_elfo(profile.standalone_elfo, profile.dynamics)
     t0 = tdb_seconds(profile["epoch"]["start_tdb"], "TDB")
-    states = elements_deg_to_states(profile, el, t0)
+    states = elements_deg_to_states(profile.dynamics, el, t0)
     print(f"standalone ELFO, {el.shape[0]} satellites, profile {profile_name}, design life {settings.life_days:g} days")
 
     start = time.perf_counter()
-    arc = propagate_states(profile, states, t0, float(profile["epoch"]["duration_days"]) * SECONDS_PER_DAY,
+    arc = propagate_states(profile.dynamics, states, t0, float(profile["epoch"]["duration_days"]) * SECONDS_PER_DAY,
                            float(profile["epoch"]["step_s"]), batch=True)
     arc_s = time.perf_counter() - start
     estimate = [sk_estimate_from_propagation(profile, arc) for _ in range(3)]

@@ -13,13 +13,12 @@ import numpy as np
 
 from ..settings import load_settings
 from ..constellation import WalkerDesign
-from ..dop import dop_arrays, dop_for_profile, dop_kernel, grid_from_profile, metrics_from_profile, summary_from_profile
+from ..dop import SurfaceGrid, dop_arrays, dop_for_settings, dop_kernel, metrics_for_settings, summary_for_settings
 from ..elements import kepler_states
 
 
-def _positions_km(profile: dict, n_epochs: int, step_s: float) -> np.ndarray:
-    """Keplerian positions (20, n_epochs, 3) km of the benchmark design."""
-    gm = float(profile["gravity"]["gm_km3_s2"])
+def _positions_km(gm: float, n_epochs: int, step_s: float) -> np.ndarray:
+    """Keplerian positions (20, n_epochs, 3) km of the benchmark design about a body of ``gm`` (km^3/s^2)."""
     el_deg = WalkerDesign(6143.0, 0.6, 90.0, 51.7, 5, 4).elements_deg()
     el = np.concatenate([el_deg[:, :2], np.radians(el_deg[:, 2:])], axis=1)
     return kepler_states(el, step_s * np.arange(n_epochs), gm)[..., :3]
@@ -45,23 +44,23 @@ def run(profile_name: str = "paper", repeats: int = 9, overrides: dict | None = 
     and the largest relative difference of the summary metrics. Returns the numbers.
     """
     profile = load_settings(profile_name, overrides=overrides)
-    grid = grid_from_profile(profile)
-    r_mf_km = _positions_km(profile, 961, 900.0)
+    dop = profile.dop
+    grid = SurfaceGrid.from_settings(dop, profile.constants.r_moon_mean_km)
+    r_mf_km = _positions_km(profile.gravity.gm_km3_s2, 961, 900.0)
     points, up = grid.r_mf_km.reshape(-1, 3), grid.up.reshape(-1, 3)
     print(f"DOP grid benchmark: {r_mf_km.shape[0]} satellites x {r_mf_km.shape[1]} epochs x {grid.n_points} points "
           f"(min / median of {repeats} alternating runs, ms)")
     funcs = {
         "old kernel (dop_kernel, numpy)": lambda: dop_kernel(r_mf_km, points, up, 5.0, "moon_fixed"),
         "new kernel (dop_arrays, one compiled pass)": lambda: dop_arrays(r_mf_km, points, up, 5.0, "moon_fixed"),
-        "old kernel + Dataset + summary": lambda: summary_from_profile(profile, dop_for_profile(profile, r_mf_km, None,
-                                                                                              grid=grid)),
-        "new kernel + compiled statistics": lambda: metrics_from_profile(profile, r_mf_km, grid),
+        "old kernel + Dataset + summary": lambda: summary_for_settings(dop, dop_for_settings(dop, r_mf_km, None, grid)),
+        "new kernel + compiled statistics": lambda: metrics_for_settings(dop, r_mf_km, grid),
     }
     times = _alternating_ms(funcs, repeats)
     for name, (lo, med) in times.items():
         print(f"  {name:44s}: {lo:7.1f} / {med:7.1f}")
-    old = summary_from_profile(profile, dop_for_profile(profile, r_mf_km, None, grid=grid))
-    new = metrics_from_profile(profile, r_mf_km, grid)
+    old = summary_for_settings(dop, dop_for_settings(dop, r_mf_km, None, grid))
+    new = metrics_for_settings(dop, r_mf_km, grid)
     same = all(np.array_equal(a, b, equal_nan=True) for a, b in zip(dop_kernel(r_mf_km, points, up, 5.0),
                                                                       dop_arrays(r_mf_km, points, up, 5.0)))
     rel = max(abs(new[k] - old[k]) / max(abs(old[k]), 1e-300) for k in old if old[k] == old[k])

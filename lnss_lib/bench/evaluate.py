@@ -25,9 +25,9 @@ from ..campaign import CampaignPlan
 PARTS = ("propagation", "dop", "deltav", "gps")
 
 
-def _designs(profile: dict, n: int, seed: int = 12) -> list[WalkerDesign]:
+def _designs(campaign: CampaignPlan, n: int, seed: int = 12) -> list[WalkerDesign]:
     """``n`` Walker designs drawn uniformly from the campaign grid (Table 3) that do not start inside the Moon."""
-    grid = CampaignPlan.of(profile).grid
+    grid = campaign.grid
     rng = np.random.default_rng(seed)
     out = [WalkerDesign(6143.0, 0.6, 90.0, 51.7, 4, 5)]
     while len(out) < n:
@@ -47,8 +47,8 @@ def run(profile_name: str = "paper", n_designs: int = 12, repeats: int = 2, over
     profile = load_settings(profile_name, overrides=overrides)
     full = profile.with_overrides({"gravity": {"truncation_kms2": 0.0}})
     start = time.perf_counter()
-    new_ctx = EvaluationContext.from_profile(profile)
-    old_ctx = EvaluationContext.from_profile(full)
+    new_ctx = EvaluationContext.build(profile)
+    old_ctx = EvaluationContext.build(full)
     print(f"contexts (tables, force model, rotations, grid, GPS states), both: {time.perf_counter() - start:.2f} s")
 
     def old(elements):
@@ -57,7 +57,7 @@ def run(profile_name: str = "paper", n_designs: int = 12, repeats: int = 2, over
     def new(elements):
         return evaluate_constellation(new_ctx, elements)
 
-    designs = _designs(profile, n_designs)
+    designs = _designs(CampaignPlan.of(profile), n_designs)
     start = time.perf_counter()
     old(designs[0].elements_deg())
     new(designs[0].elements_deg())
@@ -79,8 +79,8 @@ def run(profile_name: str = "paper", n_designs: int = 12, repeats: int = 2, over
                     best[name] = result
         if isinstance(best["old"], dict) and isinstance(best["new"], dict):
             rows.append((design, best["old"], best["new"]))
-    print(f"{profile['epoch']['duration_days']:.0f} days, degree {profile['gravity']['degree']}, integrator "
-          f"{profile['integrator']['setting']}, 1 thread; min of {repeats} alternating runs, seconds (old -> new):")
+    print(f"{profile.epoch.duration_days:.0f} days, degree {profile.gravity.degree}, integrator "
+          f"{profile.integrator.setting}, 1 thread; min of {repeats} alternating runs, seconds (old -> new):")
     for design, o, n in rows:
         diff = max(abs(n[k] - o[k]) / max(abs(o[k]), 1e-300) for k in ("pdop_mean_3sigma", "hdop_mean_3sigma",
                                                                        "pdop_avail_pct", "dv_total_kms_per_year",

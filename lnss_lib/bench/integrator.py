@@ -14,7 +14,7 @@ import time
 
 import numpy as np
 
-from ..settings import load_settings
+from ..settings import Dynamics, Settings, load_settings
 from ..constants import SECONDS_PER_DAY
 from ..ephemeris import EphemerisTable, ensure_kernels, tdb_seconds
 from ..forces import ForceModel
@@ -26,26 +26,29 @@ CANDIDATES = [("RK45", rtol, rtol * 1e-3) for rtol in (1e-6, 1e-7, 1e-8, 5e-9, 2
 REFERENCE = ("DOP853", 1e-12, 1e-14)
 
 
-def _with_setting(profile: dict, method: str, rtol: float, atol: float) -> dict:
-    return profile.with_overrides({"integrator": {"settings": {"candidate": {"method": method, "rtol": rtol, "atol": atol}}}})
+def _with_setting(settings: Settings, method: str, rtol: float, atol: float) -> Dynamics:
+    """The dynamics of ``settings`` with an integrator setting "candidate" (method, rtol, atol)."""
+    candidate = {"method": method, "rtol": rtol, "atol": atol}
+    return settings.with_overrides({"integrator": {"settings": {"candidate": candidate}}}).dynamics
 
 
-def candidate_table(profile: dict, days: float = 10.0) -> list[dict]:
+def candidate_table(settings: Settings, days: float = 10.0) -> list[dict]:
     """One row per (orbit, candidate): evaluations, wall (s) and the 10-day error (m) against the reference."""
-    ensure_kernels(profile)
-    t0 = tdb_seconds(profile["epoch"]["start_tdb"], "TDB")
+    dynamics = settings.dynamics
+    ensure_kernels(dynamics.ephemeris)
+    t0 = tdb_seconds(settings.epoch.start_tdb, "TDB")
     duration = days * SECONDS_PER_DAY
-    table = EphemerisTable.build(profile, t0, t0 + duration)
-    model = ForceModel.from_profile(profile, table)
-    full = profile.with_overrides({"gravity": {"truncation_kms2": 0.0}})
-    full_model = ForceModel.from_profile(full, table)
+    table = EphemerisTable.build(dynamics, t0, t0 + duration)
+    model = ForceModel.build(dynamics, table)
+    full = settings.with_overrides({"gravity": {"truncation_kms2": 0.0}})
+    full_model = ForceModel.build(full.dynamics, table)
     rows = []
     for name, elements in ORBITS.items():
-        y0 = elements_deg_to_states(profile, [elements], t0)
+        y0 = elements_deg_to_states(dynamics, [elements], t0)
         ref = propagate_states(_with_setting(full, *REFERENCE), y0, t0, duration, 900.0, setting="candidate",
                                model=full_model).r_mci_km.values[0]
         for method, rtol, atol in CANDIDATES:
-            prof = _with_setting(profile, method, rtol, atol)
+            prof = _with_setting(settings, method, rtol, atol)
             walls = []
             for _ in range(3):
                 start = time.perf_counter()
@@ -58,10 +61,10 @@ def candidate_table(profile: dict, days: float = 10.0) -> list[dict]:
 
 
 def run(profile_name: str = "paper", limit_m: float = 100.0, overrides: dict | None = None) -> list[dict]:
-    profile = load_settings(profile_name, overrides=overrides)
-    rows = candidate_table(profile)
+    settings = load_settings(profile_name, overrides=overrides)
+    rows = candidate_table(settings)
     print(f"10-day error against {REFERENCE[0]} {REFERENCE[1]:g}/{REFERENCE[2]:g} (full field); candidates with "
-          f"[{profile_name}] forces, gravity truncation {profile['gravity'].get('truncation_kms2', 0.0):g} km/s^2")
+          f"[{profile_name}] forces, gravity truncation {settings.gravity.truncation_kms2:g} km/s^2")
     for row in rows:
         print(f"  {row['orbit']:12s} {row['method']:6s} rtol {row['rtol']:7.0e} atol {row['atol']:7.0e}: "
               f"{row['n_rhs']:7d} evaluations, {1e3 * row['wall_s']:7.1f} ms, error {row['error_m']:12.3f} m")

@@ -15,12 +15,12 @@ import numpy as np
 from ..settings import load_settings
 from ..constellation import WalkerDesign
 from ..ephemeris import ensure_kernels
-from ..stability import propagated_perilune, screen_elements, stability_settings
+from ..design_life.screen import propagated_perilune, screen_elements, stability_settings
 
 
 def validation_table(profile: dict, designs=None, life_days: float | None = None, reference: bool = True) -> list[dict]:
     """One row per design: screen and (optionally) reference verdicts, impact days, minimum altitudes, walls."""
-    ensure_kernels(profile)
+    ensure_kernels(profile.ephemeris)
     cfg = stability_settings(profile)
     section = profile.get("stability", {})
     days = cfg.life_days if life_days is None else float(life_days)
@@ -45,7 +45,7 @@ def validation_table(profile: dict, designs=None, life_days: float | None = None
 
 def run(profile_name: str = "paper", reference: bool = True, overrides: dict | None = None) -> None:
     profile = load_settings(profile_name, overrides=overrides)
-    ensure_kernels(profile)
+    ensure_kernels(profile.ephemeris)
     start = time.perf_counter()
     screen_elements(profile, WalkerDesign(6143.0, 0.6, 90.0, 51.7, 4, 5).elements_deg())
     print(f"first screen (SPICE tide table, JIT): {time.perf_counter() - start:.2f} s")

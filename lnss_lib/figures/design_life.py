@@ -15,7 +15,7 @@ _REGION_SYMBOLS = ["circle", "square", "diamond", "triangle-up", "x", "cross"]
 def life_element_histories(runs: dict, *, sat: int = 0, title: str) -> go.Figure:
     """Mean a, e, i, AOP and RAAN minus the constellation's mean RAAN of one satellite, one line per run.
 
-    ``runs``: name -> :func:`lnss_lib.stationkeeping.simulate_life` Dataset (``mean_elements`` in
+    ``runs``: name -> :func:`lnss_lib.design_life.closed_loop.simulate_life` Dataset (``mean_elements`` in
     deg, ``box_error`` in rad, ``check_day``).
     """
     from plotly.subplots import make_subplots

@@ -19,17 +19,14 @@ filtered mean DOPs move where a geometry has near-degenerate windows, and the ye
 history and the station-keeping estimate move most: the 2025-05-01 epoch matters for the design life,
 hardly for the navigation geometry. The notebook prints the numbers.
 
-Design-life metrics come from the campaign-grade estimate (:mod:`lnss_lib.sk_estimate`) and the
-stability screen (:mod:`lnss_lib.stability`); :func:`add_closed_loop_life` adds the closed-loop
-metrics of ``lnss_lib.designlife`` where that module exists.
+Design-life metrics come from the campaign-grade estimate (:mod:`lnss_lib.design_life.estimate`) and the
+stability screen (:mod:`lnss_lib.design_life.screen`); :func:`add_closed_loop_life` adds the closed-loop
+metrics of :mod:`lnss_lib.design_life.evaluation`.
 """
 
 from __future__ import annotations
 
 from collections.abc import Mapping
-
-import importlib
-import importlib.util
 import math
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -41,7 +38,7 @@ from ..catalogue import FILE_FRAMES, analyse_catalogue, constellation_states_mci
 from ..settings import load_settings
 from ..constants import DAYS_PER_JULIAN_YEAR, SECONDS_PER_DAY
 from ..constellation import WalkerDesign, standalone_elfo
-from ..dop import dop_for_profile, elevation_deg, summary_from_profile
+from ..dop import SurfaceGrid, dop_for_settings, elevation_deg, summary_for_settings
 from ..ephemeris import body_states_mci, ensure_kernels, rotation, tdb_seconds
 from ..errors import ImpactError
 from ..evaluator import analyse_constellation, context_for
@@ -49,8 +46,8 @@ from ..frames import rotate_to_moon_fixed, rotate_with
 from ..keys import METRIC_KEYS
 from ..outputs import display_path, output_dir
 from ..propagator import elements_deg_to_states, propagate_states
-from ..sk_estimate import sk_estimate_from_propagation
-from ..stability import screen_states
+from ..design_life.estimate import sk_estimate_from_propagation
+from ..design_life.screen import screen_states
 
 __all__ = ["TABLE4_KEY", "DOP_KEYS", "DESIGN_LIFE_KEYS", "Entry", "Benchmark", "benchmark_settings", "mask_key",
            "catalogue_entries", "paper_entry", "campaign_entries", "run_benchmark", "add_closed_loop_life",
@@ -120,13 +117,13 @@ class Benchmark:
 def catalogue_entries(profile: dict, names=None) -> list[Entry]:
     """Every catalogue file (or those named) as an :class:`Entry`; approximate ones listed with the reason
     they are not evaluated."""
-    keys = [row["key"] for row in list_catalogue(profile)]
+    keys = [row["key"] for row in list_catalogue(profile.dynamics)]
     unknown = sorted(set(names or ()) - set(keys))
     if unknown:
         raise ValueError(f"unknown catalogue constellation(s) {unknown}; catalogue: {', '.join(keys)}")
     entries = []
-    for row in (r for r in list_catalogue(profile) if names is None or r["key"] in names):
-        c = load_constellation(row["key"], profile)
+    for row in (r for r in list_catalogue(profile.dynamics) if names is None or r["key"] in names):
+        c = load_constellation(row["key"], profile.dynamics)
         if c.approximate:
             entries.append(Entry(c.key, "catalogue (approximate)", c.n_sat, None, None,
                                  "not evaluated: approximate entry, its sources give no eccentricity, inclination, "
@@ -140,7 +137,7 @@ def catalogue_entries(profile: dict, names=None) -> list[Entry]:
 
 def paper_entry(profile: dict) -> Entry:
     """The paper's Table 4 standalone ELFO, elements in the profile's element frame."""
-    elements = standalone_elfo(profile)
+    elements = standalone_elfo(profile.standalone_elfo, profile.dynamics)
     return Entry(TABLE4_KEY, "paper", elements.shape[0], elements, profile["frames"]["element_frame"],
                  "Malik & Yang Table 4 (2 planes x 8)")
 
@@ -218,7 +215,7 @@ def _profile_for(profile: dict, entry: Entry) -> dict:
 
 
 def _evaluate_entry(context, entry: Entry, masks) -> tuple[dict, dict | None]:
-    profile = context.profile
+    profile = context.settings
     row = _nan_row(entry, masks)
     if not entry.evaluated:
         return row, None
@@ -228,7 +225,7 @@ def _evaluate_entry(context, entry: Entry, masks) -> tuple[dict, dict | None]:
             states = study["states"].states_mci
         else:
             study = analyse_constellation(context, entry.elements_deg)
-            states = elements_deg_to_states(profile, entry.elements_deg, context.t0_tdb_s)
+            states = elements_deg_to_states(profile.dynamics, entry.elements_deg, context.t0_tdb_s)
     except ImpactError as error:
         row["status"] = f"{entry.note}; {error}"
         return row, None
@@ -237,7 +234,7 @@ def _evaluate_entry(context, entry: Entry, masks) -> tuple[dict, dict | None]:
     study["r_mf_km"] = r_mf
     for mask in masks:
         masked = profile.with_overrides({"dop": {"elevation_mask_deg": float(mask)}})
-        summary = summary_from_profile(masked, dop_for_profile(masked, r_mf, context.times, grid=context.grid))
+        summary = summary_for_settings(masked.dop, dop_for_settings(masked.dop, r_mf, context.times, context.grid))
         row.update({mask_key(k, mask): summary[k] for k in DOP_KEYS})
     screen = screen_states(profile, states, context.t0_tdb_s)
     row.update(screen_min_perilune_alt_km=screen.attrs["min_perilune_alt_km"], stable_screen=screen.attrs["stable"],
@@ -279,24 +276,23 @@ def run_benchmark(profile_name: str, *, campaigns: bool | None = None, names=Non
 
 
 def add_closed_loop_life(bench: Benchmark, life_days: float | None = None) -> tuple[pd.DataFrame, str]:
-    """The yardstick with the closed-loop design-life metrics of ``lnss_lib.designlife`` added (prefixed
-    ``life_``), and a note. Without that module (or with ``[benchmark] closed_loop_life = false``) the table
-    comes back unchanged with a note saying why."""
-    if importlib.util.find_spec("lnss_lib.designlife") is None:
-        return bench.table, "lnss_lib.designlife is not installed: closed-loop design-life metrics not added"
+    """The yardstick with the closed-loop design-life metrics of ``lnss_lib.design_life.evaluation`` added (prefixed
+    ``life_``), and a note. With ``[benchmark] closed_loop_life = false`` the table comes back unchanged with a
+    note saying why."""
+    from ..design_life.evaluation import evaluate_design_life
+
     if not benchmark_settings(bench.profile)["closed_loop_life"]:
         return bench.table, "[benchmark] closed_loop_life = false: closed-loop design-life metrics not added"
-    designlife = importlib.import_module("lnss_lib.designlife")
     life = float(bench.profile["design_life"]["life_days"]) if life_days is None else float(life_days)
     table = bench.table.copy()
     for entry in bench.entries:
         if entry.label not in bench.analysis:
             continue
-        result = designlife.evaluate_design_life(_profile_for(bench.profile, entry), entry.elements_deg, life)
+        result = evaluate_design_life(_profile_for(bench.profile, entry), entry.elements_deg, life)
         index = table.index[table["constellation"] == entry.label][0]
         for key in DESIGN_LIFE_KEYS:
             table.loc[index, f"life_{key}"] = result.get(key, math.nan)
-    return table, f"closed-loop design-life metrics over {life:g} days (lnss_lib.designlife)"
+    return table, f"closed-loop design-life metrics over {life:g} days (lnss_lib.design_life.evaluation)"
 
 
 # ---------------------------------------------------------------- published figures beside ours
@@ -334,9 +330,9 @@ def _node_rms(values: np.ndarray) -> np.ndarray:
 
 def _dop_counterparts(profile: dict, r_mf: np.ndarray, times: np.ndarray, grid, mask_deg: float, uere_m: float) -> dict:
     masked = profile.with_overrides({"dop": {"elevation_mask_deg": float(mask_deg)}})
-    ds_xy = dop_for_profile(masked, r_mf, times, grid=grid)
-    ds_en = dop_for_profile(masked, r_mf, times, grid=grid, los_axes="enu")
-    summary = summary_from_profile(masked, ds_xy)
+    ds_xy = dop_for_settings(masked.dop, r_mf, times, grid)
+    ds_en = dop_for_settings(masked.dop, r_mf, times, grid, los_axes="enu")
+    summary = summary_for_settings(masked.dop, ds_xy)
     pdop, hdop = ds_en["pdop"].values, ds_en["hdop"].values
     with np.errstate(invalid="ignore"):
         usable = pdop < float(profile["dop"]["availability_threshold"])        # eq. 14: a fix is reported
@@ -459,8 +455,9 @@ def _moon_node_deg(t_tdb_s: float) -> float:
 
 def _epoch_states(profile: dict, name: str, t0: float) -> np.ndarray:
     if name == TABLE4_KEY:
-        return elements_deg_to_states(profile, standalone_elfo(profile), t0)
-    return constellation_states_mci(profile, load_constellation(name, profile)).states_mci
+        return elements_deg_to_states(profile.dynamics, standalone_elfo(profile.standalone_elfo, profile.dynamics), t0)
+    return constellation_states_mci(profile.dynamics, profile.epoch.start_tdb,
+                                    load_constellation(name, profile.dynamics)).states_mci
 
 
 def epoch_sensitivity(profile_name: str, *, epochs=None, names=None, overrides=None) -> pd.DataFrame:
@@ -479,20 +476,21 @@ def epoch_sensitivity(profile_name: str, *, epochs=None, names=None, overrides=N
     rows = []
     for epoch in epochs:
         profile = base.with_overrides({"epoch": {"start_tdb": epoch}})
-        ensure_kernels(profile)
+        ensure_kernels(profile.ephemeris)
         t0 = tdb_seconds(epoch, "TDB")
         duration = float(profile["epoch"]["duration_days"]) * SECONDS_PER_DAY
         for name in names:
             states = _epoch_states(profile, name, t0)
-            ds = propagate_states(profile, states, t0, duration, float(profile["epoch"]["step_s"]), batch=True)
+            ds = propagate_states(profile.dynamics, states, t0, duration, float(profile["epoch"]["step_s"]), batch=True)
             row = {"epoch_tdb": epoch, "year": 2000.0 + (t0 / SECONDS_PER_DAY) / DAYS_PER_JULIAN_YEAR, "moon_node_deg": _moon_node_deg(t0),
                    "constellation": name, "n_sat": states.shape[0], "impact": bool(ds.impact.any())}
             if not row["impact"]:
                 times = ds["time"].values.astype(float)
-                r_mf = rotate_to_moon_fixed(profile, ds["r_mci_km"].values, times)
+                r_mf = rotate_to_moon_fixed(profile.dynamics, ds["r_mci_km"].values, times)
                 for mask in [float(profile["dop"]["elevation_mask_deg"])] + [float(m) for m in cfg["extra_masks_deg"]]:
                     masked = profile.with_overrides({"dop": {"elevation_mask_deg": mask}})
-                    summary = summary_from_profile(masked, dop_for_profile(masked, r_mf, times))
+                    summary = summary_for_settings(masked.dop, dop_for_settings(
+                        masked.dop, r_mf, times, SurfaceGrid.from_settings(masked.dop, masked.constants.r_moon_mean_km)))
                     row.update({mask_key(k, mask): summary[k] for k in DOP_KEYS})
                 row["sk_dv_estimate_kms_per_year"] = sk_estimate_from_propagation(profile, ds)["sk_dv_estimate_kms_per_year"]
             screen = screen_states(profile, states, t0)

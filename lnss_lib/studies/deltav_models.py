@@ -16,19 +16,24 @@ prints the numbers behind each of these statements.
 
 from __future__ import annotations
 
+from typing import TYPE_CHECKING
+
 import numpy as np
 import pandas as pd
 import xarray as xr
 
 from ..constants import DAYS_PER_JULIAN_YEAR, SECONDS_PER_DAY
 from ..deltav import (MODELS, OSCULATING_MODELS, SECULAR_PARTS, dataset_states, deltav_arrays, deltav_from_propagation,
-                      deltav_settings, perturbing_acceleration_rtn, slsqp_tmax, thrust_total, tmax_closed_form,
-                      trapezoid_deltav)
+                      perturbing_acceleration_rtn, slsqp_tmax, thrust_total, tmax_closed_form, trapezoid_deltav,
+                      with_overrides)
 from ..frames import ELEMENT_FRAMES
 from ..paper import TABLE_4, TABLE_4_LABEL
 from ..propagator import propagate_elements
 
-__all__ = ["PAPER_BUDGETS", "PAPER_VARIANTS", "DIVISOR_FLOORS", "COMPONENT_CAPS_KMS2", "kernel_settings", "budget_row",
+if TYPE_CHECKING:
+    from ..settings import DeltaVSettings, Dynamics, Settings
+
+__all__ = ["PAPER_BUDGETS", "PAPER_VARIANTS", "DIVISOR_FLOORS", "COMPONENT_CAPS_KMS2", "budget_row",
            "model_comparison_table", "secular_rates_table", "lsq_recovery", "lsq_recovery_study", "sampling_sweep",
            "singularity_sweep", "singular_proximity", "element_frame_table", "secular_window_sweep", "window_spread",
            "slsqp_check_table", "constellation_table", "model_findings"]
@@ -47,11 +52,6 @@ DIVISOR_FLOORS = (1e-1, 1e-2, 1e-3, 1e-4, 1e-5, 1e-6, 0.0)
 
 
 COMPONENT_CAPS_KMS2 = (1e-5, 1e-6, 1e-7, 5e-8, 2e-8)
-
-
-def kernel_settings(settings: dict) -> dict:
-    """``settings`` without ``model`` (the choice of the campaign model does not enter :func:`deltav_arrays`)."""
-    return {k: v for k, v in settings.items() if k != "model"}
 
 
 def budget_row(out: dict) -> dict:
@@ -86,16 +86,16 @@ def secular_rates_table(results: dict):
         for name, r in results.items()})
 
 
-def lsq_recovery(profile: dict, t_tdb_s: np.ndarray, states_mci: np.ndarray, settings: dict) -> tuple[dict, np.ndarray, dict]:
-    """How well the ``lsq`` inverse recovers the force model's perturbing acceleration on one arc.
+def lsq_recovery(dynamics: Dynamics, deltav: DeltaVSettings, t_tdb_s: np.ndarray,
+                 states_mci: np.ndarray) -> tuple[dict, np.ndarray, dict]:
+    """How well the ``lsq`` inverse recovers the force model's (``dynamics``) perturbing acceleration on one arc.
 
     Returns (row, truth (n, 3) km/s^2 RTN, :func:`deltav_arrays` output). The row holds the median
     per-epoch relative error, the rms error over the rms acceleration, the Delta-V of the truth (total
     and eq. 40 optimised) against ``lsq`` and ``paper``, all per year.
     """
-    gm = float(profile["gravity"]["gm_km3_s2"])
-    truth = perturbing_acceleration_rtn(profile, t_tdb_s, states_mci)
-    out = deltav_arrays(t_tdb_s, states_mci, gm, kernel_settings(settings))
+    truth = perturbing_acceleration_rtn(dynamics, t_tdb_s, states_mci)
+    out = deltav_arrays(t_tdb_s, states_mci, dynamics.gravity.gm_km3_s2, deltav)
     err = np.linalg.norm(out["T_rtn_lsq"] - truth, axis=1)
     mag = np.linalg.norm(truth, axis=1)
     dv_truth = trapezoid_deltav(t_tdb_s, mag) * out["per_year_factor"]
@@ -107,42 +107,44 @@ def lsq_recovery(profile: dict, t_tdb_s: np.ndarray, states_mci: np.ndarray, set
     return row, truth, out
 
 
-def lsq_recovery_study(profile: dict, elements_deg, steps_s, *, integrators=("paper", "converged"),
-                       settings: dict | None = None):
+def lsq_recovery_study(profile: Settings, elements_deg, steps_s, *, integrators=("paper", "converged"),
+                       deltav: DeltaVSettings | None = None):
     """:func:`lsq_recovery` of one satellite (``elements_deg`` (1, 6)) propagated with each integrator setting
-    and output step; returns (table indexed by (integrator, step_s), {(integrator, step): (t, truth, out)})."""
-    settings = deltav_settings(profile) if settings is None else settings
+    and output step (``deltav``: default ``profile.deltav``); returns (table indexed by (integrator, step_s),
+    {(integrator, step): (t, truth, out)})."""
+    deltav = profile.deltav if deltav is None else deltav
     rows, data = {}, {}
     for setting in integrators:
         for step in steps_s:
-            d = propagate_elements(profile, elements_deg, step_s=step, setting=setting)
+            d = propagate_elements(profile.dynamics, profile.epoch, elements_deg, step_s=step, setting=setting)
             t = d["time"].values
-            rows[(setting, step)], truth, out = lsq_recovery(profile, t, dataset_states(d), settings)
+            rows[(setting, step)], truth, out = lsq_recovery(profile.dynamics, deltav, t, dataset_states(d))
             data[(setting, step)] = (t, truth, out)
     table = pd.DataFrame(rows).T
     table.index.names = ["integrator", "step_s"]
     return table, data
 
 
-def sampling_sweep(profile: dict, elements_deg, steps_s=(60.0, 300.0, 900.0, 1800.0), *,
-                   integrators=("paper", "converged"), settings: dict | None = None):
+def sampling_sweep(profile: Settings, elements_deg, steps_s=(60.0, 300.0, 900.0, 1800.0), *,
+                   integrators=("paper", "converged"), deltav: DeltaVSettings | None = None):
     """Budgets (:func:`budget_row`) of one satellite propagated with each integrator setting and output step
-    (the finite differences of Section 3.1.1 depend on the step); index (integrator, step_s)."""
-    settings = deltav_settings(profile) if settings is None else settings
-    gm = float(profile["gravity"]["gm_km3_s2"])
+    (the finite differences of Section 3.1.1 depend on the step; ``deltav``: default ``profile.deltav``);
+    index (integrator, step_s)."""
+    deltav = profile.deltav if deltav is None else deltav
+    gm = profile.gravity.gm_km3_s2
     rows = []
     for setting in integrators:
         for step in steps_s:
-            d = propagate_elements(profile, elements_deg, step_s=step, setting=setting)
-            out = deltav_arrays(d["time"].values, dataset_states(d), gm, kernel_settings(settings))
+            d = propagate_elements(profile.dynamics, profile.epoch, elements_deg, step_s=step, setting=setting)
+            out = deltav_arrays(d["time"].values, dataset_states(d), gm, deltav)
             rows.append({"integrator": setting, "step_s": step, **budget_row(out)})
     return pd.DataFrame(rows).set_index(["integrator", "step_s"])
 
 
-def singularity_sweep(t_tdb_s: np.ndarray, states: np.ndarray, gm_km3_s2: float, *, floors=DIVISOR_FLOORS,
-                      caps_kms2=COMPONENT_CAPS_KMS2, variants: dict | None = None,
+def singularity_sweep(t_tdb_s: np.ndarray, states: np.ndarray, gm_km3_s2: float, deltav: DeltaVSettings, *,
+                      floors=DIVISOR_FLOORS, caps_kms2=COMPONENT_CAPS_KMS2, variants: dict | None = None,
                       capped_variants=("corrected (weighted eq. 32, 35)", "literal eq. 32 and 35")):
-    """``paper``-model budgets (eq. 30-35) against the singularity handling, every other setting at its default.
+    """``paper``-model budgets (eq. 30-35) against the singularity handling, every other setting as in ``deltav``.
 
     Each variant (label -> (paper_normal, paper_radial), default :data:`PAPER_VARIANTS`) with each divisor
     floor and no cap, then each of ``capped_variants`` with no floor and each component cap. Index
@@ -152,7 +154,7 @@ def singularity_sweep(t_tdb_s: np.ndarray, states: np.ndarray, gm_km3_s2: float,
     rows = []
 
     def add(label, floor, cap_text, overrides):
-        out = deltav_arrays(t_tdb_s, states, gm_km3_s2, overrides)
+        out = deltav_arrays(t_tdb_s, states, gm_km3_s2, with_overrides(deltav, **overrides))
         rows.append({"variant": label, "divisor floor": floor, "cap (km/s^2)": cap_text,
                      "dv total": out["dv_total"]["paper"], "dv opt": out["dv_opt"]["paper"]})
 
@@ -175,25 +177,25 @@ def singular_proximity(res: xr.Dataset) -> dict[str, float]:
             "min_abs_cos_theta": float(np.min(np.abs(np.cos(nu + res["aop_rad"].values))))}
 
 
-def element_frame_table(profile: dict, ds: xr.Dataset, sat: int = 0):
+def element_frame_table(deltav: DeltaVSettings, dynamics: Dynamics, ds: xr.Dataset, sat: int = 0):
     """Budgets of every model of satellite ``sat`` with the GVE elements taken in each element frame."""
     rows = {}
     for frame in ELEMENT_FRAMES:
-        r = deltav_from_propagation(profile, ds, sat=sat, element_frame=frame)
+        r = deltav_from_propagation(deltav, dynamics, ds, sat=sat, element_frame=frame)
         rows[frame] = {**{f"{m} total": r["dv_total_kms_per_year"].sel(model_all=m).item() for m in MODELS},
                        **{f"{m} opt": r["dv_opt_kms_per_year"].sel(model_all=m).item() for m in OSCULATING_MODELS}}
     return pd.DataFrame(rows).T
 
 
 def secular_window_sweep(t_tdb_s: np.ndarray, states: np.ndarray, gm_km3_s2: float, window_s: float,
-                         settings: dict | None = None):
+                         deltav: DeltaVSettings):
     """Budgets and secular parts (km/s per year) over windows of ``window_s`` of a longer arc, starting every
     quarter window, then over the whole arc: how much the secular trend of a short arc depends on its start.
 
     Index (window start (days), span (days)); columns ``"<model> total"`` and ``"secular <part>"``.
     """
-    cfg = kernel_settings(deltav_settings(None, **(settings or {})))
-    year_s = float(cfg["year_days"]) * SECONDS_PER_DAY
+    cfg = deltav
+    year_s = cfg.year_days * SECONDS_PER_DAY
     t = np.asarray(t_tdb_s, dtype=float)
     st = np.asarray(states, dtype=float)
     n_win = int(round(window_s / (t[1] - t[0])))

@@ -46,7 +46,7 @@ import pandas as pd
 from scipy.stats import spearmanr
 
 from ..constellation import WalkerDesign
-from ..designlife import life_metrics, run_design_life, short_arc_predictors
+from ..design_life.evaluation import life_metrics, run_design_life, short_arc_predictors
 from ..keys import DESIGN_KEYS
 from ..outputs import display_path
 from ..progress import steps

@@ -25,8 +25,8 @@ import xarray as xr
 
 from ..settings import load_settings
 from ..constellation import two_body_positions_mci
-from ..dop import (LOS_AXES, SurfaceGrid, check_positions, dop_for_profile, dop_from_propagation, elevation_deg, grid_from_profile,
-                   summary_from_profile)
+from ..dop import (LOS_AXES, SurfaceGrid, check_positions, dop_for_settings, dop_from_propagation, elevation_deg,
+                   summary_for_settings)
 from ..elements import orbital_period_s
 from ..frames import ELEMENT_FRAMES, latitude_deg, rotate_to_moon_fixed
 from ..paper import TABLE_4, TABLE_4_LABEL
@@ -163,11 +163,13 @@ def element_frame_study(profile_name: str, elements_deg, *, frames=ELEMENT_FRAME
         if frame not in ELEMENT_FRAMES:
             raise ValueError(f"unknown element frame {frame!r}; allowed: {', '.join(ELEMENT_FRAMES)}")
     profiles = {frame: load_settings(profile_name, overrides={"frames": {"element_frame": frame}}) for frame in frames}
-    propagation = {frame: propagate_elements(profiles[frame], elements_deg) for frame in frames}
-    dop = {(frame, axes): dop_from_propagation(profiles[frame], propagation[frame], los_axes=axes)
+    propagation = {frame: propagate_elements(profiles[frame].dynamics, profiles[frame].epoch, elements_deg) for frame in frames}
+    dop = {(frame, axes): dop_from_propagation(profiles[frame].dop, profiles[frame].dynamics, propagation[frame],
+                                               los_axes=axes)
            for frame in frames for axes in los_axes}
+    settings = load_settings(profile_name)
     return FrameStudy(profile_name, np.asarray(elements_deg, dtype=float), profiles, propagation, dop,
-                      grid_from_profile(load_settings(profile_name)))
+                      SurfaceGrid.from_settings(settings.dop, settings.constants.r_moon_mean_km))
 
 
 def apolune_latitude_table(study: FrameStudy, sats_per_plane: int) -> pd.DataFrame:
@@ -178,8 +180,8 @@ def apolune_latitude_table(study: FrameStudy, sats_per_plane: int) -> pd.DataFra
     rows = []
     for frame, profile in study.profiles.items():
         t0 = float(study.propagation[frame]["time"].values[0])
-        times = np.array([t0, t0 + 0.5 * orbital_period_s(el[0, 0], profile["gravity"]["gm_km3_s2"])])
-        r_mf = rotate_to_moon_fixed(profile, two_body_positions_mci(profile, el[leaders], times), times)[:, 1]
+        times = np.array([t0, t0 + 0.5 * orbital_period_s(el[0, 0], profile.gravity.gm_km3_s2)])
+        r_mf = rotate_to_moon_fixed(profile, two_body_positions_mci(profile.dynamics, el[leaders], times), times)[:, 1]
         lat = latitude_deg(r_mf)
         rows.append({"element frame": frame,
                      **{f"apolune latitude plane {k + 1} (deg)": lat[k] for k in range(len(leaders))}})
@@ -187,23 +189,25 @@ def apolune_latitude_table(study: FrameStudy, sats_per_plane: int) -> pd.DataFra
 
 
 def frame_study_summaries(study: FrameStudy, default_frame: str = "lunar_equator_of_epoch") -> dict[str, dict]:
-    """:func:`summary_from_profile` of every (frame, axes) of ``study``, then three checks on the default
+    """:func:`lnss_lib.dop.summary_for_settings` of every (frame, axes) of ``study``, then three checks on the default
     frame with the profile's axes: a two-body (Keplerian) orbit, the ``cell_area`` weighting and the
     ``converged`` integrator setting. Keys ``"<frame> / <axes>[, check]"``."""
     if default_frame not in study.profiles:
         raise ValueError(f"default frame {default_frame!r} is not in the study: {', '.join(study.profiles)}")
-    out = {f"{frame} / {axes}": summary_from_profile(study.profiles[frame], ds) for (frame, axes), ds in study.dop.items()}
+    out = {f"{frame} / {axes}": summary_for_settings(study.profiles[frame].dop, ds)
+           for (frame, axes), ds in study.dop.items()}
     base = study.profiles[default_frame]
-    label = f"{default_frame} / {base['dop']['los_axes']}"
+    label = f"{default_frame} / {base.dop.los_axes}"
     times = study.propagation[study.frames[0]]["time"].values
-    r_two_body = rotate_to_moon_fixed(base, two_body_positions_mci(base, study.elements_deg, times), times)
-    out[f"{label}, two-body"] = summary_from_profile(base, dop_for_profile(base, r_two_body, times))
+    r_two_body = rotate_to_moon_fixed(base, two_body_positions_mci(base.dynamics, study.elements_deg, times), times)
+    out[f"{label}, two-body"] = summary_for_settings(base.dop, dop_for_settings(base.dop, r_two_body, times, study.grid))
     weighted = load_settings(study.profile_name, overrides={"frames": {"element_frame": default_frame},
                                                            "dop": {"area_weighting": "cell_area"}})
-    out[f"{label}, cell-area weighted"] = summary_from_profile(
-        weighted, dop_from_propagation(weighted, study.propagation[default_frame], grid=grid_from_profile(weighted)))
-    converged = propagate_elements(base, study.elements_deg, setting="converged")
-    out[f"{label}, converged integrator"] = summary_from_profile(base, dop_from_propagation(base, converged))
+    out[f"{label}, cell-area weighted"] = summary_for_settings(
+        weighted.dop, dop_from_propagation(weighted.dop, weighted.dynamics, study.propagation[default_frame]))
+    converged = propagate_elements(base.dynamics, base.epoch, study.elements_deg, setting="converged")
+    out[f"{label}, converged integrator"] = summary_for_settings(
+        base.dop, dop_from_propagation(base.dop, base.dynamics, converged, grid=study.grid))
     return out
 
 
@@ -212,7 +216,7 @@ def latitude_table(study: FrameStudy) -> pd.DataFrame:
     blocks = []
     for frame, profile in study.profiles.items():
         block = latitude_statistics(study.dop[(frame, "moon_fixed")], study.dop[(frame, "enu")],
-                                    float(profile["dop"]["availability_threshold"]))
+                                    profile.dop.availability_threshold)
         block.insert(0, "element frame", frame)
         blocks.append(block)
     return pd.concat(blocks, ignore_index=True)
@@ -227,13 +231,12 @@ def degenerate_geometry_table(study: FrameStudy, sats_per_plane: int) -> pd.Data
         t = prop["time"].values
         r_mci = prop["r_mci_km"].transpose("sat", "time", "xyz").values
         v_mci = prop["v_mci_kms"].transpose("sat", "time", "xyz").values
-        r_mf = rotate_to_moon_fixed(profile, r_mci, t)
-        h_mf = rotate_to_moon_fixed(profile, np.cross(r_mci, v_mci), t)
+        r_mf = rotate_to_moon_fixed(profile.dynamics, r_mci, t)
+        h_mf = rotate_to_moon_fixed(profile.dynamics, np.cross(r_mci, v_mci), t)
         h_mf /= np.linalg.norm(h_mf, axis=-1, keepdims=True)
-        counts, angle = plane_visibility(r_mf, h_mf, study.grid, float(profile["dop"]["elevation_mask_deg"]),
-                                         sats_per_plane)
+        counts, angle = plane_visibility(r_mf, h_mf, study.grid, profile.dop.elevation_mask_deg, sats_per_plane)
         pdop = study.dop[(frame, "moon_fixed")]["pdop"].values
-        for row in degenerate_geometry_rows(pdop, counts, angle, float(profile["dop"]["availability_threshold"])):
+        for row in degenerate_geometry_rows(pdop, counts, angle, profile.dop.availability_threshold):
             rows.append({"element frame": frame, **row})
     return pd.DataFrame(rows)
 

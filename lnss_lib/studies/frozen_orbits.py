@@ -1,6 +1,6 @@
 """Notebook 08, frozen orbits: which published designs are frozen, in which frame, and do the anchors hold? (issue 19)
 
-Question: where does the frozen family of the doubly-averaged model (:mod:`lnss_lib.frozen`, the
+Question: where does the frozen family of the doubly-averaged model (:mod:`lnss_lib.design_life.frozen`, the
 Earth-Moon orbital plane ``moon_op``) lie against a, where do the Table 4 ELFO, Ely's (2005) orbits and the
 campaign's Table 6 picks sit on it when their elements are read in ``moon_op`` or in the lunar equator, does
 Ely's phased constellation keep its perilune above 100 km for ten years with no manoeuvre, and which of
@@ -26,13 +26,13 @@ import pandas as pd
 
 from ..catalogue import constellation_states_mci, file_epoch_profile, load_constellation
 from ..constants import DAYS_PER_JULIAN_YEAR, SECONDS_PER_DAY
-from ..designlife import life_metrics, run_design_life
+from ..design_life.evaluation import life_metrics, run_design_life
 from ..ephemeris import ensure_kernels, tdb_seconds
 from ..frames import element_frame_to_j2000
-from ..frozen import (FrozenModel, allowances, frozen_eccentricity, frozen_inclination_deg, libration,
+from ..design_life.frozen import (FrozenModel, allowances, frozen_eccentricity, frozen_inclination_deg, libration,
                       mean_plane_axes, mean_plane_elements)
 from ..propagator import propagate_states
-from ..stability import SecularField, orbit_vectors_ej, screen_states, stability_settings
+from ..design_life.screen import SecularField, orbit_vectors_ej, screen_states, stability_settings
 
 __all__ = ["FAMILY_ECC", "FAMILY_INC_DEG", "frozen_family", "inertial_lunar_equator", "planes_in_moon_op",
            "orbit_rows", "published_orbits", "frozen_words", "epoch_swap", "ely_natural", "closed_loop_anchors"]
@@ -59,7 +59,7 @@ def frozen_family(model: FrozenModel, sma_km) -> pd.DataFrame:
 
 def inertial_lunar_equator(profile: dict, t_tdb_s: float) -> np.ndarray:
     """Rotation to J2000 of the lunar equator at t with x along the J2000 x-axis projected on it (RAAN origin fixed in space)."""
-    pole = element_frame_to_j2000(profile, t_tdb_s, "lunar_equator_of_epoch")[:, 2]
+    pole = element_frame_to_j2000(profile.dynamics, t_tdb_s, "lunar_equator_of_epoch")[:, 2]
     x = np.array([1.0, 0.0, 0.0]) - pole[0] * pole
     x /= np.linalg.norm(x)
     return np.column_stack([x, np.cross(pole, x), pole])
@@ -81,9 +81,9 @@ def _r_moon(profile: dict) -> float:
 
 
 def orbit_rows(model: FrozenModel, read: dict, r_moon_km: float) -> pd.DataFrame:
-    """Per orbit of ``read`` (:func:`lnss_lib.frozen.mean_plane_elements`): elements in ``moon_op``, the frozen i at
+    """Per orbit of ``read`` (:func:`lnss_lib.design_life.frozen.mean_plane_elements`): elements in ``moon_op``, the frozen i at
     its (a, e), its libration (ranges of e, i, AOP), the mean perilune's lowest altitude over the cycle and the
-    short-period dip the real perilune may add (:func:`lnss_lib.frozen.allowances`, monthly + orbital, km)."""
+    short-period dip the real perilune may add (:func:`lnss_lib.design_life.frozen.allowances`, monthly + orbital, km)."""
     rows = []
     for a, e, inc, aop in zip(read["sma_km"], read["ecc"], read["inc_deg"], read["aop_deg"]):
         lib = libration(model, a, e, inc, aop)
@@ -109,10 +109,10 @@ def published_orbits(profile: dict, designs: list[tuple[str, np.ndarray]] = ()) 
     distinct RAAN is kept) read in ``moon_op`` and in the lunar equator of the study epoch, and Ely's and Lunar
     Pathfinder's orbits (catalogue, ``moon_op``) at their file epoch and the study epoch, placed on the frozen
     family: :func:`orbit_rows` with ``orbit``, ``read_in``, ``epoch`` and ``verdict`` columns."""
-    ensure_kernels(profile)
+    ensure_kernels(profile.ephemeris)
     t0 = tdb_seconds(profile["epoch"]["start_tdb"], "TDB")
     field, model = _model_at(profile, t0)
-    frames = {"moon_op": mean_plane_axes(field, [0.0])[0], "lunar equator": element_frame_to_j2000(profile, t0, "lunar_equator_of_epoch")}
+    frames = {"moon_op": mean_plane_axes(field, [0.0])[0], "lunar equator": element_frame_to_j2000(profile.dynamics, t0, "lunar_equator_of_epoch")}
     entries = [("Table 4 ELFO", _walker_planes((TABLE_4[0], TABLE_4[1], TABLE_4[3], TABLE_4[2], 2)))]
     for label, elements in designs:
         el = np.atleast_2d(np.asarray(elements, dtype=float))
@@ -124,10 +124,10 @@ def published_orbits(profile: dict, designs: list[tuple[str, np.ndarray]] = ()) 
             tables.append(t.assign(orbit=[f"{label} plane {k + 1}" for k in range(len(t))], read_in=read_in,
                                    epoch="study"))
     for key in ("ely2005_elfo_3sat_phased", "lupnt_pathfinder"):
-        c = load_constellation(key, profile)
+        c = load_constellation(key, profile.dynamics)
         first = c.elements_deg[:1]
         for epoch in ("file", "study"):
-            cs = constellation_states_mci(profile, c, epoch)
+            cs = constellation_states_mci(profile.dynamics, profile.epoch.start_tdb, c, epoch)
             f, m = _model_at(profile, cs.t_epoch_tdb_s)
             t = orbit_rows(m, mean_plane_elements(f, first, cs.rot_to_j2000), _r_moon(profile))
             tables.append(t.assign(orbit=c.name.split(":")[0], read_in=c.element_frame, epoch=cs.epoch_used))
@@ -157,14 +157,14 @@ def epoch_swap(profile: dict, shifts_days, *, origin: str = "lunar_equator_of_ep
     ``inertial`` (from the J2000 x-axis projected on the lunar equator of the study epoch)."""
     if origin not in ("lunar_equator_of_epoch", "inertial"):
         raise ValueError(f"origin must be 'lunar_equator_of_epoch' or 'inertial'; got {origin!r}")
-    ensure_kernels(profile)
+    ensure_kernels(profile.ephemeris)
     t0 = tdb_seconds(profile["epoch"]["start_tdb"], "TDB")
     planes = _walker_planes((TABLE_4[0], TABLE_4[1], TABLE_4[3], TABLE_4[2], 2))
     rows = []
     for shift in np.atleast_1d(np.asarray(shifts_days, dtype=float)):
         t = t0 + shift * SECONDS_PER_DAY
         rot = inertial_lunar_equator(profile, t0) if origin == "inertial" else element_frame_to_j2000(
-            profile, t, "lunar_equator_of_epoch")
+            profile.dynamics, t, "lunar_equator_of_epoch")
         table = planes_in_moon_op(profile, t, rot, planes)
         for k, r in enumerate(table.itertuples()):
             rows.append({"shift_days": float(shift), "origin": origin, "plane": k + 1, "inc_op_deg": r.inc_op_deg,
@@ -176,15 +176,15 @@ def ely_natural(profile: dict, life_days: float, *, degree: int | None = None, s
     """Ely's phased constellation flown from its file's epoch for ``life_days`` with no manoeuvre.
 
     The full force model of the profile (``design_life`` integrator) gives the osculating perilune; the
-    stability screen (doubly-averaged) the mean one, and :func:`lnss_lib.frozen.allowances` the monthly and
+    stability screen (doubly-averaged) the mean one, and :func:`lnss_lib.design_life.frozen.allowances` the monthly and
     orbital terms it leaves out. Returns ``t_days``, ``perilune_alt_km`` (sat, time) and
     ``mean_perilune_alt_km`` (sat, time of the screen), their minima (``min_perilune_alt_km``,
     ``min_day``, ``min_mean_perilune_alt_km``), ``envelope_km`` (the allowance in altitude) and ``impact``.
     """
-    c = load_constellation("ely2005_elfo_3sat_phased", profile)
+    c = load_constellation("ely2005_elfo_3sat_phased", profile.dynamics)
     fprof = file_epoch_profile(profile, c)
-    cs = constellation_states_mci(profile, c, "file")
-    ds = propagate_states(fprof, cs.states_mci, cs.t_epoch_tdb_s, life_days * SECONDS_PER_DAY, step_s,
+    cs = constellation_states_mci(profile.dynamics, profile.epoch.start_tdb, c, "file")
+    ds = propagate_states(fprof.dynamics, cs.states_mci, cs.t_epoch_tdb_s, life_days * SECONDS_PER_DAY, step_s,
                           setting="design_life", degree=degree, batch=True)
     gm = float(profile["gravity"]["gm_km3_s2"])
     r_moon = _r_moon(profile)
@@ -217,7 +217,7 @@ def closed_loop_anchors(profile: dict, ely_life_days: float, table4_life_days: f
     and in the lunar equator for ``table4_life_days``. One row each: Delta-V per satellite and year (mean, max,
     split by purpose, m/s), manoeuvres, lowest perilune controlled and natural, satellites lost. Ely's natural
     drift is not flown again here (:func:`ely_natural` flies it): its natural columns are NaN."""
-    c = load_constellation("ely2005_elfo_3sat_phased", profile)
+    c = load_constellation("ely2005_elfo_3sat_phased", profile.dynamics)
     ely_profile = file_epoch_profile(profile, c).with_overrides({"frames": {"element_frame": "moon_op"}})
     cases = [("Ely (2005) phased, file epoch", ely_profile, c.elements_deg, ely_life_days, False)]
     planes = _walker_planes((TABLE_4[0], TABLE_4[1], TABLE_4[3], TABLE_4[2], 2))

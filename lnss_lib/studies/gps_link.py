@@ -17,16 +17,22 @@ the real GPS geometry gives. The notebook prints the numbers behind each stateme
 from __future__ import annotations
 
 import numpy as np
+import dataclasses
+from typing import TYPE_CHECKING
+
 import pandas as pd
 import xarray as xr
 
 from ..constants import BOLTZMANN_J_K, SECONDS_PER_DAY
 from ..constellation import two_body_positions_mci
 from ..geometry import filtered_mean
-from ..gps import (cn0_dbhz, free_space_loss_db, gain_from_profile, gps_link, gps_link_summary, gps_states_mci,
+from ..gps import (cn0_dbhz, free_space_loss_db, gain_for_settings, gps_link, gps_link_summary, gps_states_mci,
                    pdop_along_axis)
 from ..paper import TABLE_4, TABLE_4_LABEL
 from ..propagator import propagate_elements
+
+if TYPE_CHECKING:
+    from ..settings import BodyConstants, GpsSettings, Settings
 
 __all__ = ["GAIN_COLUMNS", "GPS_ORBIT_RADIUS_KM", "MEAN_EARTH_MOON_KM", "LINK_STATUS", "catalogue_table",
            "link_budget_table", "gps_link_sensitivity", "off_boresight_limits", "cn0_curves", "earth_plane_projection",
@@ -55,49 +61,50 @@ def catalogue_table(catalogue: list[dict], start_tdb: str) -> pd.DataFrame:
     return out.astype({"launch_date": str, "tle_epoch_utc": str})
 
 
-def link_budget_table(profile: dict, theta_off_deg, distance_km: float, **overrides) -> pd.DataFrame:
+def link_budget_table(gps: GpsSettings, theta_off_deg, distance_km: float, **overrides) -> pd.DataFrame:
     """Table 1 / eq. 22-24 budget terms against off-boresight angle at one GPS-LNSS distance.
 
     Columns: gain_dbi, eirp_dbw, fsl_db, g_rx_dbi, ktn_dbw_hz (10 log10 k T), cn0_dbhz and
-    receivable (C/N0 >= threshold). ``overrides``: ``[gps]`` keys as in :func:`gps_link`.
+    receivable (C/N0 >= threshold). ``gps``: the ``[gps]`` section; ``overrides``: ``[gps]`` keys as in
+    :func:`gps_link`.
     """
-    unknown = set(overrides) - set(profile["gps"])
+    names = [item.name for item in dataclasses.fields(gps) if item.init]
+    unknown = set(overrides) - set(names)
     if unknown:
-        raise ValueError(f"unknown GPS link setting(s) {sorted(unknown)}; allowed: {sorted(profile['gps'])}")
-    cfg = {**profile["gps"], **overrides}
+        raise ValueError(f"unknown GPS link setting(s) {sorted(unknown)}; allowed: {sorted(names)}")
+    cfg = dataclasses.replace(gps, **overrides)
     theta = np.atleast_1d(np.asarray(theta_off_deg, dtype=float))
-    gain = gain_from_profile({"gps": cfg})(theta)
-    losses = float(cfg["l_tx_db"]) + float(cfg["l_pol_db"])
-    freq = float(cfg["frequency_mhz"]) * 1e6
-    cn0 = cn0_dbhz(gain, distance_km, p_tx_dbw=float(cfg["p_tx_dbw"]), losses_db=losses,
-                   g_rx_dbi=float(cfg["g_rx_dbi"]), frequency_hz=freq,
-                   noise_temperature_k=float(cfg["noise_temperature_k"]))
+    gain = gain_for_settings(cfg)(theta)
+    losses = float(cfg.l_tx_db) + float(cfg.l_pol_db)
+    freq = float(cfg.frequency_mhz) * 1e6
+    cn0 = cn0_dbhz(gain, distance_km, p_tx_dbw=float(cfg.p_tx_dbw), losses_db=losses, g_rx_dbi=float(cfg.g_rx_dbi),
+                   frequency_hz=freq, noise_temperature_k=float(cfg.noise_temperature_k))
     return pd.DataFrame({
-        "off_boresight_deg": theta, "gain_dbi": gain, "eirp_dbw": float(cfg["p_tx_dbw"]) - losses + gain,
+        "off_boresight_deg": theta, "gain_dbi": gain, "eirp_dbw": float(cfg.p_tx_dbw) - losses + gain,
         "fsl_db": free_space_loss_db(np.full(theta.shape, float(distance_km)), freq),
-        "g_rx_dbi": float(cfg["g_rx_dbi"]),
-        "ktn_dbw_hz": 10.0 * np.log10(BOLTZMANN_J_K * float(cfg["noise_temperature_k"])),
-        "cn0_dbhz": cn0, "receivable": np.nan_to_num(cn0, nan=-np.inf) >= float(cfg["cn0_threshold_dbhz"]),
+        "g_rx_dbi": float(cfg.g_rx_dbi),
+        "ktn_dbw_hz": 10.0 * np.log10(BOLTZMANN_J_K * float(cfg.noise_temperature_k)),
+        "cn0_dbhz": cn0, "receivable": np.nan_to_num(cn0, nan=-np.inf) >= float(cfg.cn0_threshold_dbhz),
     }).set_index("off_boresight_deg")
 
 
-def gps_link_sensitivity(profile: dict, gps: xr.Dataset, lnss, variants: dict[str, dict], *,
-                         sats="first") -> pd.DataFrame:
+def gps_link_sensitivity(gps: GpsSettings, constants: BodyConstants, gps_states: xr.Dataset, lnss,
+                         variants: dict[str, dict], *, sats="first") -> pd.DataFrame:
     """Summary (:func:`gps_link_summary`) of :func:`gps_link` for each named set of ``[gps]`` overrides.
 
-    ``variants`` maps a label to overrides (``{}`` = the profile's settings); a ``pdop_filter`` key
+    ``variants`` maps a label to overrides (``{}`` = the ``[gps]`` settings); a ``pdop_filter`` key
     changes only the summary's filter. Returns one row per variant.
     """
     rows = []
     for label, over in variants.items():
         over = dict(over)
         method = over.pop("pdop_filter", None)
-        ds = gps_link(profile, gps, lnss, sats=sats, **over)
+        ds = gps_link(gps, constants, gps_states, lnss, sats=sats, **over)
         rows.append({"variant": label, **gps_link_summary(ds, method)})
     return pd.DataFrame(rows).set_index("variant")
 
 
-def off_boresight_limits(profile: dict, distance_km: float = MEAN_EARTH_MOON_KM,
+def off_boresight_limits(gps: GpsSettings, constants: BodyConstants, distance_km: float = MEAN_EARTH_MOON_KM,
                          r_gps_km: float = GPS_ORBIT_RADIUS_KM, step_deg: float = 0.1) -> dict[str, float]:
     """Angles (deg) that split the GPS transmit cone for a receiver at ``distance_km`` (eq. 19-24).
 
@@ -106,24 +113,23 @@ def off_boresight_limits(profile: dict, distance_km: float = MEAN_EARTH_MOON_KM,
     C/N0 >= threshold on a ``step_deg`` grid over 0-90 deg) and ``beam_mask_deg``; also the radii
     ``r_gps_km`` and ``r_earth_km``.
     """
-    cfg = profile["gps"]
-    r_earth = float(profile["constants"]["r_earth_km"])
+    r_earth = constants.r_earth_km
     alpha = np.degrees(np.arcsin(r_earth / r_gps_km))
     fine = np.arange(0.0, 90.01, step_deg)
-    receivable = link_budget_table(profile, fine, distance_km)["receivable"].values
-    inside = (fine <= cfg["beam_mask_deg"]) & receivable
+    receivable = link_budget_table(gps, fine, distance_km)["receivable"].values
+    inside = (fine <= gps.beam_mask_deg) & receivable
     if not inside.any():
-        raise ValueError(f"no off-boresight angle inside the {cfg['beam_mask_deg']} deg beam mask reaches "
-                         f"{cfg['cn0_threshold_dbhz']} dB-Hz at {distance_km} km")
-    return {"earth_limb_deg": float(alpha), "limb_with_margin_deg": float(alpha + float(cfg["atmosphere_margin_deg"])),
-            "sidelobe_from_deg": float(cfg["sidelobe_from_deg"]), "last_receivable_deg": float(fine[inside].max()),
-            "beam_mask_deg": float(cfg["beam_mask_deg"]), "r_gps_km": float(r_gps_km), "r_earth_km": r_earth}
+        raise ValueError(f"no off-boresight angle inside the {gps.beam_mask_deg} deg beam mask reaches "
+                         f"{gps.cn0_threshold_dbhz} dB-Hz at {distance_km} km")
+    return {"earth_limb_deg": float(alpha), "limb_with_margin_deg": float(alpha + gps.atmosphere_margin_deg),
+            "sidelobe_from_deg": gps.sidelobe_from_deg, "last_receivable_deg": float(fine[inside].max()),
+            "beam_mask_deg": gps.beam_mask_deg, "r_gps_km": float(r_gps_km), "r_earth_km": r_earth}
 
 
-def cn0_curves(profile: dict, theta_off_deg, distance_km: float, variants: dict[str, dict]) -> pd.DataFrame:
+def cn0_curves(gps: GpsSettings, theta_off_deg, distance_km: float, variants: dict[str, dict]) -> pd.DataFrame:
     """C/N0 (dB-Hz, eq. 22-24) against off-boresight angle (index) for each named set of ``[gps]`` overrides."""
     theta = np.atleast_1d(np.asarray(theta_off_deg, dtype=float))
-    curves = {label: link_budget_table(profile, theta, distance_km, **over)["cn0_dbhz"].values
+    curves = {label: link_budget_table(gps, theta, distance_km, **over)["cn0_dbhz"].values
               for label, over in variants.items()}
     return pd.DataFrame(curves, index=pd.Index(theta, name="off_boresight_deg"))
 
@@ -202,32 +208,34 @@ def decomposition_table(pdop, along, across, pdop_no_clock) -> pd.DataFrame:
               "PDOP without clock column"])
 
 
-def pdop_split(profile: dict, gps: xr.Dataset, lnss: xr.Dataset, link: xr.Dataset | None = None) -> dict[str, np.ndarray]:
+def pdop_split(gps: GpsSettings, constants: BodyConstants, gps_states: xr.Dataset, lnss: xr.Dataset,
+               link: xr.Dataset | None = None) -> dict[str, np.ndarray]:
     """PDOP of the first LNSS satellite of a propagation at every epoch (``pdop``), its parts ``along`` and
     ``across`` the LNSS -> Earth direction (:func:`pdop_along_axis`) and ``pdop_no_clock`` (eq. 5-7 without
     the clock column); ``link``: its :func:`gps_link` (computed when not given)."""
-    link = gps_link(profile, gps, lnss) if link is None else link
+    link = gps_link(gps, constants, gps_states, lnss) if link is None else link
     first = link.isel(sat=0)
     r_lnss = lnss["r_mci_km"].transpose("sat", "time", "xyz").values[0]
-    to_earth = gps["earth_mci_km"].values - r_lnss
+    to_earth = gps_states["earth_mci_km"].values - r_lnss
     e_hat = to_earth / np.linalg.norm(to_earth, axis=-1, keepdims=True)
-    los = gps["r_mci_km"].transpose("time", "gps", "xyz").values - r_lnss[:, None, :]
+    los = gps_states["r_mci_km"].transpose("time", "gps", "xyz").values - r_lnss[:, None, :]
     los /= np.linalg.norm(los, axis=-1, keepdims=True)
     along, across = pdop_along_axis(los, first["visible"].values, e_hat)
-    no_clock = gps_link(profile, gps, lnss, clock_column=False)
+    no_clock = gps_link(gps, constants, gps_states, lnss, clock_column=False)
     return {"pdop": first["pdop"].values, "along": along, "across": across,
             "pdop_no_clock": no_clock["pdop"].values[0]}
 
 
-def pdop_decomposition(profile: dict, gps: xr.Dataset, lnss: xr.Dataset, link: xr.Dataset | None = None) -> pd.DataFrame:
+def pdop_decomposition(gps: GpsSettings, constants: BodyConstants, gps_states: xr.Dataset, lnss: xr.Dataset,
+                       link: xr.Dataset | None = None) -> pd.DataFrame:
     """:func:`decomposition_table` of :func:`pdop_split`: why the GPS-LNSS PDOP is so large."""
-    return decomposition_table(**pdop_split(profile, gps, lnss, link))
+    return decomposition_table(**pdop_split(gps, constants, gps_states, lnss, link))
 
 
-def sensitivity_variants(profile: dict) -> dict[str, dict]:
+def sensitivity_variants(gps: GpsSettings) -> dict[str, dict]:
     """The one-at-a-time ``[gps]`` variants of the sensitivity study (labels -> overrides): noise temperature,
     gain column, sidelobe level, beam mask, atmospheric margin, ellipsoid test, clock column and filter."""
-    default_column = profile["gps"]["gain_column"]
+    default_column = gps.gain_column
     variants: dict[str, dict] = {"default": {}}
     variants.update({f"T = {t:.0f} K": {"noise_temperature_k": t} for t in (100.0, 150.0, 230.0, 270.0, 300.0, 350.0, 400.0)})
     variants.update({f"gain {c}": {"gain_column": c} for c in GAIN_COLUMNS if c != default_column})
@@ -242,7 +250,7 @@ def sensitivity_variants(profile: dict) -> dict[str, dict]:
     return variants
 
 
-def sensitivity_table(profile: dict, gps: xr.Dataset, lnss: xr.Dataset, elements_deg, *,
+def sensitivity_table(profile: Settings, gps: xr.Dataset, lnss: xr.Dataset, elements_deg, *,
                       phase_shifts_days=(-30.0, -7.0, 7.0, 30.0), paper: dict | None = None) -> pd.DataFrame:
     """Summary of the first satellite's link for every :func:`sensitivity_variants` entry, then for a
     Keplerian orbit, the elements referred to the J2000 equator, and GPS phases shifted by running SGP4
@@ -253,13 +261,16 @@ def sensitivity_table(profile: dict, gps: xr.Dataset, lnss: xr.Dataset, elements
     paper = TABLE_4 if paper is None else paper
     el = np.asarray(elements_deg, dtype=float)
     times = lnss["time"].values
-    sens = gps_link_sensitivity(profile, gps, lnss, sensitivity_variants(profile))
-    extra = {"Keplerian ELFO orbit": gps_link_summary(gps_link(profile, gps, two_body_positions_mci(profile, el[:1], times)))}
+    gps_cfg, constants = profile.gps, profile.constants
+    sens = gps_link_sensitivity(gps_cfg, constants, gps, lnss, sensitivity_variants(gps_cfg))
+    extra = {"Keplerian ELFO orbit": gps_link_summary(gps_link(gps_cfg, constants, gps,
+                                                               two_body_positions_mci(profile.dynamics, el[:1], times)))}
     p_j2000 = profile.with_overrides({"frames": {"element_frame": "j2000"}})
-    extra["elements in J2000 equator"] = gps_link_summary(gps_link(p_j2000, gps, propagate_elements(p_j2000, el[:1])))
+    extra["elements in J2000 equator"] = gps_link_summary(gps_link(gps_cfg, constants, gps,
+                                                                   propagate_elements(p_j2000.dynamics, p_j2000.epoch, el[:1])))
     for shift_days in phase_shifts_days:
-        shifted = gps_states_mci(profile, times, sgp4_offset_s=shift_days * SECONDS_PER_DAY)
-        extra[f"GPS phase: SGP4 at t {shift_days:+.0f} d"] = gps_link_summary(gps_link(profile, shifted, lnss))
+        shifted = gps_states_mci(gps_cfg, profile.epoch.start_tdb, times, sgp4_offset_s=shift_days * SECONDS_PER_DAY)
+        extra[f"GPS phase: SGP4 at t {shift_days:+.0f} d"] = gps_link_summary(gps_link(gps_cfg, constants, shifted, lnss))
     sens = pd.concat([sens, pd.DataFrame(extra).T])
     sens["pdop_ratio_to_paper"] = sens["gps_pdop_mean"] / paper["gps_pdop_mean"]
     return sens

@@ -19,11 +19,12 @@ import spiceypy as spice
 
 from ..constants import SECONDS_PER_DAY
 from ..ephemeris import EphemerisTable, body_states_mci
+from ..settings import Dynamics, Settings
 from ..validation import capstone_arcs, estimate_srp, propagate_arc
 
 __all__ = ["table_interpolation_errors", "capstone_study"]
 
-def table_interpolation_errors(profile: dict, table: EphemerisTable, *, n_probe: int = 400, seed: int = 0,
+def table_interpolation_errors(dynamics: Dynamics, table: EphemerisTable, *, n_probe: int = 400, seed: int = 0,
                                reference_radius_km: float = 1e4) -> pd.DataFrame:
     """Worst error of the tabulated ephemerides against SPICE at random epochs, and its acceleration effect.
 
@@ -33,8 +34,8 @@ def table_interpolation_errors(profile: dict, table: EphemerisTable, *, n_probe:
     """
     rng = np.random.default_rng(seed)
     probe = table.t0_tdb_s + table.step_s * 2 + rng.uniform(0, table.t_end_tdb_s - table.t0_tdb_s - 4 * table.step_s, n_probe)
-    const = profile["constants"]
-    gm = {"SUN": const["gm_sun_km3_s2"], "EARTH": const["gm_earth_km3_s2"], "JUPITER": const["gm_jupiter_km3_s2"]}
+    const = dynamics.constants
+    gm = {"SUN": const.gm_sun_km3_s2, "EARTH": const.gm_earth_km3_s2, "JUPITER": const.gm_jupiter_km3_s2}
     rows = []
     for body in table.body_names:
         exact = body_states_mci(body, probe)[:, :3]
@@ -43,26 +44,26 @@ def table_interpolation_errors(profile: dict, table: EphemerisTable, *, n_probe:
         tidal = 3 * gm[body] * reference_radius_km / distance ** 3 * err / distance
         rows.append({"quantity": f"{body} position", "max interpolation error": f"{err * 1e3:.3g} m",
                      "acceleration error (km/s^2)": tidal})
-    rot_err = max(np.abs(table.rotation_pa(t) - np.asarray(spice.pxform("J2000", profile["frames"]["gravity"], t))).max()
+    rot_err = max(np.abs(table.rotation_pa(t) - np.asarray(spice.pxform("J2000", dynamics.frames.gravity, t))).max()
                   for t in probe)
-    rows.append({"quantity": f"J2000 -> {profile['frames']['gravity']} rotation", "max interpolation error": f"{rot_err:.1e} rad",
+    rows.append({"quantity": f"J2000 -> {dynamics.frames.gravity} rotation", "max interpolation error": f"{rot_err:.1e} rad",
                  "acceleration error (km/s^2)": rot_err * 4e-4})
     return pd.DataFrame(rows)
 
 
-def capstone_study(profile: dict) -> dict:
+def capstone_study(settings: Settings) -> dict:
     """CAPSTONE cases of notebook 01: both arcs with the nominal Cr*A/m, arc 1 without SRP, and Cr*A/m
     estimated on arc 1 and carried into arc 2. Returns ``{"arcs", "estimate", "cases", "summary"}``."""
-    cfg = profile["validation"]["capstone"]
-    arcs = capstone_arcs(profile)
-    estimate = estimate_srp(profile, arcs[0])
-    nominal = cfg["srp_cr_area_mass_m2_kg"]
+    dynamics, capstone = settings.dynamics, settings.validation.capstone
+    arcs = capstone_arcs(capstone, settings.ephemeris)
+    estimate = estimate_srp(dynamics, capstone, arcs[0])
+    nominal = capstone.srp_cr_area_mass_m2_kg
     cases = {
-        f"arc 1, Cr*A/m = {nominal:g}": propagate_arc(profile, arcs[0], srp_cr_area_mass_m2_kg=nominal),
-        "arc 1, no SRP": propagate_arc(profile, arcs[0], srp_cr_area_mass_m2_kg=0.0),
+        f"arc 1, Cr*A/m = {nominal:g}": propagate_arc(dynamics, capstone, arcs[0], srp_cr_area_mass_m2_kg=nominal),
+        "arc 1, no SRP": propagate_arc(dynamics, capstone, arcs[0], srp_cr_area_mass_m2_kg=0.0),
         "arc 1, estimated SRP": estimate["arc"],
-        f"arc 2, Cr*A/m = {nominal:g}": propagate_arc(profile, arcs[1], srp_cr_area_mass_m2_kg=nominal),
-        "arc 2, estimated SRP (from arc 1)": propagate_arc(profile, arcs[1],
+        f"arc 2, Cr*A/m = {nominal:g}": propagate_arc(dynamics, capstone, arcs[1], srp_cr_area_mass_m2_kg=nominal),
+        "arc 2, estimated SRP (from arc 1)": propagate_arc(dynamics, capstone, arcs[1],
                                                           srp_cr_area_mass_m2_kg=estimate["cr_area_mass_m2_kg"]),
     }
     targets = {f"arc 1, Cr*A/m = {nominal:g}": 3.0, "arc 1, estimated SRP": 0.3, "arc 2, estimated SRP (from arc 1)": 1.0}

@@ -1,6 +1,6 @@
 """Notebook 08 (design life): how large may the station-keeping box be before navigation suffers?
 
-Question: the closed loop (:mod:`lnss_lib.stationkeeping`) holds each satellite's mean e, AOP, i,
+Question: the closed loop (:mod:`lnss_lib.design_life.closed_loop`) holds each satellite's mean e, AOP, i,
 relative RAAN and slot within half-widths ``[design_life.box]``. How much do PDOP/HDOP availability and
 their 3-sigma means degrade when one satellite sits at a box edge (slot off by 5, 10, 20 deg; e off by
 0.03; AOP, i, RAAN off by their half-widths), and when every satellite sits at a random point of the
@@ -24,7 +24,7 @@ METRICS = ("pdop_avail_pct", "hdop_avail_pct", "pdop_mean_3sigma", "hdop_mean_3s
 
 
 def perturbed_elements(elements_deg, offsets: dict, sat: int | None = 0, seed: int = 0) -> np.ndarray:
-    """Elements (n, 6) deg with ``offsets`` (box key -> offset, :data:`lnss_lib.stationkeeping.BOX_KEYS`) added.
+    """Elements (n, 6) deg with ``offsets`` (box key -> offset, :data:`lnss_lib.design_life.closed_loop.BOX_KEYS`) added.
 
     ``sat`` an index: that satellite only (the slot offset goes on M: the mean argument of latitude
     moves with it); ``sat=None``: every satellite, each offset times a uniform draw in [-1, 1] (``seed``).

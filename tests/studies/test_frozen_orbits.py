@@ -3,7 +3,7 @@
 import numpy as np
 import pytest
 
-from lnss_lib.frozen import FrozenModel
+from lnss_lib.design_life.frozen import FrozenModel
 from lnss_lib.studies.frozen_orbits import frozen_family, frozen_words, published_orbits
 
 

@@ -4,9 +4,9 @@ import numpy as np
 import pytest
 
 from lnss_lib.elements import elements_to_state, kepler_states, state_to_elements
-from lnss_lib.maneuvers import (CONTROL_ROWS, apply_impulse, candidate_true_anomalies, control_elements,
+from lnss_lib.design_life.manoeuvres import (CONTROL_ROWS, apply_impulse, candidate_true_anomalies, control_elements,
                                 control_gve_matrix, impulsive_gve_matrix, plan_impulses)
-from lnss_lib.mean_elements import mean_elements, to_element_frame
+from lnss_lib.design_life.mean_elements import mean_elements, to_element_frame
 
 GM = 4902.7999671
 STEP_KMS = 1e-7          # central-difference impulse (0.1 mm/s): truncation error far below the tolerance
@@ -92,11 +92,11 @@ def test_planned_manoeuvre_moves_the_mean_elements(ci_profile, epoch_tdb_s):
     differ by the planned change within 5% (e vector, i, RAAN) and 1 km in a."""
     from lnss_lib.propagator import METHODS, elements_deg_to_states
     from lnss_lib.frames import element_frame_to_j2000
-    from lnss_lib.life_propagation import integrate_chunk, life_force_model
+    from lnss_lib.design_life.propagation import integrate_chunk, life_force_model
 
     el_deg = np.array([[6143.0, 0.6, 51.7, 0.0, 90.0, 0.0]])
-    state = elements_deg_to_states(ci_profile, el_deg, epoch_tdb_s)
-    rot = element_frame_to_j2000(ci_profile, epoch_tdb_s)
+    state = elements_deg_to_states(ci_profile.dynamics, el_deg, epoch_tdb_s)
+    rot = element_frame_to_j2000(ci_profile.dynamics, epoch_tdb_s)
     osc = state_to_elements(to_element_frame(state[0], rot), GM)
     target = {"ex": 2e-3, "ey": -3e-3, "inc_rad": np.radians(0.2), "raan_rad": np.radians(0.2), "a_km": 0.0}
     plan = plan_impulses(osc, GM, target)

@@ -1,20 +1,20 @@
 """The propagation kernel of the design life: each satellite integrated with the full force model from one
 station-keeping check to the next, flying its impulsive burns on the way (:func:`integrate_chunk`), the force
 model whose ephemeris table spans the life, and the trim of insertion elements to the design's mean elements.
-:mod:`lnss_lib.stationkeeping` runs the controller on top of it."""
+:mod:`lnss_lib.design_life.closed_loop` runs the controller on top of it."""
 
 from __future__ import annotations
 
 import numba as nb
 import numpy as np
 
-from .elements import orbital_period_s
-from .ephemeris import EphemerisTable, ensure_kernels
-from .constants import SECONDS_PER_DAY
-from .forces import SCRATCH_SIZE, ForceModel
-from .frames import element_frame_to_j2000
+from ..elements import orbital_period_s
+from ..ephemeris import EphemerisTable, ensure_kernels
+from ..constants import SECONDS_PER_DAY
+from ..forces import SCRATCH_SIZE, ForceModel
+from ..frames import element_frame_to_j2000
 from .mean_elements import mean_elements, to_element_frame, wrap_pi
-from .propagator import METHODS, STATUS_NOT_RUN, STATUS_OK, check_batch, elements_deg_to_states, integrate_one
+from ..propagator import METHODS, STATUS_NOT_RUN, STATUS_OK, check_batch, elements_deg_to_states, integrate_one
 
 __all__ = ["integrate_chunk", "life_force_model", "trim_to_mean", "TRIM_ELEMENTS"]
 
@@ -93,9 +93,9 @@ def integrate_chunk(y0s, active, t0, t_out, burn_t, burn_dv_rtn, method, rtol, a
 
 def life_force_model(profile: dict, t0_tdb_s: float, life_days: float, degree: int | None = None) -> ForceModel:
     """One force model whose ephemeris table spans the whole life (plus one day of margin)."""
-    ensure_kernels(profile)
-    table = EphemerisTable.build(profile, t0_tdb_s, t0_tdb_s + (life_days + 1.0) * SECONDS_PER_DAY)
-    return ForceModel.from_profile(profile, table, degree=degree)
+    ensure_kernels(profile.ephemeris)
+    table = EphemerisTable.build(profile.dynamics, t0_tdb_s, t0_tdb_s + (life_days + 1.0) * SECONDS_PER_DAY)
+    return ForceModel.build(profile.dynamics, table, degree=degree)
 
 
 TRIM_ELEMENTS = (0, 1, 2, 3, 4)
@@ -118,7 +118,7 @@ def trim_to_mean(profile: dict, elements_deg, t0_tdb_s: float, model: ForceModel
     """
     design = np.atleast_2d(np.asarray(elements_deg, dtype=float))
     gm = float(profile["gravity"]["gm_km3_s2"])
-    rot = element_frame_to_j2000(profile, t0_tdb_s)
+    rot = element_frame_to_j2000(profile.dynamics, t0_tdb_s)
     r_min = profile["constants"]["r_moon_mean_km"] + profile["impact"]["min_altitude_km"]
     period = orbital_period_s(design[:, 0], gm)
     n_win = int(samples_per_orbit)
@@ -127,7 +127,7 @@ def trim_to_mean(profile: dict, elements_deg, t0_tdb_s: float, model: ForceModel
     n_sat = design.shape[0]
     done = np.zeros(n_sat, dtype=bool)
     for _ in range(int(iterations) + 1):
-        states = elements_deg_to_states(profile, osc, t0_tdb_s)
+        states = elements_deg_to_states(profile.dynamics, osc, t0_tdb_s)
         mean = np.full((n_sat, 6), np.nan)
         for i in range(n_sat):
             t_win = t0_tdb_s + period[i] * np.linspace(0.0, 1.0, n_win + 1)

@@ -1,11 +1,11 @@
-"""Frozen and librating orbits (lnss_lib.frozen): the Kozai limit, the integrals against the averaged equations,
+"""Frozen and librating orbits (lnss_lib.design_life.frozen): the Kozai limit, the integrals against the averaged equations,
 the lunar-J2 shift of the family, the Table 4 and Ely (2005) orbits in moon_op, and one year of the full model."""
 
 import numpy as np
 import pytest
 
-from lnss_lib import frozen as fz
-from lnss_lib import stability as st
+from lnss_lib.design_life import frozen as fz
+from lnss_lib.design_life import screen as st
 from lnss_lib.catalogue import constellation_states_mci, file_epoch_profile, load_constellation
 from lnss_lib.propagator import elements_deg_to_states, propagate_states
 from lnss_lib.studies.frozen_orbits import epoch_swap
@@ -122,8 +122,8 @@ def test_a_frozen_and_a_librating_orbit_flown_a_year_with_the_full_model_stay_wi
     a, e = 6143.0, 0.6
     orbits = [(a, e, fz.frozen_inclination_deg(model, a, e), 90.0), (a, e, 45.0, 90.0)]
     profile = paper_profile.with_overrides({"frames": {"element_frame": "moon_op"}})
-    states = elements_deg_to_states(profile, [[a_, e_, i_, 0.0, w_, 0.0] for a_, e_, i_, w_ in orbits], epoch_tdb_s)
-    ds = propagate_states(paper_profile, states, epoch_tdb_s, 365.0 * 86400.0, 6 * 3600.0, setting="design_life",
+    states = elements_deg_to_states(profile.dynamics, [[a_, e_, i_, 0.0, w_, 0.0] for a_, e_, i_, w_ in orbits], epoch_tdb_s)
+    ds = propagate_states(paper_profile.dynamics, states, epoch_tdb_s, 365.0 * 86400.0, 6 * 3600.0, setting="design_life",
                           degree=8, batch=True)
     rot = fz.mean_plane_axes(field, (ds["time"].values - epoch_tdb_s) / 86400.0)
     for k, orbit in enumerate(orbits):
@@ -143,8 +143,8 @@ def test_a_frozen_and_a_librating_orbit_flown_a_year_with_the_full_model_stay_wi
 def test_ely_phased_constellation_keeps_its_mean_perilune_above_100_km_for_ten_years(paper_profile):
     # Ely (2005, p. 310): ten years with no manoeuvre, perilune above 100 km. Averaged model (cheap) here; the
     # full model is notebook 08's anchor. The mean perilune clears 100 km by more than the monthly tidal swing.
-    c = load_constellation("ely2005_elfo_3sat_phased", paper_profile)
-    cs = constellation_states_mci(paper_profile, c, "file")
+    c = load_constellation("ely2005_elfo_3sat_phased", paper_profile.dynamics)
+    cs = constellation_states_mci(paper_profile.dynamics, paper_profile.epoch.start_tdb, c, "file")
     screen = st.screen_states(file_epoch_profile(paper_profile, c), cs.states_mci, cs.t_epoch_tdb_s, life_days=3652.5)
     field = st.SecularField.from_profile(paper_profile, cs.t_epoch_tdb_s, 30.0)
     read = fz.mean_plane_elements(field, c.elements_deg[:1], cs.rot_to_j2000)

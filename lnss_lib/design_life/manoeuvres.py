@@ -24,10 +24,10 @@ from itertools import combinations
 
 import numpy as np
 
-from .elements import (TWO_PI, elements_to_state, kepler_states, mean_anomaly_from_true, state_to_elements,
+from ..elements import (TWO_PI, elements_to_state, kepler_states, mean_anomaly_from_true, state_to_elements,
                        true_anomaly_from_mean)
-from .frames import rtn_basis
-from .gve import gve_matrix, orbit_quantities
+from ..frames import rtn_basis
+from ..gve import gve_matrix, orbit_quantities
 
 CONTROL_ROWS = ("a_km", "ex", "ey", "inc_rad", "raan_rad", "u_rad")
 """Rows of the control element set: a, the eccentricity vector in the orbit's nodal axes, i, RAAN and
@@ -129,7 +129,7 @@ def kepler_achieved(elements: np.ndarray, gm_km3_s2: float, dt_s, dv_rtn_kms, ho
     """Change (6,) of the control set (:data:`CONTROL_ROWS`, angles wrapped) at ``horizon_s`` after the epoch
     of ``elements`` when the impulses ``dv_rtn_kms`` (k, 3) are flown at ``dt_s`` (k,) in two-body motion,
     against the same coast without them. Impulses that open the orbit (e >= 1) give NaN, without a warning:
-    a plan with a non-finite impulse is never flown (``stationkeeping._enqueue``)."""
+    a plan with a non-finite impulse is never flown (``closed_loop._enqueue``)."""
     el = np.asarray(elements, dtype=float)
     state, t = elements_to_state(el, gm_km3_s2), 0.0
     with np.errstate(invalid="ignore"):

@@ -32,7 +32,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from .constants import SECONDS_PER_DAY
+from ..constants import SECONDS_PER_DAY
 
 
 @dataclass

@@ -1,7 +1,7 @@
 """A design judged over its design life (issue 11 items 4 and 6): station keeping, drift and navigation.
 
 :func:`evaluate_design_life` flies the constellation for the design life twice with the full force
-model (:func:`lnss_lib.stationkeeping.simulate_life`, one force model shared by both runs): with
+model (:func:`lnss_lib.design_life.closed_loop.simulate_life`, one force model shared by both runs): with
 closed-loop station keeping (``[design_life] controller``: ``"service"`` or ``"box"``) and with none
 (natural drift). From the controlled run it reports the Delta-V per satellite and year (mean and max)
 and what it pays for (``sk_dv_split`` by purpose, ``sk_dv_split_by_location``), the manoeuvres, whether
@@ -9,10 +9,10 @@ every held quantity stayed within its tolerance, the first impact, the lowest pe
 satellites (day, cause); from the natural run the same for the uncontrolled constellation. Navigation
 over the life (:func:`life_navigation`) is the south-pole DOP of eq. 3-14 on positions sampled
 every ``[life_evaluation] sample_step_s`` over the life, with the profile's grid, mask, threshold
-and 3-sigma filter (:func:`lnss_lib.dop.dop_for_profile`, :func:`lnss_lib.dop.summary_from_profile`),
+and 3-sigma filter (:func:`lnss_lib.dop.dop_for_settings`, :func:`lnss_lib.dop.summary_for_settings`),
 evaluated one month at a time so memory stays bounded. Beside them, the two cheap predictors of the
-campaign: the geometry-keeping estimate from the 10-day arc (:mod:`lnss_lib.sk_estimate`) and the
-doubly-averaged stability screen for the same life (:mod:`lnss_lib.stability`).
+campaign: the geometry-keeping estimate from the 10-day arc (:mod:`lnss_lib.design_life.estimate`) and the
+doubly-averaged stability screen for the same life (:mod:`lnss_lib.design_life.screen`).
 """
 
 from __future__ import annotations
@@ -24,16 +24,16 @@ from collections.abc import Mapping
 import numpy as np
 import xarray as xr
 
-from .constants import SECONDS_PER_DAY
-from .dop import dop_for_profile, grid_from_profile, summary_from_profile
-from .ephemeris import ensure_kernels, tdb_seconds
-from .config import ELEMENT_FRAMES
-from .frames import rotate_to_moon_fixed
-from .progress import steps
-from .propagator import elements_deg_to_states, propagate_states
-from .sk_estimate import sk_estimate_from_propagation
-from .stability import screen_states
-from .stationkeeping import LifeSettings, impact_day, life_force_model, simulate_life
+from ..constants import SECONDS_PER_DAY
+from ..dop import SurfaceGrid, dop_for_settings, summary_for_settings
+from ..ephemeris import ensure_kernels, tdb_seconds
+from ..config import ELEMENT_FRAMES
+from ..frames import rotate_to_moon_fixed
+from ..progress import steps
+from ..propagator import elements_deg_to_states, propagate_states
+from .estimate import sk_estimate_from_propagation
+from .screen import screen_states
+from .closed_loop import LifeSettings, impact_day, life_force_model, simulate_life
 
 __all__ = ["LIFE_KEYS", "NAVIGATION_KEYS", "STUDY_KEYS", "life_evaluation_settings", "run_design_life", "life_metrics",
            "life_navigation", "life_availability", "lost_satellites", "short_arc_predictors", "evaluate_design_life", "json_ready",
@@ -87,9 +87,9 @@ def run_design_life(profile: dict, elements_deg, life_days: float | None = None,
 
     Both runs share one force model and sample positions every ``sample_step_s`` (default
     ``[life_evaluation] sample_step_s``; none with ``sample=False``). Returns ``{"controlled": ds[, "natural": ds]}`` of
-    :func:`lnss_lib.stationkeeping.simulate_life` Datasets.
+    :func:`lnss_lib.design_life.closed_loop.simulate_life` Datasets.
     """
-    ensure_kernels(profile)
+    ensure_kernels(profile.ephemeris)
     settings = LifeSettings.from_profile(profile, life_days=life_days)
     step = life_evaluation_settings(profile)["sample_step_s"] if sample_step_s is None else float(sample_step_s)
     step = step if sample else None
@@ -114,7 +114,7 @@ def life_navigation(profile: dict, life_ds, *, month_days: float | None = None) 
 
     ``life_ds``: one :func:`simulate_life` Dataset sampled with ``sample_step_s`` or a mapping
     run name -> Dataset (e.g. :func:`run_design_life`'s controlled and natural runs). Every month
-    (``month_days``, default ``[life_evaluation]``) is one :func:`lnss_lib.dop.dop_for_profile` call
+    (``month_days``, default ``[life_evaluation]``) is one :func:`lnss_lib.dop.dop_for_settings` call
     on that month's samples. Variables :data:`NAVIGATION_KEYS` and ``n_epochs`` (run, month);
     coordinates ``month_start_day``, ``month_end_day``.
     """
@@ -122,7 +122,7 @@ def life_navigation(profile: dict, life_ds, *, month_days: float | None = None) 
     month_days = life_evaluation_settings(profile)["month_days"] if month_days is None else float(month_days)
     if not (math.isfinite(month_days) and month_days > 0):
         raise ValueError(f"month_days = {month_days!r} must be positive")
-    grid = grid_from_profile(profile)
+    grid = SurfaceGrid.from_settings(profile.dop, profile.constants.r_moon_mean_km)
     first = next(iter(runs.values()))
     for name, ds in runs.items():
         if "r_mci_km" not in ds:
@@ -139,8 +139,8 @@ def life_navigation(profile: dict, life_ds, *, month_days: float | None = None) 
         idx = np.flatnonzero(month == m)
         for k, ds in enumerate(runs.values()):
             r_mci = ds["r_mci_km"].transpose("sat", "sample", "xyz").values[:, idx]
-            summary = summary_from_profile(profile, dop_for_profile(profile, rotate_to_moon_fixed(profile, r_mci, t[idx]),
-                                                                    t[idx], grid=grid))
+            summary = summary_for_settings(profile.dop, dop_for_settings(profile.dop, rotate_to_moon_fixed(profile.dynamics, r_mci, t[idx]),
+                                                                         t[idx], grid))
             for key in NAVIGATION_KEYS:
                 stats[key][k, m] = summary[key]
             n_epochs[k, m] = idx.size
@@ -215,9 +215,9 @@ def short_arc_predictors(context_or_profile, profile: dict, elements: np.ndarray
     stability screen for ``life_days``: ``sk_dv_estimate_kms_per_year``, ``stable_screen``,
     ``screen_min_perilune_alt_km``, ``screen_impact_day`` (None when none)."""
     t0 = tdb_seconds(profile["epoch"]["start_tdb"], "TDB")
-    states = elements_deg_to_states(profile, elements, t0)
+    states = elements_deg_to_states(profile.dynamics, elements, t0)
     model = None if isinstance(context_or_profile, Mapping) else context_or_profile.model
-    arc = propagate_states(profile, states, t0, float(profile["epoch"]["duration_days"]) * SECONDS_PER_DAY,
+    arc = propagate_states(profile.dynamics, states, t0, float(profile["epoch"]["duration_days"]) * SECONDS_PER_DAY,
                            float(profile["epoch"]["step_s"]), batch=True, model=model)
     estimate = (float("nan") if bool(arc["impact"].any())
                 else sk_estimate_from_propagation(profile, arc)["sk_dv_estimate_kms_per_year"])
@@ -275,10 +275,10 @@ def _json_value(value):
 
 def elements_deg_in_frame(profile: dict, states_mci, t0_tdb_s: float) -> np.ndarray:
     """Osculating ``[sma_km, e, i, RAAN, AOP, M]`` (n, 6) (km, deg) of Moon-centred J2000 states in the profile's element frame."""
-    from .elements import state_to_elements
-    from .frames import element_frame_to_j2000
+    from ..elements import state_to_elements
+    from ..frames import element_frame_to_j2000
 
-    rot = element_frame_to_j2000(profile, float(t0_tdb_s))
+    rot = element_frame_to_j2000(profile.dynamics, float(t0_tdb_s))
     s = np.atleast_2d(np.asarray(states_mci, dtype=float))
     el = state_to_elements(np.concatenate([s[:, :3] @ rot, s[:, 3:] @ rot], axis=1), float(profile["gravity"]["gm_km3_s2"]))
     return np.column_stack([el[:, :2], np.degrees(el[:, 2:])])

@@ -11,8 +11,8 @@ from scipy.stats import rankdata
 from lnss_lib.__main__ import main
 from lnss_lib.constants import SECONDS_PER_DAY
 from lnss_lib.constellation import WalkerDesign
-from lnss_lib.designlife import LIFE_KEYS, life_availability, life_navigation
-from lnss_lib.dop import dop_for_profile, dop_summary, summary_from_profile
+from lnss_lib.design_life.evaluation import LIFE_KEYS, life_availability, life_navigation
+from lnss_lib.dop import SurfaceGrid, dop_for_settings, dop_summary, summary_for_settings
 from lnss_lib.frames import rotate_to_moon_fixed
 from lnss_lib.propagator import elements_deg_to_states, propagate_states
 from lnss_lib.studies.design_life import compare, validate_design, validation_table
@@ -63,8 +63,8 @@ def sampled_life(ci_profile, epoch_tdb_s):
     """A stand-in for a sampled simulate_life Dataset: 2 ELFO satellites over 3 days at 900 s, satellite 1 'lost' on day 2."""
     t0 = epoch_tdb_s
     el = WalkerDesign(6143.0, 0.6, 90.0, 51.7, 2, 1).elements_deg()
-    ds = propagate_states(ci_profile, elements_deg_to_states(ci_profile, el, t0), t0, 3 * SECONDS_PER_DAY, 900.0,
-                          batch=True)
+    ds = propagate_states(ci_profile.dynamics, elements_deg_to_states(ci_profile.dynamics, el, t0), t0,
+                          3 * SECONDS_PER_DAY, 900.0, batch=True)
     t = ds["time"].values
     r = ds["r_mci_km"].transpose("sat", "time", "xyz").values.copy()
     r[1, t - t0 > 2 * SECONDS_PER_DAY] = np.nan
@@ -80,16 +80,17 @@ def test_life_navigation_months_match_direct_dop_summary(ci_profile, sampled_lif
     day = (t - t[0]) / SECONDS_PER_DAY
     bounds = [(0.0, 1.0, False), (1.0, 2.0, False), (2.0, 3.0, True)]      # the last epoch closes the last month
     total = 0
+    grid = SurfaceGrid.from_settings(ci_profile.dop, ci_profile.constants.r_moon_mean_km)
     for m, (lo, hi, closed) in enumerate(bounds):
         idx = np.flatnonzero((day >= lo - 1e-9) & ((day <= hi + 1e-9) if closed else (day < hi - 1e-9)))
-        direct = summary_from_profile(ci_profile, dop_for_profile(ci_profile, rotate_to_moon_fixed(
-            ci_profile, r[:, idx], t[idx]), t[idx]))
+        direct = summary_for_settings(ci_profile.dop, dop_for_settings(ci_profile.dop, rotate_to_moon_fixed(
+            ci_profile.dynamics, r[:, idx], t[idx]), t[idx], grid))
         for key in ("pdop_avail_pct", "hdop_avail_pct", "pdop_mean_3sigma", "hdop_mean_3sigma", "mean_visible_sats"):
             assert nav[key].sel(run="controlled", month=m).item() == pytest.approx(direct[key], rel=1e-12, nan_ok=True)
         assert nav["n_epochs"].sel(run="controlled", month=m).item() == idx.size
         total += idx.size
     assert total == t.size
-    whole = dop_summary(dop_for_profile(ci_profile, rotate_to_moon_fixed(ci_profile, r, t), t),
+    whole = dop_summary(dop_for_settings(ci_profile.dop, rotate_to_moon_fixed(ci_profile.dynamics, r, t), t, grid),
                         threshold=float(ci_profile["dop"]["availability_threshold"]))
     for key in ("pdop_avail_pct", "hdop_avail_pct"):
         assert life_availability(nav, "controlled", key) == pytest.approx(whole[key], rel=1e-12)
@@ -118,7 +119,7 @@ def test_validation_table_ratio_and_rank_correlation(ci_profile):
 
 
 def test_life_evaluation_settings_are_checked(ci_profile):
-    from lnss_lib.designlife import life_evaluation_settings
+    from lnss_lib.design_life.evaluation import life_evaluation_settings
 
     assert life_evaluation_settings(ci_profile)["sample_step_s"] == 900.0
     with pytest.raises(ValueError, match="unknown"):

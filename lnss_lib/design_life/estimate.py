@@ -33,7 +33,7 @@ What it captures: the secular (orbit-averaged) drift of every satellite over the
 geometry-keeping part only. What it misses: periodic terms cost nothing (a box wider than their
 amplitude is assumed); long-period terms (the Earth's half-month tide, Lidov-Kozai growth over
 months) enter only as their 10-day trend, so a design that is stable over 10 days but not over a
-year is underestimated (the stability screen, :mod:`lnss_lib.stability`, flags those); box sizes,
+year is underestimated (the stability screen, :mod:`lnss_lib.design_life.screen`, flags those); box sizes,
 manoeuvre spacing and execution errors are not modelled; the along-track term is a one-time bias
 amortised per year.
 """
@@ -45,10 +45,10 @@ import time
 import numpy as np
 import xarray as xr
 
-from .constants import DAYS_PER_JULIAN_YEAR, SECONDS_PER_DAY
-from .deltav import orbit_mean, orbit_vectors
-from .elements import eccentric_anomaly_from_true
-from .frames import ELEMENT_FRAMES, element_frame_to_j2000
+from ..constants import DAYS_PER_JULIAN_YEAR, SECONDS_PER_DAY
+from ..deltav import orbit_mean, orbit_vectors
+from ..elements import eccentric_anomaly_from_true
+from ..frames import ELEMENT_FRAMES, element_frame_to_j2000
 
 __all__ = ["PARTS", "DEFAULT_SETTINGS", "sk_estimate_settings", "mean_drift", "sk_estimate_arrays",
            "sk_estimate_from_propagation"]
@@ -172,7 +172,7 @@ def sk_estimate_from_propagation(profile: dict, ds: xr.Dataset, **overrides) -> 
     cfg = sk_estimate_settings(profile, **overrides)
     t = ds["time"].values.astype(float)
     states = np.concatenate([ds["r_mci_km"].values, ds["v_mci_kms"].values], axis=-1)
-    rot = element_frame_to_j2000(profile, float(t[0]), cfg["element_frame"])
+    rot = element_frame_to_j2000(profile.dynamics, float(t[0]), cfg["element_frame"])
     states = np.concatenate([states[..., :3] @ rot, states[..., 3:] @ rot], axis=-1)
     gm = float(profile["gravity"]["gm_km3_s2"])
     parts = sk_estimate_arrays(mean_drift(t, states, gm, float(cfg["min_periods"])), gm, float(cfg["year_days"]),

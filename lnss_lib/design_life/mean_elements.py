@@ -13,7 +13,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from .elements import TWO_PI, eccentricity_vector, state_to_elements, vis_viva_sma_km
+from ..elements import TWO_PI, eccentricity_vector, state_to_elements, vis_viva_sma_km
 
 MEAN_ELEMENTS = ("a_km", "e", "inc_rad", "raan_rad", "aop_rad", "u_rad")
 """Columns of :func:`mean_elements`: u is the mean argument of latitude aop + M."""

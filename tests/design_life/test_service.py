@@ -6,10 +6,10 @@ import pytest
 from lnss_lib.config import ConfigError
 from lnss_lib.settings import load_settings
 from lnss_lib.constellation import WalkerDesign
-from lnss_lib.designlife import life_metrics
+from lnss_lib.design_life.evaluation import life_metrics
 from lnss_lib.ephemeris import ensure_kernels, tdb_seconds
-from lnss_lib.sk_service import PURPOSES, burn_location, mean_vectors_j2000, raan_half_width_rad
-from lnss_lib.stationkeeping import LifeSettings, life_force_model, simulate_life
+from lnss_lib.design_life.service import PURPOSES, burn_location, mean_vectors_j2000, raan_half_width_rad
+from lnss_lib.design_life.closed_loop import LifeSettings, life_force_model, simulate_life
 
 LIFE_DAYS = 60.0
 DRIVEN_DOWN = [[6143.0, 0.6, 70.0, 0.0, 45.0, 0.0]]
@@ -19,7 +19,7 @@ DRIVEN_DOWN = [[6143.0, 0.6, 70.0, 0.0, 45.0, 0.0]]
 @pytest.fixture(scope="module")
 def profile():
     prof = load_settings("paper", overrides={"gravity": {"degree": 8}})
-    ensure_kernels(prof)
+    ensure_kernels(prof.ephemeris)
     return prof
 
 
@@ -176,10 +176,10 @@ def test_a_satellite_whose_propagation_fails_is_reported_and_the_others_fly_on(p
     """The engine gives up on satellite 1 in the third chunk (as it did on a Table 6 design: 'propagation failed
     for satellite(s) [9]' stopped the evaluation): it is reported lost with the engine's reason, satellite 0 flies
     the whole life."""
-    from lnss_lib import stationkeeping
+    from lnss_lib.design_life import closed_loop
     from lnss_lib.propagator import STATUS_MAX_STEPS, STATUS_TEXT
 
-    engine, calls = stationkeeping.integrate_chunk, []
+    engine, calls = closed_loop.integrate_chunk, []
 
     def failing(y0s, active, t0, t_out, *rest):
         states, y_end, status, t_stop = engine(y0s, active, t0, t_out, *rest)
@@ -189,7 +189,7 @@ def test_a_satellite_whose_propagation_fails_is_reported_and_the_others_fly_on(p
                 states[1], y_end[1], status[1], t_stop[1] = np.nan, np.nan, STATUS_MAX_STEPS, t_out[0]
         return states, y_end, status, t_stop
 
-    monkeypatch.setattr(stationkeeping, "integrate_chunk", failing)
+    monkeypatch.setattr(closed_loop, "integrate_chunk", failing)
     el = [[6143.0, 0.6, 51.7, 0.0, 90.0, 0.0], [6143.0, 0.6, 51.7, 0.0, 90.0, 180.0]]
     ds = simulate_life(profile, el, life_days=10.0, model=model)
     assert str(ds["loss_cause"].values[1]) == f"propagation failed ({STATUS_TEXT[STATUS_MAX_STEPS]})"

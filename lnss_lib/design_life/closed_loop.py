@@ -4,22 +4,22 @@ Every satellite of a constellation is propagated by the compiled engine
 (:func:`lnss_lib.propagator.integrate_one`, satellites in parallel) in chunks of
 ``check_interval_days`` (at least two orbits). Two controllers (``[design_life] controller``):
 
-- ``"service"`` (the default; :mod:`lnss_lib.sk_service`) holds what the service needs: the perilune
+- ``"service"`` (the default; :mod:`lnss_lib.design_life.service`) holds what the service needs: the perilune
   above the floor as predicted by the averaged model (safety burns, flown even beyond the Delta-v cap),
   the navigation of each window of sampled positions against the first window's (a violation restores
   e, AOP and i of the satellites outside ``[design_life.box]``), and the relative node and slot within
   ``[design_life.service]`` (the node as the tilt of the plane: a RAAN half-width of
-  :func:`lnss_lib.sk_service.raan_half_width_rad` of each satellite's design inclination, about
+  :func:`lnss_lib.design_life.service.raan_half_width_rad` of each satellite's design inclination, about
   ``raan_rel_deg`` / sin i, unbounded below i = ``raan_rel_deg`` / 2); e, AOP and i are otherwise left to their
   natural motion;
 - ``"box"`` holds the fixed-element box described below.
 
 A satellite that impacts, escapes (unbound osculating or mean orbit) or whose propagation fails is
 reported (``loss_day``, ``loss_cause``) and the others fly on. Every burn is booked with its purpose
-(:data:`lnss_lib.sk_service.PURPOSES`) and where it was flown (:data:`lnss_lib.sk_service.LOCATIONS`);
+(:data:`lnss_lib.design_life.service.PURPOSES`) and where it was flown (:data:`lnss_lib.design_life.service.LOCATIONS`);
 ``dv_purpose_kms_per_year`` and ``dv_location_kms_per_year`` split ``dv_kms_per_year`` accordingly.
 
-The box: at the end of each chunk the mean elements (:mod:`lnss_lib.mean_elements`, one orbit of
+The box: at the end of each chunk the mean elements (:mod:`lnss_lib.design_life.mean_elements`, one orbit of
 samples in the element frame) are compared with
 
 - mean e, AOP and i about the design's values (they place the apolune over the south pole);
@@ -28,7 +28,7 @@ samples in the element frame) are compared with
   mean along-track offset (common drift free).
 
 The design's elements are MEAN elements: at insertion each satellite's osculating a, e, i, RAAN, AOP
-and M are trimmed (:func:`lnss_lib.life_propagation.trim_to_mean`, fixed point on first-orbit means, no Delta-v counted) so that
+and M are trimmed (:func:`lnss_lib.design_life.propagation.trim_to_mean`, fixed point on first-orbit means, no Delta-v counted) so that
 each satellite's first-orbit mean a equals its own design a: a Walker plane's common a, a catalogue
 file's per-satellite a (designed phasing, e.g. Ely's) as given (a common osculating a at different mean
 anomalies leaves their mean a ~5 km apart, which alone drifts the slots ~100 deg in 120 days). Slot
@@ -36,13 +36,13 @@ phasing is judged against the design's mean motion, a fixed reference that does 
 
 A satellite out of its box (whose last correction is at least ``min_maneuver_spacing_days`` old and whose
 Delta-v cap is not spent) gets one or two impulses on the next orbit, planned from the GVEs and
-Newton-refined in two-body motion (:func:`lnss_lib.maneuvers.plan_impulses`), so an e-vector pair at
+Newton-refined in two-body motion (:func:`lnss_lib.design_life.manoeuvres.plan_impulses`), so an e-vector pair at
 perilune/apolune leaves the osculating a unchanged. A set of burns is flown whole or not at all
 (:func:`_enqueue`): never with a non-finite impulse, and, safety apart, never when its total exceeds what is
 left of the Delta-v cap (a scaled-down set would hit none of the targets it was solved for). The one-orbit
 MEAN a still moves by a few km when e or AOP change (the orbit-averaged lunar potential seen by the new orbit
 differs: 2 a^2/GM Delta<R>), so after every correction the next check measures the mean a and trims it back
-with a small tangential burn (:data:`A_TRIM_FRACTION`). The control laws are in :mod:`lnss_lib.sk_control`: e, AOP, i and
+with a small tangential burn (:data:`A_TRIM_FRACTION`). The control laws are in :mod:`lnss_lib.design_life.control`: e, AOP, i and
 relative RAAN are judged on their running mean over one tidal period (the one-orbit mean e swings by
 about +-0.015 at half the sidereal month on the ELFO, hence an e box of 0.03) and aimed past the
 reference to the far side of the box; the slot is predicted from the mean-a drift rate
@@ -61,22 +61,22 @@ from dataclasses import dataclass
 import numpy as np
 import xarray as xr
 
-from .config import CONTROLLERS
-from .constants import DAYS_PER_JULIAN_YEAR, SECONDS_PER_DAY
-from .elements import eccentricity_vector, orbital_period_s, state_to_elements, vis_viva_sma_km
-from .ephemeris import ensure_kernels, tdb_seconds
-from .forces import ForceModel
-from .maneuvers import candidate_true_anomalies, mean_anomaly, plan_impulses
+from ..config import CONTROLLERS
+from ..constants import DAYS_PER_JULIAN_YEAR, SECONDS_PER_DAY
+from ..elements import eccentricity_vector, orbital_period_s, state_to_elements, vis_viva_sma_km
+from ..ephemeris import ensure_kernels, tdb_seconds
+from ..forces import ForceModel
+from .manoeuvres import candidate_true_anomalies, mean_anomaly, plan_impulses
 from .mean_elements import mean_elements, relative_angles, to_element_frame, wrap_pi
-from .sk_control import SlotState, drift_band_rate, overshoot_target, predicted_exit, running_mean, tidal_mean
-from .progress import steps
-from .propagator import (METHODS, STATUS_IMPACT, STATUS_NOT_RUN, STATUS_OK, STATUS_TEXT, check_batch,
+from .control import SlotState, drift_band_rate, overshoot_target, predicted_exit, running_mean, tidal_mean
+from ..progress import steps
+from ..propagator import (METHODS, STATUS_IMPACT, STATUS_NOT_RUN, STATUS_OK, STATUS_TEXT, check_batch,
                          elements_deg_to_states)
-from .frames import element_frame_to_j2000
-from .sk_service import (LOCATIONS, PURPOSES, NavigationMonitor, ServiceSettings, burn_location, mean_vectors_j2000,
+from ..frames import element_frame_to_j2000
+from .service import (LOCATIONS, PURPOSES, NavigationMonitor, ServiceSettings, burn_location, mean_vectors_j2000,
                          raan_half_width_rad, safety_targets)
-from .stability import SecularField
-from .life_propagation import integrate_chunk, life_force_model, trim_to_mean
+from .screen import SecularField
+from .propagation import integrate_chunk, life_force_model, trim_to_mean
 
 
 BOX_KEYS = ("ecc", "aop_deg", "inc_deg", "raan_rel_deg", "u_rel_deg")
@@ -159,10 +159,10 @@ def simulate_life(profile: dict, elements_deg, *, natural: bool = False, life_da
     metrics over the design life. Raises ``ValueError`` for invalid elements or sample step.
     """
     cfg = settings or LifeSettings.from_profile(profile, life_days=life_days)
-    ensure_kernels(profile)
+    ensure_kernels(profile.ephemeris)
     el = np.atleast_2d(np.asarray(elements_deg, dtype=float))
     t0 = tdb_seconds(profile["epoch"]["start_tdb"], "TDB") if t0_tdb_s is None else float(t0_tdb_s)
-    elements_deg_to_states(profile, el, t0)
+    elements_deg_to_states(profile.dynamics, el, t0)
     gm = float(profile["gravity"]["gm_km3_s2"])
     life_s = cfg.life_days * SECONDS_PER_DAY
     if model is None:
@@ -172,8 +172,8 @@ def simulate_life(profile: dict, elements_deg, *, natural: bool = False, life_da
     integ = profile.integrator.named(cfg.integrator_setting)
     el_insert, trim_resid = (trim_to_mean(profile, el, t0, model, integ, samples_per_orbit=cfg.samples_per_orbit)
                              if cfg.initial_trim else (el.copy(), np.full_like(el, np.nan)))
-    states = elements_deg_to_states(profile, el_insert, t0)
-    rot = element_frame_to_j2000(profile, t0)
+    states = elements_deg_to_states(profile.dynamics, el_insert, t0)
+    rot = element_frame_to_j2000(profile.dynamics, t0)
     r_min = profile["constants"]["r_moon_mean_km"] + profile["impact"]["min_altitude_km"]
 
     n_sat = el.shape[0]
@@ -400,7 +400,7 @@ def _budget_kms(cap_kms: float, used_kms: float, queued: list) -> float:
 
 
 def _flight_plan(queue: list) -> tuple[np.ndarray, np.ndarray]:
-    """Burn epochs (n_sat, k) (NaN = none, sorted) and RTN impulses (n_sat, k, 3) for :func:`lnss_lib.life_propagation.integrate_chunk`
+    """Burn epochs (n_sat, k) (NaN = none, sorted) and RTN impulses (n_sat, k, 3) for :func:`lnss_lib.design_life.propagation.integrate_chunk`
     from the queued records; impulses planned for the same epoch are flown as one."""
     merged = []
     for records in queue:
@@ -461,13 +461,13 @@ def _plan(osc, mel, a_ref, err, out, fit, half, cfg, gm, hold_u=True):
     """Impulses for one satellite (None when there is nothing to fly).
 
     Each geometry quantity out of its box (``out``, order :data:`BOX_KEYS`) is aimed past its reference
-    (:func:`lnss_lib.sk_control.overshoot_target`; e and AOP together as the e vector in nodal axes);
+    (:func:`lnss_lib.design_life.control.overshoot_target`; e and AOP together as the e vector in nodal axes);
     the others are held (zero change). A slot correction sets the mean a so that the drift rate relative
-    to the design's mean motion (``a_ref``) becomes :func:`lnss_lib.sk_control.drift_band_rate`; otherwise
+    to the design's mean motion (``a_ref``) becomes :func:`lnss_lib.design_life.control.drift_band_rate`; otherwise
     a and u are held (u one orbit after the burns; u is left free with ``hold_u=False``, as the service
     controller's relative-node corrections do: its slot has its own drift-band control). The e-vector
     correction is thus a perilune/apolune pair with no net change of a (Newton-refined in
-    :func:`lnss_lib.maneuvers.plan_impulses`).
+    :func:`lnss_lib.design_life.manoeuvres.plan_impulses`).
     """
     n = np.sqrt(gm / a_ref ** 3)
     ecc, aop = mel[1], mel[4]
@@ -585,18 +585,18 @@ def integrator_convergence(profile: dict, elements_deg, *, life_days: float = 36
     atol 1e-14); returns ``pos_diff_km`` (setting, sat, day) sampled every ``step_days``, with
     NaN after an impact, and ``n_rhs`` (setting, sat).
     """
-    from .propagator import propagate_states
+    from ..propagator import propagate_states
 
     ref = reference or {"method": "DOP853", "rtol": 1e-12, "atol": 1e-14}
     prof = profile.with_overrides({"integrator": {"settings": {"_reference": ref}}})
-    ensure_kernels(prof)
+    ensure_kernels(prof.ephemeris)
     t0 = tdb_seconds(prof["epoch"]["start_tdb"], "TDB")
     el = np.atleast_2d(np.asarray(elements_deg, dtype=float))
-    states = elements_deg_to_states(prof, el, t0)
+    states = elements_deg_to_states(prof.dynamics, el, t0)
     model = life_force_model(prof, t0, life_days, degree)
     runs = {}
     for name in (*settings, "_reference"):
-        runs[name] = propagate_states(prof, states, t0, life_days * SECONDS_PER_DAY, step_days * SECONDS_PER_DAY,
+        runs[name] = propagate_states(prof.dynamics, states, t0, life_days * SECONDS_PER_DAY, step_days * SECONDS_PER_DAY,
                                       batch=True, model=model, setting=name)
     r_ref = runs["_reference"].r_mci_km.values
     diff = np.stack([np.linalg.norm(runs[s].r_mci_km.values - r_ref, axis=-1) for s in settings])
@@ -606,38 +606,3 @@ def integrator_convergence(profile: dict, elements_deg, *, life_days: float = 36
                        "n_rhs_reference": ("sat", runs["_reference"].n_rhs.values)},
                       coords={"setting": list(settings), "sat": np.arange(el.shape[0]), "day": day},
                       attrs={"reference": f"{ref['method']} rtol {ref['rtol']:g} atol {ref['atol']:g}"})
-
-
-def integrator_convergence_mean(profile: dict, elements_deg, *, life_days: float | None = None, degree: int | None = None,
-                                tight: dict | None = None, natural: bool = False,
-                                model: ForceModel | None = None) -> xr.Dataset:
-    """Mean-element histories and Delta-v of :func:`simulate_life` with the ``[design_life]`` integrator setting
-    against a tighter one (default DOP853 rtol 1e-12 / atol 1e-14), same force model and checks.
-
-    Returns per satellite ``max_d_ecc``, ``max_d_aop_deg``, ``max_d_inc_deg`` (largest difference of the
-    one-orbit mean histories), ``dv_total_kms`` (setting, sat) and ``n_maneuvers`` (setting, sat). In closed
-    loop the two runs may decide differently near a box edge; their Delta-v difference is then what an
-    integrator error of that size does to the budget.
-    """
-    tight = tight or {"method": "DOP853", "rtol": 1e-12, "atol": 1e-14}
-    prof = profile.with_overrides({"integrator": {"settings": {"_tight": tight}}})
-    base = LifeSettings.from_profile(prof, life_days=life_days)
-    t0 = tdb_seconds(prof["epoch"]["start_tdb"], "TDB")
-    if model is None:
-        model = life_force_model(prof, t0, base.life_days, degree)
-    names = (base.integrator_setting, "_tight")
-    runs = [simulate_life(prof, elements_deg, natural=natural, model=model, t0_tdb_s=t0,
-                          settings=LifeSettings.from_profile(prof, life_days=base.life_days, integrator_setting=name))
-            for name in names]
-    diff = np.abs(runs[0].mean_elements.values - runs[1].mean_elements.values)
-    col = list(runs[0].mean_element.values)
-    return xr.Dataset(
-        {"max_d_ecc": ("sat", np.nanmax(diff[..., col.index("e")], axis=1)),
-         "max_d_aop_deg": ("sat", np.nanmax(diff[..., col.index("aop_deg")], axis=1)),
-         "max_d_inc_deg": ("sat", np.nanmax(diff[..., col.index("inc_deg")], axis=1)),
-         "dv_total_kms": (("setting", "sat"), np.stack([r.dv_total_kms.values for r in runs])),
-         "n_maneuvers": (("setting", "sat"), np.stack([r.n_maneuvers.values for r in runs])),
-         "wall_s": ("setting", [r.attrs["wall_s"] for r in runs])},
-        coords={"setting": [names[0], "tight"], "sat": runs[0].sat.values},
-        attrs={"tight": f"{tight['method']} rtol {tight['rtol']:g} atol {tight['atol']:g}", "life_days": base.life_days,
-               "mode": runs[0].attrs["mode"], "force_model": model.describe()})

@@ -1,5 +1,5 @@
 """Closed-loop station keeping with the fixed-element box (``controller = "box"``) and natural drift over short
-design lives (degree 8 field, fast); the service controller is tested in test_sk_service.py."""
+design lives (degree 8 field, fast); the service controller is tested in test_service.py."""
 
 import numpy as np
 import pytest
@@ -8,9 +8,9 @@ from lnss_lib.settings import load_settings
 from lnss_lib.constants import SECONDS_PER_DAY
 from lnss_lib.ephemeris import ensure_kernels, tdb_seconds
 from lnss_lib.errors import ImpactError
-from lnss_lib.mean_elements import mean_elements, relative_angles
+from lnss_lib.design_life.mean_elements import mean_elements, relative_angles
 from lnss_lib.propagator import elements_deg_to_states, propagate_states
-from lnss_lib.stationkeeping import LifeSettings, life_force_model, simulate_life
+from lnss_lib.design_life.closed_loop import LifeSettings, life_force_model, simulate_life
 
 LIFE_DAYS = 60.0
 
@@ -18,7 +18,7 @@ LIFE_DAYS = 60.0
 @pytest.fixture(scope="module")
 def life_profile():
     profile = load_settings("paper", overrides={"gravity": {"degree": 8}, "design_life": {"controller": "box"}})
-    ensure_kernels(profile)
+    ensure_kernels(profile.ephemeris)
     return profile
 
 
@@ -60,9 +60,9 @@ def test_impact_is_reported_with_its_day(life_profile, life_model):
     ds = simulate_life(life_profile, el, natural=True, life_days=LIFE_DAYS, model=life_model)
     assert bool(ds.impact[0]) and not bool(ds.box_held[0])
     t0 = ds.attrs["t0_tdb_s"]
-    states = elements_deg_to_states(life_profile, ds.insertion_elements_deg.values, t0)   # after the initial trim
+    states = elements_deg_to_states(life_profile.dynamics, ds.insertion_elements_deg.values, t0)   # after the initial trim
     with pytest.raises(ImpactError) as caught:
-        propagate_states(life_profile, states, t0, LIFE_DAYS * SECONDS_PER_DAY, 3600.0, model=life_model,
+        propagate_states(life_profile.dynamics, states, t0, LIFE_DAYS * SECONDS_PER_DAY, 3600.0, model=life_model,
                          setting="design_life")
     assert caught.value.sat == 0
     assert abs(float(ds.impact_day[0]) - caught.value.days) < 0.05
@@ -108,19 +108,19 @@ def test_initial_trim_matches_the_design_mean_a(life_profile, life_model):
     from lnss_lib.constellation import planes_elements_deg
     from lnss_lib.elements import orbital_period_s
     from lnss_lib.frames import element_frame_to_j2000
-    from lnss_lib.mean_elements import to_element_frame
-    from lnss_lib.life_propagation import trim_to_mean
+    from lnss_lib.design_life.mean_elements import to_element_frame
+    from lnss_lib.design_life.propagation import trim_to_mean
 
     el = planes_elements_deg(6143.0, 0.6, 51.7, 90.0, [0.0], 4)
     t0 = tdb_seconds(life_profile["epoch"]["start_tdb"], "TDB")
     gm = float(life_profile["gravity"]["gm_km3_s2"])
     period = float(orbital_period_s(6143.0, gm))
-    rot = element_frame_to_j2000(life_profile, t0)
+    rot = element_frame_to_j2000(life_profile.dynamics, t0)
     insert, resid = trim_to_mean(life_profile, el, t0, life_model, life_profile.integrator.named("design_life"))
     assert np.all(np.abs(resid[:, 0]) < 0.01)
 
     def first_orbit_mean_a(elements):
-        ds = propagate_states(life_profile, elements_deg_to_states(life_profile, elements, t0), t0, period,
+        ds = propagate_states(life_profile.dynamics, elements_deg_to_states(life_profile.dynamics, elements, t0), t0, period,
                               period / 128, batch=True, model=life_model, setting="design_life")
         states = np.concatenate([ds.r_mci_km.transpose("sat", "time", "xyz").values,
                                  ds.v_mci_kms.transpose("sat", "time", "xyz").values], axis=-1)
@@ -186,8 +186,8 @@ def test_sampled_positions_agree_with_a_plain_propagation(life_profile, life_mod
     references = {"_tight": {"method": "DOP853", "rtol": 1e-12, "atol": 1e-14},
                   "_tighter": {"method": "DOP853", "rtol": 1e-13, "atol": 1e-14}}
     prof = life_profile.with_overrides({"integrator": {"settings": {**ensemble, **references}}})
-    states = elements_deg_to_states(life_profile, ds.insertion_elements_deg.values, t0)   # after the initial trim
-    r = {name: propagate_states(prof, states, t0, life * SECONDS_PER_DAY, step_s, batch=True, model=life_model,
+    states = elements_deg_to_states(life_profile.dynamics, ds.insertion_elements_deg.values, t0)   # after the initial trim
+    r = {name: propagate_states(prof.dynamics, states, t0, life * SECONDS_PER_DAY, step_s, batch=True, model=life_model,
                                 setting=name).r_mci_km.transpose("sat", "time", "xyz").values
          for name in (*ensemble, *references)}
     tight = r["_tight"]
@@ -215,8 +215,8 @@ def test_a_burn_set_is_queued_whole_within_the_budget_and_finite_or_not_at_all()
     """The enqueue rule of the Delta-v cap: a set (e-vector pair plus a plane change) is queued whole when its total
     fits the budget, not at all when it does not (none of its burns), and never with a non-finite impulse, even with
     no budget limit (safety)."""
-    from lnss_lib.maneuvers import ImpulsePlan, plan_impulses
-    from lnss_lib.stationkeeping import _enqueue
+    from lnss_lib.design_life.manoeuvres import ImpulsePlan, plan_impulses
+    from lnss_lib.design_life.closed_loop import _enqueue
 
     gm = 4902.8
     osc = np.array([6143.0, 0.6, np.radians(51.7), 0.2, np.radians(90.0), 0.4])

@@ -1,11 +1,11 @@
 """The requirement-driven ("service") station-keeping decisions: safety, navigation, where a burn goes.
 
-The service controller (``[design_life] controller = "service"``, :func:`lnss_lib.stationkeeping.simulate_life`)
+The service controller (``[design_life] controller = "service"``, :func:`lnss_lib.design_life.closed_loop.simulate_life`)
 holds what the service needs and lets every other motion run:
 
 * safety: the perilune stays above ``impact.min_altitude_km + perilune_margin_km`` plus the measured
   short-period amplitude (one-orbit mean perilune minus the lowest osculating perilune of the orbit).
-  Every ``safety_check_days`` the doubly-averaged model (:mod:`lnss_lib.stability`, lunar J2 + Earth and
+  Every ``safety_check_days`` the doubly-averaged model (:mod:`lnss_lib.design_life.screen`, lunar J2 + Earth and
   Sun quadrupole) predicts the mean perilune over the rest of the life (:func:`predicted_crossing_day`);
   only a crossing within ``safety_lead_days`` is acted on, by lowering e along the e vector (a perilune /
   apolune pair, a unchanged) by the smallest step that keeps the prediction above the floor for the
@@ -15,7 +15,7 @@ holds what the service needs and lets every other motion run:
   ``nav_dop_rise_fraction`` (:func:`navigation_violations`); a violation restores e, AOP and i of every
   satellite to the design's values;
 * relative geometry: relative node and slot within ``raan_rel_deg`` and ``u_rel_deg`` (the drift-band and
-  overshoot laws of :mod:`lnss_lib.sk_control`). ``raan_rel_deg`` bounds the angle between the orbit plane and
+  overshoot laws of :mod:`lnss_lib.design_life.control`). ``raan_rel_deg`` bounds the angle between the orbit plane and
   its slot's plane, 2 asin(sin i sin(dRAAN/2)) at equal inclinations, not the RAAN difference itself: the RAAN
   half-width is :func:`raan_half_width_rad` of the satellite's design inclination (about raan_rel / sin i; no
   bound at all below i = raan_rel / 2, where no node difference tilts the plane that far), so a near-equatorial
@@ -24,7 +24,7 @@ holds what the service needs and lets every other motion run:
   the month, which a shorter mean chases at up to 1 km/s/yr (and, at apolunes beyond about half the Hill
   radius, into escape). A node correction leaves the argument of latitude free.
 
-Burns are planned by :func:`lnss_lib.maneuvers.plan_impulses` at the cheapest of the apses, nodes and
+Burns are planned by :func:`lnss_lib.design_life.manoeuvres.plan_impulses` at the cheapest of the apses, nodes and
 antinodes; :func:`burn_location` names the point each one was flown at.
 """
 
@@ -35,17 +35,17 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .constants import SECONDS_PER_DAY
-from .dop import dop_for_profile, grid_from_profile, summary_from_profile
-from .elements import TWO_PI
-from .frames import rotate_to_moon_fixed
-from .stability import SecularField, integrate_secular
+from ..constants import SECONDS_PER_DAY
+from ..dop import SurfaceGrid, dop_for_settings, summary_for_settings
+from ..elements import TWO_PI
+from ..frames import rotate_to_moon_fixed
+from .screen import SecularField, integrate_secular
 
 __all__ = ["PURPOSES", "LOCATIONS", "ServiceSettings", "predicted_crossing_day", "safety_ecc", "burn_location",
            "navigation_violations", "mean_vectors_j2000", "raan_half_width_rad", "safety_targets", "NavigationMonitor"]
 
 PURPOSES = ("safety", "navigation", "relative_node", "phase", "a_trim")
-"""What a burn is paid for (the Delta-V split of :func:`lnss_lib.stationkeeping.simulate_life`)."""
+"""What a burn is paid for (the Delta-V split of :func:`lnss_lib.design_life.closed_loop.simulate_life`)."""
 
 LOCATIONS = ("perilune", "apolune", "node", "antinode", "other")
 """Where a burn is flown: the apses, the nodes (u = 0, 180 deg), their quadrature (u = 90, 270 deg)."""
@@ -153,7 +153,7 @@ def burn_location(nu_rad: float, aop_rad: float, tol_rad: float = 1e-3) -> str:
 
 
 def navigation_violations(summary: dict, baseline: dict, cfg: ServiceSettings) -> list[str]:
-    """Names of the navigation statistics of ``summary`` (a :func:`lnss_lib.dop.summary_from_profile` dict)
+    """Names of the navigation statistics of ``summary`` (a :func:`lnss_lib.dop.summary_for_settings` dict)
     outside the requirement set by ``baseline`` (the first window's): availability may drop by
     ``nav_avail_drop_pct`` points, 3-sigma PDOP/HDOP rise by ``nav_dop_rise_fraction``."""
     bad = []
@@ -203,7 +203,7 @@ class NavigationMonitor:
 
     def __init__(self, profile: dict, sample_t: np.ndarray, svc: ServiceSettings):
         self.profile, self.sample_t, self.svc = profile, sample_t, svc
-        self.grid = grid_from_profile(profile)
+        self.grid = SurfaceGrid.from_settings(profile.dop, profile.constants.r_moon_mean_km)
         self.start = sample_t[0]
         self.baseline = None
         self.violated = False
@@ -218,8 +218,8 @@ class NavigationMonitor:
         if idx.size == 0:
             return
         tt = self.sample_t[idx]
-        r_mf = rotate_to_moon_fixed(self.profile, r_sample[:, idx], tt)
-        summary = summary_from_profile(self.profile, dop_for_profile(self.profile, r_mf, tt, grid=self.grid))
+        r_mf = rotate_to_moon_fixed(self.profile.dynamics, r_sample[:, idx], tt)
+        summary = summary_for_settings(self.profile.dop, dop_for_settings(self.profile.dop, r_mf, tt, self.grid))
         if self.baseline is None:
             self.baseline = summary
             return

@@ -3,7 +3,7 @@
 import numpy as np
 import pytest
 
-from lnss_lib import stability as st
+from lnss_lib.design_life import screen as st
 from lnss_lib.constellation import WalkerDesign, planes_elements_deg
 from lnss_lib.elements import elements_to_state
 

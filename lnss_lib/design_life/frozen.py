@@ -1,8 +1,8 @@
-"""Frozen and librating orbits: the doubly-averaged model of :mod:`lnss_lib.stability` in the ``moon_op`` frame.
+"""Frozen and librating orbits: the doubly-averaged model of :mod:`lnss_lib.design_life.screen` in the ``moon_op`` frame.
 
 Issue 19 item 1. Above a few thousand km the Earth's tide drives e, i and AOP, and it is symmetric about
 the Earth-Moon orbital plane (``moon_op``, :func:`lnss_lib.frames.moon_op_to_j2000`), not the lunar
-equator. In that frame the doubly-averaged potential of :func:`lnss_lib.stability.averaged_potential`
+equator. In that frame the doubly-averaged potential of :func:`lnss_lib.design_life.screen.averaged_potential`
 (lunar J2 + Earth and Sun quadrupole tides) is nearly axisymmetric about z: the lunar pole is tilted
 by about 6.7 deg and the ecliptic normal by about 5.1 deg. Averaged over the orbit's node (which
 circulates in about a year at a = 6000 km), a J2 about a pole tilted by ``eps`` is a J2 of
@@ -32,9 +32,9 @@ from dataclasses import field as default_field
 import numpy as np
 from scipy.optimize import brentq
 
-from .constants import DAYS_PER_JULIAN_YEAR, SECONDS_PER_DAY
-from .frames import orbit_plane_axes_j2000
-from .stability import (SIDEREAL_MONTH_DAYS, SecularField, averaged_potential, elements_from_vectors, secular_rates,
+from ..constants import DAYS_PER_JULIAN_YEAR, SECONDS_PER_DAY
+from ..frames import orbit_plane_axes_j2000
+from .screen import (SIDEREAL_MONTH_DAYS, SecularField, averaged_potential, elements_from_vectors, secular_rates,
                         stability_settings)
 
 __all__ = ["mean_plane_axes", "FrozenModel", "orbit_vectors_deg", "mean_plane_elements", "potential",
@@ -94,7 +94,7 @@ class FrozenModel:
 
     @classmethod
     def from_field(cls, field: SecularField, t_day: float = 0.0, spin_days: float = DAYS_PER_JULIAN_YEAR) -> "FrozenModel":
-        """Node-average of a :class:`lnss_lib.stability.SecularField` at ``t_day`` in the mean ``moon_op`` frame
+        """Node-average of a :class:`lnss_lib.design_life.screen.SecularField` at ``t_day`` in the mean ``moon_op`` frame
         (:func:`mean_plane_axes`); the frame's turn over the next ``spin_days`` (within the field's span)."""
         tide, pole = field.at(t_day)
         t_end = min(t_day + spin_days, float(field.t_days[-1]))
@@ -253,7 +253,7 @@ def allowances(model: FrozenModel, sma_km: float, e: float, inc_deg: float, aop_
 
     * monthly (``ecc_monthly``, ``inc_monthly_deg``): the Earth's tide, orbit-averaged but not
       month-averaged, swings e and j at twice the Earth's sidereal frequency: the rates of
-      :func:`lnss_lib.stability.secular_rates` under the tide's oscillating part
+      :func:`lnss_lib.design_life.screen.secular_rates` under the tide's oscillating part
       ``Q(phi) = (c / 2) [cos phi (xx - yy) + sin phi (xy + yx)]`` (``c = T_xx + T_yy``) at the worst
       phase, divided by ``2 n_month``;
     * orbital (``ecc_orbital``): within one orbit a tidal acceleration ``|f| <= 2 c r`` moves the

@@ -47,16 +47,16 @@ import xarray as xr
 from scipy.integrate import solve_ivp
 from scipy.interpolate import CubicSpline
 
-from .config import STABILITY_BODIES, STABILITY_METHODS
-from .constants import DAYS_PER_JULIAN_YEAR, SECONDS_PER_DAY
-from .elements import eccentricity_vector, vis_viva_sma_km
-from .ephemeris import body_states_mci, ensure_kernels, rotation, tdb_seconds
-from .frames import element_frame_to_j2000
-from .gravity import GravityField
+from ..config import STABILITY_BODIES, STABILITY_METHODS
+from ..constants import DAYS_PER_JULIAN_YEAR, SECONDS_PER_DAY
+from ..elements import eccentricity_vector, vis_viva_sma_km
+from ..ephemeris import body_states_mci, ensure_kernels, rotation, tdb_seconds
+from ..frames import element_frame_to_j2000
+from ..gravity import GravityField
 
 __all__ = ["StabilitySettings", "stability_settings", "SecularField", "orbit_vectors_ej", "secular_rates",
            "averaged_potential", "integrate_secular", "elements_from_vectors", "screen_states", "screen_elements",
-           "screen_design", "classical_j2_rates", "kozai_e_max", "circular_tide_tensor"]
+           "classical_j2_rates", "kozai_e_max", "circular_tide_tensor"]
 
 SIDEREAL_MONTH_DAYS = 27.321661
 BODIES = STABILITY_BODIES
@@ -159,7 +159,7 @@ class SecularField:
                      settings: StabilitySettings | None = None) -> "SecularField":
         """T and k from SPICE over the design life (running one-month mean), J2 from the gravity file."""
         cfg = settings or stability_settings(profile)
-        ensure_kernels(profile)
+        ensure_kernels(profile.ephemeris)
         step, window = cfg.table_step_days, cfg.average_days
         half = int(np.ceil(0.5 * window / step))
         n_out = int(np.ceil(life_days / step)) + 1 if cfg.precession else 1
@@ -192,7 +192,7 @@ class SecularField:
 
 
 def _gravity_constants(profile: dict) -> tuple[float, float, float]:
-    field = GravityField.from_profile(profile, degree=2)
+    field = GravityField.from_settings(profile.gravity, degree=2)
     return field.gm_km3_s2, float(-field.cnm[2, 0] * np.sqrt(5.0)), field.r_ref_km
 
 
@@ -373,7 +373,7 @@ def screen_states(profile: dict, states_mci, t0_tdb_s: float, *, field: SecularF
                             method=cfg.method, rtol=cfg.rtol, atol=cfg.atol, output_step_days=cfg.output_step_days)
     inverse = np.asarray(inverse).ravel()
     e_hist, j_hist = res["e"][inverse], res["j"][inverse]
-    rot = element_frame_to_j2000(profile, float(t0_tdb_s)).T
+    rot = element_frame_to_j2000(profile.dynamics, float(t0_tdb_s)).T
     el = elements_from_vectors(e_hist, j_hist, rot)
     alt = a[:, None] * (1.0 - el["ecc"]) - r_moon
     impact_day = res["impact_day"][inverse]
@@ -394,24 +394,11 @@ def screen_states(profile: dict, states_mci, t0_tdb_s: float, *, field: SecularF
 
 def screen_elements(profile: dict, elements_deg, t0_tdb_s: float | None = None, **overrides) -> xr.Dataset:
     """:func:`screen_states` for elements (n, 6) [sma_km, e, i, RAAN, AOP, M] (deg) in the profile's element frame."""
-    from .propagator import elements_deg_to_states
+    from ..propagator import elements_deg_to_states
 
-    ensure_kernels(profile)
+    ensure_kernels(profile.ephemeris)
     t0 = tdb_seconds(profile["epoch"]["start_tdb"], "TDB") if t0_tdb_s is None else float(t0_tdb_s)
-    return screen_states(profile, elements_deg_to_states(profile, elements_deg, t0), t0, **overrides)
-
-
-def screen_design(profile: dict, sma_km: float, ecc: float, aop_deg: float, inc_deg: float, n_planes: int,
-                  sats_per_plane: int, **overrides) -> dict:
-    """Summary of the screen for a Walker design: ``stable_screen``, ``screen_min_perilune_alt_km``,
-    ``screen_impact_day`` (None when none), ``screen_wall_s``."""
-    from .constellation import WalkerDesign
-
-    elements = WalkerDesign(sma_km, ecc, aop_deg, inc_deg, n_planes, sats_per_plane).elements_deg()
-    ds = screen_elements(profile, elements, **overrides)
-    day = ds.attrs["impact_day"]
-    return {"stable_screen": ds.attrs["stable"], "screen_min_perilune_alt_km": ds.attrs["min_perilune_alt_km"],
-            "screen_impact_day": None if np.isnan(day) else day, "screen_wall_s": ds.attrs["wall_s"]}
+    return screen_states(profile, elements_deg_to_states(profile.dynamics, elements_deg, t0), t0, **overrides)
 
 
 _FIELDS: dict = {}
@@ -448,13 +435,13 @@ def propagated_perilune(profile: dict, elements_deg, life_days: float, *, settin
     ``perilune_alt_km`` (n, m) and ``t_days`` (m,), ``stable``, ``wall_s``. Costs seconds to tens
     of seconds per satellite-year: for notebooks, benches and the slow tests.
     """
-    from .propagator import elements_deg_to_states, propagate_states
+    from ..propagator import elements_deg_to_states, propagate_states
 
     start = time.perf_counter()
-    ensure_kernels(profile)
+    ensure_kernels(profile.ephemeris)
     t0 = tdb_seconds(profile["epoch"]["start_tdb"], "TDB")
-    states = elements_deg_to_states(profile, elements_deg, t0)
-    ds = propagate_states(profile, states, t0, life_days * SECONDS_PER_DAY, step_s, setting=setting, degree=degree,
+    states = elements_deg_to_states(profile.dynamics, elements_deg, t0)
+    ds = propagate_states(profile.dynamics, states, t0, life_days * SECONDS_PER_DAY, step_s, setting=setting, degree=degree,
                           batch=True)
     gm = float(profile["gravity"]["gm_km3_s2"])
     r_moon = float(profile["constants"]["r_moon_mean_km"])

@@ -1,0 +1,40 @@
+"""The design life: does a constellation keep its geometry for years, and at what Delta-V? (issues 11 and 19).
+
+One subject in three answers of rising cost, each module answering one question:
+
+* :mod:`.screen` -- will a perilune reach the surface within the life? The doubly-averaged (secular) model
+  of lunar J2 and the Earth's and Sun's quadrupole tides (``SecularField``, Milankovitch equations on the
+  e and j vectors, Moon-centred J2000) integrated from the initial states: the campaign's stability
+  screen (issue 11 item 2), milliseconds per design.
+* :mod:`.estimate` -- what would holding the geometry cost? The secular drift of mean e-vector, orbit
+  normal, a and slot fitted on the evaluator's 10-day arc, priced with linearised GVE costs: the
+  campaign's geometry-keeping Delta-V (issue 11 item 2; ``sk_dv_estimate_kms_per_year``).
+* :mod:`.closed_loop` -- what does flying the life cost? Every satellite propagated with the full force
+  model over the life, check by check, a controller deciding burns at each check (issue 11 item 4, the
+  ``box`` controller; issue 19, the ``service`` controller), or no burns (natural drift).
+* :mod:`.evaluation` -- the verdict: the closed loop and the natural drift side by side, navigation over
+  the life (south-pole DOP month by month, paper eq. 3-14), and the two cheap predictors above for the
+  same design (``evaluate --design-life-days``; issue 11 item 6).
+
+So: screen -> estimate (campaign, every design) -> closed loop -> evaluation (one design, minutes).
+Under the closed loop:
+
+* :mod:`.propagation` -- the chunked full-model propagation that flies impulsive burns, the life's force
+  model, the insertion trim to the design's mean elements;
+* :mod:`.mean_elements` -- one-orbit mean elements from vectors (no 1/e, no 1/sin i);
+* :mod:`.control` -- the box controller's laws: drift-band slot control, overshoot targeting, tidal means;
+* :mod:`.service` -- the service controller's decisions: safety (perilune predicted by :mod:`.screen`),
+  navigation monitor, relative node and slot, where a burn went;
+* :mod:`.manoeuvres` -- impulses from the Gauss variational equations (paper eq. 25-29): the control-set
+  GVE matrix and the one- or two-burn planner refined in two-body flight.
+
+Beside them :mod:`.frozen` reads the averaged model of :mod:`.screen` in the Earth-Moon orbital plane
+(``moon_op``): frozen and librating orbits (issue 19 item 1).
+
+Frames: states are Moon-centred J2000 (``_mci``); mean elements, boxes and the controllers work in the
+profile's element frame (``[frames] element_frame``: the lunar equator of epoch, ``j2000`` or ``moon_op``;
+:func:`lnss_lib.frames.element_frame_to_j2000`); burns are RTN. Settings: ``[stability]``
+(screen), ``[sk_estimate]`` (estimate), ``[design_life]`` with ``.box`` and ``.service`` (closed loop),
+``[life_evaluation]`` (evaluation). Their presentation lives in :mod:`lnss_lib.studies.design_life`,
+:mod:`lnss_lib.figures.design_life` and notebook 08. Nothing is re-exported here: import from the module.
+"""
