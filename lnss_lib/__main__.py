@@ -133,7 +133,7 @@ def _cmd_evaluate(args: argparse.Namespace) -> int:
     from .campaign.settings import bounds_verdict
 
     profile = load_settings(args.profile, overrides=_overrides(args))
-    result.update(bounds_verdict(profile, result))
+    result.update(bounds_verdict(profile.campaign, result))
     if args.design_life_days is not None:
         from .cli import design_life_cli
 
@@ -147,7 +147,7 @@ def _cmd_evaluate(args: argparse.Namespace) -> int:
         from .keys import format_value, label
 
         print(f"profile {args.profile}" + (f", constellation {args.constellation}" if args.constellation else ""))
-        result["violated_bounds"] = bounds_verdict(profile, result, labelled=True)["violated_bounds"]
+        result["violated_bounds"] = bounds_verdict(profile.campaign, result, labelled=True)["violated_bounds"]
         width = max(len(label(key)) for key in result)
         for key, value in result.items():
             value = ("; ".join(value) or "none") if isinstance(value, list) else value

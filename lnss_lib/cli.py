@@ -66,7 +66,7 @@ def design_life_cli(profile_name: str, life_days: float, *, walker: tuple | None
     a such as Ely's phasing, which its authors found by propagating those very states, is flown as published).
     NaN becomes None. An invalid Walker design (the evaluation says why) gives every key None."""
     from .constellation import WalkerDesign
-    from .design_life.evaluation import LIFE_KEYS, elements_deg_in_frame, evaluate_design_life, json_ready, life_evaluation_settings
+    from .design_life.evaluation import LIFE_KEYS, elements_deg_in_frame, evaluate_design_life, json_ready
     from .ephemeris import tdb_seconds
     from .evaluator import context_for
     from .propagator import elements_deg_to_states
@@ -74,7 +74,7 @@ def design_life_cli(profile_name: str, life_days: float, *, walker: tuple | None
     if not (isinstance(life_days, (int, float)) and math.isfinite(life_days) and life_days > 0):
         raise ValueError(f"--design-life-days must be a positive number of days; got {life_days!r}")
     profile = load_settings(profile_name, overrides=overrides)
-    step_s = life_evaluation_settings(profile)["sample_step_s"]
+    step_s = profile.life_evaluation.sample_step_s
     if not life_days * SECONDS_PER_DAY > step_s:
         raise ConfigError(f"--design-life-days {life_days!r} ({life_days * SECONDS_PER_DAY:g} s) is not longer than "
                           f"life_evaluation.sample_step_s = {step_s!r} s; allowed: a life of more than one sampling step",
@@ -91,7 +91,7 @@ def design_life_cli(profile_name: str, life_days: float, *, walker: tuple | None
     else:
         try:
             elements = WalkerDesign(*walker).elements_deg()
-            elements_deg_to_states(profile.dynamics, elements, tdb_seconds(profile["epoch"]["start_tdb"], "TDB"))
+            elements_deg_to_states(profile.dynamics, elements, tdb_seconds(profile.epoch.start_tdb, "TDB"))
         except InfeasibleDesignError:
             return {key: None for key in LIFE_KEYS}
     result = evaluate_design_life(context_for(profile), elements, float(life_days))

@@ -26,7 +26,8 @@ from pathlib import Path
 from .constants import (CR_AREA_MASS_MAX_M2_KG, CR_MAX, MOON_HILL_RADIUS_KM, SECONDS_PER_DAY,
                         SPACECRAFT_MASS_RANGE_KG, TOLERANCE_FLOOR)
 from .errors import ConfigError
-from .keys import DELTAV_SATELLITES, EXTRA_METRIC_KEYS, NEEDS_ALL_SATELLITES
+from .keys import (DELTAV_SATELLITES, DESIGN_KEYS, EXTRA_METRIC_KEYS, INTEGER_DESIGN_KEYS, METRIC_KEYS,
+                   NEEDS_ALL_SATELLITES)
 
 PACKAGE_DIR = Path(__file__).resolve().parent
 PROJECT_DIR = PACKAGE_DIR.parent
@@ -204,7 +205,14 @@ RANGES = {
     "deltav.year_days": POSITIVE, "deltav.paper_divisor_floor": (0.0, 1.0, False, True),
     "deltav.paper_cap_kms2": POSITIVE, "deltav.secular_min_periods": (1.0, None, True, False),
     "deltav.slsqp_lambda": NON_NEGATIVE,
-    "campaign.max_errors": (0, None, False, False),
+    "campaign.max_errors": (0, None, False, False), "campaign.population": (2, None, False, False),
+    "campaign.generations": (1, None, False, False), "campaign.crossover_prob": (0.0, 1.0, False, False),
+    "campaign.crossover_eta": NON_NEGATIVE, "campaign.mutation_eta": NON_NEGATIVE,
+    "campaign.mutation_prob_var": (0.0, 1.0, False, False), "campaign.seed": (0, None, False, False),
+    "campaign.ftol": NON_NEGATIVE, "campaign.ftol_period": (1, None, False, False),
+    "campaign.nan_objective": NON_NEGATIVE, "campaign.nan_violation": NON_NEGATIVE,
+    "campaign.synthetic_delay_s": NON_NEGATIVE, "campaign.max_resubmits": (0, None, False, False),
+    "campaign.numba_threads_per_worker": (0, None, False, False),
     "stability.life_days": POSITIVE, "stability.average_days": POSITIVE, "stability.table_step_days": POSITIVE,
     "stability.rtol": TOLERANCE, "stability.atol": TOLERANCE, "stability.output_step_days": POSITIVE,
     "stability.margin_km": NON_NEGATIVE, "stability.validation_degree": (0, 100, False, False),
@@ -434,13 +442,15 @@ def validate_profile(profile: dict, *, partial: bool = False, source=None) -> No
     Keys and value types follow ``params/paper.toml`` (integers where it has integers; floats accept
     integers); numbers are finite and inside :data:`RANGES`; ``integrator.setting`` names one of
     ``integrator.settings``. Tables in :data:`FREE_TABLES` take any keys (their numbers must be
-    finite; the campaign settings check their content). Raises :class:`ConfigError` naming the key,
+    finite; :func:`_check_campaign` checks the campaign's). Raises :class:`ConfigError` naming the key,
     the value and what is allowed (with the file and line when ``source`` is a path).
     """
     if not isinstance(profile, dict):
         raise ConfigError(f"a profile is a table of sections; got {profile!r}")
     _walk(profile, _reference(), "", "", partial, source)
     _check_across(profile, source)
+    if not partial:
+        _check_campaign(profile, source)
     overrides = _lookup(profile, "campaign.overrides")
     if overrides:                                   # the profile campaign evaluations use
         _check_across(deep_merge(profile, overrides), source)
@@ -477,6 +487,67 @@ def _check_across(profile: dict, source) -> None:
     if None not in craft and craft[2] > 0 and not in_range(craft[0] * craft[1] / craft[2], CR_AREA_MASS):
         _fail(f"spacecraft cr * area_m2 / mass_kg = {craft[0] * craft[1] / craft[2]:.6g} m^2/kg is out of range; "
               f"allowed: {allowed_range_text(CR_AREA_MASS)} ({CR_AREA_MASS_WHY})", "spacecraft.area_m2", source)
+
+
+CAMPAIGN_OFF = "off"          # a campaign constraint or hypervolume entry set to "off" drops an inherited one
+
+
+def _is_number(value) -> bool:
+    return not isinstance(value, bool) and isinstance(value, (int, float)) and math.isfinite(value)
+
+
+def _check_campaign(profile: dict, source) -> None:
+    """Rules of the free tables and names of a complete profile's ``[campaign]`` (the campaign plan reads them
+    unchecked): objectives and bounds name metrics (:data:`METRIC_KEYS` and ``[evaluator] extra_metrics``), a
+    constraint is ``{min = x}`` or ``{max = x}``, a hypervolume reference is positive, the grid of every design
+    variable has finite ``lower < upper`` and ``step > 0`` (semi-major axes in the Hill sphere; integer bounds
+    ``>= 1`` and integer steps for the plane and satellite counts), a companion is another profile."""
+    campaign = profile["campaign"]
+    metrics = METRIC_KEYS + tuple(profile["evaluator"]["extra_metrics"])
+    metric_text = f"{', '.join(metrics)} (extra metrics: list them in [evaluator] extra_metrics)"
+    objectives = campaign["objectives"]
+    names = [o.lstrip("-") if isinstance(o, str) else o for o in objectives]
+    bad = [o for o, name in zip(objectives, names) if name not in metrics]
+    if not objectives or bad or len(set(names)) != len(names):
+        _fail(f"campaign.objectives = {objectives!r} is not allowed" + (f" ({bad!r} unknown)" if bad else "")
+              + f"; allowed: distinct metric names, '-' first to maximise, from {metric_text}", "campaign.objectives",
+              source)
+    entries = {   # table -> (test of an entry's value, what is allowed)
+        "constraints": (lambda spec: isinstance(spec, dict) and len(spec) == 1 and next(iter(spec)) in ("min", "max")
+                        and _is_number(next(iter(spec.values()))), "exactly one of {min = number}, {max = number}"),
+        "hypervolume": (lambda ref: _is_number(ref) and ref > 0, "a positive reference value")}
+    for table, (ok, allowed) in entries.items():
+        for metric, value in campaign[table].items():
+            key = f"campaign.{table}.{metric}"
+            if value == CAMPAIGN_OFF:
+                continue
+            if metric not in metrics:
+                _fail(f"unknown metric {key}; allowed: {metric_text}", key, source)
+            if not ok(value):
+                _fail(f"{key} = {value!r} is not allowed; allowed: {allowed} or {CAMPAIGN_OFF!r}", key, source)
+    variables = campaign["variables"]
+    if set(variables) != set(DESIGN_KEYS):
+        _fail(f"campaign.variables names {', '.join(variables)}; allowed: exactly {', '.join(DESIGN_KEYS)}",
+              "campaign.variables", source)
+    for name in DESIGN_KEYS:
+        key, spec = f"campaign.variables.{name}", variables[name]
+        if not isinstance(spec, dict) or set(spec) != {"lower", "upper", "step"} \
+                or not all(_is_number(spec[k]) for k in spec):
+            _fail(f"{key} = {spec!r} is not allowed; allowed: {{lower = number, upper = number, step = number}}",
+                  key, source)
+        lower, upper, step = (spec[k] for k in ("lower", "upper", "step"))
+        if step <= 0 or upper <= lower:
+            _fail(f"{key} = {spec!r} is not allowed; allowed: lower < upper and step > 0", key, source)
+        if name == "sma_km" and not (in_range(lower, SEMI_MAJOR_AXIS) and in_range(upper, SEMI_MAJOR_AXIS)):
+            _fail(f"{key} = {spec!r} is out of range; allowed: bounds in {allowed_range_text(SEMI_MAJOR_AXIS)} "
+                  f"({SEMI_MAJOR_AXIS_WHY})", key, source)
+        if name in INTEGER_DESIGN_KEYS and (any(v != round(v) for v in (lower, upper, step)) or lower < 1):
+            _fail(f"{key} = {spec!r} is not allowed; allowed: integer bounds >= 1 and an integer step (a count)",
+                  key, source)
+    companion = campaign["companion_profile"]
+    if companion and companion == profile["profile"].get("name"):
+        _fail(f"campaign.companion_profile = {companion!r} is this profile; allowed: \"\" (none) or another profile",
+              "campaign.companion_profile", source)
 
 
 def parse_sets(items) -> dict:

@@ -29,7 +29,7 @@ import plotly.io as pio
 from . import deltav, frames
 from .atomicio import write_text_atomic
 from .config import OUTPUTS_DIR, available_profiles, deep_merge, profile_path, toml_literal
-from .settings import load_settings
+from .settings import StandaloneElfoSettings, VariableBounds, load_settings
 from .constellation import walker_design
 from .errors import ImpactError, InfeasibleDesignError
 from .evaluator import EvaluationContext, analyse_constellation, context_for
@@ -65,33 +65,33 @@ class Evaluation:
         return not self.reason
 
 
-def snap_to_grid(value: float, spec: dict) -> float | int:
-    """``value`` on the Table 3 grid ``lower + k * step`` (eq. 43-44), clipped to [lower, upper]."""
-    lower, upper, step = float(spec["lower"]), float(spec["upper"]), float(spec["step"])
-    if not all(map(math.isfinite, (value, lower, upper, step))) or step <= 0 or upper < lower:
+def snap_to_grid(value: float, spec: VariableBounds) -> float | int:
+    """``value`` on the Table 3 grid ``lower + k * step`` (eq. 43-44; ``spec`` checked at load), clipped to
+    [lower, upper]."""
+    lower, upper, step = float(spec.lower), float(spec.upper), float(spec.step)
+    if not math.isfinite(value):
         raise ValueError(f"cannot snap {value!r} to the grid lower={lower}, upper={upper}, step={step}")
     snapped = round(min(max(lower + round((float(value) - lower) / step) * step, lower), upper), 10)
-    return int(snapped) if isinstance(spec["step"], int) and isinstance(spec["lower"], int) else snapped
+    return int(snapped) if isinstance(spec.step, int) and isinstance(spec.lower, int) else snapped
 
 
-def table4_design(profile: dict) -> dict:
-    """The profile's standalone ELFO (Table 4) as Table 3 design variables (RAAN of eq. 42 assumed)."""
-    elfo = profile["standalone_elfo"]
-    return {"sma_km": elfo["sma_km"], "ecc": elfo["ecc"], "aop_deg": elfo["aop_deg"], "inc_deg": elfo["inc_deg"],
-            "n_planes": len(elfo["raan_deg"]), "sats_per_plane": elfo["sats_per_plane"]}
+def table4_design(elfo: StandaloneElfoSettings) -> dict:
+    """The standalone ELFO (Table 4, ``settings.standalone_elfo``) as Table 3 design variables (RAAN of eq. 42 assumed)."""
+    return {"sma_km": elfo.sma_km, "ecc": elfo.ecc, "aop_deg": elfo.aop_deg, "inc_deg": elfo.inc_deg,
+            "n_planes": len(elfo.raan_deg), "sats_per_plane": elfo.sats_per_plane}
 
 
-def initial_design(profile: dict) -> dict:
+def initial_design(elfo: StandaloneElfoSettings, variables: Mapping[str, VariableBounds]) -> dict:
     """The explorer's first design: the grid design nearest the standalone ELFO (Table 4), variable by variable;
-    Table 4 itself where it lies on the profile's Table 3 grid (:func:`start_note` says which)."""
-    raw, variables = table4_design(profile), profile["campaign"]["variables"]
+    Table 4 itself where it lies on the Table 3 grid ``variables`` (:func:`start_note` says which)."""
+    raw = table4_design(elfo)
     return {key: snap_to_grid(raw[key], variables[key]) for key in DESIGN_KEYS}
 
 
-def start_note(profile: dict) -> str:
+def start_note(elfo: StandaloneElfoSettings, variables: Mapping[str, VariableBounds]) -> str:
     """One sentence on the first design: Table 4 itself, or the nearest grid design and each variable in which
     it differs from Table 4 (a value outside Table 3's bounds said so), with both satellite counts."""
-    raw, start, variables = table4_design(profile), initial_design(profile), profile["campaign"]["variables"]
+    raw, start = table4_design(elfo), initial_design(elfo, variables)
     n_table4, n_start = raw["n_planes"] * raw["sats_per_plane"], start["n_planes"] * start["sats_per_plane"]
     elfo = (f"the standalone ELFO (Table 4: {raw['n_planes']} planes x {raw['sats_per_plane']}, "
             f"{n_table4} satellites)")
@@ -99,8 +99,8 @@ def start_note(profile: dict) -> str:
     for key in DESIGN_KEYS:
         if not math.isclose(start[key], raw[key], rel_tol=0.0, abs_tol=1e-9):
             spec = variables[key]
-            outside = (f", outside this profile's Table 3 range {format_value(key, spec['lower'])}-"
-                       f"{format_value(key, spec['upper'])}" if not spec["lower"] <= raw[key] <= spec["upper"] else "")
+            outside = (f", outside this profile's Table 3 range {format_value(key, spec.lower)}-"
+                       f"{format_value(key, spec.upper)}" if not spec.lower <= raw[key] <= spec.upper else "")
             differ.append(f"{label(key)} {format_value(key, start[key])} (Table 4: {format_value(key, raw[key])}{outside})")
     if not differ:
         return f"First design: {elfo}, which lies on this profile's grid."
@@ -187,16 +187,17 @@ class DesignExplorer:
         self.profile_choice = widgets.Dropdown(options=choices, value=profile_name,
                                                description="profile", style=style)
         self.frame_choice = widgets.Dropdown(options=ELEMENT_FRAMES, description="element frame", style=style,
-                                             value=frame or self.profile["frames"]["element_frame"])
+                                             value=frame or self.profile.frames.element_frame)
         self.model_choice = widgets.Dropdown(options=DELTAV_MODELS, description="Delta-V model", style=style,
-                                             value=model or self.profile["deltav"]["model"])
+                                             value=model or self.profile.deltav.model)
         self.sliders: dict[str, widgets.Widget] = {}
         for key in DESIGN_KEYS:
             cls = widgets.IntSlider if key in INTEGER_DESIGN_KEYS else widgets.FloatSlider
             self.sliders[key] = cls(description=SLIDER_LABELS[key], continuous_update=False, style=style,
                                     layout={"width": "420px"})
-        self._configure_sliders(design or initial_design(self.profile))
-        self.start_text = start_note(self.profile) if design is None else "First design: the one the explorer was given."
+        self._configure_sliders(design or initial_design(self.profile.standalone_elfo, self.profile.campaign.variables))
+        self.start_text = (start_note(self.profile.standalone_elfo, self.profile.campaign.variables) if design is None
+                           else "First design: the one the explorer was given.")
         self.start_html = widgets.HTML(f"<div style='max-width:640px'>{html.escape(self.start_text)}</div>")
         self.status = widgets.HTML()
         self.metrics_html = widgets.HTML()
@@ -215,23 +216,23 @@ class DesignExplorer:
 
     # ---- state ---------------------------------------------------------------------------------
     def _configure_sliders(self, design: dict) -> None:
-        variables = self.profile["campaign"]["variables"]
+        variables = self.profile.campaign.variables
         self._holding = True
         try:
             for key, slider in self.sliders.items():
                 spec = variables[key]
-                slider.min, slider.max = min(spec["lower"], slider.min), max(spec["upper"], slider.max)
-                slider.step = spec["step"]
+                slider.min, slider.max = min(spec.lower, slider.min), max(spec.upper, slider.max)
+                slider.step = spec.step
                 slider.value = snap_to_grid(design[key], spec)
-                slider.min, slider.max = spec["lower"], spec["upper"]
+                slider.min, slider.max = spec.lower, spec.upper
                 if isinstance(slider, widgets.FloatSlider):
-                    slider.readout_format = ".2f" if spec["step"] < 1 else ".0f"
+                    slider.readout_format = ".2f" if spec.step < 1 else ".0f"
         finally:
             self._holding = False
 
     def design(self) -> dict:
         """The slider values on the profile's Table 3 grid, keyed as :data:`lnss_lib.keys.DESIGN_KEYS`."""
-        variables = self.profile["campaign"]["variables"]
+        variables = self.profile.campaign.variables
         return {key: snap_to_grid(self.sliders[key].value, variables[key]) for key in DESIGN_KEYS}
 
     def settings(self) -> dict:
@@ -308,7 +309,7 @@ class DesignExplorer:
         ``outputs/<profile>/explorer/<name>.toml`` (written atomically); ``path`` is None otherwise.
         """
         design, name = self.design(), self.profile_choice.value
-        base = load_settings(name)
+        base = load_settings(name).as_dict()
         argv = (["evaluate", "--profile", name] if name in available_profiles()
                 else ["evaluate", "--profile-file", str(profile_path(name))])    # a reproduce --profile-file run
         for key in DESIGN_KEYS:
@@ -364,11 +365,11 @@ class DesignExplorer:
             profile, study = self.context().profile, cur.study
             design = ", ".join(f"{SLIDER_LABELS[k]} {v:g}" for k, v in cur.design.items())
             self.figures = {
-                "availability": availability_polar_maps(study["dop"], float(profile["dop"]["availability_threshold"]),
+                "availability": availability_polar_maps(study["dop"], profile.dop.availability_threshold,
                                                         title=f"South-pole DOP availability: {design}"),
                 "time_series": dop_time_series(study["dop"], title="Grid-mean visibility, PDOP and HDOP"),
                 "constellation": constellation_3d(study["propagation"], title="Constellation (Moon-centred J2000)",
-                                                  moon_radius_km=float(profile["constants"]["r_moon_mean_km"])),
+                                                  moon_radius_km=profile.constants.r_moon_mean_km),
             }
         for name, out in self.outputs.items():
             out.outputs = (_plotly_output(self.figures[name]),) if name in self.figures else ()

@@ -106,7 +106,7 @@ def reproduce(profile_name: str = DEFAULT_PROFILE, only: list[str] | None = None
     import papermill
     from tqdm import tqdm
 
-    timeout_s = int(load_settings(profile_name, overrides=overrides)["notebooks"]["timeout_s"])
+    timeout_s = load_settings(profile_name, overrides=overrides).notebooks.timeout_s
     parameters = {"profile_name": profile_name, "overrides_json": json.dumps(overrides or {})}
     books = notebook_paths(only)
     kernel_environment(profile_name)
@@ -276,7 +276,7 @@ def write_index(profile_name: str) -> Path:
         if tabs:
             parts.append("<h3>Tables</h3>" + "".join(tabs))
         sections.append("".join(parts))
-    companion = (load_settings(profile_name)["campaign"].get("companion_profile") or None
+    companion = (load_settings(profile_name).campaign.companion_profile or None
                  if profile_name in available_profiles() else None)
     _, findings = write_findings(profile_name, companion)
     contents = "".join(f'<a href="#nb-{g or "other"}">{html.escape(g or "other")}</a>' for g in

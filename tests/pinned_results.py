@@ -135,7 +135,7 @@ def campaign_pin(overrides: dict | None = None) -> dict:
     from lnss_lib.campaign import run_campaign
     from lnss_lib.campaign.callbacks import Callback
     from lnss_lib.campaign.journal import read_cache_records
-    from lnss_lib.campaign.settings import CampaignSettings
+    from lnss_lib.campaign.settings import CampaignPlan
     from lnss_lib.settings import load_settings
 
     populations = []
@@ -146,7 +146,7 @@ def campaign_pin(overrides: dict | None = None) -> dict:
             populations.append({"generation": state.generation, "X": pop.get("X"), "F": pop.get("F"),
                                 "G": pop.get("G")})
 
-    settings = CampaignSettings.from_profile(load_settings(CAMPAIGN_PROFILE, overrides=overrides))
+    settings = CampaignPlan.of(load_settings(CAMPAIGN_PROFILE, overrides=overrides))
     with tempfile.TemporaryDirectory(prefix="lnss_pin_campaign_") as tmp:
         run_dir = Path(tmp) / "run"
         result = run_campaign(CAMPAIGN_PROFILE, overrides=overrides, workers=0, run_dir=run_dir, progress=False,
@@ -166,11 +166,11 @@ def campaign_pin(overrides: dict | None = None) -> dict:
 def random_designs_pin(overrides: dict | None = None) -> dict:
     """``RANDOM_N`` designs drawn with ``RANDOM_SEED`` from the paper grid, evaluated as the campaign does."""
     from lnss_lib.campaign.backends import SerialBackend
-    from lnss_lib.campaign.settings import CampaignSettings, evaluation_profile
+    from lnss_lib.campaign.settings import CampaignPlan, evaluation_profile
     from lnss_lib.settings import load_settings
 
     profile = load_settings(RANDOM_PROFILE, overrides=overrides)
-    settings = CampaignSettings.from_profile(profile)
+    settings = CampaignPlan.of(profile)
     rng = np.random.default_rng(RANDOM_SEED)
     keys = [tuple(int(v) for v in row) for row in rng.integers(0, settings.grid.n_levels + 1, size=(RANDOM_N, 6))]
     designs = settings.grid.designs(np.array(keys))

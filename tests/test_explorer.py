@@ -22,7 +22,7 @@ import pytest
 pytest.importorskip("ipywidgets")
 
 from lnss_lib.__main__ import build_parser, main  # noqa: E402
-from lnss_lib.settings import load_settings  # noqa: E402
+from lnss_lib.settings import VariableBounds, load_settings  # noqa: E402
 from lnss_lib.evaluator import context_for, evaluate_design  # noqa: E402
 from lnss_lib.constellation import standalone_elfo, walker_design  # noqa: E402
 from lnss_lib.explorer import DesignExplorer, initial_design, snap_to_grid, table4_design  # noqa: E402
@@ -60,11 +60,11 @@ def _assert_same_metrics(ours, reference):
 
 
 def test_snap_to_grid_follows_table3_steps():
-    spec = {"lower": 4000.0, "upper": 24000.0, "step": 100.0}
+    spec = VariableBounds(lower=4000.0, upper=24000.0, step=100.0)
     assert snap_to_grid(6143.0, spec) == 6100.0
     assert snap_to_grid(99999.0, spec) == 24000.0
-    assert snap_to_grid(0.6000000001, {"lower": 0.0, "upper": 0.8, "step": 0.01}) == 0.6
-    planes = {"lower": 2, "upper": 5, "step": 1}
+    assert snap_to_grid(0.6000000001, VariableBounds(lower=0.0, upper=0.8, step=0.01)) == 0.6
+    planes = VariableBounds(lower=2, upper=5, step=1)
     assert snap_to_grid(7, planes) == 5 and snap_to_grid(3.2, planes) == 3 and isinstance(snap_to_grid(3.2, planes), int)
     with pytest.raises(ValueError, match="nan"):
         snap_to_grid(float("nan"), spec)
@@ -72,10 +72,10 @@ def test_snap_to_grid_follows_table3_steps():
 
 def test_initial_state_is_the_grid_design_nearest_the_elfo_and_matches_evaluate(explorer):
     profile = load_settings(PROFILE)
-    assert explorer.design() == initial_design(profile)
+    assert explorer.design() == initial_design(profile.standalone_elfo, profile.campaign.variables)
     for key, slider in explorer.sliders.items():
-        spec = profile["campaign"]["variables"][key]
-        assert (slider.min, slider.max, slider.step) == (spec["lower"], spec["upper"], spec["step"]), key
+        spec = profile.campaign.variables[key]
+        assert (slider.min, slider.max, slider.step) == (spec.lower, spec.upper, spec.step), key
     assert explorer.current.feasible and explorer.previous is None
     _assert_same_metrics(explorer.current.metrics, _reference(explorer.design()))
 
@@ -84,8 +84,8 @@ def test_start_says_it_is_not_table4_and_how_it_differs(explorer):
     """Table 3 caps satellites per plane below Table 4's 8: the first design is the nearest grid design, and the
     page says so, naming every variable that differs (with Table 4's value) and both satellite counts."""
     profile = load_settings(PROFILE)
-    table4, start = table4_design(profile), explorer.design()
-    assert table4["sats_per_plane"] > profile["campaign"]["variables"]["sats_per_plane"]["upper"]
+    table4, start = table4_design(profile.standalone_elfo), explorer.design()
+    assert table4["sats_per_plane"] > profile.campaign.variables["sats_per_plane"].upper
     differ = [key for key in table4 if not math.isclose(start[key], table4[key], abs_tol=1e-9)]
     assert {"sats_per_plane", "sma_km", "inc_deg"} <= set(differ)
     text = explorer.start_text
@@ -107,7 +107,7 @@ def test_start_is_table4_itself_where_the_grid_holds_it(tmp_path):
     explorer = DesignExplorer(PROFILE, outputs_dir=tmp_path, overrides=grid)
     profile = load_settings(PROFILE, overrides=grid)
     design = explorer.design()
-    assert design == table4_design(profile)
+    assert design == table4_design(profile.standalone_elfo)
     elements = walker_design(profile.dynamics, design["sma_km"], design["ecc"], design["aop_deg"], design["inc_deg"],
                              design["n_planes"], design["sats_per_plane"]).elements_deg()
     np.testing.assert_allclose(elements, standalone_elfo(profile.standalone_elfo, profile.dynamics), rtol=0.0, atol=1e-9)

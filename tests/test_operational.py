@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 import xarray as xr
 
-from lnss_lib.campaign import CampaignSettings, run_campaign, synthetic_evaluation
+from lnss_lib.campaign import CampaignPlan, run_campaign, synthetic_evaluation
 from lnss_lib.campaign.fitness import constraint_matrix
 from lnss_lib.campaign.settings import evaluation_hash
 from lnss_lib.settings import load_settings
@@ -94,22 +94,22 @@ def test_bad_extra_metrics_are_config_errors(overrides, key):
 
 def test_campaign_names_are_checked_against_the_requested_metrics():
     with pytest.raises(ValueError, match="extra_metrics"):
-        CampaignSettings.from_profile(load_settings("paper", overrides={"campaign": {"objectives": ["n_sat", "sk_dv_estimate_kms_per_year"]}}))
+        load_settings("paper", overrides={"campaign": {"objectives": ["n_sat", "sk_dv_estimate_kms_per_year"]}})
     with pytest.raises(ValueError, match="stable_screen"):
-        CampaignSettings.from_profile(load_settings("paper", overrides={"campaign": {"constraints": {"stable_screen": {"min": 1}}}}))
+        load_settings("paper", overrides={"campaign": {"constraints": {"stable_screen": {"min": 1}}}})
     with pytest.raises(ValueError, match="notebook_mode"):
-        CampaignSettings.from_profile(load_settings("paper", overrides={"campaign": {"notebook_mode": "maybe"}}))
+        load_settings("paper", overrides={"campaign": {"notebook_mode": "maybe"}})
     with pytest.raises(ValueError, match="companion_profile"):
-        CampaignSettings.from_profile(load_settings("paper", overrides={"campaign": {"companion_profile": "paper"}}))
+        load_settings("paper", overrides={"campaign": {"companion_profile": "paper"}})
     with pytest.raises(ValueError, match="satellites"):
         context_for(load_settings("ci", overrides={"deltav": {"satellites": "some"}}))
 
 
 def test_operational_profiles_load_and_validate():
-    paper = CampaignSettings.from_profile(load_settings("paper"))
+    paper = CampaignPlan.of(load_settings("paper"))
     for name in ("operational", "quick_operational", "ci_operational"):
         profile = load_settings(name)
-        s = CampaignSettings.from_profile(profile)
+        s = CampaignPlan.of(profile)
         assert profile["dop"]["los_axes"] == "enu" and profile["deltav"]["satellites"] == "first"
         assert set(s.extra_metrics) == {"sk_dv_estimate_kms_per_year", "sk_dv_estimate_max_kms_per_year",
                                         "stable_screen", "screen_min_perilune_alt_km"}
@@ -122,10 +122,10 @@ def test_operational_profiles_load_and_validate():
         assert dict(s.hypervolume) == {"n_sat": 20.0, "pdop_mean_3sigma": 10.0, "hdop_mean_3sigma": 10.0,
                                        "sk_dv_estimate_kms_per_year": 1.0}
         assert s.companion_profile == "" and np.array_equal(s.grid.n_levels, paper.grid.n_levels)
-    assert CampaignSettings.from_profile(load_settings("operational")).notebook_mode == "load"
+    assert CampaignPlan.of(load_settings("operational")).notebook_mode == "load"
     assert evaluation_hash(load_settings("quick_operational")) == evaluation_hash(load_settings("operational"))
-    assert CampaignSettings.from_profile(load_settings("quick")).companion_profile == "quick_operational"
-    assert CampaignSettings.from_profile(load_settings("ci")).companion_profile == "ci_operational"
+    assert CampaignPlan.of(load_settings("quick")).companion_profile == "quick_operational"
+    assert CampaignPlan.of(load_settings("ci")).companion_profile == "ci_operational"
 
 
 @pytest.mark.parametrize("base, companion", [("quick", "quick_operational"), ("ci", "ci_operational")])

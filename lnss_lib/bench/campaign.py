@@ -21,7 +21,7 @@ import numpy as np
 
 from ..config import PARAMS_DIR, deep_merge
 from ..settings import load_settings
-from ..campaign import CampaignSettings, load_checkpoint, read_cache_records, run_campaign
+from ..campaign import load_checkpoint, read_cache_records, run_campaign
 from ..campaign.timing import campaign_timing, steady_rate
 from ..paper import EVALUATIONS
 
@@ -59,9 +59,9 @@ def _projection(profile_name: str, population: int, generations: int, workers: i
     hits = sum(h["n_cache_hits"] for h in history) / max(1, sum(h["n_designs"] for h in history))
     projected_h = (startup_s + first_gen_s + EVALUATIONS / rate) / 3600.0
     budget = timing["worker_budget_s"]
-    print(f"campaign [{profile_name}] {population} x {generations} generations, {profile['epoch']['duration_days']:g} "
-          f"days, degree {profile['gravity']['degree']} (truncation {profile['gravity'].get('truncation_kms2', 0.0):g} "
-          f"km/s^2), integrator {profile['integrator']['setting']}, {run['n_workers']} worker(s): {n} unique designs "
+    print(f"campaign [{profile_name}] {population} x {generations} generations, {profile.epoch.duration_days:g} "
+          f"days, degree {profile.gravity.degree} (truncation {profile.gravity.truncation_kms2:g} "
+          f"km/s^2), integrator {profile.integrator.setting}, {run['n_workers']} worker(s): {n} unique designs "
           f"({run['result'].n_feasible} feasible), cache hits {100 * hits:.1f}% of requests")
     print(f"  wall {wall:.1f} s (start-up {startup_s:.1f} s, generation 1 {first_gen_s:.1f} s incl. worker warm-up)")
     print(f"  throughput {n / wall:.2f} designs/s overall, {rate:.2f} designs/s from generation 2 on")
@@ -177,7 +177,7 @@ def run(profile_name: str = "paper", generations: int | None = None, population:
     ``params/operational.toml`` exists its projection is printed beside the profile's. ``overrides``
     (``--set``) apply to every campaign run here.
     """
-    settings = CampaignSettings.from_profile(load_settings(profile_name, overrides=overrides))
+    settings = load_settings(profile_name, overrides=overrides).campaign
     population = population or min(settings.population, 32)
     generations = generations or min(settings.generations, 8)
     out = {profile_name: _projection(profile_name, population, generations, workers, overrides)}

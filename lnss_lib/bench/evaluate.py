@@ -20,12 +20,12 @@ from ..constellation import WalkerDesign
 from ..evaluator import EvaluationContext, analyse_constellation, evaluate_constellation
 from ..errors import ImpactError
 from ..paper import EVALUATIONS
-from ..campaign import CampaignSettings
+from ..campaign import CampaignPlan
 
 PARTS = ("propagation", "dop", "deltav", "gps")
 
 
-def _designs(campaign: CampaignSettings, n: int, seed: int = 12) -> list[WalkerDesign]:
+def _designs(campaign: CampaignPlan, n: int, seed: int = 12) -> list[WalkerDesign]:
     """``n`` Walker designs drawn uniformly from the campaign grid (Table 3) that do not start inside the Moon."""
     grid = campaign.grid
     rng = np.random.default_rng(seed)
@@ -57,7 +57,7 @@ def run(profile_name: str = "paper", n_designs: int = 12, repeats: int = 2, over
     def new(elements):
         return evaluate_constellation(new_ctx, elements)
 
-    designs = _designs(CampaignSettings.from_profile(profile), n_designs)
+    designs = _designs(CampaignPlan.of(profile), n_designs)
     start = time.perf_counter()
     old(designs[0].elements_deg())
     new(designs[0].elements_deg())

@@ -4,7 +4,7 @@ Layer 3 of the workbook: the campaign engine. :func:`run_campaign` (``python -m 
 runs pymoo's NSGA-II through ask and tell in a run directory; a campaign killed at any moment and
 resumed (``--resume``) ends with the same population as an uninterrupted one. Modules:
 
-* :mod:`.settings` (:class:`CampaignSettings`, the evaluation hash) and :mod:`.grid` (eq. 43-44);
+* :mod:`.settings` (:class:`CampaignPlan`, derived from ``settings.campaign``; the evaluation hash) and :mod:`.grid` (eq. 43-44);
 * :mod:`.fitness`: objective and constraint matrices, non-dominated mask, hypervolume (numpy; pymoo's HV indicator);
 * :mod:`.tasks` (one evaluation) and :mod:`.backends` (serial, Dask) with :class:`BatchEvaluator`;
 * :mod:`.journal`: ``evaluations.jsonl``, the persistent evaluation cache;
@@ -21,7 +21,7 @@ from __future__ import annotations
 
 import importlib
 
-__all__ = ["run_campaign", "CampaignResult", "CampaignSettings", "DesignGrid", "load_run",
+__all__ = ["run_campaign", "CampaignResult", "CampaignPlan", "DesignGrid", "load_run",
            "load_checkpoint", "final_population", "export_results", "write_results", "RESULT_FILES",
            "evaluation_hash", "evaluation_profile", "Callback", "RunState", "ErrorGuard", "HistoryRecorder",
            "Checkpointer", "ProgressBars", "CellProgressBar", "default_callbacks", "objective_matrix", "constraint_matrix",
@@ -63,7 +63,7 @@ _MODULES = {
     "CampaignResult": "runner",
     "default_callbacks": "runner",
     "run_campaign": "runner",
-    "CampaignSettings": "settings",
+    "CampaignPlan": "settings",
     "evaluation_hash": "settings",
     "evaluation_profile": "settings",
     "evaluate_task": "tasks",

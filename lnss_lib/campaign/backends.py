@@ -17,7 +17,8 @@ import numpy as np
 
 from .fitness import metric_columns
 from .journal import EvaluationCache
-from .settings import CampaignSettings
+from ..settings import Settings
+from .settings import CampaignPlan
 from .tasks import evaluate_task
 
 __all__ = ["SerialBackend", "DaskBackend", "open_backend", "BatchEvaluator"]
@@ -29,7 +30,7 @@ class SerialBackend:
     n_workers = 1
     resubmitted = 0
 
-    def __init__(self, eval_profile: dict, settings: CampaignSettings):
+    def __init__(self, eval_profile: Settings, settings: CampaignPlan):
         self.args = (eval_profile, settings.evaluator, settings.synthetic_delay_s, 0)
 
     def run(self, designs: list[dict]):
@@ -62,7 +63,7 @@ class DaskBackend:
     each, on 127.0.0.1) or an existing one at ``scheduler_address``. A task lost with its worker
     (KilledWorker, closed connection, cancelled) is resubmitted up to ``max_resubmits`` times."""
 
-    def __init__(self, eval_profile: dict, settings: CampaignSettings, n_workers: int | None = None,
+    def __init__(self, eval_profile: Settings, settings: CampaignPlan, n_workers: int | None = None,
                  scheduler_address: str | None = None):
         import logging
 
@@ -123,7 +124,7 @@ class DaskBackend:
             self.cluster.close()
 
 
-def open_backend(eval_profile: dict, settings: CampaignSettings, workers: int | None = None,
+def open_backend(eval_profile: Settings, settings: CampaignPlan, workers: int | None = None,
                  scheduler_address: str | None = None):
     """Serial for ``workers`` 0 or 1 (and no address), else Dask (``workers`` None: one per core)."""
     if scheduler_address:
@@ -145,7 +146,7 @@ class BatchEvaluator:
     callable ``(n_done, n_total, n_hits)`` called as designs finish.
     """
 
-    def __init__(self, settings: CampaignSettings, cache: EvaluationCache, backend):
+    def __init__(self, settings: CampaignPlan, cache: EvaluationCache, backend):
         self.settings = settings
         self.cache = cache
         self.backend = backend

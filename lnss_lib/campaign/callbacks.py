@@ -21,7 +21,7 @@ import numpy as np
 from ..progress import CellProgress
 from .fitness import constraint_matrix, constraint_violation, hypervolume, metric_columns
 from .rundir import write_checkpoint
-from .settings import CampaignSettings
+from .settings import CampaignPlan
 from .timing import generation_timing
 
 __all__ = ["Callback", "RunState", "CampaignStopped", "ErrorGuard", "HistoryRecorder", "Checkpointer", "ProgressBars", "CellProgressBar",
@@ -40,7 +40,7 @@ class RunState:
 
     run_dir: Path
     name: str
-    settings: CampaignSettings
+    settings: CampaignPlan
     algorithm: object
     cache: object
     batch: object
@@ -72,7 +72,7 @@ class Callback:
         """After the last generation of this session."""
 
 
-def generation_stats(settings: CampaignSettings, records: list[dict], pop_keys: list[tuple]) -> dict:
+def generation_stats(settings: CampaignPlan, records: list[dict], pop_keys: list[tuple]) -> dict:
     """Deterministic per-generation numbers from the cache so far and the population's keys."""
     columns = metric_columns(records, settings.extra_metrics)
     cv = constraint_violation(constraint_matrix(columns, settings.constraints, settings.nan_violation))

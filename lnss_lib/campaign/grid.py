@@ -9,13 +9,12 @@ from __future__ import annotations
 
 from collections.abc import Mapping
 
-import math
 from dataclasses import dataclass
 
 import numpy as np
 
-from ..config import SEMI_MAJOR_AXIS, SEMI_MAJOR_AXIS_WHY, allowed_range_text, in_range
 from ..keys import DESIGN_KEYS, INTEGER_DESIGN_KEYS
+from ..settings import VariableBounds
 
 __all__ = ["DesignGrid"]
 
@@ -29,27 +28,11 @@ class DesignGrid:
     step: np.ndarray
 
     @classmethod
-    def from_settings(cls, variables: dict) -> "DesignGrid":
-        """From ``{name: {lower, upper, step}}`` for every name in ``DESIGN_KEYS``; ValueError if bad."""
-        missing = [k for k in DESIGN_KEYS if k not in variables]
-        extra = [k for k in variables if k not in DESIGN_KEYS]
-        if missing or extra:
-            raise ValueError(f"campaign.variables must name exactly {', '.join(DESIGN_KEYS)}; "
-                             f"missing {missing}, unknown {extra}")
-        rows = []
-        for name in DESIGN_KEYS:
-            spec = variables[name]
-            if not isinstance(spec, Mapping) or set(spec) != {"lower", "upper", "step"}:
-                raise ValueError(f"campaign.variables.{name} must be {{lower, upper, step}}; got {spec!r}")
-            lo, hi, step = (float(spec[k]) for k in ("lower", "upper", "step"))
-            if not all(map(math.isfinite, (lo, hi, step))) or step <= 0.0 or hi <= lo:
-                raise ValueError(f"campaign.variables.{name}: need finite lower < upper and step > 0; got {spec!r}")
-            if name == "sma_km" and not (in_range(lo, SEMI_MAJOR_AXIS) and in_range(hi, SEMI_MAJOR_AXIS)):
-                raise ValueError(f"campaign.variables.sma_km: bounds must be in {allowed_range_text(SEMI_MAJOR_AXIS)} "
-                                 f"({SEMI_MAJOR_AXIS_WHY}); got {spec!r}")
-            if name in INTEGER_DESIGN_KEYS and (lo != round(lo) or hi != round(hi) or lo < 1):
-                raise ValueError(f"campaign.variables.{name}: integer bounds >= 1 required; got {spec!r}")
-            rows.append((lo, hi, step))
+    def from_variables(cls, variables: Mapping[str, VariableBounds]) -> "DesignGrid":
+        """From ``settings.campaign.variables`` (``{name: VariableBounds}`` for every name in ``DESIGN_KEYS``,
+        checked at load by :mod:`lnss_lib.config`)."""
+        rows = [(float(variables[name].lower), float(variables[name].upper), float(variables[name].step))
+                for name in DESIGN_KEYS]
         lower, upper, step = (np.array(col) for col in zip(*rows))
         return cls(lower, upper, step)
 

@@ -7,7 +7,7 @@ from pymoo.core.problem import Problem
 
 from ..keys import DESIGN_KEYS
 from .fitness import constraint_matrix, objective_matrix
-from .settings import CampaignSettings
+from .settings import CampaignPlan
 
 __all__ = ["WalkerDesignProblem", "build_algorithm", "build_termination"]
 
@@ -19,7 +19,7 @@ class WalkerDesignProblem(Problem):
     metrics; it is not pickled with the problem (attach it again after loading a checkpoint).
     """
 
-    def __init__(self, settings: CampaignSettings, metrics_source=None):
+    def __init__(self, settings: CampaignPlan, metrics_source=None):
         super().__init__(n_var=len(DESIGN_KEYS), n_obj=len(settings.objectives),
                          n_ieq_constr=len(settings.constraints), xl=np.zeros(len(DESIGN_KEYS), dtype=int),
                          xu=settings.grid.n_levels, vtype=int)
@@ -41,7 +41,7 @@ class WalkerDesignProblem(Problem):
         return state
 
 
-def build_algorithm(settings: CampaignSettings):
+def build_algorithm(settings: CampaignPlan):
     """NSGA-II of Table 5 on the integer grid: integer random sampling, SBX crossover applied with
     probability ``crossover_prob`` (Table 5's crossover fraction) and polynomial mutation, both
     rounded back to the grid; duplicates in a generation eliminated."""
@@ -59,7 +59,7 @@ def build_algorithm(settings: CampaignSettings):
                  eliminate_duplicates=True)
 
 
-def build_termination(settings: CampaignSettings):
+def build_termination(settings: CampaignPlan):
     """``generations`` generations; with ``ftol`` > 0 also pymoo's objective-space tolerance (feasible
     designs, movement of ideal, nadir and front below ``ftol`` over ``ftol_period`` generations)."""
     from pymoo.termination.max_gen import MaximumGenerationTermination

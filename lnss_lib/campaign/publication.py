@@ -27,9 +27,9 @@ import xarray as xr
 
 from ..atomicio import write_netcdf_atomic, write_text_atomic
 from ..config import profile_hash
-from ..settings import profile_data
+from ..settings import Settings, profile_data
 from .rundir import RESULT_FILES, export_results, load_run
-from .settings import CampaignSettings, evaluation_hash
+from .settings import evaluation_hash
 
 __all__ = ["Publication", "run_differences", "publish_run", "load_published", "published_folder",
            "POINTER_FILE", "PUBLISHED_DIR"]
@@ -48,34 +48,41 @@ class Publication:
     history: xr.Dataset
 
 
-def _differing_keys(run: dict, profile: dict, prefix: str = "") -> list[str]:
+def _differing_keys(run: dict, theirs: dict, prefix: str = "") -> list[str]:
     """``key = run value (profile: value)`` for every dotted key whose values differ."""
     lines = []
-    for key in sorted(set(run) | set(profile), key=str):
+    for key in sorted(set(run) | set(theirs), key=str):
         name = f"{prefix}{key}"
-        mine, theirs = run.get(key, "<absent>"), profile.get(key, "<absent>")
-        if isinstance(mine, Mapping) and isinstance(theirs, Mapping):
-            lines += _differing_keys(mine, theirs, f"{name}.")
-        elif mine != theirs and name not in ("profile.name", "profile.description"):
-            lines.append(f"{name} = {mine!r} (profile: {theirs!r})")
+        mine, other = run.get(key, "<absent>"), theirs.get(key, "<absent>")
+        if isinstance(mine, Mapping) and isinstance(other, Mapping):
+            lines += _differing_keys(mine, other, f"{name}.")
+        elif mine != other and name not in ("profile.name", "profile.description"):
+            lines.append(f"{name} = {mine!r} (profile: {other!r})")
     return lines
 
 
-def run_differences(run_profile: dict, profile: dict, limit: int = 6) -> list[str]:
-    """Why a run (its stored profile) is not ``profile``'s campaign: [] when the profile hashes agree, else
-    the evaluator, the evaluation settings and up to ``limit`` differing keys, in that order."""
-    run_profile, profile = profile_data(run_profile), profile_data(profile)
-    if profile_hash(run_profile) == profile_hash(profile):
+def _hash(settings: Settings | Mapping) -> str:
+    """The profile hash of settings (computed once, when they were built) or of a stored profile dict."""
+    return settings.hash if isinstance(settings, Settings) else profile_hash(profile_data(settings))
+
+
+def run_differences(run: Settings | Mapping, settings: Settings | Mapping, limit: int = 6) -> list[str]:
+    """Why a run (its settings, or the profile dict its ``run.json`` stored) is not the campaign of ``settings``: []
+    when the profile hashes agree, else the evaluator, the evaluation settings and up to ``limit`` differing
+    keys, in that order (nothing is validated: a stored dict is compared as it is)."""
+    run_hash, hash_ = _hash(run), _hash(settings)
+    if run_hash == hash_:
         return []
+    run_profile, profile = profile_data(run), profile_data(settings)
     reasons = []
-    run_settings, settings = CampaignSettings.from_profile(run_profile), CampaignSettings.from_profile(profile)
-    if run_settings.evaluator != settings.evaluator:
-        reasons.append(f"its evaluator is {run_settings.evaluator!r}, the profile's {settings.evaluator!r}")
-    if evaluation_hash(run_profile) != evaluation_hash(profile):
-        reasons.append("its evaluation settings differ (evaluation hash "
-                       f"{evaluation_hash(run_profile)}, the profile's {evaluation_hash(profile)})")
+    run_evaluator, evaluator = (p.get("campaign", {}).get("evaluator") for p in (run_profile, profile))
+    if run_evaluator != evaluator:
+        reasons.append(f"its evaluator is {run_evaluator!r}, the profile's {evaluator!r}")
+    run_eval_hash, eval_hash = evaluation_hash(run_profile), evaluation_hash(profile)
+    if run_eval_hash != eval_hash:
+        reasons.append(f"its evaluation settings differ (evaluation hash {run_eval_hash}, the profile's {eval_hash})")
     keys = _differing_keys(run_profile, profile)
-    reasons.append(f"profile hash {profile_hash(run_profile)}, the profile's {profile_hash(profile)}"
+    reasons.append(f"profile hash {run_hash}, the profile's {hash_}"
                    + (f": {'; '.join(keys[:limit])}" + (f"; and {len(keys) - limit} more" if len(keys) > limit else "")
                       if keys else ""))
     return reasons

@@ -31,7 +31,8 @@ from ..errors import ConfigError
 from ..keys import DESIGN_KEYS, INTEGER_DESIGN_KEYS, METRIC_KEYS
 from .fitness import constraint_matrix, constraint_violation, metric_columns, non_dominated_mask, objective_matrix
 from .journal import read_cache_records
-from .settings import CampaignSettings, evaluation_hash
+from ..settings import Settings, settings_from_profile
+from .settings import CampaignPlan
 
 __all__ = ["load_run", "load_checkpoint", "final_population", "export_results", "write_results",
            "write_checkpoint", "start_run", "default_run_dir", "atomic_write_bytes", "check_resumable", "RunLock",
@@ -61,10 +62,12 @@ def load_run(run_dir) -> dict:
     return run
 
 
-# classes pickled by checkpoints written before the campaign package (module lnss_lib.optimize)
-_MOVED_CLASSES = {("lnss_lib.optimize", "WalkerDesignProblem"): "lnss_lib.campaign.problem",
-                  ("lnss_lib.optimize", "CampaignSettings"): "lnss_lib.campaign.settings",
-                  ("lnss_lib.optimize", "DesignGrid"): "lnss_lib.campaign.grid"}
+# classes pickled by older checkpoints under their old names: module lnss_lib.optimize (before the campaign
+# package) and CampaignSettings (the campaign plan before the settings were typed; same fields)
+_MOVED_CLASSES = {("lnss_lib.optimize", "WalkerDesignProblem"): ("lnss_lib.campaign.problem", "WalkerDesignProblem"),
+                  ("lnss_lib.optimize", "CampaignSettings"): ("lnss_lib.campaign.settings", "CampaignPlan"),
+                  ("lnss_lib.campaign.settings", "CampaignSettings"): ("lnss_lib.campaign.settings", "CampaignPlan"),
+                  ("lnss_lib.optimize", "DesignGrid"): ("lnss_lib.campaign.grid", "DesignGrid")}
 
 # every global a checkpoint of the NSGA-II of :func:`~lnss_lib.campaign.problem.build_algorithm` names
 # (module: names); anything else in a checkpoint file is refused
@@ -80,7 +83,7 @@ CHECKPOINT_GLOBALS = {
     "numpy.random.bit_generator": ("SeedSequence", "__pyx_unpickle_SeedSequence"),
     "lnss_lib.campaign.grid": ("DesignGrid",),
     "lnss_lib.campaign.problem": ("WalkerDesignProblem",),
-    "lnss_lib.campaign.settings": ("CampaignSettings",),
+    "lnss_lib.campaign.settings": ("CampaignPlan",),
     "pymoo.algorithms.moo.nsga2": ("NSGA2", "binary_tournament"),
     "pymoo.core.callback": ("Callback",),
     "pymoo.core.duplicate": ("DefaultDuplicateElimination", "default_attr"),
@@ -131,7 +134,7 @@ class _CheckpointUnpickler(pickle.Unpickler):
         self.path = path
 
     def find_class(self, module, name):
-        module = _MOVED_CLASSES.get((module, name), module)
+        module, name = _MOVED_CLASSES.get((module, name), (module, name))
         if name not in CHECKPOINT_GLOBALS.get(module, ()):
             raise CheckpointError(self.path, f"names {module}.{name}, which is not a class or function a campaign "
                                              f"checkpoint holds: refused (a forged or foreign file)")
@@ -190,7 +193,7 @@ def final_population(run_dir) -> tuple[np.ndarray, np.ndarray]:
     return np.asarray(pop.get("X")).astype(int), np.asarray(pop.get("F"), dtype=float)
 
 
-def _dataset_from_records(records: list[dict], settings: CampaignSettings, attrs: dict,
+def _dataset_from_records(records: list[dict], settings: CampaignPlan, attrs: dict,
                           extras: tuple[str, ...] = ()) -> xr.Dataset:
     records = sorted(records, key=lambda r: (r["generation"], r["order"]))
     keys = np.array([r["key"] for r in records], dtype=float).reshape(-1, len(DESIGN_KEYS))
@@ -241,11 +244,12 @@ def export_results(run_dir) -> tuple[xr.Dataset, xr.Dataset, xr.Dataset]:
 
     run = load_run(run_dir)
     profile = run["profile"]
-    settings = CampaignSettings.from_profile(profile)
+    run_settings = settings_from_profile(profile)
+    settings = CampaignPlan.of(run_settings)
     checkpoint = load_checkpoint(run_dir)
     history = checkpoint["history"] if checkpoint else []
     attrs = {
-        "profile": profile["profile"]["name"],
+        "profile": run_settings.name,
         "objectives": ",".join(settings.objectives),
         "constraints": ",".join(f"{m} {'<=' if k == 'max' else '>='} {v:g}" for m, k, v in settings.constraints),
         "parameters": json.dumps(profile, sort_keys=True),
@@ -294,12 +298,12 @@ def default_run_dir(profile_name: str) -> Path:
     return candidate
 
 
-def start_run(run_dir: Path, profile: dict) -> None:
-    """Write ``run.json`` (profile, its hash, the evaluation hash, versions) into ``run_dir`` (the caller
-    holds the run's lock and has checked the profile)."""
+def start_run(run_dir: Path, settings: Settings, eval_hash: str) -> None:
+    """Write ``run.json`` (the settings as TOML data, their hash, the evaluation hash ``eval_hash``, versions)
+    into ``run_dir`` (the caller holds the run's lock)."""
     from ..config import package_versions
 
-    run = {"profile": profile, "profile_hash": profile_hash(profile), "evaluation_hash": evaluation_hash(profile),
+    run = {"profile": settings.as_dict(), "profile_hash": settings.hash, "evaluation_hash": eval_hash,
            "created_utc": time.strftime("%Y-%m-%dT%H:%M:%SZ", time.gmtime()), "versions": package_versions()}
     atomic_write_bytes(run_dir / RUN_FILE, json.dumps(run, indent=1, default=str).encode())
 

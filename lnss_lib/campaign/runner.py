@@ -18,8 +18,8 @@ from dataclasses import dataclass
 import numpy as np
 from pathlib import Path
 
-from ..config import OUTPUTS_DIR, PROFILE_NAME, profile_hash, validate_profile
-from ..settings import load_settings
+from ..config import OUTPUTS_DIR, PROFILE_NAME
+from ..settings import Settings, load_settings, settings_from_profile
 from ..errors import ConfigError
 from .backends import BatchEvaluator, open_backend
 from .callbacks import (Callback, CampaignStopped, Checkpointer, ErrorGuard, HistoryRecorder, ProgressBars,
@@ -29,7 +29,7 @@ from .publication import publish_run, run_differences
 from .problem import WalkerDesignProblem, build_algorithm, build_termination
 from .rundir import (LOCK_FILE, RUN_FILE, RunLock, check_resumable, default_run_dir, load_checkpoint, load_run,
                      start_run, write_results)
-from .settings import CampaignSettings, evaluation_hash, evaluation_profile
+from .settings import CampaignPlan, evaluation_hash, evaluation_profile
 
 __all__ = ["run_campaign", "CampaignResult", "default_callbacks"]
 
@@ -80,20 +80,24 @@ def run_campaign(profile_name: str = "quick", *, overrides: dict | None = None, 
             raise ConfigError("a resumed run keeps its parameters: overrides are not allowed with resume")
         run_dir = Path(resume)
         run = load_run(run_dir)
-        profile = run["profile"]
-        validate_profile(profile, partial=True)
-        stored_name = profile.get("profile", {}).get("name")
+        try:
+            settings = settings_from_profile(run["profile"])     # what the folder recorded, checked again
+        except ConfigError as error:
+            raise ConfigError(f"{run_dir / RUN_FILE}: {error}", key=error.key) from None
+        stored_name = settings.name
         if not isinstance(stored_name, str) or not PROFILE_NAME.fullmatch(stored_name):
             raise ConfigError(f"{run_dir / RUN_FILE}: profile.name = {stored_name!r} is not a profile name "
                               f"(letters, digits, '_' and '-'); the run folder is damaged or forged", key="profile.name")
-        if evaluation_hash(profile) != run["evaluation_hash"]:
+        eval_hash = evaluation_hash(settings)
+        if eval_hash != run["evaluation_hash"]:
             raise ConfigError(f"{run_dir}: evaluation hash of the stored profile changed; cannot resume")
+        eval_settings = evaluation_profile(settings)
         lock = RunLock(run_dir)
         created = False
     else:
-        profile = load_settings(profile_name, overrides=overrides).as_dict()
-        CampaignSettings.from_profile(profile)
-        evaluation_profile(profile)
+        settings = load_settings(profile_name, overrides=overrides)
+        eval_hash = evaluation_hash(settings)
+        eval_settings = evaluation_profile(settings)
         run_dir = Path(run_dir) if run_dir is not None else default_run_dir(profile_name)
         if (run_dir / RUN_FILE).exists():
             raise ConfigError(f"{run_dir} already holds a campaign; continue it with --resume {run_dir}")
@@ -102,8 +106,8 @@ def run_campaign(profile_name: str = "quick", *, overrides: dict | None = None, 
         lock = RunLock(run_dir)
     try:
         if resume is None:
-            start_run(run_dir, profile)
-        return _run_locked(run_dir, profile, workers, scheduler_address, progress, max_generations, callbacks)
+            start_run(run_dir, settings, eval_hash)
+        return _run_locked(run_dir, settings, eval_settings, eval_hash, workers, scheduler_address, progress, max_generations, callbacks)
     except BaseException:
         if created:
             _remove_if_empty_run(run_dir)
@@ -136,12 +140,12 @@ def _lost_designs(checkpoint: dict | None, cache: EvaluationCache) -> list[tuple
     return [k for k in dict.fromkeys(keys) if k not in cache]
 
 
-def _run_locked(run_dir: Path, profile: dict, workers, scheduler_address, progress: bool, max_generations,
-                callbacks) -> CampaignResult:
-    """The generation loop of :func:`run_campaign` in a run folder this process holds the lock of."""
-    settings = CampaignSettings.from_profile(profile)
-    eval_hash = evaluation_hash(profile)
-    name = profile["profile"]["name"]
+def _run_locked(run_dir: Path, run_settings: Settings, eval_settings: Settings, eval_hash: str, workers,
+                scheduler_address, progress: bool, max_generations, callbacks) -> CampaignResult:
+    """The generation loop of :func:`run_campaign` in a run folder this process holds the lock of: the run's
+    settings, those its evaluations run under (:func:`evaluation_profile`) and their :func:`evaluation_hash`."""
+    settings = CampaignPlan.of(run_settings)
+    name = run_settings.name
     checkpoint = load_checkpoint(run_dir)
     check_resumable(run_dir, load_run(run_dir), checkpoint)
     if checkpoint is not None:
@@ -159,14 +163,14 @@ def _run_locked(run_dir: Path, profile: dict, workers, scheduler_address, progre
     try:
         lost = _lost_designs(checkpoint, cache)
         if lost or (not (checkpoint and checkpoint.get("finished")) and algorithm.has_next()):
-            backend = open_backend(evaluation_profile(profile), settings, workers, scheduler_address)
+            backend = open_backend(eval_settings, settings, workers, scheduler_address)
         batch = BatchEvaluator(settings, cache, backend)
         if lost:   # designs of the checkpoint whose journal lines were torn, damaged or lost: evaluate them again
             batch.generation = len(history)
             batch(np.array(lost))
         problem.metrics_source = batch
         state = RunState(run_dir=run_dir, name=name, settings=settings, algorithm=algorithm, cache=cache,
-                         batch=batch, history=history, profile_hash=profile_hash(profile), session_start=session_start)
+                         batch=batch, history=history, profile_hash=run_settings.hash, session_start=session_start)
         observers = default_callbacks(progress) + list(callbacks)
 
         def notify(hook: str, *args) -> None:
@@ -205,7 +209,7 @@ def _run_locked(run_dir: Path, profile: dict, workers, scheduler_address, progre
         if backend is not None:
             backend.close()
     files = write_results(run_dir) if history else []
-    note = _publish(run_dir, profile) if history else ""
+    note = _publish(run_dir, run_settings) if history else ""
     return CampaignResult(run_dir=run_dir, files=files, publication=note, generations=len(history),
                           n_evaluations=history[-1]["n_evaluations_cum"] if history else 0,
                           n_feasible=history[-1]["n_feasible_cum"] if history else 0,
@@ -215,14 +219,14 @@ def _run_locked(run_dir: Path, profile: dict, workers, scheduler_address, progre
                           resubmitted=resubmitted, n_errors=sum(bool(r.get("error")) for r in read_cache_records(run_dir)))
 
 
-def _publish(run_dir: Path, profile: dict) -> str:
+def _publish(run_dir: Path, settings: Settings) -> str:
     """Publish a run found in ``outputs/<profile>/campaign/`` when it is that profile's campaign; say what was done."""
-    name = profile["profile"]["name"]
+    name = settings.name
     campaign_dir = OUTPUTS_DIR / name / "campaign"
     if run_dir.resolve().parent != campaign_dir.resolve():
         return ""
     try:
-        reasons = run_differences(profile, load_settings(name).as_dict())
+        reasons = run_differences(settings, load_settings(name))
     except (ConfigError, ValueError) as error:
         reasons = [f"profile {name!r} does not load ({error})"]
     if reasons:

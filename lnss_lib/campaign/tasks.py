@@ -7,12 +7,13 @@ import os
 import socket
 import time
 
-from ..keys import CAMPAIGN_METRIC_KEYS, METRIC_KEYS, TIMING_KEYS, requested_extra_metrics
+from ..keys import CAMPAIGN_METRIC_KEYS, METRIC_KEYS, TIMING_KEYS
+from ..settings import Settings
 
 __all__ = ["evaluate_task", "synthetic_evaluation"]
 
 
-def synthetic_evaluation(profile: dict, sma_km: float, ecc: float, aop_deg: float, inc_deg: float,
+def synthetic_evaluation(settings: Settings, sma_km: float, ecc: float, aop_deg: float, inc_deg: float,
                          n_planes: int, sats_per_plane: int, delay_s: float = 0.0) -> dict:
     """A closed-form stand-in for :func:`~lnss_lib.evaluator.evaluate_design` (tests and debugging; no physics).
 
@@ -22,7 +23,7 @@ def synthetic_evaluation(profile: dict, sma_km: float, ecc: float, aop_deg: floa
     inclination) and a perilune-driven Delta-V. ``delay_s`` sleeps to mimic an evaluation's cost.
     Chosen with ``campaign.evaluator = "synthetic"`` (or ``--evaluator synthetic``).
 
-    The profile's ``[evaluator] extra_metrics`` get closed-form stand-ins too (no physics either):
+    The settings' ``[evaluator] extra_metrics`` get closed-form stand-ins too (no physics either):
     a geometry-keeping Delta-V that grows with a (the Earth's tide) and away from the frozen
     inclination near 60 deg, its maximum 10 % above the mean, the eq. 45 Delta-V maxima 5 % above
     their values, and a "screen" that calls a design unstable when the Lidov-Kozai bound
@@ -33,8 +34,8 @@ def synthetic_evaluation(profile: dict, sma_km: float, ecc: float, aop_deg: floa
     if delay_s > 0.0:
         time.sleep(delay_s)
     n_sat = int(n_planes) * int(sats_per_plane)
-    r_min = float(profile["constants"]["r_moon_mean_km"]) + float(profile["impact"]["min_altitude_km"])
-    extras = requested_extra_metrics(profile.evaluator)
+    r_min = settings.dynamics.r_impact_km
+    extras = settings.evaluator.extra_metrics
     result = {"deltav_model": "synthetic", "timing_s": dict.fromkeys(TIMING_KEYS, 0.0)}
     if sma_km * (1.0 - ecc) < r_min:
         result.update({k: math.nan for k in METRIC_KEYS + extras}, n_sat=n_sat, evaluated=False, impact=True,
@@ -69,9 +70,10 @@ def _synthetic_extras(sma_km: float, ecc: float, inc_deg: float, r_min: float, d
     return {k: values[k] for k in extras}
 
 
-def evaluate_task(eval_profile: dict, design: dict, evaluator: str = "walker", synthetic_delay_s: float = 0.0,
+def evaluate_task(eval_profile: Settings, design: dict, evaluator: str = "walker", synthetic_delay_s: float = 0.0,
                   numba_threads: int = 0) -> dict:
-    """Evaluate one design where this runs (in-process or a Dask worker); a JSON-ready record.
+    """Evaluate one design under the evaluation settings ``eval_profile`` (checked once, at the campaign's start:
+    nothing is validated or hashed here) where this runs (in-process or a Dask worker); a JSON-ready record.
 
     The walker evaluator uses the process-wide context (:func:`~lnss_lib.evaluator.context_for`:
     kernels, tables and compiled code are loaded once per process). ``numba_threads`` > 0 caps the

@@ -22,11 +22,12 @@ import numpy as np
 import pandas as pd
 import xarray as xr
 
-from ..campaign import (CampaignSettings, CellProgressBar, campaign_timing, export_results, load_run, read_cache_records,
+from ..campaign import (CampaignPlan, CellProgressBar, campaign_timing, export_results, load_run, read_cache_records,
                         run_campaign)
 from ..campaign.rundir import CHECKPOINT_FILE
 from ..keys import NON_NAVIGATION_METRICS, bound_text
 from ..paper import EVALUATIONS, FEASIBLE_DESIGNS, TABLE_5
+from ..settings import Settings
 
 __all__ = ["settings_table", "design_grid_table", "latest_run_dir", "CampaignRun", "load_or_run",
            "constraint_table", "steady_designs_per_s", "throughput_table", "run_throughput_table", "companion_of",
@@ -35,7 +36,7 @@ __all__ = ["settings_table", "design_grid_table", "latest_run_dir", "CampaignRun
 
 
 
-def settings_table(settings: CampaignSettings):
+def settings_table(settings: CampaignPlan):
     """Table 5 (NSGA-II settings of the paper) next to this profile's pymoo counterparts, with notes."""
     s = settings
     return pd.DataFrame([
@@ -55,15 +56,15 @@ def settings_table(settings: CampaignSettings):
     ], columns=["parameter", "paper", "this profile", "note"]).set_index("parameter")
 
 
-def design_grid_table(settings: CampaignSettings):
+def design_grid_table(settings: CampaignPlan):
     """Table 3 design-variable bounds with the eq. 43-44 step sizes and the number of grid values."""
     grid = settings.grid
     return pd.DataFrame({"lower": grid.lower, "upper": grid.upper, "step": grid.step, "levels": grid.n_levels + 1},
                         index=pd.Index(["a (km)", "e", "AOP (deg)", "i (deg)", "Np", "Ns"], name="variable"))
 
 
-def latest_run_dir(campaign_dir, profile_name: str, profile: dict | None = None) -> tuple[Path, list[str]]:
-    """The run to show for ``profile`` (default: ``profile_name`` as it stands) and why it is not that
+def latest_run_dir(campaign_dir, profile_name: str, settings: Settings | None = None) -> tuple[Path, list[str]]:
+    """The run to show for ``settings`` (default: profile ``profile_name`` as it stands) and why it is not that
     profile's campaign ([] when it is): the newest ``run_*`` directory with a checkpoint under
     ``campaign_dir`` whose settings are the profile's, else the newest one. FileNotFoundError naming the
     command that makes one when there is none."""
@@ -77,8 +78,8 @@ def latest_run_dir(campaign_dir, profile_name: str, profile: dict | None = None)
             f"generation):\n    python -m lnss_lib campaign --profile {profile_name}\n"
             "continue an interrupted run with --resume <run dir>, or use a Dask cluster with "
             "--scheduler-address tcp://HOST:8786; then execute the notebook again")
-    profile = profile if profile is not None else load_settings(profile_name)
-    reasons = {run: run_differences(load_run(run)["profile"], profile) for run in runs}
+    settings = settings if settings is not None else load_settings(profile_name)
+    reasons = {run: run_differences(load_run(run)["profile"], settings) for run in runs}
     matching = [run for run in runs if not reasons[run]]
     run = matching[-1] if matching else runs[-1]
     return run, reasons[run]
@@ -88,8 +89,8 @@ def companion_of(profile_name: str) -> str:
     """The profile's ``campaign.companion_profile`` ("" when none), checked to load and to name no companion itself."""
     from ..settings import load_settings
 
-    companion = CampaignSettings.from_profile(load_settings(profile_name)).companion_profile
-    if companion and CampaignSettings.from_profile(load_settings(companion)).companion_profile:
+    companion = load_settings(profile_name).campaign.companion_profile
+    if companion and load_settings(companion).campaign.companion_profile:
         raise ValueError(f"profile {profile_name!r}: its companion {companion!r} names a companion itself; "
                          "companions are one level deep")
     return companion
@@ -97,11 +98,11 @@ def companion_of(profile_name: str) -> str:
 
 @dataclass(frozen=True)
 class CampaignRun:
-    """The campaign a notebook shows: the run, its own profile (``run.json``), why it is shown (``note``),
+    """The campaign a notebook shows: the run, its own settings (from ``run.json``), why it is shown (``note``),
     its datasets (:func:`~lnss_lib.campaign.rundir.export_results`) and journal records."""
 
     run_dir: Path
-    profile: dict
+    settings: Settings
     note: str
     evaluations: xr.Dataset
     front: xr.Dataset
@@ -120,12 +121,12 @@ def load_or_run(profile_name: str, overrides: dict | str | None = None) -> Campa
     which run is shown and, when it is not the profile's campaign, why.
     """
     from ..campaign.publication import publish_run, run_differences
-    from ..settings import load_settings
+    from ..settings import load_settings, settings_from_profile
     from ..outputs import display_path, output_dir
 
     profile = load_settings(profile_name, overrides=overrides)
     campaign_dir = output_dir(profile_name, "campaign")
-    if CampaignSettings.from_profile(profile).notebook_mode == "load":
+    if profile.campaign.notebook_mode == "load":
         run_dir, reasons = latest_run_dir(campaign_dir, profile_name, profile)
         how = f"loaded {display_path(run_dir)}"
     else:
@@ -134,9 +135,9 @@ def load_or_run(profile_name: str, overrides: dict | str | None = None) -> Campa
         how = (f"ran {display_path(run_dir)}: {result.generations} generations, {result.n_evaluations} unique designs in "
                f"{result.session_wall_s:.1f} s")
         reasons = run_differences(load_run(run_dir)["profile"], profile)
-    run_profile = load_run(run_dir)["profile"]
+    run_settings = settings_from_profile(load_run(run_dir)["profile"])
     datasets = export_results(run_dir)
-    own = run_differences(run_profile, load_settings(profile_name))
+    own = run_differences(run_settings, load_settings(profile_name))
     if reasons:
         note = (f"{how}; it is NOT the campaign of profile {profile_name!r} as set here (no run in {campaign_dir} "
                 f"is): {'; '.join(reasons)}. Everything below is that run's, with its own settings")
@@ -145,7 +146,7 @@ def load_or_run(profile_name: str, overrides: dict | str | None = None) -> Campa
                 f"profile ({'; '.join(own)})")
     else:
         note = f"{how}: the campaign of profile {profile_name!r}, published ({display_path(publish_run(run_dir, campaign_dir, datasets))})"
-    return CampaignRun(run_dir, run_profile, note, *datasets, read_cache_records(run_dir))
+    return CampaignRun(run_dir, run_settings, note, *datasets, read_cache_records(run_dir))
 
 
 
@@ -153,7 +154,7 @@ def constraint_table(evaluations: xr.Dataset, constraints):
     """Designs meeting each campaign bound (Table 3) separately, with count and share of all designs.
 
     Rows: evaluated without impact (PDOP availability defined), each (metric, kind, limit) of
-    ``constraints`` (CampaignSettings.constraints; NaN fails), all bounds except those on Delta-V and
+    ``constraints`` (CampaignPlan.constraints; NaN fails), all bounds except those on Delta-V and
     stability (:data:`NON_NAVIGATION_METRICS`: "navigation bounds only"), and the campaign's own
     ``feasible`` flag.
     """

@@ -43,8 +43,9 @@ import xarray as xr
 
 from ..campaign.backends import open_backend
 from ..campaign.fitness import constraint_matrix, metric_columns
-from ..campaign.settings import CampaignSettings, evaluation_profile
+from ..campaign.settings import CampaignPlan, evaluation_profile
 from ..config import load_profile
+from ..settings import Settings, load_settings
 from ..keys import DESIGN_KEYS, METRIC_KEYS
 from ..paper import TABLE_4
 
@@ -62,16 +63,16 @@ SIGNIFICANT_FIGURES = 2
 PERCENTILES = (1, 5, 10, 25, 50, 75, 90)
 
 
-def sample_keys(settings: CampaignSettings, n: int, seed: int = SAMPLE_SEED) -> np.ndarray:
+def sample_keys(settings: CampaignPlan, n: int, seed: int = SAMPLE_SEED) -> np.ndarray:
     """``n`` scaled designs (n, 6) int, uniform over the grid's levels 0..n_levels of each variable (eq. 43)."""
     rng = np.random.default_rng(seed)
     return rng.integers(0, settings.grid.n_levels + 1, size=(int(n), len(DESIGN_KEYS)))
 
 
-def evaluate_records(profile: dict, designs: list[dict], workers: int = 0) -> list[dict]:
+def evaluate_records(profile: Settings, designs: list[dict], workers: int = 0) -> list[dict]:
     """Campaign records (``{"ok", "impact", "metrics", ...}``) of ``designs`` in their order, evaluated as the
     campaign evaluates them: :func:`evaluation_profile` and the campaign's backend (serial for 0 or 1 workers)."""
-    settings = CampaignSettings.from_profile(profile)
+    settings = CampaignPlan.of(profile)
     backend = open_backend(evaluation_profile(profile), settings, workers)
     records: list = [None] * len(designs)
     try:
@@ -88,14 +89,14 @@ def floor_sample(profile_name: str = "paper", n: int = SAMPLE_SIZE, seed: int = 
     ``impact``, the campaign's constraint values G (``g_<metric>``, feasible where <= 0) and the Delta-V under
     the paper's model (``dv_total_kms_per_year_paper_model``, with ``paper_model``: a second evaluation of the same
     designs, NaN without)."""
-    profile = load_profile(profile_name, overrides=overrides)
-    settings = CampaignSettings.from_profile(profile)
+    profile = load_settings(profile_name, overrides=overrides)
+    settings = CampaignPlan.of(profile)
     keys = sample_keys(settings, n, seed)
     designs = settings.grid.designs(keys)
     records = evaluate_records(profile, designs, workers)
     if paper_model:
         paper_overrides = {**(overrides or {}), "deltav": {**(overrides or {}).get("deltav", {}), "model": PAPER_MODEL}}
-        paper_dv = metric_columns(evaluate_records(load_profile(profile_name, overrides=paper_overrides), designs,
+        paper_dv = metric_columns(evaluate_records(load_settings(profile_name, overrides=paper_overrides), designs,
                                                    workers))[DV_KEY]
     else:
         paper_dv = np.full(len(designs), np.nan)
@@ -115,7 +116,7 @@ def floor_sample(profile_name: str = "paper", n: int = SAMPLE_SIZE, seed: int = 
                             "model (campaign)")
     ds[PAPER_DV_KEY].attrs.update(units="km s-1 yr-1", long_name="station-keeping Delta-V, paper eq. 30-35 (corrected)")
     ds.attrs.update(profile=profile_name, seed=int(seed), n_designs=int(n),
-                    deltav_model=str(profile["deltav"]["model"]), paper_deltav_model=PAPER_MODEL,
+                    deltav_model=profile.deltav.model, paper_deltav_model=PAPER_MODEL,
                     constraints=",".join(f"{m} {'<=' if k == 'max' else '>='} {v:g}" for m, k, v in settings.constraints),
                     title="Delta-V floor over a sample of the Table 3 grid (lnss_lib.studies.deltav_floor)")
     return ds
@@ -164,7 +165,7 @@ def round_up(value: float, digits: int = SIGNIFICANT_FIGURES) -> float:
 
 def paper_bound(profile_name: str = "paper") -> float:
     """Table 3's Delta-V bound, as the profile's ``[campaign.constraints]`` sets it."""
-    constraints = CampaignSettings.from_profile(load_profile(profile_name)).constraints
+    constraints = CampaignPlan.of(load_settings(profile_name)).constraints
     return next(limit for metric, kind, limit in constraints if metric == DV_KEY and kind == "max")
 
 
@@ -244,7 +245,7 @@ def table4_deltav(profile_name: str = "paper") -> float:
     design = {"sma_km": float(elfo["sma_km"]), "ecc": float(elfo["ecc"]), "aop_deg": float(elfo["aop_deg"]),
               "inc_deg": float(elfo["inc_deg"]), "n_planes": len(elfo["raan_deg"]),
               "sats_per_plane": int(elfo["sats_per_plane"])}
-    return float(evaluate_records(load_profile(profile_name), [design])[0]["metrics"][DV_KEY])
+    return float(evaluate_records(load_settings(profile_name), [design])[0]["metrics"][DV_KEY])
 
 
 if __name__ == "__main__":

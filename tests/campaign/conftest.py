@@ -6,7 +6,7 @@ import math
 import numpy as np
 import pytest
 
-from lnss_lib.campaign import CampaignSettings, run_campaign
+from lnss_lib.campaign import CampaignPlan, run_campaign
 from lnss_lib.settings import load_settings
 from lnss_lib.keys import METRIC_KEYS
 
@@ -15,7 +15,7 @@ from .helpers import KILL_SETTINGS, SYNTHETIC, _cli
 
 @pytest.fixture(scope="session")
 def settings():
-    return CampaignSettings.from_profile(load_settings("paper"))
+    return CampaignPlan.of(load_settings("paper"))
 
 
 @pytest.fixture

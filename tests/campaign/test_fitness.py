@@ -86,15 +86,15 @@ def test_bounds_verdict_names_each_violated_table3_bound():
     from lnss_lib.settings import load_settings
 
     good = {"n_sat": 8, "pdop_mean_3sigma": 3.0, "pdop_avail_pct": 99.0, "dv_total_kms_per_year": 0.2}
-    assert bounds_verdict(load_settings("ci"), good) == {"meets_bounds": True, "violated_bounds": []}
+    assert bounds_verdict(load_settings("ci").campaign, good) == {"meets_bounds": True, "violated_bounds": []}
     two = {**good, "n_sat": 2, "pdop_mean_3sigma": None, "pdop_avail_pct": 0.0, "dv_total_kms_per_year": 2.25}
-    verdict = bounds_verdict(load_settings("ci"), two)
+    verdict = bounds_verdict(load_settings("ci").campaign, two)
     assert verdict["meets_bounds"] is False
     assert verdict["violated_bounds"] == ["pdop_mean_3sigma undefined (max 10)", "pdop_avail_pct = 0 < min 70",
                                           "dv_total_kms_per_year = 2.25 > max 1"]
     at_limit = {**good, "pdop_mean_3sigma": 10.0, "pdop_avail_pct": 70.0, "dv_total_kms_per_year": 1.0, "n_sat": 20}
-    assert bounds_verdict(load_settings("ci"), at_limit)["meets_bounds"] is True      # the bounds are inclusive
+    assert bounds_verdict(load_settings("ci").campaign, at_limit)["meets_bounds"] is True      # the bounds are inclusive
     operational = load_settings("ci_operational")                                      # dv_total off, extra metrics on
-    verdict = bounds_verdict(operational, {**two, "pdop_mean_3sigma": 3.0, "pdop_avail_pct": 90.0,
+    verdict = bounds_verdict(operational.campaign, {**two, "pdop_mean_3sigma": 3.0, "pdop_avail_pct": 90.0,
                                            "sk_dv_estimate_max_kms_per_year": 0.03, "stable_screen": 0.0})
     assert verdict["violated_bounds"] == ["stable_screen = 0 < min 1"]

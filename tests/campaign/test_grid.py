@@ -3,8 +3,9 @@
 import numpy as np
 import pytest
 
-from lnss_lib.campaign import CampaignSettings, evaluation_hash
-from lnss_lib.settings import load_settings
+from lnss_lib.campaign import CampaignPlan, evaluation_hash
+from lnss_lib.errors import ConfigError
+from lnss_lib.settings import load_settings, settings_from_profile
 
 
 def test_grid_eq43_44_round_trip_bounds_and_rounding(settings, rng):
@@ -27,6 +28,7 @@ def test_grid_eq43_44_round_trip_bounds_and_rounding(settings, rng):
 
 
 def test_bad_settings_raise_clear_errors():
+    """Campaign rules are config's: load_settings refuses a bad [campaign] naming the key."""
     profile = load_settings("ci")
     cases = [({"objectives": ["n_sat", "-pdop"]}, "campaign.objectives"),
              ({"constraints": {"pdop_mean_3sigma": {"max": 10.0, "min": 1.0}}}, "campaign.constraints"),
@@ -34,14 +36,34 @@ def test_bad_settings_raise_clear_errors():
              ({"variables": {"n_planes": {"lower": 1.5, "upper": 5, "step": 1}}}, "campaign.variables.n_planes"),
              ({"evaluator": "matlab"}, "campaign.evaluator"),
              ({"population": 1}, "campaign.population"),
-             ({"crossover_prob": 1.5}, "campaign.crossover_prob")]
+             ({"crossover_prob": 1.5}, "campaign.crossover_prob"),
+             ({"variables": {"n_planes": {"lower": 1, "upper": 5, "step": 1.5}}}, "campaign.variables.n_planes"),
+             ({"variables": {"sma_km": {"lower": 4000.0, "upper": 1e6, "step": 100.0}}}, "campaign.variables.sma_km"),
+             ({"variables": {"ecc": {"stride": 0.1}}}, "campaign.variables.ecc"),
+             ({"variables": {"raan_deg": {"lower": 0.0, "upper": 1.0, "step": 1.0}}}, "campaign.variables"),
+             ({"constraints": {"pdop_mean_3sigma": {"max": "ten"}}}, "campaign.constraints.pdop_mean_3sigma"),
+             ({"constraints": {"nosuch": {"max": 1.0}}}, "campaign.constraints.nosuch"),
+             ({"hypervolume": {"n_sat": -1.0}}, "campaign.hypervolume.n_sat"),
+             ({"hypervolume": {"nosuch": 1.0}}, "campaign.hypervolume.nosuch"),
+             ({"objectives": ["n_sat", "-n_sat"]}, "campaign.objectives"),
+             ({"objectives": []}, "campaign.objectives"),
+             ({"companion_profile": "ci"}, "campaign.companion_profile")]
     for change, message in cases:
-        with pytest.raises(ValueError, match=message):     # at load (config) or from the campaign settings
-            CampaignSettings.from_profile(load_settings("ci", overrides={"campaign": change}))
+        with pytest.raises(ConfigError, match=message) as caught:     # at load, by config
+            load_settings("ci", overrides={"campaign": change})
+        assert caught.value.key.startswith(message)
     profile = profile.as_dict()
     del profile["campaign"]
-    with pytest.raises(ValueError, match=r"no \[campaign\] section"):
-        CampaignSettings.from_profile(profile)
+    with pytest.raises(ConfigError, match=r"missing key\(s\) campaign"):
+        settings_from_profile(profile)
+
+
+def test_campaign_plan_is_derived_from_the_section():
+    plan = CampaignPlan.of(load_settings("ci", overrides={"campaign": {"constraints": {"n_sat": "off"},
+                                                                        "hypervolume": {"n_sat": "off"}}}))
+    assert ("n_sat", "max", 20.0) not in plan.constraints and "n_sat" not in dict(plan.hypervolume)
+    assert all(isinstance(limit, float) for _, _, limit in plan.constraints)
+    assert plan.grid.lower.dtype == float and plan.objectives == load_settings("ci").campaign.objectives
 
 
 def test_evaluation_hash_ignores_campaign_only_keys():

@@ -14,7 +14,7 @@ import xarray as xr
 
 from lnss_lib.__main__ import main
 from lnss_lib.config import parse_sets as _parse_sets
-from lnss_lib.campaign import CampaignSettings, final_population, read_cache_records
+from lnss_lib.campaign import CampaignPlan, final_population, read_cache_records
 from lnss_lib.config import PROJECT_DIR
 from lnss_lib.settings import load_settings
 from lnss_lib.evaluator import context_for, evaluate_design
@@ -33,7 +33,7 @@ def test_set_parser_and_cli_errors(capsys):
 
 
 def test_real_campaign_netcdf_contract(real_run):
-    settings = CampaignSettings.from_profile(load_settings("ci"))
+    settings = CampaignPlan.of(load_settings("ci"))
     ev = xr.open_dataset(real_run.run_dir / "evaluations.nc", engine="h5netcdf").load()
     front = xr.open_dataset(real_run.run_dir / "front.nc", engine="h5netcdf").load()
     history = xr.open_dataset(real_run.run_dir / "history.nc", engine="h5netcdf").load()
@@ -130,10 +130,16 @@ def test_checkpoint_written_by_the_old_optimize_module_still_loads(tmp_path, mon
     old = types.ModuleType("lnss_lib.optimize")
     with monkeypatch.context() as patch:         # pickle the classes under the module name they had before
         patch.setitem(sys.modules, "lnss_lib.optimize", old)
-        for cls in (WalkerDesignProblem, CampaignSettings, DesignGrid):
-            patch.setattr(old, cls.__name__, cls, raising=False)
+        for cls, name in ((WalkerDesignProblem, "WalkerDesignProblem"), (CampaignPlan, "CampaignSettings"),
+                          (DesignGrid, "DesignGrid")):     # the campaign plan was CampaignSettings then
+            patch.setattr(old, name, cls, raising=False)
             patch.setattr(cls, "__module__", "lnss_lib.optimize")
-        data = pickle.dumps(checkpoint)
+        CampaignPlan.__qualname__ = "CampaignSettings"
+        try:
+            data = pickle.dumps(checkpoint)
+        finally:
+            CampaignPlan.__qualname__ = "CampaignPlan"
+    assert b"CampaignSettings" in data
     assert b"lnss_lib.optimize" in data and "lnss_lib.optimize" not in sys.modules
     (tmp_path / "run" / CHECKPOINT_FILE).write_bytes(data)
     loaded = load_checkpoint(tmp_path / "run")

@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 import xarray as xr
 
-from lnss_lib.campaign import CampaignSettings, run_campaign
+from lnss_lib.campaign import CampaignPlan, run_campaign
 from lnss_lib.campaign.journal import encode_record
 from lnss_lib.settings import load_settings
 from lnss_lib.keys import DESIGN_KEYS
@@ -14,7 +14,7 @@ from lnss_lib.keys import DESIGN_KEYS
 
 @pytest.fixture(scope="module")
 def settings():
-    return CampaignSettings.from_profile(load_settings("paper"))
+    return CampaignPlan.of(load_settings("paper"))
 
 
 def _history(n_evaluated, wall_s, n_cache_hits, n_designs):
@@ -195,11 +195,11 @@ def test_load_or_run_shows_the_profiles_run_or_says_why_not(tiny_profiles, capsy
     (own.run_dir / "checkpoint.pkl").unlink()
     shown = load_or_run("tiny")
     assert shown.run_dir == physics.run_dir and "NOT the campaign of profile 'tiny'" in shown.note
-    assert "gravity.degree = 4 (profile: 8)" in shown.note and shown.profile["gravity"]["degree"] == 4
+    assert "gravity.degree = 4 (profile: 8)" in shown.note and shown.settings.gravity.degree == 4
     assert load_published(folder).pointer["run_dir"] == "run_1"
     # run mode runs the campaign with the notebook's overrides
     ran = load_or_run("tinyrun", '{"campaign": {"generations": 3}}')
-    assert ran.history.sizes["generation"] == 3 and ran.profile["campaign"]["generations"] == 3
+    assert ran.history.sizes["generation"] == 3 and ran.settings.campaign.generations == 3
     assert "not published" in ran.note and load_published(tiny_profiles / "tinyrun" / "campaign") is None
     ran = load_or_run("tinyrun")
     assert ran.history.sizes["generation"] == 2 and "published" in ran.note

@@ -52,9 +52,10 @@ def test_round_up_keeps_two_significant_figures_and_never_tightens():
 
 
 def test_sample_is_the_campaign_grid_and_reproducible(sample):
-    from lnss_lib.campaign.settings import CampaignSettings
+    from lnss_lib.campaign.settings import CampaignPlan
+    from lnss_lib.settings import load_settings
 
-    settings = CampaignSettings.from_profile(load_profile("ci"))
+    settings = CampaignPlan.of(load_settings("ci"))
     keys = study.sample_keys(settings, 4)
     np.testing.assert_array_equal(sample["key"].values, keys)
     designs = settings.grid.designs(keys)
