@@ -36,6 +36,7 @@ Verdict (paper profile, 300 designs, seed 23; ``python -m lnss_lib.studies.delta
 from __future__ import annotations
 
 import math
+from pathlib import Path
 
 import numpy as np
 import pandas as pd
@@ -44,7 +45,6 @@ import xarray as xr
 from ..campaign.backends import open_backend
 from ..campaign.fitness import constraint_matrix, metric_columns
 from ..campaign.settings import CampaignPlan, evaluation_profile
-from ..config import load_profile
 from ..settings import Settings, load_settings
 from ..keys import DESIGN_KEYS, METRIC_KEYS
 from ..paper import TABLE_4
@@ -206,7 +206,7 @@ def feasible_counts(ds: xr.Dataset, bounds: dict[str, float]) -> pd.DataFrame:
     return pd.DataFrame({"designs": rows})
 
 
-def save_sample(ds: xr.Dataset, profile_name: str = "paper") -> "Path":  # noqa: F821
+def save_sample(ds: xr.Dataset, profile_name: str = "paper") -> Path:
     """Write the sample to ``outputs/<profile>/data/deltav_floor_sample.nc``; returns the path."""
     from ..atomicio import atomic_path
     from ..outputs import git_revision, output_dir
@@ -241,11 +241,11 @@ def report(profile_name: str = "paper", n: int = SAMPLE_SIZE, seed: int = SAMPLE
 
 def table4_deltav(profile_name: str = "paper") -> float:
     """The Table 4 ELFO's eq. 45 Delta-V (first satellite) under the profile, evaluated as the campaign evaluates a design."""
-    elfo = load_profile(profile_name)["standalone_elfo"]
-    design = {"sma_km": float(elfo["sma_km"]), "ecc": float(elfo["ecc"]), "aop_deg": float(elfo["aop_deg"]),
-              "inc_deg": float(elfo["inc_deg"]), "n_planes": len(elfo["raan_deg"]),
-              "sats_per_plane": int(elfo["sats_per_plane"])}
-    return float(evaluate_records(load_settings(profile_name), [design])[0]["metrics"][DV_KEY])
+    settings = load_settings(profile_name)
+    elfo = settings.standalone_elfo
+    design = {"sma_km": elfo.sma_km, "ecc": elfo.ecc, "aop_deg": elfo.aop_deg, "inc_deg": elfo.inc_deg,
+              "n_planes": len(elfo.raan_deg), "sats_per_plane": elfo.sats_per_plane}
+    return float(evaluate_records(settings, [design])[0]["metrics"][DV_KEY])
 
 
 if __name__ == "__main__":
