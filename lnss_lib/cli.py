@@ -66,7 +66,7 @@ def design_life_cli(profile_name: str, life_days: float, *, walker: tuple | None
     a such as Ely's phasing, which its authors found by propagating those very states, is flown as published).
     NaN becomes None. An invalid Walker design (the evaluation says why) gives every key None."""
     from .constellation import WalkerDesign
-    from .design_life.evaluation import LIFE_KEYS, elements_deg_in_frame, evaluate_design_life, json_ready, life_evaluation_settings
+    from .design_life.evaluation import LIFE_KEYS, elements_deg_in_frame, evaluate_design_life, json_ready
     from .ephemeris import tdb_seconds
     from .evaluator import context_for
     from .propagator import elements_deg_to_states
@@ -74,7 +74,7 @@ def design_life_cli(profile_name: str, life_days: float, *, walker: tuple | None
     if not (isinstance(life_days, (int, float)) and math.isfinite(life_days) and life_days > 0):
         raise ValueError(f"--design-life-days must be a positive number of days; got {life_days!r}")
     profile = load_settings(profile_name, overrides=overrides)
-    step_s = life_evaluation_settings(profile)["sample_step_s"]
+    step_s = profile.life_evaluation.sample_step_s
     if not life_days * SECONDS_PER_DAY > step_s:
         raise ConfigError(f"--design-life-days {life_days!r} ({life_days * SECONDS_PER_DAY:g} s) is not longer than "
                           f"life_evaluation.sample_step_s = {step_s!r} s; allowed: a life of more than one sampling step",
@@ -87,7 +87,7 @@ def design_life_cli(profile_name: str, life_days: float, *, walker: tuple | None
             profile = file_epoch_profile(profile, c)
         profile = profile.with_overrides({"design_life": {"initial_trim": False}})   # the file's states as given
         states = constellation_states_mci(profile.dynamics, profile.epoch.start_tdb, c, constellation_epoch)
-        elements = elements_deg_in_frame(profile, states.states_mci, states.t_epoch_tdb_s)
+        elements = elements_deg_in_frame(profile.dynamics, states.states_mci, states.t_epoch_tdb_s)
     else:
         try:
             elements = WalkerDesign(*walker).elements_deg()
