@@ -87,7 +87,7 @@ def design_life_cli(profile_name: str, life_days: float, *, walker: tuple | None
             profile = file_epoch_profile(profile, c)
         profile = profile.with_overrides({"design_life": {"initial_trim": False}})   # the file's states as given
         states = constellation_states_mci(profile.dynamics, profile.epoch.start_tdb, c, constellation_epoch)
-        elements = elements_deg_in_frame(profile, states.states_mci, states.t_epoch_tdb_s)
+        elements = elements_deg_in_frame(profile.dynamics, states.states_mci, states.t_epoch_tdb_s)
     else:
         try:
             elements = WalkerDesign(*walker).elements_deg()

@@ -220,9 +220,12 @@ RANGES = {
     "sk_estimate.year_days": POSITIVE, "sk_estimate.min_periods": POSITIVE,
     "sk_estimate.along_track_rebias_per_year": NON_NEGATIVE,
     "design_life.life_days": POSITIVE, "design_life.check_interval_days": POSITIVE,
-    "design_life.samples_per_orbit": (2, None, False, False), "design_life.min_maneuver_spacing_days": NON_NEGATIVE,
+    "design_life.samples_per_orbit": (16, None, False, False), "design_life.min_maneuver_spacing_days": NON_NEGATIVE,
     "design_life.dv_cap_kms_per_year": NON_NEGATIVE, "design_life.phasing_days": POSITIVE,
-    "design_life.box_tolerance": NON_NEGATIVE,
+    "design_life.box_tolerance": NON_NEGATIVE, "design_life.slot_coast_days": POSITIVE,
+    "design_life.slot_fit_days": POSITIVE, "design_life.slot_quad_days": POSITIVE,
+    "design_life.tide_period_days": POSITIVE, "design_life.target_fraction": (0.0, 1.0, False, True),
+    "life_evaluation.sample_step_s": POSITIVE, "life_evaluation.month_days": POSITIVE,
 }
 _TOLERANCE_WHY = (f"below about 100 machine epsilons ({TOLERANCE_FLOOR:g}) an integrator's error test asks for what "
                   "double precision cannot resolve")
@@ -235,6 +238,11 @@ WHY = {   # the physical or numerical reason of a range, quoted in the message
     "deltav.paper_divisor_floor": "a floor of 0 is the paper's literal divisors (notebook 04's sweep); 1 or more "
                                   "would replace every divisor",
     "deltav.secular_min_periods": "the secular trend needs at least two one-orbit windows",
+    "design_life.samples_per_orbit": "the one-orbit mean elements of the checks and the insertion trim average "
+                                     "this many samples of an orbit (at least 8 to be computed at all, 16 for an "
+                                     "e = 0.6 orbit's mean a to settle)",
+    "design_life.target_fraction": "a correction aims this fraction of the half-width past the reference: "
+                                   "1 would aim at the far edge of the box",
 }
 
 # Allowed values of the text settings (one copy: the modules that read a setting import its tuple from here).

@@ -66,11 +66,6 @@ class EvaluationContext:
         self.dynamics, self.dop, self.gps, self.deltav = (self.settings.dynamics, self.settings.dop, self.settings.gps,
                                                           self.settings.deltav)
 
-    @property
-    def profile(self) -> Settings:
-        """Transitional name of :attr:`settings` (the design-life modules still read ``context.profile``)."""
-        return self.settings
-
     @classmethod
     def build(cls, settings: Settings) -> "EvaluationContext":
         """Tables, force model, Moon-fixed rotations, grid and GPS states over the settings' arc (checked at load)."""
@@ -202,12 +197,12 @@ def _operational_metrics(context: EvaluationContext, ds: xr.Dataset, states: np.
         a_mean = np.mean(vis_viva_sma_km(r, v2, gm), axis=1)             # vis-viva, as the estimate's arc test
         arc_s = float(ds["time"].values[-1] - ds["time"].values[0])
         if arc_s >= min_periods * 2.0 * np.pi * np.sqrt(np.max(a_mean) ** 3 / gm) * (1.0 + 1e-9):
-            estimate = sk_estimate.sk_estimate_from_propagation(profile, ds)
+            estimate = sk_estimate.sk_estimate_from_propagation(profile.sk_estimate, context.dynamics, ds)
         else:
             estimate = dict.fromkeys(("sk_dv_estimate_kms_per_year", "sk_dv_estimate_max_kms_per_year"), math.nan)
         out.update({k: float(estimate[k]) for k in wanted if k.startswith("sk_dv_estimate")})
     if any(k.startswith(("stable", "screen")) for k in wanted):
-        screen = stability.screen_states(profile, states, context.t0_tdb_s)
+        screen = stability.screen_states(profile.stability, context.dynamics, states, context.t0_tdb_s)
         values = {"stable_screen": 1.0 if screen.attrs["stable"] else 0.0,
                   "screen_min_perilune_alt_km": float(screen.attrs["min_perilune_alt_km"])}
         out.update({k: values[k] for k in wanted if k in values})

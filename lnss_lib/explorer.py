@@ -362,7 +362,7 @@ class DesignExplorer:
                                    f"<th>previous design</th><th>change</th></tr>{body}</table>")
         self.figures = {}
         if cur.study is not None:
-            profile, study = self.context().profile, cur.study
+            profile, study = self.context().settings, cur.study
             design = ", ".join(f"{SLIDER_LABELS[k]} {v:g}" for k, v in cur.design.items())
             self.figures = {
                 "availability": availability_polar_maps(study["dop"], profile.dop.availability_threshold,

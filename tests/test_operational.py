@@ -56,7 +56,7 @@ def test_deltav_satellites_first_is_satellite_zero_and_all_is_the_mean(extra_con
     assert metrics["dv_total_kms_per_year"] == pytest.approx(float(per_sat.dv_total_kms_per_year.mean()))
     assert metrics["dv_total_max_kms_per_year"] == pytest.approx(float(per_sat.dv_total_kms_per_year.max()))
     assert out["deltav"].attrs["dv_total_kms_per_year"] == pytest.approx(float(per_sat.dv_total_kms_per_year[0]))
-    estimate = sk_estimate.sk_estimate_from_propagation(profile, out["propagation"])
+    estimate = sk_estimate.sk_estimate_from_propagation(profile.sk_estimate, profile.dynamics, out["propagation"])
     assert metrics["sk_dv_estimate_max_kms_per_year"] == pytest.approx(estimate["sk_dv_estimate_max_kms_per_year"])
     first = evaluate_design(context_for(load_settings("ci")), *ELFO_2X2)
     assert first["dv_total_kms_per_year"] == pytest.approx(float(per_sat.dv_total_kms_per_year[0]))

@@ -35,6 +35,10 @@ Frames: states are Moon-centred J2000 (``_mci``); mean elements, boxes and the c
 profile's element frame (``[frames] element_frame``: the lunar equator of epoch, ``j2000`` or ``moon_op``;
 :func:`lnss_lib.frames.element_frame_to_j2000`); burns are RTN. Settings: ``[stability]``
 (screen), ``[sk_estimate]`` (estimate), ``[design_life]`` with ``.box`` and ``.service`` (closed loop),
-``[life_evaluation]`` (evaluation). Their presentation lives in :mod:`lnss_lib.studies.design_life`,
+``[life_evaluation]`` (evaluation), checked once at load (:mod:`lnss_lib.settings`): each function takes the
+sections it reads and the :class:`lnss_lib.settings.Dynamics` bundle, numbers (a life that replaces the
+section's is a number, ``life_days=``, or ``dataclasses.replace(section, life_days=...)``) and arrays; only
+:func:`.evaluation.run_design_life` and :func:`.evaluation.evaluate_design_life`, which read most sections,
+take the whole :class:`lnss_lib.settings.Settings` (the latter also an ``EvaluationContext``). Their presentation lives in :mod:`lnss_lib.studies.design_life`,
 :mod:`lnss_lib.figures.design_life` and notebook 08. Nothing is re-exported here: import from the module.
 """

@@ -55,16 +55,15 @@ quantity by how much. ``natural=True`` flies no manoeuvre (natural drift, same i
 
 from __future__ import annotations
 
+import dataclasses
 import time
-from dataclasses import dataclass
 
 import numpy as np
 import xarray as xr
 
-from ..config import CONTROLLERS
 from ..constants import DAYS_PER_JULIAN_YEAR, SECONDS_PER_DAY
 from ..elements import eccentricity_vector, orbital_period_s, state_to_elements, vis_viva_sma_km
-from ..ephemeris import ensure_kernels, tdb_seconds
+from ..ephemeris import ensure_kernels
 from ..forces import ForceModel
 from .manoeuvres import candidate_true_anomalies, mean_anomaly, plan_impulses
 from .mean_elements import mean_elements, relative_angles, to_element_frame, wrap_pi
@@ -73,7 +72,8 @@ from ..progress import steps
 from ..propagator import (METHODS, STATUS_IMPACT, STATUS_NOT_RUN, STATUS_OK, STATUS_TEXT, check_batch,
                          elements_deg_to_states)
 from ..frames import element_frame_to_j2000
-from .service import (LOCATIONS, PURPOSES, NavigationMonitor, ServiceSettings, burn_location, mean_vectors_j2000,
+from ..settings import DesignLifeSettings, DopSettings, Dynamics, IntegratorSetting, StabilitySettings
+from .service import (LOCATIONS, PURPOSES, NavigationMonitor, burn_location, mean_vectors_j2000,
                          raan_half_width_rad, safety_targets)
 from .screen import SecularField
 from .propagation import integrate_chunk, life_force_model, trim_to_mean
@@ -87,66 +87,16 @@ A_TRIM_FRACTION = 0.1
 of its half-width over ``slot_coast_days`` is trimmed at once (a tangential touch of ~0.1 m/s per km)."""
 
 
-@dataclass(frozen=True)
-class LifeSettings:
-    """``[design_life]`` of a profile, checked (see params/paper.toml)."""
-
-    life_days: float
-    check_interval_days: float
-    samples_per_orbit: int
-    min_maneuver_spacing_days: float
-    dv_cap_kms_per_year: float
-    slot_coast_days: float
-    slot_fit_days: float
-    slot_quad_days: float
-    target_fraction: float
-    tide_period_days: float
-    box_tolerance: float
-    integrator_setting: str
-    initial_trim: bool
-    box: dict
-    controller: str = "service"
-    service: ServiceSettings | None = None
-
-    @classmethod
-    def from_profile(cls, profile: dict, **overrides) -> "LifeSettings":
-        cfg = {**profile["design_life"], **{k: v for k, v in overrides.items() if v is not None}}
-        box = dict(cfg.pop("box"))
-        service = ServiceSettings.from_section(dict(cfg.pop("service")))
-        if cfg.get("controller") not in CONTROLLERS:
-            raise ValueError(f"[design_life] controller = {cfg.get('controller')!r}; allowed: {', '.join(CONTROLLERS)}")
-        if set(box) != set(BOX_KEYS):
-            raise ValueError(f"[design_life.box] must hold exactly {BOX_KEYS}; got {sorted(box)}")
-        for key, value in box.items():
-            if not (np.isfinite(value) and value > 0):
-                raise ValueError(f"[design_life.box] {key} = {value!r} must be a positive number")
-        allowed = set(cls.__dataclass_fields__) - {"box", "service"}
-        unknown = set(cfg) - allowed
-        if unknown:
-            raise ValueError(f"unknown [design_life] key(s) {sorted(unknown)}; allowed: {sorted(allowed)}")
-        for key in ("life_days", "check_interval_days", "slot_coast_days", "tide_period_days", "slot_fit_days", "slot_quad_days",
-                    "dv_cap_kms_per_year"):
-            if not (np.isfinite(cfg[key]) and cfg[key] > 0):
-                raise ValueError(f"[design_life] {key} = {cfg[key]!r} must be positive")
-        if not 0.0 <= cfg["target_fraction"] < 1.0:
-            raise ValueError(f"[design_life] target_fraction = {cfg['target_fraction']!r} must be in [0, 1)")
-        if not cfg["min_maneuver_spacing_days"] >= 0 or not cfg["box_tolerance"] >= 0:
-            raise ValueError("[design_life] min_maneuver_spacing_days and box_tolerance must be >= 0")
-        if int(cfg["samples_per_orbit"]) < 16:
-            raise ValueError(f"[design_life] samples_per_orbit = {cfg['samples_per_orbit']!r} must be >= 16")
-        profile.integrator.named(cfg["integrator_setting"])
-        if not isinstance(cfg["initial_trim"], bool):
-            raise ValueError(f"[design_life] initial_trim = {cfg['initial_trim']!r} must be true or false")
-        return cls(**{**cfg, "samples_per_orbit": int(cfg["samples_per_orbit"])}, box=box, service=service)
-
-
-def simulate_life(profile: dict, elements_deg, *, natural: bool = False, life_days: float | None = None,
-                  degree: int | None = None, model: ForceModel | None = None, t0_tdb_s: float | None = None,
-                  settings: LifeSettings | None = None, sample_step_s: float | None = None) -> xr.Dataset:
+def simulate_life(design_life: DesignLifeSettings, dynamics: Dynamics, elements_deg, t0_tdb_s: float, *,
+                  stability: StabilitySettings, dop: DopSettings, natural: bool = False,
+                  life_days: float | None = None, degree: int | None = None, model: ForceModel | None = None,
+                  sample_step_s: float | None = None) -> xr.Dataset:
     """Station keeping (or, with ``natural=True``, natural drift) of a constellation over its design life.
 
-    ``elements_deg`` (n_sat, 6) ``[sma_km, e, inc_deg, raan_deg, aop_deg, M_deg]`` in the profile's
-    element frame at the start (default: the profile's epoch) are also the references of the box.
+    ``design_life`` is the ``[design_life]`` section (``life_days`` replaces its life); the service
+    controller also reads ``stability`` (the averaged model of its safety prediction) and ``dop`` (its
+    navigation monitor). ``elements_deg`` (n_sat, 6) ``[sma_km, e, inc_deg, raan_deg, aop_deg, M_deg]`` in the
+    element frame of ``dynamics.frames`` at TDB ``t0_tdb_s`` are also the references of the box.
     Returns a Dataset with dims ``sat``, ``check`` (mean-element history, one per chunk) and
     ``maneuver``: per satellite ``dv_kms_per_year`` (over the life, or over the flown span of a lost satellite), ``dv_total_kms``, ``n_maneuvers``,
     ``maneuver_t_tdb_s`` and ``maneuver_dv_rtn_kms``, ``box_held``, ``impact``, ``impact_day``,
@@ -156,25 +106,27 @@ def simulate_life(profile: dict, elements_deg, *, natural: bool = False, life_da
     ``box_error`` and ``box_error_tidal_mean``. With ``sample_step_s`` the Dataset also holds
     ``r_mci_km`` (sat, sample, xyz): Moon-centred J2000 positions (km) on the grid ``sample_t_tdb_s`` =
     t0 + k ``sample_step_s`` over the life (manoeuvres flown; NaN after an impact), for navigation
-    metrics over the design life. Raises ``ValueError`` for invalid elements or sample step.
+    metrics over the design life. Raises ``ValueError`` for invalid elements, life or sample step.
     """
-    cfg = settings or LifeSettings.from_profile(profile, life_days=life_days)
-    ensure_kernels(profile.ephemeris)
+    cfg = design_life if life_days is None else dataclasses.replace(design_life, life_days=float(life_days))
+    if not (np.isfinite(cfg.life_days) and cfg.life_days > 0.0):
+        raise ValueError(f"life_days = {cfg.life_days!r} must be a positive number of days")
+    ensure_kernels(dynamics.ephemeris)
     el = np.atleast_2d(np.asarray(elements_deg, dtype=float))
-    t0 = tdb_seconds(profile["epoch"]["start_tdb"], "TDB") if t0_tdb_s is None else float(t0_tdb_s)
-    elements_deg_to_states(profile.dynamics, el, t0)
-    gm = float(profile["gravity"]["gm_km3_s2"])
+    t0 = float(t0_tdb_s)
+    elements_deg_to_states(dynamics, el, t0)
+    gm = dynamics.gravity.gm_km3_s2
     life_s = cfg.life_days * SECONDS_PER_DAY
     if model is None:
-        model = life_force_model(profile, t0, cfg.life_days, degree)
+        model = life_force_model(dynamics, t0, cfg.life_days, degree)
     elif model.table.t0_tdb_s > t0 or model.table.t_end_tdb_s < t0 + life_s:
         raise ValueError("the force model's ephemeris table does not span the design life")
-    integ = profile.integrator.named(cfg.integrator_setting)
-    el_insert, trim_resid = (trim_to_mean(profile, el, t0, model, integ, samples_per_orbit=cfg.samples_per_orbit)
+    integ = dynamics.integrator.named(cfg.integrator_setting)
+    el_insert, trim_resid = (trim_to_mean(dynamics, el, t0, model, integ, samples_per_orbit=cfg.samples_per_orbit)
                              if cfg.initial_trim else (el.copy(), np.full_like(el, np.nan)))
-    states = elements_deg_to_states(profile.dynamics, el_insert, t0)
-    rot = element_frame_to_j2000(profile.dynamics, t0)
-    r_min = profile["constants"]["r_moon_mean_km"] + profile["impact"]["min_altitude_km"]
+    states = elements_deg_to_states(dynamics, el_insert, t0)
+    rot = element_frame_to_j2000(dynamics, t0)
+    r_min = dynamics.r_impact_km
 
     n_sat = el.shape[0]
     sample_t = _sample_grid(t0, life_s, sample_step_s)
@@ -191,8 +143,8 @@ def simulate_life(profile: dict, elements_deg, *, natural: bool = False, life_da
     chunk_s = life_s / n_chunks
     ref_a, ref_ecc, ref_aop, ref_inc = el[:, 0].copy(), el[:, 1], np.radians(el[:, 4]), np.radians(el[:, 2])
     nom_raan, nom_u = np.radians(el[:, 3]), np.radians(el[:, 4] + el[:, 5])
-    half = np.array([cfg.box["ecc"], np.radians(cfg.box["aop_deg"]), np.radians(cfg.box["inc_deg"]),
-                     np.radians(cfg.box["raan_rel_deg"]), np.radians(cfg.box["u_rel_deg"])])
+    half = np.array([cfg.box.ecc, np.radians(cfg.box.aop_deg), np.radians(cfg.box.inc_deg),
+                     np.radians(cfg.box.raan_rel_deg), np.radians(cfg.box.u_rel_deg)])
     box_half = half.copy()
     service = cfg.controller == "service"
     svc = cfg.service
@@ -202,10 +154,10 @@ def simulate_life(profile: dict, elements_deg, *, natural: bool = False, life_da
     if service:
         half[:, 3] = raan_half_width_rad(np.radians(svc.raan_rel_deg), ref_inc)
     cap_kms = cfg.dv_cap_kms_per_year * cfg.life_days / DAYS_PER_JULIAN_YEAR
-    r_moon = float(profile["constants"]["r_moon_mean_km"])
-    field = (SecularField.from_profile(profile, t0, cfg.life_days + 1.0)
+    r_moon = dynamics.constants.r_moon_mean_km
+    field = (SecularField.from_settings(stability, dynamics, t0, cfg.life_days + 1.0)
              if service and not natural else None)
-    nav = NavigationMonitor(profile, sample_t, svc) if service and not natural and sample_t.size else None
+    nav = NavigationMonitor(dop, dynamics, sample_t, svc) if service and not natural and sample_t.size else None
 
     y = states.copy()
     active = np.ones(n_sat, dtype=bool)
@@ -236,8 +188,8 @@ def simulate_life(profile: dict, elements_deg, *, natural: bool = False, life_da
         t_out, where = np.unique(np.concatenate([t_win, sample_t[in_chunk]]), return_inverse=True)
         pending_t, pending_dv = _flight_plan(queue)
         out_states, y_new, status, t_stop = integrate_chunk(
-            y, active, t, t_out, pending_t, pending_dv, METHODS.index(integ["method"]), float(integ["rtol"]),
-            float(integ["atol"]), r_min, 5_000_000, model.kernel_args, model.field.degree)
+            y, active, t, t_out, pending_t, pending_dv, METHODS.index(integ.method), integ.rtol,
+            integ.atol, r_min, 5_000_000, model.kernel_args, model.field.degree)
         # a loop that lost an error (not run) or an "ok" satellite with unwritten samples is a failure of
         # the code, raised; impact, escape and integrator failures are the satellite's loss, reported
         check_batch(status, t_stop, out_states, t_out, t, active & ((status == STATUS_OK) | (status == STATUS_NOT_RUN)))
@@ -355,7 +307,7 @@ def simulate_life(profile: dict, elements_deg, *, natural: bool = False, life_da
             if out[4] and slot[i].history[-1][0] - slot[i].history[0][0] >= cfg.slot_quad_days * SECONDS_PER_DAY:
                 slot[i].accel = fit[2]
             slot[i].history = []
-    ds = _life_dataset(profile, cfg, integ, model, natural, el, t0, life_s, np.array(hist_t), np.array(hist_el),
+    ds = _life_dataset(dynamics.frames.element_frame, cfg, integ, model, natural, el, t0, life_s, np.array(hist_t), np.array(hist_el),
                        np.array(hist_err), half, booked, impact_t, loss_t, cap_kms, time.perf_counter() - start,
                        sample_t, r_sample if sample_step_s is not None else None)
     _add_life_report(ds, np.array(hist_rp) - r_moon, loss_t, loss_cause, r_min - r_moon, t0, life_s, natural, nav)
@@ -492,7 +444,7 @@ def _plan(osc, mel, a_ref, err, out, fit, half, cfg, gm, hold_u=True):
     return (plan if plan.dv_rtn_kms.size else None), target["a_km"]
 
 
-def _life_dataset(profile, cfg, integ, model, natural, el, t0, life_s, hist_t, hist_el, hist_err, half, booked,
+def _life_dataset(element_frame, cfg, integ, model, natural, el, t0, life_s, hist_t, hist_el, hist_err, half, booked,
                   impact_t, loss_t, cap_kms, wall_s, sample_t, r_sample) -> xr.Dataset:
     n_sat = el.shape[0]
     n_max = max([len(b) for b in booked] + [1])
@@ -544,10 +496,10 @@ def _life_dataset(profile, cfg, integ, model, natural, el, t0, life_s, hist_t, h
         attrs={
             "mode": "natural drift" if natural else "closed-loop station keeping",
             "controller": "none" if natural else cfg.controller,
-            "life_days": cfg.life_days, "t0_tdb_s": t0, "integrator_setting": integ["name"],
-            "integrator": f"{integ['method']} rtol {integ['rtol']:g} atol {integ['atol']:g}",
-            "force_model": model.describe(), "element_frame": profile["frames"]["element_frame"],
-            "box_half_widths": ", ".join(f"{k} {cfg.box[k]:g}" for k in BOX_KEYS),
+            "life_days": cfg.life_days, "t0_tdb_s": t0, "integrator_setting": integ.name,
+            "integrator": f"{integ.method} rtol {integ.rtol:g} atol {integ.atol:g}",
+            "force_model": model.describe(), "element_frame": element_frame,
+            "box_half_widths": ", ".join(f"{k} {getattr(cfg.box, k):g}" for k in BOX_KEYS),
             "box_error_units": "ecc (-), aop/inc/raan_rel/u_rel (rad)",
             "dv_cap_kms_per_year": cfg.dv_cap_kms_per_year, "wall_s": wall_s,
         },
@@ -575,28 +527,30 @@ def impact_day(ds: xr.Dataset) -> float:
     return float(np.nanmin(days)) if np.any(np.isfinite(days)) else float("nan")
 
 
-def integrator_convergence(profile: dict, elements_deg, *, life_days: float = 365.0,
+def integrator_convergence(dynamics: Dynamics, elements_deg, t0_tdb_s: float, *, life_days: float = 365.0,
                            settings=("paper", "converged", "design_life"), reference: dict | None = None,
                            degree: int | None = None, step_days: float = 1.0) -> xr.Dataset:
     """Position difference (km) of each integrator setting against a tighter reference over the life.
 
-    Natural drift of ``elements_deg`` (n_sat, 6) (element frame, profile epoch) with each named
-    setting of ``[integrator.settings]`` and with ``reference`` (default DOP853 at rtol 1e-12 /
+    Natural drift of ``elements_deg`` (n_sat, 6) (element frame, TDB ``t0_tdb_s``) with each named
+    setting of ``dynamics.integrator.settings`` and with ``reference`` (default DOP853 at rtol 1e-12 /
     atol 1e-14); returns ``pos_diff_km`` (setting, sat, day) sampled every ``step_days``, with
     NaN after an impact, and ``n_rhs`` (setting, sat).
     """
     from ..propagator import propagate_states
 
     ref = reference or {"method": "DOP853", "rtol": 1e-12, "atol": 1e-14}
-    prof = profile.with_overrides({"integrator": {"settings": {"_reference": ref}}})
-    ensure_kernels(prof.ephemeris)
-    t0 = tdb_seconds(prof["epoch"]["start_tdb"], "TDB")
+    integrator = dataclasses.replace(dynamics.integrator, settings={
+        **dynamics.integrator.settings, "_reference": IntegratorSetting(ref["method"], float(ref["rtol"]), float(ref["atol"]))})
+    dyn = dataclasses.replace(dynamics, integrator=integrator)
+    ensure_kernels(dyn.ephemeris)
+    t0 = float(t0_tdb_s)
     el = np.atleast_2d(np.asarray(elements_deg, dtype=float))
-    states = elements_deg_to_states(prof.dynamics, el, t0)
-    model = life_force_model(prof, t0, life_days, degree)
+    states = elements_deg_to_states(dyn, el, t0)
+    model = life_force_model(dyn, t0, life_days, degree)
     runs = {}
     for name in (*settings, "_reference"):
-        runs[name] = propagate_states(prof.dynamics, states, t0, life_days * SECONDS_PER_DAY, step_days * SECONDS_PER_DAY,
+        runs[name] = propagate_states(dyn, states, t0, life_days * SECONDS_PER_DAY, step_days * SECONDS_PER_DAY,
                                       batch=True, model=model, setting=name)
     r_ref = runs["_reference"].r_mci_km.values
     diff = np.stack([np.linalg.norm(runs[s].r_mci_km.values - r_ref, axis=-1) for s in settings])

@@ -48,37 +48,13 @@ import xarray as xr
 from ..constants import DAYS_PER_JULIAN_YEAR, SECONDS_PER_DAY
 from ..deltav import orbit_mean, orbit_vectors
 from ..elements import eccentric_anomaly_from_true
-from ..frames import ELEMENT_FRAMES, element_frame_to_j2000
+from ..frames import element_frame_to_j2000
+from ..settings import Dynamics, SkEstimateSettings
 
-__all__ = ["PARTS", "DEFAULT_SETTINGS", "sk_estimate_settings", "mean_drift", "sk_estimate_arrays",
+__all__ = ["PARTS", "mean_drift", "sk_estimate_arrays",
            "sk_estimate_from_propagation"]
 
 PARTS = ("ecc_vector", "plane", "sma", "along_track")
-DEFAULT_SETTINGS = {
-    "element_frame": "lunar_equator_of_epoch",   # pole k of the turning frame: z of this frame
-    "year_days": DAYS_PER_JULIAN_YEAR,
-    "min_periods": 2.0,                          # the arc must hold this many orbits
-    "along_track_rebias_per_year": 1.0,          # one-time along-track biases counted per year
-}
-
-
-def sk_estimate_settings(profile: dict | None = None, **overrides) -> dict:
-    """``[sk_estimate]`` settings (defaults :data:`DEFAULT_SETTINGS`) with ``overrides``; ``ValueError`` if bad."""
-    cfg = dict(DEFAULT_SETTINGS)
-    for source in ((profile or {}).get("sk_estimate", {}), overrides):
-        unknown = set(source) - set(DEFAULT_SETTINGS)
-        if unknown:
-            raise ValueError(f"unknown [sk_estimate] setting(s) {sorted(unknown)}; allowed: {sorted(DEFAULT_SETTINGS)}")
-        cfg.update({k: v for k, v in source.items() if v is not None})
-    if cfg["element_frame"] not in ELEMENT_FRAMES:
-        raise ValueError(f"[sk_estimate] element_frame {cfg['element_frame']!r}; allowed: {list(ELEMENT_FRAMES)}")
-    for key in ("year_days", "min_periods"):
-        if not np.isfinite(float(cfg[key])) or float(cfg[key]) <= 0.0:
-            raise ValueError(f"[sk_estimate] {key} must be positive; got {cfg[key]!r}")
-    rebias = float(cfg["along_track_rebias_per_year"])
-    if not np.isfinite(rebias) or rebias < 0.0:
-        raise ValueError(f"[sk_estimate] along_track_rebias_per_year must be >= 0; got {cfg['along_track_rebias_per_year']!r}")
-    return cfg
 
 
 def _mean_argument_of_latitude(r: np.ndarray, e_vec: np.ndarray, h_hat: np.ndarray) -> np.ndarray:
@@ -161,22 +137,20 @@ def sk_estimate_arrays(drift: dict, gm_km3_s2: float, year_days: float = DAYS_PE
     return parts
 
 
-def sk_estimate_from_propagation(profile: dict, ds: xr.Dataset, **overrides) -> dict:
+def sk_estimate_from_propagation(sk_estimate: SkEstimateSettings, dynamics: Dynamics, ds: xr.Dataset) -> dict:
     """The estimate for a propagator Dataset (every satellite; e.g. the evaluator's 10-day arc).
 
     Returns ``sk_dv_estimate_kms_per_year`` (mean over satellites), ``sk_dv_estimate_max_kms_per_year``,
     ``per_sat`` (dict part -> (n_sat,) km/s per year), ``common_raan_dot_deg_per_day`` and ``wall_s``.
-    ``overrides`` replace ``[sk_estimate]`` settings.
     """
     start = time.perf_counter()
-    cfg = sk_estimate_settings(profile, **overrides)
     t = ds["time"].values.astype(float)
     states = np.concatenate([ds["r_mci_km"].values, ds["v_mci_kms"].values], axis=-1)
-    rot = element_frame_to_j2000(profile.dynamics, float(t[0]), cfg["element_frame"])
+    rot = element_frame_to_j2000(dynamics, float(t[0]), sk_estimate.element_frame)
     states = np.concatenate([states[..., :3] @ rot, states[..., 3:] @ rot], axis=-1)
-    gm = float(profile["gravity"]["gm_km3_s2"])
-    parts = sk_estimate_arrays(mean_drift(t, states, gm, float(cfg["min_periods"])), gm, float(cfg["year_days"]),
-                               float(cfg["along_track_rebias_per_year"]))
+    gm = dynamics.gravity.gm_km3_s2
+    parts = sk_estimate_arrays(mean_drift(t, states, gm, sk_estimate.min_periods), gm, sk_estimate.year_days,
+                               sk_estimate.along_track_rebias_per_year)
     total = parts["total"]
     return {"sk_dv_estimate_kms_per_year": float(np.mean(total)), "sk_dv_estimate_max_kms_per_year": float(np.max(total)),
             "per_sat": {k: parts[k] for k in (*PARTS, "total")},

@@ -17,6 +17,7 @@ doubly-averaged stability screen for the same life (:mod:`lnss_lib.design_life.s
 
 from __future__ import annotations
 
+import dataclasses
 import math
 import time
 from collections.abc import Mapping
@@ -27,15 +28,16 @@ import xarray as xr
 from ..constants import SECONDS_PER_DAY
 from ..dop import SurfaceGrid, dop_for_settings, summary_for_settings
 from ..ephemeris import ensure_kernels, tdb_seconds
-from ..config import ELEMENT_FRAMES
 from ..frames import rotate_to_moon_fixed
 from ..progress import steps
+from ..forces import ForceModel
 from ..propagator import elements_deg_to_states, propagate_states
+from ..settings import DopSettings, Dynamics, EpochSettings, Settings, SkEstimateSettings, StabilitySettings
 from .estimate import sk_estimate_from_propagation
 from .screen import screen_states
-from .closed_loop import LifeSettings, impact_day, life_force_model, simulate_life
+from .closed_loop import impact_day, life_force_model, simulate_life
 
-__all__ = ["LIFE_KEYS", "NAVIGATION_KEYS", "STUDY_KEYS", "life_evaluation_settings", "run_design_life", "life_metrics",
+__all__ = ["LIFE_KEYS", "NAVIGATION_KEYS", "STUDY_KEYS", "run_design_life", "life_metrics",
            "life_navigation", "life_availability", "lost_satellites", "short_arc_predictors", "evaluate_design_life", "json_ready",
            "elements_deg_in_frame"]
 
@@ -50,55 +52,34 @@ NAVIGATION_KEYS = ("pdop_avail_pct", "hdop_avail_pct", "pdop_mean_3sigma", "hdop
                    "fewer_than_4_pct")
 """Per-month statistics of :func:`life_navigation` (eq. 9-14)."""
 
-_SETTINGS = {"sample_step_s": float, "month_days": float}
 STUDY_KEYS = ("notebook_life_days", "convergence_life_days", "convergence_sats", "validation_life_days",
               "validation_max_sats_per_plane", "validation_front_designs", "validation_designs",
               "anchor_life_days", "validation_frames")
 """``[life_evaluation]`` keys read by notebook 08 and :mod:`lnss_lib.studies.design_life` only."""
 
 
-def life_evaluation_settings(profile: dict) -> dict:
-    """``sample_step_s`` (DOP sampling over the life, s) and ``month_days`` of ``[life_evaluation]``, checked."""
-    section = profile.get("life_evaluation", {})
-    unknown = set(section) - set(_SETTINGS) - set(STUDY_KEYS)
-    if unknown:
-        raise ValueError(f"unknown [life_evaluation] key(s) {sorted(unknown)}; allowed: {sorted(_SETTINGS) + sorted(STUDY_KEYS)}")
-    bad = [f for f in section.get("validation_frames", ()) if f not in ELEMENT_FRAMES]
-    if bad:
-        raise ValueError(f"[life_evaluation] validation_frames {bad} unknown; allowed: {list(ELEMENT_FRAMES)}")
-    cfg = {}
-    for key, kind in _SETTINGS.items():
-        if key not in section:
-            raise ValueError(f"[life_evaluation] needs {key!r} (see params/paper.toml)")
-        value = kind(section[key])
-        if not (math.isfinite(value) and value > 0.0):
-            raise ValueError(f"[life_evaluation] {key} = {section[key]!r} must be positive")
-        cfg[key] = value
-    return cfg
-
-
-def _profile_of(context_or_profile):
-    return context_or_profile if isinstance(context_or_profile, Mapping) else context_or_profile.profile
-
-
-def run_design_life(profile: dict, elements_deg, life_days: float | None = None, *, natural: bool = True,
+def run_design_life(settings: Settings, elements_deg, life_days: float | None = None, *, natural: bool = True,
                     sample_step_s: float | None = None, sample: bool = True) -> dict[str, xr.Dataset]:
     """The controlled (and, with ``natural``, the natural-drift) life of elements (n, 6) in the element frame.
 
-    Both runs share one force model and sample positions every ``sample_step_s`` (default
+    Takes the whole settings: it reads ``[design_life]``, ``[stability]`` and ``[dop]`` (the service
+    controller), the dynamics, the epoch and ``[life_evaluation]``. ``life_days`` replaces ``[design_life]
+    life_days``. Both runs share one force model and sample positions every ``sample_step_s`` (default
     ``[life_evaluation] sample_step_s``; none with ``sample=False``). Returns ``{"controlled": ds[, "natural": ds]}`` of
     :func:`lnss_lib.design_life.closed_loop.simulate_life` Datasets.
     """
-    ensure_kernels(profile.ephemeris)
-    settings = LifeSettings.from_profile(profile, life_days=life_days)
-    step = life_evaluation_settings(profile)["sample_step_s"] if sample_step_s is None else float(sample_step_s)
+    dynamics = settings.dynamics
+    ensure_kernels(dynamics.ephemeris)
+    design_life = (settings.design_life if life_days is None
+                   else dataclasses.replace(settings.design_life, life_days=float(life_days)))
+    step = settings.life_evaluation.sample_step_s if sample_step_s is None else float(sample_step_s)
     step = step if sample else None
-    t0 = tdb_seconds(profile["epoch"]["start_tdb"], "TDB")
-    model = life_force_model(profile, t0, settings.life_days)
+    t0 = tdb_seconds(settings.epoch.start_tdb, "TDB")
+    model = life_force_model(dynamics, t0, design_life.life_days)
     runs = {}
     for name in steps(("controlled", "natural") if natural else ("controlled",), "design life", "runs"):
-        runs[name] = simulate_life(profile, elements_deg, natural=name == "natural", settings=settings, model=model,
-                                   t0_tdb_s=t0, sample_step_s=step)
+        runs[name] = simulate_life(design_life, dynamics, elements_deg, t0, stability=settings.stability,
+                                   dop=settings.dop, natural=name == "natural", model=model, sample_step_s=step)
     return runs
 
 
@@ -109,20 +90,20 @@ def _month_index(sample_day: np.ndarray, month_days: float) -> np.ndarray:
     return np.minimum(month, last)
 
 
-def life_navigation(profile: dict, life_ds, *, month_days: float | None = None) -> xr.Dataset:
+def life_navigation(dop: DopSettings, dynamics: Dynamics, life_ds, *, month_days: float) -> xr.Dataset:
     """Month-by-month PDOP/HDOP statistics (eq. 9-14) over the design life, dims (run, month).
 
     ``life_ds``: one :func:`simulate_life` Dataset sampled with ``sample_step_s`` or a mapping
     run name -> Dataset (e.g. :func:`run_design_life`'s controlled and natural runs). Every month
-    (``month_days``, default ``[life_evaluation]``) is one :func:`lnss_lib.dop.dop_for_settings` call
+    (``month_days``, e.g. ``[life_evaluation] month_days``) is one :func:`lnss_lib.dop.dop_for_settings` call
     on that month's samples. Variables :data:`NAVIGATION_KEYS` and ``n_epochs`` (run, month);
     coordinates ``month_start_day``, ``month_end_day``.
     """
     runs = {"life": life_ds} if isinstance(life_ds, xr.Dataset) else dict(life_ds)
-    month_days = life_evaluation_settings(profile)["month_days"] if month_days is None else float(month_days)
+    month_days = float(month_days)
     if not (math.isfinite(month_days) and month_days > 0):
         raise ValueError(f"month_days = {month_days!r} must be positive")
-    grid = SurfaceGrid.from_settings(profile.dop, profile.constants.r_moon_mean_km)
+    grid = SurfaceGrid.from_settings(dop, dynamics.constants.r_moon_mean_km)
     first = next(iter(runs.values()))
     for name, ds in runs.items():
         if "r_mci_km" not in ds:
@@ -139,8 +120,8 @@ def life_navigation(profile: dict, life_ds, *, month_days: float | None = None) 
         idx = np.flatnonzero(month == m)
         for k, ds in enumerate(runs.values()):
             r_mci = ds["r_mci_km"].transpose("sat", "sample", "xyz").values[:, idx]
-            summary = summary_for_settings(profile.dop, dop_for_settings(profile.dop, rotate_to_moon_fixed(profile.dynamics, r_mci, t[idx]),
-                                                                         t[idx], grid))
+            summary = summary_for_settings(dop, dop_for_settings(dop, rotate_to_moon_fixed(dynamics, r_mci, t[idx]),
+                                                                 t[idx], grid))
             for key in NAVIGATION_KEYS:
                 stats[key][k, m] = summary[key]
             n_epochs[k, m] = idx.size
@@ -149,10 +130,10 @@ def life_navigation(profile: dict, life_ds, *, month_days: float | None = None) 
     out = xr.Dataset({key: (("run", "month"), value) for key, value in stats.items()},
                      coords={"run": list(runs), "month": np.arange(n_month), "month_start_day": ("month", starts),
                              "month_end_day": ("month", ends)},
-                     attrs={"month_days": month_days, "los_axes": profile["dop"]["los_axes"],
-                            "elevation_mask_deg": float(profile["dop"]["elevation_mask_deg"]),
-                            "availability_threshold": float(profile["dop"]["availability_threshold"]),
-                            "filter_sigma": float(profile["dop"]["filter_sigma"]),
+                     attrs={"month_days": month_days, "los_axes": dop.los_axes,
+                            "elevation_mask_deg": dop.elevation_mask_deg,
+                            "availability_threshold": dop.availability_threshold,
+                            "filter_sigma": dop.filter_sigma,
                             "sample_step_s": float(np.median(np.diff(t))) if t.size > 1 else float("nan")})
     out["n_epochs"] = (("run", "month"), n_epochs)
     return out
@@ -210,42 +191,49 @@ def life_metrics(runs: Mapping[str, xr.Dataset], nav: xr.Dataset | None = None) 
     return out
 
 
-def short_arc_predictors(context_or_profile, profile: dict, elements: np.ndarray, life_days: float) -> dict:
-    """The campaign-grade estimate on the profile's short arc (NaN if a satellite hits the Moon on it) and the
-    stability screen for ``life_days``: ``sk_dv_estimate_kms_per_year``, ``stable_screen``,
-    ``screen_min_perilune_alt_km``, ``screen_impact_day`` (None when none)."""
-    t0 = tdb_seconds(profile["epoch"]["start_tdb"], "TDB")
-    states = elements_deg_to_states(profile.dynamics, elements, t0)
-    model = None if isinstance(context_or_profile, Mapping) else context_or_profile.model
-    arc = propagate_states(profile.dynamics, states, t0, float(profile["epoch"]["duration_days"]) * SECONDS_PER_DAY,
-                           float(profile["epoch"]["step_s"]), batch=True, model=model)
+def short_arc_predictors(epoch: EpochSettings, dynamics: Dynamics, sk_estimate: SkEstimateSettings,
+                         stability: StabilitySettings, elements: np.ndarray, life_days: float, *,
+                         model: ForceModel | None = None) -> dict:
+    """The campaign-grade estimate on the epoch's short arc (NaN if a satellite hits the Moon on it; ``model``: a
+    force model over that arc to reuse, e.g. the evaluation context's) and the stability screen for ``life_days``:
+    ``sk_dv_estimate_kms_per_year``, ``stable_screen``, ``screen_min_perilune_alt_km``, ``screen_impact_day``
+    (None when none)."""
+    t0 = tdb_seconds(epoch.start_tdb, "TDB")
+    states = elements_deg_to_states(dynamics, elements, t0)
+    arc = propagate_states(dynamics, states, t0, epoch.duration_days * SECONDS_PER_DAY, epoch.step_s, batch=True,
+                           model=model)
     estimate = (float("nan") if bool(arc["impact"].any())
-                else sk_estimate_from_propagation(profile, arc)["sk_dv_estimate_kms_per_year"])
-    screen = screen_states(profile, states, t0, life_days=life_days)
+                else sk_estimate_from_propagation(sk_estimate, dynamics, arc)["sk_dv_estimate_kms_per_year"])
+    screen = screen_states(stability, dynamics, states, t0, life_days=life_days)
     return {"sk_dv_estimate_kms_per_year": estimate, "stable_screen": bool(screen.attrs["stable"]),
             "screen_min_perilune_alt_km": float(screen.attrs["min_perilune_alt_km"]),
             "screen_impact_day": _day_or_none(screen.attrs["impact_day"])}
 
 
-def evaluate_design_life(context_or_profile, elements_deg, life_days: float | None = None, *,
+def evaluate_design_life(context_or_settings, elements_deg, life_days: float | None = None, *,
                          keep: bool = False) -> dict:
-    """:data:`LIFE_KEYS` for elements (n, 6) ``[sma_km, e, i, RAAN, AOP, M]`` (deg, the profile's element frame).
+    """:data:`LIFE_KEYS` for elements (n, 6) ``[sma_km, e, i, RAAN, AOP, M]`` (deg, the settings' element frame).
 
-    ``context_or_profile``: an :class:`lnss_lib.evaluator.EvaluationContext` (its force model is
-    reused for the short arc) or a profile dict. ``life_days`` defaults to ``[design_life]``.
+    ``context_or_settings``: an :class:`lnss_lib.evaluator.EvaluationContext` (its force model is
+    reused for the short arc) or :class:`lnss_lib.settings.Settings`; the whole settings because the
+    verdict reads most of them (``[design_life]``, ``[stability]``, ``[sk_estimate]``, ``[dop]``,
+    ``[life_evaluation]``, the epoch and the dynamics). ``life_days`` defaults to ``[design_life]``.
     Availabilities are over the whole life with station keeping; ``impact_day`` is the controlled
     run's first impact, ``natural_impact_day`` the natural drift's (None when none). Also returns
     ``screen_impact_day`` and ``design_life_wall_s``; with ``keep`` the runs (``"runs"``) and the
     month-by-month navigation (``"navigation"``) too. Raises ``ValueError`` for invalid elements.
     """
     start = time.perf_counter()
-    profile = _profile_of(context_or_profile)
+    is_settings = isinstance(context_or_settings, Settings)
+    settings = context_or_settings if is_settings else context_or_settings.settings
+    model = None if is_settings else context_or_settings.model
     elements = np.atleast_2d(np.asarray(elements_deg, dtype=float))
-    settings = LifeSettings.from_profile(profile, life_days=life_days)
-    runs = run_design_life(profile, elements, settings.life_days)
-    nav = life_navigation(profile, runs)
+    life = settings.design_life.life_days if life_days is None else float(life_days)
+    runs = run_design_life(settings, elements, life)
+    nav = life_navigation(settings.dop, settings.dynamics, runs, month_days=settings.life_evaluation.month_days)
     result = life_metrics(runs, nav)
-    result.update(short_arc_predictors(context_or_profile, profile, elements, settings.life_days))
+    result.update(short_arc_predictors(settings.epoch, settings.dynamics, settings.sk_estimate, settings.stability,
+                                       elements, life, model=model))
     result = {**{k: result[k] for k in LIFE_KEYS}, "screen_impact_day": result["screen_impact_day"],
               "design_life_wall_s": time.perf_counter() - start}
     if keep:
@@ -273,12 +261,13 @@ def _json_value(value):
     return value
 
 
-def elements_deg_in_frame(profile: dict, states_mci, t0_tdb_s: float) -> np.ndarray:
-    """Osculating ``[sma_km, e, i, RAAN, AOP, M]`` (n, 6) (km, deg) of Moon-centred J2000 states in the profile's element frame."""
+def elements_deg_in_frame(dynamics: Dynamics, states_mci, t0_tdb_s: float) -> np.ndarray:
+    """Osculating ``[sma_km, e, i, RAAN, AOP, M]`` (n, 6) (km, deg) of Moon-centred J2000 states in the element frame of
+    ``dynamics.frames``."""
     from ..elements import state_to_elements
     from ..frames import element_frame_to_j2000
 
-    rot = element_frame_to_j2000(profile.dynamics, float(t0_tdb_s))
+    rot = element_frame_to_j2000(dynamics, float(t0_tdb_s))
     s = np.atleast_2d(np.asarray(states_mci, dtype=float))
-    el = state_to_elements(np.concatenate([s[:, :3] @ rot, s[:, 3:] @ rot], axis=1), float(profile["gravity"]["gm_km3_s2"]))
+    el = state_to_elements(np.concatenate([s[:, :3] @ rot, s[:, 3:] @ rot], axis=1), dynamics.gravity.gm_km3_s2)
     return np.column_stack([el[:, :2], np.degrees(el[:, 2:])])

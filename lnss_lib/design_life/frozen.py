@@ -34,8 +34,8 @@ from scipy.optimize import brentq
 
 from ..constants import DAYS_PER_JULIAN_YEAR, SECONDS_PER_DAY
 from ..frames import orbit_plane_axes_j2000
-from .screen import (SIDEREAL_MONTH_DAYS, SecularField, averaged_potential, elements_from_vectors, secular_rates,
-                        stability_settings)
+from ..settings import Dynamics, StabilitySettings
+from .screen import SIDEREAL_MONTH_DAYS, SecularField, averaged_potential, elements_from_vectors, secular_rates
 
 __all__ = ["mean_plane_axes", "FrozenModel", "orbit_vectors_deg", "mean_plane_elements", "potential",
            "frozen_inclination_deg", "frozen_eccentricity", "libration", "allowances"]
@@ -108,10 +108,9 @@ class FrozenModel:
         return cls(np.diag([side, side, tide_op[2, 2]]), field.gm_km3_s2, field.j2, field.r_ref_km, pole_op, spin)
 
     @classmethod
-    def from_profile(cls, profile: dict, t0_tdb_s: float) -> "FrozenModel":
-        """The model at TDB ``t0_tdb_s`` from SPICE (the profile's ``[stability]`` tide, one year tabulated)."""
-        cfg = stability_settings(profile)
-        return cls.from_field(SecularField.from_profile(profile, float(t0_tdb_s), DAYS_PER_JULIAN_YEAR, cfg))
+    def from_settings(cls, stability: StabilitySettings, dynamics: Dynamics, t0_tdb_s: float) -> "FrozenModel":
+        """The model at TDB ``t0_tdb_s`` from SPICE (the ``[stability]`` tide, one year tabulated)."""
+        return cls.from_field(SecularField.from_settings(stability, dynamics, float(t0_tdb_s), DAYS_PER_JULIAN_YEAR))
 
 
 def orbit_vectors_deg(e, inc_deg, aop_deg, raan_deg=0.0) -> tuple[np.ndarray, np.ndarray]:

@@ -14,6 +14,7 @@ from ..constants import SECONDS_PER_DAY
 from ..forces import SCRATCH_SIZE, ForceModel
 from ..frames import element_frame_to_j2000
 from .mean_elements import mean_elements, to_element_frame, wrap_pi
+from ..settings import Dynamics, IntegratorSetting
 from ..propagator import METHODS, STATUS_NOT_RUN, STATUS_OK, check_batch, elements_deg_to_states, integrate_one
 
 __all__ = ["integrate_chunk", "life_force_model", "trim_to_mean", "TRIM_ELEMENTS"]
@@ -91,18 +92,18 @@ def integrate_chunk(y0s, active, t0, t_out, burn_t, burn_dv_rtn, method, rtol, a
     return states, y_end, status, t_stop
 
 
-def life_force_model(profile: dict, t0_tdb_s: float, life_days: float, degree: int | None = None) -> ForceModel:
+def life_force_model(dynamics: Dynamics, t0_tdb_s: float, life_days: float, degree: int | None = None) -> ForceModel:
     """One force model whose ephemeris table spans the whole life (plus one day of margin)."""
-    ensure_kernels(profile.ephemeris)
-    table = EphemerisTable.build(profile.dynamics, t0_tdb_s, t0_tdb_s + (life_days + 1.0) * SECONDS_PER_DAY)
-    return ForceModel.build(profile.dynamics, table, degree=degree)
+    ensure_kernels(dynamics.ephemeris)
+    table = EphemerisTable.build(dynamics, t0_tdb_s, t0_tdb_s + (life_days + 1.0) * SECONDS_PER_DAY)
+    return ForceModel.build(dynamics, table, degree=degree)
 
 
 TRIM_ELEMENTS = (0, 1, 2, 3, 4)
 """Columns of ``[a, e, i, raan, aop]`` trimmed so that their one-orbit means equal the design's."""
 
 
-def trim_to_mean(profile: dict, elements_deg, t0_tdb_s: float, model: ForceModel, integ: dict, *,
+def trim_to_mean(dynamics: Dynamics, elements_deg, t0_tdb_s: float, model: ForceModel, integ: IntegratorSetting, *,
                  samples_per_orbit: int = 64, iterations: int = 4) -> tuple[np.ndarray, np.ndarray]:
     """Osculating insertion elements (n_sat, 6) (deg) whose mean elements over the first orbit equal ``elements_deg``.
 
@@ -117,9 +118,9 @@ def trim_to_mean(profile: dict, elements_deg, t0_tdb_s: float, model: ForceModel
     Returns (trimmed elements, final mean-minus-design residual (n_sat, 6): km, -, deg x 4).
     """
     design = np.atleast_2d(np.asarray(elements_deg, dtype=float))
-    gm = float(profile["gravity"]["gm_km3_s2"])
-    rot = element_frame_to_j2000(profile.dynamics, t0_tdb_s)
-    r_min = profile["constants"]["r_moon_mean_km"] + profile["impact"]["min_altitude_km"]
+    gm = dynamics.gravity.gm_km3_s2
+    rot = element_frame_to_j2000(dynamics, t0_tdb_s)
+    r_min = dynamics.r_impact_km
     period = orbital_period_s(design[:, 0], gm)
     n_win = int(samples_per_orbit)
     osc = design.copy()
@@ -127,13 +128,13 @@ def trim_to_mean(profile: dict, elements_deg, t0_tdb_s: float, model: ForceModel
     n_sat = design.shape[0]
     done = np.zeros(n_sat, dtype=bool)
     for _ in range(int(iterations) + 1):
-        states = elements_deg_to_states(profile.dynamics, osc, t0_tdb_s)
+        states = elements_deg_to_states(dynamics, osc, t0_tdb_s)
         mean = np.full((n_sat, 6), np.nan)
         for i in range(n_sat):
             t_win = t0_tdb_s + period[i] * np.linspace(0.0, 1.0, n_win + 1)
             out, _, status, _ = integrate_chunk(
                 states[i:i + 1], np.ones(1, dtype=bool), t0_tdb_s, t_win, np.full((1, 1), np.nan), np.zeros((1, 1, 3)),
-                METHODS.index(integ["method"]), float(integ["rtol"]), float(integ["atol"]), r_min, 5_000_000,
+                METHODS.index(integ.method), integ.rtol, integ.atol, r_min, 5_000_000,
                 model.kernel_args, model.field.degree)
             if status[0] != STATUS_OK:
                 if status[0] == STATUS_NOT_RUN:                 # the compiled loop lost an error: never a loss

@@ -38,6 +38,7 @@ Dropped terms, by argument:
 
 from __future__ import annotations
 
+import dataclasses
 import time
 from dataclasses import dataclass
 
@@ -47,79 +48,20 @@ import xarray as xr
 from scipy.integrate import solve_ivp
 from scipy.interpolate import CubicSpline
 
-from ..config import STABILITY_BODIES, STABILITY_METHODS
-from ..constants import DAYS_PER_JULIAN_YEAR, SECONDS_PER_DAY
+from ..config import STABILITY_BODIES
+from ..constants import SECONDS_PER_DAY
 from ..elements import eccentricity_vector, vis_viva_sma_km
 from ..ephemeris import body_states_mci, ensure_kernels, rotation, tdb_seconds
 from ..frames import element_frame_to_j2000
 from ..gravity import GravityField
+from ..settings import Dynamics, EpochSettings, GravitySettings, StabilitySettings
 
-__all__ = ["StabilitySettings", "stability_settings", "SecularField", "orbit_vectors_ej", "secular_rates",
+__all__ = ["SecularField", "orbit_vectors_ej", "secular_rates",
            "averaged_potential", "integrate_secular", "elements_from_vectors", "screen_states", "screen_elements",
            "classical_j2_rates", "kozai_e_max", "circular_tide_tensor"]
 
 SIDEREAL_MONTH_DAYS = 27.321661
 BODIES = STABILITY_BODIES
-NON_SCREEN_KEYS = ("validation_designs", "validation_degree", "validation_step_s")   # read by the bench only
-DEFAULT_SETTINGS = {
-    "life_days": DAYS_PER_JULIAN_YEAR,                # design life integrated by the screen
-    "third_bodies": ["EARTH", "SUN"],   # quadrupole tides included
-    "precession": True,                 # let the Earth's orbit plane and the lunar pole move (SPICE)
-    "average_days": SIDEREAL_MONTH_DAYS,  # running-mean window of the tide tensor
-    "table_step_days": 0.25,            # sampling of the ephemeris for the tide tensor
-    "method": "DOP853",
-    "rtol": 1e-9,
-    "atol": 1e-11,
-    "output_step_days": 1.0,            # sampling of the returned histories
-    "margin_km": 0.0,                   # extra altitude above surface + impact.min_altitude_km
-}
-
-
-@dataclass(frozen=True)
-class StabilitySettings:
-    """The ``[stability]`` settings (see :data:`DEFAULT_SETTINGS` for units and meaning)."""
-
-    life_days: float
-    third_bodies: tuple
-    precession: bool
-    average_days: float
-    table_step_days: float
-    method: str
-    rtol: float
-    atol: float
-    output_step_days: float
-    margin_km: float
-
-
-def stability_settings(profile: dict | None = None, **overrides) -> StabilitySettings:
-    """Settings from a profile's ``[stability]`` (defaults :data:`DEFAULT_SETTINGS`) with ``overrides``.
-
-    Raises ``ValueError`` naming an unknown key or a value out of range.
-    """
-    cfg = dict(DEFAULT_SETTINGS)
-    section = {k: v for k, v in (profile or {}).get("stability", {}).items() if k not in NON_SCREEN_KEYS}
-    for source in (section, overrides):
-        unknown = set(source) - set(DEFAULT_SETTINGS)
-        if unknown:
-            raise ValueError(f"unknown [stability] setting(s) {sorted(unknown)}; allowed: {sorted(DEFAULT_SETTINGS)}")
-        cfg.update({k: v for k, v in source.items() if v is not None})
-    for key in ("life_days", "average_days", "table_step_days", "rtol", "atol", "output_step_days"):
-        value = float(cfg[key])
-        if not np.isfinite(value) or value <= 0.0:
-            raise ValueError(f"[stability] {key} must be positive and finite; got {cfg[key]!r}")
-    if not np.isfinite(float(cfg["margin_km"])) or float(cfg["margin_km"]) < 0.0:
-        raise ValueError(f"[stability] margin_km must be >= 0 (km); got {cfg['margin_km']!r}")
-    bodies = tuple(str(b).upper() for b in cfg["third_bodies"])
-    bad = [b for b in bodies if b not in BODIES]
-    if bad:
-        raise ValueError(f"[stability] third_bodies {bad} not supported; allowed: {list(BODIES)}")
-    if cfg["method"] not in STABILITY_METHODS:
-        raise ValueError(f"[stability] method {cfg['method']!r}; allowed: {', '.join(STABILITY_METHODS)}")
-    if not isinstance(cfg["precession"], (bool, np.bool_)):
-        raise ValueError(f"[stability] precession must be true or false; got {cfg['precession']!r}")
-    return StabilitySettings(float(cfg["life_days"]), bodies, bool(cfg["precession"]), float(cfg["average_days"]),
-                             float(cfg["table_step_days"]), str(cfg["method"]), float(cfg["rtol"]),
-                             float(cfg["atol"]), float(cfg["output_step_days"]), float(cfg["margin_km"]))
 
 
 def circular_tide_tensor(gm_body_km3_s2: float, a_body_km: float, normal) -> np.ndarray:
@@ -155,19 +97,18 @@ class SecularField:
                    float(j2), float(r_ref_km))
 
     @classmethod
-    def from_profile(cls, profile: dict, t0_tdb_s: float, life_days: float,
-                     settings: StabilitySettings | None = None) -> "SecularField":
-        """T and k from SPICE over the design life (running one-month mean), J2 from the gravity file."""
-        cfg = settings or stability_settings(profile)
-        ensure_kernels(profile.ephemeris)
-        step, window = cfg.table_step_days, cfg.average_days
+    def from_settings(cls, stability: StabilitySettings, dynamics: Dynamics, t0_tdb_s: float,
+                      life_days: float) -> "SecularField":
+        """T and k from SPICE over ``life_days`` (running one-month mean of ``[stability]``), J2 from the gravity file."""
+        ensure_kernels(dynamics.ephemeris)
+        step, window = stability.table_step_days, stability.average_days
         half = int(np.ceil(0.5 * window / step))
-        n_out = int(np.ceil(life_days / step)) + 1 if cfg.precession else 1
+        n_out = int(np.ceil(life_days / step)) + 1 if stability.precession else 1
         t_days = step * np.arange(-half, n_out + half)
         times = t0_tdb_s + t_days * SECONDS_PER_DAY
-        gms = {"EARTH": float(profile["constants"]["gm_earth_km3_s2"]), "SUN": float(profile["constants"]["gm_sun_km3_s2"])}
+        gms = {"EARTH": dynamics.constants.gm_earth_km3_s2, "SUN": dynamics.constants.gm_sun_km3_s2}
         inst = np.zeros((t_days.size, 3, 3))
-        for body in cfg.third_bodies:
+        for body in stability.third_bodies:
             r = body_states_mci(body, times)[:, :3]
             dist = np.linalg.norm(r, axis=1)
             inst += gms[body] * np.einsum("ni,nj->nij", r, r) / dist[:, None, None] ** 5
@@ -176,10 +117,10 @@ class SecularField:
         weights /= weights.sum()
         tide = np.stack([np.tensordot(weights, inst[j:j + 2 * half + 1], axes=1) for j in range(n_out)])
         out_days = t_days[half:half + n_out]
-        pole = rotation(profile["frames"]["gravity"], "J2000", t0_tdb_s + out_days * SECONDS_PER_DAY)[:, :, 2]
-        if not cfg.precession:
-            return cls.constant(tide[0], pole[0], *_gravity_constants(profile))
-        return cls(out_days, tide, pole, *_gravity_constants(profile))
+        pole = rotation(dynamics.frames.gravity, "J2000", t0_tdb_s + out_days * SECONDS_PER_DAY)[:, :, 2]
+        if not stability.precession:
+            return cls.constant(tide[0], pole[0], *_gravity_constants(dynamics.gravity))
+        return cls(out_days, tide, pole, *_gravity_constants(dynamics.gravity))
 
     def __post_init__(self) -> None:
         values = np.concatenate([self.tide.reshape(-1, 9), self.pole], axis=1)
@@ -191,8 +132,8 @@ class SecularField:
         return v[:9].reshape(3, 3), v[9:] / np.linalg.norm(v[9:])
 
 
-def _gravity_constants(profile: dict) -> tuple[float, float, float]:
-    field = GravityField.from_settings(profile.gravity, degree=2)
+def _gravity_constants(gravity: GravitySettings) -> tuple[float, float, float]:
+    field = GravityField.from_settings(gravity, degree=2)
     return field.gm_km3_s2, float(-field.cnm[2, 0] * np.sqrt(5.0)), field.r_ref_km
 
 
@@ -349,31 +290,31 @@ def elements_from_vectors(e_vec, j_vec, rot_to_frame=None) -> dict:
     return {"ecc": e, "inc_deg": inc, "raan_deg": raan, "aop_deg": aop}
 
 
-def screen_states(profile: dict, states_mci, t0_tdb_s: float, *, field: SecularField | None = None,
-                  **overrides) -> xr.Dataset:
+def screen_states(stability: StabilitySettings, dynamics: Dynamics, states_mci, t0_tdb_s: float, *,
+                  field: SecularField | None = None, life_days: float | None = None) -> xr.Dataset:
     """The screen for osculating Moon-centred J2000 states (n_sat, 6) at TDB ``t0_tdb_s``.
 
-    Returns a Dataset: ``ecc``, ``inc_deg``, ``raan_deg``, ``aop_deg`` (element frame of the
-    profile) and ``perilune_alt_km`` (sat, time in days), per satellite ``min_perilune_alt_km``,
+    Returns a Dataset: ``ecc``, ``inc_deg``, ``raan_deg``, ``aop_deg`` (the element frame of
+    ``dynamics.frames``) and ``perilune_alt_km`` (sat, time in days), per satellite ``min_perilune_alt_km``,
     ``impact`` and ``impact_day`` (NaN when none); attrs ``stable`` (no impact within the life),
     ``min_perilune_alt_km``, ``impact_day`` (first, NaN when none), ``n_orbits`` (distinct orbits
-    integrated), ``n_rhs``, ``wall_s``. ``overrides`` replace ``[stability]`` settings.
+    integrated), ``n_rhs``, ``wall_s``. ``life_days`` replaces ``[stability] life_days``.
     """
     start = time.perf_counter()
-    cfg = stability_settings(profile, **overrides)
-    gm = float(profile["gravity"]["gm_km3_s2"])
+    cfg = stability if life_days is None else dataclasses.replace(stability, life_days=float(life_days))
+    gm = dynamics.gravity.gm_km3_s2
     a, e_vec, j_vec = orbit_vectors_ej(states_mci, gm)
     if field is None:
-        field = _cached_field(profile, float(t0_tdb_s), cfg)
+        field = _cached_field(cfg, dynamics, float(t0_tdb_s))
     key = np.round(np.column_stack([a / 1e4, e_vec, j_vec]), 12)
     _, first, inverse = np.unique(key, axis=0, return_index=True, return_inverse=True)
-    r_moon = float(profile["constants"]["r_moon_mean_km"])
-    floor = r_moon + float(profile["impact"]["min_altitude_km"]) + cfg.margin_km
+    r_moon = dynamics.constants.r_moon_mean_km
+    floor = r_moon + dynamics.impact.min_altitude_km + cfg.margin_km
     res = integrate_secular(a[first], e_vec[first], j_vec[first], field, cfg.life_days, floor_km=floor,
                             method=cfg.method, rtol=cfg.rtol, atol=cfg.atol, output_step_days=cfg.output_step_days)
     inverse = np.asarray(inverse).ravel()
     e_hist, j_hist = res["e"][inverse], res["j"][inverse]
-    rot = element_frame_to_j2000(profile.dynamics, float(t0_tdb_s)).T
+    rot = element_frame_to_j2000(dynamics, float(t0_tdb_s)).T
     el = elements_from_vectors(e_hist, j_hist, rot)
     alt = a[:, None] * (1.0 - el["ecc"]) - r_moon
     impact_day = res["impact_day"][inverse]
@@ -386,30 +327,34 @@ def screen_states(profile: dict, states_mci, t0_tdb_s: float, *, field: SecularF
         attrs={"stable": bool(np.all(np.isnan(impact_day))), "min_perilune_alt_km": float(np.min(alt_min)),
                "impact_day": float(np.nanmin(impact_day)) if np.any(~np.isnan(impact_day)) else float("nan"),
                "life_days": cfg.life_days, "floor_alt_km": floor - r_moon, "n_orbits": int(first.size),
-               "n_rhs": res["n_rhs"], "element_frame": profile["frames"]["element_frame"],
+               "n_rhs": res["n_rhs"], "element_frame": dynamics.frames.element_frame,
                "wall_s": time.perf_counter() - start})
     ds["time"].attrs["units"] = "days since the epoch"
     return ds
 
 
-def screen_elements(profile: dict, elements_deg, t0_tdb_s: float | None = None, **overrides) -> xr.Dataset:
-    """:func:`screen_states` for elements (n, 6) [sma_km, e, i, RAAN, AOP, M] (deg) in the profile's element frame."""
+def screen_elements(stability: StabilitySettings, dynamics: Dynamics, epoch: EpochSettings, elements_deg, *,
+                    t0_tdb_s: float | None = None, life_days: float | None = None) -> xr.Dataset:
+    """:func:`screen_states` for elements (n, 6) [sma_km, e, i, RAAN, AOP, M] (deg) in the element frame of
+    ``dynamics.frames`` at ``t0_tdb_s`` (default: the epoch's start)."""
     from ..propagator import elements_deg_to_states
 
-    ensure_kernels(profile.ephemeris)
-    t0 = tdb_seconds(profile["epoch"]["start_tdb"], "TDB") if t0_tdb_s is None else float(t0_tdb_s)
-    return screen_states(profile, elements_deg_to_states(profile.dynamics, elements_deg, t0), t0, **overrides)
+    ensure_kernels(dynamics.ephemeris)
+    t0 = tdb_seconds(epoch.start_tdb, "TDB") if t0_tdb_s is None else float(t0_tdb_s)
+    return screen_states(stability, dynamics, elements_deg_to_states(dynamics, elements_deg, t0), t0,
+                         life_days=life_days)
 
 
 _FIELDS: dict = {}
 
 
-def _cached_field(profile: dict, t0_tdb_s: float, cfg: StabilitySettings) -> SecularField:
-
-    key = (profile.hash, t0_tdb_s, cfg.life_days, cfg.third_bodies, cfg.precession, cfg.average_days,
-           cfg.table_step_days)
+def _cached_field(stability: StabilitySettings, dynamics: Dynamics, t0_tdb_s: float) -> SecularField:
+    """The field of :meth:`SecularField.from_settings`, built once per set of the settings it reads and epoch."""
+    key = (dynamics.ephemeris, dynamics.constants, dynamics.frames.gravity, dynamics.gravity, t0_tdb_s,
+           stability.life_days, stability.third_bodies, stability.precession, stability.average_days,
+           stability.table_step_days)
     if key not in _FIELDS:
-        _FIELDS[key] = SecularField.from_profile(profile, t0_tdb_s, cfg.life_days, cfg)
+        _FIELDS[key] = SecularField.from_settings(stability, dynamics, t0_tdb_s, stability.life_days)
     return _FIELDS[key]
 
 
@@ -426,25 +371,25 @@ def kozai_e_max(inc0_rad) -> np.ndarray:
     return np.sqrt(np.clip(1.0 - 5.0 / 3.0 * c2, 0.0, None))
 
 
-def propagated_perilune(profile: dict, elements_deg, life_days: float, *, setting: str | None = "converged",
-                        degree: int | None = None, step_s: float = 3600.0) -> dict:
+def propagated_perilune(dynamics: Dynamics, epoch: EpochSettings, elements_deg, life_days: float, *,
+                        setting: str | None = "converged", degree: int | None = None, step_s: float = 3600.0) -> dict:
     """Reference for the screen: the full force model (engine, ``batch=True``, no station keeping).
 
-    Propagates every satellite for ``life_days`` and returns ``impact_day`` (n,) (NaN when none),
-    ``min_perilune_alt_km`` (n,) of the osculating orbit (floor value after an impact),
+    Propagates every satellite from the epoch's start for ``life_days`` and returns ``impact_day`` (n,)
+    (NaN when none), ``min_perilune_alt_km`` (n,) of the osculating orbit (floor value after an impact),
     ``perilune_alt_km`` (n, m) and ``t_days`` (m,), ``stable``, ``wall_s``. Costs seconds to tens
     of seconds per satellite-year: for notebooks, benches and the slow tests.
     """
     from ..propagator import elements_deg_to_states, propagate_states
 
     start = time.perf_counter()
-    ensure_kernels(profile.ephemeris)
-    t0 = tdb_seconds(profile["epoch"]["start_tdb"], "TDB")
-    states = elements_deg_to_states(profile.dynamics, elements_deg, t0)
-    ds = propagate_states(profile.dynamics, states, t0, life_days * SECONDS_PER_DAY, step_s, setting=setting, degree=degree,
+    ensure_kernels(dynamics.ephemeris)
+    t0 = tdb_seconds(epoch.start_tdb, "TDB")
+    states = elements_deg_to_states(dynamics, elements_deg, t0)
+    ds = propagate_states(dynamics, states, t0, life_days * SECONDS_PER_DAY, step_s, setting=setting, degree=degree,
                           batch=True)
-    gm = float(profile["gravity"]["gm_km3_s2"])
-    r_moon = float(profile["constants"]["r_moon_mean_km"])
+    gm = dynamics.gravity.gm_km3_s2
+    r_moon = dynamics.constants.r_moon_mean_km
     sv = np.concatenate([ds["r_mci_km"].values, ds["v_mci_kms"].values], axis=-1)
     finite = np.all(np.isfinite(sv), axis=-1)
     safe = np.where(finite[..., None], sv, states[:, None, :])
@@ -455,7 +400,7 @@ def propagated_perilune(profile: dict, elements_deg, life_days: float, *, settin
     alt = np.where(finite, a * (1.0 - e) - r_moon, np.nan)
     impact = ds["impact"].values.astype(bool)
     impact_day = np.where(impact, (ds["impact_t_tdb_s"].values - t0) / SECONDS_PER_DAY, np.nan)
-    floor_alt = float(profile["impact"]["min_altitude_km"])
+    floor_alt = dynamics.impact.min_altitude_km
     return {"t_days": (ds["time"].values - t0) / SECONDS_PER_DAY, "perilune_alt_km": alt,
             "min_perilune_alt_km": np.where(impact, floor_alt, np.nanmin(alt, axis=1)), "impact_day": impact_day,
             "stable": bool(not impact.any()), "wall_s": time.perf_counter() - start}

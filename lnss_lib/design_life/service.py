@@ -31,7 +31,6 @@ antinodes; :func:`burn_location` names the point each one was flown at.
 from __future__ import annotations
 
 import dataclasses
-from dataclasses import dataclass
 
 import numpy as np
 
@@ -39,9 +38,10 @@ from ..constants import SECONDS_PER_DAY
 from ..dop import SurfaceGrid, dop_for_settings, summary_for_settings
 from ..elements import TWO_PI
 from ..frames import rotate_to_moon_fixed
+from ..settings import DopSettings, Dynamics, ServiceSettings
 from .screen import SecularField, integrate_secular
 
-__all__ = ["PURPOSES", "LOCATIONS", "ServiceSettings", "predicted_crossing_day", "safety_ecc", "burn_location",
+__all__ = ["PURPOSES", "LOCATIONS", "predicted_crossing_day", "safety_ecc", "burn_location",
            "navigation_violations", "mean_vectors_j2000", "raan_half_width_rad", "safety_targets", "NavigationMonitor"]
 
 PURPOSES = ("safety", "navigation", "relative_node", "phase", "a_trim")
@@ -52,31 +52,6 @@ LOCATIONS = ("perilune", "apolune", "node", "antinode", "other")
 
 SAFETY_RAISE_KM = (5.0, 10.0, 20.0, 50.0, 100.0, 200.0, 400.0, 800.0, 1600.0)
 """Candidate perilune raises of a safety burn, smallest first (km)."""
-
-
-@dataclass(frozen=True)
-class ServiceSettings:
-    """``[design_life.service]`` of a profile (see params/paper.toml)."""
-
-    perilune_margin_km: float
-    safety_check_days: float
-    safety_lead_days: float
-    nav_window_days: float
-    nav_avail_drop_pct: float
-    nav_dop_rise_fraction: float
-    raan_rel_deg: float
-    u_rel_deg: float
-
-    @classmethod
-    def from_section(cls, section: dict) -> "ServiceSettings":
-        names = {f.name for f in dataclasses.fields(cls)}
-        if set(section) != names:
-            raise ValueError(f"[design_life.service] must hold exactly {sorted(names)}; got {sorted(section)}")
-        values = {k: float(v) for k, v in section.items()}
-        bad = [k for k, v in values.items() if not (np.isfinite(v) and v >= 0.0)]
-        if bad:
-            raise ValueError(f"[design_life.service] {bad[0]} = {section[bad[0]]!r} must be a number >= 0")
-        return cls(**values)
 
 
 def raan_half_width_rad(plane_tol_rad: float, inc_rad):
@@ -201,9 +176,9 @@ class NavigationMonitor:
     """South-pole DOP of the sampled positions over windows of ``nav_window_days``: the first window sets the
     requirement (:func:`navigation_violations`); ``violated`` after each closed window."""
 
-    def __init__(self, profile: dict, sample_t: np.ndarray, svc: ServiceSettings):
-        self.profile, self.sample_t, self.svc = profile, sample_t, svc
-        self.grid = SurfaceGrid.from_settings(profile.dop, profile.constants.r_moon_mean_km)
+    def __init__(self, dop: DopSettings, dynamics: Dynamics, sample_t: np.ndarray, svc: ServiceSettings):
+        self.dop, self.dynamics, self.sample_t, self.svc = dop, dynamics, sample_t, svc
+        self.grid = SurfaceGrid.from_settings(dop, dynamics.constants.r_moon_mean_km)
         self.start = sample_t[0]
         self.baseline = None
         self.violated = False
@@ -218,8 +193,8 @@ class NavigationMonitor:
         if idx.size == 0:
             return
         tt = self.sample_t[idx]
-        r_mf = rotate_to_moon_fixed(self.profile.dynamics, r_sample[:, idx], tt)
-        summary = summary_for_settings(self.profile.dop, dop_for_settings(self.profile.dop, r_mf, tt, self.grid))
+        r_mf = rotate_to_moon_fixed(self.dynamics, r_sample[:, idx], tt)
+        summary = summary_for_settings(self.dop, dop_for_settings(self.dop, r_mf, tt, self.grid))
         if self.baseline is None:
             self.baseline = summary
             return

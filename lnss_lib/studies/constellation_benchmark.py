@@ -236,11 +236,11 @@ def _evaluate_entry(context, entry: Entry, masks) -> tuple[dict, dict | None]:
         masked = profile.with_overrides({"dop": {"elevation_mask_deg": float(mask)}})
         summary = summary_for_settings(masked.dop, dop_for_settings(masked.dop, r_mf, context.times, context.grid))
         row.update({mask_key(k, mask): summary[k] for k in DOP_KEYS})
-    screen = screen_states(profile, states, context.t0_tdb_s)
+    screen = screen_states(profile.stability, profile.dynamics, states, context.t0_tdb_s)
     row.update(screen_min_perilune_alt_km=screen.attrs["min_perilune_alt_km"], stable_screen=screen.attrs["stable"],
                screen_impact_day=screen.attrs["impact_day"])
     try:
-        sk = sk_estimate_from_propagation(profile, study["propagation"])
+        sk = sk_estimate_from_propagation(profile.sk_estimate, profile.dynamics, study["propagation"])
         row.update(sk_dv_estimate_kms_per_year=sk["sk_dv_estimate_kms_per_year"],
                    sk_dv_estimate_max_kms_per_year=sk["sk_dv_estimate_max_kms_per_year"])
     except ValueError as error:
@@ -492,8 +492,8 @@ def epoch_sensitivity(profile_name: str, *, epochs=None, names=None, overrides=N
                     summary = summary_for_settings(masked.dop, dop_for_settings(
                         masked.dop, r_mf, times, SurfaceGrid.from_settings(masked.dop, masked.constants.r_moon_mean_km)))
                     row.update({mask_key(k, mask): summary[k] for k in DOP_KEYS})
-                row["sk_dv_estimate_kms_per_year"] = sk_estimate_from_propagation(profile, ds)["sk_dv_estimate_kms_per_year"]
-            screen = screen_states(profile, states, t0)
+                row["sk_dv_estimate_kms_per_year"] = sk_estimate_from_propagation(profile.sk_estimate, profile.dynamics, ds)["sk_dv_estimate_kms_per_year"]
+            screen = screen_states(profile.stability, profile.dynamics, states, t0)
             row.update(screen_min_perilune_alt_km=screen.attrs["min_perilune_alt_km"], stable_screen=screen.attrs["stable"])
             rows.append(row)
     return pd.DataFrame(rows)

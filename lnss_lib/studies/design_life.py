@@ -50,6 +50,7 @@ from ..design_life.evaluation import life_metrics, run_design_life, short_arc_pr
 from ..keys import DESIGN_KEYS
 from ..outputs import display_path
 from ..progress import steps
+from ..settings import Settings
 
 __all__ = ["REGIONS", "region_of", "campaign_designs", "validation_designs", "flown_elements", "validate_design",
            "validation_table", "compare", "screen_misses", "region_summary", "verdict", "run_validation"]
@@ -99,13 +100,13 @@ def campaign_designs(campaign_dir: Path, n: int) -> tuple[list[tuple], str]:
     return [], f"no campaign designs: {display_path(folder)} publishes no campaign with designs."
 
 
-def validation_designs(profile: dict, campaign_dir: Path | None = None) -> tuple[list[dict], str]:
+def validation_designs(settings: Settings, campaign_dir: Path | None = None) -> tuple[list[dict], str]:
     """``[life_evaluation] validation_designs`` plus the campaign's designs, each ``{"design", "region"}``."""
-    section = profile["life_evaluation"]
-    rows = [{"design": tuple(d), "region": region_of(d)} for d in section["validation_designs"]]
+    section = settings.life_evaluation
+    rows = [{"design": tuple(d), "region": region_of(d)} for d in section.validation_designs]
     note = "no campaign folder given."
     if campaign_dir is not None:
-        extra, note = campaign_designs(campaign_dir, int(section["validation_front_designs"]))
+        extra, note = campaign_designs(campaign_dir, section.validation_front_designs)
         rows += [{"design": d, "region": region_of(d, campaign=True)} for d in extra]
     return rows, note
 
@@ -118,13 +119,14 @@ def flown_elements(design, max_sats_per_plane: int = 0) -> np.ndarray:
     return el.reshape(int(n_planes), int(spp), 6)[:, :k].reshape(-1, 6)
 
 
-def validate_design(profile: dict, design, life_days: float, max_sats_per_plane: int = 0, region: str = "") -> dict:
+def validate_design(settings: Settings, design, life_days: float, max_sats_per_plane: int = 0, region: str = "") -> dict:
     """Closed loop and natural drift over ``life_days`` beside the estimate and the screen, for one design: the
     controller and element frame flown, the Delta-V (mean, max, ``dv_<purpose>_kms_per_year`` split), the lowest
     perilune controlled and natural, impacts, and the predictors."""
     elements = flown_elements(design, max_sats_per_plane)
-    runs = run_design_life(profile, elements, life_days, sample=False)
-    pred = short_arc_predictors(profile, profile, elements, life_days)
+    runs = run_design_life(settings, elements, life_days, sample=False)
+    pred = short_arc_predictors(settings.epoch, settings.dynamics, settings.sk_estimate, settings.stability, elements,
+                                life_days)
     ctl, nat = runs["controlled"], runs["natural"]
     impact = ctl["impact_day"].values
     nat_impact = nat["impact_day"].values
@@ -237,12 +239,12 @@ def verdict(table: pd.DataFrame, stats: dict, regions: pd.DataFrame, dv_bound_km
     return "\n".join(lines)
 
 
-def run_validation(profile: dict, campaign_dir: Path | None = None) -> tuple[pd.DataFrame, str]:
+def run_validation(settings: Settings, campaign_dir: Path | None = None) -> tuple[pd.DataFrame, str]:
     """:func:`validate_design` on every design of :func:`validation_designs` with ``[life_evaluation]``'s life and
     satellites per plane; returns the :func:`validation_table` and the sentence on the campaign's designs."""
-    section = profile["life_evaluation"]
-    designs, note = validation_designs(profile, campaign_dir)
-    rows = [validate_design(profile, d["design"], float(section["validation_life_days"]),
-                            int(section["validation_max_sats_per_plane"]), d["region"])
+    section = settings.life_evaluation
+    designs, note = validation_designs(settings, campaign_dir)
+    rows = [validate_design(settings, d["design"], section.validation_life_days,
+                            section.validation_max_sats_per_plane, d["region"])
             for d in steps(designs, "design-life validation", "designs")]
     return validation_table(rows), note

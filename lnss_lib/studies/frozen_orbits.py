@@ -32,7 +32,8 @@ from ..frames import element_frame_to_j2000
 from ..design_life.frozen import (FrozenModel, allowances, frozen_eccentricity, frozen_inclination_deg, libration,
                       mean_plane_axes, mean_plane_elements)
 from ..propagator import propagate_states
-from ..design_life.screen import SecularField, orbit_vectors_ej, screen_states, stability_settings
+from ..design_life.screen import SecularField, orbit_vectors_ej, screen_states
+from ..settings import Dynamics, Settings, StabilitySettings
 
 __all__ = ["FAMILY_ECC", "FAMILY_INC_DEG", "frozen_family", "inertial_lunar_equator", "planes_in_moon_op",
            "orbit_rows", "published_orbits", "frozen_words", "epoch_swap", "ely_natural", "closed_loop_anchors"]
@@ -57,27 +58,25 @@ def frozen_family(model: FrozenModel, sma_km) -> pd.DataFrame:
     return pd.DataFrame(rows)
 
 
-def inertial_lunar_equator(profile: dict, t_tdb_s: float) -> np.ndarray:
+def inertial_lunar_equator(dynamics: Dynamics, t_tdb_s: float) -> np.ndarray:
     """Rotation to J2000 of the lunar equator at t with x along the J2000 x-axis projected on it (RAAN origin fixed in space)."""
-    pole = element_frame_to_j2000(profile.dynamics, t_tdb_s, "lunar_equator_of_epoch")[:, 2]
+    pole = element_frame_to_j2000(dynamics, t_tdb_s, "lunar_equator_of_epoch")[:, 2]
     x = np.array([1.0, 0.0, 0.0]) - pole[0] * pole
     x /= np.linalg.norm(x)
     return np.column_stack([x, np.cross(pole, x), pole])
 
 
-def _model_at(profile: dict, t_tdb_s: float, days: float = 30.0) -> tuple[SecularField, FrozenModel]:
-    field = SecularField.from_profile(profile, float(t_tdb_s), days, stability_settings(profile))
+def _model_at(stability: StabilitySettings, dynamics: Dynamics, t_tdb_s: float,
+              days: float = 30.0) -> tuple[SecularField, FrozenModel]:
+    field = SecularField.from_settings(stability, dynamics, float(t_tdb_s), days)
     return field, FrozenModel.from_field(field)
 
 
-def planes_in_moon_op(profile: dict, t_tdb_s: float, rot_el_to_j2000: np.ndarray, elements_deg) -> pd.DataFrame:
+def planes_in_moon_op(stability: StabilitySettings, dynamics: Dynamics, t_tdb_s: float, rot_el_to_j2000: np.ndarray,
+                      elements_deg) -> pd.DataFrame:
     """Orbits (n, 6) given in a frame (``x_j2000 = rot x``) read in the mean ``moon_op`` at t, with their libration."""
-    field, model = _model_at(profile, t_tdb_s)
-    return orbit_rows(model, mean_plane_elements(field, elements_deg, rot_el_to_j2000), _r_moon(profile))
-
-
-def _r_moon(profile: dict) -> float:
-    return float(profile["constants"]["r_moon_mean_km"])
+    field, model = _model_at(stability, dynamics, t_tdb_s)
+    return orbit_rows(model, mean_plane_elements(field, elements_deg, rot_el_to_j2000), dynamics.constants.r_moon_mean_km)
 
 
 def orbit_rows(model: FrozenModel, read: dict, r_moon_km: float) -> pd.DataFrame:
@@ -104,15 +103,15 @@ def _walker_planes(design) -> np.ndarray:
     return np.array([[a, e, inc, 360.0 * p / int(n_planes), aop, 0.0] for p in range(int(n_planes))])
 
 
-def published_orbits(profile: dict, designs: list[tuple[str, np.ndarray]] = ()) -> pd.DataFrame:
+def published_orbits(settings: Settings, designs: list[tuple[str, np.ndarray]] = ()) -> pd.DataFrame:
     """Every plane of the Table 4 ELFO and of ``designs`` (label, elements (n, 6) of its satellites: one orbit per
     distinct RAAN is kept) read in ``moon_op`` and in the lunar equator of the study epoch, and Ely's and Lunar
     Pathfinder's orbits (catalogue, ``moon_op``) at their file epoch and the study epoch, placed on the frozen
     family: :func:`orbit_rows` with ``orbit``, ``read_in``, ``epoch`` and ``verdict`` columns."""
-    ensure_kernels(profile.ephemeris)
-    t0 = tdb_seconds(profile["epoch"]["start_tdb"], "TDB")
-    field, model = _model_at(profile, t0)
-    frames = {"moon_op": mean_plane_axes(field, [0.0])[0], "lunar equator": element_frame_to_j2000(profile.dynamics, t0, "lunar_equator_of_epoch")}
+    ensure_kernels(settings.ephemeris)
+    t0 = tdb_seconds(settings.epoch.start_tdb, "TDB")
+    field, model = _model_at(settings.stability, settings.dynamics, t0)
+    frames = {"moon_op": mean_plane_axes(field, [0.0])[0], "lunar equator": element_frame_to_j2000(settings.dynamics, t0, "lunar_equator_of_epoch")}
     entries = [("Table 4 ELFO", _walker_planes((TABLE_4[0], TABLE_4[1], TABLE_4[3], TABLE_4[2], 2)))]
     for label, elements in designs:
         el = np.atleast_2d(np.asarray(elements, dtype=float))
@@ -120,16 +119,16 @@ def published_orbits(profile: dict, designs: list[tuple[str, np.ndarray]] = ()) 
     tables = []
     for label, planes in entries:
         for read_in, rot in frames.items():
-            t = orbit_rows(model, mean_plane_elements(field, planes, rot), _r_moon(profile))
+            t = orbit_rows(model, mean_plane_elements(field, planes, rot), settings.constants.r_moon_mean_km)
             tables.append(t.assign(orbit=[f"{label} plane {k + 1}" for k in range(len(t))], read_in=read_in,
                                    epoch="study"))
     for key in ("ely2005_elfo_3sat_phased", "lupnt_pathfinder"):
-        c = load_constellation(key, profile.dynamics)
+        c = load_constellation(key, settings.dynamics)
         first = c.elements_deg[:1]
         for epoch in ("file", "study"):
-            cs = constellation_states_mci(profile.dynamics, profile.epoch.start_tdb, c, epoch)
-            f, m = _model_at(profile, cs.t_epoch_tdb_s)
-            t = orbit_rows(m, mean_plane_elements(f, first, cs.rot_to_j2000), _r_moon(profile))
+            cs = constellation_states_mci(settings.dynamics, settings.epoch.start_tdb, c, epoch)
+            f, m = _model_at(settings.stability, settings.dynamics, cs.t_epoch_tdb_s)
+            t = orbit_rows(m, mean_plane_elements(f, first, cs.rot_to_j2000), settings.constants.r_moon_mean_km)
             tables.append(t.assign(orbit=c.name.split(":")[0], read_in=c.element_frame, epoch=cs.epoch_used))
     out = pd.concat(tables, ignore_index=True)
     out["verdict"] = frozen_words(out)
@@ -150,29 +149,29 @@ def frozen_words(table: pd.DataFrame) -> list[str]:
     return words
 
 
-def epoch_swap(profile: dict, shifts_days, *, origin: str = "lunar_equator_of_epoch") -> pd.DataFrame:
+def epoch_swap(settings: Settings, shifts_days, *, origin: str = "lunar_equator_of_epoch") -> pd.DataFrame:
     """The Table 4 ELFO's two planes (RAAN 0 and 180 deg in the lunar equator) read in ``moon_op`` at the study
     epoch moved by each shift: inclination to the Earth's plane and libration swing per plane. ``origin``:
     ``lunar_equator_of_epoch`` (RAAN from the prime meridian at that epoch, the workbook's reading) or
     ``inertial`` (from the J2000 x-axis projected on the lunar equator of the study epoch)."""
     if origin not in ("lunar_equator_of_epoch", "inertial"):
         raise ValueError(f"origin must be 'lunar_equator_of_epoch' or 'inertial'; got {origin!r}")
-    ensure_kernels(profile.ephemeris)
-    t0 = tdb_seconds(profile["epoch"]["start_tdb"], "TDB")
+    ensure_kernels(settings.ephemeris)
+    t0 = tdb_seconds(settings.epoch.start_tdb, "TDB")
     planes = _walker_planes((TABLE_4[0], TABLE_4[1], TABLE_4[3], TABLE_4[2], 2))
     rows = []
     for shift in np.atleast_1d(np.asarray(shifts_days, dtype=float)):
         t = t0 + shift * SECONDS_PER_DAY
-        rot = inertial_lunar_equator(profile, t0) if origin == "inertial" else element_frame_to_j2000(
-            profile.dynamics, t, "lunar_equator_of_epoch")
-        table = planes_in_moon_op(profile, t, rot, planes)
+        rot = inertial_lunar_equator(settings.dynamics, t0) if origin == "inertial" else element_frame_to_j2000(
+            settings.dynamics, t, "lunar_equator_of_epoch")
+        table = planes_in_moon_op(settings.stability, settings.dynamics, t, rot, planes)
         for k, r in enumerate(table.itertuples()):
             rows.append({"shift_days": float(shift), "origin": origin, "plane": k + 1, "inc_op_deg": r.inc_op_deg,
                          "inc_off_frozen_deg": r.inc_off_frozen_deg, "ecc_swing": r.ecc_swing})
     return pd.DataFrame(rows)
 
 
-def ely_natural(profile: dict, life_days: float, *, degree: int | None = None, step_s: float = 3600.0) -> dict:
+def ely_natural(settings: Settings, life_days: float, *, degree: int | None = None, step_s: float = 3600.0) -> dict:
     """Ely's phased constellation flown from its file's epoch for ``life_days`` with no manoeuvre.
 
     The full force model of the profile (``design_life`` integrator) gives the osculating perilune; the
@@ -181,21 +180,21 @@ def ely_natural(profile: dict, life_days: float, *, degree: int | None = None, s
     ``mean_perilune_alt_km`` (sat, time of the screen), their minima (``min_perilune_alt_km``,
     ``min_day``, ``min_mean_perilune_alt_km``), ``envelope_km`` (the allowance in altitude) and ``impact``.
     """
-    c = load_constellation("ely2005_elfo_3sat_phased", profile.dynamics)
-    fprof = file_epoch_profile(profile, c)
-    cs = constellation_states_mci(profile.dynamics, profile.epoch.start_tdb, c, "file")
+    c = load_constellation("ely2005_elfo_3sat_phased", settings.dynamics)
+    fprof = file_epoch_profile(settings, c)
+    cs = constellation_states_mci(settings.dynamics, settings.epoch.start_tdb, c, "file")
     ds = propagate_states(fprof.dynamics, cs.states_mci, cs.t_epoch_tdb_s, life_days * SECONDS_PER_DAY, step_s,
                           setting="design_life", degree=degree, batch=True)
-    gm = float(profile["gravity"]["gm_km3_s2"])
-    r_moon = _r_moon(profile)
+    gm = settings.gravity.gm_km3_s2
+    r_moon = settings.constants.r_moon_mean_km
     sv = np.concatenate([ds["r_mci_km"].values, ds["v_mci_kms"].values], axis=-1)
     alt = np.full(sv.shape[:2], np.nan)
     for k in range(sv.shape[0]):
         ok = np.all(np.isfinite(sv[k]), axis=-1)
         a, e_vec, _ = orbit_vectors_ej(sv[k][ok], gm)
         alt[k, ok] = a * (1.0 - np.linalg.norm(e_vec, axis=1)) - r_moon
-    screen = screen_states(fprof, cs.states_mci, cs.t_epoch_tdb_s, life_days=life_days)
-    field, model = _model_at(profile, cs.t_epoch_tdb_s)
+    screen = screen_states(fprof.stability, fprof.dynamics, cs.states_mci, cs.t_epoch_tdb_s, life_days=life_days)
+    field, model = _model_at(settings.stability, settings.dynamics, cs.t_epoch_tdb_s)
     read = mean_plane_elements(field, c.elements_deg[:1], cs.rot_to_j2000)
     allow = allowances(model, float(read["sma_km"][0]), float(read["ecc"][0]), float(read["inc_deg"][0]),
                        float(read["aop_deg"][0]))
@@ -210,20 +209,20 @@ def ely_natural(profile: dict, life_days: float, *, degree: int | None = None, s
             "years": life_days / DAYS_PER_JULIAN_YEAR}
 
 
-def closed_loop_anchors(profile: dict, ely_life_days: float, table4_life_days: float) -> pd.DataFrame:
+def closed_loop_anchors(settings: Settings, ely_life_days: float, table4_life_days: float) -> pd.DataFrame:
     """The anchors flown with the profile's controller (``[design_life] controller``), no DOP sampling:
     Ely's phased constellation from its file's epoch (elements in ``moon_op``, the file's per-satellite a kept)
     for ``ely_life_days``, and one satellite per plane of the Table 4 ELFO with its elements read in ``moon_op``
     and in the lunar equator for ``table4_life_days``. One row each: Delta-V per satellite and year (mean, max,
     split by purpose, m/s), manoeuvres, lowest perilune controlled and natural, satellites lost. Ely's natural
     drift is not flown again here (:func:`ely_natural` flies it): its natural columns are NaN."""
-    c = load_constellation("ely2005_elfo_3sat_phased", profile.dynamics)
-    ely_profile = file_epoch_profile(profile, c).with_overrides({"frames": {"element_frame": "moon_op"}})
+    c = load_constellation("ely2005_elfo_3sat_phased", settings.dynamics)
+    ely_profile = file_epoch_profile(settings, c).with_overrides({"frames": {"element_frame": "moon_op"}})
     cases = [("Ely (2005) phased, file epoch", ely_profile, c.elements_deg, ely_life_days, False)]
     planes = _walker_planes((TABLE_4[0], TABLE_4[1], TABLE_4[3], TABLE_4[2], 2))
     for frame in ("moon_op", "lunar_equator_of_epoch"):
         cases.append((f"Table 4 ELFO, one satellite per plane, read in {frame}",
-                      profile.with_overrides({"frames": {"element_frame": frame}}), planes, table4_life_days, True))
+                      settings.with_overrides({"frames": {"element_frame": frame}}), planes, table4_life_days, True))
     rows = []
     for label, prof, elements, life, natural in cases:
         m = life_metrics(run_design_life(prof, elements, life, natural=natural, sample=False))

@@ -10,7 +10,10 @@ from lnss_lib.ephemeris import ensure_kernels, tdb_seconds
 from lnss_lib.errors import ImpactError
 from lnss_lib.design_life.mean_elements import mean_elements, relative_angles
 from lnss_lib.propagator import elements_deg_to_states, propagate_states
-from lnss_lib.design_life.closed_loop import LifeSettings, life_force_model, simulate_life
+from lnss_lib.design_life.closed_loop import life_force_model
+from lnss_lib.errors import ConfigError
+
+from .helpers import fly
 
 LIFE_DAYS = 60.0
 
@@ -25,14 +28,14 @@ def life_profile():
 @pytest.fixture(scope="module")
 def life_model(life_profile):
     t0 = tdb_seconds(life_profile["epoch"]["start_tdb"], "TDB")
-    return life_force_model(life_profile, t0, LIFE_DAYS)
+    return life_force_model(life_profile.dynamics, t0, LIFE_DAYS)
 
 
 def test_frozen_orbit_holds_its_box_for_far_less_deltav(life_profile, life_model):
     """AOP 90 deg at the ELFO's a, e and i keeps the apse line (natural AOP within a few degrees over
     120 days); AOP 0 deg at the same a, e, i has its apse line turned by the Earth's tide."""
-    frozen = simulate_life(life_profile, [[6143.0, 0.6, 51.7, 0.0, 90.0, 0.0]], life_days=LIFE_DAYS, model=life_model)
-    loose = simulate_life(life_profile, [[6143.0, 0.6, 51.7, 0.0, 0.0, 0.0]], life_days=LIFE_DAYS, model=life_model)
+    frozen = fly(life_profile, [[6143.0, 0.6, 51.7, 0.0, 90.0, 0.0]], life_days=LIFE_DAYS, model=life_model)
+    loose = fly(life_profile, [[6143.0, 0.6, 51.7, 0.0, 0.0, 0.0]], life_days=LIFE_DAYS, model=life_model)
     dv_frozen, dv_loose = float(frozen.dv_kms_per_year[0]), float(loose.dv_kms_per_year[0])
     assert bool(frozen.box_held[0]) and not bool(frozen.impact[0])
     assert dv_frozen < 0.3 * dv_loose, (dv_frozen, dv_loose)
@@ -48,7 +51,7 @@ def test_frozen_orbit_holds_its_box_for_far_less_deltav(life_profile, life_model
 
 def test_natural_drift_leaves_the_box_that_station_keeping_holds(life_profile, life_model):
     el = [[6143.0, 0.6, 51.7, 0.0, 0.0, 0.0]]
-    natural = simulate_life(life_profile, el, natural=True, life_days=LIFE_DAYS, model=life_model)
+    natural = fly(life_profile, el, natural=True, life_days=LIFE_DAYS, model=life_model)
     assert int(natural.n_maneuvers[0]) == 0 and float(natural.dv_kms_per_year[0]) == 0.0
     assert float(natural.max_box_ratio.sel(box="aop_deg")[0]) > 1.5
 
@@ -57,7 +60,7 @@ def test_impact_is_reported_with_its_day(life_profile, life_model):
     """High a, high i: the Earth's tide pumps e until the perilune reaches the surface; the day agrees
     with one plain propagation (different step sequences: within 0.05 day)."""
     el = [[15000.0, 0.6, 80.0, 0.0, 90.0, 0.0]]
-    ds = simulate_life(life_profile, el, natural=True, life_days=LIFE_DAYS, model=life_model)
+    ds = fly(life_profile, el, natural=True, life_days=LIFE_DAYS, model=life_model)
     assert bool(ds.impact[0]) and not bool(ds.box_held[0])
     t0 = ds.attrs["t0_tdb_s"]
     states = elements_deg_to_states(life_profile.dynamics, ds.insertion_elements_deg.values, t0)   # after the initial trim
@@ -81,7 +84,7 @@ def test_two_planes_hold_every_box_at_an_operators_cadence(life_profile, life_mo
     from lnss_lib.constellation import planes_elements_deg
 
     el = planes_elements_deg(6143.0, 0.6, 51.7, 90.0, [0.0, 180.0], 2)
-    ds = simulate_life(life_profile, el, life_days=LIFE_DAYS, model=life_model, sample_step_s=SECONDS_PER_DAY)
+    ds = fly(life_profile, el, life_days=LIFE_DAYS, model=life_model, sample_step_s=SECONDS_PER_DAY)
     tol = float(life_profile["design_life"]["box_tolerance"])
     assert bool(ds.box_held.all()), ds.max_box_ratio.values
     assert float(ds.max_box_ratio.max()) <= 1.0 + tol
@@ -116,7 +119,7 @@ def test_initial_trim_matches_the_design_mean_a(life_profile, life_model):
     gm = float(life_profile["gravity"]["gm_km3_s2"])
     period = float(orbital_period_s(6143.0, gm))
     rot = element_frame_to_j2000(life_profile.dynamics, t0)
-    insert, resid = trim_to_mean(life_profile, el, t0, life_model, life_profile.integrator.named("design_life"))
+    insert, resid = trim_to_mean(life_profile.dynamics, el, t0, life_model, life_profile.integrator.named("design_life"))
     assert np.all(np.abs(resid[:, 0]) < 0.01)
 
     def first_orbit_mean_a(elements):
@@ -151,12 +154,15 @@ def test_relative_angles_remove_the_common_motion():
 
 def test_settings_are_checked(life_profile):
     with pytest.raises(ValueError, match="life_days"):
-        LifeSettings.from_profile(life_profile, life_days=-1.0)
-    bad = {**life_profile, "design_life": {**life_profile["design_life"], "box": {"ecc": 0.01}}}
-    with pytest.raises(ValueError, match="box"):
-        LifeSettings.from_profile(bad)
+        fly(life_profile, [[6143.0, 0.6, 51.7, 0.0, 90.0, 0.0]], life_days=-1.0)
+    with pytest.raises(ConfigError, match="design_life.box.ecc"):
+        life_profile.with_overrides({"design_life": {"box": {"ecc": -0.01}}})
+    with pytest.raises(ConfigError, match="design_life.samples_per_orbit"):
+        life_profile.with_overrides({"design_life": {"samples_per_orbit": 8}})
+    with pytest.raises(ConfigError, match="design_life.target_fraction"):
+        life_profile.with_overrides({"design_life": {"target_fraction": 1.0}})
     with pytest.raises(ValueError, match="shorter than"):
-        simulate_life(life_profile, [[20000.0, 0.1, 50.0, 0.0, 90.0, 0.0]], life_days=3.0)
+        fly(life_profile, [[20000.0, 0.1, 50.0, 0.0, 90.0, 0.0]], life_days=3.0)
 
 
 def test_sampled_positions_agree_with_a_plain_propagation(life_profile, life_model):
@@ -176,7 +182,7 @@ def test_sampled_positions_agree_with_a_plain_propagation(life_profile, life_mod
     sma_km, ecc = 6143.0, 0.6
     el = planes_elements_deg(sma_km, ecc, 51.7, 90.0, [0.0, 180.0], 1)
     step_s, life = 6 * 3600.0, 10.0
-    ds = simulate_life(life_profile, el, natural=True, life_days=life, model=life_model, sample_step_s=step_s)
+    ds = fly(life_profile, el, natural=True, life_days=life, model=life_model, sample_step_s=step_s)
     t0 = ds.attrs["t0_tdb_s"]
     assert ds.r_mci_km.dims == ("sat", "sample", "xyz") and ds.sizes["sample"] == int(life * 4) + 1
     np.testing.assert_allclose(ds.sample_t_tdb_s.values, t0 + step_s * np.arange(ds.sizes["sample"]), rtol=0, atol=1e-6)
@@ -200,12 +206,12 @@ def test_sampled_positions_agree_with_a_plain_propagation(life_profile, life_mod
     assert 2.0 * envelope_km < 5.0 * v_apolune_kms, (envelope_km, v_apolune_kms)
     assert np.linalg.norm(tight - r["_tighter"], axis=-1).max() < 0.1 * envelope_km
     with pytest.raises(ValueError, match="sample_step_s"):
-        simulate_life(life_profile, el, natural=True, life_days=life, model=life_model, sample_step_s=-1.0)
+        fly(life_profile, el, natural=True, life_days=life, model=life_model, sample_step_s=-1.0)
 
 
 def test_sampled_positions_are_nan_after_an_impact(life_profile, life_model):
     el = [[15000.0, 0.6, 80.0, 0.0, 90.0, 0.0]]
-    ds = simulate_life(life_profile, el, natural=True, life_days=LIFE_DAYS, model=life_model, sample_step_s=SECONDS_PER_DAY)
+    ds = fly(life_profile, el, natural=True, life_days=LIFE_DAYS, model=life_model, sample_step_s=SECONDS_PER_DAY)
     day = ds.sample_day.values
     r = ds.r_mci_km.values[0]
     assert np.all(np.isfinite(r[day < float(ds.impact_day[0])])) and np.all(np.isnan(r[day > float(ds.impact_day[0])]))
@@ -243,7 +249,7 @@ def test_box_never_flies_past_the_deltav_cap():
                                                "frames": {"element_frame": "moon_op"}})
     from lnss_lib.constellation import WalkerDesign
 
-    ds = simulate_life(profile, WalkerDesign(24000.0, 0.2, 75.0, 90.0, 2, 1).elements_deg(), life_days=80.0)
+    ds = fly(profile, WalkerDesign(24000.0, 0.2, 75.0, 90.0, 2, 1).elements_deg(), life_days=80.0)
     cap_kms = ds.attrs["dv_cap_kms_per_year"] * 80.0 / 365.25
     assert ds["n_maneuvers"].values.min() > 0
     assert np.all(ds["dv_total_kms"].values <= cap_kms * (1.0 + 1e-12))

@@ -7,7 +7,7 @@ import pytest
 
 from lnss_lib.settings import load_settings
 from lnss_lib.constants import SECONDS_PER_DAY
-from lnss_lib.design_life.closed_loop import BOX_KEYS, LifeSettings, _plan
+from lnss_lib.design_life.closed_loop import BOX_KEYS, _plan
 from lnss_lib.design_life.control import (SlotState, drift_band_rate, overshoot_target, predicted_exit, running_mean,
                                           tidal_mean)
 from lnss_lib.design_life.evaluation import evaluate_design_life
@@ -115,8 +115,8 @@ def test_box_plan_brings_an_aop_out_of_its_band_back_inside(sign):
     flight over one orbit) the AOP sits at target_fraction of the half-width on the other side, e, i and RAAN
     stay inside their boxes, each to the planner's residual of its row (a and u, which two burns cannot also
     hold, are left to the next check's trim); the Delta-V is at least the GVE bound on the e-vector turn."""
-    cfg = LifeSettings.from_profile(load_settings("paper"))
-    half = np.array([cfg.box["ecc"], *np.radians([cfg.box[k] for k in BOX_KEYS[1:]])])
+    cfg = load_settings("paper").design_life
+    half = np.array([cfg.box.ecc, *np.radians([getattr(cfg.box, k) for k in BOX_KEYS[1:]])])
     err = np.zeros(5)
     err[1] = sign * 1.2 * half[1]
     out = np.abs(err) > half

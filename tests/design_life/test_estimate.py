@@ -3,6 +3,8 @@
 import numpy as np
 import pytest
 
+from lnss_lib.errors import ConfigError
+
 from lnss_lib.design_life import estimate as sk
 from lnss_lib.constants import SECONDS_PER_DAY
 from lnss_lib.elements import elements_to_state
@@ -60,7 +62,7 @@ def test_a_frozen_design_costs_less_than_a_non_frozen_one_of_the_same_a(paper_pr
     for aop in (90.0, 45.0):                    # AOP 90: the Earth tide's de/dt ~ sin(2 AOP) vanishes
         elements = [[6143.0, 0.6, 56.2, raan, aop, 0.0] for raan in (0.0, 180.0)]
         ds = propagate_elements(paper_profile.dynamics, paper_profile.epoch, elements, degree=8, batch=True)
-        costs[aop] = sk.sk_estimate_from_propagation(paper_profile, ds)
+        costs[aop] = sk.sk_estimate_from_propagation(paper_profile.sk_estimate, paper_profile.dynamics, ds)
     frozen, other = costs[90.0], costs[45.0]
     assert frozen["sk_dv_estimate_kms_per_year"] < 0.7 * other["sk_dv_estimate_kms_per_year"]
     assert frozen["sk_dv_estimate_max_kms_per_year"] >= frozen["sk_dv_estimate_kms_per_year"]
@@ -68,10 +70,10 @@ def test_a_frozen_design_costs_less_than_a_non_frozen_one_of_the_same_a(paper_pr
 
 
 def test_settings_and_inputs_are_checked(paper_profile):
-    with pytest.raises(ValueError, match="unknown"):
-        sk.sk_estimate_settings(paper_profile, year=365.0)
-    with pytest.raises(ValueError, match="element_frame"):
-        sk.sk_estimate_settings(paper_profile, element_frame="ecliptic")
+    with pytest.raises(ConfigError, match="sk_estimate.year"):
+        paper_profile.with_overrides({"sk_estimate": {"year": 365.0}})
+    with pytest.raises(ConfigError, match="sk_estimate.element_frame"):
+        paper_profile.with_overrides({"sk_estimate": {"element_frame": "ecliptic"}})
     t, states = _drifting(24000.0, 0.0, 60.0, 0.0, 0.0, days=5.0)                   # 5 d < 2 periods of 3.9 d
     with pytest.raises(ValueError, match="orbits"):
         sk.mean_drift(t, states[None], GM)

@@ -75,7 +75,7 @@ def sampled_life(ci_profile, epoch_tdb_s):
 
 def test_life_navigation_months_match_direct_dop_summary(ci_profile, sampled_life):
     life, t, r = sampled_life
-    nav = life_navigation(ci_profile, {"controlled": life}, month_days=1.0)
+    nav = life_navigation(ci_profile.dop, ci_profile.dynamics, {"controlled": life}, month_days=1.0)
     assert nav.sizes["month"] == 3
     day = (t - t[0]) / SECONDS_PER_DAY
     bounds = [(0.0, 1.0, False), (1.0, 2.0, False), (2.0, 3.0, True)]      # the last epoch closes the last month
@@ -119,10 +119,10 @@ def test_validation_table_ratio_and_rank_correlation(ci_profile):
 
 
 def test_life_evaluation_settings_are_checked(ci_profile):
-    from lnss_lib.design_life.evaluation import life_evaluation_settings
+    from lnss_lib.errors import ConfigError
 
-    assert life_evaluation_settings(ci_profile)["sample_step_s"] == 900.0
-    with pytest.raises(ValueError, match="unknown"):
-        life_evaluation_settings({**ci_profile, "life_evaluation": {**ci_profile["life_evaluation"], "smaple_step_s": 1}})
-    with pytest.raises(ValueError, match="month_days"):
-        life_evaluation_settings({**ci_profile, "life_evaluation": {**ci_profile["life_evaluation"], "month_days": -1.0}})
+    assert ci_profile.life_evaluation.sample_step_s == 900.0
+    with pytest.raises(ConfigError, match="life_evaluation.smaple_step_s"):
+        ci_profile.with_overrides({"life_evaluation": {"smaple_step_s": 1.0}})
+    with pytest.raises(ConfigError, match="life_evaluation.month_days"):
+        ci_profile.with_overrides({"life_evaluation": {"month_days": -1.0}})

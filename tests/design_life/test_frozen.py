@@ -26,7 +26,7 @@ def kozai():
 
 @pytest.fixture(scope="module")
 def lunar(paper_profile, epoch_tdb_s):
-    field = st.SecularField.from_profile(paper_profile, epoch_tdb_s, 365.25)
+    field = st.SecularField.from_settings(paper_profile.stability, paper_profile.dynamics, epoch_tdb_s, 365.25)
     return field, fz.FrozenModel.from_field(field)
 
 
@@ -145,8 +145,9 @@ def test_ely_phased_constellation_keeps_its_mean_perilune_above_100_km_for_ten_y
     # full model is notebook 08's anchor. The mean perilune clears 100 km by more than the monthly tidal swing.
     c = load_constellation("ely2005_elfo_3sat_phased", paper_profile.dynamics)
     cs = constellation_states_mci(paper_profile.dynamics, paper_profile.epoch.start_tdb, c, "file")
-    screen = st.screen_states(file_epoch_profile(paper_profile, c), cs.states_mci, cs.t_epoch_tdb_s, life_days=3652.5)
-    field = st.SecularField.from_profile(paper_profile, cs.t_epoch_tdb_s, 30.0)
+    file_profile = file_epoch_profile(paper_profile, c)
+    screen = st.screen_states(file_profile.stability, file_profile.dynamics, cs.states_mci, cs.t_epoch_tdb_s, life_days=3652.5)
+    field = st.SecularField.from_settings(paper_profile.stability, paper_profile.dynamics, cs.t_epoch_tdb_s, 30.0)
     read = fz.mean_plane_elements(field, c.elements_deg[:1], cs.rot_to_j2000)
     assert read["inc_deg"][0] == pytest.approx(56.2, abs=0.3)                 # the file's moon_op, month-averaged
     allow = fz.allowances(fz.FrozenModel.from_field(field), 6541.4, 0.6, float(read["inc_deg"][0]), 90.0)

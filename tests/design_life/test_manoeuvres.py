@@ -101,7 +101,7 @@ def test_planned_manoeuvre_moves_the_mean_elements(ci_profile, epoch_tdb_s):
     target = {"ex": 2e-3, "ey": -3e-3, "inc_rad": np.radians(0.2), "raan_rad": np.radians(0.2), "a_km": 0.0}
     plan = plan_impulses(osc, GM, target)
     period = 2 * np.pi * np.sqrt(6143.0 ** 3 / GM)
-    model = life_force_model(ci_profile, epoch_tdb_s, 3.0)
+    model = life_force_model(ci_profile.dynamics, epoch_tdb_s, 3.0)
     t_out = epoch_tdb_s + period * (1.0 + np.linspace(0.0, 1.0, 129))
     burn_t = np.full((2, 2), np.nan)
     burn_dv = np.zeros((2, 2, 3))

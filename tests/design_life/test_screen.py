@@ -3,6 +3,8 @@
 import numpy as np
 import pytest
 
+from lnss_lib.errors import ConfigError
+
 from lnss_lib.design_life import screen as st
 from lnss_lib.constellation import WalkerDesign, planes_elements_deg
 from lnss_lib.elements import elements_to_state
@@ -56,7 +58,7 @@ def test_below_the_critical_inclination_a_circular_orbit_stays_circular():
 
 
 def test_tide_tensor_from_spice_matches_the_earths_orbit(paper_profile, epoch_tdb_s):
-    field = st.SecularField.from_profile(paper_profile, epoch_tdb_s, 30.0)
+    field = st.SecularField.from_settings(paper_profile.stability, paper_profile.dynamics, epoch_tdb_s, 30.0)
     tide, pole = field.at(10.0)
     # one month of GM/r^3 is GM/a^3 (1 - e^2)^(-3/2) (e = 0.055, a = 384400 km) within the solar perturbation of the orbit
     assert np.trace(tide) == pytest.approx(GM_EARTH / A_EARTH_KM**3 * (1 - 0.0549**2) ** -1.5, rel=0.05)
@@ -66,16 +68,17 @@ def test_tide_tensor_from_spice_matches_the_earths_orbit(paper_profile, epoch_td
 
 
 def test_settings_reject_unknown_keys_and_bad_values(paper_profile):
-    with pytest.raises(ValueError, match="unknown"):
-        st.stability_settings(paper_profile, lifetime=3.0)
-    with pytest.raises(ValueError, match="life_days"):
-        st.stability_settings(paper_profile, life_days=-1.0)
-    with pytest.raises(ValueError, match="third_bodies"):
-        st.stability_settings(paper_profile, third_bodies=["MARS"])
+    with pytest.raises(ConfigError, match="stability.lifetime"):
+        paper_profile.with_overrides({"stability": {"lifetime": 3.0}})
+    with pytest.raises(ConfigError, match="stability.life_days"):
+        paper_profile.with_overrides({"stability": {"life_days": -1.0}})
+    with pytest.raises(ConfigError, match="stability.third_bodies"):
+        paper_profile.with_overrides({"stability": {"third_bodies": ["MARS"]}})
 
 
 def test_planes_are_integrated_once(paper_profile):
-    ds = st.screen_elements(paper_profile, WalkerDesign(6143.0, 0.6, 90.0, 51.7, 4, 5).elements_deg(), life_days=30.0)
+    ds = st.screen_elements(paper_profile.stability, paper_profile.dynamics, paper_profile.epoch,
+                            WalkerDesign(6143.0, 0.6, 90.0, 51.7, 4, 5).elements_deg(), life_days=30.0)
     assert ds.attrs["n_orbits"] == 4 and ds.sizes["sat"] == 20
     np.testing.assert_array_equal(ds.ecc.values[0], ds.ecc.values[4])
 
@@ -84,14 +87,14 @@ def test_screen_agrees_with_the_full_model_on_a_stable_and_an_impacting_design(p
     # stable: the standalone ELFO (one satellite per plane), 120 days. The screen's perilune is a mean one; the
     # osculating perilune of the full model dips about 100 km below it (monthly and short-period terms)
     elfo = planes_elements_deg(6143.0, 0.6, 51.7, 90.0, [0.0, 180.0], 1)
-    screen = st.screen_elements(paper_profile, elfo, life_days=120.0)
-    ref = st.propagated_perilune(paper_profile, elfo, 120.0, degree=8)
+    screen = st.screen_elements(paper_profile.stability, paper_profile.dynamics, paper_profile.epoch, elfo, life_days=120.0)
+    ref = st.propagated_perilune(paper_profile.dynamics, paper_profile.epoch, elfo, 120.0, degree=8)
     assert screen.attrs["stable"] and ref["stable"]
     np.testing.assert_allclose(screen.min_perilune_alt_km.values, ref["min_perilune_alt_km"], atol=150.0)
     # impacting: a = 18000 km, i = 80 deg, 3 planes: Lidov-Kozai drives every perilune into the surface
     high = WalkerDesign(18000.0, 0.4, 90.0, 80.0, 3, 1).elements_deg()
-    screen = st.screen_elements(paper_profile, high, life_days=60.0)
-    ref = st.propagated_perilune(paper_profile, high, 60.0, degree=8)
+    screen = st.screen_elements(paper_profile.stability, paper_profile.dynamics, paper_profile.epoch, high, life_days=60.0)
+    ref = st.propagated_perilune(paper_profile.dynamics, paper_profile.epoch, high, 60.0, degree=8)
     assert not screen.attrs["stable"] and not ref["stable"]
     assert screen.attrs["impact_day"] == pytest.approx(np.nanmin(ref["impact_day"]), rel=0.10)
     np.testing.assert_allclose(screen.impact_day.values, ref["impact_day"], rtol=0.20)

@@ -1,5 +1,7 @@
 """The service station-keeping controller (issue 19): it pays for what the service needs and nothing else."""
 
+import dataclasses
+
 import numpy as np
 import pytest
 
@@ -9,7 +11,9 @@ from lnss_lib.constellation import WalkerDesign
 from lnss_lib.design_life.evaluation import life_metrics
 from lnss_lib.ephemeris import ensure_kernels, tdb_seconds
 from lnss_lib.design_life.service import PURPOSES, burn_location, mean_vectors_j2000, raan_half_width_rad
-from lnss_lib.design_life.closed_loop import LifeSettings, life_force_model, simulate_life
+from lnss_lib.design_life.closed_loop import life_force_model
+
+from .helpers import fly
 
 LIFE_DAYS = 60.0
 DRIVEN_DOWN = [[6143.0, 0.6, 70.0, 0.0, 45.0, 0.0]]
@@ -25,13 +29,13 @@ def profile():
 
 @pytest.fixture(scope="module")
 def model(profile):
-    return life_force_model(profile, tdb_seconds(profile["epoch"]["start_tdb"], "TDB"), LIFE_DAYS)
+    return life_force_model(profile.dynamics, tdb_seconds(profile["epoch"]["start_tdb"], "TDB"), LIFE_DAYS)
 
 
 @pytest.fixture(scope="module")
 def driven_down(profile, model):
-    runs = {"controlled": simulate_life(profile, DRIVEN_DOWN, life_days=LIFE_DAYS, model=model),
-            "natural": simulate_life(profile, DRIVEN_DOWN, natural=True, life_days=LIFE_DAYS, model=model)}
+    runs = {"controlled": fly(profile, DRIVEN_DOWN, life_days=LIFE_DAYS, model=model),
+            "natural": fly(profile, DRIVEN_DOWN, natural=True, life_days=LIFE_DAYS, model=model)}
     return runs
 
 
@@ -39,7 +43,7 @@ def test_frozen_orbit_that_keeps_the_service_flies_no_burn(profile, model):
     """Two satellites of the Table 4 ELFO plane: its natural motion keeps the perilune far above the floor, the
     slots and the navigation windows (positions sampled), so the service controller flies nothing."""
     el = [[6143.0, 0.6, 51.7, 0.0, 90.0, 0.0], [6143.0, 0.6, 51.7, 0.0, 90.0, 180.0]]
-    ds = simulate_life(profile, el, life_days=LIFE_DAYS, model=model, sample_step_s=3600.0)
+    ds = fly(profile, el, life_days=LIFE_DAYS, model=model, sample_step_s=3600.0)
     assert ds.attrs["controller"] == "service"
     assert ds.attrs["navigation_violations"] == 0            # the monitor ran and found the requirement kept
     assert int(ds["n_maneuvers"].sum()) == 0 and float(ds["dv_total_kms"].sum()) == 0.0
@@ -81,8 +85,8 @@ def test_a_design_the_trim_cannot_hold_completes(profile, model, controller):
     """Near-circular orbits whose first-orbit mean e is larger than the design's: the insertion trim once stepped
     to e < 0 and stopped the evaluation ("eccentricity must be in [0, 1)"); now every satellite is flown."""
     el = WalkerDesign(11925.0, 0.005, 152.0, 23.6, 3, 1).elements_deg()
-    ds = simulate_life(profile, el, model=model, settings=LifeSettings.from_profile(profile, life_days=20.0,
-                                                                                    controller=controller))
+    ds = fly(profile, el, model=model, design_life=dataclasses.replace(profile.design_life, life_days=20.0,
+                                                                       controller=controller))
     assert ds.sizes["sat"] == 3 and np.all(np.isfinite(ds["dv_kms_per_year"].values))
     assert np.all(ds["insertion_elements_deg"].values[:, 1] >= 0.0)
 
@@ -134,7 +138,7 @@ def test_relative_node_is_held_as_the_tilt_of_the_plane(profile, inc_deg, tol_de
     el = WalkerDesign(5000.0, 0.05, 180.0, inc_deg, 2, 1).elements_deg()
     prof = load_settings("paper", overrides={"gravity": {"degree": 8},
                                             "design_life": {"service": {"raan_rel_deg": tol_deg}}})
-    ds = simulate_life(prof, el, life_days=16.0)
+    ds = fly(prof, el, life_days=16.0)
     raan_err = np.abs(ds["box_error_tidal_mean"].sel(box="raan_rel_deg").values)
     assert np.nanmax(raan_err[:, ds["check_day"].values[0] > 13.7]) > np.radians(tol_deg)
     assert ("relative_node" in ds["maneuver_purpose"].values) == held
@@ -162,8 +166,8 @@ def test_box_that_drives_satellites_out_of_lunar_orbit_reports_them_and_complete
     and the evaluation stopped ("elements must be 6 finite values"); now every loss is reported with its day
     and cause and the others fly on."""
     el = WalkerDesign(15940.0, 0.734, 180.0, 62.1, 3, 1).elements_deg()
-    ds = simulate_life(paper_profile, el, settings=LifeSettings.from_profile(paper_profile, life_days=365.0,
-                                                                             controller="box"))
+    ds = fly(paper_profile, el, design_life=dataclasses.replace(paper_profile.design_life, life_days=365.0,
+                                                                controller="box"))
     causes = [str(c) for c in ds["loss_cause"].values]
     assert "escape (unbound orbit)" in causes
     lost = np.isfinite(ds["loss_day"].values)
@@ -191,7 +195,7 @@ def test_a_satellite_whose_propagation_fails_is_reported_and_the_others_fly_on(p
 
     monkeypatch.setattr(closed_loop, "integrate_chunk", failing)
     el = [[6143.0, 0.6, 51.7, 0.0, 90.0, 0.0], [6143.0, 0.6, 51.7, 0.0, 90.0, 180.0]]
-    ds = simulate_life(profile, el, life_days=10.0, model=model)
+    ds = fly(profile, el, life_days=10.0, model=model)
     assert str(ds["loss_cause"].values[1]) == f"propagation failed ({STATUS_TEXT[STATUS_MAX_STEPS]})"
     assert 0.0 < float(ds["loss_day"][1]) < 10.0 and not bool(ds["impact"][1])
     assert str(ds["loss_cause"].values[0]) == "" and np.isfinite(ds["mean_elements"].values[0, -1, 0])
