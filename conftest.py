@@ -27,7 +27,7 @@ def pytest_configure(config):
     kernel_environment(NOTEBOOK_PROFILE)
     if hasattr(config.option, "nbval_cell_timeout") and not any(
             arg.startswith("--nbval-cell-timeout") for arg in config.invocation_params.args):
-        config.option.nbval_cell_timeout = float(load_settings(NOTEBOOK_PROFILE)["notebooks"]["timeout_s"])
+        config.option.nbval_cell_timeout = float(load_settings(NOTEBOOK_PROFILE).notebooks.timeout_s)
 
 
 @pytest.hookimpl(tryfirst=True)

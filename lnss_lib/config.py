@@ -176,6 +176,7 @@ REFERENCE_PROFILE = "paper"          # its TOML fixes the keys and value types o
 FREE_TABLES = ("gps.launch_dates", "campaign.constraints", "campaign.hypervolume", "campaign.variables")
 PROFILE_TABLE = {"name": "", "description": "", "inherits": "", "also": [""]}
 ALLOW_INFINITE = ("gps.sidelobe_offset_db",)   # -inf = main lobe only
+NON_EMPTY = ("benchmark.epochs_tdb",)          # lists that need at least one entry
 # Allowed ranges of physical settings: key -> (low, high, low open, high open); None = unbounded.
 # integrator.settings.<any name> is "integrator.settings.*"; campaign.overrides.<section> uses the section's keys.
 POSITIVE, NON_NEGATIVE = (0.0, None, True, False), (0.0, None, False, False)
@@ -222,7 +223,8 @@ RANGES = {
     "design_life.life_days": POSITIVE, "design_life.check_interval_days": POSITIVE,
     "design_life.samples_per_orbit": (16, None, False, False), "design_life.min_maneuver_spacing_days": NON_NEGATIVE,
     "design_life.dv_cap_kms_per_year": NON_NEGATIVE, "design_life.phasing_days": POSITIVE,
-    "design_life.box_tolerance": NON_NEGATIVE, "design_life.slot_coast_days": POSITIVE,
+    "design_life.box_tolerance": NON_NEGATIVE,
+    "benchmark.extra_masks_deg": (0.0, 90.0, False, True),      # each entry of the list "design_life.slot_coast_days": POSITIVE,
     "design_life.slot_fit_days": POSITIVE, "design_life.slot_quad_days": POSITIVE,
     "design_life.tide_period_days": POSITIVE, "design_life.target_fraction": (0.0, 1.0, False, True),
     "life_evaluation.sample_step_s": POSITIVE, "life_evaluation.month_days": POSITIVE,
@@ -422,6 +424,10 @@ def _walk(data: dict, ref: dict, prefix: str, rule_prefix: str, partial: bool, s
         elif isinstance(value, list):
             _check_free(key, value, source)
             _check_text(key, rule_key, value, source)
+            if rule_key in NON_EMPTY and not value:
+                _fail(f"{key} = [] is not allowed; allowed: a list of at least one entry", key, source)
+            for index, item in enumerate(value if rule_key in RANGES else []):
+                _check_number(f"{key}[{index}]", rule_key, item, source)
         elif isinstance(value, str):
             _check_text(key, rule_key, value, source)
         else:

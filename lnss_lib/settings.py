@@ -92,50 +92,16 @@ def _build(cls, table: Mapping, key: str):
     return cls(**values)
 
 
-class _Table:
-    """Read-only ``section["key"]`` access of a settings section, for code not yet moved to attributes.
-
-    Transitional (issue 22): removed once every reader uses attributes.
-    """
-
-    def __getitem__(self, key: str):
-        if key not in (item.name for item in dataclasses.fields(self) if item.init and item.name != "source"):
-            raise KeyError(key)
-        return getattr(self, key)
-
-    def get(self, key: str, default=None):
-        return self[key] if key in self.keys() else default
-
-    def keys(self) -> tuple[str, ...]:
-        return tuple(item.name for item in dataclasses.fields(self)
-                     if item.init and not item.metadata.get("derived") and item.name != "source")
-
-    def __contains__(self, key) -> bool:
-        return key in self.keys()
-
-    def __iter__(self):
-        return iter(self.keys())
-
-    def items(self):
-        return [(key, self[key]) for key in self.keys()]
-
-    def values(self):
-        return [self[key] for key in self.keys()]
-
-
-Mapping.register(_Table)
-
-
 # --- the sections, in the order of params/paper.toml ------------------------------------------------------
 
 @dataclass(frozen=True)
-class ProfileInfo(_Table):
+class ProfileInfo:
     name: str
     description: str
 
 
 @dataclass(frozen=True)
-class EpochSettings(_Table):
+class EpochSettings:
     """Study epoch (TDB) and the arc of the 10-day evaluation (Section 5.3)."""
     start_tdb: str
     duration_days: float
@@ -143,7 +109,7 @@ class EpochSettings(_Table):
 
 
 @dataclass(frozen=True)
-class SpacecraftSettings(_Table):
+class SpacecraftSettings:
     """Table 2 bus: mass, SRP area and reflectivity coefficient."""
     mass_kg: float
     area_m2: float
@@ -156,7 +122,7 @@ class SpacecraftSettings(_Table):
 
 
 @dataclass(frozen=True)
-class GravitySettings(_Table):
+class GravitySettings:
     """The lunar field (fully normalised, in ``frames.gravity``), its degree and the per-evaluation truncation."""
     file: str
     degree: int
@@ -166,7 +132,7 @@ class GravitySettings(_Table):
 
 
 @dataclass(frozen=True)
-class ForceSettings(_Table):
+class ForceSettings:
     """Perturbations beyond the lunar field (Table 2)."""
     third_bodies: tuple[str, ...]
     srp: bool
@@ -178,7 +144,7 @@ class ForceSettings(_Table):
 
 
 @dataclass(frozen=True)
-class BodyConstants(_Table):
+class BodyConstants:
     """GMs of the third bodies (DE421), radii, the astronomical unit and the speed of light."""
     gm_sun_km3_s2: float
     gm_earth_km3_s2: float
@@ -191,7 +157,7 @@ class BodyConstants(_Table):
 
 
 @dataclass(frozen=True)
-class IntegratorSetting(_Table):
+class IntegratorSetting:
     """One named integrator setting: method and tolerances."""
     method: str
     rtol: float
@@ -200,7 +166,7 @@ class IntegratorSetting(_Table):
 
 
 @dataclass(frozen=True)
-class IntegratorSettings(_Table):
+class IntegratorSettings:
     """The named integrator settings and the one the profile propagates with."""
     setting: str
     settings: Mapping[str, IntegratorSetting]
@@ -215,7 +181,7 @@ class IntegratorSettings(_Table):
 
 
 @dataclass(frozen=True)
-class FrameSettings(_Table):
+class FrameSettings:
     """Frame of the design elements, of the surface grid and of the gravity field."""
     element_frame: str
     moon_fixed: str
@@ -223,7 +189,7 @@ class FrameSettings(_Table):
 
 
 @dataclass(frozen=True)
-class EphemerisSettings(_Table):
+class EphemerisSettings:
     """SPICE kernels (relative to params/), the planetary SPK and the tabulation step of bodies and rotations."""
     kernels: tuple[str, ...]
     planetary_spk: str
@@ -231,12 +197,12 @@ class EphemerisSettings(_Table):
 
 
 @dataclass(frozen=True)
-class ImpactSettings(_Table):
+class ImpactSettings:
     min_altitude_km: float
 
 
 @dataclass(frozen=True)
-class StandaloneElfoSettings(_Table):
+class StandaloneElfoSettings:
     """Table 4: the standalone ELFO constellation."""
     sma_km: float
     ecc: float
@@ -247,7 +213,7 @@ class StandaloneElfoSettings(_Table):
 
 
 @dataclass(frozen=True)
-class CapstoneSettings(_Table):
+class CapstoneSettings:
     """CAPSTONE NRHO reference arc (HORIZONS) of the propagator validation."""
     file: str
     arc_break_tdb: str
@@ -256,17 +222,17 @@ class CapstoneSettings(_Table):
 
 
 @dataclass(frozen=True)
-class ValidationSettings(_Table):
+class ValidationSettings:
     capstone: CapstoneSettings
 
 
 @dataclass(frozen=True)
-class NotebookSettings(_Table):
+class NotebookSettings:
     timeout_s: int
 
 
 @dataclass(frozen=True)
-class DopSettings(_Table):
+class DopSettings:
     """South-pole receiver grid and DOP statistics (Section 2.1, eq. 1-14)."""
     lat_min_deg: float
     lat_max_deg: float
@@ -282,7 +248,7 @@ class DopSettings(_Table):
 
 
 @dataclass(frozen=True)
-class GpsSettings(_Table):
+class GpsSettings:
     """GPS-LNSS link budget and visibility (Section 2.2, eq. 15-24, Table 1)."""
     tle_file: str
     exclude_prn: tuple[int, ...]
@@ -308,7 +274,7 @@ class GpsSettings(_Table):
 
 
 @dataclass(frozen=True)
-class DeltaVSettings(_Table):
+class DeltaVSettings:
     """Station-keeping Delta-V of the 10-day evaluation (Section 3.1, eq. 25-41)."""
     model: str
     element_frame: str
@@ -324,12 +290,12 @@ class DeltaVSettings(_Table):
 
 
 @dataclass(frozen=True)
-class EvaluatorSettings(_Table):
+class EvaluatorSettings:
     extra_metrics: tuple[str, ...]
 
 
 @dataclass(frozen=True)
-class VariableBounds(_Table):
+class VariableBounds:
     """A design variable's grid (eq. 43-44): lower and upper bound and step."""
     lower: int | float
     upper: int | float
@@ -337,7 +303,7 @@ class VariableBounds(_Table):
 
 
 @dataclass(frozen=True)
-class CampaignSettings(_Table):
+class CampaignSettings:
     """NSGA-II campaign (Section 5, Table 5) over the Table 3 grid."""
     population: int
     generations: int
@@ -365,7 +331,7 @@ class CampaignSettings(_Table):
 
 
 @dataclass(frozen=True)
-class StabilitySettings(_Table):
+class StabilitySettings:
     """Doubly-averaged stability screen over the design life."""
     life_days: float
     third_bodies: tuple[str, ...]
@@ -383,7 +349,7 @@ class StabilitySettings(_Table):
 
 
 @dataclass(frozen=True)
-class SkEstimateSettings(_Table):
+class SkEstimateSettings:
     """Campaign-grade geometry-keeping Delta-V estimate."""
     element_frame: str
     year_days: float
@@ -392,7 +358,7 @@ class SkEstimateSettings(_Table):
 
 
 @dataclass(frozen=True)
-class BoxSettings(_Table):
+class BoxSettings:
     """Half-widths of the fixed-element box controller."""
     ecc: float
     aop_deg: float
@@ -402,7 +368,7 @@ class BoxSettings(_Table):
 
 
 @dataclass(frozen=True)
-class ServiceSettings(_Table):
+class ServiceSettings:
     """What the service controller holds: a safe perilune and the navigation service."""
     perilune_margin_km: float
     safety_check_days: float
@@ -415,7 +381,7 @@ class ServiceSettings(_Table):
 
 
 @dataclass(frozen=True)
-class DesignLifeSettings(_Table):
+class DesignLifeSettings:
     """Closed-loop station keeping over the design life."""
     life_days: float
     check_interval_days: float
@@ -436,7 +402,7 @@ class DesignLifeSettings(_Table):
 
 
 @dataclass(frozen=True)
-class BenchmarkSettings(_Table):
+class BenchmarkSettings:
     """Notebook 10: every catalogue constellation on one yardstick."""
     extra_masks_deg: tuple[float, ...]
     campaign_picks: bool
@@ -446,7 +412,7 @@ class BenchmarkSettings(_Table):
 
 
 @dataclass(frozen=True)
-class LifeEvaluationSettings(_Table):
+class LifeEvaluationSettings:
     """A design over its design life: sampling, months, and the notebook's validation sets."""
     sample_step_s: float
     month_days: float
@@ -462,7 +428,7 @@ class LifeEvaluationSettings(_Table):
 
 
 @dataclass(frozen=True)
-class Dynamics(_Table):
+class Dynamics:
     """What the force model and the propagator read: bodies, frames, field, forces, spacecraft, integrator."""
     ephemeris: EphemerisSettings
     frames: FrameSettings
@@ -480,7 +446,7 @@ class Dynamics(_Table):
 
 
 @dataclass(frozen=True)
-class Settings(_Table):
+class Settings:
     """A whole profile, checked and frozen; only the top of the workbook (command line, pipeline, studies,
     campaign set-up, explorer) holds it, and hands each kernel its section."""
     profile: ProfileInfo

@@ -25,7 +25,7 @@ def ci_profile():
 
 @pytest.fixture(scope="session")
 def epoch_tdb_s(paper_profile):
-    return tdb_seconds(paper_profile["epoch"]["start_tdb"], "TDB")
+    return tdb_seconds(paper_profile.epoch.start_tdb, "TDB")
 
 
 @pytest.fixture(scope="session")

@@ -407,7 +407,7 @@ def test_profile_file_runs_and_writes_under_its_stem(capsys, tmp_path, own_outpu
     assert main(command) == 0, capsys.readouterr().err
     assert [p.name for p in own_outputs.iterdir()] == ["mine"]
     assert sorted(os.listdir(profile_file.parent)) == ["mine.toml"]
-    assert load_settings("mine")["profile"]["name"] == "mine"
+    assert load_settings("mine").profile.name == "mine"
 
 
 @pytest.mark.parametrize("file_name, needle", [("x y.toml", "'x y' is not allowed"), ("ci.toml", "params/ci.toml"),
@@ -645,7 +645,7 @@ def _text_keys(table: dict, prefix: str = "", rule: str = ""):
 def test_no_text_setting_escapes_the_checks(profile_name):
     """A new text setting must get an allowed set (config.CHOICES / FORMS / SETTING_NAMES) or be declared open."""
     checked = set(config.CHOICES) | set(config.FORMS) | set(config.SETTING_NAMES) | OPEN_TEXT
-    unchecked = [key for key, rule in _text_keys(load_settings(profile_name)) if rule not in checked]
+    unchecked = [key for key, rule in _text_keys(load_settings(profile_name).as_dict()) if rule not in checked]
     assert not unchecked, unchecked
 
 
@@ -720,5 +720,5 @@ def test_physically_absurd_values_are_refused_with_the_reason(capsys, tmp_path, 
 def test_hill_radius_follows_from_the_profile_masses(paper_profile):
     from lnss_lib.constants import EARTH_MOON_DISTANCE_KM, MOON_HILL_RADIUS_KM
 
-    ratio = paper_profile["gravity"]["gm_km3_s2"] / paper_profile["constants"]["gm_earth_km3_s2"]
+    ratio = paper_profile.gravity.gm_km3_s2 / paper_profile.constants.gm_earth_km3_s2
     assert MOON_HILL_RADIUS_KM == pytest.approx(EARTH_MOON_DISTANCE_KM * (ratio / 3.0) ** (1.0 / 3.0), rel=5e-3)

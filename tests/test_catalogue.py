@@ -69,7 +69,7 @@ def test_every_file_round_trips_in_its_own_frame(paper_profile, key, epoch):
     assert s.epoch_source == "file" if epoch == "file" else s.epoch_source.startswith("study epoch")
     rot = s.rot_to_j2000
     in_frame = np.concatenate([s.states_mci[:, :3] @ rot, s.states_mci[:, 3:] @ rot], axis=1)
-    back = state_to_elements(in_frame, paper_profile["gravity"]["gm_km3_s2"])
+    back = state_to_elements(in_frame, paper_profile.gravity.gm_km3_s2)
     back[:, 2:] = np.degrees(back[:, 2:])
     el = c.elements_deg
     assert np.allclose(back[:, 0], el[:, 0], atol=SMA_TOL_KM) and np.allclose(back[:, 1], el[:, 1], atol=1e-12)
@@ -97,7 +97,7 @@ def test_true_anomaly_becomes_mean_anomaly(paper_profile):
     assert c.anomaly == "true"
     el = c.elements_deg.copy()
     el[:, 2:] = np.radians(el[:, 2:])
-    state = elements_to_state(el, paper_profile["gravity"]["gm_km3_s2"])
+    state = elements_to_state(el, paper_profile.gravity.gm_km3_s2)
     r = state[:, :3]
     p_hat = elements_to_state(np.column_stack([el[:, :5], np.zeros(len(el))]), 1.0)[:, :3]
     h = np.cross(r, state[:, 3:])

@@ -98,9 +98,9 @@ def test_two_body_positions_follow_kepler(profile):
 
     ensure_kernels(profile.ephemeris)
     el = walker_design(profile.dynamics, 6143.0, 0.6, 90.0, 51.7, 2, 2).elements_deg()
-    gm = profile["gravity"]["gm_km3_s2"]
+    gm = profile.gravity.gm_km3_s2
     period_s = 2.0 * np.pi * np.sqrt(6143.0**3 / gm)
-    t0 = tdb_seconds(profile["epoch"]["start_tdb"])
+    t0 = tdb_seconds(profile.epoch.start_tdb)
     r = two_body_positions_mci(profile.dynamics, el, t0 + np.array([0.0, 0.5 * period_s, period_s]))
     radius = np.linalg.norm(r, axis=-1)
     # Satellites at M = 0 start at perilune a(1 - e), reach apolune a(1 + e) half a period later, and return.

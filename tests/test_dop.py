@@ -207,12 +207,12 @@ def test_dop_from_propagation_rotates_to_moon_fixed():
 
     profile = load_settings("ci")
     ensure_kernels(profile.ephemeris)
-    times = tdb_seconds(profile["epoch"]["start_tdb"]) + 3600.0 * np.arange(4)
+    times = tdb_seconds(profile.epoch.start_tdb) + 3600.0 * np.arange(4)
     rng = np.random.default_rng(3)
     r_mf = rng.normal(size=(8, 4, 3))
     r_mf[..., 2] = -np.abs(r_mf[..., 2]) - 0.5
     r_mf *= 6000.0 / np.linalg.norm(r_mf, axis=-1, keepdims=True)
-    to_j2000 = rotation(profile["frames"]["moon_fixed"], "J2000", times)
+    to_j2000 = rotation(profile.frames.moon_fixed, "J2000", times)
     r_mci = np.einsum("tij,stj->sti", to_j2000, r_mf)
     prop = xr.Dataset(
         {"r_mci_km": (("sat", "time", "xyz"), r_mci)},

@@ -148,7 +148,7 @@ def test_frame_and_model_choice_use_their_own_context(explorer):
     explorer.model_choice.value = "paper"
     overrides = {"frames": {"element_frame": "j2000"}, "deltav": {"model": "paper"}}
     assert explorer.current.metrics["deltav_model"] == "paper"
-    assert explorer.context().settings["frames"]["element_frame"] == "j2000"
+    assert explorer.context().settings.frames.element_frame == "j2000"
     _assert_same_metrics(explorer.current.metrics, _reference(explorer.design(), overrides))
     assert explorer.current.metrics["pdop_mean_3sigma"] != pytest.approx(_reference(explorer.design())["pdop_mean_3sigma"])
     assert len(explorer._contexts) == 3
@@ -229,7 +229,7 @@ def test_overrides_reach_every_evaluation_and_the_export(tmp_path, capsys):
     its evaluations and the exported command line."""
     overrides = {"dop": {"elevation_mask_deg": 15.0}}
     explorer = DesignExplorer(PROFILE, outputs_dir=tmp_path, overrides=json.dumps(overrides))
-    assert explorer.context().settings["dop"]["elevation_mask_deg"] == 15.0
+    assert explorer.context().settings.dop.elevation_mask_deg == 15.0
     _assert_same_metrics(explorer.current.metrics, _reference(explorer.design(), overrides))
     exported = explorer.export()
     assert "dop.elevation_mask_deg=15.0" in exported["argv"]
@@ -241,7 +241,7 @@ def test_profile_switch_keeps_the_design(explorer):
     _set(explorer, n_planes=3)
     explorer.profile_choice.value = "quick"
     assert explorer.current.profile_name == "quick" and explorer.design()["n_planes"] == 3
-    assert explorer.context().settings["profile"]["name"] == "quick"
+    assert explorer.context().settings.profile.name == "quick"
 
 
 # ---- the page served by voila, loaded in headless Chromium -------------------------------------
@@ -386,7 +386,7 @@ def test_exported_command_passes_the_command_line_checks(tmp_path):
     assert shlex.split(exported["command"])[3:] == exported["argv"]
     args = build_parser().parse_args(exported["argv"])
     profile = load_settings(args.profile, overrides=parse_sets(args.set))
-    assert profile["forces"]["relativity"] is False and profile["forces"]["third_bodies"] == ("SUN", "EARTH")
+    assert profile.forces.relativity is False and profile.forces.third_bodies == ("SUN", "EARTH")
     assert profile == explorer.context().settings
 
 
@@ -403,5 +403,5 @@ def test_export_of_a_profile_file_names_the_file(tmp_path, monkeypatch):
     args = build_parser().parse_args(exported["argv"])
     assert args.profile_file == str(path)
     loaded = load_settings(config.use_profile_file(args.profile_file))
-    assert loaded["profile"]["name"] == "mine"
+    assert loaded.profile.name == "mine"
     assert loaded.hash == explorer.context().settings.hash   # contexts are shared by hash

@@ -67,7 +67,7 @@ def test_iau_pole_and_me_pole_give_nearly_the_same_frame(epoch):
 
 
 def test_elements_round_trip_through_the_frame(paper_profile, epoch, rng):
-    gm = paper_profile["gravity"]["gm_km3_s2"]
+    gm = paper_profile.gravity.gm_km3_s2
     el = np.column_stack([rng.uniform(3000, 20000, 20), rng.uniform(0.01, 0.7, 20), np.radians(rng.uniform(5, 175, 20)),
                           np.radians(rng.uniform(0, 360, 20)), np.radians(rng.uniform(0, 360, 20)),
                           np.radians(rng.uniform(0, 360, 20))])

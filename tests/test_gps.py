@@ -29,7 +29,7 @@ def test_sgp4_radius_at_tle_epoch_and_states_dataset(profile):
     r = np.stack([gps.propagate_teme([rec], jd[k:k + 1], (epochs - np.floor(epochs))[k:k + 1])[0, 0]
                   for k, rec in enumerate(records)])
     assert np.all(np.abs(np.linalg.norm(r, axis=-1) - 26560.0) < 500.0)
-    t = tdb_seconds(profile["epoch"]["start_tdb"]) + np.array([0.0, 900.0])
+    t = tdb_seconds(profile.epoch.start_tdb) + np.array([0.0, 900.0])
     ds = gps.gps_states_mci(profile.gps, profile.epoch.start_tdb, t)
     assert ds["r_mci_km"].dims == ("gps", "time", "xyz") and 21 not in ds["prn"].values
     earth = spice.spkpos("EARTH", t.tolist(), "J2000", "NONE", "MOON")[0]
@@ -139,7 +139,7 @@ def test_invisible_rows_do_not_count():
 # ---------------------------------------------------------------------------- end to end
 
 def test_gps_link_masks_consistent(profile):
-    t = tdb_seconds(profile["epoch"]["start_tdb"]) + 900.0 * np.arange(8)
+    t = tdb_seconds(profile.epoch.start_tdb) + 900.0 * np.arange(8)
     states = gps.gps_states_mci(profile.gps, profile.epoch.start_tdb, t)
     # An LNSS satellite 8000 km from the Moon's centre, rotating about the Moon.
     ang = np.linspace(0.0, 2.0, t.size)

@@ -110,7 +110,7 @@ def test_operational_profiles_load_and_validate():
     for name in ("operational", "quick_operational", "ci_operational"):
         profile = load_settings(name)
         s = CampaignPlan.of(profile)
-        assert profile["dop"]["los_axes"] == "enu" and profile["deltav"]["satellites"] == "first"
+        assert profile.dop.los_axes == "enu" and profile.deltav.satellites == "first"
         assert set(s.extra_metrics) == {"sk_dv_estimate_kms_per_year", "sk_dv_estimate_max_kms_per_year",
                                         "stable_screen", "screen_min_perilune_alt_km"}
         objectives = [o.lstrip("-") for o in s.objectives]

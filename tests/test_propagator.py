@@ -70,8 +70,8 @@ def test_integrator_takes_scipy_steps(paper_profile, epoch_tdb_s):
         return np.concatenate([y[3:], acc])
 
     for setting in ("paper", "converged"):
-        cfg = paper_profile["integrator"]["settings"][setting]
-        sol = solve_ivp(rhs, (epoch_tdb_s, epoch_tdb_s + duration), y0, method=cfg["method"], rtol=cfg["rtol"], atol=cfg["atol"])
+        cfg = paper_profile.integrator.settings[setting]
+        sol = solve_ivp(rhs, (epoch_tdb_s, epoch_tdb_s + duration), y0, method=cfg.method, rtol=cfg.rtol, atol=cfg.atol)
         ds = propagate_states(paper_profile.dynamics, y0[None], epoch_tdb_s, duration, 900.0, setting=setting, model=model)
         assert int(ds.n_rhs[0]) == sol.nfev
         assert np.linalg.norm(ds.r_mci_km.values[0, -1] - sol.y[:3, -1]) < 1e-6
@@ -122,8 +122,8 @@ def test_force_terms_have_expected_sizes(paper_profile, epoch_tdb_s):
     assert tidal(398600.436233, d_earth) < terms["EARTH"] < 2.1 * tidal(398600.436233, d_earth)
     assert tidal(132712440040.944, d_sun) < terms["SUN"] < 2.1 * tidal(132712440040.944, d_sun)
     assert 1e-16 < terms["JUPITER"] < 1e-14
-    craft = paper_profile["spacecraft"]
-    srp_expected = (1361.0 / 299792458.0 * craft["cr"] * craft["area_m2"] / craft["mass_kg"] * 1e-3
+    craft = paper_profile.spacecraft
+    srp_expected = (1361.0 / 299792458.0 * craft.cr * craft.area_m2 / craft.mass_kg * 1e-3
                     * (149597870.7 / np.linalg.norm(sun - r)) ** 2)
     assert terms["srp"] == pytest.approx(srp_expected, rel=1e-9)
     gm, c = 4902.7999671, 299792.458

@@ -5,6 +5,8 @@ import math
 import numpy as np
 import pytest
 
+from lnss_lib.errors import ConfigError
+
 from lnss_lib.catalogue import load_constellation
 from lnss_lib.cli import evaluate_catalogue_cli
 from lnss_lib.settings import load_settings
@@ -47,8 +49,8 @@ def test_table4_row_and_profile_mask_match(bench):
 def test_higher_mask_lowers_or_keeps_availability(bench):
     evaluated = bench.table[bench.table["pdop_avail_pct"].notna()]
     assert len(evaluated) == 3
-    for mask in cb.benchmark_settings(bench.profile)["extra_masks_deg"]:
-        assert mask > bench.profile["dop"]["elevation_mask_deg"]
+    for mask in bench.profile.benchmark.extra_masks_deg:
+        assert mask > bench.profile.dop.elevation_mask_deg
         assert (evaluated[cb.mask_key("pdop_avail_pct", mask)] <= evaluated["pdop_avail_pct"] + 1e-9).all()
         assert (evaluated[cb.mask_key("mean_visible_sats", mask)] < evaluated["mean_visible_sats"]).all()
 
@@ -95,11 +97,11 @@ def test_pole_coverage_of_a_known_series():
 
 
 def test_epoch_sensitivity_at_the_study_epoch_matches_the_yardstick(bench):
-    start = bench.profile["epoch"]["start_tdb"]
+    start = bench.profile.epoch.start_tdb
     table = cb.epoch_sensitivity(PROFILE, epochs=[start], names=["ely2005_elfo_3sat_phased"])
     row = _row(bench, "ely2005_elfo_3sat_phased")
     assert len(table) == 1
-    mask = bench.profile["dop"]["elevation_mask_deg"]
+    mask = bench.profile.dop.elevation_mask_deg
     for key in cb.DOP_KEYS:
         assert table.iloc[0][cb.mask_key(key, mask)] == pytest.approx(row[key], rel=1e-9, nan_ok=True), key
     assert table.iloc[0]["sk_dv_estimate_kms_per_year"] == pytest.approx(row["sk_dv_estimate_kms_per_year"], rel=1e-9)
@@ -118,10 +120,12 @@ def test_moon_node_regresses_half_a_turn_in_half_a_nodal_period():
 
 def test_settings_are_checked():
     profile = load_settings(PROFILE)
-    assert cb.benchmark_settings(profile)["epochs_tdb"]
-    with pytest.raises(ValueError, match="unknown"):
-        cb.benchmark_settings({**profile, "benchmark": {**profile["benchmark"], "masks": [1.0]}})
-    with pytest.raises(ValueError, match="extra_masks_deg"):
-        cb.benchmark_settings({**profile, "benchmark": {**profile["benchmark"], "extra_masks_deg": [95.0]}})
+    assert profile.benchmark.epochs_tdb
+    with pytest.raises(ConfigError, match="unknown key benchmark.masks"):
+        profile.with_overrides({"benchmark": {"masks": [1.0]}})
+    with pytest.raises(ConfigError, match=r"benchmark.extra_masks_deg\[0\] = 95.0 is out of range; allowed: \[0, 90\)"):
+        profile.with_overrides({"benchmark": {"extra_masks_deg": [95.0]}})
+    with pytest.raises(ConfigError, match=r"benchmark.epochs_tdb = \[\] is not allowed"):
+        profile.with_overrides({"benchmark": {"epochs_tdb": []}})
     with pytest.raises(ValueError, match="unknown catalogue"):
         cb.catalogue_entries(profile, ["no_such_constellation"])

@@ -106,14 +106,14 @@ def test_frame_study_tables_are_consistent(elfo_study):
     """Apolune latitude -i for AOP 90 deg in the lunar-equatorial frame; per-row and per-class tables
     average back to the summary metrics computed by the independent dop_kernel path."""
     profile, study = elfo_study
-    cfg = profile["standalone_elfo"]
-    apolune = dg.apolune_latitude_table(study, cfg["sats_per_plane"]).set_index("element frame")
-    np.testing.assert_allclose(apolune.loc["lunar_equator_of_epoch"].values, -cfg["inc_deg"], atol=0.05)
+    cfg = profile.standalone_elfo
+    apolune = dg.apolune_latitude_table(study, cfg.sats_per_plane).set_index("element frame")
+    np.testing.assert_allclose(apolune.loc["lunar_equator_of_epoch"].values, -cfg.inc_deg, atol=0.05)
     assert abs(apolune.loc["j2000"].values[0] - apolune.loc["j2000"].values[1]) > 10.0   # J2000 tilts the planes apart
     summaries = dg.frame_study_summaries(study)
     assert len(summaries) == 2 * len(study.frames) + 3   # (frame, axes) pairs and three checks
     rows = dg.latitude_table(study)
-    diagnosis = dg.degenerate_geometry_table(study, cfg["sats_per_plane"])
+    diagnosis = dg.degenerate_geometry_table(study, cfg.sats_per_plane)
     for frame in study.frames:
         summary = summaries[f"{frame} / moon_fixed"]
         block = rows[rows["element frame"] == frame]

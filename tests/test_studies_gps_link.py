@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import dataclasses
 import datetime as dt
 import math
 
@@ -45,7 +46,7 @@ def test_link_budget_table_adds_up(profile):
 
 def test_off_boresight_limits_and_cn0_curves(profile):
     limits = gl.off_boresight_limits(profile.gps, profile.constants)
-    alpha = math.degrees(math.asin(profile["constants"]["r_earth_km"] / 26560.0))
+    alpha = math.degrees(math.asin(profile.constants.r_earth_km / 26560.0))
     assert limits["earth_limb_deg"] == pytest.approx(alpha) and limits["limb_with_margin_deg"] == pytest.approx(alpha + 0.5)
     last = limits["last_receivable_deg"]
     edge = gl.link_budget_table(profile.gps, [last, last + 0.1], 384400.0)["cn0_dbhz"].values
@@ -95,7 +96,7 @@ def test_comparison_catalogue_and_per_satellite_tables(profile):
     first = catalogue[0]["tle_epoch_utc"]
     assert days.iloc[0]["days_back_from_tle"] == pytest.approx((first - dt.datetime(2025, 5, 1)).total_seconds() / 86400.0)
     assert isinstance(days.iloc[0]["launch_date"], str)
-    t = tdb_seconds(profile["epoch"]["start_tdb"]) + 900.0 * np.arange(6)
+    t = tdb_seconds(profile.epoch.start_tdb) + 900.0 * np.arange(6)
     states = gps.gps_states_mci(profile.gps, profile.epoch.start_tdb, t)
     ang = np.linspace(0.0, 1.0, t.size)
     r_lnss = np.stack([8000.0 * np.stack([np.cos(ang + p), np.sin(ang + p), 0.3 * np.ones_like(ang)], axis=-1)
@@ -130,9 +131,9 @@ def test_pdop_split_adds_up_and_clock_column_only_adds_error(profile, elfo_link)
 
 def test_sensitivity_variants_and_table(profile, elfo_link):
     variants = gl.sensitivity_variants(profile.gps)
-    assert variants["default"] == {} and f"gain {profile['gps']['gain_column']}" not in variants
+    assert variants["default"] == {} and f"gain {profile.gps.gain_column}" not in variants
     for label, over in variants.items():
-        assert len(over) <= 1 and set(over) <= set(profile["gps"]), label     # one setting at a time
+        assert len(over) <= 1 and set(over) <= {f.name for f in dataclasses.fields(profile.gps)}, label     # one setting at a time
     elements, prop, states = elfo_link
     sens = gl.sensitivity_table(profile, states, prop, elements, phase_shifts_days=(7.0,))
     assert list(sens.index[:len(variants)]) == list(variants)

@@ -49,7 +49,7 @@ from ..propagator import elements_deg_to_states, propagate_states
 from ..design_life.estimate import sk_estimate_from_propagation
 from ..design_life.screen import screen_states
 
-__all__ = ["TABLE4_KEY", "DOP_KEYS", "DESIGN_LIFE_KEYS", "Entry", "Benchmark", "benchmark_settings", "mask_key",
+__all__ = ["TABLE4_KEY", "DOP_KEYS", "DESIGN_LIFE_KEYS", "Entry", "Benchmark", "mask_key",
            "catalogue_entries", "paper_entry", "campaign_entries", "run_benchmark", "add_closed_loop_life",
            "published_comparison", "epoch_sensitivity", "epoch_spread", "epoch_findings", "yardstick_findings"]
 
@@ -58,25 +58,6 @@ DOP_KEYS = ("mean_visible_sats", "pdop_mean_3sigma", "pdop_avail_pct", "hdop_mea
 DESIGN_LIFE_KEYS = ("life_days", "impact_day", "sk_dv_kms_per_year", "sk_dv_max_kms_per_year", "n_maneuvers",
                     "box_held", "pdop_avail_pct_life", "hdop_avail_pct_life", "sk_dv_estimate_kms_per_year",
                     "stable_screen")
-SETTINGS_KEYS = ("extra_masks_deg", "campaign_picks", "closed_loop_life", "epoch_constellations", "epochs_tdb")
-
-
-def benchmark_settings(profile: dict) -> dict:
-    """The checked ``[benchmark]`` table of a profile (keys :data:`SETTINGS_KEYS`)."""
-    cfg = dict(profile.get("benchmark", {}))
-    unknown = sorted(set(cfg) - set(SETTINGS_KEYS))
-    missing = [k for k in SETTINGS_KEYS if k not in cfg]
-    if unknown or missing:
-        raise ValueError(f"[benchmark]: unknown {unknown}, missing {missing}; keys: {', '.join(SETTINGS_KEYS)}")
-    for mask in cfg["extra_masks_deg"]:
-        if isinstance(mask, bool) or not isinstance(mask, (int, float)) or not 0.0 <= float(mask) < 90.0:
-            raise ValueError(f"[benchmark] extra_masks_deg: {mask!r} is not an elevation in [0, 90) deg")
-    for key in ("campaign_picks", "closed_loop_life"):
-        if not isinstance(cfg[key], bool):
-            raise ValueError(f"[benchmark] {key} must be true or false; got {cfg[key]!r}")
-    if not cfg["epochs_tdb"]:
-        raise ValueError("[benchmark] epochs_tdb: give at least one epoch")
-    return cfg
 
 
 def mask_key(key: str, mask_deg: float) -> str:
@@ -138,7 +119,7 @@ def catalogue_entries(profile: dict, names=None) -> list[Entry]:
 def paper_entry(profile: dict) -> Entry:
     """The paper's Table 4 standalone ELFO, elements in the profile's element frame."""
     elements = standalone_elfo(profile.standalone_elfo, profile.dynamics)
-    return Entry(TABLE4_KEY, "paper", elements.shape[0], elements, profile["frames"]["element_frame"],
+    return Entry(TABLE4_KEY, "paper", elements.shape[0], elements, profile.frames.element_frame,
                  "Malik & Yang Table 4 (2 planes x 8)")
 
 
@@ -259,16 +240,16 @@ def run_benchmark(profile_name: str, *, campaigns: bool | None = None, names=Non
     ``campaigns`` overrides ``[benchmark] campaign_picks``; ``names`` restricts the catalogue (default: all).
     """
     profile = load_settings(profile_name, overrides=overrides)
-    cfg = benchmark_settings(profile)
+    cfg = profile.benchmark
     context = context_for(profile)
     entries = [paper_entry(profile)] + catalogue_entries(profile, names)
     notes = []
-    if cfg["campaign_picks"] if campaigns is None else campaigns:
+    if cfg.campaign_picks if campaigns is None else campaigns:
         picked, notes = campaign_entries(profile_name)
         entries += picked
     rows, analysis = [], {}
     for entry in entries:
-        row, study = _evaluate_entry(context, entry, cfg["extra_masks_deg"])
+        row, study = _evaluate_entry(context, entry, cfg.extra_masks_deg)
         rows.append(row)
         if study is not None:
             analysis[entry.label] = study
@@ -281,9 +262,9 @@ def add_closed_loop_life(bench: Benchmark, life_days: float | None = None) -> tu
     note saying why."""
     from ..design_life.evaluation import evaluate_design_life
 
-    if not benchmark_settings(bench.profile)["closed_loop_life"]:
+    if not bench.profile.benchmark.closed_loop_life:
         return bench.table, "[benchmark] closed_loop_life = false: closed-loop design-life metrics not added"
-    life = float(bench.profile["design_life"]["life_days"]) if life_days is None else float(life_days)
+    life = bench.profile.design_life.life_days if life_days is None else float(life_days)
     table = bench.table.copy()
     for entry in bench.entries:
         if entry.label not in bench.analysis:
@@ -335,7 +316,7 @@ def _dop_counterparts(profile: dict, r_mf: np.ndarray, times: np.ndarray, grid, 
     summary = summary_for_settings(masked.dop, ds_xy)
     pdop, hdop = ds_en["pdop"].values, ds_en["hdop"].values
     with np.errstate(invalid="ignore"):
-        usable = pdop < float(profile["dop"]["availability_threshold"])        # eq. 14: a fix is reported
+        usable = pdop < profile.dop.availability_threshold        # eq. 14: a fix is reported
         hdop = np.where(usable, hdop, np.nan)
         vdop = np.where(usable, np.sqrt(np.clip(pdop**2 - hdop**2, 0.0, None)), np.nan)
     h_node, v_node = uere_m * _node_rms(hdop), uere_m * _node_rms(vdop)
@@ -368,8 +349,8 @@ def _ely_rows(bench: Benchmark, entry: Entry, study: dict, our: str) -> list[dic
     grid = context_for(bench.profile).grid
     pole = int(np.argmin(grid.lat_deg))
     elev = elevation_deg(study["r_mf_km"], grid)[:, :, pole, 0]
-    step_h = float(bench.profile["epoch"]["step_s"]) / 3600.0
-    days = float(bench.profile["epoch"]["duration_days"])
+    step_h = bench.profile.epoch.step_s / 3600.0
+    days = bench.profile.epoch.duration_days
     theirs = f"{pub['conditions']} Epoch 2009-07 (ET; day uncertain, see README)."
     why = (f"span: their 10 years against our {days:g} days at {step_h * 60:g} min sampling (passes cut at the span's "
            "ends, pass lengths quantised to the step); epoch: theirs 2009, ours the study epoch; same station (the pole)")
@@ -427,8 +408,8 @@ def published_comparison(bench: Benchmark) -> pd.DataFrame:
     ``our definition`` and ``why they differ``. Our numbers come from the yardstick's propagation.
     """
     profile = bench.profile
-    our = OUR_CONDITIONS.replace("{epoch}", profile["epoch"]["start_tdb"]).replace(
-        "{days:g}", f"{float(profile['epoch']['duration_days']):g}")
+    our = OUR_CONDITIONS.replace("{epoch}", profile.epoch.start_tdb).replace(
+        "{days:g}", f"{profile.epoch.duration_days:g}")
     rows = []
     for entry in bench.entries:
         if entry.kind != "catalogue" or not entry.catalogue.published:
@@ -470,24 +451,24 @@ def epoch_sensitivity(profile_name: str, *, epochs=None, names=None, overrides=N
     GPS link is left out: its TLEs (2025) do not reach other epochs.
     """
     base = load_settings(profile_name, overrides=overrides)
-    cfg = benchmark_settings(base)
-    epochs = cfg["epochs_tdb"] if epochs is None else epochs
-    names = cfg["epoch_constellations"] if names is None else names
+    cfg = base.benchmark
+    epochs = cfg.epochs_tdb if epochs is None else epochs
+    names = cfg.epoch_constellations if names is None else names
     rows = []
     for epoch in epochs:
         profile = base.with_overrides({"epoch": {"start_tdb": epoch}})
         ensure_kernels(profile.ephemeris)
         t0 = tdb_seconds(epoch, "TDB")
-        duration = float(profile["epoch"]["duration_days"]) * SECONDS_PER_DAY
+        duration = profile.epoch.duration_days * SECONDS_PER_DAY
         for name in names:
             states = _epoch_states(profile, name, t0)
-            ds = propagate_states(profile.dynamics, states, t0, duration, float(profile["epoch"]["step_s"]), batch=True)
+            ds = propagate_states(profile.dynamics, states, t0, duration, profile.epoch.step_s, batch=True)
             row = {"epoch_tdb": epoch, "year": 2000.0 + (t0 / SECONDS_PER_DAY) / DAYS_PER_JULIAN_YEAR, "moon_node_deg": _moon_node_deg(t0),
                    "constellation": name, "n_sat": states.shape[0], "impact": bool(ds.impact.any())}
             if not row["impact"]:
                 times = ds["time"].values.astype(float)
                 r_mf = rotate_to_moon_fixed(profile.dynamics, ds["r_mci_km"].values, times)
-                for mask in [float(profile["dop"]["elevation_mask_deg"])] + [float(m) for m in cfg["extra_masks_deg"]]:
+                for mask in [profile.dop.elevation_mask_deg] + [float(m) for m in cfg.extra_masks_deg]:
                     masked = profile.with_overrides({"dop": {"elevation_mask_deg": mask}})
                     summary = summary_for_settings(masked.dop, dop_for_settings(
                         masked.dop, r_mf, times, SurfaceGrid.from_settings(masked.dop, masked.constants.r_moon_mean_km)))

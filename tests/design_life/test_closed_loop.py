@@ -27,7 +27,7 @@ def life_profile():
 
 @pytest.fixture(scope="module")
 def life_model(life_profile):
-    t0 = tdb_seconds(life_profile["epoch"]["start_tdb"], "TDB")
+    t0 = tdb_seconds(life_profile.epoch.start_tdb, "TDB")
     return life_force_model(life_profile.dynamics, t0, LIFE_DAYS)
 
 
@@ -85,14 +85,14 @@ def test_two_planes_hold_every_box_at_an_operators_cadence(life_profile, life_mo
 
     el = planes_elements_deg(6143.0, 0.6, 51.7, 90.0, [0.0, 180.0], 2)
     ds = fly(life_profile, el, life_days=LIFE_DAYS, model=life_model, sample_step_s=SECONDS_PER_DAY)
-    tol = float(life_profile["design_life"]["box_tolerance"])
+    tol = float(life_profile.design_life.box_tolerance)
     assert bool(ds.box_held.all()), ds.max_box_ratio.values
     assert float(ds.max_box_ratio.max()) <= 1.0 + tol
     months = LIFE_DAYS / 30.44
     assert np.all(ds.n_maneuver_sets.values <= MAX_SETS_PER_MONTH * months), ds.n_maneuver_sets.values
     assert np.all(ds.n_maneuvers.values <= MAX_BURNS_PER_SET * np.maximum(ds.n_maneuver_sets.values, 1))
     days = ds.maneuver_day.values
-    spacing = float(life_profile["design_life"]["min_maneuver_spacing_days"])
+    spacing = float(life_profile.design_life.min_maneuver_spacing_days)
     for row in days:                                # sets start at least min spacing apart: gaps > 2 days are sets
         burns = row[np.isfinite(row)]
         starts = burns[np.r_[True, np.diff(burns) > 2.0]] if burns.size else burns
@@ -115,8 +115,8 @@ def test_initial_trim_matches_the_design_mean_a(life_profile, life_model):
     from lnss_lib.design_life.propagation import trim_to_mean
 
     el = planes_elements_deg(6143.0, 0.6, 51.7, 90.0, [0.0], 4)
-    t0 = tdb_seconds(life_profile["epoch"]["start_tdb"], "TDB")
-    gm = float(life_profile["gravity"]["gm_km3_s2"])
+    t0 = tdb_seconds(life_profile.epoch.start_tdb, "TDB")
+    gm = float(life_profile.gravity.gm_km3_s2)
     period = float(orbital_period_s(6143.0, gm))
     rot = element_frame_to_j2000(life_profile.dynamics, t0)
     insert, resid = trim_to_mean(life_profile.dynamics, el, t0, life_model, life_profile.integrator.named("design_life"))
@@ -186,8 +186,8 @@ def test_sampled_positions_agree_with_a_plain_propagation(life_profile, life_mod
     t0 = ds.attrs["t0_tdb_s"]
     assert ds.r_mci_km.dims == ("sat", "sample", "xyz") and ds.sizes["sample"] == int(life * 4) + 1
     np.testing.assert_allclose(ds.sample_t_tdb_s.values, t0 + step_s * np.arange(ds.sizes["sample"]), rtol=0, atol=1e-6)
-    base = life_profile["integrator"]["settings"]["design_life"]
-    ensemble = {f"_x{k}": {**base, "rtol": base["rtol"] * 2 ** (k / 4), "atol": base["atol"] * 2 ** (k / 4)}
+    base = life_profile.integrator.settings["design_life"]
+    ensemble = {f"_x{k}": {"method": base.method, "rtol": base.rtol * 2 ** (k / 4), "atol": base.atol * 2 ** (k / 4)}
                 for k in range(-4, 5)}
     references = {"_tight": {"method": "DOP853", "rtol": 1e-12, "atol": 1e-14},
                   "_tighter": {"method": "DOP853", "rtol": 1e-13, "atol": 1e-14}}
@@ -201,7 +201,7 @@ def test_sampled_positions_agree_with_a_plain_propagation(life_profile, life_mod
     envelope_km = max(np.linalg.norm(r[name] - tight, axis=-1).max() for name in ensemble)
     err_sampled = np.linalg.norm(ds.r_mci_km.values - tight, axis=-1)
     assert np.all(np.isfinite(err_sampled)) and err_sampled.max() <= 2.0 * envelope_km, (err_sampled.max(), envelope_km)
-    gm = life_profile["gravity"]["gm_km3_s2"]
+    gm = life_profile.gravity.gm_km3_s2
     v_apolune_kms = np.linalg.norm(elements_to_state(np.array([sma_km, ecc, 0.0, 0.0, 0.0, np.pi]), gm)[3:])
     assert 2.0 * envelope_km < 5.0 * v_apolune_kms, (envelope_km, v_apolune_kms)
     assert np.linalg.norm(tight - r["_tighter"], axis=-1).max() < 0.1 * envelope_km

@@ -91,7 +91,7 @@ def test_life_navigation_months_match_direct_dop_summary(ci_profile, sampled_lif
         total += idx.size
     assert total == t.size
     whole = dop_summary(dop_for_settings(ci_profile.dop, rotate_to_moon_fixed(ci_profile.dynamics, r, t), t, grid),
-                        threshold=float(ci_profile["dop"]["availability_threshold"]))
+                        threshold=float(ci_profile.dop.availability_threshold))
     for key in ("pdop_avail_pct", "hdop_avail_pct"):
         assert life_availability(nav, "controlled", key) == pytest.approx(whole[key], rel=1e-12)
 

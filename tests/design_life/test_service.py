@@ -29,7 +29,7 @@ def profile():
 
 @pytest.fixture(scope="module")
 def model(profile):
-    return life_force_model(profile.dynamics, tdb_seconds(profile["epoch"]["start_tdb"], "TDB"), LIFE_DAYS)
+    return life_force_model(profile.dynamics, tdb_seconds(profile.epoch.start_tdb, "TDB"), LIFE_DAYS)
 
 
 @pytest.fixture(scope="module")
@@ -62,8 +62,8 @@ def test_perilune_driven_down_gets_a_safety_burn_before_impact_and_survives(prof
     safety = purposes == "safety"
     assert safety.any() and np.nanmax(days[safety]) < impact
     assert set(ctl["maneuver_location"].values[0][safety]) <= {"perilune", "apolune"}   # e vector at the apses
-    floor = float(profile["impact"]["min_altitude_km"])
-    assert float(ctl["min_perilune_alt_km"][0]) > floor + profile["design_life"]["service"]["perilune_margin_km"]
+    floor = float(profile.impact.min_altitude_km)
+    assert float(ctl["min_perilune_alt_km"][0]) > floor + profile.design_life.service.perilune_margin_km
     assert float(natural["min_perilune_alt_km"][0]) <= floor
 
 

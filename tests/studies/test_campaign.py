@@ -50,12 +50,12 @@ def test_settings_and_grid_tables_follow_the_settings(settings):
     assert changed.loc["Mutation function", "note"].endswith("1/6")
     assert changed.loc["Seed", "this profile"] == 11
     grid = design_grid_table(settings)
-    spec = load_settings("paper")["campaign"]["variables"]
+    spec = load_settings("paper").campaign.variables
     for label, key in zip(grid.index, DESIGN_KEYS):
         v = spec[key]
         assert (grid.loc[label, "lower"], grid.loc[label, "upper"], grid.loc[label, "step"]) == (
-            v["lower"], v["upper"], v["step"])
-        assert grid.loc[label, "levels"] == round((v["upper"] - v["lower"]) / v["step"]) + 1
+            v.lower, v.upper, v.step)
+        assert grid.loc[label, "levels"] == round((v.upper - v.lower) / v.step) + 1
 
 
 def test_constraint_table_counts_each_bound_from_the_constraints():
