@@ -1,8 +1,10 @@
-"""Run profiles: TOML files in ``params/`` merged along their ``inherits`` chain.
+"""Run profiles: TOML files in ``params/`` merged along their ``inherits`` chain, and every rule they obey.
 
-A profile is a plain nested ``dict``; :func:`load_profile` returns it with the chain resolved and
-``profile.name`` set. :func:`profile_hash` fingerprints everything that can change a result, so
-caches and manifests can tell runs apart. Profiles are names of files in ``params/`` (or a file
+:func:`load_profile` returns the merged TOML as a plain nested ``dict`` with the chain resolved and
+``profile.name`` set, checked by :func:`validate_profile` against the one table of each kind of rule
+(:data:`RANGES` with :data:`WHY`, :data:`CHOICES`, :data:`FORMS`, the rules across keys); the workbook
+reads it once, to freeze it into typed sections (:mod:`lnss_lib.settings`). :func:`profile_hash`
+fingerprints everything that can change a result, so caches and manifests can tell runs apart. Profiles are names of files in ``params/`` (or a file
 made loadable by :func:`use_profile_file`); data paths in a profile are relative to ``params/`` and
 must lie under ``params/data/``.
 """
@@ -222,7 +224,7 @@ RANGES = {
     "sk_estimate.along_track_rebias_per_year": NON_NEGATIVE,
     "design_life.life_days": POSITIVE, "design_life.check_interval_days": POSITIVE,
     "design_life.samples_per_orbit": (16, None, False, False), "design_life.min_maneuver_spacing_days": NON_NEGATIVE,
-    "design_life.dv_cap_kms_per_year": NON_NEGATIVE, "design_life.phasing_days": POSITIVE,
+    "design_life.dv_cap_kms_per_year": NON_NEGATIVE,
     "design_life.box_tolerance": NON_NEGATIVE,
     "benchmark.extra_masks_deg": (0.0, 90.0, False, True),      # each entry of the list "design_life.slot_coast_days": POSITIVE,
     "design_life.slot_fit_days": POSITIVE, "design_life.slot_quad_days": POSITIVE,
@@ -658,19 +660,6 @@ def profile_hash(profile: dict) -> str:
     content.get("profile", {}).pop("description", None)
     canonical = json.dumps(content, sort_keys=True, separators=(",", ":"))
     return hashlib.sha256(canonical.encode()).hexdigest()[:16]
-
-
-def integrator_setting(profile: dict, setting: str | None = None) -> dict:
-    """The integrator settings (method, rtol, atol) named ``setting`` (default: the profile's), checked
-    against :data:`METHODS` and the tolerance floor (ConfigError naming the key)."""
-    settings = profile["integrator"]["settings"]
-    name = setting or profile["integrator"]["setting"]
-    if name not in settings:
-        raise ConfigError(f"unknown integrator setting {name!r}; available: {', '.join(settings)}", key="integrator.setting")
-    _walk({name: settings[name]}, _reference()["integrator"]["settings"], "integrator.settings.", "integrator.settings.",
-          True, None)
-    return {"name": name, **settings[name]}
-
 
 
 MANIFEST_PACKAGES = ("numpy", "scipy", "spiceypy", "sgp4", "numba", "xarray", "pymoo", "plotly", "dask",

@@ -13,7 +13,7 @@ so a second validator would duplicate it; a frozen dataclass adds no dependency,
 after the check, and shows every setting a function depends on in its signature. The fields take the
 names and value types of ``params/paper.toml``; numbers that TOML allows as integers in a float key
 become ``float``, lists become tuples; free tables (``gps.launch_dates``, ``campaign.constraints``, ...) stay
-plain tables, checked by the code that reads them.
+plain tables, checked with the rest (the campaign's by :func:`lnss_lib.config.validate_profile` too).
 
 :attr:`Settings.hash` is computed once, at construction (the same fingerprint as
 :func:`lnss_lib.config.profile_hash`), and :meth:`Settings.to_toml` / :func:`settings_from_toml` round
@@ -24,6 +24,7 @@ from __future__ import annotations
 
 import copy
 import dataclasses
+import functools
 import tomllib
 import types
 import typing
@@ -482,7 +483,7 @@ class Settings:
     def name(self) -> str:
         return self.profile.name
 
-    @property
+    @functools.cached_property
     def dynamics(self) -> Dynamics:
         return Dynamics(self.ephemeris, self.frames, self.constants, self.gravity, self.forces, self.spacecraft,
                         self.impact, self.integrator)
