@@ -11,6 +11,7 @@ from lnss_lib.__main__ import main
 from lnss_lib.config import PROJECT_DIR
 from lnss_lib.outputs import write_manifest
 from lnss_lib.pipeline import notebook_paths
+from terminal import foreground_signals
 
 
 def test_propagate_writes_csv(tmp_path):
@@ -115,7 +116,8 @@ def test_ctrl_c_on_reproduce_is_one_line_exit_130(tmp_path):
               "pipeline.NOTEBOOKS_DIR, outputs.OUTPUTS_DIR = Path(sys.argv[1]), Path(sys.argv[2])\n"
               "from lnss_lib.__main__ import main\nsys.exit(main(['reproduce', '--profile', 'ci']))\n")
     process = subprocess.Popen([sys.executable, "-c", script, str(books), str(outputs)], cwd=PROJECT_DIR,
-                               stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, start_new_session=True)
+                               stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, start_new_session=True,
+                               preexec_fn=foreground_signals)
     deadline = time.monotonic() + 120
     while not marker.exists() or not marker.read_text():
         assert process.poll() is None and time.monotonic() < deadline, process.communicate()

@@ -20,6 +20,8 @@ from lnss_lib.settings import load_settings
 from lnss_lib.evaluator import context_for, evaluate_design
 from lnss_lib.keys import DESIGN_KEYS, METRIC_KEYS
 
+from terminal import foreground_signals
+
 from .helpers import CLI, KILL_SETTINGS, SYNTHETIC, _cli, _journal_count, _run_until
 
 
@@ -155,7 +157,7 @@ def test_ctrl_c_on_a_dask_campaign_is_one_line_and_resumes(synthetic_reference, 
     run_dir = tmp_path / "interrupted"
     proc = subprocess.Popen(CLI + SYNTHETIC + KILL_SETTINGS + ["--workers", "2", "--run-dir", str(run_dir)],
                             cwd=PROJECT_DIR, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True,
-                            start_new_session=True)
+                            start_new_session=True, preexec_fn=foreground_signals)
     deadline = time.monotonic() + 120
     while proc.poll() is None and _journal_count(run_dir) < 9:       # inside generation 2
         assert time.monotonic() < deadline, "campaign did not progress"
