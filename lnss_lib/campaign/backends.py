@@ -81,7 +81,7 @@ class DaskBackend:
                                             silence_logs=logging.CRITICAL)   # task errors come back through the futures
             self.client = Client(self.cluster)
         self.n_workers = max(1, len(self.client.scheduler_info().get("workers", {})))
-        self.profile = eval_profile
+        self.profile = self.client.scatter(eval_profile, broadcast=True, hash=False)   # sent once, not with every task
         self.settings = settings
         self.resubmitted = 0
 
