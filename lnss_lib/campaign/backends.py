@@ -81,13 +81,19 @@ class DaskBackend:
                                             silence_logs=logging.CRITICAL)   # task errors come back through the futures
             self.client = Client(self.cluster)
         self.n_workers = max(1, len(self.client.scheduler_info().get("workers", {})))
-        self.profile = self.client.scatter(eval_profile, broadcast=True, hash=False)   # sent once, not with every task
+        self.profile = eval_profile
         self.settings = settings
         self.resubmitted = 0
+        self._scatter()
+
+    def _scatter(self) -> None:
+        """Send the evaluation settings to every worker once (tasks then carry a reference, not 14 kB each);
+        again after a task is lost, since the copies may have gone with its worker."""
+        self.profile_future = self.client.scatter(self.profile, broadcast=True, hash=False)
 
     def _submit(self, design: dict):
         s = self.settings
-        return self.client.submit(evaluate_task, self.profile, design, s.evaluator, s.synthetic_delay_s,
+        return self.client.submit(evaluate_task, self.profile_future, design, s.evaluator, s.synthetic_delay_s,
                                   s.numba_threads_per_worker, pure=False)
 
     def run(self, designs: list[dict]):
@@ -111,6 +117,7 @@ class DaskBackend:
                 if attempts[index] > self.settings.max_resubmits:
                     raise RuntimeError(f"design {designs[index]} failed {attempts[index]} times on the cluster; "
                                        f"last error: {type(exc).__name__}: {exc}") from exc
+                self._scatter()
                 retry = self._submit(designs[index])
                 self.resubmitted += 1
                 futures[retry] = index
