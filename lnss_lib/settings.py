@@ -22,7 +22,6 @@ trip the merged profile, so a run folder records exactly what ran.
 
 from __future__ import annotations
 
-import copy
 import dataclasses
 import functools
 import tomllib
@@ -74,13 +73,19 @@ def _convert(hint, value, key: str):
         args = typing.get_args(hint)
         if args and dataclasses.is_dataclass(args[1]):
             return {name: _build(args[1], item, f"{key}.{name}") for name, item in value.items()}
-        return copy.deepcopy(_thawed(value))         # a free table: its consumer checks its content
+        return _thawed(value)                        # a free table (a fresh copy): checked with the rest
     return _frozen(value)
+
+
+@functools.cache
+def _hints(cls) -> dict:
+    """Field types of a section class (resolved once)."""
+    return typing.get_type_hints(cls)
 
 
 def _build(cls, table: Mapping, key: str):
     """Section ``cls`` from its checked TOML table (every field's key is present: the profile is complete)."""
-    hints = typing.get_type_hints(cls)
+    hints = _hints(cls)
     values = {}
     for item in dataclasses.fields(cls):
         if not item.init or item.metadata.get("derived"):
@@ -511,9 +516,9 @@ class Settings:
 
 def settings_from_profile(profile: Mapping) -> Settings:
     """Settings of a merged profile dict (as :func:`lnss_lib.config.load_profile` returns), checked again."""
-    profile = copy.deepcopy(_thawed(profile))
+    profile = _thawed(profile)                       # a fresh copy of every table and list
     validate_profile(profile)
-    sections = {item.name: _build(typing.get_type_hints(Settings)[item.name], profile[item.name], item.name)
+    sections = {item.name: _build(_hints(Settings)[item.name], profile[item.name], item.name)
                 for item in dataclasses.fields(Settings) if item.init and item.name != "source"}
     return Settings(**sections, source=profile)
 

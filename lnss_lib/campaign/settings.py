@@ -123,7 +123,7 @@ def evaluation_hash(settings: Settings | Mapping) -> str:
     settings, or the profile dict a run folder stored (compared as it is, not validated again).
     """
     profile = profile_data(settings)
-    content = {k: copy.deepcopy(v) for k, v in profile.items() if k not in NON_EVALUATION_SECTIONS}
+    content = {k: v for k, v in profile.items() if k not in NON_EVALUATION_SECTIONS}   # profile_data copied
     for key in CAMPAIGN_ONLY_KEYS:
         content.get("campaign", {}).pop(key, None)
     return profile_hash(content)
