@@ -168,9 +168,33 @@ def _check_walker(args: argparse.Namespace) -> None:
         raise ConfigError(f"{flag}: {error}", key=flag) from None
 
 
+def _export_reference(args: argparse.Namespace) -> int:
+    from .campaign.reference import export_reference, load_reference
+    from .outputs import display_path, git_revision
+
+    given = [flag for flag, value in (("--profile", args.profile), ("--set", args.set), ("--resume", args.resume),
+                                      ("--run-dir", args.run_dir), ("--evaluator", args.evaluator),
+                                      ("--workers", args.workers), ("--scheduler-address", args.scheduler_address),
+                                      ("--max-generations", args.max_generations)) if value is not None]
+    if given:
+        raise ConfigError(f"--export-reference exports a run folder with its stored settings and runs nothing: drop "
+                          f"{', '.join(given)}", key="--export-reference")
+    folder = export_reference(args.export_reference, export_commit=git_revision())
+    reference = load_reference(folder.name, folder.parent)
+    attrs = reference.history.attrs
+    state = "complete" if reference.finished else f"PARTIAL ({attrs['generations_done']} generations, not finished)"
+    print(f"exported {args.export_reference} as the reference results of profile {folder.name!r} ({state}): "
+          f"{display_path(folder)}")
+    for path in sorted(folder.iterdir()):
+        print(f"wrote {display_path(path)} ({path.stat().st_size} bytes)")
+    return 0
+
+
 def _cmd_campaign(args: argparse.Namespace) -> int:
     from .campaign import run_campaign
 
+    if args.export_reference is not None:
+        return _export_reference(args)
     overrides = _overrides(args)
     _require("--workers", args.workers, (0, None, False, False), integer=True)
     _require("--max-generations", args.max_generations, (1, None, False, False), integer=True)
@@ -226,7 +250,8 @@ COMMANDS = {    # name -> (one-line help, description, example) for ``--help``
     "campaign": ("NSGA-II design search (Section 5, Table 5), checkpointed every generation",
                  "Search the eq. 43-44 design grid with NSGA-II under Table 3's bounds; every generation is "
                  "checkpointed, so --resume continues an interrupted run.",
-                 "python -m lnss_lib campaign --profile ci --workers 2"),
+                 "python -m lnss_lib campaign --profile ci --workers 2; "
+                 "python -m lnss_lib campaign --export-reference RUN_DIR (ship a run's results)"),
     "bench": ("benchmarks that print numbers",
               "Time a part of the workbook and print the new path beside the one it replaces.",
               "python -m lnss_lib bench dop"),
@@ -309,6 +334,8 @@ def build_parser() -> argparse.ArgumentParser:
     camp.add_argument("--set", action="append", metavar="SECTION.KEY=VALUE", help=set_help)
     camp.add_argument("--max-generations", type=int, help="stop this session after N generations (resumable)")
     camp.add_argument("--no-progress", action="store_true", help="no progress bars")
+    camp.add_argument("--export-reference", metavar="RUN_DIR", help="export the run folder RUN_DIR (finished or not) "
+                      "as its profile's shipped results, outputs/reference/<profile>/, and run nothing")
     camp.set_defaults(func=_cmd_campaign)
 
     bench = _command(sub, "bench")

@@ -12,7 +12,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..keys import EXTRA_METRIC_KEYS, METRIC_KEYS
+from ..keys import EXTRA_METRIC_KEYS, METRIC_KEYS, NON_NAVIGATION_METRICS, bound_text
 
 __all__ = ["objective_matrix", "constraint_matrix", "constraint_violation", "non_dominated_mask", "hypervolume",
            "metric_columns", "parse_constraints", "satisfies", "deltav_constraint"]
@@ -114,6 +114,29 @@ def satisfies(ds, constraints) -> np.ndarray:
         with np.errstate(invalid="ignore"):
             ok &= (values <= limit) if kind == "max" else (values >= limit)
     return ok
+
+
+NAVIGATION_ONLY = "navigation bounds only (no Delta-V or stability bound)"
+ALL_BOUNDS = "all Table 3 bounds (feasible)"
+
+
+def bound_masks(evaluations, constraints) -> dict[str, np.ndarray]:
+    """Boolean (design,) masks, keyed by what they mean: evaluated without impact (PDOP availability defined),
+    each (metric, kind, limit) of ``constraints`` separately (:func:`~lnss_lib.keys.bound_text`; NaN fails),
+    all bounds except those on Delta-V and stability (:data:`NAVIGATION_ONLY`), and the campaign's own
+    ``feasible`` flag (:data:`ALL_BOUNDS`)."""
+    masks = {"evaluated without impact": ~np.isnan(evaluations["pdop_avail_pct"].values.astype(float))}
+    navigation = np.ones(evaluations.sizes["design"], dtype=bool)
+    for metric, kind, limit in constraints:
+        if kind not in ("min", "max"):
+            raise ValueError(f"constraint kind {kind!r} for {metric!r} unknown; allowed: min, max")
+        met = satisfies(evaluations, [(metric, kind, limit)])
+        masks[bound_text(metric, kind, limit)] = met
+        if metric not in NON_NAVIGATION_METRICS:
+            navigation &= met
+    masks[NAVIGATION_ONLY] = navigation
+    masks[ALL_BOUNDS] = evaluations["feasible"].values.astype(bool)
+    return masks
 
 
 def deltav_constraint(evaluations) -> tuple[str, float]:

@@ -15,6 +15,7 @@ paper's 120 x 1000 campaign takes hours on two cores, dominated by propagation.
 
 from __future__ import annotations
 
+import json
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -24,12 +25,14 @@ import xarray as xr
 
 from ..campaign import (CampaignPlan, CellProgressBar, campaign_timing, export_results, load_run, read_cache_records,
                         run_campaign)
+from ..campaign.fitness import ALL_BOUNDS, bound_masks
 from ..campaign.rundir import CHECKPOINT_FILE
-from ..keys import NON_NAVIGATION_METRICS, bound_text
+from ..keys import NON_NAVIGATION_METRICS
 from ..paper import EVALUATIONS, FEASIBLE_DESIGNS, TABLE_5
 from ..settings import Settings
 
-__all__ = ["settings_table", "design_grid_table", "latest_run_dir", "CampaignRun", "load_or_run",
+__all__ = ["settings_table", "design_grid_table", "latest_run_dir", "CampaignRun", "load_or_run", "shipped_reference",
+           "shown_campaign", "designs_evaluated", "feasible_designs",
            "constraint_table", "steady_designs_per_s", "throughput_table", "run_throughput_table", "companion_of",
            "comparison_table",
            "NON_NAVIGATION_METRICS"]
@@ -63,6 +66,11 @@ def design_grid_table(settings: CampaignPlan):
                         index=pd.Index(["a (km)", "e", "AOP (deg)", "i (deg)", "Np", "Ns"], name="variable"))
 
 
+def _runs(campaign_dir) -> list[Path]:
+    """The ``run_*`` folders with a checkpoint under ``campaign_dir``, oldest first."""
+    return sorted(p for p in Path(campaign_dir).glob("run_*") if (p / CHECKPOINT_FILE).is_file())
+
+
 def latest_run_dir(campaign_dir, profile_name: str, settings: Settings | None = None) -> tuple[Path, list[str]]:
     """The run to show for ``settings`` (default: profile ``profile_name`` as it stands) and why it is not that
     profile's campaign ([] when it is): the newest ``run_*`` directory with a checkpoint under
@@ -71,7 +79,7 @@ def latest_run_dir(campaign_dir, profile_name: str, settings: Settings | None = 
     from ..campaign.publication import run_differences
     from ..settings import load_settings
 
-    runs = sorted(p for p in Path(campaign_dir).glob("run_*") if (p / CHECKPOINT_FILE).is_file())
+    runs = _runs(campaign_dir)
     if not runs:
         raise FileNotFoundError(
             f"no campaign in {campaign_dir}. Run it first (hours on 2 cores for paper, checkpointed every "
@@ -116,7 +124,8 @@ def load_or_run(profile_name: str, overrides: dict | str | None = None) -> Campa
     With ``campaign.notebook_mode = "run"`` (``quick``, ``ci`` and their companions) the campaign runs
     here (:func:`run_campaign`); with ``"load"`` (``paper``, ``operational``) the run in
     ``outputs/<profile>/campaign/`` chosen by :func:`latest_run_dir` is shown, read from its journal and
-    last checkpoint (so a run still going is covered). Either way the run is published
+    last checkpoint (so a run still going is covered), unless no run there is the profile's and the shipped
+    reference results are (:func:`shipped_reference`): then those are shown, and nothing is run. Either way the run is published
     (:mod:`lnss_lib.campaign.publication`) only when its settings are the profile's, and ``note`` says
     which run is shown and, when it is not the profile's campaign, why.
     """
@@ -127,6 +136,9 @@ def load_or_run(profile_name: str, overrides: dict | str | None = None) -> Campa
     profile = load_settings(profile_name, overrides=overrides)
     campaign_dir = output_dir(profile_name, "campaign")
     if profile.campaign.notebook_mode == "load":
+        shipped = shipped_reference(profile_name, profile, campaign_dir)
+        if shipped is not None:
+            return shipped
         run_dir, reasons = latest_run_dir(campaign_dir, profile_name, profile)
         how = f"loaded {display_path(run_dir)}"
     else:
@@ -150,30 +162,106 @@ def load_or_run(profile_name: str, overrides: dict | str | None = None) -> Campa
 
 
 
+def _reference_run(reference, how: str) -> CampaignRun:
+    """A :class:`CampaignRun` of shipped reference results (no journal records: their ``run_dir`` is the folder)."""
+    from ..outputs import display_path
+    from ..settings import settings_from_profile
+
+    attrs = reference.history.attrs
+    state = (f"a complete run of {attrs['generations_done']} generations" if reference.finished else
+             f"a PARTIAL run: {attrs['generations_done']} generations, exported before it finished")
+    note = (f"{how}; shown: the shipped reference results {display_path(reference.folder)} ({state}; profile hash "
+            f"{attrs['profile_hash']}, exported at commit {attrs['export_commit']}; evaluations thinned to the designs "
+            f"Figures 8-16 and Table 6 read: {reference.evaluations.attrs['n_kept']} of "
+            f"{reference.evaluations.attrs['n_designs_evaluated']} designs)")
+    return CampaignRun(reference.folder, settings_from_profile(reference.profile), note, reference.evaluations,
+                       reference.front, reference.history, [])
+
+
+def shipped_reference(profile_name: str, profile: Settings, campaign_dir) -> CampaignRun | None:
+    """The shipped reference results of ``profile_name`` (:func:`~lnss_lib.campaign.reference.load_reference`)
+    as a :class:`CampaignRun`, when no run in ``campaign_dir`` has the settings ``profile`` and the reference
+    has them (the publication rule: :func:`~lnss_lib.campaign.publication.run_differences` empty); None
+    otherwise. FileNotFoundError when there is no run at all and the reference is not the profile's (stale)."""
+    from ..campaign.publication import run_differences
+    from ..campaign.reference import load_reference
+    from ..outputs import display_path
+
+    runs = _runs(campaign_dir)
+    if any(not run_differences(load_run(run)["profile"], profile) for run in runs):
+        return None
+    reference = load_reference(profile_name)
+    if reference is None:
+        return None
+    reasons = run_differences(reference.profile, profile)
+    if reasons and not runs:
+        raise FileNotFoundError(
+            f"no campaign in {campaign_dir}, and the shipped results {display_path(reference.folder)} are not the "
+            f"campaign of profile {profile_name!r} as set here: {'; '.join(reasons)}. Run it:\n    python -m "
+            f"lnss_lib campaign --profile {profile_name}\nthen export it: python -m lnss_lib campaign "
+            f"--export-reference RUN_DIR")
+    if reasons:
+        return None
+    return _reference_run(reference, f"no run in {display_path(campaign_dir)} is the campaign of profile {profile_name!r}")
+
+
+def shown_campaign(profile_name: str) -> CampaignRun:
+    """The campaign notebook 07 reads for ``profile_name``: the one published as the profile's
+    (:mod:`lnss_lib.campaign.publication`, which notebook 06 writes) when its profile hash is the profile's, else the
+    shipped reference results when they are the profile's, else the publication as it is. FileNotFoundError
+    naming the command that makes one when there is neither."""
+    from ..campaign.publication import load_published, run_differences
+    from ..campaign.reference import load_reference
+    from ..outputs import display_path, output_dir
+    from ..settings import load_settings, settings_from_profile
+
+    folder = output_dir(profile_name, "campaign")
+    published, reference = load_published(folder), load_reference(profile_name)
+    profile = load_settings(profile_name) if reference is not None else None
+    if reference is not None and (published is None or published.pointer["profile_hash"] != profile.hash) \
+            and not run_differences(reference.profile, profile):
+        why = ("nothing is published" if published is None else
+               f"the run published in {display_path(folder)} is not the profile's")
+        return _reference_run(reference, f"{why} for profile {profile_name!r}")
+    if published is None:
+        raise FileNotFoundError(
+            f"no campaign published for profile {profile_name!r} (no published.json in {folder}) and no shipped "
+            f"reference results; run: python -m lnss_lib campaign --profile {profile_name}")
+    run_settings = settings_from_profile(json.loads(published.evaluations.attrs["parameters"]))
+    note = f"the campaign published for profile {profile_name!r}: {display_path(published.folder)} ({published.pointer['run_dir']})"
+    return CampaignRun(published.folder, run_settings, note, published.evaluations, published.front,
+                       published.history, [])
+
+
+def designs_evaluated(evaluations: xr.Dataset) -> int:
+    """Unique designs the campaign evaluated: the rows of ``evaluations``, or, for thinned reference results,
+    the count over every design (attribute ``n_designs_evaluated``)."""
+    return int(evaluations.attrs.get("n_designs_evaluated", evaluations.sizes["design"]))
+
+
+def feasible_designs(evaluations: xr.Dataset) -> int:
+    """Unique feasible designs: counted over ``evaluations``, or, for thinned reference results, over every design
+    evaluated (attribute ``designs_meeting_bounds``)."""
+    if "designs_meeting_bounds" in evaluations.attrs:
+        return int(json.loads(evaluations.attrs["designs_meeting_bounds"])[ALL_BOUNDS])
+    return int(evaluations["feasible"].sum())
+
+
 def constraint_table(evaluations: xr.Dataset, constraints):
     """Designs meeting each campaign bound (Table 3) separately, with count and share of all designs.
 
-    Rows: evaluated without impact (PDOP availability defined), each (metric, kind, limit) of
-    ``constraints`` (CampaignPlan.constraints; NaN fails), all bounds except those on Delta-V and
-    stability (:data:`NON_NAVIGATION_METRICS`: "navigation bounds only"), and the campaign's own
-    ``feasible`` flag.
+    Rows: the masks of :func:`~lnss_lib.campaign.fitness.bound_masks` (evaluated without impact, each
+    (metric, kind, limit) of ``constraints``, navigation bounds only, feasible). Shipped reference results
+    (:mod:`lnss_lib.campaign.reference`) hold a thinned set of designs: their counts over every design
+    evaluated are read from the attribute ``designs_meeting_bounds``.
     """
-    checks = {"evaluated without impact": ~np.isnan(evaluations["pdop_avail_pct"].values.astype(float))}
-    navigation = np.ones(evaluations.sizes["design"], dtype=bool)
-    for metric, kind, limit in constraints:
-        if kind not in ("min", "max"):
-            raise ValueError(f"constraint kind {kind!r} for {metric!r} unknown; allowed: min, max")
-        values = evaluations[metric].values.astype(float)
-        with np.errstate(invalid="ignore"):
-            met = values <= limit if kind == "max" else values >= limit
-        checks[bound_text(metric, kind, limit)] = met
-        if metric not in NON_NAVIGATION_METRICS:
-            navigation &= met
-    checks["navigation bounds only (no Delta-V or stability bound)"] = navigation
-    checks["all Table 3 bounds (feasible)"] = evaluations["feasible"].values.astype(bool)
-    n = evaluations.sizes["design"]
-    table = pd.DataFrame({"designs": {k: int(v.sum()) for k, v in checks.items()},
-                          "share (%)": {k: 100.0 * v.sum() / max(n, 1) for k, v in checks.items()}})
+    if "designs_meeting_bounds" in evaluations.attrs:
+        counts = json.loads(evaluations.attrs["designs_meeting_bounds"])
+        n = int(evaluations.attrs["n_designs_evaluated"])
+    else:
+        counts = {k: int(v.sum()) for k, v in bound_masks(evaluations, constraints).items()}
+        n = evaluations.sizes["design"]
+    table = pd.DataFrame({"designs": counts, "share (%)": {k: 100.0 * v / max(n, 1) for k, v in counts.items()}})
     table.index.name = "bound"
     return table
 
@@ -185,7 +273,7 @@ def comparison_table(campaigns: dict) -> pd.DataFrame:
     columns = {}
     for name, (evaluations, constraints) in campaigns.items():
         designs = constraint_table(evaluations, constraints)["designs"]
-        total = pd.Series({"unique designs evaluated": evaluations.sizes["design"]})
+        total = pd.Series({"unique designs evaluated": designs_evaluated(evaluations)})
         columns[name] = pd.concat([total, designs])
     rows = list(dict.fromkeys(row for series in columns.values() for row in series.index))
     last = [row for row in rows if row.startswith(("navigation bounds only", "all Table 3 bounds"))]
@@ -233,7 +321,11 @@ def throughput_table(history: xr.Dataset, n_feasible: int, timing: dict, workers
 
 def run_throughput_table(run_dir, history: xr.Dataset, evaluations: xr.Dataset, records: list[dict]):
     """:func:`throughput_table` of a run directory: worker processes counted from the cache records,
-    time shares from :func:`lnss_lib.campaign.timing.campaign_timing`."""
-    workers = len({r["worker"] for r in records}) or 1
-    timing = campaign_timing(run_dir, workers, float(history.wall_s.sum()))
-    return throughput_table(history, int(evaluations["feasible"].sum()), timing, workers)
+    time shares from :func:`lnss_lib.campaign.timing.campaign_timing`; for shipped reference results (no
+    journal) both as the export recorded them (``history.attrs``: ``workers``, ``worker_time``)."""
+    if "worker_time" in history.attrs:
+        workers, timing = int(history.attrs["workers"]), json.loads(history.attrs["worker_time"])
+    else:
+        workers = len({r["worker"] for r in records}) or 1
+        timing = campaign_timing(run_dir, workers, float(history.wall_s.sum()))
+    return throughput_table(history, feasible_designs(evaluations), timing, workers)

@@ -29,20 +29,15 @@ TABLE6_COLUMNS = DESIGN_KEYS + METRIC_KEYS + ("why selected",)
 
 
 def load_campaign(profile_name: str) -> tuple[xr.Dataset, xr.Dataset]:
-    """(evaluations, front) of the campaign published as the profile's (:mod:`lnss_lib.campaign.publication`).
+    """(evaluations, front) of the campaign notebook 07 shows for the profile
+    (:func:`lnss_lib.studies.campaign.shown_campaign`: the publication, or the shipped reference results).
 
     Raises ``FileNotFoundError`` naming the command that produces them.
     """
-    from ..campaign.publication import load_published
-    from ..outputs import output_dir
+    from .campaign import shown_campaign
 
-    folder = output_dir(profile_name, "campaign")
-    published = load_published(folder)
-    if published is None:
-        raise FileNotFoundError(
-            f"no campaign published for profile {profile_name!r} (no published.json in {folder}); "
-            f"run: python -m lnss_lib campaign --profile {profile_name}")
-    return published.evaluations, published.front
+    shown = shown_campaign(profile_name)
+    return shown.evaluations, shown.front
 
 
 def pareto_front(evaluations: xr.Dataset, *, relax: tuple[str, ...] = ()) -> xr.Dataset:
