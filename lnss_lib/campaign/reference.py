@@ -43,7 +43,7 @@ from .settings import CampaignPlan, evaluation_hash
 from .timing import campaign_timing
 
 __all__ = ["REFERENCE_DIR", "REFERENCE_FILES", "README_FILE", "MAX_FILE_BYTES", "Reference", "check_run_folder",
-           "analysis_mask", "export_reference", "load_reference"]
+           "analysis_mask", "thin_to_fit", "export_reference", "load_reference"]
 
 REFERENCE_DIR = OUTPUTS_DIR / "reference"
 REFERENCE_FILES = ("evaluations.nc", "front.nc", "history.nc", "population.nc")
@@ -150,9 +150,10 @@ def _netcdf_bytes(ds: xr.Dataset) -> bytes:
     return bytes(ds.to_netcdf(engine="h5netcdf", encoding=encoding))
 
 
-def _thinned(evaluations: xr.Dataset, front: xr.Dataset, title: str, provenance: dict) -> tuple[xr.Dataset, bytes]:
-    """The analysis designs (:func:`analysis_mask`) as CF NetCDF bytes under :data:`MAX_FILE_BYTES`: all of them
-    when they fit, else the front and a seeded uniform sample of the rest, as many as fit."""
+def thin_to_fit(evaluations: xr.Dataset, front: xr.Dataset, encode, limit_bytes: float) -> tuple[xr.Dataset, bytes]:
+    """The analysis designs (:func:`analysis_mask`) and their file ``encode(dataset) -> bytes``, under
+    ``limit_bytes``: all of them when they fit, else the front and a seeded uniform sample of the rest, as many as
+    fit (attributes ``selection``, ``n_designs_evaluated``, ``n_selected``, ``n_kept``, ``thinning``)."""
     mask, rule = analysis_mask(evaluations)
     index = np.flatnonzero(mask)
     in_front = np.isin(index, _front_rows(evaluations, front))
@@ -160,18 +161,17 @@ def _thinned(evaluations: xr.Dataset, front: xr.Dataset, title: str, provenance:
     order = np.concatenate([index[in_front], rng.permutation(index[~in_front])])
     keep = order.size
     while True:
-        chosen = np.sort(order[:keep])
-        ds = evaluations.drop_vars("error").isel(design=chosen)
+        ds = evaluations.drop_vars("error").isel(design=np.sort(order[:keep]))
         ds.attrs = {**evaluations.attrs, "selection": rule, "n_designs_evaluated": int(evaluations.sizes["design"]),
                     "n_selected": int(index.size), "n_kept": int(keep),
                     "thinning": ("none: every selected design" if keep == index.size else
                                  f"the {int(in_front.sum())} front designs and a uniform sample (seed {THINNING_SEED}) "
                                  f"of the other selected designs, {keep} of {index.size} kept to stay under "
-                                 f"{MAX_FILE_BYTES} bytes")}
-        data = _netcdf_bytes(_cf(ds, title, provenance))
-        if len(data) < MAX_FILE_BYTES or keep <= in_front.sum():
+                                 f"{limit_bytes:.0f} bytes")}
+        data = encode(ds)
+        if len(data) < limit_bytes or keep <= in_front.sum():
             return ds, data
-        keep = max(int(in_front.sum()), int(keep * 0.95 * MAX_FILE_BYTES / len(data)))
+        keep = max(int(in_front.sum()), int(keep * 0.95 * limit_bytes / len(data)))
 
 
 def _front_rows(evaluations: xr.Dataset, front: xr.Dataset) -> np.ndarray:
@@ -251,8 +251,9 @@ def export_reference(run_dir, root=None, *, export_commit: str = "unknown") -> P
     constraints = plan.constraints
     evaluations.attrs["designs_meeting_bounds"] = json.dumps(
         {k: int(v.sum()) for k, v in bound_masks(evaluations, constraints).items()})
-    thinned, thinned_bytes = _thinned(evaluations, front, f"Designs read by Figures 8-16 and Table 6 ({name})",
-                                      provenance)
+    title = f"Designs read by Figures 8-16 and Table 6 ({name})"
+    thinned, thinned_bytes = thin_to_fit(evaluations, front, lambda ds: _netcdf_bytes(_cf(ds, title, provenance)),
+                                         MAX_FILE_BYTES)
     payloads = {"evaluations.nc": thinned_bytes,
                 "front.nc": _netcdf_bytes(_cf(front.drop_vars("error"), f"Campaign front ({name})", provenance)),
                 "history.nc": _netcdf_bytes(_cf(history, f"Campaign history per generation ({name})", provenance)),

@@ -206,6 +206,51 @@ def test_load_or_run_shows_the_profiles_run_or_says_why_not(tiny_profiles, capsy
     assert load_published(tiny_profiles / "tinyrun" / "campaign").pointer["run_dir"] == ran.run_dir.name
 
 
+def test_notebooks_fall_back_to_the_shipped_results(tiny_profiles, monkeypatch):
+    """Issue 23 item 3: with no local run that is the profile's, notebooks 06-07 show the shipped reference results
+    and say so (nothing runs); a local run that is the profile's wins; a reference that is not the profile's
+    (stale) is never shown."""
+    from lnss_lib.campaign import reference
+    from lnss_lib.studies.campaign import constraint_table, load_or_run, run_throughput_table, shown_campaign
+
+    monkeypatch.setattr(reference, "REFERENCE_DIR", tiny_profiles / "reference")
+    folder = tiny_profiles / "tiny" / "campaign"
+    elsewhere = run_campaign("tiny", workers=0, run_dir=tiny_profiles / "elsewhere" / "run", progress=False)
+    reference.export_reference(elsewhere.run_dir)
+    shown = load_or_run("tiny")
+    assert shown.run_dir == tiny_profiles / "reference" / "tiny" and shown.records == []
+    assert "shipped reference results" in shown.note and "a complete run of 2 generations" in shown.note
+    assert not list(folder.glob("run_*")) and shown.settings.campaign.evaluator == "synthetic"
+    table = run_throughput_table(shown.run_dir, shown.history, shown.evaluations, shown.records)["value"]
+    assert table["unique designs evaluated"] == elsewhere.n_evaluations
+    assert table["unique feasible designs"] == elsewhere.n_feasible
+    bounds = constraint_table(shown.evaluations, CampaignPlan.of(shown.settings).constraints)["designs"]
+    assert bounds["all Table 3 bounds (feasible)"] == elsewhere.n_feasible
+    notebook7 = shown_campaign("tiny")
+    assert notebook7.run_dir == shown.run_dir and "nothing is published" in notebook7.note
+    with pytest.raises(FileNotFoundError, match="are not the campaign of profile 'tiny' as set here"):
+        load_or_run("tiny", '{"campaign": {"seed": 5}}')
+    own = run_campaign("tiny", workers=0, run_dir=folder / "run_1", progress=False)
+    shown = load_or_run("tiny")
+    assert shown.run_dir == own.run_dir and "published" in shown.note
+    assert shown_campaign("tiny").run_dir.parent == folder / "published"
+
+
+def test_paper_profile_without_a_local_run_shows_the_shipped_results(tmp_path, monkeypatch):
+    """Issue 23, done when: `reproduce --profile paper` with no local campaign draws notebooks 06-07 from the
+    shipped results instead of running a campaign."""
+    from lnss_lib import outputs
+    from lnss_lib.campaign.reference import load_reference
+    from lnss_lib.studies.campaign import load_or_run, shown_campaign
+
+    monkeypatch.setattr(outputs, "OUTPUTS_DIR", tmp_path)
+    shipped = load_reference("paper")
+    for shown in (load_or_run("paper"), shown_campaign("paper")):
+        assert shown.run_dir == shipped.folder and "shipped reference results" in shown.note
+        assert shown.history.sizes["generation"] == shipped.history.sizes["generation"]
+    assert not list((tmp_path / "paper" / "campaign").glob("run_*"))
+
+
 def test_campaign_figures_carry_the_data():
     from lnss_lib.figures import campaign_convergence, campaign_throughput, designs_pdop_deltav
     from lnss_lib.studies.pareto import pareto_front, synthetic_campaign

@@ -1,0 +1,166 @@
+"""Shipped reference results (issue 23 item 3): the committed exports are the current profiles', and the export
+round-trips, stays under the size limit, carries CF attributes, marks partial runs and refuses run folders
+that fail their checks."""
+
+import json
+
+import numpy as np
+import pytest
+import xarray as xr
+
+from lnss_lib.campaign import export_results, final_population, run_campaign
+from lnss_lib.campaign import reference as ref
+from lnss_lib.campaign.publication import run_differences
+from lnss_lib.campaign.settings import CampaignPlan, evaluation_hash
+from lnss_lib.keys import DESIGN_KEYS
+from lnss_lib.settings import load_settings
+
+SYNTHETIC = {"campaign": {"evaluator": "synthetic"}}
+CF_GLOBALS = ("title", "institution", "source", "history", "references", "Conventions")
+
+
+@pytest.mark.parametrize("name", ["paper", "paper_dv_physical"])
+def test_shipped_results_are_the_current_profiles(name):
+    """A change of physics or of the campaign's settings cannot leave stale shipped results behind: the export's
+    recorded profile hash and evaluation hash are those of the profile as it stands."""
+    shipped = ref.load_reference(name)
+    assert shipped is not None, f"no shipped results in {ref.REFERENCE_DIR / name}"
+    settings = load_settings(name)
+    for ds in (shipped.evaluations, shipped.front, shipped.history, shipped.population):
+        assert ds.attrs["profile_hash"] == settings.hash, f"{name}: re-run and re-export the campaign"
+        assert ds.attrs["evaluation_hash"] == evaluation_hash(settings)
+        assert ds.attrs["profile"] == name and ds.attrs["Conventions"] == "CF-1.8"
+    assert run_differences(shipped.profile, settings) == []
+    assert all(path.stat().st_size < ref.MAX_FILE_BYTES for path in shipped.folder.iterdir())
+    assert f"hash `{settings.hash}`" in shipped.readme
+
+
+@pytest.fixture(scope="module")
+def partial_run(tmp_path_factory):
+    """A synthetic ci campaign stopped after 2 of its generations (resumable, not finished)."""
+    run_dir = tmp_path_factory.mktemp("partial") / "run"
+    run_campaign("ci", overrides=SYNTHETIC, workers=0, run_dir=run_dir, progress=False, max_generations=2)
+    return run_dir
+
+
+@pytest.fixture(scope="module")
+def finished_run(tmp_path_factory):
+    run_dir = tmp_path_factory.mktemp("finished") / "run"
+    run_campaign("ci", overrides=SYNTHETIC, workers=0, run_dir=run_dir, progress=False)
+    return run_dir
+
+
+def test_export_round_trip_with_cf_attributes(finished_run, tmp_path):
+    folder = ref.export_reference(finished_run, tmp_path, export_commit="abc1234")
+    assert folder == tmp_path / "ci" and sorted(p.name for p in folder.iterdir()) == sorted(
+        (*ref.REFERENCE_FILES, ref.README_FILE))
+    shipped = ref.load_reference("ci", tmp_path)
+    evaluations, front, history = export_results(finished_run)
+    xr.testing.assert_allclose(shipped.front.drop_attrs(), front.drop_vars("error").drop_attrs())
+    xr.testing.assert_allclose(shipped.history.drop_attrs(), history.drop_attrs())
+    x, _ = final_population(finished_run)
+    designs = CampaignPlan.of(load_settings("ci").with_overrides(SYNTHETIC)).grid.descale(x.astype(float))
+    np.testing.assert_allclose(np.column_stack([shipped.population[k].values for k in DESIGN_KEYS]), designs)
+    feasible = evaluations["feasible"].values
+    assert shipped.evaluations.sizes["design"] == (feasible.sum() if feasible.any() else
+                                                   shipped.evaluations.attrs["n_selected"])
+    assert shipped.evaluations.attrs["n_designs_evaluated"] == evaluations.sizes["design"]
+    assert shipped.finished and shipped.history.attrs["partial"] == 0
+    for ds in (shipped.evaluations, shipped.front, shipped.history, shipped.population):
+        assert all(ds.attrs.get(key) for key in CF_GLOBALS) and ds.attrs["Conventions"] == "CF-1.8"
+        for name in list(ds.data_vars) + list(ds.coords):
+            assert ds[name].attrs.get("long_name"), name
+            assert ds[name].dtype.kind in "US" or ds[name].attrs.get("units"), name
+    assert shipped.front["dv_total_kms_per_year"].attrs["units"] == "km s-1 yr-1"
+    assert shipped.front["sma_km"].attrs["units"] == "km"
+    assert shipped.history["wall_s"].attrs["units"] == "s"
+    for text in ("abc1234", "| complete | yes |", "| seed |", "numpy", "generations completed", "machine"):
+        assert text in shipped.readme, text
+    assert json.loads(shipped.history.attrs["worker_time"])["n_evaluations"] == evaluations.sizes["design"]
+
+
+def test_partial_run_is_marked_partial(partial_run, tmp_path):
+    shipped = ref.load_reference("ci", ref.export_reference(partial_run, tmp_path).parent)
+    assert not shipped.finished and shipped.history.sizes["generation"] == 2
+    for ds in (shipped.evaluations, shipped.front, shipped.history, shipped.population):
+        assert ds.attrs["partial"] == 1 and ds.attrs["finished"] == 0
+    assert "PARTIAL: 2 of" in shipped.readme and "| complete | no |" in shipped.readme
+
+
+def test_thinning_keeps_the_front_and_fits_the_limit():
+    from lnss_lib.studies.pareto import synthetic_campaign
+
+    evaluations = synthetic_campaign(20000, seed=3)
+    evaluations["error"] = ("design", np.full(20000, ""))
+    front = evaluations.isel(design=np.flatnonzero(evaluations.feasible.values)[::97])
+    encode = ref._netcdf_bytes
+    whole, data = ref.thin_to_fit(evaluations, front, encode, ref.MAX_FILE_BYTES)
+    assert whole.attrs["n_kept"] == whole.attrs["n_selected"] == whole.sizes["design"] == evaluations.feasible.sum()
+    assert whole.attrs["thinning"].startswith("none") and whole.attrs["selection"] == "the feasible designs"
+    limit = 0.5 * len(data)
+    thin, thin_data = ref.thin_to_fit(evaluations, front, encode, limit)
+    assert len(thin_data) < limit and thin.attrs["n_kept"] < thin.attrs["n_selected"] == whole.sizes["design"]
+    assert "uniform sample" in thin.attrs["thinning"] and thin.attrs["n_kept"] > 0.3 * whole.sizes["design"]
+    kept = {tuple(row) for row in np.column_stack([thin[k].values for k in DESIGN_KEYS])}
+    assert 0 < front.sizes["design"] < thin.sizes["design"]
+    assert all(tuple(row) in kept for row in np.column_stack([front[k].values for k in DESIGN_KEYS]))
+
+
+def _copy(run_dir, tmp_path, name):
+    import shutil
+
+    return shutil.copytree(run_dir, tmp_path / name)
+
+
+def test_export_refuses_a_damaged_or_forged_run_folder(finished_run, tmp_path):
+    from lnss_lib.campaign.rundir import CheckpointError
+    from lnss_lib.errors import ConfigError
+
+    root = tmp_path / "reference"
+    good = ref.export_reference(finished_run, root)
+    before = {p.name: p.read_bytes() for p in good.iterdir()}
+    damaged = _copy(finished_run, tmp_path, "damaged")
+    data = bytearray((damaged / "checkpoint.pkl").read_bytes())
+    data[len(data) // 2] ^= 0xFF
+    (damaged / "checkpoint.pkl").write_bytes(bytes(data))
+    with pytest.raises(CheckpointError, match="truncated or corrupt"):
+        ref.export_reference(damaged, root)
+    edited = _copy(finished_run, tmp_path, "edited")
+    run = json.loads((edited / "run.json").read_text())
+    run["profile"]["campaign"]["seed"] = 99
+    (edited / "run.json").write_text(json.dumps(run))
+    with pytest.raises(ConfigError, match="differ from those the run started with"):
+        ref.export_reference(edited, root)
+    forged = _copy(finished_run, tmp_path, "forged")
+    run = json.loads((forged / "run.json").read_text())
+    run["evaluation_hash"] = "0123456789abcdef"
+    (forged / "run.json").write_text(json.dumps(run))
+    with pytest.raises(ConfigError, match="not that of its settings"):
+        ref.export_reference(forged, root)
+    foreign = _copy(finished_run, tmp_path, "foreign")
+    lines = (foreign / "evaluations.jsonl").read_text().split("\n")
+    lines[0] = json.dumps({"evaluation_hash": "0123456789abcdef", "format": 2})
+    (foreign / "evaluations.jsonl").write_text("\n".join(lines))
+    with pytest.raises(ConfigError, match="a journal of other physics"):
+        ref.export_reference(foreign, root)
+    with pytest.raises(ConfigError, match="is not a folder"):
+        ref.export_reference(tmp_path / "nothing", root)
+    assert {p.name: p.read_bytes() for p in good.iterdir()} == before      # the previous export is untouched
+    assert sorted(p.name for p in root.iterdir()) == ["ci"]                  # and no staging folder is left
+
+
+def test_export_command_line(finished_run, tmp_path, monkeypatch, capsys):
+    from lnss_lib.__main__ import main
+
+    monkeypatch.setattr(ref, "REFERENCE_DIR", tmp_path)
+    assert main(["campaign", "--export-reference", str(finished_run)]) == 0
+    out = capsys.readouterr().out
+    assert "reference results of profile 'ci' (complete)" in out and "evaluations.nc" in out
+    assert ref.load_reference("ci", tmp_path).finished
+    assert main(["campaign", "--export-reference", str(tmp_path / "missing")]) == 2
+    assert main(["campaign", "--export-reference", str(finished_run), "--profile", "ci"]) == 2
+    damaged = _copy(finished_run, tmp_path, "damaged")
+    (damaged / "checkpoint.pkl").write_bytes(b"LNSS campaign checkpoint\n{}\n")
+    assert main(["campaign", "--export-reference", str(damaged)]) == 1
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 3 and all(line.startswith("error: ") for line in err) and "Traceback" not in "".join(err)
