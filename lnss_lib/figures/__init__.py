@@ -9,7 +9,7 @@ Chromium. One module per topic: :mod:`.charts` (generic lines and bars), :mod:`.
 """
 
 from .benchmark import benchmark_scatter, epoch_sensitivity_lines, label_positions
-from .campaign import campaign_convergence, campaign_throughput, designs_pdop_deltav
+from .campaign import campaign_convergence, campaign_throughput, designs_pdop_deltav, generation_curve
 from .charts import bar_chart, days_since_start, line_chart
 from .design_life import (estimate_vs_closed_loop, integrator_convergence_chart, life_element_histories,
                           maneuver_timeline, monthly_dop)
@@ -35,7 +35,7 @@ __all__ = [
     "thrust_history", "deltav_elements_and_rates", "deltav_thrust_components", "lsq_recovery_series",
     "deltav_sampling", "deltav_singularity",
     "pareto_3d", "dop_against_availability", "variable_relationships",
-    "campaign_convergence", "designs_pdop_deltav", "campaign_throughput",
+    "campaign_convergence", "designs_pdop_deltav", "campaign_throughput", "generation_curve",
     "benchmark_scatter", "epoch_sensitivity_lines", "label_positions",
     "life_element_histories", "maneuver_timeline", "monthly_dop", "estimate_vs_closed_loop",
     "integrator_convergence_chart", "frozen_family_chart", "perilune_envelope",

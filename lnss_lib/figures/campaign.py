@@ -77,3 +77,18 @@ def campaign_throughput(history, title: str) -> go.Figure:
     fig = go.Figure(go.Bar(x=history.generation.values, y=history.designs_per_s.values, name="designs/s"))
     fig.update_layout(title=title, xaxis_title="generation", yaxis_title="designs / s")
     return fig
+
+
+def generation_curve(history, variable: str, title: str, *, log: bool = False, marks: dict | None = None) -> go.Figure:
+    """One per-generation quantity of a campaign history (``history[variable]``: hypervolume, smallest violation,
+    ...) against the generation, with a dashed vertical line and label at each ``marks`` entry (label: generation)."""
+    fig = go.Figure(go.Scatter(x=history.generation.values, y=history[variable].values, mode="lines", name=variable))
+    for text, generation in (marks or {}).items():
+        fig.add_vline(x=generation, line_dash="dash", line_color="#888")
+        fig.add_annotation(x=generation, y=1.0, xref="x", yref="paper", text=text, showarrow=False, xanchor="left",
+                           textangle=-90, yanchor="top")
+    long_name = history[variable].attrs.get("long_name", variable.replace("_", " "))
+    fig.update_xaxes(title_text="generation")
+    fig.update_yaxes(title_text=long_name, type="log" if log else "linear")
+    fig.update_layout(title=title, template="plotly_white", showlegend=False)
+    return fig

@@ -20,10 +20,32 @@ import pandas as pd
 import xarray as xr
 
 from ..campaign.fitness import deltav_constraint, non_dominated_mask, objective_matrix, parse_constraints, satisfies
-from ..keys import DESIGN_KEYS, EXTRA_METRIC_KEYS, METRIC_KEYS, bound_text
+from ..keys import DESIGN_KEYS, EXTRA_METRIC_KEYS, LABELS, METRIC_KEYS, bound_text
 
 __all__ = ["load_campaign", "parse_constraints", "satisfies", "pareto_front", "table6", "synthetic_campaign",
-           "deltav_constraint", "analysis_front", "TABLE6_RULES", "TABLE6_COLUMNS"]
+           "deltav_constraint", "analysis_front", "TABLE6_RULES", "TABLE6_COLUMNS", "PHYSICAL_BOUND_PROFILES",
+           "physical_bound_campaign", "hypervolume_milestones", "smallest_constellation", "front_against_paper",
+           "closest_to_feasible", "DIFFERENCE_CAUSES"]
+
+# the campaign shown beside a profile's at full scale: the same study with the Delta-V bound where the workbook's
+# physics puts it (issue 23 item 1(b); params/paper_dv_physical.toml states the value and its derivation)
+PHYSICAL_BOUND_PROFILES = {"paper": "paper_dv_physical"}
+
+DIFFERENCE_CAUSES = {   # why the workbook's front differs from the paper's text (../shared/paper/NOTES.md)
+    "dv_opt_kms_per_year": "the workbook's Delta-V is the least-squares inverse of all five GVEs, which recovers the "
+                           "perturbing acceleration; the paper's eq. 26-35 carry misprints and singular points it caps "
+                           "(NOTES.md, station-keeping Delta-V)",
+    "dv_total_kms_per_year": "as for Delta-V_opt: the least-squares GVE inverse against the paper's capped eq. 30-35",
+    "gps_pdop_mean": "the noise temperature and the sidelobe level are not given in the paper, and the count of visible "
+                     "GPS satellites switches sharply with them; a straightforward link gives about a tenth of the "
+                     "paper's PDOP (NOTES.md, GPS-LNSS integration; notebook 03)",
+    "hdop_mean_3sigma": "HDOP axes: the paper's literal eq. 5-8 (Moon-fixed x-y, as here) against East-North-Up (NOTES.md, "
+                        "frames); the navigation metrics reproduce Table 4 within 5 % (notebook 05), so the range moves "
+                        "with the designs the Delta-V bound admits",
+    "ecc": "the designs the search keeps follow the Delta-V model (higher e costs more under the GVE inverse)",
+    "n_sat": "the satellites a design needs for the coverage do not depend on the Delta-V model, but which designs "
+             "are feasible does",
+}
 
 TABLE6_COLUMNS = DESIGN_KEYS + METRIC_KEYS + ("why selected",)
 
@@ -71,6 +93,66 @@ def analysis_front(evaluations: xr.Dataset, campaign_front: xr.Dataset) -> tuple
     metric, limit = deltav_constraint(evaluations)
     return (pareto_front(evaluations, relax=(metric,)),
             f"front with the Delta-V bound ({bound_text(metric, 'max', limit)}) relaxed")
+
+
+def physical_bound_campaign(profile_name: str):
+    """The campaign at the workbook's Delta-V bound shown beside ``profile_name``'s
+    (:data:`PHYSICAL_BOUND_PROFILES`; :func:`lnss_lib.studies.campaign.shown_campaign` of it: its publication or its
+    shipped reference results), or None for a profile that has none."""
+    from .campaign import shown_campaign
+
+    companion = PHYSICAL_BOUND_PROFILES.get(profile_name)
+    return shown_campaign(companion) if companion else None
+
+
+def hypervolume_milestones(history: xr.Dataset, fractions=(0.99, 0.999)) -> pd.DataFrame:
+    """The first generation at which the hypervolume reaches each fraction of its final value, and the share of the
+    generations run that took (NaN generation when the final hypervolume is 0: nothing feasible)."""
+    hv, generations = history["hypervolume"].values.astype(float), history["generation"].values
+    final = float(hv[-1]) if hv.size else 0.0
+    rows = []
+    for fraction in fractions:
+        reached = np.flatnonzero(hv >= fraction * final) if final > 0 else np.zeros(0, int)
+        generation = int(generations[reached[0]]) if reached.size else np.nan
+        rows.append({"fraction of the final hypervolume": fraction, "first generation": generation,
+                     "generations run": int(generations[-1]) if generations.size else 0,
+                     "share of the generations run (%)": 100.0 * generation / generations[-1]
+                     if reached.size else np.nan, "final hypervolume": final})
+    return pd.DataFrame(rows).set_index("fraction of the final hypervolume")
+
+
+def smallest_constellation(front: xr.Dataset, dv_metric: str, availability_min_pct: float) -> pd.Series | None:
+    """The front design with the fewest satellites whose PDOP and HDOP availability reach ``availability_min_pct``
+    (ties: the lowest ``dv_metric``), or None. The front holds it: no design has fewer satellites and less
+    Delta-V."""
+    frame = front[list(DESIGN_KEYS + METRIC_KEYS)].to_dataframe().reset_index(drop=True)
+    frame = frame[(frame.pdop_avail_pct >= availability_min_pct) & (frame.hdop_avail_pct >= availability_min_pct)]
+    return frame.sort_values(["n_sat", dv_metric]).iloc[0] if len(frame) else None
+
+
+def front_against_paper(front: xr.Dataset, claims: dict) -> pd.DataFrame:
+    """Each range the paper's text gives for its front (``claims``: metric -> (low, high),
+    :data:`lnss_lib.paper.FRONT_CLAIMS`) beside the front's: its 5th-95th percentile and median, the share of its
+    designs inside the paper's range, and the cause of a difference (:data:`DIFFERENCE_CAUSES`)."""
+    rows = []
+    for metric, (low, high) in claims.items():
+        values = front[metric].values.astype(float)
+        values = values[np.isfinite(values)]
+        inside = 100.0 * np.mean((values >= low) & (values <= high)) if values.size else np.nan
+        p5, median, p95 = np.percentile(values, (5, 50, 95)) if values.size else (np.nan,) * 3
+        rows.append({"quantity": LABELS.get(metric, metric), "paper low": low, "paper high": high,
+                     "front 5 %": p5, "front median": median, "front 95 %": p95,
+                     "front designs in the paper's range (%)": inside,
+                     "median / paper high": median / high if high else np.nan, "why": DIFFERENCE_CAUSES.get(metric, "")})
+    return pd.DataFrame(rows).set_index("quantity")
+
+
+def closest_to_feasible(evaluations: xr.Dataset) -> pd.Series:
+    """The evaluated design with the smallest constraint violation (where a search that finds nothing feasible
+    ends), with its metrics."""
+    index = int(np.nanargmin(evaluations["constraint_violation"].values.astype(float)))
+    columns = [k for k in DESIGN_KEYS + METRIC_KEYS + ("constraint_violation", "generation") if k in evaluations]
+    return evaluations[columns].isel(design=index).to_pandas()
 
 
 TABLE6_RULES = (   # (reason, rule(frame, Delta-V metric name) -> frame ranked best first)
