@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import argparse
+import contextlib
 import errno
 import math
 import os
@@ -51,10 +52,30 @@ def _check_output(path: str | None) -> Path | None:
     return out
 
 
-def _cmd_reproduce(args: argparse.Namespace) -> int:
-    from .pipeline import reproduce
+def _say_which_campaign(profile_name: str, overrides: dict | None, numbers: set[str]) -> None:
+    """Print (stderr) where notebooks 06-07 take their campaigns from under a profile that loads them: a local
+    run or the shipped reference results (the notebooks print the same)."""
+    from .studies.campaign import campaign_source
+    from .studies.pareto import physical_bound_campaign
 
-    return reproduce(args.profile, only=args.only, overrides=_overrides(args))
+    if not numbers & {"06", "07"}:
+        return
+    source = campaign_source(profile_name, overrides)
+    if source:
+        print(f"campaign of {profile_name}: {source}", file=sys.stderr)
+    if "07" in numbers:
+        with contextlib.suppress(FileNotFoundError):
+            physical = physical_bound_campaign(profile_name)
+            if physical is not None:
+                print(f"notebook 07's figures: {physical.note}", file=sys.stderr)
+
+
+def _cmd_reproduce(args: argparse.Namespace) -> int:
+    from .pipeline import notebook_paths, reproduce
+
+    overrides = _overrides(args)
+    _say_which_campaign(args.profile, overrides, {book.stem[:2] for book in notebook_paths(args.only)})
+    return reproduce(args.profile, only=args.only, overrides=overrides)
 
 
 def _cmd_propagate(args: argparse.Namespace) -> int:

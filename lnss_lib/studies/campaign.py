@@ -32,7 +32,7 @@ from ..paper import EVALUATIONS, FEASIBLE_DESIGNS, TABLE_5
 from ..settings import Settings
 
 __all__ = ["settings_table", "design_grid_table", "latest_run_dir", "CampaignRun", "load_or_run", "shipped_reference",
-           "shown_campaign", "designs_evaluated", "feasible_designs",
+           "shown_campaign", "campaign_source", "designs_evaluated", "feasible_designs",
            "constraint_table", "steady_designs_per_s", "throughput_table", "run_throughput_table", "companion_of",
            "comparison_table",
            "NON_NAVIGATION_METRICS"]
@@ -231,6 +231,28 @@ def shown_campaign(profile_name: str) -> CampaignRun:
     note = f"the campaign published for profile {profile_name!r}: {display_path(published.folder)} ({published.pointer['run_dir']})"
     return CampaignRun(published.folder, run_settings, note, published.evaluations, published.front,
                        published.history, [])
+
+
+def campaign_source(profile_name: str, overrides: dict | None = None) -> str:
+    """Where notebook 06 takes the campaign of ``profile_name`` from, in one line ("" when it runs the campaign
+    itself): the shipped reference results (:func:`shipped_reference`), or the local run :func:`latest_run_dir`
+    picks and why it is not the profile's; what is missing when there is neither."""
+    from ..outputs import display_path, output_dir
+    from ..settings import load_settings
+
+    profile = load_settings(profile_name, overrides=overrides)
+    if profile.campaign.notebook_mode != "load":
+        return ""
+    campaign_dir = output_dir(profile_name, "campaign")
+    try:
+        shipped = shipped_reference(profile_name, profile, campaign_dir)
+        if shipped is not None:
+            return shipped.note
+        run_dir, reasons = latest_run_dir(campaign_dir, profile_name, profile)
+    except FileNotFoundError as error:
+        return " ".join(str(error).split())
+    return (f"the local run {display_path(run_dir)}, "
+            + (f"NOT the campaign of profile {profile_name!r}: {'; '.join(reasons)}" if reasons else "the profile's campaign"))
 
 
 def designs_evaluated(evaluations: xr.Dataset) -> int:

@@ -93,3 +93,36 @@ def test_missing_campaign_names_the_command(tmp_path, monkeypatch):
     with pytest.raises(FileNotFoundError, match="python -m lnss_lib campaign --profile nowhere"):
         load_campaign("nowhere")
     assert isinstance(synthetic_campaign(3), xr.Dataset)
+
+
+def test_hypervolume_milestones_and_generation_curve():
+    from lnss_lib.figures import generation_curve
+    from lnss_lib.studies.pareto import hypervolume_milestones
+
+    history = xr.Dataset({"hypervolume": ("generation", [0.0, 0.5, 0.9, 0.995, 0.9995, 1.0])},
+                         coords={"generation": np.arange(1, 7)})
+    table = hypervolume_milestones(history)
+    assert list(table["first generation"]) == [4, 5] and (table["generations run"] == 6).all()
+    assert table.loc[0.99, "share of the generations run (%)"] == pytest.approx(100 * 4 / 6)
+    nothing = hypervolume_milestones(history * 0.0)
+    assert nothing["first generation"].isna().all()
+    fig = generation_curve(history, "hypervolume", "hv", marks={"99 %": 4})
+    assert list(fig.data[0].y) == list(history.hypervolume.values) and fig.layout.shapes[0].x0 == 4
+
+
+def test_smallest_constellation_closest_design_and_paper_ranges():
+    from lnss_lib.studies.pareto import closest_to_feasible, front_against_paper, smallest_constellation
+
+    ds = _campaign([{"n_sat": 6, "pdop_avail_pct": 95, "hdop_avail_pct": 95, "dv_total_kms_per_year": 2.0},
+                    {"n_sat": 6, "pdop_avail_pct": 95, "hdop_avail_pct": 91, "dv_total_kms_per_year": 1.5},
+                    {"n_sat": 4, "pdop_avail_pct": 80, "hdop_avail_pct": 95, "dv_total_kms_per_year": 0.5},
+                    {"n_sat": 9, "pdop_avail_pct": 99, "hdop_avail_pct": 99, "dv_total_kms_per_year": 0.1}])
+    small = smallest_constellation(ds, "dv_total_kms_per_year", 90.0)
+    assert small.n_sat == 6 and small.dv_total_kms_per_year == 1.5
+    assert smallest_constellation(ds, "dv_total_kms_per_year", 100.0) is None
+    ds["constraint_violation"] = ("design", np.array([0.3, 0.2, 0.05, 0.4]))
+    assert closest_to_feasible(ds).n_sat == 4
+    table = front_against_paper(ds, {"dv_total_kms_per_year": (0.0, 1.0)})
+    row = table.loc["Delta-V total (km/s/yr)"]
+    assert row["front designs in the paper's range (%)"] == 50.0 and row["front median"] == pytest.approx(1.0)
+    assert "least-squares" in row["why"]
