@@ -28,9 +28,22 @@ def pareto_3d(front, x: str, y: str, z: str, *, title: str) -> go.Figure:
     return fig
 
 
-def dop_against_availability(front, evaluations, dop: str, *, title: str) -> go.Figure:
+def _paper_ranges(fig: go.Figure, claims: dict | None, x: str, ys: tuple[str, ...]) -> None:
+    """Shade the ranges the paper's text gives (``claims``: metric -> (low, high), :data:`lnss_lib.paper.FRONT_CLAIMS`)
+    for the x metric and for each subplot's y metric (subplots in one row, in the order of ``ys``; data coordinates,
+    also on log axes)."""
+    style = {"fillcolor": "orange", "opacity": 0.15, "line_width": 0}
+    for col, y in enumerate(ys, start=1):
+        where = {"row": 1, "col": col} if len(ys) > 1 else {}
+        if y in (claims or {}):
+            fig.add_hrect(y0=claims[y][0], y1=claims[y][1], **style, **where)     # no label: misplaced on log axes
+        if x in (claims or {}):
+            fig.add_vrect(x0=claims[x][0], x1=claims[x][1], annotation_text="paper's range", **style, **where)
+
+
+def dop_against_availability(front, evaluations, dop: str, *, title: str, paper_ranges: dict | None = None) -> go.Figure:
     """A DOP metric against its availability: every evaluated design in grey, the front coloured by
-    number of satellites (Figures 10, 11)."""
+    number of satellites (Figures 10, 11); the ranges the paper gives (``paper_ranges``) shaded."""
     avail = dop.replace("_mean_3sigma", "_avail_pct")
     fig = go.Figure()
     fig.add_trace(go.Scatter(x=evaluations[avail].values, y=evaluations[dop].values, mode="markers", name="evaluated",
@@ -41,11 +54,13 @@ def dop_against_availability(front, evaluations, dop: str, *, title: str) -> go.
     fig.update_layout(title=title, template="plotly_white", xaxis_title=LABELS[avail], yaxis_title=LABELS[dop],
                       legend={"orientation": "h", "y": -0.2})
     fig.update_yaxes(type="log")
+    _paper_ranges(fig, paper_ranges, avail, (dop,))
     return fig
 
 
-def variable_relationships(front, evaluations, variable: str, *, title: str) -> go.Figure:
-    """A design variable against PDOP availability, Delta-V and GPS-LNSS PDOP (Figures 12-15)."""
+def variable_relationships(front, evaluations, variable: str, *, title: str, paper_ranges: dict | None = None) -> go.Figure:
+    """A design variable against PDOP availability, Delta-V and GPS-LNSS PDOP (Figures 12-15); the ranges the
+    paper gives (``paper_ranges``) shaded."""
     from plotly.subplots import make_subplots
 
     metrics = ("pdop_avail_pct", "dv_total_kms_per_year", "gps_pdop_mean")
@@ -62,4 +77,5 @@ def variable_relationships(front, evaluations, variable: str, *, title: str) -> 
         fig.update_xaxes(title_text=LABELS[variable], row=1, col=col)
     fig.update_yaxes(type="log", row=1, col=3)
     fig.update_layout(title=title, template="plotly_white", height=500, legend={"orientation": "h", "y": -0.25})
+    _paper_ranges(fig, paper_ranges, variable, metrics)
     return fig

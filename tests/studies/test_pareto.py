@@ -126,3 +126,16 @@ def test_smallest_constellation_closest_design_and_paper_ranges():
     row = table.loc["Delta-V total (km/s/yr)"]
     assert row["front designs in the paper's range (%)"] == 50.0 and row["front median"] == pytest.approx(1.0)
     assert "least-squares" in row["why"]
+
+
+def test_figures_shade_the_papers_ranges():
+    ds = synthetic_campaign(30, seed=2)
+    front = pareto_front(ds)
+    claims = {"hdop_mean_3sigma": (1.0, 5.0), "ecc": (0.6, 0.7), "gps_pdop_mean": (3862.0, 10883.0)}
+    fig = dop_against_availability(front, ds, "hdop_mean_3sigma", title="t", paper_ranges=claims)
+    assert [(s.y0, s.y1) for s in fig.layout.shapes] == [(1.0, 5.0)]
+    fig = variable_relationships(front, ds, "ecc", title="t", paper_ranges=claims)
+    vertical = [(s.x0, s.x1) for s in fig.layout.shapes if str(s.yref).endswith("domain")]
+    horizontal = [(s.y0, s.y1, s.yref) for s in fig.layout.shapes if str(s.xref).endswith("domain")]
+    assert vertical == [(0.6, 0.7)] * 3 and horizontal == [(3862.0, 10883.0, "y3")]
+    assert not dop_against_availability(front, ds, "pdop_mean_3sigma", title="t").layout.shapes
