@@ -20,6 +20,7 @@ import json
 import os
 import platform
 import re
+import subprocess
 import tomllib
 from importlib import metadata
 from functools import lru_cache
@@ -664,6 +665,16 @@ def profile_hash(profile: dict) -> str:
 
 MANIFEST_PACKAGES = ("numpy", "scipy", "spiceypy", "sgp4", "numba", "xarray", "pymoo", "plotly", "dask",
                      "distributed", "papermill", "skyfield-data", "h5netcdf", "pandas")
+
+
+def git_revision() -> str:
+    """The workbook's git commit (with ``-dirty`` if modified), or ``unknown``."""
+    try:
+        rev = subprocess.run(["git", "describe", "--always", "--dirty"], cwd=PROJECT_DIR, capture_output=True,
+                             text=True, timeout=10)
+        return rev.stdout.strip() or "unknown"
+    except (OSError, subprocess.SubprocessError):
+        return "unknown"
 
 
 def package_versions() -> dict[str, str]:

@@ -9,12 +9,11 @@ from __future__ import annotations
 
 import json
 import platform
-import subprocess
 import time
 from pathlib import Path
 
 from .atomicio import atomic_path, write_bytes_atomic, write_text_atomic
-from .config import MANIFEST_PACKAGES, OUTPUTS_DIR, PARAMS_DIR, PROJECT_DIR, package_versions
+from .config import MANIFEST_PACKAGES, OUTPUTS_DIR, PARAMS_DIR, PROJECT_DIR, git_revision, package_versions
 from .settings import load_settings
 from .keys import LABELS, format_value, label
 
@@ -132,16 +131,6 @@ def data_checksums() -> dict[str, str]:
             if p.is_file() and p.name not in ("README.md", "SHA256SUMS")}
     sums["skyfield-data:de421.bsp"] = file_sha256(planetary_spk_path())
     return sums
-
-
-def git_revision() -> str:
-    """The workbook's git commit (with ``-dirty`` if modified), or ``unknown``."""
-    try:
-        rev = subprocess.run(["git", "describe", "--always", "--dirty"], cwd=PROJECT_DIR, capture_output=True,
-                             text=True, timeout=10)
-        return rev.stdout.strip() or "unknown"
-    except (OSError, subprocess.SubprocessError):
-        return "unknown"
 
 
 def write_manifest(profile_name: str, runs: dict[str, dict]) -> Path:

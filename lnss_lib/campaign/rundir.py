@@ -299,12 +299,13 @@ def default_run_dir(profile_name: str) -> Path:
 
 
 def start_run(run_dir: Path, settings: Settings, eval_hash: str) -> None:
-    """Write ``run.json`` (the settings as TOML data, their hash, the evaluation hash ``eval_hash``, versions)
-    into ``run_dir`` (the caller holds the run's lock)."""
-    from ..config import package_versions
+    """Write ``run.json`` (the settings as TOML data, their hash, the evaluation hash ``eval_hash``, versions and
+    the workbook's commit) into ``run_dir`` (the caller holds the run's lock)."""
+    from ..config import git_revision, package_versions
 
     run = {"profile": settings.as_dict(), "profile_hash": settings.hash, "evaluation_hash": eval_hash,
-           "created_utc": time.strftime("%Y-%m-%dT%H:%M:%SZ", time.gmtime()), "versions": package_versions()}
+           "created_utc": time.strftime("%Y-%m-%dT%H:%M:%SZ", time.gmtime()), "versions": package_versions(),
+           "commit": git_revision()}
     atomic_write_bytes(run_dir / RUN_FILE, json.dumps(run, indent=1, default=str).encode())
 
 

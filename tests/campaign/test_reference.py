@@ -76,6 +76,7 @@ def test_export_round_trip_with_cf_attributes(finished_run, tmp_path):
     assert shipped.history["wall_s"].attrs["units"] == "s"
     for text in ("abc1234", "| complete | yes |", "| seed |", "numpy", "generations completed", "machine"):
         assert text in shipped.readme, text
+    assert shipped.front.attrs["run_commit"] == json.loads((finished_run / "run.json").read_text())["commit"] != ""
     assert json.loads(shipped.history.attrs["worker_time"])["n_evaluations"] == evaluations.sizes["design"]
 
 
