@@ -19,6 +19,7 @@ partial (README and the ``finished`` / ``partial`` attributes). :func:`load_refe
 
 from __future__ import annotations
 
+import contextlib
 import json
 import os
 import platform
@@ -124,7 +125,8 @@ def check_run_folder(run_dir) -> tuple[dict, dict]:
         raise ConfigError(f"{run_dir / 'run.json'}: evaluation hash {run['evaluation_hash']} is not that of its "
                           f"settings ({evaluation_hash(run['profile'])}): an edited or foreign run folder, refused")
     journal = run_dir / JOURNAL_FILE
-    header = parse_journal(journal.read_bytes())[0] if journal.is_file() else {}
+    with open(journal, "rb") if journal.is_file() else contextlib.nullcontext(None) as handle:
+        header = parse_journal(handle.readline())[0] if handle else {}
     if header.get("evaluation_hash") != run["evaluation_hash"]:
         raise ConfigError(f"{journal}: evaluation hash {header.get('evaluation_hash')} (the run's: "
                           f"{run['evaluation_hash']}): a journal of other physics or none, refused")
@@ -186,7 +188,10 @@ def _population(evaluations: xr.Dataset, checkpoint: dict, plan: CampaignPlan) -
     designs = plan.grid.descale(np.asarray(checkpoint["algorithm"].pop.get("X"), dtype=float))
     keys = np.column_stack([evaluations[k].values.astype(float) for k in DESIGN_KEYS])
     row = {tuple(np.round(k, 9)): i for i, k in enumerate(keys)}
-    rows = [row[tuple(np.round(d, 9))] for d in designs]
+    rows = [row.get(tuple(np.round(d, 9))) for d in designs]
+    if None in rows:
+        raise ConfigError(f"{sum(r is None for r in rows)} design(s) of the last checkpoint's population are not in "
+                          f"the journal (damaged lines): resume the run once to evaluate them again, then export")
     population = evaluations.drop_vars("error").isel(design=rows)
     population.attrs = {**evaluations.attrs, "generation": int(checkpoint["generation"])}
     return population
