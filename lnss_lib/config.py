@@ -668,11 +668,15 @@ MANIFEST_PACKAGES = ("numpy", "scipy", "spiceypy", "sgp4", "numba", "xarray", "p
 
 
 def git_revision() -> str:
-    """The workbook's git commit (with ``-dirty`` if modified), or ``unknown``."""
+    """The workbook's git commit (with ``-dirty`` if a tracked file outside the shipped results
+    ``outputs/reference/`` is modified), or ``unknown``."""
+    def git(*args: str) -> str:
+        return subprocess.run(["git", *args], cwd=PROJECT_DIR, capture_output=True, text=True, timeout=10,
+                              check=True).stdout.strip()
+
     try:
-        rev = subprocess.run(["git", "describe", "--always", "--dirty"], cwd=PROJECT_DIR, capture_output=True,
-                             text=True, timeout=10)
-        return rev.stdout.strip() or "unknown"
+        dirty = git("status", "--porcelain", "--untracked-files=no", "--", ".", ":(exclude)outputs/reference")
+        return git("describe", "--always") + ("-dirty" if dirty else "")
     except (OSError, subprocess.SubprocessError):
         return "unknown"
 
