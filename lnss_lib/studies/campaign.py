@@ -171,9 +171,10 @@ def _reference_run(reference, how: str) -> CampaignRun:
     state = (f"a complete run of {attrs['generations_done']} generations" if reference.finished else
              f"a PARTIAL run: {attrs['generations_done']} generations, exported before it finished")
     note = (f"{how}; shown: the shipped reference results {display_path(reference.folder)} ({state}; profile hash "
-            f"{attrs['profile_hash']}, exported at commit {attrs['export_commit']}; evaluations thinned to the designs "
-            f"Figures 8-16 and Table 6 read: {reference.evaluations.attrs['n_kept']} of "
-            f"{reference.evaluations.attrs['n_designs_evaluated']} designs)")
+            f"{attrs['profile_hash']}, exported at commit {attrs['export_commit']}; of its "
+            f"{reference.evaluations.attrs['n_designs_evaluated']} designs it ships those Figures 8-16 and Table 6 read, "
+            f"{reference.evaluations.attrs['selection']}: {reference.evaluations.attrs['n_kept']} kept of "
+            f"{reference.evaluations.attrs['n_selected']})")
     return CampaignRun(reference.folder, settings_from_profile(reference.profile), note, reference.evaluations,
                        reference.front, reference.history, [])
 
