@@ -10,6 +10,7 @@ resumed (``--resume``) ends with the same population as an uninterrupted one. Mo
 * :mod:`.journal`: ``evaluations.jsonl``, the persistent evaluation cache;
 * :mod:`.problem`: the pymoo problem and algorithm; :mod:`.rundir`: run.json, checkpoints, NetCDF export;
 * :mod:`.publication`: a run published as its profile's campaign (a pointer to an unchanging copy);
+* :mod:`.reference`: a run exported as its profile's shipped results (``outputs/reference/<profile>/``);
 * :mod:`.runner`: the generation loop, which notifies the observers of :mod:`.callbacks` (error guard,
   history, checkpoint, progress bars); :mod:`.timing`: worker-time shares.
 
