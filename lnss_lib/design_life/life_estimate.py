@@ -57,11 +57,11 @@ __all__ = ["PARTS", "perilune_dip_km", "safety_dv_kms", "node_corrections", "pha
 PARTS = ("safety", "relative_node", "phase")
 """What the estimate charges for (a subset of :data:`lnss_lib.design_life.service.PURPOSES`)."""
 
-FOLLOWED_SAFETY_BURNS = 3
+FOLLOWED_SAFETY_BURNS = 1
 """Safety burns of one orbit followed raise by raise; an orbit that needs more (one that no raise holds for the
 rest of the life) pays the rest of its life at their rate: their Delta-V over the time they bought."""
 
-SEARCH_RTOL, SEARCH_ATOL = 1e-7, 1e-9
+SEARCH_RTOL, SEARCH_ATOL = 1e-6, 1e-8
 """Tolerances of the averaged integrations of the raise search (the screen's are tighter: it locates impacts)."""
 
 
@@ -112,8 +112,8 @@ def safety_dv_kms(field: SecularField, t_days: np.ndarray, sma_km: float, e_hist
     """Safety burns of one orbit over the life ``t_days`` (m,) (a uniform grid from 0): Delta-V (km/s), number of
     burns, and the controlled e and j histories (m, 3).
 
-    ``e_hist``, ``j_hist`` (m, 3): the orbit's free averaged e and j vectors (J2000, no floor); ``floor_km`` the
-    perilune radius to hold. A burn is placed ``lead_days`` before each predicted crossing (at least
+    ``e_hist``, ``j_hist`` (m, 3): the orbit's averaged e and j vectors (J2000; NaN after its impact, which comes
+    after its crossing of the higher floor ``floor_km``, the perilune radius to hold). A burn is placed ``lead_days`` before each predicted crossing (at least
     ``check_days`` after the previous one) and sized by the controller's law (:func:`_raise`); after
     :data:`FOLLOWED_SAFETY_BURNS` burns the rest of the life is charged at their rate (the histories from there
     on are NaN: the relative drifts go on at their mean rates).
@@ -259,12 +259,7 @@ def life_estimate(sk_estimate: SkEstimateSettings, design_life: DesignLifeSettin
         floor_q = float(np.max(floor[members]))
         if np.isnan(_first_below(t_days, a[i] * (1.0 - ecc[i])[None], floor_q)[0]):
             continue
-        e_free, j_free = e_vec[i], j_vec[i]
-        if not np.all(np.isfinite(e_free)):                 # the screen stopped at its impact: the free orbit
-            res = integrate_secular(a[i], e_free[0][None], j_free[0][None], field, life_days, rtol=SEARCH_RTOL,
-                                    atol=SEARCH_ATOL, output_step_days=float(t_days[1] - t_days[0]))
-            e_free, j_free = res["e"][0], res["j"][0]
-        dv, count, e_ctl, j_ctl = safety_dv_kms(field, t_days, float(a[i]), e_free, j_free, floor_q,
+        dv, count, e_ctl, j_ctl = safety_dv_kms(field, t_days, float(a[i]), e_vec[i], j_vec[i], floor_q,
                                                 svc.safety_lead_days, svc.safety_check_days)
         safety[members], n_burns[members] = dv / years, count
         e_vec[members], j_vec[members] = e_ctl, j_ctl
