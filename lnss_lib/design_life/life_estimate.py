@@ -8,28 +8,32 @@ integration, :func:`lnss_lib.design_life.screen.screen_states`, shared with the 
 10-day full-model arc for what only the full model sees:
 
 * ``safety``: where the averaged perilune a (1 - e) would cross the floor (``impact.min_altitude_km`` +
-  ``[design_life.service] perilune_margin_km`` + the short-period dip of the arc's osculating perilune below
-  its mean), a safety burn ``safety_lead_days`` before the crossing lowers e along the e vector by the
-  controller's own law (:func:`lnss_lib.design_life.service.safety_ecc`: the smallest raise that keeps the
-  prediction above the floor for the rest of the life); where no raise is enough the prediction goes on from
-  the raised orbit and the next crossing gets the next burn. Cost of a change of e at fixed a (a perilune /
-  apolune pair): ``h |de| / (2 p)``.
+  ``[design_life.service] perilune_margin_km`` + the dip of the arc's osculating perilune below its mean, as the
+  controller adds the measured dip), a safety burn ``safety_lead_days`` before the crossing lowers e along the
+  e vector by the controller's own law (that of :func:`lnss_lib.design_life.service.safety_ecc`: the smallest raise
+  of its list that keeps the prediction above the floor for the rest of the life, else the one that delays the
+  crossing most), judged on one integration of the candidate raises. An orbit that crosses again (no raise held it)
+  pays the rest of its life at that burn's rate (its Delta-V over the time it bought). Cost of a change of e at
+  fixed a (a perilune / apolune pair): ``h |de| / (2 p)``.
 * ``relative_node``: each satellite's averaged RAAN drift relative to the constellation's circular mean
   (the common precession is free), held within the controller's half-width
   (:func:`lnss_lib.design_life.service.raan_half_width_rad` of ``raan_rel_deg`` at the design inclination) by
   its overshoot law (:func:`lnss_lib.design_life.control.overshoot_target`); a node change of ``dW`` tilts the
   plane by ``sin i dW``, a normal impulse at the farther antinode: ``h sin i (1 - e |sin AOP|) / p`` per rad.
 * ``phase``: the argument of latitude relative to the constellation's mean, drifting at the arc's rate
-  (:func:`lnss_lib.design_life.estimate.mean_drift`) less its averaged AOP rate, plus the averaged AOP history,
+  (:func:`lnss_lib.design_life.estimate.mean_drift`) taken to the design's mean a (the closed loop's insertion trim
+  removes the offset of the osculating elements' mean a) less its averaged AOP rate, plus the averaged AOP history,
   held within ``u_rel_deg`` by drift-band changes of a (:func:`lnss_lib.design_life.control.drift_band_rate`,
   no acceleration, as the controller flies them): ``sqrt(1 - e^2) a |d(rate)| / 3`` (a perilune / apolune pair
   changing a by ``2 a d(rate) / (3 n)``).
 
-What it leaves out: the navigation monitor's restores (the designs' own DOP is the campaign's objective),
-the mean-a trims after each burn (a few m/s a year in the closed loop), the monthly swing of the mean
-elements (the controller judges on tidal means), burn spacing, and any change of the relative drift that a
-safety burn causes. A satellite whose averaged orbit hits the surface before its first safety burn is
-charged the burns that would have saved it; the closed loop may lose it instead.
+What it leaves out: the navigation monitor's restores (the designs' own DOP is the campaign's objective), the
+mean-a trims after each burn (a few m/s a year in the closed loop), the monthly swing of the mean elements (the
+controller judges on tidal means), and what the averaged model does not see of the relative node (a few degrees a
+year on some high orbits). The relative drifts after a safety raise come from the raised orbit; after a second
+crossing they go on at their mean rates. Cost: a few milliseconds for a design whose perilune stays clear (the
+screen's integration is shared), one averaged integration of nine candidate orbits per distinct orbit that needs a
+safety raise.
 """
 
 from __future__ import annotations
