@@ -94,18 +94,18 @@ def _raise(field: SecularField, t_burn: float, sma_km: float, e_vec: np.ndarray,
            t_rest: np.ndarray) -> tuple[float, np.ndarray, np.ndarray, float]:
     """The controller's safety raise (:func:`lnss_lib.design_life.service.safety_ecc`'s law: the smallest raise of
     :data:`lnss_lib.design_life.service.SAFETY_RAISE_KM` whose averaged perilune stays above ``floor_km`` for the rest
-    of the life, else the one that delays the crossing most), judged on the candidates' histories on ``t_rest``
-    (days from the burn) of one integration: the new e, the raised orbit's e and j histories (no floor) and
-    its next crossing (days from the burn, NaN when none)."""
+    of the life, else the one that delays the crossing most), from one integration of the candidates that stops
+    each at its crossing: the new e, the raised orbit's e and j histories on ``t_rest`` (days from the burn; NaN
+    after its crossing) and that crossing (days from the burn, NaN when none)."""
     ecc = float(np.linalg.norm(e_vec))
     e_new = np.unique(np.maximum(ecc - np.asarray(SAFETY_RAISE_KM) / sma_km, 0.0))[::-1]
     direction = e_vec / ecc if ecc > 0.0 else np.zeros(3)
     h_hat = j_vec / np.linalg.norm(j_vec)
     shifted = dataclasses.replace(field, t_days=field.t_days - t_burn)
     res = integrate_secular(np.full(e_new.size, sma_km), e_new[:, None] * direction, np.sqrt(1.0 - e_new ** 2)[:, None]
-                            * h_hat, shifted, float(t_rest[-1]), rtol=SEARCH_RTOL, atol=SEARCH_ATOL,
+                            * h_hat, shifted, float(t_rest[-1]), floor_km=floor_km, rtol=SEARCH_RTOL, atol=SEARCH_ATOL,
                             output_step_days=float(t_rest[1] - t_rest[0]) if t_rest.size > 1 else 1.0)
-    cross = _first_below(res["t_days"], sma_km * (1.0 - np.linalg.norm(res["e"], axis=-1)), floor_km)
+    cross = res["impact_day"]
     safe = np.flatnonzero(np.isnan(cross))
     k = int(safe[0]) if safe.size else int(np.argmax(cross))
     return float(e_new[k]), res["e"][k], res["j"][k], float(cross[k])
