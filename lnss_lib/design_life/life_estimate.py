@@ -62,8 +62,8 @@ PARTS = ("safety", "relative_node", "phase")
 """What the estimate charges for (a subset of :data:`lnss_lib.design_life.service.PURPOSES`)."""
 
 FOLLOWED_SAFETY_BURNS = 1
-"""Safety burns of one orbit followed raise by raise; an orbit that needs more (one that no raise holds for the
-rest of the life) pays the rest of its life at their rate: their Delta-V over the time they bought."""
+"""Safety raises of one orbit followed through the averaged model; an orbit that crosses the floor again (no raise
+held it for the rest of the life) pays the rest of its life at their rate: their Delta-V over the time they bought."""
 
 SEARCH_RTOL, SEARCH_ATOL = 1e-6, 1e-8
 """Tolerances of the averaged integrations of the raise search (the screen's are tighter: it locates impacts)."""
@@ -174,6 +174,7 @@ def node_corrections(t_days: np.ndarray, raan_rad: np.ndarray, half_rad: np.ndar
             offset[i] += change
             last[i] = t_days[k]
             out[i].append((k, change))
+        k += 1                                                  # one decision per check
     return out
 
 
@@ -208,11 +209,13 @@ def phase_corrections(t_days: np.ndarray, u_rad: np.ndarray, half_rad: float, ta
             t_ref[i] = t_days[k]
             out[i].append((k, new - rate[i]))
             rate[i] = new
+        k += 1                                                  # one decision per check
     return out
 
 
 def _fill_forward_rates(x: np.ndarray) -> np.ndarray:
-    """Unwrapped angle histories (n, m) with NaN tails (after an averaged impact) continued at their last rate."""
+    """Unwrapped angle histories (n, m) with NaN tails (after an averaged impact or a second safety crossing)
+    continued at their mean rate over the rest."""
     d = np.diff(x, axis=1)
     for i in np.flatnonzero(~np.all(np.isfinite(d), axis=1)):
         good = np.flatnonzero(np.isfinite(d[i]))
