@@ -65,6 +65,9 @@ FOLLOWED_SAFETY_BURNS = 1
 """Safety raises of one orbit followed through the averaged model; an orbit that crosses the floor again (no raise
 held it for the rest of the life) pays the rest of its life at their rate: their Delta-V over the time they bought."""
 
+SEARCH_WINDOW = 64
+"""Checks (history samples) searched at once for the next node or slot decision."""
+
 SEARCH_RTOL, SEARCH_ATOL = 1e-6, 1e-8
 """Tolerances of the averaged integrations of the raise search (the screen's are tighter: it locates impacts)."""
 
@@ -163,11 +166,13 @@ def node_corrections(t_days: np.ndarray, raan_rad: np.ndarray, half_rad: np.ndar
     out = [[] for _ in range(n)]
     k = 0
     while k < m:
-        rel = _relative(raan_rad[:, k:] + offset[:, None])
-        fire = (np.abs(rel) > half_rad[:, None]) & (t_days[None, k:] - last[:, None] >= spacing_days)
+        end = min(k + SEARCH_WINDOW, m)
+        rel = _relative(raan_rad[:, k:end] + offset[:, None])
+        fire = (np.abs(rel) > half_rad[:, None]) & (t_days[None, k:end] - last[:, None] >= spacing_days)
         hit = np.flatnonzero(fire.any(axis=0))
         if not hit.size:
-            break
+            k = end
+            continue
         k += int(hit[0])
         for i in np.flatnonzero(fire[:, hit[0]]):
             change = overshoot_target(float(rel[i, hit[0]]), float(half_rad[i]), target_fraction)
@@ -194,14 +199,15 @@ def phase_corrections(t_days: np.ndarray, u_rad: np.ndarray, half_rad: float, ta
     out = [[] for _ in range(n)]
     k = 0
     while k < m:
-        t = t_days[None, k:]
-        own = offset[:, None] + rate[:, None] * (t - t_ref[:, None]) * day_s
-        rel = _relative(u_rad[:, k:] + own)
+        end = min(k + SEARCH_WINDOW, m)
+        own = offset[:, None] + rate[:, None] * (t_days[None, k:end] - t_ref[:, None]) * day_s
+        rel = _relative(u_rad[:, k:end] + own)
         ahead = rel + rate[:, None] * lookahead_days * day_s
         fire = (np.abs(ahead) > half_rad) & (np.sign(rate)[:, None] != -np.sign(ahead))
         hit = np.flatnonzero(fire.any(axis=0))
         if not hit.size:
-            break
+            k = end
+            continue
         k += int(hit[0])
         for i in np.flatnonzero(fire[:, hit[0]]):
             new = drift_band_rate(float(rel[i, hit[0]]), 0.0, half_rad, target_fraction, coast_days * day_s)
