@@ -121,8 +121,9 @@ def safety_dv_kms(field: SecularField, t_days: np.ndarray, sma_km: float, e_hist
     burns, and the controlled e and j histories (m, 3).
 
     ``e_hist``, ``j_hist`` (m, 3): the orbit's averaged e and j vectors (J2000; NaN after its impact, which comes
-    after its crossing of the higher floor ``floor_km``, the perilune radius to hold). A burn is placed ``lead_days`` before each predicted crossing (at least
-    ``check_days`` after the previous one) and sized by the controller's law (:func:`_raise`); after
+    after its crossing of the higher floor ``floor_km``, the perilune radius to hold). A burn is placed
+    ``lead_days`` before each predicted crossing (at least ``check_days`` after the previous one) and sized by the
+    controller's law (:func:`_raise`); after
     :data:`FOLLOWED_SAFETY_BURNS` burns the rest of the life is charged at their rate (the histories from there
     on are NaN: the relative drifts go on at their mean rates).
     """
@@ -303,14 +304,16 @@ def life_estimate(sk_estimate: SkEstimateSettings, design_life: DesignLifeSettin
     phase_cost = np.nan_to_num(np.sqrt(1.0 - ecc ** 2) * a[:, None] / 3.0)
     phase = np.zeros(n_sat)
     lookahead = design_life.check_interval_days
-    for i, events in enumerate(phase_corrections(t_days, u_drift, np.radians(svc.u_rel_deg), design_life.target_fraction,
-                                                 design_life.slot_coast_days, lookahead)):
+    events_by_sat = phase_corrections(t_days, u_drift, np.radians(svc.u_rel_deg), design_life.target_fraction,
+                                      design_life.slot_coast_days, lookahead)
+    for i, events in enumerate(events_by_sat):
         phase[i] = sum(abs(change) * phase_cost[i, k] for k, change in events) / years
 
     per_sat = {"safety": safety, "relative_node": node, "phase": phase}
     per_sat["total"] = sum(per_sat[k] for k in PARTS)
     total = per_sat["total"]
-    return {"sk_dv_estimate_kms_per_year": float(np.mean(total)), "sk_dv_estimate_max_kms_per_year": float(np.max(total)),
+    return {"sk_dv_estimate_kms_per_year": float(np.mean(total)),
+            "sk_dv_estimate_max_kms_per_year": float(np.max(total)),
             "per_sat": per_sat, "n_safety_burns": n_burns, "wall_s": time.perf_counter() - start}
 
 
