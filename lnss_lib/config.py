@@ -267,6 +267,7 @@ EVALUATORS = ("walker", "synthetic")
 NOTEBOOK_MODES = ("run", "load")                  # notebook 06 runs the campaign itself, or loads the latest CLI run
 STABILITY_METHODS = ("DOP853", "RK45", "Radau", "LSODA")
 STABILITY_BODIES = ("EARTH", "SUN")
+SK_ESTIMATE_MODELS = ("arc", "life")             # campaign estimate: the 10-day box slope, or the service controller's life
 CONTROLLERS = ("service", "box")                 # design life: hold the service (design_life.service) or the fixed-element box
 CHOICES = {    # a text setting (or each entry of a list of texts) -> its allowed values
     "integrator.settings.*.method": METHODS, "frames.element_frame": ELEMENT_FRAMES, "frames.moon_fixed": POLE_FRAMES,
@@ -276,6 +277,7 @@ CHOICES = {    # a text setting (or each entry of a list of texts) -> its allowe
     "deltav.paper_normal": PAPER_NORMAL, "deltav.paper_radial": PAPER_RADIAL, "deltav.satellites": DELTAV_SATELLITES,
     "campaign.evaluator": EVALUATORS, "campaign.notebook_mode": NOTEBOOK_MODES, "stability.method": STABILITY_METHODS,
     "stability.third_bodies": STABILITY_BODIES, "sk_estimate.element_frame": ELEMENT_FRAMES,
+    "sk_estimate.model": SK_ESTIMATE_MODELS,
     "evaluator.extra_metrics": EXTRA_METRIC_KEYS, "design_life.controller": CONTROLLERS,
     "life_evaluation.validation_frames": ELEMENT_FRAMES,
 }

@@ -9,10 +9,11 @@ paper does, Section 5.3). Infeasible designs (impact, invalid elements) come bac
 metrics, never raised, so batch callers can treat them as constraint violations.
 
 A profile may ask for the operational metrics of :data:`~lnss_lib.keys.EXTRA_METRIC_KEYS` in
-``[evaluator] extra_metrics`` (issue 11 item 5; none in ``paper``): the geometry-keeping Delta-V
-estimate over every satellite (:mod:`lnss_lib.design_life.estimate`, from the same arc), the design-life
-stability screen (:mod:`lnss_lib.design_life.screen`, from the initial states; ``stable_screen`` 1.0 or 0.0)
-and the eq. 45 Delta-V's maximum over satellites. Only the requested ones are computed and returned.
+``[evaluator] extra_metrics`` (issue 11 item 5; none in ``paper``): the station-keeping Delta-V estimate over
+every satellite (``[sk_estimate] model``: the 10-day box slope of :mod:`lnss_lib.design_life.estimate` from the
+same arc, or the service controller's life of :mod:`lnss_lib.design_life.life_estimate`, which shares the screen),
+the design-life stability screen (:mod:`lnss_lib.design_life.screen`, from the initial states; ``stable_screen`` 1.0
+or 0.0) and the eq. 45 Delta-V's maximum over satellites. Only the requested ones are computed and returned.
 """
 
 from __future__ import annotations
@@ -26,7 +27,7 @@ import numpy as np
 import xarray as xr
 
 from . import deltav, dop, gps
-from .design_life import estimate as sk_estimate
+from .design_life import life_estimate
 from .design_life import screen as stability
 from .constellation import WalkerDesign
 from .ephemeris import EphemerisTable, ensure_kernels, rotation, tdb_seconds
@@ -189,7 +190,11 @@ def _operational_metrics(context: EvaluationContext, ds: xr.Dataset, states: np.
     """The requested extra metrics (``context.extra_metrics``); NaN for an estimate the arc cannot give."""
     profile, wanted = context.settings, context.extra_metrics
     out = {k: dv_budget[k] for k in wanted if k in dv_budget}
-    if any(k.startswith("sk_dv_estimate") for k in wanted):
+    want_sk = any(k.startswith("sk_dv_estimate") for k in wanted)
+    screen = None
+    if any(k.startswith(("stable", "screen")) for k in wanted) or (want_sk and profile.sk_estimate.model == "life"):
+        screen = stability.screen_states(profile.stability, context.dynamics, states, context.t0_tdb_s)
+    if want_sk:
         min_periods = profile.sk_estimate.min_periods
         gm = context.dynamics.gravity.gm_km3_s2
         r = np.linalg.norm(ds["r_mci_km"].values, axis=-1)
@@ -197,12 +202,12 @@ def _operational_metrics(context: EvaluationContext, ds: xr.Dataset, states: np.
         a_mean = np.mean(vis_viva_sma_km(r, v2, gm), axis=1)             # vis-viva, as the estimate's arc test
         arc_s = float(ds["time"].values[-1] - ds["time"].values[0])
         if arc_s >= min_periods * 2.0 * np.pi * np.sqrt(np.max(a_mean) ** 3 / gm) * (1.0 + 1e-9):
-            estimate = sk_estimate.sk_estimate_from_propagation(profile.sk_estimate, context.dynamics, ds)
+            estimate = life_estimate.campaign_estimate(profile.sk_estimate, profile.stability, profile.design_life,
+                                                       context.dynamics, ds, screen)
         else:
             estimate = dict.fromkeys(("sk_dv_estimate_kms_per_year", "sk_dv_estimate_max_kms_per_year"), math.nan)
         out.update({k: float(estimate[k]) for k in wanted if k.startswith("sk_dv_estimate")})
-    if any(k.startswith(("stable", "screen")) for k in wanted):
-        screen = stability.screen_states(profile.stability, context.dynamics, states, context.t0_tdb_s)
+    if screen is not None:
         values = {"stable_screen": 1.0 if screen.attrs["stable"] else 0.0,
                   "screen_min_perilune_alt_km": float(screen.attrs["min_perilune_alt_km"])}
         out.update({k: values[k] for k in wanted if k in values})

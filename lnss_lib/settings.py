@@ -356,7 +356,8 @@ class StabilitySettings:
 
 @dataclass(frozen=True)
 class SkEstimateSettings:
-    """Campaign-grade geometry-keeping Delta-V estimate."""
+    """Campaign-grade station-keeping Delta-V estimate: the 10-day box slope or the service controller's life."""
+    model: str
     element_frame: str
     year_days: float
     min_periods: float

@@ -9,6 +9,10 @@ One subject in three answers of rising cost, each module answering one question:
 * :mod:`.estimate` -- what would holding the geometry cost? The secular drift of mean e-vector, orbit
   normal, a and slot fitted on the evaluator's 10-day arc, priced with linearised GVE costs: the
   campaign's geometry-keeping Delta-V (issue 11 item 2; ``sk_dv_estimate_kms_per_year``).
+* :mod:`.life_estimate` -- what would the service controller pay over the life? Safety raises where the averaged
+  perilune (the screen's integration) would cross the floor, relative node and slot held within the service's
+  tolerances on the averaged evolution plus the 10-day arc: the operational campaign's estimate (issue 20 item 2;
+  ``[sk_estimate] model = "life"``).
 * :mod:`.closed_loop` -- what does flying the life cost? Every satellite propagated with the full force
   model over the life, check by check, a controller deciding burns at each check (issue 11 item 4, the
   ``box`` controller; issue 19, the ``service`` controller), or no burns (natural drift).
@@ -16,7 +20,7 @@ One subject in three answers of rising cost, each module answering one question:
   the life (south-pole DOP month by month, paper eq. 3-14), and the two cheap predictors above for the
   same design (``evaluate --design-life-days``; issue 11 item 6).
 
-So: screen -> estimate (campaign, every design) -> closed loop -> evaluation (one design, minutes).
+So: screen -> estimate or life estimate (campaign, every design) -> closed loop -> evaluation (one design, minutes).
 Under the closed loop:
 
 * :mod:`.propagation` -- the chunked full-model propagation that flies impulsive burns, the life's force

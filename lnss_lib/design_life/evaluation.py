@@ -32,8 +32,9 @@ from ..frames import rotate_to_moon_fixed
 from ..progress import steps
 from ..forces import ForceModel
 from ..propagator import elements_deg_to_states, propagate_states
-from ..settings import DopSettings, Dynamics, EpochSettings, Settings, SkEstimateSettings, StabilitySettings
-from .estimate import sk_estimate_from_propagation
+from ..settings import (DesignLifeSettings, DopSettings, Dynamics, EpochSettings, Settings, SkEstimateSettings,
+                        StabilitySettings)
+from .life_estimate import campaign_estimate
 from .screen import screen_states
 from .closed_loop import impact_day, life_force_model, simulate_life
 
@@ -192,19 +193,20 @@ def life_metrics(runs: Mapping[str, xr.Dataset], nav: xr.Dataset | None = None) 
 
 
 def short_arc_predictors(epoch: EpochSettings, dynamics: Dynamics, sk_estimate: SkEstimateSettings,
-                         stability: StabilitySettings, elements: np.ndarray, life_days: float, *,
-                         model: ForceModel | None = None) -> dict:
-    """The campaign-grade estimate on the epoch's short arc (NaN if a satellite hits the Moon on it; ``model``: a
-    force model over that arc to reuse, e.g. the evaluation context's) and the stability screen for ``life_days``:
-    ``sk_dv_estimate_kms_per_year``, ``stable_screen``, ``screen_min_perilune_alt_km``, ``screen_impact_day``
-    (None when none)."""
+                         stability: StabilitySettings, design_life: DesignLifeSettings, elements: np.ndarray,
+                         life_days: float, *, model: ForceModel | None = None) -> dict:
+    """The campaign-grade estimate on the epoch's short arc (``[sk_estimate] model``; NaN if a satellite hits the Moon
+    on it; ``model``: a force model over that arc to reuse, e.g. the evaluation context's) and the stability screen
+    for ``life_days``, which the ``"life"`` estimate also covers: ``sk_dv_estimate_kms_per_year``, ``stable_screen``,
+    ``screen_min_perilune_alt_km``, ``screen_impact_day`` (None when none)."""
     t0 = tdb_seconds(epoch.start_tdb, "TDB")
     states = elements_deg_to_states(dynamics, elements, t0)
     arc = propagate_states(dynamics, states, t0, epoch.duration_days * SECONDS_PER_DAY, epoch.step_s, batch=True,
                            model=model)
-    estimate = (float("nan") if bool(arc["impact"].any())
-                else sk_estimate_from_propagation(sk_estimate, dynamics, arc)["sk_dv_estimate_kms_per_year"])
     screen = screen_states(stability, dynamics, states, t0, life_days=life_days)
+    estimate = (float("nan") if bool(arc["impact"].any())
+                else campaign_estimate(sk_estimate, stability, design_life, dynamics, arc,
+                                       screen)["sk_dv_estimate_kms_per_year"])
     return {"sk_dv_estimate_kms_per_year": estimate, "stable_screen": bool(screen.attrs["stable"]),
             "screen_min_perilune_alt_km": float(screen.attrs["min_perilune_alt_km"]),
             "screen_impact_day": _day_or_none(screen.attrs["impact_day"])}
@@ -233,7 +235,7 @@ def evaluate_design_life(context_or_settings, elements_deg, life_days: float | N
     nav = life_navigation(settings.dop, settings.dynamics, runs, month_days=settings.life_evaluation.month_days)
     result = life_metrics(runs, nav)
     result.update(short_arc_predictors(settings.epoch, settings.dynamics, settings.sk_estimate, settings.stability,
-                                       elements, life, model=model))
+                                       settings.design_life, elements, life, model=model))
     result = {**{k: result[k] for k in LIFE_KEYS}, "screen_impact_day": result["screen_impact_day"],
               "design_life_wall_s": time.perf_counter() - start}
     if keep:

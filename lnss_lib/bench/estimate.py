@@ -1,0 +1,52 @@
+"""``python -m lnss_lib bench estimate``: what the life-long estimate of the service controller's cost adds to a design
+evaluation (issue 20 item 2), beside the 10-day box slope it replaces.
+
+The campaign's path (:func:`~lnss_lib.evaluator.evaluate_constellation`) with ``[sk_estimate] model = "arc"`` (old)
+and ``"life"`` (new), everything else the profile's, on the designs of ``bench evaluate`` (the Table 4 ELFO and a
+Table 3 sample); one numba thread; the two alternate design by design so machine load hits both alike, best of
+``repeats``. The issue's budget: at most 20 % more evaluation time.
+"""
+
+from __future__ import annotations
+
+import numba
+import numpy as np
+
+from ..campaign import CampaignPlan
+from ..evaluator import EvaluationContext, evaluate_constellation
+from ..settings import load_settings
+from .evaluate import _designs
+
+MODELS = ("arc", "life")
+
+
+def run(profile_name: str = "operational", n_designs: int = 12, repeats: int = 3,
+        overrides: dict | None = None) -> dict:
+    """Print old (``arc``) and new (``life``) per-design evaluation times and estimates, and the mean increase."""
+    numba.set_num_threads(1)
+    profile = load_settings(profile_name, overrides=overrides)
+    wanted = {"evaluator": {"extra_metrics": sorted({*profile.evaluator.extra_metrics, "sk_dv_estimate_kms_per_year"})}}
+    contexts = {m: EvaluationContext.build(profile.with_overrides({**wanted, "sk_estimate": {"model": m}}))
+                for m in MODELS}
+    designs = _designs(CampaignPlan.of(profile), n_designs)
+    for context in contexts.values():
+        evaluate_constellation(context, designs[0].elements_deg())          # JIT compile or cache load
+    print(f"{profile.epoch.duration_days:.0f}-day arc, life {profile.stability.life_days:g} days, 1 thread; best of "
+          f"{repeats} alternating runs, seconds and km/s per satellite and year (arc -> life):")
+    rows = []
+    for design in designs:
+        elements = design.elements_deg()
+        best = {}
+        for _ in range(repeats):
+            for model, context in contexts.items():
+                result = evaluate_constellation(context, elements)
+                if model not in best or result["wall_s"] < best[model]["wall_s"]:
+                    best[model] = result
+        rows.append(best)
+        old, new = best["arc"], best["life"]
+        print(f"  a {design.sma_km:7.0f} e {design.ecc:4.2f} i {design.inc_deg:4.0f} w {design.aop_deg:5.0f} "
+              f"{design.n_planes}x{design.sats_per_plane}: {old['wall_s']:.3f} -> {new['wall_s']:.3f} s; "
+              f"estimate {old['sk_dv_estimate_kms_per_year']:.3f} -> {new['sk_dv_estimate_kms_per_year']:.3f}")
+    old, new = (float(np.mean([row[m]["wall_s"] for row in rows])) for m in MODELS)
+    print(f"  mean over {len(rows)} designs: {old:.3f} s -> {new:.3f} s ({100.0 * (new / old - 1.0):+.1f} %)")
+    return {"old_mean_s": old, "new_mean_s": new, "rows": len(rows)}

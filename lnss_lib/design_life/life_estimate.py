@@ -1,0 +1,335 @@
+"""Campaign-grade estimate of what the service controller pays over the design life (issue 20 item 2).
+
+The 10-day estimate of :mod:`lnss_lib.design_life.estimate` prices a fixed-element box from the slope of a
+short arc; over a year it misses the Lidov-Kozai growth that decides the cost, and it charges for e, AOP and
+i motion the service controller (:mod:`lnss_lib.design_life.service`) lets run. This estimate follows the
+controller instead, on the doubly-averaged evolution of every orbit over the life (the stability screen's
+integration, :func:`lnss_lib.design_life.screen.screen_states`, shared with the screen), plus the evaluator's
+10-day full-model arc for what only the full model sees:
+
+* ``safety``: where the averaged perilune a (1 - e) would cross the floor (``impact.min_altitude_km`` +
+  ``[design_life.service] perilune_margin_km`` + the dip of the arc's osculating perilune below its mean, as the
+  controller adds the measured dip), a safety burn ``safety_lead_days`` before the crossing lowers e along the
+  e vector by the controller's own law (that of :func:`lnss_lib.design_life.service.safety_ecc`: the smallest raise
+  of its list that keeps the prediction above the floor for the rest of the life, else the one that delays the
+  crossing most), judged on one integration of the candidate raises. An orbit that crosses again (no raise held it)
+  pays the rest of its life at that burn's rate (its Delta-V over the time it bought). Cost of a change of e at
+  fixed a (a perilune / apolune pair): ``h |de| / (2 p)``.
+* ``relative_node``: each satellite's averaged RAAN drift relative to the constellation's circular mean
+  (the common precession is free), held within the controller's half-width
+  (:func:`lnss_lib.design_life.service.raan_half_width_rad` of ``raan_rel_deg`` at the design inclination) by
+  its overshoot law (:func:`lnss_lib.design_life.control.overshoot_target`); a node change of ``dW`` tilts the
+  plane by ``sin i dW``, a normal impulse at the farther antinode: ``h sin i (1 - e |sin AOP|) / p`` per rad.
+* ``phase``: the argument of latitude relative to the constellation's mean, drifting at the arc's rate
+  (:func:`lnss_lib.design_life.estimate.mean_drift`) taken to the design's mean a (the closed loop's insertion trim
+  removes the offset of the osculating elements' mean a) less its averaged AOP rate, plus the averaged AOP history,
+  held within ``u_rel_deg`` by drift-band changes of a (:func:`lnss_lib.design_life.control.drift_band_rate`,
+  no acceleration, as the controller flies them): ``sqrt(1 - e^2) a |d(rate)| / 3`` (a perilune / apolune pair
+  changing a by ``2 a d(rate) / (3 n)``).
+
+What it leaves out: the navigation monitor's restores (the designs' own DOP is the campaign's objective), the
+mean-a trims after each burn (a few m/s a year in the closed loop), the monthly swing of the mean elements (the
+controller judges on tidal means), and what the averaged model does not see of the relative node (a few degrees a
+year on some high orbits). The relative drifts after a safety raise come from the raised orbit; after a second
+crossing they go on at their mean rates. Cost: a few milliseconds for a design whose perilune stays clear (the
+screen's integration is shared), one averaged integration of nine candidate orbits per distinct orbit that needs a
+safety raise.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import time
+
+import numpy as np
+import xarray as xr
+
+from ..constants import SECONDS_PER_DAY
+from ..elements import vis_viva_sma_km, eccentricity_vector
+from ..frames import element_frame_to_j2000
+from ..settings import DesignLifeSettings, Dynamics, SkEstimateSettings, StabilitySettings
+from .control import drift_band_rate, overshoot_target
+from .estimate import mean_drift, sk_estimate_from_propagation
+from .mean_elements import circular_mean, wrap_pi
+from .screen import SecularField, elements_from_vectors, integrate_secular, screen_states
+from .screen import _cached_field as cached_field
+from .service import SAFETY_RAISE_KM, mean_vectors_j2000, raan_half_width_rad
+
+__all__ = ["PARTS", "perilune_dip_km", "safety_dv_kms", "node_corrections", "phase_corrections",
+           "life_estimate", "campaign_estimate"]
+
+PARTS = ("safety", "relative_node", "phase")
+"""What the estimate charges for (a subset of :data:`lnss_lib.design_life.service.PURPOSES`)."""
+
+FOLLOWED_SAFETY_BURNS = 1
+"""Safety raises of one orbit followed through the averaged model; an orbit that crosses the floor again (no raise
+held it for the rest of the life) pays the rest of its life at their rate: their Delta-V over the time they bought."""
+
+SEARCH_WINDOW = 64
+"""Checks (history samples) searched at once for the next node or slot decision."""
+
+SEARCH_RTOL, SEARCH_ATOL = 1e-4, 1e-6
+"""Tolerances of the averaged integration of the candidate raises (the screen's are tighter): a few hundred metres of
+perilune; the same ranking and costs on the validation designs as 1e-6, at half the cost over five years."""
+
+
+def perilune_dip_km(states: np.ndarray, gm_km3_s2: float) -> np.ndarray:
+    """Mean minus lowest osculating perilune radius (km) over an arc of states (n_sat, n_time, 6)."""
+    r, v = states[..., :3], states[..., 3:]
+    rn = np.linalg.norm(r, axis=-1)
+    e = np.linalg.norm(eccentricity_vector(r, v, gm_km3_s2, r_km=rn), axis=-1)
+    rp = vis_viva_sma_km(rn, np.sum(v * v, axis=-1), gm_km3_s2) * (1.0 - e)
+    return np.mean(rp, axis=1) - np.min(rp, axis=1)
+
+
+def _ecc_cost_kms(sma_km: float, ecc: float, d_ecc: float, gm_km3_s2: float) -> float:
+    """Delta-V (km/s) of a change ``d_ecc`` of e at fixed a: h |de| / (2 p)."""
+    p = sma_km * (1.0 - ecc * ecc)
+    return float(np.sqrt(gm_km3_s2 * p) * abs(d_ecc) / (2.0 * p))
+
+
+def _first_below(t_days: np.ndarray, perilune_km: np.ndarray, floor_km: float) -> np.ndarray:
+    """First day (n,) each perilune radius history (n, m) is at or below the floor (NaN counts); NaN if never."""
+    below = ~(perilune_km > floor_km)
+    return np.where(below.any(axis=1), t_days[np.argmax(below, axis=1)], np.nan)
+
+
+def _raise(field: SecularField, t_burn: float, sma_km: float, e_vec: np.ndarray, j_vec: np.ndarray, floor_km: float,
+           t_rest: np.ndarray) -> tuple[float, np.ndarray, np.ndarray, float]:
+    """The controller's safety raise (:func:`lnss_lib.design_life.service.safety_ecc`'s law: the smallest raise of
+    :data:`lnss_lib.design_life.service.SAFETY_RAISE_KM` whose averaged perilune stays above ``floor_km`` for the rest
+    of the life, else the one that delays the crossing most), from one integration of the candidates that stops
+    each at its crossing: the new e, the raised orbit's e and j histories on ``t_rest`` (days from the burn; NaN
+    after its crossing) and that crossing (days from the burn, NaN when none)."""
+    ecc = float(np.linalg.norm(e_vec))
+    e_new = np.unique(np.maximum(ecc - np.asarray(SAFETY_RAISE_KM) / sma_km, 0.0))[::-1]
+    direction = e_vec / ecc if ecc > 0.0 else np.zeros(3)
+    h_hat = j_vec / np.linalg.norm(j_vec)
+    shifted = dataclasses.replace(field, t_days=field.t_days - t_burn)
+    res = integrate_secular(np.full(e_new.size, sma_km), e_new[:, None] * direction, np.sqrt(1.0 - e_new ** 2)[:, None]
+                            * h_hat, shifted, float(t_rest[-1]), floor_km=floor_km, rtol=SEARCH_RTOL, atol=SEARCH_ATOL,
+                            output_step_days=float(t_rest[1] - t_rest[0]) if t_rest.size > 1 else 1.0)
+    cross = res["impact_day"]
+    safe = np.flatnonzero(np.isnan(cross))
+    k = int(safe[0]) if safe.size else int(np.argmax(cross))
+    return float(e_new[k]), res["e"][k], res["j"][k], float(cross[k])
+
+
+def safety_dv_kms(field: SecularField, t_days: np.ndarray, sma_km: float, e_hist: np.ndarray, j_hist: np.ndarray,
+                  floor_km: float, lead_days: float, check_days: float) -> tuple[float, int, np.ndarray, np.ndarray]:
+    """Safety burns of one orbit over the life ``t_days`` (m,) (a uniform grid from 0): Delta-V (km/s), number of
+    burns, and the controlled e and j histories (m, 3).
+
+    ``e_hist``, ``j_hist`` (m, 3): the orbit's averaged e and j vectors (J2000; NaN after its impact, which comes
+    after its crossing of the higher floor ``floor_km``, the perilune radius to hold). A burn is placed
+    ``lead_days`` before each predicted crossing (at least ``check_days`` after the previous one) and sized by the
+    controller's law (:func:`_raise`); after
+    :data:`FOLLOWED_SAFETY_BURNS` burns the rest of the life is charged at their rate (the histories from there
+    on are NaN: the relative drifts go on at their mean rates).
+    """
+    gm = field.gm_km3_s2
+    e_ctl, j_ctl = e_hist.copy(), j_hist.copy()
+    t_cross = float(_first_below(t_days, sma_km * (1.0 - np.linalg.norm(e_ctl, axis=-1))[None], floor_km)[0])
+    dv, n_burns, t_first, t_last = 0.0, 0, np.nan, -np.inf
+    while np.isfinite(t_cross):
+        k = int(np.searchsorted(t_days, max(t_cross - lead_days, t_last + check_days, 0.0) - 1e-9))
+        if k >= t_days.size - 1:
+            break
+        if n_burns == FOLLOWED_SAFETY_BURNS:
+            e_ctl[k:], j_ctl[k:] = np.nan, np.nan
+            return dv * (t_days[-1] - t_first) / (t_days[k] - t_first), n_burns, e_ctl, j_ctl
+        ecc = float(np.linalg.norm(e_ctl[k]))
+        ecc_new, e_ctl[k:], j_ctl[k:], t_next = _raise(field, float(t_days[k]), sma_km, e_ctl[k], j_ctl[k], floor_km,
+                                                       t_days[k:] - t_days[k])
+        dv += _ecc_cost_kms(sma_km, ecc, ecc_new - ecc, gm)
+        n_burns += 1
+        t_first = float(t_days[k]) if n_burns == 1 else t_first
+        t_last, t_cross = float(t_days[k]), float(t_days[k]) + t_next
+    return dv, n_burns, e_ctl, j_ctl
+
+
+def _relative(x: np.ndarray) -> np.ndarray:
+    """Angles (n_sat, m) relative to their circular mean over the satellites at each time, wrapped to [-pi, pi)."""
+    diff = wrap_pi(x)
+    return wrap_pi(diff - circular_mean(diff, axis=0)[None, :])
+
+
+def node_corrections(t_days: np.ndarray, raan_rad: np.ndarray, half_rad: np.ndarray, target_fraction: float,
+                     spacing_days: float) -> list[list[tuple[int, float]]]:
+    """Relative-node corrections of each satellite: lists of (time index, RAAN change rad).
+
+    ``raan_rad`` (n_sat, m): RAAN drift of each satellite from its design value; the relative node (against the
+    circular mean over the satellites) is held within ``half_rad`` (n_sat,) by
+    :func:`lnss_lib.design_life.control.overshoot_target`, at most one correction per satellite each ``spacing_days``.
+    """
+    n, m = raan_rad.shape
+    offset = np.zeros(n)
+    last = np.full(n, -np.inf)
+    out = [[] for _ in range(n)]
+    k = 0
+    while k < m:
+        end = min(k + SEARCH_WINDOW, m)
+        rel = _relative(raan_rad[:, k:end] + offset[:, None])
+        fire = (np.abs(rel) > half_rad[:, None]) & (t_days[None, k:end] - last[:, None] >= spacing_days)
+        hit = np.flatnonzero(fire.any(axis=0))
+        if not hit.size:
+            k = end
+            continue
+        k += int(hit[0])
+        for i in np.flatnonzero(fire[:, hit[0]]):
+            change = overshoot_target(float(rel[i, hit[0]]), float(half_rad[i]), target_fraction)
+            offset[i] += change
+            last[i] = t_days[k]
+            out[i].append((k, change))
+        k += 1                                                  # one decision per check
+    return out
+
+
+def phase_corrections(t_days: np.ndarray, u_rad: np.ndarray, half_rad: float, target_fraction: float,
+                      coast_days: float, lookahead_days: float) -> list[list[tuple[int, float]]]:
+    """Drift-band slot corrections of each satellite: lists of (time index, change of drift rate rad/s).
+
+    ``u_rad`` (n_sat, m): the argument of latitude's drift from its slot; the slot (against the circular mean)
+    is held within ``half_rad``: a satellite found outside, not already commanded back inward over
+    ``lookahead_days``, gets the rate of :func:`lnss_lib.design_life.control.drift_band_rate` (no acceleration).
+    """
+    n, m = u_rad.shape
+    day_s = SECONDS_PER_DAY
+    rate = np.zeros(n)
+    t_ref = np.zeros(n)
+    offset = np.zeros(n)
+    out = [[] for _ in range(n)]
+    k = 0
+    while k < m:
+        end = min(k + SEARCH_WINDOW, m)
+        own = offset[:, None] + rate[:, None] * (t_days[None, k:end] - t_ref[:, None]) * day_s
+        rel = _relative(u_rad[:, k:end] + own)
+        ahead = rel + rate[:, None] * lookahead_days * day_s
+        fire = (np.abs(ahead) > half_rad) & (np.sign(rate)[:, None] != -np.sign(ahead))
+        hit = np.flatnonzero(fire.any(axis=0))
+        if not hit.size:
+            k = end
+            continue
+        k += int(hit[0])
+        for i in np.flatnonzero(fire[:, hit[0]]):
+            new = drift_band_rate(float(rel[i, hit[0]]), 0.0, half_rad, target_fraction, coast_days * day_s)
+            offset[i] += rate[i] * (t_days[k] - t_ref[i]) * day_s
+            t_ref[i] = t_days[k]
+            out[i].append((k, new - rate[i]))
+            rate[i] = new
+        k += 1                                                  # one decision per check
+    return out
+
+
+def _fill_forward_rates(x: np.ndarray) -> np.ndarray:
+    """Unwrapped angle histories (n, m) with NaN tails (after an averaged impact or a second safety crossing)
+    continued at their mean rate over the rest."""
+    d = np.diff(x, axis=1)
+    for i in np.flatnonzero(~np.all(np.isfinite(d), axis=1)):
+        good = np.flatnonzero(np.isfinite(d[i]))
+        if not good.size:
+            d[i] = 0.0
+            continue
+        d[i] = np.where(np.isfinite(d[i]), d[i], np.mean(d[i, good]))
+    return np.concatenate([x[:, :1], x[:, :1] + np.cumsum(d, axis=1)], axis=1)
+
+
+def life_estimate(sk_estimate: SkEstimateSettings, design_life: DesignLifeSettings, dynamics: Dynamics,
+                  arc: xr.Dataset, screen: xr.Dataset, field: SecularField) -> dict:
+    """The estimate for the evaluator's arc (every satellite) and the screen of the same states over the life.
+
+    ``arc``: a propagator Dataset; ``screen``: :func:`lnss_lib.design_life.screen.screen_states` of its first
+    states (``[stability] margin_km`` below the safety floor, so its history reaches every crossing), ``field`` the
+    averaged model it integrated. The life is the screen's. Returns ``sk_dv_estimate_kms_per_year`` (mean over
+    satellites), ``sk_dv_estimate_max_kms_per_year``, ``per_sat`` (part -> (n_sat,) km/s per year and ``total``),
+    ``n_safety_burns`` (n_sat,) and ``wall_s``.
+    """
+    start = time.perf_counter()
+    svc = design_life.service
+    gm = dynamics.gravity.gm_km3_s2
+    t0 = float(arc["time"].values[0])
+    life_days = float(screen.attrs["life_days"])
+    years = life_days / sk_estimate.year_days
+    t_days = screen["time"].values
+    rot = element_frame_to_j2000(dynamics, t0)
+    states = np.concatenate([arc["r_mci_km"].values, arc["v_mci_kms"].values], axis=-1)
+    a = screen["a_km"].values
+    ecc = screen["ecc"].values
+    inc, raan, aop = (np.radians(screen[k].values) for k in ("inc_deg", "raan_deg", "aop_deg"))
+    n_sat = a.size
+
+    floor = dynamics.r_impact_km + svc.perilune_margin_km + perilune_dip_km(states, gm)
+    mel = np.stack([np.broadcast_to(a[:, None], ecc.shape), ecc, inc, raan, aop, np.zeros_like(ecc)], axis=-1)
+    e_vec, j_vec = mean_vectors_j2000(np.nan_to_num(mel).reshape(-1, 6), rot)
+    lost = ~np.isfinite(ecc.ravel())
+    e_vec[lost], j_vec[lost] = np.nan, np.nan
+    e_vec, j_vec = e_vec.reshape(n_sat, -1, 3), j_vec.reshape(n_sat, -1, 3)
+    safety = np.zeros(n_sat)
+    n_burns = np.zeros(n_sat, dtype=int)
+    key = np.round(np.column_stack([a, ecc[:, 0], inc[:, 0], raan[:, 0], aop[:, 0]]), 9)
+    _, first, group = np.unique(key, axis=0, return_index=True, return_inverse=True)
+    group = np.asarray(group).ravel()
+    for q, i in enumerate(first):
+        members = group == q
+        floor_q = float(np.max(floor[members]))
+        if np.isnan(_first_below(t_days, a[i] * (1.0 - ecc[i])[None], floor_q)[0]):
+            continue
+        dv, count, e_ctl, j_ctl = safety_dv_kms(field, t_days, float(a[i]), e_vec[i], j_vec[i], floor_q,
+                                                svc.safety_lead_days, svc.safety_check_days)
+        safety[members], n_burns[members] = dv / years, count
+        e_vec[members], j_vec[members] = e_ctl, j_ctl
+    controlled = elements_from_vectors(e_vec, j_vec, rot.T)
+    ecc = controlled["ecc"]
+    inc, raan, aop = (np.radians(controlled[k]) for k in ("inc_deg", "raan_deg", "aop_deg"))
+
+    p = a[:, None] * (1.0 - ecc ** 2)
+    h_over_p = np.sqrt(gm / p)
+    node_cost = np.nan_to_num(h_over_p * np.abs(np.sin(inc)) * (1.0 - ecc * np.abs(np.sin(aop))))
+    raan_drift = _fill_forward_rates(np.unwrap(raan, axis=1)) - raan[:, :1]
+    half_node = raan_half_width_rad(np.radians(svc.raan_rel_deg), inc[:, 0])
+    node = np.zeros(n_sat)
+    for i, events in enumerate(node_corrections(t_days, raan_drift, half_node, design_life.target_fraction,
+                                                design_life.min_maneuver_spacing_days)):
+        node[i] = sum(abs(change) * node_cost[i, k] for k, change in events) / years
+
+    aop_drift = _fill_forward_rates(np.unwrap(aop, axis=1)) - aop[:, :1]
+    arc_t = arc["time"].values
+    drift = mean_drift(arc_t, np.concatenate([states[..., :3] @ rot, states[..., 3:] @ rot], axis=-1), gm,
+                       sk_estimate.min_periods)
+    arc_days = (arc_t[-1] - arc_t[0]) / SECONDS_PER_DAY
+    k_arc = min(int(np.searchsorted(t_days, arc_days)), t_days.size - 1)
+    aop_rate = aop_drift[:, k_arc] / max(t_days[k_arc], 1e-9) / SECONDS_PER_DAY
+    trimmed = drift["u_dot"] + 1.5 * np.sqrt(gm / a ** 3) * (drift["a_km"] - a) / a     # at the design's mean a
+    u_drift = (trimmed - aop_rate)[:, None] * t_days[None, :] * SECONDS_PER_DAY + aop_drift
+    phase_cost = np.nan_to_num(np.sqrt(1.0 - ecc ** 2) * a[:, None] / 3.0)
+    phase = np.zeros(n_sat)
+    lookahead = design_life.check_interval_days
+    events_by_sat = phase_corrections(t_days, u_drift, np.radians(svc.u_rel_deg), design_life.target_fraction,
+                                      design_life.slot_coast_days, lookahead)
+    for i, events in enumerate(events_by_sat):
+        phase[i] = sum(abs(change) * phase_cost[i, k] for k, change in events) / years
+
+    per_sat = {"safety": safety, "relative_node": node, "phase": phase}
+    per_sat["total"] = sum(per_sat[k] for k in PARTS)
+    total = per_sat["total"]
+    return {"sk_dv_estimate_kms_per_year": float(np.mean(total)),
+            "sk_dv_estimate_max_kms_per_year": float(np.max(total)),
+            "per_sat": per_sat, "n_safety_burns": n_burns, "wall_s": time.perf_counter() - start}
+
+
+def campaign_estimate(sk_estimate: SkEstimateSettings, stability: StabilitySettings, design_life: DesignLifeSettings,
+                      dynamics: Dynamics, arc: xr.Dataset, screen: xr.Dataset | None = None) -> dict:
+    """``[sk_estimate] model``'s estimate for a propagator Dataset (every satellite; e.g. the evaluator's arc).
+
+    ``"arc"``: :func:`lnss_lib.design_life.estimate.sk_estimate_from_propagation`; ``"life"``: :func:`life_estimate`
+    on ``screen`` (:func:`lnss_lib.design_life.screen.screen_states` of the arc's first states over ``[stability]
+    life_days``; computed here when not given). Returns at least ``sk_dv_estimate_kms_per_year``,
+    ``sk_dv_estimate_max_kms_per_year``, ``per_sat`` and ``wall_s``.
+    """
+    if sk_estimate.model == "arc":
+        return sk_estimate_from_propagation(sk_estimate, dynamics, arc)
+    t0 = float(arc["time"].values[0])
+    if screen is None:
+        first = np.concatenate([arc["r_mci_km"].values[:, 0], arc["v_mci_kms"].values[:, 0]], axis=-1)
+        screen = screen_states(stability, dynamics, first, t0)
+    return life_estimate(sk_estimate, design_life, dynamics, arc, screen, cached_field(stability, dynamics, t0))

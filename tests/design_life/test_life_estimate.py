@@ -1,0 +1,113 @@
+"""The life-long estimate of the service controller's cost (issue 20 item 2): frozen orbits cost nothing, the cost
+rises with the libration amplitude, a perilune predicted to cross the floor pays safety, and the band laws."""
+
+import numpy as np
+import pytest
+
+from lnss_lib.constants import SECONDS_PER_DAY
+from lnss_lib.design_life import life_estimate as le
+from lnss_lib.design_life.frozen import FrozenModel, libration
+from lnss_lib.design_life.screen import screen_states
+from lnss_lib.ephemeris import ensure_kernels, tdb_seconds
+from lnss_lib.evaluator import context_for, evaluate_design
+from lnss_lib.propagator import elements_deg_to_states, propagate_states
+from lnss_lib.settings import load_settings
+
+LIFE = {"frames": {"element_frame": "moon_op"}, "sk_estimate": {"model": "life", "element_frame": "moon_op"},
+        "gravity": {"degree": 8}, "stability": {"life_days": 365.25}}
+ELFO = (6143.0, 0.6, 51.7)
+"""The Table 4 ELFO's a, e, i: frozen in moon_op (e^2 + 5/3 cos^2 i = 1 near e 0.6, i 51.7 deg)."""
+
+
+@pytest.fixture(scope="module")
+def profile():
+    prof = load_settings("operational", overrides=LIFE)
+    ensure_kernels(prof.ephemeris)
+    return prof
+
+
+def _estimate(profile, elements):
+    """The campaign's estimate of elements (n, 6) [a, e, i, RAAN, AOP, M] (moon_op) from their 10-day arc."""
+    dyn = profile.dynamics
+    t0 = tdb_seconds(profile.epoch.start_tdb, "TDB")
+    states = elements_deg_to_states(dyn, np.asarray(elements, dtype=float), t0)
+    arc = propagate_states(dyn, states, t0, profile.epoch.duration_days * SECONDS_PER_DAY, profile.epoch.step_s,
+                           batch=True)
+    return le.campaign_estimate(profile.sk_estimate, profile.stability, profile.design_life, dyn, arc)
+
+
+def _two_planes(a, e, inc, aop):
+    return [[a, e, inc, 0.0, aop, 0.0], [a, e, inc, 180.0, aop, 0.0]]
+
+
+def test_frozen_orbit_that_meets_every_requirement_costs_nothing(profile):
+    """The Table 4 ELFO read in moon_op, one satellite per plane: the closed loop flies no burn there (notebook 08,
+    issue 19), and the estimate charges nothing for any purpose."""
+    est = _estimate(profile, _two_planes(*ELFO, 90.0))
+    for part in (*le.PARTS, "total"):
+        assert np.all(est["per_sat"][part] == 0.0), part
+    assert est["sk_dv_estimate_max_kms_per_year"] == 0.0 and np.all(est["n_safety_burns"] == 0)
+
+
+def test_estimate_rises_with_the_libration_amplitude(profile):
+    """Same a, e and i, the apse line moved away from the frozen AOP 90 deg: the libration swings e higher (the
+    frozen model's range) and the safety cost grows with it, from nothing at the frozen point."""
+    t0 = tdb_seconds(profile.epoch.start_tdb, "TDB")
+    model = FrozenModel.from_settings(profile.stability, profile.dynamics, t0)
+    aops = (90.0, 70.0, 50.0, 30.0)
+    e_max = [libration(model, *ELFO, aop)["ecc_max"] for aop in aops]
+    assert np.all(np.diff(e_max) > 0.0)
+    safety = [float(np.mean(_estimate(profile, _two_planes(*ELFO, aop))["per_sat"]["safety"])) for aop in aops]
+    assert safety[0] == 0.0
+    assert np.all(np.diff(safety) >= 0.0) and safety[-1] > 0.1        # km/s per year
+
+
+def test_perilune_predicted_to_cross_the_floor_pays_safety(profile):
+    """Lidov-Kozai drives this perilune into the surface within two months (the screen says so); the estimate
+    places a safety burn before the crossing and books a positive safety share."""
+    elements = [[6143.0, 0.6, 70.0, 0.0, 45.0, 0.0]]
+    dyn = profile.dynamics
+    t0 = tdb_seconds(profile.epoch.start_tdb, "TDB")
+    screen = screen_states(profile.stability, dyn, elements_deg_to_states(dyn, np.array(elements), t0), t0)
+    assert not screen.attrs["stable"]
+    est = _estimate(profile, elements)
+    assert est["n_safety_burns"][0] >= 1
+    assert est["per_sat"]["safety"][0] > 0.0
+    assert est["per_sat"]["total"][0] == pytest.approx(sum(est["per_sat"][p][0] for p in le.PARTS))
+
+
+def test_node_band_corrects_a_steady_differential_drift():
+    """Two satellites drifting apart at a steady rate: each is corrected when its offset from the mean leaves the
+    band, aimed past the reference (overshoot law), no more often than the spacing."""
+    t = np.arange(0.0, 366.0)
+    rate = np.radians(0.1)                                     # rad/day, each way
+    drift = np.stack([rate * t, -rate * t])
+    half = np.radians(np.array([3.0, 3.0]))
+    events = le.node_corrections(t, drift, half, 0.8, 7.0)
+    for sat in events:
+        days = np.array([k for k, _ in sat])
+        assert days.size >= 5 and np.all(np.diff(days) >= 7)
+    total = sum(abs(change) for sat in events for _, change in sat)
+    assert total == pytest.approx(2.0 * rate * 365.0, rel=0.15)    # the drift taken out, to within one band
+    assert le.node_corrections(t, 0.5 * half[:, None] * np.ones((2, t.size)), half, 0.8, 7.0) == [[], []]
+
+
+def test_phase_band_sets_a_drift_rate_only_outside():
+    """A slot drifting out of its band gets a drift rate back across it; slots inside the band get nothing."""
+    t = np.arange(0.0, 200.0)
+    half = np.radians(20.0)
+    assert le.phase_corrections(t, np.zeros((3, t.size)), half, 0.8, 45.0, 1.0) == [[], [], []]
+    drift = np.stack([np.radians(0.5) * t, np.zeros_like(t)])
+    events = le.phase_corrections(t, drift, half, 0.8, 45.0, 1.0)
+    first_day, first_rate = events[0][0]
+    assert 60 <= first_day <= 90                                # the relative offset (half the drift) leaves 20 deg
+    assert first_rate < 0.0                                     # commanded back
+    assert abs(first_rate) * 45.0 * SECONDS_PER_DAY == pytest.approx(1.8 * half, rel=0.3)
+
+
+def test_evaluator_reports_the_life_estimate_when_asked():
+    """``[sk_estimate] model = "life"`` changes only the estimate's model: the evaluator's keys stay the same."""
+    over = {**LIFE, "evaluator": {"extra_metrics": ["sk_dv_estimate_kms_per_year", "sk_dv_estimate_max_kms_per_year",
+                                                    "stable_screen"]}}
+    metrics = evaluate_design(context_for(load_settings("ci", overrides=over)), 6143.0, 0.6, 90.0, 51.7, 2, 1)
+    assert metrics["sk_dv_estimate_kms_per_year"] == 0.0 and metrics["stable_screen"] == 1.0
