@@ -349,6 +349,7 @@ class StabilitySettings:
     atol: float
     output_step_days: float
     margin_km: float
+    monthly_terms: bool
     validation_degree: int
     validation_step_s: float
     validation_designs: tuple[tuple[int | float, ...], ...]   # Walker rows (a_km, e, aop, inc, planes, per plane)
