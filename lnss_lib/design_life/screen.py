@@ -30,10 +30,20 @@ Dropped terms, by argument:
   period with the lunar rotation are not modelled.
 * J3 and higher zonals (J3/J2 ~ 0.04; they shape the e-AOP frozen family of low orbits, not the
   Lidov-Kozai growth that ends high inclined orbits), SRP, octupole tide ((a / a_E) e_E terms).
-* Short-period and monthly terms: the screen's ``e`` is a mean eccentricity, started from the
-  osculating one. The real perilune oscillates about the mean one by the monthly tidal terms, whose
-  amplitude grows with a (the averaging assumes the orbital period << one month: 0.5 d at
-  a = 6000 km, 3.9 d at a = 24000 km); ``[stability] margin_km`` raises the floor to allow for it.
+* Monthly terms are not dropped from the verdict (``[stability] monthly_terms``): the tide's oscillation
+  about its month-mean swings e at twice the Earth's sidereal rate, by ~ (15/16) (n_month / n) e sqrt(1 - e^2)
+  (0.012 at a = 7800 km, e = 0.74: 95 km of perilune; 0.05 at a = 20900 km, e = 0.8: 1000 km), enough to
+  take a perilune the mean model keeps at 290 km into the surface within days. :class:`MonthlyTide`
+  restores them to first order (near-identity averaging transform): the initial osculating vectors are
+  turned into mean ones, and the verdict is on the perilune with the terms put back along the mean
+  solution, so the Earth's orbital eccentricity (its monthly term) and the Sun's half-year term come
+  with the ephemeris.
+* Orbit-period (short-period) terms: within one orbit the tide moves e by at most ~ 4 pi c (1 + e) / n^2
+  (:func:`lnss_lib.design_life.frozen.allowances`; a bound: 110 km of perilune at a = 8000 km, e = 0.5);
+  ``[stability] margin_km`` raises the floor to allow for them. The averaging also assumes the orbital
+  period << one month (0.5 d at a = 6000 km, 3.9 d at a = 24000 km, a / a_Hill = 0.39): at the top of
+  Table 3 the model's perilune is good to a few hundred km, not tens
+  (:mod:`lnss_lib.studies.screen_validation` measures the agreement with the full model).
 """
 
 from __future__ import annotations
