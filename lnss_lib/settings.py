@@ -432,6 +432,8 @@ class LifeEvaluationSettings:
     anchor_life_days: float
     validation_frames: tuple[str, ...]
     validation_designs: tuple[tuple[int | float, ...], ...]   # Walker rows (a_km, e, aop, inc, planes, per plane)
+    screen_validation_designs: int          # random Table 3 designs of studies.screen_validation
+    screen_validation_life_days: float      # ... flown this long (0: the screened profile's [stability] life_days)
 
 
 @dataclass(frozen=True)
