@@ -30,7 +30,7 @@ Dropped terms, by argument:
   period with the lunar rotation are not modelled.
 * J3 and higher zonals (J3/J2 ~ 0.04; they shape the e-AOP frozen family of low orbits, not the
   Lidov-Kozai growth that ends high inclined orbits), SRP, octupole tide ((a / a_E) e_E terms).
-* Monthly terms are not dropped from the verdict (``[stability] monthly_terms``): the tide's oscillation
+* Monthly terms (kept in the verdict with ``[stability] monthly_terms``, the operational profiles): the tide's oscillation
   about its month-mean swings e at twice the Earth's sidereal rate, by ~ (15/16) (n_month / n) e sqrt(1 - e^2)
   (0.012 at a = 7800 km, e = 0.74: 95 km of perilune; 0.05 at a = 20900 km, e = 0.8: 1000 km), enough to
   take a perilune the mean model keeps at 290 km into the surface within days. :class:`MonthlyTide`
