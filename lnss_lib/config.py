@@ -219,7 +219,7 @@ RANGES = {
     "stability.life_days": POSITIVE, "stability.average_days": POSITIVE, "stability.table_step_days": POSITIVE,
     "stability.rtol": TOLERANCE, "stability.atol": TOLERANCE, "stability.output_step_days": POSITIVE,
     "stability.margin_km": NON_NEGATIVE, "stability.validation_degree": (0, 100, False, False),
-    "stability.validation_step_s": POSITIVE,
+    "stability.validation_step_s": POSITIVE, "stability.step_days": POSITIVE,
     "sk_estimate.year_days": POSITIVE, "sk_estimate.min_periods": POSITIVE,
     "sk_estimate.along_track_rebias_per_year": NON_NEGATIVE,
     "design_life.life_days": POSITIVE, "design_life.check_interval_days": POSITIVE,
@@ -266,7 +266,7 @@ PAPER_NORMAL = ("weighted", "eq32", "rss")
 PAPER_RADIAL = ("weighted", "eq35")
 EVALUATORS = ("walker", "synthetic")
 NOTEBOOK_MODES = ("run", "load")                  # notebook 06 runs the campaign itself, or loads the latest CLI run
-STABILITY_METHODS = ("DOP853", "RK45", "Radau", "LSODA")
+STABILITY_METHODS = ("DOP853", "RK45", "Radau", "LSODA", "RK4")
 STABILITY_BODIES = ("EARTH", "SUN")
 CONTROLLERS = ("service", "box")                 # design life: hold the service (design_life.service) or the fixed-element box
 CHOICES = {    # a text setting (or each entry of a list of texts) -> its allowed values

@@ -347,6 +347,7 @@ class StabilitySettings:
     method: str
     rtol: float
     atol: float
+    step_days: float
     output_step_days: float
     margin_km: float
     monthly_terms: bool

@@ -317,13 +317,66 @@ def _rhs_kernel(y: np.ndarray, sma_km: np.ndarray, tide: np.ndarray, pole: np.nd
     return out
 
 
+@nb.njit(cache=True)
+def _field_rhs(t_day: float, y: np.ndarray, sma_km: np.ndarray, knots: np.ndarray, coef: np.ndarray, gm: float,
+               j2: float, r_ref: float) -> np.ndarray:
+    v = _spline_at(knots, coef, t_day)
+    return _rhs_kernel(y, sma_km, v[:9].copy().reshape(3, 3), v[9:].copy(), gm, j2, r_ref, SECONDS_PER_DAY)
+
+
+@nb.njit(cache=True)
+def _rk4_secular(y0: np.ndarray, sma_km: np.ndarray, floor_km: np.ndarray, t_out: np.ndarray, max_step_days: float,
+                 knots: np.ndarray, coef: np.ndarray, gm: float, j2: float, r_ref: float):
+    """Classical RK4 over ``t_out`` (each output interval in equal steps of at most ``max_step_days``); an orbit
+    whose perilune ``a (1 - |e|)`` reaches its floor stops there (crossing interpolated linearly in the step).
+    Returns (states (m, 6 n), NaN after an impact; impact_day (n,); number of right-hand sides)."""
+    n = sma_km.size
+    out = np.full((t_out.size, 6 * n), np.nan)
+    impact = np.full(n, np.nan)
+    y = y0.copy()
+    margin = np.empty(n)
+    for q in range(n):
+        e = y[6 * q:6 * q + 3]
+        margin[q] = sma_km[q] * (1.0 - np.sqrt(e[0] * e[0] + e[1] * e[1] + e[2] * e[2])) - floor_km[q]
+        if margin[q] <= 0.0:
+            impact[q] = t_out[0]
+            y[6 * q:6 * q + 6] = np.nan
+    out[0] = y
+    n_rhs = 0
+    for i in range(t_out.size - 1):
+        steps = max(int(np.ceil((t_out[i + 1] - t_out[i]) / max_step_days - 1e-9)), 1)
+        h = (t_out[i + 1] - t_out[i]) / steps
+        for k in range(steps):
+            t = t_out[i] + k * h
+            k1 = _field_rhs(t, y, sma_km, knots, coef, gm, j2, r_ref)
+            k2 = _field_rhs(t + 0.5 * h, y + 0.5 * h * k1, sma_km, knots, coef, gm, j2, r_ref)
+            k3 = _field_rhs(t + 0.5 * h, y + 0.5 * h * k2, sma_km, knots, coef, gm, j2, r_ref)
+            k4 = _field_rhs(t + h, y + h * k3, sma_km, knots, coef, gm, j2, r_ref)
+            y = y + h / 6.0 * (k1 + 2.0 * k2 + 2.0 * k3 + k4)
+            n_rhs += 4
+            for q in range(n):
+                if not np.isnan(impact[q]):
+                    continue
+                e = y[6 * q:6 * q + 3]
+                m = sma_km[q] * (1.0 - np.sqrt(e[0] * e[0] + e[1] * e[1] + e[2] * e[2])) - floor_km[q]
+                if m <= 0.0:
+                    impact[q] = t + h * margin[q] / (margin[q] - m)
+                    y[6 * q:6 * q + 6] = np.nan
+                margin[q] = m
+        out[i + 1] = y
+    return out, impact, n_rhs
+
+
 def integrate_secular(sma_km, e0, j0, field: SecularField, life_days: float, *, floor_km=None,
                       method: str = "DOP853", rtol: float = 1e-9, atol: float = 1e-11,
-                      output_step_days: float = 1.0) -> dict:
+                      output_step_days: float = 1.0, step_days: float = 0.5) -> dict:
     """Integrate orbits (n,) from (e0, j0) (n, 3) for ``life_days``; stop an orbit whose perilune reaches ``floor_km``.
 
+    ``method``: a scipy ``solve_ivp`` method (``rtol``, ``atol``; the crossing located by an event to the
+    integrator's accuracy), or ``"RK4"``: a compiled fixed-step RK4 of at most ``step_days`` (the
+    crossing interpolated within the step; over five years 0.1 s a design instead of 0.7 s).
     Returns ``t_days`` (m,), ``e`` and ``j`` (n, m, 3) (NaN after an impact), ``impact_day`` (n,)
-    (NaN when none; located by a solve_ivp event to the integrator's accuracy), ``n_rhs``.
+    (NaN when none), ``n_rhs``.
     """
     a = np.atleast_1d(np.asarray(sma_km, dtype=float))
     y0 = np.concatenate([np.atleast_2d(e0), np.atleast_2d(j0)], axis=1)
@@ -334,6 +387,12 @@ def integrate_secular(sma_km, e0, j0, field: SecularField, life_days: float, *, 
     t_out = np.arange(0.0, life_days + 1e-9, output_step_days)
     if t_out[-1] < life_days:
         t_out = np.append(t_out, life_days)
+    if method == "RK4":
+        states, impact_day, n_rhs = _rk4_secular(y0.ravel(), a, np.asarray(floor, dtype=float).copy(), t_out,
+                                                 float(step_days), field._knots, field._coef, field.gm_km3_s2,
+                                                 field.j2, field.r_ref_km)
+        out = states.reshape(t_out.size, n, 6).transpose(1, 0, 2)
+        return {"t_days": t_out, "e": out[..., :3], "j": out[..., 3:], "impact_day": impact_day, "n_rhs": int(n_rhs)}
     out = np.full((n, t_out.size, 6), np.nan)
     impact_day = np.full(n, np.nan)
     alive = np.arange(n)
@@ -423,8 +482,8 @@ def screen_states(stability: StabilitySettings, dynamics: Dynamics, states_mci, 
         e0, j0 = e0 - de0, j0 - dj0
     r_moon = dynamics.constants.r_moon_mean_km
     floor = r_moon + dynamics.impact.min_altitude_km + cfg.margin_km
-    res = integrate_secular(a_u, e0, j0, field, cfg.life_days, floor_km=floor,
-                            method=cfg.method, rtol=cfg.rtol, atol=cfg.atol, output_step_days=cfg.output_step_days)
+    res = integrate_secular(a_u, e0, j0, field, cfg.life_days, floor_km=floor, method=cfg.method, rtol=cfg.rtol,
+                            atol=cfg.atol, output_step_days=cfg.output_step_days, step_days=cfg.step_days)
     t_days, impact_u = res["t_days"], res["impact_day"]
     e_osc = res["e"]
     if monthly is not None:

@@ -164,8 +164,11 @@ def frame_readings(front: xr.Dataset, settings_by_frame: dict, *, front_frame: s
     return table
 
 
-def frame_summary(readings: pd.DataFrame, metrics=("pdop_mean_3sigma", "pdop_avail_pct", "sk_dv_estimate_kms_per_year",
-                                                   "sk_dv_estimate_max_kms_per_year", "screen_min_perilune_alt_km")) -> pd.DataFrame:
+FRAME_SUMMARY_METRICS = ("pdop_mean_3sigma", "pdop_avail_pct", "sk_dv_estimate_kms_per_year",
+                         "sk_dv_estimate_max_kms_per_year", "screen_min_perilune_alt_km")
+
+
+def frame_summary(readings: pd.DataFrame, metrics=FRAME_SUMMARY_METRICS) -> pd.DataFrame:
     """Per frame of :func:`frame_readings`: designs, designs meeting the bounds, stable by the screen, and the
     median of each of ``metrics`` present."""
     present = [m for m in metrics if m in readings]

@@ -107,8 +107,10 @@ def agreement(table: pd.DataFrame) -> dict:
     wrong = t[t["screen_unstable"] != t["truth_unstable"]].copy()
     wrong["call"] = np.where(wrong["truth_unstable"], "missed impact", "false alarm")
     n = int(by_design.shape[0])
-    return {"n_designs": n, "n_agree": int(agree.sum()), "agreement_pct": 100.0 * float(agree.mean()) if n else float("nan"),
+    plane_agree = t["screen_unstable"] == t["truth_unstable"]
+    return {"n_designs": n, "n_agree": int(agree.sum()),
+            "agreement_pct": 100.0 * float(agree.mean()) if n else float("nan"),
             "missed_impacts": int((by_design["truth_unstable"] & ~by_design["screen_unstable"]).sum()),
             "false_alarms": int((~by_design["truth_unstable"] & by_design["screen_unstable"]).sum()),
-            "plane_agreement_pct": 100.0 * float((t["screen_unstable"] == t["truth_unstable"]).mean()) if len(t) else float("nan"),
+            "plane_agreement_pct": 100.0 * float(plane_agree.mean()) if len(t) else float("nan"),
             "misses": wrong[[*MISS_COLUMNS, "call"]].reset_index(drop=True)}

@@ -109,8 +109,10 @@ def test_screen_agrees_with_the_full_model_on_a_stable_and_an_impacting_design(p
 # lunar equator 7800/0.74/AOP 90/17 deg: days 5.0 and 4.3; 20900/0.8/120/52: 78.4 and 91.0;
 # moon_op 7800/0.74/0/17: days 5.0 and 5.0; 14300/0.5/30/55: day 49.6 (the other plane survives).
 @pytest.mark.parametrize("frame, design, first_day", [
-    ("lunar_equator_of_epoch", (7800.0, 0.74, 90.0, 17.0, 2, 1), 4.3), ("lunar_equator_of_epoch", (20900.0, 0.8, 120.0, 52.0, 2, 1), 78.4),
-    ("moon_op", (7800.0, 0.74, 0.0, 17.0, 2, 1), 5.0), ("moon_op", (14300.0, 0.5, 30.0, 55.0, 2, 1), 49.6)])
+    ("lunar_equator_of_epoch", (7800.0, 0.74, 90.0, 17.0, 2, 1), 4.3),
+    ("lunar_equator_of_epoch", (20900.0, 0.8, 120.0, 52.0, 2, 1), 78.4),
+    ("moon_op", (7800.0, 0.74, 0.0, 17.0, 2, 1), 5.0),
+    ("moon_op", (14300.0, 0.5, 30.0, 55.0, 2, 1), 49.6)])
 def test_the_monthly_terms_catch_the_early_impacts_the_double_average_missed(frame, design, first_day):
     profile = load_settings("operational", overrides={"frames": {"element_frame": frame}})
     elements = WalkerDesign(*design).elements_deg()
@@ -154,3 +156,17 @@ def test_monthly_tide_has_zero_mean_and_the_half_month_swing(paper_profile, epoc
     # the dominant term of T - <T> turns at twice the Earth's sidereal rate: Z's amplitude ~ c / (2 * 2 n_month)
     n_month = 2.0 * np.pi / (st.SIDEREAL_MONTH_DAYS * 86400.0)
     assert 0.5 * np.ptp(z) == pytest.approx(0.5 * GM_EARTH / A_EARTH_KM**3 / (2.0 * n_month), rel=0.35)
+
+
+def test_compiled_rk4_gives_the_dop853_verdicts():
+    profile = load_settings("operational")
+    assert profile.stability.method == "RK4"
+    reference = dataclasses.replace(profile.stability, method="DOP853")
+    for design in [(18000.0, 0.4, 90.0, 80.0, 3, 1), (6143.0, 0.6, 90.0, 51.7, 2, 1), (7800.0, 0.74, 0.0, 17.0, 2, 1)]:
+        elements = WalkerDesign(*design).elements_deg()
+        fast = st.screen_elements(profile.stability, profile.dynamics, profile.epoch, elements, life_days=400.0)
+        slow = st.screen_elements(reference, profile.dynamics, profile.epoch, elements, life_days=400.0)
+        assert fast.attrs["stable"] == slow.attrs["stable"]
+        np.testing.assert_allclose(fast.impact_day.values, slow.impact_day.values, atol=0.05)
+        np.testing.assert_allclose(fast.min_perilune_alt_km.values, slow.min_perilune_alt_km.values, atol=1.0)
+        np.testing.assert_allclose(fast.ecc.values, slow.ecc.values, atol=1e-5)
