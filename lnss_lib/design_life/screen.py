@@ -500,7 +500,7 @@ def screen_states(stability: StabilitySettings, dynamics: Dynamics, states_mci, 
     alt_osc = alt_osc_u[inverse]
     impact_day = impact_u[inverse]
     with np.errstate(invalid="ignore"):
-        alt_min = np.where(np.isnan(impact_day), np.nanmin(np.fmin(alt_osc, alt), axis=1), floor - r_moon)
+        alt_min = np.where(np.isnan(impact_day), np.nanmin(alt_osc, axis=1), floor - r_moon)
     ds = xr.Dataset(
         {**{k: (("sat", "time"), v) for k, v in el.items()}, "perilune_alt_km": (("sat", "time"), alt),
          "osc_perilune_alt_km": (("sat", "time"), alt_osc),
