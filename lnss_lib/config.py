@@ -220,6 +220,7 @@ RANGES = {
     "stability.rtol": TOLERANCE, "stability.atol": TOLERANCE, "stability.output_step_days": POSITIVE,
     "stability.margin_km": NON_NEGATIVE, "stability.validation_degree": (0, 100, False, False),
     "stability.validation_step_s": POSITIVE, "stability.step_days": POSITIVE,
+    "stability.validity_period_fraction": POSITIVE, "stability.validity_ecc": NON_NEGATIVE,
     "sk_estimate.year_days": POSITIVE, "sk_estimate.min_periods": POSITIVE,
     "sk_estimate.along_track_rebias_per_year": NON_NEGATIVE,
     "design_life.life_days": POSITIVE, "design_life.check_interval_days": POSITIVE,

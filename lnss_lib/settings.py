@@ -351,6 +351,8 @@ class StabilitySettings:
     output_step_days: float
     margin_km: float
     monthly_terms: bool
+    validity_period_fraction: float
+    validity_ecc: float
     validation_degree: int
     validation_step_s: float
     validation_designs: tuple[tuple[int | float, ...], ...]   # Walker rows (a_km, e, aop, inc, planes, per plane)

@@ -44,6 +44,11 @@ Dropped terms, by argument:
   period << one month (0.5 d at a = 6000 km, 3.9 d at a = 24000 km, a / a_Hill = 0.39): at the top of
   Table 3 the model's perilune is good to a few hundred km, not tens
   (:mod:`lnss_lib.studies.screen_validation` measures the agreement with the full model).
+* The validity limit (``[stability] validity_period_fraction``, ``validity_ecc``; the operational profiles):
+  beyond a tenth of a month's period the tide turns by more than 36 deg during one orbit, and the orbit
+  average errs by O(n_month / n) (a singly-averaged run with the instantaneous tide gets the impact days
+  right to a median 0.2 d but still keeps those orbits' perilunes up); there, with e >= 0.5, the
+  screen does not vouch and judges the orbit unstable.
 """
 
 from __future__ import annotations
@@ -456,7 +461,9 @@ def screen_states(stability: StabilitySettings, dynamics: Dynamics, states_mci, 
     With ``[stability] monthly_terms`` the states' vectors are taken as orbit-averaged (not month-averaged)
     ones: the monthly terms of :class:`MonthlyTide` are removed before the doubly-averaged integration
     and restored along it, and the verdict is on the restored perilune ``a (1 - |e + de|)``, sampled
-    every ``output_step_days``, or the mean one's crossing, whichever comes first.
+    every ``output_step_days``, or the mean one's crossing, whichever comes first. An orbit outside the
+    model's validity (:func:`_outside_validity`: ``[stability] validity_period_fraction``, ``validity_ecc``)
+    is judged unstable from the start (``impact_day`` 0, ``outside_validity`` True).
 
     Returns a Dataset: mean ``ecc``, ``inc_deg``, ``raan_deg``, ``aop_deg`` (the element frame of
     ``dynamics.frames``) and ``perilune_alt_km``, the restored ``osc_perilune_alt_km`` (sat, time in days;
@@ -498,22 +505,31 @@ def screen_states(stability: StabilitySettings, dynamics: Dynamics, states_mci, 
     el = elements_from_vectors(res["e"][inverse], res["j"][inverse], rot)
     alt = a[:, None] * (1.0 - el["ecc"]) - r_moon
     alt_osc = alt_osc_u[inverse]
-    impact_day = impact_u[inverse]
+    outside = _outside_validity(cfg, a, np.linalg.norm(e_vec, axis=1), gm)
+    impact_day = np.where(outside, 0.0, impact_u[inverse])
     with np.errstate(invalid="ignore"):
         alt_min = np.where(np.isnan(impact_day), np.nanmin(alt_osc, axis=1), floor - r_moon)
     ds = xr.Dataset(
         {**{k: (("sat", "time"), v) for k, v in el.items()}, "perilune_alt_km": (("sat", "time"), alt),
          "osc_perilune_alt_km": (("sat", "time"), alt_osc),
          "min_perilune_alt_km": ("sat", alt_min), "impact": ("sat", ~np.isnan(impact_day)),
-         "impact_day": ("sat", impact_day), "a_km": ("sat", a)},
+         "impact_day": ("sat", impact_day), "outside_validity": ("sat", outside), "a_km": ("sat", a)},
         coords={"sat": np.arange(a.size), "time": t_days},
         attrs={"stable": bool(np.all(np.isnan(impact_day))), "min_perilune_alt_km": float(np.min(alt_min)),
                "impact_day": float(np.nanmin(impact_day)) if np.any(~np.isnan(impact_day)) else float("nan"),
                "life_days": cfg.life_days, "floor_alt_km": floor - r_moon, "n_orbits": int(first.size),
-               "monthly_terms": monthly is not None, "n_rhs": res["n_rhs"],
+               "monthly_terms": monthly is not None, "n_outside_validity": int(outside.sum()), "n_rhs": res["n_rhs"],
                "element_frame": dynamics.frames.element_frame, "wall_s": time.perf_counter() - start})
     ds["time"].attrs["units"] = "days since the epoch"
     return ds
+
+
+def _outside_validity(stability: StabilitySettings, sma_km: np.ndarray, ecc: np.ndarray, gm_km3_s2: float) -> np.ndarray:
+    """Orbits (n,) beyond the averaged model's validity: period above ``validity_period_fraction`` of a sidereal
+    month (n_month / n; 0.1 at a = 19,060 km, a / a_Hill = 0.31) with e at least ``validity_ecc``."""
+    n_month = 2.0 * np.pi / (SIDEREAL_MONTH_DAYS * SECONDS_PER_DAY)
+    ratio = n_month / np.sqrt(gm_km3_s2 / np.asarray(sma_km, dtype=float) ** 3)
+    return (ratio >= stability.validity_period_fraction) & (np.asarray(ecc) >= stability.validity_ecc)
 
 
 def screen_elements(stability: StabilitySettings, dynamics: Dynamics, epoch: EpochSettings, elements_deg, *,

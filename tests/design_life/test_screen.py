@@ -115,11 +115,13 @@ def test_screen_agrees_with_the_full_model_on_a_stable_and_an_impacting_design(p
     ("moon_op", (14300.0, 0.5, 30.0, 55.0, 2, 1), 49.6)])
 def test_the_monthly_terms_catch_the_early_impacts_the_double_average_missed(frame, design, first_day):
     profile = load_settings("operational", overrides={"frames": {"element_frame": frame}})
+    model = dataclasses.replace(profile.stability, validity_period_fraction=1.0)   # the model itself, everywhere
     elements = WalkerDesign(*design).elements_deg()
-    ds = st.screen_elements(profile.stability, profile.dynamics, profile.epoch, elements, life_days=200.0)
+    ds = st.screen_elements(model, profile.dynamics, profile.epoch, elements, life_days=200.0)
     assert not ds.attrs["stable"] and ds.attrs["monthly_terms"]
     assert ds.attrs["impact_day"] == pytest.approx(first_day, rel=0.4, abs=1.5)
-    without = dataclasses.replace(profile.stability, monthly_terms=False)
+    assert not st.screen_elements(profile.stability, profile.dynamics, profile.epoch, elements, life_days=200.0).attrs["stable"]
+    without = dataclasses.replace(model, monthly_terms=False)
     assert st.screen_elements(without, profile.dynamics, profile.epoch, elements, life_days=200.0).attrs["stable"]
 
 
@@ -170,3 +172,17 @@ def test_compiled_rk4_gives_the_dop853_verdicts():
         np.testing.assert_allclose(fast.impact_day.values, slow.impact_day.values, atol=0.05)
         np.testing.assert_allclose(fast.min_perilune_alt_km.values, slow.min_perilune_alt_km.values, atol=1.0)
         np.testing.assert_allclose(fast.ecc.values, slow.ecc.values, atol=1e-5)
+
+
+def test_orbits_beyond_the_averaged_models_validity_are_judged_unstable():
+    # a = 22000 km: the period is 0.12 of a sidereal month. The full model takes 22000/0.56/128/30 (moon_op) into the
+    # surface on day 574 while the averaged model keeps its perilune above 3000 km; 22000/0.49/229/39 survives.
+    profile = load_settings("operational")
+    high = WalkerDesign(22000.0, 0.56, 128.0, 30.0, 2, 1).elements_deg()
+    ds = st.screen_elements(profile.stability, profile.dynamics, profile.epoch, high, life_days=30.0)
+    assert not ds.attrs["stable"] and ds.attrs["n_outside_validity"] == 2 and ds.attrs["impact_day"] == 0.0
+    below = WalkerDesign(22000.0, 0.49, 229.0, 39.0, 2, 1).elements_deg()
+    ds = st.screen_elements(profile.stability, profile.dynamics, profile.epoch, below, life_days=30.0)
+    assert ds.attrs["stable"] and not ds.outside_validity.values.any()
+    paper = load_settings("paper")                        # no limit in the paper profile
+    assert st.screen_elements(paper.stability, paper.dynamics, paper.epoch, high, life_days=30.0).attrs["n_outside_validity"] == 0
