@@ -220,7 +220,8 @@ RANGES = {
     "stability.life_days": POSITIVE, "stability.average_days": POSITIVE, "stability.table_step_days": POSITIVE,
     "stability.rtol": TOLERANCE, "stability.atol": TOLERANCE, "stability.output_step_days": POSITIVE,
     "stability.margin_km": NON_NEGATIVE, "stability.validation_degree": (0, 100, False, False),
-    "stability.validation_step_s": POSITIVE,
+    "stability.validation_step_s": POSITIVE, "stability.step_days": POSITIVE,
+    "stability.validity_period_fraction": POSITIVE, "stability.validity_ecc": NON_NEGATIVE,
     "sk_estimate.year_days": POSITIVE, "sk_estimate.min_periods": POSITIVE,
     "sk_estimate.along_track_rebias_per_year": NON_NEGATIVE,
     "design_life.life_days": POSITIVE, "design_life.check_interval_days": POSITIVE,
@@ -231,6 +232,8 @@ RANGES = {
     "design_life.slot_fit_days": POSITIVE, "design_life.slot_quad_days": POSITIVE,
     "design_life.tide_period_days": POSITIVE, "design_life.target_fraction": (0.0, 1.0, False, True),
     "life_evaluation.sample_step_s": POSITIVE, "life_evaluation.month_days": POSITIVE,
+    "life_evaluation.screen_validation_designs": (0, None, False, False),
+    "life_evaluation.screen_validation_life_days": NON_NEGATIVE,
 }
 _TOLERANCE_WHY = (f"below about 100 machine epsilons ({TOLERANCE_FLOOR:g}) an integrator's error test asks for what "
                   "double precision cannot resolve")
@@ -265,7 +268,7 @@ PAPER_NORMAL = ("weighted", "eq32", "rss")
 PAPER_RADIAL = ("weighted", "eq35")
 EVALUATORS = ("walker", "synthetic")
 NOTEBOOK_MODES = ("run", "load")                  # notebook 06 runs the campaign itself, or loads the latest CLI run
-STABILITY_METHODS = ("DOP853", "RK45", "Radau", "LSODA")
+STABILITY_METHODS = ("DOP853", "RK45", "Radau", "LSODA", "RK4")
 STABILITY_BODIES = ("EARTH", "SUN")
 SK_ESTIMATE_MODELS = ("arc", "life")             # campaign estimate: the 10-day box slope, or the service controller's life
 CONTROLLERS = ("service", "box")                 # design life: hold the service (design_life.service) or the fixed-element box

@@ -286,8 +286,14 @@ class DesignExplorer:
         self._render()
 
     def _on_profile(self, change) -> None:
+        """A new profile brings its own element frame and Delta-V model (``operational`` reads ``moon_op``)."""
         design = self.design()
         self.profile = load_settings(change["new"], overrides=self.overrides)
+        for control, value in ((self.frame_choice, self.profile.frames.element_frame),
+                               (self.model_choice, self.profile.deltav.model)):
+            control.unobserve(self.refresh, names="value")
+            control.value = value
+            control.observe(self.refresh, names="value")
         self._configure_sliders(design)
         self.refresh()
 

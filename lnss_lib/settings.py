@@ -347,8 +347,12 @@ class StabilitySettings:
     method: str
     rtol: float
     atol: float
+    step_days: float
     output_step_days: float
     margin_km: float
+    monthly_terms: bool
+    validity_period_fraction: float
+    validity_ecc: float
     validation_degree: int
     validation_step_s: float
     validation_designs: tuple[tuple[int | float, ...], ...]   # Walker rows (a_km, e, aop, inc, planes, per plane)
@@ -432,6 +436,8 @@ class LifeEvaluationSettings:
     anchor_life_days: float
     validation_frames: tuple[str, ...]
     validation_designs: tuple[tuple[int | float, ...], ...]   # Walker rows (a_km, e, aop, inc, planes, per plane)
+    screen_validation_designs: int          # random Table 3 designs of studies.screen_validation
+    screen_validation_life_days: float      # ... flown this long (0: the screened profile's [stability] life_days)
 
 
 @dataclass(frozen=True)

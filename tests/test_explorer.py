@@ -244,6 +244,15 @@ def test_profile_switch_keeps_the_design(explorer):
     assert explorer.context().settings.profile.name == "quick"
 
 
+def test_profile_switch_brings_the_profiles_element_frame(explorer):
+    """The operational study reads its designs in moon_op (issue 20 item 1): switching to it reads them there."""
+    explorer.profile_choice.value = "ci_operational"
+    assert explorer.frame_choice.value == "moon_op" and explorer.current.frame == "moon_op"
+    assert explorer.context().settings.frames.element_frame == "moon_op"
+    explorer.profile_choice.value = PROFILE
+    assert explorer.frame_choice.value == "lunar_equator_of_epoch"
+
+
 # ---- the page served by voila, loaded in headless Chromium -------------------------------------
 # The widgets render only after the page's widget manager has talked to the kernel over a websocket
 # in real time, which --virtual-time-budget skips ("Loading widget..."), so the test drives Chromium

@@ -101,3 +101,15 @@ def test_operational_companion_outputs(executed):
     assert side.loc["unique designs evaluated", "ci_operational"] == evaluations.sizes["design"]
     assert side.loc["all Table 3 bounds (feasible)", "ci_operational"] == int(evaluations.feasible.sum())
     assert "sk_dv_estimate_max_kms_per_year" in _table("07_operational_table6", executed).columns
+
+
+def test_screen_validation_table(executed):
+    """Notebook 08 screened random Table 3 designs and flew them with the full model (issue 20 item 3)."""
+    from lnss_lib.keys import DESIGN_KEYS
+    from lnss_lib.settings import load_settings
+    from lnss_lib.studies.screen_validation import MISS_COLUMNS, agreement
+
+    table = _table("08_screen_validation", executed)
+    assert set(MISS_COLUMNS) <= set(table.columns)
+    assert table.groupby(list(DESIGN_KEYS)).ngroups == load_settings(PROFILE).life_evaluation.screen_validation_designs
+    assert 0.0 <= agreement(table)["agreement_pct"] <= 100.0

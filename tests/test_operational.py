@@ -123,24 +123,34 @@ def test_operational_profiles_load_and_validate():
                                        "sk_dv_estimate_kms_per_year": 1.0}
         assert s.companion_profile == "" and np.array_equal(s.grid.n_levels, paper.grid.n_levels)
     assert CampaignPlan.of(load_settings("operational")).notebook_mode == "load"
-    assert evaluation_hash(load_settings("quick_operational")) == evaluation_hash(load_settings("operational"))
+    # the quick campaign evaluates as the full one does, over a one-year screen instead of five (issue 20 item 3)
+    operational = load_settings("operational")
+    assert operational.stability.life_days == 1826.25 and load_settings("quick_operational").stability.life_days == 365.25
+    assert evaluation_hash(load_settings("quick_operational", overrides={"stability": {"life_days": 1826.25}})) == \
+        evaluation_hash(operational)
+    assert operational.frames.element_frame == operational.sk_estimate.element_frame == "moon_op"
     assert CampaignPlan.of(load_settings("quick")).companion_profile == "quick_operational"
     assert CampaignPlan.of(load_settings("ci")).companion_profile == "ci_operational"
 
 
 @pytest.mark.parametrize("base, companion", [("quick", "quick_operational"), ("ci", "ci_operational")])
 def test_companions_differ_from_their_base_only_where_operational_does(base, companion):
-    """The companion repeats its base's campaign size and physics; only the sections operational.toml sets differ."""
+    """The companion repeats its base's campaign size and physics; only the sections operational.toml sets differ
+    (and the companion's own keys: the one-year life of issue 20 item 3)."""
     import tomllib
 
     from lnss_lib.config import PARAMS_DIR
 
     own = tomllib.loads((PARAMS_DIR / "operational.toml").read_text())
+    mine = tomllib.loads((PARAMS_DIR / f"{companion}.toml").read_text())
+    also = [tomllib.loads((PARAMS_DIR / f"{name}.toml").read_text()) for name in mine["profile"]["also"]]
     a, b = load_settings(base).as_dict(), load_settings(companion).as_dict()
     for section in set(a) | set(b):
         if section in ("profile", "campaign"):
             continue
-        expected = dict(a.get(section, {}), **own.get(section, {}))
+        expected = {**a.get(section, {}), **own.get(section, {})}
+        for layer in (*also, mine):                 # `also` profiles' own keys, then the companion's, win
+            expected.update(layer.get(section, {}))
         assert b.get(section) == expected, section
     for key in ("population", "generations", "ftol", "notebook_mode"):
         assert a["campaign"][key] == b["campaign"][key], key

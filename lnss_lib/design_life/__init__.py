@@ -4,8 +4,10 @@ One subject in three answers of rising cost, each module answering one question:
 
 * :mod:`.screen` -- will a perilune reach the surface within the life? The doubly-averaged (secular) model
   of lunar J2 and the Earth's and Sun's quadrupole tides (``SecularField``, Milankovitch equations on the
-  e and j vectors, Moon-centred J2000) integrated from the initial states: the campaign's stability
-  screen (issue 11 item 2), milliseconds per design.
+  e and j vectors, Moon-centred J2000) integrated from the initial states, with the tide's monthly terms
+  restored to first order for the verdict (``MonthlyTide``; issue 20 item 3): the campaign's stability
+  screen (issue 11 item 2), a tenth of a second per design over five years (compiled RK4); checked against
+  the full model on random Table 3 designs by :mod:`lnss_lib.studies.screen_validation`.
 * :mod:`.estimate` -- what would holding the geometry cost? The secular drift of mean e-vector, orbit
   normal, a and slot fitted on the evaluator's 10-day arc, priced with linearised GVE costs: the
   campaign's geometry-keeping Delta-V (issue 11 item 2; ``sk_dv_estimate_kms_per_year``).

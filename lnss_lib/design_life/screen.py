@@ -30,10 +30,25 @@ Dropped terms, by argument:
   period with the lunar rotation are not modelled.
 * J3 and higher zonals (J3/J2 ~ 0.04; they shape the e-AOP frozen family of low orbits, not the
   Lidov-Kozai growth that ends high inclined orbits), SRP, octupole tide ((a / a_E) e_E terms).
-* Short-period and monthly terms: the screen's ``e`` is a mean eccentricity, started from the
-  osculating one. The real perilune oscillates about the mean one by the monthly tidal terms, whose
-  amplitude grows with a (the averaging assumes the orbital period << one month: 0.5 d at
-  a = 6000 km, 3.9 d at a = 24000 km); ``[stability] margin_km`` raises the floor to allow for it.
+* Monthly terms (kept in the verdict with ``[stability] monthly_terms``, the operational profiles): the tide's oscillation
+  about its month-mean swings e at twice the Earth's sidereal rate, by ~ (15/16) (n_month / n) e sqrt(1 - e^2)
+  (0.012 at a = 7800 km, e = 0.74: 95 km of perilune; 0.05 at a = 20900 km, e = 0.8: 1000 km), enough to
+  take a perilune the mean model keeps at 290 km into the surface within days. :class:`MonthlyTide`
+  restores them to first order (near-identity averaging transform): the initial osculating vectors are
+  turned into mean ones, and the verdict is on the perilune with the terms put back along the mean
+  solution, so the Earth's orbital eccentricity (its monthly term) and the Sun's half-year term come
+  with the ephemeris.
+* Orbit-period (short-period) terms: within one orbit the tide moves e by at most ~ 4 pi c (1 + e) / n^2
+  (:func:`lnss_lib.design_life.frozen.allowances`; a bound: 110 km of perilune at a = 8000 km, e = 0.5);
+  ``[stability] margin_km`` raises the floor to allow for them. The averaging also assumes the orbital
+  period << one month (0.5 d at a = 6000 km, 3.9 d at a = 24000 km, a / a_Hill = 0.39): at the top of
+  Table 3 the model's perilune is good to a few hundred km, not tens
+  (:mod:`lnss_lib.studies.screen_validation` measures the agreement with the full model).
+* The validity limit (``[stability] validity_period_fraction``, ``validity_ecc``; the operational profiles):
+  beyond a tenth of a month's period the tide turns by more than 36 deg during one orbit, and the orbit
+  average errs by O(n_month / n) (a singly-averaged run with the instantaneous tide gets the impact days
+  right to a median 0.2 d but still keeps those orbits' perilunes up); there, with e >= 0.5, the
+  screen does not vouch and judges the orbit unstable.
 """
 
 from __future__ import annotations
@@ -56,7 +71,7 @@ from ..frames import element_frame_to_j2000
 from ..gravity import GravityField
 from ..settings import Dynamics, EpochSettings, GravitySettings, StabilitySettings
 
-__all__ = ["SecularField", "orbit_vectors_ej", "secular_rates",
+__all__ = ["SecularField", "TideSamples", "MonthlyTide", "monthly_offsets", "orbit_vectors_ej", "secular_rates",
            "averaged_potential", "integrate_secular", "elements_from_vectors", "screen_states", "screen_elements",
            "classical_j2_rates", "kozai_e_max", "circular_tide_tensor"]
 
@@ -100,10 +115,48 @@ class SecularField:
     def from_settings(cls, stability: StabilitySettings, dynamics: Dynamics, t0_tdb_s: float,
                       life_days: float) -> "SecularField":
         """T and k from SPICE over ``life_days`` (running one-month mean of ``[stability]``), J2 from the gravity file."""
+        span = life_days if stability.precession else 0.0
+        return cls.from_samples(stability, dynamics, t0_tdb_s, TideSamples.from_settings(stability, dynamics, t0_tdb_s, span))
+
+    @classmethod
+    def from_samples(cls, stability: StabilitySettings, dynamics: Dynamics, t0_tdb_s: float,
+                     samples: "TideSamples") -> "SecularField":
+        """The field of :meth:`from_settings` from tide samples already taken (``samples.out_days`` nodes)."""
+        tide, out_days = samples.running_mean(samples.inst), samples.out_days
+        pole = rotation(dynamics.frames.gravity, "J2000", t0_tdb_s + out_days * SECONDS_PER_DAY)[:, :, 2]
+        if not stability.precession:
+            return cls.constant(tide[0], pole[0], *_gravity_constants(dynamics.gravity))
+        return cls(out_days, tide, pole, *_gravity_constants(dynamics.gravity))
+
+    def __post_init__(self) -> None:
+        values = np.concatenate([self.tide.reshape(-1, 9), self.pole], axis=1)
+        spline = CubicSpline(self.t_days, values, axis=0)
+        object.__setattr__(self, "_knots", np.ascontiguousarray(spline.x, dtype=float))
+        object.__setattr__(self, "_coef", np.ascontiguousarray(spline.c, dtype=float))
+
+    def at(self, t_day: float) -> tuple[np.ndarray, np.ndarray]:
+        """(T (3, 3), k (3,)) at ``t_day`` days since the epoch."""
+        v = _spline_at(self._knots, self._coef, float(t_day))
+        return v[:9].reshape(3, 3), v[9:]
+
+
+@dataclass(frozen=True)
+class TideSamples:
+    """Instantaneous tide tensors ``inst`` (m, 3, 3) (1/s^2) of ``[stability] third_bodies`` on ``t_days`` (m,)
+    (step ``table_step_days``), padded by half an averaging window each side of the output nodes ``out_days``."""
+
+    t_days: np.ndarray
+    inst: np.ndarray
+    weights: np.ndarray
+    half: int
+
+    @classmethod
+    def from_settings(cls, stability: StabilitySettings, dynamics: Dynamics, t0_tdb_s: float,
+                      life_days: float) -> "TideSamples":
         ensure_kernels(dynamics.ephemeris)
         step, window = stability.table_step_days, stability.average_days
         half = int(np.ceil(0.5 * window / step))
-        n_out = int(np.ceil(life_days / step)) + 1 if stability.precession else 1
+        n_out = int(np.ceil(life_days / step)) + 1
         t_days = step * np.arange(-half, n_out + half)
         times = t0_tdb_s + t_days * SECONDS_PER_DAY
         gms = {"EARTH": dynamics.constants.gm_earth_km3_s2, "SUN": dynamics.constants.gm_sun_km3_s2}
@@ -114,22 +167,61 @@ class SecularField:
             inst += gms[body] * np.einsum("ni,nj->nij", r, r) / dist[:, None, None] ** 5
         weights = np.ones(2 * half + 1)
         weights[[0, -1]] = 0.5 + (0.5 * window / step - half)   # trapezoid over exactly one window
-        weights /= weights.sum()
-        tide = np.stack([np.tensordot(weights, inst[j:j + 2 * half + 1], axes=1) for j in range(n_out)])
-        out_days = t_days[half:half + n_out]
-        pole = rotation(dynamics.frames.gravity, "J2000", t0_tdb_s + out_days * SECONDS_PER_DAY)[:, :, 2]
-        if not stability.precession:
-            return cls.constant(tide[0], pole[0], *_gravity_constants(dynamics.gravity))
-        return cls(out_days, tide, pole, *_gravity_constants(dynamics.gravity))
+        return cls(t_days, inst, weights / weights.sum(), half)
 
-    def __post_init__(self) -> None:
-        values = np.concatenate([self.tide.reshape(-1, 9), self.pole], axis=1)
-        object.__setattr__(self, "_spline", CubicSpline(self.t_days, values, axis=0))
+    @property
+    def out_days(self) -> np.ndarray:
+        return self.t_days[self.half:self.t_days.size - self.half]
 
-    def at(self, t_day: float) -> tuple[np.ndarray, np.ndarray]:
-        """(T (3, 3), k (3,)) at ``t_day`` days since the epoch."""
-        v = self._spline(min(max(t_day, self.t_days[0]), self.t_days[-1]))
-        return v[:9].reshape(3, 3), v[9:] / np.linalg.norm(v[9:])
+    def running_mean(self, values: np.ndarray) -> np.ndarray:
+        """One-window running mean (n_out, ...) of ``values`` (m, ...) sampled on ``t_days``, at ``out_days``."""
+        w = 2 * self.half + 1
+        return np.stack([np.tensordot(self.weights, values[j:j + w], axes=1) for j in range(self.out_days.size)])
+
+
+@dataclass(frozen=True)
+class MonthlyTide:
+    """The tide's oscillation about its running month-mean, integrated once: ``z`` (m, 3, 3) (1/s) on ``t_days``.
+
+    ``dZ/dt = T(t) - <T>(t)`` and ``Z`` has zero running mean: ``Z = W - <W>`` with ``W = int T dt``
+    (the running mean of ``dW/dt`` is ``d<W>/dt``). The Milankovitch rates are linear in the tide
+    tensor, so to first order in the oscillation (first-order averaging: the near-identity transform
+    between doubly- and singly-averaged vectors) the orbit-averaged vectors are the doubly-averaged
+    ones plus the tide-only rates of :func:`secular_rates` evaluated with ``Z`` in place of ``T``
+    (:func:`monthly_offsets`). This restores the half-monthly swing of e (amplitude ~ (15/16)
+    (n_month / n) e sqrt(1 - e^2) at the worst geometry: 0.012 at a = 7800 km, e = 0.74; 0.05 at
+    a = 20900 km, e = 0.8), the Earth's orbital eccentricity's monthly term and the Sun's.
+    """
+
+    t_days: np.ndarray
+    z: np.ndarray
+
+    @classmethod
+    def from_samples(cls, samples: TideSamples) -> "MonthlyTide":
+        dt_s = np.diff(samples.t_days) * SECONDS_PER_DAY
+        w = np.concatenate([np.zeros((1, 3, 3)),
+                            np.cumsum(0.5 * dt_s[:, None, None] * (samples.inst[1:] + samples.inst[:-1]), axis=0)])
+        core = w[samples.half:samples.t_days.size - samples.half]
+        return cls(samples.out_days, core - samples.running_mean(w))
+
+    def at(self, t_days) -> np.ndarray:
+        """Z (n, 3, 3) at days ``t_days`` (n,) (linear between nodes, held outside)."""
+        t = np.atleast_1d(np.asarray(t_days, dtype=float))
+        flat = self.z.reshape(self.t_days.size, 9)
+        return np.stack([np.interp(t, self.t_days, flat[:, k]) for k in range(9)], axis=-1).reshape(t.size, 3, 3)
+
+
+def monthly_offsets(e_vec, j_vec, sma_km, z, gm_km3_s2: float) -> tuple[np.ndarray, np.ndarray]:
+    """First-order monthly terms (de, dj) (..., 3) (dimensionless) of vectors (..., 3) with ``sma_km`` (...)
+    under ``z`` (..., 3, 3) (:class:`MonthlyTide`): the tide part of :func:`secular_rates` with Z for T."""
+    e_vec, j_vec = np.asarray(e_vec, float), np.asarray(j_vec, float)
+    a = np.asarray(sma_km, dtype=float)[..., None]
+    s = np.trace(z, axis1=-2, axis2=-1)[..., None]
+    grad_e = -0.25 * a**2 * (-12.0 * s * e_vec + 30.0 * np.einsum("...ij,...j->...i", z, e_vec))
+    grad_j = 1.5 * a**2 * np.einsum("...ij,...j->...i", z, j_vec)
+    inv_l = 1.0 / np.sqrt(gm_km3_s2 * a)
+    return (-inv_l * (np.cross(j_vec, grad_e) + np.cross(e_vec, grad_j)),
+            -inv_l * (np.cross(j_vec, grad_j) + np.cross(e_vec, grad_e)))
 
 
 def _gravity_constants(gravity: GravitySettings) -> tuple[float, float, float]:
@@ -188,6 +280,18 @@ def secular_rates(e_vec, j_vec, sma_km, tide, pole, gm_km3_s2: float, j2: float,
 
 
 @nb.njit(cache=True)
+def _spline_at(knots: np.ndarray, coef: np.ndarray, t: float) -> np.ndarray:
+    """The piecewise cubic (scipy ``CubicSpline`` ``x``, ``c`` (4, m - 1, 12)) at ``t`` clamped to the knots;
+    components 9-11 (the pole) renormalised."""
+    t = min(max(t, knots[0]), knots[-1])
+    i = min(max(np.searchsorted(knots, t, side="right") - 1, 0), knots.size - 2)
+    dx = t - knots[i]
+    v = ((coef[0, i] * dx + coef[1, i]) * dx + coef[2, i]) * dx + coef[3, i]
+    v[9:] /= np.sqrt(v[9] * v[9] + v[10] * v[10] + v[11] * v[11])
+    return v
+
+
+@nb.njit(cache=True)
 def _rhs_kernel(y: np.ndarray, sma_km: np.ndarray, tide: np.ndarray, pole: np.ndarray, gm: float, j2: float,
                 r_ref: float, scale: float) -> np.ndarray:
     """Compiled :func:`secular_rates` on a flat state [e (3), j (3)] per orbit, times ``scale``."""
@@ -218,13 +322,66 @@ def _rhs_kernel(y: np.ndarray, sma_km: np.ndarray, tide: np.ndarray, pole: np.nd
     return out
 
 
+@nb.njit(cache=True)
+def _field_rhs(t_day: float, y: np.ndarray, sma_km: np.ndarray, knots: np.ndarray, coef: np.ndarray, gm: float,
+               j2: float, r_ref: float) -> np.ndarray:
+    v = _spline_at(knots, coef, t_day)
+    return _rhs_kernel(y, sma_km, v[:9].copy().reshape(3, 3), v[9:].copy(), gm, j2, r_ref, SECONDS_PER_DAY)
+
+
+@nb.njit(cache=True)
+def _rk4_secular(y0: np.ndarray, sma_km: np.ndarray, floor_km: np.ndarray, t_out: np.ndarray, max_step_days: float,
+                 knots: np.ndarray, coef: np.ndarray, gm: float, j2: float, r_ref: float):
+    """Classical RK4 over ``t_out`` (each output interval in equal steps of at most ``max_step_days``); an orbit
+    whose perilune ``a (1 - |e|)`` reaches its floor stops there (crossing interpolated linearly in the step).
+    Returns (states (m, 6 n), NaN after an impact; impact_day (n,); number of right-hand sides)."""
+    n = sma_km.size
+    out = np.full((t_out.size, 6 * n), np.nan)
+    impact = np.full(n, np.nan)
+    y = y0.copy()
+    margin = np.empty(n)
+    for q in range(n):
+        e = y[6 * q:6 * q + 3]
+        margin[q] = sma_km[q] * (1.0 - np.sqrt(e[0] * e[0] + e[1] * e[1] + e[2] * e[2])) - floor_km[q]
+        if margin[q] <= 0.0:
+            impact[q] = t_out[0]
+            y[6 * q:6 * q + 6] = np.nan
+    out[0] = y
+    n_rhs = 0
+    for i in range(t_out.size - 1):
+        steps = max(int(np.ceil((t_out[i + 1] - t_out[i]) / max_step_days - 1e-9)), 1)
+        h = (t_out[i + 1] - t_out[i]) / steps
+        for k in range(steps):
+            t = t_out[i] + k * h
+            k1 = _field_rhs(t, y, sma_km, knots, coef, gm, j2, r_ref)
+            k2 = _field_rhs(t + 0.5 * h, y + 0.5 * h * k1, sma_km, knots, coef, gm, j2, r_ref)
+            k3 = _field_rhs(t + 0.5 * h, y + 0.5 * h * k2, sma_km, knots, coef, gm, j2, r_ref)
+            k4 = _field_rhs(t + h, y + h * k3, sma_km, knots, coef, gm, j2, r_ref)
+            y = y + h / 6.0 * (k1 + 2.0 * k2 + 2.0 * k3 + k4)
+            n_rhs += 4
+            for q in range(n):
+                if not np.isnan(impact[q]):
+                    continue
+                e = y[6 * q:6 * q + 3]
+                m = sma_km[q] * (1.0 - np.sqrt(e[0] * e[0] + e[1] * e[1] + e[2] * e[2])) - floor_km[q]
+                if m <= 0.0:
+                    impact[q] = t + h * margin[q] / (margin[q] - m)
+                    y[6 * q:6 * q + 6] = np.nan
+                margin[q] = m
+        out[i + 1] = y
+    return out, impact, n_rhs
+
+
 def integrate_secular(sma_km, e0, j0, field: SecularField, life_days: float, *, floor_km=None,
                       method: str = "DOP853", rtol: float = 1e-9, atol: float = 1e-11,
-                      output_step_days: float = 1.0) -> dict:
+                      output_step_days: float = 1.0, step_days: float = 0.5) -> dict:
     """Integrate orbits (n,) from (e0, j0) (n, 3) for ``life_days``; stop an orbit whose perilune reaches ``floor_km``.
 
+    ``method``: a scipy ``solve_ivp`` method (``rtol``, ``atol``; the crossing located by an event to the
+    integrator's accuracy), or ``"RK4"``: a compiled fixed-step RK4 of at most ``step_days`` (the
+    crossing interpolated within the step; over five years 0.1 s a design instead of 0.7 s).
     Returns ``t_days`` (m,), ``e`` and ``j`` (n, m, 3) (NaN after an impact), ``impact_day`` (n,)
-    (NaN when none; located by a solve_ivp event to the integrator's accuracy), ``n_rhs``.
+    (NaN when none), ``n_rhs``.
     """
     a = np.atleast_1d(np.asarray(sma_km, dtype=float))
     y0 = np.concatenate([np.atleast_2d(e0), np.atleast_2d(j0)], axis=1)
@@ -235,6 +392,12 @@ def integrate_secular(sma_km, e0, j0, field: SecularField, life_days: float, *, 
     t_out = np.arange(0.0, life_days + 1e-9, output_step_days)
     if t_out[-1] < life_days:
         t_out = np.append(t_out, life_days)
+    if method == "RK4":
+        states, impact_day, n_rhs = _rk4_secular(y0.ravel(), a, np.asarray(floor, dtype=float).copy(), t_out,
+                                                 float(step_days), field._knots, field._coef, field.gm_km3_s2,
+                                                 field.j2, field.r_ref_km)
+        out = states.reshape(t_out.size, n, 6).transpose(1, 0, 2)
+        return {"t_days": t_out, "e": out[..., :3], "j": out[..., 3:], "impact_day": impact_day, "n_rhs": int(n_rhs)}
     out = np.full((n, t_out.size, 6), np.nan)
     impact_day = np.full(n, np.nan)
     alive = np.arange(n)
@@ -291,46 +454,82 @@ def elements_from_vectors(e_vec, j_vec, rot_to_frame=None) -> dict:
 
 
 def screen_states(stability: StabilitySettings, dynamics: Dynamics, states_mci, t0_tdb_s: float, *,
-                  field: SecularField | None = None, life_days: float | None = None) -> xr.Dataset:
+                  field: SecularField | None = None, monthly: MonthlyTide | None = None,
+                  life_days: float | None = None) -> xr.Dataset:
     """The screen for osculating Moon-centred J2000 states (n_sat, 6) at TDB ``t0_tdb_s``.
 
-    Returns a Dataset: ``ecc``, ``inc_deg``, ``raan_deg``, ``aop_deg`` (the element frame of
-    ``dynamics.frames``) and ``perilune_alt_km`` (sat, time in days), per satellite ``min_perilune_alt_km``,
+    With ``[stability] monthly_terms`` the states' vectors are taken as orbit-averaged (not month-averaged)
+    ones: the monthly terms of :class:`MonthlyTide` are removed before the doubly-averaged integration
+    and restored along it, and the verdict is on the restored perilune ``a (1 - |e + de|)``, sampled
+    every ``output_step_days``, or the mean one's crossing, whichever comes first. An orbit outside the
+    model's validity (:func:`_outside_validity`: ``[stability] validity_period_fraction``, ``validity_ecc``)
+    is judged unstable from the start (``impact_day`` 0, ``outside_validity`` True).
+
+    Returns a Dataset: mean ``ecc``, ``inc_deg``, ``raan_deg``, ``aop_deg`` (the element frame of
+    ``dynamics.frames``) and ``perilune_alt_km``, the restored ``osc_perilune_alt_km`` (sat, time in days;
+    the mean one without monthly terms), per satellite ``min_perilune_alt_km`` (of the restored perilune),
     ``impact`` and ``impact_day`` (NaN when none); attrs ``stable`` (no impact within the life),
     ``min_perilune_alt_km``, ``impact_day`` (first, NaN when none), ``n_orbits`` (distinct orbits
-    integrated), ``n_rhs``, ``wall_s``. ``life_days`` replaces ``[stability] life_days``.
+    integrated), ``n_rhs``, ``wall_s``. ``life_days`` replaces ``[stability] life_days``; an explicit
+    ``field`` comes with its ``monthly`` (None: no monthly terms).
     """
     start = time.perf_counter()
     cfg = stability if life_days is None else dataclasses.replace(stability, life_days=float(life_days))
     gm = dynamics.gravity.gm_km3_s2
     a, e_vec, j_vec = orbit_vectors_ej(states_mci, gm)
     if field is None:
-        field = _cached_field(cfg, dynamics, float(t0_tdb_s))
+        field, monthly = _cached_field(cfg, dynamics, float(t0_tdb_s))
+    monthly = monthly if cfg.monthly_terms else None
     key = np.round(np.column_stack([a / 1e4, e_vec, j_vec]), 12)
     _, first, inverse = np.unique(key, axis=0, return_index=True, return_inverse=True)
+    inverse = np.asarray(inverse).ravel()
+    a_u, e0, j0 = a[first], e_vec[first], j_vec[first]
+    if monthly is not None:
+        de0, dj0 = monthly_offsets(e0, j0, a_u, monthly.at([0.0])[0], gm)
+        e0, j0 = e0 - de0, j0 - dj0
     r_moon = dynamics.constants.r_moon_mean_km
     floor = r_moon + dynamics.impact.min_altitude_km + cfg.margin_km
-    res = integrate_secular(a[first], e_vec[first], j_vec[first], field, cfg.life_days, floor_km=floor,
-                            method=cfg.method, rtol=cfg.rtol, atol=cfg.atol, output_step_days=cfg.output_step_days)
-    inverse = np.asarray(inverse).ravel()
-    e_hist, j_hist = res["e"][inverse], res["j"][inverse]
+    res = integrate_secular(a_u, e0, j0, field, cfg.life_days, floor_km=floor, method=cfg.method, rtol=cfg.rtol,
+                            atol=cfg.atol, output_step_days=cfg.output_step_days, step_days=cfg.step_days)
+    t_days, impact_u = res["t_days"], res["impact_day"]
+    e_osc = res["e"]
+    if monthly is not None:
+        de, _ = monthly_offsets(res["e"], res["j"], a_u[:, None], monthly.at(t_days)[None], gm)
+        e_osc = res["e"] + de
+    alt_osc_u = a_u[:, None] * (1.0 - np.linalg.norm(e_osc, axis=-1)) - r_moon
+    with np.errstate(invalid="ignore"):
+        below = alt_osc_u <= floor - r_moon
+    first_below = np.where(below.any(axis=1), t_days[np.argmax(below, axis=1)], np.nan)
+    impact_u = np.fmin(impact_u, first_below)
     rot = element_frame_to_j2000(dynamics, float(t0_tdb_s)).T
-    el = elements_from_vectors(e_hist, j_hist, rot)
+    el = elements_from_vectors(res["e"][inverse], res["j"][inverse], rot)
     alt = a[:, None] * (1.0 - el["ecc"]) - r_moon
-    impact_day = res["impact_day"][inverse]
-    alt_min = np.where(np.isnan(impact_day), np.nanmin(alt, axis=1), floor - r_moon)
+    alt_osc = alt_osc_u[inverse]
+    outside = _outside_validity(cfg, a, np.linalg.norm(e_vec, axis=1), gm)
+    impact_day = np.where(outside, 0.0, impact_u[inverse])
+    with np.errstate(invalid="ignore"):
+        alt_min = np.where(np.isnan(impact_day), np.nanmin(alt_osc, axis=1), floor - r_moon)
     ds = xr.Dataset(
         {**{k: (("sat", "time"), v) for k, v in el.items()}, "perilune_alt_km": (("sat", "time"), alt),
+         "osc_perilune_alt_km": (("sat", "time"), alt_osc),
          "min_perilune_alt_km": ("sat", alt_min), "impact": ("sat", ~np.isnan(impact_day)),
-         "impact_day": ("sat", impact_day), "a_km": ("sat", a)},
-        coords={"sat": np.arange(a.size), "time": res["t_days"]},
+         "impact_day": ("sat", impact_day), "outside_validity": ("sat", outside), "a_km": ("sat", a)},
+        coords={"sat": np.arange(a.size), "time": t_days},
         attrs={"stable": bool(np.all(np.isnan(impact_day))), "min_perilune_alt_km": float(np.min(alt_min)),
                "impact_day": float(np.nanmin(impact_day)) if np.any(~np.isnan(impact_day)) else float("nan"),
                "life_days": cfg.life_days, "floor_alt_km": floor - r_moon, "n_orbits": int(first.size),
-               "n_rhs": res["n_rhs"], "element_frame": dynamics.frames.element_frame,
-               "wall_s": time.perf_counter() - start})
+               "monthly_terms": monthly is not None, "n_outside_validity": int(outside.sum()), "n_rhs": res["n_rhs"],
+               "element_frame": dynamics.frames.element_frame, "wall_s": time.perf_counter() - start})
     ds["time"].attrs["units"] = "days since the epoch"
     return ds
+
+
+def _outside_validity(stability: StabilitySettings, sma_km: np.ndarray, ecc: np.ndarray, gm_km3_s2: float) -> np.ndarray:
+    """Orbits (n,) beyond the averaged model's validity: period above ``validity_period_fraction`` of a sidereal
+    month (n_month / n; 0.1 at a = 19,060 km, a / a_Hill = 0.31) with e at least ``validity_ecc``."""
+    n_month = 2.0 * np.pi / (SIDEREAL_MONTH_DAYS * SECONDS_PER_DAY)
+    ratio = n_month / np.sqrt(gm_km3_s2 / np.asarray(sma_km, dtype=float) ** 3)
+    return (ratio >= stability.validity_period_fraction) & (np.asarray(ecc) >= stability.validity_ecc)
 
 
 def screen_elements(stability: StabilitySettings, dynamics: Dynamics, epoch: EpochSettings, elements_deg, *,
@@ -348,13 +547,15 @@ def screen_elements(stability: StabilitySettings, dynamics: Dynamics, epoch: Epo
 _FIELDS: dict = {}
 
 
-def _cached_field(stability: StabilitySettings, dynamics: Dynamics, t0_tdb_s: float) -> SecularField:
-    """The field of :meth:`SecularField.from_settings`, built once per set of the settings it reads and epoch."""
+def _cached_field(stability: StabilitySettings, dynamics: Dynamics, t0_tdb_s: float) -> tuple[SecularField, MonthlyTide]:
+    """The field of :meth:`SecularField.from_settings` and the :class:`MonthlyTide` of the same samples, built once
+    per set of the settings they read and epoch."""
     key = (dynamics.ephemeris, dynamics.constants, dynamics.frames.gravity, dynamics.gravity, t0_tdb_s,
            stability.life_days, stability.third_bodies, stability.precession, stability.average_days,
            stability.table_step_days)
     if key not in _FIELDS:
-        _FIELDS[key] = SecularField.from_settings(stability, dynamics, t0_tdb_s, stability.life_days)
+        samples = TideSamples.from_settings(stability, dynamics, t0_tdb_s, stability.life_days)
+        _FIELDS[key] = (SecularField.from_samples(stability, dynamics, t0_tdb_s, samples), MonthlyTide.from_samples(samples))
     return _FIELDS[key]
 
 

@@ -18,6 +18,15 @@ generations were needed: :func:`hypervolume_milestones`. The numbers are printed
 Works on the campaign's NetCDF results (:mod:`lnss_lib.campaign`; a local publication or the shipped reference
 results, :func:`lnss_lib.studies.campaign.shown_campaign`): every evaluated design (or the designs the shipped
 results keep) and the front. :func:`table6` selects the designs of Table 6 by the rules of :data:`TABLE6_RULES`.
+
+Question (issue 20 item 1): what does the element frame change on the operational front? The
+operational study reads its designs in ``moon_op`` (the Earth-Moon orbital plane, about which the
+Earth's tide is symmetric); :func:`frame_readings` evaluates the front's designs again with the same
+elements read in the lunar equator of epoch (the paper's reading; the geometry-keeping estimate's
+frame follows, as in the operational profile before the change), and :func:`frame_summary` counts
+what survives. Verdict: printed by notebook 07 from the run (the designs, the Delta-V estimate, the
+screen and the bounds each reading meets); the navigation metrics barely move (the same orbits turned
+by at most 6.7 deg), the station-keeping estimate and the screen do.
 """
 
 from __future__ import annotations
@@ -32,7 +41,7 @@ from ..keys import DESIGN_KEYS, EXTRA_METRIC_KEYS, LABELS, METRIC_KEYS, bound_te
 __all__ = ["load_campaign", "parse_constraints", "satisfies", "pareto_front", "table6", "synthetic_campaign",
            "deltav_constraint", "analysis_front", "TABLE6_RULES", "TABLE6_COLUMNS", "PHYSICAL_BOUND_PROFILES",
            "physical_bound_campaign", "hypervolume_milestones", "smallest_constellation", "front_against_paper",
-           "closest_to_feasible", "DIFFERENCE_CAUSES"]
+           "closest_to_feasible", "DIFFERENCE_CAUSES", "frame_readings", "frame_summary"]
 
 # the campaign shown beside a profile's at full scale: the same study with the Delta-V bound where the workbook's
 # physics puts it (issue 23 item 1(b); params/paper_dv_physical.toml states the value and its derivation)
@@ -198,6 +207,62 @@ def table6(front: xr.Dataset, *, availability_min_pct: float = 90.0, dv_max_kms_
     rows = frame.loc[list(chosen)].copy()
     rows["why selected"] = ["; ".join(reasons) for reasons in chosen.values()]
     return rows.reset_index(drop=True)[list(columns + ("why selected",))]
+
+
+def frame_readings(front: xr.Dataset, settings_by_frame: dict, *, front_frame: str | None = None,
+                   evaluate=None) -> pd.DataFrame:
+    """The front's designs evaluated with their elements read in each frame of ``settings_by_frame``
+    (frame name -> :class:`lnss_lib.settings.Settings`). A frame whose settings are those the front was
+    evaluated with (its ``evaluation_hash`` attribute), or ``front_frame`` when given, is read from the
+    front, not evaluated again.
+
+    One row per (design, frame): :data:`DESIGN_KEYS`, ``design`` (position in the front), ``frame``, the
+    campaign's metrics and ``meets_bounds`` (the front's ``constraints`` attribute, impact fails).
+    ``evaluate(settings, design_row) -> dict`` replaces :func:`lnss_lib.evaluator.evaluate_design` (tests).
+    """
+    from ..campaign.settings import evaluation_hash
+    from ..evaluator import context_for, evaluate_design
+
+    if evaluate is None:
+        def evaluate(settings, row):
+            return evaluate_design(context_for(settings), *(row[k] for k in DESIGN_KEYS[:4]),
+                                   int(row["n_planes"]), int(row["sats_per_plane"]))
+    metrics = [k for k in METRIC_KEYS + EXTRA_METRIC_KEYS if k in front] + ["impact"]
+    designs = front[list(DESIGN_KEYS)].to_dataframe().reset_index(drop=True)
+    rows = []
+    for frame, settings in settings_by_frame.items():
+        reuse = frame == front_frame if front_frame is not None else \
+            front.attrs.get("evaluation_hash") == evaluation_hash(settings)
+        for i, design in designs.iterrows():
+            if reuse:
+                values = {k: front[k].values[i].item() for k in metrics}
+            else:
+                out = evaluate(settings, design)
+                values = {k: out.get(k, np.nan) for k in metrics}
+                values["impact"] = not out.get("evaluated", True)
+            rows.append({**design.to_dict(), "design": i, "frame": frame, **values})
+    table = pd.DataFrame(rows)
+    constraints = parse_constraints(front.attrs["constraints"])
+    ds = xr.Dataset({k: ("design", table[k].to_numpy(dtype=float)) for k in {m for m, _, _ in constraints}})
+    table["meets_bounds"] = satisfies(ds, constraints) & ~table["impact"].astype(bool).to_numpy()
+    return table
+
+
+FRAME_SUMMARY_METRICS = ("pdop_mean_3sigma", "pdop_avail_pct", "sk_dv_estimate_kms_per_year",
+                         "sk_dv_estimate_max_kms_per_year", "screen_min_perilune_alt_km")
+
+
+def frame_summary(readings: pd.DataFrame, metrics=FRAME_SUMMARY_METRICS) -> pd.DataFrame:
+    """Per frame of :func:`frame_readings`: designs, designs meeting the bounds, stable by the screen, and the
+    median of each of ``metrics`` present."""
+    present = [m for m in metrics if m in readings]
+    grouped = readings.groupby("frame", sort=False)
+    out = pd.DataFrame({"designs": grouped.size(), "meet bounds": grouped["meets_bounds"].sum().astype(int)})
+    if "stable_screen" in readings:
+        out["stable by the screen"] = grouped["stable_screen"].apply(lambda v: int(np.nansum(v.astype(float))))
+    for m in present:
+        out[f"median {m}"] = grouped[m].median()
+    return out
 
 
 def synthetic_campaign(n_designs: int = 200, seed: int = 0) -> xr.Dataset:

@@ -1,9 +1,12 @@
 """The design-life stability screen: analytic limits, conservation laws, SPICE geometry, full-model agreement."""
 
+import dataclasses
+
 import numpy as np
 import pytest
 
 from lnss_lib.errors import ConfigError
+from lnss_lib.settings import load_settings
 
 from lnss_lib.design_life import screen as st
 from lnss_lib.constellation import WalkerDesign, planes_elements_deg
@@ -98,3 +101,88 @@ def test_screen_agrees_with_the_full_model_on_a_stable_and_an_impacting_design(p
     assert not screen.attrs["stable"] and not ref["stable"]
     assert screen.attrs["impact_day"] == pytest.approx(np.nanmin(ref["impact_day"]), rel=0.10)
     np.testing.assert_allclose(screen.impact_day.values, ref["impact_day"], rtol=0.20)
+
+
+# Issue 20 item 3: designs the doubly-averaged screen called stable although the full model (degree 8, no
+# manoeuvre; studies.screen_validation) takes them into the surface: the half-monthly swing of e that
+# the double average drops (MonthlyTide). Full-model impact days (scan of 2025-11-25, one satellite per plane):
+# lunar equator 7800/0.74/AOP 90/17 deg: days 5.0 and 4.3; 20900/0.8/120/52: 78.4 and 91.0;
+# moon_op 7800/0.74/0/17: days 5.0 and 5.0; 14300/0.5/30/55: day 49.6 (the other plane survives).
+@pytest.mark.parametrize("frame, design, first_day", [
+    ("lunar_equator_of_epoch", (7800.0, 0.74, 90.0, 17.0, 2, 1), 4.3),
+    ("lunar_equator_of_epoch", (20900.0, 0.8, 120.0, 52.0, 2, 1), 78.4),
+    ("moon_op", (7800.0, 0.74, 0.0, 17.0, 2, 1), 5.0),
+    ("moon_op", (14300.0, 0.5, 30.0, 55.0, 2, 1), 49.6)])
+def test_the_monthly_terms_catch_the_early_impacts_the_double_average_missed(frame, design, first_day):
+    profile = load_settings("operational", overrides={"frames": {"element_frame": frame}})
+    model = dataclasses.replace(profile.stability, validity_period_fraction=1.0)   # the model itself, everywhere
+    elements = WalkerDesign(*design).elements_deg()
+    ds = st.screen_elements(model, profile.dynamics, profile.epoch, elements, life_days=200.0)
+    assert not ds.attrs["stable"] and ds.attrs["monthly_terms"]
+    assert ds.attrs["impact_day"] == pytest.approx(first_day, rel=0.4, abs=1.5)
+    assert not st.screen_elements(profile.stability, profile.dynamics, profile.epoch, elements, life_days=200.0).attrs["stable"]
+    without = dataclasses.replace(model, monthly_terms=False)
+    assert st.screen_elements(without, profile.dynamics, profile.epoch, elements, life_days=200.0).attrs["stable"]
+
+
+def test_the_table4_elfo_read_in_moon_op_is_stable_for_five_years():
+    # frozen in the Earth-Moon orbital plane (e^2 + 5/3 cos^2 i = 1); the full model over 1826.25 days: no impact,
+    # minimum osculating perilune 667 and 523 km (degree 8), the screen 622 and 535 km
+    profile = load_settings("operational")
+    assert profile.frames.element_frame == "moon_op" and profile.stability.life_days == 1826.25
+    elfo = planes_elements_deg(6143.0, 0.6, 51.7, 90.0, [0.0, 180.0], 1)
+    ds = st.screen_elements(profile.stability, profile.dynamics, profile.epoch, elfo)
+    assert ds.attrs["stable"] and ds.sizes["time"] >= 1826
+    np.testing.assert_allclose(ds.min_perilune_alt_km.values, [667.0, 523.0], atol=100.0)
+
+
+def test_monthly_offsets_vanish_for_no_oscillation_and_are_linear_in_it():
+    a_, e0, j0 = _vectors(9000.0, 0.5, 50.0)
+    z = 1e-7 * np.array([[1.0, 0.3, 0.0], [0.3, -1.0, 0.1], [0.0, 0.1, 0.2]])
+    de0, dj0 = st.monthly_offsets(e0, j0, a_, np.zeros((3, 3)), GM)
+    assert not np.any(de0) and not np.any(dj0)
+    de1, dj1 = st.monthly_offsets(e0, j0, a_, z, GM)
+    de2, dj2 = st.monthly_offsets(e0, j0, a_, 2.0 * z, GM)
+    np.testing.assert_allclose(de2, 2.0 * de1)
+    np.testing.assert_allclose(dj2, 2.0 * dj1)
+    rate_e, rate_j = st.secular_rates(e0, j0, a_, z, [0.0, 0.0, 1.0], GM, 0.0, R)    # the rates with Z for T
+    np.testing.assert_allclose(de1, rate_e, rtol=1e-12)
+    np.testing.assert_allclose(dj1, rate_j, rtol=1e-12)
+
+
+def test_monthly_tide_has_zero_mean_and_the_half_month_swing(paper_profile, epoch_tdb_s):
+    samples = st.TideSamples.from_settings(paper_profile.stability, paper_profile.dynamics, epoch_tdb_s, 60.0)
+    monthly = st.MonthlyTide.from_samples(samples)
+    z = monthly.z[:, 0, 0]
+    assert abs(np.mean(z)) < 0.05 * np.ptp(z)
+    # the dominant term of T - <T> turns at twice the Earth's sidereal rate: Z's amplitude ~ c / (2 * 2 n_month)
+    n_month = 2.0 * np.pi / (st.SIDEREAL_MONTH_DAYS * 86400.0)
+    assert 0.5 * np.ptp(z) == pytest.approx(0.5 * GM_EARTH / A_EARTH_KM**3 / (2.0 * n_month), rel=0.35)
+
+
+def test_compiled_rk4_gives_the_dop853_verdicts():
+    profile = load_settings("operational")
+    assert profile.stability.method == "RK4"
+    reference = dataclasses.replace(profile.stability, method="DOP853")
+    for design in [(18000.0, 0.4, 90.0, 80.0, 3, 1), (6143.0, 0.6, 90.0, 51.7, 2, 1), (7800.0, 0.74, 0.0, 17.0, 2, 1)]:
+        elements = WalkerDesign(*design).elements_deg()
+        fast = st.screen_elements(profile.stability, profile.dynamics, profile.epoch, elements, life_days=400.0)
+        slow = st.screen_elements(reference, profile.dynamics, profile.epoch, elements, life_days=400.0)
+        assert fast.attrs["stable"] == slow.attrs["stable"]
+        np.testing.assert_allclose(fast.impact_day.values, slow.impact_day.values, atol=0.05)
+        np.testing.assert_allclose(fast.min_perilune_alt_km.values, slow.min_perilune_alt_km.values, atol=1.0)
+        np.testing.assert_allclose(fast.ecc.values, slow.ecc.values, atol=1e-5)
+
+
+def test_orbits_beyond_the_averaged_models_validity_are_judged_unstable():
+    # a = 22000 km: the period is 0.12 of a sidereal month. The full model takes 22000/0.56/128/30 (moon_op) into the
+    # surface on day 574 while the averaged model keeps its perilune above 3000 km; 22000/0.49/229/39 survives.
+    profile = load_settings("operational")
+    high = WalkerDesign(22000.0, 0.56, 128.0, 30.0, 2, 1).elements_deg()
+    ds = st.screen_elements(profile.stability, profile.dynamics, profile.epoch, high, life_days=30.0)
+    assert not ds.attrs["stable"] and ds.attrs["n_outside_validity"] == 2 and ds.attrs["impact_day"] == 0.0
+    below = WalkerDesign(22000.0, 0.49, 229.0, 39.0, 2, 1).elements_deg()
+    ds = st.screen_elements(profile.stability, profile.dynamics, profile.epoch, below, life_days=30.0)
+    assert ds.attrs["stable"] and not ds.outside_validity.values.any()
+    paper = load_settings("paper")                        # no limit in the paper profile
+    assert st.screen_elements(paper.stability, paper.dynamics, paper.epoch, high, life_days=30.0).attrs["n_outside_validity"] == 0

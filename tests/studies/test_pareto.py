@@ -5,6 +5,7 @@ import pytest
 import xarray as xr
 
 from lnss_lib.figures import dop_against_availability, pareto_3d, variable_relationships
+from lnss_lib.studies import pareto
 from lnss_lib.studies.pareto import TABLE6_COLUMNS, load_campaign, pareto_front, parse_constraints, satisfies, synthetic_campaign, table6
 
 
@@ -139,3 +140,28 @@ def test_figures_shade_the_papers_ranges():
     horizontal = [(s.y0, s.y1, s.yref) for s in fig.layout.shapes if str(s.xref).endswith("domain")]
     assert vertical == [(0.6, 0.7)] * 3 and horizontal == [(3862.0, 10883.0, "y3")]
     assert not dop_against_availability(front, ds, "pdop_mean_3sigma", title="t").layout.shapes
+
+
+def test_frame_readings_reads_the_campaigns_frame_and_evaluates_the_other():
+    front = pareto.synthetic_campaign(12, seed=3).isel(design=slice(0, 4))
+    calls = []
+
+    def evaluate(settings, row):                    # the other reading: PDOP doubled, one design impacts
+        calls.append((settings, float(row["sma_km"])))
+        i = int(np.flatnonzero(front.sma_km.values == row["sma_km"])[0])
+        out = {k: float(front[k].values[i]) for k in ("pdop_mean_3sigma", "pdop_avail_pct", "dv_total_kms_per_year", "n_sat")}
+        out["pdop_mean_3sigma"] *= 2.0
+        out["evaluated"] = i != 0
+        return out
+
+    table = pareto.frame_readings(front, {"moon_op": "op settings", "lunar_equator_of_epoch": "eq settings"},
+                                  front_frame="moon_op", evaluate=evaluate)
+    assert len(calls) == 4 and {c[0] for c in calls} == {"eq settings"}
+    op, eq = table[table.frame == "moon_op"], table[table.frame == "lunar_equator_of_epoch"]
+    np.testing.assert_allclose(op.pdop_mean_3sigma.values, front.pdop_mean_3sigma.values)
+    np.testing.assert_allclose(eq.pdop_mean_3sigma.values, 2.0 * front.pdop_mean_3sigma.values)
+    assert list(op.meets_bounds) == list(front.feasible.values)
+    assert not eq.meets_bounds.iloc[0] and bool(eq.impact.iloc[0])
+    summary = pareto.frame_summary(table)
+    assert list(summary.index) == ["moon_op", "lunar_equator_of_epoch"] and (summary["designs"] == 4).all()
+    assert summary.loc["lunar_equator_of_epoch", "meet bounds"] == int(eq.meets_bounds.sum())
