@@ -73,7 +73,7 @@ from ..propagator import (METHODS, STATUS_IMPACT, STATUS_NOT_RUN, STATUS_OK, STA
                          elements_deg_to_states)
 from ..frames import element_frame_to_j2000
 from ..settings import DesignLifeSettings, DopSettings, Dynamics, IntegratorSetting, StabilitySettings
-from .service import (LOCATIONS, PURPOSES, NavigationMonitor, burn_location, mean_vectors_j2000,
+from .service import (LOCATIONS, PURPOSES, NavigationMonitor, burn_location, raised_history, mean_vectors_j2000,
                          raan_half_width_rad, safety_targets)
 from .screen import SecularField
 from .propagation import integrate_chunk, life_force_model, trim_to_mean
@@ -256,8 +256,7 @@ def simulate_life(design_life: DesignLifeSettings, dynamics: Dynamics, elements_
             if np.isfinite(d_ecc[i]):                 # safety first, and beyond the Delta-v cap
                 target = {"a_km": 0.0, "ex": d_ecc[i] * np.cos(mel[i, 4]), "ey": d_ecc[i] * np.sin(mel[i, 4])}
                 if _enqueue(queue[i], t, osc, gm, [("safety", plan_impulses(osc, gm, target, max_burns=2))]):
-                    shift = d_ecc[i] * ev[i] / max(mel[i, 1], 1e-12)
-                    safe_hist[i] = [(tk, ek + shift, jk, sk) for tk, ek, jk, sk in safe_hist[i]]
+                    safe_hist[i] = raised_history(safe_hist[i], d_ecc[i], ev[i], mel[i, 1], mel[i, 0])
                     a_hold[i], n_sets[i], last_burn[i] = mel[i, 0], n_sets[i] + 1, t
                     slot[i].history = []
                 continue

@@ -52,7 +52,7 @@ from .control import drift_band_rate, overshoot_target
 from .estimate import mean_drift, sk_estimate_from_propagation
 from .mean_elements import circular_mean, wrap_pi
 from .screen import SecularField, elements_from_vectors, integrate_secular, screen_states
-from .screen import _cached_field as cached_field
+from .screen import cached_field
 from .service import SAFETY_RAISE_KM, mean_vectors_j2000, raan_half_width_rad
 
 __all__ = ["PARTS", "perilune_dip_km", "safety_dv_kms", "node_corrections", "phase_corrections",
@@ -332,4 +332,4 @@ def campaign_estimate(sk_estimate: SkEstimateSettings, stability: StabilitySetti
     if screen is None:
         first = np.concatenate([arc["r_mci_km"].values[:, 0], arc["v_mci_kms"].values[:, 0]], axis=-1)
         screen = screen_states(stability, dynamics, first, t0)
-    return life_estimate(sk_estimate, design_life, dynamics, arc, screen, cached_field(stability, dynamics, t0))
+    return life_estimate(sk_estimate, design_life, dynamics, arc, screen, cached_field(stability, dynamics, t0)[0])

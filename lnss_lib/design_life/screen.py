@@ -73,7 +73,7 @@ from ..settings import Dynamics, EpochSettings, GravitySettings, StabilitySettin
 
 __all__ = ["SecularField", "TideSamples", "MonthlyTide", "monthly_offsets", "orbit_vectors_ej", "secular_rates",
            "averaged_potential", "integrate_secular", "elements_from_vectors", "screen_states", "screen_elements",
-           "classical_j2_rates", "kozai_e_max", "circular_tide_tensor"]
+           "cached_field", "classical_j2_rates", "kozai_e_max", "circular_tide_tensor"]
 
 SIDEREAL_MONTH_DAYS = 27.321661
 BODIES = STABILITY_BODIES
@@ -478,7 +478,7 @@ def screen_states(stability: StabilitySettings, dynamics: Dynamics, states_mci, 
     gm = dynamics.gravity.gm_km3_s2
     a, e_vec, j_vec = orbit_vectors_ej(states_mci, gm)
     if field is None:
-        field, monthly = _cached_field(cfg, dynamics, float(t0_tdb_s))
+        field, monthly = cached_field(cfg, dynamics, float(t0_tdb_s))
     monthly = monthly if cfg.monthly_terms else None
     key = np.round(np.column_stack([a / 1e4, e_vec, j_vec]), 12)
     _, first, inverse = np.unique(key, axis=0, return_index=True, return_inverse=True)
@@ -547,7 +547,7 @@ def screen_elements(stability: StabilitySettings, dynamics: Dynamics, epoch: Epo
 _FIELDS: dict = {}
 
 
-def _cached_field(stability: StabilitySettings, dynamics: Dynamics, t0_tdb_s: float) -> tuple[SecularField, MonthlyTide]:
+def cached_field(stability: StabilitySettings, dynamics: Dynamics, t0_tdb_s: float) -> tuple[SecularField, MonthlyTide]:
     """The field of :meth:`SecularField.from_settings` and the :class:`MonthlyTide` of the same samples, built once
     per set of the settings they read and epoch."""
     key = (dynamics.ephemeris, dynamics.constants, dynamics.frames.gravity, dynamics.gravity, t0_tdb_s,

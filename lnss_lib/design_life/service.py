@@ -42,7 +42,8 @@ from ..settings import DopSettings, Dynamics, ServiceSettings
 from .screen import SecularField, integrate_secular
 
 __all__ = ["PURPOSES", "LOCATIONS", "predicted_crossing_day", "safety_ecc", "burn_location",
-           "navigation_violations", "mean_vectors_j2000", "raan_half_width_rad", "safety_targets", "NavigationMonitor"]
+           "navigation_violations", "mean_vectors_j2000", "raan_half_width_rad", "safety_targets", "raised_history",
+           "NavigationMonitor"]
 
 PURPOSES = ("safety", "navigation", "relative_node", "phase", "a_trim")
 """What a burn is paid for (the Delta-V split of :func:`lnss_lib.design_life.closed_loop.simulate_life`)."""
@@ -170,6 +171,16 @@ def safety_targets(field, safe_hist, mel, active, t_days, life_days, floor_base_
         e_now = float(np.linalg.norm(e_avg[q]))
         d_ecc[idx[q]] = safety_ecc(field, t_days, a[q], e_avg[q], j_avg[q], floor[q], remaining) - e_now
     return d_ecc
+
+
+def raised_history(history: list, d_ecc: float, e_vec: np.ndarray, ecc: float, sma_km: float) -> list:
+    """The safety history (t, e vector, j vector, lowest osculating perilune km) after a raise of mean e by ``d_ecc``:
+    the e vectors move along ``e_vec`` (of length ``ecc``) and the recorded perilune minima by -``sma_km d_ecc``, so
+    the dip below the averaged perilune that sets the floor (:func:`safety_targets`) is what it was before the raise,
+    not the raise itself (which, left in, called for a second burn at the next check)."""
+    shift = d_ecc * e_vec / max(ecc, 1e-12)
+    drop_km = d_ecc * sma_km
+    return [(t_k, e_k + shift, j_k, rp_k - drop_km) for t_k, e_k, j_k, rp_k in history]
 
 
 class NavigationMonitor:

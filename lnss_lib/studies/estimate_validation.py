@@ -60,7 +60,7 @@ from ..design_life.estimate import sk_estimate_from_propagation
 from ..design_life.evaluation import run_design_life
 from ..design_life.frozen import FrozenModel, frozen_eccentricity, frozen_inclination_deg
 from ..design_life.life_estimate import PARTS, life_estimate
-from ..design_life.screen import _cached_field as cached_field, screen_states
+from ..design_life.screen import cached_field, screen_states
 from ..design_life.service import PURPOSES
 from ..ephemeris import ensure_kernels, tdb_seconds
 from ..keys import DESIGN_KEYS
@@ -150,7 +150,7 @@ def estimate_costs(settings: Settings, design, life_days: float) -> dict:
         return {"life": np.nan, "arc": np.nan, "split": dict.fromkeys(PARTS, np.nan), "wall_s": np.nan}
     stability = dataclasses.replace(settings.stability, life_days=float(life_days))
     screen = screen_states(stability, dyn, states, t0)
-    est = life_estimate(settings.sk_estimate, settings.design_life, dyn, arc, screen, cached_field(stability, dyn, t0))
+    est = life_estimate(settings.sk_estimate, settings.design_life, dyn, arc, screen, cached_field(stability, dyn, t0)[0])
     return {"life": est["sk_dv_estimate_kms_per_year"],
             "arc": sk_estimate_from_propagation(settings.sk_estimate, dyn, arc)["sk_dv_estimate_kms_per_year"],
             "split": {p: float(np.mean(est["per_sat"][p])) for p in PARTS}, "wall_s": est["wall_s"]}

@@ -199,3 +199,28 @@ def test_a_satellite_whose_propagation_fails_is_reported_and_the_others_fly_on(p
     assert str(ds["loss_cause"].values[1]) == f"propagation failed ({STATUS_TEXT[STATUS_MAX_STEPS]})"
     assert 0.0 < float(ds["loss_day"][1]) < 10.0 and not bool(ds["impact"][1])
     assert str(ds["loss_cause"].values[0]) == "" and np.isfinite(ds["mean_elements"].values[0, -1, 0])
+
+
+def test_a_safety_raise_keeps_the_recorded_dip_below_the_averaged_perilune():
+    """After a raise, the floor's margin (the dip of the osculating perilune below the averaged one) is what it was:
+    the recorded minima move with the e vectors. Left behind, the raise itself read as a dip and a week later
+    called for a second burn (a 6500 km e 0.5 design paid 0.45 km/s/yr instead of 0.14)."""
+    from lnss_lib.design_life.service import raised_history
+
+    a_km, rng = 6500.0, np.random.default_rng(7)
+    history = []
+    for k in range(8):
+        e_vec = np.array([0.5 + 0.01 * rng.standard_normal(), 0.01 * rng.standard_normal(), 0.0])
+        rp_min = a_km * (1.0 - np.linalg.norm(e_vec)) - 30.0 - 5.0 * rng.random()
+        history.append((float(k), e_vec, np.array([0.0, 0.0, 1.0]), rp_min))
+
+    def dip(hist):
+        e_mean = np.mean([h[1] for h in hist], axis=0)
+        return a_km * (1.0 - np.linalg.norm(e_mean)) - min(h[3] for h in hist)
+
+    e_now = np.mean([h[1] for h in history], axis=0)
+    raised = raised_history(history, -0.05, e_now, float(np.linalg.norm(e_now)), a_km)
+    assert dip(raised) == pytest.approx(dip(history), rel=1e-9)
+    assert dip(history) > 30.0
+    e_after = np.mean([h[1] for h in raised], axis=0)
+    assert np.linalg.norm(e_after) == pytest.approx(np.linalg.norm(e_now) - 0.05, rel=1e-9)
