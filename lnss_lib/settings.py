@@ -384,6 +384,11 @@ class ServiceSettings:
     nav_dop_rise_fraction: float
     raan_rel_deg: float
     u_rel_deg: float
+    tolerances: str                                  # config.TOLERANCE_SOURCES
+    tolerance_arc_days: float
+    tolerance_step_s: float
+    raan_rel_bounds_deg: tuple[float, float]
+    u_rel_bounds_deg: tuple[float, float]
 
 
 @dataclass(frozen=True)

@@ -7,11 +7,12 @@ Every satellite of a constellation is propagated by the compiled engine
 - ``"service"`` (the default; :mod:`lnss_lib.design_life.service`) holds what the service needs: the perilune
   above the floor as predicted by the averaged model (safety burns, flown even beyond the Delta-v cap),
   the navigation of each window of sampled positions against the first window's (a violation restores
-  e, AOP and i of the satellites outside ``[design_life.box]``), and the relative node and slot within
-  ``[design_life.service]`` (the node as the tilt of the plane: a RAAN half-width of
-  :func:`lnss_lib.design_life.service.raan_half_width_rad` of each satellite's design inclination, about
-  ``raan_rel_deg`` / sin i, unbounded below i = ``raan_rel_deg`` / 2); e, AOP and i are otherwise left to their
-  natural motion;
+  e, AOP and i of the satellites outside ``[design_life.box]``), and the relative node and slot within the
+  tolerances of :func:`lnss_lib.design_life.tolerances.relative_tolerances_deg`, derived at the start of the life
+  from the design's navigation sensitivity (``[design_life.service] tolerances = "derived"``) or fixed (the node as
+  the tilt of the plane: a RAAN half-width of :func:`lnss_lib.design_life.service.raan_half_width_rad` of each
+  satellite's design inclination, about the tilt / sin i, unbounded below i = tilt / 2; the Dataset's attributes
+  ``raan_rel_tolerance_deg``, ``u_rel_tolerance_deg``); e, AOP and i are otherwise left to their natural motion;
 - ``"box"`` holds the fixed-element box described below.
 
 A satellite that impacts, escapes (unbound osculating or mean orbit) or whose propagation fails is
@@ -76,6 +77,7 @@ from ..settings import DesignLifeSettings, DopSettings, Dynamics, IntegratorSett
 from .service import (LOCATIONS, PURPOSES, NavigationMonitor, burn_location, mean_vectors_j2000,
                          raan_half_width_rad, safety_targets)
 from .screen import SecularField
+from .tolerances import relative_tolerances_deg
 from .propagation import integrate_chunk, life_force_model, trim_to_mean
 
 
@@ -148,11 +150,14 @@ def simulate_life(design_life: DesignLifeSettings, dynamics: Dynamics, elements_
     box_half = half.copy()
     service = cfg.controller == "service"
     svc = cfg.service
-    if service:
-        half = np.array([np.inf, np.inf, np.inf, np.radians(svc.raan_rel_deg), np.radians(svc.u_rel_deg)])
+    tol_deg = (relative_tolerances_deg(svc, dop, dynamics, el_insert, t0, model=model,
+                                       arc_days=min(svc.tolerance_arc_days, cfg.life_days)) if service and not natural
+               else None)
+    if tol_deg is not None:
+        half = np.array([np.inf, np.inf, np.inf, np.radians(tol_deg["raan_rel"]), np.radians(tol_deg["u_rel"])])
     half = np.tile(half, (n_sat, 1))                    # per satellite: the service's node half-width depends on i
-    if service:
-        half[:, 3] = raan_half_width_rad(np.radians(svc.raan_rel_deg), ref_inc)
+    if tol_deg is not None:
+        half[:, 3] = raan_half_width_rad(np.radians(tol_deg["raan_rel"]), ref_inc)
     cap_kms = cfg.dv_cap_kms_per_year * cfg.life_days / DAYS_PER_JULIAN_YEAR
     r_moon = dynamics.constants.r_moon_mean_km
     field = (SecularField.from_settings(stability, dynamics, t0, cfg.life_days + 1.0)
@@ -311,6 +316,9 @@ def simulate_life(design_life: DesignLifeSettings, dynamics: Dynamics, elements_
                        np.array(hist_err), half, booked, impact_t, loss_t, cap_kms, time.perf_counter() - start,
                        sample_t, r_sample if sample_step_s is not None else None)
     _add_life_report(ds, np.array(hist_rp) - r_moon, loss_t, loss_cause, r_min - r_moon, t0, life_s, natural, nav)
+    ds.attrs["relative_tolerances"] = "none" if tol_deg is None else svc.tolerances
+    ds.attrs["raan_rel_tolerance_deg"], ds.attrs["u_rel_tolerance_deg"] = ((np.nan, np.nan) if tol_deg is None
+                                                                           else (tol_deg["raan_rel"], tol_deg["u_rel"]))
     ds["n_maneuver_sets"] = ("sat", n_sets)
     ds["n_maneuver_sets"].attrs["description"] = "corrections (each one or two burns per purpose, plus a mean-a trim)"
     ds["insertion_elements_deg"] = (("sat", "element"), el_insert)

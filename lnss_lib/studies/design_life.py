@@ -121,8 +121,9 @@ def flown_elements(design, max_sats_per_plane: int = 0) -> np.ndarray:
 
 def validate_design(settings: Settings, design, life_days: float, max_sats_per_plane: int = 0, region: str = "") -> dict:
     """Closed loop and natural drift over ``life_days`` beside the estimate and the screen, for one design: the
-    controller and element frame flown, the Delta-V (mean, max, ``dv_<purpose>_kms_per_year`` split), the lowest
-    perilune controlled and natural, impacts, and the predictors."""
+    controller and element frame flown, the Delta-V (mean, max, ``dv_<purpose>_kms_per_year`` split), the relative
+    node (tilt) and slot tolerances the service controller held (NaN under the box), the lowest perilune controlled
+    and natural, impacts, and the predictors."""
     elements = flown_elements(design, max_sats_per_plane)
     runs = run_design_life(settings, elements, life_days, sample=False)
     pred = short_arc_predictors(settings.epoch, settings.dynamics, settings.sk_estimate, settings.stability, elements,
@@ -140,6 +141,8 @@ def validate_design(settings: Settings, design, life_days: float, max_sats_per_p
                sk_dv_kms_per_year=float(ctl["dv_kms_per_year"].mean()),
                sk_dv_max_kms_per_year=float(ctl["dv_kms_per_year"].max()),
                n_maneuvers=int(ctl["n_maneuvers"].sum()), box_held=bool(ctl["box_held"].all()),
+               raan_rel_tolerance_deg=float(ctl.attrs["raan_rel_tolerance_deg"]),
+               u_rel_tolerance_deg=float(ctl.attrs["u_rel_tolerance_deg"]),
                impact_day=float(np.nanmin(impact)) if np.isfinite(impact).any() else np.nan,
                natural_impact_day=float(np.nanmin(nat_impact)) if np.isfinite(nat_impact).any() else np.nan,
                sk_dv_estimate_kms_per_year=pred["sk_dv_estimate_kms_per_year"], stable_screen=pred["stable_screen"],

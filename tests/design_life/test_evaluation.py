@@ -15,6 +15,7 @@ from lnss_lib.design_life.evaluation import LIFE_KEYS, life_availability, life_n
 from lnss_lib.dop import SurfaceGrid, dop_for_settings, dop_summary, summary_for_settings
 from lnss_lib.frames import rotate_to_moon_fixed
 from lnss_lib.propagator import elements_deg_to_states, propagate_states
+from lnss_lib.settings import load_settings
 from lnss_lib.studies.design_life import compare, validate_design, validation_table
 
 ELFO_2X1 = ["--sma-km", "6143", "--ecc", "0.6", "--aop-deg", "90", "--inc-deg", "51.7", "--planes", "2",
@@ -43,6 +44,9 @@ def test_evaluate_design_life_json_keys_and_types(capsys):
     assert out["lost_satellites"] == [] and out["natural_lost_satellites"] == []
     for key in ("pdop_avail_pct_monthly", "hdop_avail_pct_monthly"):
         assert set(out[key]) == {"controlled", "natural"} and len(out[key]["controlled"]) >= 1
+    tol, svc = out["relative_tolerances_deg"], load_settings("ci").design_life.service
+    assert svc.raan_rel_bounds_deg[0] <= tol["raan_rel"] <= svc.raan_rel_bounds_deg[1]
+    assert svc.u_rel_bounds_deg[0] <= tol["u_rel"] <= svc.u_rel_bounds_deg[1]
 
 
 def test_evaluate_prints_reason_of_infeasible_design(capsys):
