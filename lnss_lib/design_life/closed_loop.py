@@ -40,7 +40,9 @@ Delta-v cap is not spent) gets one or two impulses on the next orbit, planned fr
 Newton-refined in two-body motion (:func:`lnss_lib.design_life.manoeuvres.plan_impulses`), so an e-vector pair at
 perilune/apolune leaves the osculating a unchanged. A set of burns is flown whole or not at all
 (:func:`_enqueue`): never with a non-finite impulse, and, safety apart, never when its total exceeds what is
-left of the Delta-v cap (a scaled-down set would hit none of the targets it was solved for). The one-orbit
+left of the Delta-v cap (a scaled-down set would hit none of the targets it was solved for) or when an orbit it
+leaves, between its burns or after them (two-body flight), has its perilune below the impact radius (plus
+``perilune_margin_km`` under the service controller). The one-orbit
 MEAN a still moves by a few km when e or AOP change (the orbit-averaged lunar potential seen by the new orbit
 differs: 2 a^2/GM Delta<R>), so after every correction the next check measures the mean a and trims it back
 with a small tangential burn (:data:`A_TRIM_FRACTION`). The control laws are in :mod:`lnss_lib.design_life.control`: e, AOP, i and
@@ -66,7 +68,7 @@ from ..constants import DAYS_PER_JULIAN_YEAR, SECONDS_PER_DAY
 from ..elements import eccentricity_vector, orbital_period_s, state_to_elements, vis_viva_sma_km
 from ..ephemeris import ensure_kernels
 from ..forces import ForceModel
-from .manoeuvres import candidate_true_anomalies, mean_anomaly, plan_impulses
+from .manoeuvres import candidate_true_anomalies, lowest_perilune_km, mean_anomaly, plan_impulses
 from .mean_elements import mean_elements, relative_angles, to_element_frame, wrap_pi
 from .control import SlotState, drift_band_rate, overshoot_target, predicted_exit, running_mean, tidal_mean
 from ..progress import steps
@@ -129,6 +131,7 @@ def simulate_life(design_life: DesignLifeSettings, dynamics: Dynamics, elements_
     states = elements_deg_to_states(dynamics, el_insert, t0)
     rot = element_frame_to_j2000(dynamics, t0)
     r_min = dynamics.r_impact_km
+    floor_km = r_min + (cfg.service.perilune_margin_km if cfg.controller == "service" else 0.0)   # of any burn set but safety's
 
     n_sat = el.shape[0]
     sample_t = _sample_grid(t0, life_s, sample_step_s)
@@ -272,7 +275,8 @@ def simulate_life(design_life: DesignLifeSettings, dynamics: Dynamics, elements_
                 d_a, a_hold[i] = a_hold[i] - mel[i, 0], np.nan
                 if abs(d_a) > a_tol[i]:
                     plan = plan_impulses(osc, gm, {"a_km": d_a, "ex": 0.0, "ey": 0.0, "inc_rad": 0.0, "raan_rad": 0.0})
-                    if _enqueue(queue[i], t, osc, gm, [("a_trim", plan)], _budget_kms(cap_kms, dv_used[i], queue[i])):
+                    if _enqueue(queue[i], t, osc, gm, [("a_trim", plan)], _budget_kms(cap_kms, dv_used[i], queue[i]),
+                                floor_km):
                         slot[i].history = []
                     continue
             if restore[i]:
@@ -280,7 +284,7 @@ def simulate_life(design_life: DesignLifeSettings, dynamics: Dynamics, elements_
                 target = {"a_km": 0.0, "ex": ref_ecc[i] * np.cos(ref_aop[i]) - ecc * np.cos(aop),
                           "ey": ref_ecc[i] * np.sin(ref_aop[i]) - ecc * np.sin(aop), "inc_rad": -err[i, 2]}
                 if _enqueue(queue[i], t, osc, gm, [("navigation", plan_impulses(osc, gm, target, max_burns=2))],
-                            _budget_kms(cap_kms, dv_used[i], queue[i])):
+                            _budget_kms(cap_kms, dv_used[i], queue[i]), floor_km):
                     geo_hist[i] = [(tk, gk - np.append(err[i, :3], 0.0)) for tk, gk in geo_hist[i]]
                     a_hold[i], n_sets[i], last_burn[i] = mel[i, 0], n_sets[i] + 1, t
             if t - last_burn[i] < cfg.min_maneuver_spacing_days * SECONDS_PER_DAY:
@@ -301,7 +305,7 @@ def simulate_life(design_life: DesignLifeSettings, dynamics: Dynamics, elements_
             plans = [(part, *_plan(osc, mel[i], ref_a[i], err_avg, part, fit, half[i], cfg, gm, hold_u=not service))
                      for part in groups]
             if not _enqueue(queue[i], t, osc, gm, [(_purpose(part), plan) for part, plan, _ in plans if plan is not None],
-                            _budget_kms(cap_kms, dv_used[i], queue[i])):
+                            _budget_kms(cap_kms, dv_used[i], queue[i]), floor_km):
                 continue
             a_hold[i] = mel[i, 0] + sum(d_a_part for _, _, d_a_part in plans)
             n_sets[i] += 1
@@ -336,12 +340,18 @@ def _perilune_radius_km(states: np.ndarray, gm: float) -> np.ndarray:
     return vis_viva_sma_km(rn, np.sum(v * v, axis=1), gm) * (1.0 - e)
 
 
-def _enqueue(queue: list, t: float, osc: np.ndarray, gm: float, sets: list, budget_kms: float = np.inf) -> bool:
+def _enqueue(queue: list, t: float, osc: np.ndarray, gm: float, sets: list, budget_kms: float = np.inf,
+             floor_km: float = -np.inf) -> bool:
     """Append the burns of ``sets`` ((purpose, plan) pairs planned at ``t`` on osculating elements ``osc``) as
-    (epoch, dv_rtn, purpose, location) records, all of them or none: none when an impulse is not finite or their
-    total Delta-v exceeds ``budget_kms``. Returns whether they were queued."""
+    (epoch, dv_rtn, purpose, location) records, all of them or none: none when an impulse is not finite, their
+    total Delta-v exceeds ``budget_kms``, or an orbit they leave (between two burns or after the last, two-body
+    flight: :func:`lnss_lib.design_life.manoeuvres.lowest_perilune_km`) has its perilune radius below ``floor_km``
+    (a two-burn e-vector change whose intermediate orbit dives into the Moon). Returns whether they were queued."""
     total = sum(plan.dv_total_kms for _, plan in sets)
     if not (np.isfinite(total) and total <= budget_kms):
+        return False
+    burns = sorted(((float(dt), dv) for _, plan in sets for dt, dv in zip(plan.dt_s, plan.dv_rtn_kms)), key=lambda b: b[0])
+    if burns and lowest_perilune_km(osc, gm, [b[0] for b in burns], [b[1] for b in burns]) < floor_km:
         return False
     e, aop = float(osc[1]), float(osc[4])
     nus = candidate_true_anomalies(e, aop)
