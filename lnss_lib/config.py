@@ -231,6 +231,7 @@ RANGES = {
     "design_life.slot_fit_days": POSITIVE, "design_life.slot_quad_days": POSITIVE,
     "design_life.tide_period_days": POSITIVE, "design_life.target_fraction": (0.0, 1.0, False, True),
     "life_evaluation.sample_step_s": POSITIVE, "life_evaluation.month_days": POSITIVE,
+    "life_evaluation.frame_rerun_designs": (0, None, False, False),
 }
 _TOLERANCE_WHY = (f"below about 100 machine epsilons ({TOLERANCE_FLOOR:g}) an integrator's error test asks for what "
                   "double precision cannot resolve")

@@ -435,6 +435,7 @@ class LifeEvaluationSettings:
     validation_front_designs: int
     anchor_life_days: float
     validation_frames: tuple[str, ...]
+    frame_rerun_designs: int
     validation_designs: tuple[tuple[int | float, ...], ...]   # Walker rows (a_km, e, aop, inc, planes, per plane)
 
 

@@ -54,7 +54,7 @@ NAVIGATION_KEYS = ("pdop_avail_pct", "hdop_avail_pct", "pdop_mean_3sigma", "hdop
 
 STUDY_KEYS = ("notebook_life_days", "convergence_life_days", "convergence_sats", "validation_life_days",
               "validation_max_sats_per_plane", "validation_front_designs", "validation_designs",
-              "anchor_life_days", "validation_frames")
+              "anchor_life_days", "validation_frames", "frame_rerun_designs")
 """``[life_evaluation]`` keys read by notebook 08 and :mod:`lnss_lib.studies.design_life` only."""
 
 

@@ -53,7 +53,7 @@ from ..progress import steps
 from ..settings import Settings
 
 __all__ = ["REGIONS", "region_of", "campaign_designs", "validation_designs", "flown_elements", "validate_design",
-           "validation_table", "compare", "screen_misses", "region_summary", "verdict", "run_validation"]
+           "validation_table", "compare", "screen_misses", "region_summary", "verdict", "run_validation", "frame_rerun"]
 
 REGIONS = ("standalone ELFO", "frozen family", "high a, high i", "low near-circular", "campaign", "other")
 
@@ -251,3 +251,15 @@ def run_validation(settings: Settings, campaign_dir: Path | None = None) -> tupl
                             section.validation_max_sats_per_plane, d["region"])
             for d in steps(designs, "design-life validation", "designs")]
     return validation_table(rows), note
+
+
+def frame_rerun(settings: Settings, element_frame: str, campaign_dir: Path | None = None) -> tuple[Settings, Path | None]:
+    """(settings, campaign folder) of the validation re-run with the elements read in ``element_frame``: every design
+    of :func:`run_validation`, or with ``[life_evaluation] frame_rerun_designs`` = n > 0 the first n
+    ``validation_designs`` only (no campaign designs), so a short profile can afford the re-run."""
+    rerun = settings.with_overrides({"frames": {"element_frame": element_frame}})
+    n = settings.life_evaluation.frame_rerun_designs
+    if n <= 0:
+        return rerun, campaign_dir
+    designs = [list(d) for d in settings.life_evaluation.validation_designs[:n]]
+    return rerun.with_overrides({"life_evaluation": {"validation_designs": designs}}), None

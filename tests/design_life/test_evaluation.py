@@ -130,3 +130,20 @@ def test_life_evaluation_settings_are_checked(ci_profile):
         ci_profile.with_overrides({"life_evaluation": {"smaple_step_s": 1.0}})
     with pytest.raises(ConfigError, match="life_evaluation.month_days"):
         ci_profile.with_overrides({"life_evaluation": {"month_days": -1.0}})
+    with pytest.raises(ConfigError, match=r"life_evaluation.frame_rerun_designs = -1 is out of range"):
+        ci_profile.with_overrides({"life_evaluation": {"frame_rerun_designs": -1}})
+
+
+def test_frame_rerun_takes_every_design_or_the_first_n():
+    """The validation re-run in another element frame: paper and ci every design and the campaign's; quick the first
+    five (the standalone ELFO and the frozen family), without the campaign's."""
+    from lnss_lib.studies.design_life import frame_rerun, region_of
+
+    for name, n_designs, keeps_campaign in (("paper", 15, True), ("ci", 3, True), ("quick", 5, False)):
+        settings = load_settings(name)
+        rerun, campaign = frame_rerun(settings, "moon_op", "campaign-folder")
+        assert rerun.frames.element_frame == "moon_op" and settings.frames.element_frame == "lunar_equator_of_epoch"
+        assert rerun.life_evaluation.validation_designs == settings.life_evaluation.validation_designs[:n_designs]
+        assert (campaign == "campaign-folder") == keeps_campaign
+    regions = {region_of(d) for d in frame_rerun(load_settings("quick"), "moon_op")[0].life_evaluation.validation_designs}
+    assert regions == {"standalone ELFO", "frozen family"}
