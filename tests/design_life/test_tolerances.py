@@ -90,7 +90,7 @@ def test_more_satellites_give_a_wider_slot_tolerance(elfo_2x4, elfo_2x8):
 
 def test_elfo_derived_tolerances_against_the_fixed_ones(profile, elfo_2x8):
     """The fixed 4.7 deg of tilt and 20 deg of slot were calibrated (studies/sk_box.py) with EVERY satellite of the
-    16-satellite ELFO moved at once; one satellite of sixteen moved to the bounds (20 deg of tilt, 90 deg of slot)
+    16-satellite ELFO moved at once; one satellite of sixteen moved to the bounds (10 deg of tilt, 90 deg of slot)
     keeps the requirement (3-sigma PDOP rises by under half the 10 % allowed), so the derived tolerances are the
     upper bounds: wider than the fixed ones."""
     svc = profile.design_life.service
