@@ -34,7 +34,11 @@ campaign folder), elements read in the lunar equator / in ``moon_op`` (``frames.
   e 0.6 i 56.2 design, whose mean perilune stays 112 km up while the real one reaches the surface on day 102.
 
 Box figures in brackets were measured before the Delta-V cap was enforced per burn set (issue 19 fixes);
-service figures after it and after the relative node became the tilt of the plane (``raan_rel_deg`` 4.7).
+service figures after it and after the relative node became the tilt of the plane, with the fixed tolerances
+(``[design_life.service] tolerances = "fixed"``: 4.7 deg of tilt, 20 deg of slot); under the derived default
+(:mod:`lnss_lib.design_life.tolerances`) the 15 designs were not re-flown in both frames. Note that a validation
+flown with one satellite per plane derives the tolerances of that smaller constellation (tighter: fewer satellites
+share the sky), not of the full design.
 """
 
 from __future__ import annotations
