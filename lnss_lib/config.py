@@ -228,12 +228,14 @@ RANGES = {
     "design_life.samples_per_orbit": (16, None, False, False), "design_life.min_maneuver_spacing_days": NON_NEGATIVE,
     "design_life.dv_cap_kms_per_year": NON_NEGATIVE,
     "design_life.box_tolerance": NON_NEGATIVE,
-    "benchmark.extra_masks_deg": (0.0, 90.0, False, True),      # each entry of the list "design_life.slot_coast_days": POSITIVE,
+    "benchmark.extra_masks_deg": (0.0, 90.0, False, True),      # each entry of the list
+    "design_life.slot_coast_days": POSITIVE,
     "design_life.slot_fit_days": POSITIVE, "design_life.slot_quad_days": POSITIVE,
     "design_life.tide_period_days": POSITIVE, "design_life.target_fraction": (0.0, 1.0, False, True),
     "life_evaluation.sample_step_s": POSITIVE, "life_evaluation.month_days": POSITIVE,
     "life_evaluation.screen_validation_designs": (0, None, False, False),
     "life_evaluation.screen_validation_life_days": NON_NEGATIVE,
+    "life_evaluation.frame_rerun_designs": (0, None, False, False),
 }
 _TOLERANCE_WHY = (f"below about 100 machine epsilons ({TOLERANCE_FLOOR:g}) an integrator's error test asks for what "
                   "double precision cannot resolve")
@@ -272,6 +274,7 @@ STABILITY_METHODS = ("DOP853", "RK45", "Radau", "LSODA", "RK4")
 STABILITY_BODIES = ("EARTH", "SUN")
 SK_ESTIMATE_MODELS = ("arc", "life")             # campaign estimate: the 10-day box slope, or the service controller's life
 CONTROLLERS = ("service", "box")                 # design life: hold the service (design_life.service) or the fixed-element box
+TOLERANCE_SOURCES = ("derived", "fixed")         # service controller: node/slot tolerances from each design's navigation, or as set
 CHOICES = {    # a text setting (or each entry of a list of texts) -> its allowed values
     "integrator.settings.*.method": METHODS, "frames.element_frame": ELEMENT_FRAMES, "frames.moon_fixed": POLE_FRAMES,
     "frames.gravity": POLE_FRAMES, "forces.third_bodies": THIRD_BODIES, "forces.shadow": SHADOW_MODELS,
@@ -282,6 +285,7 @@ CHOICES = {    # a text setting (or each entry of a list of texts) -> its allowe
     "stability.third_bodies": STABILITY_BODIES, "sk_estimate.element_frame": ELEMENT_FRAMES,
     "sk_estimate.model": SK_ESTIMATE_MODELS,
     "evaluator.extra_metrics": EXTRA_METRIC_KEYS, "design_life.controller": CONTROLLERS,
+    "design_life.service.tolerances": TOLERANCE_SOURCES,
     "life_evaluation.validation_frames": ELEMENT_FRAMES,
 }
 
@@ -309,8 +313,12 @@ SETTING_NAMES = ("integrator.setting", "design_life.integrator_setting", "valida
 
 for _name in ("ecc", "aop_deg", "inc_deg", "raan_rel_deg", "u_rel_deg"):
     RANGES[f"design_life.box.{_name}"] = POSITIVE
-for _name in ("safety_check_days", "safety_lead_days", "nav_window_days", "raan_rel_deg", "u_rel_deg"):
+for _name in ("safety_check_days", "safety_lead_days", "nav_window_days", "raan_rel_deg", "u_rel_deg",
+              "tolerance_arc_days", "tolerance_step_s"):
     RANGES[f"design_life.service.{_name}"] = POSITIVE
+RANGES["design_life.service.raan_rel_bounds_deg"] = (0.0, 90.0, True, False)     # each entry: a tilt of the plane
+RANGES["design_life.service.u_rel_bounds_deg"] = (0.0, 180.0, True, False)      # each entry: half a turn at most
+BOUND_PAIRS = ("design_life.service.raan_rel_bounds_deg", "design_life.service.u_rel_bounds_deg")
 for _name in ("perilune_margin_km", "nav_avail_drop_pct", "nav_dop_rise_fraction"):
     RANGES[f"design_life.service.{_name}"] = NON_NEGATIVE
 for _name in ("gm_sun_km3_s2", "gm_earth_km3_s2", "gm_jupiter_km3_s2", "r_moon_mean_km", "r_earth_km", "r_sun_km",
@@ -491,7 +499,8 @@ def _lookup(profile: dict, key: str):
 def _check_across(profile: dict, source) -> None:
     """Rules across keys, wherever a (partial) profile holds every key a rule needs: setting names name an
     ``[integrator.settings.*]`` table; ``[evaluator] extra_metrics`` are distinct, and the Delta-V maxima among
-    them need ``[deltav] satellites = "all"``; Cr A/m of the spacecraft is a spacecraft's."""
+    them need ``[deltav] satellites = "all"``; Cr A/m of the spacecraft is a spacecraft's; :data:`BOUND_PAIRS` are
+    ``[low, high]`` with low < high."""
     settings = _lookup(profile, "integrator.settings")
     for key in SETTING_NAMES:
         name = _lookup(profile, key)
@@ -505,6 +514,10 @@ def _check_across(profile: dict, source) -> None:
     if needs_all and satellites is not None and satellites != "all":
         _fail(f"[evaluator] extra_metrics {needs_all} are maxima over satellites: they need "
               f'[deltav] satellites = "all"; got {satellites!r}', "deltav.satellites", source)
+    for key in BOUND_PAIRS:
+        pair = _lookup(profile, key)
+        if pair is not None and not (len(pair) == 2 and pair[0] < pair[1]):
+            _fail(f"{key} = {pair!r} is not allowed; allowed: [low, high] with low < high", key, source)
     craft = [_lookup(profile, f"spacecraft.{k}") for k in ("cr", "area_m2", "mass_kg")]
     if None not in craft and craft[2] > 0 and not in_range(craft[0] * craft[1] / craft[2], CR_AREA_MASS):
         _fail(f"spacecraft cr * area_m2 / mass_kg = {craft[0] * craft[1] / craft[2]:.6g} m^2/kg is out of range; "

@@ -389,6 +389,11 @@ class ServiceSettings:
     nav_dop_rise_fraction: float
     raan_rel_deg: float
     u_rel_deg: float
+    tolerances: str                                  # config.TOLERANCE_SOURCES
+    tolerance_arc_days: float
+    tolerance_step_s: float
+    raan_rel_bounds_deg: tuple[float, float]
+    u_rel_bounds_deg: tuple[float, float]
 
 
 @dataclass(frozen=True)
@@ -435,6 +440,7 @@ class LifeEvaluationSettings:
     validation_front_designs: int
     anchor_life_days: float
     validation_frames: tuple[str, ...]
+    frame_rerun_designs: int
     validation_designs: tuple[tuple[int | float, ...], ...]   # Walker rows (a_km, e, aop, inc, planes, per plane)
     screen_validation_designs: int          # random Table 3 designs of studies.screen_validation
     screen_validation_life_days: float      # ... flown this long (0: the screened profile's [stability] life_days)

@@ -31,6 +31,8 @@ Under the closed loop:
 * :mod:`.control` -- the box controller's laws: drift-band slot control, overshoot targeting, tidal means;
 * :mod:`.service` -- the service controller's decisions: safety (perilune predicted by :mod:`.screen`),
   navigation monitor, relative node and slot, where a burn went;
+* :mod:`.tolerances` -- the relative node and slot tolerances of that controller, derived per design at the start
+  of its life from how far one satellite may drift before its navigation requirement breaks;
 * :mod:`.manoeuvres` -- impulses from the Gauss variational equations (paper eq. 25-29): the control-set
   GVE matrix and the one- or two-burn planner refined in two-body flight.
 

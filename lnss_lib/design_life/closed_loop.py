@@ -7,11 +7,12 @@ Every satellite of a constellation is propagated by the compiled engine
 - ``"service"`` (the default; :mod:`lnss_lib.design_life.service`) holds what the service needs: the perilune
   above the floor as predicted by the averaged model (safety burns, flown even beyond the Delta-v cap),
   the navigation of each window of sampled positions against the first window's (a violation restores
-  e, AOP and i of the satellites outside ``[design_life.box]``), and the relative node and slot within
-  ``[design_life.service]`` (the node as the tilt of the plane: a RAAN half-width of
-  :func:`lnss_lib.design_life.service.raan_half_width_rad` of each satellite's design inclination, about
-  ``raan_rel_deg`` / sin i, unbounded below i = ``raan_rel_deg`` / 2); e, AOP and i are otherwise left to their
-  natural motion;
+  e, AOP and i of the satellites outside ``[design_life.box]``), and the relative node and slot within the
+  tolerances of :func:`lnss_lib.design_life.tolerances.relative_tolerances_deg`, derived at the start of the life
+  from the design's navigation sensitivity (``[design_life.service] tolerances = "derived"``) or fixed (the node as
+  the tilt of the plane: a RAAN half-width of :func:`lnss_lib.design_life.service.raan_half_width_rad` of each
+  satellite's design inclination, about the tilt / sin i, unbounded below i = tilt / 2; the Dataset's attributes
+  ``raan_rel_tolerance_deg``, ``u_rel_tolerance_deg``); e, AOP and i are otherwise left to their natural motion;
 - ``"box"`` holds the fixed-element box described below.
 
 A satellite that impacts, escapes (unbound osculating or mean orbit) or whose propagation fails is
@@ -39,7 +40,9 @@ Delta-v cap is not spent) gets one or two impulses on the next orbit, planned fr
 Newton-refined in two-body motion (:func:`lnss_lib.design_life.manoeuvres.plan_impulses`), so an e-vector pair at
 perilune/apolune leaves the osculating a unchanged. A set of burns is flown whole or not at all
 (:func:`_enqueue`): never with a non-finite impulse, and, safety apart, never when its total exceeds what is
-left of the Delta-v cap (a scaled-down set would hit none of the targets it was solved for). The one-orbit
+left of the Delta-v cap (a scaled-down set would hit none of the targets it was solved for) or when an orbit it
+leaves, between its burns or after them (two-body flight), has its perilune below the impact radius (plus
+``perilune_margin_km`` under the service controller). The one-orbit
 MEAN a still moves by a few km when e or AOP change (the orbit-averaged lunar potential seen by the new orbit
 differs: 2 a^2/GM Delta<R>), so after every correction the next check measures the mean a and trims it back
 with a small tangential burn (:data:`A_TRIM_FRACTION`). The control laws are in :mod:`lnss_lib.design_life.control`: e, AOP, i and
@@ -65,7 +68,7 @@ from ..constants import DAYS_PER_JULIAN_YEAR, SECONDS_PER_DAY
 from ..elements import eccentricity_vector, orbital_period_s, state_to_elements, vis_viva_sma_km
 from ..ephemeris import ensure_kernels
 from ..forces import ForceModel
-from .manoeuvres import candidate_true_anomalies, mean_anomaly, plan_impulses
+from .manoeuvres import candidate_true_anomalies, lowest_perilune_km, mean_anomaly, plan_impulses
 from .mean_elements import mean_elements, relative_angles, to_element_frame, wrap_pi
 from .control import SlotState, drift_band_rate, overshoot_target, predicted_exit, running_mean, tidal_mean
 from ..progress import steps
@@ -76,6 +79,7 @@ from ..settings import DesignLifeSettings, DopSettings, Dynamics, IntegratorSett
 from .service import (LOCATIONS, PURPOSES, NavigationMonitor, burn_location, raised_history, mean_vectors_j2000,
                          raan_half_width_rad, safety_targets)
 from .screen import SecularField
+from .tolerances import relative_tolerances_deg
 from .propagation import integrate_chunk, life_force_model, trim_to_mean
 
 
@@ -127,6 +131,7 @@ def simulate_life(design_life: DesignLifeSettings, dynamics: Dynamics, elements_
     states = elements_deg_to_states(dynamics, el_insert, t0)
     rot = element_frame_to_j2000(dynamics, t0)
     r_min = dynamics.r_impact_km
+    floor_km = r_min + (cfg.service.perilune_margin_km if cfg.controller == "service" else 0.0)   # of any burn set but safety's
 
     n_sat = el.shape[0]
     sample_t = _sample_grid(t0, life_s, sample_step_s)
@@ -148,11 +153,14 @@ def simulate_life(design_life: DesignLifeSettings, dynamics: Dynamics, elements_
     box_half = half.copy()
     service = cfg.controller == "service"
     svc = cfg.service
-    if service:
-        half = np.array([np.inf, np.inf, np.inf, np.radians(svc.raan_rel_deg), np.radians(svc.u_rel_deg)])
+    tol_deg = (relative_tolerances_deg(svc, dop, dynamics, el_insert, t0, model=model,
+                                       arc_days=min(svc.tolerance_arc_days, cfg.life_days)) if service and not natural
+               else None)
+    if tol_deg is not None:
+        half = np.array([np.inf, np.inf, np.inf, np.radians(tol_deg["raan_rel"]), np.radians(tol_deg["u_rel"])])
     half = np.tile(half, (n_sat, 1))                    # per satellite: the service's node half-width depends on i
-    if service:
-        half[:, 3] = raan_half_width_rad(np.radians(svc.raan_rel_deg), ref_inc)
+    if tol_deg is not None:
+        half[:, 3] = raan_half_width_rad(np.radians(tol_deg["raan_rel"]), ref_inc)
     cap_kms = cfg.dv_cap_kms_per_year * cfg.life_days / DAYS_PER_JULIAN_YEAR
     r_moon = dynamics.constants.r_moon_mean_km
     field = (SecularField.from_settings(stability, dynamics, t0, cfg.life_days + 1.0)
@@ -266,7 +274,8 @@ def simulate_life(design_life: DesignLifeSettings, dynamics: Dynamics, elements_
                 d_a, a_hold[i] = a_hold[i] - mel[i, 0], np.nan
                 if abs(d_a) > a_tol[i]:
                     plan = plan_impulses(osc, gm, {"a_km": d_a, "ex": 0.0, "ey": 0.0, "inc_rad": 0.0, "raan_rad": 0.0})
-                    if _enqueue(queue[i], t, osc, gm, [("a_trim", plan)], _budget_kms(cap_kms, dv_used[i], queue[i])):
+                    if _enqueue(queue[i], t, osc, gm, [("a_trim", plan)], _budget_kms(cap_kms, dv_used[i], queue[i]),
+                                floor_km):
                         slot[i].history = []
                     continue
             if restore[i]:
@@ -274,7 +283,7 @@ def simulate_life(design_life: DesignLifeSettings, dynamics: Dynamics, elements_
                 target = {"a_km": 0.0, "ex": ref_ecc[i] * np.cos(ref_aop[i]) - ecc * np.cos(aop),
                           "ey": ref_ecc[i] * np.sin(ref_aop[i]) - ecc * np.sin(aop), "inc_rad": -err[i, 2]}
                 if _enqueue(queue[i], t, osc, gm, [("navigation", plan_impulses(osc, gm, target, max_burns=2))],
-                            _budget_kms(cap_kms, dv_used[i], queue[i])):
+                            _budget_kms(cap_kms, dv_used[i], queue[i]), floor_km):
                     geo_hist[i] = [(tk, gk - np.append(err[i, :3], 0.0)) for tk, gk in geo_hist[i]]
                     a_hold[i], n_sets[i], last_burn[i] = mel[i, 0], n_sets[i] + 1, t
             if t - last_burn[i] < cfg.min_maneuver_spacing_days * SECONDS_PER_DAY:
@@ -295,7 +304,7 @@ def simulate_life(design_life: DesignLifeSettings, dynamics: Dynamics, elements_
             plans = [(part, *_plan(osc, mel[i], ref_a[i], err_avg, part, fit, half[i], cfg, gm, hold_u=not service))
                      for part in groups]
             if not _enqueue(queue[i], t, osc, gm, [(_purpose(part), plan) for part, plan, _ in plans if plan is not None],
-                            _budget_kms(cap_kms, dv_used[i], queue[i])):
+                            _budget_kms(cap_kms, dv_used[i], queue[i]), floor_km):
                 continue
             a_hold[i] = mel[i, 0] + sum(d_a_part for _, _, d_a_part in plans)
             n_sets[i] += 1
@@ -310,6 +319,9 @@ def simulate_life(design_life: DesignLifeSettings, dynamics: Dynamics, elements_
                        np.array(hist_err), half, booked, impact_t, loss_t, cap_kms, time.perf_counter() - start,
                        sample_t, r_sample if sample_step_s is not None else None)
     _add_life_report(ds, np.array(hist_rp) - r_moon, loss_t, loss_cause, r_min - r_moon, t0, life_s, natural, nav)
+    ds.attrs["relative_tolerances"] = "none" if tol_deg is None else svc.tolerances
+    ds.attrs["raan_rel_tolerance_deg"], ds.attrs["u_rel_tolerance_deg"] = ((np.nan, np.nan) if tol_deg is None
+                                                                           else (tol_deg["raan_rel"], tol_deg["u_rel"]))
     ds["n_maneuver_sets"] = ("sat", n_sets)
     ds["n_maneuver_sets"].attrs["description"] = "corrections (each one or two burns per purpose, plus a mean-a trim)"
     ds["insertion_elements_deg"] = (("sat", "element"), el_insert)
@@ -327,12 +339,18 @@ def _perilune_radius_km(states: np.ndarray, gm: float) -> np.ndarray:
     return vis_viva_sma_km(rn, np.sum(v * v, axis=1), gm) * (1.0 - e)
 
 
-def _enqueue(queue: list, t: float, osc: np.ndarray, gm: float, sets: list, budget_kms: float = np.inf) -> bool:
+def _enqueue(queue: list, t: float, osc: np.ndarray, gm: float, sets: list, budget_kms: float = np.inf,
+             floor_km: float = -np.inf) -> bool:
     """Append the burns of ``sets`` ((purpose, plan) pairs planned at ``t`` on osculating elements ``osc``) as
-    (epoch, dv_rtn, purpose, location) records, all of them or none: none when an impulse is not finite or their
-    total Delta-v exceeds ``budget_kms``. Returns whether they were queued."""
+    (epoch, dv_rtn, purpose, location) records, all of them or none: none when an impulse is not finite, their
+    total Delta-v exceeds ``budget_kms``, or an orbit they leave (between two burns or after the last, two-body
+    flight: :func:`lnss_lib.design_life.manoeuvres.lowest_perilune_km`) has its perilune radius below ``floor_km``
+    (a two-burn e-vector change whose intermediate orbit dives into the Moon). Returns whether they were queued."""
     total = sum(plan.dv_total_kms for _, plan in sets)
     if not (np.isfinite(total) and total <= budget_kms):
+        return False
+    burns = sorted(((float(dt), dv) for _, plan in sets for dt, dv in zip(plan.dt_s, plan.dv_rtn_kms)), key=lambda b: b[0])
+    if burns and lowest_perilune_km(osc, gm, [b[0] for b in burns], [b[1] for b in burns]) < floor_km:
         return False
     e, aop = float(osc[1]), float(osc[4])
     nus = candidate_true_anomalies(e, aop)

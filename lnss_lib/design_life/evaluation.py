@@ -46,7 +46,7 @@ LIFE_KEYS = ("life_days", "impact_day", "natural_impact_day", "sk_dv_kms_per_yea
              "n_maneuvers", "box_held", "pdop_avail_pct_life", "hdop_avail_pct_life", "sk_dv_estimate_kms_per_year",
              "stable_screen", "screen_min_perilune_alt_km", "controller", "element_frame", "sk_dv_split",
              "sk_dv_split_by_location", "min_perilune_alt_km", "natural_min_perilune_alt_km", "lost_satellites",
-             "natural_lost_satellites", "pdop_avail_pct_monthly", "hdop_avail_pct_monthly")
+             "natural_lost_satellites", "pdop_avail_pct_monthly", "hdop_avail_pct_monthly", "relative_tolerances_deg")
 """Keys :func:`evaluate_design_life` adds to an evaluation (the evaluate CLI's ``--design-life-days``)."""
 
 NAVIGATION_KEYS = ("pdop_avail_pct", "hdop_avail_pct", "pdop_mean_3sigma", "hdop_mean_3sigma", "mean_visible_sats",
@@ -55,7 +55,7 @@ NAVIGATION_KEYS = ("pdop_avail_pct", "hdop_avail_pct", "pdop_mean_3sigma", "hdop
 
 STUDY_KEYS = ("notebook_life_days", "convergence_life_days", "convergence_sats", "validation_life_days",
               "validation_max_sats_per_plane", "validation_front_designs", "validation_designs",
-              "anchor_life_days", "validation_frames")
+              "anchor_life_days", "validation_frames", "frame_rerun_designs")
 """``[life_evaluation]`` keys read by notebook 08 and :mod:`lnss_lib.studies.design_life` only."""
 
 
@@ -168,7 +168,9 @@ def life_metrics(runs: Mapping[str, xr.Dataset], nav: xr.Dataset | None = None) 
     ``sk_dv_split`` (purpose -> km/s/yr) and ``sk_dv_split_by_location`` are means over the satellites, so each
     sums to ``sk_dv_kms_per_year``; ``min_perilune_alt_km`` is the lowest osculating perilune altitude of any
     satellite over the life (controlled; ``natural_`` for the natural drift); the monthly availabilities are
-    ``{"controlled": [...], "natural": [...]}`` per month of :func:`life_navigation`."""
+    ``{"controlled": [...], "natural": [...]}`` per month of :func:`life_navigation`; ``relative_tolerances_deg``
+    ``{"raan_rel": plane tilt, "u_rel": slot}`` the service controller held (derived for the design or fixed:
+    :mod:`lnss_lib.design_life.tolerances`; None under the box controller)."""
     ctl = runs["controlled"]
     nat = runs.get("natural")
     out = {"life_days": float(ctl.attrs["life_days"]), "impact_day": _day_or_none(impact_day(ctl)),
@@ -183,7 +185,10 @@ def life_metrics(runs: Mapping[str, xr.Dataset], nav: xr.Dataset | None = None) 
            "min_perilune_alt_km": float(np.nanmin(ctl["min_perilune_alt_km"].values)),
            "natural_min_perilune_alt_km": float(np.nanmin(nat["min_perilune_alt_km"].values)) if nat is not None else None,
            "lost_satellites": lost_satellites(ctl),
-           "natural_lost_satellites": lost_satellites(nat) if nat is not None else None}
+           "natural_lost_satellites": lost_satellites(nat) if nat is not None else None,
+           "relative_tolerances_deg": (None if ctl.attrs.get("relative_tolerances", "none") == "none" else
+                                       {"raan_rel": float(ctl.attrs["raan_rel_tolerance_deg"]),
+                                        "u_rel": float(ctl.attrs["u_rel_tolerance_deg"])})}
     if nav is not None:
         out["pdop_avail_pct_life"] = life_availability(nav, "controlled", "pdop_avail_pct")
         out["hdop_avail_pct_life"] = life_availability(nav, "controlled", "hdop_avail_pct")

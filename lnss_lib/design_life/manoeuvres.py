@@ -143,6 +143,22 @@ def kepler_achieved(elements: np.ndarray, gm_km3_s2: float, dt_s, dv_rtn_kms, ho
     return diff
 
 
+def lowest_perilune_km(elements: np.ndarray, gm_km3_s2: float, dt_s, dv_rtn_kms) -> float:
+    """Lowest osculating perilune radius a (1 - e) (km) of the orbits that the impulses ``dv_rtn_kms`` (k, 3), flown at
+    ``dt_s`` (k,) (s after the epoch of ``elements`` (6,), ascending) in two-body motion, leave behind: each one between
+    two burns and the last; -inf where an impulse opens the orbit (e >= 1), inf without impulses."""
+    state, t, low = elements_to_state(np.asarray(elements, dtype=float), gm_km3_s2), 0.0, np.inf
+    with np.errstate(invalid="ignore"):
+        for dt, dv in zip(dt_s, dv_rtn_kms):
+            state = apply_impulse(kepler_states(state_to_elements(state, gm_km3_s2), [dt - t], gm_km3_s2)[0, 0], dv)
+            t = float(dt)
+            a, e = state_to_elements(state, gm_km3_s2)[:2]
+            if not (np.isfinite(a) and np.isfinite(e) and a > 0.0 and e < 1.0):
+                return -np.inf
+            low = min(low, float(a * (1.0 - e)))
+    return low
+
+
 def plan_impulses(elements: np.ndarray, gm_km3_s2: float, target: dict, *, horizon_s: float | None = None,
                   max_burns: int = 2, true_anomalies=None, min_dv_kms: float = 0.0,
                   newton_steps: int = 3) -> ImpulsePlan:

@@ -14,9 +14,11 @@ holds what the service needs and lets every other motion run:
   window's availability within ``nav_avail_drop_pct`` points and its 3-sigma PDOP/HDOP within
   ``nav_dop_rise_fraction`` (:func:`navigation_violations`); a violation restores e, AOP and i of every
   satellite to the design's values;
-* relative geometry: relative node and slot within ``raan_rel_deg`` and ``u_rel_deg`` (the drift-band and
-  overshoot laws of :mod:`lnss_lib.design_life.control`). ``raan_rel_deg`` bounds the angle between the orbit plane and
-  its slot's plane, 2 asin(sin i sin(dRAAN/2)) at equal inclinations, not the RAAN difference itself: the RAAN
+* relative geometry: relative node and slot within their tolerances (the drift-band and overshoot laws of
+  :mod:`lnss_lib.design_life.control`), derived per design from its navigation sensitivity at the start of the life
+  (:mod:`lnss_lib.design_life.tolerances`) or fixed (``raan_rel_deg``, ``u_rel_deg``). The node tolerance bounds
+  the angle between the orbit plane and its slot's plane, 2 asin(sin i sin(dRAAN/2)) at equal inclinations, not
+  the RAAN difference itself: the RAAN
   half-width is :func:`raan_half_width_rad` of the satellite's design inclination (about raan_rel / sin i; no
   bound at all below i = raan_rel / 2, where no node difference tilts the plane that far), so a near-equatorial
   orbit's node, which barely moves its plane, is left free. The relative node is judged on its mean over a sidereal

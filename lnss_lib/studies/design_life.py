@@ -34,7 +34,11 @@ campaign folder), elements read in the lunar equator / in ``moon_op`` (``frames.
   e 0.6 i 56.2 design, whose mean perilune stays 112 km up while the real one reaches the surface on day 102.
 
 Box figures in brackets were measured before the Delta-V cap was enforced per burn set (issue 19 fixes);
-service figures after it and after the relative node became the tilt of the plane (``raan_rel_deg`` 4.7).
+service figures after it and after the relative node became the tilt of the plane, with the fixed tolerances
+(``[design_life.service] tolerances = "fixed"``: 4.7 deg of tilt, 20 deg of slot); under the derived default
+(:mod:`lnss_lib.design_life.tolerances`) the 15 designs were not re-flown in both frames. Note that a validation
+flown with one satellite per plane derives the tolerances of that smaller constellation (tighter: fewer satellites
+share the sky), not of the full design.
 """
 
 from __future__ import annotations
@@ -53,7 +57,7 @@ from ..progress import steps
 from ..settings import Settings
 
 __all__ = ["REGIONS", "region_of", "campaign_designs", "validation_designs", "flown_elements", "validate_design",
-           "validation_table", "compare", "screen_misses", "region_summary", "verdict", "run_validation"]
+           "validation_table", "compare", "screen_misses", "region_summary", "verdict", "run_validation", "frame_rerun"]
 
 REGIONS = ("standalone ELFO", "frozen family", "high a, high i", "low near-circular", "campaign", "other")
 
@@ -121,8 +125,9 @@ def flown_elements(design, max_sats_per_plane: int = 0) -> np.ndarray:
 
 def validate_design(settings: Settings, design, life_days: float, max_sats_per_plane: int = 0, region: str = "") -> dict:
     """Closed loop and natural drift over ``life_days`` beside the estimate and the screen, for one design: the
-    controller and element frame flown, the Delta-V (mean, max, ``dv_<purpose>_kms_per_year`` split), the lowest
-    perilune controlled and natural, impacts, and the predictors."""
+    controller and element frame flown, the Delta-V (mean, max, ``dv_<purpose>_kms_per_year`` split), the relative
+    node (tilt) and slot tolerances the service controller held (NaN under the box), the lowest perilune controlled
+    and natural, impacts, and the predictors."""
     elements = flown_elements(design, max_sats_per_plane)
     runs = run_design_life(settings, elements, life_days, sample=False)
     pred = short_arc_predictors(settings.epoch, settings.dynamics, settings.sk_estimate, settings.stability,
@@ -140,6 +145,8 @@ def validate_design(settings: Settings, design, life_days: float, max_sats_per_p
                sk_dv_kms_per_year=float(ctl["dv_kms_per_year"].mean()),
                sk_dv_max_kms_per_year=float(ctl["dv_kms_per_year"].max()),
                n_maneuvers=int(ctl["n_maneuvers"].sum()), box_held=bool(ctl["box_held"].all()),
+               raan_rel_tolerance_deg=float(ctl.attrs["raan_rel_tolerance_deg"]),
+               u_rel_tolerance_deg=float(ctl.attrs["u_rel_tolerance_deg"]),
                impact_day=float(np.nanmin(impact)) if np.isfinite(impact).any() else np.nan,
                natural_impact_day=float(np.nanmin(nat_impact)) if np.isfinite(nat_impact).any() else np.nan,
                sk_dv_estimate_kms_per_year=pred["sk_dv_estimate_kms_per_year"], stable_screen=pred["stable_screen"],
@@ -248,3 +255,15 @@ def run_validation(settings: Settings, campaign_dir: Path | None = None) -> tupl
                             section.validation_max_sats_per_plane, d["region"])
             for d in steps(designs, "design-life validation", "designs")]
     return validation_table(rows), note
+
+
+def frame_rerun(settings: Settings, element_frame: str, campaign_dir: Path | None = None) -> tuple[Settings, Path | None]:
+    """(settings, campaign folder) of the validation re-run with the elements read in ``element_frame``: every design
+    of :func:`run_validation`, or with ``[life_evaluation] frame_rerun_designs`` = n > 0 the first n
+    ``validation_designs`` only (no campaign designs), so a short profile can afford the re-run."""
+    rerun = settings.with_overrides({"frames": {"element_frame": element_frame}})
+    n = settings.life_evaluation.frame_rerun_designs
+    if n <= 0:
+        return rerun, campaign_dir
+    designs = [list(d) for d in settings.life_evaluation.validation_designs[:n]]
+    return rerun.with_overrides({"life_evaluation": {"validation_designs": designs}}), None

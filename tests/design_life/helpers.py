@@ -1,7 +1,8 @@
 """The closed loop flown from settings, as the tests call it."""
 
-from lnss_lib.design_life.closed_loop import simulate_life
-from lnss_lib.ephemeris import tdb_seconds
+from lnss_lib.design_life.closed_loop import life_force_model, simulate_life
+from lnss_lib.ephemeris import ensure_kernels, tdb_seconds
+from lnss_lib.settings import load_settings
 
 
 def fly(settings, elements_deg, **kwargs):
@@ -12,3 +13,15 @@ def fly(settings, elements_deg, **kwargs):
     t0 = tdb_seconds(settings.epoch.start_tdb, "TDB") if t0 is None else t0
     return simulate_life(design_life, settings.dynamics, elements_deg, t0, stability=settings.stability,
                          dop=settings.dop, **kwargs)
+
+
+def paper_degree8():
+    """The paper profile with the lunar field cut to degree 8 (kernels loaded): the controller tests' settings."""
+    prof = load_settings("paper", overrides={"gravity": {"degree": 8}})
+    ensure_kernels(prof.ephemeris)
+    return prof
+
+
+def model_from_epoch(settings, days: float):
+    """A life force model from the settings' epoch spanning ``days``."""
+    return life_force_model(settings.dynamics, tdb_seconds(settings.epoch.start_tdb, "TDB"), days)

@@ -255,3 +255,28 @@ def test_box_never_flies_past_the_deltav_cap():
     assert np.all(ds["dv_total_kms"].values <= cap_kms * (1.0 + 1e-12))
     flown = np.isfinite(ds["maneuver_t_tdb_s"].values)
     assert np.all(np.isfinite(ds["maneuver_dv_rtn_kms"].values[flown]))
+
+
+def test_a_burn_set_whose_orbits_dive_below_the_floor_is_not_queued():
+    """The navigation restore that lost Table 6 design #1's satellites on day 64 (a 11600, e 0.8, 3 x 3, one year): a
+    two-burn e-vector change whose first burn leaves an orbit with its perilune under the surface before the second
+    raises it again. Here the same shape on the ELFO: at apolune a retrograde burn that drops the perilune radius to
+    1500 km, half an orbit later at perilune the prograde burn that restores the apolune; queued without a floor,
+    refused with the surface as the floor, and the two-body perilunes checked against vis-viva."""
+    from lnss_lib.design_life.closed_loop import _enqueue
+    from lnss_lib.design_life.manoeuvres import ImpulsePlan, lowest_perilune_km
+
+    gm, a, e = 4902.8, 6143.0, 0.6
+    osc = np.array([a, e, np.radians(51.7), 0.2, np.radians(90.0), np.pi])       # at apolune
+    r_a, r_p_low = a * (1.0 + e), 1500.0
+    v_a, v_a_new = np.sqrt(gm * (2.0 / r_a - 1.0 / a)), np.sqrt(gm * (2.0 / r_a - 2.0 / (r_a + r_p_low)))
+    v_p_new, v_p_back = np.sqrt(gm * (2.0 / r_p_low - 2.0 / (r_a + r_p_low))), np.sqrt(gm * (2.0 / r_p_low - 2.0 / (r_a + r_p_low + 3000.0)))
+    half_period = np.pi * np.sqrt(((r_a + r_p_low) / 2.0) ** 3 / gm)
+    dive = ImpulsePlan(np.array([0.0, half_period]), np.array([[0.0, v_a_new - v_a, 0.0], [0.0, v_p_back - v_p_new, 0.0]]),
+                       np.zeros(1), np.zeros(1))
+    assert lowest_perilune_km(osc, gm, dive.dt_s, dive.dv_rtn_kms) == pytest.approx(r_p_low, rel=1e-9)
+    assert lowest_perilune_km(osc, gm, dive.dt_s[:0], dive.dv_rtn_kms[:0]) == np.inf
+    assert lowest_perilune_km(osc, gm, [0.0], [[0.0, 2.0, 0.0]]) == -np.inf                     # escape
+    queue = []
+    assert not _enqueue(queue, 0.0, osc, gm, [("navigation", dive)], floor_km=1737.4) and queue == []
+    assert _enqueue(queue, 0.0, osc, gm, [("navigation", dive)], floor_km=1400.0) and len(queue) == 2

@@ -15,6 +15,7 @@ from lnss_lib.design_life.evaluation import LIFE_KEYS, life_availability, life_n
 from lnss_lib.dop import SurfaceGrid, dop_for_settings, dop_summary, summary_for_settings
 from lnss_lib.frames import rotate_to_moon_fixed
 from lnss_lib.propagator import elements_deg_to_states, propagate_states
+from lnss_lib.settings import load_settings
 from lnss_lib.studies.design_life import compare, validate_design, validation_table
 
 ELFO_2X1 = ["--sma-km", "6143", "--ecc", "0.6", "--aop-deg", "90", "--inc-deg", "51.7", "--planes", "2",
@@ -43,6 +44,9 @@ def test_evaluate_design_life_json_keys_and_types(capsys):
     assert out["lost_satellites"] == [] and out["natural_lost_satellites"] == []
     for key in ("pdop_avail_pct_monthly", "hdop_avail_pct_monthly"):
         assert set(out[key]) == {"controlled", "natural"} and len(out[key]["controlled"]) >= 1
+    tol, svc = out["relative_tolerances_deg"], load_settings("ci").design_life.service
+    assert svc.raan_rel_bounds_deg[0] <= tol["raan_rel"] <= svc.raan_rel_bounds_deg[1]
+    assert svc.u_rel_bounds_deg[0] <= tol["u_rel"] <= svc.u_rel_bounds_deg[1]
 
 
 def test_evaluate_prints_reason_of_infeasible_design(capsys):
@@ -126,3 +130,20 @@ def test_life_evaluation_settings_are_checked(ci_profile):
         ci_profile.with_overrides({"life_evaluation": {"smaple_step_s": 1.0}})
     with pytest.raises(ConfigError, match="life_evaluation.month_days"):
         ci_profile.with_overrides({"life_evaluation": {"month_days": -1.0}})
+    with pytest.raises(ConfigError, match=r"life_evaluation.frame_rerun_designs = -1 is out of range"):
+        ci_profile.with_overrides({"life_evaluation": {"frame_rerun_designs": -1}})
+
+
+def test_frame_rerun_takes_every_design_or_the_first_n():
+    """The validation re-run in another element frame: paper and ci every design and the campaign's; quick the first
+    five (the standalone ELFO and the frozen family), without the campaign's."""
+    from lnss_lib.studies.design_life import frame_rerun, region_of
+
+    for name, n_designs, keeps_campaign in (("paper", 15, True), ("ci", 3, True), ("quick", 5, False)):
+        settings = load_settings(name)
+        rerun, campaign = frame_rerun(settings, "moon_op", "campaign-folder")
+        assert rerun.frames.element_frame == "moon_op" and settings.frames.element_frame == "lunar_equator_of_epoch"
+        assert rerun.life_evaluation.validation_designs == settings.life_evaluation.validation_designs[:n_designs]
+        assert (campaign == "campaign-folder") == keeps_campaign
+    regions = {region_of(d) for d in frame_rerun(load_settings("quick"), "moon_op")[0].life_evaluation.validation_designs}
+    assert regions == {"standalone ELFO", "frozen family"}
