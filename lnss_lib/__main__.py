@@ -191,7 +191,7 @@ def _check_walker(args: argparse.Namespace) -> None:
 
 def _export_reference(args: argparse.Namespace) -> int:
     from .campaign.reference import export_reference, load_reference
-    from .config import git_revision
+    from .provenance import git_revision
     from .outputs import display_path
 
     given = [flag for flag, value in (("--profile", args.profile), ("--set", args.set), ("--resume", args.resume),

@@ -18,11 +18,8 @@ import hashlib
 import math
 import json
 import os
-import platform
 import re
-import subprocess
 import tomllib
-from importlib import metadata
 from functools import lru_cache
 from pathlib import Path
 
@@ -226,8 +223,7 @@ RANGES = {
     "sk_estimate.along_track_rebias_per_year": NON_NEGATIVE,
     "design_life.life_days": POSITIVE, "design_life.check_interval_days": POSITIVE,
     "design_life.samples_per_orbit": (16, None, False, False), "design_life.min_maneuver_spacing_days": NON_NEGATIVE,
-    "design_life.dv_cap_kms_per_year": NON_NEGATIVE,
-    "design_life.box_tolerance": NON_NEGATIVE,
+    "design_life.dv_cap_kms_per_year": NON_NEGATIVE, "design_life.box_tolerance": NON_NEGATIVE,
     "benchmark.extra_masks_deg": (0.0, 90.0, False, True),      # each entry of the list
     "design_life.slot_coast_days": POSITIVE,
     "design_life.slot_fit_days": POSITIVE, "design_life.slot_quad_days": POSITIVE,
@@ -679,32 +675,3 @@ def profile_hash(profile: dict) -> str:
     content.get("profile", {}).pop("description", None)
     canonical = json.dumps(content, sort_keys=True, separators=(",", ":"))
     return hashlib.sha256(canonical.encode()).hexdigest()[:16]
-
-
-MANIFEST_PACKAGES = ("numpy", "scipy", "spiceypy", "sgp4", "numba", "xarray", "pymoo", "plotly", "dask",
-                     "distributed", "papermill", "skyfield-data", "h5netcdf", "pandas")
-
-
-def git_revision() -> str:
-    """The workbook's git commit (with ``-dirty`` if a tracked file outside the shipped results
-    ``outputs/reference/`` is modified), or ``unknown``."""
-    def git(*args: str) -> str:
-        return subprocess.run(["git", *args], cwd=PROJECT_DIR, capture_output=True, text=True, timeout=10,
-                              check=True).stdout.strip()
-
-    try:
-        dirty = git("status", "--porcelain", "--untracked-files=no", "--", ".", ":(exclude)outputs/reference")
-        return git("describe", "--always") + ("-dirty" if dirty else "")
-    except (OSError, subprocess.SubprocessError):
-        return "unknown"
-
-
-def package_versions() -> dict[str, str]:
-    """Versions of Python and the packages a result depends on."""
-    versions = {"python": platform.python_version()}
-    for name in MANIFEST_PACKAGES:
-        try:
-            versions[name] = metadata.version(name)
-        except metadata.PackageNotFoundError:
-            versions[name] = "not installed"
-    return versions

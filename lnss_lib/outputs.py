@@ -13,7 +13,8 @@ import time
 from pathlib import Path
 
 from .atomicio import atomic_path, write_bytes_atomic, write_text_atomic
-from .config import MANIFEST_PACKAGES, OUTPUTS_DIR, PARAMS_DIR, PROJECT_DIR, git_revision, package_versions
+from .config import OUTPUTS_DIR, PARAMS_DIR, PROJECT_DIR
+from .provenance import MANIFEST_PACKAGES, git_revision, package_versions
 from .settings import load_settings
 from .keys import LABELS, format_value, label
 

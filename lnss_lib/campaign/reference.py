@@ -228,7 +228,7 @@ def export_reference(run_dir, root=None, *, export_commit: str = "unknown") -> P
     """Export the run folder ``run_dir`` (checked by :func:`check_run_folder`) into ``root/<profile>/``, replacing
     a previous export as one unit (temporary folder, then rename); returns the folder. ``export_commit``: the
     workbook commit that exports (the run's own is read from run.json when it recorded one)."""
-    from ..config import package_versions
+    from ..provenance import package_versions
 
     run_dir, root = Path(run_dir), Path(REFERENCE_DIR if root is None else root)
     run, checkpoint = check_run_folder(run_dir)

@@ -240,7 +240,7 @@ def export_results(run_dir) -> tuple[xr.Dataset, xr.Dataset, xr.Dataset]:
     objectives; history: per generation (dim ``generation``) the counts, best values,
     hypervolume, minimum population violation and wall time.
     """
-    from ..config import package_versions
+    from ..provenance import package_versions
 
     run = load_run(run_dir)
     profile = run["profile"]
@@ -301,7 +301,7 @@ def default_run_dir(profile_name: str) -> Path:
 def start_run(run_dir: Path, settings: Settings, eval_hash: str) -> None:
     """Write ``run.json`` (the settings as TOML data, their hash, the evaluation hash ``eval_hash``, versions and
     the workbook's commit) into ``run_dir`` (the caller holds the run's lock)."""
-    from ..config import git_revision, package_versions
+    from ..provenance import git_revision, package_versions
 
     run = {"profile": settings.as_dict(), "profile_hash": settings.hash, "evaluation_hash": eval_hash,
            "created_utc": time.strftime("%Y-%m-%dT%H:%M:%SZ", time.gmtime()), "versions": package_versions(),

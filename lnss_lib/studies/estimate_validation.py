@@ -142,6 +142,7 @@ def estimate_costs(settings: Settings, design, life_days: float) -> dict:
     (km/s per satellite and year, means over satellites; NaN when the 10-day arc hits the Moon), the life
     estimate's ``split`` (part -> mean) and its ``wall_s``."""
     dyn = settings.dynamics
+    ensure_kernels(settings.ephemeris)
     t0 = tdb_seconds(settings.epoch.start_tdb, "TDB")
     states = elements_deg_to_states(dyn, flown_elements(design, 1), t0)
     arc = propagate_states(dyn, states, t0, settings.epoch.duration_days * SECONDS_PER_DAY, settings.epoch.step_s,
