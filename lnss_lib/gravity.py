@@ -2,13 +2,15 @@
 
 The acceleration uses the Cunningham V/W recursion (Montenbruck & Gill, Satellite Orbits, 3.2.4)
 rewritten for fully normalised coefficients. It works in Cartesian body-fixed coordinates, so it
-has no singularity at the poles, and the normalised recursion stays in range to degree 100.
+has no singularity at the poles, and the normalised recursion stays in range to degree 100. The
+per-evaluation degree truncation is a lookup in radii tabulated once per field (:func:`truncation_radii`),
+which returns the integer of :func:`truncation_degree`'s loop.
 """
 
 from __future__ import annotations
 
 import re
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from functools import lru_cache
 from pathlib import Path
 
@@ -20,7 +22,8 @@ from .errors import ConfigError
 from .settings import GravitySettings
 
 __all__ = ["MAX_FILE_DEGREE", "GravityField", "recursion_coefficients", "degree_bound_factors", "truncation_degree",
-           "omitted_bound", "harmonic_acceleration", "harmonic_potential"]
+           "truncation_radii", "tabulated_truncation_degree", "omitted_bound", "harmonic_acceleration",
+           "harmonic_potential"]
 
 MAX_FILE_DEGREE = 100
 
@@ -45,6 +48,7 @@ class GravityField:
     ``coef[5, n, 0]`` holds the per-degree acceleration bound factor K_n of :func:`degree_bound_factors`;
     ``truncation_kms2`` > 0 lets the compiled force model drop, per evaluation, the degrees whose
     summed bound at the current radius stays below it (:func:`truncation_degree`); 0 keeps every degree.
+    ``truncation_radii_km`` (:func:`truncation_radii`) is derived on construction (also by ``dataclasses.replace``).
     """
 
     degree: int
@@ -54,6 +58,11 @@ class GravityField:
     snm: np.ndarray
     coef: np.ndarray
     truncation_kms2: float = 0.0
+    truncation_radii_km: np.ndarray = field(init=False, repr=False, compare=False)
+
+    def __post_init__(self) -> None:
+        object.__setattr__(self, "truncation_radii_km", truncation_radii(self.coef, self.gm_km3_s2, self.r_ref_km,
+                                                                         self.degree, self.truncation_kms2))
 
     @classmethod
     def from_file(cls, path: Path, degree: int, gm_km3_s2: float, r_ref_km: float,
@@ -168,6 +177,44 @@ def truncation_degree(r_km: float, coef: np.ndarray, gm: float, r_ref: float, de
             return n
         qn /= q
     return 1
+
+
+def truncation_radii(coef: np.ndarray, gm: float, r_ref: float, degree: int, tol_kms2: float) -> np.ndarray:
+    """Radii (km) ``radii[n]``, n = 2..``degree``, below which :func:`truncation_degree` keeps at least degree n.
+
+    Each is the smallest double at which the loop keeps fewer than n degrees, found by bisection on the
+    loop itself (the summed bound of degrees n..``degree`` falls with the radius, so the loop's answer
+    does too), hence :func:`tabulated_truncation_degree` returns the loop's integer (tested on dense sweeps
+    and on both sides of every radius). Entries 0 and 1, and every entry when ``tol_kms2`` <= 0 (no
+    truncation), are +inf.
+    """
+    radii = np.full(degree + 1, np.inf)
+    if tol_kms2 <= 0.0:
+        return radii
+    for n in range(2, degree + 1):
+        below, above = 1e-3 * r_ref, 1e3 * r_ref
+        while truncation_degree(above, coef, gm, r_ref, degree, tol_kms2) >= n:
+            above *= 2.0
+        while True:
+            mid = 0.5 * (below + above)
+            if mid in (below, above):
+                break
+            if truncation_degree(mid, coef, gm, r_ref, degree, tol_kms2) >= n:
+                below = mid
+            else:
+                above = mid
+        radii[n] = above
+    return radii
+
+
+@nb.njit(cache=True)
+def tabulated_truncation_degree(r_km: float, radii_km: np.ndarray) -> int:
+    """:func:`truncation_degree` at ``r_km`` (field degree >= 2) from the field's :func:`truncation_radii`:
+    a scan of at most ``degree`` comparisons instead of a sum with a division per degree."""
+    kept = radii_km.shape[0] - 1
+    while kept >= 2 and r_km >= radii_km[kept]:
+        kept -= 1
+    return kept
 
 
 # fastmath is safe: states checked finite (propagator), coefficients finite (ForceModel), r >= r_min > 0 at each step

@@ -145,3 +145,20 @@ def test_truncated_field_moves_ten_day_positions_by_less_than_a_metre(paper_prof
                                      model=ForceModel.build(profile.dynamics, table)).r_mci_km.values[0]
     moved_m = 1e3 * np.max(np.linalg.norm(runs[1e-15] - runs[0.0], axis=-1))
     assert moved_m < 1.0
+
+
+@pytest.mark.parametrize("degree, tol", [(30, 1e-15), (30, 1e-12), (12, 1e-15), (30, 0.0)])
+def test_tabulated_truncation_degree_equals_the_loop(paper_profile, degree, tol):
+    """The radius lookup returns the loop's integer on a dense sweep and on both sides of every tabulated radius."""
+    from lnss_lib.gravity import tabulated_truncation_degree, truncation_degree
+
+    field = GravityField.from_settings(paper_profile.gravity, degree)
+    field = GravityField(degree, field.gm_km3_s2, field.r_ref_km, field.cnm, field.snm, field.coef, tol)
+    radii = field.truncation_radii_km
+    sweep = np.geomspace(1738.0, 60000.0, 20000)
+    edges = radii[np.isfinite(radii)]
+    points = np.concatenate([sweep, edges, np.nextafter(edges, 0.0), np.nextafter(edges, np.inf)])
+    kept = [tabulated_truncation_degree(r, radii) for r in points]
+    loop = [truncation_degree(r, field.coef, field.gm_km3_s2, field.r_ref_km, degree, tol) for r in points]
+    assert kept == loop
+    assert set(kept) == {degree} if tol == 0.0 else len(set(kept)) >= 5      # the sweep crosses many thresholds
