@@ -21,7 +21,7 @@ from .errors import ConfigError
 from .gravity import GravityField, harmonic_acceleration, tabulated_truncation_degree
 from .settings import Dynamics
 
-__all__ = ["BODY_ORDER", "SCRATCH_SIZE", "TERMS", "ForceModel", "shadow_factor", "acceleration_terms", "terms_at",
+__all__ = ["BODY_ORDER", "SCRATCH_SIZE", "TERMS", "ForceModel", "shadow_factor", "acceleration_terms",
            "acceleration", "acceleration_breakdown"]
 
 BODY_ORDER = THIRD_BODIES  # rows of the ephemeris table; Sun and Earth also occult/illuminate
@@ -162,53 +162,42 @@ def acceleration_terms(t: float, y: np.ndarray, args: tuple, work: np.ndarray, s
     """Each term of the acceleration (km/s^2, Moon-centred J2000) into ``terms`` (8, 3), order ``TERMS``.
 
     ``work`` is the gravity scratch array, ``scratch`` a float array of at least 24 elements. The rotation
-    and the bodies are interpolated with one interval and weight computation, the gravity degree looked up
-    in the field's tabulated radii; :func:`terms_at` does the rest.
+    and the bodies are interpolated with one interval and weight computation; the gravity degree is looked
+    up in the field's tabulated radii.
     """
-    flags, t0dt, bodies, rot_pa, rot_pa_rate, radii = args[1], args[3], args[4], args[5], args[6], args[10]
-    basis = hermite_basis(rot_pa.shape[0], t0dt[0], t0dt[1], t)     # one grid for the rotation and the bodies
-    if flags[F_HARMONICS] and radii.shape[0] > 2:
-        hermite_apply(rot_pa, rot_pa_rate, basis, scratch[0:9])
-    hermite_apply(bodies[:, 0, :3], bodies[:, 0, 3:], basis, scratch[15:18])
-    hermite_apply(bodies[:, 1, :3], bodies[:, 1, 3:], basis, scratch[18:21])
-    if flags[F_JUPITER]:
-        hermite_apply(bodies[:, 2, :3], bodies[:, 2, 3:], basis, scratch[21:24])
-    r2 = y[0] * y[0] + y[1] * y[1] + y[2] * y[2]
-    r_norm = np.sqrt(r2)
-    terms_at(y, r2, r_norm, tabulated_truncation_degree(r_norm, radii), args, work, scratch, terms)
-
-
-@nb.njit(cache=True)
-def terms_at(y: np.ndarray, r2: float, r_norm: float, kept: int, args: tuple, work: np.ndarray, scratch: np.ndarray,
-             terms: np.ndarray) -> None:
-    """The terms of :func:`acceleration_terms` at state ``y`` (|r|^2 ``r2``, |r| ``r_norm``), gravity to degree
-    ``kept``, from the interpolated tables in ``scratch``: the J2000 -> MOON_PA rotation (0:9, read when the
-    harmonics are on), the Sun (15:18), the Earth (18:21) and Jupiter (21:24, read when it is on)."""
-    scalars, flags, gm_bodies, cnm, snm, coef = args[0], args[1], args[2], args[7], args[8], args[9]
+    scalars, flags, gm_bodies, t0dt, bodies, rot_pa, rot_pa_rate, cnm, snm, coef, radii = args
     terms[:, :] = 0.0
     r = y[:3]
     v = y[3:6]
     gm = scalars[GM]
+    r2 = r[0] * r[0] + r[1] * r[1] + r[2] * r[2]
+    r_norm = np.sqrt(r2)
     for j in range(3):
         terms[0, j] = -gm * r[j] / (r2 * r_norm)
     degree = cnm.shape[0] - 1
     buf = scratch[0:9]
     r_bf = scratch[9:12]
     a_bf = scratch[12:15]
+    basis = hermite_basis(rot_pa.shape[0], t0dt[0], t0dt[1], t)     # one grid for the rotation and the bodies
     if flags[F_HARMONICS] and degree >= 2:
+        hermite_apply(rot_pa, rot_pa_rate, basis, buf)
         for i in range(3):
             r_bf[i] = buf[3 * i] * r[0] + buf[3 * i + 1] * r[1] + buf[3 * i + 2] * r[2]
+        kept = tabulated_truncation_degree(r_norm, radii)    # per-evaluation degree truncation
         harmonic_acceleration(r_bf, cnm, snm, coef, gm, scalars[R_REF], kept, work, a_bf)
         for j in range(3):
             terms[1, j] = buf[j] * a_bf[0] + buf[3 + j] * a_bf[1] + buf[6 + j] * a_bf[2] - terms[0, j]
     r_sun = scratch[15:18]
     r_earth = scratch[18:21]
     r_jup = scratch[21:24]
+    hermite_apply(bodies[:, 0, :3], bodies[:, 0, 3:], basis, r_sun)
+    hermite_apply(bodies[:, 1, :3], bodies[:, 1, 3:], basis, r_earth)
     if flags[F_SUN]:
         _third_body(r, r_sun, gm_bodies[0], terms[2])
     if flags[F_EARTH]:
         _third_body(r, r_earth, gm_bodies[1], terms[3])
     if flags[F_JUPITER]:
+        hermite_apply(bodies[:, 2, :3], bodies[:, 2, 3:], basis, r_jup)
         _third_body(r, r_jup, gm_bodies[2], terms[4])
     if flags[F_SRP]:
         ux, uy, uz = r[0] - r_sun[0], r[1] - r_sun[1], r[2] - r_sun[2]

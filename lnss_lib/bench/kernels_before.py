@@ -3,11 +3,11 @@
 Before, each evaluation chose its gravity degree with the loop :func:`lnss_lib.gravity.truncation_degree`
 (a sum with a division per degree; now a lookup in radii tabulated once per field) and interpolated the
 MOON_PA rotation, the Sun, the Earth and Jupiter each with its own interval and Hermite weights (now one
-:func:`lnss_lib.ephemeris.hermite_basis` for all). The terms themselves did not change
-(:func:`lnss_lib.forces.terms_at`), so :func:`acceleration_before` is the previous right-hand side, equal to
-the new one bit for bit. :func:`rhs_points` records the (t, y) points an RK45 integration of one satellite
-evaluates (RK45 or DOP853 with scipy's controller, the compiled engine's: ``tests/test_propagator.py`` checks that both take
-the same steps), and :func:`replay_times` times both right-hand sides on them.
+:func:`lnss_lib.ephemeris.hermite_basis` for all). :func:`acceleration_terms_before` is the previous code
+as it was (a copy kept for this comparison only), equal to the new one bit for bit. :func:`rhs_points`
+records the (t, y) points an integration of one satellite evaluates (RK45 or DOP853 with scipy's controller,
+the compiled engine's: ``tests/test_propagator.py`` checks that both take the same steps), and
+:func:`replay_times` times both right-hand sides on them.
 """
 
 from __future__ import annotations
@@ -19,25 +19,88 @@ import numpy as np
 from scipy.integrate import solve_ivp
 
 from ..ephemeris import hermite_cubic
-from ..forces import F_HARMONICS, F_JUPITER, GM, R_REF, SCRATCH_SIZE, TERMS, ForceModel, acceleration, terms_at
-from ..gravity import truncation_degree
+from ..forces import (ALBEDO, AU, C_LIGHT, F_ALBEDO, F_EARTH, F_HARMONICS, F_JUPITER, F_REL, F_SHADOW, F_SRP, F_SUN,
+                      GM, R_EARTH, R_MOON, R_REF, R_SUN, SCRATCH_SIZE, SRP_K, TERMS, ForceModel, _third_body,
+                      acceleration, shadow_factor)
+from ..gravity import harmonic_acceleration, truncation_degree
+
+
+@nb.njit(cache=True)
+def acceleration_terms_before(t, y, args, truncation_kms2, work, scratch, terms):
+    """The previous :func:`lnss_lib.forces.acceleration_terms` (the truncation tolerance passed in: the scalar
+    vector no longer holds it)."""
+    scalars, flags, gm_bodies, t0dt, bodies, rot_pa, rot_pa_rate, cnm, snm, coef = args[:10]
+    terms[:, :] = 0.0
+    r = y[:3]
+    v = y[3:6]
+    gm = scalars[GM]
+    r2 = r[0] * r[0] + r[1] * r[1] + r[2] * r[2]
+    r_norm = np.sqrt(r2)
+    for j in range(3):
+        terms[0, j] = -gm * r[j] / (r2 * r_norm)
+    degree = cnm.shape[0] - 1
+    buf = scratch[0:9]
+    r_bf = scratch[9:12]
+    a_bf = scratch[12:15]
+    if flags[F_HARMONICS] and degree >= 2:
+        hermite_cubic(rot_pa, rot_pa_rate, t0dt[0], t0dt[1], t, buf)
+        for i in range(3):
+            r_bf[i] = buf[3 * i] * r[0] + buf[3 * i + 1] * r[1] + buf[3 * i + 2] * r[2]
+        kept = truncation_degree(r_norm, coef, gm, scalars[R_REF], degree, truncation_kms2)
+        harmonic_acceleration(r_bf, cnm, snm, coef, gm, scalars[R_REF], kept, work, a_bf)
+        for j in range(3):
+            terms[1, j] = buf[j] * a_bf[0] + buf[3 + j] * a_bf[1] + buf[6 + j] * a_bf[2] - terms[0, j]
+    r_sun = scratch[15:18]
+    r_earth = scratch[18:21]
+    r_jup = scratch[21:24]
+    hermite_cubic(bodies[:, 0, :3], bodies[:, 0, 3:], t0dt[0], t0dt[1], t, r_sun)
+    hermite_cubic(bodies[:, 1, :3], bodies[:, 1, 3:], t0dt[0], t0dt[1], t, r_earth)
+    if flags[F_SUN]:
+        _third_body(r, r_sun, gm_bodies[0], terms[2])
+    if flags[F_EARTH]:
+        _third_body(r, r_earth, gm_bodies[1], terms[3])
+    if flags[F_JUPITER]:
+        hermite_cubic(bodies[:, 2, :3], bodies[:, 2, 3:], t0dt[0], t0dt[1], t, r_jup)
+        _third_body(r, r_jup, gm_bodies[2], terms[4])
+    if flags[F_SRP]:
+        ux, uy, uz = r[0] - r_sun[0], r[1] - r_sun[1], r[2] - r_sun[2]
+        d = np.sqrt(ux * ux + uy * uy + uz * uz)
+        nu = 1.0
+        if flags[F_SHADOW]:
+            nu = shadow_factor(r, r_sun, 0.0, 0.0, 0.0, scalars[R_MOON], scalars[R_SUN])
+            if nu > 0.0:
+                nu *= shadow_factor(r, r_sun, r_earth[0], r_earth[1], r_earth[2], scalars[R_EARTH], scalars[R_SUN])
+        k = nu * scalars[SRP_K] * (scalars[AU] / d) ** 2 / d
+        terms[5, 0] = k * ux
+        terms[5, 1] = k * uy
+        terms[5, 2] = k * uz
+    if flags[F_REL]:
+        c2 = scalars[C_LIGHT] ** 2
+        v2 = v[0] * v[0] + v[1] * v[1] + v[2] * v[2]
+        rv = r[0] * v[0] + r[1] * v[1] + r[2] * v[2]
+        f = gm / (c2 * r2 * r_norm)
+        for j in range(3):
+            terms[6, j] = f * ((4.0 * gm / r_norm - v2) * r[j] + 4.0 * rv * v[j])
+    if flags[F_ALBEDO]:
+        qx, qy, qz = r[0] - r_earth[0], r[1] - r_earth[1], r[2] - r_earth[2]
+        q = np.sqrt(qx * qx + qy * qy + qz * qz)
+        ex, ey, ez = r_sun[0] - r_earth[0], r_sun[1] - r_earth[1], r_sun[2] - r_earth[2]
+        e_norm = np.sqrt(ex * ex + ey * ey + ez * ez)
+        cos_phase = (ex * qx + ey * qy + ez * qz) / (e_norm * q)
+        phase = np.arccos(max(-1.0, min(1.0, cos_phase)))
+        lambert = (np.sin(phase) + (np.pi - phase) * np.cos(phase)) / np.pi
+        # reflected flux / incident flux of a Lambertian sphere: (2/3) A (R/q)^2 lambert(phase)
+        ratio = (2.0 / 3.0) * scalars[ALBEDO] * (scalars[R_EARTH] / q) ** 2 * lambert * (scalars[AU] / e_norm) ** 2
+        k = ratio * scalars[SRP_K] / q
+        terms[7, 0] = k * qx
+        terms[7, 1] = k * qy
+        terms[7, 2] = k * qz
 
 
 @nb.njit(cache=True)
 def acceleration_before(t, y, args, truncation_kms2, work, scratch, terms, out):
-    """The previous :func:`lnss_lib.forces.acceleration`: four interpolations and the truncation loop."""
-    scalars, flags, t0dt, bodies, rot_pa, rot_pa_rate, coef = args[0], args[1], args[3], args[4], args[5], args[6], args[9]
-    degree = coef.shape[1] - 2
-    if flags[F_HARMONICS] and degree >= 2:
-        hermite_cubic(rot_pa, rot_pa_rate, t0dt[0], t0dt[1], t, scratch[0:9])
-    hermite_cubic(bodies[:, 0, :3], bodies[:, 0, 3:], t0dt[0], t0dt[1], t, scratch[15:18])
-    hermite_cubic(bodies[:, 1, :3], bodies[:, 1, 3:], t0dt[0], t0dt[1], t, scratch[18:21])
-    if flags[F_JUPITER]:
-        hermite_cubic(bodies[:, 2, :3], bodies[:, 2, 3:], t0dt[0], t0dt[1], t, scratch[21:24])
-    r2 = y[0] * y[0] + y[1] * y[1] + y[2] * y[2]
-    r_norm = np.sqrt(r2)
-    kept = truncation_degree(r_norm, coef, scalars[GM], scalars[R_REF], degree, truncation_kms2)
-    terms_at(y, r2, r_norm, kept, args, work, scratch, terms)
+    """The previous :func:`lnss_lib.forces.acceleration`."""
+    acceleration_terms_before(t, y, args, truncation_kms2, work, scratch, terms)
     for j in range(3):
         total = 0.0
         for k in range(terms.shape[0]):
