@@ -281,7 +281,6 @@ def run(profile_name: str = "paper", generations: int | None = None, population:
     out = {profile_name: _projection(profile_name, population, generations, workers, overrides)}
     if history is not None:
         out["history"] = _history_range(out[profile_name], history)
-    out["kernels"] = kernel_comparison(profile_name, out[profile_name]["records"], overrides)
     if (PARAMS_DIR / "operational.toml").is_file() and profile_name != "operational":
         out["operational"] = _projection("operational", population, generations, workers, overrides)
         print(f"projected 120 x 1000: [{profile_name}] {out[profile_name]['projected_paper_h']:.1f} h, [operational] "
@@ -289,6 +288,7 @@ def run(profile_name: str = "paper", generations: int | None = None, population:
     else:
         print(f"projected 120 x 1000: [{profile_name}] {out[profile_name]['projected_paper_h']:.1f} h (target <= 3 h on "
               "2 workers); no params/operational.toml, so no operational projection")
+    out["kernels"] = kernel_comparison(profile_name, out[profile_name]["records"], overrides)
     if scaling_run:
         out["scaling"] = scaling(profile_name, out[profile_name], overrides)
     for value in out.values():
