@@ -98,8 +98,7 @@ class ForceModel:
         """The tuple :func:`acceleration` and the integrator take."""
         tab = self.table
         return (self.scalars, self.flags, self.gm_bodies, np.array([tab.t0_tdb_s, tab.step_s]),
-                tab.bodies, tab.rot_pa, tab.rot_pa_rate, self.field.cnm, self.field.snm, self.field.coef,
-                self.field.truncation_radii_km)
+                tab.bodies, tab.rot_pa, tab.rot_pa_rate, self.field.tables, self.field.truncation_radii_km)
 
     def describe(self) -> str:
         """One line naming the active terms, for dataset attributes."""
@@ -165,7 +164,7 @@ def acceleration_terms(t: float, y: np.ndarray, args: tuple, work: np.ndarray, s
     and the bodies are interpolated with one interval and weight computation; the gravity degree is looked
     up in the field's tabulated radii.
     """
-    scalars, flags, gm_bodies, t0dt, bodies, rot_pa, rot_pa_rate, cnm, snm, coef, radii = args
+    scalars, flags, gm_bodies, t0dt, bodies, rot_pa, rot_pa_rate, tables, radii = args
     terms[:, :] = 0.0
     r = y[:3]
     v = y[3:6]
@@ -174,7 +173,7 @@ def acceleration_terms(t: float, y: np.ndarray, args: tuple, work: np.ndarray, s
     r_norm = np.sqrt(r2)
     for j in range(3):
         terms[0, j] = -gm * r[j] / (r2 * r_norm)
-    degree = cnm.shape[0] - 1
+    degree = tables.shape[1] - 2
     buf = scratch[0:9]
     r_bf = scratch[9:12]
     a_bf = scratch[12:15]
@@ -184,7 +183,7 @@ def acceleration_terms(t: float, y: np.ndarray, args: tuple, work: np.ndarray, s
         for i in range(3):
             r_bf[i] = buf[3 * i] * r[0] + buf[3 * i + 1] * r[1] + buf[3 * i + 2] * r[2]
         kept = tabulated_truncation_degree(r_norm, radii)    # per-evaluation degree truncation
-        harmonic_acceleration(r_bf, cnm, snm, coef, gm, scalars[R_REF], kept, work, a_bf)
+        harmonic_acceleration(r_bf, tables, gm, scalars[R_REF], kept, work, a_bf)
         for j in range(3):
             terms[1, j] = buf[j] * a_bf[0] + buf[3 + j] * a_bf[1] + buf[6 + j] * a_bf[2] - terms[0, j]
     r_sun = scratch[15:18]

@@ -54,8 +54,9 @@ def test_history_projection_refuses_what_is_not_a_table5_run(tmp_path):
         evaluated_per_generation(tmp_path)
 
 
-def test_previous_force_model_agrees_bit_for_bit_on_an_integrated_arc(paper_profile, epoch_tdb_s):
-    """The benchmark's 'before' right-hand side (four interpolations, the truncation loop) equals the model's."""
+def test_previous_force_model_agrees_to_round_off_on_an_integrated_arc(paper_profile, epoch_tdb_s):
+    """The benchmark's 'before' right-hand side (four interpolations, the truncation loop, the per-term harmonic
+    sums) equals the model's to round-off (the folded-table sums are reordered)."""
     from lnss_lib.bench.kernels_before import replay_times, rhs_points
     from lnss_lib.ephemeris import EphemerisTable
     from lnss_lib.forces import ForceModel
@@ -67,4 +68,4 @@ def test_previous_force_model_agrees_bit_for_bit_on_an_integrated_arc(paper_prof
     y0 = elements_deg_to_states(paper_profile.dynamics, [[6143.0, 0.6, 51.7, 0.0, 90.0, 0.0]], epoch_tdb_s)[0]
     ts, ys = rhs_points(model, y0, epoch_tdb_s, duration, "RK45", 1e-6, 1e-9)
     replay = replay_times(model, ts, ys, repeats=1)
-    assert replay["identical"] and replay["n_rhs"] == len(ts) > 100
+    assert replay["max_rel_diff"] < 1e-13 and replay["n_rhs"] == len(ts) > 100
