@@ -245,11 +245,15 @@ def _cmd_bench(args: argparse.Namespace) -> int:
     import importlib
 
     module = importlib.import_module(f"lnss_lib.bench.{args.name.replace('-', '_')}")
-    if args.scaling and args.name != "campaign":
-        raise ConfigError(f"--scaling applies to 'bench campaign' only; got bench {args.name}", key="--scaling")
+    for flag, given in (("--scaling", args.scaling), ("--history", args.history is not None)):
+        if given and args.name != "campaign":
+            raise ConfigError(f"{flag} applies to 'bench campaign' only; got bench {args.name}", key=flag)
     overrides = _overrides(args)
     load_settings(args.profile, overrides=overrides)          # every setting checked before the benchmark starts
-    module.run(profile_name=args.profile, overrides=overrides, **({"scaling_run": True} if args.scaling else {}))
+    extra = {"scaling_run": True} if args.scaling else {}
+    if args.history is not None:
+        extra["history"] = args.history
+    module.run(profile_name=args.profile, overrides=overrides, **extra)
     return 0
 
 
@@ -364,6 +368,8 @@ def build_parser() -> argparse.ArgumentParser:
     bench.add_argument("name", choices=BENCHMARKS, metavar="NAME", help=f"one of {', '.join(BENCHMARKS)}")
     _add_profile(bench, "paper")
     bench.add_argument("--scaling", action="store_true", help="campaign: local scaling and loopback-cluster overhead")
+    bench.add_argument("--history", metavar="RUN_DIR", help="campaign: project 120 x 1000 with the designs this run "
+                       "folder evaluated per generation (its cache hits), printed as a range down from no hits")
     bench.add_argument("--set", action="append", metavar="SECTION.KEY=VALUE", help=set_help)
     bench.set_defaults(func=_cmd_bench)
     return parser

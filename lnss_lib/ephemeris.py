@@ -27,7 +27,7 @@ from .errors import ConfigError, EphemerisRangeError, SpiceError
 from .settings import Dynamics, EphemerisSettings
 
 __all__ = ["NAIF_BODY", "planetary_spk_path", "kernel_paths", "load_kernels", "ensure_kernels", "tdb_seconds", "kernel_span_tdb_s", "check_span",
-           "tdb_iso", "spice_errors", "body_states_mci", "rotation_and_rate", "rotation", "hermite_cubic", "EphemerisTable",
+           "tdb_iso", "spice_errors", "body_states_mci", "rotation_and_rate", "rotation", "hermite_basis", "hermite_apply", "hermite_cubic", "EphemerisTable",
            "file_sha256"]
 
 NAIF_BODY = {"SUN": "SUN", "EARTH": "EARTH", "JUPITER": "JUPITER BARYCENTER", "MOON": "MOON"}
@@ -194,9 +194,10 @@ def _span_text(times: np.ndarray) -> str:
 
 
 @nb.njit(cache=True, fastmath=False)
-def hermite_cubic(values: np.ndarray, rates: np.ndarray, t0: float, dt: float, t: float, out: np.ndarray) -> None:
-    """Cubic Hermite interpolation on a uniform grid (values and rates at nodes) into ``out``."""
-    n = values.shape[0]
+def hermite_basis(n: int, t0: float, dt: float, t: float) -> tuple:
+    """Interval k of a uniform grid of ``n`` nodes (t0, dt) holding ``t`` (clamped to the grid) and the cubic
+    Hermite weights (h00, h10, h01, h11) at ``t``: the part of :func:`hermite_cubic` that depends on ``t`` only,
+    shared by every table on the same grid."""
     s = (t - t0) / dt
     k = int(np.floor(s))
     if k < 0:
@@ -206,12 +207,21 @@ def hermite_cubic(values: np.ndarray, rates: np.ndarray, t0: float, dt: float, t
     u = s - k
     u2 = u * u
     u3 = u2 * u
-    h00 = 2.0 * u3 - 3.0 * u2 + 1.0
-    h10 = (u3 - 2.0 * u2 + u) * dt
-    h01 = -2.0 * u3 + 3.0 * u2
-    h11 = (u3 - u2) * dt
+    return k, 2.0 * u3 - 3.0 * u2 + 1.0, (u3 - 2.0 * u2 + u) * dt, -2.0 * u3 + 3.0 * u2, (u3 - u2) * dt
+
+
+@nb.njit(cache=True, fastmath=False)
+def hermite_apply(values: np.ndarray, rates: np.ndarray, basis: tuple, out: np.ndarray) -> None:
+    """Interpolate one table (values and rates at nodes) with :func:`hermite_basis`'s interval and weights."""
+    k, h00, h10, h01, h11 = basis
     for j in range(values.shape[1]):
         out[j] = h00 * values[k, j] + h10 * rates[k, j] + h01 * values[k + 1, j] + h11 * rates[k + 1, j]
+
+
+@nb.njit(cache=True, fastmath=False)
+def hermite_cubic(values: np.ndarray, rates: np.ndarray, t0: float, dt: float, t: float, out: np.ndarray) -> None:
+    """Cubic Hermite interpolation on a uniform grid (values and rates at nodes) into ``out``."""
+    hermite_apply(values, rates, hermite_basis(values.shape[0], t0, dt, t), out)
 
 
 @dataclass(frozen=True)

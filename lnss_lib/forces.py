@@ -16,9 +16,9 @@ import numba as nb
 import numpy as np
 
 from .config import CR_AREA_MASS, CR_AREA_MASS_WHY, THIRD_BODIES, allowed_range_text, in_range
-from .ephemeris import EphemerisTable, hermite_cubic
+from .ephemeris import EphemerisTable, hermite_apply, hermite_basis
 from .errors import ConfigError
-from .gravity import GravityField, harmonic_acceleration, truncation_degree
+from .gravity import GravityField, harmonic_acceleration, tabulated_truncation_degree
 from .settings import Dynamics
 
 __all__ = ["BODY_ORDER", "SCRATCH_SIZE", "TERMS", "ForceModel", "shadow_factor", "acceleration_terms",
@@ -29,7 +29,7 @@ SCRATCH_SIZE = 24
 TERMS = ("central", "harmonics", "SUN", "EARTH", "JUPITER", "srp", "relativity", "albedo")
 
 # indices into the scalar parameter vector of the kernels
-GM, R_REF, R_MOON, R_EARTH, R_SUN, AU, C_LIGHT, SRP_K, ALBEDO, SOLAR_P, GRAV_TRUNC = range(11)
+GM, R_REF, R_MOON, R_EARTH, R_SUN, AU, C_LIGHT, SRP_K, ALBEDO, SOLAR_P = range(10)
 # indices into the flag vector
 F_HARMONICS, F_SUN, F_EARTH, F_JUPITER, F_SRP, F_SHADOW, F_REL, F_ALBEDO = range(8)
 
@@ -54,6 +54,9 @@ class ForceModel:
         """
         if tuple(table.body_names) != BODY_ORDER:
             raise ValueError(f"ephemeris table must hold {BODY_ORDER}; got {table.body_names}")
+        if table.rot_pa.shape[0] != table.bodies.shape[0]:
+            raise ValueError("ephemeris table: the rotation and the bodies must share one grid (interpolated with "
+                             f"one index); got {table.rot_pa.shape[0]} and {table.bodies.shape[0]} nodes")
         const, forces = dynamics.constants, dynamics.forces
         field = GravityField.from_settings(dynamics.gravity, degree)
         if srp_cr_area_mass_m2_kg is None:
@@ -67,7 +70,7 @@ class ForceModel:
             raise ConfigError(f"gravity field {dynamics.gravity.file} holds non-finite coefficients",
                               key="gravity.file")
         solar_pressure_n_m2 = forces.solar_flux_w_m2 / (const.c_km_s * 1e3)
-        scalars = np.zeros(11)
+        scalars = np.zeros(10)
         scalars[GM] = field.gm_km3_s2
         scalars[R_REF] = field.r_ref_km
         scalars[R_MOON] = const.r_moon_mean_km
@@ -78,7 +81,6 @@ class ForceModel:
         scalars[SRP_K] = solar_pressure_n_m2 * srp_cr_area_mass_m2_kg * 1e-3  # km/s^2 at 1 au
         scalars[ALBEDO] = forces.earth_albedo
         scalars[SOLAR_P] = solar_pressure_n_m2
-        scalars[GRAV_TRUNC] = field.truncation_kms2   # per-evaluation degree truncation (gravity.truncation_degree)
         flags = np.zeros(8, dtype=np.int64)
         flags[F_HARMONICS] = 1
         flags[F_SUN] = "SUN" in forces.third_bodies
@@ -96,7 +98,7 @@ class ForceModel:
         """The tuple :func:`acceleration` and the integrator take."""
         tab = self.table
         return (self.scalars, self.flags, self.gm_bodies, np.array([tab.t0_tdb_s, tab.step_s]),
-                tab.bodies, tab.rot_pa, tab.rot_pa_rate, self.field.cnm, self.field.snm, self.field.coef)
+                tab.bodies, tab.rot_pa, tab.rot_pa_rate, self.field.tables, self.field.truncation_radii_km)
 
     def describe(self) -> str:
         """One line naming the active terms, for dataset attributes."""
@@ -158,9 +160,11 @@ def acceleration_terms(t: float, y: np.ndarray, args: tuple, work: np.ndarray, s
                        terms: np.ndarray) -> None:
     """Each term of the acceleration (km/s^2, Moon-centred J2000) into ``terms`` (8, 3), order ``TERMS``.
 
-    ``work`` is the gravity scratch array, ``scratch`` a float array of at least 24 elements.
+    ``work`` is the gravity scratch array, ``scratch`` a float array of at least 24 elements. The rotation
+    and the bodies are interpolated with one interval and weight computation; the gravity degree is looked
+    up in the field's tabulated radii.
     """
-    scalars, flags, gm_bodies, t0dt, bodies, rot_pa, rot_pa_rate, cnm, snm, coef = args
+    scalars, flags, gm_bodies, t0dt, bodies, rot_pa, rot_pa_rate, tables, radii = args
     terms[:, :] = 0.0
     r = y[:3]
     v = y[3:6]
@@ -169,29 +173,30 @@ def acceleration_terms(t: float, y: np.ndarray, args: tuple, work: np.ndarray, s
     r_norm = np.sqrt(r2)
     for j in range(3):
         terms[0, j] = -gm * r[j] / (r2 * r_norm)
-    degree = cnm.shape[0] - 1
+    degree = tables.shape[1] - 2
     buf = scratch[0:9]
     r_bf = scratch[9:12]
     a_bf = scratch[12:15]
+    basis = hermite_basis(rot_pa.shape[0], t0dt[0], t0dt[1], t)     # one grid for the rotation and the bodies
     if flags[F_HARMONICS] and degree >= 2:
-        hermite_cubic(rot_pa, rot_pa_rate, t0dt[0], t0dt[1], t, buf)
+        hermite_apply(rot_pa, rot_pa_rate, basis, buf)
         for i in range(3):
             r_bf[i] = buf[3 * i] * r[0] + buf[3 * i + 1] * r[1] + buf[3 * i + 2] * r[2]
-        kept = truncation_degree(r_norm, coef, gm, scalars[R_REF], degree, scalars[GRAV_TRUNC])
-        harmonic_acceleration(r_bf, cnm, snm, coef, gm, scalars[R_REF], kept, work, a_bf)
+        kept = tabulated_truncation_degree(r_norm, radii)    # per-evaluation degree truncation
+        harmonic_acceleration(r_bf, tables, gm, scalars[R_REF], kept, work, a_bf)
         for j in range(3):
             terms[1, j] = buf[j] * a_bf[0] + buf[3 + j] * a_bf[1] + buf[6 + j] * a_bf[2] - terms[0, j]
     r_sun = scratch[15:18]
     r_earth = scratch[18:21]
     r_jup = scratch[21:24]
-    hermite_cubic(bodies[:, 0, :3], bodies[:, 0, 3:], t0dt[0], t0dt[1], t, r_sun)
-    hermite_cubic(bodies[:, 1, :3], bodies[:, 1, 3:], t0dt[0], t0dt[1], t, r_earth)
+    hermite_apply(bodies[:, 0, :3], bodies[:, 0, 3:], basis, r_sun)
+    hermite_apply(bodies[:, 1, :3], bodies[:, 1, 3:], basis, r_earth)
     if flags[F_SUN]:
         _third_body(r, r_sun, gm_bodies[0], terms[2])
     if flags[F_EARTH]:
         _third_body(r, r_earth, gm_bodies[1], terms[3])
     if flags[F_JUPITER]:
-        hermite_cubic(bodies[:, 2, :3], bodies[:, 2, 3:], t0dt[0], t0dt[1], t, r_jup)
+        hermite_apply(bodies[:, 2, :3], bodies[:, 2, 3:], basis, r_jup)
         _third_body(r, r_jup, gm_bodies[2], terms[4])
     if flags[F_SRP]:
         ux, uy, uz = r[0] - r_sun[0], r[1] - r_sun[1], r[2] - r_sun[2]

@@ -3,12 +3,18 @@
 The acceleration uses the Cunningham V/W recursion (Montenbruck & Gill, Satellite Orbits, 3.2.4)
 rewritten for fully normalised coefficients. It works in Cartesian body-fixed coordinates, so it
 has no singularity at the poles, and the normalised recursion stays in range to degree 100.
+
+The compiled acceleration is linear in the V/W terms of one degree higher, so the field's coefficients
+and the recursion's x/y/z factors are folded once per field into six tables (:func:`acceleration_tables`)
+and each evaluation computes a degree row of V and W and its six dot products in one loop over whole
+SIMD vectors (rows padded to :data:`LANES`). The per-evaluation degree truncation is a lookup in radii
+tabulated once per field (:func:`truncation_radii`), equal to :func:`truncation_degree`'s loop.
 """
 
 from __future__ import annotations
 
 import re
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from functools import lru_cache
 from pathlib import Path
 
@@ -19,10 +25,12 @@ from .config import data_path
 from .errors import ConfigError
 from .settings import GravitySettings
 
-__all__ = ["MAX_FILE_DEGREE", "GravityField", "recursion_coefficients", "degree_bound_factors", "truncation_degree",
-           "omitted_bound", "harmonic_acceleration", "harmonic_potential"]
+__all__ = ["MAX_FILE_DEGREE", "LANES", "GravityField", "recursion_coefficients", "degree_bound_factors",
+           "acceleration_tables", "padded_width", "new_workspace", "fill_vw", "truncation_degree", "truncation_radii",
+           "tabulated_truncation_degree", "omitted_bound", "harmonic_acceleration", "harmonic_potential"]
 
 MAX_FILE_DEGREE = 100
+LANES = 8    # rows of the acceleration tables and of V/W are padded to a multiple of this (one AVX-512 vector)
 
 
 @lru_cache(maxsize=4)
@@ -45,6 +53,8 @@ class GravityField:
     ``coef[5, n, 0]`` holds the per-degree acceleration bound factor K_n of :func:`degree_bound_factors`;
     ``truncation_kms2`` > 0 lets the compiled force model drop, per evaluation, the degrees whose
     summed bound at the current radius stays below it (:func:`truncation_degree`); 0 keeps every degree.
+    Derived on construction (also by ``dataclasses.replace``): ``tables``, the compiled acceleration's
+    coefficient tables (:func:`acceleration_tables`), and ``truncation_radii_km`` (:func:`truncation_radii`).
     """
 
     degree: int
@@ -54,6 +64,13 @@ class GravityField:
     snm: np.ndarray
     coef: np.ndarray
     truncation_kms2: float = 0.0
+    tables: np.ndarray = field(init=False, repr=False, compare=False)
+    truncation_radii_km: np.ndarray = field(init=False, repr=False, compare=False)
+
+    def __post_init__(self) -> None:
+        object.__setattr__(self, "tables", acceleration_tables(self.cnm, self.snm, self.coef))
+        object.__setattr__(self, "truncation_radii_km", truncation_radii(self.coef, self.gm_km3_s2, self.r_ref_km,
+                                                                         self.degree, self.truncation_kms2))
 
     @classmethod
     def from_file(cls, path: Path, degree: int, gm_km3_s2: float, r_ref_km: float,
@@ -88,8 +105,8 @@ class GravityField:
                              gravity.truncation_kms2)
 
     def workspace(self) -> np.ndarray:
-        """Scratch array for :func:`harmonic_acceleration` (V and W, degree + 2 squared each)."""
-        return np.zeros((2, self.degree + 2, self.degree + 2))
+        """Scratch array for :func:`harmonic_acceleration` and :func:`harmonic_potential` (:func:`new_workspace`)."""
+        return new_workspace(self.degree)
 
 
 def recursion_coefficients(degree: int) -> np.ndarray:
@@ -140,6 +157,51 @@ def degree_bound_factors(cnm: np.ndarray, snm: np.ndarray) -> np.ndarray:
     return factors
 
 
+def acceleration_tables(cnm: np.ndarray, snm: np.ndarray, coef: np.ndarray) -> np.ndarray:
+    """Coefficient tables of :func:`harmonic_acceleration`, shape (8, degree + 2, :func:`padded_width`), [kind, j, m].
+
+    The degree-n acceleration (Montenbruck & Gill eq. 3.33, normalised) is linear in V and W of degree
+    j = n + 1: a_x = sum_jm X_V[j, m] V_jm + X_W[j, m] W_jm, and so for y and z. Kinds 0-5 hold X_V, X_W,
+    Y_V, Y_W, Z_V, Z_W (C_nm and S_nm times the x/y factors towards orders m + 1 and m - 1 and the z factor
+    of ``coef`` kinds 2-4); kinds 6 and 7 the column recursion factors (``coef`` kinds 0 and 1, the sectorial
+    factor on the diagonal). Entries beyond order j are zero, so a padded row adds nothing.
+    """
+    degree = cnm.shape[0] - 1
+    size = degree + 2
+    tab = np.zeros((8, size, padded_width(degree)))
+    for n in range(degree + 1):
+        j, m = n + 1, np.arange(1, n + 1)
+        c, s = cnm[n], snm[n]
+        up, down, z = coef[2, n], coef[3, n], coef[4, n]
+        tab[0, j, 1] -= c[0] * up[0]
+        tab[3, j, 1] -= c[0] * up[0]
+        tab[4, j, 0] -= c[0] * z[0]
+        tab[0, j, m + 1] -= up[m] * c[m]
+        tab[1, j, m + 1] -= up[m] * s[m]
+        tab[2, j, m + 1] += up[m] * s[m]
+        tab[3, j, m + 1] -= up[m] * c[m]
+        tab[0, j, m - 1] += down[m] * c[m]
+        tab[1, j, m - 1] += down[m] * s[m]
+        tab[2, j, m - 1] += down[m] * s[m]
+        tab[3, j, m - 1] -= down[m] * c[m]
+        tab[4, j, m] -= z[m] * c[m]
+        tab[5, j, m] -= z[m] * s[m]
+    tab[6:8, :, :size] = coef[0:2]
+    return tab
+
+
+@nb.njit(cache=True)
+def padded_width(degree: int) -> int:
+    """Row length of the acceleration tables and V/W: degree + 2 orders rounded up to whole :data:`LANES`."""
+    return (degree + 2 + LANES - 1) // LANES * LANES
+
+
+@nb.njit(cache=True)
+def new_workspace(degree: int) -> np.ndarray:
+    """Zeroed V/W scratch array (2, degree + 2, :func:`padded_width`) for the field of ``degree``."""
+    return np.zeros((2, degree + 2, padded_width(degree)))
+
+
 @nb.njit(cache=True)
 def omitted_bound(r_km: float, coef: np.ndarray, gm: float, r_ref: float, degree: int, kept: int) -> float:
     """Bound (km/s^2) on the acceleration of degrees kept + 1 .. ``degree``: sum_n GM / r^2 (R / r)^n K_n."""
@@ -170,9 +232,47 @@ def truncation_degree(r_km: float, coef: np.ndarray, gm: float, r_ref: float, de
     return 1
 
 
+def truncation_radii(coef: np.ndarray, gm: float, r_ref: float, degree: int, tol_kms2: float) -> np.ndarray:
+    """Radii (km) ``radii[n]``, n = 2..``degree``, below which :func:`truncation_degree` keeps at least degree n.
+
+    Each is the smallest double at which the loop keeps fewer than n degrees, found by bisection on the
+    loop itself (the summed bound of degrees n..``degree`` falls with the radius, so the loop's answer
+    does too), hence :func:`tabulated_truncation_degree` returns the loop's integer (tested on dense sweeps
+    and on both sides of every radius). Entries 0 and 1, and every entry when ``tol_kms2`` <= 0 (no
+    truncation), are +inf.
+    """
+    radii = np.full(degree + 1, np.inf)
+    if tol_kms2 <= 0.0:
+        return radii
+    for n in range(2, degree + 1):
+        below, above = 1e-3 * r_ref, 1e3 * r_ref
+        while truncation_degree(above, coef, gm, r_ref, degree, tol_kms2) >= n:
+            above *= 2.0
+        while True:
+            mid = 0.5 * (below + above)
+            if mid in (below, above):
+                break
+            if truncation_degree(mid, coef, gm, r_ref, degree, tol_kms2) >= n:
+                below = mid
+            else:
+                above = mid
+        radii[n] = above
+    return radii
+
+
+@nb.njit(cache=True)
+def tabulated_truncation_degree(r_km: float, radii_km: np.ndarray) -> int:
+    """:func:`truncation_degree` at ``r_km`` (field degree >= 2) from the field's :func:`truncation_radii`:
+    a scan of at most ``degree`` comparisons instead of a sum with a division per degree."""
+    kept = radii_km.shape[0] - 1
+    while kept >= 2 and r_km >= radii_km[kept]:
+        kept -= 1
+    return kept
+
+
 # fastmath is safe: states checked finite (propagator), coefficients finite (ForceModel), r >= r_min > 0 at each step
 @nb.njit(cache=True, fastmath=True)
-def _fill_vw(x: float, y: float, z: float, r_ref: float, nmax: int, coef: np.ndarray, V: np.ndarray, W: np.ndarray) -> None:
+def fill_vw(x: float, y: float, z: float, r_ref: float, nmax: int, coef: np.ndarray, V: np.ndarray, W: np.ndarray) -> None:
     """Normalised V_nm, W_nm (Montenbruck & Gill eq. 3.29-3.31) up to degree nmax, stored [n, m].
 
     Each degree row is computed from the two before it, so the loop over orders vectorises.
@@ -202,37 +302,56 @@ def _fill_vw(x: float, y: float, z: float, r_ref: float, nmax: int, coef: np.nda
         w_row[n] = f * (x0 * w_1[n - 1] + y0 * v_1[n - 1])
 
 
-# fastmath is safe: finite inputs proven upstream, as for _fill_vw; a NaN stage stops the integrator (status 4)
-@nb.njit(cache=True, fastmath=True)
-def harmonic_acceleration(r_bf_km: np.ndarray, cnm: np.ndarray, snm: np.ndarray, coef: np.ndarray, gm: float,
-                          r_ref: float, degree: int, work: np.ndarray, out: np.ndarray) -> None:
+# fastmath is safe: finite inputs proven upstream, as for fill_vw; a NaN stage stops the integrator (status 4).
+# error_model="numpy": a non-finite position gives a non-finite result (no ZeroDivisionError from the check that
+# fastmath may fold for a NaN r^2); r >= r_min > 0 in every integration, so the check never fires there
+@nb.njit(cache=True, fastmath=True, error_model="numpy")
+def harmonic_acceleration(r_bf_km: np.ndarray, tables: np.ndarray, gm: float, r_ref: float, degree: int,
+                          work: np.ndarray, out: np.ndarray) -> None:
     """Acceleration (km/s^2, body-fixed) of the field of degree/order ``degree`` at ``r_bf_km``, into ``out``.
 
-    Includes the central term (C00 = 1). ``coef`` from :func:`recursion_coefficients`; ``work`` is a
-    (2, degree + 2, degree + 2) scratch array.
+    Includes the central term (C00 = 1). ``tables`` from :func:`acceleration_tables`; ``work`` from
+    :func:`new_workspace`. Row j of V and W (Montenbruck & Gill eq. 3.29-3.31) comes from rows j - 1 and
+    j - 2 over whole padded vectors, the sectorial term (kept in registers) at m = j and zero beyond, so a
+    non-finite value left in ``work`` by an earlier call is never read into this one.
     """
     V = work[0]
     W = work[1]
-    _fill_vw(r_bf_km[0], r_bf_km[1], r_bf_km[2], r_ref, degree + 1, coef, V, W)
-    ax = 0.0
-    ay = 0.0
-    az = 0.0
-    for n in range(degree + 1):
-        c_row, s_row = cnm[n], snm[n]
-        up_row, dn_row, z_row = coef[2, n], coef[3, n], coef[4, n]
-        v, w = V[n + 1], W[n + 1]
-        c = c_row[0]
-        ax -= c * up_row[0] * v[1]
-        ay -= c * up_row[0] * w[1]
-        az -= c * z_row[0] * v[0]
-        for m in range(1, n + 1):
-            c = c_row[m]
-            s = s_row[m]
-            f_up = up_row[m]
-            f_dn = dn_row[m]
-            ax += f_up * (-c * v[m + 1] - s * w[m + 1]) + f_dn * (c * v[m - 1] + s * w[m - 1])
-            ay += f_up * (-c * w[m + 1] + s * v[m + 1]) + f_dn * (-c * w[m - 1] + s * v[m - 1])
-            az += z_row[m] * (-c * v[m] - s * w[m])
+    x, y, z = r_bf_km[0], r_bf_km[1], r_bf_km[2]
+    r2 = x * x + y * y + z * z
+    rho = r_ref * r_ref / r2
+    x0, y0, z0 = r_ref * x / r2, r_ref * y / r2, r_ref * z / r2
+    v_nn = r_ref / np.sqrt(r2)
+    V[0, 0] = v_nn
+    W[0, 0] = 0.0
+    v_10 = tables[6, 1, 0] * z0 * v_nn
+    V[1, 0] = v_10
+    W[1, 0] = 0.0
+    f = tables[6, 1, 1]
+    v_nn, w_nn = f * x0 * v_nn, f * y0 * v_nn
+    V[1, 1] = v_nn
+    W[1, 1] = w_nn
+    ax = tables[0, 1, 0] * v_10 + tables[0, 1, 1] * v_nn + tables[1, 1, 1] * w_nn
+    ay = tables[2, 1, 1] * v_nn + tables[3, 1, 1] * w_nn
+    az = tables[4, 1, 0] * v_10 + tables[4, 1, 1] * v_nn + tables[5, 1, 1] * w_nn
+    for j in range(2, degree + 2):
+        f = tables[6, j, j]
+        v_nn, w_nn = f * (x0 * v_nn - y0 * w_nn), f * (x0 * w_nn + y0 * v_nn)
+        a_row, b_row = tables[6, j], tables[7, j]
+        v_1, v_2, w_1, w_2, v_row, w_row = V[j - 1], V[j - 2], W[j - 1], W[j - 2], V[j], W[j]
+        xv, xw, yv, yw, zv, zw = tables[0, j], tables[1, j], tables[2, j], tables[3, j], tables[4, j], tables[5, j]
+        for m in range((j + LANES) // LANES * LANES):
+            a = a_row[m] * z0
+            b = b_row[m] * rho
+            v = a * v_1[m] - b * v_2[m]
+            w = a * w_1[m] - b * w_2[m]
+            v = v_nn if m == j else (v if m < j else 0.0)
+            w = w_nn if m == j else (w if m < j else 0.0)
+            v_row[m] = v
+            w_row[m] = w
+            ax += xv[m] * v + xw[m] * w
+            ay += yv[m] * v + yw[m] * w
+            az += zv[m] * v + zw[m] * w
     scale = gm / (r_ref * r_ref)
     out[0] = scale * ax
     out[1] = scale * ay
@@ -245,7 +364,7 @@ def harmonic_potential(r_bf_km: np.ndarray, cnm: np.ndarray, snm: np.ndarray, co
     """Gravitational potential U (km^2/s^2, U = GM/r for a point mass) from the same V/W terms."""
     V = work[0]
     W = work[1]
-    _fill_vw(r_bf_km[0], r_bf_km[1], r_bf_km[2], r_ref, degree, coef, V, W)
+    fill_vw(r_bf_km[0], r_bf_km[1], r_bf_km[2], r_ref, degree, coef, V, W)
     total = 0.0
     for n in range(degree + 1):
         for m in range(n + 1):

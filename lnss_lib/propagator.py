@@ -29,6 +29,7 @@ from .errors import ConfigError, ImpactError, PropagationError
 from .ephemeris import EphemerisTable, check_span, ensure_kernels, tdb_iso, tdb_seconds
 from .forces import SCRATCH_SIZE, SOLAR_P, SRP_K, TERMS, ForceModel, acceleration
 from .frames import element_frame_to_j2000
+from .gravity import new_workspace
 from .settings import Dynamics, EpochSettings, IntegratorSetting
 
 __all__ = ["METHODS", "STATUS_TEXT", "check_batch", "check_elements_deg", "integrate_one", "integrate_many", "output_times", "propagate_states",
@@ -286,7 +287,7 @@ def integrate_many(y0s, t0, t_out, method, rtol, atol, r_min_km, max_steps, args
     t_stop = np.full(n_sat, np.nan)
     n_rhs = np.zeros(n_sat, dtype=np.int64)
     for i in nb.prange(n_sat):
-        work = (np.zeros(SCRATCH_SIZE), np.zeros((2, degree + 2, degree + 2)))
+        work = (np.zeros(SCRATCH_SIZE), new_workspace(degree))
         s, st, ts, nr = integrate_one(y0s[i], t0, t_out, method, rtol, atol, r_min_km, max_steps, args, work)
         states[i] = s
         status[i] = st

@@ -519,6 +519,9 @@ def test_bench_applies_and_checks_set(capsys, monkeypatch):
     assert main(["bench", "dop", "--profile", "ci", "--set", "dop.elevation_mask_deg=10.0"]) == 0
     assert seen == {"name": "ci", "overrides": {"dop": {"elevation_mask_deg": 10.0}}}
     one_line_error(capsys, main(["bench", "dop", "--scaling"]), 2, "--scaling", "bench dop")
+    one_line_error(capsys, main(["bench", "dop", "--history", "runs/x"]), 2, "--history", "bench dop")
+    one_line_error(capsys, main(["bench", "campaign", "--profile", "ci", "--history", "no/such/run"]), 2,
+                   "--history no/such/run", "not a campaign run folder")
 
 
 MESSAGES = [

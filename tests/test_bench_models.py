@@ -18,3 +18,54 @@ def test_busy_fraction_is_one_for_perfect_balance_and_drops_with_idle_workers():
     assert _busy_fraction(np.ones(8), 16, 0.0, 0.0) == pytest.approx(0.5)            # half the workers idle
     assert _busy_fraction(np.array([4.0, 1.0, 1.0, 1.0, 1.0]), 2, 0.0, 0.0) == pytest.approx(1.0)
     assert _busy_fraction(np.array([8.0, 1.0]), 2, 0.0, 0.0) == pytest.approx(9.0 / 16.0)
+
+
+def _history(evaluated, population=120):
+    return [{"generation": g + 1, "n_designs": population, "n_evaluated": n, "n_cache_hits": population - n,
+             "wall_s": 1.0} for g, n in enumerate(evaluated)]
+
+
+def test_history_projection_counts_the_runs_evaluations_and_extends_its_tail(tmp_path):
+    """``bench campaign --history``: recorded generations as they were, the unrun ones at the last 20's mean."""
+    from lnss_lib.bench.campaign import HISTORY_TAIL, evaluated_per_generation
+    from lnss_lib.campaign.rundir import write_checkpoint
+    from lnss_lib.paper import EVALUATIONS, TABLE_5
+
+    evaluated = [120] + [100] * 9 + [10] * HISTORY_TAIL
+    write_checkpoint(tmp_path, len(evaluated), None, _history(evaluated), False, profile_fingerprint="x")
+    got = evaluated_per_generation(tmp_path)
+    assert got["generations_recorded"] == len(evaluated) and got["evaluated_recorded"] == sum(evaluated)
+    assert got["hits_recorded"] == 120 * len(evaluated) - sum(evaluated)
+    assert got["evaluated_total"] == sum(evaluated) + 10 * (TABLE_5["generations"] - len(evaluated))
+    assert got["hit_fraction"] == pytest.approx(1 - got["evaluated_total"] / EVALUATIONS)
+
+
+def test_history_projection_refuses_what_is_not_a_table5_run(tmp_path):
+    from lnss_lib.bench.campaign import evaluated_per_generation
+    from lnss_lib.campaign.rundir import write_checkpoint
+    from lnss_lib.errors import ConfigError
+
+    with pytest.raises(ConfigError, match="not a campaign run folder"):
+        evaluated_per_generation(tmp_path / "missing")
+    with pytest.raises(ConfigError, match="not a campaign run folder"):
+        evaluated_per_generation(tmp_path)                                        # a folder with no checkpoint
+    write_checkpoint(tmp_path, 2, None, _history([16, 10], population=16), False, profile_fingerprint="x")
+    with pytest.raises(ConfigError, match="population of 120"):
+        evaluated_per_generation(tmp_path)
+
+
+def test_previous_force_model_agrees_to_round_off_on_an_integrated_arc(paper_profile, epoch_tdb_s):
+    """The benchmark's 'before' right-hand side (four interpolations, the truncation loop, the per-term harmonic
+    sums) equals the model's to round-off (the folded-table sums are reordered)."""
+    from lnss_lib.bench.kernels_before import replay_times, rhs_points
+    from lnss_lib.ephemeris import EphemerisTable
+    from lnss_lib.forces import ForceModel
+    from lnss_lib.propagator import elements_deg_to_states
+
+    duration = 0.5 * 86400.0
+    table = EphemerisTable.build(paper_profile.dynamics, epoch_tdb_s, epoch_tdb_s + duration)
+    model = ForceModel.build(paper_profile.dynamics, table)
+    y0 = elements_deg_to_states(paper_profile.dynamics, [[6143.0, 0.6, 51.7, 0.0, 90.0, 0.0]], epoch_tdb_s)[0]
+    ts, ys = rhs_points(model, y0, epoch_tdb_s, duration, "RK45", 1e-6, 1e-9)
+    replay = replay_times(model, ts, ys, repeats=1)
+    assert replay["max_rel_diff"] < 1e-13 and replay["n_rhs"] == len(ts) > 100

@@ -48,6 +48,24 @@ def test_interpolated_tables_match_spice(paper_profile, epoch_tdb_s):
         assert np.abs(table.rotation_pa(t) - exact_rot).max() < 1e-10
 
 
+def test_one_shared_basis_interpolates_every_table_as_before(paper_profile, epoch_tdb_s, rng):
+    """The force model interpolates the rotation and the bodies with one interval and weight computation:
+    bit for bit what a separate :func:`hermite_cubic` per table gives, at and between nodes and past both ends."""
+    from lnss_lib.ephemeris import hermite_apply, hermite_basis, hermite_cubic
+
+    table = EphemerisTable.build(paper_profile.dynamics, epoch_tdb_s, epoch_tdb_s + 86400.0)
+    times = np.concatenate([table.t0_tdb_s + table.step_s * np.arange(3), rng.uniform(table.t0_tdb_s - 50.0,
+                                                                                          table.t_end_tdb_s + 50.0, 200)])
+    for t in times:
+        basis = hermite_basis(table.rot_pa.shape[0], table.t0_tdb_s, table.step_s, t)
+        pairs = [(table.rot_pa, table.rot_pa_rate)] + [(table.bodies[:, k, :3], table.bodies[:, k, 3:]) for k in range(3)]
+        for values, rates in pairs:
+            shared, alone = np.empty(values.shape[1]), np.empty(values.shape[1])
+            hermite_apply(values, rates, basis, shared)
+            hermite_cubic(values, rates, table.t0_tdb_s, table.step_s, t, alone)
+            assert np.array_equal(shared, alone)
+
+
 def test_elements_round_trip(rng):
     gm = 4902.7999671
     n = 500

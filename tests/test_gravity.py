@@ -9,8 +9,8 @@ from lnss_lib.reference import harmonic_acceleration_spherical
 
 def _accel(field, r):
     out = np.empty(3)
-    harmonic_acceleration(np.asarray(r, float), field.cnm, field.snm, field.coef, field.gm_km3_s2, field.r_ref_km,
-                          field.degree, field.workspace(), out)
+    harmonic_acceleration(np.asarray(r, float), field.tables, field.gm_km3_s2, field.r_ref_km, field.degree,
+                          field.workspace(), out)
     return out
 
 
@@ -91,8 +91,7 @@ def test_degree_bound_holds_against_the_full_field_at_many_radii(paper_profile, 
             full = _accel(field, x)
             for kept in (1, 2, 4, 8, 15, 25, 29):
                 part = np.empty(3)
-                harmonic_acceleration(x, field.cnm, field.snm, field.coef, field.gm_km3_s2, field.r_ref_km, kept,
-                                      field.workspace(), part)
+                harmonic_acceleration(x, field.tables, field.gm_km3_s2, field.r_ref_km, kept, field.workspace(), part)
                 ratio = np.linalg.norm(full - part) / omitted_bound(r_km, field.coef, field.gm_km3_s2,
                                                                      field.r_ref_km, field.degree, kept)
                 worst = max(worst, ratio)
@@ -114,7 +113,7 @@ def test_truncation_degree_keeps_the_dropped_part_below_the_tolerance(paper_prof
             assert omitted_bound(r_km, field.coef, gm, r_ref, field.degree, kept - 1) > 1e-15
         x = r_km * np.array([0.3, -0.5, 0.81]) / np.linalg.norm([0.3, -0.5, 0.81])
         part = np.empty(3)
-        harmonic_acceleration(x, field.cnm, field.snm, field.coef, gm, r_ref, kept, field.workspace(), part)
+        harmonic_acceleration(x, field.tables, gm, r_ref, kept, field.workspace(), part)
         assert np.linalg.norm(_accel(field, x) - part) <= 1e-15
     assert truncation_degree(1740.0, field.coef, gm, r_ref, field.degree, 1e-15) == field.degree
     assert truncation_degree(24000.0, field.coef, gm, r_ref, field.degree, 1e-15) < 8
@@ -145,3 +144,66 @@ def test_truncated_field_moves_ten_day_positions_by_less_than_a_metre(paper_prof
                                      model=ForceModel.build(profile.dynamics, table)).r_mci_km.values[0]
     moved_m = 1e3 * np.max(np.linalg.norm(runs[1e-15] - runs[0.0], axis=-1))
     assert moved_m < 1.0
+
+
+@pytest.mark.parametrize("degree", [2, 7, 30])
+def test_tabulated_acceleration_matches_the_previous_kernel_and_the_potential(paper_profile, rng, degree):
+    """The folded-table kernel against the previous per-term kernel (kept in the bench) to round-off, and
+    against the finite-difference gradient of the potential, at every truncation degree 2..degree."""
+    from lnss_lib.bench.kernels_before import harmonic_acceleration_before
+
+    field = GravityField.from_settings(paper_profile.gravity, degree)
+    work = field.workspace()
+    for kept in range(2, degree + 1):
+        for _ in range(12):
+            u = rng.normal(size=3)
+            r = u / np.linalg.norm(u) * rng.uniform(1738.0, 20000.0)
+            new, before = np.empty(3), np.empty(3)
+            harmonic_acceleration(r, field.tables, field.gm_km3_s2, field.r_ref_km, kept, work, new)
+            harmonic_acceleration_before(r, field.cnm, field.snm, field.coef, field.gm_km3_s2, field.r_ref_km, kept,
+                                         field.workspace(), before)
+            assert np.linalg.norm(new - before) <= 1e-14 * np.linalg.norm(before)
+    r = np.array([1900.0, -300.0, 700.0])
+    part = GravityField(degree, field.gm_km3_s2, field.r_ref_km, field.cnm, field.snm, field.coef)
+    point_mass = -field.gm_km3_s2 * r / np.linalg.norm(r) ** 3
+    acc = _accel(part, r)
+    assert np.linalg.norm(acc - _numerical_gradient(part, r)) < 1e-5 * np.linalg.norm(acc - point_mass)
+
+
+def test_tabulated_acceleration_forgets_a_non_finite_call(paper_profile):
+    """A NaN position poisons only that call: the padded rows never carry it into the next one."""
+    field = GravityField.from_settings(paper_profile.gravity)
+    work, out = field.workspace(), np.empty(3)
+    r = np.array([1800.0, 300.0, -400.0])
+    harmonic_acceleration(np.array([np.nan, 0.0, 1800.0]), field.tables, field.gm_km3_s2, field.r_ref_km,
+                          field.degree, work, out)
+    assert not np.all(np.isfinite(out))
+    harmonic_acceleration(r, field.tables, field.gm_km3_s2, field.r_ref_km, field.degree, work, out)
+    assert np.array_equal(out, _accel(field, r))
+
+
+def test_field_tables_follow_replaced_coefficients(paper_profile):
+    import dataclasses
+
+    field = GravityField.from_settings(paper_profile.gravity, 4)
+    zonal = dataclasses.replace(field, snm=np.zeros_like(field.snm))
+    assert not np.array_equal(zonal.tables, field.tables)
+    r = np.array([1500.0, -900.0, 1200.0])
+    assert not np.allclose(_accel(zonal, r), _accel(field, r), rtol=1e-12, atol=0)
+
+
+@pytest.mark.parametrize("degree, tol", [(30, 1e-15), (30, 1e-12), (12, 1e-15), (30, 0.0)])
+def test_tabulated_truncation_degree_equals_the_loop(paper_profile, degree, tol):
+    """The radius lookup returns the loop's integer on a dense sweep and on both sides of every tabulated radius."""
+    from lnss_lib.gravity import tabulated_truncation_degree, truncation_degree
+
+    field = GravityField.from_settings(paper_profile.gravity, degree)
+    field = GravityField(degree, field.gm_km3_s2, field.r_ref_km, field.cnm, field.snm, field.coef, tol)
+    radii = field.truncation_radii_km
+    sweep = np.geomspace(1738.0, 60000.0, 20000)
+    edges = radii[np.isfinite(radii)]
+    points = np.concatenate([sweep, edges, np.nextafter(edges, 0.0), np.nextafter(edges, np.inf)])
+    kept = [tabulated_truncation_degree(r, radii) for r in points]
+    loop = [truncation_degree(r, field.coef, field.gm_km3_s2, field.r_ref_km, degree, tol) for r in points]
+    assert kept == loop
+    assert set(kept) == {degree} if tol == 0.0 else len(set(kept)) >= 5      # the sweep crosses many thresholds

@@ -1,6 +1,14 @@
 """``python -m lnss_lib bench campaign [--scaling]``: a short NSGA-II campaign, its throughput and time shares,
 and the projected wall time of the paper's 120 x 1000 campaign on this machine (and of the operational
-profile's, when ``params/operational.toml`` exists).
+profile's, when ``params/operational.toml`` exists); then the force model before and after issue 23's speed
+work side by side (:mod:`lnss_lib.bench.kernels_before`): CPU time per right-hand side and per design over
+the points an RK45 integration of each satellite of the run's first :data:`KERNEL_DESIGNS` valid designs
+evaluates, and the largest relative difference of the two accelerations (round-off, ~1e-15).
+
+``--history RUN_DIR`` projects the same 120 x 1000 campaign with the designs a real run actually evaluated per
+generation (its checkpoint history: a converging search repeats designs, which the journal answers): the
+run's own generations as recorded, the rest at the mean of its last :data:`HISTORY_TAIL` generations; the
+projection is printed as a range, from no cache hits to the run's hits.
 
 ``--scaling`` adds: designs/s with 1 and 2 local workers (scaling efficiency); the campaign's own
 overhead per design on loopback Dask clusters (127.0.0.1, one thread per worker process) of 8, 32 and 64
@@ -20,11 +28,20 @@ import numba
 import numpy as np
 
 from ..config import PARAMS_DIR, deep_merge
+from ..errors import ConfigError
 from ..settings import load_settings
 from ..campaign import load_checkpoint, read_cache_records, run_campaign
+from ..campaign.grid import DesignGrid
+from ..constants import SECONDS_PER_DAY
+from ..constellation import WalkerDesign
+from ..evaluator import context_for
+from ..propagator import elements_deg_to_states
+from .kernels_before import replay_times, rhs_points
 from ..campaign.timing import campaign_timing, steady_rate
-from ..paper import EVALUATIONS
+from ..paper import EVALUATIONS, TABLE_5
 
+KERNEL_DESIGNS = 4             # designs of the short run whose right-hand sides are timed before and after
+HISTORY_TAIL = 20              # generations of a run whose mean evaluated count stands for its unrun generations
 SCALING_WORKERS = (8, 32, 64)
 SCALING_DELAY_S = 0.5
 
@@ -75,7 +92,84 @@ def _projection(profile_name: str, population: int, generations: int, workers: i
     print(f"  projected 120 x 1000 campaign ({EVALUATIONS} designs, all eq. 45 objectives, no cache hits, this design "
           f"mix): {projected_h:.1f} h on this machine; with this run's hit rate {projected_h * (1 - hits):.1f} h")
     return {"profile": profile_name, "wall_s": wall, "n_evaluations": n, "designs_per_s": n / wall,
-            "steady_designs_per_s": rate, "projected_paper_h": projected_h, "records": run["records"], **timing}
+            "steady_designs_per_s": rate, "projected_paper_h": projected_h, "fixed_s": startup_s + first_gen_s,
+            "records": run["records"], **timing}
+
+
+def evaluated_per_generation(run_dir) -> dict:
+    """Designs a run evaluated (not answered by its journal) in each generation of a 120 x 1000 campaign.
+
+    From the run's checkpoint history (``n_evaluated``, ``n_cache_hits``): its recorded generations as they
+    were, each later one at the mean of the last :data:`HISTORY_TAIL` recorded. ConfigError (naming the
+    folder) when ``run_dir`` is not a campaign run folder with at least one checkpointed generation, or its
+    population is not Table 5's.
+    """
+    path = Path(run_dir)
+    checkpoint = load_checkpoint(path) if path.is_dir() else None
+    history = (checkpoint or {}).get("history") or []
+    if not history:
+        raise ConfigError(f"--history {run_dir}: not a campaign run folder with a checkpointed generation "
+                          "(expected checkpoint.pkl written by 'python -m lnss_lib campaign')", key="--history")
+    population, generations = TABLE_5["population"], TABLE_5["generations"]
+    sizes = {int(h["n_designs"]) for h in history}
+    if sizes != {population}:
+        raise ConfigError(f"--history {run_dir}: generations of {sorted(sizes)} designs; the projection needs a run "
+                          f"with Table 5's population of {population}", key="--history")
+    recorded = np.array([int(h["n_evaluated"]) for h in history[:generations]])
+    tail = float(np.mean(recorded[-HISTORY_TAIL:]))
+    total = float(recorded.sum() + tail * (generations - recorded.size))
+    return {"run_dir": str(path), "generations_recorded": int(recorded.size), "evaluated_recorded": int(recorded.sum()),
+            "hits_recorded": int(sum(int(h["n_cache_hits"]) for h in history[:generations])),
+            "tail_mean_evaluated": tail, "evaluated_total": total, "hit_fraction": 1.0 - total / EVALUATIONS}
+
+
+def _history_range(projection: dict, run_dir) -> dict:
+    """Print the 120 x 1000 projection from no cache hits to ``run_dir``'s measured hits (same design rate)."""
+    hist = evaluated_per_generation(run_dir)
+    rate, fixed_s = projection["steady_designs_per_s"], projection["fixed_s"]
+    no_hits_h = (fixed_s + EVALUATIONS / rate) / 3600.0
+    with_hits_h = (fixed_s + hist["evaluated_total"] / rate) / 3600.0
+    print(f"  with {hist['run_dir']}'s cache hits: generations 1-{hist['generations_recorded']} evaluated "
+          f"{hist['evaluated_recorded']} designs ({hist['hits_recorded']} journal hits), the other "
+          f"{TABLE_5['generations'] - hist['generations_recorded']} at its last {HISTORY_TAIL} generations' mean of "
+          f"{hist['tail_mean_evaluated']:.1f}: {hist['evaluated_total']:.0f} evaluations ({100 * hist['hit_fraction']:.1f}% "
+          f"hits)")
+    print(f"  projected 120 x 1000 [{projection['profile']}] at {rate:.2f} designs/s: {with_hits_h:.2f} h with the "
+          f"measured hits .. {no_hits_h:.2f} h with none")
+    return {**hist, "projected_h_with_hits": with_hits_h, "projected_h_no_hits": no_hits_h}
+
+
+def kernel_comparison(profile_name: str, records: list[dict], overrides: dict | None = None) -> dict:
+    """Print and return the force model's CPU time before and after, per right-hand side and per design, on the
+    points each satellite of the first :data:`KERNEL_DESIGNS` valid designs of ``records`` is integrated at."""
+    settings = load_settings(profile_name, overrides=overrides)
+    context = context_for(settings)
+    grid = DesignGrid.from_variables(settings.campaign.variables)
+    integ = settings.dynamics.integrator.settings[settings.dynamics.integrator.setting]
+    duration = settings.epoch.duration_days * SECONDS_PER_DAY
+    totals = {"new_s": 0.0, "before_s": 0.0, "n_rhs": 0}
+    max_rel_diff = 0.0
+    print(f"force model before -> after (issue 23), {integ.method} at rtol {integ.rtol:g}, CPU time, same points:")
+    for record in [r for r in records if r["ok"]][:KERNEL_DESIGNS]:
+        design = grid.descale(record["key"])[0]
+        walker = WalkerDesign(*(float(x) for x in design[:4]), int(design[4]), int(design[5]))
+        states = elements_deg_to_states(settings.dynamics, walker.elements_deg(), context.t0_tdb_s)
+        mine = {"new_s": 0.0, "before_s": 0.0, "n_rhs": 0}
+        for y0 in states:
+            ts, ys = rhs_points(context.model, y0, context.t0_tdb_s, duration, integ.method, integ.rtol, integ.atol)
+            replay = replay_times(context.model, ts, ys)
+            max_rel_diff = max(max_rel_diff, replay["max_rel_diff"])
+            for key in mine:
+                mine[key] += replay[key]
+        for key in totals:
+            totals[key] += mine[key]
+        print(f"  a {walker.sma_km:.0f} km, e {walker.ecc:.2f}, i {walker.inc_deg:.1f} deg, {walker.n_planes} x "
+              f"{walker.sats_per_plane}: {mine['n_rhs']} right-hand sides, {mine['before_s']:.3f} s -> {mine['new_s']:.3f} s "
+              f"per design ({100 * (1 - mine['new_s'] / mine['before_s']):.1f}% less)")
+    n = max(totals["n_rhs"], 1)
+    print(f"  per right-hand side: {1e6 * totals['before_s'] / n:.3f} us -> {1e6 * totals['new_s'] / n:.3f} us; largest relative "
+          f"difference of the accelerations {max_rel_diff:.1e} (round-off of the reordered harmonic sums)")
+    return {**totals, "max_rel_diff": max_rel_diff}
 
 
 def _greedy_makespan(durations: np.ndarray, n_workers: int, dispatch_s: float) -> float:
@@ -170,17 +264,23 @@ def scaling(profile_name: str = "paper", reference: dict | None = None, override
 
 
 def run(profile_name: str = "paper", generations: int | None = None, population: int | None = None,
-        workers: int | None = None, scaling_run: bool = False, overrides: dict | None = None) -> dict:
+        workers: int | None = None, scaling_run: bool = False, overrides: dict | None = None,
+        history: str | None = None) -> dict:
     """Short campaign(s) with the profile's evaluations; throughput, shares and 120 x 1000 projections.
 
     Defaults: the profile's population (at most 32) for at most 8 generations. When
     ``params/operational.toml`` exists its projection is printed beside the profile's. ``overrides``
-    (``--set``) apply to every campaign run here.
+    (``--set``) apply to every campaign run here. ``history``: a run folder whose per-generation evaluated
+    counts give the projection's range (checked before anything runs).
     """
+    if history is not None:
+        evaluated_per_generation(history)
     settings = load_settings(profile_name, overrides=overrides).campaign
     population = population or min(settings.population, 32)
     generations = generations or min(settings.generations, 8)
     out = {profile_name: _projection(profile_name, population, generations, workers, overrides)}
+    if history is not None:
+        out["history"] = _history_range(out[profile_name], history)
     if (PARAMS_DIR / "operational.toml").is_file() and profile_name != "operational":
         out["operational"] = _projection("operational", population, generations, workers, overrides)
         print(f"projected 120 x 1000: [{profile_name}] {out[profile_name]['projected_paper_h']:.1f} h, [operational] "
@@ -188,6 +288,7 @@ def run(profile_name: str = "paper", generations: int | None = None, population:
     else:
         print(f"projected 120 x 1000: [{profile_name}] {out[profile_name]['projected_paper_h']:.1f} h (target <= 3 h on "
               "2 workers); no params/operational.toml, so no operational projection")
+    out["kernels"] = kernel_comparison(profile_name, out[profile_name]["records"], overrides)
     if scaling_run:
         out["scaling"] = scaling(profile_name, out[profile_name], overrides)
     for value in out.values():

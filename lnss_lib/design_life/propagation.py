@@ -13,6 +13,7 @@ from ..ephemeris import EphemerisTable, ensure_kernels
 from ..constants import SECONDS_PER_DAY
 from ..forces import SCRATCH_SIZE, ForceModel
 from ..frames import element_frame_to_j2000
+from ..gravity import new_workspace
 from .mean_elements import mean_elements, to_element_frame, wrap_pi
 from ..settings import Dynamics, IntegratorSetting
 from ..propagator import METHODS, STATUS_NOT_RUN, STATUS_OK, check_batch, elements_deg_to_states, integrate_one
@@ -41,7 +42,7 @@ def integrate_chunk(y0s, active, t0, t_out, burn_t, burn_dv_rtn, method, rtol, a
     for i in nb.prange(n_sat):
         if not active[i]:
             continue
-        work = (np.zeros(SCRATCH_SIZE), np.zeros((2, degree + 2, degree + 2)))
+        work = (np.zeros(SCRATCH_SIZE), new_workspace(degree))
         y = y0s[i].copy()
         t = t0
         k = 0
