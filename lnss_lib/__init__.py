@@ -20,6 +20,39 @@ Layers (a module imports only from its own layer or a lower one):
 4. Presentation and studies: ``outputs``, ``pipeline``, ``figures``, ``studies`` (one module per
    notebook; each docstring states the question and the verdict), ``explorer``.
    Top: ``__main__`` (argument parsing), ``cli`` (the evaluate command's results), ``bench``.
+
+Compiled kernels are cached on disk in one folder per state of these sources (:func:`kernel_cache_dir`).
 """
 
+import hashlib
+import os
+import sys
+from pathlib import Path
+
 __version__ = "0.1.0"
+
+
+def source_digest(root: Path) -> str:
+    """Digest (16 hex) of every ``*.py`` file under ``root``, names and contents."""
+    digest = hashlib.sha256()
+    for path in sorted(root.rglob("*.py")):
+        digest.update(path.relative_to(root).as_posix().encode() + b"\0" + path.read_bytes())
+    return digest.hexdigest()[:16]
+
+
+def kernel_cache_dir() -> str:
+    """Numba's cache folder for this state of the sources: ``NUMBA_CACHE_DIR`` (else ~/.cache/lnss_workbook/numba)
+    joined with :func:`source_digest`. Numba checks a cached function against its own file only, so a kernel that
+    inlines one of another module (the integrator inlines the force model, the force model the gravity field) would
+    keep the old machine code after only that other module changed; with the folder keyed by every source, any
+    change compiles afresh. Child processes (Dask workers, the command line) inherit the parent folder
+    (``LNSS_NUMBA_CACHE_PARENT``), not the keyed one."""
+    parent = (os.environ.get("LNSS_NUMBA_CACHE_PARENT") or os.environ.get("NUMBA_CACHE_DIR")
+              or os.path.join(os.path.expanduser("~"), ".cache", "lnss_workbook", "numba"))
+    os.environ["LNSS_NUMBA_CACHE_PARENT"] = parent
+    return os.path.join(parent, source_digest(Path(__file__).resolve().parent))
+
+
+os.environ["NUMBA_CACHE_DIR"] = kernel_cache_dir()
+if "numba.core.config" in sys.modules:      # numba imported first (a notebook): its setting is read when caching
+    sys.modules["numba.core.config"].CACHE_DIR = os.environ["NUMBA_CACHE_DIR"]
