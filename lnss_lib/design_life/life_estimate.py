@@ -154,6 +154,23 @@ def _relative(x: np.ndarray) -> np.ndarray:
     return wrap_pi(diff - circular_mean(diff, axis=0)[None, :])
 
 
+def _decisions(m: int, window):
+    """The checks 0..m-1 at which a correction fires, one decision per check: ``window(k, end)`` gives the drifts
+    (n, end - k) and where they fire (bool, same shape) over checks k..end-1 under the corrections made so far (it
+    is called again after each decision); yields (check, drifts there (n,), firing satellites (n,))."""
+    k = 0
+    while k < m:
+        end = min(k + SEARCH_WINDOW, m)
+        rel, fire = window(k, end)
+        hit = np.flatnonzero(fire.any(axis=0))
+        if not hit.size:
+            k = end
+            continue
+        k += int(hit[0])
+        yield k, rel[:, hit[0]], fire[:, hit[0]]
+        k += 1
+
+
 def node_corrections(t_days: np.ndarray, raan_rad: np.ndarray, half_rad: np.ndarray, target_fraction: float,
                      spacing_days: float) -> list[list[tuple[int, float]]]:
     """Relative-node corrections of each satellite: lists of (time index, RAAN change rad).
@@ -166,22 +183,17 @@ def node_corrections(t_days: np.ndarray, raan_rad: np.ndarray, half_rad: np.ndar
     offset = np.zeros(n)
     last = np.full(n, -np.inf)
     out = [[] for _ in range(n)]
-    k = 0
-    while k < m:
-        end = min(k + SEARCH_WINDOW, m)
+
+    def window(k, end):
         rel = _relative(raan_rad[:, k:end] + offset[:, None])
-        fire = (np.abs(rel) > half_rad[:, None]) & (t_days[None, k:end] - last[:, None] >= spacing_days)
-        hit = np.flatnonzero(fire.any(axis=0))
-        if not hit.size:
-            k = end
-            continue
-        k += int(hit[0])
-        for i in np.flatnonzero(fire[:, hit[0]]):
-            change = overshoot_target(float(rel[i, hit[0]]), float(half_rad[i]), target_fraction)
+        return rel, (np.abs(rel) > half_rad[:, None]) & (t_days[None, k:end] - last[:, None] >= spacing_days)
+
+    for k, rel, fire in _decisions(m, window):
+        for i in np.flatnonzero(fire):
+            change = overshoot_target(float(rel[i]), float(half_rad[i]), target_fraction)
             offset[i] += change
             last[i] = t_days[k]
             out[i].append((k, change))
-        k += 1                                                  # one decision per check
     return out
 
 
@@ -199,25 +211,20 @@ def phase_corrections(t_days: np.ndarray, u_rad: np.ndarray, half_rad: float, ta
     t_ref = np.zeros(n)
     offset = np.zeros(n)
     out = [[] for _ in range(n)]
-    k = 0
-    while k < m:
-        end = min(k + SEARCH_WINDOW, m)
+
+    def window(k, end):
         own = offset[:, None] + rate[:, None] * (t_days[None, k:end] - t_ref[:, None]) * day_s
         rel = _relative(u_rad[:, k:end] + own)
         ahead = rel + rate[:, None] * lookahead_days * day_s
-        fire = (np.abs(ahead) > half_rad) & (np.sign(rate)[:, None] != -np.sign(ahead))
-        hit = np.flatnonzero(fire.any(axis=0))
-        if not hit.size:
-            k = end
-            continue
-        k += int(hit[0])
-        for i in np.flatnonzero(fire[:, hit[0]]):
-            new = drift_band_rate(float(rel[i, hit[0]]), 0.0, half_rad, target_fraction, coast_days * day_s)
+        return rel, (np.abs(ahead) > half_rad) & (np.sign(rate)[:, None] != -np.sign(ahead))
+
+    for k, rel, fire in _decisions(m, window):
+        for i in np.flatnonzero(fire):
+            new = drift_band_rate(float(rel[i]), 0.0, half_rad, target_fraction, coast_days * day_s)
             offset[i] += rate[i] * (t_days[k] - t_ref[i]) * day_s
             t_ref[i] = t_days[k]
             out[i].append((k, new - rate[i]))
             rate[i] = new
-        k += 1                                                  # one decision per check
     return out
 
 
