@@ -157,13 +157,14 @@ def _agrees(estimate: np.ndarray, closed: np.ndarray) -> np.ndarray:
 
 def estimate_statistics(table: pd.DataFrame) -> dict:
     """Spearman rho and factor-2 share of the life estimate and of the 10-day box slope against the closed loop,
-    over the designs with an estimate."""
+    over the designs with an estimate; rho is NaN with fewer than three designs or a constant column (no ranking)."""
     ok = np.isfinite(table["life"].astype(float))
     closed = table.loc[ok, "closed_loop"].astype(float).to_numpy()
     out = {"n_designs": int(len(table)), "n_compared": int(ok.sum())}
     for name in ("life", "arc"):
         est = table.loc[ok, name].astype(float).to_numpy()
-        out[f"spearman_rho_{name}"] = float(spearmanr(est, closed)[0]) if ok.sum() >= 3 else np.nan
+        ranked = ok.sum() >= 3 and np.ptp(est) > 0.0 and np.ptp(closed) > 0.0
+        out[f"spearman_rho_{name}"] = float(spearmanr(est, closed)[0]) if ranked else np.nan
         out[f"factor2_share_{name}"] = float(np.mean(_agrees(est, closed))) if ok.any() else np.nan
     return out
 

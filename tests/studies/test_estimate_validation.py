@@ -29,3 +29,4 @@ def test_statistics_count_two_free_designs_as_agreeing():
     assert stats["factor2_share_arc"] == pytest.approx(0.2)             # only 1.0 vs 1.0
     assert stats["spearman_rho_life"] == pytest.approx(0.9)
     assert list(ev.estimate_outliers(table).index) == [2]
+    assert np.isnan(stats["spearman_rho_arc"])                          # a constant column ranks nothing
