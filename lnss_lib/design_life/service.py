@@ -44,8 +44,8 @@ from ..settings import DopSettings, Dynamics, ServiceSettings
 from .screen import SecularField, integrate_secular
 
 __all__ = ["PURPOSES", "LOCATIONS", "predicted_crossing_day", "safety_ecc", "burn_location",
-           "navigation_violations", "mean_vectors_j2000", "raan_half_width_rad", "safety_targets", "raised_history",
-           "NavigationMonitor"]
+           "navigation_violations", "requirement_fractions", "mean_vectors_j2000", "raan_half_width_rad",
+           "safety_targets", "raised_history", "NavigationMonitor"]
 
 PURPOSES = ("safety", "navigation", "relative_node", "phase", "a_trim")
 """What a burn is paid for (the Delta-V split of :func:`lnss_lib.design_life.closed_loop.simulate_life`)."""
@@ -130,19 +130,29 @@ def burn_location(nu_rad: float, aop_rad: float, tol_rad: float = 1e-3) -> str:
     return "other"
 
 
-def navigation_violations(summary: dict, baseline: dict, cfg: ServiceSettings) -> list[str]:
-    """Names of the navigation statistics of ``summary`` (a :func:`lnss_lib.dop.summary_for_settings` dict)
-    outside the requirement set by ``baseline`` (the first window's): availability may drop by
-    ``nav_avail_drop_pct`` points, 3-sigma PDOP/HDOP rise by ``nav_dop_rise_fraction``."""
-    bad = []
-    for key in ("pdop_avail_pct", "hdop_avail_pct"):
-        if summary[key] < baseline[key] - cfg.nav_avail_drop_pct:
-            bad.append(key)
+def requirement_fractions(summary: dict, baseline: dict, cfg: ServiceSettings) -> dict[str, float]:
+    """Each navigation statistic's degradation in ``summary`` (a :func:`lnss_lib.dop.summary_for_settings` dict)
+    against ``baseline`` (the first window's) as a fraction of what the requirement allows: availability points lost
+    over ``nav_avail_drop_pct``, the relative rise of a 3-sigma PDOP/HDOP over ``nav_dop_rise_fraction`` (infinite
+    for a DOP lost altogether, or any loss where nothing is allowed; a DOP without a baseline is not judged)."""
+    out = {key: _fraction(baseline[key] - summary[key], cfg.nav_avail_drop_pct)
+           for key in ("pdop_avail_pct", "hdop_avail_pct")}
     for key in ("pdop_mean_3sigma", "hdop_mean_3sigma"):
         ref, now = baseline[key], summary[key]
-        if np.isfinite(ref) and not now <= ref * (1.0 + cfg.nav_dop_rise_fraction):
-            bad.append(key)
-    return bad
+        if np.isfinite(ref):
+            out[key] = _fraction(now / ref - 1.0, cfg.nav_dop_rise_fraction) if np.isfinite(now) else np.inf
+    return out
+
+
+def _fraction(excess: float, allowed: float) -> float:
+    if allowed > 0.0:
+        return excess / allowed
+    return np.inf if excess > 0.0 else 0.0
+
+
+def navigation_violations(summary: dict, baseline: dict, cfg: ServiceSettings) -> list[str]:
+    """Names of the navigation statistics outside the requirement (:func:`requirement_fractions` above 1)."""
+    return [key for key, fraction in requirement_fractions(summary, baseline, cfg).items() if fraction > 1.0]
 
 
 def safety_targets(field, safe_hist, mel, active, t_days, life_days, floor_base_km, svc, tide_period_days):

@@ -48,36 +48,20 @@ from ..forces import ForceModel
 from ..frames import rotate_to_moon_fixed
 from ..propagator import elements_deg_to_states, propagate_states
 from ..settings import DopSettings, Dynamics, ServiceSettings
-from .service import raan_half_width_rad
+from .service import raan_half_width_rad, requirement_fractions
 
-__all__ = ["TRIALS", "AVAILABILITY_KEYS", "DOP_KEYS", "requirement_margin", "trial_ladder", "tolerance_at_limit",
+__all__ = ["TRIALS", "requirement_margin", "trial_ladder", "tolerance_at_limit",
            "derived_tolerances", "relative_tolerances_deg"]
 
 TRIALS = 6
 """Trial amounts per quantity and sign (a geometric ladder from the lower bound to the upper)."""
 
-AVAILABILITY_KEYS = ("pdop_avail_pct", "hdop_avail_pct")
-DOP_KEYS = ("pdop_mean_3sigma", "hdop_mean_3sigma")
-
-
-def _fraction(excess: float, allowed: float) -> float:
-    """``excess`` as a fraction of ``allowed`` (infinite for any excess where nothing is allowed)."""
-    if allowed > 0.0:
-        return excess / allowed
-    return np.inf if excess > 0.0 else 0.0
-
 
 def requirement_margin(summary: dict, baseline: dict, svc: ServiceSettings) -> float:
-    """Largest degradation of ``summary`` against ``baseline`` (:func:`lnss_lib.dop.summary_for_settings` dicts) as a
-    fraction of what the navigation requirement allows: availability points lost over ``nav_avail_drop_pct``, the
-    relative rise of a 3-sigma DOP over ``nav_dop_rise_fraction``; above 1 exactly where
-    :func:`lnss_lib.design_life.service.navigation_violations` names a violation (infinite for a DOP lost altogether)."""
-    terms = [_fraction(baseline[k] - summary[k], svc.nav_avail_drop_pct) for k in AVAILABILITY_KEYS]
-    for key in DOP_KEYS:
-        ref, now = baseline[key], summary[key]
-        if np.isfinite(ref):
-            terms.append(_fraction(now / ref - 1.0, svc.nav_dop_rise_fraction) if np.isfinite(now) else np.inf)
-    return float(max(terms))
+    """Largest degradation of ``summary`` against ``baseline`` as a fraction of what the navigation requirement allows
+    (:func:`lnss_lib.design_life.service.requirement_fractions`): above 1 exactly where the navigation monitor names a
+    violation."""
+    return float(max(requirement_fractions(summary, baseline, svc).values()))
 
 
 def trial_ladder(bounds_deg) -> np.ndarray:
