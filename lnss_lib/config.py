@@ -232,6 +232,9 @@ RANGES = {
     "life_evaluation.screen_validation_designs": (0, None, False, False),
     "life_evaluation.screen_validation_life_days": NON_NEGATIVE,
     "life_evaluation.frame_rerun_designs": (0, None, False, False),
+    "front_validation.max_designs": (0, None, False, False), "front_validation.max_sats_per_plane": (0, None, False, False),
+    "front_validation.headline_sizes": (1, None, False, False), "front_validation.headline_per_size": (0, None, False, False),
+    "front_validation.availability_min_pct": (0.0, 100.0, False, False), "front_validation.dv_max_kms_per_year": POSITIVE,
 }
 _TOLERANCE_WHY = (f"below about 100 machine epsilons ({TOLERANCE_FLOOR:g}) an integrator's error test asks for what "
                   "double precision cannot resolve")
@@ -668,10 +671,26 @@ def _check_sampling(profile: dict) -> None:
                           f"epoch.duration_days or shorten epoch.step_s", key="epoch.duration_days")
 
 
+OFF_WHEN_ABSENT = ("front_validation",)
+"""Sections a profile stored before they existed lacks: read as params/paper.toml's (off, ``max_designs = 0``), and left
+out of the profile hash while off, so runs and shipped results from before them keep their hash (issue 20 item 4)."""
+
+
+def with_absent_sections(profile: dict) -> dict:
+    """``profile`` (changed in place) with every section of :data:`OFF_WHEN_ABSENT` it lacks taken from paper.toml."""
+    for section in OFF_WHEN_ABSENT:
+        profile.setdefault(section, copy.deepcopy(_reference()[section]))
+    return profile
+
+
 def profile_hash(profile: dict) -> str:
-    """SHA-256 (16 hex digits) of a profile's canonical JSON, excluding its name and description."""
+    """SHA-256 (16 hex digits) of a profile's canonical JSON, excluding its name and description and a
+    :data:`OFF_WHEN_ABSENT` section that is off."""
     content = copy.deepcopy(profile)
     content.get("profile", {}).pop("name", None)
     content.get("profile", {}).pop("description", None)
+    for section in OFF_WHEN_ABSENT:
+        if content.get(section, {}).get("max_designs", 0) == 0:
+            content.pop(section, None)
     canonical = json.dumps(content, sort_keys=True, separators=(",", ":"))
     return hashlib.sha256(canonical.encode()).hexdigest()[:16]

@@ -31,7 +31,7 @@ from collections.abc import Mapping
 from dataclasses import dataclass, field
 from typing import Any
 
-from .config import deep_merge, load_profile, profile_hash, toml_literal, validate_profile
+from .config import deep_merge, load_profile, profile_hash, toml_literal, validate_profile, with_absent_sections
 from .errors import ConfigError
 
 __all__ = ["Settings", "Dynamics", "load_settings", "settings_from_profile", "settings_from_toml"]
@@ -447,6 +447,17 @@ class LifeEvaluationSettings:
 
 
 @dataclass(frozen=True)
+class FrontValidationSettings:
+    """The front flown in closed loop after NSGA-II (issue 20 item 4) and the headline's bounds (item 5)."""
+    max_designs: int                        # 0: off
+    max_sats_per_plane: int                 # 0: every satellite
+    headline_sizes: tuple[int, ...]
+    headline_per_size: int
+    availability_min_pct: float
+    dv_max_kms_per_year: float
+
+
+@dataclass(frozen=True)
 class Dynamics:
     """What the force model and the propagator read: bodies, frames, field, forces, spacecraft, integrator."""
     ephemeris: EphemerisSettings
@@ -491,6 +502,7 @@ class Settings:
     design_life: DesignLifeSettings
     benchmark: BenchmarkSettings
     life_evaluation: LifeEvaluationSettings
+    front_validation: FrontValidationSettings
     source: Mapping[str, Any] = field(repr=False, compare=False)
     hash: str = field(init=False, compare=True)
 
@@ -529,7 +541,7 @@ class Settings:
 
 def settings_from_profile(profile: Mapping) -> Settings:
     """Settings of a merged profile dict (as :func:`lnss_lib.config.load_profile` returns), checked again."""
-    profile = _thawed(profile)                       # a fresh copy of every table and list
+    profile = with_absent_sections(_thawed(profile))   # a fresh copy of every table and list
     validate_profile(profile)
     sections = {item.name: _build(_hints(Settings)[item.name], profile[item.name], item.name)
                 for item in dataclasses.fields(Settings) if item.init and item.name != "source"}
