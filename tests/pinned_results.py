@@ -165,7 +165,7 @@ def campaign_pin(overrides: dict | None = None) -> dict:
 
 def random_designs_pin(overrides: dict | None = None) -> dict:
     """``RANDOM_N`` designs drawn with ``RANDOM_SEED`` from the paper grid, evaluated as the campaign does."""
-    from lnss_lib.campaign.backends import SerialBackend
+    from lnss_lib.campaign.backends import SerialBackend, campaign_task
     from lnss_lib.campaign.settings import CampaignPlan, evaluation_profile
     from lnss_lib.settings import load_settings
 
@@ -174,7 +174,7 @@ def random_designs_pin(overrides: dict | None = None) -> dict:
     rng = np.random.default_rng(RANDOM_SEED)
     keys = [tuple(int(v) for v in row) for row in rng.integers(0, settings.grid.n_levels + 1, size=(RANDOM_N, 6))]
     designs = settings.grid.designs(np.array(keys))
-    backend = SerialBackend(evaluation_profile(profile), settings)
+    backend = SerialBackend(evaluation_profile(profile), campaign_task(settings))
     try:
         records = [None] * len(designs)
         for index, record in backend.run(designs):

@@ -28,13 +28,14 @@ __all__ = ["run_campaign", "CampaignResult", "CampaignPlan", "DesignGrid", "load
            "Checkpointer", "ProgressBars", "CellProgressBar", "default_callbacks", "objective_matrix", "constraint_matrix",
            "constraint_violation", "non_dominated_mask", "hypervolume",
            "metric_columns", "evaluate_task", "synthetic_evaluation", "EvaluationCache",
-           "read_cache_records", "SerialBackend", "DaskBackend", "open_backend", "BatchEvaluator",
+           "read_cache_records", "SerialBackend", "DaskBackend", "open_backend", "campaign_task", "BatchEvaluator",
            "WalkerDesignProblem", "build_algorithm", "build_termination", "campaign_timing"]
 
 _MODULES = {
     "BatchEvaluator": "backends",
     "DaskBackend": "backends",
     "SerialBackend": "backends",
+    "campaign_task": "backends",
     "open_backend": "backends",
     "Callback": "callbacks",
     "CellProgressBar": "callbacks",

@@ -1,43 +1,52 @@
-"""Where designs are evaluated: in this process or as tasks on a Dask cluster; the batch evaluator.
+"""Where tasks run: in this process or on a Dask cluster; the batch evaluator of the campaign.
 
-Each worker builds its :class:`~lnss_lib.evaluator.EvaluationContext` once
-(:func:`~lnss_lib.evaluator.context_for`) and reuses it. A design whose worker is lost is resubmitted.
+A backend runs one task function over a list of items (design dicts): ``task(shared, item, numba_threads=n)``,
+``shared`` sent once to every worker (the evaluation settings). The campaign's task is
+:func:`~lnss_lib.campaign.tasks.evaluate_task` (:func:`campaign_task`), the front validation's
+:func:`~lnss_lib.campaign.validation.validation_task`. Each worker builds its
+:class:`~lnss_lib.evaluator.EvaluationContext` once (:func:`~lnss_lib.evaluator.context_for`) and reuses it. A task
+whose worker is lost is resubmitted.
 """
 
 from __future__ import annotations
 
 import contextlib
+import functools
 import os
 import signal
 import threading
 import time
 import warnings
+from collections.abc import Callable
 
 import numpy as np
 
 from .fitness import metric_columns
 from .journal import EvaluationCache
-from ..settings import Settings
 from .settings import CampaignPlan
 from .tasks import evaluate_task
 
-__all__ = ["SerialBackend", "DaskBackend", "open_backend", "BatchEvaluator"]
+__all__ = ["SerialBackend", "DaskBackend", "open_backend", "campaign_task", "BatchEvaluator"]
+
+
+def campaign_task(plan: CampaignPlan) -> Callable:
+    """The campaign's task: :func:`~lnss_lib.campaign.tasks.evaluate_task` with the plan's evaluator."""
+    return functools.partial(evaluate_task, evaluator=plan.evaluator, synthetic_delay_s=plan.synthetic_delay_s)
 
 
 class SerialBackend:
-    """Evaluates designs one after the other in this process."""
+    """Runs ``task(shared, item, numba_threads=0)`` for one item after the other in this process."""
 
     n_workers = 1
     resubmitted = 0
 
-    def __init__(self, eval_profile: Settings, settings: CampaignPlan):
-        self.args = (eval_profile, settings.evaluator, settings.synthetic_delay_s, 0)
+    def __init__(self, shared, task: Callable):
+        self.shared, self.task = shared, task
 
-    def run(self, designs: list[dict]):
-        """Yield ``(index, record)`` for each design as it finishes."""
-        profile, evaluator, delay, threads = self.args
-        for index, design in enumerate(designs):
-            yield index, evaluate_task(profile, design, evaluator, delay, threads)
+    def run(self, items: list[dict]):
+        """Yield ``(index, result)`` for each item as it finishes."""
+        for index, item in enumerate(items):
+            yield index, self.task(self.shared, item, numba_threads=0)
 
     def close(self) -> None:
         return None
@@ -59,12 +68,12 @@ def _workers_ignore_sigint():
 
 
 class DaskBackend:
-    """Evaluates designs as tasks on a Dask cluster: a new local one (``n_workers`` processes, one thread
-    each, on 127.0.0.1) or an existing one at ``scheduler_address``. A task lost with its worker
-    (KilledWorker, closed connection, cancelled) is resubmitted up to ``max_resubmits`` times."""
+    """Runs ``task(shared, item, numba_threads=numba_threads)`` as tasks on a Dask cluster: a new local one
+    (``n_workers`` processes, one thread each, on 127.0.0.1) or an existing one at ``scheduler_address``. A task
+    lost with its worker (KilledWorker, closed connection, cancelled) is resubmitted up to ``max_resubmits`` times."""
 
-    def __init__(self, eval_profile: Settings, settings: CampaignPlan, n_workers: int | None = None,
-                 scheduler_address: str | None = None):
+    def __init__(self, shared, task: Callable, *, max_resubmits: int, numba_threads: int = 0,
+                 n_workers: int | None = None, scheduler_address: str | None = None):
         import logging
 
         from dask.distributed import Client, LocalCluster
@@ -81,23 +90,21 @@ class DaskBackend:
                                             silence_logs=logging.CRITICAL)   # task errors come back through the futures
             self.client = Client(self.cluster)
         self.n_workers = max(1, len(self.client.scheduler_info().get("workers", {})))
-        self.profile = eval_profile
-        self.settings = settings
+        self.shared, self.task = shared, task
+        self.max_resubmits, self.numba_threads = max_resubmits, numba_threads
         self.resubmitted = 0
         self._scatter()
 
     def _scatter(self) -> None:
-        """Send the evaluation settings to every worker once (tasks then carry a reference, not 14 kB each);
+        """Send the shared settings to every worker once (tasks then carry a reference, not 14 kB each);
         again after a task is lost, since the copies may have gone with its worker."""
-        self.profile_future = self.client.scatter(self.profile, broadcast=True, hash=False)
+        self.shared_future = self.client.scatter(self.shared, broadcast=True, hash=False)
 
-    def _submit(self, design: dict):
-        s = self.settings
-        return self.client.submit(evaluate_task, self.profile_future, design, s.evaluator, s.synthetic_delay_s,
-                                  s.numba_threads_per_worker, pure=False)
+    def _submit(self, item: dict):
+        return self.client.submit(self.task, self.shared_future, item, numba_threads=self.numba_threads, pure=False)
 
     def run(self, designs: list[dict]):
-        """Yield ``(index, record)`` for each design as it finishes (completion order)."""
+        """Yield ``(index, result)`` for each design as it finishes (completion order)."""
         from dask.distributed import as_completed
 
         if not designs:
@@ -112,9 +119,9 @@ class DaskBackend:
             index = futures.pop(future)
             try:
                 record = future.result()
-            except Exception as exc:  # worker lost or task cancelled: resubmit (evaluate_task itself never raises)
+            except Exception as exc:  # worker lost or task cancelled: resubmit (the tasks themselves never raise)
                 attempts[index] += 1
-                if attempts[index] > self.settings.max_resubmits:
+                if attempts[index] > self.max_resubmits:
                     raise RuntimeError(f"design {designs[index]} failed {attempts[index]} times on the cluster; "
                                        f"last error: {type(exc).__name__}: {exc}") from exc
                 self._scatter()
@@ -131,18 +138,19 @@ class DaskBackend:
             self.cluster.close()
 
 
-def open_backend(eval_profile: Settings, settings: CampaignPlan, workers: int | None = None,
-                 scheduler_address: str | None = None):
-    """Serial for ``workers`` 0 or 1 (and no address), else Dask (``workers`` None: one per core)."""
-    if scheduler_address:
-        return DaskBackend(eval_profile, settings, scheduler_address=scheduler_address)
-    if workers is None:
+def open_backend(shared, plan: CampaignPlan, workers: int | None = None, scheduler_address: str | None = None,
+                 task: Callable | None = None):
+    """Serial for ``workers`` 0 or 1 (and no address), else Dask (``workers`` None: one per core), running ``task``
+    (default :func:`campaign_task` of ``plan``) on ``shared``; the plan's resubmit and numba-thread limits."""
+    task = campaign_task(plan) if task is None else task
+    if workers is None and not scheduler_address:
         workers = len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else (os.cpu_count() or 1)
-    if workers < 0:
+    if workers is not None and workers < 0:
         raise ValueError(f"workers must be >= 0 (0 or 1 = serial in this process); got {workers}")
-    if workers <= 1:
-        return SerialBackend(eval_profile, settings)
-    return DaskBackend(eval_profile, settings, n_workers=workers)
+    if not scheduler_address and workers <= 1:
+        return SerialBackend(shared, task)
+    return DaskBackend(shared, task, max_resubmits=plan.max_resubmits, numba_threads=plan.numba_threads_per_worker,
+                       n_workers=None if scheduler_address else workers, scheduler_address=scheduler_address)
 
 
 class BatchEvaluator:

@@ -10,7 +10,7 @@ import time
 from ..keys import CAMPAIGN_METRIC_KEYS, METRIC_KEYS, TIMING_KEYS
 from ..settings import Settings
 
-__all__ = ["evaluate_task", "synthetic_evaluation"]
+__all__ = ["evaluate_task", "synthetic_evaluation", "cap_numba_threads", "worker_name"]
 
 
 def synthetic_evaluation(settings: Settings, sma_km: float, ecc: float, aop_deg: float, inc_deg: float,
@@ -70,6 +70,19 @@ def _synthetic_extras(sma_km: float, ecc: float, inc_deg: float, r_min: float, d
     return {k: values[k] for k in extras}
 
 
+def cap_numba_threads(numba_threads: int) -> None:
+    """Cap the compiled kernels' threads in this process at ``numba_threads`` (0: leave numba's default)."""
+    if numba_threads > 0:
+        import numba
+
+        numba.set_num_threads(min(numba_threads, numba.config.NUMBA_NUM_THREADS))
+
+
+def worker_name() -> str:
+    """``host:pid`` of the process a task runs in."""
+    return f"{socket.gethostname()}:{os.getpid()}"
+
+
 def evaluate_task(eval_profile: Settings, design: dict, evaluator: str = "walker", synthetic_delay_s: float = 0.0,
                   numba_threads: int = 0) -> dict:
     """Evaluate one design under the evaluation settings ``eval_profile`` (checked once, at the campaign's start:
@@ -81,10 +94,7 @@ def evaluate_task(eval_profile: Settings, design: dict, evaluator: str = "walker
     evaluator is recorded as an infeasible design with ``reason`` "error: ..." and ``error`` True.
     """
     start = time.perf_counter()
-    if numba_threads > 0:
-        import numba
-
-        numba.set_num_threads(min(numba_threads, numba.config.NUMBA_NUM_THREADS))
+    cap_numba_threads(numba_threads)
     try:
         if evaluator == "walker":
             from ..evaluator import context_for, evaluate_design
@@ -110,5 +120,5 @@ def evaluate_task(eval_profile: Settings, design: dict, evaluator: str = "walker
         "timing_s": {k: float(v) for k, v in result.get("timing_s", {}).items()},
         "wall_s": float(result.get("wall_s", 0.0)),
         "task_wall_s": time.perf_counter() - start,
-        "worker": f"{socket.gethostname()}:{os.getpid()}",
+        "worker": worker_name(),
     }
