@@ -197,7 +197,8 @@ def _export_reference(args: argparse.Namespace) -> int:
     given = [flag for flag, value in (("--profile", args.profile), ("--set", args.set), ("--resume", args.resume),
                                       ("--run-dir", args.run_dir), ("--evaluator", args.evaluator),
                                       ("--workers", args.workers), ("--scheduler-address", args.scheduler_address),
-                                      ("--max-generations", args.max_generations)) if value is not None]
+                                      ("--max-generations", args.max_generations),
+                                      ("--validate", args.validate)) if value is not None]
     if given:
         raise ConfigError(f"--export-reference exports a run folder with its stored settings and runs nothing: drop "
                           f"{', '.join(given)}", key="--export-reference")
@@ -212,9 +213,33 @@ def _export_reference(args: argparse.Namespace) -> int:
     return 0
 
 
+def _validate(args: argparse.Namespace) -> int:
+    from .campaign.runner import validate_run
+
+    given = [flag for flag, value in (("--profile", args.profile), ("--set", args.set), ("--resume", args.resume),
+                                      ("--run-dir", args.run_dir), ("--evaluator", args.evaluator),
+                                      ("--max-generations", args.max_generations),
+                                      ("--export-reference", args.export_reference)) if value is not None]
+    if given:
+        raise ConfigError(f"--validate flies a finished run's front with its stored settings: drop {', '.join(given)}",
+                          key="--validate")
+    _require("--workers", args.workers, (0, None, False, False), integer=True)
+    result, note = validate_run(args.validate, workers=args.workers, scheduler_address=args.scheduler_address,
+                                progress=not args.no_progress)
+    counts = {status: int((result.dataset["status"].values == status).sum()) for status in ("kept", "failed", "error")}
+    print(f"validated {result.n_journaled} of {result.n_selected} selected designs of {args.validate} "
+          f"({result.n_flown} flown now in {result.wall_s:.1f} s; kept {counts['kept']}, failed {counts['failed']}, "
+          f"error {counts['error']}): wrote {result.path}")
+    if note:
+        print(note)
+    return 0
+
+
 def _cmd_campaign(args: argparse.Namespace) -> int:
     from .campaign import run_campaign
 
+    if args.validate is not None:
+        return _validate(args)
     if args.export_reference is not None:
         return _export_reference(args)
     overrides = _overrides(args)
@@ -362,6 +387,8 @@ def build_parser() -> argparse.ArgumentParser:
     camp.add_argument("--no-progress", action="store_true", help="no progress bars")
     camp.add_argument("--export-reference", metavar="RUN_DIR", help="export the run folder RUN_DIR (finished or not) "
                       "as its profile's shipped results, outputs/reference/<profile>/, and run nothing")
+    camp.add_argument("--validate", metavar="RUN_DIR", help="fly the front of the finished run RUN_DIR in closed "
+                      "loop over the design life ([front_validation]; continues a validation), write validated.nc")
     camp.set_defaults(func=_cmd_campaign)
 
     bench = _command(sub, "bench")

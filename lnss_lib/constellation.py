@@ -117,10 +117,13 @@ class WalkerDesign:
         """RAAN of each plane (deg, eq. 42), shape (Np,)."""
         return np.mod(self.raan_offset_deg + np.arange(self.n_planes) * 360.0 / self.n_planes, 360.0)
 
-    def elements_deg(self) -> np.ndarray:
-        """Elements (n_sat, 6) ``[sma_km, ecc, inc_deg, raan_deg, aop_deg, M_deg]``, plane by plane."""
-        return planes_elements_deg(self.sma_km, self.ecc, self.inc_deg, self.aop_deg,
-                                   self.raan_deg(), self.sats_per_plane)
+    def elements_deg(self, max_sats_per_plane: int = 0) -> np.ndarray:
+        """Elements (n_sat, 6) ``[sma_km, ecc, inc_deg, raan_deg, aop_deg, M_deg]``, plane by plane; with
+        ``max_sats_per_plane`` > 0 at most that many per plane, at the design's slots (the first of each plane)."""
+        el = planes_elements_deg(self.sma_km, self.ecc, self.inc_deg, self.aop_deg, self.raan_deg(),
+                                 self.sats_per_plane)
+        k = self.sats_per_plane if max_sats_per_plane <= 0 else min(self.sats_per_plane, int(max_sats_per_plane))
+        return el.reshape(self.n_planes, self.sats_per_plane, 6)[:, :k].reshape(-1, 6)
 
 
 def walker_design(dynamics: Dynamics, sma_km: float, ecc: float, aop_deg: float, inc_deg: float,

@@ -11,6 +11,7 @@ resumed (``--resume``) ends with the same population as an uninterrupted one. Mo
 * :mod:`.problem`: the pymoo problem and algorithm; :mod:`.rundir`: run.json, checkpoints, NetCDF export;
 * :mod:`.publication`: a run published as its profile's campaign (a pointer to an unchanging copy);
 * :mod:`.reference`: a run exported as its profile's shipped results (``outputs/reference/<profile>/``);
+* :mod:`.validation`: the front flown in closed loop over the design life after NSGA-II (``validated.nc``);
 * :mod:`.runner`: the generation loop, which notifies the observers of :mod:`.callbacks` (error guard,
   history, checkpoint, progress bars); :mod:`.timing`: worker-time shares.
 
@@ -22,7 +23,7 @@ from __future__ import annotations
 
 import importlib
 
-__all__ = ["run_campaign", "CampaignResult", "CampaignPlan", "DesignGrid", "load_run",
+__all__ = ["run_campaign", "validate_run", "validate_front", "select_designs", "CampaignResult", "CampaignPlan", "DesignGrid", "load_run",
            "load_checkpoint", "final_population", "export_results", "write_results", "RESULT_FILES",
            "evaluation_hash", "evaluation_profile", "Callback", "RunState", "ErrorGuard", "HistoryRecorder",
            "Checkpointer", "ProgressBars", "CellProgressBar", "default_callbacks", "objective_matrix", "constraint_matrix",
@@ -65,6 +66,9 @@ _MODULES = {
     "CampaignResult": "runner",
     "default_callbacks": "runner",
     "run_campaign": "runner",
+    "validate_run": "runner",
+    "select_designs": "validation",
+    "validate_front": "validation",
     "CampaignPlan": "settings",
     "evaluation_hash": "settings",
     "evaluation_profile": "settings",

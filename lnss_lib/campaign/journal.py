@@ -34,14 +34,15 @@ def encode_record(record: dict) -> str:
     return f'{body[:-1]}, "{CRC_FIELD}": "{_crc(body)}"}}'
 
 
-def _decode_record(item, crc_required: bool) -> dict | None:
-    """The record of a parsed line when its CRC (if any; required from format 2) matches, else None."""
+def _decode_record(item, crc_required: bool, is_record) -> dict | None:
+    """The record of a parsed line when its CRC (if any; required from format 2) matches and ``is_record``
+    accepts it, else None."""
     if not isinstance(item, dict):
         return None
     crc = item.pop(CRC_FIELD, None)
     if crc is None and crc_required or crc is not None and crc != _crc(json.dumps(item)):
         return None
-    return item if _is_record(item) else None
+    return item if is_record(item) else None
 
 
 def _is_record(item) -> bool:
@@ -51,9 +52,10 @@ def _is_record(item) -> bool:
             and type(item.get("generation")) is int and isinstance(item.get("metrics", {}), dict))
 
 
-def parse_journal(data: bytes) -> tuple[dict, list[dict], int]:
+def parse_journal(data: bytes, is_record=_is_record) -> tuple[dict, list[dict], int]:
     """(header, one record per design in order of first appearance, length of the complete lines) of a
-    journal's bytes.
+    journal's bytes; ``is_record`` tells a whole record (default: an evaluation record; the front validation's
+    journal has its own, :mod:`lnss_lib.campaign.validation`).
 
     Only complete records count: a last line without its newline (cut short by a kill) is left out,
     and so is any line that is not a whole record or whose CRC does not match (torn by a full disk,
@@ -71,7 +73,7 @@ def parse_journal(data: bytes) -> tuple[dict, list[dict], int]:
             continue
         if number == 0:
             header = item if isinstance(item, dict) and "evaluation_hash" in item else {}
-        elif (record := _decode_record(item, header.get("format", FORMAT_VERSION) >= 2)) is not None:
+        elif (record := _decode_record(item, header.get("format", FORMAT_VERSION) >= 2, is_record)) is not None:
             key = tuple(record["key"])
             if key not in by_key or by_key[key].get("error"):
                 by_key[key] = record
@@ -87,12 +89,14 @@ class EvaluationCache:
     file truncated to the last complete line) on opening; so are error records of earlier sessions, so
     that a run stopped by an evaluation error evaluates those designs again once resumed. ``n_errors``
     counts the error records of this session. A damaged header line is written again (the file is the
-    run folder's own); a header naming another evaluation hash raises ValueError.
+    run folder's own); a header naming another evaluation hash raises ValueError. ``is_record``: as in
+    :func:`parse_journal` (keys are then tuples of whatever the records' keys hold).
     """
 
-    def __init__(self, path: Path, eval_hash: str):
+    def __init__(self, path: Path, eval_hash: str, is_record=_is_record):
         self.path = Path(path)
         self.eval_hash = eval_hash
+        self.is_record = is_record
         self.n_errors = 0
         self.created = False
         self.records: dict[tuple, dict] = {}
@@ -108,7 +112,7 @@ class EvaluationCache:
 
     def _load(self) -> None:
         data = self.path.read_bytes()
-        header, records, end = parse_journal(data)
+        header, records, end = parse_journal(data, self.is_record)
         if "evaluation_hash" not in header:     # header line damaged: keep the records after it
             write_bytes_atomic(self.path, self._header() + data[data.find(b"\n") + 1:end])
         elif end < len(data):

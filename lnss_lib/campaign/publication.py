@@ -2,7 +2,8 @@
 
 A run folder belongs to the process that holds its lock; the notebooks (06-08, 10) read instead the
 profile's publication: a folder ``published/<run>-<id>/`` holding the run's ``evaluations.nc``,
-``front.nc`` and ``history.nc``, written complete and never changed afterwards, and the pointer
+``front.nc`` and ``history.nc`` (and ``validated.nc`` when the run validated its front,
+:mod:`lnss_lib.campaign.validation`), written complete and never changed afterwards, and the pointer
 ``published.json`` naming it (run, hashes, evaluator, generations), replaced atomically. Publishing
 and reading take an ``flock`` on the campaign folder (exclusive and shared), so two campaigns of one
 profile that finish at once publish one after the other and a reader always gets the three files of
@@ -30,6 +31,7 @@ from ..config import profile_hash
 from ..settings import Settings, profile_data
 from .rundir import RESULT_FILES, export_results, load_run
 from .settings import evaluation_hash
+from .validation import VALIDATED_FILE
 
 __all__ = ["Publication", "run_differences", "publish_run", "load_published", "published_folder",
            "POINTER_FILE", "PUBLISHED_DIR"]
@@ -39,13 +41,15 @@ POINTER_FILE, PUBLISHED_DIR = "published.json", "published"
 
 @dataclass(frozen=True)
 class Publication:
-    """A profile's published campaign: ``pointer`` (published.json), its folder and the three datasets."""
+    """A profile's published campaign: ``pointer`` (published.json), its folder, the three datasets and the
+    validated front (None when the run has none)."""
 
     pointer: dict
     folder: Path
     evaluations: xr.Dataset
     front: xr.Dataset
     history: xr.Dataset
+    validated: xr.Dataset | None = None
 
 
 def _differing_keys(run: dict, theirs: dict, prefix: str = "") -> list[str]:
@@ -113,11 +117,15 @@ def publish_run(run_dir, campaign_dir, datasets=None) -> Path:
         folder = Path(tempfile.mkdtemp(prefix=f"{run_dir.name}-", dir=root))
         for name, ds in zip(RESULT_FILES, datasets):
             write_netcdf_atomic(ds, folder / name)
+        validated = run_dir / VALIDATED_FILE
+        if validated.is_file():
+            write_netcdf_atomic(xr.load_dataset(validated, engine="h5netcdf"), folder / VALIDATED_FILE)
         attrs = datasets[0].attrs
         pointer = {"folder": f"{PUBLISHED_DIR}/{folder.name}", "run_dir": os.path.relpath(run_dir, campaign_dir),
                    "profile": run["profile"]["profile"]["name"], "profile_hash": profile_hash(run["profile"]),
                    "evaluation_hash": run["evaluation_hash"], "evaluator": attrs["evaluator"],
                    "generations_done": int(attrs["generations_done"]), "finished": bool(attrs["finished"]),
+                   "validated": (folder / VALIDATED_FILE).is_file(),
                    "written_utc": time.strftime("%Y-%m-%dT%H:%M:%SZ", time.gmtime())}
         write_text_atomic(campaign_dir / POINTER_FILE, json.dumps(pointer, indent=1))
         for old in root.iterdir():
@@ -158,4 +166,6 @@ def load_published(campaign_dir) -> Publication | None:
             return None
         folder = campaign_dir / pointer["folder"]
         datasets = [xr.load_dataset(folder / name, engine="h5netcdf") for name in RESULT_FILES]
+        validated = folder / VALIDATED_FILE
+        datasets.append(xr.load_dataset(validated, engine="h5netcdf") if validated.is_file() else None)
     return Publication(pointer, folder, *datasets)

@@ -44,7 +44,7 @@ from .settings import CampaignPlan, evaluation_hash
 from .timing import campaign_timing
 
 __all__ = ["REFERENCE_DIR", "REFERENCE_FILES", "README_FILE", "MAX_FILE_BYTES", "Reference", "check_run_folder",
-           "analysis_mask", "thin_to_fit", "export_reference", "load_reference"]
+           "analysis_mask", "thin_to_fit", "export_reference", "load_reference", "cf_variable_attrs"]
 
 REFERENCE_DIR = OUTPUTS_DIR / "reference"
 REFERENCE_FILES = ("evaluations.nc", "front.nc", "history.nc", "population.nc")
@@ -91,15 +91,23 @@ def _long_name(name: str) -> str:
     return f"{text} (per satellite and year)" if name.startswith("dv_") and "_max_" not in name else text
 
 
-def _cf(ds: xr.Dataset, title: str, provenance: dict) -> xr.Dataset:
-    """``ds`` with CF-1.8 global attributes (title, institution, source, history, references, Conventions) and
-    ``units`` / ``long_name`` on every variable and coordinate; attributes are plain numbers and strings."""
+def cf_variable_attrs(ds: xr.Dataset, long_names: dict | None = None, units: dict | None = None) -> xr.Dataset:
+    """A copy of ``ds`` with CF-1.8 ``units`` (none on text) and ``long_name`` on every variable and coordinate:
+    ``long_names`` / ``units`` first, then the campaign's names (labels of :mod:`lnss_lib.keys`)."""
     ds = ds.copy()
+    long_names, units = long_names or {}, units or {}
     for name in list(ds.data_vars) + list(ds.coords):
         attrs = {k: v for k, v in ds[name].attrs.items() if k != "units"}
         if ds[name].dtype.kind not in "US":
-            attrs["units"] = _unit(str(name))
-        ds[name].attrs = {**attrs, "long_name": _long_name(str(name))}
+            attrs["units"] = units.get(str(name)) or _unit(str(name))
+        ds[name].attrs = {**attrs, "long_name": long_names.get(str(name)) or _long_name(str(name))}
+    return ds
+
+
+def _cf(ds: xr.Dataset, title: str, provenance: dict) -> xr.Dataset:
+    """``ds`` with CF-1.8 global attributes (title, institution, source, history, references, Conventions) and
+    ``units`` / ``long_name`` on every variable and coordinate; attributes are plain numbers and strings."""
+    ds = cf_variable_attrs(ds)
     keep = {k: v for k, v in ds.attrs.items() if k not in ("finished",)}
     ds.attrs = {"title": title, "institution": "LNSS workbook", "source": provenance["source"],
                 "history": provenance["history"], "references": PAPER_REFERENCE, "Conventions": "CF-1.8",

@@ -6,8 +6,10 @@ evaluate it through the journal and a backend, tell the algorithm, and notify th
 rest. A run killed at any moment and resumed ends with the same population as an uninterrupted
 one: designs of an interrupted generation come back from the journal, the checkpoint holds the
 algorithm and its random generator; designs the checkpoint needs whose journal lines were lost are
-evaluated again. A session that ends in ``outputs/<profile>/campaign/`` publishes the run when its
-settings are the profile's (:mod:`lnss_lib.campaign.publication`).
+evaluated again. When NSGA-II has finished and ``[front_validation] max_designs`` > 0, the front is flown in
+closed loop (:mod:`lnss_lib.campaign.validation`, ``validated.nc``; a run killed during it and resumed finishes
+it without running NSGA-II again). A session that ends in ``outputs/<profile>/campaign/`` publishes the run when
+its settings are the profile's (:mod:`lnss_lib.campaign.publication`).
 """
 
 from __future__ import annotations
@@ -30,8 +32,9 @@ from .problem import WalkerDesignProblem, build_algorithm, build_termination
 from .rundir import (LOCK_FILE, RUN_FILE, RunLock, check_resumable, default_run_dir, load_checkpoint, load_run,
                      start_run, write_results)
 from .settings import CampaignPlan, evaluation_hash, evaluation_profile
+from .validation import check_validatable, validate_front
 
-__all__ = ["run_campaign", "CampaignResult", "default_callbacks"]
+__all__ = ["run_campaign", "validate_run", "CampaignResult", "default_callbacks"]
 
 
 def default_callbacks(progress: bool) -> list[Callback]:
@@ -209,6 +212,9 @@ def _run_locked(run_dir: Path, run_settings: Settings, eval_settings: Settings, 
         if backend is not None:
             backend.close()
     files = write_results(run_dir) if history else []
+    if run_settings.front_validation.max_designs > 0 and bool((load_checkpoint(run_dir) or {}).get("finished")):
+        files.append(validate_front(run_dir, workers=workers, scheduler_address=scheduler_address,
+                                    progress=progress).path)
     note = _publish(run_dir, run_settings) if history else ""
     return CampaignResult(run_dir=run_dir, files=files, publication=note, generations=len(history),
                           n_evaluations=history[-1]["n_evaluations_cum"] if history else 0,
@@ -217,6 +223,31 @@ def _run_locked(run_dir: Path, run_settings: Settings, eval_settings: Settings, 
                           session_evaluations=batch.n_backend,
                           session_wall_s=session_wall_s if session_wall_s is not None else time.perf_counter() - session_start,
                           resubmitted=resubmitted, n_errors=sum(bool(r.get("error")) for r in read_cache_records(run_dir)))
+
+
+def validate_run(run_dir, *, workers: int | None = None, scheduler_address: str | None = None,
+                 progress: bool = True, task=None) -> tuple:
+    """Validate (or continue validating) the front of a finished run (``campaign --validate RUN_DIR``), under its
+    lock, then publish it as :func:`run_campaign` would: ``(ValidationResult, publication note)``. ConfigError for a
+    folder that is not a run, a run not finished or a profile whose validation is off."""
+    run_dir = Path(run_dir)
+    if not run_dir.is_dir():
+        raise ConfigError(f"--validate {run_dir}: not a folder (a campaign run folder: {RUN_FILE}, checkpoint.pkl, "
+                          f"{JOURNAL_FILE})", key="--validate")
+    run = load_run(run_dir)
+    try:
+        settings = settings_from_profile(run["profile"])
+    except ConfigError as error:
+        raise ConfigError(f"{run_dir / RUN_FILE}: {error}", key=error.key) from None
+    lock = RunLock(run_dir)
+    try:
+        check_resumable(run_dir, run, load_checkpoint(run_dir))
+        check_validatable(run_dir, settings)
+        result = validate_front(run_dir, workers=workers, scheduler_address=scheduler_address, progress=progress,
+                                task=task)
+        return result, _publish(run_dir, settings)
+    finally:
+        lock.release()
 
 
 def _publish(run_dir: Path, settings: Settings) -> str:

@@ -118,9 +118,7 @@ def validation_designs(settings: Settings, campaign_dir: Path | None = None) -> 
 def flown_elements(design, max_sats_per_plane: int = 0) -> np.ndarray:
     """Walker elements (n, 6) of a design, at most ``max_sats_per_plane`` per plane (0: all) at the design's slots."""
     a, e, aop, inc, n_planes, spp = design
-    el = WalkerDesign(a, e, aop, inc, int(n_planes), int(spp)).elements_deg()
-    k = int(spp) if max_sats_per_plane <= 0 else min(int(spp), int(max_sats_per_plane))
-    return el.reshape(int(n_planes), int(spp), 6)[:, :k].reshape(-1, 6)
+    return WalkerDesign(a, e, aop, inc, int(n_planes), int(spp)).elements_deg(max_sats_per_plane)
 
 
 def validate_design(settings: Settings, design, life_days: float, max_sats_per_plane: int = 0, region: str = "") -> dict:
