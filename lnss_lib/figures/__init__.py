@@ -4,7 +4,7 @@ Builders take datasets and return ``plotly.graph_objects.Figure``; notebooks cal
 :func:`save_figure`, which writes interactive HTML that opens offline and a PNG when kaleido finds a
 Chromium. One module per topic: :mod:`.charts` (generic lines and bars), :mod:`.propagation`,
 :mod:`.dop` (notebook 02), :mod:`.gps` (03), :mod:`.deltav` (04), :mod:`.campaign` (06),
-:mod:`.pareto` (07), :mod:`.design_life` and :mod:`.frozen` (08), :mod:`.benchmark` (10), and :mod:`.export` (HTML and PNG writing). Figures import only foundations,
+:mod:`.pareto` (07), :mod:`.validation` (06-07), :mod:`.design_life` and :mod:`.frozen` (08), :mod:`.benchmark` (10), and :mod:`.export` (HTML and PNG writing). Figures import only foundations,
 :mod:`lnss_lib.outputs`, plotly and numpy: they receive datasets, never run studies or campaigns.
 """
 
@@ -23,6 +23,7 @@ from .gps import (GPS_SENSITIVITY_GROUPS, cn0_vs_off_boresight, gps_sensitivity_
                   gps_visibility_pdop, gps_visibility_pdop_vs_paper, gps_visible_links, off_boresight_geometry)
 from .pareto import LABELS, dop_against_availability, pareto_3d, variable_relationships
 from .propagation import constellation_3d, elements_history
+from .validation import front_estimate_vs_closed_loop, headline_chart
 
 __all__ = [
     "save_figure", "figure_title", "chromium_path", "PNG_ENV", "NOTEBOOK_RENDERER", "NotebookRenderer",
@@ -39,6 +40,7 @@ __all__ = [
     "benchmark_scatter", "epoch_sensitivity_lines", "label_positions",
     "life_element_histories", "maneuver_timeline", "monthly_dop", "estimate_vs_closed_loop",
     "integrator_convergence_chart", "frozen_family_chart", "perilune_envelope",
+    "front_estimate_vs_closed_loop", "headline_chart",
 ]
 
 use_notebook_renderer()        # in a notebook kernel: figures keep a static copy (nbconvert, code hosts)

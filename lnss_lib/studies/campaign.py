@@ -32,7 +32,7 @@ from ..paper import EVALUATIONS, FEASIBLE_DESIGNS, TABLE_5
 from ..settings import Settings
 
 __all__ = ["settings_table", "design_grid_table", "latest_run_dir", "CampaignRun", "load_or_run", "shipped_reference",
-           "shown_campaign", "campaign_source", "designs_evaluated", "feasible_designs",
+           "shown_campaign", "campaign_source", "validated_of", "designs_evaluated", "feasible_designs",
            "constraint_table", "steady_designs_per_s", "throughput_table", "run_throughput_table", "companion_of",
            "comparison_table",
            "NON_NAVIGATION_METRICS"]
@@ -116,6 +116,15 @@ class CampaignRun:
     front: xr.Dataset
     history: xr.Dataset
     records: list[dict]
+    validated: xr.Dataset | None = None     # the front flown in closed loop (validated.nc), when the run has one
+
+
+def validated_of(run_dir: Path) -> xr.Dataset | None:
+    """The run's ``validated.nc`` (:mod:`lnss_lib.campaign.validation`), or None when it has none."""
+    from ..campaign.validation import VALIDATED_FILE
+
+    path = Path(run_dir) / VALIDATED_FILE
+    return xr.load_dataset(path, engine="h5netcdf") if path.is_file() else None
 
 
 def load_or_run(profile_name: str, overrides: dict | str | None = None) -> CampaignRun:
@@ -158,7 +167,7 @@ def load_or_run(profile_name: str, overrides: dict | str | None = None) -> Campa
                 f"profile ({'; '.join(own)})")
     else:
         note = f"{how}: the campaign of profile {profile_name!r}, published ({display_path(publish_run(run_dir, campaign_dir, datasets))})"
-    return CampaignRun(run_dir, run_settings, note, *datasets, read_cache_records(run_dir))
+    return CampaignRun(run_dir, run_settings, note, *datasets, read_cache_records(run_dir), validated_of(run_dir))
 
 
 
@@ -231,7 +240,7 @@ def shown_campaign(profile_name: str) -> CampaignRun:
     run_settings = settings_from_profile(json.loads(published.evaluations.attrs["parameters"]))
     note = f"the campaign published for profile {profile_name!r}: {display_path(published.folder)} ({published.pointer['run_dir']})"
     return CampaignRun(published.folder, run_settings, note, published.evaluations, published.front,
-                       published.history, [])
+                       published.history, [], published.validated)
 
 
 def campaign_source(profile_name: str, overrides: dict | None = None) -> str:

@@ -155,24 +155,26 @@ def _agrees(estimate: np.ndarray, closed: np.ndarray) -> np.ndarray:
     return free | ((ratio >= 0.5) & (ratio <= 2.0))
 
 
-def estimate_statistics(table: pd.DataFrame) -> dict:
-    """Spearman rho and factor-2 share of the life estimate and of the 10-day box slope against the closed loop,
-    over the designs with an estimate; rho is NaN with fewer than three designs or a constant column (no ranking)."""
-    ok = np.isfinite(table["life"].astype(float))
-    closed = table.loc[ok, "closed_loop"].astype(float).to_numpy()
+def estimate_statistics(table: pd.DataFrame, estimates: tuple[str, ...] = ("life", "arc"),
+                        closed: str = "closed_loop") -> dict:
+    """Spearman rho and factor-2 share of each estimate column (default the life estimate and the 10-day box slope)
+    against the closed-loop column ``closed``, over the designs with the first estimate (``spearman_rho_<name>``,
+    ``factor2_share_<name>``); rho is NaN with fewer than three designs or a constant column (no ranking)."""
+    ok = np.isfinite(table[estimates[0]].astype(float)) & np.isfinite(table[closed].astype(float))
+    closed_values = table.loc[ok, closed].astype(float).to_numpy()
     out = {"n_designs": int(len(table)), "n_compared": int(ok.sum())}
-    for name in ("life", "arc"):
+    for name in estimates:
         est = table.loc[ok, name].astype(float).to_numpy()
-        ranked = ok.sum() >= 3 and np.ptp(est) > 0.0 and np.ptp(closed) > 0.0
-        out[f"spearman_rho_{name}"] = float(spearmanr(est, closed)[0]) if ranked else np.nan
-        out[f"factor2_share_{name}"] = float(np.mean(_agrees(est, closed))) if ok.any() else np.nan
+        ranked = ok.sum() >= 3 and np.ptp(est) > 0.0 and np.ptp(closed_values) > 0.0
+        out[f"spearman_rho_{name}"] = float(spearmanr(est, closed_values)[0]) if ranked else np.nan
+        out[f"factor2_share_{name}"] = float(np.mean(_agrees(est, closed_values))) if ok.any() else np.nan
     return out
 
 
-def estimate_outliers(table: pd.DataFrame) -> pd.DataFrame:
-    """Every design with a life estimate outside a factor 2 of the closed loop, with both splits."""
-    ok = np.isfinite(table["life"].astype(float))
-    bad = ok & ~_agrees(table["life"].astype(float).to_numpy(), table["closed_loop"].astype(float).to_numpy())
+def estimate_outliers(table: pd.DataFrame, estimate: str = "life", closed: str = "closed_loop") -> pd.DataFrame:
+    """Every design with the ``estimate`` outside a factor 2 of the ``closed`` loop (both finite)."""
+    est, closed_values = (table[c].astype(float).to_numpy() for c in (estimate, closed))
+    bad = np.isfinite(est) & np.isfinite(closed_values) & ~_agrees(est, closed_values)
     return table.loc[bad]
 
 

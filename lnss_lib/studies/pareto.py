@@ -183,21 +183,25 @@ TABLE6_RULES = (   # (reason, rule(frame, Delta-V metric name) -> frame ranked b
 
 
 def table6(front: xr.Dataset, *, availability_min_pct: float = 90.0, dv_max_kms_per_year: float = 1.0,
-           dv_metric: str = "dv_total_kms_per_year") -> pd.DataFrame:
-    """Table 6: front designs with PDOP and HDOP availability >= ``availability_min_pct`` and the Delta-V
-    ``dv_metric`` (the paper's Delta-V total, or e.g. the operational ``sk_dv_estimate_max_kms_per_year``)
-    <= ``dv_max_kms_per_year``, one per rule of :data:`TABLE6_RULES` (a design picked by several rules
-    appears once, with every reason). Columns: :data:`TABLE6_COLUMNS` with the front's extra metrics
-    before "why selected". Empty (with the columns) when no design qualifies.
+           dv_metric: str = "dv_total_kms_per_year",
+           availability: tuple[str, str] = ("pdop_avail_pct", "hdop_avail_pct")) -> pd.DataFrame:
+    """Table 6: front designs with PDOP and HDOP availability (the columns ``availability``; e.g. the life availability
+    flown in closed loop, :mod:`lnss_lib.studies.front_validation`) >= ``availability_min_pct`` and the Delta-V
+    ``dv_metric`` (the paper's Delta-V total, the operational ``sk_dv_estimate_max_kms_per_year``, or a closed-loop
+    column of the front) <= ``dv_max_kms_per_year``, one per rule of :data:`TABLE6_RULES` (a design picked by several
+    rules appears once, with every reason). Columns: :data:`TABLE6_COLUMNS` with the front's extra metrics (and
+    ``dv_metric`` and ``availability`` when they are other columns) before "why selected". Empty (with the columns)
+    when no design qualifies.
     """
     extras = tuple(k for k in EXTRA_METRIC_KEYS if k in front)
-    if dv_metric not in METRIC_KEYS + extras:
-        raise ValueError(f"dv_metric {dv_metric!r} is not a metric of this front; available: "
-                         f"{', '.join(METRIC_KEYS + extras)}")
+    if dv_metric not in front or any(a not in front for a in availability):
+        raise ValueError(f"dv_metric {dv_metric!r} or availability {availability!r} is not a column of this front; "
+                         f"available: {', '.join(map(str, front.data_vars))}")
     columns = DESIGN_KEYS + METRIC_KEYS + extras
+    columns += tuple(dict.fromkeys(k for k in (dv_metric, *availability) if k not in columns))
     frame = front[list(columns)].to_dataframe().reset_index(drop=True)
     with np.errstate(invalid="ignore"):
-        eligible = frame[(frame.pdop_avail_pct >= availability_min_pct) & (frame.hdop_avail_pct >= availability_min_pct)
+        eligible = frame[(frame[availability[0]] >= availability_min_pct) & (frame[availability[1]] >= availability_min_pct)
                          & (frame[dv_metric] <= dv_max_kms_per_year)]
     chosen: dict[int, list[str]] = {}
     for reason, rule in TABLE6_RULES:

@@ -1,0 +1,135 @@
+"""Notebooks 06-07: the operational front flown in closed loop, and the paper's headline validated (issue 20
+items 4-5).
+
+Question (item 4): the campaign ranks designs by the life-long estimate of the service controller's cost; does the
+front it finds cost that when flown? :func:`estimate_table` sets the campaign's estimate (mean and worst satellite)
+beside the closed loop of ``validated.nc`` (:mod:`lnss_lib.campaign.validation`: every satellite, the service
+controller, the design life), :func:`front_statistics` gives Spearman rho and the share within a factor 2
+(:func:`lnss_lib.studies.estimate_validation.estimate_statistics`, two costs both below 5 m/s/yr agreeing) over the
+designs kept (a design that loses a satellite pays for a shorter span), and :func:`front_outliers` lists every
+design outside a factor 2. :func:`validated_table6` chooses the operational Table 6 from the validated designs, on
+the closed-loop worst-satellite Delta-V and the availability flown over the life, failed designs excluded.
+
+Question (item 5): what is the smallest constellation with at least 90 % south-pole PDOP availability (PDOP <= 10
+at 3 sigma) flown for the design life within 1 km/s per satellite and year, and the cheapest such design at 6, 8,
+12 and 16 satellites? :func:`headline_table`, beside the paper's claim (:data:`lnss_lib.paper.SMALLEST_CONSTELLATION`).
+
+Verdict (``quick_operational``, one-year life, 24 x 12 NSGA-II, 6 designs flown: the 5 cheapest of a 107-design front
+by the worst satellite's estimate and one 12-satellite headline candidate; 2026-11-25): the estimate does not hold
+on the front. The cheapest front designs (8 satellites, a 9500-10200 km, e 0.39-0.42, i 56-58 deg, AOP 56-58 deg) are
+priced at zero by the estimate and fly 0.96-1.25 km/s per satellite and year in closed loop (the worst satellite
+1.0-2.0); two of the five lose a satellite on day 161. The search steers into the estimate's blind spot; rho is
+undefined (a constant estimate) and 1 of 5 kept designs agrees within a factor 2 (the 12-satellite candidate,
+0.0011 against 0.0032). Headline: the smallest kept design meeting 90 % over the life within 1 km/s/yr has
+8 satellites (9800 km, e 0.39, i 58 deg: 0.996 km/s/yr worst satellite, 92 % PDOP availability over the year); at
+12 satellites a 9800 km, e 0.31, i 61 deg design flies 0.011; none at 6 and 16 was flown. The paper claims six
+satellites below 0.4 km/s/yr.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import pandas as pd
+import xarray as xr
+
+from ..keys import DESIGN_KEYS
+from .estimate_validation import estimate_outliers, estimate_statistics
+from .pareto import table6
+
+__all__ = ["estimate_table", "front_statistics", "front_outliers", "validated_table6", "headline_table",
+           "NONE_VALIDATED", "ESTIMATE_PAIRS"]
+
+ESTIMATE_PAIRS = {"mean": ("sk_dv_estimate_kms_per_year", "closed_loop_dv_kms_per_year"),
+                  "worst satellite": ("sk_dv_estimate_max_kms_per_year", "closed_loop_dv_max_kms_per_year")}
+"""(campaign estimate, closed loop) column pairs of ``validated.nc`` compared."""
+NONE_VALIDATED = "none validated"
+
+
+def estimate_table(validated: xr.Dataset) -> pd.DataFrame:
+    """One row per validated design: the design, why it was flown, its status, and each pair of
+    :data:`ESTIMATE_PAIRS` as ``estimate_<pair>`` / ``closed_loop_<pair>`` (km/s per satellite and year) with their
+    ratio (estimate / closed loop)."""
+    frame = pd.DataFrame({k: validated[k].values for k in (*DESIGN_KEYS, "n_sat", "selected_for", "status")})
+    for name, (estimate, closed) in ESTIMATE_PAIRS.items():
+        tag = name.replace(" ", "_")
+        frame[f"estimate_{tag}"] = validated[estimate].values.astype(float)
+        frame[f"closed_loop_{tag}"] = validated[closed].values.astype(float)
+        with np.errstate(divide="ignore", invalid="ignore"):
+            frame[f"ratio_{tag}"] = frame[f"estimate_{tag}"] / frame[f"closed_loop_{tag}"]
+    return frame
+
+
+def front_statistics(table: pd.DataFrame) -> pd.DataFrame:
+    """Spearman rho and the share within a factor 2 of each pair of :data:`ESTIMATE_PAIRS`, over the kept designs;
+    one row per pair."""
+    kept = table[table["status"] == "kept"]
+    rows = {}
+    for name in ESTIMATE_PAIRS:
+        tag = name.replace(" ", "_")
+        stats = estimate_statistics(kept, estimates=(f"estimate_{tag}",), closed=f"closed_loop_{tag}")
+        rows[name] = {"designs validated": int(len(table)), "kept": int(len(kept)),
+                      "failed": int((table["status"] == "failed").sum()),
+                      "error": int((table["status"] == "error").sum()), "compared": stats["n_compared"],
+                      "Spearman rho": stats[f"spearman_rho_estimate_{tag}"],
+                      "within a factor 2 (share)": stats[f"factor2_share_estimate_{tag}"]}
+    return pd.DataFrame.from_dict(rows, orient="index")
+
+
+def front_outliers(table: pd.DataFrame) -> pd.DataFrame:
+    """Every validated design (any status with a closed-loop cost) whose mean or worst-satellite estimate is outside a
+    factor 2 of the closed loop."""
+    bad = set()
+    for name in ESTIMATE_PAIRS:
+        tag = name.replace(" ", "_")
+        bad |= set(estimate_outliers(table, estimate=f"estimate_{tag}", closed=f"closed_loop_{tag}").index)
+    return table.loc[sorted(bad)]
+
+
+def validated_table6(validated: xr.Dataset, *, availability_min_pct: float, dv_max_kms_per_year: float,
+                     availability: str = "life") -> tuple[pd.DataFrame, int]:
+    """The operational Table 6 (:func:`lnss_lib.studies.pareto.table6`'s rules) among the kept validated designs, on
+    the closed-loop worst-satellite Delta-V and the PDOP and HDOP availability flown (``availability``: ``"life"``
+    or ``"worst_month"``); returns (table, designs excluded as failed or error)."""
+    kept = validated.isel(design=np.flatnonzero(validated["status"].values == "kept"))
+    columns = (f"pdop_avail_pct_{availability}", f"hdop_avail_pct_{availability}")
+    table = table6(kept, availability_min_pct=availability_min_pct, dv_max_kms_per_year=dv_max_kms_per_year,
+                   dv_metric="closed_loop_dv_max_kms_per_year", availability=columns)
+    return table, int(validated.sizes["design"] - kept.sizes["design"])
+
+
+def headline_table(validated: xr.Dataset | None, sizes, *, availability_min_pct: float, dv_max_kms_per_year: float,
+                   paper: dict) -> pd.DataFrame:
+    """Issue 20 item 5: the smallest kept validated constellation with PDOP availability over the life (closed loop)
+    >= ``availability_min_pct`` and worst-satellite closed-loop Delta-V <= ``dv_max_kms_per_year`` (ties: the
+    cheapest), then the cheapest such design at each of ``sizes`` (:data:`NONE_VALIDATED` when none), each row with
+    how many designs of that size were flown and failed, and the paper's claim (``paper``:
+    :data:`lnss_lib.paper.SMALLEST_CONSTELLATION`) as the last row."""
+    columns = (*DESIGN_KEYS, "n_sat", "status", "pdop_avail_pct_life", "pdop_avail_pct_worst_month",
+               "closed_loop_dv_kms_per_year", "closed_loop_dv_max_kms_per_year")
+    frame = pd.DataFrame({k: validated[k].values if validated is not None else [] for k in columns})
+    with np.errstate(invalid="ignore"):
+        ok = frame[(frame["status"] == "kept") & (frame["pdop_avail_pct_life"].astype(float) >= availability_min_pct)
+                   & (frame["closed_loop_dv_max_kms_per_year"].astype(float) <= dv_max_kms_per_year)]
+    ok = ok.sort_values(["n_sat", "closed_loop_dv_max_kms_per_year"])
+
+    def row(label: str, pick: pd.DataFrame, of_size: pd.DataFrame) -> dict:
+        counts = {"flown": int(len(of_size)), "failed or error": int((of_size["status"] != "kept").sum())}
+        if not len(pick):
+            return {"row": label, "result": NONE_VALIDATED, **counts}
+        best = pick.iloc[0]
+        return {"row": label, "result": "validated", "n_sat": int(best.n_sat), "n_planes": int(best.n_planes),
+                "sats_per_plane": int(best.sats_per_plane), "sma_km": best.sma_km, "ecc": best.ecc,
+                "inc_deg": best.inc_deg, "aop_deg": best.aop_deg,
+                "closed_loop_dv_max_kms_per_year": best.closed_loop_dv_max_kms_per_year,
+                "closed_loop_dv_kms_per_year": best.closed_loop_dv_kms_per_year,
+                "pdop_avail_pct_life": best.pdop_avail_pct_life,
+                "pdop_avail_pct_worst_month": best.pdop_avail_pct_worst_month, **counts}
+
+    rows = [row("smallest", ok, frame)]
+    for size in sizes:
+        rows.append(row(f"{size} satellites", ok[ok["n_sat"] == size].sort_values("closed_loop_dv_max_kms_per_year"),
+                        frame[frame["n_sat"] == size]))
+    rows.append({"row": "paper (abstract)", "result": "claimed", "n_sat": paper["n_sat"],
+                 "closed_loop_dv_max_kms_per_year": paper["dv_below_kms_per_year"],
+                 "pdop_avail_pct_life": paper["availability_pct"]})
+    return pd.DataFrame(rows).set_index("row")
