@@ -15,11 +15,12 @@ def _hover(frame) -> list[str]:
 
 
 def front_estimate_vs_closed_loop(table, *, estimate: str, closed: str, title: str, floor_kms_per_year: float) -> go.Figure:
-    """Estimate (y) against closed loop (x), log-log, one marker per design coloured by status, with y = x and the
-    factor-2 lines; values below ``floor_kms_per_year`` (a free design) are drawn at the floor."""
+    """Estimate (y) against closed loop (x), log-log, one marker per design with both (coloured by status), with
+    y = x and the factor-2 lines; values below ``floor_kms_per_year`` (a free design) are drawn at the floor."""
     fig = go.Figure()
+    both = np.isfinite(table[estimate].astype(float)) & np.isfinite(table[closed].astype(float))
     for status, colour in STATUS_COLOURS.items():
-        part = table[table["status"] == status]
+        part = table[both & (table["status"] == status)]
         if not len(part):
             continue
         x = np.maximum(part[closed].astype(float), floor_kms_per_year)

@@ -72,3 +72,18 @@ def test_validated_table6_uses_closed_loop_and_excludes_failed(validated):
     assert excluded == 2
     assert set(table["sma_km"]) <= {6000.0, 6100.0, 6500.0}              # kept, within both closed-loop bounds
     assert (table["closed_loop_dv_max_kms_per_year"] <= 1.0).all() and (table["pdop_avail_pct_life"] >= 90.0).all()
+
+
+def test_figures_draw_every_status_and_the_marks(validated):
+    """The estimate-vs-closed-loop scatter has a trace per status present plus y = x and both factor-2 lines; the
+    headline chart marks the bound and the paper's claim."""
+    from lnss_lib.figures import front_estimate_vs_closed_loop, headline_chart
+
+    fig = front_estimate_vs_closed_loop(estimate_table(validated), estimate="estimate_worst_satellite",
+                                        closed="closed_loop_worst_satellite", title="t", floor_kms_per_year=1e-3)
+    assert [t.name for t in fig.data] == ["kept", "failed", "estimate = closed loop", "factor 2", "factor 1/2"]
+    assert fig.layout.xaxis.type == "log" and fig.layout.yaxis.type == "log"
+    chart = headline_chart(validated.to_dataframe(), dv_max_kms_per_year=1.0, paper=SMALLEST_CONSTELLATION, title="t")
+    assert chart.layout.shapes[0].y0 == 1.0
+    assert list(chart.data[-1].x) == [SMALLEST_CONSTELLATION["n_sat"]]
+    assert list(chart.data[-1].y) == [SMALLEST_CONSTELLATION["dv_below_kms_per_year"]]
