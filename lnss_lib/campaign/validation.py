@@ -11,8 +11,9 @@ journal's format and parser, :mod:`lnss_lib.campaign.journal`: a torn last line 
 flies only the designs not journaled), then ``validated.nc`` is written atomically beside ``front.nc``
 (:data:`VALIDATED_FILE`, dimension ``design``, CF-1.8). A design whose closed loop raises is kept with
 ``status = "error"`` and its message, one that loses a satellite (impact, escape) under control with
-``status = "failed"``; none is dropped. The campaign layer imports the design-life kernels (layer 2), never the
-other way round.
+``status = "failed"``; none is dropped (an error record is flown again when the validation is resumed, as the
+campaign retries evaluation errors). The campaign layer imports the design-life kernels (layer 2), never the other
+way round.
 """
 
 from __future__ import annotations

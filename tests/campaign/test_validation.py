@@ -199,27 +199,32 @@ def test_campaign_killed_during_validation_resumes_without_nsga2(tmp_path):
     assert xr.load_dataset(run_dir / VALIDATED_FILE, engine="h5netcdf").attrs["complete"] == 1
 
 
-def test_early_stop_does_not_validate(tmp_path):
+def _cli(args, capsys):
+    """``python -m lnss_lib campaign ARGS`` in this process: (exit code, stderr)."""
+    from lnss_lib.__main__ import main
+
+    code = main(["campaign", *args])
+    return code, capsys.readouterr().err
+
+
+def test_early_stop_does_not_validate(tmp_path, capsys):
     """--max-generations that stops before NSGA-II finishes writes no validated.nc; --validate then refuses."""
     run_dir = tmp_path / "run"
     run_campaign("ci_operational", overrides=VALIDATING, workers=0, run_dir=run_dir, progress=False, max_generations=1)
     assert not (run_dir / VALIDATED_FILE).exists() and not (run_dir / VALIDATION_JOURNAL).exists()
-    done = _cli(["--validate", str(run_dir)])
-    assert done.returncode == 2 and "not finished" in done.stderr and "Traceback" not in done.stderr
+    code, err = _cli(["--validate", str(run_dir)], capsys)
+    assert code == 2 and "not finished" in err and "Traceback" not in err
 
 
-def _cli(args):
-    return subprocess.run([sys.executable, "-m", "lnss_lib", "campaign", *args], cwd=PROJECT_DIR,
-                          capture_output=True, text=True, timeout=120)
-
-
-def test_cli_validate_errors(tmp_path):
-    """Clean one-line errors, exit 2: no folder, a profile that validates nothing, flags that do not apply."""
-    done = _cli(["--validate", str(tmp_path / "absent")])
+def test_cli_validate_errors(tmp_path, capsys):
+    """Clean one-line errors, exit 2: no folder, a profile that validates nothing, flags that do not apply (one
+    run as a process: no traceback on stderr)."""
+    done = subprocess.run([sys.executable, "-m", "lnss_lib", "campaign", "--validate", str(tmp_path / "absent")],
+                          cwd=PROJECT_DIR, capture_output=True, text=True, timeout=120)
     assert done.returncode == 2 and "not a folder" in done.stderr and "Traceback" not in done.stderr
     off = tmp_path / "off"
     run_campaign("ci", overrides={"campaign": {"evaluator": "synthetic"}}, workers=0, run_dir=off, progress=False)
-    done = _cli(["--validate", str(off), "--no-progress"])
-    assert done.returncode == 2 and "max_designs = 0" in done.stderr and "Traceback" not in done.stderr
-    done = _cli(["--validate", str(off), "--profile", "ci"])
-    assert done.returncode == 2 and "drop --profile" in done.stderr
+    code, err = _cli(["--validate", str(off), "--no-progress"], capsys)
+    assert code == 2 and "max_designs = 0" in err
+    code, err = _cli(["--validate", str(off), "--profile", "ci"], capsys)
+    assert code == 2 and "drop --profile" in err
