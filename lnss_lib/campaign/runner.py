@@ -83,14 +83,7 @@ def run_campaign(profile_name: str = "quick", *, overrides: dict | None = None, 
             raise ConfigError("a resumed run keeps its parameters: overrides are not allowed with resume")
         run_dir = Path(resume)
         run = load_run(run_dir)
-        try:
-            settings = settings_from_profile(run["profile"])     # what the folder recorded, checked again
-        except ConfigError as error:
-            raise ConfigError(f"{run_dir / RUN_FILE}: {error}", key=error.key) from None
-        stored_name = settings.name
-        if not isinstance(stored_name, str) or not PROFILE_NAME.fullmatch(stored_name):
-            raise ConfigError(f"{run_dir / RUN_FILE}: profile.name = {stored_name!r} is not a profile name "
-                              f"(letters, digits, '_' and '-'); the run folder is damaged or forged", key="profile.name")
+        settings = _stored_settings(run_dir, run)
         eval_hash = evaluation_hash(settings)
         if eval_hash != run["evaluation_hash"]:
             raise ConfigError(f"{run_dir}: evaluation hash of the stored profile changed; cannot resume")
@@ -117,6 +110,19 @@ def run_campaign(profile_name: str = "quick", *, overrides: dict | None = None, 
         raise
     finally:
         lock.release()
+
+
+def _stored_settings(run_dir: Path, run: dict) -> Settings:
+    """The settings a run folder recorded (``run.json``), checked again; ConfigError naming the file."""
+    try:
+        settings = settings_from_profile(run["profile"])
+    except ConfigError as error:
+        raise ConfigError(f"{run_dir / RUN_FILE}: {error}", key=error.key) from None
+    stored_name = settings.name
+    if not isinstance(stored_name, str) or not PROFILE_NAME.fullmatch(stored_name):
+        raise ConfigError(f"{run_dir / RUN_FILE}: profile.name = {stored_name!r} is not a profile name "
+                          f"(letters, digits, '_' and '-'); the run folder is damaged or forged", key="profile.name")
+    return settings
 
 
 def _remove_if_empty_run(run_dir: Path) -> None:
@@ -235,10 +241,7 @@ def validate_run(run_dir, *, workers: int | None = None, scheduler_address: str 
         raise ConfigError(f"--validate {run_dir}: not a folder (a campaign run folder: {RUN_FILE}, checkpoint.pkl, "
                           f"{JOURNAL_FILE})", key="--validate")
     run = load_run(run_dir)
-    try:
-        settings = settings_from_profile(run["profile"])
-    except ConfigError as error:
-        raise ConfigError(f"{run_dir / RUN_FILE}: {error}", key=error.key) from None
+    settings = _stored_settings(run_dir, run)
     lock = RunLock(run_dir)
     try:
         check_resumable(run_dir, run, load_checkpoint(run_dir))
