@@ -103,6 +103,20 @@ def test_operational_companion_outputs(executed):
     assert "sk_dv_estimate_max_kms_per_year" in _table("07_operational_table6", executed).columns
 
 
+def test_validated_front_outputs(executed):
+    """ci_operational's front was flown in closed loop (issue 20 item 4; ci's short front may hold no feasible design)
+    and published with the run; notebook 07 wrote the headline table, one row per size and the paper's claim."""
+    from lnss_lib.campaign.publication import load_published
+    from lnss_lib.settings import load_settings
+
+    published = load_published(_fresh(OUTPUTS_DIR / "ci_operational" / "campaign" / "published.json", executed).parent)
+    fv = load_settings("ci_operational").front_validation
+    assert published.validated is not None and published.validated.attrs["complete"] == 1
+    assert published.validated.sizes["design"] <= fv.max_designs + fv.headline_per_size * len(fv.headline_sizes)
+    headline = _table("07_headline_validated", executed).set_index("row")
+    assert list(headline.index) == ["smallest", *(f"{n} satellites" for n in fv.headline_sizes), "paper (abstract)"]
+
+
 def test_screen_validation_table(executed):
     """Notebook 08 screened random Table 3 designs and flew them with the full model (issue 20 item 3)."""
     from lnss_lib.keys import DESIGN_KEYS
