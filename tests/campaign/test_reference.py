@@ -14,6 +14,7 @@ from lnss_lib.campaign.publication import run_differences
 from lnss_lib.campaign.settings import CampaignPlan, evaluation_hash
 from lnss_lib.keys import DESIGN_KEYS
 from lnss_lib.settings import load_settings
+from lnss_lib.studies.campaign import designs_shown
 
 SYNTHETIC = {"campaign": {"evaluator": "synthetic"}}
 CF_GLOBALS = ("title", "institution", "source", "history", "references", "Conventions")
@@ -65,6 +66,9 @@ def test_export_round_trip_with_cf_attributes(finished_run, tmp_path):
     assert shipped.evaluations.sizes["design"] == (feasible.sum() if feasible.any() else
                                                    shipped.evaluations.attrs["n_selected"])
     assert shipped.evaluations.attrs["n_designs_evaluated"] == evaluations.sizes["design"]
+    assert designs_shown(evaluations) == f"every unique design the run evaluated ({evaluations.sizes['design']})"
+    assert designs_shown(shipped.evaluations).startswith(
+        f"{shipped.evaluations.sizes['design']} of the {evaluations.sizes['design']} unique designs the run evaluated")
     assert shipped.finished and shipped.history.attrs["partial"] == 0
     for ds in (shipped.evaluations, shipped.front, shipped.history, shipped.population):
         assert all(ds.attrs.get(key) for key in CF_GLOBALS) and ds.attrs["Conventions"] == "CF-1.8"

@@ -109,6 +109,7 @@ def test_throughput_table_from_hand_made_history(tmp_path):
     assert t["cache hits (% of requested designs)"] == pytest.approx(100 * 3 / 18)
     assert t["projected 120 x 1000 campaign at this profile's fidelity (h, this machine)"] == pytest.approx(
         120000 / 4.5 / 3600)
+    assert t["... with this run's cache hits (h)"] == pytest.approx((1 - 3 / 18) * 120000 / 4.5 / 3600)
     one = _history([6], [3.0], [0], [6])
     assert steady_designs_per_s(one, 6) == pytest.approx(2.0)
     with pytest.raises(ValueError, match="workers"):
