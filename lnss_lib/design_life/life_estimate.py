@@ -17,13 +17,14 @@ integration, :func:`lnss_lib.design_life.screen.screen_states`, shared with the 
   fixed a (a perilune / apolune pair): ``h |de| / (2 p)``.
 * ``relative_node``: each satellite's averaged RAAN drift relative to the constellation's circular mean
   (the common precession is free), held within the controller's half-width
-  (:func:`lnss_lib.design_life.service.raan_half_width_rad` of ``raan_rel_deg`` at the design inclination) by
+  (:func:`lnss_lib.design_life.service.raan_half_width_rad` of the tilt tolerance at the design inclination; the
+  tolerances of :func:`lnss_lib.design_life.tolerances.estimate_tolerances_deg` unless given) by
   its overshoot law (:func:`lnss_lib.design_life.control.overshoot_target`); a node change of ``dW`` tilts the
   plane by ``sin i dW``, a normal impulse at the farther antinode: ``h sin i (1 - e |sin AOP|) / p`` per rad.
 * ``phase``: the argument of latitude relative to the constellation's mean, drifting at the arc's rate
   (:func:`lnss_lib.design_life.estimate.mean_drift`) taken to the design's mean a (the closed loop's insertion trim
   removes the offset of the osculating elements' mean a) less its averaged AOP rate, plus the averaged AOP history,
-  held within ``u_rel_deg`` by drift-band changes of a (:func:`lnss_lib.design_life.control.drift_band_rate`,
+  held within the slot tolerance by drift-band changes of a (:func:`lnss_lib.design_life.control.drift_band_rate`,
   no acceleration, as the controller flies them): ``sqrt(1 - e^2) a |d(rate)| / 3`` (a perilune / apolune pair
   changing a by ``2 a d(rate) / (3 n)``).
 
@@ -54,6 +55,7 @@ from .mean_elements import circular_mean, wrap_pi
 from .screen import SecularField, elements_from_vectors, integrate_secular, screen_states
 from .screen import cached_field
 from .service import SAFETY_RAISE_KM, mean_vectors_j2000, raan_half_width_rad
+from .tolerances import estimate_tolerances_deg
 
 __all__ = ["PARTS", "perilune_dip_km", "safety_dv_kms", "node_corrections", "phase_corrections",
            "life_estimate", "campaign_estimate"]
@@ -242,17 +244,20 @@ def _fill_forward_rates(x: np.ndarray) -> np.ndarray:
 
 
 def life_estimate(sk_estimate: SkEstimateSettings, design_life: DesignLifeSettings, dynamics: Dynamics,
-                  arc: xr.Dataset, screen: xr.Dataset, field: SecularField) -> dict:
+                  arc: xr.Dataset, screen: xr.Dataset, field: SecularField, tolerances_deg: dict | None = None) -> dict:
     """The estimate for the evaluator's arc (every satellite) and the screen of the same states over the life.
 
     ``arc``: a propagator Dataset; ``screen``: :func:`lnss_lib.design_life.screen.screen_states` of its first
     states (``[stability] margin_km`` below the safety floor, so its history reaches every crossing), ``field`` the
-    averaged model it integrated. The life is the screen's. Returns ``sk_dv_estimate_kms_per_year`` (mean over
+    averaged model it integrated. The life is the screen's. ``tolerances_deg`` ``{"raan_rel", "u_rel"}``: the relative
+    node and slot held (default :func:`lnss_lib.design_life.tolerances.estimate_tolerances_deg`; the validation passes
+    those the closed loop derived). Returns ``sk_dv_estimate_kms_per_year`` (mean over
     satellites), ``sk_dv_estimate_max_kms_per_year``, ``per_sat`` (part -> (n_sat,) km/s per year and ``total``),
     ``n_safety_burns`` (n_sat,) and ``wall_s``.
     """
     start = time.perf_counter()
     svc = design_life.service
+    tol_deg = estimate_tolerances_deg(svc) if tolerances_deg is None else tolerances_deg
     gm = dynamics.gravity.gm_km3_s2
     t0 = float(arc["time"].values[0])
     life_days = float(screen.attrs["life_days"])
@@ -293,7 +298,7 @@ def life_estimate(sk_estimate: SkEstimateSettings, design_life: DesignLifeSettin
     h_over_p = np.sqrt(gm / p)
     node_cost = np.nan_to_num(h_over_p * np.abs(np.sin(inc)) * (1.0 - ecc * np.abs(np.sin(aop))))
     raan_drift = _fill_forward_rates(np.unwrap(raan, axis=1)) - raan[:, :1]
-    half_node = raan_half_width_rad(np.radians(svc.raan_rel_deg), inc[:, 0])
+    half_node = raan_half_width_rad(np.radians(tol_deg["raan_rel"]), inc[:, 0])
     node = np.zeros(n_sat)
     for i, events in enumerate(node_corrections(t_days, raan_drift, half_node, design_life.target_fraction,
                                                 design_life.min_maneuver_spacing_days)):
@@ -311,7 +316,7 @@ def life_estimate(sk_estimate: SkEstimateSettings, design_life: DesignLifeSettin
     phase_cost = np.nan_to_num(np.sqrt(1.0 - ecc ** 2) * a[:, None] / 3.0)
     phase = np.zeros(n_sat)
     lookahead = design_life.check_interval_days
-    events_by_sat = phase_corrections(t_days, u_drift, np.radians(svc.u_rel_deg), design_life.target_fraction,
+    events_by_sat = phase_corrections(t_days, u_drift, np.radians(tol_deg["u_rel"]), design_life.target_fraction,
                                       design_life.slot_coast_days, lookahead)
     for i, events in enumerate(events_by_sat):
         phase[i] = sum(abs(change) * phase_cost[i, k] for k, change in events) / years

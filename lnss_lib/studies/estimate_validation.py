@@ -60,10 +60,14 @@ from ..propagator import elements_deg_to_states, propagate_states
 from ..settings import Settings
 from .design_life import flown_elements
 
-__all__ = ["FREE_KMS_PER_YEAR", "FROZEN_MEMBERS", "estimate_validation_designs", "closed_loop_cost",
+__all__ = ["FREE_KMS_PER_YEAR", "CACHE_FORMAT", "ESTIMATES", "FROZEN_MEMBERS", "estimate_validation_designs", "closed_loop_cost",
            "estimate_costs", "estimate_statistics", "estimate_outliers", "run_estimate_validation"]
 
 FREE_KMS_PER_YEAR = 0.005
+CACHE_FORMAT = 2                       # 2: the closed loop's tolerances recorded
+ESTIMATES = ("life", "campaign", "arc")
+"""The estimates compared: the life estimate holding the closed loop's tolerances, the same as the campaign computes
+it (:func:`~lnss_lib.design_life.tolerances.estimate_tolerances_deg`), the 10-day box slope."""
 """Two costs both below this (km/s per satellite and year) agree: neither has a ratio."""
 
 FROZEN_MEMBERS = ((5000.0, 0.4, 90.0, 3), (7000.0, 0.5, 270.0, 2), (9000.0, 0.55, 90.0, 4), (11000.0, 0.6, 270.0, 3))
@@ -113,25 +117,30 @@ def estimate_validation_designs(settings: Settings, n_random: int = 8, seed: int
 def closed_loop_cost(settings: Settings, design, life_days: float, cache_dir: Path | None = None) -> dict:
     """The service controller's life of a design, one satellite per plane (no navigation sampling): ``dv`` per
     satellite (km/s per year over its flown span), ``split`` (purpose -> per satellite), ``loss_day`` (NaN when
-    kept). Cached as JSON in ``cache_dir`` by design, life and settings (a closed loop costs seconds to minutes)."""
-    key = hashlib.sha1(json.dumps([list(design), float(life_days), settings.hash]).encode()).hexdigest()[:16]
+    kept), ``tolerances_deg`` (the relative node and slot it held). Cached as JSON in ``cache_dir`` by design, life
+    and settings (a closed loop costs seconds to minutes)."""
+    key = hashlib.sha1(json.dumps([CACHE_FORMAT, list(design), float(life_days), settings.hash]).encode()).hexdigest()[:16]
     path = None if cache_dir is None else Path(cache_dir) / f"closed_loop_{key}.json"
     if path is not None and path.exists():
         return json.loads(path.read_text())
     ds = run_design_life(settings, flown_elements(design, 1), life_days, natural=False, sample=False)["controlled"]
     out = {"design": list(design), "life_days": float(life_days), "dv": ds["dv_kms_per_year"].values.tolist(),
            "split": {p: ds["dv_purpose_kms_per_year"].sel(purpose=p).values.tolist() for p in PURPOSES},
-           "loss_day": [None if not np.isfinite(d) else float(d) for d in ds["loss_day"].values]}
+           "loss_day": [None if not np.isfinite(d) else float(d) for d in ds["loss_day"].values],
+           "tolerances_deg": {"raan_rel": float(ds.attrs["raan_rel_tolerance_deg"]),
+                              "u_rel": float(ds.attrs["u_rel_tolerance_deg"])}}
     if path is not None:
         path.parent.mkdir(parents=True, exist_ok=True)
         write_text_atomic(path, json.dumps(out))
     return out
 
 
-def estimate_costs(settings: Settings, design, life_days: float) -> dict:
-    """The life estimate and the 10-day box slope of a design, one satellite per plane: ``life`` and ``arc``
-    (km/s per satellite and year, means over satellites; NaN when the 10-day arc hits the Moon), the life
-    estimate's ``split`` (part -> mean) and its ``wall_s``."""
+def estimate_costs(settings: Settings, design, life_days: float, tolerances_deg: dict | None = None) -> dict:
+    """The life estimate and the 10-day box slope of a design, one satellite per plane: ``life`` (holding
+    ``tolerances_deg``, default the campaign's :func:`~lnss_lib.design_life.tolerances.estimate_tolerances_deg`),
+    ``campaign`` (the estimate as the campaign computes it, its own tolerances) and ``arc`` (km/s per satellite and
+    year, means over satellites; NaN when the 10-day arc hits the Moon), the life estimate's ``split`` (part ->
+    mean) and its ``wall_s``."""
     dyn = settings.dynamics
     ensure_kernels(settings.ephemeris)
     t0 = tdb_seconds(settings.epoch.start_tdb, "TDB")
@@ -139,11 +148,14 @@ def estimate_costs(settings: Settings, design, life_days: float) -> dict:
     arc = propagate_states(dyn, states, t0, settings.epoch.duration_days * SECONDS_PER_DAY, settings.epoch.step_s,
                            batch=True)
     if bool(arc["impact"].any()):
-        return {"life": np.nan, "arc": np.nan, "split": dict.fromkeys(PARTS, np.nan), "wall_s": np.nan}
+        return {"life": np.nan, "campaign": np.nan, "arc": np.nan, "split": dict.fromkeys(PARTS, np.nan),
+                "wall_s": np.nan}
     stability = dataclasses.replace(settings.stability, life_days=float(life_days))
     screen = screen_states(stability, dyn, states, t0)
-    est = life_estimate(settings.sk_estimate, settings.design_life, dyn, arc, screen, cached_field(stability, dyn, t0)[0])
-    return {"life": est["sk_dv_estimate_kms_per_year"],
+    field = cached_field(stability, dyn, t0)[0]
+    est = life_estimate(settings.sk_estimate, settings.design_life, dyn, arc, screen, field, tolerances_deg)
+    campaign = life_estimate(settings.sk_estimate, settings.design_life, dyn, arc, screen, field)
+    return {"life": est["sk_dv_estimate_kms_per_year"], "campaign": campaign["sk_dv_estimate_kms_per_year"],
             "arc": sk_estimate_from_propagation(settings.sk_estimate, dyn, arc)["sk_dv_estimate_kms_per_year"],
             "split": {p: float(np.mean(est["per_sat"][p])) for p in PARTS}, "wall_s": est["wall_s"]}
 
@@ -155,9 +167,9 @@ def _agrees(estimate: np.ndarray, closed: np.ndarray) -> np.ndarray:
     return free | ((ratio >= 0.5) & (ratio <= 2.0))
 
 
-def estimate_statistics(table: pd.DataFrame, estimates: tuple[str, ...] = ("life", "arc"),
+def estimate_statistics(table: pd.DataFrame, estimates: tuple[str, ...] = ESTIMATES,
                         closed: str = "closed_loop") -> dict:
-    """Spearman rho and factor-2 share of each estimate column (default the life estimate and the 10-day box slope)
+    """Spearman rho and factor-2 share of each estimate column (default :data:`ESTIMATES`)
     against the closed-loop column ``closed``, over the designs with the first estimate (``spearman_rho_<name>``,
     ``factor2_share_<name>``); rho is NaN with fewer than three designs or a constant column (no ranking)."""
     ok = np.isfinite(table[estimates[0]].astype(float)) & np.isfinite(table[closed].astype(float))
@@ -181,7 +193,8 @@ def estimate_outliers(table: pd.DataFrame, estimate: str = "life", closed: str =
 def run_estimate_validation(settings: Settings, life_days: float | None = None, n_random: int = 8,
                             max_designs: int | None = None, cache_dir: Path | None = None) -> tuple[pd.DataFrame, dict]:
     """The validation table (one row per design: design, source, ``closed_loop`` mean Delta-V, its split as
-    ``closed_<purpose>``, ``lost``, ``life``, ``arc``, the estimate's split as ``est_<part>``) and
+    ``closed_<purpose>``, ``lost``, the tolerances it held as ``<raan_rel|u_rel>_tolerance_deg``, the estimates of
+    :data:`ESTIMATES`, the life estimate's split as ``est_<part>``) and
     :func:`estimate_statistics`. ``life_days`` defaults to ``[stability] life_days`` (the life the campaign's estimate
     covers); ``max_designs`` keeps the first designs (the ci/quick notebook run)."""
     life = float(settings.stability.life_days if life_days is None else life_days)
@@ -189,11 +202,13 @@ def run_estimate_validation(settings: Settings, life_days: float | None = None, 
     rows = []
     for item in steps(designs, f"estimate vs closed loop, {life:g} days", "designs"):
         closed = closed_loop_cost(settings, item["design"], life, cache_dir)
-        est = estimate_costs(settings, item["design"], life)
+        est = estimate_costs(settings, item["design"], life, closed["tolerances_deg"])
         rows.append({**dict(zip(DESIGN_KEYS, item["design"])), "source": item["source"],
                      "closed_loop": float(np.mean(closed["dv"])),
                      **{f"closed_{p}": float(np.mean(v)) for p, v in closed["split"].items()},
-                     "lost": any(d is not None for d in closed["loss_day"]), "life": est["life"], "arc": est["arc"],
+                     "lost": any(d is not None for d in closed["loss_day"]),
+                     **{f"{k}_tolerance_deg": v for k, v in closed["tolerances_deg"].items()},
+                     **{name: est[name] for name in ESTIMATES},
                      **{f"est_{p}": v for p, v in est["split"].items()}, "estimate_wall_s": est["wall_s"]})
     table = pd.DataFrame(rows)
     return table, estimate_statistics(table)

@@ -1,13 +1,16 @@
 """The life-long estimate of the service controller's cost (issue 20 item 2): frozen orbits cost nothing, the cost
 rises with the libration amplitude, a perilune predicted to cross the floor pays safety, and the band laws."""
 
+import dataclasses
+
 import numpy as np
 import pytest
 
 from lnss_lib.constants import SECONDS_PER_DAY
 from lnss_lib.design_life import life_estimate as le
+from lnss_lib.design_life import tolerances as tol
 from lnss_lib.design_life.frozen import FrozenModel, libration
-from lnss_lib.design_life.screen import screen_states
+from lnss_lib.design_life.screen import cached_field, screen_states
 from lnss_lib.ephemeris import ensure_kernels, tdb_seconds
 from lnss_lib.evaluator import context_for, evaluate_design
 from lnss_lib.propagator import elements_deg_to_states, propagate_states
@@ -111,3 +114,32 @@ def test_evaluator_reports_the_life_estimate_when_asked():
                                                     "stable_screen"]}}
     metrics = evaluate_design(context_for(load_settings("ci", overrides=over)), 6143.0, 0.6, 90.0, 51.7, 2, 1)
     assert metrics["sk_dv_estimate_kms_per_year"] == 0.0 and metrics["stable_screen"] == 1.0
+
+
+def test_the_campaign_estimate_holds_the_upper_tilt_when_tolerances_are_derived(profile):
+    """The derivation's arc costs ten evaluations, so the campaign's estimate takes the tilt the derivation gives the
+    designs of a front (the upper bound) and the fixed slot; with fixed tolerances the fixed values."""
+    svc = profile.design_life.service
+    derived = dataclasses.replace(svc, tolerances="derived")
+    assert tol.estimate_tolerances_deg(derived) == {"raan_rel": svc.raan_rel_bounds_deg[1], "u_rel": svc.u_rel_deg}
+    fixed = dataclasses.replace(svc, tolerances="fixed")
+    assert tol.estimate_tolerances_deg(fixed) == {"raan_rel": svc.raan_rel_deg, "u_rel": svc.u_rel_deg}
+
+
+def test_a_wider_node_tolerance_costs_no_more_and_none_beyond_the_drift(profile):
+    """Four planes of a circular 20300 km orbit at i 30 deg drift apart in node (the closed loop pays for it): the
+    relative-node share falls as the tilt tolerance widens, and a band wider than the whole drift over the life
+    costs nothing."""
+    dyn = profile.dynamics
+    t0 = tdb_seconds(profile.epoch.start_tdb, "TDB")
+    elements = np.array([[20300.0, 0.0, 30.0, 90.0 * k, 276.0, 0.0] for k in range(4)])
+    states = elements_deg_to_states(dyn, elements, t0)
+    arc = propagate_states(dyn, states, t0, profile.epoch.duration_days * SECONDS_PER_DAY, profile.epoch.step_s,
+                           batch=True)
+    screen = screen_states(profile.stability, dyn, states, t0)
+    field = cached_field(profile.stability, dyn, t0)[0]
+    node = [float(np.mean(le.life_estimate(profile.sk_estimate, profile.design_life, dyn, arc, screen, field,
+                                           {"raan_rel": tilt, "u_rel": 20.0})["per_sat"]["relative_node"]))
+            for tilt in (1.0, 4.7, 10.0, 90.0)]
+    assert node[0] > 0.0 and np.all(np.diff(node) <= 0.0)
+    assert node[-1] == 0.0
