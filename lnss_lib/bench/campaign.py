@@ -37,7 +37,7 @@ from ..constellation import WalkerDesign
 from ..evaluator import context_for
 from ..propagator import elements_deg_to_states
 from .kernels_before import replay_times, rhs_points
-from ..campaign.timing import campaign_timing, steady_rate
+from ..campaign.timing import campaign_timing, concurrent_workers, steady_rate
 from ..paper import EVALUATIONS, TABLE_5
 
 KERNEL_DESIGNS = 4             # designs of the short run whose right-hand sides are timed before and after
@@ -56,7 +56,7 @@ def _short_campaign(profile_name: str, population: int, generations: int, worker
         result = run_campaign(profile_name, overrides=merged, workers=workers, run_dir=Path(tmp) / "run", progress=False)
         wall = time.perf_counter() - start
         records = read_cache_records(result.run_dir)
-        n_workers = len({r["worker"] for r in records}) or 1
+        n_workers = concurrent_workers(records)
         timing = campaign_timing(result.run_dir, n_workers, wall)
         history = load_checkpoint(result.run_dir)["history"]
     return {"result": result, "wall_s": wall, "records": records, "n_workers": n_workers, "timing": timing,

@@ -30,7 +30,8 @@ __all__ = ["run_campaign", "validate_run", "validate_front", "select_designs", "
            "constraint_violation", "non_dominated_mask", "hypervolume",
            "metric_columns", "evaluate_task", "synthetic_evaluation", "EvaluationCache",
            "read_cache_records", "SerialBackend", "DaskBackend", "open_backend", "campaign_task", "BatchEvaluator",
-           "WalkerDesignProblem", "build_algorithm", "build_termination", "campaign_timing"]
+           "WalkerDesignProblem", "build_algorithm", "build_termination", "campaign_timing",
+           "concurrent_workers"]
 
 _MODULES = {
     "BatchEvaluator": "backends",
@@ -75,6 +76,7 @@ _MODULES = {
     "evaluate_task": "tasks",
     "synthetic_evaluation": "tasks",
     "campaign_timing": "timing",
+    "concurrent_workers": "timing",
 }
 
 

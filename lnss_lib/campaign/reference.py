@@ -41,7 +41,7 @@ from .fitness import bound_masks, deltav_constraint, parse_constraints, satisfie
 from .journal import JOURNAL_FILE, parse_journal, read_cache_records
 from .rundir import check_resumable, export_results, load_checkpoint, load_run
 from .settings import CampaignPlan, evaluation_hash
-from .timing import campaign_timing
+from .timing import campaign_timing, concurrent_workers
 
 __all__ = ["REFERENCE_DIR", "REFERENCE_FILES", "README_FILE", "MAX_FILE_BYTES", "Reference", "check_run_folder",
            "analysis_mask", "thin_to_fit", "export_reference", "load_reference", "cf_variable_attrs"]
@@ -243,7 +243,7 @@ def export_reference(run_dir, root=None, *, export_commit: str = "unknown") -> P
     evaluations, front, history = export_results(run_dir)
     plan = CampaignPlan.of(settings_from_profile(run["profile"]))
     name = evaluations.attrs["profile"]
-    workers = len({r.get("worker") for r in read_cache_records(run_dir)}) or 1
+    workers = concurrent_workers(read_cache_records(run_dir))
     wall_s = float(history["wall_s"].sum())
     finished = bool(checkpoint.get("finished"))
     provenance = {

@@ -9,7 +9,16 @@ from __future__ import annotations
 from ..keys import TIMING_KEYS
 from .journal import read_cache_records
 
-__all__ = ["campaign_timing", "steady_rate", "generation_timing"]
+__all__ = ["campaign_timing", "concurrent_workers", "steady_rate", "generation_timing"]
+
+
+def concurrent_workers(records: list[dict]) -> int:
+    """Worker processes that ran at once: the most distinct workers of one generation in the cache records (a run
+    resumed in another session has new worker names; counting every name would multiply its worker time)."""
+    by_generation: dict = {}
+    for record in records:
+        by_generation.setdefault(record.get("generation"), set()).add(record.get("worker"))
+    return max((len(names) for names in by_generation.values()), default=1)
 
 
 def campaign_timing(run_dir, n_workers: int, wall_s: float) -> dict:

@@ -23,8 +23,8 @@ import numpy as np
 import pandas as pd
 import xarray as xr
 
-from ..campaign import (CampaignPlan, CellProgressBar, campaign_timing, export_results, load_run, read_cache_records,
-                        run_campaign)
+from ..campaign import (CampaignPlan, CellProgressBar, campaign_timing, concurrent_workers, export_results, load_run,
+                        read_cache_records, run_campaign)
 from ..campaign.fitness import ALL_BOUNDS, bound_masks
 from ..campaign.rundir import CHECKPOINT_FILE
 from ..keys import NON_NAVIGATION_METRICS
@@ -370,6 +370,6 @@ def run_throughput_table(run_dir, history: xr.Dataset, evaluations: xr.Dataset, 
     if "worker_time" in history.attrs:
         workers, timing = int(history.attrs["workers"]), json.loads(history.attrs["worker_time"])
     else:
-        workers = len({r["worker"] for r in records}) or 1
+        workers = concurrent_workers(records)
         timing = campaign_timing(run_dir, workers, float(history.wall_s.sum()))
     return throughput_table(history, feasible_designs(evaluations), timing, workers)
