@@ -28,7 +28,9 @@ integration, :func:`lnss_lib.design_life.screen.screen_states`, shared with the 
   no acceleration, as the controller flies them): ``sqrt(1 - e^2) a |d(rate)| / 3`` (a perilune / apolune pair
   changing a by ``2 a d(rate) / (3 n)``).
 
-What it leaves out: the navigation monitor's restores (the designs' own DOP is the campaign's objective), the
+What it leaves out: the navigation monitor's restores (the designs' own DOP is the campaign's objective; flown in
+closed loop, they are most of what the cheapest designs of the operational front pay, which the search finds for
+that reason: :mod:`lnss_lib.studies.front_validation`), the
 mean-a trims after each burn (a few m/s a year in the closed loop), the monthly swing of the mean elements (the
 controller judges on tidal means), and what the averaged model does not see of the relative node (a few degrees a
 year on some high orbits). The relative drifts after a safety raise come from the raised orbit; after a second

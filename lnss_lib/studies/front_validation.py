@@ -14,19 +14,19 @@ Question (item 5): what is the smallest constellation with at least 90 % south-p
 at 3 sigma) flown for the design life within 1 km/s per satellite and year, and the cheapest such design at 6, 8,
 12 and 16 satellites? :func:`headline_table`, beside the paper's claim (:data:`lnss_lib.paper.SMALLEST_CONSTELLATION`).
 
-Verdict (``quick_operational``, one-year life, 24 x 12 NSGA-II, 6 designs flown: the 5 cheapest of a 107-design front
-by the worst satellite's estimate and one 12-satellite headline candidate; ``reproduce --only 06 07``, 2026-11-25): the
-estimate does not hold on the front. The cheapest front designs (8 satellites, 2 x 4, a 9500-10200 km, e 0.39-0.42,
-i 56-58 deg, AOP 56-58 deg) are priced at zero by the estimate and fly 0.96-1.25 km/s per satellite and year in closed
-loop (worst satellite 0.99-1.98); two of the five lose a satellite on day 161. The search steers into the estimate's
-blind spot. Over the 4 kept designs Spearman rho is -0.77 (three estimates are zero); within a factor 2: 1 of 4 on the
-mean (the 12-satellite design, 0.0011 against 0.0032 km/s/yr, both below the 5 m/s/yr free level), 0 of 4 on the worst
-satellite; every one of the 6 flown is listed outside a factor 2. Headline: the smallest kept design meeting 90 % PDOP
-availability over the year within 1 km/s/yr (worst satellite) has 8 satellites (9800 km, e 0.39, i 58 deg, AOP 56 deg:
-0.994 km/s/yr worst satellite, 92.2 % over the year, 85.6 % in its worst month); at 12 satellites a 9800 km, e 0.31,
-i 61 deg, AOP 109 deg design flies 0.011 (98.1 %); none was flown at 6 or 16 (no feasible design of those sizes meets
-90 % in this small campaign). The paper claims six satellites below 0.4 km/s/yr. Cost: the validation took 198 s on 2
-workers (53-66 s a design, a machine with load 5-7 on 2 cores), beside the campaign's 107 s.
+Verdict (``quick_operational``, one-year life, 24 x 12 NSGA-II, 6 designs flown: the 5 cheapest front designs by the
+worst satellite's estimate and one 12-satellite headline candidate; ``reproduce --only 06 07``, commit dbb356b,
+2026-11-25): the estimate does not hold on the front. The cheapest front designs (8 satellites, 2 x 4, a 9700-10200 km,
+e 0.39, i 58 deg, AOP 56-58 deg) are priced at zero by the estimate and fly 0.95-1.25 km/s per satellite and year in
+closed loop (worst satellite 0.99-1.98), most of it the navigation monitor's restores (0.48-0.87) and relative node
+(0.13-0.46), which the estimate leaves out or prices at nothing; two of the five lose two satellites on day 161. The
+search steers into the estimate's blind spot. Over the 4 kept designs Spearman rho is -0.77 and none is within a
+factor 2 (mean or worst satellite). Headline: the smallest kept design meeting 90 % PDOP availability over the year
+within 1 km/s/yr (worst satellite) has 8 satellites (9800 km, e 0.39, i 58 deg, AOP 56 deg: 0.994 km/s/yr worst
+satellite, 92.2 % over the year, 85.6 % in its worst month); at 12 satellites a 9700 km, e 0.39, i 50 deg, AOP 112 deg
+design flies 0.47 (97.0 %, navigation restores only); none was flown at 6 or 16 (no feasible design of those sizes
+meets 90 % in this small campaign). The paper claims six satellites below 0.4 km/s/yr. Cost: the closed loops took
+350 s summed over the 6 designs (38-91 s each) on 2 workers, beside a five-year campaign running on the same 2 cores.
 """
 
 from __future__ import annotations
