@@ -49,14 +49,31 @@ LABELS = {                  # key -> human label with its unit: figures, tables,
     "wall_s": "wall time (s)", "evaluated": "evaluated (closed orbit, no impact)", "reason": "reason not evaluated",
     "meets_bounds": "meets every Table 3 bound", "violated_bounds": "Table 3 bounds violated",
     "element_frame": "element frame", "epoch_used": "epoch (TDB)", "epoch_source": "epoch from",
+    # the front flown in closed loop (validated.nc, lnss_lib.campaign.validation)
+    "closed_loop_dv_kms_per_year": "closed-loop Delta-V, mean (km/s/yr)",
+    "closed_loop_dv_max_kms_per_year": "closed-loop Delta-V, worst satellite (km/s/yr)",
+    "pdop_avail_pct_life": "PDOP availability over the life (%)", "hdop_avail_pct_life": "HDOP availability over the life (%)",
+    "pdop_avail_pct_worst_month": "PDOP availability, worst month (%)",
+    "hdop_avail_pct_worst_month": "HDOP availability, worst month (%)",
+    "min_perilune_alt_km": "lowest perilune under control (km)", "impact_day": "first satellite lost (day)",
+    "n_lost": "satellites lost", "requirement_held": "every tolerance held", "n_maneuvers": "manoeuvres",
+    "status": "closed-loop status", "selected_for": "flown as",
 }
+CLOSED_LOOP_PURPOSE = ("closed_loop_dv_", "_kms_per_year")   # closed_loop_dv_<purpose>_kms_per_year: Delta-V by purpose
 
 
 def label(key: str) -> str:
     """The human label (with unit) of a design, metric or result key, also with an elevation-mask suffix
-    (``pdop_avail_pct_mask20deg`` -> ``"PDOP availability (%), 20 deg mask"``); other text is returned as is."""
+    (``pdop_avail_pct_mask20deg`` -> ``"PDOP availability (%), 20 deg mask"``) and the closed loop's Delta-V by purpose
+    (``closed_loop_dv_relative_node_kms_per_year`` -> ``"closed-loop Delta-V, relative node (km/s/yr)"``); other text
+    is returned as is."""
     base, mask = _unmasked(key)
-    return f"{LABELS[base]}, {mask} deg mask" if mask and base in LABELS else LABELS.get(key, key)
+    if mask and base in LABELS:
+        return f"{LABELS[base]}, {mask} deg mask"
+    head, tail = CLOSED_LOOP_PURPOSE
+    if key not in LABELS and key.startswith(head) and key.endswith(tail) and len(key) > len(head) + len(tail):
+        return f"closed-loop Delta-V, {key[len(head):-len(tail)].replace('_', ' ')} (km/s/yr)"
+    return LABELS.get(key, key)
 
 
 def _unmasked(key: str) -> tuple[str, str]:
@@ -83,6 +100,8 @@ def value_format(key: str) -> str:
     key = _unmasked(key)[0]
     if key.endswith("_kms_per_year") or key in ("ecc",):
         return ".3f"
+    if "_pct_" in key:                         # a percentage over a span (pdop_avail_pct_life)
+        return ".1f"
     if "dop" in key and not key.endswith("_pct"):
         return ".2f"
     if key.endswith("_km"):

@@ -79,7 +79,7 @@ def test_records_show_workbook_paths_and_formatted_tables():
     assert display_path("/somewhere/else/run_1") == "run_1"          # never a machine's absolute prefix
     frame = pd.DataFrame({"sma_km": [19100.4], "ecc": [0.6], "impact_day": [np.nan], "region": ["frozen family"]})
     shown = display_table(frame, ["sma_km", "impact_day", "region"])
-    assert list(shown.columns) == ["semi-major axis (km)", "impact_day", "region"]
+    assert list(shown.columns) == ["semi-major axis (km)", "first satellite lost (day)", "region"]
     assert shown.iloc[0].tolist() == ["19100", "-", "frozen family"]
 
 
@@ -89,3 +89,14 @@ def test_mask_suffixed_keys_keep_their_label_and_format():
     assert label("pdop_avail_pct_mask20deg") == "PDOP availability (%), 20 deg mask"
     assert format_value("mean_visible_sats_mask5deg", 11.33671) == "11.34"
     assert label("table4_elfo_mask") == "table4_elfo_mask"            # not a key: unchanged
+
+
+def test_the_validated_fronts_keys_read_as_words_with_units():
+    from lnss_lib.campaign.validation import CLOSED_LOOP_KEYS
+    from lnss_lib.keys import format_value, label
+
+    assert label("closed_loop_dv_relative_node_kms_per_year") == "closed-loop Delta-V, relative node (km/s/yr)"
+    assert label("closed_loop_dv__kms_per_year") == "closed_loop_dv__kms_per_year"    # no purpose: not a key
+    assert all(label(k) != k for k in CLOSED_LOOP_KEYS)
+    assert format_value("pdop_avail_pct_life", 92.1617) == "92.2"
+    assert format_value("closed_loop_dv_max_kms_per_year", 0.99412) == "0.994"
