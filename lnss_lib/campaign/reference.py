@@ -35,7 +35,7 @@ import xarray as xr
 from ..atomicio import write_bytes_atomic, write_netcdf_atomic, write_text_atomic
 from ..config import OUTPUTS_DIR, profile_hash
 from ..errors import ConfigError
-from ..keys import DESIGN_KEYS, LABELS, TIMING_KEYS
+from ..keys import DESIGN_KEYS, TIMING_KEYS, label
 from ..settings import settings_from_profile
 from .fitness import bound_masks, deltav_constraint, parse_constraints, satisfies
 from .journal import JOURNAL_FILE, parse_journal, read_cache_records
@@ -87,7 +87,7 @@ def _long_name(name: str) -> str:
         return f"best {_long_name(name[5:])} among the feasible designs so far"
     if name.startswith("time_") and name[5:-2] in TIMING_KEYS:
         return f"{name[5:-2]} time per design evaluated"
-    text = LABELS.get(name, name.replace("_", " ")).split(" (")[0]
+    text = (label(name) if label(name) != name else name.replace("_", " ")).split(" (")[0]
     return f"{text} (per satellite and year)" if name.startswith("dv_") and "_max_" not in name else text
 
 

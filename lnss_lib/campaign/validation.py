@@ -58,17 +58,12 @@ def _closed_loop_keys() -> tuple[str, ...]:
 CLOSED_LOOP_KEYS = _closed_loop_keys()
 """The numbers :func:`validation_task` returns for a design (NaN where undefined: an error, no impact)."""
 
-_LONG_NAMES = {
+_LONG_NAMES = {   # where a CF long_name says more than the key's label (lnss_lib.keys.LABELS)
     "closed_loop_dv_kms_per_year": "closed-loop station-keeping Delta-V per satellite and year (mean over satellites)",
     "closed_loop_dv_max_kms_per_year": "closed-loop station-keeping Delta-V per year of the worst satellite",
-    "min_perilune_alt_km": "lowest osculating perilune altitude of any satellite under control",
-    "impact_day": "first day a satellite is lost under control (NaN: none)", "n_lost": "satellites lost under control",
-    "pdop_avail_pct_worst_month": "south-pole PDOP availability of the worst month",
-    "hdop_avail_pct_worst_month": "south-pole HDOP availability of the worst month",
-    "pdop_avail_pct_life": "south-pole PDOP availability over the design life",
-    "hdop_avail_pct_life": "south-pole HDOP availability over the design life",
+    "impact_day": "first day a satellite is lost under control (NaN: none)",
     "requirement_held": "1: the controller held every quantity it keeps within its tolerance (box_held); 0: not",
-    "n_maneuvers": "manoeuvres flown (all satellites)", "wall_s": "wall time of the design's closed loop",
+    "wall_s": "wall time of the design's closed loop",
     "selected_for": "why the design was flown: front, headline or front+headline",
     "status": "kept: no satellite lost; failed: a satellite lost under control; error: the closed loop raised",
     "error": "message of a closed loop that raised (empty when none)", "n_sat": "satellites of the design",
