@@ -19,14 +19,15 @@ from pathlib import Path
 import numpy as np
 
 from ..progress import CellProgress
-from .fitness import constraint_matrix, constraint_violation, hypervolume, metric_columns
+from .fitness import (constraint_matrix, constraint_violation, front_of, hypervolume_of_front, hypervolume_points,
+                      metric_columns)
 from .rundir import write_checkpoint
 from .settings import CampaignPlan
 from .timing import generation_timing
 
 __all__ = ["Callback", "RunState", "CampaignStopped", "ErrorGuard", "HistoryRecorder", "Checkpointer", "ProgressBars", "CellProgressBar",
            "session_rate",
-           "generation_stats", "progress_text"]
+           "generation_stats", "RunningStats", "progress_text"]
 
 
 @dataclass
@@ -72,27 +73,63 @@ class Callback:
         """After the last generation of this session."""
 
 
+class RunningStats:
+    """The per-generation statistics of a run (:func:`generation_stats`), kept up to date with the designs the journal
+    gained since the last generation: counts, each design's constraint violation, the best value of each objective and
+    the non-dominated feasible points of the hypervolume, so a generation costs its new designs, not every design so
+    far (at generation 300 of a 120 x 1000 campaign, 35,000 designs: 17 s a generation before). Within a session the
+    journal only grows (the batch evaluates designs it does not hold); a session starts from the whole journal."""
+
+    def __init__(self, settings: CampaignPlan):
+        self.settings = settings
+        self.n_seen = 0
+        self.n_feasible = 0
+        self.violation: dict[tuple, tuple[float, bool]] = {}
+        self.best: dict[str, float] = {}
+        self.front = np.zeros((0, len(settings.hypervolume)))
+
+    def update(self, records: list[dict]) -> None:
+        """Take the records after the first ``n_seen`` of the journal's (insertion order)."""
+        new = records[self.n_seen:]
+        if not new:
+            return
+        settings = self.settings
+        columns = metric_columns(new, settings.extra_metrics)
+        cv = constraint_violation(constraint_matrix(columns, settings.constraints, settings.nan_violation))
+        feasible = columns["ok"] & (cv == 0.0)
+        self.violation.update((tuple(r["key"]), (float(c), bool(f))) for r, c, f in zip(new, cv, feasible))
+        self.n_seen, self.n_feasible = len(records), self.n_feasible + int(feasible.sum())
+        for name in settings.objectives:
+            metric, larger = name.lstrip("-"), name.startswith("-")
+            values = columns[metric][feasible].astype(float)
+            values = values[np.isfinite(values)]
+            if values.size:
+                best = values.max() if larger else values.min()
+                old = self.best.get(metric, math.nan)
+                self.best[metric] = float(best if math.isnan(old) else (max(old, best) if larger else min(old, best)))
+        if settings.hypervolume and feasible.any():
+            points = hypervolume_points(columns, feasible, settings.hypervolume)
+            self.front = front_of(np.concatenate([self.front, points]))
+
+    def stats(self, pop_keys: list[tuple]) -> dict:
+        """The numbers of the history entry, for the population ``pop_keys``."""
+        pop = [self.violation[k] for k in pop_keys]
+        stats = {"n_evaluations_cum": self.n_seen, "n_feasible_cum": self.n_feasible,
+                 "n_feasible_pop": sum(f for _, f in pop),
+                 "min_cv_pop": min(c for c, _ in pop) if pop else math.nan,
+                 "hypervolume": hypervolume_of_front(self.front)}
+        for name in self.settings.objectives:
+            metric = name.lstrip("-")
+            stats[f"best_{metric}"] = self.best.get(metric, math.nan)
+        return stats
+
+
 def generation_stats(settings: CampaignPlan, records: list[dict], pop_keys: list[tuple]) -> dict:
-    """Deterministic per-generation numbers from the cache so far and the population's keys."""
-    columns = metric_columns(records, settings.extra_metrics)
-    cv = constraint_violation(constraint_matrix(columns, settings.constraints, settings.nan_violation))
-    feasible = columns["ok"] & (cv == 0.0)
-    by_key = {tuple(r["key"]): i for i, r in enumerate(records)}
-    pop_idx = np.array([by_key[k] for k in pop_keys], dtype=int)
-    stats = {
-        "n_evaluations_cum": len(records),
-        "n_feasible_cum": int(feasible.sum()),
-        "n_feasible_pop": int(feasible[pop_idx].sum()),
-        "min_cv_pop": float(cv[pop_idx].min()) if pop_idx.size else math.nan,
-        "hypervolume": hypervolume(columns, feasible, settings.hypervolume),
-    }
-    for name in settings.objectives:
-        metric = name.lstrip("-")
-        values = columns[metric][feasible].astype(float)
-        values = values[np.isfinite(values)]
-        best = (values.max() if name.startswith("-") else values.min()) if values.size else math.nan
-        stats[f"best_{metric}"] = float(best)
-    return stats
+    """Deterministic per-generation numbers from the cache so far and the population's keys (:class:`RunningStats`
+    over every record at once)."""
+    running = RunningStats(settings)
+    running.update(records)
+    return running.stats(pop_keys)
 
 
 class CampaignStopped(RuntimeError):
@@ -137,11 +174,20 @@ class HistoryRecorder(Callback):
     ``wall_s`` is the generation's evaluation wall time plus these statistics over every design so far, which grow
     with the run (a 1000-generation run's numbers are its wall time, not the evaluations' alone)."""
 
+    def __init__(self):
+        self.running = None
+
+    def on_session_start(self, state: RunState) -> None:
+        self.running = RunningStats(state.settings)
+
     def on_generation_end(self, state: RunState) -> None:
         start = time.perf_counter()
         records = list(state.cache.records.values())
         pop_keys = [tuple(int(v) for v in row) for row in np.rint(state.algorithm.pop.get("X"))]
-        stats = generation_stats(state.settings, records, pop_keys)
+        if self.running is None:
+            self.running = RunningStats(state.settings)
+        self.running.update(records)
+        stats = self.running.stats(pop_keys)
         wall = state.wall_s + (time.perf_counter() - start)
         last = state.batch.last
         state.history.append({"generation": state.generation, "n_designs": state.n_designs,

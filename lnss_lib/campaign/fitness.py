@@ -15,6 +15,7 @@ import numpy as np
 from ..keys import EXTRA_METRIC_KEYS, METRIC_KEYS, NON_NAVIGATION_METRICS, bound_text
 
 __all__ = ["objective_matrix", "constraint_matrix", "constraint_violation", "non_dominated_mask", "hypervolume",
+           "hypervolume_points", "front_of", "hypervolume_of_front",
            "metric_columns", "parse_constraints", "satisfies", "deltav_constraint"]
 
 
@@ -76,18 +77,34 @@ def non_dominated_mask(f: np.ndarray, chunk: int = 512) -> np.ndarray:
     return keep
 
 
+def hypervolume_points(metrics: dict, feasible: np.ndarray, reference) -> np.ndarray:
+    """The feasible designs in the space of ``reference`` metrics ``((metric, value), ...)``, each divided by its
+    reference value, those inside the box [0, 1) only: (m, len(reference))."""
+    points = np.column_stack([np.asarray(metrics[m], dtype=float)[feasible] / ref for m, ref in reference])
+    return points[np.all(points < 1.0, axis=1)]
+
+
+def front_of(points: np.ndarray) -> np.ndarray:
+    """The non-dominated rows of ``points``, sorted lexicographically (one order, however they were gathered)."""
+    front = points[non_dominated_mask(points)]
+    return front[np.lexsort(tuple(front[:, j] for j in range(front.shape[1] - 1, -1, -1)))]
+
+
+def hypervolume_of_front(front: np.ndarray) -> float:
+    """Hypervolume of normalised points (ideal at 0, reference point at 1) given as their :func:`front_of`."""
+    if front.shape[0] == 0:
+        return 0.0
+    from pymoo.indicators.hv import HV      # the indicator alone: no algorithm machinery
+
+    return float(HV(ref_point=np.ones(front.shape[1]))(front))
+
+
 def hypervolume(metrics: dict, feasible: np.ndarray, reference) -> float:
     """Hypervolume of the feasible designs in the space of ``reference`` metrics, normalised per metric
     by the reference value (ideal at 0, reference point at 1), so 1 is the whole box [0, ref]."""
     if not reference or not np.any(feasible):
         return 0.0
-    points = np.column_stack([np.asarray(metrics[m], dtype=float)[feasible] / ref for m, ref in reference])
-    points = points[np.all(points < 1.0, axis=1)]
-    if points.shape[0] == 0:
-        return 0.0
-    from pymoo.indicators.hv import HV      # the indicator alone: no algorithm machinery
-
-    return float(HV(ref_point=np.ones(points.shape[1]))(points[non_dominated_mask(points)]))
+    return hypervolume_of_front(front_of(hypervolume_points(metrics, feasible, reference)))
 
 
 def metric_columns(records: list[dict], extras=()) -> dict:

@@ -109,3 +109,41 @@ def test_non_dominated_mask_with_ties_and_duplicates_across_chunks(rng):
     for chunk in (1, 7, 64, 10_000):
         np.testing.assert_array_equal(non_dominated_mask(f, chunk=chunk), brute)
     assert non_dominated_mask(np.zeros((0, 3))).shape == (0,)
+
+
+def test_running_statistics_equal_the_statistics_over_every_design(settings, rng):
+    """A run's per-generation numbers kept up to date generation by generation (RunningStats) equal those computed
+    over every design at once, and the hypervolume equals pymoo's on the brute-force front in journal order."""
+    from pymoo.indicators.hv import HV
+
+    from lnss_lib.campaign.callbacks import RunningStats, generation_stats
+    from lnss_lib.keys import METRIC_KEYS
+
+    n = 900
+    values = {"n_sat": rng.integers(4, 24, n), "pdop_mean_3sigma": rng.uniform(1, 14, n),
+              "pdop_avail_pct": rng.uniform(50, 100, n), "hdop_mean_3sigma": rng.uniform(0.5, 12, n),
+              "hdop_avail_pct": rng.uniform(50, 100, n), "dv_total_kms_per_year": rng.uniform(0.2, 1.3, n),
+              "dv_opt_kms_per_year": rng.uniform(0.1, 1.0, n), "gps_visible_mean": rng.uniform(3, 9, n),
+              "gps_pdop_mean": rng.uniform(5, 2000, n), "mean_visible_sats": rng.uniform(2, 8, n)}
+    records = [{"key": [i, 0, 0, 0, 0, 0], "ok": bool(i % 17), "metrics": {k: float(values[k][i]) for k in METRIC_KEYS}}
+               for i in range(n)]
+    running = RunningStats(settings)
+    for stop in (0, 1, 120, 121, 480, 900):
+        running.update(records[:stop])
+        pop = [tuple(r["key"]) for r in records[max(0, stop - 120):stop]]
+        whole = generation_stats(settings, records[:stop], pop)
+        incremental = running.stats(pop)
+        assert incremental.keys() == whole.keys()
+        for key, value in whole.items():
+            assert incremental[key] == pytest.approx(value, rel=1e-12, nan_ok=True), key
+    assert running.n_feasible > 50
+    columns = {k: values[k] for k in METRIC_KEYS}
+    feasible = np.array([r["ok"] for r in records]) & np.all(
+        [values["pdop_mean_3sigma"] <= 10, values["pdop_avail_pct"] >= 70, values["dv_total_kms_per_year"] <= 1.0,
+         values["n_sat"] <= 20], axis=0)
+    assert running.n_feasible == feasible.sum()
+    points = np.column_stack([columns[m][feasible] / ref for m, ref in settings.hypervolume])
+    points = points[np.all(points < 1.0, axis=1)]
+    brute = np.array([not any(np.all(q <= p) and np.any(q < p) for q in points) for p in points])
+    assert running.stats([])["hypervolume"] == pytest.approx(HV(ref_point=np.ones(points.shape[1]))(points[brute]),
+                                                            rel=1e-12)
