@@ -3,7 +3,8 @@
 :func:`collect` reads ``outputs/<profile>/`` (the manifest, the tables the notebooks wrote and the
 campaigns' ``evaluations.nc``) and returns one :class:`Finding` per headline result: Table 4 of the
 standalone ELFO with GPS (notebook 05), the campaigns against Table 3 and the smallest constellation
-(06-07), the campaign designs over the design life (08) and the published constellations (10). Paper
+(06-07), the paper's headline from the operational front flown in closed loop (07), the campaign designs over the
+design life (08) and the published constellations (10). Paper
 values come from :mod:`lnss_lib.paper`; no number is typed here. A topic whose outputs are missing says
 which notebook writes them. :func:`findings_markdown` writes ``FINDINGS.md``; :func:`findings_html` the
 top of ``index.html`` (:func:`lnss_lib.pipeline.write_index`).
@@ -22,9 +23,9 @@ from .campaign.fitness import deltav_constraint, parse_constraints, satisfies
 from .campaign.publication import load_published
 from .keys import NON_NAVIGATION_METRICS, format_value, label
 from .outputs import profile_dir
-from .paper import EVALUATIONS, FEASIBLE_DESIGNS, SMALL_CONSTELLATION_SATS, TABLE_4
+from .paper import EVALUATIONS, FEASIBLE_DESIGNS, SMALL_CONSTELLATION_SATS, SMALLEST_CONSTELLATION, TABLE_4
 
-__all__ = ["Finding", "run_summary", "collect", "findings_markdown", "findings_html", "write_findings",
+__all__ = ["Finding", "run_summary", "collect", "headline_findings", "findings_markdown", "findings_html", "write_findings",
            "FINDINGS_FILE"]
 
 FINDINGS_FILE = "FINDINGS.md"
@@ -163,7 +164,8 @@ def campaign_findings(root: Path, profile_name: str, companion: str | None) -> l
                    "no design meets every bound: this is the smallest meeting the navigation bounds") + (
                    "; the paper's Delta-V comes from its capped singular inverse (notebook 04)"
                    if dv_metric == "dv_total_kms_per_year" else
-                   f"; the Delta-V bound applies to the {label(dv_metric)}, what an operator would fly") + "."
+                   f"; the Delta-V bound applies to the {label(dv_metric)}, the campaign's estimate of what an operator "
+                   "would fly (flown in closed loop: the headline row, when the front was validated)") + "."
         else:
             ours, why = "none", "no design meets the navigation bounds in this short campaign"
         found.append(Finding(f"Smallest constellation ({kind}, {name})",
@@ -197,6 +199,38 @@ def design_life_findings(root: Path) -> list[Finding]:
     return found
 
 
+def headline_findings(root: Path) -> list[Finding]:
+    """The paper's headline answered from designs flown in closed loop (``07_headline_validated.csv``, written when
+    the operational front was validated: :mod:`lnss_lib.studies.front_validation`); none when there is no such table."""
+    path = root / "tables" / "07_headline_validated.csv"
+    if not path.is_file():
+        return []
+    rows = {r.get("row", ""): r for r in _read_csv(path)}
+    smallest = rows.get("smallest", {})
+    flown, failed = _number(smallest.get("flown")), _number(smallest.get("failed or error"))
+    paper = (f"{SMALLEST_CONSTELLATION['n_sat']} satellites, over {SMALLEST_CONSTELLATION['availability_pct']:g} % "
+             f"availability, below {SMALLEST_CONSTELLATION['dv_below_kms_per_year']:g} km/s/yr")
+    if smallest.get("result") == "validated":
+        design = (f"a {format_value('sma_km', _number(smallest['sma_km']))} km, e {format_value('ecc', _number(smallest['ecc']))}, "
+                  f"i {format_value('inc_deg', _number(smallest['inc_deg']))} deg, "
+                  f"{int(_number(smallest['n_planes']))} planes x {int(_number(smallest['sats_per_plane']))}")
+        ours = (f"{int(_number(smallest['n_sat']))} satellites, "
+                f"{format_value('pdop_avail_pct_life', _number(smallest['pdop_avail_pct_life']))} % over the life, "
+                f"{format_value('closed_loop_dv_max_kms_per_year', _number(smallest['closed_loop_dv_max_kms_per_year']))}"
+                f" km/s/yr worst satellite ({design})")
+    else:
+        ours = "no validated design meets both"
+    sizes = ", ".join(f"{name.split()[0]}: " + (format_value("closed_loop_dv_max_kms_per_year",
+                                                            _number(r["closed_loop_dv_max_kms_per_year"]))
+                                               if r.get("result") == "validated" else "none")
+                      for name, r in rows.items() if name.endswith("satellites"))
+    why = (f"flown in closed loop over the design life with the service controller, every satellite "
+           f"({flown:.0f} designs flown, {failed:.0f} lost a satellite or failed); worst-satellite km/s/yr by size: "
+           f"{sizes}.")
+    return [Finding("The paper's headline, flown in closed loop (operational)", paper, ours, why,
+                    _figure(root, "07_headline_validated") + _notebook(root, "07"))]
+
+
 def published_findings(root: Path) -> list[Finding]:
     """The published constellations measured on one yardstick (``10_published_comparison.csv``)."""
     path = root / "tables" / "10_published_comparison.csv"
@@ -218,7 +252,7 @@ def published_findings(root: Path) -> list[Finding]:
 def collect(profile_name: str, companion: str | None = None) -> list[Finding]:
     """Every finding of the run under ``outputs/<profile>/``, in reading order."""
     root = profile_dir(profile_name)
-    return (table4_findings(root) + campaign_findings(root, profile_name, companion)
+    return (table4_findings(root) + campaign_findings(root, profile_name, companion) + headline_findings(root)
             + design_life_findings(root) + published_findings(root))
 
 

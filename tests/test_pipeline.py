@@ -312,3 +312,21 @@ def test_notebook_renderer_is_default_only_in_a_kernel():
     import plotly.io as pio
 
     assert figures.use_notebook_renderer() is False and pio.renderers.default != figures.NOTEBOOK_RENDERER
+
+
+def test_the_headline_finding_reads_the_front_flown_in_closed_loop(outputs):
+    import pandas as pd
+
+    assert findings.headline_findings(outputs / "t") == []              # no validated front: no row
+    columns = ["result", "n_sat", "n_planes", "sats_per_plane", "sma_km", "ecc", "inc_deg", "aop_deg",
+               "closed_loop_dv_max_kms_per_year", "closed_loop_dv_kms_per_year", "pdop_avail_pct_life",
+               "pdop_avail_pct_worst_month", "flown", "failed or error"]
+    table = pd.DataFrame([["validated", 8, 2, 4, 9800.0, 0.39, 58.0, 56.0, 0.994, 0.976, 92.16, 85.6, 6, 2],
+                          ["none validated"] + [np.nan] * 11 + [0, 0],
+                          ["validated", 8, 2, 4, 9800.0, 0.39, 58.0, 56.0, 0.994, 0.976, 92.16, 85.6, 5, 2]],
+                         columns=columns, index=pd.Index(["smallest", "6 satellites", "8 satellites"], name="row"))
+    lnss_lib.outputs.save_table(table, "t", "07_headline_validated", caption="headline")
+    (found,) = findings.headline_findings(outputs / "t")
+    assert found.workbook.startswith("8 satellites, 92.2 % over the life, 0.994 km/s/yr worst satellite")
+    assert "6 designs flown, 2 lost a satellite or failed" in found.why and "6: none, 8: 0.994" in found.why
+    assert found.paper.startswith("6 satellites")
