@@ -13,12 +13,14 @@ __all__ = ["campaign_timing", "concurrent_workers", "steady_rate", "generation_t
 
 
 def concurrent_workers(records: list[dict]) -> int:
-    """Worker processes that ran at once: the most distinct workers of one generation in the cache records (a run
-    resumed in another session has new worker names; counting every name would multiply its worker time)."""
+    """Worker processes that ran at once: the most common number of distinct workers in a generation of the cache
+    records (a run resumed in another session has new worker names, and the generation it was stopped in mixes both
+    sessions'; counting every name would multiply its worker time)."""
     by_generation: dict = {}
     for record in records:
         by_generation.setdefault(record.get("generation"), set()).add(record.get("worker"))
-    return max((len(names) for names in by_generation.values()), default=1)
+    counts = [len(names) for names in by_generation.values()]
+    return max(set(counts), key=lambda c: (counts.count(c), c)) if counts else 1
 
 
 def campaign_timing(run_dir, n_workers: int, wall_s: float) -> dict:
