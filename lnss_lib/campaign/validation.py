@@ -11,8 +11,10 @@ journal's format and parser, :mod:`lnss_lib.campaign.journal`: a torn last line 
 flies only the designs not journaled), then ``validated.nc`` is written atomically beside ``front.nc``
 (:data:`VALIDATED_FILE`, dimension ``design``, CF-1.8). A design whose closed loop raises is kept with
 ``status = "error"`` and its message, one that loses a satellite (impact, escape) under control with
-``status = "failed"``; none is dropped (an error record is flown again when the validation is resumed, as the
-campaign retries evaluation errors). The campaign layer imports the design-life kernels (layer 2), never the other
+``status = "failed"``; none is dropped. A closed loop that raises is an error, never a result: as the campaign's
+evaluation errors (:class:`~lnss_lib.campaign.callbacks.ErrorGuard`), more than ``[campaign] max_errors`` of them stop
+the validation (:class:`~lnss_lib.campaign.callbacks.CampaignStopped`, after ``validated.nc`` is written with what was
+flown, the run left unpublished); an error record is flown again when the validation is resumed. The campaign layer imports the design-life kernels (layer 2), never the other
 way round.
 """
 
@@ -32,6 +34,7 @@ from ..errors import ConfigError
 from ..keys import DESIGN_KEYS, INTEGER_DESIGN_KEYS, METRIC_KEYS
 from ..progress import CellProgress
 from ..settings import FrontValidationSettings, Settings, settings_from_profile
+from .callbacks import CampaignStopped
 from .journal import EvaluationCache
 from .rundir import export_results, load_checkpoint, load_run
 from .settings import CampaignPlan, evaluation_profile
@@ -244,18 +247,22 @@ def validate_front(run_dir, *, workers: int | None = None, scheduler_address: st
     selection = select_designs(evaluations, front, settings.front_validation)
     journal = EvaluationCache(run_dir / VALIDATION_JOURNAL, run["evaluation_hash"], is_record=_is_validation_record)
     todo = [row for row in selection if _key(row) not in journal]
-    backend = None
+    plan = CampaignPlan.of(settings)
+    backend, stopped = None, None
     bar = CellProgress(len(selection), "front validation", "designs", initial=len(selection) - len(todo))
     tqdm_bar = _tqdm(len(selection), len(selection) - len(todo)) if progress and bar.closed else None
     try:
         if todo:
-            backend = open_backend(eval_settings, CampaignPlan.of(settings), workers, scheduler_address,
+            backend = open_backend(eval_settings, plan, workers, scheduler_address,
                                    task=validation_task if task is None else task)
             for index, record in backend.run(todo):
                 journal.add(_key(todo[index]), record)
                 bar.update(note=f"{record['status']}")
                 if tqdm_bar is not None:
                     tqdm_bar.update(1)
+                if journal.n_errors > plan.max_errors:
+                    stopped = _stopped(run_dir, journal.n_errors, plan.max_errors, todo[index], record)
+                    break
     finally:
         bar.close()
         if tqdm_bar is not None:
@@ -270,8 +277,19 @@ def validate_front(run_dir, *, workers: int | None = None, scheduler_address: st
              "max_sats_per_plane": settings.front_validation.max_sats_per_plane, "cost_key": COST_KEY}
     ds = validated_dataset(selection, records, evaluations, settings, attrs)
     path = write_netcdf_atomic(ds, run_dir / VALIDATED_FILE)
+    if stopped is not None:
+        raise stopped
     n_journaled = sum(_key(row) in records for row in selection)
     return ValidationResult(path, len(selection), len(todo), n_journaled, time.perf_counter() - start, ds)
+
+
+def _stopped(run_dir: Path, n_errors: int, limit: int, design: dict, record: dict) -> CampaignStopped:
+    """The stop of a validation whose closed loops raised more than ``limit`` times (``record``: the last)."""
+    shown = {k: design[k] for k in DESIGN_KEYS}
+    return CampaignStopped(
+        f"front validation stopped: {n_errors} closed loop(s) raised, more than campaign.max_errors = {limit}; design "
+        f"{shown}: {record['error']}; every record is in {run_dir / VALIDATION_JOURNAL}; once the cause is removed: "
+        f"python -m lnss_lib campaign --validate {run_dir}", errors=n_errors, first=record)
 
 
 def _tqdm(total: int, initial: int):

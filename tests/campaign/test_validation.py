@@ -20,7 +20,7 @@ from lnss_lib.design_life.service import PURPOSES
 from lnss_lib.keys import DESIGN_KEYS
 from lnss_lib.settings import load_settings
 
-VALIDATING = {"campaign": {"evaluator": "synthetic"},      # the synthetic ci front's feasible sizes are 10 and 12
+VALIDATING = {"campaign": {"evaluator": "synthetic", "max_errors": 10},   # the stand-in's injected errors tolerated
               "front_validation": {"max_designs": 2, "headline_per_size": 2, "headline_sizes": [10, 12],
                                    "availability_min_pct": 75.0}}
 
@@ -124,6 +124,35 @@ def test_failed_and_raising_designs_are_kept(validated_run):
             assert status == "failed" and ds["n_lost"].values[i] == 1 and ds["impact_day"].values[i] == 10.0
         else:
             assert status == "kept" and ds["error"].values[i] == ""
+
+
+def test_raising_closed_loops_stop_the_validation(tmp_path, capsys):
+    """More closed loops raising than campaign.max_errors (0) stop the validation like the campaign's evaluation
+    errors: CampaignStopped naming the design and the journal, validated.nc written with the error kept and marked
+    incomplete, the run not published; from the command line exit 1 in one line; resumed once the cause is gone, the
+    error record is flown again."""
+    from lnss_lib.campaign.callbacks import CampaignStopped
+
+    run_dir = tmp_path / "run"
+    strict = {**VALIDATING, "campaign": {"evaluator": "synthetic", "max_errors": 0}}
+    with pytest.MonkeyPatch.context() as patch:
+        patch.setattr(validation, "validation_task", fake_closed_loop)
+        with pytest.raises(CampaignStopped, match="closed loop.s. raised, more than campaign.max_errors = 0") as stop:
+            run_campaign("ci_operational", overrides=strict, workers=0, run_dir=run_dir, progress=False)
+        assert "injected" in str(stop.value) and VALIDATION_JOURNAL in str(stop.value) and stop.value.errors == 1
+        ds = xr.load_dataset(run_dir / VALIDATED_FILE, engine="h5netcdf")
+        assert ds.attrs["complete"] == 0 and list(ds["status"].values).count("error") == 1
+        code, err = _cli(["--validate", str(run_dir), "--no-progress"], capsys)
+    assert code == 1 and err.count("\n") == 1 and "more than campaign.max_errors" in err
+    flown = []
+
+    def mended(settings, design, *, numba_threads=0):
+        flown.append(design)
+        return fake_closed_loop(settings, {**design, "n_planes": 1})
+
+    result, _ = validate_run(run_dir, workers=0, progress=False, task=mended)
+    assert [d["n_planes"] for d in flown].count(5) >= 1 and "error" not in set(result.dataset["status"].values)
+    assert result.dataset.attrs["complete"] == 1
 
 
 def test_closed_loop_into_the_moon_is_failed_or_error():
