@@ -54,8 +54,9 @@ THINNING_SEED = 0
 PAPER_REFERENCE = ("Malik & Yang, Lunar Navigation System Optimization for Targeted Coverage with Semi-Analytical "
                    "Station Keeping Model and Earth-GPS Integration (Section 5, Tables 3, 5 and 6, Figures 8-16)")
 
-_UNITS = {"sma_km": "km", "aop_deg": "degree", "inc_deg": "degree", "screen_min_perilune_alt_km": "km",
-          "pdop_avail_pct": "percent", "hdop_avail_pct": "percent", "wall_s": "s", "designs_per_s": "s-1"}
+_UNITS = {"designs_per_s": "s-1"}        # where a name's suffix does not say its unit (:func:`_unit`)
+_SUFFIX_UNITS = (("kms_per_year", "km s-1 yr-1"), ("_km", "km"), ("_deg", "degree"), ("_pct", "percent"),
+                 ("_day", "day"), ("_s", "s"))
 _LONG_NAMES = {
     "n_designs": "designs asked for in the generation", "n_evaluated": "designs evaluated in the generation",
     "n_cache_hits": "designs of the generation answered by the evaluation journal",
@@ -72,12 +73,17 @@ _LONG_NAMES = {
 
 
 def _unit(name: str) -> str:
+    """The CF unit of a key by its unit suffix (``_km``, ``_deg``, ``_pct`` also inside, as ``pdop_avail_pct_life``,
+    ``_day``, ``_s``, ``kms_per_year``; ``time_`` keys are seconds), ``"1"`` for a count or ratio."""
     base = name.removeprefix("best_")
     if base in _UNITS:
         return _UNITS[base]
-    if "kms_per_year" in base:
-        return "km s-1 yr-1"
-    return "s" if base.startswith("time_") else "1"
+    if base.startswith("time_"):
+        return "s"
+    for suffix, unit in _SUFFIX_UNITS:
+        if base.endswith(suffix) or (suffix == "_pct" and "_pct_" in base):
+            return unit
+    return "1"
 
 
 def _long_name(name: str) -> str:
@@ -91,15 +97,15 @@ def _long_name(name: str) -> str:
     return f"{text} (per satellite and year)" if name.startswith("dv_") and "_max_" not in name else text
 
 
-def cf_variable_attrs(ds: xr.Dataset, long_names: dict | None = None, units: dict | None = None) -> xr.Dataset:
-    """A copy of ``ds`` with CF-1.8 ``units`` (none on text) and ``long_name`` on every variable and coordinate:
-    ``long_names`` / ``units`` first, then the campaign's names (labels of :mod:`lnss_lib.keys`)."""
+def cf_variable_attrs(ds: xr.Dataset, long_names: dict | None = None) -> xr.Dataset:
+    """A copy of ``ds`` with CF-1.8 ``units`` (none on text; :func:`_unit`) and ``long_name`` on every variable and
+    coordinate: ``long_names`` first, then the campaign's names (labels of :mod:`lnss_lib.keys`)."""
     ds = ds.copy()
-    long_names, units = long_names or {}, units or {}
+    long_names = long_names or {}
     for name in list(ds.data_vars) + list(ds.coords):
         attrs = {k: v for k, v in ds[name].attrs.items() if k != "units"}
         if ds[name].dtype.kind not in "US":
-            attrs["units"] = units.get(str(name)) or _unit(str(name))
+            attrs["units"] = _unit(str(name))
         ds[name].attrs = {**attrs, "long_name": long_names.get(str(name)) or _long_name(str(name))}
     return ds
 

@@ -71,9 +71,6 @@ _LONG_NAMES = {   # where a CF long_name says more than the key's label (lnss_li
     "status": "kept: no satellite lost; failed: a satellite lost under control; error: the closed loop raised",
     "error": "message of a closed loop that raised (empty when none)", "n_sat": "satellites of the design",
 }
-_UNITS = {"impact_day": "day", "n_lost": "1", "n_maneuvers": "1", "requirement_held": "1",
-          "pdop_avail_pct_worst_month": "percent", "hdop_avail_pct_worst_month": "percent",
-          "pdop_avail_pct_life": "percent", "hdop_avail_pct_life": "percent"}
 
 
 def _order_by_cost(ds: xr.Dataset, index: np.ndarray) -> np.ndarray:
@@ -196,7 +193,7 @@ def validated_dataset(selection: list[dict], records: dict, evaluations: xr.Data
     ds = xr.Dataset(data, coords={"design": np.arange(len(keys))})
     from .reference import cf_variable_attrs
 
-    ds = cf_variable_attrs(ds, _LONG_NAMES, _UNITS)
+    ds = cf_variable_attrs(ds, _LONG_NAMES)
     for name in ("requirement_held", "n_lost", "n_maneuvers"):
         ds[name].attrs["comment"] = "-1: not flown yet, or the closed loop raised"
     ds.attrs = {"Conventions": "CF-1.8", "title": "LNSS campaign front validated in closed loop (issue 20 item 4)",

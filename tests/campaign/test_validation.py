@@ -96,6 +96,9 @@ def test_validated_file_round_trips(validated_run):
     assert ds.attrs["complete"] == 1 and ds.attrs["life_days"] == 30.0 and ds.attrs["controller"] == "service"
     assert ds.attrs["element_frame"] == "moon_op" and ds.attrs["profile"] == "ci_operational"
     assert ds["requirement_held"].dtype == np.int8 and ds["closed_loop_dv_kms_per_year"].attrs["units"] == "km s-1 yr-1"
+    units = {"min_perilune_alt_km": "km", "impact_day": "day", "pdop_avail_pct_life": "percent", "wall_s": "s",
+             "n_lost": "1", "closed_loop_dv_navigation_kms_per_year": "km s-1 yr-1", "inc_deg": "degree"}
+    assert {name: ds[name].attrs["units"] for name in units} == units
     assert set(ds["status"].values) <= set(STATUSES)
     assert set(ds["selected_for"].values) <= {"front", "headline", "front+headline"}
     front = xr.load_dataset(validated_run / "front.nc", engine="h5netcdf")
