@@ -174,18 +174,13 @@ class HistoryRecorder(Callback):
     ``wall_s`` is the generation's evaluation wall time plus these statistics over every design so far, which grow
     with the run (a 1000-generation run's numbers are its wall time, not the evaluations' alone)."""
 
-    def __init__(self):
-        self.running = None
-
     def on_session_start(self, state: RunState) -> None:
-        self.running = RunningStats(state.settings)
+        self.running = RunningStats(state.settings)       # from the whole journal at the first generation
 
     def on_generation_end(self, state: RunState) -> None:
         start = time.perf_counter()
         records = list(state.cache.records.values())
         pop_keys = [tuple(int(v) for v in row) for row in np.rint(state.algorithm.pop.get("X"))]
-        if self.running is None:
-            self.running = RunningStats(state.settings)
         self.running.update(records)
         stats = self.running.stats(pop_keys)
         wall = state.wall_s + (time.perf_counter() - start)

@@ -14,7 +14,7 @@ import numpy as np
 
 from ..keys import EXTRA_METRIC_KEYS, METRIC_KEYS, NON_NAVIGATION_METRICS, bound_text
 
-__all__ = ["objective_matrix", "constraint_matrix", "constraint_violation", "non_dominated_mask", "hypervolume",
+__all__ = ["objective_matrix", "constraint_matrix", "constraint_violation", "non_dominated_mask",
            "hypervolume_points", "front_of", "hypervolume_of_front",
            "metric_columns", "parse_constraints", "satisfies", "deltav_constraint"]
 
@@ -97,14 +97,6 @@ def hypervolume_of_front(front: np.ndarray) -> float:
     from pymoo.indicators.hv import HV      # the indicator alone: no algorithm machinery
 
     return float(HV(ref_point=np.ones(front.shape[1]))(front))
-
-
-def hypervolume(metrics: dict, feasible: np.ndarray, reference) -> float:
-    """Hypervolume of the feasible designs in the space of ``reference`` metrics, normalised per metric
-    by the reference value (ideal at 0, reference point at 1), so 1 is the whole box [0, ref]."""
-    if not reference or not np.any(feasible):
-        return 0.0
-    return hypervolume_of_front(front_of(hypervolume_points(metrics, feasible, reference)))
 
 
 def metric_columns(records: list[dict], extras=()) -> dict:
