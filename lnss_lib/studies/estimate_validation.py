@@ -81,11 +81,11 @@ __all__ = ["FREE_KMS_PER_YEAR", "CACHE_FORMAT", "ESTIMATES", "FROZEN_MEMBERS", "
            "estimate_costs", "estimate_statistics", "estimate_outliers", "run_estimate_validation"]
 
 FREE_KMS_PER_YEAR = 0.005
+"""Two costs both below this (km/s per satellite and year) agree: neither has a ratio."""
 CACHE_FORMAT = 2                       # 2: the closed loop's tolerances recorded
 ESTIMATES = ("life", "campaign", "arc")
 """The estimates compared: the life estimate holding the closed loop's tolerances, the same as the campaign computes
 it (:func:`~lnss_lib.design_life.tolerances.estimate_tolerances_deg`), the 10-day box slope."""
-"""Two costs both below this (km/s per satellite and year) agree: neither has a ratio."""
 
 FROZEN_MEMBERS = ((5000.0, 0.4, 90.0, 3), (7000.0, 0.5, 270.0, 2), (9000.0, 0.55, 90.0, 4), (11000.0, 0.6, 270.0, 3))
 """(a km, e, AOP deg, planes) of the frozen-family members added (frozen i from :mod:`lnss_lib.design_life.frozen`)."""
@@ -170,8 +170,9 @@ def estimate_costs(settings: Settings, design, life_days: float, tolerances_deg:
     stability = dataclasses.replace(settings.stability, life_days=float(life_days))
     screen = screen_states(stability, dyn, states, t0)
     field = cached_field(stability, dyn, t0)[0]
-    est = life_estimate(settings.sk_estimate, settings.design_life, dyn, arc, screen, field, tolerances_deg)
     campaign = life_estimate(settings.sk_estimate, settings.design_life, dyn, arc, screen, field)
+    est = campaign if tolerances_deg is None else life_estimate(settings.sk_estimate, settings.design_life, dyn, arc,
+                                                                screen, field, tolerances_deg)
     return {"life": est["sk_dv_estimate_kms_per_year"], "campaign": campaign["sk_dv_estimate_kms_per_year"],
             "arc": sk_estimate_from_propagation(settings.sk_estimate, dyn, arc)["sk_dv_estimate_kms_per_year"],
             "split": {p: float(np.mean(est["per_sat"][p])) for p in PARTS}, "wall_s": est["wall_s"]}
