@@ -4,7 +4,7 @@ from __future__ import annotations
 
 __all__ = ["DESIGN_KEYS", "INTEGER_DESIGN_KEYS", "ELEMENT_KEYS", "METRIC_KEYS", "EXTRA_METRIC_KEYS",
            "CAMPAIGN_METRIC_KEYS", "RESULT_KEYS", "VERDICT_KEYS", "TIMING_KEYS", "DELTAV_SATELLITES",
-           "NEEDS_ALL_SATELLITES",
+           "NEEDS_ALL_SATELLITES", "CLOSED_LOOP_DV_BY_PURPOSE", "closed_loop_dv_key",
            "requested_extra_metrics", "NON_NAVIGATION_METRICS", "LABELS", "label", "bound_text", "value_format",
            "format_value"]
 
@@ -59,7 +59,12 @@ LABELS = {                  # key -> human label with its unit: figures, tables,
     "n_lost": "satellites lost", "requirement_held": "every tolerance held", "n_maneuvers": "manoeuvres",
     "status": "closed-loop status", "selected_for": "flown as",
 }
-CLOSED_LOOP_PURPOSE = ("closed_loop_dv_", "_kms_per_year")   # closed_loop_dv_<purpose>_kms_per_year: Delta-V by purpose
+CLOSED_LOOP_DV_BY_PURPOSE = "closed_loop_dv_{}_kms_per_year"   # the closed loop's Delta-V paid for one burn purpose
+
+
+def closed_loop_dv_key(purpose: str) -> str:
+    """The key of the closed-loop Delta-V paid for ``purpose`` (a burn purpose of the design-life controller)."""
+    return CLOSED_LOOP_DV_BY_PURPOSE.format(purpose)
 
 
 def label(key: str) -> str:
@@ -70,7 +75,7 @@ def label(key: str) -> str:
     base, mask = _unmasked(key)
     if mask and base in LABELS:
         return f"{LABELS[base]}, {mask} deg mask"
-    head, tail = CLOSED_LOOP_PURPOSE
+    head, tail = CLOSED_LOOP_DV_BY_PURPOSE.split("{}")
     if key not in LABELS and key.startswith(head) and key.endswith(tail) and len(key) > len(head) + len(tail):
         return f"closed-loop Delta-V, {key[len(head):-len(tail)].replace('_', ' ')} (km/s/yr)"
     return LABELS.get(key, key)

@@ -31,7 +31,7 @@ import xarray as xr
 
 from ..atomicio import write_netcdf_atomic
 from ..errors import ConfigError
-from ..keys import DESIGN_KEYS, INTEGER_DESIGN_KEYS, METRIC_KEYS
+from ..keys import DESIGN_KEYS, INTEGER_DESIGN_KEYS, METRIC_KEYS, closed_loop_dv_key
 from ..progress import CellProgress
 from ..settings import FrontValidationSettings, Settings, settings_from_profile
 from .callbacks import CampaignStopped
@@ -53,7 +53,7 @@ def _closed_loop_keys() -> tuple[str, ...]:
     from ..design_life.service import PURPOSES
 
     return ("closed_loop_dv_kms_per_year", "closed_loop_dv_max_kms_per_year",
-            *(f"closed_loop_dv_{p}_kms_per_year" for p in PURPOSES), "min_perilune_alt_km", "impact_day", "n_lost",
+            *(closed_loop_dv_key(p) for p in PURPOSES), "min_perilune_alt_km", "impact_day", "n_lost",
             "pdop_avail_pct_worst_month", "hdop_avail_pct_worst_month", "pdop_avail_pct_life", "hdop_avail_pct_life",
             "requirement_held", "n_maneuvers", "wall_s")
 
@@ -147,7 +147,7 @@ def validation_task(settings: Settings, design: dict, *, numba_threads: int = 0)
     lost = len(m["lost_satellites"])
     record = {"closed_loop_dv_kms_per_year": m["sk_dv_kms_per_year"],
               "closed_loop_dv_max_kms_per_year": m["sk_dv_max_kms_per_year"],
-              **{f"closed_loop_dv_{p}_kms_per_year": float(v) for p, v in m["sk_dv_split"].items()},
+              **{closed_loop_dv_key(p): float(v) for p, v in m["sk_dv_split"].items()},
               "min_perilune_alt_km": m["min_perilune_alt_km"],
               "impact_day": math.nan if m["impact_day"] is None else m["impact_day"], "n_lost": lost,
               "pdop_avail_pct_worst_month": float(np.nanmin(monthly["pdop_avail_pct"])),

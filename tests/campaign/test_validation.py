@@ -17,7 +17,7 @@ from lnss_lib.campaign.validation import (CLOSED_LOOP_KEYS, STATUSES, VALIDATED_
                                           select_designs, validate_front, validation_task)
 from lnss_lib.config import PROJECT_DIR
 from lnss_lib.design_life.service import PURPOSES
-from lnss_lib.keys import DESIGN_KEYS
+from lnss_lib.keys import DESIGN_KEYS, closed_loop_dv_key
 from lnss_lib.settings import load_settings
 
 VALIDATING = {"campaign": {"evaluator": "synthetic", "max_errors": 10},   # the stand-in's injected errors tolerated
@@ -91,7 +91,7 @@ def test_validated_file_round_trips(validated_run):
     ds = xr.load_dataset(validated_run / VALIDATED_FILE, engine="h5netcdf")
     names = {*DESIGN_KEYS, "n_sat", "sk_dv_estimate_kms_per_year", "sk_dv_estimate_max_kms_per_year",
              "pdop_avail_pct", "hdop_avail_pct", "pdop_mean_3sigma", "selected_for", "status", "error",
-             *CLOSED_LOOP_KEYS, *(f"closed_loop_dv_{p}_kms_per_year" for p in PURPOSES)}
+             *CLOSED_LOOP_KEYS, *(closed_loop_dv_key(p) for p in PURPOSES)}
     assert names <= set(ds.data_vars) and ds.sizes["design"] >= 3
     assert ds.attrs["complete"] == 1 and ds.attrs["life_days"] == 30.0 and ds.attrs["controller"] == "service"
     assert ds.attrs["element_frame"] == "moon_op" and ds.attrs["profile"] == "ci_operational"
