@@ -49,32 +49,19 @@ def constraint_violation(g: np.ndarray) -> np.ndarray:
     return np.sum(np.maximum(np.asarray(g, dtype=float), 0.0), axis=1)
 
 
-def non_dominated_mask(f: np.ndarray, chunk: int = 512) -> np.ndarray:
+def non_dominated_mask(f: np.ndarray) -> np.ndarray:
     """True for the rows of F (n, k) that no other row dominates (<= everywhere, < somewhere); minimisation.
 
-    Identical rows do not dominate each other, so duplicates are all kept. Rows are visited by increasing sum, then
-    lexicographically: a dominating row sums to no more (IEEE rounding is monotone) and, at an equal sum, comes first
-    lexicographically, so each chunk is compared with the non-dominated rows before it and with itself only (a row
-    dominated by a dominated row is dominated by the non-dominated one at the end of the chain): O(n m) for m
-    non-dominated rows instead of O(n^2) (a campaign's hypervolume over 20,000 feasible designs: 17 s -> well under one).
+    Identical rows do not dominate each other, so duplicates are all kept. moocore's ``is_nondominated`` with
+    ``keep_weakly`` (pymoo's own filter: Kung, Luccio and Preparata's O(n log^(k-2) n) sweep, in C): the front of a
+    120 x 1000 campaign's 69,000 feasible designs in nine objectives in a quarter of a second.
     """
     f = np.asarray(f, dtype=float)
-    n = f.shape[0]
-    keep = np.zeros(n, dtype=bool)
-    if n == 0:
-        return keep
-    order = np.lexsort(tuple(f[:, j] for j in range(f.shape[1] - 1, -1, -1)) + (f.sum(axis=1),))
-    kept = f[:0]
-    for start in range(0, n, chunk):
-        index = order[start:start + chunk]
-        block = f[index]
-        rivals = np.concatenate([kept, block])
-        less_eq = np.all(rivals[None, :, :] <= block[:, None, :], axis=2)
-        less = np.any(rivals[None, :, :] < block[:, None, :], axis=2)
-        free = ~np.any(less_eq & less, axis=1)
-        keep[index] = free
-        kept = np.concatenate([kept, block[free]])
-    return keep
+    if f.shape[0] == 0:
+        return np.zeros(0, dtype=bool)
+    import moocore                      # pymoo's dependency, imported when a front is wanted
+
+    return np.asarray(moocore.is_nondominated(f, keep_weakly=True), dtype=bool)
 
 
 def hypervolume_points(metrics: dict, feasible: np.ndarray, reference) -> np.ndarray:

@@ -259,9 +259,9 @@ def export_results(run_dir) -> tuple[xr.Dataset, xr.Dataset, xr.Dataset]:
         "seed": settings.seed,
         "generations_done": len(history),
         "finished": int(bool(checkpoint and checkpoint.get("finished"))),
-        "n_evaluation_errors": sum(bool(r.get("error")) for r in read_cache_records(run_dir)),
     }
     records = read_cache_records(run_dir)
+    attrs["n_evaluation_errors"] = sum(bool(r.get("error")) for r in records)
     extras = settings.extra_metrics
     evaluations = _dataset_from_records(records, settings, attrs, extras)
     feasible = evaluations["feasible"].values

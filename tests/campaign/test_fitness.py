@@ -37,16 +37,15 @@ def test_constraints_of_table3_normalised(settings, metrics):
     np.testing.assert_allclose(constraint_violation(g), [1.9, 0.0, 2001.0])
 
 
-def test_non_dominated_mask_against_brute_force_and_pymoo(rng):
-    from pymoo.util.nds.non_dominated_sorting import find_non_dominated
+def _brute_non_dominated(f):
+    return np.array([not any(np.all(f[j] <= f[i]) and np.any(f[j] < f[i]) for j in range(len(f)))
+                     for i in range(len(f))])
 
-    f = rng.integers(0, 6, size=(300, 3)).astype(float)
-    brute = np.array([not any(np.all(f[j] <= f[i]) and np.any(f[j] < f[i]) for j in range(len(f)))
-                      for i in range(len(f))])
-    mask = non_dominated_mask(f, chunk=37)
-    np.testing.assert_array_equal(mask, brute)
-    g = rng.random((200, 4))
-    np.testing.assert_array_equal(np.flatnonzero(non_dominated_mask(g)), np.sort(find_non_dominated(g)))
+
+def test_non_dominated_mask_against_brute_force(rng):
+    """Integer objectives (ties) in three dimensions and continuous ones in five (the sweep's k >= 4 branch)."""
+    for f in (rng.integers(0, 6, size=(300, 3)).astype(float), rng.random((200, 5)), rng.random((50, 1))):
+        np.testing.assert_array_equal(non_dominated_mask(f), _brute_non_dominated(f))
 
 
 def test_hypervolume_closed_forms(metrics):
@@ -105,14 +104,14 @@ def test_bounds_verdict_names_each_violated_table3_bound():
     assert verdict["violated_bounds"] == ["stable_screen = 0 < min 1"]
 
 
-def test_non_dominated_mask_with_ties_and_duplicates_across_chunks(rng):
-    """Equal sums, duplicates and dominators in later chunks of the input: the same mask as the brute force."""
+def test_non_dominated_mask_with_ties_and_duplicates(rng):
+    """Equal sums, duplicates and dominators anywhere in the input, in either order: the same mask as the brute
+    force (duplicates of a non-dominated row are all kept)."""
     f = rng.integers(0, 4, size=(400, 4)).astype(float)
     f = np.concatenate([f, f[:50], f[::-1]])
-    brute = np.array([not any(np.all(f[j] <= f[i]) and np.any(f[j] < f[i]) for j in range(len(f)))
-                      for i in range(len(f))])
-    for chunk in (1, 7, 64, 10_000):
-        np.testing.assert_array_equal(non_dominated_mask(f, chunk=chunk), brute)
+    brute = _brute_non_dominated(f)
+    np.testing.assert_array_equal(non_dominated_mask(f), brute)
+    np.testing.assert_array_equal(non_dominated_mask(f[::-1]), brute[::-1])
     assert non_dominated_mask(np.zeros((0, 3))).shape == (0,)
 
 
@@ -149,6 +148,6 @@ def test_running_statistics_equal_the_statistics_over_every_design(settings, rng
     assert running.n_feasible == feasible.sum()
     points = np.column_stack([columns[m][feasible] / ref for m, ref in settings.hypervolume])
     points = points[np.all(points < 1.0, axis=1)]
-    brute = np.array([not any(np.all(q <= p) and np.any(q < p) for q in points) for p in points])
+    brute = _brute_non_dominated(points)
     assert running.stats([])["hypervolume"] == pytest.approx(HV(ref_point=np.ones(points.shape[1]))(points[brute]),
                                                             rel=1e-12)
