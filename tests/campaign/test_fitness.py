@@ -151,3 +151,11 @@ def test_running_statistics_equal_the_statistics_over_every_design(settings, rng
     brute = _brute_non_dominated(points)
     assert running.stats([])["hypervolume"] == pytest.approx(HV(ref_point=np.ones(points.shape[1]))(points[brute]),
                                                             rel=1e-12)
+
+
+def test_every_name_the_campaign_package_exports_resolves():
+    """``lnss_lib.campaign`` loads its names lazily from its modules: each one in ``__all__`` exists there."""
+    import lnss_lib.campaign as campaign
+
+    missing = [name for name in campaign.__all__ if not hasattr(campaign, name)]
+    assert missing == []
