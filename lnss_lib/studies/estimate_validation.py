@@ -152,28 +152,32 @@ def closed_loop_cost(settings: Settings, design, life_days: float, cache_dir: Pa
     return out
 
 
-def estimate_costs(settings: Settings, design, life_days: float, tolerances_deg: dict | None = None) -> dict:
-    """The life estimate and the 10-day box slope of a design, one satellite per plane: ``life`` (holding
-    ``tolerances_deg``, default the campaign's :func:`~lnss_lib.design_life.tolerances.estimate_tolerances_deg`),
-    ``campaign`` (the estimate as the campaign computes it, its own tolerances) and ``arc`` (km/s per satellite and
-    year, means over satellites; NaN when the 10-day arc hits the Moon), the life estimate's ``split`` (part ->
-    mean) and its ``wall_s``."""
+def estimate_costs(settings: Settings, design, life_days: float, tolerances_deg: dict | None = None,
+                   max_sats_per_plane: int = 1) -> dict:
+    """The life estimate and the 10-day box slope of a design, at most ``max_sats_per_plane`` satellites a plane (0:
+    all): ``life`` (holding ``tolerances_deg``, default the campaign's
+    :func:`~lnss_lib.design_life.tolerances.estimate_tolerances_deg`), ``campaign`` (the estimate as the campaign
+    computes it, its own tolerances) and ``arc`` (km/s per satellite and year, means over satellites; NaN when the
+    10-day arc hits the Moon), the life estimate's worst satellite ``life_max``, ``split`` (part -> mean) and
+    ``wall_s``."""
     dyn = settings.dynamics
     ensure_kernels(settings.ephemeris)
     t0 = tdb_seconds(settings.epoch.start_tdb, "TDB")
-    states = elements_deg_to_states(dyn, flown_elements(design, 1), t0)
+    states = elements_deg_to_states(dyn, flown_elements(design, max_sats_per_plane), t0)
     arc = propagate_states(dyn, states, t0, settings.epoch.duration_days * SECONDS_PER_DAY, settings.epoch.step_s,
                            batch=True)
     if bool(arc["impact"].any()):
-        return {"life": np.nan, "campaign": np.nan, "arc": np.nan, "split": dict.fromkeys(PARTS, np.nan),
-                "wall_s": np.nan}
+        return {"life": np.nan, "campaign": np.nan, "arc": np.nan, "life_max": np.nan,
+                "split": dict.fromkeys(PARTS, np.nan), "wall_s": np.nan}
     stability = dataclasses.replace(settings.stability, life_days=float(life_days))
     screen = screen_states(stability, dyn, states, t0)
     field = cached_field(stability, dyn, t0)[0]
-    est = life_estimate(settings.sk_estimate, settings.design_life, dyn, arc, screen, field, tolerances_deg)
-    campaign = life_estimate(settings.sk_estimate, settings.design_life, dyn, arc, screen, field)
+    est = life_estimate(settings.sk_estimate, settings.design_life, dyn, settings.dop, arc, screen, field,
+                        tolerances_deg)
+    campaign = life_estimate(settings.sk_estimate, settings.design_life, dyn, settings.dop, arc, screen, field)
     return {"life": est["sk_dv_estimate_kms_per_year"], "campaign": campaign["sk_dv_estimate_kms_per_year"],
             "arc": sk_estimate_from_propagation(settings.sk_estimate, dyn, arc)["sk_dv_estimate_kms_per_year"],
+            "life_max": est["sk_dv_estimate_max_kms_per_year"],
             "split": {p: float(np.mean(est["per_sat"][p])) for p in PARTS}, "wall_s": est["wall_s"]}
 
 

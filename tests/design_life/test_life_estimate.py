@@ -36,7 +36,7 @@ def _estimate(profile, elements):
     states = elements_deg_to_states(dyn, np.asarray(elements, dtype=float), t0)
     arc = propagate_states(dyn, states, t0, profile.epoch.duration_days * SECONDS_PER_DAY, profile.epoch.step_s,
                            batch=True)
-    return le.campaign_estimate(profile.sk_estimate, profile.stability, profile.design_life, dyn, arc)
+    return le.campaign_estimate(profile.sk_estimate, profile.stability, profile.design_life, dyn, profile.dop, arc)
 
 
 def _two_planes(a, e, inc, aop):
@@ -138,7 +138,7 @@ def test_a_wider_node_tolerance_costs_no_more_and_none_beyond_the_drift(profile)
                            batch=True)
     screen = screen_states(profile.stability, dyn, states, t0)
     field = cached_field(profile.stability, dyn, t0)[0]
-    node = [float(np.mean(le.life_estimate(profile.sk_estimate, profile.design_life, dyn, arc, screen, field,
+    node = [float(np.mean(le.life_estimate(profile.sk_estimate, profile.design_life, dyn, profile.dop, arc, screen, field,
                                            {"raan_rel": tilt, "u_rel": 20.0})["per_sat"]["relative_node"]))
             for tilt in (1.0, 4.7, 10.0, 90.0)]
     assert node[0] > 0.0 and np.all(np.diff(node) <= 0.0)
