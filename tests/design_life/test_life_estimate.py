@@ -143,3 +143,58 @@ def test_a_wider_node_tolerance_costs_no_more_and_none_beyond_the_drift(profile)
             for tilt in (1.0, 4.7, 10.0, 90.0)]
     assert node[0] > 0.0 and np.all(np.diff(node) <= 0.0)
     assert node[-1] == 0.0
+
+
+def _rebuilt_case(profile, drift: float, days: int = 200):
+    """Two planes of four satellites (9800 km, e 0.39, i 58 deg, AOP 58 deg: the cheapest designs of the quick
+    operational front) whose e, i and AOP run along ``drift`` times the averaged model's first three months for those
+    designs (e +0.004, i -0.16 deg and AOP +0.18 deg a day: 0.39 to 0.75, 58 to 43 deg, 56 to 73 deg), held after day
+    100: the navigation estimate's inputs."""
+    t_days = np.arange(float(days))
+    ramp = drift * np.minimum(np.tile(t_days, (8, 1)), 100.0)
+    ecc = 0.39 + 0.004 * ramp
+    inc, aop = np.radians(58.0 - 0.16 * ramp), np.radians(58.0 + 0.18 * ramp)
+    raan = np.radians(np.repeat([0.0, 180.0], 4))[:, None] * np.ones(t_days.size)
+    u0 = np.radians(np.concatenate([np.arange(4) * 90.0, np.arange(4) * 90.0 + 45.0]))
+    return t_days, np.full(8, 9800.0), u0, ecc, inc, raan, aop
+
+
+def test_navigation_restores_only_a_drift_that_degrades_the_dop(profile):
+    """Elements that hold still are never judged (no satellite leaves the box) and cost nothing; the Lidov-Kozai drift
+    of the front's cheapest designs breaks the DOP requirement, and every satellite is restored at least once, at a
+    cost of the restore's order (the e change alone, h de / (2 p) with de at least the box, bounds one restore
+    below)."""
+    dyn, t0 = profile.dynamics, tdb_seconds(profile.epoch.start_tdb, "TDB")
+    still = le.navigation_restores(profile.dop, dyn, profile.design_life, t0, *_rebuilt_case(profile, 0.0))
+    assert still["n_judged"] == 0 and np.all(still["dv_kms"] == 0.0) and not still["violations"]
+    drift = le.navigation_restores(profile.dop, dyn, profile.design_life, t0, *_rebuilt_case(profile, 1.0))
+    assert drift["violations"] and np.all(drift["n_restores"] >= 1)
+    box = profile.design_life.box.ecc
+    gm = dyn.gravity.gm_km3_s2
+    p = 9800.0 * (1.0 - 0.39 ** 2)
+    assert np.all(drift["dv_kms"] >= drift["n_restores"] * np.sqrt(gm * p) * box / (2.0 * p))
+    assert np.all(drift["dv_kms"] < 2.0)                      # km/s: a few restores of e changes below 0.4
+
+
+def test_navigation_judges_by_the_monitors_rule(profile):
+    """The closed loop's monitor (:class:`NavigationMonitor`, its own DOP path) fed the rebuilt constellation's positions
+    at the estimate's epochs flags the same first window that the estimate restores at."""
+    from lnss_lib.design_life.service import NavigationMonitor
+    from lnss_lib.frames import element_frame_to_j2000
+
+    dyn, t0 = profile.dynamics, tdb_seconds(profile.epoch.start_tdb, "TDB")
+    t_days, sma, u0, ecc, inc, raan, aop = _rebuilt_case(profile, 1.0)
+    est = le.navigation_restores(profile.dop, dyn, profile.design_life, t0, t_days, sma, u0, ecc, inc, raan, aop)
+    first = min(est["violations"])
+    edges = le.navigation_windows(t_days, profile.design_life.service.nav_window_days)
+    frac = (np.arange(le.NAV_SAMPLES_PER_WINDOW) + 0.5) / le.NAV_SAMPLES_PER_WINDOW
+    t = np.concatenate([[0.0], *(t_days[a] + (t_days[b] - t_days[a]) * frac for a, b in zip(edges[:-1], edges[1:]))])
+    k = np.rint(t).astype(int)
+    r = le.rebuilt_positions_j2000(sma, u0, ecc[:, k], inc[:, k], raan[:, k], aop[:, k], t * SECONDS_PER_DAY,
+                                   element_frame_to_j2000(dyn, t0), dyn.gravity.gm_km3_s2)
+    monitor = NavigationMonitor(profile.dop, dyn, t0 + t * SECONDS_PER_DAY, profile.design_life.service)
+    flagged = []
+    for j, close in enumerate(edges[1:first + 2]):
+        monitor.update(t0 + t_days[close] * SECONDS_PER_DAY, r)
+        flagged.append(monitor.violated)
+    assert flagged == [False] * first + [True]
