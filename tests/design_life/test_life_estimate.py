@@ -154,9 +154,9 @@ def _rebuilt_case(profile, drift: float, days: int = 200):
     ramp = drift * np.minimum(np.tile(t_days, (8, 1)), 100.0)
     ecc = 0.39 + 0.004 * ramp
     inc, aop = np.radians(58.0 - 0.16 * ramp), np.radians(58.0 + 0.18 * ramp)
-    raan = np.radians(np.repeat([0.0, 180.0], 4))[:, None] * np.ones(t_days.size)
+    raan = np.radians(np.repeat([0.0, 180.0], 4))
     u0 = np.radians(np.concatenate([np.arange(4) * 90.0, np.arange(4) * 90.0 + 45.0]))
-    return t_days, np.full(8, 9800.0), u0, ecc, inc, raan, aop
+    return t_days, np.full(8, 9800.0), u0, raan, ecc, inc, aop
 
 
 def test_navigation_restores_only_a_drift_that_degrades_the_dop(profile):
@@ -177,24 +177,32 @@ def test_navigation_restores_only_a_drift_that_degrades_the_dop(profile):
 
 
 def test_navigation_judges_by_the_monitors_rule(profile):
-    """The closed loop's monitor (:class:`NavigationMonitor`, its own DOP path) fed the rebuilt constellation's positions
-    at the estimate's epochs flags the same first window that the estimate restores at."""
-    from lnss_lib.design_life.service import NavigationMonitor
-    from lnss_lib.frames import element_frame_to_j2000
+    """Up to its first restore, the estimate flags exactly the windows that the monitor's rule flags on the monitor's
+    own DOP path (:func:`lnss_lib.dop.dop_for_settings`, :func:`lnss_lib.dop.summary_for_settings`,
+    :func:`lnss_lib.design_life.service.navigation_violations`) for the rebuilt constellation: the first window's
+    epochs, each satellite's elements at the same fractions of the window judged."""
+    from lnss_lib.dop import SurfaceGrid, dop_for_settings, summary_for_settings
+    from lnss_lib.design_life.service import navigation_violations
+    from lnss_lib.frames import element_frame_to_j2000, rotate_to_moon_fixed
 
     dyn, t0 = profile.dynamics, tdb_seconds(profile.epoch.start_tdb, "TDB")
-    t_days, sma, u0, ecc, inc, raan, aop = _rebuilt_case(profile, 1.0)
-    est = le.navigation_restores(profile.dop, dyn, profile.design_life, t0, t_days, sma, u0, ecc, inc, raan, aop)
+    svc = profile.design_life.service
+    t_days, sma, u0, raan, ecc, inc, aop = _rebuilt_case(profile, 1.0)
+    est = le.navigation_restores(profile.dop, dyn, profile.design_life, t0, t_days, sma, u0, raan, ecc, inc, aop)
     first = min(est["violations"])
-    edges = le.navigation_windows(t_days, profile.design_life.service.nav_window_days)
+    edges = le.navigation_windows(t_days, svc.nav_window_days)
     frac = (np.arange(le.NAV_SAMPLES_PER_WINDOW) + 0.5) / le.NAV_SAMPLES_PER_WINDOW
-    t = np.concatenate([[0.0], *(t_days[a] + (t_days[b] - t_days[a]) * frac for a, b in zip(edges[:-1], edges[1:]))])
-    k = np.rint(t).astype(int)
-    r = le.rebuilt_positions_j2000(sma, u0, ecc[:, k], inc[:, k], raan[:, k], aop[:, k], t * SECONDS_PER_DAY,
-                                   element_frame_to_j2000(dyn, t0), dyn.gravity.gm_km3_s2)
-    monitor = NavigationMonitor(profile.dop, dyn, t0 + t * SECONDS_PER_DAY, profile.design_life.service)
-    flagged = []
-    for j, close in enumerate(edges[1:first + 2]):
-        monitor.update(t0 + t_days[close] * SECONDS_PER_DAY, r)
-        flagged.append(monitor.violated)
-    assert flagged == [False] * first + [True]
+    t = t_days[edges[1]] * frac
+    grid = SurfaceGrid.from_settings(profile.dop, dyn.constants.r_moon_mean_km)
+
+    def monitor_summary(j):
+        k = np.rint(t_days[edges[j]] + (t_days[edges[j + 1]] - t_days[edges[j]]) * frac).astype(int)
+        r = le.rebuilt_positions_j2000(sma, u0, ecc[:, k], inc[:, k], raan[:, None] * np.ones(k.size), aop[:, k],
+                                       t * SECONDS_PER_DAY, element_frame_to_j2000(dyn, t0), dyn.gravity.gm_km3_s2)
+        times = t0 + t * SECONDS_PER_DAY
+        return summary_for_settings(profile.dop, dop_for_settings(profile.dop, rotate_to_moon_fixed(dyn, r, times),
+                                                                  times, grid))
+
+    baseline = monitor_summary(0)
+    flagged = {j: navigation_violations(monitor_summary(j), baseline, svc) for j in range(1, first + 1)}
+    assert {j: v for j, v in flagged.items() if v} == {first: est["violations"][first]}
