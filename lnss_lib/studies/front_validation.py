@@ -27,6 +27,22 @@ satellite, 92.2 % over the year, 85.6 % in its worst month); at 12 satellites a 
 design flies 0.47 (97.0 %, navigation restores only); none was flown at 6 or 16 (no feasible design of those sizes
 meets 90 % in this small campaign). The paper claims six satellites below 0.4 km/s/yr. Cost: the closed loops took
 350 s summed over the 6 designs (38-91 s each) on 2 workers, beside a five-year campaign running on the same 2 cores.
+
+Re-estimated with the navigation term (the monitor's restores,
+:func:`lnss_lib.design_life.life_estimate.navigation_restores`; :func:`reestimated_table` of that run's ``validated.nc``
+with ``load_settings("quick_operational")``, every satellite; branch nav20, 2026-11-25): the five cheapest designs are
+now priced at 1.10-1.33 km/s per satellite and year (worst satellite 1.11-1.34), all of it navigation, against
+0.95-1.25 flown (estimate / closed loop 1.02-1.20; worst satellite 0.65-1.19), and the 12-satellite design at 0.34
+against 0.45 (0.75): all six within a factor 2, mean and worst satellite (before: none of the four kept). Spearman rho
+over the four kept: 0.80 (mean; before -0.77, on estimates of zero but one) and 0.20 (worst satellite: three of the
+four closed loops sit at the 1 km/s/yr cap, 0.99-1.00); over all six, failed included, 0.89 and 0.77. The
+navigation part alone: 1.10-1.33 against 0.48-0.87 (1.45-2.37; outside a factor 2: the two 9800 km designs, 2.37 and
+2.36) and 0.34 against 0.44 (0.75): the closed loop flies these five into ``[design_life] dv_cap_kms_per_year`` (the
+year's relative-node corrections, 0.13-0.46, share it) and stops restoring there, where the estimate prices the whole
+year (the 9800 km design at AOP 58 deg, flown again here: first restore on day 94, 0.45 km/s on satellite 0, then
+0.09 and 0.07 a month apart, then the cap; the estimate restores on day 93, 0.38 at first order, and on days 186 and
+279). The campaign's 1 km/s/yr bound on the worst satellite's estimate now rejects all five; the 12-satellite design
+stays feasible.
 """
 
 from __future__ import annotations
