@@ -54,15 +54,19 @@ def test_frozen_orbit_that_meets_every_requirement_costs_nothing(profile):
 
 def test_estimate_rises_with_the_libration_amplitude(profile):
     """Same a, e and i, the apse line moved away from the frozen AOP 90 deg: the libration swings e higher (the
-    frozen model's range) and the safety cost grows with it, from nothing at the frozen point."""
+    frozen model's range) and the safety cost, and the total with its navigation part, grow with it, from nothing at
+    the frozen point."""
     t0 = tdb_seconds(profile.epoch.start_tdb, "TDB")
     model = FrozenModel.from_settings(profile.stability, profile.dynamics, t0)
     aops = (90.0, 70.0, 50.0, 30.0)
     e_max = [libration(model, *ELFO, aop)["ecc_max"] for aop in aops]
     assert np.all(np.diff(e_max) > 0.0)
-    safety = [float(np.mean(_estimate(profile, _two_planes(*ELFO, aop))["per_sat"]["safety"])) for aop in aops]
+    estimates = [_estimate(profile, _two_planes(*ELFO, aop))["per_sat"] for aop in aops]
+    safety = [float(np.mean(est["safety"])) for est in estimates]
     assert safety[0] == 0.0
     assert np.all(np.diff(safety) >= 0.0) and safety[-1] > 0.1        # km/s per year
+    total = [float(np.mean(est["total"])) for est in estimates]
+    assert total[0] == 0.0 and np.all(np.diff(total) >= 0.0)
 
 
 def test_perilune_predicted_to_cross_the_floor_pays_safety(profile):
