@@ -203,7 +203,7 @@ def _operational_metrics(context: EvaluationContext, ds: xr.Dataset, states: np.
         arc_s = float(ds["time"].values[-1] - ds["time"].values[0])
         if arc_s >= min_periods * 2.0 * np.pi * np.sqrt(np.max(a_mean) ** 3 / gm) * (1.0 + 1e-9):
             estimate = life_estimate.campaign_estimate(profile.sk_estimate, profile.stability, profile.design_life,
-                                                       context.dynamics, ds, screen)
+                                                       context.dynamics, profile.dop, ds, screen)
         else:
             estimate = dict.fromkeys(("sk_dv_estimate_kms_per_year", "sk_dv_estimate_max_kms_per_year"), math.nan)
         out.update({k: float(estimate[k]) for k in wanted if k.startswith("sk_dv_estimate")})

@@ -12,7 +12,8 @@ One subject in three answers of rising cost, each module answering one question:
   normal, a and slot fitted on the evaluator's 10-day arc, priced with linearised GVE costs: the
   campaign's geometry-keeping Delta-V (issue 11 item 2; ``sk_dv_estimate_kms_per_year``).
 * :mod:`.life_estimate` -- what would the service controller pay over the life? Safety raises where the averaged
-  perilune (the screen's integration) would cross the floor, relative node and slot held within the service's
+  perilune (the screen's integration) would cross the floor, navigation restores where the constellation rebuilt
+  from the averaged elements breaks the monitor's DOP rule, relative node and slot held within the service's
   tolerances on the averaged evolution plus the 10-day arc: the operational campaign's estimate (issue 20 item 2;
   ``[sk_estimate] model = "life"``).
 * :mod:`.closed_loop` -- what does flying the life cost? Every satellite propagated with the full force

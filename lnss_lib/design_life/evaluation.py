@@ -198,7 +198,8 @@ def life_metrics(runs: Mapping[str, xr.Dataset], nav: xr.Dataset | None = None) 
 
 
 def short_arc_predictors(epoch: EpochSettings, dynamics: Dynamics, sk_estimate: SkEstimateSettings,
-                         stability: StabilitySettings, design_life: DesignLifeSettings, elements: np.ndarray,
+                         stability: StabilitySettings, design_life: DesignLifeSettings, dop: DopSettings,
+                         elements: np.ndarray,
                          life_days: float, *, model: ForceModel | None = None) -> dict:
     """The campaign-grade estimate on the epoch's short arc (``[sk_estimate] model``; NaN if a satellite hits the Moon
     on it; ``model``: a force model over that arc to reuse, e.g. the evaluation context's) and the stability screen
@@ -210,7 +211,7 @@ def short_arc_predictors(epoch: EpochSettings, dynamics: Dynamics, sk_estimate: 
                            model=model)
     screen = screen_states(stability, dynamics, states, t0, life_days=life_days)
     estimate = (float("nan") if bool(arc["impact"].any())
-                else campaign_estimate(sk_estimate, stability, design_life, dynamics, arc,
+                else campaign_estimate(sk_estimate, stability, design_life, dynamics, dop, arc,
                                        screen)["sk_dv_estimate_kms_per_year"])
     return {"sk_dv_estimate_kms_per_year": estimate, "stable_screen": bool(screen.attrs["stable"]),
             "screen_min_perilune_alt_km": float(screen.attrs["min_perilune_alt_km"]),
@@ -240,7 +241,7 @@ def evaluate_design_life(context_or_settings, elements_deg, life_days: float | N
     nav = life_navigation(settings.dop, settings.dynamics, runs, month_days=settings.life_evaluation.month_days)
     result = life_metrics(runs, nav)
     result.update(short_arc_predictors(settings.epoch, settings.dynamics, settings.sk_estimate, settings.stability,
-                                       settings.design_life, elements, life, model=model))
+                                       settings.design_life, settings.dop, elements, life, model=model))
     result = {**{k: result[k] for k in LIFE_KEYS}, "screen_impact_day": result["screen_impact_day"],
               "design_life_wall_s": time.perf_counter() - start}
     if keep:

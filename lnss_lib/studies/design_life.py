@@ -129,7 +129,7 @@ def validate_design(settings: Settings, design, life_days: float, max_sats_per_p
     elements = flown_elements(design, max_sats_per_plane)
     runs = run_design_life(settings, elements, life_days, sample=False)
     pred = short_arc_predictors(settings.epoch, settings.dynamics, settings.sk_estimate, settings.stability,
-                                settings.design_life, elements, life_days)
+                                settings.design_life, settings.dop, elements, life_days)
     ctl, nat = runs["controlled"], runs["natural"]
     impact = ctl["impact_day"].values
     nat_impact = nat["impact_day"].values

@@ -36,7 +36,7 @@ def _estimate(profile, elements):
     states = elements_deg_to_states(dyn, np.asarray(elements, dtype=float), t0)
     arc = propagate_states(dyn, states, t0, profile.epoch.duration_days * SECONDS_PER_DAY, profile.epoch.step_s,
                            batch=True)
-    return le.campaign_estimate(profile.sk_estimate, profile.stability, profile.design_life, dyn, arc)
+    return le.campaign_estimate(profile.sk_estimate, profile.stability, profile.design_life, dyn, profile.dop, arc)
 
 
 def _two_planes(a, e, inc, aop):
@@ -54,15 +54,19 @@ def test_frozen_orbit_that_meets_every_requirement_costs_nothing(profile):
 
 def test_estimate_rises_with_the_libration_amplitude(profile):
     """Same a, e and i, the apse line moved away from the frozen AOP 90 deg: the libration swings e higher (the
-    frozen model's range) and the safety cost grows with it, from nothing at the frozen point."""
+    frozen model's range) and the safety cost, and the total with its navigation part, grow with it, from nothing at
+    the frozen point."""
     t0 = tdb_seconds(profile.epoch.start_tdb, "TDB")
     model = FrozenModel.from_settings(profile.stability, profile.dynamics, t0)
     aops = (90.0, 70.0, 50.0, 30.0)
     e_max = [libration(model, *ELFO, aop)["ecc_max"] for aop in aops]
     assert np.all(np.diff(e_max) > 0.0)
-    safety = [float(np.mean(_estimate(profile, _two_planes(*ELFO, aop))["per_sat"]["safety"])) for aop in aops]
+    estimates = [_estimate(profile, _two_planes(*ELFO, aop))["per_sat"] for aop in aops]
+    safety = [float(np.mean(est["safety"])) for est in estimates]
     assert safety[0] == 0.0
     assert np.all(np.diff(safety) >= 0.0) and safety[-1] > 0.1        # km/s per year
+    total = [float(np.mean(est["total"])) for est in estimates]
+    assert total[0] == 0.0 and np.all(np.diff(total) >= 0.0)
 
 
 def test_perilune_predicted_to_cross_the_floor_pays_safety(profile):
@@ -138,8 +142,71 @@ def test_a_wider_node_tolerance_costs_no_more_and_none_beyond_the_drift(profile)
                            batch=True)
     screen = screen_states(profile.stability, dyn, states, t0)
     field = cached_field(profile.stability, dyn, t0)[0]
-    node = [float(np.mean(le.life_estimate(profile.sk_estimate, profile.design_life, dyn, arc, screen, field,
+    node = [float(np.mean(le.life_estimate(profile.sk_estimate, profile.design_life, dyn, profile.dop, arc, screen, field,
                                            {"raan_rel": tilt, "u_rel": 20.0})["per_sat"]["relative_node"]))
             for tilt in (1.0, 4.7, 10.0, 90.0)]
     assert node[0] > 0.0 and np.all(np.diff(node) <= 0.0)
     assert node[-1] == 0.0
+
+
+def _rebuilt_case(profile, drift: float, days: int = 200):
+    """Two planes of four satellites (9800 km, e 0.39, i 58 deg, AOP 58 deg: the cheapest designs of the quick
+    operational front) whose e, i and AOP run along ``drift`` times the averaged model's first three months for those
+    designs (e +0.004, i -0.16 deg and AOP +0.18 deg a day: 0.39 to 0.75, 58 to 43 deg, 56 to 73 deg), held after day
+    100: the navigation estimate's inputs."""
+    t_days = np.arange(float(days))
+    ramp = drift * np.minimum(np.tile(t_days, (8, 1)), 100.0)
+    ecc = 0.39 + 0.004 * ramp
+    inc, aop = np.radians(58.0 - 0.16 * ramp), np.radians(58.0 + 0.18 * ramp)
+    raan = np.radians(np.repeat([0.0, 180.0], 4))
+    u0 = np.radians(np.concatenate([np.arange(4) * 90.0, np.arange(4) * 90.0 + 45.0]))
+    return t_days, np.full(8, 9800.0), u0, raan, ecc, inc, aop
+
+
+def test_navigation_restores_only_a_drift_that_degrades_the_dop(profile):
+    """Elements that hold still are never judged (no satellite leaves the box) and cost nothing; the Lidov-Kozai drift
+    of the front's cheapest designs breaks the DOP requirement, and every satellite is restored at least once, at a
+    cost of the restore's order (the e change alone, h de / (2 p) with de at least the box, bounds one restore
+    below)."""
+    dyn, t0 = profile.dynamics, tdb_seconds(profile.epoch.start_tdb, "TDB")
+    still = le.navigation_restores(profile.dop, dyn, profile.design_life, t0, *_rebuilt_case(profile, 0.0))
+    assert still["n_judged"] == 0 and np.all(still["dv_kms"] == 0.0) and not still["violations"]
+    drift = le.navigation_restores(profile.dop, dyn, profile.design_life, t0, *_rebuilt_case(profile, 1.0))
+    assert drift["violations"] and np.all(drift["n_restores"] >= 1)
+    box = profile.design_life.box.ecc
+    gm = dyn.gravity.gm_km3_s2
+    p = 9800.0 * (1.0 - 0.39 ** 2)
+    assert np.all(drift["dv_kms"] >= drift["n_restores"] * np.sqrt(gm * p) * box / (2.0 * p))
+    assert np.all(drift["dv_kms"] < 2.0)                      # km/s: a few restores of e changes below 0.4
+
+
+def test_navigation_judges_by_the_monitors_rule(profile):
+    """Up to its first restore, the estimate flags exactly the windows that the monitor's rule flags on the monitor's
+    own DOP path (:func:`lnss_lib.dop.dop_for_settings`, :func:`lnss_lib.dop.summary_for_settings`,
+    :func:`lnss_lib.design_life.service.navigation_violations`) for the rebuilt constellation: the first window's
+    epochs, each satellite's elements at the same fractions of the window judged."""
+    from lnss_lib.dop import SurfaceGrid, dop_for_settings, summary_for_settings
+    from lnss_lib.design_life.service import navigation_violations
+    from lnss_lib.frames import element_frame_to_j2000, rotate_to_moon_fixed
+
+    dyn, t0 = profile.dynamics, tdb_seconds(profile.epoch.start_tdb, "TDB")
+    svc = profile.design_life.service
+    t_days, sma, u0, raan, ecc, inc, aop = _rebuilt_case(profile, 1.0)
+    est = le.navigation_restores(profile.dop, dyn, profile.design_life, t0, t_days, sma, u0, raan, ecc, inc, aop)
+    first = min(est["violations"])
+    edges = le.navigation_windows(t_days, svc.nav_window_days)
+    frac = (np.arange(le.NAV_SAMPLES_PER_WINDOW) + 0.5) / le.NAV_SAMPLES_PER_WINDOW
+    t = t_days[edges[1]] * frac
+    grid = SurfaceGrid.from_settings(profile.dop, dyn.constants.r_moon_mean_km)
+
+    def monitor_summary(j):
+        k = np.rint(t_days[edges[j]] + (t_days[edges[j + 1]] - t_days[edges[j]]) * frac).astype(int)
+        r = le.rebuilt_positions_j2000(sma, u0, ecc[:, k], inc[:, k], raan[:, None] * np.ones(k.size), aop[:, k],
+                                       t * SECONDS_PER_DAY, element_frame_to_j2000(dyn, t0), dyn.gravity.gm_km3_s2)
+        times = t0 + t * SECONDS_PER_DAY
+        return summary_for_settings(profile.dop, dop_for_settings(profile.dop, rotate_to_moon_fixed(dyn, r, times),
+                                                                  times, grid))
+
+    baseline = monitor_summary(0)
+    flagged = {j: navigation_violations(monitor_summary(j), baseline, svc) for j in range(1, first + 1)}
+    assert {j: v for j, v in flagged.items() if v} == {first: est["violations"][first]}

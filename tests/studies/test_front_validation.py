@@ -87,3 +87,29 @@ def test_figures_draw_every_status_and_the_marks(validated):
     assert chart.layout.shapes[0].y0 == 1.0
     assert list(chart.data[-1].x) == [SMALLEST_CONSTELLATION["n_sat"]]
     assert list(chart.data[-1].y) == [SMALLEST_CONSTELLATION["dv_below_kms_per_year"]]
+
+
+def test_reestimated_table_prices_the_restores_of_the_front_designs():
+    """A validated front re-estimated with today's estimate: the frozen ELFO (moon_op) stays free; the cheapest design of
+    the quick operational front (9800 km, e 0.39, i 58 deg, 2 x 4), which flew 0.98 km/s per satellite and year with
+    0.48 of navigation restores and was estimated at zero, now gets a navigation part of that order, and the ratios
+    are the estimate over the closed loop."""
+    from lnss_lib.settings import load_settings
+    from lnss_lib.studies.front_validation import reestimated_table
+
+    designs = [(6143.0, 0.6, 90.0, 51.7, 2, 1, 0.0, 0.0), (9800.0, 0.39, 58.0, 58.0, 2, 4, 0.977, 0.478)]
+    a, e, aop, inc, planes, per_plane, closed, closed_nav = (np.array(c) for c in zip(*designs))
+    data = {"sma_km": a, "ecc": e, "aop_deg": aop, "inc_deg": inc, "n_planes": planes.astype(int),
+            "sats_per_plane": per_plane.astype(int), "n_sat": (planes * per_plane).astype(int),
+            "selected_for": np.full(2, "front"), "status": np.full(2, "kept"),
+            "sk_dv_estimate_kms_per_year": np.zeros(2), "sk_dv_estimate_max_kms_per_year": np.zeros(2),
+            "closed_loop_dv_kms_per_year": closed, "closed_loop_dv_max_kms_per_year": closed * 1.02,
+            "closed_loop_dv_navigation_kms_per_year": closed_nav}
+    validated = xr.Dataset({k: ("design", v) for k, v in data.items()}, attrs={"max_sats_per_plane": 0})
+    table = reestimated_table(load_settings("quick_operational"), validated)
+    assert table.loc[0, "estimate_mean"] == 0.0 and table.loc[0, "estimate_navigation"] == 0.0
+    front = table.loc[1]
+    assert 0.5 * 0.478 < front["estimate_navigation"] <= front["estimate_mean"] <= front["estimate_worst_satellite"]
+    assert front["estimate_mean"] < 2.0 * 0.977                        # within a factor 2 of the flown year
+    assert front["ratio_navigation"] == pytest.approx(front["estimate_navigation"] / 0.478)
+    assert table.loc[1, "ratio_mean"] == pytest.approx(front["estimate_mean"] / 0.977)
