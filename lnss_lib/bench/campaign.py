@@ -3,12 +3,18 @@ and the projected wall time of the paper's 120 x 1000 campaign on this machine (
 profile's, when ``params/operational.toml`` exists); then the force model before and after issue 23's speed
 work side by side (:mod:`lnss_lib.bench.kernels_before`): CPU time per right-hand side and per design over
 the points an RK45 integration of each satellite of the run's first :data:`KERNEL_DESIGNS` valid designs
-evaluates, and the largest relative difference of the two accelerations (round-off, ~1e-15).
+evaluates, and the largest relative difference of the two accelerations (round-off, ~1e-15). Before the force
+model, the campaign's whole design evaluation before and after the evaluation-path work
+(:mod:`lnss_lib.bench.evaluation_before`: Datasets, every Delta-V model, kernel paths per design), on the same
+designs alternating, with the per-generation time and 120 x 1000 projection of each; and the main process's
+statistics at the end of the last generation before and after (the hypervolume front merged with the new points,
+the timing from the new designs: :func:`bookkeeping_comparison`), which the workers wait for every generation.
 
 ``--history RUN_DIR`` projects the same 120 x 1000 campaign with the designs a real run actually evaluated per
 generation (its checkpoint history: a converging search repeats designs, which the journal answers): the
 run's own generations as recorded, the rest at the mean of its last :data:`HISTORY_TAIL` generations; the
-projection is printed as a range, from no cache hits to the run's hits.
+projection is printed as a range, from no cache hits to the run's hits. The evaluation before/after then times
+designs of the run's last :data:`HISTORY_TAIL` generations (the mix a converged search evaluates).
 
 ``--scaling`` adds: designs/s with 1 and 2 local workers (scaling efficiency); the campaign's own
 overhead per design on loopback Dask clusters (127.0.0.1, one thread per worker process) of 8, 32 and 64
@@ -19,10 +25,12 @@ generation of 120 designs, with designs as tasks and with satellites as tasks.
 
 from __future__ import annotations
 
+import copy
 import math
 import tempfile
 import time
 from pathlib import Path
+from unittest import mock
 
 import numba
 import numpy as np
@@ -30,17 +38,22 @@ import numpy as np
 from ..config import PARAMS_DIR, deep_merge
 from ..errors import ConfigError
 from ..settings import load_settings
-from ..campaign import load_checkpoint, read_cache_records, run_campaign
+from ..campaign import CampaignPlan, callbacks, load_checkpoint, read_cache_records, run_campaign
+from ..campaign.callbacks import RunningStats
+from ..campaign.fitness import front_of, merge_front
 from ..campaign.grid import DesignGrid
 from ..constants import SECONDS_PER_DAY
 from ..constellation import WalkerDesign
 from ..evaluator import context_for
 from ..propagator import elements_deg_to_states
+from .evaluation_before import compare_evaluations
 from .kernels_before import replay_times, rhs_points
-from ..campaign.timing import campaign_timing, concurrent_workers, steady_rate
+from ..campaign.timing import campaign_timing, concurrent_workers, generation_timing, steady_rate
+from ..keys import TIMING_KEYS
 from ..paper import EVALUATIONS, TABLE_5
 
 KERNEL_DESIGNS = 4             # designs of the short run whose right-hand sides are timed before and after
+EVALUATION_DESIGNS = 30        # designs whose whole campaign evaluation is timed before and after
 HISTORY_TAIL = 20              # generations of a run whose mean evaluated count stands for its unrun generations
 SCALING_WORKERS = (8, 32, 64)
 SCALING_DELAY_S = 0.5
@@ -137,6 +150,85 @@ def _history_range(projection: dict, run_dir) -> dict:
     print(f"  projected 120 x 1000 [{projection['profile']}] at {rate:.2f} designs/s: {with_hits_h:.2f} h with the "
           f"measured hits .. {no_hits_h:.2f} h with none")
     return {**hist, "projected_h_with_hits": with_hits_h, "projected_h_no_hits": no_hits_h}
+
+
+def _late_designs(records: list[dict], n: int, tail: int = HISTORY_TAIL) -> list[dict]:
+    """Up to ``n`` evaluated records (seeded draw) of the last ``tail`` generations in ``records``."""
+    last = max((int(r.get("generation", 0)) for r in records), default=0)
+    late = [r for r in records if r["ok"] and int(r.get("generation", 0)) > last - tail]
+    rng = np.random.default_rng(23)
+    return [late[i] for i in sorted(rng.choice(len(late), min(n, len(late)), replace=False))]
+
+
+def evaluation_comparison(profile_name: str, projection: dict, overrides: dict | None = None,
+                          history: str | None = None) -> dict:
+    """Print and return the campaign evaluation before and after issue 23's evaluation-path work
+    (:mod:`lnss_lib.bench.evaluation_before`) on :data:`EVALUATION_DESIGNS` designs: the last
+    :data:`HISTORY_TAIL` generations' of ``history`` (the mix a converged search evaluates) or else the short
+    run's; and the per-generation time and 120 x 1000 projection of both from the short run's rate."""
+    settings = load_settings(profile_name, overrides=overrides)
+    context = context_for(settings)
+    grid = DesignGrid.from_variables(settings.campaign.variables)
+    source = read_cache_records(history) if history is not None else projection["records"]
+    records = _late_designs(source, EVALUATION_DESIGNS)
+    designs = []
+    for record in records:
+        design = grid.descale(record["key"])[0]
+        designs.append(WalkerDesign(*(float(x) for x in design[:4]), int(design[4]), int(design[5])).elements_deg())
+    got = compare_evaluations(context, designs)
+    before, now = got["before_s"], got["now_s"]
+    where = f"{history}'s last {HISTORY_TAIL} generations" if history is not None else "the short run"
+    print(f"campaign evaluation before -> now (issue 23, evaluation path), {got['n_designs']} designs of {where}, 1 thread, "
+          f"median of 3 alternating runs: {1e3 * before:.1f} ms -> {1e3 * now:.1f} ms per design "
+          f"({100 * (1 - now / before):.1f}% less); "
+          + ", ".join(f"{k} {1e3 * got[f'before_{k}_s']:.1f} -> {1e3 * got[f'now_{k}_s']:.1f}" for k in TIMING_KEYS)
+          + f" ms; metrics differing: {got['n_differing']}")
+    rate, fixed_s, workers = projection["steady_designs_per_s"], projection["fixed_s"], max(projection["n_workers"], 1)
+    per_design = {"now": 1.0 / rate, "before": 1.0 / rate + (before - now) / workers}
+    evaluated = evaluated_per_generation(history)["evaluated_total"] if history is not None else EVALUATIONS
+    hours = {k: (fixed_s + evaluated * v) / 3600.0 for k, v in per_design.items()}
+    per_generation = {k: evaluated / TABLE_5["generations"] * v for k, v in per_design.items()}
+    print(f"  at the short run's rate ({rate:.2f} designs/s, {workers} worker(s)) with "
+          + (f"{history}'s cache hits" if history is not None else "no cache hits")
+          + f": {per_generation['before']:.2f} s -> {per_generation['now']:.2f} s a generation, 120 x 1000 "
+          f"{hours['before']:.2f} h -> {hours['now']:.2f} h")
+    return {**got, "generation_s": per_generation, "projected_h": hours, "records": source}
+
+
+def _front_before(front: np.ndarray, points: np.ndarray) -> np.ndarray:
+    """The previous per-generation front update: every row compared with every row."""
+    return front_of(np.concatenate([front, points]))
+
+
+def bookkeeping_comparison(profile_name: str, records: list[dict], overrides: dict | None = None,
+                           repeats: int = 5) -> dict:
+    """Print and return the main process's statistics of the last generation in ``records`` (a run's journal), before
+    and after: the hypervolume front merged with the generation's points (:func:`~lnss_lib.campaign.fitness.
+    merge_front`) instead of recomputed over front and points (:func:`_front_before`), and the generation's timing
+    from the designs the journal gained instead of every record. Workers wait for it between generations."""
+    plan = CampaignPlan.of(load_settings(profile_name, overrides=overrides))
+    last = max(int(r.get("generation", 0)) for r in records)
+    n_before = sum(int(r.get("generation", 0)) < last for r in records)
+    running = RunningStats(plan)
+    running.update(records[:n_before])
+    times = {"before": [], "now": []}
+    fronts = {}
+    for repeat in range(repeats):
+        for name in (("before", "now") if repeat % 2 == 0 else ("now", "before")):
+            state = copy.deepcopy(running)
+            merge, timed = (_front_before, records) if name == "before" else (merge_front, records[n_before:])
+            with mock.patch.object(callbacks, "merge_front", merge):
+                start = time.perf_counter()
+                state.update(records)
+                generation_timing(timed, last, 2, 1.0)
+                times[name].append(time.perf_counter() - start)
+            fronts[name] = state.front
+    same = np.array_equal(fronts["before"], fronts["now"])
+    before, now = float(np.median(times["before"])), float(np.median(times["now"]))
+    print(f"statistics at the end of generation {last} ({len(records)} designs, {len(records) - n_before} new, front of "
+          f"{fronts['now'].shape[0]} points), median of {repeats} alternating: {before:.3f} s -> {now:.3f} s a generation "
+          f"(workers idle meanwhile); fronts identical: {same}")
+    return {"before_s": before, "now_s": now, "same_front": bool(same), "generation": last}
 
 
 def kernel_comparison(profile_name: str, records: list[dict], overrides: dict | None = None) -> dict:
@@ -288,6 +380,8 @@ def run(profile_name: str = "paper", generations: int | None = None, population:
     else:
         print(f"projected 120 x 1000: [{profile_name}] {out[profile_name]['projected_paper_h']:.1f} h (target <= 3 h on "
               "2 workers); no params/operational.toml, so no operational projection")
+    out["evaluation"] = evaluation_comparison(profile_name, out[profile_name], overrides, history)
+    out["statistics"] = bookkeeping_comparison(profile_name, out["evaluation"].pop("records"), overrides)
     out["kernels"] = kernel_comparison(profile_name, out[profile_name]["records"], overrides)
     if scaling_run:
         out["scaling"] = scaling(profile_name, out[profile_name], overrides)
