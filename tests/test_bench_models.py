@@ -69,3 +69,51 @@ def test_previous_force_model_agrees_to_round_off_on_an_integrated_arc(paper_pro
     ts, ys = rhs_points(model, y0, epoch_tdb_s, duration, "RK45", 1e-6, 1e-9)
     replay = replay_times(model, ts, ys, repeats=1)
     assert replay["max_rel_diff"] < 1e-13 and replay["n_rhs"] == len(ts) > 100
+
+
+def test_previous_campaign_evaluation_gives_the_same_metrics():
+    """``bench campaign``'s 'before' evaluation (Datasets, every Delta-V model, a grid pass that skips nothing)
+    and the campaign's evaluation agree bit for bit; the 'before' cap skips no direction."""
+    from lnss_lib.bench.evaluation_before import NO_CAP, compare_evaluations
+    from lnss_lib.constellation import WalkerDesign
+    from lnss_lib.dop import _below_every_horizon
+    from lnss_lib.evaluator import context_for
+    from lnss_lib.settings import load_settings
+
+    context = context_for(load_settings("ci"))
+    designs = [WalkerDesign(6143.0, 0.6, 90.0, 51.7, 2, 2).elements_deg(),
+               WalkerDesign(9000.0, 0.4, 270.0, 70.0, 3, 1).elements_deg(),
+               WalkerDesign(1800.0, 0.1, 90.0, 51.7, 2, 1).elements_deg()]      # perilune inside the Moon: skipped
+    got = compare_evaluations(context, designs, repeats=1)
+    assert got["n_designs"] == 2 and got["n_differing"] == 0
+    assert got["before_s"] > 0.0 and got["now_s"] > 0.0
+    rng = np.random.default_rng(2)
+    assert not any(_below_every_horizon(*p, NO_CAP) for p in rng.normal(size=(500, 3)) * 5000.0)
+
+
+def test_shadow_factor_equals_the_three_angle_computation_bit_for_bit():
+    """forces.shadow_factor (full sunlight told from the cosines) gives the previous computation's value exactly:
+    random geometries round the Moon and the Earth, and satellites on the umbra and penumbra edges behind the Moon."""
+    from lnss_lib.bench.kernels_before import shadow_factor_before
+    from lnss_lib.forces import shadow_factor
+
+    rng = np.random.default_rng(9)
+    r_moon, r_earth, r_sun, au = 1737.4, 6378.137, 696000.0, 1.495978707e8
+    sun = np.array([au, 0.0, 0.0])
+    earth = np.array([-3.0e5, 2.4e5, 1.0e4])
+    unit = rng.normal(size=(20000, 3))
+    unit /= np.linalg.norm(unit, axis=1)[:, None]
+    positions = list(unit * rng.uniform(r_moon * 0.999, 6.0e4, size=(20000, 1)))
+    for along in (2.0e3, 1.0e4, 4.0e4):                   # behind the Moon, across the umbra and penumbra edges
+        half_width = r_moon - along * (r_sun - r_moon) / au, r_moon + along * (r_sun + r_moon) / au
+        for edge in half_width:
+            for offset in edge * (1.0 + np.linspace(-1e-3, 1e-3, 401)):
+                positions.append(np.array([-along, offset, 0.0]))
+    near_earth = earth + unit[:5000] * rng.uniform(r_earth, 5.0e4, size=(5000, 1))
+    values = {"lit": 0, "partial": 0, "dark": 0}
+    for body, radius, points in (((0.0, 0.0, 0.0), r_moon, positions), (tuple(earth), r_earth, near_earth)):
+        for r in points:
+            new = shadow_factor(r, sun, *body, radius, r_sun)
+            assert new == shadow_factor_before(r, sun, *body, radius, r_sun), (r, body)
+            values["lit" if new == 1.0 else "dark" if new == 0.0 else "partial"] += 1
+    assert min(values.values()) > 100                      # every branch is exercised

@@ -104,7 +104,8 @@ def _projection(profile_name: str, population: int, generations: int, workers: i
     print("  mean per evaluation: " + ", ".join(f"{k} {v:.3f} s" for k, v in parts.items()))
     print(f"  projected 120 x 1000 campaign ({EVALUATIONS} designs, all eq. 45 objectives, no cache hits, this design "
           f"mix): {projected_h:.1f} h on this machine; with this run's hit rate {projected_h * (1 - hits):.1f} h")
-    return {"profile": profile_name, "wall_s": wall, "n_evaluations": n, "designs_per_s": n / wall,
+    return {"profile": profile_name, "wall_s": wall, "n_evaluations": n, "n_workers": run["n_workers"],
+            "designs_per_s": n / wall,
             "steady_designs_per_s": rate, "projected_paper_h": projected_h, "fixed_s": startup_s + first_gen_s,
             "records": run["records"], **timing}
 

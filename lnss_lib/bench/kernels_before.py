@@ -6,7 +6,9 @@ MOON_PA rotation, the Sun, the Earth and Jupiter each with its own interval and 
 :func:`lnss_lib.ephemeris.hermite_basis` for all), and summed the harmonic acceleration with the
 coefficients C_nm, S_nm and the recursion's x/y/z factors multiplied per term
 (:func:`harmonic_acceleration_before`; now tables folded once per field and one padded loop per degree row,
-:func:`lnss_lib.gravity.harmonic_acceleration`). :func:`acceleration_terms_before` is the previous code as it
+:func:`lnss_lib.gravity.harmonic_acceleration`), and took the conical shadow's three angles at every call
+(:func:`shadow_factor_before`; now a fully lit satellite is told from the cosines, the same 1.0 bit for bit).
+:func:`acceleration_terms_before` is the previous code as it
 was (a copy kept for this comparison only); the new sums are reordered, so the two agree to round-off
 (~1e-15 relative), not bit for bit. :func:`rhs_points` records the (t, y) points an integration of one
 satellite evaluates (RK45 or DOP853 with scipy's controller, the compiled engine's: ``tests/test_propagator.py``
@@ -23,7 +25,7 @@ from scipy.integrate import solve_ivp
 from ..ephemeris import hermite_cubic
 from ..forces import (ALBEDO, AU, C_LIGHT, F_ALBEDO, F_EARTH, F_HARMONICS, F_JUPITER, F_REL, F_SHADOW, F_SRP, F_SUN,
                       GM, R_EARTH, R_MOON, R_REF, R_SUN, SCRATCH_SIZE, SRP_K, TERMS, ForceModel, _third_body,
-                      acceleration, shadow_factor)
+                      acceleration, conical_fraction, shadow_geometry)
 from ..gravity import fill_vw, truncation_degree
 
 
@@ -56,6 +58,13 @@ def harmonic_acceleration_before(r_bf_km, cnm, snm, coef, gm, r_ref, degree, wor
     out[0] = scale * ax
     out[1] = scale * ay
     out[2] = scale * az
+
+
+@nb.njit(cache=True)
+def shadow_factor_before(r_sc, r_sun, bx, by, bz, radius_body, radius_sun):
+    """The previous :func:`lnss_lib.forces.shadow_factor`: the three angles at every call (the same values)."""
+    inside, sin_a, sin_b, cos_c = shadow_geometry(r_sc, r_sun, bx, by, bz, radius_body, radius_sun)
+    return 0.0 if inside else conical_fraction(sin_a, sin_b, cos_c)
 
 
 @nb.njit(cache=True)
@@ -102,9 +111,10 @@ def acceleration_terms_before(t, y, args, field_before, work, scratch, terms):
         d = np.sqrt(ux * ux + uy * uy + uz * uz)
         nu = 1.0
         if flags[F_SHADOW]:
-            nu = shadow_factor(r, r_sun, 0.0, 0.0, 0.0, scalars[R_MOON], scalars[R_SUN])
+            nu = shadow_factor_before(r, r_sun, 0.0, 0.0, 0.0, scalars[R_MOON], scalars[R_SUN])
             if nu > 0.0:
-                nu *= shadow_factor(r, r_sun, r_earth[0], r_earth[1], r_earth[2], scalars[R_EARTH], scalars[R_SUN])
+                nu *= shadow_factor_before(r, r_sun, r_earth[0], r_earth[1], r_earth[2], scalars[R_EARTH],
+                                           scalars[R_SUN])
         k = nu * scalars[SRP_K] * (scalars[AU] / d) ** 2 / d
         terms[5, 0] = k * ux
         terms[5, 1] = k * uy
