@@ -213,43 +213,12 @@ def dop_kernel(r_mf_km: np.ndarray, r_grid_km: np.ndarray, up: np.ndarray, eleva
     return n_visible, pdop, hdop
 
 
-def horizon_cap(r_grid_km: np.ndarray, up: np.ndarray) -> tuple[float, float, float, float, float, float]:
-    """(axis x, y, z, cos, sin of the cap's half-angle, height) of a spherical cap holding every point's up vector
-    (``up`` (npoint, 3)), with ``height`` the smallest r_grid . up: a satellite at s with s . u < height for every u
-    in the cap is below every point's horizon (:func:`_grid_kernel` skips it; the cap is widened by 1e-6 rad and
-    the kernel's test keeps a 1e-9 relative margin, far above rounding). A grid round the whole sphere gives a cap
-    of half-angle pi, which holds every direction (nothing is skipped)."""
-    mean = up.mean(axis=0)
-    norm = float(np.linalg.norm(mean))
-    if norm < 1e-6:
-        return 0.0, 0.0, 1.0, -1.0, 0.0, 0.0
-    axis = mean / norm
-    half_angle = min(float(np.arccos(np.clip(np.min(up @ axis), -1.0, 1.0))) + 1e-6, np.pi)
-    height = float(np.min(np.sum(r_grid_km * up, axis=1)))
-    return float(axis[0]), float(axis[1]), float(axis[2]), float(np.cos(half_angle)), float(np.sin(half_angle)), height
-
-
 @nb.njit(cache=True)
-def _below_every_horizon(rx, ry, rz, cap):
-    """True when a satellite at (rx, ry, rz) is below the horizon of every point of :func:`horizon_cap`'s ``cap``
-    (largest s . u over the cap, by the angle between s and the axis, under the height with a 1e-9 margin)."""
-    ax, ay, az, cos_cap, sin_cap, height = cap
-    along = rx * ax + ry * ay + rz * az
-    r2 = rx * rx + ry * ry + rz * rz
-    if along >= np.sqrt(r2) * cos_cap:                        # s inside the cap: some point may see it overhead
-        return False
-    across = np.sqrt(max(r2 - along * along, 0.0))
-    return along * cos_cap + across * sin_cap < height * (1.0 - 1e-9)
-
-
-@nb.njit(cache=True)
-def _grid_kernel(r, gx, gy, gz, ux, uy, uz, sin_mask, enu, cap, n_visible, pdop, hdop):
+def _grid_kernel(r, gx, gy, gz, ux, uy, uz, sin_mask, enu, n_visible, pdop, hdop):
     """:func:`dop_kernel`'s arithmetic on ``r`` (time, sat, 3), one epoch at a time: lines of sight and
     visibility (sat, point), the centred normal matrix in two passes weighted by visibility (as
     :func:`lnss_lib.geometry.normal_matrix_entries`) and its inverse
-    (:func:`lnss_lib.geometry.block_inverse`); the loops over points are independent and vectorise. With a
-    non-negative mask a satellite below every point's horizon (:func:`_below_every_horizon`) is skipped: its
-    terms would all be weighted by zero, so the sums are the same bit for bit.
+    (:func:`lnss_lib.geometry.block_inverse`); the loops over points are independent and vectorise.
     """
     ntime, nsat, _ = r.shape
     npt = gx.shape[0]
@@ -262,7 +231,6 @@ def _grid_kernel(r, gx, gy, gz, ux, uy, uz, sin_mask, enu, cap, n_visible, pdop,
     my = np.empty(npt)
     mz = np.empty(npt)
     s = np.empty((6, npt))
-    hidden = np.zeros(nsat, dtype=np.bool_)
     for t in range(ntime):
         count[:] = 0.0
         mx[:] = 0.0
@@ -270,9 +238,6 @@ def _grid_kernel(r, gx, gy, gz, ux, uy, uz, sin_mask, enu, cap, n_visible, pdop,
         mz[:] = 0.0
         for k in range(nsat):
             rx, ry, rz = r[t, k, 0], r[t, k, 1], r[t, k, 2]
-            hidden[k] = sin_mask >= 0.0 and _below_every_horizon(rx, ry, rz, cap)
-            if hidden[k]:
-                continue
             lxk, lyk, lzk, wk = lx[k], ly[k], lz[k], wv[k]
             for p in range(npt):
                 dx = rx - gx[p]
@@ -298,8 +263,6 @@ def _grid_kernel(r, gx, gy, gz, ux, uy, uz, sin_mask, enu, cap, n_visible, pdop,
             mz[p] *= inv
         s[:, :] = 0.0
         for k in range(nsat):
-            if hidden[k]:
-                continue
             lxk, lyk, lzk, wk = lx[k], ly[k], lz[k], wv[k]
             for p in range(npt):
                 x = (lxk[p] - mx[p]) * wk[p]
@@ -354,8 +317,7 @@ def dop_arrays(r_mf_km, r_grid_km, up, elevation_mask_deg: float = 5.0,
     pdop = np.full((ntime, npt), np.nan)
     hdop = np.full((ntime, npt), np.nan)
     _grid_kernel(r, *(np.ascontiguousarray(g[:, k]) for k in range(3)), *(np.ascontiguousarray(u[:, k]) for k in range(3)),
-                 float(np.sin(np.radians(elevation_mask_deg))), los_axes == "enu", horizon_cap(g, u), n_visible, pdop,
-                 hdop)
+                 float(np.sin(np.radians(elevation_mask_deg))), los_axes == "enu", n_visible, pdop, hdop)
     if np.any(n_visible < 0):
         raise RuntimeError(f"the DOP grid kernel left {int(np.sum(n_visible < 0))} of {n_visible.size} "
                            "(epoch, point) samples not computed")

@@ -267,30 +267,3 @@ def test_dop_metrics_match_summary_of_dataset(weighting):
         assert set(old) == set(new)
         for key, value in old.items():
             assert new[key] == pytest.approx(value, rel=1e-11, abs=1e-12, nan_ok=True), key
-
-
-def test_satellites_skipped_by_the_grid_pass_are_below_every_horizon():
-    """The compiled pass skips a satellite only when no grid point can see it: checked by brute force (largest
-    elevation over the points below zero) on random positions near the cap's edge and on the Walker fixture, which
-    has such satellites (so test_compiled_grid_pass_matches_dop_kernel_bit_for_bit covers the skip); a grid round
-    the whole sphere skips nothing."""
-    from lnss_lib.dop import _below_every_horizon, horizon_cap
-
-    paper = load_settings("paper")
-    grid = SurfaceGrid.from_settings(paper.dop, paper.constants.r_moon_mean_km)
-    points, up = grid.r_mf_km.reshape(-1, 3), grid.up.reshape(-1, 3)
-    cap = horizon_cap(points, up)
-    assert np.allclose(cap[:3], [0.0, 0.0, -1.0]) and cap[5] == pytest.approx(R_MOON_KM)
-    rng = np.random.default_rng(4)
-    directions = rng.normal(size=(20000, 3))
-    directions /= np.linalg.norm(directions, axis=1)[:, None]
-    positions = directions * rng.uniform(R_MOON_KM * 1.001, 50000.0, size=(20000, 1))
-    walker = _walker_positions_mf().reshape(-1, 3)
-    for sample in (positions, walker):
-        hidden = np.array([_below_every_horizon(*p, cap) for p in sample])
-        top = elevation_deg(sample[:, None, :], grid).reshape(len(sample), -1).max(axis=1)
-        assert np.all(top[hidden] < 0.0)
-        assert 0.1 < hidden.mean() < 0.9                  # a real share skipped, and not everything
-    whole = surface_grid(-90.0, 90.0, 30.0, 0.0, 330.0, 30.0, radius_km=R_MOON_KM)
-    whole_cap = horizon_cap(whole.r_mf_km.reshape(-1, 3), whole.up.reshape(-1, 3))
-    assert not any(_below_every_horizon(*p, whole_cap) for p in positions[:2000])

@@ -4,23 +4,19 @@ Before, each evaluation resolved and checked the SPICE kernel paths again (:func
 :func:`~lnss_lib.ephemeris.load_kernels` on :func:`~lnss_lib.ephemeris.kernel_paths` as
 ``ensure_kernels`` did; now once per ephemeris settings), built the propagation Dataset, and computed every
 Delta-V model of satellite 0 into a Dataset (:func:`~lnss_lib.evaluator.analyse_states` with
-``datasets=False``, which the profiles with extra metrics still take), and the DOP grid pass computed every
-satellite at every epoch (here: the pass given a cap of every direction, :data:`NO_CAP`, so it skips nothing). Now
+``datasets=False``, which the profiles with extra metrics still take). Now
 :func:`~lnss_lib.evaluator.campaign_metrics` keeps the propagation in arrays and computes ``[deltav] model``
-alone, and the grid pass skips satellites below every point's horizon (:func:`lnss_lib.dop.horizon_cap`): the
-same metrics bit for bit. :func:`compare_evaluations` times both on the same designs, alternating.
+alone: the same metrics bit for bit. :func:`compare_evaluations` times both on the same designs, alternating.
 """
 
 from __future__ import annotations
 
 import math
 import time
-from unittest import mock
 
 import numba
 import numpy as np
 
-from .. import dop
 from ..ephemeris import kernel_paths, load_kernels
 from ..evaluator import EvaluationContext, analyse_states, evaluate_constellation
 from ..errors import InfeasibleDesignError
@@ -28,16 +24,12 @@ from ..keys import METRIC_KEYS, TIMING_KEYS
 from ..propagator import elements_deg_to_states
 
 
-NO_CAP = (0.0, 0.0, 1.0, -1.0, 0.0, 0.0)         # horizon_cap of a grid round the whole sphere: nothing skipped
-
-
 def evaluate_before(context: EvaluationContext, elements_deg: np.ndarray) -> dict | None:
     """The previous campaign evaluation of a constellation's elements (n, 6); None for an infeasible design."""
     load_kernels(kernel_paths(context.settings.dynamics.ephemeris))
     try:
         states = elements_deg_to_states(context.dynamics, elements_deg, context.t0_tdb_s)
-        with mock.patch.object(dop, "horizon_cap", lambda *args: NO_CAP):
-            return analyse_states(context, elements_deg, states, datasets=False)["metrics"]
+        return analyse_states(context, elements_deg, states, datasets=False)["metrics"]
     except InfeasibleDesignError:
         return None
 
