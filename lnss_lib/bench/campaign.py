@@ -229,27 +229,33 @@ def bookkeeping_comparison(profile_name: str, records: list[dict], overrides: di
     print(f"statistics at the end of generation {last} ({len(records)} designs, {len(records) - n_before} new, front of "
           f"{fronts['now'].shape[0]} points), median of {repeats} alternating: {before:.3f} s -> {now:.3f} s a generation "
           f"(workers idle meanwhile); fronts identical: {same}")
-    return {"before_s": before, "now_s": now, "same_front": bool(same), "generation": last}
+    return {"before_s": before, "now_s": now, "same_front": bool(same), "generation": last,
+            "front_points": int(fronts["now"].shape[0])}
 
 
-def history_after(run_dir, evaluation: dict, statistics: dict) -> dict:
+def history_after(run_dir, evaluation: dict, statistics: dict, kernels: dict) -> dict:
     """Print and return the pace of ``run_dir``'s last :data:`HISTORY_TAIL` generations as recorded (the code before)
     and with this change: its evaluation time (the mean task time of those generations' designs over its workers)
-    less the share :func:`evaluation_comparison` measured, and its statistics less :func:`bookkeeping_comparison`'s
-    saving at its last generation; and 120 x 1000 at each pace."""
+    less the share :func:`evaluation_comparison` measured and, of its propagation share, the right-hand side's share
+    the conical shadow saved (:func:`kernel_comparison`; both evaluation paths use the current force model), and its
+    statistics less :func:`bookkeeping_comparison`'s saving at its last generation; and 120 x 1000 at each pace."""
     tail = load_checkpoint(Path(run_dir))["history"][-HISTORY_TAIL:]
     records = [r for r in read_cache_records(run_dir) if int(r.get("generation", 0)) > tail[0]["generation"] - 1]
     workers = concurrent_workers(records)
     generation_s = float(np.mean([h["wall_s"] for h in tail]))
     evaluated = float(np.mean([h["n_evaluated"] for h in tail]))
     evaluating_s = sum(r["task_wall_s"] for r in records) / len(tail) / workers
-    saved_s = evaluating_s * (1.0 - evaluation["now_s"] / evaluation["before_s"]) + statistics["before_s"] - statistics["now_s"]
+    shadow_saved = kernels["shadow_before_s"] - kernels["shadow_new_s"]
+    shadow_share = shadow_saved / (kernels["new_s"] + shadow_saved) * evaluation["now_propagation_s"] / evaluation["before_s"]
+    saved_s = (evaluating_s * (1.0 - evaluation["now_s"] / evaluation["before_s"] + shadow_share)
+               + statistics["before_s"] - statistics["now_s"])
     after_s = generation_s - saved_s
     generations = TABLE_5["generations"]
     print(f"  {run_dir}'s last {HISTORY_TAIL} generations as run (before): {generation_s:.2f} s a generation ({evaluated:.1f} "
           f"evaluated, {evaluating_s:.2f} s of tasks per worker, {workers} workers) = {generations * generation_s / 3600:.2f} h "
-          f"for {generations}; with this change: {after_s:.2f} s ({100 * saved_s / generation_s:.1f}% less) = "
-          f"{generations * after_s / 3600:.2f} h")
+          f"for {generations}; with this change: {after_s:.2f} s ({100 * saved_s / generation_s:.1f}% less, of which the "
+          f"shadow {100 * evaluating_s * shadow_share / generation_s:.1f}% and the statistics "
+          f"{100 * (statistics['before_s'] - statistics['now_s']) / generation_s:.1f}%) = {generations * after_s / 3600:.2f} h")
     return {"generation_before_s": generation_s, "generation_after_s": after_s, "saved_fraction": saved_s / generation_s}
 
 
@@ -411,9 +417,9 @@ def run(profile_name: str = "paper", generations: int | None = None, population:
               "2 workers); no params/operational.toml, so no operational projection")
     out["evaluation"] = evaluation_comparison(profile_name, out[profile_name], overrides, history)
     out["statistics"] = bookkeeping_comparison(profile_name, out["evaluation"].pop("records"), overrides)
-    if history is not None:
-        out["history_after"] = history_after(history, out["evaluation"], out["statistics"])
     out["kernels"] = kernel_comparison(profile_name, out[profile_name]["records"], overrides)
+    if history is not None:
+        out["history_after"] = history_after(history, out["evaluation"], out["statistics"], out["kernels"])
     if scaling_run:
         out["scaling"] = scaling(profile_name, out[profile_name], overrides)
     for value in out.values():
