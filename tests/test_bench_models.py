@@ -116,22 +116,3 @@ def test_shadow_factor_equals_the_three_angle_computation_bit_for_bit():
             values["lit" if new == 1.0 else "dark" if new == 0.0 else "partial"] += 1
     assert min(values.values()) > 100                      # every branch is exercised
 
-
-def test_statistics_before_and_now_give_the_same_front():
-    """``bench campaign``'s statistics comparison: the last generation's front merged (now) and recomputed over
-    every point (before) are the same rows; it reports the generation and both times."""
-    from lnss_lib.bench.campaign import bookkeeping_comparison
-    from lnss_lib.keys import METRIC_KEYS, TIMING_KEYS
-
-    rng = np.random.default_rng(7)
-    records = []
-    for i in range(600):
-        metrics = {k: float(rng.uniform(1.0, 9.0)) for k in METRIC_KEYS}
-        metrics.update(n_sat=int(rng.integers(4, 21)), pdop_mean_3sigma=float(rng.uniform(1.0, 10.0)),
-                       pdop_avail_pct=float(rng.uniform(70.0, 100.0)), hdop_avail_pct=float(rng.uniform(70.0, 100.0)),
-                       dv_total_kms_per_year=float(rng.uniform(0.1, 4.5)), dv_opt_kms_per_year=float(rng.uniform(0.1, 4.5)))
-        records.append({"key": [i, 0, 0, 0, 0, 0], "ok": True, "metrics": metrics, "generation": 1 + i // 100,
-                        "timing_s": dict.fromkeys(TIMING_KEYS, 0.01), "task_wall_s": 0.06})
-    got = bookkeeping_comparison("paper_dv_physical", records, repeats=1)
-    assert got["same_front"] and got["front_points"] > 10 and got["generation"] == 6
-    assert got["before_s"] > 0.0 and got["now_s"] > 0.0

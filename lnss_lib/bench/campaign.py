@@ -6,9 +6,8 @@ the points an RK45 integration of each satellite of the run's first :data:`KERNE
 evaluates, and the largest relative difference of the two accelerations (round-off, ~1e-15). Before the force
 model, the campaign's whole design evaluation before and after the evaluation-path work
 (:mod:`lnss_lib.bench.evaluation_before`: Datasets, every Delta-V model, kernel paths per design), on the same
-designs alternating, with the per-generation time and 120 x 1000 projection of each; and the main process's
-statistics at the end of the last generation before and after (the hypervolume front merged with the new points,
-the timing from the new designs: :func:`bookkeeping_comparison`), which the workers wait for every generation.
+designs alternating, with the per-generation time and 120 x 1000 projection of each. After the force model, with
+``--history``, that run's own pace of its last generations before and with this change (:func:`history_after`).
 
 ``--history RUN_DIR`` projects the same 120 x 1000 campaign with the designs a real run actually evaluated per
 generation (its checkpoint history: a converging search repeats designs, which the journal answers): the
@@ -25,12 +24,10 @@ generation of 120 designs, with designs as tasks and with satellites as tasks.
 
 from __future__ import annotations
 
-import copy
 import math
 import tempfile
 import time
 from pathlib import Path
-from unittest import mock
 
 import numba
 import numpy as np
@@ -38,9 +35,7 @@ import numpy as np
 from ..config import PARAMS_DIR, deep_merge
 from ..errors import ConfigError
 from ..settings import load_settings
-from ..campaign import CampaignPlan, callbacks, load_checkpoint, read_cache_records, run_campaign
-from ..campaign.callbacks import RunningStats
-from ..campaign.fitness import front_of, merge_front
+from ..campaign import load_checkpoint, read_cache_records, run_campaign
 from ..campaign.grid import DesignGrid
 from ..constants import SECONDS_PER_DAY
 from ..constellation import WalkerDesign
@@ -48,7 +43,7 @@ from ..evaluator import context_for
 from ..propagator import elements_deg_to_states
 from .evaluation_before import compare_evaluations
 from .kernels_before import replay_times, rhs_points, shadow_times
-from ..campaign.timing import campaign_timing, concurrent_workers, generation_timing, steady_rate
+from ..campaign.timing import campaign_timing, concurrent_workers, steady_rate
 from ..keys import TIMING_KEYS
 from ..paper import EVALUATIONS, TABLE_5
 
@@ -196,49 +191,12 @@ def evaluation_comparison(profile_name: str, projection: dict, overrides: dict |
     return {**got, "generation_s": per_generation, "projected_h": hours, "records": source}
 
 
-def _front_before(front: np.ndarray, points: np.ndarray) -> np.ndarray:
-    """The previous per-generation front update: every row compared with every row."""
-    return front_of(np.concatenate([front, points]))
-
-
-def bookkeeping_comparison(profile_name: str, records: list[dict], overrides: dict | None = None,
-                           repeats: int = 5) -> dict:
-    """Print and return the main process's statistics of the last generation in ``records`` (a run's journal), before
-    and after: the hypervolume front merged with the generation's points (:func:`~lnss_lib.campaign.fitness.
-    merge_front`) instead of recomputed over front and points (:func:`_front_before`), and the generation's timing
-    from the designs the journal gained instead of every record. Workers wait for it between generations."""
-    plan = CampaignPlan.of(load_settings(profile_name, overrides=overrides))
-    last = max(int(r.get("generation", 0)) for r in records)
-    n_before = sum(int(r.get("generation", 0)) < last for r in records)
-    running = RunningStats(plan)
-    running.update(records[:n_before])
-    times = {"before": [], "now": []}
-    fronts = {}
-    for repeat in range(repeats):
-        for name in (("before", "now") if repeat % 2 == 0 else ("now", "before")):
-            state = copy.deepcopy(running)
-            merge, timed = (_front_before, records) if name == "before" else (merge_front, records[n_before:])
-            with mock.patch.object(callbacks, "merge_front", merge):
-                start = time.perf_counter()
-                state.update(records)
-                generation_timing(timed, last, 2, 1.0)
-                times[name].append(time.perf_counter() - start)
-            fronts[name] = state.front
-    same = np.array_equal(fronts["before"], fronts["now"])
-    before, now = float(np.median(times["before"])), float(np.median(times["now"]))
-    print(f"statistics at the end of generation {last} ({len(records)} designs, {len(records) - n_before} new, front of "
-          f"{fronts['now'].shape[0]} points), median of {repeats} alternating: {before:.3f} s -> {now:.3f} s a generation "
-          f"(workers idle meanwhile); fronts identical: {same}")
-    return {"before_s": before, "now_s": now, "same_front": bool(same), "generation": last,
-            "front_points": int(fronts["now"].shape[0])}
-
-
-def history_after(run_dir, evaluation: dict, statistics: dict, kernels: dict) -> dict:
+def history_after(run_dir, evaluation: dict, kernels: dict) -> dict:
     """Print and return the pace of ``run_dir``'s last :data:`HISTORY_TAIL` generations as recorded (the code before)
     and with this change: its evaluation time (the mean task time of those generations' designs over its workers)
     less the share :func:`evaluation_comparison` measured and, of its propagation share, the right-hand side's share
-    the conical shadow saved (:func:`kernel_comparison`; both evaluation paths use the current force model), and its
-    statistics less :func:`bookkeeping_comparison`'s saving at its last generation; and 120 x 1000 at each pace."""
+    the conical shadow saved (:func:`kernel_comparison`; both evaluation paths use the current force model); and
+    120 x 1000 at each pace."""
     tail = load_checkpoint(Path(run_dir))["history"][-HISTORY_TAIL:]
     records = [r for r in read_cache_records(run_dir) if int(r.get("generation", 0)) > tail[0]["generation"] - 1]
     workers = concurrent_workers(records)
@@ -247,15 +205,13 @@ def history_after(run_dir, evaluation: dict, statistics: dict, kernels: dict) ->
     evaluating_s = sum(r["task_wall_s"] for r in records) / len(tail) / workers
     shadow_saved = kernels["shadow_before_s"] - kernels["shadow_new_s"]
     shadow_share = shadow_saved / (kernels["new_s"] + shadow_saved) * evaluation["now_propagation_s"] / evaluation["before_s"]
-    saved_s = (evaluating_s * (1.0 - evaluation["now_s"] / evaluation["before_s"] + shadow_share)
-               + statistics["before_s"] - statistics["now_s"])
+    saved_s = evaluating_s * (1.0 - evaluation["now_s"] / evaluation["before_s"] + shadow_share)
     after_s = generation_s - saved_s
     generations = TABLE_5["generations"]
     print(f"  {run_dir}'s last {HISTORY_TAIL} generations as run (before): {generation_s:.2f} s a generation ({evaluated:.1f} "
           f"evaluated, {evaluating_s:.2f} s of tasks per worker, {workers} workers) = {generations * generation_s / 3600:.2f} h "
           f"for {generations}; with this change: {after_s:.2f} s ({100 * saved_s / generation_s:.1f}% less, of which the "
-          f"shadow {100 * evaluating_s * shadow_share / generation_s:.1f}% and the statistics "
-          f"{100 * (statistics['before_s'] - statistics['now_s']) / generation_s:.1f}%) = {generations * after_s / 3600:.2f} h")
+          f"shadow {100 * evaluating_s * shadow_share / generation_s:.1f}%) = {generations * after_s / 3600:.2f} h")
     return {"generation_before_s": generation_s, "generation_after_s": after_s, "saved_fraction": saved_s / generation_s}
 
 
@@ -416,10 +372,10 @@ def run(profile_name: str = "paper", generations: int | None = None, population:
         print(f"projected 120 x 1000: [{profile_name}] {out[profile_name]['projected_paper_h']:.1f} h (target <= 3 h on "
               "2 workers); no params/operational.toml, so no operational projection")
     out["evaluation"] = evaluation_comparison(profile_name, out[profile_name], overrides, history)
-    out["statistics"] = bookkeeping_comparison(profile_name, out["evaluation"].pop("records"), overrides)
+    out["evaluation"].pop("records")
     out["kernels"] = kernel_comparison(profile_name, out[profile_name]["records"], overrides)
     if history is not None:
-        out["history_after"] = history_after(history, out["evaluation"], out["statistics"], out["kernels"])
+        out["history_after"] = history_after(history, out["evaluation"], out["kernels"])
     if scaling_run:
         out["scaling"] = scaling(profile_name, out[profile_name], overrides)
     for value in out.values():

@@ -19,7 +19,7 @@ from pathlib import Path
 import numpy as np
 
 from ..progress import CellProgress
-from .fitness import (constraint_matrix, constraint_violation, hypervolume_of_front, hypervolume_points, merge_front,
+from .fitness import (constraint_matrix, constraint_violation, front_of, hypervolume_of_front, hypervolume_points,
                       metric_columns)
 from .rundir import write_checkpoint
 from .settings import CampaignPlan
@@ -109,7 +109,7 @@ class RunningStats:
                 self.best[metric] = float(best if math.isnan(old) else (max(old, best) if larger else min(old, best)))
         if settings.hypervolume and feasible.any():
             points = hypervolume_points(columns, feasible, settings.hypervolume)
-            self.front = merge_front(self.front, points)
+            self.front = front_of(np.concatenate([self.front, points]))
 
     def stats(self, pop_keys: list[tuple]) -> dict:
         """The numbers of the history entry, for the population ``pop_keys``."""
@@ -186,7 +186,6 @@ class HistoryRecorder(Callback):
         pop_keys = [tuple(int(v) for v in row) for row in np.rint(state.algorithm.pop.get("X"))]
         if self.running is None:
             self.running = RunningStats(state.settings)
-        gained = records[self.running.n_seen:]          # this generation's designs are among those the journal gained
         self.running.update(records)
         stats = self.running.stats(pop_keys)
         wall = state.wall_s + (time.perf_counter() - start)
@@ -195,7 +194,7 @@ class HistoryRecorder(Callback):
                               "n_evaluated": last["evaluated"], "n_cache_hits": last["hits"],
                               "n_errors": last["errors"], "n_errors_cum": state.cache.n_errors, **stats, "wall_s": wall,
                               "designs_per_s": last["evaluated"] / wall if wall > 0 else 0.0,
-                              **generation_timing(gained, state.generation,
+                              **generation_timing(records, state.generation,
                                                   getattr(state.batch.backend, "n_workers", 1), wall)})
 
 

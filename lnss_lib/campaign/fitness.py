@@ -15,7 +15,7 @@ import numpy as np
 from ..keys import EXTRA_METRIC_KEYS, METRIC_KEYS, NON_NAVIGATION_METRICS, bound_text
 
 __all__ = ["objective_matrix", "constraint_matrix", "constraint_violation", "non_dominated_mask", "hypervolume",
-           "hypervolume_points", "front_of", "merge_front", "dominated_by_any", "hypervolume_of_front",
+           "hypervolume_points", "front_of", "hypervolume_of_front",
            "metric_columns", "parse_constraints", "satisfies", "deltav_constraint"]
 
 
@@ -88,27 +88,6 @@ def front_of(points: np.ndarray) -> np.ndarray:
     """The non-dominated rows of ``points``, sorted lexicographically (one order, however they were gathered)."""
     front = points[non_dominated_mask(points)]
     return front[np.lexsort(tuple(front[:, j] for j in range(front.shape[1] - 1, -1, -1)))]
-
-
-def dominated_by_any(rows: np.ndarray, rivals: np.ndarray, chunk: int = 256) -> np.ndarray:
-    """True for each row of ``rows`` (n, k) that some row of ``rivals`` (m, k) dominates (minimisation)."""
-    out = np.zeros(rows.shape[0], dtype=bool)
-    for start in range(0, rows.shape[0], chunk):
-        block = rows[start:start + chunk]
-        less_eq = np.all(rivals[None, :, :] <= block[:, None, :], axis=2)
-        less = np.any(rivals[None, :, :] < block[:, None, :], axis=2)
-        out[start:start + chunk] = np.any(less_eq & less, axis=1)
-    return out
-
-
-def merge_front(front: np.ndarray, points: np.ndarray) -> np.ndarray:
-    """``front_of(np.concatenate([front, points]))`` for a ``front`` that is already a :func:`front_of`: the same
-    rows in the same order, comparing only the new points with the front and each other (a front row is dominated
-    only by a new point) instead of every row with every row: what a campaign does every generation."""
-    new = points[non_dominated_mask(points)]
-    new = new[~dominated_by_any(new, front)]
-    merged = np.concatenate([front[~dominated_by_any(front, new)], new])
-    return merged[np.lexsort(tuple(merged[:, j] for j in range(merged.shape[1] - 1, -1, -1)))]
 
 
 def hypervolume_of_front(front: np.ndarray) -> float:

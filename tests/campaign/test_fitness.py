@@ -111,24 +111,6 @@ def test_non_dominated_mask_with_ties_and_duplicates_across_chunks(rng):
     assert non_dominated_mask(np.zeros((0, 3))).shape == (0,)
 
 
-def test_merged_front_is_the_front_of_everything_bit_for_bit(rng):
-    """merge_front(front, points), generation by generation, gives front_of over every point so far: the same rows in
-    the same order (ties, duplicates, points equal to front rows, a new point dominating front rows, none new)."""
-    from lnss_lib.campaign.fitness import front_of, merge_front
-
-    for columns, levels in ((4, 5), (9, 40)):
-        batches = [rng.integers(0, levels, size=(int(rng.integers(0, 60)), columns)) / levels for _ in range(30)]
-        batches[5] = np.concatenate([batches[4], batches[4][:3]])                  # repeats of earlier points
-        batches[25] = np.zeros((1, columns))                                       # dominates every other point
-        front, everything = np.zeros((0, columns)), np.zeros((0, columns))
-        for batch in batches:
-            everything = np.concatenate([everything, batch])
-            front = merge_front(front, batch)
-            expected = front_of(everything)
-            assert front.shape == expected.shape and np.array_equal(front, expected)
-        assert front.shape[0] >= 1
-
-
 def test_running_statistics_equal_the_statistics_over_every_design(settings, rng):
     """A run's per-generation numbers kept up to date generation by generation (RunningStats) equal those computed
     over every design at once, and the hypervolume equals pymoo's on the brute-force front in journal order."""
