@@ -116,3 +116,27 @@ def test_shadow_factor_equals_the_three_angle_computation_bit_for_bit():
             values["lit" if new == 1.0 else "dark" if new == 0.0 else "partial"] += 1
     assert min(values.values()) > 100                      # every branch is exercised
 
+
+
+def test_run_pace_after_subtracts_the_measured_shares(tmp_path):
+    """``bench campaign --history``: the run's last generations' pace as recorded, less the evaluation path's measured
+    share of its task time and the shadow's share of the propagation, by hand."""
+    from lnss_lib.bench.campaign import HISTORY_TAIL, history_after
+    from lnss_lib.campaign.journal import JOURNAL_FILE, EvaluationCache
+    from lnss_lib.campaign.rundir import write_checkpoint
+
+    generations = HISTORY_TAIL + 5
+    history = [{"generation": g + 1, "n_designs": 120, "n_evaluated": 100, "n_cache_hits": 20, "wall_s": 4.0}
+               for g in range(generations)]
+    write_checkpoint(tmp_path, generations, None, history, False, profile_fingerprint="x")
+    journal = EvaluationCache(tmp_path / JOURNAL_FILE, "h")
+    for g in range(1, generations + 1):
+        for i in range(100):                                   # 100 tasks of 0.07 s on two workers: 3.5 s a worker
+            journal.add((g, i, 0, 0, 0, 0), {"ok": True, "generation": g, "worker": f"w{i % 2}", "task_wall_s": 0.07})
+    journal.close()
+    evaluation = {"before_s": 0.1, "now_s": 0.09, "now_propagation_s": 0.08}      # 10 % of the task time saved
+    kernels = {"new_s": 0.9, "shadow_before_s": 0.2, "shadow_new_s": 0.1}        # 10 % of the right-hand side
+    got = history_after(tmp_path, evaluation, kernels)
+    shadow = 0.1 * 0.08 / 0.1                                   # of the propagation's share of the previous evaluation
+    assert got["generation_before_s"] == pytest.approx(4.0)
+    assert got["generation_after_s"] == pytest.approx(4.0 - 3.5 * (0.1 + shadow))
