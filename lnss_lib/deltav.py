@@ -54,7 +54,7 @@ if TYPE_CHECKING:
 __all__ = ["MODELS", "OSCULATING_MODELS", "LSQ_RATES", "SECULAR_PARTS", "with_overrides",
            "thrust_total", "tmax_closed_form", "slsqp_tmax", "trapezoid_deltav", "per_year_factor", "orbit_mean",
            "secular_drift", "secular_deltav_rates", "deltav_arrays", "perturbing_acceleration_rtn",
-           "deltav_from_propagation", "deltav_per_satellite", "dataset_states",
+           "deltav_from_propagation", "chosen_budget", "deltav_per_satellite", "dataset_states",
            # re-exported from gve and frames (the kernels deltav_arrays is built on)
            "osculating_elements", "element_rates", "lsq_thrust", "paper_thrust", "orbit_vectors",
            "natural_rates_from_elements", "to_rtn", "ELEMENT_FRAMES", "RATE_NAMES", "NATURAL_RATE_NAMES",
@@ -285,9 +285,10 @@ def secular_deltav_rates(sma_km, e, natural_rates: np.ndarray, axis_cos, gm_km3_
 # the whole kernel on arrays
 # ----------------------------------------------------------------------------------------------
 
-def deltav_arrays(t_tdb_s: np.ndarray, states: np.ndarray, gm_km3_s2: float, deltav: DeltaVSettings) -> dict:
-    """Every model's Delta-V from one arc of states (..., n, 6) in the GVE element frame, with the ``[deltav]``
-    settings ``deltav`` (its ``model`` does not enter: every model is computed).
+def deltav_arrays(t_tdb_s: np.ndarray, states: np.ndarray, gm_km3_s2: float, deltav: DeltaVSettings,
+                  models: tuple[str, ...] = MODELS) -> dict:
+    """Each of ``models``' Delta-V (default every model) from one arc of states (..., n, 6) in the GVE element
+    frame, with the ``[deltav]`` settings ``deltav`` (its ``model`` does not enter).
 
     Returns a dict of arrays: ``elements`` (..., n, 6) and their finite-difference ``rates``
     (..., n, 5); ``natural_rates`` (..., n, 5) used by ``lsq``; for ``paper`` and ``lsq``:
@@ -296,9 +297,13 @@ def deltav_arrays(t_tdb_s: np.ndarray, states: np.ndarray, gm_km3_s2: float, del
     (:func:`secular_drift`) and ``secular_parts`` (km/s per s); ``dv_total`` and ``dv_opt`` (dicts
     model -> (...,) km/s per year); ``per_year_factor``. The secular model has no instantaneous
     thrust; its optimised budget equals its total (already a minimum-cost impulsive budget, so
-    eq. 38-41 do not apply); it is NaN for an arc shorter than ``secular_min_periods`` orbits.
+    eq. 38-41 do not apply); it is NaN for an arc shorter than ``secular_min_periods`` orbits. A model not in
+    ``models`` is not computed and its keys are absent (ValueError naming a model outside :data:`MODELS`).
     """
     cfg = deltav
+    unknown = [m for m in models if m not in MODELS]
+    if unknown:
+        raise ValueError(f"Delta-V model(s) {unknown} are not allowed; allowed: {', '.join(MODELS)}")
     t = np.asarray(t_tdb_s, dtype=float)
     elements = osculating_elements(states, gm_km3_s2)
     rates = element_rates(t, elements)
@@ -311,12 +316,15 @@ def deltav_arrays(t_tdb_s: np.ndarray, states: np.ndarray, gm_km3_s2: float, del
     factor = per_year_factor(t, cfg.year_days)
     out = {"elements": elements, "rates": rates, "natural_rates": natural, "per_year_factor": factor,
            "dv_total": {}, "dv_opt": {}}
-    paper = paper_thrust(elements, rates, gm_km3_s2, normal=cfg.paper_normal, radial=cfg.paper_radial,
-                         divisor_floor=cfg.paper_divisor_floor, cap_kms2=cfg.paper_cap_kms2)
-    lsq, residual = lsq_thrust(elements, natural, gm_km3_s2)
-    out["paper_estimates"] = paper
-    out["lsq_residual"] = residual
-    for name, t_rtn in (("paper", np.stack([paper["T_R"], paper["T_T"], paper["T_N"]], axis=-1)), ("lsq", lsq)):
+    thrusts = {}
+    if "paper" in models:
+        paper = paper_thrust(elements, rates, gm_km3_s2, normal=cfg.paper_normal, radial=cfg.paper_radial,
+                             divisor_floor=cfg.paper_divisor_floor, cap_kms2=cfg.paper_cap_kms2)
+        out["paper_estimates"] = paper
+        thrusts["paper"] = np.stack([paper["T_R"], paper["T_T"], paper["T_N"]], axis=-1)
+    if "lsq" in models:
+        thrusts["lsq"], out["lsq_residual"] = lsq_thrust(elements, natural, gm_km3_s2)
+    for name, t_rtn in thrusts.items():
         total = thrust_total(t_rtn)
         opt = tmax_closed_form(t_rtn)
         out[f"T_rtn_{name}"] = t_rtn
@@ -324,6 +332,8 @@ def deltav_arrays(t_tdb_s: np.ndarray, states: np.ndarray, gm_km3_s2: float, del
         out[f"T_opt_{name}"] = opt
         out["dv_total"][name] = trapezoid_deltav(t, total) * factor
         out["dv_opt"][name] = trapezoid_deltav(t, opt) * factor
+    if "secular" not in models:
+        return out
     sec = _secular_from_vectors(t, vectors, gm_km3_s2, cfg.secular_min_periods, "nan")
     parts = secular_deltav_rates(sec["a_km"], sec["e"], sec["natural_rates"], sec["axis_cos"], gm_km3_s2)
     year_s = cfg.year_days * SECONDS_PER_DAY
@@ -374,12 +384,7 @@ def deltav_from_propagation(deltav: DeltaVSettings, dynamics: Dynamics, ds: xr.D
         raise ValueError(f"satellite {sat!r} is not in the dataset; available: {ds['sat'].values.tolist()}")
     one = ds.sel(sat=sat)
     t = one["time"].values.astype(float)
-    states = _states_from_dataset(one)
-    if not np.all(np.isfinite(states)):
-        raise ValueError(f"satellite {sat} has non-finite states (impact or failed propagation); no Delta-V")
-    gm = dynamics.gravity.gm_km3_s2
-    rot = element_frame_to_j2000(dynamics, float(t[0]), cfg.element_frame)
-    res = deltav_arrays(t, _rotate_states(states, rot), gm, cfg)
+    res = _satellite_arrays(cfg, dynamics, t, _states_from_dataset(one), sat, MODELS)
     el, rates = res["elements"], res["rates"]
     osc = list(OSCULATING_MODELS)
     out = xr.Dataset(
@@ -419,6 +424,26 @@ def deltav_from_propagation(deltav: DeltaVSettings, dynamics: Dynamics, ds: xr.D
     )
     out["time"].attrs.update(units="s", long_name="TDB seconds past J2000")
     return out
+
+
+def _satellite_arrays(cfg: DeltaVSettings, dynamics: Dynamics, t: np.ndarray, states_mci: np.ndarray, sat: int,
+                      models: tuple[str, ...]) -> dict:
+    """:func:`deltav_arrays` of ``models`` for satellite ``sat``'s states (n, 6) in Moon-centred J2000, rotated into
+    ``cfg.element_frame``; ValueError when a state is not finite."""
+    if not np.all(np.isfinite(states_mci)):
+        raise ValueError(f"satellite {sat} has non-finite states (impact or failed propagation); no Delta-V")
+    rot = element_frame_to_j2000(dynamics, float(t[0]), cfg.element_frame)
+    return deltav_arrays(t, _rotate_states(states_mci, rot), dynamics.gravity.gm_km3_s2, cfg, models)
+
+
+def chosen_budget(deltav: DeltaVSettings, dynamics: Dynamics, t_tdb_s: np.ndarray, states_mci: np.ndarray,
+                  sat: int = 0) -> dict:
+    """``deltav.model``'s ``dv_total_kms_per_year`` and ``dv_opt_kms_per_year`` of one satellite's states (n, 6)
+    (Moon-centred J2000) at ``t_tdb_s``: the attributes :func:`deltav_from_propagation` gives, with that model
+    alone computed and no Dataset (the campaign's path). ValueError naming ``sat`` for non-finite states."""
+    res = _satellite_arrays(deltav, dynamics, np.asarray(t_tdb_s, dtype=float), states_mci, sat, (deltav.model,))
+    return {"dv_total_kms_per_year": float(res["dv_total"][deltav.model]),
+            "dv_opt_kms_per_year": float(res["dv_opt"][deltav.model])}
 
 
 def deltav_per_satellite(deltav: DeltaVSettings, dynamics: Dynamics, ds: xr.Dataset, model: str | None = None,

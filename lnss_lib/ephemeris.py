@@ -32,6 +32,7 @@ __all__ = ["NAIF_BODY", "planetary_spk_path", "kernel_paths", "load_kernels", "e
 
 NAIF_BODY = {"SUN": "SUN", "EARTH": "EARTH", "JUPITER": "JUPITER BARYCENTER", "MOON": "MOON"}
 _LOADED: set[str] = set()
+_ENSURED: set[EphemerisSettings] = set()     # settings whose kernels are loaded (paths resolved and checked once)
 
 
 def planetary_spk_path(spec: str = "skyfield-data:de421.bsp") -> Path:
@@ -87,8 +88,12 @@ def load_kernels(paths: list[Path]) -> None:
 
 
 def ensure_kernels(ephemeris: EphemerisSettings) -> None:
-    """Load the kernels the ephemeris settings name (idempotent)."""
+    """Load the kernels the ephemeris settings name (idempotent; the paths are resolved and checked on the first
+    call for these settings only: a campaign calls this once per design)."""
+    if ephemeris in _ENSURED:
+        return
     load_kernels(kernel_paths(ephemeris))
+    _ENSURED.add(ephemeris)
 
 
 def tdb_seconds(calendar: str, scale: str = "TDB") -> float:

@@ -37,7 +37,7 @@ from .forces import ForceModel
 from .frames import rotate_with
 from .errors import ConfigError, ImpactError, InfeasibleDesignError
 from .keys import METRIC_KEYS, TIMING_KEYS, requested_extra_metrics
-from .propagator import check_elements_deg, elements_deg_to_states, output_times, propagate_states
+from .propagator import check_elements_deg, elements_deg_to_states, integrate_batch, output_times, propagate_states
 
 if TYPE_CHECKING:
     from .settings import DeltaVSettings, DopSettings, Dynamics, GpsSettings, Settings
@@ -123,12 +123,7 @@ def analyse_states(context: EvaluationContext, elements: np.ndarray, states: np.
     clock = [time.perf_counter()]
     ds = propagate_states(profile.dynamics, states, context.t0_tdb_s, float(times[-1] - times[0]), profile.epoch.step_s,
                           batch=True, model=context.model)
-    if bool(ds.impact.any()):
-        first = int(np.argmax(ds.impact.values))
-        t_impact = float(ds.impact_t_tdb_s.values[first])
-        days = (t_impact - context.t0_tdb_s) / SECONDS_PER_DAY
-        raise ImpactError(f"impact: satellite {first} hits the Moon after {days:.2f} days", sat=first,
-                          t_tdb_s=t_impact, days=days)
+    _raise_first_impact(context, ds.impact.values, ds.impact_t_tdb_s.values)
     ds["elements_deg"] = (("sat", "element"), elements)
     clock.append(time.perf_counter())
     r_mf = rotate_with(context.rot_to_moon_fixed, ds.r_mci_km.values)
@@ -150,8 +145,26 @@ def analyse_states(context: EvaluationContext, elements: np.ndarray, states: np.
     clock.append(time.perf_counter())
     extras = _operational_metrics(context, ds, states, dv_budget)
     clock.append(time.perf_counter())
-    metrics = {
-        "n_sat": int(elements.shape[0]),
+    metrics = _metrics(elements.shape[0], dop_stats, dv_budget, link_stats, dv.attrs["deltav_model"], extras, clock,
+                       start)
+    return {"propagation": ds, "dop": grid_ds, "deltav": dv, "gps_link": link, "metrics": metrics}
+
+
+def _raise_first_impact(context: EvaluationContext, impact: np.ndarray, t_impact_tdb_s: np.ndarray) -> None:
+    """ImpactError naming the first satellite of ``impact`` (mask) and when it hits the Moon; nothing when none."""
+    if bool(np.any(impact)):
+        first = int(np.argmax(impact))
+        t_impact = float(t_impact_tdb_s[first])
+        days = (t_impact - context.t0_tdb_s) / SECONDS_PER_DAY
+        raise ImpactError(f"impact: satellite {first} hits the Moon after {days:.2f} days", sat=first,
+                          t_tdb_s=t_impact, days=days)
+
+
+def _metrics(n_sat: int, dop_stats: dict, dv_budget: dict, link_stats: dict, deltav_model: str, extras: dict,
+             clock: list[float], start: float) -> dict:
+    """An evaluation's metrics dict from its parts' results and the clock read after each part."""
+    return {
+        "n_sat": int(n_sat),
         "mean_visible_sats": dop_stats["mean_visible_sats"],
         "pdop_mean_3sigma": dop_stats["pdop_mean_3sigma"],
         "pdop_avail_pct": dop_stats["pdop_avail_pct"],
@@ -161,7 +174,7 @@ def analyse_states(context: EvaluationContext, elements: np.ndarray, states: np.
         "dv_opt_kms_per_year": dv_budget["dv_opt_kms_per_year"],
         "gps_visible_mean": link_stats["gps_visible_mean"],
         "gps_pdop_mean": link_stats["gps_pdop_mean"],
-        "deltav_model": dv.attrs["deltav_model"],
+        "deltav_model": deltav_model,
         "evaluated": True,
         "reason": "",
         "impact": False,
@@ -169,7 +182,31 @@ def analyse_states(context: EvaluationContext, elements: np.ndarray, states: np.
         "timing_s": dict(zip(TIMING_KEYS, np.diff(clock).tolist())),
         "wall_s": time.perf_counter() - start,
     }
-    return {"propagation": ds, "dop": grid_ds, "deltav": dv, "gps_link": link, "metrics": metrics}
+
+
+def campaign_metrics(context: EvaluationContext, elements: np.ndarray, states: np.ndarray) -> dict:
+    """The metrics of :func:`analyse_states` without a Dataset (``datasets=False``), bit for bit: propagation
+    to arrays (:func:`lnss_lib.propagator.integrate_batch`), the compiled DOP grid and GPS link, and the
+    Delta-V of satellite 0 with ``[deltav] model`` alone computed (:func:`lnss_lib.deltav.chosen_budget`). A
+    profile with extra metrics or ``[deltav] satellites = "all"`` (which read the propagation Dataset) takes
+    :func:`analyse_states`. ImpactError as there."""
+    if context.extra_metrics or context.deltav.satellites != "first":
+        return analyse_states(context, elements, states, datasets=False)["metrics"]
+    start = time.perf_counter()
+    times = context.times
+    clock = [time.perf_counter()]
+    out, _, t_stop, _, impact = integrate_batch(context.dynamics, states, context.t0_tdb_s, times, context.model)
+    _raise_first_impact(context, impact, t_stop)
+    r_mci = out[:, :, :3]
+    clock.append(time.perf_counter())
+    dop_stats = dop.metrics_for_settings(context.dop, rotate_with(context.rot_to_moon_fixed, r_mci), context.grid)
+    clock.append(time.perf_counter())
+    dv_budget = deltav.chosen_budget(context.deltav, context.dynamics, times, out[0])
+    clock.append(time.perf_counter())
+    link_stats = gps.gps_link_metrics(context.gps, context.dynamics.constants, context.gps_states, r_mci)
+    clock.append(time.perf_counter())
+    clock.append(time.perf_counter())                       # no operational metrics
+    return _metrics(elements.shape[0], dop_stats, dv_budget, link_stats, context.deltav.model, {}, clock, start)
 
 
 def _design_deltav(settings: DeltaVSettings, dynamics: Dynamics, ds: xr.Dataset, dv_first: xr.Dataset) -> dict:
@@ -232,7 +269,7 @@ def evaluate_constellation(context: EvaluationContext, elements_deg) -> dict:
     except InfeasibleDesignError as error:
         return _infeasible(n_sat, f"invalid elements: {error}", model_name, start, context.extra_metrics)
     try:
-        return analyse_states(context, elements, states, datasets=False)["metrics"]
+        return campaign_metrics(context, elements, states)
     except InfeasibleDesignError as error:        # only a physically impossible design; any other error propagates
         return _infeasible(n_sat, str(error), model_name, start, context.extra_metrics)
 

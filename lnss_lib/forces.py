@@ -21,8 +21,8 @@ from .errors import ConfigError
 from .gravity import GravityField, harmonic_acceleration, tabulated_truncation_degree
 from .settings import Dynamics
 
-__all__ = ["BODY_ORDER", "SCRATCH_SIZE", "TERMS", "ForceModel", "shadow_factor", "acceleration_terms",
-           "acceleration", "acceleration_breakdown"]
+__all__ = ["BODY_ORDER", "SCRATCH_SIZE", "TERMS", "ForceModel", "shadow_geometry", "conical_fraction", "shadow_factor",
+           "acceleration_terms", "acceleration", "acceleration_breakdown"]
 
 BODY_ORDER = THIRD_BODIES  # rows of the ephemeris table; Sun and Earth also occult/illuminate
 SCRATCH_SIZE = 24
@@ -116,21 +116,26 @@ class ForceModel:
 
 
 @nb.njit(cache=True)
-def shadow_factor(r_sc: np.ndarray, r_sun: np.ndarray, bx: float, by: float, bz: float,
-                  radius_body: float, radius_sun: float) -> float:
-    """Fraction of the solar disc visible past one spherical occulting body at (bx, by, bz) (conical model).
-
-    Montenbruck & Gill (2000), Sec. 3.4.2: apparent radii a (Sun), b (body) and separation c.
-    """
+def shadow_geometry(r_sc: np.ndarray, r_sun: np.ndarray, bx: float, by: float, bz: float, radius_body: float,
+                    radius_sun: float) -> tuple:
+    """(inside the body, sin a, sin b, cos c) of :func:`shadow_factor`: the sines of the apparent radii of the Sun (a)
+    and of a spherical body at (bx, by, bz) (b), and the cosine of their separation (c), seen from ``r_sc``."""
     sx, sy, sz = r_sc[0] - bx, r_sc[1] - by, r_sc[2] - bz
     dx, dy, dz = r_sun[0] - r_sc[0], r_sun[1] - r_sc[1], r_sun[2] - r_sc[2]
     s_norm = np.sqrt(sx * sx + sy * sy + sz * sz)
     d_norm = np.sqrt(dx * dx + dy * dy + dz * dz)
     if s_norm <= radius_body:
-        return 0.0
-    a = np.arcsin(min(1.0, radius_sun / d_norm))
-    b = np.arcsin(radius_body / s_norm)
-    cos_c = -(sx * dx + sy * dy + sz * dz) / (s_norm * d_norm)
+        return True, 0.0, 0.0, 0.0
+    return (False, min(1.0, radius_sun / d_norm), radius_body / s_norm,
+            -(sx * dx + sy * dy + sz * dz) / (s_norm * d_norm))
+
+
+@nb.njit(cache=True)
+def conical_fraction(sin_a: float, sin_b: float, cos_c: float) -> float:
+    """Visible fraction of the solar disc from the angles of :func:`shadow_geometry` (Montenbruck & Gill 2000,
+    Sec. 3.4.2: full, none, annular, or the overlap of the two discs)."""
+    a = np.arcsin(sin_a)
+    b = np.arcsin(sin_b)
     c = np.arccos(max(-1.0, min(1.0, cos_c)))
     if c >= a + b:
         return 1.0
@@ -142,6 +147,24 @@ def shadow_factor(r_sc: np.ndarray, r_sun: np.ndarray, bx: float, by: float, bz:
     y = np.sqrt(max(a * a - x * x, 0.0))
     area = a * a * np.arccos(max(-1.0, min(1.0, x / a))) + b * b * np.arccos(max(-1.0, min(1.0, (c - x) / b))) - c * y
     return 1.0 - area / (np.pi * a * a)
+
+
+@nb.njit(cache=True)
+def shadow_factor(r_sc: np.ndarray, r_sun: np.ndarray, bx: float, by: float, bz: float,
+                  radius_body: float, radius_sun: float) -> float:
+    """Fraction of the solar disc visible past one spherical occulting body at (bx, by, bz) (conical model).
+
+    Montenbruck & Gill (2000), Sec. 3.4.2 (:func:`conical_fraction`). A satellite in full sunlight, c >= a + b, is
+    told from the cosines (cos c < cos(a + b) less 1e-6, far above the rounding of the angles) without the inverse
+    trigonometric functions: the same 1.0 they give.
+    """
+    inside, sin_a, sin_b, cos_c = shadow_geometry(r_sc, r_sun, bx, by, bz, radius_body, radius_sun)
+    if inside:
+        return 0.0
+    lit = cos_c + sin_a * sin_b + 1e-6                        # < cos(a) cos(b): fully lit; cos(a) cos(b) >= 0
+    if lit < 0.0 or lit < np.sqrt(1.0 - sin_a * sin_a) * np.sqrt(1.0 - sin_b * sin_b):
+        return 1.0
+    return conical_fraction(sin_a, sin_b, cos_c)
 
 
 @nb.njit(cache=True)

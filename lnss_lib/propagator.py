@@ -32,7 +32,7 @@ from .frames import element_frame_to_j2000
 from .gravity import new_workspace
 from .settings import Dynamics, EpochSettings, IntegratorSetting
 
-__all__ = ["METHODS", "STATUS_TEXT", "check_batch", "check_elements_deg", "integrate_one", "integrate_many", "output_times", "propagate_states",
+__all__ = ["METHODS", "STATUS_TEXT", "check_batch", "check_elements_deg", "integrate_one", "integrate_many", "integrate_batch", "output_times", "propagate_states",
            "elements_deg_to_states", "propagate_elements"]
 
 STATUS_NOT_RUN, STATUS_OK, STATUS_IMPACT, STATUS_MAX_STEPS, STATUS_STEP_TOO_SMALL, STATUS_NON_FINITE = -1, 0, 1, 2, 3, 4
@@ -369,26 +369,39 @@ def propagate_states(dynamics: Dynamics, states_mci, t0_tdb_s: float, duration_s
     if model is None:
         table = EphemerisTable.build(dynamics, t0_tdb_s, times[-1])
         model = ForceModel.build(dynamics, table, degree=degree, srp_cr_area_mass_m2_kg=srp_cr_area_mass_m2_kg)
-    else:
-        if degree is not None or srp_cr_area_mass_m2_kg is not None:
-            raise ValueError("degree and srp_cr_area_mass_m2_kg belong to the force model: pass them to "
-                             "ForceModel.build, not together with model=")
-        if model.table.t0_tdb_s > t0_tdb_s or model.table.t_end_tdb_s < times[-1]:
-            raise ValueError("the force model's ephemeris table does not span the requested arc")
+    elif degree is not None or srp_cr_area_mass_m2_kg is not None:
+        raise ValueError("degree and srp_cr_area_mass_m2_kg belong to the force model: pass them to "
+                         "ForceModel.build, not together with model=")
     r_min = dynamics.r_impact_km
     radius = np.linalg.norm(states[:, :3], axis=1)
     if np.any(radius < r_min) and not batch:
         raise ImpactError(f"initial radius {radius.min():.1f} km is below {r_min:.1f} km (surface + minimum altitude)",
                           sat=int(np.argmin(radius)), t_tdb_s=float(t0_tdb_s), days=0.0)
-    out, status, t_stop, n_rhs = integrate_many(states, float(t0_tdb_s), times, METHODS.index(integ.method),
-                                                integ.rtol, integ.atol, r_min, max_steps,
-                                                model.kernel_args, model.field.degree)
-    impact = check_batch(status, t_stop, out, times, float(t0_tdb_s))
+    out, status, t_stop, n_rhs, impact = integrate_batch(dynamics, states, t0_tdb_s, times, model, setting=setting,
+                                                         max_steps=max_steps)
     if not batch and impact[0]:
         days = (t_stop[0] - t0_tdb_s) / SECONDS_PER_DAY
         raise ImpactError(f"orbit hits the Moon (radius below {r_min:.1f} km) at {tdb_iso(t_stop[0])} TDB, "
                           f"{days:.3f} days after the start", sat=0, t_tdb_s=float(t_stop[0]), days=float(days))
     return _as_dataset(out, times, status, t_stop, n_rhs, integ, model)
+
+
+def integrate_batch(dynamics: Dynamics, states_mci: np.ndarray, t0_tdb_s: float, times: np.ndarray, model: ForceModel,
+                    *, setting: str | None = None, max_steps: int = 5_000_000) -> tuple:
+    """The arrays behind :func:`propagate_states` (batch mode), without its Dataset: the campaign's path.
+
+    States (n_sat, 6) from TDB ``t0_tdb_s`` sampled at ``times`` (:func:`output_times`) with a prepared ``model``
+    whose table spans them. Returns (states (n_sat, n_time, 6), NaN from an impact on; status; t_stop; n_rhs;
+    impact mask), checked by :func:`check_batch`.
+    """
+    states = _check_states(states_mci)
+    if model.table.t0_tdb_s > t0_tdb_s or model.table.t_end_tdb_s < times[-1]:
+        raise ValueError("the force model's ephemeris table does not span the requested arc")
+    integ = dynamics.integrator.named(setting)
+    out, status, t_stop, n_rhs = integrate_many(states, float(t0_tdb_s), times, METHODS.index(integ.method),
+                                                integ.rtol, integ.atol, dynamics.r_impact_km, max_steps,
+                                                model.kernel_args, model.field.degree)
+    return out, status, t_stop, n_rhs, check_batch(status, t_stop, out, times, float(t0_tdb_s))
 
 
 def _as_dataset(out, times, status, t_stop, n_rhs, integ: IntegratorSetting, model: ForceModel) -> xr.Dataset:

@@ -672,7 +672,7 @@ def test_config_and_ephemeris_errors_propagate_only_impossible_designs_are_infea
     for error, infeasible in ((ConfigError("frames.element_frame = 'x'", key="frames.element_frame"), False),
                               (RuntimeError("propagation failed"), False),
                               (ImpactError("impact: satellite 0 hits the Moon", sat=0, t_tdb_s=0.0, days=1.0), True)):
-        monkeypatch.setattr(evaluator, "analyse_states", lambda *a, error=error, **k: (_ for _ in ()).throw(error))
+        monkeypatch.setattr(evaluator, "campaign_metrics", lambda *a, error=error, **k: (_ for _ in ()).throw(error))
         if infeasible:
             assert evaluator.evaluate_constellation(context, elfo)["reason"].startswith("impact")
         else:

@@ -57,7 +57,7 @@ def test_history_projection_refuses_what_is_not_a_table5_run(tmp_path):
 def test_previous_force_model_agrees_to_round_off_on_an_integrated_arc(paper_profile, epoch_tdb_s):
     """The benchmark's 'before' right-hand side (four interpolations, the truncation loop, the per-term harmonic
     sums) equals the model's to round-off (the folded-table sums are reordered)."""
-    from lnss_lib.bench.kernels_before import replay_times, rhs_points
+    from lnss_lib.bench.kernels_before import replay_times, rhs_points, shadow_times
     from lnss_lib.ephemeris import EphemerisTable
     from lnss_lib.forces import ForceModel
     from lnss_lib.propagator import elements_deg_to_states
@@ -69,3 +69,74 @@ def test_previous_force_model_agrees_to_round_off_on_an_integrated_arc(paper_pro
     ts, ys = rhs_points(model, y0, epoch_tdb_s, duration, "RK45", 1e-6, 1e-9)
     replay = replay_times(model, ts, ys, repeats=1)
     assert replay["max_rel_diff"] < 1e-13 and replay["n_rhs"] == len(ts) > 100
+    assert shadow_times(model, ts, ys, repeats=1)["shadow_same"]           # the shadow factors bit for bit
+
+
+def test_previous_campaign_evaluation_gives_the_same_metrics():
+    """``bench campaign``'s 'before' evaluation (Datasets, every Delta-V model, kernel paths every design) and the
+    campaign's evaluation agree bit for bit."""
+    from lnss_lib.bench.evaluation_before import compare_evaluations
+    from lnss_lib.constellation import WalkerDesign
+    from lnss_lib.evaluator import context_for
+    from lnss_lib.settings import load_settings
+
+    context = context_for(load_settings("ci"))
+    designs = [WalkerDesign(6143.0, 0.6, 90.0, 51.7, 2, 2).elements_deg(),
+               WalkerDesign(9000.0, 0.4, 270.0, 70.0, 3, 1).elements_deg(),
+               WalkerDesign(1800.0, 0.1, 90.0, 51.7, 2, 1).elements_deg()]      # perilune inside the Moon: skipped
+    got = compare_evaluations(context, designs, repeats=1)
+    assert got["n_designs"] == 2 and got["n_differing"] == 0
+    assert got["before_s"] > 0.0 and got["now_s"] > 0.0
+
+
+def test_shadow_factor_equals_the_three_angle_computation_bit_for_bit():
+    """forces.shadow_factor (full sunlight told from the cosines) gives the previous computation's value exactly:
+    random geometries round the Moon and the Earth, and satellites on the umbra and penumbra edges behind the Moon."""
+    from lnss_lib.bench.kernels_before import shadow_factor_before
+    from lnss_lib.forces import shadow_factor
+
+    rng = np.random.default_rng(9)
+    r_moon, r_earth, r_sun, au = 1737.4, 6378.137, 696000.0, 1.495978707e8
+    sun = np.array([au, 0.0, 0.0])
+    earth = np.array([-3.0e5, 2.4e5, 1.0e4])
+    unit = rng.normal(size=(20000, 3))
+    unit /= np.linalg.norm(unit, axis=1)[:, None]
+    positions = list(unit * rng.uniform(r_moon * 0.999, 6.0e4, size=(20000, 1)))
+    for along in (2.0e3, 1.0e4, 4.0e4):                   # behind the Moon, across the umbra and penumbra edges
+        half_width = r_moon - along * (r_sun - r_moon) / au, r_moon + along * (r_sun + r_moon) / au
+        for edge in half_width:
+            for offset in edge * (1.0 + np.linspace(-1e-3, 1e-3, 401)):
+                positions.append(np.array([-along, offset, 0.0]))
+    near_earth = earth + unit[:5000] * rng.uniform(r_earth, 5.0e4, size=(5000, 1))
+    values = {"lit": 0, "partial": 0, "dark": 0}
+    for body, radius, points in (((0.0, 0.0, 0.0), r_moon, positions), (tuple(earth), r_earth, near_earth)):
+        for r in points:
+            new = shadow_factor(r, sun, *body, radius, r_sun)
+            assert new == shadow_factor_before(r, sun, *body, radius, r_sun), (r, body)
+            values["lit" if new == 1.0 else "dark" if new == 0.0 else "partial"] += 1
+    assert min(values.values()) > 100                      # every branch is exercised
+
+
+
+def test_run_pace_after_subtracts_the_measured_shares(tmp_path):
+    """``bench campaign --history``: the run's last generations' pace as recorded, less the evaluation path's measured
+    share of its task time and the shadow's share of the propagation, by hand."""
+    from lnss_lib.bench.campaign import HISTORY_TAIL, history_after
+    from lnss_lib.campaign.journal import JOURNAL_FILE, EvaluationCache
+    from lnss_lib.campaign.rundir import write_checkpoint
+
+    generations = HISTORY_TAIL + 5
+    history = [{"generation": g + 1, "n_designs": 120, "n_evaluated": 100, "n_cache_hits": 20, "wall_s": 4.0}
+               for g in range(generations)]
+    write_checkpoint(tmp_path, generations, None, history, False, profile_fingerprint="x")
+    journal = EvaluationCache(tmp_path / JOURNAL_FILE, "h")
+    for g in range(1, generations + 1):
+        for i in range(100):                                   # 100 tasks of 0.07 s on two workers: 3.5 s a worker
+            journal.add((g, i, 0, 0, 0, 0), {"ok": True, "generation": g, "worker": f"w{i % 2}", "task_wall_s": 0.07})
+    journal.close()
+    evaluation = {"before_s": 0.1, "now_s": 0.09, "now_propagation_s": 0.08}      # 10 % of the task time saved
+    kernels = {"new_s": 0.9, "shadow_before_s": 0.2, "shadow_new_s": 0.1}        # 10 % of the right-hand side
+    got = history_after(tmp_path, evaluation, kernels)
+    shadow = 0.1 * 0.08 / 0.1                                   # of the propagation's share of the previous evaluation
+    assert got["generation_before_s"] == pytest.approx(4.0)
+    assert got["generation_after_s"] == pytest.approx(4.0 - 3.5 * (0.1 + shadow))

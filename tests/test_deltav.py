@@ -219,3 +219,27 @@ def test_lsq_recovers_the_force_model_perturbation():
 # ------------------------------------------------------------------------ analysis (notebook 04)
 
 
+
+
+@pytest.mark.parametrize("model", dv.MODELS)
+def test_one_model_alone_is_bit_for_bit_every_models_value(j2_arc, model):
+    """deltav_arrays(models=(m,)) computes m alone (the other models' keys absent) with every-model values
+    exactly; chosen_budget equals deltav_from_propagation's attributes exactly (the campaign's path)."""
+    _, t, states = j2_arc
+    every = dv.deltav_arrays(t, states, GM, DELTAV)
+    alone = dv.deltav_arrays(t, states, GM, DELTAV, models=(model,))
+    assert set(alone["dv_total"]) == {model} == set(alone["dv_opt"])
+    assert alone["dv_total"][model] == every["dv_total"][model] and alone["dv_opt"][model] == every["dv_opt"][model]
+    assert ("secular" in alone) == (model == "secular") and ("paper_estimates" in alone) == (model == "paper")
+    ci = load_settings("ci")
+    cfg = dv.with_overrides(ci.deltav, model=model, element_frame="j2000")
+    ds = _dataset(t, states)
+    full = dv.deltav_from_propagation(cfg, ci.dynamics, ds, sat=0)
+    budget = dv.chosen_budget(cfg, ci.dynamics, t, states)
+    assert budget == {k: full.attrs[k] for k in ("dv_total_kms_per_year", "dv_opt_kms_per_year")}
+    with pytest.raises(ValueError, match="'kepler'.*allowed: paper, lsq, secular"):
+        dv.deltav_arrays(t, states, GM, DELTAV, models=("kepler",))
+    holed = states.copy()
+    holed[7, 0] = np.nan
+    with pytest.raises(ValueError, match="satellite 2 has non-finite states"):
+        dv.chosen_budget(cfg, ci.dynamics, t, holed, sat=2)

@@ -125,3 +125,29 @@ def test_campaign_path_matches_study_path_and_reuses_run_geometry(context, monke
     assert context_for(load_settings("ci")) is context
     for key in METRIC_KEYS:
         assert campaign[key] == pytest.approx(study[key], rel=1e-11, nan_ok=True), key
+
+
+def test_campaign_metrics_are_the_dataset_paths_bit_for_bit(context):
+    """campaign_metrics (arrays, satellite 0's Delta-V model alone) gives analyse_states(datasets=False)'s metrics
+    exactly, and the same ImpactError for a constellation with a satellite falling into the Moon."""
+    from lnss_lib.constellation import WalkerDesign
+    from lnss_lib.errors import ImpactError
+    from lnss_lib.evaluator import analyse_states, campaign_metrics
+    from lnss_lib.propagator import elements_deg_to_states
+
+    for walker in (WalkerDesign(6143.0, 0.6, 90.0, 51.7, 2, 3), WalkerDesign(12000.0, 0.3, 250.0, 80.0, 3, 1)):
+        elements = walker.elements_deg()
+        states = elements_deg_to_states(context.dynamics, elements, context.t0_tdb_s)
+        lean = campaign_metrics(context, elements, states)
+        study = analyse_states(context, elements, states, datasets=False)["metrics"]
+        assert lean.keys() == study.keys() and lean["evaluated"] and lean["deltav_model"] == context.deltav.model
+        for key in METRIC_KEYS:
+            assert lean[key] == study[key] or (math.isnan(lean[key]) and math.isnan(study[key])), key
+    falling = np.vstack([states[0], [3000.0, 0.0, 0.0, -1.0, 0.1, 0.0]])     # radial fall: below the surface in ~1 h
+    messages = []
+    for path in (lambda: campaign_metrics(context, elements[:2], falling),
+                 lambda: analyse_states(context, elements[:2], falling, datasets=False)):
+        with pytest.raises(ImpactError, match="satellite 1 hits the Moon after 0.0") as info:
+            path()
+        messages.append((str(info.value), info.value.sat, info.value.t_tdb_s))
+    assert messages[0] == messages[1]

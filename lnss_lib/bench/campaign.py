@@ -3,12 +3,17 @@ and the projected wall time of the paper's 120 x 1000 campaign on this machine (
 profile's, when ``params/operational.toml`` exists); then the force model before and after issue 23's speed
 work side by side (:mod:`lnss_lib.bench.kernels_before`): CPU time per right-hand side and per design over
 the points an RK45 integration of each satellite of the run's first :data:`KERNEL_DESIGNS` valid designs
-evaluates, and the largest relative difference of the two accelerations (round-off, ~1e-15).
+evaluates, and the largest relative difference of the two accelerations (round-off, ~1e-15). Before the force
+model, the campaign's whole design evaluation before and after the evaluation-path work
+(:mod:`lnss_lib.bench.evaluation_before`: Datasets, every Delta-V model, kernel paths per design), on the same
+designs alternating, with the per-generation time and 120 x 1000 projection of each. After the force model, with
+``--history``, that run's own pace of its last generations before and with this change (:func:`history_after`).
 
 ``--history RUN_DIR`` projects the same 120 x 1000 campaign with the designs a real run actually evaluated per
 generation (its checkpoint history: a converging search repeats designs, which the journal answers): the
 run's own generations as recorded, the rest at the mean of its last :data:`HISTORY_TAIL` generations; the
-projection is printed as a range, from no cache hits to the run's hits.
+projection is printed as a range, from no cache hits to the run's hits. The evaluation before/after then times
+designs of the run's last :data:`HISTORY_TAIL` generations (the mix a converged search evaluates).
 
 ``--scaling`` adds: designs/s with 1 and 2 local workers (scaling efficiency); the campaign's own
 overhead per design on loopback Dask clusters (127.0.0.1, one thread per worker process) of 8, 32 and 64
@@ -36,11 +41,14 @@ from ..constants import SECONDS_PER_DAY
 from ..constellation import WalkerDesign
 from ..evaluator import context_for
 from ..propagator import elements_deg_to_states
-from .kernels_before import replay_times, rhs_points
+from .evaluation_before import compare_evaluations
+from .kernels_before import replay_times, rhs_points, shadow_times
 from ..campaign.timing import campaign_timing, concurrent_workers, steady_rate
+from ..keys import TIMING_KEYS
 from ..paper import EVALUATIONS, TABLE_5
 
 KERNEL_DESIGNS = 4             # designs of the short run whose right-hand sides are timed before and after
+EVALUATION_DESIGNS = 30        # designs whose whole campaign evaluation is timed before and after
 HISTORY_TAIL = 20              # generations of a run whose mean evaluated count stands for its unrun generations
 SCALING_WORKERS = (8, 32, 64)
 SCALING_DELAY_S = 0.5
@@ -91,7 +99,8 @@ def _projection(profile_name: str, population: int, generations: int, workers: i
     print("  mean per evaluation: " + ", ".join(f"{k} {v:.3f} s" for k, v in parts.items()))
     print(f"  projected 120 x 1000 campaign ({EVALUATIONS} designs, all eq. 45 objectives, no cache hits, this design "
           f"mix): {projected_h:.1f} h on this machine; with this run's hit rate {projected_h * (1 - hits):.1f} h")
-    return {"profile": profile_name, "wall_s": wall, "n_evaluations": n, "designs_per_s": n / wall,
+    return {"profile": profile_name, "wall_s": wall, "n_evaluations": n, "n_workers": run["n_workers"],
+            "designs_per_s": n / wall,
             "steady_designs_per_s": rate, "projected_paper_h": projected_h, "fixed_s": startup_s + first_gen_s,
             "records": run["records"], **timing}
 
@@ -139,6 +148,73 @@ def _history_range(projection: dict, run_dir) -> dict:
     return {**hist, "projected_h_with_hits": with_hits_h, "projected_h_no_hits": no_hits_h}
 
 
+def _late_designs(records: list[dict], n: int, tail: int = HISTORY_TAIL) -> list[dict]:
+    """Up to ``n`` evaluated records (seeded draw) of the last ``tail`` generations in ``records``."""
+    last = max((int(r.get("generation", 0)) for r in records), default=0)
+    late = [r for r in records if r["ok"] and int(r.get("generation", 0)) > last - tail]
+    rng = np.random.default_rng(23)
+    return [late[i] for i in sorted(rng.choice(len(late), min(n, len(late)), replace=False))]
+
+
+def evaluation_comparison(profile_name: str, projection: dict, overrides: dict | None = None,
+                          history: str | None = None) -> dict:
+    """Print and return the campaign evaluation before and after issue 23's evaluation-path work
+    (:mod:`lnss_lib.bench.evaluation_before`) on :data:`EVALUATION_DESIGNS` designs: the last
+    :data:`HISTORY_TAIL` generations' of ``history`` (the mix a converged search evaluates) or else the short
+    run's; and the per-generation time and 120 x 1000 projection of both from the short run's rate."""
+    settings = load_settings(profile_name, overrides=overrides)
+    context = context_for(settings)
+    grid = DesignGrid.from_variables(settings.campaign.variables)
+    source = read_cache_records(history) if history is not None else projection["records"]
+    records = _late_designs(source, EVALUATION_DESIGNS)
+    designs = []
+    for record in records:
+        design = grid.descale(record["key"])[0]
+        designs.append(WalkerDesign(*(float(x) for x in design[:4]), int(design[4]), int(design[5])).elements_deg())
+    got = compare_evaluations(context, designs)
+    before, now = got["before_s"], got["now_s"]
+    where = f"{history}'s last {HISTORY_TAIL} generations" if history is not None else "the short run"
+    print(f"campaign evaluation before -> now (issue 23, evaluation path), {got['n_designs']} designs of {where}, 1 thread, "
+          f"median of 3 alternating runs: {1e3 * before:.1f} ms -> {1e3 * now:.1f} ms per design "
+          f"({100 * (1 - now / before):.1f}% less); "
+          + ", ".join(f"{k} {1e3 * got[f'before_{k}_s']:.1f} -> {1e3 * got[f'now_{k}_s']:.1f}" for k in TIMING_KEYS)
+          + f" ms; metrics differing: {got['n_differing']}")
+    rate, fixed_s, workers = projection["steady_designs_per_s"], projection["fixed_s"], max(projection["n_workers"], 1)
+    per_design = {"now": 1.0 / rate, "before": 1.0 / rate + (before - now) / workers}
+    evaluated = evaluated_per_generation(history)["evaluated_total"] if history is not None else EVALUATIONS
+    hours = {k: (fixed_s + evaluated * v) / 3600.0 for k, v in per_design.items()}
+    per_generation = {k: evaluated / TABLE_5["generations"] * v for k, v in per_design.items()}
+    print(f"  at the short run's rate ({rate:.2f} designs/s, {workers} worker(s)) with "
+          + (f"{history}'s cache hits" if history is not None else "no cache hits")
+          + f": {per_generation['before']:.2f} s -> {per_generation['now']:.2f} s a generation, 120 x 1000 "
+          f"{hours['before']:.2f} h -> {hours['now']:.2f} h")
+    return {**got, "generation_s": per_generation, "projected_h": hours, "records": source}
+
+
+def history_after(run_dir, evaluation: dict, kernels: dict) -> dict:
+    """Print and return the pace of ``run_dir``'s last :data:`HISTORY_TAIL` generations as recorded (the code before)
+    and with this change: its evaluation time (the mean task time of those generations' designs over its workers)
+    less the share :func:`evaluation_comparison` measured and, of its propagation share, the right-hand side's share
+    the conical shadow saved (:func:`kernel_comparison`; both evaluation paths use the current force model); and
+    120 x 1000 at each pace."""
+    tail = load_checkpoint(Path(run_dir))["history"][-HISTORY_TAIL:]
+    records = [r for r in read_cache_records(run_dir) if int(r.get("generation", 0)) > tail[0]["generation"] - 1]
+    workers = concurrent_workers(records)
+    generation_s = float(np.mean([h["wall_s"] for h in tail]))
+    evaluated = float(np.mean([h["n_evaluated"] for h in tail]))
+    evaluating_s = sum(r["task_wall_s"] for r in records) / len(tail) / workers
+    shadow_saved = kernels["shadow_before_s"] - kernels["shadow_new_s"]
+    shadow_share = shadow_saved / (kernels["new_s"] + shadow_saved) * evaluation["now_propagation_s"] / evaluation["before_s"]
+    saved_s = evaluating_s * (1.0 - evaluation["now_s"] / evaluation["before_s"] + shadow_share)
+    after_s = generation_s - saved_s
+    generations = TABLE_5["generations"]
+    print(f"  {run_dir}'s last {HISTORY_TAIL} generations as run (before): {generation_s:.2f} s a generation ({evaluated:.1f} "
+          f"evaluated, {evaluating_s:.2f} s of tasks per worker, {workers} workers) = {generations * generation_s / 3600:.2f} h "
+          f"for {generations}; with this change: {after_s:.2f} s ({100 * saved_s / generation_s:.1f}% less, of which the "
+          f"shadow {100 * evaluating_s * shadow_share / generation_s:.1f}%) = {generations * after_s / 3600:.2f} h")
+    return {"generation_before_s": generation_s, "generation_after_s": after_s, "saved_fraction": saved_s / generation_s}
+
+
 def kernel_comparison(profile_name: str, records: list[dict], overrides: dict | None = None) -> dict:
     """Print and return the force model's CPU time before and after, per right-hand side and per design, on the
     points each satellite of the first :data:`KERNEL_DESIGNS` valid designs of ``records`` is integrated at."""
@@ -148,6 +224,7 @@ def kernel_comparison(profile_name: str, records: list[dict], overrides: dict | 
     integ = settings.dynamics.integrator.settings[settings.dynamics.integrator.setting]
     duration = settings.epoch.duration_days * SECONDS_PER_DAY
     totals = {"new_s": 0.0, "before_s": 0.0, "n_rhs": 0}
+    shadows = {"shadow_new_s": 0.0, "shadow_before_s": 0.0, "shadow_same": True}
     max_rel_diff = 0.0
     print(f"force model before -> after (issue 23), {integ.method} at rtol {integ.rtol:g}, CPU time, same points:")
     for record in [r for r in records if r["ok"]][:KERNEL_DESIGNS]:
@@ -158,6 +235,8 @@ def kernel_comparison(profile_name: str, records: list[dict], overrides: dict | 
         for y0 in states:
             ts, ys = rhs_points(context.model, y0, context.t0_tdb_s, duration, integ.method, integ.rtol, integ.atol)
             replay = replay_times(context.model, ts, ys)
+            shadow = shadow_times(context.model, ts, ys)
+            shadows = {k: (v and shadow[k]) if k == "shadow_same" else v + shadow[k] for k, v in shadows.items()}
             max_rel_diff = max(max_rel_diff, replay["max_rel_diff"])
             for key in mine:
                 mine[key] += replay[key]
@@ -169,7 +248,11 @@ def kernel_comparison(profile_name: str, records: list[dict], overrides: dict | 
     n = max(totals["n_rhs"], 1)
     print(f"  per right-hand side: {1e6 * totals['before_s'] / n:.3f} us -> {1e6 * totals['new_s'] / n:.3f} us; largest relative "
           f"difference of the accelerations {max_rel_diff:.1e} (round-off of the reordered harmonic sums)")
-    return {**totals, "max_rel_diff": max_rel_diff}
+    print(f"  of which the conical shadow of the Moon and the Earth (with the bodies' interpolation), alone: "
+          f"{1e9 * shadows['shadow_before_s'] / n:.1f} ns -> {1e9 * shadows['shadow_new_s'] / n:.1f} ns per right-hand side "
+          f"({100 * (shadows['shadow_before_s'] - shadows['shadow_new_s']) / totals['new_s']:.1f}% of the new right-hand "
+          f"side); same values bit for bit: {shadows['shadow_same']}")
+    return {**totals, **shadows, "max_rel_diff": max_rel_diff}
 
 
 def _greedy_makespan(durations: np.ndarray, n_workers: int, dispatch_s: float) -> float:
@@ -288,7 +371,11 @@ def run(profile_name: str = "paper", generations: int | None = None, population:
     else:
         print(f"projected 120 x 1000: [{profile_name}] {out[profile_name]['projected_paper_h']:.1f} h (target <= 3 h on "
               "2 workers); no params/operational.toml, so no operational projection")
+    out["evaluation"] = evaluation_comparison(profile_name, out[profile_name], overrides, history)
+    out["evaluation"].pop("records")
     out["kernels"] = kernel_comparison(profile_name, out[profile_name]["records"], overrides)
+    if history is not None:
+        out["history_after"] = history_after(history, out["evaluation"], out["kernels"])
     if scaling_run:
         out["scaling"] = scaling(profile_name, out[profile_name], overrides)
     for value in out.values():

@@ -6,7 +6,9 @@ MOON_PA rotation, the Sun, the Earth and Jupiter each with its own interval and 
 :func:`lnss_lib.ephemeris.hermite_basis` for all), and summed the harmonic acceleration with the
 coefficients C_nm, S_nm and the recursion's x/y/z factors multiplied per term
 (:func:`harmonic_acceleration_before`; now tables folded once per field and one padded loop per degree row,
-:func:`lnss_lib.gravity.harmonic_acceleration`). :func:`acceleration_terms_before` is the previous code as it
+:func:`lnss_lib.gravity.harmonic_acceleration`), and took the conical shadow's three angles at every call
+(:func:`shadow_factor_before`; now a fully lit satellite is told from the cosines, the same 1.0 bit for bit).
+:func:`shadow_times` times the two shadow functions alone. :func:`acceleration_terms_before` is the previous code as it
 was (a copy kept for this comparison only); the new sums are reordered, so the two agree to round-off
 (~1e-15 relative), not bit for bit. :func:`rhs_points` records the (t, y) points an integration of one
 satellite evaluates (RK45 or DOP853 with scipy's controller, the compiled engine's: ``tests/test_propagator.py``
@@ -20,10 +22,10 @@ import numba as nb
 import numpy as np
 from scipy.integrate import solve_ivp
 
-from ..ephemeris import hermite_cubic
+from ..ephemeris import hermite_apply, hermite_basis, hermite_cubic
 from ..forces import (ALBEDO, AU, C_LIGHT, F_ALBEDO, F_EARTH, F_HARMONICS, F_JUPITER, F_REL, F_SHADOW, F_SRP, F_SUN,
                       GM, R_EARTH, R_MOON, R_REF, R_SUN, SCRATCH_SIZE, SRP_K, TERMS, ForceModel, _third_body,
-                      acceleration, shadow_factor)
+                      acceleration, conical_fraction, shadow_factor, shadow_geometry)
 from ..gravity import fill_vw, truncation_degree
 
 
@@ -56,6 +58,13 @@ def harmonic_acceleration_before(r_bf_km, cnm, snm, coef, gm, r_ref, degree, wor
     out[0] = scale * ax
     out[1] = scale * ay
     out[2] = scale * az
+
+
+@nb.njit(cache=True)
+def shadow_factor_before(r_sc, r_sun, bx, by, bz, radius_body, radius_sun):
+    """The previous :func:`lnss_lib.forces.shadow_factor`: the three angles at every call (the same values)."""
+    inside, sin_a, sin_b, cos_c = shadow_geometry(r_sc, r_sun, bx, by, bz, radius_body, radius_sun)
+    return 0.0 if inside else conical_fraction(sin_a, sin_b, cos_c)
 
 
 @nb.njit(cache=True)
@@ -102,9 +111,10 @@ def acceleration_terms_before(t, y, args, field_before, work, scratch, terms):
         d = np.sqrt(ux * ux + uy * uy + uz * uz)
         nu = 1.0
         if flags[F_SHADOW]:
-            nu = shadow_factor(r, r_sun, 0.0, 0.0, 0.0, scalars[R_MOON], scalars[R_SUN])
+            nu = shadow_factor_before(r, r_sun, 0.0, 0.0, 0.0, scalars[R_MOON], scalars[R_SUN])
             if nu > 0.0:
-                nu *= shadow_factor(r, r_sun, r_earth[0], r_earth[1], r_earth[2], scalars[R_EARTH], scalars[R_SUN])
+                nu *= shadow_factor_before(r, r_sun, r_earth[0], r_earth[1], r_earth[2], scalars[R_EARTH],
+                                           scalars[R_SUN])
         k = nu * scalars[SRP_K] * (scalars[AU] / d) ** 2 / d
         terms[5, 0] = k * ux
         terms[5, 1] = k * uy
@@ -218,3 +228,37 @@ def replay_times(model: ForceModel, ts: np.ndarray, ys: np.ndarray, repeats: int
         times["before"].append(time.process_time() - start)
     return {"new_s": float(np.median(times["new"])), "before_s": float(np.median(times["before"])),
             "max_rel_diff": float(max_rel_diff), "n_rhs": int(ts.shape[0])}
+
+
+@nb.njit(cache=True)
+def _replay_shadows(ts, ys, args, before, out):
+    """Both bodies' shadow factors at every point into ``out`` (n, 2), the previous or the current function."""
+    scalars, _, _, t0dt, bodies, rot_pa = args[:6]
+    r_sun, r_earth = np.empty(3), np.empty(3)
+    for i in range(ts.shape[0]):
+        basis = hermite_basis(rot_pa.shape[0], t0dt[0], t0dt[1], ts[i])
+        hermite_apply(bodies[:, 0, :3], bodies[:, 0, 3:], basis, r_sun)
+        hermite_apply(bodies[:, 1, :3], bodies[:, 1, 3:], basis, r_earth)
+        ex, ey, ez = r_earth[0], r_earth[1], r_earth[2]
+        if before:
+            out[i, 0] = shadow_factor_before(ys[i], r_sun, 0.0, 0.0, 0.0, scalars[R_MOON], scalars[R_SUN])
+            out[i, 1] = shadow_factor_before(ys[i], r_sun, ex, ey, ez, scalars[R_EARTH], scalars[R_SUN])
+        else:
+            out[i, 0] = shadow_factor(ys[i], r_sun, 0.0, 0.0, 0.0, scalars[R_MOON], scalars[R_SUN])
+            out[i, 1] = shadow_factor(ys[i], r_sun, ex, ey, ez, scalars[R_EARTH], scalars[R_SUN])
+
+
+def shadow_times(model: ForceModel, ts: np.ndarray, ys: np.ndarray, repeats: int = 3) -> dict:
+    """CPU seconds of the current and the previous conical shadow factor of the Moon and the Earth over every point
+    (with the Hermite interpolation of the bodies, median of ``repeats``, alternating) and whether the values agree
+    bit for bit."""
+    new, before = np.empty((ts.shape[0], 2)), np.empty((ts.shape[0], 2))
+    args = model.kernel_args
+    times = {"new": [], "before": []}
+    for _ in range(repeats):
+        for name, out in (("new", new), ("before", before)):
+            start = time.process_time()
+            _replay_shadows(ts, ys, args, name == "before", out)
+            times[name].append(time.process_time() - start)
+    return {"shadow_new_s": float(np.median(times["new"])), "shadow_before_s": float(np.median(times["before"])),
+            "shadow_same": bool(np.array_equal(new, before))}
