@@ -115,6 +115,15 @@ def perilune_dip_km(states: np.ndarray, gm_km3_s2: float) -> np.ndarray:
     return np.mean(rp, axis=1) - np.min(rp, axis=1)
 
 
+def _distinct_rows(*columns: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Rows of the side-by-side arrays (n, ...) that are bit for bit distinct: (their indices (k,), the index into
+    them of every row (n,)); the work done per satellite is then done once per distinct history."""
+    rows = np.ascontiguousarray(np.concatenate(columns, axis=1))
+    _, first, back = np.unique(rows.view(np.dtype((np.void, rows.dtype.itemsize * rows.shape[1]))).ravel(),
+                               return_index=True, return_inverse=True)
+    return first, np.asarray(back).ravel()
+
+
 def _ecc_cost_kms(sma_km: float, ecc: float, d_ecc: float, gm_km3_s2: float) -> float:
     """Delta-V (km/s) of a change ``d_ecc`` of e at fixed a: h |de| / (2 p)."""
     p = sma_km * (1.0 - ecc * ecc)
@@ -314,7 +323,8 @@ def _restore_dv_kms(el: tuple, ref: tuple, gm_km3_s2: float) -> float:
 
 def navigation_restores(dop: DopSettings, dynamics: Dynamics, design_life: DesignLifeSettings, t0_tdb_s: float,
                         t_days: np.ndarray, sma_km: np.ndarray, u0_rad: np.ndarray, raan_rad: np.ndarray,
-                        ecc: np.ndarray, inc_rad: np.ndarray, aop_rad: np.ndarray) -> dict:
+                        ecc: np.ndarray, inc_rad: np.ndarray, aop_rad: np.ndarray,
+                        rot_el_to_j2000: np.ndarray | None = None) -> dict:
     """The navigation monitor's restores over the life, on the constellation rebuilt from its mean element histories.
 
     ``t_days`` (m,): a uniform grid from 0; ``sma_km``, ``u0_rad`` (slots), ``raan_rad`` (n_sat,): the design's;
@@ -329,7 +339,8 @@ def navigation_restores(dop: DopSettings, dynamics: Dynamics, design_life: Desig
     the start (the design's elements, shifted in time to the restore), so a window is fixed by each satellite's time
     since its last restore and computed once. A window with no satellite outside the box cannot restore anything and
     is not judged. Returns ``dv_kms`` and ``n_restores`` (n_sat,), ``violations`` (window -> names of the statistics
-    outside), ``n_judged`` (windows judged) and ``n_computed`` (distinct windows computed).
+    outside), ``n_judged`` (windows judged) and ``n_computed`` (distinct windows computed). ``rot_el_to_j2000``:
+    :func:`lnss_lib.frames.element_frame_to_j2000` at ``t0_tdb_s`` when the caller has it.
     """
     svc, box = design_life.service, design_life.box
     gm = dynamics.gravity.gm_km3_s2
@@ -339,7 +350,7 @@ def navigation_restores(dop: DopSettings, dynamics: Dynamics, design_life: Desig
     edges = navigation_windows(t_days, svc.nav_window_days)
     if edges.size < 3:
         return out
-    rot = element_frame_to_j2000(dynamics, t0_tdb_s)
+    rot = element_frame_to_j2000(dynamics, t0_tdb_s) if rot_el_to_j2000 is None else rot_el_to_j2000
     grid = SurfaceGrid.from_settings(dop, dynamics.constants.r_moon_mean_km)
     ref = (ecc[:, 0], aop_rad[:, 0], inc_rad[:, 0])
     half = (box.ecc, np.radians(box.aop_deg), np.radians(box.inc_deg))
@@ -416,11 +427,13 @@ def life_estimate(sk_estimate: SkEstimateSettings, design_life: DesignLifeSettin
     n_sat = a.size
 
     floor = dynamics.r_impact_km + svc.perilune_margin_km + perilune_dip_km(states, gm)
-    mel = np.stack([np.broadcast_to(a[:, None], ecc.shape), ecc, inc, raan, aop, np.zeros_like(ecc)], axis=-1)
+    u, back = _distinct_rows(a[:, None], ecc, inc, raan, aop)       # a plane's satellites share their history
+    mel = np.stack([np.broadcast_to(a[u, None], ecc[u].shape), ecc[u], inc[u], raan[u], aop[u],
+                    np.zeros_like(ecc[u])], axis=-1)
     e_vec, j_vec = mean_vectors_j2000(np.nan_to_num(mel).reshape(-1, 6), rot)
-    lost = ~np.isfinite(ecc.ravel())
+    lost = ~np.isfinite(ecc[u].ravel())
     e_vec[lost], j_vec[lost] = np.nan, np.nan
-    e_vec, j_vec = e_vec.reshape(n_sat, -1, 3), j_vec.reshape(n_sat, -1, 3)
+    e_vec, j_vec = e_vec.reshape(u.size, -1, 3)[back], j_vec.reshape(u.size, -1, 3)[back]
     safety = np.zeros(n_sat)
     n_burns = np.zeros(n_sat, dtype=int)
     key = np.round(np.column_stack([a, ecc[:, 0], inc[:, 0], raan[:, 0], aop[:, 0]]), 9)
@@ -435,9 +448,10 @@ def life_estimate(sk_estimate: SkEstimateSettings, design_life: DesignLifeSettin
                                                 svc.safety_lead_days, svc.safety_check_days)
         safety[members], n_burns[members] = dv / years, count
         e_vec[members], j_vec[members] = e_ctl, j_ctl
-    controlled = elements_from_vectors(e_vec, j_vec, rot.T)
-    ecc = controlled["ecc"]
-    inc, raan, aop = (np.radians(controlled[k]) for k in ("inc_deg", "raan_deg", "aop_deg"))
+    u, back = _distinct_rows(e_vec.reshape(n_sat, -1), j_vec.reshape(n_sat, -1))
+    controlled = elements_from_vectors(e_vec[u], j_vec[u], rot.T)
+    ecc = controlled["ecc"][back]
+    inc, raan, aop = (np.radians(controlled[k])[back] for k in ("inc_deg", "raan_deg", "aop_deg"))
 
     p = a[:, None] * (1.0 - ecc ** 2)
     h_over_p = np.sqrt(gm / p)
@@ -446,7 +460,7 @@ def life_estimate(sk_estimate: SkEstimateSettings, design_life: DesignLifeSettin
     half_node = raan_half_width_rad(np.radians(tol_deg["raan_rel"]), inc[:, 0])
     osc = state_to_elements(to_element_frame(states[:, 0], rot), gm)
     nav = navigation_restores(dop, dynamics, design_life, t0, t_days, a, osc[:, 4] + osc[:, 5], raan[:, 0], ecc, inc,
-                              aop)
+                              aop, rot)
     node = np.zeros(n_sat)
     for i, events in enumerate(node_corrections(t_days, raan_drift, half_node, design_life.target_fraction,
                                                 design_life.min_maneuver_spacing_days)):

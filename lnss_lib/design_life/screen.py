@@ -406,8 +406,7 @@ def integrate_secular(sma_km, e0, j0, field: SecularField, life_days: float, *, 
         aa, ff = a[alive], floor[alive]
 
         def rhs(t, y, aa=aa):
-            tide, pole = field.at(t)
-            return _rhs_kernel(y, aa, tide, pole, field.gm_km3_s2, field.j2, field.r_ref_km, SECONDS_PER_DAY)
+            return _field_rhs(float(t), y, aa, field._knots, field._coef, field.gm_km3_s2, field.j2, field.r_ref_km)
 
         def surface(t, y, aa=aa, ff=ff):
             e = np.linalg.norm(y.reshape(-1, 6)[:, :3], axis=1)
