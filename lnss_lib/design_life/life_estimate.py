@@ -65,19 +65,20 @@ from __future__ import annotations
 import dataclasses
 import time
 
+import numba as nb
 import numpy as np
 import xarray as xr
 
 from ..constants import SECONDS_PER_DAY
 from ..dop import SurfaceGrid, metrics_for_settings
-from ..elements import elements_to_state, eccentricity_vector, state_to_elements, vis_viva_sma_km
+from ..elements import TWO_PI, elements_to_state, eccentricity_vector, state_to_elements, vis_viva_sma_km
 from ..ephemeris import rotation
 from ..frames import element_frame_to_j2000, rotate_with
 from ..settings import DesignLifeSettings, DopSettings, Dynamics, SkEstimateSettings, StabilitySettings
 from .control import drift_band_rate, overshoot_target
 from .estimate import mean_drift, sk_estimate_from_propagation
 from .manoeuvres import plan_impulses
-from .mean_elements import circular_mean, to_element_frame, wrap_pi
+from .mean_elements import to_element_frame, wrap_pi
 from .screen import SecularField, elements_from_vectors, integrate_secular, screen_states
 from .screen import cached_field
 from .service import SAFETY_RAISE_KM, mean_vectors_j2000, navigation_violations, raan_half_width_rad
@@ -190,10 +191,28 @@ def safety_dv_kms(field: SecularField, t_days: np.ndarray, sma_km: float, e_hist
     return dv, n_burns, e_ctl, j_ctl
 
 
+@nb.njit(cache=True)
+def _wrapped_sums(x: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Compiled first half of :func:`_relative`, bit for bit that of :func:`~lnss_lib.design_life.mean_elements.wrap_pi`
+    and the sums of :func:`~lnss_lib.design_life.mean_elements.circular_mean` (NaN as 0, satellites in order): the
+    wrapped angles (n, m) and the sums of their sines and cosines (m,)."""
+    n, m = x.shape
+    diff = np.empty((n, m))
+    sin_sum, cos_sum = np.zeros(m), np.zeros(m)
+    for i in range(n):
+        for k in range(m):
+            d = np.mod(x[i, k] + np.pi, TWO_PI) - np.pi
+            diff[i, k] = d
+            s, c = (0.0, 0.0) if np.isnan(d) else (np.sin(d), np.cos(d))
+            sin_sum[k], cos_sum[k] = (s, c) if i == 0 else (sin_sum[k] + s, cos_sum[k] + c)
+    return diff, sin_sum, cos_sum
+
+
 def _relative(x: np.ndarray) -> np.ndarray:
-    """Angles (n_sat, m) relative to their circular mean over the satellites at each time, wrapped to [-pi, pi)."""
-    diff = wrap_pi(x)
-    return wrap_pi(diff - circular_mean(diff, axis=0)[None, :])
+    """Angles (n_sat, m) relative to their circular mean over the satellites at each time, wrapped to [-pi, pi)
+    (numpy's arctan2: the compiled one differs in the last bit)."""
+    diff, sin_sum, cos_sum = _wrapped_sums(np.ascontiguousarray(x, dtype=float))
+    return wrap_pi(diff - np.arctan2(sin_sum, cos_sum)[None, :])
 
 
 def _decisions(m: int, window):
