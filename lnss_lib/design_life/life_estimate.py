@@ -62,7 +62,6 @@ restore.
 
 from __future__ import annotations
 
-import dataclasses
 import time
 
 import numba as nb
@@ -148,7 +147,7 @@ def _raise(field: SecularField, t_burn: float, sma_km: float, e_vec: np.ndarray,
     e_new = np.unique(np.maximum(ecc - np.asarray(SAFETY_RAISE_KM) / sma_km, 0.0))[::-1]
     direction = e_vec / ecc if ecc > 0.0 else np.zeros(3)
     h_hat = j_vec / np.linalg.norm(j_vec)
-    shifted = dataclasses.replace(field, t_days=field.t_days - t_burn)
+    shifted = field.shifted(t_burn)
     res = integrate_secular(np.full(e_new.size, sma_km), e_new[:, None] * direction, np.sqrt(1.0 - e_new ** 2)[:, None]
                             * h_hat, shifted, float(t_rest[-1]), floor_km=floor_km, rtol=SEARCH_RTOL, atol=SEARCH_ATOL,
                             output_step_days=float(t_rest[1] - t_rest[0]) if t_rest.size > 1 else 1.0)

@@ -53,6 +53,7 @@ Dropped terms, by argument:
 
 from __future__ import annotations
 
+import copy
 import dataclasses
 import time
 from dataclasses import dataclass
@@ -133,6 +134,13 @@ class SecularField:
         spline = CubicSpline(self.t_days, values, axis=0)
         object.__setattr__(self, "_knots", np.ascontiguousarray(spline.x, dtype=float))
         object.__setattr__(self, "_coef", np.ascontiguousarray(spline.c, dtype=float))
+
+    def shifted(self, days: float) -> "SecularField":
+        """The same field with its epoch ``days`` later: the same cubic on shifted knots (not fitted again)."""
+        out = copy.copy(self)
+        object.__setattr__(out, "t_days", self.t_days - days)
+        object.__setattr__(out, "_knots", self._knots - days)
+        return out
 
     def at(self, t_day: float) -> tuple[np.ndarray, np.ndarray]:
         """(T (3, 3), k (3,)) at ``t_day`` days since the epoch."""
