@@ -445,13 +445,11 @@ def life_estimate(sk_estimate: SkEstimateSettings, design_life: DesignLifeSettin
     n_sat = a.size
 
     floor = dynamics.r_impact_km + svc.perilune_margin_km + perilune_dip_km(states, gm)
-    u, back = _distinct_rows(a[:, None], ecc, inc, raan, aop)       # a plane's satellites share their history
-    mel = np.stack([np.broadcast_to(a[u, None], ecc[u].shape), ecc[u], inc[u], raan[u], aop[u],
-                    np.zeros_like(ecc[u])], axis=-1)
+    mel = np.stack([np.broadcast_to(a[:, None], ecc.shape), ecc, inc, raan, aop, np.zeros_like(ecc)], axis=-1)
     e_vec, j_vec = mean_vectors_j2000(np.nan_to_num(mel).reshape(-1, 6), rot)
-    lost = ~np.isfinite(ecc[u].ravel())
+    lost = ~np.isfinite(ecc.ravel())
     e_vec[lost], j_vec[lost] = np.nan, np.nan
-    e_vec, j_vec = e_vec.reshape(u.size, -1, 3)[back], j_vec.reshape(u.size, -1, 3)[back]
+    e_vec, j_vec = e_vec.reshape(n_sat, -1, 3), j_vec.reshape(n_sat, -1, 3)
     safety = np.zeros(n_sat)
     n_burns = np.zeros(n_sat, dtype=int)
     key = np.round(np.column_stack([a, ecc[:, 0], inc[:, 0], raan[:, 0], aop[:, 0]]), 9)
@@ -466,7 +464,7 @@ def life_estimate(sk_estimate: SkEstimateSettings, design_life: DesignLifeSettin
                                                 svc.safety_lead_days, svc.safety_check_days)
         safety[members], n_burns[members] = dv / years, count
         e_vec[members], j_vec[members] = e_ctl, j_ctl
-    u, back = _distinct_rows(e_vec.reshape(n_sat, -1), j_vec.reshape(n_sat, -1))
+    u, back = _distinct_rows(e_vec.reshape(n_sat, -1), j_vec.reshape(n_sat, -1))   # a raised plane shares one
     controlled = elements_from_vectors(e_vec[u], j_vec[u], rot.T)
     ecc = controlled["ecc"][back]
     inc, raan, aop = (np.radians(controlled[k])[back] for k in ("inc_deg", "raan_deg", "aop_deg"))
