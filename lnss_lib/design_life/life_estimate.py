@@ -62,22 +62,22 @@ restore.
 
 from __future__ import annotations
 
-import dataclasses
 import time
 
+import numba as nb
 import numpy as np
 import xarray as xr
 
 from ..constants import SECONDS_PER_DAY
 from ..dop import SurfaceGrid, metrics_for_settings
-from ..elements import elements_to_state, eccentricity_vector, state_to_elements, vis_viva_sma_km
+from ..elements import TWO_PI, elements_to_state, eccentricity_vector, state_to_elements, vis_viva_sma_km
 from ..ephemeris import rotation
 from ..frames import element_frame_to_j2000, rotate_with
 from ..settings import DesignLifeSettings, DopSettings, Dynamics, SkEstimateSettings, StabilitySettings
 from .control import drift_band_rate, overshoot_target
 from .estimate import mean_drift, sk_estimate_from_propagation
 from .manoeuvres import plan_impulses
-from .mean_elements import circular_mean, to_element_frame, wrap_pi
+from .mean_elements import to_element_frame, wrap_pi
 from .screen import SecularField, elements_from_vectors, integrate_secular, screen_states
 from .screen import cached_field
 from .service import SAFETY_RAISE_KM, mean_vectors_j2000, navigation_violations, raan_half_width_rad
@@ -115,6 +115,15 @@ def perilune_dip_km(states: np.ndarray, gm_km3_s2: float) -> np.ndarray:
     return np.mean(rp, axis=1) - np.min(rp, axis=1)
 
 
+def _distinct_rows(*columns: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Rows of the side-by-side arrays (n, ...) that are bit for bit distinct: (their indices (k,), the index into
+    them of every row (n,)); the work done per satellite is then done once per distinct history."""
+    rows = np.ascontiguousarray(np.concatenate(columns, axis=1))
+    _, first, back = np.unique(rows.view(np.dtype((np.void, rows.dtype.itemsize * rows.shape[1]))).ravel(),
+                               return_index=True, return_inverse=True)
+    return first, np.asarray(back).ravel()
+
+
 def _ecc_cost_kms(sma_km: float, ecc: float, d_ecc: float, gm_km3_s2: float) -> float:
     """Delta-V (km/s) of a change ``d_ecc`` of e at fixed a: h |de| / (2 p)."""
     p = sma_km * (1.0 - ecc * ecc)
@@ -138,7 +147,7 @@ def _raise(field: SecularField, t_burn: float, sma_km: float, e_vec: np.ndarray,
     e_new = np.unique(np.maximum(ecc - np.asarray(SAFETY_RAISE_KM) / sma_km, 0.0))[::-1]
     direction = e_vec / ecc if ecc > 0.0 else np.zeros(3)
     h_hat = j_vec / np.linalg.norm(j_vec)
-    shifted = dataclasses.replace(field, t_days=field.t_days - t_burn)
+    shifted = field.shifted(t_burn)
     res = integrate_secular(np.full(e_new.size, sma_km), e_new[:, None] * direction, np.sqrt(1.0 - e_new ** 2)[:, None]
                             * h_hat, shifted, float(t_rest[-1]), floor_km=floor_km, rtol=SEARCH_RTOL, atol=SEARCH_ATOL,
                             output_step_days=float(t_rest[1] - t_rest[0]) if t_rest.size > 1 else 1.0)
@@ -181,10 +190,28 @@ def safety_dv_kms(field: SecularField, t_days: np.ndarray, sma_km: float, e_hist
     return dv, n_burns, e_ctl, j_ctl
 
 
+@nb.njit(cache=True)
+def _wrapped_sums(x: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Compiled first half of :func:`_relative`, bit for bit that of :func:`~lnss_lib.design_life.mean_elements.wrap_pi`
+    and the sums of :func:`~lnss_lib.design_life.mean_elements.circular_mean` (NaN as 0, satellites in order): the
+    wrapped angles (n, m) and the sums of their sines and cosines (m,)."""
+    n, m = x.shape
+    diff = np.empty((n, m))
+    sin_sum, cos_sum = np.zeros(m), np.zeros(m)
+    for i in range(n):
+        for k in range(m):
+            d = np.mod(x[i, k] + np.pi, TWO_PI) - np.pi
+            diff[i, k] = d
+            s, c = (0.0, 0.0) if np.isnan(d) else (np.sin(d), np.cos(d))
+            sin_sum[k], cos_sum[k] = (s, c) if i == 0 else (sin_sum[k] + s, cos_sum[k] + c)
+    return diff, sin_sum, cos_sum
+
+
 def _relative(x: np.ndarray) -> np.ndarray:
-    """Angles (n_sat, m) relative to their circular mean over the satellites at each time, wrapped to [-pi, pi)."""
-    diff = wrap_pi(x)
-    return wrap_pi(diff - circular_mean(diff, axis=0)[None, :])
+    """Angles (n_sat, m) relative to their circular mean over the satellites at each time, wrapped to [-pi, pi)
+    (numpy's arctan2: the compiled one differs in the last bit)."""
+    diff, sin_sum, cos_sum = _wrapped_sums(np.ascontiguousarray(x, dtype=float))
+    return wrap_pi(diff - np.arctan2(sin_sum, cos_sum)[None, :])
 
 
 def _decisions(m: int, window):
@@ -314,7 +341,8 @@ def _restore_dv_kms(el: tuple, ref: tuple, gm_km3_s2: float) -> float:
 
 def navigation_restores(dop: DopSettings, dynamics: Dynamics, design_life: DesignLifeSettings, t0_tdb_s: float,
                         t_days: np.ndarray, sma_km: np.ndarray, u0_rad: np.ndarray, raan_rad: np.ndarray,
-                        ecc: np.ndarray, inc_rad: np.ndarray, aop_rad: np.ndarray) -> dict:
+                        ecc: np.ndarray, inc_rad: np.ndarray, aop_rad: np.ndarray,
+                        rot_el_to_j2000: np.ndarray | None = None) -> dict:
     """The navigation monitor's restores over the life, on the constellation rebuilt from its mean element histories.
 
     ``t_days`` (m,): a uniform grid from 0; ``sma_km``, ``u0_rad`` (slots), ``raan_rad`` (n_sat,): the design's;
@@ -329,7 +357,8 @@ def navigation_restores(dop: DopSettings, dynamics: Dynamics, design_life: Desig
     the start (the design's elements, shifted in time to the restore), so a window is fixed by each satellite's time
     since its last restore and computed once. A window with no satellite outside the box cannot restore anything and
     is not judged. Returns ``dv_kms`` and ``n_restores`` (n_sat,), ``violations`` (window -> names of the statistics
-    outside), ``n_judged`` (windows judged) and ``n_computed`` (distinct windows computed).
+    outside), ``n_judged`` (windows judged) and ``n_computed`` (distinct windows computed). ``rot_el_to_j2000``:
+    :func:`lnss_lib.frames.element_frame_to_j2000` at ``t0_tdb_s`` when the caller has it.
     """
     svc, box = design_life.service, design_life.box
     gm = dynamics.gravity.gm_km3_s2
@@ -339,7 +368,7 @@ def navigation_restores(dop: DopSettings, dynamics: Dynamics, design_life: Desig
     edges = navigation_windows(t_days, svc.nav_window_days)
     if edges.size < 3:
         return out
-    rot = element_frame_to_j2000(dynamics, t0_tdb_s)
+    rot = element_frame_to_j2000(dynamics, t0_tdb_s) if rot_el_to_j2000 is None else rot_el_to_j2000
     grid = SurfaceGrid.from_settings(dop, dynamics.constants.r_moon_mean_km)
     ref = (ecc[:, 0], aop_rad[:, 0], inc_rad[:, 0])
     half = (box.ecc, np.radians(box.aop_deg), np.radians(box.inc_deg))
@@ -435,9 +464,10 @@ def life_estimate(sk_estimate: SkEstimateSettings, design_life: DesignLifeSettin
                                                 svc.safety_lead_days, svc.safety_check_days)
         safety[members], n_burns[members] = dv / years, count
         e_vec[members], j_vec[members] = e_ctl, j_ctl
-    controlled = elements_from_vectors(e_vec, j_vec, rot.T)
-    ecc = controlled["ecc"]
-    inc, raan, aop = (np.radians(controlled[k]) for k in ("inc_deg", "raan_deg", "aop_deg"))
+    u, back = _distinct_rows(e_vec.reshape(n_sat, -1), j_vec.reshape(n_sat, -1))   # a raised plane shares one
+    controlled = elements_from_vectors(e_vec[u], j_vec[u], rot.T)
+    ecc = controlled["ecc"][back]
+    inc, raan, aop = (np.radians(controlled[k])[back] for k in ("inc_deg", "raan_deg", "aop_deg"))
 
     p = a[:, None] * (1.0 - ecc ** 2)
     h_over_p = np.sqrt(gm / p)
@@ -446,7 +476,7 @@ def life_estimate(sk_estimate: SkEstimateSettings, design_life: DesignLifeSettin
     half_node = raan_half_width_rad(np.radians(tol_deg["raan_rel"]), inc[:, 0])
     osc = state_to_elements(to_element_frame(states[:, 0], rot), gm)
     nav = navigation_restores(dop, dynamics, design_life, t0, t_days, a, osc[:, 4] + osc[:, 5], raan[:, 0], ecc, inc,
-                              aop)
+                              aop, rot)
     node = np.zeros(n_sat)
     for i, events in enumerate(node_corrections(t_days, raan_drift, half_node, design_life.target_fraction,
                                                 design_life.min_maneuver_spacing_days)):

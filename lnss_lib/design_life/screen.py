@@ -53,6 +53,7 @@ Dropped terms, by argument:
 
 from __future__ import annotations
 
+import copy
 import dataclasses
 import time
 from dataclasses import dataclass
@@ -133,6 +134,13 @@ class SecularField:
         spline = CubicSpline(self.t_days, values, axis=0)
         object.__setattr__(self, "_knots", np.ascontiguousarray(spline.x, dtype=float))
         object.__setattr__(self, "_coef", np.ascontiguousarray(spline.c, dtype=float))
+
+    def shifted(self, days: float) -> "SecularField":
+        """The same field with its epoch ``days`` later: the same cubic on shifted knots (not fitted again)."""
+        out = copy.copy(self)
+        object.__setattr__(out, "t_days", self.t_days - days)
+        object.__setattr__(out, "_knots", self._knots - days)
+        return out
 
     def at(self, t_day: float) -> tuple[np.ndarray, np.ndarray]:
         """(T (3, 3), k (3,)) at ``t_day`` days since the epoch."""
@@ -372,6 +380,20 @@ def _rk4_secular(y0: np.ndarray, sma_km: np.ndarray, floor_km: np.ndarray, t_out
     return out, impact, n_rhs
 
 
+@nb.njit(cache=True)
+def _perilune_margin_km(y: np.ndarray, sma_km: np.ndarray, floor_km: np.ndarray) -> float:
+    """Smallest perilune a (1 - |e|) above its floor (km; NaN if any is) of orbits on a flat state [e (3), j (3)] per
+    orbit."""
+    out = np.inf
+    for q in range(sma_km.size):
+        e = y[6 * q:6 * q + 3]
+        margin = sma_km[q] * (1.0 - np.sqrt(e[0] * e[0] + e[1] * e[1] + e[2] * e[2])) - floor_km[q]
+        if np.isnan(margin):
+            return margin
+        out = min(out, margin)
+    return out
+
+
 def integrate_secular(sma_km, e0, j0, field: SecularField, life_days: float, *, floor_km=None,
                       method: str = "DOP853", rtol: float = 1e-9, atol: float = 1e-11,
                       output_step_days: float = 1.0, step_days: float = 0.5) -> dict:
@@ -406,12 +428,10 @@ def integrate_secular(sma_km, e0, j0, field: SecularField, life_days: float, *, 
         aa, ff = a[alive], floor[alive]
 
         def rhs(t, y, aa=aa):
-            tide, pole = field.at(t)
-            return _rhs_kernel(y, aa, tide, pole, field.gm_km3_s2, field.j2, field.r_ref_km, SECONDS_PER_DAY)
+            return _field_rhs(float(t), y, aa, field._knots, field._coef, field.gm_km3_s2, field.j2, field.r_ref_km)
 
         def surface(t, y, aa=aa, ff=ff):
-            e = np.linalg.norm(y.reshape(-1, 6)[:, :3], axis=1)
-            return float(np.min(aa * (1.0 - e) - ff))
+            return _perilune_margin_km(y, aa, ff)
 
         surface.terminal = True
         surface.direction = -1

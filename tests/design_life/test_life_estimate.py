@@ -210,3 +210,22 @@ def test_navigation_judges_by_the_monitors_rule(profile):
     baseline = monitor_summary(0)
     flagged = {j: navigation_violations(monitor_summary(j), baseline, svc) for j in range(1, first + 1)}
     assert {j: v for j, v in flagged.items() if v} == {first: est["violations"][first]}
+
+
+def test_compiled_relative_angles_are_the_numpy_formula_bit_for_bit():
+    from lnss_lib.design_life.mean_elements import circular_mean, wrap_pi
+    rng = np.random.default_rng(3)
+    x = rng.uniform(-40.0, 40.0, (7, 300))                    # several turns either way
+    x[2, 10:40] = np.nan                                       # a satellite lost part of the way
+    x[:, 5] = np.nan                                           # every satellite lost: mean 0 as numpy's nansum
+    diff = wrap_pi(x)
+    expected = wrap_pi(diff - circular_mean(diff, axis=0)[None, :])
+    np.testing.assert_array_equal(le._relative(x), expected)
+
+
+def test_distinct_rows_are_bit_for_bit():
+    base = np.linspace(0.0, 1.0, 5)
+    rows = np.stack([base, base, np.nextafter(base, 2.0), base, np.full(5, np.nan), np.full(5, np.nan)])
+    first, back = le._distinct_rows(rows[:, :2], rows[:, 2:])
+    np.testing.assert_array_equal(rows[first][back], rows)
+    assert len(first) == 3 and back[0] == back[1] == back[3] != back[2] and back[4] == back[5]

@@ -186,3 +186,22 @@ def test_orbits_beyond_the_averaged_models_validity_are_judged_unstable():
     assert ds.attrs["stable"] and not ds.outside_validity.values.any()
     paper = load_settings("paper")                        # no limit in the paper profile
     assert st.screen_elements(paper.stability, paper.dynamics, paper.epoch, high, life_days=30.0).attrs["n_outside_validity"] == 0
+
+
+def test_a_shifted_field_is_the_refitted_one_and_the_compiled_event_the_numpy_margin():
+    t = np.linspace(0.0, 400.0, 41)
+    ang = 2.0 * np.pi * t / 27.3
+    tide = 1e-12 * (np.eye(3)[None] + 0.3 * np.sin(ang)[:, None, None] * np.ones((3, 3)))
+    pole = np.stack([0.01 * np.cos(ang), 0.01 * np.sin(ang), np.ones_like(t)], axis=1)
+    field = st.SecularField(t, tide, pole / np.linalg.norm(pole, axis=1)[:, None], GM, J2, R)
+    shift = 123.25
+    refit = dataclasses.replace(field, t_days=field.t_days - shift)
+    for day in (0.0, 17.3, 200.0, 276.75):
+        for got, want in zip(field.shifted(shift).at(day), refit.at(day)):
+            np.testing.assert_allclose(got, want, rtol=1e-12, atol=1e-24)
+    y = np.random.default_rng(5).uniform(-0.6, 0.6, 18)
+    sma, floor = np.array([5000.0, 6000.0, 7000.0]), np.array([1800.0, 1900.0, -np.inf])
+    margin = sma * (1.0 - np.linalg.norm(y.reshape(-1, 6)[:, :3], axis=1)) - floor
+    assert st._perilune_margin_km(y, sma, floor) == np.min(margin)
+    y[7] = np.nan
+    assert np.isnan(st._perilune_margin_km(y, sma, floor))
