@@ -77,7 +77,7 @@ from ..propagator import (METHODS, STATUS_IMPACT, STATUS_NOT_RUN, STATUS_OK, STA
 from ..frames import element_frame_to_j2000
 from ..settings import DesignLifeSettings, DopSettings, Dynamics, IntegratorSetting, StabilitySettings
 from .service import (LOCATIONS, PURPOSES, NavigationMonitor, burn_location, raised_history, mean_vectors_j2000,
-                         raan_half_width_rad, safety_targets)
+                         raan_half_width_rad, restore_target, safety_targets)
 from .screen import SecularField
 from .tolerances import relative_tolerances_deg
 from .propagation import integrate_chunk, life_force_model, trim_to_mean
@@ -279,9 +279,7 @@ def simulate_life(design_life: DesignLifeSettings, dynamics: Dynamics, elements_
                         slot[i].history = []
                     continue
             if restore[i]:
-                ecc, aop = mel[i, 1], mel[i, 4]
-                target = {"a_km": 0.0, "ex": ref_ecc[i] * np.cos(ref_aop[i]) - ecc * np.cos(aop),
-                          "ey": ref_ecc[i] * np.sin(ref_aop[i]) - ecc * np.sin(aop), "inc_rad": -err[i, 2]}
+                target = restore_target(mel[i, 1], mel[i, 4], err[i, 2], ref_ecc[i], ref_aop[i])
                 if _enqueue(queue[i], t, osc, gm, [("navigation", plan_impulses(osc, gm, target, max_burns=2))],
                             _budget_kms(cap_kms, dv_used[i], queue[i]), floor_km):
                     geo_hist[i] = [(tk, gk - np.append(err[i, :3], 0.0)) for tk, gk in geo_hist[i]]

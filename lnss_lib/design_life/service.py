@@ -44,7 +44,7 @@ from ..settings import DopSettings, Dynamics, ServiceSettings
 from .screen import SecularField, integrate_secular
 
 __all__ = ["PURPOSES", "LOCATIONS", "predicted_crossing_day", "safety_ecc", "burn_location",
-           "navigation_violations", "requirement_fractions", "mean_vectors_j2000", "raan_half_width_rad",
+           "navigation_violations", "requirement_fractions", "restore_target", "mean_vectors_j2000", "raan_half_width_rad",
            "safety_targets", "raised_history", "NavigationMonitor"]
 
 PURPOSES = ("safety", "navigation", "relative_node", "phase", "a_trim")
@@ -148,6 +148,14 @@ def _fraction(excess: float, allowed: float) -> float:
     if allowed > 0.0:
         return excess / allowed
     return np.inf if excess > 0.0 else 0.0
+
+
+def restore_target(ecc: float, aop_rad: float, d_inc_rad: float, ref_ecc: float, ref_aop_rad: float) -> dict:
+    """The navigation restore's change of the control set (:func:`lnss_lib.design_life.manoeuvres.plan_impulses`):
+    the e vector back to the design's (``ref_ecc``, ``ref_aop_rad``), the inclination by ``-d_inc_rad`` (its offset
+    from the design's), a held."""
+    return {"a_km": 0.0, "ex": ref_ecc * np.cos(ref_aop_rad) - ecc * np.cos(aop_rad),
+            "ey": ref_ecc * np.sin(ref_aop_rad) - ecc * np.sin(aop_rad), "inc_rad": -d_inc_rad}
 
 
 def navigation_violations(summary: dict, baseline: dict, cfg: ServiceSettings) -> list[str]:
