@@ -80,7 +80,8 @@ from .manoeuvres import plan_impulses
 from .mean_elements import to_element_frame, wrap_pi
 from .screen import SecularField, elements_from_vectors, integrate_secular, screen_states
 from .screen import cached_field
-from .service import SAFETY_RAISE_KM, mean_vectors_j2000, navigation_violations, raan_half_width_rad
+from .service import (SAFETY_RAISE_KM, mean_vectors_j2000, navigation_violations, raan_half_width_rad,
+                      restore_target)
 from .tolerances import estimate_tolerances_deg
 
 __all__ = ["PARTS", "NAV_SAMPLES_PER_WINDOW", "perilune_dip_km", "safety_dv_kms", "node_corrections",
@@ -333,8 +334,7 @@ def _restore_dv_kms(el: tuple, ref: tuple, gm_km3_s2: float) -> float:
     (e, AOP, i), at first order (no Newton refinement: a quarter of the cost; 9 % less Delta-V than the refined plan
     on the 0.42 km/s restore of the quick operational front's cheapest design)."""
     sma, ecc, inc, raan, aop = el
-    target = {"a_km": 0.0, "ex": ref[0] * np.cos(ref[1]) - ecc * np.cos(aop),
-              "ey": ref[0] * np.sin(ref[1]) - ecc * np.sin(aop), "inc_rad": ref[2] - inc}
+    target = restore_target(ecc, aop, inc - ref[2], ref[0], ref[1])
     return plan_impulses(np.array([sma, ecc, inc, raan, aop, 0.0]), gm_km3_s2, target, max_burns=2,
                          newton_steps=0).dv_total_kms
 
