@@ -26,12 +26,44 @@ from .journal import EvaluationCache
 from .settings import CampaignPlan
 from .tasks import evaluate_task
 
-__all__ = ["SerialBackend", "DaskBackend", "open_backend", "campaign_task", "BatchEvaluator"]
+__all__ = ["SerialBackend", "DaskBackend", "open_backend", "campaign_task", "BatchEvaluator", "guided_batches",
+           "early_stop_cap"]
 
 
 def campaign_task(plan: CampaignPlan) -> Callable:
     """The campaign's task: :func:`~lnss_lib.campaign.tasks.evaluate_task` with the plan's evaluator."""
     return functools.partial(evaluate_task, evaluator=plan.evaluator, synthetic_delay_s=plan.synthetic_delay_s)
+
+
+# Guided batches on the campaign's backend: each batch the remaining cost over twice the workers, two batches per
+# worker in flight (a worker never waits for the next one to be sent). Measured on 111 designs of a late generation
+# of the paper_dv_physical campaign, 2 workers on 2 cores (one Dask task per design, all sent at once: 4.98 s; these
+# batches: 4.59 s; four times the workers: 4.69 s; one batch in flight per worker: 4.73 s).
+GUIDED_SHARE = 2
+IN_FLIGHT_PER_WORKER = 2
+
+
+def run_batch(task: Callable, shared, items: list[dict], numba_threads: int = 0) -> list:
+    """``task(shared, item, numba_threads=numba_threads)`` for each item, in order: one Dask task."""
+    return [task(shared, item, numba_threads=numba_threads) for item in items]
+
+
+def guided_batches(costs: list[float], n_workers: int, share: int = GUIDED_SHARE) -> list[list[int]]:
+    """Indices of ``costs`` (in that order) cut into consecutive batches of guided self-scheduling (Polychronopoulos
+    & Kuck 1987), weighted by cost: each batch takes items until it holds the remaining cost over ``share`` times
+    ``n_workers`` (at least one item), so batches shrink to single items at the end and the last to finish are
+    small."""
+    batches, start = [], 0
+    remaining = float(sum(costs))
+    while start < len(costs):
+        target, end, held = remaining / (share * max(1, n_workers)), start, 0.0
+        while end < len(costs) and (end == start or held + costs[end] <= target):
+            held += costs[end]
+            end += 1
+        batches.append(list(range(start, end)))
+        remaining -= held
+        start = end
+    return batches
 
 
 class SerialBackend:
@@ -43,8 +75,9 @@ class SerialBackend:
     def __init__(self, shared, task: Callable):
         self.shared, self.task = shared, task
 
-    def run(self, items: list[dict]):
-        """Yield ``(index, result)`` for each item as it finishes."""
+    def run(self, items: list[dict], guided: bool = False):
+        """Yield ``(index, result)`` for each item as it finishes (``guided``: as :meth:`DaskBackend.run`; here
+        there is nothing to batch)."""
         for index, item in enumerate(items):
             yield index, self.task(self.shared, item, numba_threads=0)
 
@@ -100,37 +133,54 @@ class DaskBackend:
         again after a task is lost, since the copies may have gone with its worker."""
         self.shared_future = self.client.scatter(self.shared, broadcast=True, hash=False)
 
-    def _submit(self, item: dict):
-        return self.client.submit(self.task, self.shared_future, item, numba_threads=self.numba_threads, pure=False)
+    def _submit(self, items: list[dict]):
+        return self.client.submit(run_batch, self.task, self.shared_future, items, numba_threads=self.numba_threads,
+                                  pure=False)
 
-    def run(self, designs: list[dict]):
-        """Yield ``(index, result)`` for each design as it finishes (completion order)."""
+    def run(self, designs: list[dict], guided: bool = False):
+        """Yield ``(index, result)`` for each design as it finishes (completion order), largest constellations
+        first. ``guided``: designs go in :func:`guided_batches` weighted by satellite count, each batch one task,
+        :data:`IN_FLIGHT_PER_WORKER` per worker sent at a time and the next as one returns (so the scheduler places
+        each where a worker is free); a Dask task costs its scheduler and worker milliseconds of CPU that a short
+        evaluation on a machine without a spare core pays in full. Otherwise one task per design, all sent."""
         from dask.distributed import as_completed
 
         if not designs:
             return
-        futures = {}
         by_cost = sorted(range(len(designs)), key=lambda i: -designs[i]["n_planes"] * designs[i]["sats_per_plane"])
-        for index in by_cost:                      # largest constellations first: less idle time at the generation's end
-            futures[self._submit(designs[index])] = index
-        attempts = dict.fromkeys(range(len(designs)), 0)
+        if guided:
+            cuts = guided_batches([designs[i]["n_planes"] * designs[i]["sats_per_plane"] for i in by_cost],
+                                  self.n_workers)
+            batches = [[by_cost[j] for j in cut] for cut in cuts]
+            in_flight = IN_FLIGHT_PER_WORKER * self.n_workers
+        else:
+            batches, in_flight = [[i] for i in by_cost], len(by_cost)
+        futures = {self._submit([designs[i] for i in batches[b]]): b for b in range(min(in_flight, len(batches)))}
+        waiting = iter(range(len(futures), len(batches)))
+        attempts = [0] * len(batches)
         queue = as_completed(list(futures))
         for future in queue:
-            index = futures.pop(future)
+            b = futures.pop(future)
+            batch = batches[b]
             try:
-                record = future.result()
+                records = future.result()
             except Exception as exc:  # worker lost or task cancelled: resubmit (the tasks themselves never raise)
-                attempts[index] += 1
-                if attempts[index] > self.max_resubmits:
-                    raise RuntimeError(f"design {designs[index]} failed {attempts[index]} times on the cluster; "
-                                       f"last error: {type(exc).__name__}: {exc}") from exc
+                attempts[b] += 1
+                if attempts[b] > self.max_resubmits:
+                    raise RuntimeError(f"designs {[designs[i] for i in batch]} failed {attempts[b]} times on the "
+                                       f"cluster; last error: {type(exc).__name__}: {exc}") from exc
                 self._scatter()
-                retry = self._submit(designs[index])
+                retry = self._submit([designs[i] for i in batch])
                 self.resubmitted += 1
-                futures[retry] = index
+                futures[retry] = b
                 queue.add(retry)
                 continue
-            yield index, record
+            following = next(waiting, None)
+            if following is not None:
+                successor = self._submit([designs[i] for i in batches[following]])
+                futures[successor] = following
+                queue.add(successor)
+            yield from zip(batch, records)
 
     def close(self) -> None:
         self.client.close()
@@ -153,12 +203,31 @@ def open_backend(shared, plan: CampaignPlan, workers: int | None = None, schedul
                        n_workers=None if scheduler_address else workers, scheduler_address=scheduler_address)
 
 
+def early_stop_cap(plan: CampaignPlan, algorithm) -> float | None:
+    """The Delta-V cap at which this generation's offspring may stop early: the plan's ``max`` bound on
+    ``dv_total_kms_per_year`` once NSGA-II's population is ``plan.population`` designs, all feasible, else None.
+
+    Exact: pymoo's survival (``Survival.do``) ranks the feasible designs of parents and offspring first and takes
+    infeasible ones only to fill up, so with ``population`` feasible parents no infeasible offspring survives,
+    whatever its violation; the search, its population and every feasible design's metrics are those of the full
+    evaluation. A design above the cap (``value > limit``, the sign of :func:`~lnss_lib.campaign.fitness.
+    constraint_matrix`'s ``(value - limit) / limit``) is infeasible in both. Never while any parent is infeasible
+    (the paper campaign under its own bounds: there violations rank the population).
+    """
+    limits = [limit for metric, kind, limit in plan.constraints if metric == "dv_total_kms_per_year" and kind == "max"]
+    pop = getattr(algorithm, "pop", None)
+    if not limits or pop is None or len(pop) < plan.population or not bool(np.all(pop.get("FEAS"))):
+        return None
+    return min(limits)
+
+
 class BatchEvaluator:
     """Scaled designs (n, 6) -> metric columns, through the cache; new designs go to the backend.
 
     ``generation`` must be set before each call; records carry the generation in which a design was
     first evaluated and its row in that generation's batch (``order``). ``progress`` is an optional
-    callable ``(n_done, n_total, n_hits)`` called as designs finish.
+    callable ``(n_done, n_total, n_hits)`` called as designs finish. ``dv_total_cap_kms_per_year`` (None:
+    off), set per generation by :func:`early_stop_cap`, goes with each design to the task.
     """
 
     def __init__(self, settings: CampaignPlan, cache: EvaluationCache, backend):
@@ -169,6 +238,7 @@ class BatchEvaluator:
         self.progress = None
         self.last = {"evaluated": 0, "hits": 0, "errors": 0, "wall_s": 0.0}
         self.n_backend = 0
+        self.dv_total_cap_kms_per_year = None
 
     def __call__(self, scaled: np.ndarray) -> dict:
         start = time.perf_counter()
@@ -187,10 +257,12 @@ class BatchEvaluator:
                 fresh += 1  # evaluated in this generation before an interruption: still new to it
         hits = len(keys) - fresh
         designs = self.settings.grid.designs(np.array(todo)) if todo else []
+        if self.dv_total_cap_kms_per_year is not None:
+            designs = [{**design, "dv_total_cap_kms_per_year": self.dv_total_cap_kms_per_year} for design in designs]
         errors, done = 0, 0
         if self.progress:
             self.progress(0, len(todo), hits)
-        for index, record in self.backend.run(designs):
+        for index, record in self.backend.run(designs, guided=True):
             record.update(generation=self.generation, order=order[index])
             self.cache.add(todo[index], record)
             errors += record["error"]
