@@ -36,7 +36,7 @@ from .elements import vis_viva_sma_km
 from .forces import ForceModel
 from .frames import rotate_with
 from .errors import ConfigError, ImpactError, InfeasibleDesignError
-from .keys import METRIC_KEYS, TIMING_KEYS, requested_extra_metrics
+from .keys import METRIC_KEYS, TIMING_KEYS, requested_extra_metrics, violated_bound
 from .propagator import check_elements_deg, elements_deg_to_states, integrate_batch, output_times, propagate_states
 
 if TYPE_CHECKING:
@@ -184,37 +184,42 @@ def _metrics(n_sat: int, dop_stats: dict, dv_budget: dict, link_stats: dict, del
     }
 
 
+def _stopped(elements: np.ndarray, broken: str, model: str, start: float, metrics: dict) -> dict:
+    result = _infeasible(elements.shape[0], f"stopped early: {broken}; the rest not evaluated", model, start)
+    return {**result, **{k: v for k, v in metrics.items() if k in result}}
+
+
 def campaign_metrics(context: EvaluationContext, elements: np.ndarray, states: np.ndarray,
-                     dv_total_cap_kms_per_year: float | None = None) -> dict:
+                     stop_bounds=None) -> dict:
     """The metrics of :func:`analyse_states` without a Dataset (``datasets=False``), bit for bit: propagation
     to arrays (:func:`lnss_lib.propagator.integrate_batch`), the compiled DOP grid and GPS link, and the
     Delta-V of satellite 0 with ``[deltav] model`` alone computed (:func:`lnss_lib.deltav.chosen_budget`). A
     profile with extra metrics or ``[deltav] satellites = "all"`` (which read the propagation Dataset) takes
     :func:`analyse_states`. ImpactError as there.
 
-    ``dv_total_cap_kms_per_year``: satellite 0 is propagated first (each satellite is integrated on its own, so
-    its states are the same bits) and a design whose eq. 45 ``dv_total`` exceeds the cap stops there, not
-    evaluated (``reason`` names the value; Delta-V metrics set, the rest NaN): the rest of a design that a
-    Delta-V bound already rejects (an impact of a later satellite is not looked for).
+    ``stop_bounds`` ``(metric, kind, limit)``: a design that breaks one (:func:`violated_bound`) stops at the first
+    part that shows it, not evaluated, with the metrics computed so far (``reason`` names the bound): the satellite
+    count before anything, then satellite 0 propagated first (each satellite is integrated on its own, so its states are the same bits) for the Delta-V,
+    then the others for the DOP, then the GPS link (an impact of a later satellite is not looked for).
     """
     if context.extra_metrics or context.deltav.satellites != "first":
         return analyse_states(context, elements, states, datasets=False)["metrics"]
     start = time.perf_counter()
     times = context.times
     clock = [time.perf_counter()]
-    if dv_total_cap_kms_per_year is None:
+    if not stop_bounds:
         out, _, t_stop, _, impact = integrate_batch(context.dynamics, states, context.t0_tdb_s, times, context.model)
         dv_budget = None
     else:
+        if (broken := violated_bound({"n_sat": elements.shape[0]}, stop_bounds)):
+            return _stopped(elements, broken, context.deltav.model, start, {})
         first, _, t_stop, _, impact = integrate_batch(context.dynamics, states[:1], context.t0_tdb_s, times,
                                                       context.model)
         _raise_first_impact(context, impact, t_stop)
         dv_budget = deltav.chosen_budget(context.deltav, context.dynamics, times, first[0])
-        if dv_budget["dv_total_kms_per_year"] > dv_total_cap_kms_per_year:
-            result = _infeasible(elements.shape[0], f"Delta-V {dv_budget['dv_total_kms_per_year']:.4g} km/s per "
-                                 f"year above the cap {dv_total_cap_kms_per_year:g} after satellite 0; the other "
-                                 "satellites not evaluated", context.deltav.model, start)
-            return {**result, **dv_budget}
+        broken = violated_bound(dv_budget, stop_bounds)
+        if broken:
+            return _stopped(elements, broken, context.deltav.model, start, dv_budget)
         rest, _, t_rest, _, impact_rest = integrate_batch(context.dynamics, states[1:], context.t0_tdb_s, times,
                                                           context.model)
         out = np.concatenate([first, rest])
@@ -226,6 +231,8 @@ def campaign_metrics(context: EvaluationContext, elements: np.ndarray, states: n
     clock.append(time.perf_counter())
     if dv_budget is None:
         dv_budget = deltav.chosen_budget(context.deltav, context.dynamics, times, out[0])
+    elif (broken := violated_bound(dop_stats, stop_bounds)):
+        return _stopped(elements, broken, context.deltav.model, start, {**dop_stats, **dv_budget})
     clock.append(time.perf_counter())
     link_stats = gps.gps_link_metrics(context.gps, context.dynamics.constants, context.gps_states, r_mci)
     clock.append(time.perf_counter())
@@ -275,15 +282,14 @@ def _operational_metrics(context: EvaluationContext, ds: xr.Dataset, states: np.
     return {k: out[k] for k in wanted}
 
 
-def evaluate_constellation(context: EvaluationContext, elements_deg,
-                           dv_total_cap_kms_per_year: float | None = None) -> dict:
+def evaluate_constellation(context: EvaluationContext, elements_deg, stop_bounds=None) -> dict:
     """Every quantity of eq. 45 for satellites given by elements (n, 6) [sma_km, e, i, RAAN, AOP, M] (deg).
 
     Returns a dict with :data:`RESULT_KEYS`, the profile's extra metrics, ``reason`` ("" when evaluated),
     ``impact`` and ``timing_s`` (seconds spent in propagation, DOP, Delta-V, GPS link and operational metrics). ``evaluated`` is False
     (metrics NaN) for elements that are no closed orbit above the surface or an orbit that hits the Moon
     (:class:`~lnss_lib.errors.InfeasibleDesignError`); configuration, ephemeris and other errors propagate.
-    The Table 3 bounds are the optimiser's business, not checked here (``dv_total_cap_kms_per_year``: see
+    The Table 3 bounds are the optimiser's business, not checked here (``stop_bounds``: see
     :func:`campaign_metrics`).
     """
     start = time.perf_counter()
@@ -295,13 +301,13 @@ def evaluate_constellation(context: EvaluationContext, elements_deg,
     except InfeasibleDesignError as error:
         return _infeasible(n_sat, f"invalid elements: {error}", model_name, start, context.extra_metrics)
     try:
-        return campaign_metrics(context, elements, states, dv_total_cap_kms_per_year)
+        return campaign_metrics(context, elements, states, stop_bounds)
     except InfeasibleDesignError as error:        # only a physically impossible design; any other error propagates
         return _infeasible(n_sat, str(error), model_name, start, context.extra_metrics)
 
 
 def evaluate_design(context: EvaluationContext, sma_km: float, ecc: float, aop_deg: float, inc_deg: float,
-                    n_planes: int, sats_per_plane: int, dv_total_cap_kms_per_year: float | None = None) -> dict:
+                    n_planes: int, sats_per_plane: int, stop_bounds=None) -> dict:
     """Eq. 45 for the Walker design of Table 3's variables (RAAN by eq. 42, M equally spaced).
 
     Invalid input (NaN, e outside [0, 1), a <= 0, i outside [0, 180], counts < 1) raises ConfigError
@@ -310,7 +316,7 @@ def evaluate_design(context: EvaluationContext, sma_km: float, ecc: float, aop_d
     """
     check_design(sma_km, ecc, aop_deg, inc_deg, n_planes, sats_per_plane)
     design = WalkerDesign(sma_km, ecc, aop_deg, inc_deg, n_planes, sats_per_plane)
-    return evaluate_constellation(context, design.elements_deg(), dv_total_cap_kms_per_year)
+    return evaluate_constellation(context, design.elements_deg(), stop_bounds)
 
 
 def check_design(sma_km, ecc, aop_deg, inc_deg, n_planes, sats_per_plane) -> None:

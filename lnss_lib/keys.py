@@ -6,7 +6,7 @@ __all__ = ["DESIGN_KEYS", "INTEGER_DESIGN_KEYS", "ELEMENT_KEYS", "METRIC_KEYS", 
            "CAMPAIGN_METRIC_KEYS", "RESULT_KEYS", "VERDICT_KEYS", "TIMING_KEYS", "DELTAV_SATELLITES",
            "NEEDS_ALL_SATELLITES", "CLOSED_LOOP_DV_BY_PURPOSE", "closed_loop_dv_key",
            "requested_extra_metrics", "NON_NAVIGATION_METRICS", "LABELS", "label", "bound_text", "value_format",
-           "format_value"]
+           "format_value", "violated_bound"]
 
 DESIGN_KEYS = ("sma_km", "ecc", "aop_deg", "inc_deg", "n_planes", "sats_per_plane")   # eq. 45 arguments
 INTEGER_DESIGN_KEYS = ("n_planes", "sats_per_plane")
@@ -136,3 +136,16 @@ def requested_extra_metrics(evaluator) -> tuple[str, ...]:
     keys sits below settings, so no import): distinct names of :data:`EXTRA_METRIC_KEYS` (the Delta-V maxima need
     ``[deltav] satellites = "all"``), all checked at load (:mod:`lnss_lib.config`)."""
     return tuple(evaluator.extra_metrics)
+
+
+def violated_bound(metrics: dict, bounds) -> str | None:
+    """The first of ``bounds`` ``(metric, "min" | "max", limit)`` that ``metrics`` (those present) break, as text,
+    else None: ``value > limit`` for a max bound, ``value < limit`` for a min bound, or an undefined (NaN) value;
+    the sign of the campaign's normalised constraint (:func:`~lnss_lib.campaign.fitness.constraint_matrix`, where
+    an undefined metric violates by ``[campaign] nan_violation``)."""
+    for metric, kind, limit in bounds:
+        if metric in metrics:
+            value = float(metrics[metric])
+            if value != value or (value > limit if kind == "max" else value < limit):
+                return f"{metric} = {value:.6g} breaks its {kind} {limit:g}"
+    return None

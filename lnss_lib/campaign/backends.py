@@ -27,7 +27,7 @@ from .settings import CampaignPlan
 from .tasks import evaluate_task
 
 __all__ = ["SerialBackend", "DaskBackend", "open_backend", "campaign_task", "BatchEvaluator", "guided_batches",
-           "early_stop_cap"]
+           "early_stop_bounds"]
 
 
 def campaign_task(plan: CampaignPlan) -> Callable:
@@ -203,22 +203,23 @@ def open_backend(shared, plan: CampaignPlan, workers: int | None = None, schedul
                        n_workers=None if scheduler_address else workers, scheduler_address=scheduler_address)
 
 
-def early_stop_cap(plan: CampaignPlan, algorithm) -> float | None:
-    """The Delta-V cap at which this generation's offspring may stop early: the plan's ``max`` bound on
-    ``dv_total_kms_per_year`` once NSGA-II's population is ``plan.population`` designs, all feasible, else None.
+def early_stop_bounds(plan: CampaignPlan, algorithm) -> tuple | None:
+    """The bounds at which this generation's offspring may stop early (:func:`~lnss_lib.keys.violated_bound`): the
+    plan's constraints once NSGA-II's population is ``plan.population`` designs, all feasible, else None.
 
     Exact: pymoo's survival (``Survival.do``) ranks the feasible designs of parents and offspring first and takes
     infeasible ones only to fill up, so with ``population`` feasible parents no infeasible offspring survives,
     whatever its violation; the search, its population and every feasible design's metrics are those of the full
-    evaluation. A design above the cap (``value > limit``, the sign of :func:`~lnss_lib.campaign.fitness.
-    constraint_matrix`'s ``(value - limit) / limit``) is infeasible in both. Never while any parent is infeasible
-    (the paper campaign under its own bounds: there violations rank the population).
+    evaluation. A design stopped early breaks a bound (by the sign of
+    :func:`~lnss_lib.campaign.fitness.constraint_matrix`), so it is infeasible in both. Never while any parent is
+    infeasible (the paper campaign under its own bounds: there violations rank the population), nor with
+    ``nan_violation`` 0 (an undefined metric would then not violate).
     """
-    limits = [limit for metric, kind, limit in plan.constraints if metric == "dv_total_kms_per_year" and kind == "max"]
     pop = getattr(algorithm, "pop", None)
-    if not limits or pop is None or len(pop) < plan.population or not bool(np.all(pop.get("FEAS"))):
+    if not plan.constraints or plan.nan_violation <= 0.0 or pop is None or len(pop) < plan.population \
+            or not bool(np.all(pop.get("FEAS"))):
         return None
-    return min(limits)
+    return plan.constraints
 
 
 class BatchEvaluator:
@@ -226,8 +227,8 @@ class BatchEvaluator:
 
     ``generation`` must be set before each call; records carry the generation in which a design was
     first evaluated and its row in that generation's batch (``order``). ``progress`` is an optional
-    callable ``(n_done, n_total, n_hits)`` called as designs finish. ``dv_total_cap_kms_per_year`` (None:
-    off), set per generation by :func:`early_stop_cap`, goes with each design to the task.
+    callable ``(n_done, n_total, n_hits)`` called as designs finish. ``stop_bounds`` (None: off), set per
+    generation by :func:`early_stop_bounds`, goes with each design to the task.
     """
 
     def __init__(self, settings: CampaignPlan, cache: EvaluationCache, backend):
@@ -238,7 +239,7 @@ class BatchEvaluator:
         self.progress = None
         self.last = {"evaluated": 0, "hits": 0, "errors": 0, "wall_s": 0.0}
         self.n_backend = 0
-        self.dv_total_cap_kms_per_year = None
+        self.stop_bounds = None
 
     def __call__(self, scaled: np.ndarray) -> dict:
         start = time.perf_counter()
@@ -257,8 +258,8 @@ class BatchEvaluator:
                 fresh += 1  # evaluated in this generation before an interruption: still new to it
         hits = len(keys) - fresh
         designs = self.settings.grid.designs(np.array(todo)) if todo else []
-        if self.dv_total_cap_kms_per_year is not None:
-            designs = [{**design, "dv_total_cap_kms_per_year": self.dv_total_cap_kms_per_year} for design in designs]
+        if self.stop_bounds is not None:
+            designs = [{**design, "stop_bounds": self.stop_bounds} for design in designs]
         errors, done = 0, 0
         if self.progress:
             self.progress(0, len(todo), hits)

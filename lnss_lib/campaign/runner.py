@@ -23,7 +23,7 @@ from pathlib import Path
 from ..config import OUTPUTS_DIR, PROFILE_NAME
 from ..settings import Settings, load_settings, settings_from_profile
 from ..errors import ConfigError
-from .backends import BatchEvaluator, early_stop_cap, open_backend
+from .backends import BatchEvaluator, early_stop_bounds, open_backend
 from .callbacks import (Callback, CampaignStopped, Checkpointer, ErrorGuard, HistoryRecorder, ProgressBars,
                         RunState)
 from .journal import JOURNAL_FILE, EvaluationCache, read_cache_records
@@ -197,7 +197,7 @@ def _run_locked(run_dir: Path, run_settings: Settings, eval_settings: Settings, 
             state.generation, state.n_designs = len(history) + 1, len(pop)
             state.asked_keys = [[int(v) for v in row] for row in np.rint(pop.get("X"))]
             batch.generation = state.generation
-            batch.dv_total_cap_kms_per_year = early_stop_cap(settings, algorithm)
+            batch.stop_bounds = early_stop_bounds(settings, algorithm)
             notify("on_generation_start")
             algorithm.evaluator.eval(problem, pop)
             algorithm.tell(infills=pop)

@@ -7,15 +7,14 @@ import os
 import socket
 import time
 
-from ..keys import CAMPAIGN_METRIC_KEYS, METRIC_KEYS, TIMING_KEYS
+from ..keys import CAMPAIGN_METRIC_KEYS, METRIC_KEYS, TIMING_KEYS, violated_bound
 from ..settings import Settings
 
 __all__ = ["evaluate_task", "synthetic_evaluation", "cap_numba_threads", "worker_name"]
 
 
 def synthetic_evaluation(settings: Settings, sma_km: float, ecc: float, aop_deg: float, inc_deg: float,
-                         n_planes: int, sats_per_plane: int, delay_s: float = 0.0,
-                         dv_total_cap_kms_per_year: float | None = None) -> dict:
+                         n_planes: int, sats_per_plane: int, delay_s: float = 0.0, stop_bounds=None) -> dict:
     """A closed-form stand-in for :func:`~lnss_lib.evaluator.evaluate_design` (tests and debugging; no physics).
 
     Same keys and conventions (an orbit whose perilune ``a (1 - e)`` is below the mean lunar
@@ -29,8 +28,8 @@ def synthetic_evaluation(settings: Settings, sma_km: float, ecc: float, aop_deg:
     inclination near 60 deg, its maximum 10 % above the mean, the eq. 45 Delta-V maxima 5 % above
     their values, and a "screen" that calls a design unstable when the Lidov-Kozai bound
     ``a (1 - e_max)`` with ``e_max = sqrt(1 - 5/3 cos^2 i)`` (i above 39.2 deg) for a > 8000 km
-    falls below the surface. ``dv_total_cap_kms_per_year``: a design above it comes back not evaluated with its
-    Delta-V metrics alone, as the evaluator's (:func:`~lnss_lib.evaluator.campaign_metrics`).
+    falls below the surface. ``stop_bounds``: a design that breaks one comes back not evaluated, as the
+    evaluator's (:func:`~lnss_lib.evaluator.campaign_metrics`).
     """
     start = time.perf_counter()
     if delay_s > 0.0:
@@ -56,10 +55,9 @@ def synthetic_evaluation(settings: Settings, sma_km: float, ecc: float, aop_deg:
                       gps_pdop_mean=500.0 / gps_visible if gps_visible >= 1.0 else math.nan,
                       evaluated=True, impact=False, reason="")
         result.update(_synthetic_extras(sma_km, ecc, inc_deg, r_min, dv_total, extras))
-        if dv_total_cap_kms_per_year is not None and dv_total > dv_total_cap_kms_per_year:
-            result.update({k: math.nan for k in METRIC_KEYS + extras if not k.startswith("dv_")}, n_sat=n_sat,
-                          evaluated=False, reason=f"Delta-V {dv_total:.4g} km/s per year above the cap "
-                          f"{dv_total_cap_kms_per_year:g}; not evaluated further")
+        broken = violated_bound(result, stop_bounds or ())
+        if broken:
+            result.update(evaluated=False, reason=f"stopped early: {broken}; the rest not evaluated")
     result["wall_s"] = time.perf_counter() - start
     return result
 
@@ -93,8 +91,8 @@ def evaluate_task(eval_profile: Settings, design: dict, evaluator: str = "walker
                   numba_threads: int = 0) -> dict:
     """Evaluate one design under the evaluation settings ``eval_profile`` (checked once, at the campaign's start:
     nothing is validated or hashed here) where this runs (in-process or a Dask worker); a JSON-ready record.
-    ``design``: Table 3's six variables, and ``dv_total_cap_kms_per_year`` when the campaign stops designs above
-    its Delta-V bound early (:class:`~lnss_lib.campaign.backends.BatchEvaluator`).
+    ``design``: Table 3's six variables, and ``stop_bounds`` when the campaign stops designs that break a bound
+    early (:class:`~lnss_lib.campaign.backends.BatchEvaluator`).
 
     The walker evaluator uses the process-wide context (:func:`~lnss_lib.evaluator.context_for`:
     kernels, tables and compiled code are loaded once per process). ``numba_threads`` > 0 caps the

@@ -9,10 +9,10 @@ import pytest
 
 from lnss_lib.campaign import CampaignPlan, final_population, read_cache_records, run_campaign
 from lnss_lib.campaign import runner
-from lnss_lib.campaign.backends import early_stop_cap, guided_batches
+from lnss_lib.campaign.backends import early_stop_bounds, guided_batches
 from lnss_lib.campaign.fitness import constraint_matrix
 from lnss_lib.evaluator import context_for, evaluate_design
-from lnss_lib.keys import METRIC_KEYS
+from lnss_lib.keys import METRIC_KEYS, violated_bound
 from lnss_lib.settings import load_settings
 
 SYNTHETIC = {"campaign": {"evaluator": "synthetic", "population": 12, "generations": 12}}
@@ -49,34 +49,48 @@ class _Algorithm:
         self.pop = pop
 
 
-def test_early_stop_only_with_a_whole_feasible_population_and_a_delta_v_bound():
-    plan = CampaignPlan.of(load_settings("paper"))          # dv_total_kms_per_year = { max = 1.0 }, population 120
+def test_early_stop_only_with_a_whole_feasible_population():
+    plan = CampaignPlan.of(load_settings("paper"))          # Table 3's bounds, population 120
     n = plan.population
-    assert early_stop_cap(plan, _Algorithm(None)) is None                             # first generation
-    assert early_stop_cap(plan, _Algorithm(_Population([True] * (n - 1) + [False]))) is None
-    assert early_stop_cap(plan, _Algorithm(_Population([True] * (n - 1)))) is None     # fewer than the population
-    assert early_stop_cap(plan, _Algorithm(_Population([True] * n))) == 1.0
-    off = CampaignPlan.of(load_settings("operational"))                                # its dv_total bound is off
-    assert early_stop_cap(off, _Algorithm(_Population([True] * off.population))) is None
+    assert early_stop_bounds(plan, _Algorithm(None)) is None                            # first generation
+    assert early_stop_bounds(plan, _Algorithm(_Population([True] * (n - 1) + [False]))) is None
+    assert early_stop_bounds(plan, _Algorithm(_Population([True] * (n - 1)))) is None    # fewer than the population
+    assert early_stop_bounds(plan, _Algorithm(_Population([True] * n))) == plan.constraints
+    assert ("dv_total_kms_per_year", "max", 1.0) in plan.constraints
 
 
-def test_a_design_stopped_early_is_one_its_bound_rejects_and_the_rest_is_bit_for_bit():
+def test_violated_bound_is_the_sign_of_the_campaign_constraint():
+    for kind, limit in (("max", 4.6), ("min", 70.0), ("max", 0.0)):
+        for value in (limit, np.nextafter(limit, -np.inf), np.nextafter(limit, np.inf), math.nan):
+            g = constraint_matrix({"n_sat": [4], "m": [value]}, [("m", kind, limit)], 1e3)[0, 0]
+            assert (violated_bound({"m": value}, [("m", kind, limit)]) is not None) is bool(g > 0.0), (kind, value)
+    assert violated_bound({"other": math.nan}, [("m", "max", 1.0)]) is None            # only the metrics present
+
+
+def test_a_design_stopped_early_breaks_its_bound_and_the_rest_is_bit_for_bit():
     profile = load_settings("ci")
     context = context_for(profile)
     design = {"sma_km": 6142.0, "ecc": 0.6, "aop_deg": 90.0, "inc_deg": 57.7, "n_planes": 2, "sats_per_plane": 2}
     full = evaluate_design(context, **design)
-    dv = full["dv_total_kms_per_year"]
-    assert full["evaluated"] and dv > 0.0
-    at_cap = evaluate_design(context, **design, dv_total_cap_kms_per_year=dv)          # value == limit: feasible
-    assert all(at_cap[k] == full[k] for k in METRIC_KEYS)
-    stopped = evaluate_design(context, **design, dv_total_cap_kms_per_year=float(np.nextafter(dv, 0.0)))
-    assert not stopped["evaluated"] and "Delta-V" in stopped["reason"]
-    assert stopped["dv_total_kms_per_year"] == dv and stopped["dv_opt_kms_per_year"] == full["dv_opt_kms_per_year"]
-    assert math.isnan(stopped["pdop_mean_3sigma"]) and stopped["n_sat"] == 4
-    for cap, stops in ((dv, False), (float(np.nextafter(dv, 0.0)), True)):              # the campaign's own rule
-        g = constraint_matrix({"n_sat": [4], "dv_total_kms_per_year": [dv]}, [("dv_total_kms_per_year", "max", cap)],
-                              math.inf)
-        assert bool(g[0, 0] > 0.0) is stops
+    dv, pdop = full["dv_total_kms_per_year"], full["pdop_mean_3sigma"]
+    assert full["evaluated"] and dv > 0.0 and math.isfinite(pdop)
+    at_bounds = evaluate_design(context, **design, stop_bounds=[("dv_total_kms_per_year", "max", dv),
+                                                                 ("pdop_mean_3sigma", "max", pdop)])
+    assert all(at_bounds[k] == full[k] for k in METRIC_KEYS)                           # value == limit: kept
+    by_dv = evaluate_design(context, **design, stop_bounds=[("dv_total_kms_per_year", "max", np.nextafter(dv, 0.0))])
+    assert not by_dv["evaluated"] and "dv_total_kms_per_year" in by_dv["reason"]
+    assert by_dv["dv_total_kms_per_year"] == dv and by_dv["dv_opt_kms_per_year"] == full["dv_opt_kms_per_year"]
+    assert math.isnan(by_dv["pdop_mean_3sigma"]) and by_dv["n_sat"] == 4
+    by_dop = evaluate_design(context, **design, stop_bounds=[("pdop_mean_3sigma", "max", np.nextafter(pdop, 0.0))])
+    assert not by_dop["evaluated"] and "pdop_mean_3sigma" in by_dop["reason"]
+    assert by_dop["pdop_mean_3sigma"] == pdop and math.isnan(by_dop["gps_pdop_mean"])
+    by_size = evaluate_design(context, **design, stop_bounds=[("n_sat", "max", 3.0)])
+    assert not by_size["evaluated"] and math.isnan(by_size["dv_total_kms_per_year"])
+
+
+def _feasible(record):
+    plan = CampaignPlan.of(load_settings("ci", overrides=SYNTHETIC))
+    return violated_bound(record["metrics"], plan.constraints) is None
 
 
 def _run(tmp_path, name):
@@ -89,12 +103,13 @@ def test_a_campaign_with_the_early_stop_equals_one_without(tmp_path, monkeypatch
     import xarray as xr
 
     with_stop, records = _run(tmp_path, "with")
-    stopped = [r for r in records.values() if "above the cap" in r["reason"]]
+    stopped = [r for r in records.values() if r["reason"].startswith("stopped early")]
     assert stopped, "the early stop never acted: the test would not see a difference"
-    monkeypatch.setattr(runner, "early_stop_cap", lambda plan, algorithm: None)
+    monkeypatch.setattr(runner, "early_stop_bounds", lambda plan, algorithm: None)
     without, records_full = _run(tmp_path, "without")
     assert set(records) == set(records_full)
-    assert all(records_full[tuple(r["key"])]["metrics"]["dv_total_kms_per_year"] > 1.0 for r in stopped)
+    assert not any(records_full[tuple(r["key"])]["ok"] and records_full[tuple(r["key"])]["reason"] == ""
+                   and _feasible(records_full[tuple(r["key"])]) for r in stopped)
     feasible = {k: r["metrics"] for k, r in records_full.items() if r["ok"]}
     for key, metrics in feasible.items():
         if records[key]["ok"]:
