@@ -7,7 +7,10 @@ evaluates, and the largest relative difference of the two accelerations (round-o
 model, the campaign's whole design evaluation before and after the evaluation-path work
 (:mod:`lnss_lib.bench.evaluation_before`: Datasets, every Delta-V model, kernel paths per design), on the same
 designs alternating, with the per-generation time and 120 x 1000 projection of each. After the force model, with
-``--history``, that run's own pace of its last generations before and with this change (:func:`history_after`).
+``--history``, that run's own pace of its last generations before and with this change (:func:`history_after`), and
+one of its late generations sent to a local Dask cluster as before (a task per design) and as the campaign sends it
+now (guided batches, designs that break a bound stopped early once the population is all feasible), alternating
+(:func:`dispatch_comparison`).
 
 ``--history RUN_DIR`` projects the same 120 x 1000 campaign with the designs a real run actually evaluated per
 generation (its checkpoint history: a converging search repeats designs, which the journal answers): the
