@@ -21,8 +21,8 @@ from .errors import ConfigError
 from .gravity import GravityField, harmonic_acceleration, tabulated_truncation_degree
 from .settings import Dynamics
 
-__all__ = ["BODY_ORDER", "SCRATCH_SIZE", "TERMS", "ForceModel", "shadow_geometry", "conical_fraction", "shadow_factor",
-           "acceleration_terms", "acceleration", "acceleration_breakdown"]
+__all__ = ["BODY_ORDER", "SCRATCH_SIZE", "TERMS", "ForceModel", "shadow_geometry", "conical_fraction", "shadow_fraction",
+           "shadow_factor", "acceleration_terms", "acceleration", "acceleration_breakdown"]
 
 BODY_ORDER = THIRD_BODIES  # rows of the ephemeris table; Sun and Earth also occult/illuminate
 SCRATCH_SIZE = 24
@@ -116,12 +116,12 @@ class ForceModel:
 
 
 @nb.njit(cache=True)
-def shadow_geometry(r_sc: np.ndarray, r_sun: np.ndarray, bx: float, by: float, bz: float, radius_body: float,
-                    radius_sun: float) -> tuple:
-    """(inside the body, sin a, sin b, cos c) of :func:`shadow_factor`: the sines of the apparent radii of the Sun (a)
-    and of a spherical body at (bx, by, bz) (b), and the cosine of their separation (c), seen from ``r_sc``."""
-    sx, sy, sz = r_sc[0] - bx, r_sc[1] - by, r_sc[2] - bz
-    dx, dy, dz = r_sun[0] - r_sc[0], r_sun[1] - r_sc[1], r_sun[2] - r_sc[2]
+def shadow_geometry(rx: float, ry: float, rz: float, sun_x: float, sun_y: float, sun_z: float, bx: float, by: float,
+                    bz: float, radius_body: float, radius_sun: float) -> tuple:
+    """(inside the body, sin a, sin b, cos c) of :func:`shadow_fraction`: the sines of the apparent radii of the Sun (a)
+    and of a spherical body at (bx, by, bz) (b), and the cosine of their separation (c), seen from (rx, ry, rz)."""
+    sx, sy, sz = rx - bx, ry - by, rz - bz
+    dx, dy, dz = sun_x - rx, sun_y - ry, sun_z - rz
     s_norm = np.sqrt(sx * sx + sy * sy + sz * sz)
     d_norm = np.sqrt(dx * dx + dy * dy + dz * dz)
     if s_norm <= radius_body:
@@ -150,15 +150,15 @@ def conical_fraction(sin_a: float, sin_b: float, cos_c: float) -> float:
 
 
 @nb.njit(cache=True)
-def shadow_factor(r_sc: np.ndarray, r_sun: np.ndarray, bx: float, by: float, bz: float,
-                  radius_body: float, radius_sun: float) -> float:
-    """Fraction of the solar disc visible past one spherical occulting body at (bx, by, bz) (conical model).
+def shadow_fraction(rx: float, ry: float, rz: float, sun_x: float, sun_y: float, sun_z: float, bx: float, by: float,
+                    bz: float, radius_body: float, radius_sun: float) -> float:
+    """Fraction of the solar disc visible from (rx, ry, rz) past one spherical occulting body at (bx, by, bz)
+    (conical model; Montenbruck & Gill (2000), Sec. 3.4.2, :func:`conical_fraction`), all km.
 
-    Montenbruck & Gill (2000), Sec. 3.4.2 (:func:`conical_fraction`). A satellite in full sunlight, c >= a + b, is
-    told from the cosines (cos c < cos(a + b) less 1e-6, far above the rounding of the angles) without the inverse
-    trigonometric functions: the same 1.0 they give.
+    A satellite in full sunlight, c >= a + b, is told from the cosines (cos c < cos(a + b) less 1e-6, far above the
+    rounding of the angles) without the inverse trigonometric functions: the same 1.0 they give.
     """
-    inside, sin_a, sin_b, cos_c = shadow_geometry(r_sc, r_sun, bx, by, bz, radius_body, radius_sun)
+    inside, sin_a, sin_b, cos_c = shadow_geometry(rx, ry, rz, sun_x, sun_y, sun_z, bx, by, bz, radius_body, radius_sun)
     if inside:
         return 0.0
     lit = cos_c + sin_a * sin_b + 1e-6                        # < cos(a) cos(b): fully lit; cos(a) cos(b) >= 0
@@ -168,82 +168,103 @@ def shadow_factor(r_sc: np.ndarray, r_sun: np.ndarray, bx: float, by: float, bz:
 
 
 @nb.njit(cache=True)
-def _third_body(r: np.ndarray, r_b: np.ndarray, gm_b: float, out: np.ndarray) -> None:
-    """Differential point-mass acceleration of a body at r_b on a satellite at r (Moon-centred)."""
-    dx, dy, dz = r_b[0] - r[0], r_b[1] - r[1], r_b[2] - r[2]
-    d3 = (dx * dx + dy * dy + dz * dz) ** 1.5
-    b3 = (r_b[0] * r_b[0] + r_b[1] * r_b[1] + r_b[2] * r_b[2]) ** 1.5
-    out[0] += gm_b * (dx / d3 - r_b[0] / b3)
-    out[1] += gm_b * (dy / d3 - r_b[1] / b3)
-    out[2] += gm_b * (dz / d3 - r_b[2] / b3)
+def shadow_factor(r_sc: np.ndarray, r_sun: np.ndarray, bx: float, by: float, bz: float,
+                  radius_body: float, radius_sun: float) -> float:
+    """:func:`shadow_fraction` of position vectors ``r_sc`` and ``r_sun`` (km)."""
+    return shadow_fraction(r_sc[0], r_sc[1], r_sc[2], r_sun[0], r_sun[1], r_sun[2], bx, by, bz, radius_body, radius_sun)
 
 
 @nb.njit(cache=True)
+def _third_body(rx: float, ry: float, rz: float, bx: float, by: float, bz: float, gm_b: float, terms: np.ndarray,
+                row: int) -> None:
+    """Differential point-mass acceleration of a body at (bx, by, bz) on a satellite at (rx, ry, rz) (Moon-centred),
+    added to ``terms[row]``."""
+    dx, dy, dz = bx - rx, by - ry, bz - rz
+    d3 = (dx * dx + dy * dy + dz * dz) ** 1.5
+    b3 = (bx * bx + by * by + bz * bz) ** 1.5
+    terms[row, 0] += gm_b * (dx / d3 - bx / b3)
+    terms[row, 1] += gm_b * (dy / d3 - by / b3)
+    terms[row, 2] += gm_b * (dz / d3 - bz / b3)
+
+
+@nb.njit(cache=True)
+def _body_position(bodies: np.ndarray, body: int, basis: tuple) -> tuple:
+    """Position (km) of row ``body`` of the ephemeris table at :func:`~lnss_lib.ephemeris.hermite_basis`'s weights
+    (:func:`~lnss_lib.ephemeris.hermite_apply`'s sum, term for term), without a view of the table."""
+    k, h00, h10, h01, h11 = basis
+    return (h00 * bodies[k, body, 0] + h10 * bodies[k, body, 3] + h01 * bodies[k + 1, body, 0] + h11 * bodies[k + 1, body, 3],
+            h00 * bodies[k, body, 1] + h10 * bodies[k, body, 4] + h01 * bodies[k + 1, body, 1] + h11 * bodies[k + 1, body, 4],
+            h00 * bodies[k, body, 2] + h10 * bodies[k, body, 5] + h01 * bodies[k + 1, body, 2] + h11 * bodies[k + 1, body, 5])
+
+
+@nb.njit(cache=True, inline="always")
 def acceleration_terms(t: float, y: np.ndarray, args: tuple, work: np.ndarray, scratch: np.ndarray,
                        terms: np.ndarray) -> None:
     """Each term of the acceleration (km/s^2, Moon-centred J2000) into ``terms`` (8, 3), order ``TERMS``.
 
     ``work`` is the gravity scratch array, ``scratch`` a float array of at least 24 elements. The rotation
     and the bodies are interpolated with one interval and weight computation; the gravity degree is looked
-    up in the field's tabulated radii.
+    up in the field's tabulated radii. Vectors are held as scalars, not as views of arrays (each view was an
+    array struct built and reference-counted per call; the same arithmetic, the same bits: ``bench integrator``).
+    Inlined into the integrator (see ``lnss_lib.propagator._rhs``).
     """
     scalars, flags, gm_bodies, t0dt, bodies, rot_pa, rot_pa_rate, tables, radii = args
     terms[:, :] = 0.0
-    r = y[:3]
-    v = y[3:6]
+    rx, ry, rz = y[0], y[1], y[2]
     gm = scalars[GM]
-    r2 = r[0] * r[0] + r[1] * r[1] + r[2] * r[2]
+    r2 = rx * rx + ry * ry + rz * rz
     r_norm = np.sqrt(r2)
-    for j in range(3):
-        terms[0, j] = -gm * r[j] / (r2 * r_norm)
+    terms[0, 0] = -gm * rx / (r2 * r_norm)
+    terms[0, 1] = -gm * ry / (r2 * r_norm)
+    terms[0, 2] = -gm * rz / (r2 * r_norm)
     degree = tables.shape[1] - 2
-    buf = scratch[0:9]
-    r_bf = scratch[9:12]
-    a_bf = scratch[12:15]
     basis = hermite_basis(rot_pa.shape[0], t0dt[0], t0dt[1], t)     # one grid for the rotation and the bodies
     if flags[F_HARMONICS] and degree >= 2:
+        buf = scratch[0:9]
+        r_bf = scratch[9:12]
+        a_bf = scratch[12:15]
         hermite_apply(rot_pa, rot_pa_rate, basis, buf)
         for i in range(3):
-            r_bf[i] = buf[3 * i] * r[0] + buf[3 * i + 1] * r[1] + buf[3 * i + 2] * r[2]
+            r_bf[i] = buf[3 * i] * rx + buf[3 * i + 1] * ry + buf[3 * i + 2] * rz
         kept = tabulated_truncation_degree(r_norm, radii)    # per-evaluation degree truncation
         harmonic_acceleration(r_bf, tables, gm, scalars[R_REF], kept, work, a_bf)
         for j in range(3):
             terms[1, j] = buf[j] * a_bf[0] + buf[3 + j] * a_bf[1] + buf[6 + j] * a_bf[2] - terms[0, j]
-    r_sun = scratch[15:18]
-    r_earth = scratch[18:21]
-    r_jup = scratch[21:24]
-    hermite_apply(bodies[:, 0, :3], bodies[:, 0, 3:], basis, r_sun)
-    hermite_apply(bodies[:, 1, :3], bodies[:, 1, 3:], basis, r_earth)
+    sun_x, sun_y, sun_z = _body_position(bodies, 0, basis)
+    earth_x, earth_y, earth_z = _body_position(bodies, 1, basis)
     if flags[F_SUN]:
-        _third_body(r, r_sun, gm_bodies[0], terms[2])
+        _third_body(rx, ry, rz, sun_x, sun_y, sun_z, gm_bodies[0], terms, 2)
     if flags[F_EARTH]:
-        _third_body(r, r_earth, gm_bodies[1], terms[3])
+        _third_body(rx, ry, rz, earth_x, earth_y, earth_z, gm_bodies[1], terms, 3)
     if flags[F_JUPITER]:
-        hermite_apply(bodies[:, 2, :3], bodies[:, 2, 3:], basis, r_jup)
-        _third_body(r, r_jup, gm_bodies[2], terms[4])
+        jup_x, jup_y, jup_z = _body_position(bodies, 2, basis)
+        _third_body(rx, ry, rz, jup_x, jup_y, jup_z, gm_bodies[2], terms, 4)
     if flags[F_SRP]:
-        ux, uy, uz = r[0] - r_sun[0], r[1] - r_sun[1], r[2] - r_sun[2]
+        ux, uy, uz = rx - sun_x, ry - sun_y, rz - sun_z
         d = np.sqrt(ux * ux + uy * uy + uz * uz)
         nu = 1.0
         if flags[F_SHADOW]:
-            nu = shadow_factor(r, r_sun, 0.0, 0.0, 0.0, scalars[R_MOON], scalars[R_SUN])
+            nu = shadow_fraction(rx, ry, rz, sun_x, sun_y, sun_z, 0.0, 0.0, 0.0, scalars[R_MOON], scalars[R_SUN])
             if nu > 0.0:
-                nu *= shadow_factor(r, r_sun, r_earth[0], r_earth[1], r_earth[2], scalars[R_EARTH], scalars[R_SUN])
+                nu *= shadow_fraction(rx, ry, rz, sun_x, sun_y, sun_z, earth_x, earth_y, earth_z, scalars[R_EARTH],
+                                      scalars[R_SUN])
         k = nu * scalars[SRP_K] * (scalars[AU] / d) ** 2 / d
         terms[5, 0] = k * ux
         terms[5, 1] = k * uy
         terms[5, 2] = k * uz
     if flags[F_REL]:
+        vx, vy, vz = y[3], y[4], y[5]
         c2 = scalars[C_LIGHT] ** 2
-        v2 = v[0] * v[0] + v[1] * v[1] + v[2] * v[2]
-        rv = r[0] * v[0] + r[1] * v[1] + r[2] * v[2]
+        v2 = vx * vx + vy * vy + vz * vz
+        rv = rx * vx + ry * vy + rz * vz
         f = gm / (c2 * r2 * r_norm)
-        for j in range(3):
-            terms[6, j] = f * ((4.0 * gm / r_norm - v2) * r[j] + 4.0 * rv * v[j])
+        terms[6, 0] = f * ((4.0 * gm / r_norm - v2) * rx + 4.0 * rv * vx)
+        terms[6, 1] = f * ((4.0 * gm / r_norm - v2) * ry + 4.0 * rv * vy)
+        terms[6, 2] = f * ((4.0 * gm / r_norm - v2) * rz + 4.0 * rv * vz)
     if flags[F_ALBEDO]:
-        qx, qy, qz = r[0] - r_earth[0], r[1] - r_earth[1], r[2] - r_earth[2]
+        qx, qy, qz = rx - earth_x, ry - earth_y, rz - earth_z
         q = np.sqrt(qx * qx + qy * qy + qz * qz)
-        ex, ey, ez = r_sun[0] - r_earth[0], r_sun[1] - r_earth[1], r_sun[2] - r_earth[2]
+        ex, ey, ez = sun_x - earth_x, sun_y - earth_y, sun_z - earth_z
         e_norm = np.sqrt(ex * ex + ey * ey + ez * ez)
         cos_phase = (ex * qx + ey * qy + ez * qz) / (e_norm * q)
         phase = np.arccos(max(-1.0, min(1.0, cos_phase)))
@@ -256,7 +277,7 @@ def acceleration_terms(t: float, y: np.ndarray, args: tuple, work: np.ndarray, s
         terms[7, 2] = k * qz
 
 
-@nb.njit(cache=True)
+@nb.njit(cache=True, inline="always")
 def acceleration(t: float, y: np.ndarray, args: tuple, work: np.ndarray, scratch: np.ndarray, terms: np.ndarray,
                  out: np.ndarray) -> None:
     """Total acceleration (km/s^2, Moon-centred J2000) at TDB ``t`` and state ``y`` into ``out``."""

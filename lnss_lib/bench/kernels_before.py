@@ -24,8 +24,8 @@ from scipy.integrate import solve_ivp
 
 from ..ephemeris import hermite_apply, hermite_basis, hermite_cubic
 from ..forces import (ALBEDO, AU, C_LIGHT, F_ALBEDO, F_EARTH, F_HARMONICS, F_JUPITER, F_REL, F_SHADOW, F_SRP, F_SUN,
-                      GM, R_EARTH, R_MOON, R_REF, R_SUN, SCRATCH_SIZE, SRP_K, TERMS, ForceModel, _third_body,
-                      acceleration, conical_fraction, shadow_factor, shadow_geometry)
+                      GM, R_EARTH, R_MOON, R_REF, R_SUN, SCRATCH_SIZE, SRP_K, TERMS, ForceModel, acceleration,
+                      conical_fraction, shadow_factor, shadow_geometry)
 from ..gravity import fill_vw, truncation_degree
 
 
@@ -63,8 +63,20 @@ def harmonic_acceleration_before(r_bf_km, cnm, snm, coef, gm, r_ref, degree, wor
 @nb.njit(cache=True)
 def shadow_factor_before(r_sc, r_sun, bx, by, bz, radius_body, radius_sun):
     """The previous :func:`lnss_lib.forces.shadow_factor`: the three angles at every call (the same values)."""
-    inside, sin_a, sin_b, cos_c = shadow_geometry(r_sc, r_sun, bx, by, bz, radius_body, radius_sun)
+    inside, sin_a, sin_b, cos_c = shadow_geometry(r_sc[0], r_sc[1], r_sc[2], r_sun[0], r_sun[1], r_sun[2], bx, by, bz,
+                                                  radius_body, radius_sun)
     return 0.0 if inside else conical_fraction(sin_a, sin_b, cos_c)
+
+
+@nb.njit(cache=True)
+def _third_body_before(r, r_b, gm_b, out):
+    """The previous differential third-body term, on views of arrays (the same sums as the current one)."""
+    dx, dy, dz = r_b[0] - r[0], r_b[1] - r[1], r_b[2] - r[2]
+    d3 = (dx * dx + dy * dy + dz * dz) ** 1.5
+    b3 = (r_b[0] * r_b[0] + r_b[1] * r_b[1] + r_b[2] * r_b[2]) ** 1.5
+    out[0] += gm_b * (dx / d3 - r_b[0] / b3)
+    out[1] += gm_b * (dy / d3 - r_b[1] / b3)
+    out[2] += gm_b * (dz / d3 - r_b[2] / b3)
 
 
 @nb.njit(cache=True)
@@ -100,12 +112,12 @@ def acceleration_terms_before(t, y, args, field_before, work, scratch, terms):
     hermite_cubic(bodies[:, 0, :3], bodies[:, 0, 3:], t0dt[0], t0dt[1], t, r_sun)
     hermite_cubic(bodies[:, 1, :3], bodies[:, 1, 3:], t0dt[0], t0dt[1], t, r_earth)
     if flags[F_SUN]:
-        _third_body(r, r_sun, gm_bodies[0], terms[2])
+        _third_body_before(r, r_sun, gm_bodies[0], terms[2])
     if flags[F_EARTH]:
-        _third_body(r, r_earth, gm_bodies[1], terms[3])
+        _third_body_before(r, r_earth, gm_bodies[1], terms[3])
     if flags[F_JUPITER]:
         hermite_cubic(bodies[:, 2, :3], bodies[:, 2, 3:], t0dt[0], t0dt[1], t, r_jup)
-        _third_body(r, r_jup, gm_bodies[2], terms[4])
+        _third_body_before(r, r_jup, gm_bodies[2], terms[4])
     if flags[F_SRP]:
         ux, uy, uz = r[0] - r_sun[0], r[1] - r_sun[1], r[2] - r_sun[2]
         d = np.sqrt(ux * ux + uy * uy + uz * uz)
