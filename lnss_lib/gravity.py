@@ -270,8 +270,14 @@ def tabulated_truncation_degree(r_km: float, radii_km: np.ndarray) -> int:
     return kept
 
 
-# fastmath is safe: states checked finite (propagator), coefficients finite (ForceModel), r >= r_min > 0 at each step
-@nb.njit(cache=True, fastmath=True)
+# Reassociation (the padded loops vectorise) and contraction (fused multiply-adds) only: the full fastmath set gave other
+# bits to a caller compiled in the same process than to the same caller loaded from numba's cache (13 designs, states
+# up to 3e-5 apart after 10 days), so a run's results hung on the cache's state; these two flags give the same bits
+# either way (tests/test_kernel_cache.py) at the same speed. Safe: inputs finite (propagator, ForceModel), r >= r_min > 0.
+FAST = {"reassoc", "contract"}
+
+
+@nb.njit(cache=True, fastmath=FAST)
 def fill_vw(x: float, y: float, z: float, r_ref: float, nmax: int, coef: np.ndarray, V: np.ndarray, W: np.ndarray) -> None:
     """Normalised V_nm, W_nm (Montenbruck & Gill eq. 3.29-3.31) up to degree nmax, stored [n, m].
 
@@ -302,10 +308,9 @@ def fill_vw(x: float, y: float, z: float, r_ref: float, nmax: int, coef: np.ndar
         w_row[n] = f * (x0 * w_1[n - 1] + y0 * v_1[n - 1])
 
 
-# fastmath is safe: finite inputs proven upstream, as for fill_vw; a NaN stage stops the integrator (status 4).
-# error_model="numpy": a non-finite position gives a non-finite result (no ZeroDivisionError from the check that
-# fastmath may fold for a NaN r^2); r >= r_min > 0 in every integration, so the check never fires there
-@nb.njit(cache=True, fastmath=True, error_model="numpy")
+# FAST as fill_vw; a NaN stage stops the integrator (status 4). error_model="numpy": a non-finite position gives a
+# non-finite result, not a ZeroDivisionError; r >= r_min > 0 in every integration, so the check never fires there
+@nb.njit(cache=True, fastmath=FAST, error_model="numpy")
 def harmonic_acceleration(r_bf_km: np.ndarray, tables: np.ndarray, gm: float, r_ref: float, degree: int,
                           work: np.ndarray, out: np.ndarray) -> None:
     """Acceleration (km/s^2, body-fixed) of the field of degree/order ``degree`` at ``r_bf_km``, into ``out``.
