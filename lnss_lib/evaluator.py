@@ -117,36 +117,34 @@ def analyse_states(context: EvaluationContext, elements: np.ndarray, states: np.
     """Propagation and metrics; without ``datasets`` the campaign's path: no grid or link Dataset, the DOP
     grid compiled (:func:`lnss_lib.dop.metrics_for_settings`, same metrics to ~1e-12 relative) and the
     GPS link from arrays (:func:`lnss_lib.gps.gps_link_metrics`, bit for bit)."""
-    start = time.perf_counter()
+    laps = Laps()
     profile = context.settings
     times = context.times
-    clock = [time.perf_counter()]
     ds = propagate_states(profile.dynamics, states, context.t0_tdb_s, float(times[-1] - times[0]), profile.epoch.step_s,
                           batch=True, model=context.model)
     _raise_first_impact(context, ds.impact.values, ds.impact_t_tdb_s.values)
     ds["elements_deg"] = (("sat", "element"), elements)
-    clock.append(time.perf_counter())
+    laps.lap("propagation")
     r_mf = rotate_with(context.rot_to_moon_fixed, ds.r_mci_km.values)
     if datasets:
         grid_ds = dop.dop_for_settings(context.dop, r_mf, times, context.grid)
         dop_stats = dop.summary_for_settings(context.dop, grid_ds)
     else:
         grid_ds, dop_stats = None, dop.metrics_for_settings(context.dop, r_mf, context.grid)
-    clock.append(time.perf_counter())
+    laps.lap("dop")
     dv = deltav.deltav_from_propagation(context.deltav, context.dynamics, ds, sat=0)
     dv_budget = _design_deltav(context.deltav, context.dynamics, ds, dv)
-    clock.append(time.perf_counter())
+    laps.lap("deltav")
     if datasets:
         link = gps.gps_link(context.gps, context.dynamics.constants, context.gps_states, ds, sats="first")
         link_stats = gps.gps_link_summary(link)
     else:
         link, link_stats = None, gps.gps_link_metrics(context.gps, context.dynamics.constants, context.gps_states,
                                                       ds["r_mci_km"].values)
-    clock.append(time.perf_counter())
+    laps.lap("gps")
     extras = _operational_metrics(context, ds, states, dv_budget)
-    clock.append(time.perf_counter())
-    metrics = _metrics(elements.shape[0], dop_stats, dv_budget, link_stats, dv.attrs["deltav_model"], extras, clock,
-                       start)
+    laps.lap("operational")
+    metrics = _metrics(elements.shape[0], dop_stats, dv_budget, link_stats, dv.attrs["deltav_model"], extras, laps)
     return {"propagation": ds, "dop": grid_ds, "deltav": dv, "gps_link": link, "metrics": metrics}
 
 
@@ -160,9 +158,23 @@ def _raise_first_impact(context: EvaluationContext, impact: np.ndarray, t_impact
                           t_tdb_s=t_impact, days=days)
 
 
+class Laps:
+    """Seconds spent in each part of an evaluation (:data:`~lnss_lib.keys.TIMING_KEYS`), read off one clock as each
+    part ends (:meth:`lap`); ``start`` is when the evaluation began."""
+
+    def __init__(self):
+        self.start = self.last = time.perf_counter()
+        self.seconds = dict.fromkeys(TIMING_KEYS, 0.0)
+
+    def lap(self, part: str) -> None:
+        now = time.perf_counter()
+        self.seconds[part] += now - self.last
+        self.last = now
+
+
 def _metrics(n_sat: int, dop_stats: dict, dv_budget: dict, link_stats: dict, deltav_model: str, extras: dict,
-             clock: list[float], start: float) -> dict:
-    """An evaluation's metrics dict from its parts' results and the clock read after each part."""
+             laps: Laps) -> dict:
+    """An evaluation's metrics dict from its parts' results and their times."""
     return {
         "n_sat": int(n_sat),
         "mean_visible_sats": dop_stats["mean_visible_sats"],
@@ -179,14 +191,15 @@ def _metrics(n_sat: int, dop_stats: dict, dv_budget: dict, link_stats: dict, del
         "reason": "",
         "impact": False,
         **extras,
-        "timing_s": dict(zip(TIMING_KEYS, np.diff(clock).tolist())),
-        "wall_s": time.perf_counter() - start,
+        "timing_s": dict(laps.seconds),
+        "wall_s": time.perf_counter() - laps.start,
     }
 
 
-def _stopped(elements: np.ndarray, broken: str, model: str, start: float, metrics: dict) -> dict:
-    result = _infeasible(elements.shape[0], f"stopped early: {broken}; the rest not evaluated", model, start)
-    return {**result, **{k: v for k, v in metrics.items() if k in result}}
+def _stopped(elements: np.ndarray, broken: str, model: str, laps: Laps, metrics: dict) -> dict:
+    """A design stopped at a bound: not evaluated, with the metrics and the part times computed so far."""
+    result = _infeasible(elements.shape[0], f"stopped early: {broken}; the rest not evaluated", model, laps.start)
+    return {**result, **{k: v for k, v in metrics.items() if k in result}, "timing_s": dict(laps.seconds)}
 
 
 def campaign_metrics(context: EvaluationContext, elements: np.ndarray, states: np.ndarray,
@@ -204,40 +217,40 @@ def campaign_metrics(context: EvaluationContext, elements: np.ndarray, states: n
     """
     if context.extra_metrics or context.deltav.satellites != "first":
         return analyse_states(context, elements, states, datasets=False)["metrics"]
-    start = time.perf_counter()
+    laps = Laps()
     times = context.times
-    clock = [time.perf_counter()]
+    model = context.deltav.model
     if not stop_bounds:
         out, _, t_stop, _, impact = integrate_batch(context.dynamics, states, context.t0_tdb_s, times, context.model)
         dv_budget = None
     else:
         if (broken := violated_bound({"n_sat": elements.shape[0]}, stop_bounds)):
-            return _stopped(elements, broken, context.deltav.model, start, {})
+            return _stopped(elements, broken, model, laps, {})
         first, _, t_stop, _, impact = integrate_batch(context.dynamics, states[:1], context.t0_tdb_s, times,
                                                       context.model)
         _raise_first_impact(context, impact, t_stop)
+        laps.lap("propagation")
         dv_budget = deltav.chosen_budget(context.deltav, context.dynamics, times, first[0])
-        broken = violated_bound(dv_budget, stop_bounds)
-        if broken:
-            return _stopped(elements, broken, context.deltav.model, start, dv_budget)
+        laps.lap("deltav")
+        if (broken := violated_bound(dv_budget, stop_bounds)):
+            return _stopped(elements, broken, model, laps, dv_budget)
         rest, _, t_rest, _, impact_rest = integrate_batch(context.dynamics, states[1:], context.t0_tdb_s, times,
                                                           context.model)
         out = np.concatenate([first, rest])
         t_stop, impact = np.concatenate([t_stop, t_rest]), np.concatenate([impact, impact_rest])
     _raise_first_impact(context, impact, t_stop)
     r_mci = out[:, :, :3]
-    clock.append(time.perf_counter())
+    laps.lap("propagation")
     dop_stats = dop.metrics_for_settings(context.dop, rotate_with(context.rot_to_moon_fixed, r_mci), context.grid)
-    clock.append(time.perf_counter())
+    laps.lap("dop")
     if dv_budget is None:
         dv_budget = deltav.chosen_budget(context.deltav, context.dynamics, times, out[0])
+        laps.lap("deltav")
     elif (broken := violated_bound(dop_stats, stop_bounds)):
-        return _stopped(elements, broken, context.deltav.model, start, {**dop_stats, **dv_budget})
-    clock.append(time.perf_counter())
+        return _stopped(elements, broken, model, laps, {**dop_stats, **dv_budget})
     link_stats = gps.gps_link_metrics(context.gps, context.dynamics.constants, context.gps_states, r_mci)
-    clock.append(time.perf_counter())
-    clock.append(time.perf_counter())                       # no operational metrics
-    return _metrics(elements.shape[0], dop_stats, dv_budget, link_stats, context.deltav.model, {}, clock, start)
+    laps.lap("gps")
+    return _metrics(elements.shape[0], dop_stats, dv_budget, link_stats, model, {}, laps)
 
 
 def _design_deltav(settings: DeltaVSettings, dynamics: Dynamics, ds: xr.Dataset, dv_first: xr.Dataset) -> dict:

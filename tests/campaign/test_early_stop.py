@@ -86,6 +86,12 @@ def test_a_design_stopped_early_breaks_its_bound_and_the_rest_is_bit_for_bit():
     assert by_dop["pdop_mean_3sigma"] == pdop and math.isnan(by_dop["gps_pdop_mean"])
     by_size = evaluate_design(context, **design, stop_bounds=[("n_sat", "max", 3.0)])
     assert not by_size["evaluated"] and math.isnan(by_size["dv_total_kms_per_year"])
+    # the time of the parts a stopped design went through is kept (the campaign's time split counts it there)
+    assert by_dv["timing_s"]["propagation"] > 0.0 and by_dv["timing_s"]["deltav"] > 0.0
+    assert by_dv["timing_s"]["dop"] == 0.0 and by_dop["timing_s"]["dop"] > 0.0 and by_dop["timing_s"]["gps"] == 0.0
+    assert sum(by_size["timing_s"].values()) == 0.0
+    for result in (full, by_dv, by_dop):
+        assert 0.0 < sum(result["timing_s"].values()) <= result["wall_s"]
 
 
 def _feasible(record):
