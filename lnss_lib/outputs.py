@@ -7,6 +7,8 @@ the index and calls :func:`write_manifest` after a run.
 
 from __future__ import annotations
 
+import functools
+import hashlib
 import json
 import platform
 import time
@@ -132,6 +134,44 @@ def data_checksums() -> dict[str, str]:
             if p.is_file() and p.name not in ("README.md", "SHA256SUMS")}
     sums["skyfield-data:de421.bsp"] = file_sha256(planetary_spk_path())
     return sums
+
+
+@functools.lru_cache(maxsize=1)
+def code_and_data_digest() -> str:
+    """Digest (16 hex) of every ``lnss_lib`` source file and every data file (:func:`data_checksums`): what a cached
+    result was computed with, besides its settings (computed once a process)."""
+    from . import source_digest
+
+    text = json.dumps([source_digest(Path(__file__).resolve().parent), data_checksums()], sort_keys=True)
+    return hashlib.sha256(text.encode()).hexdigest()[:16]
+
+
+def _json_ready(value):
+    """numpy scalars as Python numbers, for ``json.dumps``."""
+    if hasattr(value, "item"):
+        return value.item()
+    raise TypeError(f"not JSON-ready: {value!r} ({type(value).__name__})")
+
+
+def cached_json(cache_dir: Path | None, name: str, key, compute) -> tuple:
+    """``(compute(), False)``, the result kept in ``cache_dir/<name>_<digest>.json``, or ``(kept result, True)`` when
+    that file exists: the digest covers ``key`` (the inputs: settings hash, design, life, ...) and
+    :func:`code_and_data_digest`, so a change of code, data or inputs computes afresh; a file that does not parse is
+    computed again. ``cache_dir`` None: no cache. The result must be JSON-ready (numpy scalars are converted)."""
+    if cache_dir is None:
+        return compute(), False
+    digest = hashlib.sha256(json.dumps([key, code_and_data_digest()], sort_keys=True,
+                                       default=_json_ready).encode()).hexdigest()[:16]
+    path = Path(cache_dir) / f"{name}_{digest}.json"
+    if path.is_file():
+        try:
+            return json.loads(path.read_text()), True
+        except ValueError:
+            pass
+    result = compute()
+    path.parent.mkdir(parents=True, exist_ok=True)
+    write_text_atomic(path, json.dumps(result, default=_json_ready))
+    return result, False
 
 
 def write_manifest(profile_name: str, runs: dict[str, dict]) -> Path:

@@ -100,3 +100,31 @@ def test_the_validated_fronts_keys_read_as_words_with_units():
     assert all(label(k) != k for k in CLOSED_LOOP_KEYS)
     assert format_value("pdop_avail_pct_life", 92.1617) == "92.2"
     assert format_value("closed_loop_dv_max_kms_per_year", 0.99412) == "0.994"
+
+
+def test_cached_json_computes_once_per_inputs_code_and_data(tmp_path, monkeypatch):
+    import math
+
+    import numpy as np
+
+    from lnss_lib import outputs
+
+    calls = []
+
+    def compute():
+        calls.append(1)
+        return {"dv": np.float64(0.25), "n": np.int64(3), "held": True, "impact_day": math.nan, "region": "x"}
+
+    first, hit = outputs.cached_json(tmp_path, "row", ["hash", [1.0, 2]], compute)
+    assert not hit and len(calls) == 1
+    again, hit = outputs.cached_json(tmp_path, "row", ["hash", [1.0, 2]], compute)
+    assert hit and len(calls) == 1                                        # read back, not computed
+    assert again["dv"] == 0.25 and again["n"] == 3 and again["held"] is True and math.isnan(again["impact_day"])
+    outputs.cached_json(tmp_path, "row", ["other hash", [1.0, 2]], compute)
+    assert len(calls) == 2                                                # other inputs
+    monkeypatch.setattr(outputs, "code_and_data_digest", lambda: "edited")
+    assert outputs.cached_json(tmp_path, "row", ["hash", [1.0, 2]], compute)[1] is False and len(calls) == 3
+    for path in tmp_path.glob("row_*.json"):
+        path.write_text('{"torn')                                         # a damaged file is computed again
+    assert outputs.cached_json(tmp_path, "row", ["hash", [1.0, 2]], compute)[1] is False and len(calls) == 4
+    assert outputs.cached_json(None, "row", ["hash"], compute) == (compute(), False)

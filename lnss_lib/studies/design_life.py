@@ -52,7 +52,7 @@ from scipy.stats import spearmanr
 from ..constellation import WalkerDesign
 from ..design_life.evaluation import life_metrics, run_design_life, short_arc_predictors
 from ..keys import DESIGN_KEYS
-from ..outputs import display_path
+from ..outputs import cached_json, display_path
 from ..progress import steps
 from ..settings import Settings
 
@@ -244,14 +244,23 @@ def verdict(table: pd.DataFrame, stats: dict, regions: pd.DataFrame, dv_bound_km
     return "\n".join(lines)
 
 
-def run_validation(settings: Settings, campaign_dir: Path | None = None) -> tuple[pd.DataFrame, str]:
+def run_validation(settings: Settings, campaign_dir: Path | None = None,
+                   cache_dir: Path | None = None) -> tuple[pd.DataFrame, str]:
     """:func:`validate_design` on every design of :func:`validation_designs` with ``[life_evaluation]``'s life and
-    satellites per plane; returns the :func:`validation_table` and the sentence on the campaign's designs."""
+    satellites per plane; returns the :func:`validation_table` and the sentence on the campaign's designs (and, with
+    ``cache_dir``, how many rows were read from :func:`~lnss_lib.outputs.cached_json`'s files there)."""
     section = settings.life_evaluation
+    life, per_plane = section.validation_life_days, section.validation_max_sats_per_plane
     designs, note = validation_designs(settings, campaign_dir)
-    rows = [validate_design(settings, d["design"], section.validation_life_days,
-                            section.validation_max_sats_per_plane, d["region"])
-            for d in steps(designs, "design-life validation", "designs")]
+    rows, hits = [], 0
+    for d in steps(designs, "design-life validation", "designs"):
+        row, hit = cached_json(cache_dir, "validation", [settings.hash, list(d["design"]), life, per_plane, d["region"]],
+                               lambda d=d: validate_design(settings, d["design"], life, per_plane, d["region"]))
+        rows.append(row)
+        hits += hit
+    if cache_dir is not None:
+        note += (f" {hits} of {len(rows)} closed loops read from {display_path(cache_dir)} (computed earlier with "
+                 "this code, data and settings).")
     return validation_table(rows), note
 
 

@@ -89,15 +89,12 @@ navigation windows' DOP passes (58 judged for the 13400 km e 0.08 3 x 2).
 from __future__ import annotations
 
 import dataclasses
-import hashlib
-import json
 from pathlib import Path
 
 import numpy as np
 import pandas as pd
 from scipy.stats import spearmanr
 
-from ..atomicio import write_text_atomic
 from ..constants import SECONDS_PER_DAY
 from ..design_life.estimate import sk_estimate_from_propagation
 from ..design_life.evaluation import run_design_life
@@ -107,6 +104,7 @@ from ..design_life.screen import cached_field, screen_states
 from ..design_life.service import PURPOSES
 from ..ephemeris import ensure_kernels, tdb_seconds
 from ..keys import DESIGN_KEYS
+from ..outputs import cached_json
 from ..progress import steps
 from ..propagator import elements_deg_to_states, propagate_states
 from ..settings import Settings
@@ -170,22 +168,17 @@ def closed_loop_cost(settings: Settings, design, life_days: float, cache_dir: Pa
     """The service controller's life of a design, one satellite per plane, its navigation monitor on the positions
     sampled every ``[life_evaluation] sample_step_s`` (the estimate prices its restores): ``dv`` per satellite (km/s
     per year over its flown span), ``split`` (purpose -> per satellite), ``loss_day`` (NaN when kept),
-    ``tolerances_deg`` (the relative node and slot it held). Cached as JSON in ``cache_dir`` by design, life and
-    settings (a closed loop costs seconds to minutes)."""
-    key = hashlib.sha1(json.dumps([CACHE_FORMAT, list(design), float(life_days), settings.hash]).encode()).hexdigest()[:16]
-    path = None if cache_dir is None else Path(cache_dir) / f"closed_loop_{key}.json"
-    if path is not None and path.exists():
-        return json.loads(path.read_text())
-    ds = run_design_life(settings, flown_elements(design, 1), life_days, natural=False)["controlled"]
-    out = {"design": list(design), "life_days": float(life_days), "dv": ds["dv_kms_per_year"].values.tolist(),
-           "split": {p: ds["dv_purpose_kms_per_year"].sel(purpose=p).values.tolist() for p in PURPOSES},
-           "loss_day": [None if not np.isfinite(d) else float(d) for d in ds["loss_day"].values],
-           "tolerances_deg": {"raan_rel": float(ds.attrs["raan_rel_tolerance_deg"]),
-                              "u_rel": float(ds.attrs["u_rel_tolerance_deg"])}}
-    if path is not None:
-        path.parent.mkdir(parents=True, exist_ok=True)
-        write_text_atomic(path, json.dumps(out))
-    return out
+    ``tolerances_deg`` (the relative node and slot it held). Cached as JSON in ``cache_dir`` by design, life,
+    settings, code and data (:func:`~lnss_lib.outputs.cached_json`; a closed loop costs seconds to minutes)."""
+    def fly() -> dict:
+        ds = run_design_life(settings, flown_elements(design, 1), life_days, natural=False)["controlled"]
+        return {"design": list(design), "life_days": float(life_days), "dv": ds["dv_kms_per_year"].values.tolist(),
+                "split": {p: ds["dv_purpose_kms_per_year"].sel(purpose=p).values.tolist() for p in PURPOSES},
+                "loss_day": [None if not np.isfinite(d) else float(d) for d in ds["loss_day"].values],
+                "tolerances_deg": {"raan_rel": float(ds.attrs["raan_rel_tolerance_deg"]),
+                                   "u_rel": float(ds.attrs["u_rel_tolerance_deg"])}}
+
+    return cached_json(cache_dir, "closed_loop", [CACHE_FORMAT, list(design), float(life_days), settings.hash], fly)[0]
 
 
 def estimate_costs(settings: Settings, design, life_days: float, tolerances_deg: dict | None = None,
