@@ -27,7 +27,7 @@ from .errors import ConfigError, EphemerisRangeError, SpiceError
 from .settings import Dynamics, EphemerisSettings
 
 __all__ = ["NAIF_BODY", "planetary_spk_path", "kernel_paths", "load_kernels", "ensure_kernels", "tdb_seconds", "kernel_span_tdb_s", "check_span",
-           "tdb_iso", "spice_errors", "body_states_mci", "rotation_and_rate", "rotation", "hermite_basis", "hermite_apply", "hermite_cubic", "EphemerisTable",
+           "tdb_iso", "spice_errors", "body_states_mci", "rotation_and_rate", "rotation", "hermite_basis", "hermite_sum", "hermite_apply", "hermite_cubic", "EphemerisTable",
            "file_sha256"]
 
 NAIF_BODY = {"SUN": "SUN", "EARTH": "EARTH", "JUPITER": "JUPITER BARYCENTER", "MOON": "MOON"}
@@ -216,11 +216,19 @@ def hermite_basis(n: int, t0: float, dt: float, t: float) -> tuple:
 
 
 @nb.njit(cache=True, fastmath=False)
+def hermite_sum(basis: tuple, v0: float, r0: float, v1: float, r1: float) -> float:
+    """One entry's cubic Hermite value at :func:`hermite_basis`'s weights, from its values ``v0``, ``v1`` and rates
+    ``r0``, ``r1`` at the interval's two nodes."""
+    _, h00, h10, h01, h11 = basis
+    return h00 * v0 + h10 * r0 + h01 * v1 + h11 * r1
+
+
+@nb.njit(cache=True, fastmath=False)
 def hermite_apply(values: np.ndarray, rates: np.ndarray, basis: tuple, out: np.ndarray) -> None:
     """Interpolate one table (values and rates at nodes) with :func:`hermite_basis`'s interval and weights."""
-    k, h00, h10, h01, h11 = basis
+    k = basis[0]
     for j in range(values.shape[1]):
-        out[j] = h00 * values[k, j] + h10 * rates[k, j] + h01 * values[k + 1, j] + h11 * rates[k + 1, j]
+        out[j] = hermite_sum(basis, values[k, j], rates[k, j], values[k + 1, j], rates[k + 1, j])
 
 
 @nb.njit(cache=True, fastmath=False)

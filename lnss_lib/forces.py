@@ -16,7 +16,7 @@ import numba as nb
 import numpy as np
 
 from .config import CR_AREA_MASS, CR_AREA_MASS_WHY, THIRD_BODIES, allowed_range_text, in_range
-from .ephemeris import EphemerisTable, hermite_apply, hermite_basis
+from .ephemeris import EphemerisTable, hermite_apply, hermite_basis, hermite_sum
 from .errors import ConfigError
 from .gravity import GravityField, harmonic_acceleration, tabulated_truncation_degree
 from .settings import Dynamics
@@ -189,12 +189,12 @@ def _third_body(rx: float, ry: float, rz: float, bx: float, by: float, bz: float
 
 @nb.njit(cache=True)
 def _body_position(bodies: np.ndarray, body: int, basis: tuple) -> tuple:
-    """Position (km) of row ``body`` of the ephemeris table at :func:`~lnss_lib.ephemeris.hermite_basis`'s weights
-    (:func:`~lnss_lib.ephemeris.hermite_apply`'s sum, term for term), without a view of the table."""
-    k, h00, h10, h01, h11 = basis
-    return (h00 * bodies[k, body, 0] + h10 * bodies[k, body, 3] + h01 * bodies[k + 1, body, 0] + h11 * bodies[k + 1, body, 3],
-            h00 * bodies[k, body, 1] + h10 * bodies[k, body, 4] + h01 * bodies[k + 1, body, 1] + h11 * bodies[k + 1, body, 4],
-            h00 * bodies[k, body, 2] + h10 * bodies[k, body, 5] + h01 * bodies[k + 1, body, 2] + h11 * bodies[k + 1, body, 5])
+    """Position (km) of row ``body`` of the ephemeris table (positions in columns 0-2, velocities, their rates, in
+    3-5) at :func:`~lnss_lib.ephemeris.hermite_basis`'s weights, indexed without a view of the table."""
+    k = basis[0]
+    return (hermite_sum(basis, bodies[k, body, 0], bodies[k, body, 3], bodies[k + 1, body, 0], bodies[k + 1, body, 3]),
+            hermite_sum(basis, bodies[k, body, 1], bodies[k, body, 4], bodies[k + 1, body, 1], bodies[k + 1, body, 4]),
+            hermite_sum(basis, bodies[k, body, 2], bodies[k, body, 5], bodies[k + 1, body, 2], bodies[k + 1, body, 5]))
 
 
 @nb.njit(cache=True, inline="always")
