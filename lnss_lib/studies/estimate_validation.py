@@ -34,7 +34,7 @@ designs of which 30 have an estimate, the 31st hitting the Moon within the 10-da
 
 **The navigation term** (the monitor's restores, :func:`lnss_lib.design_life.life_estimate.navigation_restores`;
 ``run_estimate_validation(load_settings("quick_operational"))``, the closed loops above flown again with the monitor,
-which they flew without before: cache format 3; branch nav20, 2026-11-25): the monitor restores four of the 30 designs
+which they flew without before; branch nav20, 2026-11-25): the monitor restores four of the 30 designs
 in closed loop, the four the estimate gives a navigation part (closed loop / estimate, km/s per satellite and year):
 8000 km e 0.4 i 57, four planes (0.314 / 0.435), 15000 km e 0.3 i 70 (0.095 / 0.269), 23700 km e 0.56 i 41
 (0.301 / 0.230), the frozen 9000 km e 0.55 (0.009 / 0.021); it restores none of the other 26 and the estimate
@@ -110,12 +110,11 @@ from ..propagator import elements_deg_to_states, propagate_states
 from ..settings import Settings
 from .design_life import flown_elements
 
-__all__ = ["FREE_KMS_PER_YEAR", "CACHE_FORMAT", "ESTIMATES", "FROZEN_MEMBERS", "estimate_validation_designs", "closed_loop_cost",
+__all__ = ["FREE_KMS_PER_YEAR", "ESTIMATES", "FROZEN_MEMBERS", "estimate_validation_designs", "closed_loop_cost",
            "estimate_costs", "estimate_statistics", "estimate_outliers", "run_estimate_validation"]
 
 FREE_KMS_PER_YEAR = 0.005
 """Two costs both below this (km/s per satellite and year) agree: neither has a ratio."""
-CACHE_FORMAT = 3                       # 2: the closed loop's tolerances recorded; 3: it flies the navigation monitor
 ESTIMATES = ("life", "campaign", "arc")
 """The estimates compared: the life estimate holding the closed loop's tolerances, the same as the campaign computes
 it (:func:`~lnss_lib.design_life.tolerances.estimate_tolerances_deg`), the 10-day box slope."""
@@ -178,7 +177,7 @@ def closed_loop_cost(settings: Settings, design, life_days: float, cache_dir: Pa
                 "tolerances_deg": {"raan_rel": float(ds.attrs["raan_rel_tolerance_deg"]),
                                    "u_rel": float(ds.attrs["u_rel_tolerance_deg"])}}
 
-    return cached_json(cache_dir, "closed_loop", [CACHE_FORMAT, list(design), float(life_days), settings.hash], fly)[0]
+    return cached_json(cache_dir, "closed_loop", [list(design), float(life_days), settings.hash], fly)[0]
 
 
 def estimate_costs(settings: Settings, design, life_days: float, tolerances_deg: dict | None = None,
