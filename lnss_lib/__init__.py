@@ -53,6 +53,36 @@ def kernel_cache_dir() -> str:
     return os.path.join(parent, source_digest(Path(__file__).resolve().parent))
 
 
+# The processor numba compiles the kernels for. The gravity kernels may reassociate sums (``gravity.FAST``), so
+# their bits follow the vector width the compiler picks, which follows the processor model: the same code gave
+# results up to 2e-7 apart after 10 days compiled for an AMD Zen 4 (znver4) and for an Intel Xeon (the shipped
+# campaigns' and the pins' machine), both with AVX-512. Compiled for one named model wherever the processor can run
+# it, every machine computes the same bits (the shipped results reproduce bit for bit on both), at the same speed.
+KERNEL_CPU = "skylake-avx512"
+KERNEL_CPU_NEEDS = ("avx512f", "avx512cd", "avx512bw", "avx512dq", "avx512vl", "avx2", "avx", "fma", "f16c", "bmi",
+                    "bmi2", "lzcnt", "movbe", "popcnt", "sse4.2", "adx", "clflushopt", "clwb", "xsave")
+
+
+def kernel_cpu() -> str:
+    """The processor model the kernels are compiled for: ``NUMBA_CPU_NAME`` when set, else :data:`KERNEL_CPU` when
+    this processor has every feature of :data:`KERNEL_CPU_NEEDS`, else ``host:<model>`` (numba's default: this
+    processor; its results differ from the pinned ones by round-off, amplified by adaptive step control)."""
+    if os.environ.get("NUMBA_CPU_NAME"):
+        return os.environ["NUMBA_CPU_NAME"]
+    import llvmlite.binding as llvm
+
+    features = llvm.get_host_cpu_features()
+    if all(features.get(name, False) for name in KERNEL_CPU_NEEDS):
+        return KERNEL_CPU
+    return f"host:{llvm.get_host_cpu_name()}"
+
+
 os.environ["NUMBA_CACHE_DIR"] = kernel_cache_dir()
-if "numba.core.config" in sys.modules:      # numba imported first (a notebook): its setting is read when caching
-    sys.modules["numba.core.config"].CACHE_DIR = os.environ["NUMBA_CACHE_DIR"]
+if not kernel_cpu().startswith("host:"):
+    os.environ["NUMBA_CPU_NAME"] = kernel_cpu()
+    os.environ.setdefault("NUMBA_CPU_FEATURES", "")          # only the features the model implies
+if "numba.core.config" in sys.modules:      # numba imported first (a notebook): its settings are read when compiling
+    config = sys.modules["numba.core.config"]
+    config.CACHE_DIR = os.environ["NUMBA_CACHE_DIR"]
+    config.CPU_NAME = os.environ.get("NUMBA_CPU_NAME")
+    config.CPU_FEATURES = os.environ.get("NUMBA_CPU_FEATURES")

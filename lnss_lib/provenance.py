@@ -7,6 +7,7 @@ import platform
 import subprocess
 from importlib import metadata
 
+from . import kernel_cpu
 from .config import PROJECT_DIR
 
 __all__ = ["MANIFEST_PACKAGES", "git_revision", "package_versions"]
@@ -30,8 +31,9 @@ def git_revision() -> str:
 
 
 def package_versions() -> dict[str, str]:
-    """Versions of Python and the packages a result depends on."""
-    versions = {"python": platform.python_version()}
+    """Versions of Python and the packages a result depends on, and the processor model its kernels were compiled
+    for (``kernel_cpu``: :func:`lnss_lib.kernel_cpu`, which fixes their round-off)."""
+    versions = {"python": platform.python_version(), "kernel_cpu": kernel_cpu()}
     for name in MANIFEST_PACKAGES:
         try:
             versions[name] = metadata.version(name)

@@ -46,6 +46,8 @@ from pathlib import Path
 
 import numpy as np
 
+from lnss_lib import kernel_cpu
+
 ROOT = Path(__file__).resolve().parents[1]
 FIXTURE = ROOT / "tests" / "data" / "pinned_results.json"
 
@@ -292,6 +294,7 @@ def main(argv=None) -> int:
     meta = {"commit": _git("rev-parse", "HEAD"), "dirty": bool(_git("status", "--porcelain", "--", "lnss_lib", "params")),
             "written_utc": time.strftime("%Y-%m-%dT%H:%M:%SZ", time.gmtime()),
             "command": "PYTHONPATH=$PWD python tests/pinned_results.py --write", "seconds": seconds,
+            "kernel_cpu": kernel_cpu(),
             "rtol": RTOL, "excluded": EXCLUDED}
     FIXTURE.parent.mkdir(parents=True, exist_ok=True)
     FIXTURE.write_text(json.dumps({"meta": meta, "pins": pins}, indent=1) + "\n")

@@ -1,4 +1,5 @@
-"""Compiled kernels never come from a cache of other sources (numba checks a function against its own file only)."""
+"""Compiled kernels never come from a cache of other sources (numba checks a function against its own file only), and
+are compiled for one named processor wherever it can run (the same bits on every machine)."""
 
 import os
 import shutil
@@ -55,3 +56,32 @@ def test_kernels_loaded_from_the_cache_give_the_bits_of_a_fresh_compile(tmp_path
         assert run.returncode == 0, run.stderr[-2000:]
     assert (tmp_path / "numba").is_dir() and any((tmp_path / "numba").rglob("*.nbi"))
     assert len(runs[0].stdout.split()) == 2 and runs[0].stdout.split() == runs[1].stdout.split()
+
+
+def test_kernels_are_compiled_for_one_named_processor_where_it_can_run():
+    """The pins and the shipped campaigns hold the bits of kernels compiled for ``KERNEL_CPU``: compiled for the host
+    processor instead (numba's default) an AMD Zen 4 gave the shipped population's DOP up to 2e-7 apart."""
+    from numba.core.registry import cpu_target
+
+    name = lnss_lib.kernel_cpu()
+    if name.startswith("host:"):
+        assert numba.core.config.CPU_NAME is None
+        return
+    assert numba.core.config.CPU_NAME == name and os.environ["NUMBA_CPU_NAME"] == name
+    assert cpu_target.target_context.codegen().magic_tuple()[1] == name      # numba's cache is keyed by it too
+    child = subprocess.run([sys.executable, "-c", "import lnss_lib, numba.core.config as c; print(c.CPU_NAME)"],
+                           capture_output=True, text=True, check=True, env=os.environ.copy())
+    assert child.stdout.strip() == name
+
+
+def test_a_processor_without_the_named_models_features_compiles_for_itself(monkeypatch):
+    import llvmlite.binding as llvm
+
+    monkeypatch.delenv("NUMBA_CPU_NAME", raising=False)
+    everything = {name: True for name in lnss_lib.KERNEL_CPU_NEEDS}
+    monkeypatch.setattr(llvm, "get_host_cpu_features", lambda: everything)
+    assert lnss_lib.kernel_cpu() == lnss_lib.KERNEL_CPU
+    monkeypatch.setattr(llvm, "get_host_cpu_features", lambda: {**everything, "avx512bw": False})
+    assert lnss_lib.kernel_cpu() == f"host:{llvm.get_host_cpu_name()}"
+    monkeypatch.setenv("NUMBA_CPU_NAME", "znver4")
+    assert lnss_lib.kernel_cpu() == "znver4"
