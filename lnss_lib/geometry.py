@@ -86,6 +86,21 @@ def normal_matrix_entries(lx, ly, lz, visible, axis: int = -1, clock_column: boo
 
 
 @nb.njit(cache=True)
+def _regular(det, t):
+    """``det > SINGULAR_RTOL * t ** 3.0``, the same decision every time, without the power where it cannot matter:
+    t * t * t is within 1e-15 of the power (three roundings against one), so a determinant outside 1e-14 of the
+    threshold decides on the product alone; the power is computed only in that band (and for tiny or non-finite
+    values). A libm call per grid sample and epoch was most of the DOP grid's time (issue 23)."""
+    if t > 1e-90 and t < 1e90:
+        threshold = SINGULAR_RTOL * (t * t * t)
+        if det > threshold * (1.0 + 1e-14):
+            return True
+        if det < threshold * (1.0 - 1e-14):
+            return False
+    return det > SINGULAR_RTOL * t ** 3.0
+
+
+@nb.njit(cache=True)
 def block_inverse(sxx, syy, szz, sxy, sxz, syz):
     """Scalar S^-1 by the adjugate: (ixx, iyy, izz, ixy, ixz, iyz, ok); the one formula behind
     :func:`position_block_inverse` and the fused grid kernel of :mod:`lnss_lib.dop`."""
@@ -96,8 +111,7 @@ def block_inverse(sxx, syy, szz, sxy, sxz, syz):
     cxz = sxy * syz - syy * sxz
     cyz = sxy * sxz - sxx * syz
     det = sxx * cxx + sxy * cxy + sxz * cxz
-    scale = ((sxx + syy + szz) / 3.0) ** 3.0
-    ok = det > SINGULAR_RTOL * scale
+    ok = _regular(det, (sxx + syy + szz) / 3.0)
     inv_det = 1.0 / (det if ok else 1.0)
     return cxx * inv_det, cyy * inv_det, czz * inv_det, cxy * inv_det, cxz * inv_det, cyz * inv_det, ok
 

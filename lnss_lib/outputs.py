@@ -138,11 +138,12 @@ def data_checksums() -> dict[str, str]:
 
 @functools.lru_cache(maxsize=1)
 def code_and_data_digest() -> str:
-    """Digest (16 hex) of every ``lnss_lib`` source file and every data file (:func:`data_checksums`): what a cached
+    """Digest (16 hex) of every ``lnss_lib`` source file, every data file (:func:`data_checksums`) and the processor
+    model the kernels are compiled for (:func:`lnss_lib.kernel_cpu`, which fixes their round-off): what a cached
     result was computed with, besides its settings (computed once a process)."""
-    from . import source_digest
+    from . import kernel_cpu, source_digest
 
-    text = json.dumps([source_digest(Path(__file__).resolve().parent), data_checksums()], sort_keys=True)
+    text = json.dumps([source_digest(Path(__file__).resolve().parent), data_checksums(), kernel_cpu()], sort_keys=True)
     return hashlib.sha256(text.encode()).hexdigest()[:16]
 
 

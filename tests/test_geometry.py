@@ -124,3 +124,21 @@ def test_compiled_statistics_match_numpy_filters():
     nothing = np.full((3, 4), np.nan)
     m, k, _, a = geometry.weighted_dop_stats(nothing, np.ones(4), 3.0, 15.0)
     assert np.isnan(m) and k == 0 and a == 0.0
+
+
+def test_singularity_decision_is_the_powers_without_computing_it_away_from_the_threshold():
+    """``geometry._regular`` decides ``det > SINGULAR_RTOL * t ** 3.0`` (the DOP grid's and the GPS link's singular
+    test) from t * t * t outside a 1e-14 band around the threshold: the same answer as the power on determinants
+    one ulp either side of the threshold, in the band, far from it, and on zero, negative and non-finite inputs."""
+    rng = np.random.default_rng(5)
+    t_values = np.concatenate([10.0 ** rng.uniform(-120, 120, 400), [0.0, 1.0, 1e-90, 1e90, np.inf, np.nan]])
+    cases = 0
+    for t in t_values:
+        threshold = geometry.SINGULAR_RTOL * t ** 3.0
+        dets = [threshold, np.nextafter(threshold, np.inf), np.nextafter(threshold, -np.inf), threshold * (1 + 3e-15),
+                threshold * (1 - 3e-15), threshold * (1 + 1e-13), threshold * (1 - 1e-13), 2 * threshold, -threshold,
+                0.0, np.nan, np.inf, -np.inf]
+        for det in dets:
+            assert geometry._regular(det, t) == (det > geometry.SINGULAR_RTOL * t ** 3.0), (det, t)
+            cases += 1
+    assert cases == len(t_values) * 13

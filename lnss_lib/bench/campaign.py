@@ -12,6 +12,12 @@ one of its late generations sent to a local Dask cluster as before (a task per d
 now (guided batches, designs that break a bound stopped early once the population is all feasible), alternating
 (:func:`dispatch_comparison`).
 
+When the profile has shipped results (``outputs/reference/<profile>/``) the short run takes the profile's population,
+so that its generations are the shipped run's first ones (the same designs, bit for bit), and the 120 x 1000
+projection scales that run's recorded history (its designs, journal hits and converged designs) by this machine's
+pace on the generations both ran (:func:`shipped_projection`): the short run's own rate, from the first generations'
+designs and with no hits, is the other projection printed.
+
 ``--history RUN_DIR`` projects the same 120 x 1000 campaign with the designs a real run actually evaluated per
 generation (its checkpoint history: a converging search repeats designs, which the journal answers): the
 run's own generations as recorded, the rest at the mean of its last :data:`HISTORY_TAIL` generations; the
@@ -40,6 +46,7 @@ from ..errors import ConfigError
 from ..settings import load_settings
 from ..campaign import load_checkpoint, read_cache_records, run_campaign
 from ..campaign.grid import DesignGrid
+from ..campaign.reference import REFERENCE_DIR, load_reference
 from ..constants import SECONDS_PER_DAY
 from ..constellation import WalkerDesign
 from ..evaluator import context_for
@@ -105,7 +112,39 @@ def _projection(profile_name: str, population: int, generations: int, workers: i
     return {"profile": profile_name, "wall_s": wall, "n_evaluations": n, "n_workers": run["n_workers"],
             "designs_per_s": n / wall,
             "steady_designs_per_s": rate, "projected_paper_h": projected_h, "fixed_s": startup_s + first_gen_s,
-            "records": run["records"], **timing}
+            "startup_s": startup_s, "records": run["records"], "history": history, **timing}
+
+
+def shipped_projection(profile_name: str, projection: dict) -> dict | None:
+    """The 120 x 1000 projection from the profile's shipped run (``outputs/reference/<profile>/history.nc``): its
+    generations' wall times, which hold its own designs, journal hits and the converged search's cheaper designs,
+    scaled by this machine's pace over the generations the short run repeated (2 on; generation 1 is this run's own,
+    with the start-up). Only when the short run is the shipped run's beginning: the same evaluated and hit counts and
+    the same hypervolume, bit for bit, every generation (kernels compiled for one processor make a run the same on
+    every machine); otherwise None, saying why."""
+    reference = load_reference(profile_name)
+    if reference is None:
+        print(f"  no shipped results for [{profile_name}]: no projection from a full run")
+        return None
+    shipped, short = reference.history, projection["history"]
+    n = min(len(short), int(shipped.sizes["generation"]))
+    same = n >= 2 and all(int(shipped["n_evaluated"].values[g]) == h["n_evaluated"]
+                          and int(shipped["n_cache_hits"].values[g]) == h["n_cache_hits"]
+                          and float(shipped["hypervolume"].values[g]) == h["hypervolume"] for g, h in enumerate(short[:n]))
+    if not same:
+        print(f"  the short run's generations are not the shipped [{profile_name}] run's (another population, seed, "
+              "profile or kernel processor): no projection from it")
+        return None
+    shipped_s = shipped["wall_s"].values
+    pace = sum(h["wall_s"] for h in short[1:n]) / float(np.sum(shipped_s[1:n]))
+    total_s = projection["startup_s"] + short[0]["wall_s"] + pace * float(np.sum(shipped_s[1:]))
+    hours = total_s / 3600.0
+    print(f"  from the shipped run ({shipped.sizes['generation']} generations, {int(shipped['n_evaluated'].sum())} "
+          f"designs evaluated, {int(shipped['n_cache_hits'].sum())} journal hits, {float(np.sum(shipped_s)):.0f} s): "
+          f"generations 2-{n} here took {pace:.2f} times its time for the same designs; projected "
+          f"{hours:.2f} h ({total_s:.0f} s) for its whole campaign on this machine")
+    return {"pace_vs_shipped": pace, "generations_compared": n, "projected_s": total_s, "projected_h": hours,
+            "shipped_wall_s": float(np.sum(shipped_s))}
 
 
 def evaluated_per_generation(run_dir) -> dict:
@@ -401,7 +440,9 @@ def run(profile_name: str = "paper", generations: int | None = None, population:
         history: str | None = None) -> dict:
     """Short campaign(s) with the profile's evaluations; throughput, shares and 120 x 1000 projections.
 
-    Defaults: the profile's population (at most 32) for at most 8 generations. When
+    Defaults: at most 8 generations of the profile's population, at most 32 unless the profile has shipped
+    results (then the profile's, so that the short run repeats the shipped run's first generations and
+    :func:`shipped_projection` scales that run's whole history). When
     ``params/operational.toml`` exists its projection is printed beside the profile's. ``overrides``
     (``--set``) apply to every campaign run here. ``history``: a run folder whose per-generation evaluated
     counts give the projection's range (checked before anything runs).
@@ -409,9 +450,11 @@ def run(profile_name: str = "paper", generations: int | None = None, population:
     if history is not None:
         evaluated_per_generation(history)
     settings = load_settings(profile_name, overrides=overrides).campaign
-    population = population or min(settings.population, 32)
+    shipped = (REFERENCE_DIR / profile_name).is_dir()
+    population = population or (settings.population if shipped else min(settings.population, 32))
     generations = generations or min(settings.generations, 8)
     out = {profile_name: _projection(profile_name, population, generations, workers, overrides)}
+    out["shipped"] = shipped_projection(profile_name, out[profile_name])
     if history is not None:
         out["history"] = _history_range(out[profile_name], history)
     if (PARAMS_DIR / "operational.toml").is_file() and profile_name != "operational":
