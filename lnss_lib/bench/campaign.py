@@ -450,15 +450,16 @@ def run(profile_name: str = "paper", generations: int | None = None, population:
     if history is not None:
         evaluated_per_generation(history)
     settings = load_settings(profile_name, overrides=overrides).campaign
+    short_population = population or min(settings.population, 32)
     shipped = (REFERENCE_DIR / profile_name).is_dir()
-    population = population or (settings.population if shipped else min(settings.population, 32))
+    population = population or (settings.population if shipped else short_population)
     generations = generations or min(settings.generations, 8)
     out = {profile_name: _projection(profile_name, population, generations, workers, overrides)}
     out["shipped"] = shipped_projection(profile_name, out[profile_name])
     if history is not None:
         out["history"] = _history_range(out[profile_name], history)
     if (PARAMS_DIR / "operational.toml").is_file() and profile_name != "operational":
-        out["operational"] = _projection("operational", population, generations, workers, overrides)
+        out["operational"] = _projection("operational", short_population, generations, workers, overrides)
         print(f"projected 120 x 1000: [{profile_name}] {out[profile_name]['projected_paper_h']:.1f} h, [operational] "
               f"{out['operational']['projected_paper_h']:.1f} h (target <= 3 h on 2 workers)")
     else:
