@@ -25,7 +25,9 @@ Regenerate (only when a change of results is intended and explained in its commi
 
     PYTHONPATH=$PWD python tests/pinned_results.py --write
 
-It records the commit it was made on (and whether lnss_lib/ or params/ had uncommitted edits) in the file's ``meta``.
+It records the commit it was made on (and whether lnss_lib/ or params/ had uncommitted edits) and the processor model
+the kernels were compiled for (:func:`lnss_lib.kernel_cpu`) in the file's ``meta``: the pins hold that model's bits,
+and ``tests/test_pinned_results.py`` skips them where the kernels are compiled for another (a processor without AVX-512).
 ``python tests/pinned_results.py`` (no ``--write``) recomputes and prints the differences without writing;
 ``--only NAME`` picks pins and ``--set SECTION.KEY=VALUE`` recomputes under a changed setting (a scratch check
 that a pin notices a change; never recorded).
