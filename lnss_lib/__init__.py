@@ -82,7 +82,7 @@ if not kernel_cpu().startswith("host:"):
     os.environ["NUMBA_CPU_NAME"] = kernel_cpu()
     os.environ.setdefault("NUMBA_CPU_FEATURES", "")          # only the features the model implies
 if "numba.core.config" in sys.modules:      # numba imported first (a notebook): its settings are read when compiling
-    config = sys.modules["numba.core.config"]
-    config.CACHE_DIR = os.environ["NUMBA_CACHE_DIR"]
-    config.CPU_NAME = os.environ.get("NUMBA_CPU_NAME")
-    config.CPU_FEATURES = os.environ.get("NUMBA_CPU_FEATURES")
+    _numba_config = sys.modules["numba.core.config"]
+    _numba_config.CACHE_DIR = os.environ["NUMBA_CACHE_DIR"]
+    _numba_config.CPU_NAME = os.environ.get("NUMBA_CPU_NAME")
+    _numba_config.CPU_FEATURES = os.environ.get("NUMBA_CPU_FEATURES")

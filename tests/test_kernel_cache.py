@@ -72,6 +72,11 @@ def test_kernels_are_compiled_for_one_named_processor_where_it_can_run():
     child = subprocess.run([sys.executable, "-c", "import lnss_lib, numba.core.config as c; print(c.CPU_NAME)"],
                            capture_output=True, text=True, check=True, env=os.environ.copy())
     assert child.stdout.strip() == name
+    bare = {k: v for k, v in os.environ.items() if k not in ("NUMBA_CPU_NAME", "NUMBA_CPU_FEATURES")}
+    numba_first = subprocess.run([sys.executable, "-c", "import numba.core.config as c; import lnss_lib; "
+                                  "print(c.CPU_NAME, repr(c.CPU_FEATURES))"],
+                                 capture_output=True, text=True, check=True, env=bare)   # a notebook that imported numba
+    assert numba_first.stdout.split() == [name, "''"]
 
 
 def test_a_processor_without_the_named_models_features_compiles_for_itself(monkeypatch):
