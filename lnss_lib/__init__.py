@@ -78,8 +78,9 @@ def kernel_cpu() -> str:
 
 
 os.environ["NUMBA_CACHE_DIR"] = kernel_cache_dir()
-if not kernel_cpu().startswith("host:"):
-    os.environ["NUMBA_CPU_NAME"] = kernel_cpu()
+_cpu = kernel_cpu()                          # asks llvmlite once; later calls read NUMBA_CPU_NAME
+if not _cpu.startswith("host:"):
+    os.environ["NUMBA_CPU_NAME"] = _cpu
     os.environ.setdefault("NUMBA_CPU_FEATURES", "")          # only the features the model implies
 if "numba.core.config" in sys.modules:      # numba imported first (a notebook): its settings are read when compiling
     _numba_config = sys.modules["numba.core.config"]
