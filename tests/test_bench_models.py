@@ -166,3 +166,27 @@ def test_shipped_projection_scales_the_shipped_history_by_the_pace_on_the_same_g
     assert bench.shipped_projection("x", {"history": short, "startup_s": 7.0}) is None
     monkeypatch.setattr(bench, "load_reference", lambda name: None)
     assert bench.shipped_projection("x", {"history": short, "startup_s": 7.0}) is None
+
+
+def test_short_run_repeats_thirty_shipped_generations_and_eight_otherwise(monkeypatch):
+    """``bench campaign``'s defaults: a profile with shipped results runs its population for
+    :data:`PACE_GENERATIONS` (the pace is measured on generations 2-30, not on half a minute); the operational
+    projection beside it, which has no shipped run to repeat, keeps the short run (32 x 8)."""
+    from lnss_lib.bench import campaign as bench
+
+    calls = []
+
+    def fake_projection(name, population, generations, workers, overrides=None):
+        calls.append((name, population, generations))
+        return {"projected_paper_h": 1.0, "records": []}
+
+    monkeypatch.setattr(bench, "_projection", fake_projection)
+    monkeypatch.setattr(bench, "shipped_projection", lambda name, projection: None)
+    monkeypatch.setattr(bench, "evaluation_comparison", lambda *args: {"records": []})
+    monkeypatch.setattr(bench, "kernel_comparison", lambda *args: {})
+    bench.run("paper")
+    assert (bench.REFERENCE_DIR / "paper").is_dir() and (bench.PARAMS_DIR / "operational.toml").is_file()
+    assert calls == [("paper", 120, bench.PACE_GENERATIONS), ("operational", 32, bench.SHORT_GENERATIONS)]
+    calls.clear()
+    bench.run("quick")
+    assert calls[0][2] == min(bench.load_settings("quick").campaign.generations, bench.SHORT_GENERATIONS)
