@@ -6,7 +6,9 @@ evaluate it through the journal and a backend, tell the algorithm, and notify th
 rest. A run killed at any moment and resumed ends with the same population as an uninterrupted
 one: designs of an interrupted generation come back from the journal, the checkpoint holds the
 algorithm and its random generator; designs the checkpoint needs whose journal lines were lost are
-evaluated again. When NSGA-II has finished and ``[front_validation] max_designs`` > 0, the front is flown in
+evaluated again. Resumed on a machine whose kernels are compiled for another processor model than the run's
+(:func:`lnss_lib.kernel_cpu`, recorded in ``run.json``), the run goes on with a RuntimeWarning: its later designs
+differ from an uninterrupted run's by round-off, which the adaptive step control can carry into the search. When NSGA-II has finished and ``[front_validation] max_designs`` > 0, the front is flown in
 closed loop (:mod:`lnss_lib.campaign.validation`, ``validated.nc``; a run killed during it and resumed finishes
 it without running NSGA-II again). A session that ends in ``outputs/<profile>/campaign/`` publishes the run when
 its settings are the profile's (:mod:`lnss_lib.campaign.publication`).
@@ -15,11 +17,13 @@ its settings are the profile's (:mod:`lnss_lib.campaign.publication`).
 from __future__ import annotations
 
 import time
+import warnings
 from dataclasses import dataclass
 
 import numpy as np
 from pathlib import Path
 
+from .. import kernel_cpu
 from ..config import OUTPUTS_DIR, PROFILE_NAME
 from ..settings import Settings, load_settings, settings_from_profile
 from ..errors import ConfigError
@@ -87,6 +91,7 @@ def run_campaign(profile_name: str = "quick", *, overrides: dict | None = None, 
         eval_hash = evaluation_hash(settings)
         if eval_hash != run["evaluation_hash"]:
             raise ConfigError(f"{run_dir}: evaluation hash of the stored profile changed; cannot resume")
+        _warn_if_other_kernel_cpu(run_dir, run)
         eval_settings = evaluation_profile(settings)
         lock = RunLock(run_dir)
         created = False
@@ -110,6 +115,15 @@ def run_campaign(profile_name: str = "quick", *, overrides: dict | None = None, 
         raise
     finally:
         lock.release()
+
+
+def _warn_if_other_kernel_cpu(run_dir: Path, run: dict) -> None:
+    """RuntimeWarning when ``run``'s recorded kernel processor model is not this machine's (see the module docstring)."""
+    recorded = run.get("versions", {}).get("kernel_cpu")
+    if recorded is not None and recorded != kernel_cpu():
+        warnings.warn(f"{run_dir} started with kernels compiled for {recorded}; here they are compiled for "
+                      f"{kernel_cpu()}: the designs evaluated from now on differ from an uninterrupted run's by "
+                      "round-off (README, Notes for developers)", RuntimeWarning, stacklevel=3)
 
 
 def _stored_settings(run_dir: Path, run: dict) -> Settings:

@@ -76,3 +76,26 @@ def test_runner_notifies_callbacks_in_order_and_resume_continues_history(tmp_pat
     second = Recorder()
     result = run_campaign(resume=tmp_path / "run", workers=0, progress=False, callbacks=[second])
     assert second.events == [("start", 2), ("gen", 3, 6), ("end", 3), ("stop", 3)] and result.generations == 3
+
+
+def test_resume_on_another_kernel_processor_warns_and_continues(tmp_path):
+    """A run resumed where the kernels are compiled for another processor model than recorded in run.json goes on,
+    with a RuntimeWarning naming both models; on the same model it resumes silently."""
+    import json
+    import re
+    import warnings
+
+    from lnss_lib import kernel_cpu
+
+    synthetic = {"campaign": {"evaluator": "synthetic", "generations": 3}}
+    run_campaign("ci", overrides=synthetic, workers=0, run_dir=tmp_path / "run", progress=False, max_generations=1)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        run_campaign(resume=tmp_path / "run", workers=0, progress=False, max_generations=1)
+    path = tmp_path / "run" / "run.json"
+    run = json.loads(path.read_text())
+    run["versions"]["kernel_cpu"] = "other-model"
+    path.write_text(json.dumps(run))
+    with pytest.warns(RuntimeWarning, match=f"other-model.*{re.escape(kernel_cpu())}"):
+        result = run_campaign(resume=tmp_path / "run", workers=0, progress=False)
+    assert result.generations == 3
