@@ -147,15 +147,20 @@ def test_run_pace_after_subtracts_the_measured_shares(tmp_path):
 def test_shipped_projection_scales_the_shipped_history_by_the_pace_on_the_same_generations(monkeypatch):
     """``bench campaign`` on a profile with shipped results: the shipped run's generation times times this machine's
     pace on generations 2.. of the short run, plus the short run's start-up and generation 1; nothing when the short
-    run's generations are not the shipped run's (one hypervolume bit apart)."""
+    run's generations are not the shipped run's: one hypervolume bit apart where the kernels are compiled for the
+    shipped run's processor model, more than round-off (1e-5 relative) where they are not."""
+    import json
+
     import xarray as xr
 
+    from lnss_lib import kernel_cpu
     from lnss_lib.bench import campaign as bench
 
     shipped_wall = np.array([90.0, 4.0, 6.0, 5.0, 5.0, 5.0])
     evaluated, hits, hv = np.array([120, 119, 118, 117, 116, 115]), np.arange(6), np.linspace(0.1, 0.4, 6)
     history = xr.Dataset({"wall_s": ("generation", shipped_wall), "n_evaluated": ("generation", evaluated),
-                          "n_cache_hits": ("generation", hits), "hypervolume": ("generation", hv)})
+                          "n_cache_hits": ("generation", hits), "hypervolume": ("generation", hv)},
+                         attrs={"versions": json.dumps({"kernel_cpu": kernel_cpu()})})
     monkeypatch.setattr(bench, "load_reference", lambda name: SimpleNamespace(history=history))
     short = [{"generation": g + 1, "n_evaluated": int(evaluated[g]), "n_cache_hits": int(hits[g]),
               "hypervolume": float(hv[g]), "wall_s": w} for g, w in enumerate([30.0, 2.0, 3.0])]
@@ -163,6 +168,12 @@ def test_shipped_projection_scales_the_shipped_history_by_the_pace_on_the_same_g
     assert got["generations_compared"] == 3 and got["pace_vs_shipped"] == pytest.approx(5.0 / 10.0)
     assert got["projected_s"] == pytest.approx(7.0 + 30.0 + 0.5 * 25.0)
     short[2]["hypervolume"] = float(np.nextafter(hv[2], 1.0))
+    assert bench.shipped_projection("x", {"history": short, "startup_s": 7.0}) is None
+    history.attrs["versions"] = json.dumps({"kernel_cpu": "another-model"})
+    assert bench.shipped_projection("x", {"history": short, "startup_s": 7.0})["projected_s"] == pytest.approx(49.5)
+    short[2]["hypervolume"] = float(hv[2] * (1.0 + 1e-5))
+    assert bench.shipped_projection("x", {"history": short, "startup_s": 7.0}) is None
+    short[2]["hypervolume"], short[2]["n_evaluated"] = float(hv[2]), int(evaluated[2]) - 1
     assert bench.shipped_projection("x", {"history": short, "startup_s": 7.0}) is None
     monkeypatch.setattr(bench, "load_reference", lambda name: None)
     assert bench.shipped_projection("x", {"history": short, "startup_s": 7.0}) is None
