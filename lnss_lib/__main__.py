@@ -5,6 +5,7 @@ from __future__ import annotations
 import argparse
 import contextlib
 import errno
+import logging
 import math
 import os
 import sys
@@ -468,6 +469,8 @@ def main(argv: list[str] | None = None) -> int:
         code, text = (130, "interrupted") if isinstance(error, KeyboardInterrupt) else classify(error)
         if debug:
             traceback.print_exception(error)
+        elif code == 130:       # tasks abandoned by the interrupt (a notebook kernel's) are logged when collected
+            logging.getLogger("asyncio").setLevel(logging.CRITICAL)
         print(f"error: {text}", file=sys.stderr)
         return code
 

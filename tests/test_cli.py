@@ -158,3 +158,17 @@ def test_evaluate_prints_labels_with_units_and_the_profile(capsys):
     assert "PDOP (3-sigma mean)" in out and "Delta-V total (km/s/yr)" in out and "dv_total_kms_per_year" not in out
     pdop = next(line for line in out.splitlines() if line.startswith("PDOP (3-sigma mean)")).split()[-1]
     assert len(pdop.split(".")[1]) == 2                       # DOP to 2 decimals, not 6 significant digits
+
+
+def test_an_interrupt_leaves_no_traceback_of_abandoned_tasks():
+    """Ctrl-C while an asyncio task has failed unseen (a notebook kernel that died with the interrupt): one line and
+    exit 130, not asyncio's 'Task exception was never retrieved' traceback when the task is collected at exit."""
+    script = ("import asyncio, sys\nimport lnss_lib.__main__ as m\n"
+              "async def died():\n    raise RuntimeError('Kernel died')\n"
+              "def command(args):\n    loop = asyncio.new_event_loop()\n    m.abandoned = loop.create_task(died())\n"
+              "    loop.run_until_complete(asyncio.sleep(0.01))\n    raise KeyboardInterrupt\n"
+              "m._cmd_reproduce = command\ncode = m.main(['reproduce'])\n"
+              "del m.abandoned\nimport gc\ngc.collect()\nsys.exit(code)\n")
+    done = subprocess.run([sys.executable, "-c", script], cwd=PROJECT_DIR, capture_output=True, text=True, timeout=120)
+    assert done.returncode == 130, done.stderr
+    assert done.stderr.strip() == "error: interrupted", done.stderr
