@@ -135,8 +135,8 @@ def shipped_projection(profile_name: str, projection: dict) -> dict | None:
         return None
     shipped, short = reference.history, projection["history"]
     n = min(len(short), int(shipped.sizes["generation"]))
-    shipped_cpu = json.loads(shipped.attrs.get("versions", "{}")).get("kernel_cpu")
-    rtol = 0.0 if shipped_cpu == kernel_cpu() else ROUNDOFF_RTOL
+    shipped_cpu, here = json.loads(shipped.attrs.get("versions", "{}")).get("kernel_cpu"), kernel_cpu()
+    rtol = 0.0 if shipped_cpu == here else ROUNDOFF_RTOL
     hv_shipped = shipped["hypervolume"].values[:n]
     hv_short = np.array([h["hypervolume"] for h in short[:n]])
     hv_rel = float(np.max(np.abs(hv_short - hv_shipped) / np.maximum(np.abs(hv_shipped), np.finfo(float).tiny),
@@ -144,7 +144,7 @@ def shipped_projection(profile_name: str, projection: dict) -> dict | None:
     same = n >= 2 and hv_rel <= rtol and all(int(shipped["n_evaluated"].values[g]) == h["n_evaluated"]
                                              and int(shipped["n_cache_hits"].values[g]) == h["n_cache_hits"]
                                              for g, h in enumerate(short[:n]))
-    kernels = (f"kernels for {kernel_cpu()} here, {shipped_cpu} there: hypervolume within {hv_rel:.1e} relative, "
+    kernels = (f"kernels for {here} here, {shipped_cpu} there: hypervolume within {hv_rel:.1e} relative, "
                f"allowed {rtol:g}")
     if not same:
         print(f"  the short run's generations are not the shipped [{profile_name}] run's (another population, seed, "

@@ -8,8 +8,8 @@ one: designs of an interrupted generation come back from the journal, the checkp
 algorithm and its random generator; designs the checkpoint needs whose journal lines were lost are
 evaluated again. Resumed on a machine whose kernels are compiled for another processor model than the run's
 (:func:`lnss_lib.kernel_cpu`, recorded in ``run.json``), the run goes on with a RuntimeWarning: its later designs
-differ from an uninterrupted run's by round-off, which the adaptive step control can carry into the search. When NSGA-II has finished and ``[front_validation] max_designs`` > 0, the front is flown in
-closed loop (:mod:`lnss_lib.campaign.validation`, ``validated.nc``; a run killed during it and resumed finishes
+differ from an uninterrupted run's by round-off, which the adaptive step control can carry into the search. When
+NSGA-II has finished and ``[front_validation] max_designs`` > 0, the front is flown in closed loop (:mod:`lnss_lib.campaign.validation`, ``validated.nc``; a run killed during it and resumed finishes
 it without running NSGA-II again). A session that ends in ``outputs/<profile>/campaign/`` publishes the run when
 its settings are the profile's (:mod:`lnss_lib.campaign.publication`).
 """
@@ -119,10 +119,10 @@ def run_campaign(profile_name: str = "quick", *, overrides: dict | None = None, 
 
 def _warn_if_other_kernel_cpu(run_dir: Path, run: dict) -> None:
     """RuntimeWarning when ``run``'s recorded kernel processor model is not this machine's (see the module docstring)."""
-    recorded = run.get("versions", {}).get("kernel_cpu")
-    if recorded is not None and recorded != kernel_cpu():
+    recorded, here = run.get("versions", {}).get("kernel_cpu"), kernel_cpu()
+    if recorded is not None and recorded != here:
         warnings.warn(f"{run_dir} started with kernels compiled for {recorded}; here they are compiled for "
-                      f"{kernel_cpu()}: the designs evaluated from now on differ from an uninterrupted run's by "
+                      f"{here}: the designs evaluated from now on differ from an uninterrupted run's by "
                       "round-off (README, Notes for developers)", RuntimeWarning, stacklevel=3)
 
 
