@@ -26,8 +26,8 @@ from pathlib import Path
 from .constants import (CR_AREA_MASS_MAX_M2_KG, CR_MAX, MOON_HILL_RADIUS_KM, SECONDS_PER_DAY,
                         SPACECRAFT_MASS_RANGE_KG, TOLERANCE_FLOOR)
 from .errors import ConfigError
-from .keys import (DELTAV_SATELLITES, DESIGN_KEYS, EXTRA_METRIC_KEYS, INTEGER_DESIGN_KEYS, METRIC_KEYS,
-                   NEEDS_ALL_SATELLITES)
+from .keys import (DELTAV_SATELLITES, DESIGN_KEYS, EXTRA_METRIC_KEYS, INTEGER_DESIGN_KEYS, LIFE_NAVIGATION_KEYS,
+                   METRIC_KEYS, NEEDS_ALL_SATELLITES)
 
 PACKAGE_DIR = Path(__file__).resolve().parent
 PROJECT_DIR = PACKAGE_DIR.parent
@@ -231,6 +231,8 @@ RANGES = {
     "life_evaluation.sample_step_s": POSITIVE, "life_evaluation.month_days": POSITIVE,
     "life_evaluation.screen_validation_designs": (0, None, False, False),
     "life_evaluation.screen_validation_life_days": NON_NEGATIVE,
+    "life_evaluation.life_navigation_designs": (0, None, False, False),
+    "life_evaluation.life_navigation_life_days": NON_NEGATIVE,
     "life_evaluation.frame_rerun_designs": (0, None, False, False),
     "front_validation.max_designs": (0, None, False, False), "front_validation.max_sats_per_plane": (0, None, False, False),
     "front_validation.headline_sizes": (1, None, False, False), "front_validation.headline_per_size": (0, None, False, False),
@@ -498,7 +500,7 @@ def _lookup(profile: dict, key: str):
 def _check_across(profile: dict, source) -> None:
     """Rules across keys, wherever a (partial) profile holds every key a rule needs: setting names name an
     ``[integrator.settings.*]`` table; ``[evaluator] extra_metrics`` are distinct, and the Delta-V maxima among
-    them need ``[deltav] satellites = "all"``; Cr A/m of the spacecraft is a spacecraft's; :data:`BOUND_PAIRS` are
+    them need ``[deltav] satellites = "all"``, the life navigation metrics ``[sk_estimate] model = "life"``; Cr A/m of the spacecraft is a spacecraft's; :data:`BOUND_PAIRS` are
     ``[low, high]`` with low < high."""
     settings = _lookup(profile, "integrator.settings")
     for key in SETTING_NAMES:
@@ -508,6 +510,11 @@ def _check_across(profile: dict, source) -> None:
     extras = _lookup(profile, "evaluator.extra_metrics")
     if isinstance(extras, list) and len(set(extras)) != len(extras):
         _fail(f"[evaluator] extra_metrics must be distinct names; got {extras!r}", "evaluator.extra_metrics", source)
+    model = _lookup(profile, "sk_estimate.model")
+    life_nav = [n for n in extras or () if n in LIFE_NAVIGATION_KEYS]
+    if life_nav and model is not None and model != "life":
+        _fail(f"[evaluator] extra_metrics {life_nav} come from the life estimate's rebuilt constellation: they need "
+              f'[sk_estimate] model = "life"; got {model!r}', "sk_estimate.model", source)
     satellites = _lookup(profile, "deltav.satellites")
     needs_all = [n for n in extras or () if n in NEEDS_ALL_SATELLITES]
     if needs_all and satellites is not None and satellites != "all":

@@ -13,7 +13,9 @@ A profile may ask for the operational metrics of :data:`~lnss_lib.keys.EXTRA_MET
 every satellite (``[sk_estimate] model``: the 10-day box slope of :mod:`lnss_lib.design_life.estimate` from the
 same arc, or the service controller's life of :mod:`lnss_lib.design_life.life_estimate`, which shares the screen),
 the design-life stability screen (:mod:`lnss_lib.design_life.screen`, from the initial states; ``stable_screen`` 1.0
-or 0.0) and the eq. 45 Delta-V's maximum over satellites. Only the requested ones are computed and returned.
+or 0.0), the eq. 45 Delta-V's maximum over satellites, and the south-pole PDOP/HDOP availability over the life (mean
+and worst month) of the life estimate's constellation rebuilt from its averaged elements, restores included
+(:data:`~lnss_lib.keys.LIFE_NAVIGATION_KEYS`: what the 10-day figures cannot see, an apolune drifting off the pole). Only the requested ones are computed and returned.
 """
 
 from __future__ import annotations
@@ -36,7 +38,7 @@ from .elements import vis_viva_sma_km
 from .forces import ForceModel
 from .frames import rotate_with
 from .errors import ConfigError, ImpactError, InfeasibleDesignError
-from .keys import METRIC_KEYS, TIMING_KEYS, requested_extra_metrics, violated_bound
+from .keys import LIFE_NAVIGATION_KEYS, METRIC_KEYS, TIMING_KEYS, requested_extra_metrics, violated_bound
 from .propagator import check_elements_deg, elements_deg_to_states, integrate_batch, output_times, propagate_states
 
 if TYPE_CHECKING:
@@ -271,7 +273,8 @@ def _operational_metrics(context: EvaluationContext, ds: xr.Dataset, states: np.
     """The requested extra metrics (``context.extra_metrics``); NaN for an estimate the arc cannot give."""
     profile, wanted = context.settings, context.extra_metrics
     out = {k: dv_budget[k] for k in wanted if k in dv_budget}
-    want_sk = any(k.startswith("sk_dv_estimate") for k in wanted)
+    want_nav = any(k in LIFE_NAVIGATION_KEYS for k in wanted)
+    want_sk = want_nav or any(k.startswith("sk_dv_estimate") for k in wanted)
     screen = None
     if any(k.startswith(("stable", "screen")) for k in wanted) or (want_sk and profile.sk_estimate.model == "life"):
         screen = stability.screen_states(profile.stability, context.dynamics, states, context.t0_tdb_s)
@@ -284,10 +287,11 @@ def _operational_metrics(context: EvaluationContext, ds: xr.Dataset, states: np.
         arc_s = float(ds["time"].values[-1] - ds["time"].values[0])
         if arc_s >= min_periods * 2.0 * np.pi * np.sqrt(np.max(a_mean) ** 3 / gm) * (1.0 + 1e-9):
             estimate = life_estimate.campaign_estimate(profile.sk_estimate, profile.stability, profile.design_life,
-                                                       context.dynamics, profile.dop, ds, screen)
+                                                       context.dynamics, profile.dop, ds, screen, availability=want_nav)
         else:
-            estimate = dict.fromkeys(("sk_dv_estimate_kms_per_year", "sk_dv_estimate_max_kms_per_year"), math.nan)
-        out.update({k: float(estimate[k]) for k in wanted if k.startswith("sk_dv_estimate")})
+            estimate = dict.fromkeys(("sk_dv_estimate_kms_per_year", "sk_dv_estimate_max_kms_per_year",
+                                      *LIFE_NAVIGATION_KEYS), math.nan)
+        out.update({k: float(estimate[k]) for k in wanted if k.startswith("sk_dv_estimate") or k in LIFE_NAVIGATION_KEYS})
     if screen is not None:
         values = {"stable_screen": 1.0 if screen.attrs["stable"] else 0.0,
                   "screen_min_perilune_alt_km": float(screen.attrs["min_perilune_alt_km"])}

@@ -2,7 +2,8 @@
 
 from __future__ import annotations
 
-__all__ = ["DESIGN_KEYS", "INTEGER_DESIGN_KEYS", "ELEMENT_KEYS", "METRIC_KEYS", "EXTRA_METRIC_KEYS",
+__all__ = ["DESIGN_KEYS", "INTEGER_DESIGN_KEYS", "ELEMENT_KEYS", "METRIC_KEYS", "LIFE_NAVIGATION_KEYS",
+           "EXTRA_METRIC_KEYS",
            "CAMPAIGN_METRIC_KEYS", "RESULT_KEYS", "VERDICT_KEYS", "TIMING_KEYS", "DELTAV_SATELLITES",
            "NEEDS_ALL_SATELLITES", "CLOSED_LOOP_DV_BY_PURPOSE", "closed_loop_dv_key",
            "requested_extra_metrics", "NON_NAVIGATION_METRICS", "LABELS", "label", "bound_text", "value_format",
@@ -18,8 +19,13 @@ METRIC_KEYS = ("n_sat", "mean_visible_sats", "pdop_mean_3sigma", "pdop_avail_pct
 # geometry-keeping Delta-V estimate (sk_estimate, mean and max over satellites), design-life stability
 # screen (stability: 1.0 stable, 0.0 not; minimum perilune altitude), and the eq. 45 Delta-V's maximum
 # over satellites ([deltav] satellites = "all")
+# navigation over the design life, from the life estimate's rebuilt constellation ([sk_estimate] model = "life"):
+# PDOP and HDOP availability, mean over the life and worst month
+LIFE_NAVIGATION_KEYS = ("pdop_avail_pct_life_estimate", "pdop_avail_pct_worst_month_estimate",
+                        "hdop_avail_pct_life_estimate", "hdop_avail_pct_worst_month_estimate")
 EXTRA_METRIC_KEYS = ("sk_dv_estimate_kms_per_year", "sk_dv_estimate_max_kms_per_year", "stable_screen",
-                     "screen_min_perilune_alt_km", "dv_total_max_kms_per_year", "dv_opt_max_kms_per_year")
+                     "screen_min_perilune_alt_km", "dv_total_max_kms_per_year", "dv_opt_max_kms_per_year",
+                     *LIFE_NAVIGATION_KEYS)
 CAMPAIGN_METRIC_KEYS = METRIC_KEYS + EXTRA_METRIC_KEYS   # what a campaign journal record holds
 # "evaluated": the design was evaluated (no impact, a closed orbit); whether it meets Table 3's bounds is VERDICT_KEYS
 RESULT_KEYS = METRIC_KEYS + ("deltav_model", "evaluated", "reason", "wall_s")
@@ -55,6 +61,11 @@ LABELS = {                  # key -> human label with its unit: figures, tables,
     "pdop_avail_pct_life": "PDOP availability over the life (%)", "hdop_avail_pct_life": "HDOP availability over the life (%)",
     "pdop_avail_pct_worst_month": "PDOP availability, worst month (%)",
     "hdop_avail_pct_worst_month": "HDOP availability, worst month (%)",
+    "pdop_avail_pct_life_estimate": "PDOP availability over the life, estimated (%)",
+    "pdop_avail_pct_worst_month_estimate": "PDOP availability, worst month, estimated (%)",
+    "pdop_avail_pct_worst_month_error": "PDOP availability, worst month, estimate - closed loop (points)",
+    "hdop_avail_pct_life_estimate": "HDOP availability over the life, estimated (%)",
+    "hdop_avail_pct_worst_month_estimate": "HDOP availability, worst month, estimated (%)",
     "min_perilune_alt_km": "lowest perilune under control (km)", "impact_day": "first satellite lost (day)",
     "n_lost": "satellites lost", "requirement_held": "every tolerance held", "n_maneuvers": "manoeuvres",
     "status": "closed-loop status", "selected_for": "flown as",

@@ -444,6 +444,8 @@ class LifeEvaluationSettings:
     validation_designs: tuple[tuple[int | float, ...], ...]   # Walker rows (a_km, e, aop, inc, planes, per plane)
     screen_validation_designs: int          # random Table 3 designs of studies.screen_validation
     screen_validation_life_days: float      # ... flown this long (0: the screened profile's [stability] life_days)
+    life_navigation_designs: int            # designs of studies.life_navigation (0: all)
+    life_navigation_life_days: float        # ... flown this long (0: the operational profile's [design_life] life_days)
 
 
 @dataclass(frozen=True)

@@ -14,11 +14,13 @@ from lnss_lib.settings import load_settings
 from lnss_lib.constellation import WalkerDesign
 from lnss_lib.errors import ConfigError
 from lnss_lib.evaluator import analyse_states, context_for, evaluate_design
-from lnss_lib.keys import EXTRA_METRIC_KEYS, METRIC_KEYS
+from lnss_lib.keys import EXTRA_METRIC_KEYS, LIFE_NAVIGATION_KEYS, METRIC_KEYS
 from lnss_lib.propagator import elements_deg_to_states
 from lnss_lib.studies.pareto import deltav_constraint, table6
 
-ALL_EXTRAS = {"evaluator": {"extra_metrics": list(EXTRA_METRIC_KEYS)}, "deltav": {"satellites": "all"}}
+ARC_EXTRAS = tuple(k for k in EXTRA_METRIC_KEYS if k not in LIFE_NAVIGATION_KEYS)
+"""Every extra metric the 10-day box slope (``[sk_estimate] model = "arc"``, the ci profile's) can give."""
+ALL_EXTRAS = {"evaluator": {"extra_metrics": list(ARC_EXTRAS)}, "deltav": {"satellites": "all"}}
 ELFO_2X2 = (6143.0, 0.6, 90.0, 51.7, 2, 2)
 KOZAI_3X1 = (18000.0, 0.4, 90.0, 80.0, 3, 1)     # high and inclined: the Earth's tide drives e up (Lidov-Kozai)
 
@@ -32,7 +34,7 @@ def test_extra_metrics_appear_only_when_asked(extra_context):
     plain = evaluate_design(context_for(load_settings("ci")), *ELFO_2X2)
     assert not set(EXTRA_METRIC_KEYS) & set(plain)
     result = evaluate_design(extra_context, *ELFO_2X2)
-    assert result["evaluated"] and all(math.isfinite(result[k]) for k in EXTRA_METRIC_KEYS)
+    assert result["evaluated"] and all(math.isfinite(result[k]) for k in ARC_EXTRAS)
     assert result["stable_screen"] == 1.0 and result["screen_min_perilune_alt_km"] > 0.0
     assert 0.0 < result["sk_dv_estimate_kms_per_year"] <= result["sk_dv_estimate_max_kms_per_year"]
     assert result["dv_total_kms_per_year"] <= result["dv_total_max_kms_per_year"]
@@ -76,7 +78,7 @@ def test_unstable_design_violates_the_stable_screen_constraint(extra_context):
 
 def test_infeasible_design_has_nan_extras(extra_context):
     result = evaluate_design(extra_context, 2000.0, 0.5, 90.0, 51.7, 2, 2)
-    assert not result["evaluated"] and all(math.isnan(result[k]) for k in EXTRA_METRIC_KEYS)
+    assert not result["evaluated"] and all(math.isnan(result[k]) for k in ARC_EXTRAS)
 
 
 @pytest.mark.parametrize("overrides, key", [
@@ -85,6 +87,8 @@ def test_infeasible_design_has_nan_extras(extra_context):
     ({"evaluator": {"extra_metrics": "stable_screen"}}, "evaluator.extra_metrics"),
     ({"evaluator": {"extra_metric": []}}, "evaluator.extra_metric"),
     ({"evaluator": {"extra_metrics": ["dv_total_max_kms_per_year"]}}, "deltav.satellites"),
+    ({"evaluator": {"extra_metrics": ["pdop_avail_pct_worst_month_estimate"]}, "sk_estimate": {"model": "arc"}},
+     "sk_estimate.model"),
 ])
 def test_bad_extra_metrics_are_config_errors(overrides, key):
     with pytest.raises(ConfigError) as error:
@@ -112,12 +116,14 @@ def test_operational_profiles_load_and_validate():
         s = CampaignPlan.of(profile)
         assert profile.dop.los_axes == "enu" and profile.deltav.satellites == "first"
         assert set(s.extra_metrics) == {"sk_dv_estimate_kms_per_year", "sk_dv_estimate_max_kms_per_year",
-                                        "stable_screen", "screen_min_perilune_alt_km"}
+                                        "stable_screen", "screen_min_perilune_alt_km", *LIFE_NAVIGATION_KEYS}
         objectives = [o.lstrip("-") for o in s.objectives]
+        assert "pdop_avail_pct_worst_month_estimate" in objectives and "pdop_avail_pct" not in objectives
         assert "sk_dv_estimate_kms_per_year" in objectives and "dv_total_kms_per_year" not in objectives
         assert len(s.objectives) == len(paper.objectives)
         bounds = {(m, k): v for m, k, v in s.constraints}
-        assert bounds == {("pdop_mean_3sigma", "max"): 10.0, ("pdop_avail_pct", "min"): 70.0, ("n_sat", "max"): 20.0,
+        assert bounds == {("pdop_mean_3sigma", "max"): 10.0, ("pdop_avail_pct_worst_month_estimate", "min"): 70.0,
+                          ("n_sat", "max"): 20.0,
                           ("sk_dv_estimate_max_kms_per_year", "max"): 1.0, ("stable_screen", "min"): 1.0}
         assert dict(s.hypervolume) == {"n_sat": 20.0, "pdop_mean_3sigma": 10.0, "hdop_mean_3sigma": 10.0,
                                        "sk_dv_estimate_kms_per_year": 1.0}
@@ -162,8 +168,8 @@ def test_synthetic_extras_are_labelled_stand_ins():
     kozai = synthetic_evaluation(profile, 18000.0, 0.4, 90.0, 80.0, 3, 1)
     hit = synthetic_evaluation(profile, 4000.0, 0.8, 90.0, 50.0, 2, 2)
     assert stable["stable_screen"] == 1.0 and kozai["stable_screen"] == 0.0
-    assert all(math.isfinite(stable[k]) for k in EXTRA_METRIC_KEYS)
-    assert all(math.isnan(hit[k]) for k in EXTRA_METRIC_KEYS)
+    assert all(math.isfinite(stable[k]) for k in ARC_EXTRAS)
+    assert all(math.isnan(hit[k]) for k in ARC_EXTRAS)
     assert not set(EXTRA_METRIC_KEYS) & set(synthetic_evaluation(load_settings("ci"), 6143.0, 0.6, 90.0, 51.7, 2, 4))
 
 

@@ -1,4 +1,4 @@
-"""Campaign-grade estimate of what the service controller pays over the design life (issue 20 item 2).
+"""Campaign-grade estimate of what the service controller pays over the design life, and the navigation it keeps.
 
 The 10-day estimate of :mod:`lnss_lib.design_life.estimate` prices a fixed-element box from the slope of a
 short arc; over a year it misses the Lidov-Kozai growth that decides the cost, and it charges for e, AOP and
@@ -16,21 +16,20 @@ integration, :func:`lnss_lib.design_life.screen.screen_states`, shared with the 
   pays the rest of its life at that burn's rate (its Delta-V over the time it bought). Cost of a change of e at
   fixed a (a perilune / apolune pair): ``h |de| / (2 p)``.
 * ``navigation``: the navigation monitor's restores (:func:`navigation_restores`). Each window of
-  ``[design_life.service] nav_window_days`` (closing on the day grid, as the monitor on its daily checks) in which a
-  satellite's averaged e, AOP or i is outside ``[design_life.box]`` is judged: the constellation is rebuilt with the
-  averaged e, AOP and i of the window at :data:`NAV_SAMPLES_PER_WINDOW` epochs of the first window (what the drift
-  changed, not the month: the Moon's orientation and the satellites' phases as in the baseline), RAAN and slots as
-  designed (their own parts hold the relative node and slot; the common node precession, which turns the whole
-  constellation about the element frame's pole, is left out: on the quick operational front's cheapest design, 9800
-  km, e 0.39, i 58 deg, the windows after a restore, 80 deg of precession on, came within 6 % of the first window's
-  PDOP with it), the mean anomaly from the slot at the design's mean motion; its south-pole DOP is summarised with
-  ``[dop]`` and judged against the first window's by the monitor's rule
-  (:func:`lnss_lib.design_life.service.navigation_violations`). A violation restores e, AOP and i of every satellite
-  outside the box, priced by the closed loop's two-burn plan (:func:`lnss_lib.design_life.manoeuvres.plan_impulses`,
-  first order); the restored satellite's e, AOP and i then run their averaged history again from the design's
-  elements (shifted in time: the Earth's and Sun's averaged pull on an orbit in ``moon_op`` barely depends on the
-  date), so a window is fixed by each satellite's time since its last restore and computed once. A window with no
-  satellite outside the box costs nothing to judge.
+  ``[design_life.service] nav_window_days`` (closing on the day grid, as the monitor on its daily checks) is rebuilt
+  from the averaged elements: e, AOP, i and the node (its common precession, which turns the constellation about the
+  element frame's pole, included) at :data:`NAV_SAMPLES_PER_WINDOW` epochs of the window itself
+  (:func:`lattice_epochs_s`: spread over the month and over the orbit, so the Moon turns under the constellation as
+  it does), the mean anomaly from the slot at the design's mean motion; its south-pole DOP is summarised with
+  ``[dop]``. A window at whose close some satellite's averaged e, AOP or i is outside ``[design_life.box]`` is judged
+  against the first window's by the monitor's rule (:func:`lnss_lib.design_life.service.navigation_violations`). A
+  violation restores e, AOP and i of every satellite outside the box, priced by the closed loop's two-burn plan
+  (:func:`lnss_lib.design_life.manoeuvres.plan_impulses`, first order); the restored satellite's e, AOP and i then
+  run their averaged history again from the design's elements (shifted in time: the Earth's and Sun's averaged pull
+  on an orbit in ``moon_op`` barely depends on the date). The same windows, as flown, give the availability over the
+  life that the campaign judges (:data:`LIFE_NAVIGATION_KEYS`: PDOP and HDOP, the life's mean and the worst month).
+  A satellite whose averaged history ends (a second crossing of the safety floor, which the estimate prices as kept
+  at its raises' rate) stays where its last raise left it.
 * ``relative_node``: each satellite's averaged RAAN drift relative to the constellation's circular mean
   (the common precession is free), held within the controller's half-width
   (:func:`lnss_lib.design_life.service.raan_half_width_rad` of the tilt tolerance at the design inclination; the
@@ -45,8 +44,7 @@ integration, :func:`lnss_lib.design_life.screen.screen_states`, shared with the 
   changing a by ``2 a d(rate) / (3 n)``).
 
 What it leaves out: the monitor's violations from causes other than the averaged e, AOP and i (the relative node and
-slot inside their tolerances, the common precession, the monthly swing, the month's own geometry, the sampling: 64
-epochs a window where the monitor has about 2900), which in the closed loop keep a degraded window degraded after a
+slot inside their tolerances, the monthly swing, the sampling: 64 epochs a window where the monitor has about 2900), which in the closed loop keep a degraded window degraded after a
 restore, so that it restores monthly, in smaller steps, where the estimate restores when the drift breaks the
 requirement again; the closed loop's Delta-V cap (``[design_life] dv_cap_kms_per_year``: the closed loop stops
 correcting anything but safety there, the estimate prices the whole life); the effect of the restores on the node
@@ -56,8 +54,8 @@ model does not see of the relative node (a few degrees a year on some high orbit
 safety raise come from the raised orbit; after a second crossing they go on at their mean rates. Cost: a few
 milliseconds for a design whose perilune stays clear and whose e, AOP and i stay in the box (the screen's
 integration is shared), one averaged integration of nine candidate orbits per distinct orbit that needs a safety
-raise, and a DOP pass over 64 epochs per navigation window judged plus one restore plan per distinct orbit and
-restore.
+raise, a DOP pass over 64 epochs per navigation window (every window: the availability over the life) plus one
+restore plan per distinct orbit and restore.
 """
 
 from __future__ import annotations
@@ -84,8 +82,8 @@ from .service import (SAFETY_RAISE_KM, mean_vectors_j2000, navigation_violations
                       restore_target)
 from .tolerances import estimate_tolerances_deg
 
-__all__ = ["PARTS", "NAV_SAMPLES_PER_WINDOW", "perilune_dip_km", "safety_dv_kms", "node_corrections",
-           "phase_corrections", "navigation_windows", "rebuilt_positions_j2000", "navigation_restores", "life_estimate",
+__all__ = ["PARTS", "NAV_SAMPLES_PER_WINDOW", "AVAILABILITY_KEYS", "LIFE_NAVIGATION_KEYS", "perilune_dip_km", "safety_dv_kms", "node_corrections",
+           "phase_corrections", "navigation_windows", "lattice_epochs_s", "rebuilt_positions_j2000", "navigation_restores", "life_estimate",
            "campaign_estimate"]
 
 PARTS = ("safety", "navigation", "relative_node", "phase")
@@ -99,8 +97,20 @@ SEARCH_WINDOW = 64
 """Checks (history samples) searched at once for the next node or slot decision."""
 
 NAV_SAMPLES_PER_WINDOW = 64
-"""Epochs of each navigation window at which the estimate computes the south-pole DOP, evenly spread (the monitor
-samples every ``[life_evaluation] sample_step_s``, 900 s: about 2900 a window)."""
+"""Epochs of each navigation window at which the estimate computes the south-pole DOP, on a lattice in time and
+orbital phase (:func:`lattice_epochs_s`; the monitor samples every ``[life_evaluation] sample_step_s``, 900 s: about
+2900 a window). 128 changed the quick operational validation's worst months by up to 2 points on designs the
+closed loop keeps, at twice the DOP cost."""
+
+GOLDEN_FRACTION = (np.sqrt(5.0) - 1.0) / 2.0
+"""The phase step of :func:`lattice_epochs_s`: the most irrational number spreads any run of phases most evenly."""
+
+AVAILABILITY_KEYS = ("pdop_avail_pct", "hdop_avail_pct")
+"""The availabilities (eq. 14) the estimate follows over the life, window by window."""
+
+LIFE_NAVIGATION_KEYS = tuple(f"{key}_{span}_estimate" for key in AVAILABILITY_KEYS for span in ("life", "worst_month"))
+"""What the estimate reports of the navigation over the life: each availability's mean over the life and its worst
+window (a navigation window is ``[design_life.service] nav_window_days``, a month in every profile)."""
 
 SEARCH_RTOL, SEARCH_ATOL = 1e-4, 1e-6
 """Tolerances of the averaged integration of the candidate raises (the screen's are tighter): a few hundred metres of
@@ -289,6 +299,14 @@ def phase_corrections(t_days: np.ndarray, u_rad: np.ndarray, half_rad: float, ta
     return out
 
 
+def _hold_last(x: np.ndarray) -> np.ndarray:
+    """Element histories (n, m) with NaN tails (after an averaged impact or a second safety crossing) held at their
+    last value: the estimate keeps such a satellite, charging the rest of its life at its safety raises' rate, so the
+    navigation sees it where the last raise left it (a satellite with no value at all stays NaN: lost)."""
+    idx = np.where(np.isfinite(x), np.arange(x.shape[1])[None, :], 0)
+    return np.take_along_axis(x, np.maximum.accumulate(idx, axis=1), axis=1)
+
+
 def _fill_forward_rates(x: np.ndarray) -> np.ndarray:
     """Unwrapped angle histories (n, m) with NaN tails (after an averaged impact or a second safety crossing)
     continued at their mean rate over the rest."""
@@ -313,6 +331,18 @@ def navigation_windows(t_days: np.ndarray, window_days: float) -> np.ndarray:
         if k >= t_days.size - 1:
             return np.array(edges)
         edges.append(k)
+
+
+def lattice_epochs_s(span_s: float, period_s: float, n: int) -> np.ndarray:
+    """``n`` epochs (s from the window's start) spread evenly over ``span_s`` whose orbital phases ``t mod period_s``
+    are spread evenly too (a rank-1 lattice: the k-th epoch at phase ``k`` times the golden ratio, modulo one, on the
+    orbit nearest ``(k + 1/2) span / n``). Availability is a fraction of time over two clocks, the orbit and the Moon's
+    turn under it: evenly spaced epochs alias with the orbit (64 of a month of a 6500 km constellation's positions
+    gave 78 % where every 900 s gave 89 %), the lattice samples both (85.9 % and 91.2 % for 89.0 % and 88.8 %)."""
+    k = np.arange(n)
+    phase = (k * GOLDEN_FRACTION) % 1.0
+    orbits = np.round((k + 0.5) / n * span_s / period_s - phase)
+    return np.clip(period_s * (orbits + phase), 0.0, span_s)
 
 
 def rebuilt_positions_j2000(sma_km: np.ndarray, u0_rad: np.ndarray, ecc: np.ndarray, inc_rad: np.ndarray,
@@ -342,56 +372,64 @@ def _restore_dv_kms(el: tuple, ref: tuple, gm_km3_s2: float) -> float:
 def navigation_restores(dop: DopSettings, dynamics: Dynamics, design_life: DesignLifeSettings, t0_tdb_s: float,
                         t_days: np.ndarray, sma_km: np.ndarray, u0_rad: np.ndarray, raan_rad: np.ndarray,
                         ecc: np.ndarray, inc_rad: np.ndarray, aop_rad: np.ndarray,
-                        rot_el_to_j2000: np.ndarray | None = None) -> dict:
-    """The navigation monitor's restores over the life, on the constellation rebuilt from its mean element histories.
+                        rot_el_to_j2000: np.ndarray | None = None, availability: bool = True) -> dict:
+    """The navigation monitor's restores over the life, and the availability it leaves, on the constellation rebuilt
+    from its mean element histories.
 
-    ``t_days`` (m,): a uniform grid from 0; ``sma_km``, ``u0_rad`` (slots), ``raan_rad`` (n_sat,): the design's;
+    ``t_days`` (m,): a uniform grid from 0; ``sma_km``, ``u0_rad`` (slots) (n_sat,): the design's; ``raan_rad``,
     ``ecc``, ``inc_rad``, ``aop_rad`` (n_sat, m): each satellite's mean elements (element frame; NaN once lost), its
-    design values at index 0. Each window of :func:`navigation_windows` is rebuilt (:func:`rebuilt_positions_j2000`)
-    at :data:`NAV_SAMPLES_PER_WINDOW` evenly spread epochs of the first window, with the elements at the same
-    fractions of its own span (what the drift changed, not the month), its south-pole DOP summarised with ``[dop]``
-    (:func:`lnss_lib.dop.metrics_for_settings`, the compiled twin of the monitor's ``summary_for_settings``) and judged
-    against the first window's by the monitor's rule (:func:`lnss_lib.design_life.service.navigation_violations`).
-    As in the closed loop, a violation restores every satellite whose e, AOP or i is outside ``[design_life.box]`` at
-    the window's close (:func:`_restore_dv_kms`); a restored satellite's e, AOP and i then run their history again from
-    the start (the design's elements, shifted in time to the restore), so a window is fixed by each satellite's time
-    since its last restore and computed once. A window with no satellite outside the box cannot restore anything and
-    is not judged. Returns ``dv_kms`` and ``n_restores`` (n_sat,), ``violations`` (window -> names of the statistics
-    outside), ``n_judged`` (windows judged) and ``n_computed`` (distinct windows computed). ``rot_el_to_j2000``:
-    :func:`lnss_lib.frames.element_frame_to_j2000` at ``t0_tdb_s`` when the caller has it.
+    design values at index 0. Each window of :func:`navigation_windows`, and the part of the life after the last one,
+    is rebuilt (:func:`rebuilt_positions_j2000`) at its own :data:`NAV_SAMPLES_PER_WINDOW` epochs
+    (:func:`lattice_epochs_s`), the Moon turned to them and the nodes where their common precession has taken them,
+    and its south-pole DOP summarised with ``[dop]`` (:func:`lnss_lib.dop.metrics_for_settings`, the compiled twin of
+    the monitor's ``summary_for_settings``). A window in which some satellite's e, AOP or i is outside
+    ``[design_life.box]`` at its close is judged against the first window by the monitor's rule
+    (:func:`lnss_lib.design_life.service.navigation_violations`); as in the closed loop, a violation restores every
+    satellite outside the box (:func:`_restore_dv_kms`), whose e, AOP and i then run their history again from the
+    start (the design's elements, shifted in time to the restore; the Earth's and Sun's averaged pull on an orbit in
+    ``moon_op`` barely depends on the date).
+
+    Returns ``dv_kms`` and ``n_restores`` (n_sat,), ``violations`` (window -> names of the statistics outside),
+    ``n_judged`` (windows judged) and, for each key of :data:`AVAILABILITY_KEYS`, the availability of every window as
+    flown (before the restores its close triggers) ``<key>_windows`` (%), with ``window_days`` (their lengths, d),
+    ``<key>_life_estimate`` (the mean weighted by length) and ``<key>_worst_month_estimate`` (the lowest window).
+    ``rot_el_to_j2000``: :func:`lnss_lib.frames.element_frame_to_j2000` at ``t0_tdb_s`` when the caller has it.
+    ``availability`` False: only the first window and those judged are computed (the same restores, a DOP pass per
+    judged window where every window costs one), the availabilities are NaN.
     """
     svc, box = design_life.service, design_life.box
     gm = dynamics.gravity.gm_km3_s2
     n_sat = ecc.shape[0]
-    out = {"dv_kms": np.zeros(n_sat), "n_restores": np.zeros(n_sat, dtype=int), "violations": {}, "n_judged": 0,
-           "n_computed": 0}
+    out = {"dv_kms": np.zeros(n_sat), "n_restores": np.zeros(n_sat, dtype=int), "violations": {}, "n_judged": 0}
     edges = navigation_windows(t_days, svc.nav_window_days)
-    if edges.size < 3:
-        return out
+    bounds = np.append(edges, t_days.size - 1) if edges[-1] < t_days.size - 1 else edges
     rot = element_frame_to_j2000(dynamics, t0_tdb_s) if rot_el_to_j2000 is None else rot_el_to_j2000
     grid = SurfaceGrid.from_settings(dop, dynamics.constants.r_moon_mean_km)
     ref = (ecc[:, 0], aop_rad[:, 0], inc_rad[:, 0])
     half = (box.ecc, np.radians(box.aop_deg), np.radians(box.inc_deg))
-    step = t_days[1] - t_days[0]
-    span = t_days[edges[1]] * (np.arange(NAV_SAMPLES_PER_WINDOW) + 0.5) / NAV_SAMPLES_PER_WINDOW
-    t_s = span * SECONDS_PER_DAY
-    to_mf = rotation("J2000", dynamics.frames.moon_fixed, t0_tdb_s + t_s)
+    step_s = (t_days[1] - t_days[0]) * SECONDS_PER_DAY
+    period_s = TWO_PI * np.sqrt(np.mean(sma_km) ** 3 / gm)
     shift = np.zeros(n_sat, dtype=int)                     # grid index of each satellite's last restore
     rows = np.arange(n_sat)[:, None]
-    summaries, costs, baseline = {}, {}, None
+    costs = {}
 
     def summary(j):
-        start = edges[j] - shift
-        length = edges[j + 1] - edges[j]
-        key = (*start, length)
-        if key not in summaries:
-            idx = start[:, None] + np.rint(span * length / (edges[1] * step))[None, :].astype(int)
-            r = rebuilt_positions_j2000(sma_km, u0_rad, ecc[rows, idx], inc_rad[rows, idx], raan_rad[:, None]
-                                        * np.ones(idx.shape), aop_rad[rows, idx], t_s, rot, gm)
-            summaries[key] = metrics_for_settings(dop, rotate_with(to_mf, r), grid)
-        return summaries[key]
+        """Window j as flown: its own epochs, each satellite's elements since its last restore."""
+        t_s = lattice_epochs_s((bounds[j + 1] - bounds[j]) * step_s, period_s, NAV_SAMPLES_PER_WINDOW)
+        offset = np.rint(t_s / step_s).astype(int)[None, :]
+        idx = (bounds[j] - shift)[:, None] + offset
+        t_s = t_s + bounds[j] * step_s
+        r = rebuilt_positions_j2000(sma_km, u0_rad, ecc[rows, idx], inc_rad[rows, idx], raan_rad[rows, bounds[j] + offset],
+                                    aop_rad[rows, idx], t_s, rot, gm)
+        return metrics_for_settings(dop, rotate_with(rotation("J2000", dynamics.frames.moon_fixed, t0_tdb_s + t_s), r),
+                                    grid)
 
-    for j in range(1, edges.size - 1):
+    baseline = summary(0)
+    windows = [baseline]
+    for j in range(1, bounds.size - 1):
+        windows.append(summary(j) if availability else None)
+        if j >= edges.size - 1:                            # the part after the last window: never judged
+            continue
         close = edges[j + 1] - shift
         e, i, w = ecc[rows[:, 0], close], inc_rad[rows[:, 0], close], aop_rad[rows[:, 0], close]
         with np.errstate(invalid="ignore"):
@@ -399,26 +437,32 @@ def navigation_restores(dop: DopSettings, dynamics: Dynamics, design_life: Desig
                        | (np.abs(i - ref[2]) > half[2]))
         if not outside.any():
             continue
-        baseline = summary(0) if baseline is None else baseline       # judged before any restore
-        violated = navigation_violations(summary(j), baseline, svc)
+        windows[j] = windows[j] or summary(j)
+        violated = navigation_violations(windows[j], baseline, svc)
         out["n_judged"] += 1
         if not violated:
             continue
         out["violations"][j] = violated
         for s in np.flatnonzero(outside):
-            el = (float(sma_km[s]), float(e[s]), float(i[s]), float(raan_rad[s]), float(w[s]))
+            el = (float(sma_km[s]), float(e[s]), float(i[s]), float(raan_rad[s, edges[j + 1]]), float(w[s]))
             key = tuple(np.round((*el[:3], *el[4:], ref[0][s], ref[1][s], ref[2][s]), 9))
             if key not in costs:
                 costs[key] = _restore_dv_kms(el, (ref[0][s], ref[1][s], ref[2][s]), gm)
             out["dv_kms"][s] += costs[key]
             out["n_restores"][s] += 1
             shift[s] = edges[j + 1]
-    out["n_computed"] = len(summaries)
+    out["window_days"] = np.diff(bounds) * step_s / SECONDS_PER_DAY
+    for key in AVAILABILITY_KEYS:
+        values = np.array([w[key] if availability else np.nan for w in windows])
+        out[f"{key}_windows"] = values
+        out[f"{key}_life_estimate"] = float(np.sum(values * out["window_days"]) / np.sum(out["window_days"]))
+        out[f"{key}_worst_month_estimate"] = float(np.min(values))
     return out
 
 
 def life_estimate(sk_estimate: SkEstimateSettings, design_life: DesignLifeSettings, dynamics: Dynamics,
-                  dop: DopSettings, arc: xr.Dataset, screen: xr.Dataset, field: SecularField, tolerances_deg: dict | None = None) -> dict:
+                  dop: DopSettings, arc: xr.Dataset, screen: xr.Dataset, field: SecularField, tolerances_deg: dict | None = None,
+                  availability: bool = True) -> dict:
     """The estimate for the evaluator's arc (every satellite) and the screen of the same states over the life.
 
     ``arc``: a propagator Dataset; ``screen``: :func:`lnss_lib.design_life.screen.screen_states` of its first
@@ -427,7 +471,9 @@ def life_estimate(sk_estimate: SkEstimateSettings, design_life: DesignLifeSettin
     node and slot held (default :func:`lnss_lib.design_life.tolerances.estimate_tolerances_deg`; the validation passes
     those the closed loop derived). Returns ``sk_dv_estimate_kms_per_year`` (mean over
     satellites), ``sk_dv_estimate_max_kms_per_year``, ``per_sat`` (part -> (n_sat,) km/s per year and ``total``),
-    ``n_safety_burns`` and ``n_navigation_restores`` (n_sat,) and ``wall_s``.
+    ``n_safety_burns`` and ``n_navigation_restores`` (n_sat,), the navigation over the life
+    (:data:`LIFE_NAVIGATION_KEYS`, %, NaN unless ``availability``, and ``navigation_windows``, all of
+    :func:`navigation_restores`) and ``wall_s``.
     """
     start = time.perf_counter()
     svc = design_life.service
@@ -475,8 +521,8 @@ def life_estimate(sk_estimate: SkEstimateSettings, design_life: DesignLifeSettin
     raan_drift = _fill_forward_rates(np.unwrap(raan, axis=1)) - raan[:, :1]
     half_node = raan_half_width_rad(np.radians(tol_deg["raan_rel"]), inc[:, 0])
     osc = state_to_elements(to_element_frame(states[:, 0], rot), gm)
-    nav = navigation_restores(dop, dynamics, design_life, t0, t_days, a, osc[:, 4] + osc[:, 5], raan[:, 0], ecc, inc,
-                              aop, rot)
+    nav = navigation_restores(dop, dynamics, design_life, t0, t_days, a, osc[:, 4] + osc[:, 5],
+                              raan[:, :1] + raan_drift, *(_hold_last(x) for x in (ecc, inc, aop)), rot, availability)
     node = np.zeros(n_sat)
     for i, events in enumerate(node_corrections(t_days, raan_drift, half_node, design_life.target_fraction,
                                                 design_life.min_maneuver_spacing_days)):
@@ -505,16 +551,19 @@ def life_estimate(sk_estimate: SkEstimateSettings, design_life: DesignLifeSettin
     return {"sk_dv_estimate_kms_per_year": float(np.mean(total)),
             "sk_dv_estimate_max_kms_per_year": float(np.max(total)),
             "per_sat": per_sat, "n_safety_burns": n_burns, "n_navigation_restores": nav["n_restores"],
+            **{key: nav[key] for key in LIFE_NAVIGATION_KEYS}, "navigation_windows": nav,
             "wall_s": time.perf_counter() - start}
 
 
 def campaign_estimate(sk_estimate: SkEstimateSettings, stability: StabilitySettings, design_life: DesignLifeSettings,
-                      dynamics: Dynamics, dop: DopSettings, arc: xr.Dataset, screen: xr.Dataset | None = None) -> dict:
+                      dynamics: Dynamics, dop: DopSettings, arc: xr.Dataset, screen: xr.Dataset | None = None,
+                      availability: bool = True) -> dict:
     """``[sk_estimate] model``'s estimate for a propagator Dataset (every satellite; e.g. the evaluator's arc).
 
     ``"arc"``: :func:`lnss_lib.design_life.estimate.sk_estimate_from_propagation`; ``"life"``: :func:`life_estimate`
     on ``screen`` (:func:`lnss_lib.design_life.screen.screen_states` of the arc's first states over ``[stability]
-    life_days``; computed here when not given). Returns at least ``sk_dv_estimate_kms_per_year``,
+    life_days``; computed here when not given; ``availability``: the navigation over the life too, see
+    :func:`navigation_restores`). Returns at least ``sk_dv_estimate_kms_per_year``,
     ``sk_dv_estimate_max_kms_per_year``, ``per_sat`` and ``wall_s``.
     """
     if sk_estimate.model == "arc":
@@ -523,4 +572,5 @@ def campaign_estimate(sk_estimate: SkEstimateSettings, stability: StabilitySetti
     if screen is None:
         first = np.concatenate([arc["r_mci_km"].values[:, 0], arc["v_mci_kms"].values[:, 0]], axis=-1)
         screen = screen_states(stability, dynamics, first, t0)
-    return life_estimate(sk_estimate, design_life, dynamics, dop, arc, screen, cached_field(stability, dynamics, t0)[0])
+    return life_estimate(sk_estimate, design_life, dynamics, dop, arc, screen, cached_field(stability, dynamics, t0)[0],
+                         availability=availability)

@@ -93,6 +93,7 @@ from pathlib import Path
 
 import numpy as np
 import pandas as pd
+import xarray as xr
 from scipy.stats import spearmanr
 
 from ..constants import SECONDS_PER_DAY
@@ -110,8 +111,8 @@ from ..propagator import elements_deg_to_states, propagate_states
 from ..settings import Settings
 from .design_life import flown_elements
 
-__all__ = ["FREE_KMS_PER_YEAR", "ESTIMATES", "FROZEN_MEMBERS", "estimate_validation_designs", "closed_loop_cost",
-           "estimate_costs", "estimate_statistics", "estimate_outliers", "run_estimate_validation"]
+__all__ = ["FREE_KMS_PER_YEAR", "ESTIMATES", "FROZEN_MEMBERS", "estimate_validation_designs", "table3_orbits", "closed_loop_cost",
+           "design_estimates", "estimate_costs", "estimate_statistics", "estimate_outliers", "run_estimate_validation"]
 
 FREE_KMS_PER_YEAR = 0.005
 """Two costs both below this (km/s per satellite and year) agree: neither has a ratio."""
@@ -152,15 +153,25 @@ def estimate_validation_designs(settings: Settings, n_random: int = 8, seed: int
     e_frozen = frozen_eccentricity(model, elfo.sma_km, elfo.inc_deg, min_perilune_km=r_floor)
     for offset in LIBRATION_OFFSETS:
         add((elfo.sma_km, e_frozen + offset, 90.0, elfo.inc_deg, 2), f"libration {offset:+.1f}")
-    bounds = settings.campaign.variables
     rng = np.random.default_rng(seed)
+    orbits = table3_orbits(settings, rng)
     while sum(r["source"] == "random" for r in rows) < n_random:
+        a, e = next(orbits)
+        add((round(a, -2), round(e, 2), float(rng.integers(1, 360)), float(rng.integers(1, 91)),
+             int(rng.integers(2, 6))), "random")
+    return rows
+
+
+def table3_orbits(settings: Settings, rng: np.random.Generator):
+    """Endless ``(a km, e)`` drawn uniformly within Table 3's bounds whose perilune is 100 km up; the caller draws the
+    rest of each design from ``rng`` after each (so a list of designs is one seeded sequence)."""
+    bounds = settings.campaign.variables
+    r_floor = settings.dynamics.constants.r_moon_mean_km + 100.0
+    while True:
         a = rng.uniform(bounds["sma_km"].lower, bounds["sma_km"].upper)
         e = rng.uniform(bounds["ecc"].lower, bounds["ecc"].upper)
         if a * (1.0 - e) >= r_floor:
-            add((round(a, -2), round(e, 2), float(rng.integers(1, 360)), float(rng.integers(1, 91)),
-                 int(rng.integers(2, 6))), "random")
-    return rows
+            yield a, e
 
 
 def closed_loop_cost(settings: Settings, design, life_days: float, cache_dir: Path | None = None) -> dict:
@@ -180,6 +191,28 @@ def closed_loop_cost(settings: Settings, design, life_days: float, cache_dir: Pa
     return cached_json(cache_dir, "closed_loop", [list(design), float(life_days), settings.hash], fly)[0]
 
 
+def design_estimates(settings: Settings, design, life_days: float, tolerances_deg: dict | None = None,
+                     max_sats_per_plane: int = 1) -> tuple[dict, dict, xr.Dataset] | None:
+    """The life estimate of a design, at most ``max_sats_per_plane`` satellites a plane (0: all), as the campaign
+    computes it and holding ``tolerances_deg`` (the same object when None), and the 10-day arc they start from:
+    ``(campaign, held, arc)``, or None when the arc hits the Moon (no estimate)."""
+    dyn = settings.dynamics
+    ensure_kernels(settings.ephemeris)
+    t0 = tdb_seconds(settings.epoch.start_tdb, "TDB")
+    states = elements_deg_to_states(dyn, flown_elements(design, max_sats_per_plane), t0)
+    arc = propagate_states(dyn, states, t0, settings.epoch.duration_days * SECONDS_PER_DAY, settings.epoch.step_s,
+                           batch=True)
+    if bool(arc["impact"].any()):
+        return None
+    stability = dataclasses.replace(settings.stability, life_days=float(life_days))
+    screen = screen_states(stability, dyn, states, t0)
+    field = cached_field(stability, dyn, t0)[0]
+    campaign = life_estimate(settings.sk_estimate, settings.design_life, dyn, settings.dop, arc, screen, field)
+    held = campaign if tolerances_deg is None else life_estimate(settings.sk_estimate, settings.design_life, dyn,
+                                                                 settings.dop, arc, screen, field, tolerances_deg)
+    return campaign, held, arc
+
+
 def estimate_costs(settings: Settings, design, life_days: float, tolerances_deg: dict | None = None,
                    max_sats_per_plane: int = 1) -> dict:
     """The life estimate and the 10-day box slope of a design, at most ``max_sats_per_plane`` satellites a plane (0:
@@ -188,23 +221,14 @@ def estimate_costs(settings: Settings, design, life_days: float, tolerances_deg:
     computes it, its own tolerances) and ``arc`` (km/s per satellite and year, means over satellites; NaN when the
     10-day arc hits the Moon), the life estimate's worst satellite ``life_max``, ``split`` (part -> mean) and
     ``wall_s``."""
-    dyn = settings.dynamics
-    ensure_kernels(settings.ephemeris)
-    t0 = tdb_seconds(settings.epoch.start_tdb, "TDB")
-    states = elements_deg_to_states(dyn, flown_elements(design, max_sats_per_plane), t0)
-    arc = propagate_states(dyn, states, t0, settings.epoch.duration_days * SECONDS_PER_DAY, settings.epoch.step_s,
-                           batch=True)
-    if bool(arc["impact"].any()):
+    estimates = design_estimates(settings, design, life_days, tolerances_deg, max_sats_per_plane)
+    if estimates is None:
         return {"life": np.nan, "campaign": np.nan, "arc": np.nan, "life_max": np.nan,
                 "split": dict.fromkeys(PARTS, np.nan), "wall_s": np.nan}
-    stability = dataclasses.replace(settings.stability, life_days=float(life_days))
-    screen = screen_states(stability, dyn, states, t0)
-    field = cached_field(stability, dyn, t0)[0]
-    campaign = life_estimate(settings.sk_estimate, settings.design_life, dyn, settings.dop, arc, screen, field)
-    est = campaign if tolerances_deg is None else life_estimate(settings.sk_estimate, settings.design_life, dyn,
-                                                                settings.dop, arc, screen, field, tolerances_deg)
+    campaign, est, arc = estimates
     return {"life": est["sk_dv_estimate_kms_per_year"], "campaign": campaign["sk_dv_estimate_kms_per_year"],
-            "arc": sk_estimate_from_propagation(settings.sk_estimate, dyn, arc)["sk_dv_estimate_kms_per_year"],
+            "arc": sk_estimate_from_propagation(settings.sk_estimate, settings.dynamics, arc)[
+                "sk_dv_estimate_kms_per_year"],
             "life_max": est["sk_dv_estimate_max_kms_per_year"],
             "split": {p: float(np.mean(est["per_sat"][p])) for p in PARTS}, "wall_s": est["wall_s"]}
 

@@ -100,7 +100,8 @@ def test_bounds_verdict_names_each_violated_table3_bound():
     assert bounds_verdict(load_settings("ci").campaign, at_limit)["meets_bounds"] is True      # the bounds are inclusive
     operational = load_settings("ci_operational")                                      # dv_total off, extra metrics on
     verdict = bounds_verdict(operational.campaign, {**two, "pdop_mean_3sigma": 3.0, "pdop_avail_pct": 90.0,
-                                           "sk_dv_estimate_max_kms_per_year": 0.03, "stable_screen": 0.0})
+                                           "sk_dv_estimate_max_kms_per_year": 0.03, "stable_screen": 0.0,
+                                           "pdop_avail_pct_worst_month_estimate": 80.0})
     assert verdict["violated_bounds"] == ["stable_screen = 0 < min 1"]
 
 

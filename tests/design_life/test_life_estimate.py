@@ -13,6 +13,7 @@ from lnss_lib.design_life.frozen import FrozenModel, libration
 from lnss_lib.design_life.screen import cached_field, screen_states
 from lnss_lib.ephemeris import ensure_kernels, tdb_seconds
 from lnss_lib.evaluator import context_for, evaluate_design
+from lnss_lib.keys import LIFE_NAVIGATION_KEYS
 from lnss_lib.propagator import elements_deg_to_states, propagate_states
 from lnss_lib.settings import load_settings
 
@@ -120,6 +121,21 @@ def test_evaluator_reports_the_life_estimate_when_asked():
     assert metrics["sk_dv_estimate_kms_per_year"] == 0.0 and metrics["stable_screen"] == 1.0
 
 
+def test_evaluator_reports_the_navigation_over_the_life_when_asked():
+    """The Table 4 ELFO as two planes of four keeps its service for the life: availabilities over the life and in the
+    worst month within [0, 100], the worst month no better than the mean, both close to the 10-day arc's (the orbit
+    is frozen: only the Moon's turn changes the geometry from month to month); an orbit that hits the Moon has none."""
+    over = {**LIFE, "evaluator": {"extra_metrics": list(LIFE_NAVIGATION_KEYS)}}
+    context = context_for(load_settings("ci", overrides=over))
+    metrics = evaluate_design(context, 6143.0, 0.6, 90.0, 51.7, 2, 4)
+    for name in ("pdop", "hdop"):
+        life, worst = metrics[f"{name}_avail_pct_life_estimate"], metrics[f"{name}_avail_pct_worst_month_estimate"]
+        assert 0.0 <= worst <= life <= 100.0
+        assert life == pytest.approx(metrics[f"{name}_avail_pct"], abs=context.settings.design_life.service.nav_avail_drop_pct)
+    hit = evaluate_design(context, 2000.0, 0.5, 90.0, 51.7, 2, 2)
+    assert all(np.isnan(hit[key]) for key in LIFE_NAVIGATION_KEYS)
+
+
 def test_the_campaign_estimate_holds_the_upper_tilt_when_tolerances_are_derived(profile):
     """The derivation's arc costs ten evaluations, so the campaign's estimate takes the tilt the derivation gives the
     designs of a front (the upper bound) and the fixed slot; with fixed tolerances the fixed values."""
@@ -158,7 +174,7 @@ def _rebuilt_case(profile, drift: float, days: int = 200):
     ramp = drift * np.minimum(np.tile(t_days, (8, 1)), 100.0)
     ecc = 0.39 + 0.004 * ramp
     inc, aop = np.radians(58.0 - 0.16 * ramp), np.radians(58.0 + 0.18 * ramp)
-    raan = np.radians(np.repeat([0.0, 180.0], 4))
+    raan = np.radians(np.repeat([0.0, 180.0], 4))[:, None] * np.ones(t_days.size)
     u0 = np.radians(np.concatenate([np.arange(4) * 90.0, np.arange(4) * 90.0 + 45.0]))
     return t_days, np.full(8, 9800.0), u0, raan, ecc, inc, aop
 
@@ -183,8 +199,8 @@ def test_navigation_restores_only_a_drift_that_degrades_the_dop(profile):
 def test_navigation_judges_by_the_monitors_rule(profile):
     """Up to its first restore, the estimate flags exactly the windows that the monitor's rule flags on the monitor's
     own DOP path (:func:`lnss_lib.dop.dop_for_settings`, :func:`lnss_lib.dop.summary_for_settings`,
-    :func:`lnss_lib.design_life.service.navigation_violations`) for the rebuilt constellation: the first window's
-    epochs, each satellite's elements at the same fractions of the window judged."""
+    :func:`lnss_lib.design_life.service.navigation_violations`) for the rebuilt constellation at each window's own
+    lattice epochs, and reports those windows' availabilities."""
     from lnss_lib.dop import SurfaceGrid, dop_for_settings, summary_for_settings
     from lnss_lib.design_life.service import navigation_violations
     from lnss_lib.frames import element_frame_to_j2000, rotate_to_moon_fixed
@@ -195,21 +211,71 @@ def test_navigation_judges_by_the_monitors_rule(profile):
     est = le.navigation_restores(profile.dop, dyn, profile.design_life, t0, t_days, sma, u0, raan, ecc, inc, aop)
     first = min(est["violations"])
     edges = le.navigation_windows(t_days, svc.nav_window_days)
-    frac = (np.arange(le.NAV_SAMPLES_PER_WINDOW) + 0.5) / le.NAV_SAMPLES_PER_WINDOW
-    t = t_days[edges[1]] * frac
     grid = SurfaceGrid.from_settings(profile.dop, dyn.constants.r_moon_mean_km)
+    period_s = 2.0 * np.pi * np.sqrt(9800.0 ** 3 / dyn.gravity.gm_km3_s2)
 
     def monitor_summary(j):
-        k = np.rint(t_days[edges[j]] + (t_days[edges[j + 1]] - t_days[edges[j]]) * frac).astype(int)
-        r = le.rebuilt_positions_j2000(sma, u0, ecc[:, k], inc[:, k], raan[:, None] * np.ones(k.size), aop[:, k],
-                                       t * SECONDS_PER_DAY, element_frame_to_j2000(dyn, t0), dyn.gravity.gm_km3_s2)
-        times = t0 + t * SECONDS_PER_DAY
+        span_s = (t_days[edges[j + 1]] - t_days[edges[j]]) * SECONDS_PER_DAY
+        t = le.lattice_epochs_s(span_s, period_s, le.NAV_SAMPLES_PER_WINDOW)
+        k = edges[j] + np.rint(t / SECONDS_PER_DAY).astype(int)
+        times = t0 + t_days[edges[j]] * SECONDS_PER_DAY + t
+        r = le.rebuilt_positions_j2000(sma, u0, ecc[:, k], inc[:, k], raan[:, k], aop[:, k], times - t0,
+                                       element_frame_to_j2000(dyn, t0), dyn.gravity.gm_km3_s2)
         return summary_for_settings(profile.dop, dop_for_settings(profile.dop, rotate_to_moon_fixed(dyn, r, times),
                                                                   times, grid))
 
     baseline = monitor_summary(0)
-    flagged = {j: navigation_violations(monitor_summary(j), baseline, svc) for j in range(1, first + 1)}
+    summaries = {j: monitor_summary(j) for j in range(1, first + 1)}
+    flagged = {j: navigation_violations(summaries[j], baseline, svc) for j in summaries}
     assert {j: v for j, v in flagged.items() if v} == {first: est["violations"][first]}
+    for j, summary in summaries.items():
+        assert est["pdop_avail_pct_windows"][j] == pytest.approx(summary["pdop_avail_pct"], abs=1e-9)
+
+
+def test_lattice_epochs_spread_both_the_window_and_the_orbit():
+    """The lattice's epochs lie in the window, spread over it within an orbit of even spacing, and their orbital
+    phases fill every one of n equal bins of the orbit at most twice (evenly spaced epochs on a whole number of orbits
+    would put every sample at one phase)."""
+    period_s, n = 86400.0 / 2.0, 64
+    t = le.lattice_epochs_s(30.0 * 86400.0, period_s, n)
+    assert np.all((t >= 0.0) & (t <= 30.0 * 86400.0))
+    assert np.all(np.abs(t - (np.arange(n) + 0.5) / n * 30.0 * 86400.0) <= period_s / 2.0 + 1e-6)
+    counts = np.bincount(np.floor((t % period_s) / period_s * n).astype(int), minlength=n)
+    assert counts.max() <= 2 and np.count_nonzero(counts) >= 0.6 * n
+
+
+def test_life_availability_is_the_windows_mean_and_their_worst(profile):
+    """The life's availability is the mean of its windows weighted by their lengths, which cover the life; the worst
+    month is the lowest window; elements that hold still never fall more than the monitor allows (only the Moon's
+    turn and the epochs differ between windows)."""
+    dyn, t0 = profile.dynamics, tdb_seconds(profile.epoch.start_tdb, "TDB")
+    still = le.navigation_restores(profile.dop, dyn, profile.design_life, t0, *_rebuilt_case(profile, 0.0))
+    assert np.sum(still["window_days"]) == pytest.approx(199.0, abs=1e-9) and still["window_days"].size == 7
+    for key in le.AVAILABILITY_KEYS:
+        windows = still[f"{key}_windows"]
+        assert still[f"{key}_worst_month_estimate"] == np.min(windows)
+        assert still[f"{key}_life_estimate"] == pytest.approx(np.average(windows, weights=still["window_days"]))
+        assert np.all(windows[0] - windows < profile.design_life.service.nav_avail_drop_pct)
+
+
+def test_life_availability_falls_when_the_apolune_drifts_off_the_pole(profile):
+    """Two planes of four ELFO-like orbits whose apolune sits over the south pole (AOP 90 deg) serve it; let the AOP
+    run to the equator (0 deg) and the worst month falls far below the first, as does the life's mean, although the
+    monitor restores the drift each time it breaks the requirement (e and i held: only the apolune moves)."""
+    dyn, t0 = profile.dynamics, tdb_seconds(profile.epoch.start_tdb, "TDB")
+    t_days = np.arange(200.0)
+    ones = np.ones((8, t_days.size))
+    raan = np.radians(np.repeat([0.0, 180.0], 4))
+    u0 = np.radians(np.concatenate([np.arange(4) * 90.0, np.arange(4) * 90.0 + 45.0]))
+    case = (t_days, np.full(8, 6143.0), u0, raan[:, None] * ones, 0.6 * ones, np.radians(51.7) * ones)
+    held = le.navigation_restores(profile.dop, dyn, profile.design_life, t0, *case, np.radians(90.0) * ones)
+    aop = np.radians(np.maximum(90.0 - 1.5 * t_days, 0.0)) * ones
+    drift = le.navigation_restores(profile.dop, dyn, profile.design_life, t0, *case, aop)
+    first = held["pdop_avail_pct_windows"][0]
+    assert first > 50.0
+    assert drift["pdop_avail_pct_worst_month_estimate"] < first - profile.design_life.service.nav_avail_drop_pct
+    assert drift["pdop_avail_pct_life_estimate"] < held["pdop_avail_pct_life_estimate"]
+    assert drift["violations"]
 
 
 def test_compiled_relative_angles_are_the_numpy_formula_bit_for_bit():
