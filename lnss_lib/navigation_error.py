@@ -81,10 +81,12 @@ def upload_contact(r_mci_km, station_km, station_up, mask_deg: float, r_moon_km:
     ``station_up`` (station, time, 3), Moon-centred J2000 (:func:`station_states`)."""
     r = np.asarray(r_mci_km, dtype=float)
     d = r[:, None] - station_km[None]                                  # (sat, station, time, 3)
-    rho = np.linalg.norm(d, axis=-1)
-    above = np.sum(d * station_up[None], axis=-1) >= np.sin(np.radians(mask_deg)) * rho
-    along = np.clip(-np.sum(station_km[None] * d, axis=-1) / rho ** 2, 0.0, 1.0)  # closest approach to the Moon
-    miss = np.linalg.norm(station_km[None] + along[..., None] * d, axis=-1) > r_moon_km
+    rho2 = np.einsum("...i,...i->...", d, d)
+    above = np.einsum("...i,...i->...", d, station_up[None]) >= np.sin(np.radians(mask_deg)) * np.sqrt(rho2)
+    p_dot_d = np.einsum("...i,...i->...", station_km[None], d)
+    along = -p_dot_d / rho2                                            # the segment's closest approach to the Moon
+    p2 = np.einsum("...i,...i->...", station_km, station_km)[None]
+    miss = (along <= 0.0) | (along >= 1.0) | (p2 - p_dot_d * p_dot_d / rho2 > r_moon_km * r_moon_km)
     return np.any(above & miss, axis=1)
 
 
