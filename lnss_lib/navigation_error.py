@@ -126,7 +126,7 @@ def error_metrics(nav: NavigationErrorSettings, sigma_h_m, sigma_v_m, weights, a
     return {
         "horizontal_error_95_m": h_pct if np.isfinite(h_pct) else float("nan"),
         "vertical_error_95_m": v_pct if np.isfinite(v_pct) else float("nan"),
-        "position_error_avail_pct": min(100.0, float(100.0 * np.sum(met @ w) / (np.sum(w) * met.shape[0]))),
+        "position_error_avail_pct": min(100.0, 100.0 * float(np.mean((met @ w) / (np.ones_like(w) @ w)))),
         "ephemeris_age_max_h": float(np.max(age_s)) / SECONDS_PER_HOUR,
         "satellites_never_uploaded": int(np.sum(never_uploaded)),
     }
