@@ -13,7 +13,9 @@ A profile may ask for the operational metrics of :data:`~lnss_lib.keys.EXTRA_MET
 every satellite (``[sk_estimate] model``: the 10-day box slope of :mod:`lnss_lib.design_life.estimate` from the
 same arc, or the service controller's life of :mod:`lnss_lib.design_life.life_estimate`, which shares the screen),
 the design-life stability screen (:mod:`lnss_lib.design_life.screen`, from the initial states; ``stable_screen`` 1.0
-or 0.0) and the eq. 45 Delta-V's maximum over satellites. Only the requested ones are computed and returned.
+or 0.0), the eq. 45 Delta-V's maximum over satellites and the user's position error in metres
+(:mod:`lnss_lib.navigation_error`: uploads and ephemeris ages, then the weighted least-squares errors from the DOP
+grid's own compiled pass, which then also gives the DOP metrics). Only the requested ones are computed and returned.
 """
 
 from __future__ import annotations
@@ -225,7 +227,8 @@ def campaign_metrics(context: EvaluationContext, elements: np.ndarray, states: n
     """The metrics of :func:`analyse_states` without a Dataset (``datasets=False``), bit for bit: propagation
     to arrays (:func:`lnss_lib.propagator.integrate_batch`), the compiled DOP grid and GPS link, and the
     Delta-V of satellite 0 with ``[deltav] model`` alone computed (:func:`lnss_lib.deltav.chosen_budget`). A
-    profile with extra metrics or ``[deltav] satellites = "all"`` (which read the propagation Dataset) takes
+    profile with extra metrics other than the metre ones (which this path computes in the DOP grid's pass) or
+    ``[deltav] satellites = "all"`` (which read the propagation Dataset) takes
     :func:`analyse_states`. ImpactError as there.
 
     ``stop_bounds`` ``(metric, kind, limit)``: a design that breaks one (:func:`violated_bound`) stops at the first
@@ -295,10 +298,11 @@ def _design_deltav(settings: DeltaVSettings, dynamics: Dynamics, ds: xr.Dataset,
     return out
 
 
-def _operational_metrics(context: EvaluationContext, ds: xr.Dataset, states: np.ndarray, dv_budget: dict) -> dict:
-    """The requested extra metrics (``context.extra_metrics``); NaN for an estimate the arc cannot give."""
+def _operational_metrics(context: EvaluationContext, ds: xr.Dataset, states: np.ndarray, computed: dict) -> dict:
+    """The requested extra metrics (``context.extra_metrics``), those already ``computed`` (the Delta-V budget's
+    maxima, the metre metrics) taken from there; NaN for an estimate the arc cannot give."""
     profile, wanted = context.settings, context.extra_metrics
-    out = {k: dv_budget[k] for k in wanted if k in dv_budget}
+    out = {k: computed[k] for k in wanted if k in computed}
     want_sk = any(k.startswith("sk_dv_estimate") for k in wanted)
     screen = None
     if any(k.startswith(("stable", "screen")) for k in wanted) or (want_sk and profile.sk_estimate.model == "life"):

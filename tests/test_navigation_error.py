@@ -140,3 +140,22 @@ def test_requirement_availability_spans_0_to_100(geometry, nav):
 def test_bad_settings_are_refused(override, words):
     with pytest.raises(ConfigError, match=words):
         load_settings("ci", overrides=override)
+
+
+def test_the_evaluator_adds_the_metres_without_changing_eq45():
+    """The campaign's path and the notebooks' give the same metre metrics; asking for them leaves every eq. 45
+    metric the same bits."""
+    from lnss_lib.constellation import WalkerDesign
+    from lnss_lib.evaluator import analyse_constellation, context_for, evaluate_constellation
+    from lnss_lib.keys import METRIC_KEYS, NAVIGATION_ERROR_KEYS
+
+    context = context_for(load_settings("ci", overrides={"evaluator": {"extra_metrics": list(NAVIGATION_ERROR_KEYS)}}))
+    elements = WalkerDesign(6143.0, 0.6, 90.0, 51.7, 2, 8).elements_deg()
+    fast = evaluate_constellation(context, elements)
+    full = analyse_constellation(context, elements)["metrics"]
+    plain = evaluate_constellation(context_for(load_settings("ci")), elements)
+    for key in NAVIGATION_ERROR_KEYS:
+        assert fast[key] == pytest.approx(full[key], rel=1e-9), key
+    assert all(fast[key] == plain[key] for key in METRIC_KEYS)
+    assert not set(NAVIGATION_ERROR_KEYS) & set(plain)
+    assert 0.0 < fast["horizontal_error_95_m"] < fast["vertical_error_95_m"]
