@@ -19,7 +19,8 @@ and span differ or were not given, and the comparison table names each cause bes
 rather than tuning. In metres, with every satellite at their 3.86 m UERE and their mask, the node-mean
 horizontal and vertical RMSEs of case A at 5 deg and case C at 5 and 20 deg come back within
 :data:`BHAMIDIPATI_TOLERANCE_PCT` (ours the higher horizontally); case A at 20 deg has fewer fixes in our reading
-(availability below theirs) and case B's figures but its 20 deg vertical one do not agree, because in our reading of its elements a fifth of the samples have no
+(availability below theirs) and case B does not agree (one figure of four within it on the ci profile's two-day
+arc, none on the paper profile's ten days), because in our reading of its elements a fifth of the samples have no
 PDOP < 15 fix (theirs: 100 % availability), so its geometry is not the one they flew; the worst-node values are
 set by near-degenerate samples of grids that differ. Across the nodal cycle the availabilities and visible counts barely move, the
 filtered mean DOPs move where a geometry has near-degenerate windows, and the year-long perilune
