@@ -29,6 +29,7 @@ from dataclasses import dataclass
 from typing import TYPE_CHECKING
 
 import numpy as np
+import xarray as xr
 
 from .constants import SECONDS_PER_HOUR
 from .dop import SurfaceGrid, metrics_and_errors_for_settings
@@ -38,8 +39,8 @@ if TYPE_CHECKING:
     from .settings import BodyConstants, DopSettings, NavigationErrorSettings
 
 __all__ = ["HORIZONTAL_95_PER_SIGMA", "VERTICAL_95_PER_SIGMA", "sise_m", "uere_variance_m2", "station_states",
-           "upload_contact", "ephemeris_age_s", "error_metrics", "PositionErrors",
-           "position_errors"]
+           "upload_contact", "ephemeris_age_s", "errors_95_m", "error_metrics", "PositionErrors",
+           "position_errors", "error_percentiles"]
 
 HORIZONTAL_95_PER_SIGMA = 2.0        # 2drms: between 95.4 % (one dominant axis) and 98.2 % (circular) of fixes
 VERTICAL_95_PER_SIGMA = 1.959964     # two-sided 95 % of a normal error
@@ -105,6 +106,12 @@ def ephemeris_age_s(contact, t_tdb_s) -> tuple[np.ndarray, np.ndarray]:
     return times[None, :] - times[last], ~contact.any(axis=1)
 
 
+def errors_95_m(sigma_h_m, sigma_v_m) -> tuple[np.ndarray, np.ndarray]:
+    """The 95 % errors 2 sigma_H and 1.96 sigma_V of 1-sigma errors, a sample without a fix (NaN) infinite."""
+    return (HORIZONTAL_95_PER_SIGMA * np.where(np.isnan(sigma_h_m), np.inf, sigma_h_m),
+            VERTICAL_95_PER_SIGMA * np.where(np.isnan(sigma_v_m), np.inf, sigma_v_m))
+
+
 def error_metrics(nav: NavigationErrorSettings, sigma_h_m, sigma_v_m, weights, age_s,
                   never_uploaded) -> dict[str, float]:
     """The scalar metre metrics (:data:`lnss_lib.keys.NAVIGATION_ERROR_KEYS`) of (time, point) 1-sigma errors.
@@ -115,8 +122,7 @@ def error_metrics(nav: NavigationErrorSettings, sigma_h_m, sigma_v_m, weights, a
     availability, whose 95 % errors meet ``requirement_horizontal_95_m`` (and ``requirement_vertical_95_m`` unless
     0); ``ephemeris_age_max_h``: the oldest ephemeris; ``satellites_never_uploaded``.
     """
-    h95 = HORIZONTAL_95_PER_SIGMA * np.where(np.isnan(sigma_h_m), np.inf, sigma_h_m)
-    v95 = VERTICAL_95_PER_SIGMA * np.where(np.isnan(sigma_v_m), np.inf, sigma_v_m)
+    h95, v95 = errors_95_m(sigma_h_m, sigma_v_m)
     with np.errstate(invalid="ignore"):
         met = h95 <= nav.requirement_horizontal_95_m
         if nav.requirement_vertical_95_m > 0.0:
@@ -161,3 +167,18 @@ def position_errors(nav: NavigationErrorSettings, dop: DopSettings, grid: Surfac
     stats, sigma_h, sigma_v = metrics_and_errors_for_settings(dop, r_mf_km, grid, uere_variance_m2(nav, age_s),
                                                               nav.lunar_multipath_zenith_m)
     return PositionErrors(sigma_h, sigma_v, age_s, contact, never, stats)
+
+
+def error_percentiles(errors: PositionErrors, grid: SurfaceGrid, t_tdb_s) -> xr.Dataset:
+    """95th percentiles of the 95 % horizontal and vertical errors: maps over the arc (``horizontal_95_map_m``,
+    ``vertical_95_map_m``, (lat, lon)) and time series over the grid (``horizontal_95_series_m``,
+    ``vertical_95_series_m``, (time,)); a sample without a fix counts as infinite, a percentile it decides is NaN."""
+    nlat, nlon = grid.shape
+    out = {}
+    for name, values in zip(("horizontal", "vertical"), errors_95_m(errors.sigma_h_m, errors.sigma_v_m)):
+        maps = np.percentile(values, 95.0, axis=0, method="higher").reshape(nlat, nlon)
+        series = np.percentile(values, 95.0, axis=1, method="higher")
+        out[f"{name}_95_map_m"] = (("lat", "lon"), np.where(np.isfinite(maps), maps, np.nan))
+        out[f"{name}_95_series_m"] = (("time",), np.where(np.isfinite(series), series, np.nan))
+    return xr.Dataset(out, coords={"lat": grid.lat_deg, "lon": grid.lon_deg, "time": np.asarray(t_tdb_s, dtype=float)},
+                      attrs={"definition": "95th percentile of 2 sigma_H (horizontal) and 1.96 sigma_V (vertical)"})

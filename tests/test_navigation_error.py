@@ -159,3 +159,19 @@ def test_the_evaluator_adds_the_metres_without_changing_eq45():
     assert all(fast[key] == plain[key] for key in METRIC_KEYS)
     assert not set(NAVIGATION_ERROR_KEYS) & set(plain)
     assert 0.0 < fast["horizontal_error_95_m"] < fast["vertical_error_95_m"]
+
+
+def test_maps_and_time_series_are_the_percentiles_of_the_samples(geometry, nav):
+    r, grid = geometry
+    _, _, _, sigma_h, sigma_v = _errors(r, grid, navigation_error.uere_variance_m2(nav, np.zeros(r.shape[:2])), 0.1)
+    errors = navigation_error.PositionErrors(sigma_h, sigma_v, np.zeros(r.shape[:2]), np.ones(r.shape[:2], bool),
+                                             np.zeros(r.shape[0], bool), {})
+    ds = navigation_error.error_percentiles(errors, grid, np.arange(r.shape[1]) * 900.0)
+    h95 = np.where(np.isnan(sigma_h), np.inf, 2.0 * sigma_h)
+    point = 7
+    expected = np.percentile(h95[:, point], 95.0, method="higher")
+    got = ds.horizontal_95_map_m.values.reshape(-1)[point]
+    assert got == expected if np.isfinite(expected) else np.isnan(got)
+    assert ds.horizontal_95_series_m.sizes["time"] == r.shape[1] and ds.vertical_95_map_m.shape == grid.shape
+    fixed = np.isfinite(ds.horizontal_95_series_m.values)             # epochs whose 95th percentile has a fix
+    assert fixed.any() and np.all(ds.horizontal_95_series_m.values[fixed] >= 2.0 * np.nanmin(sigma_h[fixed], axis=1))
