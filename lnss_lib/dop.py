@@ -39,8 +39,8 @@ if TYPE_CHECKING:
     from .settings import DopSettings, Dynamics
 
 __all__ = ["LOS_AXES", "WEIGHTINGS", "SurfaceGrid", "surface_grid", "elevation_deg", "dop_kernel",
-           "check_positions", "dop_arrays", "dop_and_error_arrays", "dop_metrics", "array_metrics", "metrics_for_settings",
-           "metrics_and_errors_for_settings", "dop_grid", "dop_summary",
+           "check_positions", "dop_arrays", "dop_and_error_arrays", "dop_metrics", "array_metrics",
+           "metrics_for_settings", "metrics_and_errors_for_settings", "dop_grid", "dop_summary",
            "dop_for_settings", "dop_from_propagation", "summary_for_settings"]
 
 WEIGHTINGS = AREA_WEIGHTINGS

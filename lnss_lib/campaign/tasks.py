@@ -29,7 +29,8 @@ def synthetic_evaluation(settings: Settings, sma_km: float, ecc: float, aop_deg:
     their values, and a "screen" that calls a design unstable when the Lidov-Kozai bound
     ``a (1 - e_max)`` with ``e_max = sqrt(1 - 5/3 cos^2 i)`` (i above 39.2 deg) for a > 8000 km
     falls below the surface; the metre metrics are a 4 m range error times the stand-in HDOP (vertical twice
-    that), the requirement met as often as the PDOP availability, every satellite uploaded hourly. ``stop_bounds``: a design that breaks one comes back not evaluated, as the
+    that), the requirement met as often as the PDOP availability, every satellite uploaded hourly.
+    ``stop_bounds``: a design that breaks one comes back not evaluated, as the
     evaluator's (:func:`~lnss_lib.evaluator.campaign_metrics`).
     """
     start = time.perf_counter()
