@@ -27,7 +27,7 @@ from .constants import (CR_AREA_MASS_MAX_M2_KG, CR_MAX, MOON_HILL_RADIUS_KM, SEC
                         SPACECRAFT_MASS_RANGE_KG, TOLERANCE_FLOOR)
 from .errors import ConfigError
 from .keys import (DELTAV_SATELLITES, DESIGN_KEYS, EXTRA_METRIC_KEYS, INTEGER_DESIGN_KEYS, LIFE_NAVIGATION_KEYS,
-                   METRIC_KEYS, NEEDS_ALL_SATELLITES)
+                   METRIC_KEYS, NAVIGATION_ERROR_KEYS, NEEDS_ALL_SATELLITES)
 
 PACKAGE_DIR = Path(__file__).resolve().parent
 PROJECT_DIR = PACKAGE_DIR.parent
@@ -176,7 +176,7 @@ REFERENCE_PROFILE = "paper"          # its TOML fixes the keys and value types o
 FREE_TABLES = ("gps.launch_dates", "campaign.constraints", "campaign.hypervolume", "campaign.variables")
 PROFILE_TABLE = {"name": "", "description": "", "inherits": "", "also": [""]}
 ALLOW_INFINITE = ("gps.sidelobe_offset_db",)   # -inf = main lobe only
-NON_EMPTY = ("benchmark.epochs_tdb",)          # lists that need at least one entry
+NON_EMPTY = ("benchmark.epochs_tdb", "navigation_error.station_lat_deg")   # lists that need at least one entry
 # Allowed ranges of physical settings: key -> (low, high, low open, high open); None = unbounded.
 # integrator.settings.<any name> is "integrator.settings.*"; campaign.overrides.<section> uses the section's keys.
 POSITIVE, NON_NEGATIVE = (0.0, None, True, False), (0.0, None, False, False)
@@ -225,6 +225,13 @@ RANGES = {
     "design_life.samples_per_orbit": (16, None, False, False), "design_life.min_maneuver_spacing_days": NON_NEGATIVE,
     "design_life.dv_cap_kms_per_year": NON_NEGATIVE, "design_life.box_tolerance": NON_NEGATIVE,
     "benchmark.extra_masks_deg": (0.0, 90.0, False, True),      # each entry of the list
+    "navigation_error.sise_at_upload_m": NON_NEGATIVE, "navigation_error.sise_growth_m": NON_NEGATIVE,
+    "navigation_error.sise_growth_age_h": POSITIVE, "navigation_error.receiver_noise_m": NON_NEGATIVE,
+    "navigation_error.lunar_multipath_zenith_m": NON_NEGATIVE,
+    "navigation_error.station_lat_deg": (-90.0, 90.0, False, False),     # each entry
+    "navigation_error.station_lon_deg": (-360.0, 360.0, False, False),   # each entry
+    "navigation_error.station_mask_deg": (0.0, 90.0, False, True),
+    "navigation_error.requirement_horizontal_95_m": POSITIVE, "navigation_error.requirement_vertical_95_m": NON_NEGATIVE,
     "design_life.slot_coast_days": POSITIVE,
     "design_life.slot_fit_days": POSITIVE, "design_life.slot_quad_days": POSITIVE,
     "design_life.tide_period_days": POSITIVE, "design_life.target_fraction": (0.0, 1.0, False, True),
@@ -275,6 +282,7 @@ STABILITY_METHODS = ("DOP853", "RK45", "Radau", "LSODA", "RK4")
 STABILITY_BODIES = ("EARTH", "SUN")
 SK_ESTIMATE_MODELS = ("arc", "life")             # campaign estimate: the 10-day box slope, or the service controller's life
 CONTROLLERS = ("service", "box")                 # design life: hold the service (design_life.service) or the fixed-element box
+SISE_LAWS = ("constant", "linear", "quadratic")   # signal-in-space error growth with the ephemeris age
 TOLERANCE_SOURCES = ("derived", "fixed")         # service controller: node/slot tolerances from each design's navigation, or as set
 CHOICES = {    # a text setting (or each entry of a list of texts) -> its allowed values
     "integrator.settings.*.method": METHODS, "frames.element_frame": ELEMENT_FRAMES, "frames.moon_fixed": POLE_FRAMES,
@@ -286,7 +294,7 @@ CHOICES = {    # a text setting (or each entry of a list of texts) -> its allowe
     "stability.third_bodies": STABILITY_BODIES, "sk_estimate.element_frame": ELEMENT_FRAMES,
     "sk_estimate.model": SK_ESTIMATE_MODELS,
     "evaluator.extra_metrics": EXTRA_METRIC_KEYS, "design_life.controller": CONTROLLERS,
-    "design_life.service.tolerances": TOLERANCE_SOURCES,
+    "design_life.service.tolerances": TOLERANCE_SOURCES, "navigation_error.sise_law": SISE_LAWS,
     "life_evaluation.validation_frames": ELEMENT_FRAMES,
 }
 
@@ -520,6 +528,14 @@ def _check_across(profile: dict, source) -> None:
     if needs_all and satellites is not None and satellites != "all":
         _fail(f"[evaluator] extra_metrics {needs_all} are maxima over satellites: they need "
               f'[deltav] satellites = "all"; got {satellites!r}', "deltav.satellites", source)
+    lat, lon = _lookup(profile, "navigation_error.station_lat_deg"), _lookup(profile, "navigation_error.station_lon_deg")
+    if lat is not None and lon is not None and len(lat) != len(lon):
+        _fail(f"navigation_error.station_lon_deg has {len(lon)} entries for {len(lat)} station latitudes; allowed: one "
+              "longitude per latitude", "navigation_error.station_lon_deg", source)
+    floor = [_lookup(profile, f"navigation_error.{k}") for k in ("sise_at_upload_m", "receiver_noise_m")]
+    if None not in floor and max(floor) <= 0.0:
+        _fail("navigation_error.sise_at_upload_m and receiver_noise_m are both 0; allowed: a positive range error floor "
+              "(a zero-error range would take infinite weight)", "navigation_error.receiver_noise_m", source)
     for key in BOUND_PAIRS:
         pair = _lookup(profile, key)
         if pair is not None and not (len(pair) == 2 and pair[0] < pair[1]):
@@ -678,9 +694,15 @@ def _check_sampling(profile: dict) -> None:
                           f"epoch.duration_days or shorten epoch.step_s", key="epoch.duration_days")
 
 
-OFF_WHEN_ABSENT = ("front_validation",)
-"""Sections a profile stored before they existed lacks: read as params/paper.toml's (off, ``max_designs = 0``), and left
-out of the profile hash while off, so runs and shipped results from before them keep their hash (issue 20 item 4)."""
+OFF_WHEN_ABSENT = {
+    "front_validation": lambda profile: profile["front_validation"].get("max_designs", 0) == 0,
+    "navigation_error": lambda profile: not set(profile.get("evaluator", {}).get("extra_metrics", ()))
+    & set(NAVIGATION_ERROR_KEYS),
+}
+"""Sections a profile stored before they existed lacks, each with its test of being off: read as params/paper.toml's
+(front validation off, ``max_designs = 0``; the navigation error unused while no metric of
+:data:`~lnss_lib.keys.NAVIGATION_ERROR_KEYS` is asked for), and left out of the profile hash while off, so runs and
+shipped results from before them keep their hash."""
 
 
 def with_absent_sections(profile: dict) -> dict:
@@ -696,8 +718,8 @@ def profile_hash(profile: dict) -> str:
     content = copy.deepcopy(profile)
     content.get("profile", {}).pop("name", None)
     content.get("profile", {}).pop("description", None)
-    for section in OFF_WHEN_ABSENT:
-        if content.get(section, {}).get("max_designs", 0) == 0:
-            content.pop(section, None)
+    for section, off in OFF_WHEN_ABSENT.items():
+        if section in content and off(content):
+            content.pop(section)
     canonical = json.dumps(content, sort_keys=True, separators=(",", ":"))
     return hashlib.sha256(canonical.encode()).hexdigest()[:16]

@@ -39,7 +39,8 @@ if TYPE_CHECKING:
     from .settings import DopSettings, Dynamics
 
 __all__ = ["LOS_AXES", "WEIGHTINGS", "SurfaceGrid", "surface_grid", "elevation_deg", "dop_kernel",
-           "check_positions", "dop_arrays", "dop_metrics", "metrics_for_settings", "dop_grid", "dop_summary",
+           "check_positions", "dop_arrays", "dop_and_error_arrays", "dop_metrics", "array_metrics",
+           "metrics_for_settings", "metrics_and_errors_for_settings", "dop_grid", "dop_summary",
            "dop_for_settings", "dop_from_propagation", "summary_for_settings"]
 
 WEIGHTINGS = AREA_WEIGHTINGS
@@ -214,14 +215,26 @@ def dop_kernel(r_mf_km: np.ndarray, r_grid_km: np.ndarray, up: np.ndarray, eleva
 
 
 @nb.njit(cache=True)
-def _grid_kernel(r, gx, gy, gz, ux, uy, uz, sin_mask, enu, n_visible, pdop, hdop):
+def _vertical_variance(ux, uy, uz, ixx, iyy, izz, ixy, ixz, iyz):
+    """u^T S^-1 u: the variance along the local vertical ``u`` of a position covariance given by its six entries."""
+    return ux * ux * ixx + uy * uy * iyy + uz * uz * izz + 2.0 * (ux * uy * ixy + ux * uz * ixz + uy * uz * iyz)
+
+
+@nb.njit(cache=True)
+def _grid_kernel(r, gx, gy, gz, ux, uy, uz, sin_mask, enu, n_visible, pdop, hdop, var_m2, b2_m2, sigma_h, sigma_v):
     """:func:`dop_kernel`'s arithmetic on ``r`` (time, sat, 3), one epoch at a time: lines of sight and
     visibility (sat, point), the centred normal matrix in two passes weighted by visibility (as
     :func:`lnss_lib.geometry.normal_matrix_entries`) and its inverse
     (:func:`lnss_lib.geometry.block_inverse`); the loops over points are independent and vectorise.
+
+    With a non-empty ``var_m2`` (time, sat) the same lines of sight also build the weighted normal matrix of
+    the position error (:func:`_weighted_normal_sums`), whose inverse is the position covariance (m^2):
+    ``sigma_h`` and ``sigma_v`` (time, point) take its horizontal (local East and North) and vertical 1-sigma
+    (:func:`_horizontal_vertical`). The DOP outputs are the same bits either way.
     """
     ntime, nsat, _ = r.shape
     npt = gx.shape[0]
+    weighted = var_m2.shape[1] > 0
     lx = np.empty((nsat, npt))
     ly = np.empty((nsat, npt))
     lz = np.empty((nsat, npt))
@@ -231,6 +244,9 @@ def _grid_kernel(r, gx, gy, gz, ux, uy, uz, sin_mask, enu, n_visible, pdop, hdop
     my = np.empty(npt)
     mz = np.empty(npt)
     s = np.empty((6, npt))
+    qv = np.empty((nsat, npt))
+    qm = np.empty((4, npt))
+    q = np.empty((6, npt))
     for t in range(ntime):
         count[:] = 0.0
         mx[:] = 0.0
@@ -274,9 +290,14 @@ def _grid_kernel(r, gx, gy, gz, ux, uy, uz, sin_mask, enu, n_visible, pdop, hdop
                 s[3, p] += x * y
                 s[4, p] += x * z
                 s[5, p] += y * z
+        if weighted:
+            _weighted_normal_sums(lx, ly, lz, wv, ux, uy, uz, var_m2[t], b2_m2, qv, qm, q)
         for p in range(npt):
             n = count[p]
             n_visible[t, p] = int(n)
+            if weighted:
+                sigma_h[t, p], sigma_v[t, p] = _horizontal_vertical(n, q[0, p], q[1, p], q[2, p], q[3, p], q[4, p],
+                                                                    q[5, p], ux[p], uy[p], uz[p])
             if n < MIN_VISIBLE:
                 pdop[t, p] = np.nan
                 hdop[t, p] = np.nan
@@ -288,13 +309,68 @@ def _grid_kernel(r, gx, gy, gz, ux, uy, uz, sin_mask, enu, n_visible, pdop, hdop
                 continue
             trace = ixx + iyy + izz
             if enu:
-                vertical = (ux[p] * ux[p] * ixx + uy[p] * uy[p] * iyy + uz[p] * uz[p] * izz
-                            + 2.0 * (ux[p] * uy[p] * ixy + ux[p] * uz[p] * ixz + uy[p] * uz[p] * iyz))
+                vertical = _vertical_variance(ux[p], uy[p], uz[p], ixx, iyy, izz, ixy, ixz, iyz)
                 horizontal = trace - vertical
             else:
                 horizontal = ixx + iyy
             pdop[t, p] = np.sqrt(max(trace, 0.0))
             hdop[t, p] = np.sqrt(max(horizontal, 0.0))
+
+
+@nb.njit(cache=True)
+def _weighted_normal_sums(lx, ly, lz, visible, ux, uy, uz, var_m2, b2_m2, qv, qm, q):
+    """Entries ``q`` (6, point) of the weighted least-squares normal matrix with the clock eliminated,
+    S_w = sum_k q_k (l_k - l_w)(l_k - l_w)^T, l_w = sum_k q_k l_k / sum_k q_k, over the visible satellites:
+    satellite k at a point weighs q_k = 1 / (``var_m2[k]`` + ``b2_m2`` / sin^2(elevation)), its user range
+    error variance (m^2). With every q_k = 1 this is the DOP's S (eq. 5-6). ``qv`` (sat, point) and ``qm``
+    (4, point) are work arrays; the lines of sight ``lx``, ``ly``, ``lz`` and the 0/1 ``visible`` (sat, point)
+    are those of the DOP pass."""
+    nsat, npt = lx.shape
+    qm[:, :] = 0.0
+    for k in range(nsat):
+        lxk, lyk, lzk, wk, qk = lx[k], ly[k], lz[k], visible[k], qv[k]
+        var_k = var_m2[k]
+        for p in range(npt):
+            sin2 = lxk[p] * ux[p] + lyk[p] * uy[p] + lzk[p] * uz[p]
+            sin2 *= sin2
+            qw = wk[p] * sin2 / max(var_k * sin2 + b2_m2, 1e-300)    # 1 / (var + b2 / sin^2), one division
+            qk[p] = qw
+            qm[0, p] += qw
+            qm[1, p] += qw * lxk[p]
+            qm[2, p] += qw * lyk[p]
+            qm[3, p] += qw * lzk[p]
+    for p in range(npt):
+        inv = 1.0 / qm[0, p] if qm[0, p] > 0.0 else 0.0
+        qm[1, p] *= inv
+        qm[2, p] *= inv
+        qm[3, p] *= inv
+    q[:, :] = 0.0
+    for k in range(nsat):
+        lxk, lyk, lzk, qk = lx[k], ly[k], lz[k], qv[k]
+        for p in range(npt):
+            qw = qk[p]
+            x = lxk[p] - qm[1, p]
+            y = lyk[p] - qm[2, p]
+            z = lzk[p] - qm[3, p]
+            q[0, p] += qw * x * x
+            q[1, p] += qw * y * y
+            q[2, p] += qw * z * z
+            q[3, p] += qw * x * y
+            q[4, p] += qw * x * z
+            q[5, p] += qw * y * z
+
+
+@nb.njit(cache=True)
+def _horizontal_vertical(n, sxx, syy, szz, sxy, sxz, syz, ux, uy, uz):
+    """(horizontal, vertical) 1-sigma of S^-1 (S given by its six entries, ``n`` visible satellites) about the
+    local vertical ``u``: NaN with fewer than :data:`MIN_VISIBLE`, +inf when S is singular."""
+    if n < MIN_VISIBLE:
+        return np.nan, np.nan
+    ixx, iyy, izz, ixy, ixz, iyz, ok = block_inverse(sxx, syy, szz, sxy, sxz, syz)
+    if not ok:
+        return np.inf, np.inf
+    vertical = _vertical_variance(ux, uy, uz, ixx, iyy, izz, ixy, ixz, iyz)
+    return np.sqrt(max(ixx + iyy + izz - vertical, 0.0)), np.sqrt(max(vertical, 0.0))
 
 
 def dop_arrays(r_mf_km, r_grid_km, up, elevation_mask_deg: float = 5.0,
@@ -304,6 +380,21 @@ def dop_arrays(r_mf_km, r_grid_km, up, elevation_mask_deg: float = 5.0,
     Same conventions and inputs as :func:`dop_kernel`; the results agree with it to rounding (the
     visible lines of sight are summed in the same order; ``tests/test_dop.py`` checks the agreement).
     """
+    return dop_and_error_arrays(r_mf_km, r_grid_km, up, elevation_mask_deg, los_axes)[:3]
+
+
+def dop_and_error_arrays(r_mf_km, r_grid_km, up, elevation_mask_deg: float = 5.0, los_axes: str = "moon_fixed",
+                         uere_var_m2=None, multipath_zenith_m: float = 0.0) -> tuple[np.ndarray, ...]:
+    """(n_visible, pdop, hdop, sigma_h_m, sigma_v_m), each (time, npoint), from one compiled pass.
+
+    The first three are :func:`dop_arrays`'s. With ``uere_var_m2`` (sat, time), each satellite's user range
+    error variance (m^2) apart from the lunar-surface multipath, the weighted least-squares position error
+    of the same fix: satellite k weighs 1 / sigma_k^2, sigma_k^2 = ``uere_var_m2`` + (``multipath_zenith_m`` /
+    sin(elevation))^2, and ``sigma_h_m`` / ``sigma_v_m`` are the horizontal (local East and North) and
+    vertical 1-sigma of the covariance (sum_k g_k g_k^T / sigma_k^2)^-1 (NaN with fewer than 4 visible, +inf
+    for a singular geometry). With every sigma_k equal to sigma they are sigma x HDOP and sigma x VDOP in
+    East-North-Up axes. Without ``uere_var_m2`` the last two are None.
+    """
     if los_axes not in LOS_AXES:
         raise ValueError(f"unknown line-of-sight axes {los_axes!r}; allowed: {', '.join(LOS_AXES)}")
     if not np.isfinite(elevation_mask_deg) or not -90.0 <= elevation_mask_deg < 90.0:
@@ -312,16 +403,30 @@ def dop_arrays(r_mf_km, r_grid_km, up, elevation_mask_deg: float = 5.0,
     r = np.ascontiguousarray(np.where(np.isfinite(r).all(axis=-1, keepdims=True), r, 0.0).transpose(1, 0, 2))
     g = np.asarray(r_grid_km, dtype=float).reshape(-1, 3)
     u = np.asarray(up, dtype=float).reshape(-1, 3)
-    ntime, npt = r.shape[0], g.shape[0]
+    ntime, nsat, npt = r.shape[0], r.shape[1], g.shape[0]
+    if uere_var_m2 is None:
+        var = np.empty((ntime, 0))
+    else:
+        var = np.ascontiguousarray(np.asarray(uere_var_m2, dtype=float).T)
+        if var.shape != (ntime, nsat) or not np.all(var > 0.0) or not np.all(np.isfinite(var)):
+            raise ValueError(f"uere_var_m2 must be positive and finite with shape (sat, time) = ({nsat}, {ntime}); "
+                             f"got shape {var.T.shape}")
+    if not np.isfinite(multipath_zenith_m) or multipath_zenith_m < 0.0:
+        raise ValueError(f"multipath_zenith_m must be a finite number >= 0 (m); got {multipath_zenith_m!r}")
     n_visible = np.full((ntime, npt), -1, dtype=np.int16)      # -1: not computed (checked after the kernel)
     pdop = np.full((ntime, npt), np.nan)
     hdop = np.full((ntime, npt), np.nan)
+    sigma_h = np.full((ntime, npt if var.shape[1] else 0), np.nan)
+    sigma_v = np.full_like(sigma_h, np.nan)
     _grid_kernel(r, *(np.ascontiguousarray(g[:, k]) for k in range(3)), *(np.ascontiguousarray(u[:, k]) for k in range(3)),
-                 float(np.sin(np.radians(elevation_mask_deg))), los_axes == "enu", n_visible, pdop, hdop)
+                 float(np.sin(np.radians(elevation_mask_deg))), los_axes == "enu", n_visible, pdop, hdop,
+                 var, float(multipath_zenith_m) ** 2, sigma_h, sigma_v)
     if np.any(n_visible < 0):
         raise RuntimeError(f"the DOP grid kernel left {int(np.sum(n_visible < 0))} of {n_visible.size} "
                            "(epoch, point) samples not computed")
-    return n_visible, pdop, hdop
+    if uere_var_m2 is None:
+        return n_visible, pdop, hdop, None, None
+    return n_visible, pdop, hdop, sigma_h, sigma_v
 
 
 def dop_metrics(r_mf_km, grid: SurfaceGrid, *, elevation_mask_deg: float = 5.0, los_axes: str = "moon_fixed",
@@ -333,6 +438,11 @@ def dop_metrics(r_mf_km, grid: SurfaceGrid, *, elevation_mask_deg: float = 5.0, 
     """
     n_visible, pdop, hdop = dop_arrays(r_mf_km, grid.r_mf_km, grid.up, elevation_mask_deg, los_axes)
     w = grid.weight.reshape(-1) if weighted else np.ones(grid.n_points)
+    return array_metrics(n_visible, pdop, hdop, w, threshold, n_sigma)
+
+
+def array_metrics(n_visible, pdop, hdop, w, threshold: float, n_sigma: float) -> dict[str, float]:
+    """:func:`dop_metrics` of the grid pass's (time, point) arrays with sample weights ``w`` (point,)."""
     w_total = float(np.sum(w)) * pdop.shape[0]
     p_mean, p_kept, p_raw, p_avail = weighted_dop_stats(pdop, w, float(n_sigma), float(threshold))
     h_mean, h_kept, h_raw, h_avail = weighted_dop_stats(hdop, w, float(n_sigma), float(threshold))
@@ -358,6 +468,17 @@ def metrics_for_settings(dop: DopSettings, r_mf_km, grid: SurfaceGrid) -> dict[s
     """:func:`dop_metrics` on ``grid`` with the mask, LOS axes, threshold and filter width of ``[dop]``."""
     return dop_metrics(r_mf_km, grid, elevation_mask_deg=dop.elevation_mask_deg, los_axes=dop.los_axes,
                        threshold=dop.availability_threshold, n_sigma=dop.filter_sigma)
+
+
+def metrics_and_errors_for_settings(dop: DopSettings, r_mf_km, grid: SurfaceGrid, uere_var_m2,
+                                    multipath_zenith_m: float) -> tuple[dict[str, float], np.ndarray, np.ndarray]:
+    """(:func:`metrics_for_settings`, sigma_h_m, sigma_v_m): the DOP metrics (the same bits) and the weighted
+    position errors (time, point) of :func:`dop_and_error_arrays`, from one compiled pass."""
+    n_visible, pdop, hdop, sigma_h, sigma_v = dop_and_error_arrays(r_mf_km, grid.r_mf_km, grid.up,
+                                                                   dop.elevation_mask_deg, dop.los_axes, uere_var_m2,
+                                                                   multipath_zenith_m)
+    stats = array_metrics(n_visible, pdop, hdop, grid.weight.reshape(-1), dop.availability_threshold, dop.filter_sigma)
+    return stats, sigma_h, sigma_v
 
 
 def dop_grid(r_mf_km, grid: SurfaceGrid, *, t_tdb_s=None, elevation_mask_deg: float = 5.0,

@@ -13,9 +13,12 @@ A profile may ask for the operational metrics of :data:`~lnss_lib.keys.EXTRA_MET
 every satellite (``[sk_estimate] model``: the 10-day box slope of :mod:`lnss_lib.design_life.estimate` from the
 same arc, or the service controller's life of :mod:`lnss_lib.design_life.life_estimate`, which shares the screen),
 the design-life stability screen (:mod:`lnss_lib.design_life.screen`, from the initial states; ``stable_screen`` 1.0
-or 0.0), the eq. 45 Delta-V's maximum over satellites, and the south-pole PDOP/HDOP availability over the life (mean
+or 0.0), the eq. 45 Delta-V's maximum over satellites, the south-pole PDOP/HDOP availability over the life (mean
 and worst month) of the life estimate's constellation rebuilt from its averaged elements, restores included
-(:data:`~lnss_lib.keys.LIFE_NAVIGATION_KEYS`: what the 10-day figures cannot see, an apolune drifting off the pole). Only the requested ones are computed and returned.
+(:data:`~lnss_lib.keys.LIFE_NAVIGATION_KEYS`: what the 10-day figures cannot see, an apolune drifting off the pole),
+and the user's position error in metres (:mod:`lnss_lib.navigation_error`: uploads and ephemeris ages, then the
+weighted least-squares errors from the DOP grid's own compiled pass, which then also gives the DOP metrics). Only the
+requested ones are computed and returned.
 """
 
 from __future__ import annotations
@@ -28,7 +31,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 import xarray as xr
 
-from . import deltav, dop, gps
+from . import deltav, dop, gps, navigation_error
 from .design_life import life_estimate
 from .design_life import screen as stability
 from .constellation import WalkerDesign
@@ -38,7 +41,8 @@ from .elements import vis_viva_sma_km
 from .forces import ForceModel
 from .frames import rotate_with
 from .errors import ConfigError, ImpactError, InfeasibleDesignError
-from .keys import LIFE_NAVIGATION_KEYS, METRIC_KEYS, TIMING_KEYS, requested_extra_metrics, violated_bound
+from .keys import (LIFE_NAVIGATION_KEYS, METRIC_KEYS, NAVIGATION_ERROR_KEYS, TIMING_KEYS, requested_extra_metrics,
+                   violated_bound)
 from .propagator import check_elements_deg, elements_deg_to_states, integrate_batch, output_times, propagate_states
 
 if TYPE_CHECKING:
@@ -59,6 +63,8 @@ class EvaluationContext:
     grid: dop.SurfaceGrid
     gps_states: xr.Dataset
     extra_metrics: tuple[str, ...] = ()
+    stations: tuple[np.ndarray, np.ndarray] | None = None   # upload stations when a metre metric is asked for
+
 
     dynamics: Dynamics = field(init=False, repr=False)        # the sections each design reads, taken once
     dop: DopSettings = field(init=False, repr=False)
@@ -81,8 +87,19 @@ class EvaluationContext:
         model = ForceModel.build(profile.dynamics, table)
         rot = rotation("J2000", settings.frames.moon_fixed, times)
         grid = dop.SurfaceGrid.from_settings(settings.dop, settings.constants.r_moon_mean_km)
+        extras = requested_extra_metrics(settings.evaluator)
+        stations = (navigation_error.station_states(settings.navigation_error, settings.constants, times)
+                    if set(extras) & set(NAVIGATION_ERROR_KEYS) else None)
         return cls(settings, t0, times, model, rot, grid, gps.gps_states_mci(settings.gps, epoch.start_tdb, times),
-                   requested_extra_metrics(settings.evaluator))
+                   extras, stations)
+
+    def position_errors(self, r_mci_km: np.ndarray, r_mf_km: np.ndarray) -> navigation_error.PositionErrors:
+        """:func:`lnss_lib.navigation_error.position_errors` of positions (sat, time, 3) on this context's arc and grid
+        (the upload stations built here if the profile asks for no metre metric)."""
+        stations = self.stations or navigation_error.station_states(self.settings.navigation_error,
+                                                                    self.settings.constants, self.times)
+        return navigation_error.position_errors(self.settings.navigation_error, self.dop, self.grid, r_mf_km, r_mci_km,
+                                                self.times, stations, self.dynamics.constants.r_moon_mean_km)
 
 
 _CONTEXTS: dict[str, EvaluationContext] = {}
@@ -128,11 +145,16 @@ def analyse_states(context: EvaluationContext, elements: np.ndarray, states: np.
     ds["elements_deg"] = (("sat", "element"), elements)
     laps.lap("propagation")
     r_mf = rotate_with(context.rot_to_moon_fixed, ds.r_mci_km.values)
+    metres = {}
     if datasets:
         grid_ds = dop.dop_for_settings(context.dop, r_mf, times, context.grid)
         dop_stats = dop.summary_for_settings(context.dop, grid_ds)
+        if context.stations is not None:
+            metres = context.position_errors(ds.r_mci_km.values, r_mf).metrics(context.settings.navigation_error,
+                                                                                 context.grid)
     else:
-        grid_ds, dop_stats = None, dop.metrics_for_settings(context.dop, r_mf, context.grid)
+        grid_ds = None
+        dop_stats, metres = _navigation(context, ds.r_mci_km.values, r_mf)
     laps.lap("dop")
     dv = deltav.deltav_from_propagation(context.deltav, context.dynamics, ds, sat=0)
     dv_budget = _design_deltav(context.deltav, context.dynamics, ds, dv)
@@ -144,7 +166,7 @@ def analyse_states(context: EvaluationContext, elements: np.ndarray, states: np.
         link, link_stats = None, gps.gps_link_metrics(context.gps, context.dynamics.constants, context.gps_states,
                                                       ds["r_mci_km"].values)
     laps.lap("gps")
-    extras = _operational_metrics(context, ds, states, dv_budget)
+    extras = _operational_metrics(context, ds, states, {**dv_budget, **metres})
     laps.lap("operational")
     metrics = _metrics(elements.shape[0], dop_stats, dv_budget, link_stats, dv.attrs["deltav_model"], extras, laps)
     return {"propagation": ds, "dop": grid_ds, "deltav": dv, "gps_link": link, "metrics": metrics}
@@ -209,7 +231,8 @@ def campaign_metrics(context: EvaluationContext, elements: np.ndarray, states: n
     """The metrics of :func:`analyse_states` without a Dataset (``datasets=False``), bit for bit: propagation
     to arrays (:func:`lnss_lib.propagator.integrate_batch`), the compiled DOP grid and GPS link, and the
     Delta-V of satellite 0 with ``[deltav] model`` alone computed (:func:`lnss_lib.deltav.chosen_budget`). A
-    profile with extra metrics or ``[deltav] satellites = "all"`` (which read the propagation Dataset) takes
+    profile with extra metrics other than the metre ones (which this path computes in the DOP grid's pass) or
+    ``[deltav] satellites = "all"`` (which read the propagation Dataset) takes
     :func:`analyse_states`. ImpactError as there.
 
     ``stop_bounds`` ``(metric, kind, limit)``: a design that breaks one (:func:`violated_bound`) stops at the first
@@ -217,7 +240,7 @@ def campaign_metrics(context: EvaluationContext, elements: np.ndarray, states: n
     count before anything, then satellite 0 propagated first (each satellite is integrated on its own, so its states are the same bits) for the Delta-V,
     then the others for the DOP, then the GPS link (an impact of a later satellite is not looked for).
     """
-    if context.extra_metrics or context.deltav.satellites != "first":
+    if set(context.extra_metrics) - set(NAVIGATION_ERROR_KEYS) or context.deltav.satellites != "first":
         return analyse_states(context, elements, states, datasets=False)["metrics"]
     laps = Laps()
     times = context.times
@@ -243,16 +266,26 @@ def campaign_metrics(context: EvaluationContext, elements: np.ndarray, states: n
     _raise_first_impact(context, impact, t_stop)
     r_mci = out[:, :, :3]
     laps.lap("propagation")
-    dop_stats = dop.metrics_for_settings(context.dop, rotate_with(context.rot_to_moon_fixed, r_mci), context.grid)
+    dop_stats, metres = _navigation(context, r_mci, rotate_with(context.rot_to_moon_fixed, r_mci))
     laps.lap("dop")
     if dv_budget is None:
         dv_budget = deltav.chosen_budget(context.deltav, context.dynamics, times, out[0])
         laps.lap("deltav")
-    elif (broken := violated_bound(dop_stats, stop_bounds)):
-        return _stopped(elements, broken, model, laps, {**dop_stats, **dv_budget})
+    elif (broken := violated_bound({**dop_stats, **metres}, stop_bounds)):
+        return _stopped(elements, broken, model, laps, {**dop_stats, **metres, **dv_budget})
     link_stats = gps.gps_link_metrics(context.gps, context.dynamics.constants, context.gps_states, r_mci)
     laps.lap("gps")
-    return _metrics(elements.shape[0], dop_stats, dv_budget, link_stats, model, {}, laps)
+    return _metrics(elements.shape[0], dop_stats, dv_budget, link_stats, model, metres, laps)
+
+
+def _navigation(context: EvaluationContext, r_mci_km: np.ndarray, r_mf_km: np.ndarray) -> tuple[dict, dict]:
+    """(DOP metrics, requested metre metrics) of positions (sat, time, 3) from the compiled grid pass; the metre
+    metrics (:data:`~lnss_lib.keys.NAVIGATION_ERROR_KEYS`) come from the same pass when the profile asks for one."""
+    if context.stations is None:
+        return dop.metrics_for_settings(context.dop, r_mf_km, context.grid), {}
+    errors = context.position_errors(r_mci_km, r_mf_km)
+    metres = errors.metrics(context.settings.navigation_error, context.grid)
+    return errors.dop_stats, {k: metres[k] for k in context.extra_metrics if k in metres}
 
 
 def _design_deltav(settings: DeltaVSettings, dynamics: Dynamics, ds: xr.Dataset, dv_first: xr.Dataset) -> dict:
@@ -269,10 +302,11 @@ def _design_deltav(settings: DeltaVSettings, dynamics: Dynamics, ds: xr.Dataset,
     return out
 
 
-def _operational_metrics(context: EvaluationContext, ds: xr.Dataset, states: np.ndarray, dv_budget: dict) -> dict:
-    """The requested extra metrics (``context.extra_metrics``); NaN for an estimate the arc cannot give."""
+def _operational_metrics(context: EvaluationContext, ds: xr.Dataset, states: np.ndarray, computed: dict) -> dict:
+    """The requested extra metrics (``context.extra_metrics``), those already ``computed`` (the Delta-V budget's
+    maxima, the metre metrics) taken from there; NaN for an estimate the arc cannot give."""
     profile, wanted = context.settings, context.extra_metrics
-    out = {k: dv_budget[k] for k in wanted if k in dv_budget}
+    out = {k: computed[k] for k in wanted if k in computed}
     want_nav = any(k in LIFE_NAVIGATION_KEYS for k in wanted)
     want_sk = want_nav or any(k.startswith("sk_dv_estimate") for k in wanted)
     screen = None
@@ -291,7 +325,8 @@ def _operational_metrics(context: EvaluationContext, ds: xr.Dataset, states: np.
         else:
             estimate = dict.fromkeys(("sk_dv_estimate_kms_per_year", "sk_dv_estimate_max_kms_per_year",
                                       *LIFE_NAVIGATION_KEYS), math.nan)
-        out.update({k: float(estimate[k]) for k in wanted if k.startswith("sk_dv_estimate") or k in LIFE_NAVIGATION_KEYS})
+        out.update({k: float(estimate[k]) for k in wanted
+                    if k.startswith("sk_dv_estimate") or k in LIFE_NAVIGATION_KEYS})
     if screen is not None:
         values = {"stable_screen": 1.0 if screen.attrs["stable"] else 0.0,
                   "screen_min_perilune_alt_km": float(screen.attrs["min_perilune_alt_km"])}

@@ -3,8 +3,8 @@
 from __future__ import annotations
 
 __all__ = ["DESIGN_KEYS", "INTEGER_DESIGN_KEYS", "ELEMENT_KEYS", "METRIC_KEYS", "LIFE_NAVIGATION_KEYS",
-           "EXTRA_METRIC_KEYS",
-           "CAMPAIGN_METRIC_KEYS", "RESULT_KEYS", "VERDICT_KEYS", "TIMING_KEYS", "DELTAV_SATELLITES",
+           "NAVIGATION_ERROR_KEYS", "EXTRA_METRIC_KEYS", "CAMPAIGN_METRIC_KEYS", "RESULT_KEYS", "VERDICT_KEYS",
+           "TIMING_KEYS", "DELTAV_SATELLITES",
            "NEEDS_ALL_SATELLITES", "CLOSED_LOOP_DV_BY_PURPOSE", "closed_loop_dv_key",
            "requested_extra_metrics", "NON_NAVIGATION_METRICS", "LABELS", "label", "bound_text", "value_format",
            "format_value", "violated_bound"]
@@ -23,9 +23,14 @@ METRIC_KEYS = ("n_sat", "mean_visible_sats", "pdop_mean_3sigma", "pdop_avail_pct
 # PDOP and HDOP availability, mean over the life and worst month
 LIFE_NAVIGATION_KEYS = ("pdop_avail_pct_life_estimate", "pdop_avail_pct_worst_month_estimate",
                         "hdop_avail_pct_life_estimate", "hdop_avail_pct_worst_month_estimate")
+# the user's position error in metres ([navigation_error], lnss_lib/navigation_error.py): 95th percentiles over the
+# grid-epoch samples of the horizontal (2 sigma_H) and vertical (1.96 sigma_V) 95 % errors, availability of the
+# profile's position-error requirement, the oldest broadcast ephemeris and the satellites no station ever uploads
+NAVIGATION_ERROR_KEYS = ("horizontal_error_95_m", "vertical_error_95_m", "position_error_avail_pct",
+                         "ephemeris_age_max_h", "satellites_never_uploaded")
 EXTRA_METRIC_KEYS = ("sk_dv_estimate_kms_per_year", "sk_dv_estimate_max_kms_per_year", "stable_screen",
                      "screen_min_perilune_alt_km", "dv_total_max_kms_per_year", "dv_opt_max_kms_per_year",
-                     *LIFE_NAVIGATION_KEYS)
+                     *LIFE_NAVIGATION_KEYS, *NAVIGATION_ERROR_KEYS)
 CAMPAIGN_METRIC_KEYS = METRIC_KEYS + EXTRA_METRIC_KEYS   # what a campaign journal record holds
 # "evaluated": the design was evaluated (no impact, a closed orbit); whether it meets Table 3's bounds is VERDICT_KEYS
 RESULT_KEYS = METRIC_KEYS + ("deltav_model", "evaluated", "reason", "wall_s")
@@ -52,6 +57,10 @@ LABELS = {                  # key -> human label with its unit: figures, tables,
     "stable_screen": "stable over the life (screen)", "screen_min_perilune_alt_km": "lowest perilune over the life (km)",
     "dv_total_max_kms_per_year": "Delta-V total, worst satellite (km/s/yr)",
     "dv_opt_max_kms_per_year": "Delta-V optimised, worst satellite (km/s/yr)", "deltav_model": "Delta-V model",
+    "horizontal_error_95_m": "horizontal 95 % error, 95th percentile (m)",
+    "vertical_error_95_m": "vertical 95 % error, 95th percentile (m)",
+    "position_error_avail_pct": "position-error requirement availability (%)",
+    "ephemeris_age_max_h": "oldest broadcast ephemeris (h)", "satellites_never_uploaded": "satellites never uploaded",
     "wall_s": "wall time (s)", "evaluated": "evaluated (closed orbit, no impact)", "reason": "reason not evaluated",
     "meets_bounds": "meets every Table 3 bound", "violated_bounds": "Table 3 bounds violated",
     "element_frame": "element frame", "epoch_used": "epoch (TDB)", "epoch_source": "epoch from",
@@ -98,7 +107,7 @@ def _unmasked(key: str) -> tuple[str, str]:
     return (base, mask[:-3]) if base and mask.endswith("deg") and mask[:-3].isdigit() else (key, "")
 
 
-UNITS = ("km", "deg", "%", "km/s/yr", "s")        # the units a label ends with, in parentheses
+UNITS = ("km", "deg", "%", "km/s/yr", "s", "m", "h")        # the units a label ends with, in parentheses
 
 
 def bound_text(key: str, kind: str, limit: float) -> str:
@@ -122,6 +131,8 @@ def value_format(key: str) -> str:
         return ".2f"
     if key.endswith("_km"):
         return ".0f"
+    if key.endswith(("_m", "_h")):
+        return ".1f"
     if key in ("mean_visible_sats", "gps_visible_mean"):
         return ".2f"
     if key.endswith(("_pct", "_deg")):

@@ -301,6 +301,23 @@ class EvaluatorSettings:
 
 
 @dataclass(frozen=True)
+class NavigationErrorSettings:
+    """The user range error budget (signal in space by ephemeris age, receiver, lunar-surface multipath), the upload
+    stations on the Earth and the position-error requirement (:mod:`lnss_lib.navigation_error`)."""
+    sise_law: str                                    # config.SISE_LAWS
+    sise_at_upload_m: float
+    sise_growth_m: float
+    sise_growth_age_h: float
+    receiver_noise_m: float
+    lunar_multipath_zenith_m: float
+    station_lat_deg: tuple[float, ...]
+    station_lon_deg: tuple[float, ...]
+    station_mask_deg: float
+    requirement_horizontal_95_m: float
+    requirement_vertical_95_m: float                 # 0: no vertical requirement
+
+
+@dataclass(frozen=True)
 class VariableBounds:
     """A design variable's grid (eq. 43-44): lower and upper bound and step."""
     lower: int | float
@@ -497,6 +514,7 @@ class Settings:
     dop: DopSettings
     gps: GpsSettings
     deltav: DeltaVSettings
+    navigation_error: NavigationErrorSettings
     evaluator: EvaluatorSettings
     campaign: CampaignSettings
     stability: StabilitySettings

@@ -1,11 +1,13 @@
 """``python -m lnss_lib bench evaluate``: design evaluations at the profile's fidelity, after warm-up, today's
-path and the issue-12 path side by side.
+path, the issue-12 path and today's path with the user's position error in metres side by side.
 
 Old path: every gravity degree at every step, the DOP grid and GPS link through their Datasets
 (:func:`~lnss_lib.evaluator.analyse_constellation`). New path: the campaign's
 (:func:`~lnss_lib.evaluator.evaluate_constellation`): gravity degrees bounded below
-``gravity.truncation_kms2`` dropped, DOP and GPS link in compiled passes. One numba thread, as in a
-campaign worker; the two paths alternate design by design so machine load hits both alike.
+``gravity.truncation_kms2`` dropped, DOP and GPS link in compiled passes. Metres: the new path with every
+metric of :data:`~lnss_lib.keys.NAVIGATION_ERROR_KEYS` added to the profile's extra metrics (uploads, ephemeris
+ages and the weighted position error in the DOP grid's pass). One numba thread, as in a campaign worker; the
+paths alternate design by design so machine load hits them alike.
 """
 
 from __future__ import annotations
@@ -19,6 +21,7 @@ from ..settings import load_settings
 from ..constellation import WalkerDesign
 from ..evaluator import EvaluationContext, analyse_constellation, evaluate_constellation
 from ..errors import ImpactError
+from ..keys import METRIC_KEYS, NAVIGATION_ERROR_KEYS
 from ..paper import EVALUATIONS
 from ..campaign import CampaignPlan
 
@@ -49,7 +52,9 @@ def run(profile_name: str = "paper", n_designs: int = 12, repeats: int = 2, over
     start = time.perf_counter()
     new_ctx = EvaluationContext.build(profile)
     old_ctx = EvaluationContext.build(full)
-    print(f"contexts (tables, force model, rotations, grid, GPS states), both: {time.perf_counter() - start:.2f} s")
+    extras = list(dict.fromkeys(profile.evaluator.extra_metrics + NAVIGATION_ERROR_KEYS))
+    metres_ctx = EvaluationContext.build(profile.with_overrides({"evaluator": {"extra_metrics": extras}}))
+    print(f"contexts (tables, force model, rotations, grid, GPS states), all three: {time.perf_counter() - start:.2f} s")
 
     def old(elements):
         return analyse_constellation(old_ctx, elements)["metrics"]
@@ -57,17 +62,22 @@ def run(profile_name: str = "paper", n_designs: int = 12, repeats: int = 2, over
     def new(elements):
         return evaluate_constellation(new_ctx, elements)
 
+    def metres(elements):
+        return evaluate_constellation(metres_ctx, elements)
+
+    paths = {"old": old, "new": new, "metres": metres}
+
     designs = _designs(CampaignPlan.of(profile), n_designs)
     start = time.perf_counter()
-    old(designs[0].elements_deg())
-    new(designs[0].elements_deg())
+    for func in paths.values():
+        func(designs[0].elements_deg())
     print(f"first evaluations (JIT compile or cache load): {time.perf_counter() - start:.2f} s")
     rows = []
     for design in designs:
         elements = design.elements_deg()
-        best = {"old": None, "new": None}
+        best = dict.fromkeys(paths)
         for _ in range(repeats):
-            for name, func in (("old", old), ("new", new)):
+            for name, func in paths.items():
                 try:
                     result = func(elements)
                 except ImpactError:
@@ -77,24 +87,25 @@ def run(profile_name: str = "paper", n_designs: int = 12, repeats: int = 2, over
                     continue
                 if best[name] is None or best[name] == "infeasible" or result["wall_s"] < best[name]["wall_s"]:
                     best[name] = result
-        if isinstance(best["old"], dict) and isinstance(best["new"], dict):
-            rows.append((design, best["old"], best["new"]))
+        if all(isinstance(result, dict) for result in best.values()):
+            rows.append((design, best["old"], best["new"], best["metres"]))
     print(f"{profile.epoch.duration_days:.0f} days, degree {profile.gravity.degree}, integrator "
-          f"{profile.integrator.setting}, 1 thread; min of {repeats} alternating runs, seconds (old -> new):")
-    for design, o, n in rows:
+          f"{profile.integrator.setting}, 1 thread; min of {repeats} alternating runs, seconds (old -> new | with metres):")
+    for design, o, n, m in rows:
         diff = max(abs(n[k] - o[k]) / max(abs(o[k]), 1e-300) for k in ("pdop_mean_3sigma", "hdop_mean_3sigma",
                                                                        "pdop_avail_pct", "dv_total_kms_per_year",
                                                                        "gps_visible_mean") if o[k] == o[k])
+        same = all(m[k] == n[k] or m[k] != m[k] and n[k] != n[k] for k in METRIC_KEYS)
         print(f"  a {design.sma_km:7.0f} e {design.ecc:4.2f} i {design.inc_deg:4.0f} w {design.aop_deg:5.0f} "
-              f"{design.n_planes}x{design.sats_per_plane}: {o['wall_s']:.3f} -> {n['wall_s']:.3f} ("
-              + ", ".join(f"{k} {o['timing_s'][k]:.3f}->{n['timing_s'][k]:.3f}" for k in PARTS)
-              + f"); metrics max rel diff {diff:.1e}")
-    old_mean = float(np.mean([o["wall_s"] for _, o, _ in rows]))
-    new_mean = float(np.mean([n["wall_s"] for _, _, n in rows]))
-    shares = {k: (np.mean([o["timing_s"][k] for _, o, _ in rows]), np.mean([n["timing_s"][k] for _, _, n in rows]))
-              for k in PARTS}
+              f"{design.n_planes}x{design.sats_per_plane}: {o['wall_s']:.3f} -> {n['wall_s']:.3f} | {m['wall_s']:.3f} ("
+              + ", ".join(f"{k} {o['timing_s'][k]:.3f}->{n['timing_s'][k]:.3f}|{m['timing_s'][k]:.3f}" for k in PARTS)
+              + f"); metrics max rel diff {diff:.1e}; eq. 45 metrics with metres {'the same' if same else 'DIFFER'}")
+    old_mean, new_mean, metres_mean = (float(np.mean([row[i]["wall_s"] for row in rows])) for i in (1, 2, 3))
+    shares = {k: [np.mean([row[i]["timing_s"][k] for row in rows]) for i in (1, 2, 3)] for k in PARTS}
     print(f"  mean over {len(rows)} designs: {old_mean:.3f} s -> {new_mean:.3f} s ({old_mean / new_mean:.2f}x); "
-          + ", ".join(f"{k} {a:.3f}->{b:.3f}" for k, (a, b) in shares.items()))
+          + ", ".join(f"{k} {a:.3f}->{b:.3f}" for k, (a, b, _) in shares.items()))
+    print(f"  the metres add {100.0 * (metres_mean / new_mean - 1.0):+.1f} % ({new_mean:.3f} s -> {metres_mean:.3f} s; "
+          f"DOP grid pass {shares['dop'][1]:.3f} -> {shares['dop'][2]:.3f} s)")
     print(f"  evaluation time alone for {EVALUATIONS} designs on 2 workers: {EVALUATIONS * old_mean / 2 / 3600:.1f} h -> "
           f"{EVALUATIONS * new_mean / 2 / 3600:.1f} h (add the campaign's overhead from `bench campaign`)")
-    return {"old_mean_s": old_mean, "new_mean_s": new_mean, "rows": len(rows)}
+    return {"old_mean_s": old_mean, "new_mean_s": new_mean, "metres_mean_s": metres_mean, "rows": len(rows)}

@@ -29,7 +29,9 @@ def synthetic_evaluation(settings: Settings, sma_km: float, ecc: float, aop_deg:
     their values, and a "screen" that calls a design unstable when the Lidov-Kozai bound
     ``a (1 - e_max)`` with ``e_max = sqrt(1 - 5/3 cos^2 i)`` (i above 39.2 deg) for a > 8000 km
     falls below the surface; availabilities over the life that fall with that Delta-V (the worst month
-    more than the life's mean). ``stop_bounds``: a design that breaks one comes back not evaluated, as the
+    more than the life's mean); the metre metrics are a 4 m range error times the stand-in HDOP (vertical twice
+    that), the requirement met as often as the PDOP availability, every satellite uploaded hourly.
+    ``stop_bounds``: a design that breaks one comes back not evaluated, as the
     evaluator's (:func:`~lnss_lib.evaluator.campaign_metrics`).
     """
     start = time.perf_counter()
@@ -55,7 +57,7 @@ def synthetic_evaluation(settings: Settings, sma_km: float, ecc: float, aop_deg:
                       gps_visible_mean=gps_visible,
                       gps_pdop_mean=500.0 / gps_visible if gps_visible >= 1.0 else math.nan,
                       evaluated=True, impact=False, reason="")
-        result.update(_synthetic_extras(sma_km, ecc, inc_deg, r_min, dv_total, avail, extras))
+        result.update(_synthetic_extras(sma_km, ecc, inc_deg, r_min, dv_total, 0.45 * pdop, avail, extras))
         broken = violated_bound(result, stop_bounds or ())
         if broken:
             result.update(evaluated=False, reason=f"stopped early: {broken}; the rest not evaluated")
@@ -63,8 +65,8 @@ def synthetic_evaluation(settings: Settings, sma_km: float, ecc: float, aop_deg:
     return result
 
 
-def _synthetic_extras(sma_km: float, ecc: float, inc_deg: float, r_min: float, dv_total: float, avail: float,
-                      extras) -> dict:
+def _synthetic_extras(sma_km: float, ecc: float, inc_deg: float, r_min: float, dv_total: float, hdop: float,
+                      avail: float, extras) -> dict:
     """Closed-form stand-ins for the extra metrics (see :func:`synthetic_evaluation`; no physics)."""
     cos_i = math.cos(math.radians(inc_deg))
     sk = 0.05 + 0.6 * (sma_km / 24000.0) ** 3 + 0.8 * abs(math.sin(math.radians(inc_deg - 60.0)))
@@ -72,7 +74,9 @@ def _synthetic_extras(sma_km: float, ecc: float, inc_deg: float, r_min: float, d
     perilune_alt = sma_km * (1.0 - e_max) - r_min
     values = {"sk_dv_estimate_kms_per_year": sk, "sk_dv_estimate_max_kms_per_year": 1.1 * sk,
               "stable_screen": 1.0 if perilune_alt > 0.0 else 0.0, "screen_min_perilune_alt_km": perilune_alt,
-              "dv_total_max_kms_per_year": 1.05 * dv_total, "dv_opt_max_kms_per_year": 0.75 * 1.05 * dv_total}
+              "dv_total_max_kms_per_year": 1.05 * dv_total, "dv_opt_max_kms_per_year": 0.75 * 1.05 * dv_total,
+              "horizontal_error_95_m": 2.0 * 4.0 * hdop, "vertical_error_95_m": 1.96 * 4.0 * 2.0 * hdop,
+              "position_error_avail_pct": avail, "ephemeris_age_max_h": 1.0, "satellites_never_uploaded": 0}
     drift = min(1.0, 0.5 * sk)                                       # the drift the Delta-V stand-in pays against
     for name, value in (("pdop", avail), ("hdop", min(100.0, 1.1 * avail))):
         values[f"{name}_avail_pct_life_estimate"] = value * (1.0 - 0.2 * drift)
