@@ -3,7 +3,7 @@
 from __future__ import annotations
 
 __all__ = ["DESIGN_KEYS", "INTEGER_DESIGN_KEYS", "ELEMENT_KEYS", "METRIC_KEYS", "EXTRA_METRIC_KEYS",
-           "CAMPAIGN_METRIC_KEYS", "RESULT_KEYS", "VERDICT_KEYS", "TIMING_KEYS", "DELTAV_SATELLITES",
+           "CAMPAIGN_METRIC_KEYS", "GNSS_SYSTEM_METRICS", "RESULT_KEYS", "VERDICT_KEYS", "TIMING_KEYS", "DELTAV_SATELLITES",
            "NEEDS_ALL_SATELLITES", "CLOSED_LOOP_DV_BY_PURPOSE", "closed_loop_dv_key",
            "requested_extra_metrics", "NON_NAVIGATION_METRICS", "LABELS", "label", "bound_text", "value_format",
            "format_value", "violated_bound"]
@@ -18,8 +18,11 @@ METRIC_KEYS = ("n_sat", "mean_visible_sats", "pdop_mean_3sigma", "pdop_avail_pct
 # geometry-keeping Delta-V estimate (sk_estimate, mean and max over satellites), design-life stability
 # screen (stability: 1.0 stable, 0.0 not; minimum perilune altitude), and the eq. 45 Delta-V's maximum
 # over satellites ([deltav] satellites = "all")
+# and the multi-GNSS link over ``[gnss] systems`` (mean visible satellites, filtered mean PDOP with one clock per system)
 EXTRA_METRIC_KEYS = ("sk_dv_estimate_kms_per_year", "sk_dv_estimate_max_kms_per_year", "stable_screen",
-                     "screen_min_perilune_alt_km", "dv_total_max_kms_per_year", "dv_opt_max_kms_per_year")
+                     "screen_min_perilune_alt_km", "dv_total_max_kms_per_year", "dv_opt_max_kms_per_year",
+                     "gnss_visible_mean", "gnss_pdop_mean")
+GNSS_SYSTEM_METRICS = ("gnss_{}_visible_mean", "gnss_{}_pdop_mean")   # per system, when [gnss] names more than GPS
 CAMPAIGN_METRIC_KEYS = METRIC_KEYS + EXTRA_METRIC_KEYS   # what a campaign journal record holds
 # "evaluated": the design was evaluated (no impact, a closed orbit); whether it meets Table 3's bounds is VERDICT_KEYS
 RESULT_KEYS = METRIC_KEYS + ("deltav_model", "evaluated", "reason", "wall_s")
@@ -41,7 +44,9 @@ LABELS = {                  # key -> human label with its unit: figures, tables,
     "hdop_avail_pct": "HDOP availability (%)", "dv_total_kms_per_year": "Delta-V total (km/s/yr)",
     "dv_opt_kms_per_year": "Delta-V optimised (km/s/yr)",
     "gps_visible_mean": "GPS satellites visible (mean, first LNSS satellite)",
-    "gps_pdop_mean": "GPS-LNSS PDOP (first LNSS satellite)", "sk_dv_estimate_kms_per_year": "geometry-keeping Delta-V, mean (km/s/yr)",
+    "gps_pdop_mean": "GPS-LNSS PDOP (first LNSS satellite)",
+    "gnss_visible_mean": "GNSS satellites visible, every [gnss] system (mean, first LNSS satellite)",
+    "gnss_pdop_mean": "GNSS-LNSS PDOP, every [gnss] system, one clock each (first LNSS satellite)", "sk_dv_estimate_kms_per_year": "geometry-keeping Delta-V, mean (km/s/yr)",
     "sk_dv_estimate_max_kms_per_year": "geometry-keeping Delta-V, worst satellite (km/s/yr)",
     "stable_screen": "stable over the life (screen)", "screen_min_perilune_alt_km": "lowest perilune over the life (km)",
     "dv_total_max_kms_per_year": "Delta-V total, worst satellite (km/s/yr)",
@@ -111,7 +116,7 @@ def value_format(key: str) -> str:
         return ".2f"
     if key.endswith("_km"):
         return ".0f"
-    if key in ("mean_visible_sats", "gps_visible_mean"):
+    if key in ("mean_visible_sats", "gps_visible_mean") or key.startswith("gnss_") and key.endswith("_visible_mean"):
         return ".2f"
     if key.endswith(("_pct", "_deg")):
         return ".1f"
