@@ -19,7 +19,7 @@ from .settings import load_settings
 from .constants import SECONDS_PER_DAY
 from .errors import ConfigError, EphemerisRangeError, InvalidOrbitError, SpiceError
 
-BENCHMARKS = ("propagator", "dop", "evaluate", "estimate", "campaign", "integrator", "design-life", "stability")
+BENCHMARKS = ("propagator", "dop", "evaluate", "estimate", "campaign", "integrator", "design-life", "stability", "gnss")
 
 
 def _require(flag: str, value, spec: tuple, integer: bool = False, why: str = ""):

@@ -298,14 +298,39 @@ def system_transmitters(gnss: GnssSettings, gps: GpsSettings, states: xr.Dataset
 # The compiled multi-system link
 # --------------------------------------------------------------------------------------------
 
+_ARRAYS: dict[int, tuple] = {}
+
+
+def _satellite_arrays(states: xr.Dataset, margin_deg: float, r_earth_km: float) -> tuple:
+    """What the kernel reads of the satellites, independent of the LNSS, prepared once per states Dataset and
+    Earth margin (the reference kept in the tuple pins the id): positions (time, sat, 3) Moon-centred and in TEME,
+    the unit boresight -r / |r| negated (time, sat, 3) and the cosine of the Earth's angular radius plus the
+    margin seen from the satellite (time, sat)."""
+    key = id(states)
+    hit = _ARRAYS.get(key)
+    if hit is not None and hit[0] is states and hit[1] == (margin_deg, r_earth_km):
+        return hit[2]
+    if len(_ARRAYS) >= 8:
+        _ARRAYS.clear()
+    r_mci, r_eci, r_teme = (np.ascontiguousarray(states[name].transpose("time", "sat", "xyz").values)
+                            for name in ("r_mci_km", "r_eci_km", "r_teme_km"))
+    norm = np.linalg.norm(r_eci, axis=-1)
+    cos_earth = np.cos(np.arcsin(r_earth_km / norm) + np.radians(margin_deg))
+    arrays = (r_mci, np.ascontiguousarray(r_eci / norm[..., None]), np.ascontiguousarray(cos_earth), r_teme,
+              np.ascontiguousarray(states["earth_mci_km"].values), np.ascontiguousarray(states["rot_teme_to_j2000"].values))
+    _ARRAYS[key] = (states, (margin_deg, r_earth_km), arrays)
+    return arrays
+
+
 @nb.njit(cache=True)
-def _gnss_kernel(r_lnss, r_mci, r_eci, r_teme, earth, rot, system, cos_beam, angle_scale, eirp_rx_db, fsl_per_km,
-                 n_systems, theta_tab, gain_tab, r_moon, r_earth, margin_deg, ellipsoid, a_km, b_km, noise_db,
-                 threshold_dbhz, clock, counts, scatter):
+def _gnss_kernel(r_lnss, r_mci, out_hat, cos_earth, r_teme, earth, rot, system, cos_beam, angle_scale, eirp_rx_db,
+                 fsl_per_km, n_systems, theta_tab, gain_tab, r_moon, ellipsoid, a_km, b_km, noise_db, threshold_dbhz,
+                 clock, counts, scatter):
     """Visibility (eq. 15-24, the tests of :func:`lnss_lib.gps.gps_link` with cosines compared in place of
     angles) of every (epoch, satellite) pair for one LNSS satellite ``r_lnss`` (time, 3); per epoch and system
     the visible count (``counts`` (time, system)) and the scatter of the lines of sight about the system's mean
-    (about 0 without the clock column): ``scatter`` (time, system, 6) xx, yy, zz, xy, xz, yz."""
+    (about 0 without the clock column): ``scatter`` (time, system, 6) xx, yy, zz, xy, xz, yz. ``out_hat``: unit
+    Earth -> satellite; ``cos_earth``: cos(Earth's angular radius + margin) from the satellite (eq. 21)."""
     ntime, nsat, _ = r_mci.shape
     lx = np.empty(nsat)
     ly = np.empty(nsat)
@@ -313,15 +338,14 @@ def _gnss_kernel(r_lnss, r_mci, r_eci, r_teme, earth, rot, system, cos_beam, ang
     ls = np.empty(nsat, np.int64)
     mean = np.zeros((n_systems, 3))
     lnss_teme = np.empty(3)
-    sin_m, cos_m = np.sin(np.radians(margin_deg)), np.cos(np.radians(margin_deg))
     for t in range(ntime):
         px, py, pz = r_lnss[t, 0], r_lnss[t, 1], r_lnss[t, 2]
         r_norm = np.sqrt(px * px + py * py + pz * pz)
         zx, zy, zz = px / r_norm, py / r_norm, pz / r_norm
         s_moon = min(r_moon / r_norm, 1.0)
         cos_moon = np.sqrt(1.0 - s_moon * s_moon)                          # cos of the Moon's angular radius
-        ex, ey, ez = px - earth[t, 0], py - earth[t, 1], pz - earth[t, 2]
         if ellipsoid:
+            ex, ey, ez = px - earth[t, 0], py - earth[t, 1], pz - earth[t, 2]
             for i in range(3):
                 lnss_teme[i] = rot[t, 0, i] * ex + rot[t, 1, i] * ey + rot[t, 2, i] * ez
         n = 0
@@ -333,13 +357,10 @@ def _gnss_kernel(r_lnss, r_mci, r_eci, r_teme, earth, rot, system, cos_beam, ang
             ux /= rng
             uy /= rng
             uz /= rng
-            gx, gy, gz = r_eci[t, g, 0], r_eci[t, g, 1], r_eci[t, g, 2]
-            g_norm = np.sqrt(gx * gx + gy * gy + gz * gz)
-            cos_off = (gx * ux + gy * uy + gz * uz) / g_norm                # boresight -r_sat vs sat -> LNSS
+            cos_off = out_hat[t, g, 0] * ux + out_hat[t, g, 1] * uy + out_hat[t, g, 2] * uz  # boresight, sat -> LNSS
             if cos_off < cos_beam[g]:
                 continue                                                   # outside the beam mask
-            s_e = r_earth / g_norm
-            if cos_off > np.sqrt(1.0 - s_e * s_e) * cos_m - s_e * sin_m:
+            if cos_off > cos_earth[t, g]:
                 continue                                                   # behind the Earth + margin (eq. 21)
             if -(ux * zx + uy * zy + uz * zz) > cos_moon:
                 continue                                                   # behind the Moon (eq. 17-18)
@@ -424,18 +445,15 @@ def gnss_link_arrays(gps: GpsSettings, constants: BodyConstants, states: xr.Data
     on the states' epochs: the compiled pass over every (epoch, satellite) pair (:func:`_gnss_kernel`) with the
     ``[gps]`` receiver, beam mask, occultation tests and gain pattern and the transmitters ``tx``."""
     gain = gain_for_settings(gps)
-    arrays = [np.ascontiguousarray(states[name].transpose("time", "sat", "xyz").values)
-              for name in ("r_mci_km", "r_eci_km", "r_teme_km")]
+    arrays = _satellite_arrays(states, gps.atmosphere_margin_deg, constants.r_earth_km)
     ntime, nsys = states.sizes["time"], len(tx.systems)
     counts = np.full((ntime, nsys), -1, dtype=np.int64)     # -1: not computed (checked after the kernel)
     scatter = np.zeros((ntime, nsys, 6))
     cos_beam = np.cos(np.radians(np.minimum(gps.beam_mask_deg / tx.angle_scale, 180.0)))
     _gnss_kernel(np.ascontiguousarray(r_lnss_mci_km, dtype=float), *arrays,
-                 np.ascontiguousarray(states["earth_mci_km"].values), states["rot_teme_to_j2000"].values,
                  tx.system_index, cos_beam, tx.angle_scale, tx.eirp_rx_db, tx.fsl_per_km, nsys,
                  np.asarray(gain.off_boresight_deg, dtype=float), np.asarray(gain.gain_dbi, dtype=float),
-                 constants.r_moon_mean_km, constants.r_earth_km, gps.atmosphere_margin_deg, gps.ellipsoid_test,
-                 WGS84_A_KM, WGS84_B_KM, 10.0 * np.log10(BOLTZMANN_J_K * gps.noise_temperature_k),
+                 constants.r_moon_mean_km, gps.ellipsoid_test, WGS84_A_KM, WGS84_B_KM, 10.0 * np.log10(BOLTZMANN_J_K * gps.noise_temperature_k),
                  gps.cn0_threshold_dbhz, gps.clock_column, counts, scatter)
     if np.any(counts < 0):
         raise RuntimeError(f"the GNSS link kernel left {int(np.sum(counts[:, 0] < 0))} of {ntime} epochs not computed")

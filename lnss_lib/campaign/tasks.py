@@ -54,7 +54,7 @@ def synthetic_evaluation(settings: Settings, sma_km: float, ecc: float, aop_deg:
                       gps_visible_mean=gps_visible,
                       gps_pdop_mean=500.0 / gps_visible if gps_visible >= 1.0 else math.nan,
                       evaluated=True, impact=False, reason="")
-        result.update(_synthetic_extras(sma_km, ecc, inc_deg, r_min, dv_total, extras))
+        result.update(_synthetic_extras(sma_km, ecc, inc_deg, r_min, dv_total, gps_visible, extras))
         broken = violated_bound(result, stop_bounds or ())
         if broken:
             result.update(evaluated=False, reason=f"stopped early: {broken}; the rest not evaluated")
@@ -62,7 +62,8 @@ def synthetic_evaluation(settings: Settings, sma_km: float, ecc: float, aop_deg:
     return result
 
 
-def _synthetic_extras(sma_km: float, ecc: float, inc_deg: float, r_min: float, dv_total: float, extras) -> dict:
+def _synthetic_extras(sma_km: float, ecc: float, inc_deg: float, r_min: float, dv_total: float, gps_visible: float,
+                      extras) -> dict:
     """Closed-form stand-ins for the extra metrics (see :func:`synthetic_evaluation`; no physics)."""
     cos_i = math.cos(math.radians(inc_deg))
     sk = 0.05 + 0.6 * (sma_km / 24000.0) ** 3 + 0.8 * abs(math.sin(math.radians(inc_deg - 60.0)))
@@ -70,7 +71,9 @@ def _synthetic_extras(sma_km: float, ecc: float, inc_deg: float, r_min: float, d
     perilune_alt = sma_km * (1.0 - e_max) - r_min
     values = {"sk_dv_estimate_kms_per_year": sk, "sk_dv_estimate_max_kms_per_year": 1.1 * sk,
               "stable_screen": 1.0 if perilune_alt > 0.0 else 0.0, "screen_min_perilune_alt_km": perilune_alt,
-              "dv_total_max_kms_per_year": 1.05 * dv_total, "dv_opt_max_kms_per_year": 0.75 * 1.05 * dv_total}
+              "dv_total_max_kms_per_year": 1.05 * dv_total, "dv_opt_max_kms_per_year": 0.75 * 1.05 * dv_total,
+              "gnss_visible_mean": 3.0 * gps_visible,
+              "gnss_pdop_mean": 300.0 / (3.0 * gps_visible) if gps_visible >= 1.0 / 3.0 else math.nan}
     return {k: values[k] for k in extras}
 
 
