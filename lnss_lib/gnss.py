@@ -11,10 +11,11 @@ Three parts, on top of the GPS link of :mod:`lnss_lib.gps` (eq. 15-24), which st
   semi-major axis is solved from the ground-track repeat under J2 (:func:`repeat_sma_km`).
   What the model leaves out: J2 short-period terms (about 1.5 J2 R^2 / a, 2 km at MEO) and the
   lunisolar pull (tidal acceleration 2 GM r / d^3, 5e-9 km/s^2 from the Moon at Galileo's radius,
-  periodic: ~0.3 km; its node drift a few percent of J2's: up to tens of km along the orbit in
-  10 days). At the Moon a 20 km error turns a line of sight by 20 / 384 400 rad (11 arcsec) and
-  an off-boresight angle by 20 / 26 000 rad (0.04 deg): far below what the nominal-slot
-  assumption itself leaves open (where each real satellite stands in its slot at the study epoch).
+  periodic: ~0.3 km; its node drift, 3/4 (GM_b / d^3) / n cos i from the Moon and the Sun, about 5 %
+  of J2's: some 10 km across the orbit in 10 days). At the Moon a 20 km error turns a line of sight
+  by 20 / 384 400 rad (11 arcsec) and an off-boresight angle by 20 / 26 000 rad (0.04 deg): far below
+  what the nominal-slot assumption itself leaves open (where each real satellite stands in its slot
+  at the study epoch).
 * **Link budget per system** (:func:`system_transmitters`): each system gets the GPS budget of
   Table 1 (``[gps]``: power, losses, receiver gain, noise temperature, threshold, beam mask,
   occultation tests) with two stated changes. The transmit pattern is the published GPS IIR
@@ -108,7 +109,8 @@ def repeat_period_s(sma_km, inc_deg, revolutions: int, sidereal_days: int) -> np
 
 def repeat_sma_km(inc_deg: float, revolutions: int, sidereal_days: int) -> float:
     """Semi-major axis (km) whose J2 draconic period gives the ground-track repeat (fixed-point, to 1 mm)."""
-    a = (WGS84_GM_KM3_S2 * (sidereal_days * 2.0 * np.pi / (revolutions * WGS84_OMEGA_RAD_S) / (2.0 * np.pi)) ** 2) ** (1 / 3)
+    period_s = sidereal_days * 2.0 * np.pi / (revolutions * WGS84_OMEGA_RAD_S)     # Kepler's first guess
+    a = (WGS84_GM_KM3_S2 * (period_s / (2.0 * np.pi)) ** 2) ** (1 / 3)
     for _ in range(50):
         target = float(repeat_period_s(a, inc_deg, revolutions, sidereal_days))
         new = a * (target / float(nodal_period_s(a, inc_deg))) ** (2.0 / 3.0)
@@ -162,8 +164,8 @@ def load_nominal_slots(path: str | Path, systems, gmst_deg: float = 0.0) -> list
     shells = []
     for system in systems:
         if system not in data or not data[system].get("shell"):
-            raise ConfigError(f"{path}: no [[{system}.shell]] table; systems there: "
-                              f"{', '.join(k for k, v in data.items() if isinstance(v, dict))}", key="gnss.nominal_file")
+            there = ", ".join(k for k, v in data.items() if isinstance(v, dict))
+            raise ConfigError(f"{path}: no [[{system}.shell]] table; systems there: {there}", key="gnss.nominal_file")
         shells.extend(_shell(system, table, gmst_deg, f"{path} [{system}] shell {k + 1}")
                       for k, table in enumerate(data[system]["shell"]))
     return shells
@@ -276,7 +278,8 @@ def system_transmitters(gnss: GnssSettings, gps: GpsSettings, states: xr.Dataset
     radius = np.linalg.norm(states["r_teme_km"].values[:, 0, :], axis=-1)
     system = states["system"].values
     index = np.array([gnss.systems.index(s) for s in system], dtype=np.int64)
-    scale, shift, fsl = np.ones(radius.size), np.zeros(radius.size), np.full(radius.size, _fsl_per_km(gps.frequency_mhz))
+    scale, shift = np.ones(radius.size), np.zeros(radius.size)
+    fsl = np.full(radius.size, _fsl_per_km(gps.frequency_mhz))
     for name in gnss.systems:
         if name == "gps":
             continue
@@ -317,7 +320,8 @@ def _satellite_arrays(states: xr.Dataset, margin_deg: float, r_earth_km: float) 
     norm = np.linalg.norm(r_eci, axis=-1)
     cos_earth = np.cos(np.arcsin(r_earth_km / norm) + np.radians(margin_deg))
     arrays = (r_mci, np.ascontiguousarray(r_eci / norm[..., None]), np.ascontiguousarray(cos_earth), r_teme,
-              np.ascontiguousarray(states["earth_mci_km"].values), np.ascontiguousarray(states["rot_teme_to_j2000"].values))
+              np.ascontiguousarray(states["earth_mci_km"].values),
+              np.ascontiguousarray(states["rot_teme_to_j2000"].values))
     _ARRAYS[key] = (states, (margin_deg, r_earth_km), arrays)
     return arrays
 
@@ -453,7 +457,8 @@ def gnss_link_arrays(gps: GpsSettings, constants: BodyConstants, states: xr.Data
     _gnss_kernel(np.ascontiguousarray(r_lnss_mci_km, dtype=float), *arrays,
                  tx.system_index, cos_beam, tx.angle_scale, tx.eirp_rx_db, tx.fsl_per_km, nsys,
                  np.asarray(gain.off_boresight_deg, dtype=float), np.asarray(gain.gain_dbi, dtype=float),
-                 constants.r_moon_mean_km, gps.ellipsoid_test, WGS84_A_KM, WGS84_B_KM, 10.0 * np.log10(BOLTZMANN_J_K * gps.noise_temperature_k),
+                 constants.r_moon_mean_km, gps.ellipsoid_test, WGS84_A_KM, WGS84_B_KM,
+                 10.0 * np.log10(BOLTZMANN_J_K * gps.noise_temperature_k),
                  gps.cn0_threshold_dbhz, gps.clock_column, counts, scatter)
     if np.any(counts < 0):
         raise RuntimeError(f"the GNSS link kernel left {int(np.sum(counts[:, 0] < 0))} of {ntime} epochs not computed")

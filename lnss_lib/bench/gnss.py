@@ -71,6 +71,7 @@ def run(profile_name: str = "paper", n_designs: int = 6, repeats: int = 3, overr
         ratios.append(best["four"] / best["gps"])
         print(f"  a {row[0]:7.0f} e {row[1]:4.2f} i {row[2]:5.1f}: {1e3 * best['gps']:.2f} -> {1e3 * best['four']:.2f} "
               f"({ratios[-1]:.2f}x)")
-    print(f"  mean ratio over {len(ratios)} designs: {np.mean(ratios):.2f}x (GPS {states.sizes['sat'] - sum(tx.system_index > 0)} "
-          f"satellites, all four {states.sizes['sat']})")
+    n_gps = int(np.sum(tx.system_index == 0))
+    print(f"  mean ratio over {len(ratios)} designs: {np.mean(ratios):.2f}x (GPS {n_gps} satellites, all four "
+          f"{states.sizes['sat']})")
     return {"mean_ratio": float(np.mean(ratios)), "designs": len(ratios)}

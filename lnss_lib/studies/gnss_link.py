@@ -80,7 +80,8 @@ def time_series(link: dict) -> tuple[pd.DataFrame, pd.DataFrame]:
 
 def noise_temperature_sweep(profile: Settings, prop: xr.Dataset, temperatures_k=TEMPERATURES_K) -> pd.DataFrame:
     """:func:`system_table` for each receiver noise temperature (rows: temperature K, systems)."""
-    tables = {t: system_table(first_satellite_link(profile, prop, noise_temperature_k=float(t))) for t in temperatures_k}
+    tables = {t: system_table(first_satellite_link(profile, prop, noise_temperature_k=float(t)))
+              for t in temperatures_k}
     return pd.concat(tables, names=["noise_temperature_k"])
 
 
@@ -95,7 +96,7 @@ def table4_gnss_rows(table: pd.DataFrame) -> pd.DataFrame:
                             "shifted to each system's ICD minimum power (notebook 03)."})
         rows.append({"metric": f"Mean GNSS-LNSS PDOP ({label}, one clock per system)", "paper": np.nan,
                      "this workbook": table.loc[label, "pdop_mean"],
-                     "why": "Same 95th-percentile filter as the GPS row; each system's clock offset is unknown."})
+                     "why": "Filtered as the GPS row ([gps] pdop_filter); each system's clock offset is unknown."})
     return pd.DataFrame(rows)
 
 
