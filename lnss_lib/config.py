@@ -26,7 +26,7 @@ from pathlib import Path
 from .constants import (CR_AREA_MASS_MAX_M2_KG, CR_MAX, MOON_HILL_RADIUS_KM, SECONDS_PER_DAY,
                         SPACECRAFT_MASS_RANGE_KG, TOLERANCE_FLOOR, WGS84_A_KM)
 from .errors import ConfigError
-from .keys import (DELTAV_SATELLITES, DESIGN_KEYS, EXTRA_METRIC_KEYS, INTEGER_DESIGN_KEYS, METRIC_KEYS,
+from .keys import (DELTAV_SATELLITES, DESIGN_KEYS, EXTRA_METRIC_KEYS, GNSS_NAMES, INTEGER_DESIGN_KEYS, METRIC_KEYS,
                    NEEDS_ALL_SATELLITES)
 
 PACKAGE_DIR = Path(__file__).resolve().parent
@@ -274,7 +274,7 @@ STABILITY_METHODS = ("DOP853", "RK45", "Radau", "LSODA", "RK4")
 STABILITY_BODIES = ("EARTH", "SUN")
 SK_ESTIMATE_MODELS = ("arc", "life")             # campaign estimate: the 10-day box slope, or the service controller's life
 CONTROLLERS = ("service", "box")                 # design life: hold the service (design_life.service) or the fixed-element box
-GNSS_SYSTEMS = ("gps", "galileo", "beidou", "glonass")   # [gnss] systems: GPS from TLEs, the others nominal slots
+GNSS_SYSTEMS = tuple(GNSS_NAMES)                 # [gnss] systems: GPS from TLEs, the others nominal slots
 TOLERANCE_SOURCES = ("derived", "fixed")         # service controller: node/slot tolerances from each design's navigation, or as set
 CHOICES = {    # a text setting (or each entry of a list of texts) -> its allowed values
     "integrator.settings.*.method": METHODS, "frames.element_frame": ELEMENT_FRAMES, "frames.moon_fixed": POLE_FRAMES,

@@ -36,7 +36,8 @@ from .elements import vis_viva_sma_km
 from .forces import ForceModel
 from .frames import rotate_with
 from .errors import ConfigError, ImpactError, InfeasibleDesignError
-from .keys import GNSS_SYSTEM_METRICS, METRIC_KEYS, TIMING_KEYS, requested_extra_metrics, violated_bound
+from .keys import (GNSS_SYSTEM_METRICS, METRIC_KEYS, TIMING_KEYS, gnss_metric_keys, requested_extra_metrics,
+                   violated_bound)
 from .propagator import check_elements_deg, elements_deg_to_states, integrate_batch, output_times, propagate_states
 
 if TYPE_CHECKING:
@@ -276,12 +277,11 @@ def _gnss_metrics(context: EvaluationContext, r_lnss_mci_km: np.ndarray) -> dict
     summary = gnss.gnss_link_summary(counts, scatter, systems, {"combined": systems}, context.gps.pdop_filter,
                                      context.gps.clock_column)
     out = {"gnss_visible_mean": summary["combined"]["visible_mean"], "gnss_pdop_mean": summary["combined"]["pdop_mean"]}
-    if systems != ("gps",):
-        visible, pdop = GNSS_SYSTEM_METRICS
-        for name in systems:
-            out[visible.format(name)] = summary[name]["visible_mean"]
-            out[pdop.format(name)] = summary[name]["pdop_mean"]
-    return out
+    visible, pdop = GNSS_SYSTEM_METRICS
+    for name in systems:
+        out[visible.format(name)] = summary[name]["visible_mean"]
+        out[pdop.format(name)] = summary[name]["pdop_mean"]
+    return {k: out[k] for k in (gnss_metric_keys(systems) or ("gnss_visible_mean", "gnss_pdop_mean"))}
 
 
 def _design_deltav(settings: DeltaVSettings, dynamics: Dynamics, ds: xr.Dataset, dv_first: xr.Dataset) -> dict:

@@ -3,7 +3,7 @@
 from __future__ import annotations
 
 __all__ = ["DESIGN_KEYS", "INTEGER_DESIGN_KEYS", "ELEMENT_KEYS", "METRIC_KEYS", "EXTRA_METRIC_KEYS",
-           "CAMPAIGN_METRIC_KEYS", "GNSS_SYSTEM_METRICS", "RESULT_KEYS", "VERDICT_KEYS", "TIMING_KEYS", "DELTAV_SATELLITES",
+           "CAMPAIGN_METRIC_KEYS", "GNSS_SYSTEM_METRICS", "GNSS_NAMES", "gnss_metric_keys", "RESULT_KEYS", "VERDICT_KEYS", "TIMING_KEYS", "DELTAV_SATELLITES",
            "NEEDS_ALL_SATELLITES", "CLOSED_LOOP_DV_BY_PURPOSE", "closed_loop_dv_key",
            "requested_extra_metrics", "NON_NAVIGATION_METRICS", "LABELS", "label", "bound_text", "value_format",
            "format_value", "violated_bound"]
@@ -23,6 +23,15 @@ EXTRA_METRIC_KEYS = ("sk_dv_estimate_kms_per_year", "sk_dv_estimate_max_kms_per_
                      "screen_min_perilune_alt_km", "dv_total_max_kms_per_year", "dv_opt_max_kms_per_year",
                      "gnss_visible_mean", "gnss_pdop_mean")
 GNSS_SYSTEM_METRICS = ("gnss_{}_visible_mean", "gnss_{}_pdop_mean")   # per system, when [gnss] names more than GPS
+GNSS_NAMES = {"gps": "GPS", "galileo": "Galileo", "beidou": "BeiDou-3", "glonass": "GLONASS"}   # [gnss] systems
+
+
+def gnss_metric_keys(systems) -> tuple[str, ...]:
+    """The GNSS link's keys of an evaluation under ``[gnss] systems``: none for GPS alone (the paper's link), else
+    the combined ``gnss_visible_mean``, ``gnss_pdop_mean`` and each system's (:data:`GNSS_SYSTEM_METRICS`)."""
+    if tuple(systems) == ("gps",):
+        return ()
+    return ("gnss_visible_mean", "gnss_pdop_mean") + tuple(key.format(s) for s in systems for key in GNSS_SYSTEM_METRICS)
 CAMPAIGN_METRIC_KEYS = METRIC_KEYS + EXTRA_METRIC_KEYS   # what a campaign journal record holds
 # "evaluated": the design was evaluated (no impact, a closed orbit); whether it meets Table 3's bounds is VERDICT_KEYS
 RESULT_KEYS = METRIC_KEYS + ("deltav_model", "evaluated", "reason", "wall_s")
@@ -80,6 +89,11 @@ def label(key: str) -> str:
     base, mask = _unmasked(key)
     if mask and base in LABELS:
         return f"{LABELS[base]}, {mask} deg mask"
+    for pattern, text in zip(GNSS_SYSTEM_METRICS, ("{} satellites visible (mean, first LNSS satellite)",
+                                                   "{}-LNSS PDOP, own clock (first LNSS satellite)")):
+        head, tail = pattern.split("{}")
+        if key.startswith(head) and key.endswith(tail) and key[len(head):-len(tail)] in GNSS_NAMES:
+            return text.format(GNSS_NAMES[key[len(head):-len(tail)]])
     head, tail = CLOSED_LOOP_DV_BY_PURPOSE.split("{}")
     if key not in LABELS and key.startswith(head) and key.endswith(tail) and len(key) > len(head) + len(tail):
         return f"closed-loop Delta-V, {key[len(head):-len(tail)].replace('_', ' ')} (km/s/yr)"

@@ -209,6 +209,24 @@ def test_gps_only_evaluation_unchanged_and_every_system_reported(ci_profile):
     assert after["gnss_pdop_mean"] < after["gps_pdop_mean"]
 
 
+def test_evaluate_json_reports_each_system_and_the_combination(capsys):
+    import json
+
+    from lnss_lib.__main__ import main
+    from lnss_lib.keys import gnss_metric_keys, label
+
+    walker = ["--sma-km", "6143", "--ecc", "0.6", "--aop-deg", "90", "--inc-deg", "51.7", "--planes", "2",
+              "--sats-per-plane", "2", "--profile", "ci", "--json"]
+    assert main(["evaluate", *walker, "--set", 'gnss.systems=["gps", "galileo"]']) == 0
+    result = json.loads(capsys.readouterr().out)
+    assert gnss_metric_keys(("gps",)) == () and set(gnss_metric_keys(("gps", "galileo"))) <= set(result)
+    assert result["gnss_visible_mean"] == pytest.approx(result["gnss_gps_visible_mean"]
+                                                        + result["gnss_galileo_visible_mean"], rel=1e-12)
+    assert result["gnss_gps_visible_mean"] == result["gps_visible_mean"]
+    assert label("gnss_beidou_pdop_mean").startswith("BeiDou-3-LNSS PDOP") and label("gnss_x_pdop_mean") == \
+        "gnss_x_pdop_mean"
+
+
 @pytest.mark.parametrize("systems, message", [(["gps", "gps"], "distinct"), (["gps", "compass"], "not allowed"),
                                               ([], "at least one")])
 def test_bad_systems_are_refused(systems, message):

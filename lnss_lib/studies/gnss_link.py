@@ -23,6 +23,7 @@ import pandas as pd
 import xarray as xr
 
 from ..constants import SECONDS_PER_DAY
+from ..keys import GNSS_NAMES
 from ..gnss import combined_pdop, gnss_link_arrays, gnss_link_summary, gnss_states_mci, system_transmitters
 
 if TYPE_CHECKING:
@@ -32,7 +33,7 @@ __all__ = ["SYSTEMS", "SYSTEM_LABELS", "COMBINATIONS", "TEMPERATURES_K", "first_
            "time_series", "noise_temperature_sweep", "table4_gnss_rows", "gnss_findings"]
 
 SYSTEMS = ("gps", "galileo", "beidou", "glonass")
-SYSTEM_LABELS = {"gps": "GPS", "galileo": "Galileo", "beidou": "BeiDou-3", "glonass": "GLONASS"}
+SYSTEM_LABELS = GNSS_NAMES
 COMBINATIONS = {"GPS + Galileo": ("gps", "galileo"), "all four": SYSTEMS}
 TEMPERATURES_K = (100.0, 150.0, 190.0, 230.0, 300.0, 400.0)     # around the 190 K default (LuPNT)
 
