@@ -20,7 +20,7 @@ from .constants import SECONDS_PER_DAY
 from .errors import ConfigError, EphemerisRangeError, InvalidOrbitError, SpiceError
 
 BENCHMARKS = ("propagator", "dop", "evaluate", "estimate", "navigation", "campaign", "integrator", "design-life",
-              "stability")
+              "stability", "gnss")
 
 
 def _require(flag: str, value, spec: tuple, integer: bool = False, why: str = ""):

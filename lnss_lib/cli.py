@@ -13,16 +13,18 @@ import math
 from .settings import load_settings
 from .constants import SECONDS_PER_DAY
 from .errors import ConfigError, InfeasibleDesignError
-from .keys import RESULT_KEYS
+from .keys import RESULT_KEYS, gnss_metric_keys
 
 __all__ = ["cli_result", "evaluate_cli", "evaluate_catalogue_cli", "design_life_cli"]
 
 
 def cli_result(context, result: dict, extra_keys: tuple[str, ...] = ()) -> dict:
     """The evaluate CLI's keys of a result: :data:`RESULT_KEYS`, the profile's extra metrics (None when not
-    evaluated), then ``extra_keys``; NaN becomes None (JSON null). ``context``: an
+    evaluated), the GNSS link's combined and per-system keys when ``[gnss]`` names more than GPS
+    (:func:`~lnss_lib.keys.gnss_metric_keys`), then ``extra_keys``; NaN becomes None (JSON null). ``context``: an
     :class:`lnss_lib.evaluator.EvaluationContext`."""
-    keys = RESULT_KEYS + context.extra_metrics + extra_keys
+    gnss = tuple(k for k in gnss_metric_keys(context.gnss.systems) if k not in context.extra_metrics)
+    keys = RESULT_KEYS + context.extra_metrics + gnss + extra_keys
     return {key: (None if isinstance(result.get(key), float) and math.isnan(result[key]) else result.get(key))
             for key in keys}
 

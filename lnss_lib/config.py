@@ -24,10 +24,10 @@ from functools import lru_cache
 from pathlib import Path
 
 from .constants import (CR_AREA_MASS_MAX_M2_KG, CR_MAX, MOON_HILL_RADIUS_KM, SECONDS_PER_DAY,
-                        SPACECRAFT_MASS_RANGE_KG, TOLERANCE_FLOOR)
+                        SPACECRAFT_MASS_RANGE_KG, TOLERANCE_FLOOR, WGS84_A_KM)
 from .errors import ConfigError
-from .keys import (DELTAV_SATELLITES, DESIGN_KEYS, EXTRA_METRIC_KEYS, INTEGER_DESIGN_KEYS, LIFE_NAVIGATION_KEYS,
-                   METRIC_KEYS, NAVIGATION_ERROR_KEYS, NEEDS_ALL_SATELLITES)
+from .keys import (DELTAV_SATELLITES, DESIGN_KEYS, EXTRA_METRIC_KEYS, GNSS_NAMES, INTEGER_DESIGN_KEYS,
+                   LIFE_NAVIGATION_KEYS, METRIC_KEYS, NAVIGATION_ERROR_KEYS, NEEDS_ALL_SATELLITES)
 
 PACKAGE_DIR = Path(__file__).resolve().parent
 PROJECT_DIR = PACKAGE_DIR.parent
@@ -176,7 +176,7 @@ REFERENCE_PROFILE = "paper"          # its TOML fixes the keys and value types o
 FREE_TABLES = ("gps.launch_dates", "campaign.constraints", "campaign.hypervolume", "campaign.variables")
 PROFILE_TABLE = {"name": "", "description": "", "inherits": "", "also": [""]}
 ALLOW_INFINITE = ("gps.sidelobe_offset_db",)   # -inf = main lobe only
-NON_EMPTY = ("benchmark.epochs_tdb", "navigation_error.station_lat_deg")   # lists that need at least one entry
+NON_EMPTY = ("benchmark.epochs_tdb", "navigation_error.station_lat_deg", "gnss.systems")   # lists that need an entry
 # Allowed ranges of physical settings: key -> (low, high, low open, high open); None = unbounded.
 # integrator.settings.<any name> is "integrator.settings.*"; campaign.overrides.<section> uses the section's keys.
 POSITIVE, NON_NEGATIVE = (0.0, None, True, False), (0.0, None, False, False)
@@ -203,6 +203,7 @@ RANGES = {
     "dop.filter_sigma": POSITIVE,
     "gps.frequency_mhz": POSITIVE, "gps.noise_temperature_k": POSITIVE, "gps.beam_mask_deg": (0.0, 180.0, True, False),
     "gps.atmosphere_margin_deg": NON_NEGATIVE, "gps.sidelobe_from_deg": (0.0, 180.0, False, False),
+    "gnss.gps.sma_km": (WGS84_A_KM, None, True, False), "gnss.gps.edge_elevation_deg": (0.0, 90.0, False, True),
     "deltav.year_days": POSITIVE, "deltav.paper_divisor_floor": (0.0, 1.0, False, True),
     "deltav.paper_cap_kms2": POSITIVE, "deltav.secular_min_periods": (1.0, None, True, False),
     "deltav.slsqp_lambda": NON_NEGATIVE,
@@ -283,6 +284,7 @@ STABILITY_BODIES = ("EARTH", "SUN")
 SK_ESTIMATE_MODELS = ("arc", "life")             # campaign estimate: the 10-day box slope, or the service controller's life
 CONTROLLERS = ("service", "box")                 # design life: hold the service (design_life.service) or the fixed-element box
 SISE_LAWS = ("constant", "linear", "quadratic")   # signal-in-space error growth with the ephemeris age
+GNSS_SYSTEMS = tuple(GNSS_NAMES)                 # [gnss] systems: GPS from TLEs, the others nominal slots
 TOLERANCE_SOURCES = ("derived", "fixed")         # service controller: node/slot tolerances from each design's navigation, or as set
 CHOICES = {    # a text setting (or each entry of a list of texts) -> its allowed values
     "integrator.settings.*.method": METHODS, "frames.element_frame": ELEMENT_FRAMES, "frames.moon_fixed": POLE_FRAMES,
@@ -295,7 +297,7 @@ CHOICES = {    # a text setting (or each entry of a list of texts) -> its allowe
     "sk_estimate.model": SK_ESTIMATE_MODELS,
     "evaluator.extra_metrics": EXTRA_METRIC_KEYS, "design_life.controller": CONTROLLERS,
     "design_life.service.tolerances": TOLERANCE_SOURCES, "navigation_error.sise_law": SISE_LAWS,
-    "life_evaluation.validation_frames": ELEMENT_FRAMES,
+    "life_evaluation.validation_frames": ELEMENT_FRAMES, "gnss.systems": GNSS_SYSTEMS,
 }
 
 
@@ -330,6 +332,9 @@ RANGES["design_life.service.u_rel_bounds_deg"] = (0.0, 180.0, True, False)      
 BOUND_PAIRS = ("design_life.service.raan_rel_bounds_deg", "design_life.service.u_rel_bounds_deg")
 for _name in ("perilune_margin_km", "nav_avail_drop_pct", "nav_dop_rise_fraction"):
     RANGES[f"design_life.service.{_name}"] = NON_NEGATIVE
+for _name in GNSS_SYSTEMS[1:]:
+    RANGES[f"gnss.{_name}.frequency_mhz"] = POSITIVE
+    RANGES[f"gnss.{_name}.edge_elevation_deg"] = (0.0, 90.0, False, True)
 for _name in ("gm_sun_km3_s2", "gm_earth_km3_s2", "gm_jupiter_km3_s2", "r_moon_mean_km", "r_earth_km", "r_sun_km",
               "au_km", "c_km_s"):
     RANGES[f"constants.{_name}"] = POSITIVE
@@ -515,6 +520,10 @@ def _check_across(profile: dict, source) -> None:
         name = _lookup(profile, key)
         if settings is not None and name is not None and name not in settings:
             _fail(f"{key} = {name!r} names no [integrator.settings.*]; allowed: {', '.join(settings)}", key, source)
+    systems = _lookup(profile, "gnss.systems")
+    if isinstance(systems, list) and len(set(systems)) != len(systems):
+        _fail(f"gnss.systems = {systems!r} is not allowed; allowed: distinct names from {', '.join(GNSS_SYSTEMS)}",
+              "gnss.systems", source)
     extras = _lookup(profile, "evaluator.extra_metrics")
     if isinstance(extras, list) and len(set(extras)) != len(extras):
         _fail(f"[evaluator] extra_metrics must be distinct names; got {extras!r}", "evaluator.extra_metrics", source)
@@ -662,7 +671,8 @@ def data_path(relative: str, key: str = "data file") -> Path:
     return PARAMS_DIR / relative
 
 
-DATA_KEYS = ("gravity.file", "ephemeris.kernels", "gps.tle_file", "gps.gain_file", "validation.capstone.file")
+DATA_KEYS = ("gravity.file", "ephemeris.kernels", "gps.tle_file", "gps.gain_file", "gnss.nominal_file",
+             "validation.capstone.file")
 SKYFIELD_DATA = "skyfield-data:"      # ephemeris.planetary_spk prefix: a file of the skyfield-data package
 
 
@@ -698,11 +708,12 @@ OFF_WHEN_ABSENT = {
     "front_validation": lambda profile: profile["front_validation"].get("max_designs", 0) == 0,
     "navigation_error": lambda profile: not set(profile.get("evaluator", {}).get("extra_metrics", ()))
     & set(NAVIGATION_ERROR_KEYS),
+    "gnss": lambda profile: list(profile["gnss"].get("systems", ["gps"])) == ["gps"],
 }
 """Sections a profile stored before they existed lacks, each with its test of being off: read as params/paper.toml's
 (front validation off, ``max_designs = 0``; the navigation error unused while no metric of
-:data:`~lnss_lib.keys.NAVIGATION_ERROR_KEYS` is asked for), and left out of the profile hash while off, so runs and
-shipped results from before them keep their hash."""
+:data:`~lnss_lib.keys.NAVIGATION_ERROR_KEYS` is asked for; the GPS link alone, ``[gnss] systems = ["gps"]``), and left
+out of the profile hash while off, so runs and shipped results from before them keep their hash."""
 
 
 def with_absent_sections(profile: dict) -> dict:

@@ -11,6 +11,7 @@ import math
 
 __all__ = ["SECONDS_PER_HOUR", "SECONDS_PER_DAY", "DAYS_PER_JULIAN_YEAR", "SECONDS_PER_JULIAN_CENTURY", "ARCSEC_RAD",
            "MIN_VISIBLE", "BOLTZMANN_J_K", "C_M_S", "WGS84_A_KM", "WGS84_INV_FLATTENING", "WGS84_B_KM",
+           "WGS84_GM_KM3_S2", "WGS84_OMEGA_RAD_S", "EARTH_J2",
            "TOLERANCE_FLOOR", "MOON_HILL_RADIUS_KM", "EARTH_MOON_DISTANCE_KM",
            "SPACECRAFT_MASS_RANGE_KG", "CR_MAX", "CR_AREA_MASS_MAX_M2_KG", "MAX_OUTPUT_SAMPLES"]
 
@@ -28,6 +29,9 @@ C_M_S = 299792458.0                 # speed of light, exact
 WGS84_A_KM = 6378.137               # WGS-84 equatorial radius
 WGS84_INV_FLATTENING = 298.257223563
 WGS84_B_KM = WGS84_A_KM * (1.0 - 1.0 / WGS84_INV_FLATTENING)
+WGS84_GM_KM3_S2 = 398600.4418       # WGS-84 (NIMA TR8350.2, Table 3.1), the GNSS orbit models' GM
+WGS84_OMEGA_RAD_S = 7.292115e-5     # WGS-84 Earth rotation rate (TR8350.2, Table 3.1)
+EARTH_J2 = 1.08262668e-3            # -C20 unnormalised, EGM96 / WGS-84 (TR8350.2, Section 5)
 
 TOLERANCE_FLOOR = 1e-14             # integrator rtol/atol: about 100 machine epsilons (45); below, the error test asks
                                     # for what rounding cannot resolve (the tightest setting in use, the DOP853 1e-12/1e-14

@@ -31,7 +31,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 import xarray as xr
 
-from . import deltav, dop, gps, navigation_error
+from . import deltav, dop, gnss, gps, navigation_error
 from .design_life import life_estimate
 from .design_life import screen as stability
 from .constellation import WalkerDesign
@@ -41,12 +41,13 @@ from .elements import vis_viva_sma_km
 from .forces import ForceModel
 from .frames import rotate_with
 from .errors import ConfigError, ImpactError, InfeasibleDesignError
-from .keys import (LIFE_NAVIGATION_KEYS, METRIC_KEYS, NAVIGATION_ERROR_KEYS, TIMING_KEYS, requested_extra_metrics,
+from .keys import (GNSS_SYSTEM_METRICS, LIFE_NAVIGATION_KEYS, METRIC_KEYS, NAVIGATION_ERROR_KEYS, TIMING_KEYS,
+                   gnss_metric_keys, requested_extra_metrics,
                    violated_bound)
 from .propagator import check_elements_deg, elements_deg_to_states, integrate_batch, output_times, propagate_states
 
 if TYPE_CHECKING:
-    from .settings import DeltaVSettings, DopSettings, Dynamics, GpsSettings, Settings
+    from .settings import DeltaVSettings, DopSettings, Dynamics, GnssSettings, GpsSettings, Settings
 
 
 @dataclass
@@ -64,16 +65,18 @@ class EvaluationContext:
     gps_states: xr.Dataset
     extra_metrics: tuple[str, ...] = ()
     stations: tuple[np.ndarray, np.ndarray] | None = None   # upload stations when a metre metric is asked for
-
+    gnss_states: xr.Dataset | None = None          # every [gnss] system, when more than GPS or a gnss_* metric is asked
+    gnss_tx: gnss.Transmitters | None = None
 
     dynamics: Dynamics = field(init=False, repr=False)        # the sections each design reads, taken once
     dop: DopSettings = field(init=False, repr=False)
     gps: GpsSettings = field(init=False, repr=False)
+    gnss: GnssSettings = field(init=False, repr=False)
     deltav: DeltaVSettings = field(init=False, repr=False)
 
     def __post_init__(self):
-        self.dynamics, self.dop, self.gps, self.deltav = (self.settings.dynamics, self.settings.dop, self.settings.gps,
-                                                          self.settings.deltav)
+        self.dynamics, self.dop, self.gps, self.gnss, self.deltav = (
+            self.settings.dynamics, self.settings.dop, self.settings.gps, self.settings.gnss, self.settings.deltav)
 
     @classmethod
     def build(cls, settings: Settings) -> "EvaluationContext":
@@ -90,8 +93,12 @@ class EvaluationContext:
         extras = requested_extra_metrics(settings.evaluator)
         stations = (navigation_error.station_states(settings.navigation_error, settings.constants, times)
                     if set(extras) & set(NAVIGATION_ERROR_KEYS) else None)
+        gnss_states = gnss_tx = None
+        if settings.gnss.systems != ("gps",) or any(k.startswith("gnss_") for k in extras):
+            gnss_states = gnss.gnss_states_mci(settings.gnss, settings.gps, epoch.start_tdb, times)
+            gnss_tx = gnss.system_transmitters(settings.gnss, settings.gps, gnss_states)
         return cls(settings, t0, times, model, rot, grid, gps.gps_states_mci(settings.gps, epoch.start_tdb, times),
-                   extras, stations)
+                   extras, stations, gnss_states, gnss_tx)
 
     def position_errors(self, r_mci_km: np.ndarray, r_mf_km: np.ndarray) -> navigation_error.PositionErrors:
         """:func:`lnss_lib.navigation_error.position_errors` of positions (sat, time, 3) on this context's arc and grid
@@ -165,8 +172,9 @@ def analyse_states(context: EvaluationContext, elements: np.ndarray, states: np.
     else:
         link, link_stats = None, gps.gps_link_metrics(context.gps, context.dynamics.constants, context.gps_states,
                                                       ds["r_mci_km"].values)
+    link_stats = {**link_stats, **_gnss_metrics(context, ds["r_mci_km"].values)}
     laps.lap("gps")
-    extras = _operational_metrics(context, ds, states, {**dv_budget, **metres})
+    extras = _operational_metrics(context, ds, states, {**dv_budget, **metres, **link_stats})
     laps.lap("operational")
     metrics = _metrics(elements.shape[0], dop_stats, dv_budget, link_stats, dv.attrs["deltav_model"], extras, laps)
     return {"propagation": ds, "dop": grid_ds, "deltav": dv, "gps_link": link, "metrics": metrics}
@@ -210,6 +218,7 @@ def _metrics(n_sat: int, dop_stats: dict, dv_budget: dict, link_stats: dict, del
         "dv_opt_kms_per_year": dv_budget["dv_opt_kms_per_year"],
         "gps_visible_mean": link_stats["gps_visible_mean"],
         "gps_pdop_mean": link_stats["gps_pdop_mean"],
+        **{k: v for k, v in link_stats.items() if k.startswith("gnss_")},
         "deltav_model": deltav_model,
         "evaluated": True,
         "reason": "",
@@ -274,6 +283,7 @@ def campaign_metrics(context: EvaluationContext, elements: np.ndarray, states: n
     elif (broken := violated_bound({**dop_stats, **metres}, stop_bounds)):
         return _stopped(elements, broken, model, laps, {**dop_stats, **metres, **dv_budget})
     link_stats = gps.gps_link_metrics(context.gps, context.dynamics.constants, context.gps_states, r_mci)
+    link_stats = {**link_stats, **_gnss_metrics(context, r_mci)}
     laps.lap("gps")
     return _metrics(elements.shape[0], dop_stats, dv_budget, link_stats, model, metres, laps)
 
@@ -286,6 +296,25 @@ def _navigation(context: EvaluationContext, r_mci_km: np.ndarray, r_mf_km: np.nd
     errors = context.position_errors(r_mci_km, r_mf_km)
     metres = errors.metrics(context.settings.navigation_error, context.grid)
     return errors.dop_stats, {k: metres[k] for k in context.extra_metrics if k in metres}
+
+
+def _gnss_metrics(context: EvaluationContext, r_lnss_mci_km: np.ndarray) -> dict:
+    """The multi-GNSS link of the first LNSS satellite (:mod:`lnss_lib.gnss`): ``gnss_visible_mean`` and
+    ``gnss_pdop_mean`` over every ``[gnss]`` system (one clock each) and, when they name more than GPS, each
+    system's own (:data:`~lnss_lib.keys.GNSS_SYSTEM_METRICS`); nothing for the GPS link alone."""
+    if context.gnss_states is None:
+        return {}
+    systems = context.gnss.systems
+    counts, scatter = gnss.gnss_link_arrays(context.gps, context.dynamics.constants, context.gnss_states,
+                                            context.gnss_tx, r_lnss_mci_km[0])
+    summary = gnss.gnss_link_summary(counts, scatter, systems, {"combined": systems}, context.gps.pdop_filter,
+                                     context.gps.clock_column)
+    out = {"gnss_visible_mean": summary["combined"]["visible_mean"], "gnss_pdop_mean": summary["combined"]["pdop_mean"]}
+    visible, pdop = GNSS_SYSTEM_METRICS
+    for name in systems:
+        out[visible.format(name)] = summary[name]["visible_mean"]
+        out[pdop.format(name)] = summary[name]["pdop_mean"]
+    return {k: out[k] for k in (gnss_metric_keys(systems) or ("gnss_visible_mean", "gnss_pdop_mean"))}
 
 
 def _design_deltav(settings: DeltaVSettings, dynamics: Dynamics, ds: xr.Dataset, dv_first: xr.Dataset) -> dict:
@@ -304,7 +333,7 @@ def _design_deltav(settings: DeltaVSettings, dynamics: Dynamics, ds: xr.Dataset,
 
 def _operational_metrics(context: EvaluationContext, ds: xr.Dataset, states: np.ndarray, computed: dict) -> dict:
     """The requested extra metrics (``context.extra_metrics``), those already ``computed`` (the Delta-V budget's
-    maxima, the metre metrics) taken from there; NaN for an estimate the arc cannot give."""
+    maxima, the metre metrics, the GNSS link) taken from there; NaN for an estimate the arc cannot give."""
     profile, wanted = context.settings, context.extra_metrics
     out = {k: computed[k] for k in wanted if k in computed}
     want_nav = any(k in LIFE_NAVIGATION_KEYS for k in wanted)

@@ -3,8 +3,8 @@
 from __future__ import annotations
 
 __all__ = ["DESIGN_KEYS", "INTEGER_DESIGN_KEYS", "ELEMENT_KEYS", "METRIC_KEYS", "LIFE_NAVIGATION_KEYS",
-           "NAVIGATION_ERROR_KEYS", "EXTRA_METRIC_KEYS", "CAMPAIGN_METRIC_KEYS", "RESULT_KEYS", "VERDICT_KEYS",
-           "TIMING_KEYS", "DELTAV_SATELLITES",
+           "NAVIGATION_ERROR_KEYS", "EXTRA_METRIC_KEYS", "CAMPAIGN_METRIC_KEYS", "GNSS_SYSTEM_METRICS", "GNSS_NAMES",
+           "gnss_metric_keys", "RESULT_KEYS", "VERDICT_KEYS", "TIMING_KEYS", "DELTAV_SATELLITES",
            "NEEDS_ALL_SATELLITES", "CLOSED_LOOP_DV_BY_PURPOSE", "closed_loop_dv_key",
            "requested_extra_metrics", "NON_NAVIGATION_METRICS", "LABELS", "label", "bound_text", "value_format",
            "format_value", "violated_bound"]
@@ -28,9 +28,20 @@ LIFE_NAVIGATION_KEYS = ("pdop_avail_pct_life_estimate", "pdop_avail_pct_worst_mo
 # profile's position-error requirement, the oldest broadcast ephemeris and the satellites no station ever uploads
 NAVIGATION_ERROR_KEYS = ("horizontal_error_95_m", "vertical_error_95_m", "position_error_avail_pct",
                          "ephemeris_age_max_h", "satellites_never_uploaded")
+# and the multi-GNSS link over ``[gnss] systems`` (mean visible satellites, filtered mean PDOP with one clock per system)
 EXTRA_METRIC_KEYS = ("sk_dv_estimate_kms_per_year", "sk_dv_estimate_max_kms_per_year", "stable_screen",
                      "screen_min_perilune_alt_km", "dv_total_max_kms_per_year", "dv_opt_max_kms_per_year",
-                     *LIFE_NAVIGATION_KEYS, *NAVIGATION_ERROR_KEYS)
+                     *LIFE_NAVIGATION_KEYS, *NAVIGATION_ERROR_KEYS, "gnss_visible_mean", "gnss_pdop_mean")
+GNSS_SYSTEM_METRICS = ("gnss_{}_visible_mean", "gnss_{}_pdop_mean")   # per system, when [gnss] names more than GPS
+GNSS_NAMES = {"gps": "GPS", "galileo": "Galileo", "beidou": "BeiDou-3", "glonass": "GLONASS"}   # [gnss] systems
+
+
+def gnss_metric_keys(systems) -> tuple[str, ...]:
+    """The GNSS link's keys of an evaluation under ``[gnss] systems``: none for GPS alone (the paper's link), else
+    the combined ``gnss_visible_mean``, ``gnss_pdop_mean`` and each system's (:data:`GNSS_SYSTEM_METRICS`)."""
+    if tuple(systems) == ("gps",):
+        return ()
+    return ("gnss_visible_mean", "gnss_pdop_mean") + tuple(key.format(s) for s in systems for key in GNSS_SYSTEM_METRICS)
 CAMPAIGN_METRIC_KEYS = METRIC_KEYS + EXTRA_METRIC_KEYS   # what a campaign journal record holds
 # "evaluated": the design was evaluated (no impact, a closed orbit); whether it meets Table 3's bounds is VERDICT_KEYS
 RESULT_KEYS = METRIC_KEYS + ("deltav_model", "evaluated", "reason", "wall_s")
@@ -52,7 +63,9 @@ LABELS = {                  # key -> human label with its unit: figures, tables,
     "hdop_avail_pct": "HDOP availability (%)", "dv_total_kms_per_year": "Delta-V total (km/s/yr)",
     "dv_opt_kms_per_year": "Delta-V optimised (km/s/yr)",
     "gps_visible_mean": "GPS satellites visible (mean, first LNSS satellite)",
-    "gps_pdop_mean": "GPS-LNSS PDOP (first LNSS satellite)", "sk_dv_estimate_kms_per_year": "geometry-keeping Delta-V, mean (km/s/yr)",
+    "gps_pdop_mean": "GPS-LNSS PDOP (first LNSS satellite)",
+    "gnss_visible_mean": "GNSS satellites visible, every [gnss] system (mean, first LNSS satellite)",
+    "gnss_pdop_mean": "GNSS-LNSS PDOP, every [gnss] system, one clock each (first LNSS satellite)", "sk_dv_estimate_kms_per_year": "geometry-keeping Delta-V, mean (km/s/yr)",
     "sk_dv_estimate_max_kms_per_year": "geometry-keeping Delta-V, worst satellite (km/s/yr)",
     "stable_screen": "stable over the life (screen)", "screen_min_perilune_alt_km": "lowest perilune over the life (km)",
     "dv_total_max_kms_per_year": "Delta-V total, worst satellite (km/s/yr)",
@@ -95,6 +108,11 @@ def label(key: str) -> str:
     base, mask = _unmasked(key)
     if mask and base in LABELS:
         return f"{LABELS[base]}, {mask} deg mask"
+    for pattern, text in zip(GNSS_SYSTEM_METRICS, ("{} satellites visible (mean, first LNSS satellite)",
+                                                   "{}-LNSS PDOP, own clock (first LNSS satellite)")):
+        head, tail = pattern.split("{}")
+        if key.startswith(head) and key.endswith(tail) and key[len(head):-len(tail)] in GNSS_NAMES:
+            return text.format(GNSS_NAMES[key[len(head):-len(tail)]])
     head, tail = CLOSED_LOOP_DV_BY_PURPOSE.split("{}")
     if key not in LABELS and key.startswith(head) and key.endswith(tail) and len(key) > len(head) + len(tail):
         return f"closed-loop Delta-V, {key[len(head):-len(tail)].replace('_', ' ')} (km/s/yr)"
@@ -133,7 +151,7 @@ def value_format(key: str) -> str:
         return ".0f"
     if key.endswith(("_m", "_h")):
         return ".1f"
-    if key in ("mean_visible_sats", "gps_visible_mean"):
+    if key in ("mean_visible_sats", "gps_visible_mean") or key.startswith("gnss_") and key.endswith("_visible_mean"):
         return ".2f"
     if key.endswith(("_pct", "_deg")):
         return ".1f"

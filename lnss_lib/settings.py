@@ -280,6 +280,33 @@ class GpsSettings:
 
 
 @dataclass(frozen=True)
+class GnssReference:
+    """GPS's ICD minimum received power and where it is specified: the reference of the other systems' EIRP."""
+    min_received_power_dbw: float
+    edge_elevation_deg: float
+    sma_km: float
+
+
+@dataclass(frozen=True)
+class GnssTransmitter:
+    """A system's signal frequency and its ICD minimum received power at the edge-of-coverage elevation."""
+    frequency_mhz: float
+    min_received_power_dbw: float
+    edge_elevation_deg: float
+
+
+@dataclass(frozen=True)
+class GnssSettings:
+    """The GNSS link (:mod:`lnss_lib.gnss`): which systems, their nominal slots and transmitters."""
+    systems: tuple[str, ...]
+    nominal_file: str
+    gps: GnssReference
+    galileo: GnssTransmitter
+    beidou: GnssTransmitter
+    glonass: GnssTransmitter
+
+
+@dataclass(frozen=True)
 class DeltaVSettings:
     """Station-keeping Delta-V of the 10-day evaluation (Section 3.1, eq. 25-41)."""
     model: str
@@ -513,6 +540,7 @@ class Settings:
     notebooks: NotebookSettings
     dop: DopSettings
     gps: GpsSettings
+    gnss: GnssSettings
     deltav: DeltaVSettings
     navigation_error: NavigationErrorSettings
     evaluator: EvaluatorSettings

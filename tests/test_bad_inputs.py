@@ -631,7 +631,7 @@ def test_every_text_setting_is_checked_against_its_allowed_values(key):
 # text keys whose values are not a fixed set: data paths (confined by the loader), free text, names checked
 # against files by their readers before work (gain column, catalogue names, campaign objectives and constraints)
 OPEN_TEXT = {"profile.name", "profile.description", "gravity.file", "ephemeris.kernels", "ephemeris.planetary_spk",
-             "validation.capstone.file", "gps.tle_file", "gps.gain_file", "gps.gain_column",
+             "validation.capstone.file", "gps.tle_file", "gps.gain_file", "gps.gain_column", "gnss.nominal_file",
              "benchmark.epoch_constellations", "campaign.objectives"}
 
 

@@ -80,6 +80,19 @@ def test_standalone_elfo_table4_dop_within_five_percent(executed):
     assert table["why"].notna().all()
 
 
+def test_gnss_tables_add_up(executed):
+    """Notebook 03's GNSS table: a combination sees the sum of its systems' satellites, so adding a system never
+    lowers the count; notebook 05's Table 4 rows carry the same numbers."""
+    table = _table("03_gnss_by_system", executed).set_index("systems")
+    systems = ["GPS", "Galileo", "BeiDou-3", "GLONASS"]
+    assert table.loc["all four", "visible_mean"] == pytest.approx(table.loc[systems, "visible_mean"].sum(), rel=1e-9)
+    assert table.loc["GPS", "visible_mean"] <= table.loc["GPS + Galileo", "visible_mean"] \
+        <= table.loc["all four", "visible_mean"]
+    rows = _table("05_table4_gnss", executed).set_index("metric")
+    assert rows.loc["Mean GNSS visibility (all four)", "this workbook"] == pytest.approx(
+        table.loc["all four", "visible_mean"], rel=1e-9)
+
+
 def test_campaign_and_pareto_outputs(executed):
     from lnss_lib.campaign.publication import load_published
 

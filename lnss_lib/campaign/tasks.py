@@ -57,7 +57,7 @@ def synthetic_evaluation(settings: Settings, sma_km: float, ecc: float, aop_deg:
                       gps_visible_mean=gps_visible,
                       gps_pdop_mean=500.0 / gps_visible if gps_visible >= 1.0 else math.nan,
                       evaluated=True, impact=False, reason="")
-        result.update(_synthetic_extras(sma_km, ecc, inc_deg, r_min, dv_total, 0.45 * pdop, avail, extras))
+        result.update(_synthetic_extras(sma_km, ecc, inc_deg, r_min, dv_total, 0.45 * pdop, avail, gps_visible, extras))
         broken = violated_bound(result, stop_bounds or ())
         if broken:
             result.update(evaluated=False, reason=f"stopped early: {broken}; the rest not evaluated")
@@ -66,7 +66,7 @@ def synthetic_evaluation(settings: Settings, sma_km: float, ecc: float, aop_deg:
 
 
 def _synthetic_extras(sma_km: float, ecc: float, inc_deg: float, r_min: float, dv_total: float, hdop: float,
-                      avail: float, extras) -> dict:
+                      avail: float, gps_visible: float, extras) -> dict:
     """Closed-form stand-ins for the extra metrics (see :func:`synthetic_evaluation`; no physics)."""
     cos_i = math.cos(math.radians(inc_deg))
     sk = 0.05 + 0.6 * (sma_km / 24000.0) ** 3 + 0.8 * abs(math.sin(math.radians(inc_deg - 60.0)))
@@ -76,7 +76,9 @@ def _synthetic_extras(sma_km: float, ecc: float, inc_deg: float, r_min: float, d
               "stable_screen": 1.0 if perilune_alt > 0.0 else 0.0, "screen_min_perilune_alt_km": perilune_alt,
               "dv_total_max_kms_per_year": 1.05 * dv_total, "dv_opt_max_kms_per_year": 0.75 * 1.05 * dv_total,
               "horizontal_error_95_m": 2.0 * 4.0 * hdop, "vertical_error_95_m": 1.96 * 4.0 * 2.0 * hdop,
-              "position_error_avail_pct": avail, "ephemeris_age_max_h": 1.0, "satellites_never_uploaded": 0}
+              "position_error_avail_pct": avail, "ephemeris_age_max_h": 1.0, "satellites_never_uploaded": 0,
+              "gnss_visible_mean": 3.0 * gps_visible,
+              "gnss_pdop_mean": 300.0 / (3.0 * gps_visible) if gps_visible >= 1.0 / 3.0 else math.nan}
     drift = min(1.0, 0.5 * sk)                                       # the drift the Delta-V stand-in pays against
     for name, value in (("pdop", avail), ("hdop", min(100.0, 1.1 * avail))):
         values[f"{name}_avail_pct_life_estimate"] = value * (1.0 - 0.2 * drift)

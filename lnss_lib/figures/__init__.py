@@ -19,8 +19,8 @@ from .dop import (DOP_MAP_PANELS, POLE_AXES, dop_grid_points, dop_polar_maps, do
                   polar_wedges)
 from .export import NOTEBOOK_RENDERER, PNG_ENV, NotebookRenderer, chromium_path, figure_title, save_figure, use_notebook_renderer
 from .frozen import frozen_family_chart, perilune_envelope
-from .gps import (GPS_SENSITIVITY_GROUPS, cn0_vs_off_boresight, gps_sensitivity_scatter, gps_view_from_lnss,
-                  gps_visibility_pdop, gps_visibility_pdop_vs_paper, gps_visible_links, off_boresight_geometry)
+from .gps import (GPS_SENSITIVITY_GROUPS, cn0_vs_off_boresight, gnss_visibility_pdop, gps_sensitivity_scatter,
+                  gps_view_from_lnss, gps_visibility_pdop, gps_visibility_pdop_vs_paper, gps_visible_links, off_boresight_geometry)
 from .pareto import LABELS, dop_against_availability, pareto_3d, variable_relationships
 from .propagation import constellation_3d, elements_history
 from .validation import front_estimate_vs_closed_loop, headline_chart
@@ -32,7 +32,7 @@ __all__ = [
     "elements_history", "constellation_3d",
     "dop_time_series", "dop_grid_points", "dop_polar_maps", "polar_wedges", "POLE_AXES", "dop_time_series_by_frame",
     "gps_visibility_pdop", "off_boresight_geometry", "gps_view_from_lnss", "cn0_vs_off_boresight",
-    "gps_visibility_pdop_vs_paper", "gps_visible_links", "gps_sensitivity_scatter",
+    "gps_visibility_pdop_vs_paper", "gps_visible_links", "gps_sensitivity_scatter", "gnss_visibility_pdop",
     "thrust_history", "deltav_elements_and_rates", "deltav_thrust_components", "lsq_recovery_series",
     "deltav_sampling", "deltav_singularity",
     "pareto_3d", "dop_against_availability", "variable_relationships",

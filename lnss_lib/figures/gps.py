@@ -181,3 +181,23 @@ def gps_sensitivity_scatter(sens, paper: dict, prototype_pdop: float = 650.0) ->
                       xaxis_title="mean visible GPS satellites",
                       yaxis={"title": "95th-percentile-filtered mean PDOP", "type": "log"}, height=550, width=950)
     return fig
+
+
+def gnss_visibility_pdop(visible, pdop, *, title: str) -> go.Figure:
+    """Visible satellites and GNSS-LNSS PDOP (log scale) of one LNSS satellite for each system and combination
+    (notebook 03); ``visible``, ``pdop``: DataFrames indexed by days, one column each
+    (:func:`lnss_lib.studies.gnss_link.time_series`)."""
+    from plotly.subplots import make_subplots
+
+    fig = make_subplots(rows=2, cols=1, shared_xaxes=True, vertical_spacing=0.06,
+                        subplot_titles=("visible satellites", "GNSS-LNSS PDOP (one clock per system)"))
+    for k, label in enumerate(visible.columns):
+        color = f"hsl({(47 * k) % 360}, 65%, 45%)"
+        fig.add_trace(go.Scatter(x=visible.index, y=visible[label], mode="lines", line_shape="hv", name=label,
+                                 legendgroup=label, line={"color": color}), row=1, col=1)
+        fig.add_trace(go.Scatter(x=pdop.index, y=pdop[label], mode="markers", marker={"size": 3, "color": color},
+                                 name=label, legendgroup=label, showlegend=False), row=2, col=1)
+    fig.update_yaxes(type="log", exponentformat="power", row=2, col=1)
+    fig.update_xaxes(title_text="days since epoch (TDB)", row=2, col=1)
+    fig.update_layout(title=title, template="plotly_white", height=700)
+    return fig
