@@ -239,8 +239,7 @@ RANGES = {
     "life_evaluation.sample_step_s": POSITIVE, "life_evaluation.month_days": POSITIVE,
     "life_evaluation.screen_validation_designs": (0, None, False, False),
     "life_evaluation.screen_validation_life_days": NON_NEGATIVE,
-    "life_evaluation.life_navigation_designs": (0, None, False, False),
-    "life_evaluation.life_navigation_life_days": NON_NEGATIVE,
+    "life_navigation.designs": (0, None, False, False), "life_navigation.life_days": NON_NEGATIVE,
     "life_evaluation.frame_rerun_designs": (0, None, False, False),
     "front_validation.max_designs": (0, None, False, False), "front_validation.max_sats_per_plane": (0, None, False, False),
     "front_validation.headline_sizes": (1, None, False, False), "front_validation.headline_per_size": (0, None, False, False),
@@ -709,11 +708,13 @@ OFF_WHEN_ABSENT = {
     "navigation_error": lambda profile: not set(profile.get("evaluator", {}).get("extra_metrics", ()))
     & set(NAVIGATION_ERROR_KEYS),
     "gnss": lambda profile: list(profile["gnss"].get("systems", ["gps"])) == ["gps"],
+    "life_navigation": lambda profile: profile["life_navigation"].get("designs", 0) == 0,
 }
 """Sections a profile stored before they existed lacks, each with its test of being off: read as params/paper.toml's
 (front validation off, ``max_designs = 0``; the navigation error unused while no metric of
-:data:`~lnss_lib.keys.NAVIGATION_ERROR_KEYS` is asked for; the GPS link alone, ``[gnss] systems = ["gps"]``), and left
-out of the profile hash while off, so runs and shipped results from before them keep their hash."""
+:data:`~lnss_lib.keys.NAVIGATION_ERROR_KEYS` is asked for; the GPS link alone, ``[gnss] systems = ["gps"]``; notebook
+08's life navigation check off, ``designs = 0``), and left out of the profile hash while off, so runs and shipped
+results from before them keep their hash."""
 
 
 def with_absent_sections(profile: dict) -> dict:

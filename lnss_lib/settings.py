@@ -488,8 +488,13 @@ class LifeEvaluationSettings:
     validation_designs: tuple[tuple[int | float, ...], ...]   # Walker rows (a_km, e, aop, inc, planes, per plane)
     screen_validation_designs: int          # random Table 3 designs of studies.screen_validation
     screen_validation_life_days: float      # ... flown this long (0: the screened profile's [stability] life_days)
-    life_navigation_designs: int            # designs of studies.life_navigation (0: all)
-    life_navigation_life_days: float        # ... flown this long (0: the operational profile's [design_life] life_days)
+
+
+@dataclass(frozen=True)
+class LifeNavigationSettings:
+    """Notebook 08's check of the life-long availability estimate against the closed loop (studies.life_navigation)."""
+    designs: int                            # whole designs flown, the first of the study's list (0: off)
+    life_days: float                        # ... flown this long (0: the operational companion's [design_life] life_days)
 
 
 @dataclass(frozen=True)
@@ -550,6 +555,7 @@ class Settings:
     design_life: DesignLifeSettings
     benchmark: BenchmarkSettings
     life_evaluation: LifeEvaluationSettings
+    life_navigation: LifeNavigationSettings
     front_validation: FrontValidationSettings
     source: Mapping[str, Any] = field(repr=False, compare=False)
     hash: str = field(init=False, compare=True)
