@@ -32,7 +32,8 @@ CAMPAIGN_ONLY_KEYS = ("population", "generations", "crossover_prob", "crossover_
                       "companion_profile", "notebook_mode")
 
 
-NON_EVALUATION_SECTIONS = ("notebooks", "benchmark", "life_evaluation", "design_life", "front_validation")   # never read by a 10-day evaluation
+NON_EVALUATION_SECTIONS = ("notebooks", "benchmark", "life_evaluation", "life_navigation", "design_life",
+                           "front_validation")   # never read by a 10-day evaluation
 
 
 def campaign_constraints(campaign: CampaignSettings) -> tuple[tuple[str, str, float], ...]:
