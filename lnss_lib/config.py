@@ -33,6 +33,8 @@ PACKAGE_DIR = Path(__file__).resolve().parent
 PROJECT_DIR = PACKAGE_DIR.parent
 PARAMS_DIR = PROJECT_DIR / "params"
 OUTPUTS_DIR = PROJECT_DIR / "outputs"
+REFERENCE_DIR = OUTPUTS_DIR / "reference"     # shipped results, one folder per profile (lnss_lib.campaign.reference)
+RESERVED_PROFILE_NAMES = (REFERENCE_DIR.name,)  # outputs/<name>/ is not a profile's: no profile may take the name
 
 
 def available_profiles() -> list[str]:
@@ -69,14 +71,37 @@ PROFILE_NAME = re.compile(r"[A-Za-z0-9][A-Za-z0-9_-]{0,63}")
 PROFILE_FILES_ENV = "LNSS_PROFILE_FILES"   # {name: path} of use_profile_file, inherited by kernels and workers
 
 
+def _profile_file_problem(name, path) -> str | None:
+    """Why ``name`` -> ``path`` cannot be a profile file (:func:`use_profile_file`'s rules), or None."""
+    if not isinstance(name, str) or not PROFILE_NAME.fullmatch(name):
+        return (f"the name {name!r} is not allowed as a profile name; allowed: letters, digits, '_' and '-' (at most "
+                f"64, first a letter or digit)")
+    if name in RESERVED_PROFILE_NAMES:
+        return f"the name {name!r} is reserved (outputs/{name}/ holds the shipped results of every profile)"
+    if name in available_profiles():
+        return (f"params/{name}.toml already has the name {name!r}; rename the file (profiles in params/: "
+                f"{', '.join(available_profiles())})")
+    if not isinstance(path, str) or not path.endswith(".toml") or not Path(path).is_file():
+        return f"{path!r} is not an existing regular file ending in .toml"
+    return None
+
+
 def _profile_files() -> dict[str, str]:
+    """The profile files this process was given ({name: path}, the environment variable :data:`PROFILE_FILES_ENV`
+    that :func:`use_profile_file` sets for the processes it starts), each checked as :func:`use_profile_file`
+    checks a user's file: a forged entry cannot replace a ``params/`` profile or name a device that never ends."""
     try:
         files = json.loads(os.environ.get(PROFILE_FILES_ENV) or "{}")
-    except json.JSONDecodeError:
+    except (ValueError, RecursionError):
         files = None
     if not isinstance(files, dict):
         raise ConfigError(f"environment variable {PROFILE_FILES_ENV} is not a JSON table of profile files",
                           key=PROFILE_FILES_ENV)
+    for name, path in files.items():
+        problem = _profile_file_problem(name, path)
+        if problem:
+            raise ConfigError(f"environment variable {PROFILE_FILES_ENV}: {problem}; unset it (it is set by "
+                              f"--profile-file for the processes the workbook starts)", key=PROFILE_FILES_ENV)
     return files
 
 
@@ -84,20 +109,17 @@ def use_profile_file(path) -> str:
     """Make the TOML file ``path`` loadable as profile ``<stem>`` (outputs in ``outputs/<stem>/``) by this
     process and the processes it starts (notebook kernels, local workers); returns the name.
 
-    The stem must be a profile name (letters, digits, ``_``, ``-``) that no file in ``params/`` has.
+    The stem must be a profile name (letters, digits, ``_``, ``-``) that no file in ``params/`` has and that is not
+    reserved (:data:`RESERVED_PROFILE_NAMES`).
     """
     path = Path(path)
     if path.suffix != ".toml" or not path.is_file():
-        raise ConfigError(f"--profile-file {path}: need an existing file ending in .toml", key="--profile-file")
-    name = path.stem
-    if not PROFILE_NAME.fullmatch(name):
-        raise ConfigError(f"--profile-file {path}: the file name {name!r} is not allowed as a profile name; allowed: "
-                          f"letters, digits, '_' and '-' (at most 64, first a letter or digit)", key="--profile-file")
-    if name in available_profiles():
-        raise ConfigError(f"--profile-file {path}: params/{name}.toml already has the name {name!r}; rename the file "
-                          f"(profiles in params/: {', '.join(available_profiles())})", key="--profile-file")
-    os.environ[PROFILE_FILES_ENV] = json.dumps({**_profile_files(), name: str(path.resolve())})
-    return name
+        raise ConfigError(f"--profile-file {path}: need an existing regular file ending in .toml", key="--profile-file")
+    problem = _profile_file_problem(path.stem, str(path.resolve()))
+    if problem:
+        raise ConfigError(f"--profile-file {path}: {problem}", key="--profile-file")
+    os.environ[PROFILE_FILES_ENV] = json.dumps({**_profile_files(), path.stem: str(path.resolve())})
+    return path.stem
 
 
 def profile_path(name: str, key: str = "--profile") -> Path:

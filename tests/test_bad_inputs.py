@@ -16,7 +16,7 @@ import xarray as xr
 
 from lnss_lib import config
 from lnss_lib.__main__ import main
-from lnss_lib.campaign.rundir import RunLock
+from lnss_lib.campaign.rundir import RunLock, run_checksum
 from lnss_lib.config import PROJECT_DIR
 from lnss_lib.settings import load_settings
 from lnss_lib.errors import ConfigError, SpiceError
@@ -296,6 +296,9 @@ def test_forged_profile_name_in_a_run_folder_is_refused(capsys, tmp_path):
     forged["profile"]["profile"]["name"] = "../../elsewhere"
     run_file.write_text(json.dumps(forged))
     one_line_error(capsys, main(["campaign", "--resume", str(run_dir), "--workers", "0", "--no-progress"]), 2,
+                   "run.json was edited after the run started")
+    run_file.write_text(json.dumps({**forged, "checksum": run_checksum(forged)}))    # a forger who re-seals it
+    one_line_error(capsys, main(["campaign", "--resume", str(run_dir), "--workers", "0", "--no-progress"]), 2,
                    "profile.name", "forged")
 
 
@@ -313,7 +316,7 @@ def test_resume_refuses_edited_settings_and_a_locked_run(capsys, tmp_path):
     original = run_file.read_text()
     edited = json.loads(original)
     edited["profile"]["campaign"]["population"] = 8
-    run_file.write_text(json.dumps(edited))
+    run_file.write_text(json.dumps({**edited, "checksum": run_checksum(edited)}))
     one_line_error(capsys, main(["campaign", "--resume", str(run_dir), "--workers", "0", "--no-progress"]), 2, "differ from those the run")
     run_file.write_text(original)
     lock = RunLock(run_dir)
@@ -725,3 +728,29 @@ def test_hill_radius_follows_from_the_profile_masses(paper_profile):
 
     ratio = paper_profile.gravity.gm_km3_s2 / paper_profile.constants.gm_earth_km3_s2
     assert MOON_HILL_RADIUS_KM == pytest.approx(EARTH_MOON_DISTANCE_KM * (ratio / 3.0) ** (1.0 / 3.0), rel=5e-3)
+
+
+def test_reserved_and_forged_profile_files_are_refused(capsys, tmp_path, monkeypatch):
+    """A profile named like the shipped-results folder (outputs/reference/) would put its runs where an export
+    replaces folders whole: refused as --profile-file and in LNSS_PROFILE_FILES, which is checked like user input
+    (no params/ profile replaced, no device read), as is a new run inside outputs/reference/."""
+    from lnss_lib.campaign import run_campaign
+
+    (tmp_path / "reference.toml").write_text('[profile]\ninherits = "ci"\n')
+    one_line_error(capsys, main(["propagate", "--profile-file", str(tmp_path / "reference.toml"), *EPOCH, *ELFO,
+                                 "--days", "0.1"]), 2, "reserved")
+    (tmp_path / "fake.toml").write_text('[profile]\ninherits = "ci"\n')
+    fifo = tmp_path / "pipe.toml"
+    os.mkfifo(fifo)
+    for table, needle in (({"ci": str(tmp_path / "fake.toml")}, "params/ci.toml already has the name"),
+                          ({"x": "/dev/zero"}, "not an existing regular file"), ({"x": str(fifo)}, "regular file"),
+                          ({"reference": str(tmp_path / "reference.toml")}, "reserved"), (["x"], "JSON table"),
+                          ({"../x": str(tmp_path / "fake.toml")}, "not allowed as a profile name")):
+        monkeypatch.setenv("LNSS_PROFILE_FILES", json.dumps(table))
+        one_line_error(capsys, main(["propagate", "--profile", "x", *EPOCH, *ELFO, "--days", "0.1"]), 2,
+                       "LNSS_PROFILE_FILES", needle)
+    monkeypatch.delenv("LNSS_PROFILE_FILES")
+    with pytest.raises(ConfigError, match="shipped results"):
+        run_campaign("ci", overrides={"campaign": {"evaluator": "synthetic"}}, workers=0, progress=False,
+                     run_dir=config.REFERENCE_DIR / "ci" / "run")
+    assert not (config.REFERENCE_DIR / "ci").exists()

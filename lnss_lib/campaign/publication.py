@@ -8,7 +8,8 @@ profile's publication: a folder ``published/<run>-<id>/`` holding the run's ``ev
 and reading take an ``flock`` on the campaign folder (exclusive and shared), so two campaigns of one
 profile that finish at once publish one after the other and a reader always gets the three files of
 one run. A run is published as the profile's only when its stored profile is the profile's
-(:func:`run_differences` empty: same profile hash, hence same evaluator and evaluation settings).
+(:func:`run_differences` empty: same profile hash, hence same evaluator and evaluation settings), and never
+replaces a finished run's publication by an unfinished one (a session stopped by ``--max-generations``).
 """
 
 from __future__ import annotations
@@ -28,6 +29,7 @@ import xarray as xr
 
 from ..atomicio import write_netcdf_atomic, write_text_atomic
 from ..config import profile_hash
+from ..errors import ConfigError
 from ..settings import Settings, profile_data
 from .rundir import RESULT_FILES, export_results, load_run
 from .settings import evaluation_hash
@@ -107,12 +109,17 @@ def _locked(campaign_dir: Path, exclusive: bool):
 def publish_run(run_dir, campaign_dir, datasets=None) -> Path:
     """Publish ``run_dir`` as the campaign of ``campaign_dir`` (the caller checked :func:`run_differences`):
     ``datasets`` (default :func:`~lnss_lib.campaign.rundir.export_results`) into a new folder, then the
-    pointer; superseded folders are removed. Returns the pointer's path."""
+    pointer; superseded folders are removed. Returns the pointer's path; ConfigError, nothing written, when a
+    finished run is published and this one has not finished."""
     run_dir, campaign_dir = Path(run_dir), Path(campaign_dir)
     datasets = datasets if datasets is not None else export_results(run_dir)
     run = load_run(run_dir)
     root = campaign_dir / PUBLISHED_DIR
     with _locked(campaign_dir, exclusive=True):
+        current = _pointer(campaign_dir)
+        if current and current.get("finished") is True and not datasets[0].attrs["finished"]:
+            raise ConfigError(f"{campaign_dir / POINTER_FILE} publishes the finished run {current.get('run_dir')!r}; "
+                              f"this run has not finished and does not replace it")
         root.mkdir(exist_ok=True)
         folder = Path(tempfile.mkdtemp(prefix=f"{run_dir.name}-", dir=root))
         for name, ds in zip(RESULT_FILES, datasets):
