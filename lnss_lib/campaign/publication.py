@@ -14,8 +14,6 @@ replaces a finished run's publication by an unfinished one (a session stopped by
 
 from __future__ import annotations
 
-from collections.abc import Mapping
-
 import contextlib
 import json
 import os
@@ -30,9 +28,8 @@ import xarray as xr
 from ..atomicio import write_netcdf_atomic, write_text_atomic
 from ..config import profile_hash
 from ..errors import ConfigError
-from ..settings import Settings, profile_data
 from .rundir import RESULT_FILES, export_results, load_run
-from .settings import evaluation_hash
+from .settings import run_differences
 from .validation import VALIDATED_FILE
 
 __all__ = ["Publication", "run_differences", "publish_run", "load_published", "published_folder",
@@ -52,46 +49,6 @@ class Publication:
     front: xr.Dataset
     history: xr.Dataset
     validated: xr.Dataset | None = None
-
-
-def _differing_keys(run: dict, theirs: dict, prefix: str = "") -> list[str]:
-    """``key = run value (profile: value)`` for every dotted key whose values differ."""
-    lines = []
-    for key in sorted(set(run) | set(theirs), key=str):
-        name = f"{prefix}{key}"
-        mine, other = run.get(key, "<absent>"), theirs.get(key, "<absent>")
-        if isinstance(mine, Mapping) and isinstance(other, Mapping):
-            lines += _differing_keys(mine, other, f"{name}.")
-        elif mine != other and name not in ("profile.name", "profile.description"):
-            lines.append(f"{name} = {mine!r} (profile: {other!r})")
-    return lines
-
-
-def _hash(settings: Settings | Mapping) -> str:
-    """The profile hash of settings (computed once, when they were built) or of a stored profile dict."""
-    return settings.hash if isinstance(settings, Settings) else profile_hash(profile_data(settings))
-
-
-def run_differences(run: Settings | Mapping, settings: Settings | Mapping, limit: int = 6) -> list[str]:
-    """Why a run (its settings, or the profile dict its ``run.json`` stored) is not the campaign of ``settings``: []
-    when the profile hashes agree, else the evaluator, the evaluation settings and up to ``limit`` differing
-    keys, in that order (nothing is validated: a stored dict is compared as it is)."""
-    run_hash, hash_ = _hash(run), _hash(settings)
-    if run_hash == hash_:
-        return []
-    run_profile, profile = profile_data(run), profile_data(settings)
-    reasons = []
-    run_evaluator, evaluator = (p.get("campaign", {}).get("evaluator") for p in (run_profile, profile))
-    if run_evaluator != evaluator:
-        reasons.append(f"its evaluator is {run_evaluator!r}, the profile's {evaluator!r}")
-    run_eval_hash, eval_hash = evaluation_hash(run_profile), evaluation_hash(profile)
-    if run_eval_hash != eval_hash:
-        reasons.append(f"its evaluation settings differ (evaluation hash {run_eval_hash}, the profile's {eval_hash})")
-    keys = _differing_keys(run_profile, profile)
-    reasons.append(f"profile hash {run_hash}, the profile's {hash_}"
-                   + (f": {'; '.join(keys[:limit])}" + (f"; and {len(keys) - limit} more" if len(keys) > limit else "")
-                      if keys else ""))
-    return reasons
 
 
 @contextlib.contextmanager

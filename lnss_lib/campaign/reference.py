@@ -41,9 +41,8 @@ from ..keys import DESIGN_KEYS, TIMING_KEYS, label
 from ..settings import load_settings, settings_from_profile
 from .fitness import bound_masks, deltav_constraint, parse_constraints, satisfies
 from .journal import JOURNAL_FILE, parse_journal, read_cache_records
-from .publication import run_differences
 from .rundir import check_resumable, export_results, load_checkpoint, load_run
-from .settings import CampaignPlan, evaluation_hash
+from .settings import CampaignPlan, evaluation_hash, run_differences
 from .timing import campaign_timing, concurrent_workers
 
 __all__ = ["REFERENCE_DIR", "REFERENCE_FILES", "README_FILE", "MAX_FILE_BYTES", "Reference", "check_run_folder",

@@ -27,7 +27,7 @@ from .. import kernel_cpu
 from ..config import OUTPUTS_DIR, PROFILE_NAME
 from ..settings import Settings, load_settings, settings_from_profile
 from ..errors import ConfigError
-from .backends import BatchEvaluator, early_stop_bounds, open_backend
+from .backends import BatchEvaluator, check_scheduler_address, early_stop_bounds, open_backend
 from .callbacks import (Callback, CampaignStopped, Checkpointer, ErrorGuard, HistoryRecorder, ProgressBars,
                         RunState)
 from .journal import JOURNAL_FILE, EvaluationCache, read_cache_records
@@ -82,6 +82,8 @@ def run_campaign(profile_name: str = "quick", *, overrides: dict | None = None, 
     while it runs. More evaluation errors than ``campaign.max_errors`` raise
     :class:`~lnss_lib.campaign.callbacks.CampaignStopped` after writing ``evaluations.nc``.
     """
+    if scheduler_address is not None:
+        check_scheduler_address(scheduler_address)
     if resume is not None:
         if overrides:
             raise ConfigError("a resumed run keeps its parameters: overrides are not allowed with resume")
@@ -267,6 +269,8 @@ def validate_run(run_dir, *, workers: int | None = None, scheduler_address: str 
     lock, then publish it as :func:`run_campaign` would: ``(ValidationResult, publication note)``. ConfigError for a
     folder that is not a run, a run not finished or a profile whose validation is off."""
     run_dir = Path(run_dir)
+    if scheduler_address is not None:
+        check_scheduler_address(scheduler_address)
     if not run_dir.is_dir():
         raise ConfigError(f"--validate {run_dir}: not a folder (a campaign run folder: {RUN_FILE}, checkpoint.pkl, "
                           f"{JOURNAL_FILE})", key="--validate")
