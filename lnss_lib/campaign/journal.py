@@ -53,6 +53,9 @@ def _is_record(item) -> bool:
             and type(item.get("generation")) is int and isinstance(item.get("metrics", {}), dict))
 
 
+_REPORTED: set[tuple[str, tuple]] = set()       # (journal, damaged lines) already named in this process
+
+
 def parse_journal(data: bytes, is_record=_is_record, source=None) -> tuple[dict, list[dict], int]:
     """(header, one record per design in order of first appearance, length of the complete lines) of a
     journal's bytes; ``is_record`` tells a whole record (default: an evaluation record; the front validation's
@@ -63,7 +66,8 @@ def parse_journal(data: bytes, is_record=_is_record, source=None) -> tuple[dict,
     damaged later; a journal of format 1 has no CRC); the designs they held are evaluated again on resume. A design recorded twice (two writers) counts once: its
     first record, unless that one is an error record and a later one exists (a retry after the cause
     of the error was removed). A line that does not parse at all (not JSON, nested too deep, a number too long to
-    read) is skipped like any other; with ``source`` (the file) the skipped lines are named in a RuntimeWarning.
+    read) is skipped like any other; with ``source`` (the file) the skipped lines are named in a RuntimeWarning
+    (once per process).
     """
     end = data.rfind(b"\n") + 1
     lines = data[:end].decode(errors="replace").splitlines()
@@ -85,7 +89,8 @@ def parse_journal(data: bytes, is_record=_is_record, source=None) -> tuple[dict,
             key = tuple(record["key"])
             if key not in by_key or by_key[key].get("error"):
                 by_key[key] = record
-    if damaged and source is not None:
+    if damaged and source is not None and (str(source), tuple(damaged)) not in _REPORTED:
+        _REPORTED.add((str(source), tuple(damaged)))
         shown = ", ".join(map(str, damaged[:5])) + (f" and {len(damaged) - 5} more" if len(damaged) > 5 else "")
         warnings.warn(f"{source}: line(s) {shown} damaged (not a whole record or a wrong CRC): skipped, their "
                       f"designs are evaluated again", RuntimeWarning, stacklevel=2)
