@@ -63,22 +63,47 @@ KERNEL_CPU_NEEDS = ("avx512f", "avx512cd", "avx512bw", "avx512dq", "avx512vl", "
                     "bmi2", "lzcnt", "movbe", "popcnt", "sse4.2", "adx", "clflushopt", "clwb", "xsave")
 
 
+AVX512_MODELS = ("skylake-avx512", "cascadelake", "cooperlake", "cannonlake", "icelake-client", "icelake-server",
+                 "tigerlake", "rocketlake", "sapphirerapids", "emeraldrapids", "graniterapids", "znver4", "znver5",
+                 "x86-64-v4")       # LLVM's names of the processor models whose code may use AVX-512
+
+
 def kernel_cpu() -> str:
     """The processor model the kernels are compiled for: ``NUMBA_CPU_NAME`` when set, else :data:`KERNEL_CPU` when
     this processor has every feature of :data:`KERNEL_CPU_NEEDS`, else ``host:<model>`` (numba's default: this
-    processor; its results differ from the pinned ones by round-off, amplified by adaptive step control)."""
-    if os.environ.get("NUMBA_CPU_NAME"):
-        return os.environ["NUMBA_CPU_NAME"]
+    processor; its results differ from the pinned ones by round-off, amplified by adaptive step control).
+
+    ``NUMBA_CPU_NAME`` naming a model whose instructions this processor lacks (:data:`KERNEL_CPU` without a feature
+    of :data:`KERNEL_CPU_NEEDS`, a model of :data:`AVX512_MODELS` without AVX-512) raises ConfigError: its kernels
+    would stop with an illegal instruction (SIGILL, exit 132) without a word."""
     import llvmlite.binding as llvm
 
     features = llvm.get_host_cpu_features()
-    if all(features.get(name, False) for name in KERNEL_CPU_NEEDS):
+    name = os.environ.get("NUMBA_CPU_NAME")
+    if name:
+        needs = KERNEL_CPU_NEEDS if name == KERNEL_CPU else ("avx512f",) if name in AVX512_MODELS else ()
+        missing = [feature for feature in needs if not features.get(feature, False)]
+        if missing:
+            from .errors import ConfigError
+
+            raise ConfigError(f"environment variable NUMBA_CPU_NAME={name} names a processor model this machine "
+                              f"({llvm.get_host_cpu_name()}) cannot run: it lacks {', '.join(missing)}, and the kernels "
+                              f"would stop with an illegal instruction; unset NUMBA_CPU_NAME (the kernels are then "
+                              f"compiled for this machine)", key="NUMBA_CPU_NAME")
+        return name
+    if all(features.get(feature, False) for feature in KERNEL_CPU_NEEDS):
         return KERNEL_CPU
     return f"host:{llvm.get_host_cpu_name()}"
 
 
 os.environ["NUMBA_CACHE_DIR"] = kernel_cache_dir()
-_cpu = kernel_cpu()                          # asks llvmlite once; later calls read NUMBA_CPU_NAME
+try:
+    _cpu = kernel_cpu()                      # asks llvmlite once; later calls read NUMBA_CPU_NAME
+except ValueError as _error:                 # ConfigError: a model this machine cannot run
+    if sys.argv[:1] == ["-m"]:               # ``python -m lnss_lib`` locating its __main__: the command line's one line
+        print(f"error: {_error}", file=sys.stderr)
+        sys.exit(2)
+    raise
 if not _cpu.startswith("host:"):
     os.environ["NUMBA_CPU_NAME"] = _cpu
     os.environ.setdefault("NUMBA_CPU_FEATURES", "")          # only the features the model implies

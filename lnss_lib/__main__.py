@@ -8,7 +8,9 @@ import errno
 import logging
 import math
 import os
+import signal
 import sys
+import threading
 import traceback
 from pathlib import Path
 
@@ -16,8 +18,8 @@ import numpy as np
 
 from .config import CR_AREA_MASS, CR_AREA_MASS_WHY, PACKAGE_DIR, allowed_range_text, available_profiles, in_range, parse_sets, use_profile_file
 from .settings import load_settings
-from .constants import SECONDS_PER_DAY
-from .errors import ConfigError, EphemerisRangeError, InvalidOrbitError, SpiceError
+from .constants import DAYS_PER_JULIAN_YEAR, INTEGER_SETTING_MAX, SECONDS_PER_DAY
+from .errors import ConfigError, EphemerisRangeError, InvalidOrbitError, SpiceError, Terminated
 
 BENCHMARKS = ("propagator", "dop", "evaluate", "estimate", "navigation", "campaign", "integrator", "design-life",
               "stability", "gnss")
@@ -32,6 +34,15 @@ def _require(flag: str, value, spec: tuple, integer: bool = False, why: str = ""
         kind = "an integer" if integer else "a finite number"
         raise ConfigError(f"{flag} {value!r} is not allowed; allowed: {kind} in {allowed_range_text(spec)}"
                           + (f" ({why})" if why else ""), key=flag)
+    return value
+
+
+def integer(text: str) -> int:
+    """An integer flag's value: an integer that outputs can store (magnitude at most 2**63 - 1), for argparse."""
+    value = int(text)          # ValueError (also for more than 4300 digits): argparse says "invalid integer value"
+    if abs(value) > INTEGER_SETTING_MAX:
+        raise argparse.ArgumentTypeError(f"an integer of about {len(text.strip().lstrip('+-'))} digits is too large; "
+                                         f"allowed: at most 2**63 - 1 in magnitude")
     return value
 
 
@@ -85,6 +96,7 @@ def _cmd_propagate(args: argparse.Namespace) -> int:
 
     from .atomicio import write_netcdf_atomic, write_text_atomic
     from .ephemeris import check_span, ensure_kernels, tdb_seconds
+    from .elements import check_states_km
     from .propagator import check_elements_deg, elements_deg_to_states, propagate_states
 
     _require("--days", args.days, (0.0, None, True, False))
@@ -107,7 +119,11 @@ def _cmd_propagate(args: argparse.Namespace) -> int:
     if args.elements is not None:
         state = elements_deg_to_states(profile.dynamics, [args.elements], t0)
     else:
-        state = np.array([args.state_km])
+        try:
+            state = check_states_km([args.state_km], profile.dynamics.gravity.gm_km3_s2, profile.dynamics.r_impact_km)
+        except ConfigError as error:
+            raise ConfigError(f"--state-km {' '.join(map(str, args.state_km))}: {str(error).removeprefix('state 0: ')}",
+                              key="--state-km") from None
     ds = propagate_states(profile.dynamics, state, t0, args.days * SECONDS_PER_DAY, args.step_s, setting=args.setting,
                           srp_cr_area_mass_m2_kg=args.srp_cr_area_mass)
     if out is not None and out.suffix == ".nc":
@@ -133,6 +149,17 @@ def _cmd_evaluate(args: argparse.Namespace) -> int:
     life = args.design_life_days
     if life is not None and not (np.isfinite(life) and life > 0):
         raise ValueError(f"--design-life-days must be a positive number of days; got {life!r}")
+    if life is not None:             # a life past the kernels' span is refused before the 10-day evaluation runs
+        from .ephemeris import check_span, ensure_kernels, tdb_seconds
+
+        profile = load_settings(args.profile, overrides=_overrides(args))
+        ensure_kernels(profile.ephemeris)
+        t0 = tdb_seconds(profile.epoch.start_tdb, "TDB")
+        try:
+            check_span(t0, t0 + life * SECONDS_PER_DAY)
+        except EphemerisRangeError as error:
+            raise ConfigError(f"--design-life-days {life!r} ({life / DAYS_PER_JULIAN_YEAR:.4g} years from "
+                              f"{profile.epoch.start_tdb}): {error}", key="--design-life-days") from None
     walker = {"--sma-km": args.sma_km, "--ecc": args.ecc, "--aop-deg": args.aop_deg, "--inc-deg": args.inc_deg,
               "--planes": args.planes, "--sats-per-plane": args.sats_per_plane}
     if args.constellation is not None:
@@ -339,7 +366,8 @@ def build_parser() -> argparse.ArgumentParser:
     rep.set_defaults(func=_cmd_reproduce)
 
     prop = _command(sub, "propagate")
-    prop.add_argument("--epoch-tdb", required=True, help="start epoch, ISO calendar in TDB (e.g. 2022-11-25T00:00:00)")
+    prop.add_argument("--epoch-tdb", required=True, help="start epoch in TDB, ISO 8601 YYYY-MM-DDTHH:MM:SS without zone "
+                      "(e.g. 2022-11-25T00:00:00)")
     group = prop.add_mutually_exclusive_group(required=True)
     group.add_argument("--state-km", nargs=6, type=float, metavar=("X", "Y", "Z", "VX", "VY", "VZ"),
                        help="Moon-centred J2000 state, km and km/s")
@@ -347,7 +375,7 @@ def build_parser() -> argparse.ArgumentParser:
                        help="Keplerian elements (km, deg) in the profile's element frame")
     prop.add_argument("--days", type=float, required=True, help="duration in days")
     prop.add_argument("--step-s", type=float, default=900.0, help="output sampling step in seconds")
-    prop.add_argument("--degree", type=int, help="gravity degree and order (0-100; 0 = point mass)")
+    prop.add_argument("--degree", type=integer, help="gravity degree and order (0-100; 0 = point mass)")
     prop.add_argument("--srp-cr-area-mass", type=float, help="Cr*A/m in m^2/kg (default: the profile's spacecraft)")
     prop.add_argument("--setting", help="integrator setting: paper or converged (default: the profile's)")
     _add_profile(prop, "paper")
@@ -365,8 +393,8 @@ def build_parser() -> argparse.ArgumentParser:
     ev.add_argument("--ecc", type=float, help="eccentricity, [0, 1)")
     ev.add_argument("--aop-deg", type=float, help="argument of perilune (deg)")
     ev.add_argument("--inc-deg", type=float, help="inclination to the element frame's equator (deg)")
-    ev.add_argument("--planes", type=int, help="number of planes Np (RAAN by eq. 42)")
-    ev.add_argument("--sats-per-plane", type=int, help="satellites per plane Ns")
+    ev.add_argument("--planes", type=integer, help="number of planes Np (RAAN by eq. 42)")
+    ev.add_argument("--sats-per-plane", type=integer, help="satellites per plane Ns")
     _add_profile(ev, "quick")
     ev.add_argument("--design-life-days", type=float, metavar="D",
                     help="also fly the design life of D days: closed-loop station keeping, natural drift, DOP "
@@ -377,7 +405,7 @@ def build_parser() -> argparse.ArgumentParser:
 
     camp = _command(sub, "campaign")
     _add_profile(camp, None)
-    camp.add_argument("--workers", type=int, help="Dask worker processes on this machine (default: one per core; "
+    camp.add_argument("--workers", type=integer, help="Dask worker processes on this machine (default: one per core; "
                       "0 or 1: evaluate in this process)")
     camp.add_argument("--scheduler-address", help="use an existing Dask cluster, e.g. tcp://HOST:8786")
     camp.add_argument("--resume", metavar="RUN_DIR", help="continue the run in RUN_DIR from its last checkpoint")
@@ -385,7 +413,7 @@ def build_parser() -> argparse.ArgumentParser:
     camp.add_argument("--evaluator", choices=("walker", "synthetic"),
                       help="walker (default): the design evaluator; synthetic: closed-form stand-in for tests")
     camp.add_argument("--set", action="append", metavar="SECTION.KEY=VALUE", help=set_help)
-    camp.add_argument("--max-generations", type=int, help="stop this session after N generations (resumable)")
+    camp.add_argument("--max-generations", type=integer, help="stop this session after N generations (resumable)")
     camp.add_argument("--no-progress", action="store_true", help="no progress bars")
     camp.add_argument("--export-reference", metavar="RUN_DIR", help="export the run folder RUN_DIR (finished or not) "
                       "as its profile's shipped results, outputs/reference/<profile>/, and run nothing")
@@ -462,18 +490,45 @@ def main(argv: list[str] | None = None) -> int:
         args = parser.parse_args(argv)
     except SystemExit as stop:          # --help (0) or a usage error (2, one line already printed)
         return stop.code if isinstance(stop.code, int) else 2
+    if _prints_result(args) and (sys.stdout is None or sys.stdout.closed):
+        print("error: standard output is closed: the command's result would be lost; open it or redirect it to a "
+              "file", file=sys.stderr)
+        return 1
+    previous = signal.signal(signal.SIGTERM, _terminate) if _in_main_thread() else None
     try:
         if getattr(args, "profile_file", None):
             args.profile = use_profile_file(args.profile_file)
-        return args.func(args)
+        code = args.func(args)
+        if sys.stdout is not None:
+            sys.stdout.flush()           # a reader gone or a full disk is this command's failure, not exit 0
+        return code
     except (KeyboardInterrupt, Exception) as error:
-        code, text = (130, "interrupted") if isinstance(error, KeyboardInterrupt) else classify(error)
+        code, text = ((143, "terminated (SIGTERM)") if isinstance(error, Terminated) else
+                      (130, "interrupted") if isinstance(error, KeyboardInterrupt) else classify(error))
         if debug:
             traceback.print_exception(error)
-        elif code == 130:       # tasks abandoned by the interrupt (a notebook kernel's) are logged when collected
+        elif code in (130, 143):   # tasks abandoned by the interrupt (a notebook kernel's) are logged when collected
             logging.getLogger("asyncio").setLevel(logging.CRITICAL)
         print(f"error: {text}", file=sys.stderr)
         return code
+    finally:
+        if previous is not None:
+            signal.signal(signal.SIGTERM, previous)
+
+
+def _in_main_thread() -> bool:
+    return threading.current_thread() is threading.main_thread()
+
+
+def _terminate(signum, frame):
+    """SIGTERM raises :class:`~lnss_lib.errors.Terminated`: the run stops as on Ctrl-C (journal, checkpoint and
+    workers closed), with one line and exit 143 (it ended silently, leaking semaphores)."""
+    raise Terminated()
+
+
+def _prints_result(args: argparse.Namespace) -> bool:
+    """Whether the command's result goes to standard output (``evaluate``; ``propagate`` without ``--out``)."""
+    return args.command == "evaluate" or (args.command == "propagate" and args.out is None)
 
 
 if __name__ == "__main__":

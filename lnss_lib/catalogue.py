@@ -40,17 +40,17 @@ from __future__ import annotations
 import dataclasses
 import math
 from dataclasses import dataclass, field
-from datetime import datetime
 from pathlib import Path
 
 import numpy as np
 
-from .config import PARAMS_DIR, read_toml
+from .config import ISO_FORMAT, PARAMS_DIR, parse_iso_date, read_toml
+from .constants import INTEGER_SETTING_MAX
 from .settings import Dynamics, Settings, load_settings
-from .elements import mean_anomaly_from_true
+from .elements import mean_anomaly_from_true, validate_elements
 from .ephemeris import ensure_kernels, tdb_iso, tdb_seconds
 from .frames import element_frame_to_j2000
-from .errors import ConfigError, InfeasibleDesignError
+from .errors import ConfigError, InfeasibleDesignError, InvalidOrbitError
 
 __all__ = ["CATALOGUE_DIR", "FILE_FRAMES", "CatalogueConstellation", "CatalogueStates", "list_catalogue",
            "load_constellation", "true_to_mean_anomaly_deg", "constellation_states_mci", "file_epoch_profile",
@@ -138,6 +138,8 @@ def _string(path: Path, data: dict, key: str, label: str | None = None) -> str:
 def _number(path: Path, value, label: str) -> float:
     if isinstance(value, bool) or not isinstance(value, (int, float)):
         raise _fail(path, label, f"must be a number; got {value!r} ({type(value).__name__})")
+    if isinstance(value, int) and abs(value) > INTEGER_SETTING_MAX:        # float() of it raised OverflowError
+        raise _fail(path, label, f"must be a finite number; got an integer of {value.bit_length()} bits")
     if not math.isfinite(float(value)):
         raise _fail(path, label, f"must be finite; got {value!r}")
     return float(value)
@@ -192,18 +194,15 @@ def _parse_satellites(path: Path, sats, approximate: bool, floor_km: float):
         if name in names:
             raise _fail(path, where + "name", f"duplicate satellite name {name!r}")
         values = {key: _number(path, sat[key], where + key) for key in keys if key in sat}
-        if not values["a_km"] > 0.0:
-            raise _fail(path, where + "a_km", f"must be positive (km); got {values['a_km']!r}")
-        if not approximate:
-            e = values["e"]
-            if not 0.0 <= e < 1.0:
-                raise _fail(path, where + "e", f"must be in [0, 1) (closed orbits); got {e!r}")
-            if not 0.0 <= values["inc_deg"] <= 180.0:
-                raise _fail(path, where + "inc_deg", f"must be in [0, 180] deg; got {values['inc_deg']!r}")
-            perilune = values["a_km"] * (1.0 - e)
-            if perilune < floor_km:
-                raise _fail(path, where + "a_km", f"perilune a(1 - e) = {perilune:.1f} km is below {floor_km:.1f} km "
-                            "(lunar radius + minimum altitude): the orbit hits the Moon")
+        e = values.get("e", 0.0)
+        if not 0.0 <= e < 1.0:
+            raise _fail(path, where + "e", f"must be in [0, 1) (closed orbits); got {e!r}")
+        if not approximate and not 0.0 <= values["inc_deg"] <= 180.0:
+            raise _fail(path, where + "inc_deg", f"must be in [0, 180] deg; got {values['inc_deg']!r}")
+        try:     # the check of every element set (flags, profiles, explorer): above the surface, inside the Hill sphere
+            validate_elements(values["a_km"], e, 0.0 if approximate else floor_km)
+        except InvalidOrbitError as error:
+            raise _fail(path, where + "a_km", str(error)) from None
         names.append(name)
         rows.append([values.get(key, math.nan) for key in keys])
     return tuple(names), np.array(rows, dtype=float)
@@ -234,10 +233,9 @@ def load_constellation(name_or_path: str | Path, dynamics: Dynamics | None = Non
     epoch, scale = text["epoch"], text.get("time_scale", NOT_GIVEN)
     if epoch != NOT_GIVEN:
         try:
-            datetime.fromisoformat(epoch)
-        except ValueError:
-            raise _fail(path, "epoch", f"must be ISO 8601 without zone (e.g. 2025-05-01T00:00:00) or "
-                        f"{NOT_GIVEN!r}; got {epoch!r}") from None
+            parse_iso_date(epoch)
+        except ConfigError:
+            raise _fail(path, "epoch", f"must be {ISO_FORMAT} or {NOT_GIVEN!r}; got {epoch!r}") from None
         if scale not in TIME_SCALES:
             raise _fail(path, "time_scale", f"must be one of {', '.join(TIME_SCALES)} when an epoch is given; "
                         f"got {scale!r}")

@@ -23,8 +23,9 @@ import tomllib
 from functools import lru_cache
 from pathlib import Path
 
-from .constants import (CR_AREA_MASS_MAX_M2_KG, CR_MAX, MOON_HILL_RADIUS_KM, SECONDS_PER_DAY,
-                        SPACECRAFT_MASS_RANGE_KG, TOLERANCE_FLOOR, WGS84_A_KM)
+from .constants import (CR_AREA_MASS_MAX_M2_KG, CR_MAX, INTEGER_SETTING_MAX, MAX_GRID_POINTS, MAX_POPULATION,
+                        MOON_HILL_RADIUS_KM, SECONDS_PER_DAY, SPACECRAFT_MASS_RANGE_KG, TOLERANCE_CEILING,
+                        TOLERANCE_FLOOR, WGS84_A_KM)
 from .errors import ConfigError
 from .keys import (DELTAV_SATELLITES, DESIGN_KEYS, EXTRA_METRIC_KEYS, GNSS_NAMES, INTEGER_DESIGN_KEYS,
                    LIFE_NAVIGATION_KEYS, METRIC_KEYS, NAVIGATION_ERROR_KEYS, NEEDS_ALL_SATELLITES)
@@ -33,6 +34,8 @@ PACKAGE_DIR = Path(__file__).resolve().parent
 PROJECT_DIR = PACKAGE_DIR.parent
 PARAMS_DIR = PROJECT_DIR / "params"
 OUTPUTS_DIR = PROJECT_DIR / "outputs"
+REFERENCE_DIR = OUTPUTS_DIR / "reference"     # shipped results, one folder per profile (lnss_lib.campaign.reference)
+RESERVED_PROFILE_NAMES = (REFERENCE_DIR.name,)  # outputs/<name>/ is not a profile's: no profile may take the name
 
 
 def available_profiles() -> list[str]:
@@ -63,20 +66,46 @@ def read_toml(path: Path) -> dict:
         where = re.search(r"\(at line (\d+), column \d+\)", str(error))
         line = f", line {where.group(1)}" if where else ""
         raise ConfigError(f"{path}{line}: TOML syntax error", source=str(path)) from None
+    except (ValueError, RecursionError) as error:       # an integer of more than 4300 digits, arrays nested too deep
+        raise ConfigError(f"{path}: not a TOML file the workbook reads ({type(error).__name__}: a number too long or "
+                          f"nesting too deep)", source=str(path)) from None
 
 
 PROFILE_NAME = re.compile(r"[A-Za-z0-9][A-Za-z0-9_-]{0,63}")
 PROFILE_FILES_ENV = "LNSS_PROFILE_FILES"   # {name: path} of use_profile_file, inherited by kernels and workers
 
 
+def _profile_file_problem(name, path) -> str | None:
+    """Why ``name`` -> ``path`` cannot be a profile file (:func:`use_profile_file`'s rules), or None."""
+    if not isinstance(name, str) or not PROFILE_NAME.fullmatch(name):
+        return (f"the name {name!r} is not allowed as a profile name; allowed: letters, digits, '_' and '-' (at most "
+                f"64, first a letter or digit)")
+    if name in RESERVED_PROFILE_NAMES:
+        return f"the name {name!r} is reserved (outputs/{name}/ holds the shipped results of every profile)"
+    if name in available_profiles():
+        return (f"params/{name}.toml already has the name {name!r}; rename the file (profiles in params/: "
+                f"{', '.join(available_profiles())})")
+    if not isinstance(path, str) or not path.endswith(".toml") or not Path(path).is_file():
+        return f"{path!r} is not an existing regular file ending in .toml"
+    return None
+
+
 def _profile_files() -> dict[str, str]:
+    """The profile files this process was given ({name: path}, the environment variable :data:`PROFILE_FILES_ENV`
+    that :func:`use_profile_file` sets for the processes it starts), each checked as :func:`use_profile_file`
+    checks a user's file: a forged entry cannot replace a ``params/`` profile or name a device that never ends."""
     try:
         files = json.loads(os.environ.get(PROFILE_FILES_ENV) or "{}")
-    except json.JSONDecodeError:
+    except (ValueError, RecursionError):
         files = None
     if not isinstance(files, dict):
         raise ConfigError(f"environment variable {PROFILE_FILES_ENV} is not a JSON table of profile files",
                           key=PROFILE_FILES_ENV)
+    for name, path in files.items():
+        problem = _profile_file_problem(name, path)
+        if problem:
+            raise ConfigError(f"environment variable {PROFILE_FILES_ENV}: {problem}; unset it (it is set by "
+                              f"--profile-file for the processes the workbook starts)", key=PROFILE_FILES_ENV)
     return files
 
 
@@ -84,20 +113,17 @@ def use_profile_file(path) -> str:
     """Make the TOML file ``path`` loadable as profile ``<stem>`` (outputs in ``outputs/<stem>/``) by this
     process and the processes it starts (notebook kernels, local workers); returns the name.
 
-    The stem must be a profile name (letters, digits, ``_``, ``-``) that no file in ``params/`` has.
+    The stem must be a profile name (letters, digits, ``_``, ``-``) that no file in ``params/`` has and that is not
+    reserved (:data:`RESERVED_PROFILE_NAMES`).
     """
     path = Path(path)
     if path.suffix != ".toml" or not path.is_file():
-        raise ConfigError(f"--profile-file {path}: need an existing file ending in .toml", key="--profile-file")
-    name = path.stem
-    if not PROFILE_NAME.fullmatch(name):
-        raise ConfigError(f"--profile-file {path}: the file name {name!r} is not allowed as a profile name; allowed: "
-                          f"letters, digits, '_' and '-' (at most 64, first a letter or digit)", key="--profile-file")
-    if name in available_profiles():
-        raise ConfigError(f"--profile-file {path}: params/{name}.toml already has the name {name!r}; rename the file "
-                          f"(profiles in params/: {', '.join(available_profiles())})", key="--profile-file")
-    os.environ[PROFILE_FILES_ENV] = json.dumps({**_profile_files(), name: str(path.resolve())})
-    return name
+        raise ConfigError(f"--profile-file {path}: need an existing regular file ending in .toml", key="--profile-file")
+    problem = _profile_file_problem(path.stem, str(path.resolve()))
+    if problem:
+        raise ConfigError(f"--profile-file {path}: {problem}", key="--profile-file")
+    os.environ[PROFILE_FILES_ENV] = json.dumps({**_profile_files(), path.stem: str(path.resolve())})
+    return path.stem
 
 
 def profile_path(name: str, key: str = "--profile") -> Path:
@@ -131,8 +157,9 @@ def load_profile(name: str = "quick", overrides: dict | str | None = None) -> di
     if isinstance(overrides, str):
         try:
             overrides = json.loads(overrides)
-        except json.JSONDecodeError as error:
-            raise ConfigError(f"overrides are not valid JSON ({error}): {overrides!r}") from None
+        except (ValueError, RecursionError) as error:    # JSONDecodeError, a 5000-digit integer, deep nesting
+            raise ConfigError(f"overrides are not JSON the workbook reads ({type(error).__name__}: "
+                              f"{str(error)[:120]})") from None
     if overrides is not None and not isinstance(overrides, dict):
         raise ConfigError(f"overrides must be a nested dict of profile sections; got {overrides!r}")
     chain: list[dict] = []
@@ -161,6 +188,7 @@ def load_profile(name: str = "quick", overrides: dict | str | None = None) -> di
     validate_profile(profile)
     _check_data_paths(profile)
     _check_sampling(profile)
+    _check_grid(profile)
     return profile
 
 
@@ -180,7 +208,7 @@ NON_EMPTY = ("benchmark.epochs_tdb", "navigation_error.station_lat_deg", "gnss.s
 # Allowed ranges of physical settings: key -> (low, high, low open, high open); None = unbounded.
 # integrator.settings.<any name> is "integrator.settings.*"; campaign.overrides.<section> uses the section's keys.
 POSITIVE, NON_NEGATIVE = (0.0, None, True, False), (0.0, None, False, False)
-TOLERANCE = (TOLERANCE_FLOOR, None, False, False)
+TOLERANCE = (TOLERANCE_FLOOR, TOLERANCE_CEILING, False, False)
 SEMI_MAJOR_AXIS = (0.0, MOON_HILL_RADIUS_KM, True, False)
 CR_AREA_MASS = (0.0, CR_AREA_MASS_MAX_M2_KG, False, False)
 CR_AREA_MASS_WHY = "solar sails reach ~10-50 m^2/kg"
@@ -207,7 +235,7 @@ RANGES = {
     "deltav.year_days": POSITIVE, "deltav.paper_divisor_floor": (0.0, 1.0, False, True),
     "deltav.paper_cap_kms2": POSITIVE, "deltav.secular_min_periods": (1.0, None, True, False),
     "deltav.slsqp_lambda": NON_NEGATIVE,
-    "campaign.max_errors": (0, None, False, False), "campaign.population": (2, None, False, False),
+    "campaign.max_errors": (0, None, False, False), "campaign.population": (2, MAX_POPULATION, False, False),
     "campaign.generations": (1, None, False, False), "campaign.crossover_prob": (0.0, 1.0, False, False),
     "campaign.crossover_eta": NON_NEGATIVE, "campaign.mutation_eta": NON_NEGATIVE,
     "campaign.mutation_prob_var": (0.0, 1.0, False, False), "campaign.seed": (0, None, False, False),
@@ -246,7 +274,8 @@ RANGES = {
     "front_validation.availability_min_pct": (0.0, 100.0, False, False), "front_validation.dv_max_kms_per_year": POSITIVE,
 }
 _TOLERANCE_WHY = (f"below about 100 machine epsilons ({TOLERANCE_FLOOR:g}) an integrator's error test asks for what "
-                  "double precision cannot resolve")
+                  f"double precision cannot resolve; above {TOLERANCE_CEILING:g} (SciPy's default rtol) it no longer "
+                  f"resolves a lunar orbit")
 WHY = {   # the physical or numerical reason of a range, quoted in the message
     "integrator.settings.*.rtol": _TOLERANCE_WHY, "integrator.settings.*.atol": _TOLERANCE_WHY,
     "stability.rtol": _TOLERANCE_WHY, "stability.atol": _TOLERANCE_WHY,
@@ -261,6 +290,8 @@ WHY = {   # the physical or numerical reason of a range, quoted in the message
                                      "e = 0.6 orbit's mean a to settle)",
     "design_life.target_fraction": "a correction aims this fraction of the half-width past the reference: "
                                    "1 would aim at the far edge of the box",
+    "campaign.population": f"NSGA-II ranks parents and offspring through a 2N x 2N domination matrix, "
+                           f"{(2 * MAX_POPULATION) ** 2 * 8 / 1e9:.1f} GB at N = {MAX_POPULATION}",
 }
 
 # Allowed values of the text settings (one copy: the modules that read a setting import its tuple from here).
@@ -300,20 +331,47 @@ CHOICES = {    # a text setting (or each entry of a list of texts) -> its allowe
 }
 
 
-def _iso_datetime(text: str, parse=dt.datetime.fromisoformat) -> bool:
+ISO_DATE_FORMAT = "YYYY-MM-DD"
+ISO_FORMAT = ("YYYY-MM-DDTHH:MM:SS (ISO 8601; seconds and a fraction .fff optional, a bare date YYYY-MM-DD is "
+              "midnight; no zone such as Z or +05:00: the time scale is given apart)")
+_ISO = re.compile(r"(\d{4})-(\d{2})-(\d{2})(?:T(\d{2}):(\d{2})(?::(\d{2})(?:\.(\d{1,9}))?)?)?")
+_ZONE = re.compile(r"T.*(Z|[+-]\d{2}(:?\d{2})?)$")
+
+
+def parse_iso_date(text, what: str = "date", *, date_only: bool = False) -> dt.datetime:
+    """The one reader of calendar dates (``--epoch-tdb``, profile epochs, constellation files): ``text`` in the
+    strict ISO 8601 form :data:`ISO_FORMAT` (:data:`ISO_DATE_FORMAT` with ``date_only``) as a naive datetime (the
+    fraction beyond microseconds dropped). Anything else, a zone included (a time scale is never a zone), raises
+    ConfigError naming ``what``, the text and the expected format: ``01-05-2025`` or ``1/5/2025`` are never read
+    as some day."""
+    expected = ISO_DATE_FORMAT if date_only else ISO_FORMAT
+    match = _ISO.fullmatch(text) if isinstance(text, str) else None
+    if match is None or (date_only and match.group(4) is not None):
+        zone = isinstance(text, str) and not date_only and _ZONE.search(text) is not None
+        raise ConfigError(f"{what} {text!r} is not " + ("a date with a zone, which is not allowed; expected "
+                                                         if zone else "an ISO 8601 date; expected ") + expected)
+    fields = [int(value) if value else 0 for value in match.groups()[:6]]
+    fraction = match.group(7) or ""
     try:
-        parse(text)
-    except ValueError:
+        return dt.datetime(*fields, int((fraction + "000000")[:6]))
+    except ValueError as error:
+        raise ConfigError(f"{what} {text!r} is no calendar date and time ({error}); expected {expected}") from None
+
+
+def _is_iso_date(text, date_only: bool = False) -> bool:
+    try:
+        parse_iso_date(text, date_only=date_only)
+    except ConfigError:
         return False
     return True
 
 
-ISO_TEXT = "an ISO calendar date or date and time (e.g. 2025-05-01T00:00:00)"
+ISO_TEXT = f"an ISO 8601 date and time, {ISO_FORMAT} (e.g. 2025-05-01T00:00:00)"
 FORMS = {      # a text setting with an open set of values -> (test, what is allowed)
-    "epoch.start_tdb": (_iso_datetime, ISO_TEXT), "validation.capstone.arc_break_tdb": (_iso_datetime, ISO_TEXT),
-    "benchmark.epochs_tdb": (_iso_datetime, ISO_TEXT),
-    "gps.exclude_launched_after": (lambda v: v in ("epoch", "none") or _iso_datetime(v, dt.date.fromisoformat),
-                                   "'epoch', 'none' or an ISO calendar date (e.g. 2025-05-30)"),
+    "epoch.start_tdb": (_is_iso_date, ISO_TEXT), "validation.capstone.arc_break_tdb": (_is_iso_date, ISO_TEXT),
+    "benchmark.epochs_tdb": (_is_iso_date, ISO_TEXT),
+    "gps.exclude_launched_after": (lambda v: v in ("epoch", "none") or _is_iso_date(v, date_only=True),
+                                   f"'epoch', 'none' or an ISO 8601 date {ISO_DATE_FORMAT} (e.g. 2025-05-30)"),
     "gps.exclude_launches_from": (lambda v: re.fullmatch(r"(\d{4}-\d{3}[A-Z]{0,3})?", v) is not None,
                                   '"" (off) or an international designator YYYY-NNN'),
     "campaign.companion_profile": (lambda v: v == "" or v in available_profiles(),
@@ -402,9 +460,20 @@ def _fail(message: str, key: str, source) -> None:
     raise ConfigError(f"{where}{message}", key=key, source=None if source is None else str(source))
 
 
+def _check_integer_size(key: str, value, source) -> None:
+    """An integer a float cannot hold or an output cannot store (|n| > :data:`INTEGER_SETTING_MAX`) is refused before
+    anything compares it (``math.isfinite`` raised OverflowError; ``repr`` of 5000 digits raises ValueError)."""
+    if isinstance(value, int) and not isinstance(value, bool) and abs(value) > INTEGER_SETTING_MAX:
+        digits = int(value.bit_length() * math.log10(2)) + 1       # one too many when |value| < 10**(digits - 1)
+        digits -= abs(value) < 10 ** (digits - 1)
+        _fail(f"{key} = an integer of {digits} digits is too large; allowed: at most 2**63 - 1 in magnitude "
+              f"(the int64 of the NetCDF outputs)", key, source)
+
+
 def _check_number(key: str, rule_key: str, value, source) -> None:
     if isinstance(value, bool) or not isinstance(value, (int, float)):
         return
+    _check_integer_size(key, value, source)
     if not math.isfinite(value) and not (rule_key in ALLOW_INFINITE and not math.isnan(value)):
         _fail(f"{key} = {value!r} is not finite; allowed: a finite number"
               + (f" in {allowed_range_text(RANGES[rule_key])}" if rule_key in RANGES else ""), key, source)
@@ -474,9 +543,11 @@ def _check_free(key: str, value, source) -> None:
     for name, item in items:
         if isinstance(item, (dict, list)):
             _check_free(f"{key}.{name}" if isinstance(value, dict) else f"{key}[{name}]", item, source)
-        elif isinstance(item, float) and not math.isfinite(item):
+        elif isinstance(item, (int, float)):
             inner = f"{key}.{name}" if isinstance(value, dict) else f"{key}[{name}]"
-            _fail(f"{inner} = {item!r} is not finite; allowed: a finite number", inner, source)
+            _check_integer_size(inner, item, source)
+            if isinstance(item, float) and not math.isfinite(item):
+                _fail(f"{inner} = {item!r} is not finite; allowed: a finite number", inner, source)
 
 
 def validate_profile(profile: dict, *, partial: bool = False, source=None) -> None:
@@ -626,12 +697,14 @@ def parse_sets(items) -> dict:
             raise ConfigError(f"--set needs SECTION.KEY=VALUE (VALUE in TOML syntax); got {item!r}")
         try:
             value = tomllib.loads(f"v = {literal}")["v"]
-        except tomllib.TOMLDecodeError as error:
+        except ValueError as error:      # TOMLDecodeError, or an integer of more than 4300 digits
             if literal.strip() and literal.strip().replace("_", "").replace("-", "").isalnum() \
                     and not literal.strip()[0].isdigit() and literal.strip().lower() not in ("nan", "inf"):
                 value = literal.strip()
             else:
-                raise ConfigError(f"--set {item!r}: VALUE is not a TOML literal ({error})", key=path) from None
+                shown = item if len(item) <= 80 else f"{item[:60]}... ({len(item)} characters)"
+                raise ConfigError(f"--set {shown!r}: VALUE is not a TOML literal ({str(error)[:120]})",
+                                  key=path) from None
         if isinstance(value, (dt.date, dt.time)):
             raise ConfigError(f"--set {item!r}: TOML reads an unquoted {literal.strip()} as a date-time, and dates are "
                               f"strings here; quote it: --set '{path.strip()}=\"{literal.strip()}\"'", key=path.strip())
@@ -701,6 +774,18 @@ def _check_sampling(profile: dict) -> None:
         raise ConfigError(f"epoch.duration_days = {days!r} ({days * SECONDS_PER_DAY:g} s) is not longer than epoch.step_s = "
                           f"{step_s!r} s; allowed: an arc of more than one step (at least 3 epochs): lengthen "
                           f"epoch.duration_days or shorten epoch.step_s", key="epoch.duration_days")
+
+
+def _check_grid(profile: dict) -> None:
+    """The DOP surface grid holds at most :data:`MAX_GRID_POINTS` points (a step of 1e-9 deg asked for 224 GiB)."""
+    dop = profile["dop"]
+    n_lat = math.floor((dop["lat_max_deg"] - dop["lat_min_deg"]) / dop["lat_step_deg"]) + 1
+    n_lon = math.floor((dop["lon_max_deg"] - dop["lon_min_deg"]) / dop["lon_step_deg"]) + 1
+    if n_lat * n_lon > MAX_GRID_POINTS:
+        raise ConfigError(f"dop.lat_step_deg = {dop['lat_step_deg']!r}, dop.lon_step_deg = {dop['lon_step_deg']!r}: a "
+                          f"grid of {n_lat:,} x {n_lon:,} points; allowed: at most {MAX_GRID_POINTS:,} points (a "
+                          f"whole-Moon 1-degree grid is 65,160; the DOP arrays hold epochs x points x satellites)",
+                          key="dop.lat_step_deg")
 
 
 OFF_WHEN_ABSENT = {

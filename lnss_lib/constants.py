@@ -13,7 +13,8 @@ __all__ = ["SECONDS_PER_HOUR", "SECONDS_PER_DAY", "DAYS_PER_JULIAN_YEAR", "SECON
            "MIN_VISIBLE", "BOLTZMANN_J_K", "C_M_S", "WGS84_A_KM", "WGS84_INV_FLATTENING", "WGS84_B_KM",
            "WGS84_GM_KM3_S2", "WGS84_OMEGA_RAD_S", "EARTH_J2",
            "TOLERANCE_FLOOR", "MOON_HILL_RADIUS_KM", "EARTH_MOON_DISTANCE_KM",
-           "SPACECRAFT_MASS_RANGE_KG", "CR_MAX", "CR_AREA_MASS_MAX_M2_KG", "MAX_OUTPUT_SAMPLES"]
+           "SPACECRAFT_MASS_RANGE_KG", "CR_MAX", "CR_AREA_MASS_MAX_M2_KG", "MAX_OUTPUT_SAMPLES",
+           "INTEGER_SETTING_MAX", "MAX_POPULATION", "MAX_GRID_POINTS", "TOLERANCE_CEILING"]
 
 SECONDS_PER_HOUR = 3600.0
 SECONDS_PER_DAY = 86400.0
@@ -45,3 +46,11 @@ SPACECRAFT_MASS_RANGE_KG = (1e-3, 1e6)   # a gram (chip-scale satellites) to 100
 CR_MAX = 2.0                        # Cr = 1 + specular reflectivity: 2 is a perfect mirror
 CR_AREA_MASS_MAX_M2_KG = 100.0      # Cr A/m: solar sails reach ~10-50 m^2/kg (IKAROS 1.3, NanoSail-D ~5)
 MAX_OUTPUT_SAMPLES = 10_000_000     # samples of one propagation's output grid (480 MB per satellite)
+INTEGER_SETTING_MAX = 2**63 - 1     # the largest integer NetCDF-4/HDF5 outputs store (int64): a seed beyond it ran a
+                                    # whole campaign whose results could then not be written
+MAX_POPULATION = 5000               # NSGA-II's survival ranks parents and offspring (2N designs) through a 2N x 2N
+                                    # domination matrix: 10^8 entries (0.8 GB) at N = 5000; the paper's N is 120
+MAX_GRID_POINTS = 100_000           # DOP surface grid points: a whole-Moon 1-degree grid is 65,160; the DOP arrays
+                                    # hold epochs x points x satellites
+TOLERANCE_CEILING = 1e-3            # integrator rtol/atol: SciPy's default rtol; above it the error test no longer
+                                    # resolves a lunar orbit (rtol = atol = 1e10 put a 10-day ELFO 16,000 km off)

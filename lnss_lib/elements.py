@@ -10,9 +10,10 @@ from __future__ import annotations
 
 import numpy as np
 
-from .errors import InvalidOrbitError
+from .constants import C_M_S, EARTH_MOON_DISTANCE_KM, MOON_HILL_RADIUS_KM
+from .errors import ConfigError, InvalidOrbitError
 
-__all__ = ["TWO_PI", "validate_elements", "solve_kepler", "eccentric_anomaly_from_true", "true_anomaly_from_eccentric",
+__all__ = ["TWO_PI", "validate_elements", "check_states_km", "solve_kepler", "eccentric_anomaly_from_true", "true_anomaly_from_eccentric",
            "mean_anomaly_from_true", "true_anomaly_from_mean", "vis_viva_sma_km", "eccentricity_vector",
            "elements_to_state", "state_to_elements", "kepler_states", "orbital_period_s"]
 
@@ -29,6 +30,9 @@ def validate_elements(sma_km, e, r_body_km: float, min_altitude_km: float = 0.0)
     if np.any(~np.isfinite(ecc)) or np.any((ecc < 0.0) | (ecc >= 1.0)):
         bad = ecc[(ecc < 0.0) | (ecc >= 1.0) | ~np.isfinite(ecc)][0]
         raise InvalidOrbitError(f"eccentricity must be in [0, 1) (closed orbits only); got e = {bad!r}")
+    if np.any(a > MOON_HILL_RADIUS_KM):
+        raise InvalidOrbitError(f"semi-major axis {a[a > MOON_HILL_RADIUS_KM][0]:.1f} km is beyond the Moon's Hill sphere "
+                                f"({MOON_HILL_RADIUS_KM:,.0f} km): no bound lunar orbit")
     perilune = a * (1.0 - ecc)
     floor = r_body_km + min_altitude_km
     if np.any(perilune < floor):
@@ -37,6 +41,43 @@ def validate_elements(sma_km, e, r_body_km: float, min_altitude_km: float = 0.0)
             f"perilune radius a(1-e) = {perilune[k]:.1f} km (a = {a[k]:.1f} km, e = {ecc[k]:.4f}) is below "
             f"{floor:.1f} km (lunar radius {r_body_km} km + minimum altitude {min_altitude_km} km): the orbit hits the Moon"
         )
+
+
+def check_states_km(states, gm_km3_s2: float, r_min_km: float | None = None) -> np.ndarray:
+    """Moon-centred states (n, 6) [x, y, z, vx, vy, vz] (km, km/s) as floats when each is a lunar orbit's, else
+    ConfigError (bad input) naming the state, the value and the limit: finite; above ``r_min_km`` (the surface plus
+    the minimum altitude; not checked when None: a batch flags impacts); within the Earth-Moon distance; slower than
+    light; below the Moon's escape speed sqrt(2 GM / r); an osculating semi-major axis inside the Hill sphere, the
+    bound every element set meets (:func:`validate_elements`)."""
+    states = np.atleast_2d(np.asarray(states, dtype=float))
+    if states.ndim != 2 or states.shape[1] != 6:
+        raise ConfigError(f"states must have shape (n_sat, 6) [x, y, z, vx, vy, vz]; got {states.shape}", key="state")
+    if not np.all(np.isfinite(states)):
+        raise ConfigError("states contain non-finite values; allowed: finite km and km/s", key="state")
+    r_km, v_kms = np.linalg.norm(states[:, :3], axis=1), np.linalg.norm(states[:, 3:], axis=1)
+    c_kms = C_M_S / 1000.0
+    v_escape_kms = np.sqrt(2.0 * gm_km3_s2 / np.maximum(r_km, np.finfo(float).tiny))
+    with np.errstate(divide="ignore"):
+        a_km = 1.0 / (2.0 / r_km - v_kms**2 / gm_km3_s2)
+    for k in range(states.shape[0]):
+        if r_min_km is not None and r_km[k] < r_min_km:
+            problem = (f"radius {r_km[k]:.1f} km is inside the Moon (below {r_min_km:.1f} km, the surface plus the "
+                       f"minimum altitude); allowed: a state above it")
+        elif r_km[k] > EARTH_MOON_DISTANCE_KM:
+            problem = (f"radius {r_km[k]:.6g} km is not allowed; allowed: up to {EARTH_MOON_DISTANCE_KM:,.0f} km (the "
+                       f"Earth-Moon distance: beyond it the Earth, not the Moon, is the central body)")
+        elif v_kms[k] >= c_kms:
+            problem = f"speed {v_kms[k]:.6g} km/s is not below the speed of light ({c_kms:,.0f} km/s)"
+        elif v_kms[k] >= v_escape_kms[k]:
+            problem = (f"speed {v_kms[k]:.6g} km/s at radius {r_km[k]:.6g} km is not below the Moon's escape speed "
+                       f"there ({v_escape_kms[k]:.4g} km/s): no bound lunar orbit")
+        elif a_km[k] > MOON_HILL_RADIUS_KM:
+            problem = (f"osculating semi-major axis {a_km[k]:.6g} km is beyond the Moon's Hill sphere "
+                       f"({MOON_HILL_RADIUS_KM:,.0f} km): no bound lunar orbit")
+        else:
+            continue
+        raise ConfigError(f"state {k}: {problem}", key="state")
+    return states
 
 
 def solve_kepler(mean_anomaly_rad: np.ndarray, e: np.ndarray, tol: float = 1e-14) -> np.ndarray:

@@ -22,7 +22,8 @@ import numpy as np
 import spiceypy as spice
 import spiceypy.utils.exceptions
 
-from .config import SKYFIELD_DATA, data_path
+from .config import ISO_FORMAT, SKYFIELD_DATA, data_path, parse_iso_date
+from .constants import DAYS_PER_JULIAN_YEAR, SECONDS_PER_DAY
 from .errors import ConfigError, EphemerisRangeError, SpiceError
 from .settings import Dynamics, EphemerisSettings
 
@@ -97,7 +98,8 @@ def ensure_kernels(ephemeris: EphemerisSettings) -> None:
 
 
 def tdb_seconds(calendar: str, scale: str = "TDB") -> float:
-    """Seconds past J2000 TDB for an ISO calendar string read in ``scale`` ("TDB" or "UTC").
+    """Seconds past J2000 TDB for an ISO 8601 calendar string (:func:`~lnss_lib.config.parse_iso_date`, strict: no
+    zone, no day-month order) read in ``scale`` ("TDB" or "UTC").
 
     ``str2et`` reads a bare date as UTC; the scale is therefore always appended explicitly.
     """
@@ -106,13 +108,12 @@ def tdb_seconds(calendar: str, scale: str = "TDB") -> float:
         raise ValueError(f"unknown time scale {scale!r}; allowed: 'TDB', 'UTC'")
     if not _LOADED:
         raise RuntimeError("SPICE kernels are not loaded: call ensure_kernels(settings.ephemeris) first")
-    if not isinstance(calendar, str) or not calendar.strip():
-        raise ConfigError(f"epoch {calendar!r} is not an ISO calendar date; expected YYYY-MM-DDTHH:MM:SS ({scale})")
+    parse_iso_date(calendar, f"epoch ({scale})")
     try:
-        return float(spice.str2et(f"{calendar.strip().replace('T', ' ')} {scale}"))
+        return float(spice.str2et(f"{calendar.replace('T', ' ')} {scale}"))
     except spice.utils.exceptions.SpiceyError:
-        raise ConfigError(f"epoch {calendar!r} is not an ISO calendar date; expected YYYY-MM-DDTHH:MM:SS "
-                          f"({scale}), e.g. 2025-05-01T00:00:00") from None
+        raise ConfigError(f"epoch {calendar!r} is not an ISO calendar date; expected {ISO_FORMAT} ({scale}), "
+                          f"e.g. 2025-05-01T00:00:00") from None
 
 
 def _kernel_coverage(key: str) -> tuple[float, float]:
@@ -160,9 +161,12 @@ def check_span(t_start_tdb_s: float, t_end_tdb_s: float) -> None:
 
 
 def tdb_iso(t_tdb_s: float) -> str:
-    """ISO calendar string (TDB) of a TDB epoch."""
+    """ISO calendar string (TDB) of a TDB epoch; past year 9999 (which SPICE writes as ``****``) the Julian year."""
     with spice_errors(f"write the epoch {t_tdb_s!r} s TDB as a calendar date"):
-        return spice.timout(t_tdb_s, "YYYY-MM-DDTHR:MN:SC.### ::TDB")
+        text = spice.timout(t_tdb_s, "YYYY-MM-DDTHR:MN:SC.### ::TDB")
+    if "*" in text:
+        return f"Julian year {2000.0 + t_tdb_s / (DAYS_PER_JULIAN_YEAR * SECONDS_PER_DAY):.1f}"
+    return text
 
 
 def body_states_mci(body: str, t_tdb_s: np.ndarray) -> np.ndarray:

@@ -6,7 +6,7 @@ Callers read the attributes; messages are for people and are never parsed back.
 from __future__ import annotations
 
 __all__ = ["ConfigError", "EphemerisRangeError", "InfeasibleDesignError", "ImpactError", "InvalidOrbitError",
-           "PropagationError", "SpiceError"]
+           "PropagationError", "SpiceError", "Terminated"]
 
 
 class ConfigError(ValueError):
@@ -74,3 +74,7 @@ class SpiceError(RuntimeError):
         self.asked = asked
         self.kernels = kernels
         self.code = code
+
+
+class Terminated(KeyboardInterrupt):
+    """SIGTERM received by the command line: handled wherever an interrupt is (a KeyboardInterrupt), exit 143."""

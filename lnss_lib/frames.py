@@ -28,7 +28,7 @@ import spiceypy as spice
 
 from .config import ELEMENT_FRAMES, POLE_FRAMES
 from .constants import ARCSEC_RAD, SECONDS_PER_DAY, SECONDS_PER_JULIAN_CENTURY
-from .ephemeris import body_states_mci, ensure_kernels, rotation
+from .ephemeris import body_states_mci, ensure_kernels, rotation, spice_errors
 from .settings import Dynamics
 
 __all__ = ["ELEMENT_FRAMES", "POLE_FRAMES", "element_frame_to_j2000", "moon_op_axes_j2000", "orbit_plane_axes_j2000", "moon_op_to_j2000", "rotate_to_moon_fixed", "rotate_with", "latitude_deg",
@@ -212,7 +212,8 @@ def utc_julian_dates(t_tdb_s) -> tuple[np.ndarray, np.ndarray]:
     Needs the leap-second kernel (:func:`lnss_lib.ephemeris.ensure_kernels`).
     """
     et = np.atleast_1d(np.asarray(t_tdb_s, dtype=float))
-    utc_s = et - np.array([spice.deltet(float(e), "ET") for e in et])
+    with spice_errors("give ET - UTC (deltet) from the leap-second kernel"):
+        utc_s = et - np.array([spice.deltet(float(e), "ET") for e in et])
     days = utc_s / SECONDS_PER_DAY
     whole = np.floor(days)
     return J2000_JD + whole, days - whole
@@ -221,7 +222,8 @@ def utc_julian_dates(t_tdb_s) -> tuple[np.ndarray, np.ndarray]:
 def tt_centuries(t_tdb_s) -> np.ndarray:
     """Julian centuries of TT past J2000 (SPICE ``unitim`` TDB -> TDT)."""
     et = np.atleast_1d(np.asarray(t_tdb_s, dtype=float))
-    return np.array([spice.unitim(float(e), "TDB", "TDT") for e in et]) / SECONDS_PER_JULIAN_CENTURY
+    with spice_errors("convert TDB to TT (unitim) with the leap-second kernel"):
+        return np.array([spice.unitim(float(e), "TDB", "TDT") for e in et]) / SECONDS_PER_JULIAN_CENTURY
 
 
 def _rot(axis: int, angle: np.ndarray) -> np.ndarray:

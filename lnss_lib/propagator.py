@@ -24,7 +24,7 @@ from scipy.integrate._ivp.rk import RK45 as _RK45
 
 from .config import METHODS, SEMI_MAJOR_AXIS, SEMI_MAJOR_AXIS_WHY, allowed_range_text, in_range
 from .constants import EARTH_MOON_DISTANCE_KM, MAX_OUTPUT_SAMPLES, SECONDS_PER_DAY
-from .elements import elements_to_state, validate_elements
+from .elements import check_states_km, elements_to_state, validate_elements
 from .errors import ConfigError, ImpactError, PropagationError
 from .ephemeris import EphemerisTable, check_span, ensure_kernels, tdb_iso, tdb_seconds
 from .forces import SCRATCH_SIZE, SOLAR_P, SRP_K, TERMS, ForceModel, acceleration
@@ -321,12 +321,16 @@ def check_batch(status: np.ndarray, t_stop: np.ndarray, states: np.ndarray, t_ou
     return impact
 
 
-def _check_states(states_mci: np.ndarray) -> np.ndarray:
+def _check_states(states_mci: np.ndarray, gm_km3_s2: float, r_min_km: float | None) -> np.ndarray:
+    """The states as floats; :func:`~lnss_lib.elements.check_states_km` for one given alone (``r_min_km``, the
+    surface floor), finite and within the Earth-Moon distance for a batch (whose impacts are flagged)."""
     states = np.atleast_2d(np.asarray(states_mci, dtype=float))
     if states.ndim != 2 or states.shape[1] != 6:
         raise ValueError(f"states must have shape (n_sat, 6) [x, y, z, vx, vy, vz]; got {states.shape}")
     if not np.all(np.isfinite(states)):
         raise ValueError("states contain non-finite values")
+    if r_min_km is not None:
+        return check_states_km(states, gm_km3_s2, r_min_km)
     radius = np.linalg.norm(states[:, :3], axis=1)
     if np.any(radius > EARTH_MOON_DISTANCE_KM):
         k = int(np.argmax(radius))
@@ -361,12 +365,13 @@ def propagate_states(dynamics: Dynamics, states_mci, t0_tdb_s: float, duration_s
     """Propagate Moon-centred J2000 states (n_sat, 6; km, km/s) from TDB ``t0_tdb_s``.
 
     Returns a Dataset (dims ``sat``, ``time``, ``xyz``) sampled every ``step_s`` seconds. With one
-    satellite (unless ``batch=True``) an impact raises :class:`ImpactError`; in batch mode it is
-    flagged. ``model`` reuses a prepared :class:`ForceModel` (its table must span the arc); ``setting``
+    satellite (unless ``batch=True``) a state that is no lunar orbit's raises ConfigError
+    (:func:`~lnss_lib.elements.check_states_km`: inside the Moon, unbound, faster than light) and an impact
+    raises :class:`ImpactError`; in batch mode it is flagged. ``model`` reuses a prepared :class:`ForceModel` (its table must span the arc); ``setting``
     names one of ``dynamics.integrator``'s settings (default: its own).
     """
-    states = _check_states(states_mci)
-    batch = states.shape[0] > 1 if batch is None else batch
+    batch = np.atleast_2d(np.asarray(states_mci)).shape[0] > 1 if batch is None else batch
+    states = _check_states(states_mci, dynamics.gravity.gm_km3_s2, None if batch else dynamics.r_impact_km)
     integ = dynamics.integrator.named(setting)
     times = output_times(t0_tdb_s, duration_s, step_s)
     if model is None:
@@ -376,10 +381,6 @@ def propagate_states(dynamics: Dynamics, states_mci, t0_tdb_s: float, duration_s
         raise ValueError("degree and srp_cr_area_mass_m2_kg belong to the force model: pass them to "
                          "ForceModel.build, not together with model=")
     r_min = dynamics.r_impact_km
-    radius = np.linalg.norm(states[:, :3], axis=1)
-    if np.any(radius < r_min) and not batch:
-        raise ImpactError(f"initial radius {radius.min():.1f} km is below {r_min:.1f} km (surface + minimum altitude)",
-                          sat=int(np.argmin(radius)), t_tdb_s=float(t0_tdb_s), days=0.0)
     out, status, t_stop, n_rhs, impact = integrate_batch(dynamics, states, t0_tdb_s, times, model, setting=setting,
                                                          max_steps=max_steps)
     if not batch and impact[0]:
@@ -397,7 +398,7 @@ def integrate_batch(dynamics: Dynamics, states_mci: np.ndarray, t0_tdb_s: float,
     whose table spans them. Returns (states (n_sat, n_time, 6), NaN from an impact on; status; t_stop; n_rhs;
     impact mask), checked by :func:`check_batch`.
     """
-    states = _check_states(states_mci)
+    states = _check_states(states_mci, dynamics.gravity.gm_km3_s2, None)
     if model.table.t0_tdb_s > t0_tdb_s or model.table.t_end_tdb_s < times[-1]:
         raise ValueError("the force model's ephemeris table does not span the requested arc")
     integ = dynamics.integrator.named(setting)

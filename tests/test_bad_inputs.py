@@ -16,7 +16,7 @@ import xarray as xr
 
 from lnss_lib import config
 from lnss_lib.__main__ import main
-from lnss_lib.campaign.rundir import RunLock
+from lnss_lib.campaign.rundir import RunLock, run_checksum
 from lnss_lib.config import PROJECT_DIR
 from lnss_lib.settings import load_settings
 from lnss_lib.errors import ConfigError, SpiceError
@@ -103,6 +103,18 @@ BAD_VALUES = [
     (walker() + ["--set", "frames.element_frame=nosuch"], "frames.element_frame = 'nosuch'"),
     (["reproduce", "--profile", "ci", "--set", "dop.los_axes=up"], "allowed: 'moon_fixed', 'enu'"),
     (SYNTHETIC + ["--set", "deltav.model=magic"], "deltav.model = 'magic'"),
+    # dates: one strict ISO 8601 reader (01-05-2025 and 1/5/2025 ran from 2025-01-05; a zone was accepted)
+    (["propagate", "--epoch-tdb", "01-05-2025", *ELFO, "--days", "1"], "'01-05-2025' is not an ISO 8601 date"),
+    (["propagate", "--epoch-tdb", "1/5/2025", *ELFO, "--days", "1"], "YYYY-MM-DDTHH:MM:SS"),
+    (["propagate", "--epoch-tdb", "2025-05-01T00:00:00Z", *ELFO, "--days", "1"], "with a zone, which is not allowed"),
+    (["propagate", "--epoch-tdb", "2025-05-01T05:00:00+05:00", *ELFO, "--days", "1"], "with a zone"),
+    (["propagate", "--epoch-tdb", "2025-02-30", *ELFO, "--days", "1"], "no calendar date"),
+    (walker() + ["--set", 'epoch.start_tdb="01-05-2025"'], "epoch.start_tdb = '01-05-2025'"),
+    (walker() + ["--set", 'benchmark.epochs_tdb=["2025-05-01T00:00:00-07:00"]'], "benchmark.epochs_tdb"),
+    (walker() + ["--set", 'gps.exclude_launched_after="20250530"'], "YYYY-MM-DD"),
+    # a scheduler address checked before work (nonsense was an internal error, port 99999 waited 60 s)
+    (SYNTHETIC + ["--scheduler-address", "nonsense"], "--scheduler-address 'nonsense' is not a Dask scheduler"),
+    (SYNTHETIC + ["--scheduler-address", "tcp://127.0.0.1:99999"], "PORT in 1-65535"),
 ]
 
 
@@ -296,6 +308,9 @@ def test_forged_profile_name_in_a_run_folder_is_refused(capsys, tmp_path):
     forged["profile"]["profile"]["name"] = "../../elsewhere"
     run_file.write_text(json.dumps(forged))
     one_line_error(capsys, main(["campaign", "--resume", str(run_dir), "--workers", "0", "--no-progress"]), 2,
+                   "run.json was edited after the run started")
+    run_file.write_text(json.dumps({**forged, "checksum": run_checksum(forged)}))    # a forger who re-seals it
+    one_line_error(capsys, main(["campaign", "--resume", str(run_dir), "--workers", "0", "--no-progress"]), 2,
                    "profile.name", "forged")
 
 
@@ -313,7 +328,7 @@ def test_resume_refuses_edited_settings_and_a_locked_run(capsys, tmp_path):
     original = run_file.read_text()
     edited = json.loads(original)
     edited["profile"]["campaign"]["population"] = 8
-    run_file.write_text(json.dumps(edited))
+    run_file.write_text(json.dumps({**edited, "checksum": run_checksum(edited)}))
     one_line_error(capsys, main(["campaign", "--resume", str(run_dir), "--workers", "0", "--no-progress"]), 2, "differ from those the run")
     run_file.write_text(original)
     lock = RunLock(run_dir)
@@ -710,10 +725,26 @@ ABSURD = [
     (["propagate", *EPOCH, *ELFO, "--days", "10", "--step-s", "1e-6"], ("samples", "at most 10,000,000")),
     (walker() + ["--set", "standalone_elfo.sma_km=1e5"], ("standalone_elfo.sma_km = 100000.0", "Hill sphere")),
     (SYNTHETIC + ["--set", "campaign.variables.sma_km={lower=4000.0,upper=1e5,step=100.0}"], ("sma_km", "Hill sphere")),
+    # states: one check of a lunar orbit's state (3.3 times light speed ran to 575 AU; inside the Moon exited 1)
+    (["propagate", *EPOCH, "--state-km", "3000", "0", "0", "1e6", "0", "0", "--days", "0.1"], ("--state-km", "speed of light")),
+    (["propagate", *EPOCH, "--state-km", "3000", "0", "0", "2.0", "0", "0", "--days", "0.1"], ("escape speed", "1.808")),
+    (["propagate", *EPOCH, "--state-km", "60000", "0", "0", "0", "0.34", "0", "--days", "0.1"], ("Hill sphere",)),
+    (["propagate", *EPOCH, "--state-km", "1000", "0", "0", "0", "1", "0", "--days", "0.1"], ("inside the Moon", "1737.4")),
+    # sizes and seeds: bounded by what memory holds and what the outputs store, refused before any work
+    (SYNTHETIC + ["--set", "campaign.seed=99999999999999999999999999"], ("campaign.seed", "26 digits", "2**63 - 1")),
+    (SYNTHETIC + ["--set", f"campaign.seed={2**64}"], ("campaign.seed", "int64")),
+    (SYNTHETIC + ["--set", f"gravity.degree={'9' * 400}"], ("gravity.degree", "400 digits")),
+    (SYNTHETIC + ["--set", f"gravity.degree={'9' * 5000}"], ("gravity.degree", "not a TOML literal", "5015 characters")),
+    (SYNTHETIC + ["--set", f"campaign.hypervolume.dv_total_kms_per_year={'9' * 400}"], ("hypervolume", "too large")),
+    (walker(planes="9" * 400), ("--planes", "too large")),
+    (SYNTHETIC + ["--set", "campaign.population=1000000000"], ("campaign.population", "[2, 5000]", "domination matrix")),
+    (walker() + ["--set", "dop.lat_step_deg=1e-9"], ("dop.lat_step_deg", "at most 100,000 points")),
+    (walker() + ["--set", "integrator.settings.paper.rtol=1e10", "--set", "integrator.settings.paper.atol=1e10"],
+     ("integrator.settings.paper.rtol = 10000000000.0", "SciPy's default rtol")),
 ]
 
 
-@pytest.mark.parametrize("argv, needles", ABSURD, ids=[" ".join(a[-2:]) for a, _ in ABSURD])
+@pytest.mark.parametrize("argv, needles", ABSURD, ids=[" ".join(part[:40] for part in a[-2:]) for a, _ in ABSURD])
 def test_physically_absurd_values_are_refused_with_the_reason(capsys, tmp_path, monkeypatch, argv, needles):
     monkeypatch.chdir(tmp_path)
     one_line_error(capsys, main(argv), 2, *needles)
@@ -725,3 +756,75 @@ def test_hill_radius_follows_from_the_profile_masses(paper_profile):
 
     ratio = paper_profile.gravity.gm_km3_s2 / paper_profile.constants.gm_earth_km3_s2
     assert MOON_HILL_RADIUS_KM == pytest.approx(EARTH_MOON_DISTANCE_KM * (ratio / 3.0) ** (1.0 / 3.0), rel=5e-3)
+
+
+def test_reserved_and_forged_profile_files_are_refused(capsys, tmp_path, monkeypatch):
+    """A profile named like the shipped-results folder (outputs/reference/) would put its runs where an export
+    replaces folders whole: refused as --profile-file and in LNSS_PROFILE_FILES, which is checked like user input
+    (no params/ profile replaced, no device read), as is a new run inside outputs/reference/."""
+    from lnss_lib.campaign import run_campaign
+
+    (tmp_path / "reference.toml").write_text('[profile]\ninherits = "ci"\n')
+    one_line_error(capsys, main(["propagate", "--profile-file", str(tmp_path / "reference.toml"), *EPOCH, *ELFO,
+                                 "--days", "0.1"]), 2, "reserved")
+    (tmp_path / "fake.toml").write_text('[profile]\ninherits = "ci"\n')
+    fifo = tmp_path / "pipe.toml"
+    os.mkfifo(fifo)
+    for table, needle in (({"ci": str(tmp_path / "fake.toml")}, "params/ci.toml already has the name"),
+                          ({"x": "/dev/zero"}, "not an existing regular file"), ({"x": str(fifo)}, "regular file"),
+                          ({"reference": str(tmp_path / "reference.toml")}, "reserved"), (["x"], "JSON table"),
+                          ({"../x": str(tmp_path / "fake.toml")}, "not allowed as a profile name")):
+        monkeypatch.setenv("LNSS_PROFILE_FILES", json.dumps(table))
+        one_line_error(capsys, main(["propagate", "--profile", "x", *EPOCH, *ELFO, "--days", "0.1"]), 2,
+                       "LNSS_PROFILE_FILES", needle)
+    monkeypatch.delenv("LNSS_PROFILE_FILES")
+    with pytest.raises(ConfigError, match="shipped results"):
+        run_campaign("ci", overrides={"campaign": {"evaluator": "synthetic"}}, workers=0, progress=False,
+                     run_dir=config.REFERENCE_DIR / "ci" / "run")
+    assert not (config.REFERENCE_DIR / "ci").exists()
+
+
+@pytest.mark.parametrize("epoch, needle", [("2009-07-15T01:00:00+05:00", "zone"), ("15/07/2009", "YYYY-MM-DD"),
+                                           ("2009-07-15 01:00:00", "YYYY-MM-DDTHH:MM:SS")])
+def test_constellation_file_epoch_is_read_strictly(capsys, tmp_path, epoch, needle):
+    """A constellation file's epoch goes through the same reader as --epoch-tdb: a zone or another order is
+    refused at load, naming the file and key (a zone was accepted and echoed)."""
+    source = (PROJECT_DIR / "params" / "constellations" / "ely2005_elfo_3sat.toml").read_text()
+    path = tmp_path / "zoned.toml"
+    path.write_text(source.replace('epoch = "2009-07-15T01:00:00"', f'epoch = "{epoch}"'))
+    one_line_error(capsys, main(["evaluate", "--profile", "ci", "--constellation", str(path)]), 2, str(path),
+                   "epoch", needle)
+
+
+@pytest.mark.parametrize("line, needle", [("a_km = 80000.0", "beyond the Moon's Hill sphere (61,500 km)"),
+                                          (f"a_km = {'9' * 400}", "an integer of"),
+                                          ("a_km = 2000.0", "the orbit hits the Moon")])
+def test_constellation_file_elements_meet_the_shared_orbit_check(capsys, tmp_path, line, needle):
+    """A catalogue or user constellation file's elements go through the element check of --sma-km and propagate
+    --elements (a = 80000 km was evaluated, "evaluated": true); a huge integer is refused, not an OverflowError."""
+    source = (PROJECT_DIR / "params" / "constellations" / "ely2005_elfo_3sat.toml").read_text()
+    path = tmp_path / "user.toml"
+    path.write_text(source.replace("a_km = 6541.4", line, 1))
+    one_line_error(capsys, main(["evaluate", "--profile", "ci", "--constellation", str(path), "--json"]), 2,
+                   str(path), "satellite[0].a_km", needle)
+
+
+def test_huge_numbers_in_a_profile_file_are_refused(capsys, params_dir):
+    """Integers a float cannot hold, in a profile file: one line naming the file, exit 2 (an OverflowError, or a
+    ValueError past 4300 digits, before)."""
+    for digits, needle in ((400, "gravity.degree = an integer of 400 digits"), (5000, "a number too long")):
+        (params_dir / "huge.toml").write_text(f'[profile]\ninherits = "paper"\n\n[gravity]\ndegree = {"9" * digits}\n')
+        one_line_error(capsys, main(["propagate", "--profile", "huge", *EPOCH, *ELFO, "--days", "0.1"]), 2,
+                       "huge.toml", needle)
+
+
+@pytest.mark.parametrize("content", [b'{"a": ' * 100_000 + b"1" + b"}" * 100_000, b'{"n": ' + b"9" * 5000 + b"}"])
+def test_unreadable_run_json_is_named(capsys, tmp_path, content):
+    """A run.json nested 100,000 deep or holding a 5000-digit integer: --resume, --validate and --export-reference
+    name the file, exit 2 (RecursionError or an internal error, exit 1, naming no file, before)."""
+    run_dir = _synthetic_run(tmp_path, extra=["--max-generations", "1"])
+    capsys.readouterr()
+    (run_dir / "run.json").write_bytes(content)
+    for flag in ("--resume", "--validate", "--export-reference"):
+        one_line_error(capsys, main(["campaign", flag, str(run_dir), "--no-progress"]), 2, "run.json",
+                       "not readable JSON")

@@ -1,6 +1,7 @@
 """Command line and pipeline: propagate output, clear errors, notebook selection, manifests."""
 
 import json
+import os
 import subprocess
 import sys
 
@@ -172,3 +173,43 @@ def test_an_interrupt_leaves_no_traceback_of_abandoned_tasks():
     done = subprocess.run([sys.executable, "-c", script], cwd=PROJECT_DIR, capture_output=True, text=True, timeout=120)
     assert done.returncode == 130, done.stderr
     assert done.stderr.strip() == "error: interrupted", done.stderr
+
+
+def test_sigterm_on_a_campaign_is_one_line_exit_143_and_resumes(tmp_path):
+    """SIGTERM during a campaign ended with exit 143 and no line: now one line, the run resumable to its end."""
+    import signal
+    import time
+
+    run_dir = tmp_path / "run"
+    args = [sys.executable, "-m", "lnss_lib", "campaign", "--profile", "ci", "--evaluator", "synthetic", "--workers",
+            "0", "--no-progress", "--set", "campaign.synthetic_delay_s=0.05", "--set", "campaign.generations=4"]
+    process = subprocess.Popen(args + ["--run-dir", str(run_dir)], cwd=PROJECT_DIR, stdout=subprocess.DEVNULL,
+                               stderr=subprocess.PIPE, text=True)
+    journal = run_dir / "evaluations.jsonl"
+    deadline = time.monotonic() + 120
+    while not (journal.is_file() and journal.read_bytes().count(b"\n") > 3):
+        assert process.poll() is None and time.monotonic() < deadline, process.stderr.read() if process.poll() else ""
+        time.sleep(0.05)
+    os.kill(process.pid, signal.SIGTERM)
+    _, err = process.communicate(timeout=60)
+    assert process.returncode == 143 and err.strip() == "error: terminated (SIGTERM)", err
+    assert main(["campaign", "--resume", str(run_dir), "--workers", "0", "--no-progress"]) == 0
+
+
+def test_a_closed_standard_output_is_a_failure_not_a_lost_result():
+    """evaluate with standard output closed printed nothing and exited 0: now exit 1 and a line saying why."""
+    done = subprocess.run(f"{sys.executable} -m lnss_lib evaluate --profile ci --sma-km 6143 --ecc 0.6 --aop-deg 90 "
+                          f"--inc-deg 51.7 --planes 2 --sats-per-plane 2 --json >&-", shell=True, cwd=PROJECT_DIR,
+                          capture_output=True, text=True, timeout=600)
+    assert done.returncode == 1 and "standard output is closed" in done.stderr, done.stderr
+
+
+def test_git_is_never_taken_from_path(tmp_path, monkeypatch):
+    """The commit recorded in every manifest and run folder comes from the system's git, not a `git` first on PATH."""
+    from lnss_lib.provenance import git_revision
+
+    fake = tmp_path / "git"
+    fake.write_text(f"#!/bin/sh\ntouch {tmp_path / 'ran'}\necho forged\n")
+    fake.chmod(0o755)
+    monkeypatch.setenv("PATH", f"{tmp_path}:{os.environ['PATH']}")
+    assert "forged" not in git_revision() and not (tmp_path / "ran").exists()

@@ -1,8 +1,11 @@
 """Profiles: inheritance, unknown names, fingerprints."""
 
+import datetime as dt
+
 import pytest
 
 from lnss_lib.config import available_profiles, load_profile, profile_hash
+from lnss_lib.errors import ConfigError
 
 
 def test_profiles_inherit_from_paper():
@@ -68,3 +71,20 @@ def test_every_setting_round_trips_through_set():
     assert parse_sets([f"{k}={toml_literal(v)}" for k, v in _leaves(extremes)]) == extremes
     relativity_off = parse_sets([f"forces.relativity={toml_literal(False)}"])
     assert load_profile("ci", overrides=relativity_off)["forces"]["relativity"] is False
+
+
+@pytest.mark.parametrize("text, expected", [
+    ("2025-05-01", dt.datetime(2025, 5, 1)), ("2025-05-01T12:30", dt.datetime(2025, 5, 1, 12, 30)),
+    ("2025-05-01T12:30:15", dt.datetime(2025, 5, 1, 12, 30, 15)),
+    ("2025-05-01T12:30:15.1234567", dt.datetime(2025, 5, 1, 12, 30, 15, 123456))])
+def test_iso_dates_are_read_in_one_strict_form(text, expected):
+    """The one date reader: ISO 8601 calendar dates and times, never another order, a zone or a week date."""
+    from lnss_lib.config import parse_iso_date
+
+    assert parse_iso_date(text) == expected
+    for bad in ("01-05-2025", "1/5/2025", "20250501", "2025-W18-4", "2025-05-01 12:30", "2025-05-01T12:30Z",
+                "2025-05-01T12:30+01:00", "2025-5-1", " 2025-05-01", 20250501, None):
+        with pytest.raises(ConfigError, match="expected YYYY-MM-DD"):
+            parse_iso_date(bad)
+    with pytest.raises(ConfigError, match="expected YYYY-MM-DD$"):
+        parse_iso_date("2025-05-01T00:00:00", date_only=True)

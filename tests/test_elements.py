@@ -5,6 +5,7 @@ the anomaly conversions, vis-viva and the eccentricity vector (issue 22 item 4) 
 import warnings
 
 import numpy as np
+import pytest
 
 from lnss_lib.elements import (eccentric_anomaly_from_true, eccentricity_vector, elements_to_state, mean_anomaly_from_true,
                                state_to_elements, true_anomaly_from_eccentric, true_anomaly_from_mean, vis_viva_sma_km)
@@ -62,3 +63,15 @@ def test_vis_viva_and_eccentricity_vector_of_known_orbits():
     np.testing.assert_allclose(e_vec, el[:, 1:2] * r_vec / r_km[:, None], rtol=0, atol=1e-13)
     assert np.array_equal(e_vec, eccentricity_vector(r_vec, v_vec, gm, np.cross(r_vec, v_vec), r_km))
     np.testing.assert_allclose(vis_viva_sma_km(r_km, np.sum(v_vec * v_vec, axis=-1), gm), el[:, 0], rtol=1e-13)
+
+
+def test_every_element_path_shares_the_hill_sphere_bound():
+    """validate_elements (Walker designs, the explorer, explicit constellations, element states) refuses a beyond
+    the Moon's Hill sphere as the flags and files do: no bound lunar orbit."""
+    from lnss_lib.constants import MOON_HILL_RADIUS_KM
+    from lnss_lib.elements import validate_elements
+    from lnss_lib.errors import InvalidOrbitError
+
+    validate_elements(MOON_HILL_RADIUS_KM, 0.5, 1737.4)
+    with pytest.raises(InvalidOrbitError, match="beyond the Moon's Hill sphere"):
+        validate_elements([6143.0, 80000.0], [0.6, 0.1], 1737.4)

@@ -7,6 +7,7 @@ import subprocess
 import sys
 
 import numba.core.config
+import pytest
 
 import lnss_lib
 from lnss_lib import kernel_cache_dir, source_digest
@@ -90,3 +91,27 @@ def test_a_processor_without_the_named_models_features_compiles_for_itself(monke
     assert lnss_lib.kernel_cpu() == f"host:{llvm.get_host_cpu_name()}"
     monkeypatch.setenv("NUMBA_CPU_NAME", "znver4")
     assert lnss_lib.kernel_cpu() == "znver4"
+
+
+def test_a_processor_model_this_machine_cannot_run_is_refused(monkeypatch):
+    """NUMBA_CPU_NAME naming a model whose instructions the processor lacks died by SIGILL (exit 132) without a word:
+    refused with the missing features named, in-process (ConfigError) and on the command line (one line, exit 2)."""
+    import llvmlite.binding as llvm
+
+    from lnss_lib.config import PROJECT_DIR
+    from lnss_lib.errors import ConfigError
+
+    host_features = llvm.get_host_cpu_features()
+    monkeypatch.setenv("NUMBA_CPU_NAME", lnss_lib.KERNEL_CPU)
+    monkeypatch.setattr(llvm, "get_host_cpu_features", lambda: {"avx2": True, "avx": True})
+    with pytest.raises(ConfigError, match="NUMBA_CPU_NAME=skylake-avx512 names a processor model .* lacks avx512f"):
+        lnss_lib.kernel_cpu()
+    monkeypatch.setenv("NUMBA_CPU_NAME", "znver4")
+    with pytest.raises(ConfigError, match="lacks avx512f,"):
+        lnss_lib.kernel_cpu()
+    monkeypatch.setenv("NUMBA_CPU_NAME", "haswell")           # no AVX-512 needed: taken as named
+    assert lnss_lib.kernel_cpu() == "haswell"
+    if not host_features.get("avx512f", False):               # this machine cannot run the model: the command line
+        done = subprocess.run([sys.executable, "-m", "lnss_lib", "evaluate", "--help"], cwd=PROJECT_DIR,
+                              capture_output=True, text=True, env={**os.environ, "NUMBA_CPU_NAME": "skylake-avx512"})
+        assert done.returncode == 2 and done.stderr.count("\n") == 1 and "lacks avx512f" in done.stderr, done.stderr

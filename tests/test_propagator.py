@@ -173,8 +173,11 @@ def test_bad_inputs_rejected(paper_profile, epoch_tdb_s):
         propagate_elements(paper_profile.dynamics, paper_profile.epoch, [[6143.0, 1.0, 51.7, 0, 90, 0]], duration_s=3600.0)
     with pytest.raises(ValueError, match="shape"):
         propagate_states(paper_profile.dynamics, np.zeros((2, 5)), epoch_tdb_s, 3600.0, 900.0)
+    circular = [[3000.0, 0.0, 0.0, 0.0, np.sqrt(paper_profile.gravity.gm_km3_s2 / 3000.0), 0.0]]
     with pytest.raises(ValueError, match="duration"):
-        propagate_states(paper_profile.dynamics, np.ones((1, 6)) * 3000, epoch_tdb_s, -1.0, 900.0)
+        propagate_states(paper_profile.dynamics, circular, epoch_tdb_s, -1.0, 900.0)
+    with pytest.raises(ValueError, match="escape speed"):      # a state is a lunar orbit's (elements.check_states_km)
+        propagate_states(paper_profile.dynamics, np.ones((1, 6)) * 3000, epoch_tdb_s, 3600.0, 900.0)
     with pytest.raises(ValueError, match="integrator setting"):
         propagate_elements(paper_profile.dynamics, paper_profile.epoch, [ELFO], setting="sloppy", duration_s=3600.0)
 

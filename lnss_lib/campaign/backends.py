@@ -13,6 +13,7 @@ from __future__ import annotations
 import contextlib
 import functools
 import os
+import re
 import signal
 import threading
 import time
@@ -21,12 +22,13 @@ from collections.abc import Callable
 
 import numpy as np
 
+from ..errors import ConfigError
 from .fitness import metric_columns
 from .journal import EvaluationCache
 from .settings import CampaignPlan
 from .tasks import evaluate_task
 
-__all__ = ["SerialBackend", "DaskBackend", "open_backend", "campaign_task", "BatchEvaluator", "guided_batches",
+__all__ = ["SerialBackend", "DaskBackend", "open_backend", "check_scheduler_address", "SCHEDULER_TIMEOUT_S", "campaign_task", "BatchEvaluator", "guided_batches",
            "early_stop_bounds"]
 
 
@@ -113,7 +115,12 @@ class DaskBackend:
 
         self.cluster = None
         if scheduler_address:
-            self.client = Client(scheduler_address, timeout=60)
+            try:
+                self.client = Client(check_scheduler_address(scheduler_address), timeout=SCHEDULER_TIMEOUT_S)
+            except OSError as error:        # TimeoutError included: nothing answers at the address
+                raise RuntimeError(f"--scheduler-address {scheduler_address}: no Dask scheduler answered within "
+                                   f"{SCHEDULER_TIMEOUT_S} s ({type(error).__name__}); start one (dask scheduler) or "
+                                   f"drop --scheduler-address for a local cluster") from None
         else:
             with _workers_ignore_sigint(), warnings.catch_warnings():
                 # the scheduler's HTTP port (no dashboard here) moves aside when another cluster holds 8787
@@ -186,6 +193,21 @@ class DaskBackend:
         self.client.close()
         if self.cluster is not None:
             self.cluster.close()
+
+
+SCHEDULER_TIMEOUT_S = 15     # a scheduler answers in well under a second, a loaded machine in seconds; none there waited 60 s
+_ADDRESS = re.compile(r"(?:(?:tcp|tls)://)?(\[[0-9A-Fa-f:.]+\]|[A-Za-z0-9](?:[A-Za-z0-9.-]*[A-Za-z0-9])?):(\d{1,5})")
+
+
+def check_scheduler_address(address: str) -> str:
+    """``address`` when it is a Dask scheduler address, ``[tcp://|tls://]HOST:PORT`` with a port in 1-65535, else
+    ConfigError saying the expected form (``nonsense`` was an internal error; port 99999 waited 60 s)."""
+    match = _ADDRESS.fullmatch(address) if isinstance(address, str) else None
+    if match is None or not 1 <= int(match.group(2)) <= 65535:
+        raise ConfigError(f"--scheduler-address {address!r} is not a Dask scheduler address; expected "
+                          f"[tcp://|tls://]HOST:PORT with PORT in 1-65535, e.g. tcp://127.0.0.1:8786",
+                          key="--scheduler-address")
+    return address
 
 
 def open_backend(shared, plan: CampaignPlan, workers: int | None = None, scheduler_address: str | None = None,

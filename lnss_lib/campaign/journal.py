@@ -12,6 +12,7 @@ from any generation) is skipped, so its design is evaluated again.
 from __future__ import annotations
 
 import json
+import warnings
 import zlib
 from pathlib import Path
 
@@ -52,7 +53,10 @@ def _is_record(item) -> bool:
             and type(item.get("generation")) is int and isinstance(item.get("metrics", {}), dict))
 
 
-def parse_journal(data: bytes, is_record=_is_record) -> tuple[dict, list[dict], int]:
+_REPORTED: set[tuple[str, tuple]] = set()       # (journal, damaged lines) already named in this process
+
+
+def parse_journal(data: bytes, is_record=_is_record, source=None) -> tuple[dict, list[dict], int]:
     """(header, one record per design in order of first appearance, length of the complete lines) of a
     journal's bytes; ``is_record`` tells a whole record (default: an evaluation record; the front validation's
     journal has its own, :mod:`lnss_lib.campaign.validation`).
@@ -61,22 +65,35 @@ def parse_journal(data: bytes, is_record=_is_record) -> tuple[dict, list[dict], 
     and so is any line that is not a whole record or whose CRC does not match (torn by a full disk,
     damaged later; a journal of format 1 has no CRC); the designs they held are evaluated again on resume. A design recorded twice (two writers) counts once: its
     first record, unless that one is an error record and a later one exists (a retry after the cause
-    of the error was removed).
+    of the error was removed). A line that does not parse at all (not JSON, nested too deep, a number too long to
+    read) is skipped like any other; with ``source`` (the file) the skipped lines are named in a RuntimeWarning
+    (once per process).
     """
     end = data.rfind(b"\n") + 1
     lines = data[:end].decode(errors="replace").splitlines()
-    header, by_key = {}, {}
+    header, by_key, damaged = {}, {}, []
     for number, line in enumerate(lines):
         try:
             item = json.loads(line)
-        except json.JSONDecodeError:
+            record = None if number == 0 else _decode_record(item, header.get("format", FORMAT_VERSION) >= 2,
+                                                             is_record)
+        except (ValueError, RecursionError):       # JSONDecodeError, a 5000-digit integer, nesting past the limit
+            damaged.append(number + 1)
             continue
         if number == 0:
-            header = item if isinstance(item, dict) and "evaluation_hash" in item else {}
-        elif (record := _decode_record(item, header.get("format", FORMAT_VERSION) >= 2, is_record)) is not None:
+            header = item if (isinstance(item, dict) and "evaluation_hash" in item
+                              and type(item.get("format", FORMAT_VERSION)) is int) else {}
+        elif record is None:
+            damaged.append(number + 1)
+        else:
             key = tuple(record["key"])
             if key not in by_key or by_key[key].get("error"):
                 by_key[key] = record
+    if damaged and source is not None and (str(source), tuple(damaged)) not in _REPORTED:
+        _REPORTED.add((str(source), tuple(damaged)))
+        shown = ", ".join(map(str, damaged[:5])) + (f" and {len(damaged) - 5} more" if len(damaged) > 5 else "")
+        warnings.warn(f"{source}: line(s) {shown} damaged (not a whole record or a wrong CRC): skipped, their "
+                      f"designs are evaluated again", RuntimeWarning, stacklevel=2)
     return header, list(by_key.values()), end
 
 
@@ -112,7 +129,7 @@ class EvaluationCache:
 
     def _load(self) -> None:
         data = self.path.read_bytes()
-        header, records, end = parse_journal(data, self.is_record)
+        header, records, end = parse_journal(data, self.is_record, source=self.path)
         if "evaluation_hash" not in header:     # header line damaged: keep the records after it
             write_bytes_atomic(self.path, self._header() + data[data.find(b"\n") + 1:end])
         elif end < len(data):
@@ -153,4 +170,4 @@ def read_cache_records(run_dir) -> list[dict]:
     path = Path(run_dir) / JOURNAL_FILE
     if not path.is_file():
         return []
-    return parse_journal(path.read_bytes())[1]
+    return parse_journal(path.read_bytes(), source=path)[1]

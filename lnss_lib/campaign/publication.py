@@ -8,12 +8,11 @@ profile's publication: a folder ``published/<run>-<id>/`` holding the run's ``ev
 and reading take an ``flock`` on the campaign folder (exclusive and shared), so two campaigns of one
 profile that finish at once publish one after the other and a reader always gets the three files of
 one run. A run is published as the profile's only when its stored profile is the profile's
-(:func:`run_differences` empty: same profile hash, hence same evaluator and evaluation settings).
+(:func:`run_differences` empty: same profile hash, hence same evaluator and evaluation settings), and never
+replaces a finished run's publication by an unfinished one (a session stopped by ``--max-generations``).
 """
 
 from __future__ import annotations
-
-from collections.abc import Mapping
 
 import contextlib
 import json
@@ -28,9 +27,9 @@ import xarray as xr
 
 from ..atomicio import write_netcdf_atomic, write_text_atomic
 from ..config import profile_hash
-from ..settings import Settings, profile_data
+from ..errors import ConfigError
 from .rundir import RESULT_FILES, export_results, load_run
-from .settings import evaluation_hash
+from .settings import run_differences
 from .validation import VALIDATED_FILE
 
 __all__ = ["Publication", "run_differences", "publish_run", "load_published", "published_folder",
@@ -52,46 +51,6 @@ class Publication:
     validated: xr.Dataset | None = None
 
 
-def _differing_keys(run: dict, theirs: dict, prefix: str = "") -> list[str]:
-    """``key = run value (profile: value)`` for every dotted key whose values differ."""
-    lines = []
-    for key in sorted(set(run) | set(theirs), key=str):
-        name = f"{prefix}{key}"
-        mine, other = run.get(key, "<absent>"), theirs.get(key, "<absent>")
-        if isinstance(mine, Mapping) and isinstance(other, Mapping):
-            lines += _differing_keys(mine, other, f"{name}.")
-        elif mine != other and name not in ("profile.name", "profile.description"):
-            lines.append(f"{name} = {mine!r} (profile: {other!r})")
-    return lines
-
-
-def _hash(settings: Settings | Mapping) -> str:
-    """The profile hash of settings (computed once, when they were built) or of a stored profile dict."""
-    return settings.hash if isinstance(settings, Settings) else profile_hash(profile_data(settings))
-
-
-def run_differences(run: Settings | Mapping, settings: Settings | Mapping, limit: int = 6) -> list[str]:
-    """Why a run (its settings, or the profile dict its ``run.json`` stored) is not the campaign of ``settings``: []
-    when the profile hashes agree, else the evaluator, the evaluation settings and up to ``limit`` differing
-    keys, in that order (nothing is validated: a stored dict is compared as it is)."""
-    run_hash, hash_ = _hash(run), _hash(settings)
-    if run_hash == hash_:
-        return []
-    run_profile, profile = profile_data(run), profile_data(settings)
-    reasons = []
-    run_evaluator, evaluator = (p.get("campaign", {}).get("evaluator") for p in (run_profile, profile))
-    if run_evaluator != evaluator:
-        reasons.append(f"its evaluator is {run_evaluator!r}, the profile's {evaluator!r}")
-    run_eval_hash, eval_hash = evaluation_hash(run_profile), evaluation_hash(profile)
-    if run_eval_hash != eval_hash:
-        reasons.append(f"its evaluation settings differ (evaluation hash {run_eval_hash}, the profile's {eval_hash})")
-    keys = _differing_keys(run_profile, profile)
-    reasons.append(f"profile hash {run_hash}, the profile's {hash_}"
-                   + (f": {'; '.join(keys[:limit])}" + (f"; and {len(keys) - limit} more" if len(keys) > limit else "")
-                      if keys else ""))
-    return reasons
-
-
 @contextlib.contextmanager
 def _locked(campaign_dir: Path, exclusive: bool):
     import fcntl
@@ -107,12 +66,17 @@ def _locked(campaign_dir: Path, exclusive: bool):
 def publish_run(run_dir, campaign_dir, datasets=None) -> Path:
     """Publish ``run_dir`` as the campaign of ``campaign_dir`` (the caller checked :func:`run_differences`):
     ``datasets`` (default :func:`~lnss_lib.campaign.rundir.export_results`) into a new folder, then the
-    pointer; superseded folders are removed. Returns the pointer's path."""
+    pointer; superseded folders are removed. Returns the pointer's path; ConfigError, nothing written, when a
+    finished run is published and this one has not finished."""
     run_dir, campaign_dir = Path(run_dir), Path(campaign_dir)
     datasets = datasets if datasets is not None else export_results(run_dir)
     run = load_run(run_dir)
     root = campaign_dir / PUBLISHED_DIR
     with _locked(campaign_dir, exclusive=True):
+        current = _pointer(campaign_dir)
+        if current and current.get("finished") is True and not datasets[0].attrs["finished"]:
+            raise ConfigError(f"{campaign_dir / POINTER_FILE} publishes the finished run {current.get('run_dir')!r}; "
+                              f"this run has not finished and does not replace it")
         root.mkdir(exist_ok=True)
         folder = Path(tempfile.mkdtemp(prefix=f"{run_dir.name}-", dir=root))
         for name, ds in zip(RESULT_FILES, datasets):

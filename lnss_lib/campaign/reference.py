@@ -11,10 +11,12 @@ NetCDF files with CF-1.8 attributes, each under :data:`MAX_FILE_BYTES`, and a ``
   seeded sample when they would not fit (the front is always kept); its attributes count every design
   evaluated and the designs meeting each bound (:func:`~lnss_lib.campaign.fitness.bound_masks`).
 
-The run folder is checked first (:func:`check_run_folder`: checksummed checkpoint, unedited settings, the
-journal's evaluation hash), the files are written into a temporary folder beside the target and the folder
-replaces the previous export by rename. A run that has not finished is exported all the same and marked
-partial (README and the ``finished`` / ``partial`` attributes). :func:`load_reference` reads an export back.
+The run folder is checked first (:func:`check_run_folder`: checksummed checkpoint and run.json, unedited settings,
+the journal's evaluation hash, and settings that are its profile's as it stands in ``params/``, as a publication
+requires), the files are written into a temporary folder beside the target and the folder replaces the previous
+export by rename. A target that is not a previous export is left alone, and a complete export is never replaced by
+a partial one (:func:`check_replaceable`). A run that has not finished is exported all the same and marked partial
+(README and the ``finished`` / ``partial`` attributes). :func:`load_reference` reads an export back.
 """
 
 from __future__ import annotations
@@ -33,20 +35,19 @@ import numpy as np
 import xarray as xr
 
 from ..atomicio import write_bytes_atomic, write_netcdf_atomic, write_text_atomic
-from ..config import OUTPUTS_DIR, profile_hash
+from ..config import REFERENCE_DIR, profile_hash
 from ..errors import ConfigError
 from ..keys import DESIGN_KEYS, TIMING_KEYS, label
-from ..settings import settings_from_profile
+from ..settings import load_settings, settings_from_profile
 from .fitness import bound_masks, deltav_constraint, parse_constraints, satisfies
 from .journal import JOURNAL_FILE, parse_journal, read_cache_records
 from .rundir import check_resumable, export_results, load_checkpoint, load_run
-from .settings import CampaignPlan, evaluation_hash
+from .settings import CampaignPlan, evaluation_hash, run_differences
 from .timing import campaign_timing, concurrent_workers
 
 __all__ = ["REFERENCE_DIR", "REFERENCE_FILES", "README_FILE", "MAX_FILE_BYTES", "Reference", "check_run_folder",
-           "analysis_mask", "thin_to_fit", "export_reference", "load_reference", "cf_variable_attrs"]
+           "analysis_mask", "thin_to_fit", "export_reference", "load_reference", "cf_variable_attrs", "check_replaceable"]
 
-REFERENCE_DIR = OUTPUTS_DIR / "reference"
 REFERENCE_FILES = ("evaluations.nc", "front.nc", "history.nc", "population.nc")
 README_FILE = "README.md"
 MAX_FILE_BYTES = 5_000_000
@@ -146,7 +147,40 @@ def check_run_folder(run_dir) -> tuple[dict, dict]:
                           f"{run['evaluation_hash']}): a journal of other physics or none, refused")
     if checkpoint is None or not checkpoint["history"]:
         raise ConfigError(f"{run_dir} has no finished generation yet: nothing to export")
+    name = run["profile"].get("profile", {}).get("name")
+    try:
+        reasons = run_differences(run["profile"], load_settings(name))
+    except ConfigError as error:
+        reasons = [f"profile {name!r} does not load ({error})"]
+    if reasons:
+        raise ConfigError(f"{run_dir} is not a campaign of profile {name!r} as it stands: {'; '.join(reasons)}; only "
+                          f"a run of the profile's own settings is exported as its results")
     return run, checkpoint
+
+
+def _export_state(folder: Path) -> bool | None:
+    """Whether the export in ``folder`` is complete (its README says so), None when ``folder`` is not an export
+    (a file, or a folder holding anything but :data:`REFERENCE_FILES` and the README of one)."""
+    if not folder.is_dir() or sorted(p.name for p in folder.iterdir()) != sorted((*REFERENCE_FILES, README_FILE)):
+        return None
+    readme = (folder / README_FILE).read_text(errors="replace")
+    if not readme.startswith(f"# Reference results: campaign of profile `{folder.name}`"):
+        return None
+    return "**Run: complete.**" in readme
+
+
+def check_replaceable(target: Path, finished: bool) -> None:
+    """Refuse (ConfigError) to replace ``target`` unless it is missing or a previous export, and a complete export
+    by a partial one (``finished`` False): shipped results are only ever replaced by results as good."""
+    if not target.exists():
+        return
+    state = _export_state(target)
+    if state is None:
+        raise ConfigError(f"{target} is not a previous export ({', '.join((*REFERENCE_FILES, README_FILE))} and "
+                          f"nothing else): left alone, nothing written")
+    if state and not finished:
+        raise ConfigError(f"{target} holds a complete export and this run has not finished: a partial run never "
+                          f"replaces complete results; resume the run to its end, then export it")
 
 
 def analysis_mask(evaluations: xr.Dataset) -> tuple[np.ndarray, str]:
@@ -211,6 +245,11 @@ def _population(evaluations: xr.Dataset, checkpoint: dict, plan: CampaignPlan) -
     return population
 
 
+def _versions(recorded) -> dict[str, str]:
+    """The package versions run.json recorded, as text ({} for anything but a table)."""
+    return {str(k): str(v) for k, v in recorded.items()} if isinstance(recorded, dict) else {}
+
+
 def _readme(provenance: dict, files: dict[str, int], counts: dict) -> str:
     p = provenance
     state = "complete" if p["finished"] else (f"PARTIAL: {p['generations_done']} of {p['generations']} generations "
@@ -242,8 +281,6 @@ def export_reference(run_dir, root=None, *, export_commit: str = "unknown") -> P
     """Export the run folder ``run_dir`` (checked by :func:`check_run_folder`) into ``root/<profile>/``, replacing
     a previous export as one unit (temporary folder, then rename); returns the folder. ``export_commit``: the
     workbook commit that exports (the run's own is read from run.json when it recorded one)."""
-    from ..provenance import package_versions
-
     run_dir, root = Path(run_dir), Path(REFERENCE_DIR if root is None else root)
     run, checkpoint = check_run_folder(run_dir)
     evaluations, front, history = export_results(run_dir)
@@ -252,12 +289,17 @@ def export_reference(run_dir, root=None, *, export_commit: str = "unknown") -> P
     workers = concurrent_workers(read_cache_records(run_dir))
     wall_s = float(history["wall_s"].sum())
     finished = bool(checkpoint.get("finished"))
+    check_replaceable(root / name, finished)
+    sealed = "checksum" in run      # run.json under its checksum (load_run checked it): its provenance is the run's
+    unsealed = "not verifiable (run.json of a run that recorded no checksum)"
     provenance = {
         "profile": name, "profile_hash": profile_hash(run["profile"]), "evaluation_hash": run["evaluation_hash"],
         "evaluator": plan.evaluator, "seed": plan.seed, "population": plan.population, "generations": plan.generations,
         "generations_done": len(checkpoint["history"]), "finished": finished, "wall_s": wall_s,
-        "created_utc": run.get("created_utc", "unknown"), "versions": run.get("versions") or package_versions(),
-        "run_commit": run.get("commit", "not recorded in run.json"), "export_commit": export_commit,
+        "created_utc": str(run.get("created_utc", "unknown")) if sealed else unsealed,
+        "versions": _versions(run.get("versions")) if sealed else {"packages": unsealed},
+        "run_commit": str(run.get("commit", "not recorded in run.json")) if sealed else unsealed,
+        "export_commit": export_commit,
         "machine": f"{platform.platform()}, {os.cpu_count()} CPU(s), {workers} worker process(es)",
         "exported_utc": time.strftime("%Y-%m-%dT%H:%M:%SZ", time.gmtime()),
     }
@@ -291,6 +333,7 @@ def export_reference(run_dir, root=None, *, export_commit: str = "unknown") -> P
         write_text_atomic(staging / README_FILE, _readme(provenance, {k: len(v) for k, v in payloads.items()}, counts))
         os.chmod(staging, 0o755)
         target = root / name
+        check_replaceable(target, finished)
         if target.exists():
             retired = Path(tempfile.mkdtemp(prefix=f".{name}-old-", dir=root))
             os.replace(target, retired / name)

@@ -1,6 +1,8 @@
 """The run directory: ``run.json``, ``checkpoint.pkl`` and the NetCDF results.
 
-* ``run.json``: the profile (with every override) and the evaluation hash, written first;
+* ``run.json``: the profile (with every override, its name included), the evaluation hash and the provenance
+  (start time, package versions, commit), written first under a SHA-256 of all of it (``checksum``,
+  :func:`run_checksum`): an edited line (a renamed profile, a forged commit) is refused;
 * ``evaluations.jsonl``: the evaluation journal (:mod:`lnss_lib.campaign.journal`);
 * ``checkpoint.pkl``: after every generation, the algorithm (population, random generator,
   termination state) and the per-generation history, pickled behind a header holding the SHA-256 of
@@ -37,7 +39,7 @@ from .settings import CampaignPlan
 __all__ = ["load_run", "load_checkpoint", "final_population", "export_results", "write_results",
            "write_checkpoint", "start_run", "default_run_dir", "atomic_write_bytes", "check_resumable", "RunLock",
            "CheckpointError", "LOCK_FILE", "RUN_FILE", "CHECKPOINT_FILE", "RESULT_FILES", "CHECKPOINT_FORMAT",
-           "CHECKPOINT_GLOBALS", "CHECKPOINT_MAGIC"]
+           "CHECKPOINT_GLOBALS", "CHECKPOINT_MAGIC", "run_checksum", "check_new_run_dir"]
 
 RUN_FILE, CHECKPOINT_FILE, LOCK_FILE = "run.json", "checkpoint.pkl", "run.lock"
 RESULT_FILES = ("evaluations.nc", "front.nc", "history.nc")
@@ -48,17 +50,28 @@ CHECKPOINT_MAGIC = b"LNSS campaign checkpoint\n"
 atomic_write_bytes = write_bytes_atomic
 
 
+def run_checksum(run: dict) -> str:
+    """SHA-256 (hex) of ``run.json``'s canonical JSON without its ``checksum`` field."""
+    content = {k: v for k, v in run.items() if k != "checksum"}
+    return hashlib.sha256(json.dumps(content, sort_keys=True, separators=(",", ":"), default=str).encode()).hexdigest()
+
+
 def load_run(run_dir) -> dict:
-    """``run.json`` of a run directory (profile, evaluation hash, creation time); ConfigError if absent or unreadable."""
+    """``run.json`` of a run directory (profile, evaluation hash, creation time); ConfigError if absent, unreadable
+    (a damaged line: not JSON, nested too deep, a number too long to read) or edited after the run started (its
+    ``checksum`` no longer matches; a run.json written before runs recorded one has none)."""
     path = Path(run_dir) / RUN_FILE
     if not path.is_file():
         raise ConfigError(f"{run_dir} is not a campaign run directory (no {RUN_FILE})")
     try:
         run = json.loads(path.read_text())
-    except (json.JSONDecodeError, UnicodeDecodeError) as error:
-        raise ConfigError(f"{path} is not valid JSON ({error})") from None
+    except (ValueError, RecursionError) as error:     # JSONDecodeError, UnicodeDecodeError, a 5000-digit integer
+        raise ConfigError(f"{path} is not readable JSON ({type(error).__name__}: {str(error)[:120]})") from None
     if not isinstance(run, dict) or not isinstance(run.get("profile"), dict) or "evaluation_hash" not in run:
         raise ConfigError(f"{path} lacks the profile or the evaluation hash of the run")
+    if "checksum" in run and run["checksum"] != run_checksum(run):
+        raise ConfigError(f"{path} was edited after the run started (its SHA-256 is not the checksum it recorded): "
+                          f"a run keeps its settings and provenance; start a new run with --profile and --set")
     return run
 
 
@@ -298,6 +311,22 @@ def default_run_dir(profile_name: str) -> Path:
     return candidate
 
 
+def check_new_run_dir(run_dir: Path) -> None:
+    """Refuse (ConfigError) a folder a new run may not be started in: one holding a run (resume it instead) or any
+    other file (a new run never writes among files it did not make); a missing or empty folder is fit."""
+    if (run_dir / RUN_FILE).exists():
+        raise ConfigError(f"{run_dir} already holds a campaign; continue it with --resume {run_dir}", key="--run-dir")
+    if run_dir.exists() and not run_dir.is_dir():
+        raise ConfigError(f"--run-dir {run_dir}: not a folder; a new run needs a missing or empty folder",
+                          key="--run-dir")
+    if run_dir.is_dir():
+        entries = sorted(entry.name for entry in run_dir.iterdir())
+        if entries:
+            shown = ", ".join(entries[:3]) + (f" and {len(entries) - 3} more" if len(entries) > 3 else "")
+            raise ConfigError(f"--run-dir {run_dir} is not empty ({shown}); a new run goes into a missing or empty "
+                              f"folder", key="--run-dir")
+
+
 def start_run(run_dir: Path, settings: Settings, eval_hash: str) -> None:
     """Write ``run.json`` (the settings as TOML data, their hash, the evaluation hash ``eval_hash``, versions and
     the workbook's commit) into ``run_dir`` (the caller holds the run's lock)."""
@@ -306,7 +335,9 @@ def start_run(run_dir: Path, settings: Settings, eval_hash: str) -> None:
     run = {"profile": settings.as_dict(), "profile_hash": settings.hash, "evaluation_hash": eval_hash,
            "created_utc": time.strftime("%Y-%m-%dT%H:%M:%SZ", time.gmtime()), "versions": package_versions(),
            "commit": git_revision()}
-    atomic_write_bytes(run_dir / RUN_FILE, json.dumps(run, indent=1, default=str).encode())
+    run = json.loads(json.dumps(run, default=str))        # the checksum is of what the file will read back
+    run["checksum"] = run_checksum(run)
+    atomic_write_bytes(run_dir / RUN_FILE, json.dumps(run, indent=1).encode())
 
 
 def check_resumable(run_dir: Path, run: dict, checkpoint: dict | None) -> None:

@@ -27,14 +27,14 @@ from .. import kernel_cpu
 from ..config import OUTPUTS_DIR, PROFILE_NAME
 from ..settings import Settings, load_settings, settings_from_profile
 from ..errors import ConfigError
-from .backends import BatchEvaluator, early_stop_bounds, open_backend
+from .backends import BatchEvaluator, check_scheduler_address, early_stop_bounds, open_backend
 from .callbacks import (Callback, CampaignStopped, Checkpointer, ErrorGuard, HistoryRecorder, ProgressBars,
                         RunState)
 from .journal import JOURNAL_FILE, EvaluationCache, read_cache_records
 from .publication import publish_run, run_differences
 from .problem import WalkerDesignProblem, build_algorithm, build_termination
-from .rundir import (LOCK_FILE, RUN_FILE, RunLock, check_resumable, default_run_dir, load_checkpoint, load_run,
-                     start_run, write_results)
+from .rundir import (LOCK_FILE, RUN_FILE, RunLock, check_new_run_dir, check_resumable, default_run_dir, load_checkpoint,
+                     load_run, start_run, write_results)
 from .settings import CampaignPlan, evaluation_hash, evaluation_profile
 from .validation import check_validatable, validate_front
 
@@ -82,6 +82,8 @@ def run_campaign(profile_name: str = "quick", *, overrides: dict | None = None, 
     while it runs. More evaluation errors than ``campaign.max_errors`` raise
     :class:`~lnss_lib.campaign.callbacks.CampaignStopped` after writing ``evaluations.nc``.
     """
+    if scheduler_address is not None:
+        check_scheduler_address(scheduler_address)
     if resume is not None:
         if overrides:
             raise ConfigError("a resumed run keeps its parameters: overrides are not allowed with resume")
@@ -99,9 +101,7 @@ def run_campaign(profile_name: str = "quick", *, overrides: dict | None = None, 
         settings = load_settings(profile_name, overrides=overrides)
         eval_hash = evaluation_hash(settings)
         eval_settings = evaluation_profile(settings)
-        run_dir = Path(run_dir) if run_dir is not None else default_run_dir(profile_name)
-        if (run_dir / RUN_FILE).exists():
-            raise ConfigError(f"{run_dir} already holds a campaign; continue it with --resume {run_dir}")
+        run_dir = _new_run_dir(run_dir, settings.name)
         created = not run_dir.exists()
         run_dir.mkdir(parents=True, exist_ok=True)
         lock = RunLock(run_dir)
@@ -115,6 +115,23 @@ def run_campaign(profile_name: str = "quick", *, overrides: dict | None = None, 
         raise
     finally:
         lock.release()
+
+
+def _new_run_dir(run_dir, profile_name: str) -> Path:
+    """The folder a new run goes into: ``run_dir`` (not blank, outside the shipped results, missing or empty:
+    :func:`~lnss_lib.campaign.rundir.check_new_run_dir`) or the profile's default."""
+    if run_dir is None:
+        return default_run_dir(profile_name)
+    if not str(run_dir).strip():
+        raise ConfigError(f"--run-dir {str(run_dir)!r}: a folder path is needed (a blank one would be the current "
+                          f"folder); omit --run-dir for outputs/<profile>/campaign/run_<time>", key="--run-dir")
+    run_dir = Path(run_dir)
+    reference_dir = (OUTPUTS_DIR / "reference").resolve()
+    if run_dir.resolve() == reference_dir or reference_dir in run_dir.resolve().parents:
+        raise ConfigError(f"--run-dir {run_dir}: inside {reference_dir}, the shipped results, which exports replace "
+                          f"whole; choose a folder elsewhere", key="--run-dir")
+    check_new_run_dir(run_dir)
+    return run_dir
 
 
 def _warn_if_other_kernel_cpu(run_dir: Path, run: dict) -> None:
@@ -252,6 +269,8 @@ def validate_run(run_dir, *, workers: int | None = None, scheduler_address: str 
     lock, then publish it as :func:`run_campaign` would: ``(ValidationResult, publication note)``. ConfigError for a
     folder that is not a run, a run not finished or a profile whose validation is off."""
     run_dir = Path(run_dir)
+    if scheduler_address is not None:
+        check_scheduler_address(scheduler_address)
     if not run_dir.is_dir():
         raise ConfigError(f"--validate {run_dir}: not a folder (a campaign run folder: {RUN_FILE}, checkpoint.pkl, "
                           f"{JOURNAL_FILE})", key="--validate")
@@ -280,4 +299,7 @@ def _publish(run_dir: Path, settings: Settings) -> str:
         reasons = [f"profile {name!r} does not load ({error})"]
     if reasons:
         return f"not published as the campaign of profile {name!r}: {'; '.join(reasons)}"
-    return f"published as the campaign of profile {name!r}: {publish_run(run_dir, campaign_dir)}"
+    try:
+        return f"published as the campaign of profile {name!r}: {publish_run(run_dir, campaign_dir)}"
+    except ConfigError as error:
+        return f"not published as the campaign of profile {name!r}: {error}"

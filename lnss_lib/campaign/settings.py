@@ -22,7 +22,7 @@ from ..keys import METRIC_KEYS, VERDICT_KEYS, bound_text, format_value, label
 from .fitness import constraint_matrix
 from .grid import DesignGrid
 
-__all__ = ["CampaignPlan", "campaign_constraints", "evaluation_profile", "evaluation_hash", "bounds_verdict",
+__all__ = ["CampaignPlan", "campaign_constraints", "evaluation_profile", "evaluation_hash", "bounds_verdict", "run_differences",
            "EVALUATORS", "CAMPAIGN_ONLY_KEYS", "NOTEBOOK_MODES", "OFF"]
 
 CAMPAIGN_ONLY_KEYS = ("population", "generations", "crossover_prob", "crossover_eta", "mutation_eta",
@@ -128,3 +128,43 @@ def evaluation_hash(settings: Settings | Mapping) -> str:
     for key in CAMPAIGN_ONLY_KEYS:
         content.get("campaign", {}).pop(key, None)
     return profile_hash(content)
+
+
+def _differing_keys(run: dict, theirs: dict, prefix: str = "") -> list[str]:
+    """``key = run value (profile: value)`` for every dotted key whose values differ."""
+    lines = []
+    for key in sorted(set(run) | set(theirs), key=str):
+        name = f"{prefix}{key}"
+        mine, other = run.get(key, "<absent>"), theirs.get(key, "<absent>")
+        if isinstance(mine, Mapping) and isinstance(other, Mapping):
+            lines += _differing_keys(mine, other, f"{name}.")
+        elif mine != other and name not in ("profile.name", "profile.description"):
+            lines.append(f"{name} = {mine!r} (profile: {other!r})")
+    return lines
+
+
+def _hash(settings: Settings | Mapping) -> str:
+    """The profile hash of settings (computed once, when they were built) or of a stored profile dict."""
+    return settings.hash if isinstance(settings, Settings) else profile_hash(profile_data(settings))
+
+
+def run_differences(run: Settings | Mapping, settings: Settings | Mapping, limit: int = 6) -> list[str]:
+    """Why a run (its settings, or the profile dict its ``run.json`` stored) is not the campaign of ``settings``: []
+    when the profile hashes agree, else the evaluator, the evaluation settings and up to ``limit`` differing
+    keys, in that order (nothing is validated: a stored dict is compared as it is)."""
+    run_hash, hash_ = _hash(run), _hash(settings)
+    if run_hash == hash_:
+        return []
+    run_profile, profile = profile_data(run), profile_data(settings)
+    reasons = []
+    run_evaluator, evaluator = (p.get("campaign", {}).get("evaluator") for p in (run_profile, profile))
+    if run_evaluator != evaluator:
+        reasons.append(f"its evaluator is {run_evaluator!r}, the profile's {evaluator!r}")
+    run_eval_hash, eval_hash = evaluation_hash(run_profile), evaluation_hash(profile)
+    if run_eval_hash != eval_hash:
+        reasons.append(f"its evaluation settings differ (evaluation hash {run_eval_hash}, the profile's {eval_hash})")
+    keys = _differing_keys(run_profile, profile)
+    reasons.append(f"profile hash {run_hash}, the profile's {hash_}"
+                   + (f": {'; '.join(keys[:limit])}" + (f"; and {len(keys) - limit} more" if len(keys) > limit else "")
+                      if keys else ""))
+    return reasons

@@ -59,7 +59,7 @@ def test_damaged_earlier_line_or_missing_journal_is_evaluated_again(tmp_path, un
     from lnss_lib.campaign import final_population
 
     reference = {tuple(r["key"]): r["metrics"] for r in read_cache_records(uninterrupted)}
-    for damage in ("earlier line", "one digit", "header", "missing journal"):
+    for damage in ("earlier line", "one digit", "nested too deep", "a 5000-digit integer", "header", "missing journal"):
         run_dir = tmp_path / damage.replace(" ", "_")
         _synthetic(run_dir, max_generations=2)
         journal = run_dir / "evaluations.jsonl"
@@ -74,10 +74,18 @@ def test_damaged_earlier_line_or_missing_journal_is_evaluated_again(tmp_path, un
             if damage == "one digit":       # still valid JSON: the first digit of pdop_mean_3sigma changed
                 at = lines[index].index(b'"pdop_mean_3sigma": ') + len(b'"pdop_mean_3sigma": ')
                 lines[index] = lines[index][:at] + str((int(chr(lines[index][at])) + 1) % 10).encode() + lines[index][at + 1:]
+            elif damage == "nested too deep":   # json.loads raised RecursionError: resume and export exited 1
+                lines[index] = b'{"a": ' * 100_000 + b"1" + b"}" * 100_000 + b"\n"
+            elif damage == "a 5000-digit integer":   # json.loads raised ValueError (int string conversion limit)
+                lines[index] = b'{"key": [' + b"9" * 5000 + b', 1, 1, 1, 1, 1], "generation": 1}\n'
             else:                          # a damaged disk block
                 lines[index] = b"\x00" * (len(lines[index]) - 1) + b"\n"
             journal.write_bytes(b"".join(lines))
-        result = _resume(run_dir)
+        if damage in ("header", "missing journal"):
+            result = _resume(run_dir)
+        else:                              # the skipped line is named
+            with pytest.warns(RuntimeWarning, match=f"evaluations.jsonl: line.s. {index + 1} damaged"):
+                result = _resume(run_dir)
         assert result.generations == 4, damage
         _assert_same_final_population(run_dir, uninterrupted)
         records = read_cache_records(run_dir)

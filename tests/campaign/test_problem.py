@@ -86,6 +86,7 @@ def test_resume_on_another_kernel_processor_warns_and_continues(tmp_path):
     import warnings
 
     from lnss_lib import kernel_cpu
+    from lnss_lib.campaign.rundir import run_checksum
 
     synthetic = {"campaign": {"evaluator": "synthetic", "generations": 3}}
     run_campaign("ci", overrides=synthetic, workers=0, run_dir=tmp_path / "run", progress=False, max_generations=1)
@@ -95,7 +96,7 @@ def test_resume_on_another_kernel_processor_warns_and_continues(tmp_path):
     path = tmp_path / "run" / "run.json"
     run = json.loads(path.read_text())
     run["versions"]["kernel_cpu"] = "other-model"
-    path.write_text(json.dumps(run))
+    path.write_text(json.dumps({**run, "checksum": run_checksum(run)}))
     with pytest.warns(RuntimeWarning, match=f"other-model.*{re.escape(kernel_cpu())}"):
         result = run_campaign(resume=tmp_path / "run", workers=0, progress=False)
     assert result.generations == 3

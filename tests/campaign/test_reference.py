@@ -16,8 +16,28 @@ from lnss_lib.keys import DESIGN_KEYS
 from lnss_lib.settings import load_settings
 from lnss_lib.studies.campaign import designs_shown
 
-SYNTHETIC = {"campaign": {"evaluator": "synthetic"}}
 CF_GLOBALS = ("title", "institution", "source", "history", "references", "Conventions")
+PROFILE = "ci_synthetic"       # a profile whose own evaluator is the synthetic one: its runs are its campaign
+
+
+@pytest.fixture(scope="module", autouse=True)
+def synthetic_profile(tmp_path_factory):
+    """Profile :data:`PROFILE` (ci with the synthetic evaluator), loadable by name in this module's processes."""
+    from lnss_lib.config import use_profile_file
+
+    path = tmp_path_factory.mktemp("profiles") / f"{PROFILE}.toml"
+    path.write_text('[profile]\ninherits = "ci"\n\n[campaign]\nevaluator = "synthetic"\n')
+    with pytest.MonkeyPatch.context() as patch:
+        patch.setenv("LNSS_PROFILE_FILES", "{}")
+        use_profile_file(path)
+        yield path
+
+
+def _reseal(path, run):
+    """Write ``run`` into ``path`` under a fresh checksum (an edit that passes the checksum: the checks behind it)."""
+    from lnss_lib.campaign.rundir import run_checksum
+
+    path.write_text(json.dumps({**run, "checksum": run_checksum(run)}))
 
 
 @pytest.mark.parametrize("name", ["paper", "paper_dv_physical"])
@@ -40,27 +60,27 @@ def test_shipped_results_are_the_current_profiles(name):
 def partial_run(tmp_path_factory):
     """A synthetic ci campaign stopped after 2 of its generations (resumable, not finished)."""
     run_dir = tmp_path_factory.mktemp("partial") / "run"
-    run_campaign("ci", overrides=SYNTHETIC, workers=0, run_dir=run_dir, progress=False, max_generations=2)
+    run_campaign(PROFILE, workers=0, run_dir=run_dir, progress=False, max_generations=2)
     return run_dir
 
 
 @pytest.fixture(scope="module")
 def finished_run(tmp_path_factory):
     run_dir = tmp_path_factory.mktemp("finished") / "run"
-    run_campaign("ci", overrides=SYNTHETIC, workers=0, run_dir=run_dir, progress=False)
+    run_campaign(PROFILE, workers=0, run_dir=run_dir, progress=False)
     return run_dir
 
 
 def test_export_round_trip_with_cf_attributes(finished_run, tmp_path):
     folder = ref.export_reference(finished_run, tmp_path, export_commit="abc1234")
-    assert folder == tmp_path / "ci" and sorted(p.name for p in folder.iterdir()) == sorted(
+    assert folder == tmp_path / PROFILE and sorted(p.name for p in folder.iterdir()) == sorted(
         (*ref.REFERENCE_FILES, ref.README_FILE))
-    shipped = ref.load_reference("ci", tmp_path)
+    shipped = ref.load_reference(PROFILE, tmp_path)
     evaluations, front, history = export_results(finished_run)
     xr.testing.assert_allclose(shipped.front.drop_attrs(), front.drop_vars("error").drop_attrs())
     xr.testing.assert_allclose(shipped.history.drop_attrs(), history.drop_attrs())
     x, _ = final_population(finished_run)
-    designs = CampaignPlan.of(load_settings("ci").with_overrides(SYNTHETIC)).grid.descale(x.astype(float))
+    designs = CampaignPlan.of(load_settings(PROFILE)).grid.descale(x.astype(float))
     np.testing.assert_allclose(np.column_stack([shipped.population[k].values for k in DESIGN_KEYS]), designs)
     feasible = evaluations["feasible"].values
     assert shipped.evaluations.sizes["design"] == (feasible.sum() if feasible.any() else
@@ -85,7 +105,7 @@ def test_export_round_trip_with_cf_attributes(finished_run, tmp_path):
 
 
 def test_partial_run_is_marked_partial(partial_run, tmp_path):
-    shipped = ref.load_reference("ci", ref.export_reference(partial_run, tmp_path).parent)
+    shipped = ref.load_reference(PROFILE, ref.export_reference(partial_run, tmp_path).parent)
     assert not shipped.finished and shipped.history.sizes["generation"] == 2
     for ds in (shipped.evaluations, shipped.front, shipped.history, shipped.population):
         assert ds.attrs["partial"] == 1 and ds.attrs["finished"] == 0
@@ -117,6 +137,23 @@ def _copy(run_dir, tmp_path, name):
     return shutil.copytree(run_dir, tmp_path / name)
 
 
+def _edited_and_resealed(run_dir, copy_dir, root, edit):
+    """A copy of ``run_dir`` whose run.json ``edit`` changed: refused for the edit, then re-sealed (its checksum
+    computed again, as a forger would) so that the checks behind the checksum are reached."""
+    import shutil
+
+    from lnss_lib.errors import ConfigError
+
+    shutil.copytree(run_dir, copy_dir)
+    run = json.loads((copy_dir / "run.json").read_text())
+    edit(run)
+    (copy_dir / "run.json").write_text(json.dumps(run))
+    with pytest.raises(ConfigError, match="edited after the run started"):
+        ref.export_reference(copy_dir, root)
+    _reseal(copy_dir / "run.json", run)
+    return copy_dir
+
+
 def test_export_refuses_a_damaged_or_forged_run_folder(finished_run, tmp_path):
     from lnss_lib.campaign.rundir import CheckpointError
     from lnss_lib.errors import ConfigError
@@ -130,16 +167,14 @@ def test_export_refuses_a_damaged_or_forged_run_folder(finished_run, tmp_path):
     (damaged / "checkpoint.pkl").write_bytes(bytes(data))
     with pytest.raises(CheckpointError, match="truncated or corrupt"):
         ref.export_reference(damaged, root)
-    edited = _copy(finished_run, tmp_path, "edited")
-    run = json.loads((edited / "run.json").read_text())
-    run["profile"]["campaign"]["seed"] = 99
-    (edited / "run.json").write_text(json.dumps(run))
+    edited = _edited_and_resealed(finished_run, tmp_path / "edited", root,
+                                  lambda run: run["profile"]["campaign"].update(seed=99))
     with pytest.raises(ConfigError, match="differ from those the run started with"):
         ref.export_reference(edited, root)
     forged = _copy(finished_run, tmp_path, "forged")
     run = json.loads((forged / "run.json").read_text())
     run["evaluation_hash"] = "0123456789abcdef"
-    (forged / "run.json").write_text(json.dumps(run))
+    _reseal(forged / "run.json", run)
     with pytest.raises(ConfigError, match="not that of its settings"):
         ref.export_reference(forged, root)
     foreign = _copy(finished_run, tmp_path, "foreign")
@@ -151,7 +186,7 @@ def test_export_refuses_a_damaged_or_forged_run_folder(finished_run, tmp_path):
     with pytest.raises(ConfigError, match="is not a folder"):
         ref.export_reference(tmp_path / "nothing", root)
     assert {p.name: p.read_bytes() for p in good.iterdir()} == before      # the previous export is untouched
-    assert sorted(p.name for p in root.iterdir()) == ["ci"]                  # and no staging folder is left
+    assert sorted(p.name for p in root.iterdir()) == [PROFILE]               # and no staging folder is left
 
 
 def test_export_command_line(finished_run, tmp_path, monkeypatch, capsys):
@@ -160,8 +195,8 @@ def test_export_command_line(finished_run, tmp_path, monkeypatch, capsys):
     monkeypatch.setattr(ref, "REFERENCE_DIR", tmp_path)
     assert main(["campaign", "--export-reference", str(finished_run)]) == 0
     out = capsys.readouterr().out
-    assert "reference results of profile 'ci' (complete)" in out and "evaluations.nc" in out
-    assert ref.load_reference("ci", tmp_path).finished
+    assert f"reference results of profile '{PROFILE}' (complete)" in out and "evaluations.nc" in out
+    assert ref.load_reference(PROFILE, tmp_path).finished
     assert main(["campaign", "--export-reference", str(tmp_path / "missing")]) == 2
     assert main(["campaign", "--export-reference", str(finished_run), "--profile", "ci"]) == 2
     damaged = _copy(finished_run, tmp_path, "damaged")
@@ -169,3 +204,52 @@ def test_export_command_line(finished_run, tmp_path, monkeypatch, capsys):
     assert main(["campaign", "--export-reference", str(damaged)]) == 1
     err = capsys.readouterr().err.strip().splitlines()
     assert len(err) == 3 and all(line.startswith("error: ") for line in err) and "Traceback" not in "".join(err)
+
+
+def test_export_never_replaces_complete_results_with_anything_else(finished_run, partial_run, tmp_path):
+    """Shipped results are replaced only by a run of their profile's own settings, complete when they are, and
+    only where a previous export lies: a toy run with overrides, a renamed run, a partial run over a complete
+    export and a folder that is not an export are refused and leave the folder as it was."""
+    from lnss_lib.errors import ConfigError
+
+    root = tmp_path / "reference"
+    good = ref.export_reference(finished_run, root)
+    before = {p.name: p.read_bytes() for p in good.iterdir()}
+    toy = tmp_path / "toy"
+    run_campaign(PROFILE, overrides={"campaign": {"generations": 1}}, workers=0, run_dir=toy,
+                 progress=False)
+    with pytest.raises(ConfigError, match=f"is not a campaign of profile .{PROFILE}.*campaign.generations = 1"):
+        ref.export_reference(toy, root)
+    renamed = _edited_and_resealed(finished_run, tmp_path / "renamed", root,
+                                   lambda run: run["profile"]["profile"].update(name="ci"))
+    with pytest.raises(ConfigError, match="is not a campaign of profile 'ci'.*its evaluator is 'synthetic'"):
+        ref.export_reference(renamed, root)
+    with pytest.raises(ConfigError, match="a partial run never replaces complete results"):
+        ref.export_reference(partial_run, root)
+    assert {p.name: p.read_bytes() for p in good.iterdir()} == before
+    other = tmp_path / "other"
+    (other / PROFILE).mkdir(parents=True)
+    (other / PROFILE / "notes.txt").write_text("mine")
+    with pytest.raises(ConfigError, match="is not a previous export"):
+        ref.export_reference(finished_run, other)
+    assert [p.name for p in (other / PROFILE).iterdir()] == ["notes.txt"]
+    assert ref.load_reference(PROFILE, ref.export_reference(partial_run, other.parent / "fresh").parent) is not None
+
+
+def test_forged_provenance_never_reaches_the_readme(finished_run, tmp_path):
+    """run.json's provenance (commit, start time, versions) is under its checksum: an edit is refused, and a
+    run.json without a checksum (an older run, or one whose checksum was cut) has its provenance printed as not
+    verifiable, never as the run's."""
+    from lnss_lib.errors import ConfigError
+
+    forged = _copy(finished_run, tmp_path, "forged")
+    run = json.loads((forged / "run.json").read_text())
+    run.update(commit="0000000 all tests passed", created_utc="1969-07-20T20:17:40Z", versions={"numpy": "forged"})
+    (forged / "run.json").write_text(json.dumps(run))
+    with pytest.raises(ConfigError, match="edited after the run started"):
+        ref.export_reference(forged, tmp_path / "a")
+    del run["checksum"]
+    (forged / "run.json").write_text(json.dumps(run))
+    readme = ref.load_reference(PROFILE, ref.export_reference(forged, tmp_path / "b").parent).readme
+    assert "all tests passed" not in readme and "1969" not in readme and "forged" not in readme
+    assert readme.count("not verifiable") == 3

@@ -308,3 +308,48 @@ def test_progress_lines_fit_80_columns_and_report_the_summary_rate(tmp_path):
     summary = float(re.search(r"\(([0-9.]+) designs/s\)", done.stdout).group(1))
     assert shown == pytest.approx(summary, rel=0.05)
     assert "feasible" in lines[-1] and "min cv" not in done.stderr
+
+
+def test_a_partial_run_never_replaces_a_finished_publication(tmp_path):
+    """A session stopped by --max-generations publishes only where no finished run is published."""
+    from lnss_lib.campaign import run_campaign
+    from lnss_lib.campaign.publication import load_published, publish_run
+    from lnss_lib.errors import ConfigError
+
+    campaign_dir = tmp_path / "campaign"
+    synthetic = {"campaign": {"evaluator": "synthetic", "generations": 2}}
+    finished = run_campaign("ci", overrides=synthetic, workers=0, run_dir=campaign_dir / "run_1", progress=False)
+    partial = run_campaign("ci", overrides=synthetic, workers=0, run_dir=campaign_dir / "run_2", progress=False,
+                           max_generations=1)
+    assert publish_run(partial.run_dir, campaign_dir).is_file()        # nothing finished published yet: it may
+    publish_run(finished.run_dir, campaign_dir)
+    with pytest.raises(ConfigError, match="has not finished and does not replace it"):
+        publish_run(partial.run_dir, campaign_dir)
+    assert load_published(campaign_dir).pointer["run_dir"] == "run_1"
+
+
+@pytest.mark.parametrize("content", ["front.nc", "notes/"])
+def test_a_new_run_goes_only_into_a_missing_or_empty_folder(tmp_path, capsys, content):
+    """--run-dir on a folder holding anything is refused (exit 2) and the folder is left as it was; a blank
+    --run-dir (the current folder) is refused."""
+    from lnss_lib.__main__ import main
+
+    run_dir = tmp_path / "run"
+    (run_dir / content).parent.mkdir(parents=True, exist_ok=True)
+    if content.endswith("/"):
+        (run_dir / content).mkdir()
+    else:
+        (run_dir / content).write_bytes(b"keep")
+    before = sorted(p.name for p in run_dir.iterdir())
+    args = ["campaign", "--profile", "ci", "--evaluator", "synthetic", "--workers", "0", "--no-progress"]
+    assert main(args + ["--run-dir", str(run_dir)]) == 2
+    err = capsys.readouterr().err
+    assert "is not empty" in err and content.rstrip("/") in err and len(err.strip().splitlines()) == 1
+    assert sorted(p.name for p in run_dir.iterdir()) == before
+    assert content.endswith("/") or (run_dir / content).read_bytes() == b"keep"
+    for blank in ("", "  "):
+        assert main(args + ["--run-dir", blank]) == 2
+        assert "a folder path is needed" in capsys.readouterr().err
+    (tmp_path / "empty").mkdir()
+    assert main(args + ["--run-dir", str(tmp_path / "empty"), "--max-generations", "1"]) == 0
+    assert (tmp_path / "empty" / "run.json").is_file()
