@@ -81,8 +81,8 @@ def _synthetic_extras(sma_km: float, ecc: float, inc_deg: float, r_min: float, d
               "gnss_pdop_mean": 300.0 / (3.0 * gps_visible) if gps_visible >= 1.0 / 3.0 else math.nan}
     drift = min(1.0, 0.5 * sk)                                       # the drift the Delta-V stand-in pays against
     for name, value in (("pdop", avail), ("hdop", min(100.0, 1.1 * avail))):
-        values[f"{name}_avail_pct_life_estimate"] = value * (1.0 - 0.2 * drift)
-        values[f"{name}_avail_pct_worst_month_estimate"] = value * (1.0 - 0.5 * drift)
+        values[f"{name}_avail_pct_life_estimate"] = value * (1.0 - 0.05 * drift)
+        values[f"{name}_avail_pct_worst_month_estimate"] = value * (1.0 - 0.1 * drift)
     return {k: values[k] for k in extras}
 
 

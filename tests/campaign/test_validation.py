@@ -20,7 +20,14 @@ from lnss_lib.design_life.service import PURPOSES
 from lnss_lib.keys import DESIGN_KEYS, closed_loop_dv_key
 from lnss_lib.settings import load_settings
 
-VALIDATING = {"campaign": {"evaluator": "synthetic", "max_errors": 10},   # the stand-in's injected errors tolerated
+VALIDATING = {"campaign": {"evaluator": "synthetic", "max_errors": 10,   # the stand-in's injected errors tolerated
+                           # judged on the 10-day availability: a search whose front holds designs of every kind the
+                           # validation treats (kept, failed, raising), whatever the life estimate's stand-in says
+                           "objectives": ["n_sat", "pdop_mean_3sigma", "-pdop_avail_pct", "hdop_mean_3sigma",
+                                          "-hdop_avail_pct", "sk_dv_estimate_kms_per_year",
+                                          "sk_dv_estimate_max_kms_per_year", "-gps_visible_mean", "gps_pdop_mean"],
+                           "constraints": {"pdop_avail_pct_worst_month_estimate": "off",
+                                           "pdop_avail_pct": {"min": 70.0}}},
               "front_validation": {"max_designs": 2, "headline_per_size": 2, "headline_sizes": [10, 12],
                                    "availability_min_pct": 75.0}}
 
@@ -137,7 +144,7 @@ def test_raising_closed_loops_stop_the_validation(tmp_path, capsys):
     from lnss_lib.campaign.callbacks import CampaignStopped
 
     run_dir = tmp_path / "run"
-    strict = {**VALIDATING, "campaign": {"evaluator": "synthetic", "max_errors": 0}}
+    strict = {**VALIDATING, "campaign": {**VALIDATING["campaign"], "max_errors": 0}}
     with pytest.MonkeyPatch.context() as patch:
         patch.setattr(validation, "validation_task", fake_closed_loop)
         with pytest.raises(CampaignStopped, match="closed loop.s. raised, more than campaign.max_errors = 0") as stop:
