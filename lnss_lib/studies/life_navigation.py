@@ -38,7 +38,8 @@ Five years (``operational``, the same 26 designs, every satellite flown: 1.5 h o
 worst month ranks as well (rho 0.99) but is within 5 points on 11 of 17 (65 %: the estimate reads the HDOP of
 near-polar and inclined orbits 6-23 points off, either way: 6500 km e 0.5 i 60, 85 % flown, 96 % estimated; 12000 km
 e 0.6 i 85, 0.5 % and 24 %). Over all 26, rho 0.75 and 73 % (PDOP): nine designs lose satellites, and their service,
-in five years (six of the 24000, 17700 and 22400 km designs' six; 9700 km e 0.49 i 22: 2 % flown, 51 % estimated).
+in five years (the 24000 and 22400 km designs all six, the 17700 km design six of nine; 9700 km e 0.49 i 22, three
+of twelve: 2 % flown, 51 % estimated).
 """
 
 from __future__ import annotations
