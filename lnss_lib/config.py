@@ -239,7 +239,7 @@ RANGES = {
     "campaign.generations": (1, None, False, False), "campaign.crossover_prob": (0.0, 1.0, False, False),
     "campaign.crossover_eta": NON_NEGATIVE, "campaign.mutation_eta": NON_NEGATIVE,
     "campaign.mutation_prob_var": (0.0, 1.0, False, False), "campaign.seed": (0, None, False, False),
-    "campaign.ftol": NON_NEGATIVE, "campaign.ftol_period": (1, None, False, False),
+    "campaign.ftol": NON_NEGATIVE, "campaign.ftol_period": (1, None, False, False), "campaign.n_sat": (0, None, False, False),
     "campaign.nan_objective": NON_NEGATIVE, "campaign.nan_violation": NON_NEGATIVE,
     "campaign.synthetic_delay_s": NON_NEGATIVE, "campaign.max_resubmits": (0, None, False, False),
     "campaign.numba_threads_per_worker": (0, None, False, False),
@@ -680,10 +680,24 @@ def _check_campaign(profile: dict, source) -> None:
         if name in INTEGER_DESIGN_KEYS and (any(v != round(v) for v in (lower, upper, step)) or lower < 1):
             _fail(f"{key} = {spec!r} is not allowed; allowed: integer bounds >= 1 and an integer step (a count)",
                   key, source)
+    count_ranges = [range(int(variables[name]["lower"]), int(variables[name]["upper"]) + 1, int(variables[name]["step"]))
+                    for name in INTEGER_DESIGN_KEYS]
+    n_sat = campaign["n_sat"]
+    if n_sat and not walker_splits(n_sat, *count_ranges):
+        sizes = sorted({p * s for p in count_ranges[0] for s in count_ranges[1]})
+        _fail(f"campaign.n_sat = {n_sat!r} has no planes x satellites-per-plane split on the grid of "
+              f"campaign.variables; allowed: 0 (any size) or one of {', '.join(map(str, sizes))}", "campaign.n_sat",
+              source)
     companion = campaign["companion_profile"]
     if companion and companion == profile["profile"].get("name"):
         _fail(f"campaign.companion_profile = {companion!r} is this profile; allowed: \"\" (none) or another profile",
               "campaign.companion_profile", source)
+
+
+def walker_splits(n_sat: int, planes: range, sats_per_plane: range) -> tuple[tuple[int, int], ...]:
+    """``(Np, Ns)`` with ``Np`` in ``planes``, ``Ns`` in ``sats_per_plane`` and ``Np x Ns = n_sat``, fewest planes
+    first: the Walker constellations of one size that a size-restricted campaign searches."""
+    return tuple((p, n_sat // p) for p in planes if n_sat % p == 0 and n_sat // p in sats_per_plane)
 
 
 def parse_sets(items) -> dict:
@@ -802,21 +816,33 @@ OFF_WHEN_ABSENT = {
 results from before them keep their hash."""
 
 
+KEYS_OFF_WHEN_ABSENT = {("campaign", "n_sat"): 0}
+"""Keys a profile stored before they existed lacks, with the value that keeps their effect off (a campaign over
+every size): read so when absent and left out of the profile hash at that value, like :data:`OFF_WHEN_ABSENT`."""
+
+
 def with_absent_sections(profile: dict) -> dict:
-    """``profile`` (changed in place) with every section of :data:`OFF_WHEN_ABSENT` it lacks taken from paper.toml."""
+    """``profile`` (changed in place) with every section of :data:`OFF_WHEN_ABSENT` it lacks taken from paper.toml
+    and every key of :data:`KEYS_OFF_WHEN_ABSENT` its sections lack set off."""
     for section in OFF_WHEN_ABSENT:
         profile.setdefault(section, copy.deepcopy(_reference()[section]))
+    for (section, key), off in KEYS_OFF_WHEN_ABSENT.items():
+        if isinstance(profile.get(section), dict):
+            profile[section].setdefault(key, off)
     return profile
 
 
 def profile_hash(profile: dict) -> str:
-    """SHA-256 (16 hex digits) of a profile's canonical JSON, excluding its name and description and a
-    :data:`OFF_WHEN_ABSENT` section that is off."""
+    """SHA-256 (16 hex digits) of a profile's canonical JSON, excluding its name and description, a
+    :data:`OFF_WHEN_ABSENT` section that is off and a :data:`KEYS_OFF_WHEN_ABSENT` key at its off value."""
     content = copy.deepcopy(profile)
     content.get("profile", {}).pop("name", None)
     content.get("profile", {}).pop("description", None)
     for section, off in OFF_WHEN_ABSENT.items():
         if section in content and off(content):
             content.pop(section)
+    for (section, key), off in KEYS_OFF_WHEN_ABSENT.items():
+        if content.get(section, {}).get(key, off) == off:
+            content.get(section, {}).pop(key, None)
     canonical = json.dumps(content, sort_keys=True, separators=(",", ":"))
     return hashlib.sha256(canonical.encode()).hexdigest()[:16]

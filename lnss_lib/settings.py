@@ -364,6 +364,7 @@ class CampaignSettings:
     seed: int
     ftol: float
     ftol_period: int
+    n_sat: int
     objectives: tuple[str, ...]
     nan_objective: float
     nan_violation: float

@@ -78,7 +78,7 @@ class CampaignPlan:
         """The plan of checked settings (``settings.campaign`` and ``settings.evaluator.extra_metrics``)."""
         c = settings.campaign
         return cls(
-            grid=DesignGrid.from_variables(c.variables),
+            grid=DesignGrid.from_variables(c.variables, c.n_sat),
             population=c.population, generations=c.generations, crossover_prob=c.crossover_prob,
             crossover_eta=c.crossover_eta, mutation_eta=c.mutation_eta, mutation_prob_var=c.mutation_prob_var,
             seed=c.seed, ftol=c.ftol, ftol_period=c.ftol_period, objectives=tuple(c.objectives),

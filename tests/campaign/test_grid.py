@@ -1,9 +1,11 @@
 """Design grid (eq. 43-44), campaign settings and the evaluation hash."""
 
+import json
+
 import numpy as np
 import pytest
 
-from lnss_lib.campaign import CampaignPlan, evaluation_hash
+from lnss_lib.campaign import CampaignPlan, evaluation_hash, run_campaign
 from lnss_lib.errors import ConfigError
 from lnss_lib.settings import load_settings, settings_from_profile
 
@@ -76,3 +78,41 @@ def test_evaluation_hash_ignores_campaign_only_keys():
                    {"campaign": {"overrides": {"epoch": {"duration_days": 1.0}}}}):
         assert evaluation_hash(load_settings("ci", overrides=change)) != base
     assert evaluation_hash(load_settings("quick")) == evaluation_hash(load_settings("paper"))
+
+
+def test_size_restricted_grid_holds_every_split_and_no_other_size(rng):
+    """``campaign.n_sat = 12`` on Table 3's counts (2-5 planes, 1-4 per plane): 3 x 4 and 4 x 3 only; every scaled
+    point, the grid's corners and points beyond them included, is a 12-satellite design, and eq. 43 inverts it."""
+    grid = CampaignPlan.of(load_settings("paper", {"campaign": {"n_sat": 12}})).grid
+    assert grid.splits == ((3, 4), (4, 3))
+    np.testing.assert_array_equal(grid.n_levels[4:], [1, 0])
+    x = np.column_stack([rng.integers(-2, n + 3, 500) for n in grid.n_levels])
+    physical = grid.descale(x)
+    assert set(map(tuple, physical[:, 4:].astype(int))) == {(3, 4), (4, 3)}
+    inside = np.clip(x, 0, grid.n_levels)
+    np.testing.assert_allclose(grid.scale(grid.descale(inside)), inside, atol=1e-9)
+    assert np.isnan(grid.scale([[6100.0, 0.6, 90.0, 51.0, 2, 4]])[0, 4])       # 8 satellites: not on this grid
+
+
+def test_size_restriction_refused_without_a_split_and_off_at_zero():
+    with pytest.raises(ConfigError, match=r"campaign.n_sat = 7 .*allowed: 0 \(any size\) or one of 2, 3, 4, 5, 6, 8"):
+        load_settings("paper", {"campaign": {"n_sat": 7}})
+    with pytest.raises(ConfigError, match="campaign.n_sat"):
+        load_settings("paper", {"campaign": {"n_sat": -1}})
+    free = load_settings("paper")
+    assert CampaignPlan.of(free).grid.splits == ()
+    stored = free.as_dict()
+    del stored["campaign"]["n_sat"]                   # a profile stored before the key existed: same settings
+    assert evaluation_hash(settings_from_profile(stored)) == evaluation_hash(free)
+    assert evaluation_hash(load_settings("paper", {"campaign": {"n_sat": 12}})) != evaluation_hash(free)
+
+
+def test_size_restricted_search_never_proposes_another_size(tmp_path):
+    """A synthetic ci campaign restricted to 9 satellites (3 x 3 alone on the grid) evaluates only 9-satellite
+    designs, generation after generation."""
+    run_campaign("ci", overrides={"campaign": {"evaluator": "synthetic", "n_sat": 9, "generations": 4}},
+                 workers=0, run_dir=tmp_path / "run", progress=False)
+    records = [json.loads(line) for line in (tmp_path / "run" / "evaluations.jsonl").read_text().splitlines()[1:]]
+    plan = CampaignPlan.of(load_settings("ci", {"campaign": {"n_sat": 9}}))
+    designs = plan.grid.descale([r["key"] for r in records])
+    assert len(designs) > plan.population and set(map(tuple, designs[:, 4:].astype(int))) == {(3, 3)}
