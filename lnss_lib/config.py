@@ -268,6 +268,10 @@ RANGES = {
     "life_evaluation.screen_validation_designs": (0, None, False, False),
     "life_evaluation.screen_validation_life_days": NON_NEGATIVE,
     "life_navigation.designs": (0, None, False, False), "life_navigation.life_days": NON_NEGATIVE,
+    "robustness.draws": (0, 10_000, False, False), "robustness.life_days": (1.0, 36525.0, False, False),
+    "robustness.seed": (0, 2**63 - 1, False, False), "robustness.sma_km": NON_NEGATIVE, "robustness.ecc": (0.0, 0.1, False, False),
+    "robustness.inc_deg": (0.0, 10.0, False, False), "robustness.raan_deg": (0.0, 10.0, False, False),
+    "robustness.aop_deg": (0.0, 180.0, False, False), "robustness.anomaly_deg": (0.0, 180.0, False, False),
     "life_evaluation.frame_rerun_designs": (0, None, False, False),
     "front_validation.max_designs": (0, None, False, False), "front_validation.max_sats_per_plane": (0, None, False, False),
     "front_validation.headline_sizes": (1, None, False, False), "front_validation.headline_per_size": (0, None, False, False),
@@ -808,6 +812,7 @@ OFF_WHEN_ABSENT = {
     & set(NAVIGATION_ERROR_KEYS),
     "gnss": lambda profile: list(profile["gnss"].get("systems", ["gps"])) == ["gps"],
     "life_navigation": lambda profile: profile["life_navigation"].get("designs", 0) == 0,
+    "robustness": lambda profile: profile["robustness"].get("draws", 0) == 0,
 }
 """Sections a profile stored before they existed lacks, each with its test of being off: read as params/paper.toml's
 (front validation off, ``max_designs = 0``; the navigation error unused while no metric of

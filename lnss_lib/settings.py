@@ -499,6 +499,20 @@ class LifeNavigationSettings:
 
 
 @dataclass(frozen=True)
+class RobustnessSettings:
+    """Insertion dispersions flown in closed loop (studies.robustness): 1-sigma errors of the mean elements."""
+    draws: int                              # dispersed insertions per design (0: off)
+    life_days: float
+    seed: int
+    sma_km: float
+    ecc: float
+    inc_deg: float
+    raan_deg: float
+    aop_deg: float
+    anomaly_deg: float
+
+
+@dataclass(frozen=True)
 class FrontValidationSettings:
     """The front flown in closed loop after NSGA-II (issue 20 item 4) and the headline's bounds (item 5)."""
     max_designs: int                        # 0: off
@@ -557,6 +571,7 @@ class Settings:
     benchmark: BenchmarkSettings
     life_evaluation: LifeEvaluationSettings
     life_navigation: LifeNavigationSettings
+    robustness: RobustnessSettings
     front_validation: FrontValidationSettings
     source: Mapping[str, Any] = field(repr=False, compare=False)
     hash: str = field(init=False, compare=True)

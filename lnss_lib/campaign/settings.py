@@ -32,7 +32,7 @@ CAMPAIGN_ONLY_KEYS = ("population", "generations", "crossover_prob", "crossover_
                       "companion_profile", "notebook_mode")
 
 
-NON_EVALUATION_SECTIONS = ("notebooks", "benchmark", "life_evaluation", "life_navigation", "design_life",
+NON_EVALUATION_SECTIONS = ("notebooks", "benchmark", "life_evaluation", "life_navigation", "robustness", "design_life",
                            "front_validation")   # never read by a 10-day evaluation
 
 

@@ -94,7 +94,7 @@ of its half-width over ``slot_coast_days`` is trimmed at once (a tangential touc
 def simulate_life(design_life: DesignLifeSettings, dynamics: Dynamics, elements_deg, t0_tdb_s: float, *,
                   stability: StabilitySettings, dop: DopSettings, natural: bool = False,
                   life_days: float | None = None, degree: int | None = None, model: ForceModel | None = None,
-                  sample_step_s: float | None = None) -> xr.Dataset:
+                  sample_step_s: float | None = None, insertion_errors_deg=None) -> xr.Dataset:
     """Station keeping (or, with ``natural=True``, natural drift) of a constellation over its design life.
 
     ``design_life`` is the ``[design_life]`` section (``life_days`` replaces its life); the service
@@ -110,7 +110,10 @@ def simulate_life(design_life: DesignLifeSettings, dynamics: Dynamics, elements_
     ``box_error`` and ``box_error_tidal_mean``. With ``sample_step_s`` the Dataset also holds
     ``r_mci_km`` (sat, sample, xyz): Moon-centred J2000 positions (km) on the grid ``sample_t_tdb_s`` =
     t0 + k ``sample_step_s`` over the life (manoeuvres flown; NaN after an impact), for navigation
-    metrics over the design life. Raises ``ValueError`` for invalid elements, life or sample step.
+    metrics over the design life. ``insertion_errors_deg`` (n_sat, 6), in the units of ``elements_deg``, is added to
+    the (trimmed) insertion elements only: the satellites start off their design while the controller keeps
+    ``elements_deg`` as its references (an insertion dispersion). Raises ``ValueError`` for invalid elements, life,
+    sample step or insertion errors.
     """
     cfg = design_life if life_days is None else dataclasses.replace(design_life, life_days=float(life_days))
     if not (np.isfinite(cfg.life_days) and cfg.life_days > 0.0):
@@ -128,7 +131,14 @@ def simulate_life(design_life: DesignLifeSettings, dynamics: Dynamics, elements_
     integ = dynamics.integrator.named(cfg.integrator_setting)
     el_insert, trim_resid = (trim_to_mean(dynamics, el, t0, model, integ, samples_per_orbit=cfg.samples_per_orbit)
                              if cfg.initial_trim else (el.copy(), np.full_like(el, np.nan)))
-    states = elements_deg_to_states(dynamics, el_insert, t0)
+    flown = el_insert
+    if insertion_errors_deg is not None:
+        errors = np.asarray(insertion_errors_deg, dtype=float)
+        if errors.shape != el.shape or not np.all(np.isfinite(errors)):
+            raise ValueError(f"insertion_errors_deg must be finite with the elements' shape {el.shape}; "
+                             f"got shape {errors.shape}")
+        flown = el_insert + errors
+    states = elements_deg_to_states(dynamics, flown, t0)
     rot = element_frame_to_j2000(dynamics, t0)
     r_min = dynamics.r_impact_km
     floor_km = r_min + (cfg.service.perilune_margin_km if cfg.controller == "service" else 0.0)   # of any burn set but safety's
@@ -322,7 +332,7 @@ def simulate_life(design_life: DesignLifeSettings, dynamics: Dynamics, elements_
                                                                            else (tol_deg["raan_rel"], tol_deg["u_rel"]))
     ds["n_maneuver_sets"] = ("sat", n_sets)
     ds["n_maneuver_sets"].attrs["description"] = "corrections (each one or two burns per purpose, plus a mean-a trim)"
-    ds["insertion_elements_deg"] = (("sat", "element"), el_insert)
+    ds["insertion_elements_deg"] = (("sat", "element"), flown)
     ds["trim_residual"] = (("sat", "element"), trim_resid)
     ds["trim_residual"].attrs["description"] = ("first-orbit mean minus design at insertion (km, -, deg: i, raan, "
                                                 "aop, u); NaN without the initial trim")

@@ -60,13 +60,15 @@ STUDY_KEYS = ("notebook_life_days", "convergence_life_days", "convergence_sats",
 
 
 def run_design_life(settings: Settings, elements_deg, life_days: float | None = None, *, natural: bool = True,
-                    sample_step_s: float | None = None, sample: bool = True) -> dict[str, xr.Dataset]:
+                    sample_step_s: float | None = None, sample: bool = True,
+                    insertion_errors_deg=None) -> dict[str, xr.Dataset]:
     """The controlled (and, with ``natural``, the natural-drift) life of elements (n, 6) in the element frame.
 
     Takes the whole settings: it reads ``[design_life]``, ``[stability]`` and ``[dop]`` (the service
     controller), the dynamics, the epoch and ``[life_evaluation]``. ``life_days`` replaces ``[design_life]
     life_days``. Both runs share one force model and sample positions every ``sample_step_s`` (default
-    ``[life_evaluation] sample_step_s``; none with ``sample=False``). Returns ``{"controlled": ds[, "natural": ds]}`` of
+    ``[life_evaluation] sample_step_s``; none with ``sample=False``) and insert the satellites with
+    ``insertion_errors_deg`` (:func:`~lnss_lib.design_life.closed_loop.simulate_life`). Returns ``{"controlled": ds[, "natural": ds]}`` of
     :func:`lnss_lib.design_life.closed_loop.simulate_life` Datasets.
     """
     dynamics = settings.dynamics
@@ -80,7 +82,8 @@ def run_design_life(settings: Settings, elements_deg, life_days: float | None = 
     runs = {}
     for name in steps(("controlled", "natural") if natural else ("controlled",), "design life", "runs"):
         runs[name] = simulate_life(design_life, dynamics, elements_deg, t0, stability=settings.stability,
-                                   dop=settings.dop, natural=name == "natural", model=model, sample_step_s=step)
+                                   dop=settings.dop, natural=name == "natural", model=model, sample_step_s=step,
+                                   insertion_errors_deg=insertion_errors_deg)
     return runs
 
 
