@@ -40,7 +40,8 @@ from .rundir import export_results, load_checkpoint, load_run
 from .settings import CampaignPlan, evaluation_profile
 from .tasks import cap_numba_threads, worker_name
 
-__all__ = ["VALIDATED_FILE", "VALIDATION_JOURNAL", "COST_KEY", "STATUSES", "CLOSED_LOOP_KEYS", "select_designs",
+__all__ = ["VALIDATED_FILE", "VALIDATION_JOURNAL", "COST_KEY", "STATUSES", "CLOSED_LOOP_KEYS", "N_MINUS_1_KEYS",
+           "select_designs",
            "validation_task", "validated_dataset", "validate_front", "ValidationResult", "check_validatable"]
 
 VALIDATED_FILE, VALIDATION_JOURNAL = "validated.nc", "validated.jsonl"
@@ -55,7 +56,14 @@ def _closed_loop_keys() -> tuple[str, ...]:
     return ("closed_loop_dv_kms_per_year", "closed_loop_dv_max_kms_per_year",
             *(closed_loop_dv_key(p) for p in PURPOSES), "min_perilune_alt_km", "impact_day", "n_lost",
             "pdop_avail_pct_worst_month", "hdop_avail_pct_worst_month", "pdop_avail_pct_life", "hdop_avail_pct_life",
-            "requirement_held", "n_maneuvers", "wall_s")
+            "requirement_held", "n_maneuvers", *N_MINUS_1_KEYS, "wall_s")
+
+
+N_MINUS_1_KEYS = ("n_minus_1_sat", "pdop_avail_pct_worst_month_n_minus_1", "pdop_avail_pct_life_n_minus_1",
+                  "hdop_avail_pct_worst_month_n_minus_1", "hdop_avail_pct_life_n_minus_1")
+"""A headline design's service with its worst single satellite lost (the satellite, then availabilities in %), read
+from its own flight (:func:`lnss_lib.design_life.evaluation.satellite_loss`); NaN for designs flown for the front
+only."""
 
 
 CLOSED_LOOP_KEYS = _closed_loop_keys()
@@ -127,10 +135,11 @@ def validation_task(settings: Settings, design: dict, *, numba_threads: int = 0)
     of :data:`CLOSED_LOOP_KEYS`, ``status`` and ``error``.
 
     ``settings``: the run's evaluation settings (:func:`~lnss_lib.campaign.settings.evaluation_profile`). Controlled
-    run only; navigation month by month (``[life_evaluation] month_days``) on positions every ``sample_step_s``.
+    run only; navigation month by month (``[life_evaluation] month_days``) on positions every ``sample_step_s``; for a
+    headline candidate also with its worst single satellite lost (:data:`N_MINUS_1_KEYS`).
     """
     from ..constellation import WalkerDesign
-    from ..design_life.evaluation import life_metrics, life_navigation, run_design_life
+    from ..design_life.evaluation import life_metrics, life_navigation, run_design_life, satellite_loss
 
     start = time.perf_counter()
     cap_numba_threads(numba_threads)
@@ -140,6 +149,9 @@ def validation_task(settings: Settings, design: dict, *, numba_threads: int = 0)
         runs = run_design_life(settings, elements, natural=False)
         nav = life_navigation(settings.dop, settings.dynamics, runs, month_days=settings.life_evaluation.month_days)
         m = life_metrics(runs, nav)
+        loss = (satellite_loss(settings.dop, settings.dynamics, runs["controlled"],
+                               month_days=settings.life_evaluation.month_days)[1]
+                if "headline" in design.get("selected_for", "") and elements.shape[0] > 1 else None)
     except Exception as exc:  # recorded as the design's status: one failed closed loop must not stop the validation
         return _failed_record(f"{type(exc).__name__}: {exc}", time.perf_counter() - start)
     ctl = runs["controlled"]
@@ -154,6 +166,9 @@ def validation_task(settings: Settings, design: dict, *, numba_threads: int = 0)
               "hdop_avail_pct_worst_month": float(np.nanmin(monthly["hdop_avail_pct"])),
               "pdop_avail_pct_life": m["pdop_avail_pct_life"], "hdop_avail_pct_life": m["hdop_avail_pct_life"],
               "requirement_held": int(m["box_held"]), "n_maneuvers": m["n_maneuvers"],
+              **{key: math.nan if loss is None else loss[key.removesuffix("_n_minus_1")]
+                 for key in N_MINUS_1_KEYS[1:]},
+              "n_minus_1_sat": math.nan if loss is None else loss["lost_sat"],
               "wall_s": time.perf_counter() - start}
     return {**{k: float(record[k]) for k in CLOSED_LOOP_KEYS}, "status": "failed" if lost else "kept", "error": "",
             "worker": worker_name(), "n_sat_flown": int(ctl.sizes["sat"])}
@@ -188,7 +203,8 @@ def validated_dataset(selection: list[dict], records: dict, evaluations: xr.Data
     data["error"] = ("design", np.array([r.get("error", "") for r in found], dtype=str))
     for name in CLOSED_LOOP_KEYS:
         values = np.array([r.get(name, math.nan) for r in found], dtype=float)
-        kind = np.int8 if name == "requirement_held" else (np.int64 if name in ("n_lost", "n_maneuvers") else None)
+        kind = np.int8 if name == "requirement_held" else (np.int64 if name in ("n_lost", "n_maneuvers",
+                                                                                 "n_minus_1_sat") else None)
         data[name] = ("design", np.where(np.isfinite(values), values, -1).astype(kind) if kind else values)
     ds = xr.Dataset(data, coords={"design": np.arange(len(keys))})
     from .reference import cf_variable_attrs
@@ -196,6 +212,7 @@ def validated_dataset(selection: list[dict], records: dict, evaluations: xr.Data
     ds = cf_variable_attrs(ds, _LONG_NAMES)
     for name in ("requirement_held", "n_lost", "n_maneuvers"):
         ds[name].attrs["comment"] = "-1: not flown yet, or the closed loop raised"
+    ds["n_minus_1_sat"].attrs["comment"] = "-1: not flown yet, not a headline candidate, or the closed loop raised"
     ds.attrs = {"Conventions": "CF-1.8", "title": "LNSS campaign front validated in closed loop (issue 20 item 4)",
                 "institution": "LNSS workbook", **attrs,
                 "complete": int(all(r.get("status") in STATUSES for r in found))}

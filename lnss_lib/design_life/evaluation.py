@@ -155,6 +155,21 @@ def life_availability(nav: xr.Dataset, run: str, key: str) -> float:
     return float(np.sum(nav[key].sel(run=run).values * n) / np.sum(n))
 
 
+def satellite_loss(dop: DopSettings, dynamics: Dynamics, flight: xr.Dataset, *, month_days: float) -> list[dict]:
+    """Availability over the life of a closed-loop ``flight`` (sampled positions, every satellite) with all satellites
+    (``lost_sat`` -1) and with each one removed in turn (the others flown as they flew: an operator does not
+    re-phase), worst loss first (the lowest worst-month PDOP availability, then over the life): the second row is
+    the N-1 case. Each row: ``lost_sat`` and ``<key>_life``, ``<key>_worst_month`` (%) of PDOP and HDOP."""
+    n_sat = flight.sizes["sat"]
+    runs = {"all": flight} | {str(i): flight.isel(sat=np.arange(n_sat) != i) for i in range(n_sat)}
+    nav = life_navigation(dop, dynamics, runs, month_days=month_days)
+    rows = [{"lost_sat": -1 if run == "all" else int(run),
+             **{f"{key}_{span}": value for key in ("pdop_avail_pct", "hdop_avail_pct") for span, value in
+                (("life", life_availability(nav, run, key)), ("worst_month", float(nav[key].sel(run=run).min())))}}
+            for run in runs]
+    return rows[:1] + sorted(rows[1:], key=lambda r: (r["pdop_avail_pct_worst_month"], r["pdop_avail_pct_life"]))
+
+
 def _day_or_none(value: float):
     return None if not np.isfinite(value) else float(value)
 

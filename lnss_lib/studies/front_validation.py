@@ -61,12 +61,16 @@ import numpy as np
 import pandas as pd
 import xarray as xr
 
+from ..campaign.validation import N_MINUS_1_KEYS
 from ..keys import DESIGN_KEYS
 from ..settings import Settings
 from .estimate_validation import estimate_costs, estimate_outliers, estimate_statistics
 from .pareto import table6
 
-__all__ = ["estimate_table", "reestimated_table", "front_statistics", "front_outliers", "validated_table6",
+N_LOSS_KEYS = N_MINUS_1_KEYS[1:3]
+"""The headline's N-1 columns: PDOP availability in the worst month and over the life, worst satellite lost."""
+
+__all__ = ["N_LOSS_KEYS", "estimate_table", "reestimated_table", "front_statistics", "front_outliers", "validated_table6",
            "headline_table", "NONE_VALIDATED", "ESTIMATE_PAIRS"]
 
 ESTIMATE_PAIRS = {"mean": ("sk_dv_estimate_kms_per_year", "closed_loop_dv_kms_per_year"),
@@ -149,14 +153,17 @@ def validated_table6(validated: xr.Dataset, *, availability_min_pct: float, dv_m
 
 def headline_table(validated: xr.Dataset | None, sizes, *, availability_min_pct: float, dv_max_kms_per_year: float,
                    paper: dict) -> pd.DataFrame:
-    """Issue 20 item 5: the smallest kept validated constellation with PDOP availability over the life (closed loop)
+    """The smallest kept validated constellation with PDOP availability over the life (closed loop)
     >= ``availability_min_pct`` and worst-satellite closed-loop Delta-V <= ``dv_max_kms_per_year`` (ties: the
     cheapest), then the cheapest such design at each of ``sizes`` (:data:`NONE_VALIDATED` when none), each row with
-    how many designs of that size were flown and failed, and the paper's claim (``paper``:
+    how many designs of that size were flown and failed, its service with the worst single satellite lost
+    (:data:`N_LOSS_KEYS`, NaN in a validation from before it was flown), and the paper's claim (``paper``:
     :data:`lnss_lib.paper.SMALLEST_CONSTELLATION`) as the last row."""
     columns = (*DESIGN_KEYS, "n_sat", "status", "pdop_avail_pct_life", "pdop_avail_pct_worst_month",
-               "closed_loop_dv_kms_per_year", "closed_loop_dv_max_kms_per_year")
-    frame = pd.DataFrame({k: validated[k].values if validated is not None else [] for k in columns})
+               "closed_loop_dv_kms_per_year", "closed_loop_dv_max_kms_per_year", *N_LOSS_KEYS)
+    size = validated.sizes["design"] if validated is not None else 0
+    frame = pd.DataFrame({k: validated[k].values if validated is not None and k in validated else np.full(size, np.nan)
+                          for k in columns})
     with np.errstate(invalid="ignore"):
         ok = frame[(frame["status"] == "kept") & (frame["pdop_avail_pct_life"].astype(float) >= availability_min_pct)
                    & (frame["closed_loop_dv_max_kms_per_year"].astype(float) <= dv_max_kms_per_year)]
@@ -173,7 +180,8 @@ def headline_table(validated: xr.Dataset | None, sizes, *, availability_min_pct:
                 "closed_loop_dv_max_kms_per_year": best.closed_loop_dv_max_kms_per_year,
                 "closed_loop_dv_kms_per_year": best.closed_loop_dv_kms_per_year,
                 "pdop_avail_pct_life": best.pdop_avail_pct_life,
-                "pdop_avail_pct_worst_month": best.pdop_avail_pct_worst_month, **counts}
+                "pdop_avail_pct_worst_month": best.pdop_avail_pct_worst_month,
+                **{k: best[k] for k in N_LOSS_KEYS}, **counts}
 
     rows = [row("smallest", ok, frame)]
     for size in sizes:

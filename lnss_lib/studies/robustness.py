@@ -23,14 +23,14 @@ import numpy as np
 import pandas as pd
 import xarray as xr
 
-from ..design_life.evaluation import life_availability, life_navigation, lost_satellites, run_design_life
+from ..design_life.evaluation import life_availability, life_navigation, lost_satellites, run_design_life, satellite_loss
 from ..outputs import cached_json
 from ..progress import steps
 from ..settings import RobustnessSettings, Settings
 from .design_life import flown_elements
 from .life_navigation import AVAILABILITY_KEYS
 
-__all__ = ["DISPERSION_PERCENTILES", "satellite_loss", "insertion_errors_deg", "dispersed_flight",
+__all__ = ["DISPERSION_PERCENTILES", "loss_table", "insertion_errors_deg", "dispersed_flight",
            "dispersion_table", "dispersion_summary"]
 
 DISPERSION_PERCENTILES = {"dv": 95.0, "availability": 5.0, "perilune": 5.0}
@@ -38,26 +38,11 @@ DISPERSION_PERCENTILES = {"dv": 95.0, "availability": 5.0, "perilune": 5.0}
 can count on (5th)."""
 
 
-def _availability(nav: xr.Dataset, run: str) -> dict:
-    """Mean over the life and worst month of each availability of :data:`AVAILABILITY_KEYS` (%) of one run."""
-    out = {}
-    for key in AVAILABILITY_KEYS:
-        out[f"{key}_life"] = life_availability(nav, run, key)
-        out[f"{key}_worst_month"] = float(nav[key].sel(run=run).min())
-    return out
-
-
-def satellite_loss(settings: Settings, flight: xr.Dataset) -> pd.DataFrame:
-    """Availability over the life of a closed-loop ``flight`` (sampled positions, every satellite) with all satellites
-    (``lost_sat`` -1) and with each one removed in turn, sorted from the worst loss (the lowest worst-month PDOP
-    availability): the first row after the full constellation's is the N-1 case."""
-    n_sat = flight.sizes["sat"]
-    runs = {"all": flight} | {str(i): flight.isel(sat=np.arange(n_sat) != i) for i in range(n_sat)}
-    nav = life_navigation(settings.dop, settings.dynamics, runs, month_days=settings.life_evaluation.month_days)
-    rows = [{"lost_sat": -1 if run == "all" else int(run), **_availability(nav, run)} for run in runs]
-    table = pd.DataFrame(rows)
-    losses = table.iloc[1:].sort_values(["pdop_avail_pct_worst_month", "pdop_avail_pct_life"], kind="stable")
-    return pd.concat([table.iloc[:1], losses], ignore_index=True)
+def loss_table(settings: Settings, flight: xr.Dataset) -> pd.DataFrame:
+    """:func:`~lnss_lib.design_life.evaluation.satellite_loss` of a closed-loop ``flight`` as a table: the full
+    constellation first, then each satellite lost, worst first (the N-1 case)."""
+    return pd.DataFrame(satellite_loss(settings.dop, settings.dynamics, flight,
+                                       month_days=settings.life_evaluation.month_days))
 
 
 def insertion_errors_deg(robustness: RobustnessSettings, elements_deg: np.ndarray,
@@ -88,7 +73,9 @@ def dispersed_flight(settings: Settings, design, errors_deg: np.ndarray | None, 
     return {"sk_dv_kms_per_year": float(ctl["dv_kms_per_year"].mean()),
             "sk_dv_max_kms_per_year": float(ctl["dv_kms_per_year"].max()),
             "min_perilune_alt_km": float(np.nanmin(ctl["min_perilune_alt_km"].values)),
-            "n_lost": len(lost_satellites(ctl)), **_availability(nav, "life")}
+            "n_lost": len(lost_satellites(ctl)),
+            **{f"{key}_worst_month": float(nav[key].sel(run="life").min()) for key in AVAILABILITY_KEYS},
+            **{f"{key}_life": life_availability(nav, "life", key) for key in AVAILABILITY_KEYS}}
 
 
 def dispersion_table(settings: Settings, design, *, draws: int | None = None,

@@ -13,7 +13,7 @@ import xarray as xr
 from lnss_lib.campaign import run_campaign
 from lnss_lib.campaign import validation
 from lnss_lib.campaign.runner import validate_run
-from lnss_lib.campaign.validation import (CLOSED_LOOP_KEYS, STATUSES, VALIDATED_FILE, VALIDATION_JOURNAL,
+from lnss_lib.campaign.validation import (CLOSED_LOOP_KEYS, N_MINUS_1_KEYS, STATUSES, VALIDATED_FILE, VALIDATION_JOURNAL,
                                           select_designs, validate_front, validation_task)
 from lnss_lib.config import PROJECT_DIR
 from lnss_lib.design_life.service import PURPOSES
@@ -174,6 +174,24 @@ def test_closed_loop_into_the_moon_is_failed_or_error():
     assert record["status"] == "failed" and record["n_lost"] == 1 and 0.0 < record["impact_day"] <= 6.0
     record = validation_task(settings, dict(zip(DESIGN_KEYS, (2000.0, 0.3, 90.0, 60.0, 1, 1))))
     assert record["status"] == "error" and "hits the Moon" in record["error"]
+
+
+def test_headline_candidates_report_their_worst_single_loss():
+    """The real task on the Table 4 ELFO as 2 x 2 for 6 days: flown as a headline candidate it reports the satellite
+    whose loss costs most and the service without it, never above the full constellation's (a row fewer in every
+    geometry matrix); flown for the front only, no N-1 (NaN)."""
+    settings = load_settings("ci_operational", overrides={"design_life": {"life_days": 6.0}})
+    design = dict(zip(DESIGN_KEYS, (6143.0, 0.6, 90.0, 51.7, 2, 2)))
+    headline = validation_task(settings, design | {"selected_for": "front+headline"})
+    assert headline["status"] == "kept" and headline["n_minus_1_sat"] in range(4)
+    for key in ("pdop_avail_pct_worst_month", "pdop_avail_pct_life", "hdop_avail_pct_worst_month",
+                "hdop_avail_pct_life"):
+        assert headline[f"{key}_n_minus_1"] <= headline[key] + 1e-9
+    assert headline["pdop_avail_pct_life_n_minus_1"] < headline["pdop_avail_pct_life"]   # four satellites: 3 fix nothing
+    front = validation_task(settings, design | {"selected_for": "front"})
+    assert all(math.isnan(front[k]) for k in N_MINUS_1_KEYS)
+    assert {k: front[k] for k in CLOSED_LOOP_KEYS if k not in N_MINUS_1_KEYS and k != "wall_s"} == \
+        {k: headline[k] for k in CLOSED_LOOP_KEYS if k not in N_MINUS_1_KEYS and k != "wall_s"}
 
 
 def test_raising_closed_loop_is_an_error_record(monkeypatch):

@@ -31,7 +31,7 @@ def test_losing_a_satellite_never_raises_the_availability(settings, elfo):
     """A satellite fewer leaves every epoch's geometry matrix a row shorter: DOP can only grow (or the fix be lost), so
     no availability of the N-1 rows exceeds the full constellation's; the worst loss comes first."""
     flight = run_design_life(settings, flown_elements(elfo), LIFE_DAYS, natural=False)["controlled"]
-    table = rb.satellite_loss(settings, flight)
+    table = rb.loss_table(settings, flight)
     assert table["lost_sat"][0] == -1 and sorted(table["lost_sat"][1:]) == list(range(6))
     full = table.iloc[0]
     for key in ("pdop_avail_pct_life", "pdop_avail_pct_worst_month", "hdop_avail_pct_life",
