@@ -23,7 +23,7 @@ from .gps import (GPS_SENSITIVITY_GROUPS, cn0_vs_off_boresight, gnss_visibility_
                   gps_view_from_lnss, gps_visibility_pdop, gps_visibility_pdop_vs_paper, gps_visible_links, off_boresight_geometry)
 from .pareto import LABELS, dop_against_availability, pareto_3d, variable_relationships
 from .propagation import constellation_3d, elements_history
-from .validation import front_estimate_vs_closed_loop, headline_chart
+from .validation import front_estimate_vs_closed_loop, headline_chart, size_chart
 
 __all__ = [
     "save_figure", "figure_title", "chromium_path", "PNG_ENV", "NOTEBOOK_RENDERER", "NotebookRenderer",
@@ -40,7 +40,7 @@ __all__ = [
     "benchmark_scatter", "epoch_sensitivity_lines", "label_positions",
     "life_element_histories", "maneuver_timeline", "monthly_dop", "estimate_vs_closed_loop",
     "integrator_convergence_chart", "frozen_family_chart", "perilune_envelope",
-    "front_estimate_vs_closed_loop", "headline_chart",
+    "front_estimate_vs_closed_loop", "headline_chart", "size_chart",
 ]
 
 use_notebook_renderer()        # in a notebook kernel: figures keep a static copy (nbconvert, code hosts)

@@ -62,3 +62,40 @@ def headline_chart(frame, *, dv_max_kms_per_year: float, paper: dict, title: str
     fig.update_layout(title=title, template="plotly_white", xaxis_title="satellites",
                       yaxis_title="closed-loop Delta-V, worst satellite (km/s/yr)")
     return fig
+
+
+def size_chart(validated_by_size: dict, *, availability_min_pct: float, dv_max_kms_per_year: float, paper: dict,
+               title: str) -> go.Figure:
+    """The size question: the worst-month PDOP availability flown (y) of every design of each size-restricted search
+    (x: satellites, spread a little to show each design), filled within the worst satellite's Delta-V bound and open
+    beyond it, coloured by status; the requirement as a line and the paper's claim as a star."""
+    fig = go.Figure()
+    for status, colour in STATUS_COLOURS.items():
+        for within in (True, False):
+            x, y, text = [], [], []
+            for size, ds in validated_by_size.items():
+                if ds is None:
+                    continue
+                dv = ds["closed_loop_dv_max_kms_per_year"].values.astype(float)
+                with np.errstate(invalid="ignore"):
+                    pick = (ds["status"].values == status) & ((dv <= dv_max_kms_per_year) == within)
+                n = int(pick.sum())
+                x += list(size + np.linspace(-0.25, 0.25, n) if n > 1 else [size] * n)
+                y += list(ds["pdop_avail_pct_worst_month"].values[pick])
+                text += [f"{p} x {s}, a {a:g} km, e {e:g}, i {i:g}; worst satellite {d:.2f} km/s/yr" for p, s, a, e, i, d
+                         in zip(*(ds[k].values[pick] for k in ("n_planes", "sats_per_plane", "sma_km", "ecc", "inc_deg")),
+                                dv[pick])]
+            if x:
+                fig.add_trace(go.Scatter(
+                    x=x, y=y, mode="markers", text=text, hovertemplate="%{text}<br>worst month %{y:.1f} %<extra></extra>",
+                    name=f"{status}, {'within' if within else 'above'} {dv_max_kms_per_year:g} km/s/yr",
+                    marker={"size": 10, "color": colour if within else "white", "line": {"color": colour, "width": 2}}))
+    fig.add_hline(y=availability_min_pct, line_dash="dash", line_color="grey",
+                  annotation_text=f"{availability_min_pct:g} % in the worst month")
+    fig.add_trace(go.Scatter(x=[paper["n_sat"]], y=[paper["availability_pct"]], mode="markers",
+                             name=f"paper: {paper['n_sat']} satellites, over {paper['availability_pct']:g} %",
+                             marker={"symbol": "star", "size": 16, "color": "#2ca02c"}))
+    fig.update_layout(title=title, template="plotly_white", xaxis_title="satellites (one search a size)",
+                      yaxis_title="PDOP availability, worst month of the life (%)")
+    fig.update_xaxes(tickvals=sorted(validated_by_size))
+    return fig

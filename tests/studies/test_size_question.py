@@ -37,3 +37,15 @@ def test_each_size_reads_its_best_flown_design_and_says_what_breaks():
     assert table["result"].iloc[-1].startswith("claimed") and table["n_sat"].iloc[-1] == SMALLEST_CONSTELLATION["n_sat"]
     assert what_breaks(eight, **BOUNDS) == ""
     assert size_profile(9) == "operational_n9"
+
+
+def test_size_chart_draws_every_flown_design_once_beside_the_requirement_and_the_claim():
+    from lnss_lib.figures import size_chart
+
+    six = validated([("kept", 85.0, 0.3), ("kept", 95.0, 1.3), ("failed", 97.0, 0.2)], 2, 3)
+    fig = size_chart({6: six, 9: None}, paper=SMALLEST_CONSTELLATION, title="t", **BOUNDS)
+    designs = [t for t in fig.data if not t.name.startswith("paper")]
+    assert sorted(y for t in designs for y in t.y) == [85.0, 95.0, 97.0]
+    assert {t.name for t in designs} == {"kept, within 1 km/s/yr", "kept, above 1 km/s/yr", "failed, within 1 km/s/yr"}
+    assert all(5.7 <= x <= 6.3 for t in designs for x in t.x)
+    assert fig.layout.shapes[0].y0 == BOUNDS["availability_min_pct"]
