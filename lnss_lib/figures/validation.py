@@ -54,13 +54,20 @@ def headline_chart(frame, *, dv_max_kms_per_year: float, paper: dict, title: str
                                      text=[f"{t}; PDOP availability over the life {a:.1f} %" for t, a in
                                            zip(_hover(part), part["pdop_avail_pct_life"])],
                                      hovertemplate="%{text}<br>%{y:.3g} km/s/yr<extra></extra>"))
-    fig.add_hline(y=dv_max_kms_per_year, line_dash="dash", line_color="grey",
-                  annotation_text=f"bound {dv_max_kms_per_year:g} km/s/yr (worst satellite)")
-    fig.add_trace(go.Scatter(x=[paper["n_sat"]], y=[paper["dv_below_kms_per_year"]], mode="markers",
-                             name=f"paper: {paper['n_sat']} satellites, < {paper['dv_below_kms_per_year']:g} km/s/yr",
+    return _bound_and_claim(fig, dv_max_kms_per_year, f"bound {dv_max_kms_per_year:g} km/s/yr (worst satellite)",
+                            (paper["n_sat"], paper["dv_below_kms_per_year"]),
+                            f"paper: {paper['n_sat']} satellites, < {paper['dv_below_kms_per_year']:g} km/s/yr",
+                            title=title, xaxis_title="satellites",
+                            yaxis_title="closed-loop Delta-V, worst satellite (km/s/yr)")
+
+
+def _bound_and_claim(fig: go.Figure, bound: float, bound_text: str, claim_xy: tuple, claim_name: str,
+                     **layout) -> go.Figure:
+    """``fig`` with a bound as a dashed line and the paper's claim as a star, laid out with ``layout``."""
+    fig.add_hline(y=bound, line_dash="dash", line_color="grey", annotation_text=bound_text)
+    fig.add_trace(go.Scatter(x=[claim_xy[0]], y=[claim_xy[1]], mode="markers", name=claim_name,
                              marker={"symbol": "star", "size": 16, "color": "#2ca02c"}))
-    fig.update_layout(title=title, template="plotly_white", xaxis_title="satellites",
-                      yaxis_title="closed-loop Delta-V, worst satellite (km/s/yr)")
+    fig.update_layout(template="plotly_white", **layout)
     return fig
 
 
@@ -90,12 +97,9 @@ def size_chart(validated_by_size: dict, *, availability_min_pct: float, dv_max_k
                     x=x, y=y, mode="markers", text=text, hovertemplate="%{text}<br>worst month %{y:.1f} %<extra></extra>",
                     name=f"{status}, {'within' if within else 'above'} {dv_max_kms_per_year:g} km/s/yr",
                     marker={"size": 10, "color": colour if within else "white", "line": {"color": colour, "width": 2}}))
-    fig.add_hline(y=availability_min_pct, line_dash="dash", line_color="grey",
-                  annotation_text=f"{availability_min_pct:g} % in the worst month")
-    fig.add_trace(go.Scatter(x=[paper["n_sat"]], y=[paper["availability_pct"]], mode="markers",
-                             name=f"paper: {paper['n_sat']} satellites, over {paper['availability_pct']:g} %",
-                             marker={"symbol": "star", "size": 16, "color": "#2ca02c"}))
-    fig.update_layout(title=title, template="plotly_white", xaxis_title="satellites (one search a size)",
-                      yaxis_title="PDOP availability, worst month of the life (%)")
-    fig.update_xaxes(tickvals=sorted(validated_by_size))
-    return fig
+    _bound_and_claim(fig, availability_min_pct, f"{availability_min_pct:g} % in the worst month",
+                     (paper["n_sat"], paper["availability_pct"]),
+                     f"paper: {paper['n_sat']} satellites, over {paper['availability_pct']:g} %", title=title,
+                     xaxis_title="satellites (one search a size)",
+                     yaxis_title="PDOP availability, worst month of the life (%)")
+    return fig.update_xaxes(tickvals=sorted(validated_by_size))
