@@ -24,7 +24,7 @@ from ..campaign.validation import N_MINUS_1_KEYS
 from ..design_life.service import PURPOSES
 from ..keys import DESIGN_KEYS, closed_loop_dv_key
 
-__all__ = ["SIZES", "size_profile", "size_table", "what_breaks"]
+__all__ = ["SIZES", "size_profile", "size_validations", "size_table", "what_breaks"]
 
 SIZES = (6, 8, 9, 12)
 """The constellation sizes asked: the paper's six, the next Walker sizes on Table 3's grid and the twelve the
@@ -38,6 +38,20 @@ _COLUMNS = ("pdop_avail_pct_worst_month", "pdop_avail_pct_life", "hdop_avail_pct
 def size_profile(n_sat: int) -> str:
     """The profile of the search restricted to ``n_sat`` satellites."""
     return f"operational_n{int(n_sat)}"
+
+
+def size_validations(sizes=SIZES) -> dict[int, xr.Dataset | None]:
+    """Each size's ``validated.nc``, as notebook 07 reads a campaign (published, else shipped:
+    :func:`lnss_lib.studies.campaign.shown_campaign`); None for a size whose search was not run or not validated."""
+    from .campaign import shown_campaign
+
+    out = {}
+    for size in sizes:
+        try:
+            out[size] = shown_campaign(size_profile(size)).validated
+        except FileNotFoundError:
+            out[size] = None
+    return out
 
 
 def _of(validated: xr.Dataset, key: str) -> np.ndarray:
