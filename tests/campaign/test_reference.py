@@ -40,10 +40,18 @@ def _reseal(path, run):
     path.write_text(json.dumps({**run, "checksum": run_checksum(run)}))
 
 
-@pytest.mark.parametrize("name", ["paper", "paper_dv_physical"])
+SHIPPED = sorted(path.name for path in ref.REFERENCE_DIR.iterdir() if path.is_dir())
+
+
+def test_both_paper_campaigns_are_shipped():
+    assert {"paper", "paper_dv_physical"} <= set(SHIPPED)
+
+
+@pytest.mark.parametrize("name", SHIPPED)
 def test_shipped_results_are_the_current_profiles(name):
-    """A change of physics or of the campaign's settings cannot leave stale shipped results behind: the export's
-    recorded profile hash and evaluation hash are those of the profile as it stands."""
+    """A change of physics or of the campaign's settings cannot leave stale shipped results behind: every export's
+    (the paper's two campaigns, and each study shipped beside them) recorded profile hash and evaluation hash are those
+    of the profile as it stands."""
     shipped = ref.load_reference(name)
     assert shipped is not None, f"no shipped results in {ref.REFERENCE_DIR / name}"
     settings = load_settings(name)
