@@ -158,8 +158,10 @@ def _cmd_evaluate(args: argparse.Namespace) -> int:
         try:
             check_span(t0, t0 + life * SECONDS_PER_DAY)
         except EphemerisRangeError as error:
-            raise ConfigError(f"--design-life-days {life!r} ({life / DAYS_PER_JULIAN_YEAR:.4g} years from "
-                              f"{profile.epoch.start_tdb}): {error}", key="--design-life-days") from None
+            allowed_days = (error.end_tdb_s - t0) / SECONDS_PER_DAY
+            raise ConfigError(f"--design-life-days {life!r} ({life / DAYS_PER_JULIAN_YEAR:,.1f} years from "
+                              f"{profile.epoch.start_tdb}): {error}; allowed: 0 < days <= {math.floor(allowed_days):,} from "
+                              f"{profile.epoch.start_tdb}", key="--design-life-days") from None
     walker = {"--sma-km": args.sma_km, "--ecc": args.ecc, "--aop-deg": args.aop_deg, "--inc-deg": args.inc_deg,
               "--planes": args.planes, "--sats-per-plane": args.sats_per_plane}
     if args.constellation is not None:

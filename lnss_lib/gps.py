@@ -19,6 +19,7 @@ from __future__ import annotations
 
 import csv
 import dataclasses
+import datetime as dt
 import hashlib
 from dataclasses import dataclass
 from functools import lru_cache
@@ -28,13 +29,13 @@ from typing import TYPE_CHECKING
 import numba as nb
 import numpy as np
 import xarray as xr
-from sgp4.api import Satrec, SatrecArray
+from sgp4.api import SGP4_ERRORS, Satrec, SatrecArray
 
 from .config import data_path
-from .constants import BOLTZMANN_J_K, C_M_S, MIN_VISIBLE, WGS84_A_KM, WGS84_B_KM
+from .constants import BOLTZMANN_J_K, C_M_S, MIN_VISIBLE, SECONDS_PER_DAY, WGS84_A_KM, WGS84_B_KM
 from .ephemeris import body_states_mci
 from .errors import ConfigError
-from .frames import teme_to_j2000, tt_centuries, utc_julian_dates
+from .frames import J2000_JD, teme_to_j2000, tt_centuries, utc_julian_dates
 from .geometry import block_inverse, filtered_mean, normal_matrix_entries, position_block_inverse
 from .tle import TleRecord, gps_catalogue
 
@@ -47,12 +48,20 @@ __all__ = ["propagate_teme", "gps_states_mci", "lunar_occultation", "off_boresig
 
 
 def propagate_teme(records: list[TleRecord], jd_utc: np.ndarray, fr_utc: np.ndarray) -> np.ndarray:
-    """SGP4 positions (gps, time, 3) in TEME, km; ``ValueError`` naming a satellite SGP4 fails on."""
+    """SGP4 positions (gps, time, 3) in TEME, km; ``ValueError`` naming the first satellite and epoch SGP4 fails at:
+    the satellite's catalogue number and file line, the epoch in UTC and its distance from the TLE's epoch (SGP4's
+    mean elements leave their range far from it), and SGP4's reason."""
     sats = SatrecArray([Satrec.twoline2rv(r.line1, r.line2) for r in records])
     err, r_km, _ = sats.sgp4(np.asarray(jd_utc, dtype=float), np.asarray(fr_utc, dtype=float))
     if np.any(err != 0):
         k, j = np.argwhere(err != 0)[0]
-        raise ValueError(f"SGP4 error code {err[k, j]} for {records[k].name} at UTC JD {jd_utc[j] + fr_utc[j]:.6f}")
+        record, code = records[k], int(err[k, j])
+        at_utc = dt.datetime(2000, 1, 1, 12) + dt.timedelta(days=float(jd_utc[j] - J2000_JD) + float(fr_utc[j]))
+        days = (at_utc - record.epoch_utc).total_seconds() / SECONDS_PER_DAY
+        raise ValueError(f"SGP4 cannot propagate {record.name} (catalogue number {record.satnum}, line "
+                         f"{record.file_line}) to {at_utc:%Y-%m-%dT%H:%M:%S} UTC, {days:+,.1f} days from its TLE epoch "
+                         f"{record.epoch_utc:%Y-%m-%dT%H:%M:%S} UTC: {SGP4_ERRORS.get(code, 'unknown error')} "
+                         f"(SGP4 error {code})")
     return np.asarray(r_km)
 
 
@@ -88,7 +97,11 @@ def gps_states_mci(gps: GpsSettings, start_tdb: str, t_tdb_s, *, tle_path: str |
         _STATE_CACHE.clear()
     records, _ = gps_catalogue(gps, start_tdb, path)
     jd, fr = utc_julian_dates(t + float(sgp4_offset_s))
-    r_teme = propagate_teme(records, jd, fr)
+    try:
+        r_teme = propagate_teme(records, jd, fr)
+    except ValueError as error:
+        raise ConfigError(f"gps.tle_file = {gps.tle_file!r} for the study from epoch.start_tdb = {start_tdb!r}: "
+                          f"{error}; use TLEs dated nearer the study epoch", key="gps.tle_file") from None
     rot = teme_to_j2000(tt_centuries(t))
     r_eci = np.einsum("tij,gtj->gti", rot, r_teme)
     earth_mci = body_states_mci("EARTH", t)[:, :3]

@@ -25,9 +25,13 @@ Regenerate (only when a change of results is intended and explained in its commi
 
     PYTHONPATH=$PWD python tests/pinned_results.py --write
 
-It records the commit it was made on (and whether lnss_lib/ or params/ had uncommitted edits) and the processor model
-the kernels were compiled for (:func:`lnss_lib.kernel_cpu`) in the file's ``meta``: the pins hold that model's bits,
-and ``tests/test_pinned_results.py`` skips them where the kernels are compiled for another (a processor without AVX-512).
+Each processor model the kernels are compiled for (:func:`lnss_lib.kernel_cpu`) has its own record,
+``tests/data/pinned_results/<model>.json`` (``:`` written ``-``): the gravity kernels' bits follow the model, and the
+adaptive step control amplifies that round-off beyond the pins' tolerance. ``--write`` records this machine's model
+only (the others' records are kept), with the commit it was made on (and whether lnss_lib/ or params/ had
+uncommitted edits) in the file's ``meta``. ``tests/test_pinned_results.py`` compares a result with its model's record
+within :data:`RTOL` and with every other model's within the cross-model tolerance (:func:`cross_model_rtol`), derived
+from the recorded models' own differences; on a model without a record only the latter, so every host checks.
 ``python tests/pinned_results.py`` (no ``--write``) recomputes and prints the differences without writing;
 ``--only NAME`` picks pins and ``--set SECTION.KEY=VALUE`` recomputes under a changed setting (a scratch check
 that a pin notices a change; never recorded).
@@ -51,7 +55,7 @@ import numpy as np
 from lnss_lib import kernel_cpu
 
 ROOT = Path(__file__).resolve().parents[1]
-FIXTURE = ROOT / "tests" / "data" / "pinned_results.json"
+FIXTURES = ROOT / "tests" / "data" / "pinned_results"          # one record per processor model: <model>.json
 
 TABLE4_ARGV = ["evaluate", "--profile", "paper", "--json", "--sma-km", "6143", "--ecc", "0.6", "--aop-deg", "90",
                "--inc-deg", "51.7", "--planes", "2", "--sats-per-plane", "8"]
@@ -61,6 +65,9 @@ RANDOM_PROFILE, RANDOM_SEED, RANDOM_N = "paper", 20250522, 50
 
 RTOL = {"evaluate_table4": 1e-12, "evaluate_table4_life60": 1e-12, "campaign_quick_2gen": 1e-12,
         "random_paper_designs": 1e-9}
+# The cross-model tolerance of a pin: this factor times the largest relative difference between two models' records
+# of it, rounded up to a power of ten (room for a model whose round-off lies beyond both recorded ones).
+CROSS_MODEL_FACTOR = 10.0
 
 # Every field left out of the comparison, with the reason (keys are dict keys at any depth of a pin).
 EXCLUDED = {
@@ -69,6 +76,7 @@ EXCLUDED = {
     "timing_s": "per-stage timings of an evaluation (run-dependent)",
     "worker": "host:pid of the process that evaluated the design (run-dependent)",
     "crc32": "journal line checksum; it covers the timings above (run-dependent)",
+    "kernel_cpu": "journal record: the processor model of the kernels (the record's meta names it)",
     "designs_per_s": "history: evaluation rate (timing)",
     "time_campaign_s": "history: timing", "time_deltav_s": "history: timing", "time_dop_s": "history: timing",
     "time_gps_s": "history: timing", "time_operational_s": "history: timing",
@@ -258,9 +266,55 @@ def differences(expected, actual, rtol: float, path: str = "") -> list[str]:
     return [] if expected == actual else [f"{where}: {actual!r:.120}, expected {expected!r:.120}"]
 
 
-def load_fixture() -> dict:
-    with open(FIXTURE) as f:
-        return json.load(f)
+def largest_relative_difference(expected, actual) -> float:
+    """The largest relative difference between the floats at the same place of two JSON-like trees of the same
+    shape (:data:`EXCLUDED` keys skipped; 0 when every float is equal, NaN with NaN counting equal)."""
+    if isinstance(expected, dict):
+        return max((largest_relative_difference(expected[k], actual[k]) for k in expected
+                    if k not in EXCLUDED and k in actual), default=0.0)
+    if isinstance(expected, list):
+        return max(map(largest_relative_difference, expected, actual), default=0.0)
+    if isinstance(expected, float) and isinstance(actual, float) and expected != actual \
+            and not (math.isnan(expected) and math.isnan(actual)):
+        return abs(actual - expected) / max(abs(expected), abs(actual))
+    return 0.0
+
+
+def cross_model_rtol(name: str, records: list) -> float:
+    """The tolerance within which pin ``name`` of one processor model holds another model's record: the
+    :data:`CROSS_MODEL_FACTOR` times the largest relative difference between any two of ``records`` (that pin as
+    recorded on each model), rounded up to a power of ten, and never below the pin's own :data:`RTOL`."""
+    spread = max((largest_relative_difference(a, b) for i, a in enumerate(records) for b in records[i + 1:]),
+                 default=0.0)
+    if spread == 0.0:
+        return RTOL[name]
+    return max(RTOL[name], 10.0 ** math.ceil(math.log10(CROSS_MODEL_FACTOR * spread)))
+
+
+def fixture_path(model: str) -> Path:
+    return FIXTURES / f"{model.replace(':', '-')}.json"
+
+
+def load_fixtures() -> dict[str, dict]:
+    """Every model's record, ``{kernel_cpu: {"meta": ..., "pins": ...}}``."""
+    records = {}
+    for path in sorted(FIXTURES.glob("*.json")):
+        record = json.loads(path.read_text())
+        records[record["meta"]["kernel_cpu"]] = record
+    return records
+
+
+def check_pin(name: str, result, recorded: dict[str, dict], here: str) -> list[str]:
+    """Every difference of pin ``name``'s ``result`` (computed with kernels of model ``here``) from its model's
+    record (within :data:`RTOL`) and from each other model's (within :func:`cross_model_rtol`), each line naming the
+    record it departs from."""
+    cross_rtol = cross_model_rtol(name, [record["pins"][name] for record in recorded.values()])
+    found = []
+    for model, record in recorded.items():
+        rtol = RTOL[name] if model == here else cross_rtol
+        found += [f"{model} (rtol {rtol:g}, recorded at commit {record['meta']['commit'][:12]}): {line}"
+                  for line in differences(record["pins"][name], result, rtol)]
+    return found
 
 
 # ---------------------------------------------------------------- regeneration
@@ -271,7 +325,8 @@ def _git(*args) -> str:
 
 def main(argv=None) -> int:
     parser = argparse.ArgumentParser(description="Recompute the pinned results; --write records them.")
-    parser.add_argument("--write", action="store_true", help=f"write {FIXTURE.relative_to(ROOT)}")
+    parser.add_argument("--write", action="store_true",
+                        help=f"write {fixture_path(kernel_cpu()).relative_to(ROOT)} (this machine's processor model)")
     parser.add_argument("--only", choices=sorted(PINS), action="append", help="recompute only these pins")
     parser.add_argument("--set", action="append", default=[], metavar="SECTION.KEY=VALUE",
                         help="recompute under a changed setting and show the differences (never with --write)")
@@ -286,10 +341,10 @@ def main(argv=None) -> int:
         seconds[name] = round(time.perf_counter() - start, 1)
         print(f"{name}: {seconds[name]} s", file=sys.stderr)
     if not args.write:
-        recorded = load_fixture()["pins"]
+        recorded = load_fixtures()
         failed = 0
         for name in names:
-            diffs = differences(recorded[name], pins[name], RTOL[name])
+            diffs = check_pin(name, pins[name], recorded, kernel_cpu())
             failed += bool(diffs)
             print(f"{name}: {len(diffs)} difference(s)" + "".join(f"\n  {d}" for d in diffs[:20]))
         return 1 if failed else 0
@@ -298,9 +353,10 @@ def main(argv=None) -> int:
             "command": "PYTHONPATH=$PWD python tests/pinned_results.py --write", "seconds": seconds,
             "kernel_cpu": kernel_cpu(),
             "rtol": RTOL, "excluded": EXCLUDED}
-    FIXTURE.parent.mkdir(parents=True, exist_ok=True)
-    FIXTURE.write_text(json.dumps({"meta": meta, "pins": pins}, indent=1) + "\n")
-    print(f"wrote {FIXTURE} (commit {meta['commit'][:12]}{', dirty' if meta['dirty'] else ''})", file=sys.stderr)
+    path = fixture_path(meta["kernel_cpu"])
+    path.parent.mkdir(parents=True, exist_ok=True)
+    path.write_text(json.dumps({"meta": meta, "pins": pins}, indent=1) + "\n")
+    print(f"wrote {path} (commit {meta['commit'][:12]}{', dirty' if meta['dirty'] else ''})", file=sys.stderr)
     return 0
 
 

@@ -704,6 +704,18 @@ def test_design_life_lets_ephemeris_errors_through():
                         overrides={"epoch": {"start_tdb": "2060-01-01T00:00:00"}})
 
 
+@pytest.mark.parametrize("days, needles", [("1e7", ("--design-life-days 10000000.0", "27,378.5 years",
+                                                     "allowed: 0 < days <= 9,376 from 2025-05-01T00:00:00")),
+                                            ("9377", ("--design-life-days 9377.0", "2051-01-01"))])
+def test_design_life_past_the_kernels_is_refused_before_the_evaluation(capsys, monkeypatch, days, needles):
+    """A life past the kernels' span is refused with the range of lives they allow, before the 10-day evaluation
+    (which ran first, then the year was printed as '****')."""
+    from lnss_lib import cli
+
+    monkeypatch.setattr(cli, "evaluate_cli", lambda *args, **kwargs: pytest.fail("the evaluation ran"))
+    one_line_error(capsys, main(walker() + ["--design-life-days", days]), 2, *needles)
+
+
 def test_campaign_with_a_bad_text_setting_stops_before_work(capsys, tmp_path):
     run_dir = tmp_path / "run"
     code = main(["campaign", "--profile", "ci", "--workers", "0", "--no-progress", "--run-dir", str(run_dir),

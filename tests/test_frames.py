@@ -123,3 +123,18 @@ def test_rtn_basis_orthonormal_and_round_trip():
     vec = rng.normal(size=(20, 3))
     np.testing.assert_allclose(frames.from_rtn(frames.to_rtn(vec, states), states), vec, atol=1e-13)
     np.testing.assert_allclose(frames.to_rtn(states[:, :3], states)[:, 0], np.linalg.norm(states[:, :3], axis=1))
+
+
+@pytest.mark.parametrize("function, call", [("deltet", lambda real, e, kind: real(e, "NOSUCH")),
+                                            ("unitim", lambda real, e, insys, outsys: real(e, "NOSUCH", outsys))])
+def test_time_scale_spice_errors_are_named(profile, monkeypatch, function, call):
+    """The TDB -> UTC (deltet) and TDB -> TT (unitim) conversions raise SpiceError naming what was asked and the leap-
+    second kernel, like every other SPICE call (a bare SpiceyError and its banner before)."""
+    from lnss_lib.errors import SpiceError
+
+    real = getattr(spice, function)
+    monkeypatch.setattr(frames.spice, function, lambda *args: call(real, *args))     # SPICE fails on the time system
+    convert = frames.utc_julian_dates if function == "deltet" else frames.tt_centuries
+    with pytest.raises(SpiceError, match=f"SPICE could not .*\\({function}\\) .*leap-second kernel") as raised:
+        convert(np.array([tdb_seconds("2025-05-01T00:00:00")]))
+    assert "=====" not in str(raised.value) and raised.value.code.startswith("SPICE(")

@@ -189,3 +189,26 @@ def test_campaign_link_metrics_equal_the_dataset_summary():
         for key, value in reference.items():
             assert new[key] == pytest.approx(value, rel=1e-11, nan_ok=True), key
     assert reference["gps_visible_mean"] > 0.0
+
+
+def test_sgp4_failure_names_the_satellite_the_epochs_and_the_setting(profile):
+    """SGP4 past the range of a TLE's mean elements (27 years before its epoch) is named: satellite, catalogue number,
+    file line, the UTC epoch and its distance from the TLE's epoch, SGP4's reason, and for a study the setting
+    (it said "SGP4 error code 3 for GPS BIIR-2 (PRN 13) at UTC JD ...")."""
+    from lnss_lib.errors import ConfigError
+
+    record = tle.read_tle(data_path(profile.gps.tle_file))[0]
+    days_back = 10_000.0
+    at = (record.epoch_utc - dt.datetime(2000, 1, 1, 12)).total_seconds() / 86400.0 - days_back
+    with pytest.raises(ValueError) as raised:
+        gps.propagate_teme([record], np.array([2451545.0 + math.floor(at)]), np.array([at - math.floor(at)]))
+    message = str(raised.value)
+    for needle in (record.name, f"catalogue number {record.satnum}", f"line {record.file_line}",
+                   f"{(record.epoch_utc - dt.timedelta(days=days_back)):%Y-%m-%dT%H:%M}", "-10,000.0 days",
+                   f"TLE epoch {record.epoch_utc:%Y-%m-%dT%H:%M:%S} UTC", "perturbed eccentricity", "SGP4 error 3"):
+        assert needle in message, needle
+    start = "1998-06-01T00:00:00"
+    with pytest.raises(ConfigError, match=r"gps.tle_file = .* epoch.start_tdb = '1998-06-01T00:00:00'.*SGP4 "
+                                          r"cannot propagate .*1998-05-31T23:58:56 UTC") as raised:
+        gps.gps_states_mci(profile.gps, start, tdb_seconds(start) + np.array([0.0, 900.0]))
+    assert raised.value.key == "gps.tle_file"

@@ -87,19 +87,30 @@ class SerialBackend:
         return None
 
 
+def dask_setup(worker) -> None:
+    """Dask preload hook (``LocalCluster(preload=[__name__])``), run in each local worker process as it starts, the
+    first ones and any its nanny restarts: ignore SIGINT, so that Ctrl-C in a terminal (sent to the whole process
+    group) stops only the campaign's process, which then closes the cluster, instead of printing a KeyboardInterrupt
+    traceback from every worker."""
+    signal.signal(signal.SIGINT, signal.SIG_IGN)
+
+
 @contextlib.contextmanager
-def _workers_ignore_sigint():
-    """Ignore SIGINT while local workers start: they inherit "ignore" through exec, so Ctrl-C in a terminal
-    (sent to the whole process group) stops only this process, which then closes the cluster, instead
-    of printing a KeyboardInterrupt traceback from every worker."""
+def _sigint_deferred():
+    """Hold a Ctrl-C (SIGINT) back while local workers start and raise it (KeyboardInterrupt) once they are up, so that
+    the caller closes a whole cluster rather than leave one half started; before, SIGINT was ignored meanwhile and
+    the Ctrl-C lost."""
     if threading.current_thread() is not threading.main_thread():
         yield
         return
-    previous = signal.signal(signal.SIGINT, signal.SIG_IGN)
+    caught = []
+    previous = signal.signal(signal.SIGINT, lambda signum, frame: caught.append(signum))
     try:
         yield
     finally:
         signal.signal(signal.SIGINT, previous)
+    if caught:
+        raise KeyboardInterrupt
 
 
 class DaskBackend:
@@ -122,12 +133,17 @@ class DaskBackend:
                                    f"{SCHEDULER_TIMEOUT_S} s ({type(error).__name__}); start one (dask scheduler) or "
                                    f"drop --scheduler-address for a local cluster") from None
         else:
-            with _workers_ignore_sigint(), warnings.catch_warnings():
-                # the scheduler's HTTP port (no dashboard here) moves aside when another cluster holds 8787
-                warnings.filterwarnings("ignore", message="Port .* is already in use", category=UserWarning)
-                self.cluster = LocalCluster(n_workers=n_workers, threads_per_worker=1, processes=True,
-                                            host="127.0.0.1", dashboard_address=None,
-                                            silence_logs=logging.CRITICAL)   # task errors come back through the futures
+            try:
+                with _sigint_deferred(), warnings.catch_warnings():
+                    # the scheduler's HTTP port (no dashboard here) moves aside when another cluster holds 8787
+                    warnings.filterwarnings("ignore", message="Port .* is already in use", category=UserWarning)
+                    self.cluster = LocalCluster(n_workers=n_workers, threads_per_worker=1, processes=True,
+                                                host="127.0.0.1", dashboard_address=None, preload=[__name__],
+                                                silence_logs=logging.CRITICAL)   # task errors come back through the futures
+            except KeyboardInterrupt:       # Ctrl-C while the workers started: raised once they are up
+                if self.cluster is not None:
+                    self.cluster.close()
+                raise
             self.client = Client(self.cluster)
         self.n_workers = max(1, len(self.client.scheduler_info().get("workers", {})))
         self.shared, self.task = shared, task

@@ -7,12 +7,20 @@ the CRC-32 of the rest (format 2). One parser (:func:`parse_journal`) serves the
 :func:`read_cache_records`: each design counts once (its first record; an error record gives way to a
 later record of the design), and a line that is not a whole record or fails its CRC (torn, damaged,
 from any generation) is skipped, so its design is evaluated again.
+
+Each record names the processor model its kernels were compiled for (``kernel_cpu``, :func:`lnss_lib.kernel_cpu`;
+records written before it did are the run's model, recorded in ``run.json``). The gravity kernels' bits follow the
+model, and the adaptive step control carries that round-off up to 2e-7 relative after 10 days; the evaluation
+hash leaves the model out (a run resumed on another machine keeps its settings), so the journal answers a design
+from its record only on the record's model: on another a record is no hit, and the design is evaluated again (its
+later record then stands for it).
 """
 
 from __future__ import annotations
 
 import json
 import warnings
+from collections import Counter
 import zlib
 from pathlib import Path
 
@@ -23,6 +31,7 @@ __all__ = ["EvaluationCache", "read_cache_records", "parse_journal", "encode_rec
 JOURNAL_FILE = "evaluations.jsonl"
 FORMAT_VERSION = 2                     # 1: records without the CRC
 CRC_FIELD = "crc32"
+CPU_FIELD = "kernel_cpu"               # the processor model of a record's kernels (campaign.tasks.worker_fields)
 
 
 def _crc(text: str) -> str:
@@ -64,8 +73,8 @@ def parse_journal(data: bytes, is_record=_is_record, source=None) -> tuple[dict,
     Only complete records count: a last line without its newline (cut short by a kill) is left out,
     and so is any line that is not a whole record or whose CRC does not match (torn by a full disk,
     damaged later; a journal of format 1 has no CRC); the designs they held are evaluated again on resume. A design recorded twice (two writers) counts once: its
-    first record, unless that one is an error record and a later one exists (a retry after the cause
-    of the error was removed). A line that does not parse at all (not JSON, nested too deep, a number too long to
+    first record, unless that one is an error record or of another processor model (``kernel_cpu``) and a later
+    one exists (a retry after the cause of the error was removed; an evaluation again on another model). A line that does not parse at all (not JSON, nested too deep, a number too long to
     read) is skipped like any other; with ``source`` (the file) the skipped lines are named in a RuntimeWarning
     (once per process).
     """
@@ -87,7 +96,8 @@ def parse_journal(data: bytes, is_record=_is_record, source=None) -> tuple[dict,
             damaged.append(number + 1)
         else:
             key = tuple(record["key"])
-            if key not in by_key or by_key[key].get("error"):
+            if key not in by_key or by_key[key].get("error") or \
+                    by_key[key].get(CPU_FIELD) != record.get(CPU_FIELD):
                 by_key[key] = record
     if damaged and source is not None and (str(source), tuple(damaged)) not in _REPORTED:
         _REPORTED.add((str(source), tuple(damaged)))
@@ -108,12 +118,19 @@ class EvaluationCache:
     counts the error records of this session. A damaged header line is written again (the file is the
     run folder's own); a header naming another evaluation hash raises ValueError. ``is_record``: as in
     :func:`parse_journal` (keys are then tuples of whatever the records' keys hold).
+
+    ``kernel_cpu`` (None: any model): the processor model this session's kernels are compiled for; a record of
+    another model (its ``kernel_cpu``, else ``run_cpu``, the run's recorded model) is no hit, its design is evaluated
+    again (see the module docstring), and a RuntimeWarning says how many and why; ``n_other_cpu`` counts them.
     """
 
-    def __init__(self, path: Path, eval_hash: str, is_record=_is_record):
+    def __init__(self, path: Path, eval_hash: str, is_record=_is_record, *, kernel_cpu: str | None = None,
+                 run_cpu: str | None = None):
         self.path = Path(path)
         self.eval_hash = eval_hash
         self.is_record = is_record
+        self.kernel_cpu, self.run_cpu = kernel_cpu, run_cpu
+        self.n_other_cpu = 0
         self.n_errors = 0
         self.created = False
         self.records: dict[tuple, dict] = {}
@@ -138,7 +155,20 @@ class EvaluationCache:
         if header.get("evaluation_hash", self.eval_hash) != self.eval_hash:
             raise ValueError(f"{self.path} holds evaluations for evaluation hash {header.get('evaluation_hash')!r}, "
                              f"not {self.eval_hash!r}: the parameters that change an evaluation differ")
-        self.records = {tuple(record["key"]): record for record in records if not record.get("error")}
+        self.records = {tuple(record["key"]): record for record in records
+                        if not record.get("error") and self._same_cpu(record)}
+        other = Counter(record.get(CPU_FIELD, self.run_cpu) for record in records
+                        if not record.get("error") and not self._same_cpu(record))
+        self.n_other_cpu = sum(other.values())
+        if other:
+            models = ", ".join(f"{n} with kernels compiled for {model}" for model, n in other.items())
+            warnings.warn(f"{self.path}: {self.n_other_cpu} design(s) evaluated on another processor model ({models}); "
+                          f"here the kernels are compiled for {self.kernel_cpu}: they are evaluated again, since "
+                          f"another model's round-off is not this machine's result", RuntimeWarning, stacklevel=3)
+
+    def _same_cpu(self, record: dict) -> bool:
+        """Whether ``record`` was evaluated with kernels of this session's model (always, without a model)."""
+        return self.kernel_cpu is None or record.get(CPU_FIELD, self.run_cpu) in (self.kernel_cpu, None)
 
     def __contains__(self, key: tuple) -> bool:
         return key in self.records

@@ -39,7 +39,7 @@ from .settings import CampaignPlan
 __all__ = ["load_run", "load_checkpoint", "final_population", "export_results", "write_results",
            "write_checkpoint", "start_run", "default_run_dir", "atomic_write_bytes", "check_resumable", "RunLock",
            "CheckpointError", "LOCK_FILE", "RUN_FILE", "CHECKPOINT_FILE", "RESULT_FILES", "CHECKPOINT_FORMAT",
-           "CHECKPOINT_GLOBALS", "CHECKPOINT_MAGIC", "run_checksum", "check_new_run_dir"]
+           "CHECKPOINT_GLOBALS", "CHECKPOINT_MAGIC", "run_checksum", "check_new_run_dir", "run_kernel_cpu"]
 
 RUN_FILE, CHECKPOINT_FILE, LOCK_FILE = "run.json", "checkpoint.pkl", "run.lock"
 RESULT_FILES = ("evaluations.nc", "front.nc", "history.nc")
@@ -73,6 +73,14 @@ def load_run(run_dir) -> dict:
         raise ConfigError(f"{path} was edited after the run started (its SHA-256 is not the checksum it recorded): "
                           f"a run keeps its settings and provenance; start a new run with --profile and --set")
     return run
+
+
+def run_kernel_cpu(run: dict) -> str | None:
+    """The processor model a run's kernels were compiled for when it started (``run.json`` ``versions``), or None
+    (a run started before runs recorded it)."""
+    versions = run.get("versions")
+    model = versions.get("kernel_cpu") if isinstance(versions, dict) else None
+    return model if isinstance(model, str) else None
 
 
 # classes pickled by older checkpoints under their old names: module lnss_lib.optimize (before the campaign

@@ -7,8 +7,10 @@ rest. A run killed at any moment and resumed ends with the same population as an
 one: designs of an interrupted generation come back from the journal, the checkpoint holds the
 algorithm and its random generator; designs the checkpoint needs whose journal lines were lost are
 evaluated again. Resumed on a machine whose kernels are compiled for another processor model than the run's
-(:func:`lnss_lib.kernel_cpu`, recorded in ``run.json``), the run goes on with a RuntimeWarning: its later designs
-differ from an uninterrupted run's by round-off, which the adaptive step control can carry into the search. When
+(:func:`lnss_lib.kernel_cpu`, recorded in ``run.json`` and in each journal record), the run goes on with a
+RuntimeWarning: the journal answers no design from a record of the other model (it is evaluated again here:
+:class:`~lnss_lib.campaign.journal.EvaluationCache`), so its later designs differ from an uninterrupted run's by
+round-off, which the adaptive step control can carry into the search. When
 NSGA-II has finished and ``[front_validation] max_designs`` > 0, the front is flown in closed loop (:mod:`lnss_lib.campaign.validation`, ``validated.nc``; a run killed during it and resumed finishes
 it without running NSGA-II again). A session that ends in ``outputs/<profile>/campaign/`` publishes the run when
 its settings are the profile's (:mod:`lnss_lib.campaign.publication`).
@@ -34,7 +36,7 @@ from .journal import JOURNAL_FILE, EvaluationCache, read_cache_records
 from .publication import publish_run, run_differences
 from .problem import WalkerDesignProblem, build_algorithm, build_termination
 from .rundir import (LOCK_FILE, RUN_FILE, RunLock, check_new_run_dir, check_resumable, default_run_dir, load_checkpoint,
-                     load_run, start_run, write_results)
+                     load_run, run_kernel_cpu, start_run, write_results)
 from .settings import CampaignPlan, evaluation_hash, evaluation_profile
 from .validation import check_validatable, validate_front
 
@@ -136,11 +138,12 @@ def _new_run_dir(run_dir, profile_name: str) -> Path:
 
 def _warn_if_other_kernel_cpu(run_dir: Path, run: dict) -> None:
     """RuntimeWarning when ``run``'s recorded kernel processor model is not this machine's (see the module docstring)."""
-    recorded, here = run.get("versions", {}).get("kernel_cpu"), kernel_cpu()
+    recorded, here = run_kernel_cpu(run), kernel_cpu()
     if recorded is not None and recorded != here:
         warnings.warn(f"{run_dir} started with kernels compiled for {recorded}; here they are compiled for "
-                      f"{here}: the designs evaluated from now on differ from an uninterrupted run's by "
-                      "round-off (README, Notes for developers)", RuntimeWarning, stacklevel=3)
+                      f"{here}: the designs evaluated from now on (and those of its journal asked for again) differ "
+                      "from an uninterrupted run's by round-off (README, Notes for developers)", RuntimeWarning,
+                      stacklevel=3)
 
 
 def _stored_settings(run_dir: Path, run: dict) -> Settings:
@@ -187,7 +190,8 @@ def _run_locked(run_dir: Path, run_settings: Settings, eval_settings: Settings, 
     settings = CampaignPlan.of(run_settings)
     name = run_settings.name
     checkpoint = load_checkpoint(run_dir)
-    check_resumable(run_dir, load_run(run_dir), checkpoint)
+    run = load_run(run_dir)
+    check_resumable(run_dir, run, checkpoint)
     if checkpoint is not None:
         algorithm, history = checkpoint["algorithm"], checkpoint["history"]
         problem = algorithm.problem
@@ -195,7 +199,7 @@ def _run_locked(run_dir: Path, run_settings: Settings, eval_settings: Settings, 
         algorithm, history = build_algorithm(settings), []
         problem = WalkerDesignProblem(settings)
         algorithm.setup(problem, termination=build_termination(settings), seed=settings.seed, verbose=False)
-    cache = EvaluationCache(run_dir / JOURNAL_FILE, eval_hash)
+    cache = EvaluationCache(run_dir / JOURNAL_FILE, eval_hash, kernel_cpu=kernel_cpu(), run_cpu=run_kernel_cpu(run))
     session_start = time.perf_counter()
     session_wall_s = None
     backend = None

@@ -7,10 +7,11 @@ import os
 import socket
 import time
 
+from .. import kernel_cpu
 from ..keys import CAMPAIGN_METRIC_KEYS, METRIC_KEYS, TIMING_KEYS, violated_bound
 from ..settings import Settings
 
-__all__ = ["evaluate_task", "synthetic_evaluation", "cap_numba_threads", "worker_name"]
+__all__ = ["evaluate_task", "synthetic_evaluation", "cap_numba_threads", "worker_name", "worker_fields"]
 
 
 def synthetic_evaluation(settings: Settings, sma_km: float, ecc: float, aop_deg: float, inc_deg: float,
@@ -99,6 +100,13 @@ def worker_name() -> str:
     return f"{socket.gethostname()}:{os.getpid()}"
 
 
+def worker_fields() -> dict:
+    """Where a task ran, for its journal record: ``worker`` (:func:`worker_name`) and ``kernel_cpu``, the processor
+    model its kernels were compiled for (:func:`lnss_lib.kernel_cpu`, which fixes their round-off; the journal answers
+    a design from its record only on that model: :class:`~lnss_lib.campaign.journal.EvaluationCache`)."""
+    return {"worker": worker_name(), "kernel_cpu": kernel_cpu()}
+
+
 def evaluate_task(eval_profile: Settings, design: dict, evaluator: str = "walker", synthetic_delay_s: float = 0.0,
                   numba_threads: int = 0) -> dict:
     """Evaluate one design under the evaluation settings ``eval_profile`` (checked once, at the campaign's start:
@@ -138,5 +146,5 @@ def evaluate_task(eval_profile: Settings, design: dict, evaluator: str = "walker
         "timing_s": {k: float(v) for k, v in result.get("timing_s", {}).items()},
         "wall_s": float(result.get("wall_s", 0.0)),
         "task_wall_s": time.perf_counter() - start,
-        "worker": worker_name(),
+        **worker_fields(),
     }

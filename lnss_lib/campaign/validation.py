@@ -29,6 +29,7 @@ from pathlib import Path
 import numpy as np
 import xarray as xr
 
+from .. import kernel_cpu
 from ..atomicio import write_netcdf_atomic
 from ..errors import ConfigError
 from ..keys import DESIGN_KEYS, INTEGER_DESIGN_KEYS, METRIC_KEYS, closed_loop_dv_key
@@ -36,9 +37,9 @@ from ..progress import CellProgress
 from ..settings import FrontValidationSettings, Settings, settings_from_profile
 from .callbacks import CampaignStopped
 from .journal import EvaluationCache
-from .rundir import export_results, load_checkpoint, load_run
+from .rundir import export_results, load_checkpoint, load_run, run_kernel_cpu
 from .settings import CampaignPlan, evaluation_profile
-from .tasks import cap_numba_threads, worker_name
+from .tasks import cap_numba_threads, worker_fields
 
 __all__ = ["VALIDATED_FILE", "VALIDATION_JOURNAL", "COST_KEY", "STATUSES", "CLOSED_LOOP_KEYS", "N_MINUS_1_KEYS",
            "select_designs",
@@ -127,7 +128,7 @@ def select_designs(evaluations: xr.Dataset, front: xr.Dataset, fv: FrontValidati
 
 def _failed_record(message: str, wall_s: float) -> dict:
     return {**dict.fromkeys(CLOSED_LOOP_KEYS, math.nan), "wall_s": wall_s, "status": "error", "error": message,
-            "worker": worker_name()}
+            **worker_fields()}
 
 
 def validation_task(settings: Settings, design: dict, *, numba_threads: int = 0) -> dict:
@@ -171,7 +172,7 @@ def validation_task(settings: Settings, design: dict, *, numba_threads: int = 0)
               "n_minus_1_sat": math.nan if loss is None else loss["lost_sat"],
               "wall_s": time.perf_counter() - start}
     return {**{k: float(record[k]) for k in CLOSED_LOOP_KEYS}, "status": "failed" if lost else "kept", "error": "",
-            "worker": worker_name(), "n_sat_flown": int(ctl.sizes["sat"])}
+            **worker_fields(), "n_sat_flown": int(ctl.sizes["sat"])}
 
 
 def _is_validation_record(item) -> bool:
@@ -259,7 +260,8 @@ def validate_front(run_dir, *, workers: int | None = None, scheduler_address: st
     eval_settings = evaluation_profile(settings)
     evaluations, front, _ = export_results(run_dir)
     selection = select_designs(evaluations, front, settings.front_validation)
-    journal = EvaluationCache(run_dir / VALIDATION_JOURNAL, run["evaluation_hash"], is_record=_is_validation_record)
+    journal = EvaluationCache(run_dir / VALIDATION_JOURNAL, run["evaluation_hash"], is_record=_is_validation_record,
+                              kernel_cpu=kernel_cpu(), run_cpu=run_kernel_cpu(run))
     todo = [row for row in selection if _key(row) not in journal]
     plan = CampaignPlan.of(settings)
     backend, stopped = None, None

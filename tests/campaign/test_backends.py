@@ -120,3 +120,53 @@ def test_lost_worker_costs_only_its_designs(cluster, synthetic_reference, tmp_pa
     x, f = final_population(run_dir)
     np.testing.assert_array_equal(x, x_ref)
     np.testing.assert_array_equal(f, f_ref)
+
+
+def _sigint_guarded(pid: int) -> bool:
+    """Whether process ``pid`` blocks or ignores SIGINT (``SigBlk`` / ``SigIgn`` of /proc/PID/status)."""
+    status = dict(line.split(":\t", 1) for line in open(f"/proc/{pid}/status").read().splitlines() if ":\t" in line)
+    bit = 1 << (signal.SIGINT - 1)
+    return bool((int(status["SigBlk"], 16) | int(status["SigIgn"], 16)) & bit)
+
+
+@pytest.mark.skipif(not os.path.exists(f"/proc/{os.getpid()}/status"), reason="reads signal masks from /proc")
+def test_local_workers_keep_the_sigint_guard_and_a_ctrl_c_at_their_start_is_honoured(monkeypatch):
+    """Local workers never see the terminal's Ctrl-C: the first ones and one the nanny restarts after a crash (which
+    ran without the guard: only the first ones inherited an ignored SIGINT). A Ctrl-C while the workers start is
+    raised once they are up and the cluster is closed (it was ignored, and the campaign went on); this process
+    takes SIGINT again afterwards."""
+    from dask.distributed import LocalCluster
+
+    from lnss_lib.campaign import backends
+
+    def task(shared, item, numba_threads=0):
+        return os.getpid()
+
+    backend = backends.DaskBackend(None, task, max_resubmits=1, n_workers=2)
+    try:
+        first = set(backend.client.run(os.getpid).values())
+        assert len(first) == 2 and all(_sigint_guarded(pid) for pid in first)
+        os.kill(min(first), signal.SIGKILL)                   # a crashed worker: its nanny starts another
+        deadline, now = time.monotonic() + 120, first
+        while time.monotonic() < deadline and not (len(now) == 2 and now - first):
+            time.sleep(0.5)
+            now = set(backend.client.run(os.getpid, on_error="ignore").values())
+        restarted = now - first
+        assert len(restarted) == 1 and all(_sigint_guarded(pid) for pid in restarted)
+    finally:
+        backend.close()
+    assert not _sigint_guarded(os.getpid())
+
+    started = []
+
+    class CtrlCWhileStarting(LocalCluster):
+        def __init__(self, *args, **kwargs):
+            super().__init__(*args, **kwargs)
+            started.append(self)
+            os.kill(os.getpid(), signal.SIGINT)               # Ctrl-C before the workers are all up
+
+    monkeypatch.setattr("dask.distributed.LocalCluster", CtrlCWhileStarting)
+    with pytest.raises(KeyboardInterrupt):
+        backends.DaskBackend(None, task, max_resubmits=1, n_workers=1)
+    assert started and started[0].status.name == "closed"
+    assert not _sigint_guarded(os.getpid())

@@ -138,3 +138,45 @@ def test_records_carry_a_crc_and_format_1_journals_still_load(tmp_path):
     path.write_text(json.dumps({"evaluation_hash": "abc", "format": 2}) + "\n" + line + "\n"
                     + line.replace('"generation": 1', '"generation": 2').replace("[1, 2, 3", "[9, 2, 3") + "\n")
     assert list(EvaluationCache(path, "abc").records) == [(1, 2, 3, 4, 0, 0)]
+
+
+def test_a_record_of_another_processor_model_is_no_hit(tmp_path):
+    """The evaluation hash leaves out the kernels' processor model: a journal record of another model (its own
+    ``kernel_cpu``, or the run's for a record written before records named it) is evaluated again, with a warning
+    naming the model; its later record then stands for the design. Before, the cache answered it as a hit."""
+    path = tmp_path / "evaluations.jsonl"
+    cache = EvaluationCache(path, "abc")
+    for key, model in (((1, 1, 1, 1, 1, 1), "model-a"), ((2, 2, 2, 2, 2, 2), "model-b"), ((3, 3, 3, 3, 3, 3), None)):
+        cache.add(key, {"generation": 1, "order": 0, "metrics": {"n_sat": 1}}
+                  | ({"kernel_cpu": model} if model else {}))
+    cache.close()
+    assert len(EvaluationCache(path, "abc")) == 3                          # no model asked for: every record a hit
+    with pytest.warns(RuntimeWarning, match=r"2 design\(s\) evaluated on another processor model \(1 with kernels "
+                                            r"compiled for model-b, 1 with kernels compiled for model-c\); here the "
+                                            r"kernels are compiled for model-a: they are evaluated again"):
+        cache = EvaluationCache(path, "abc", kernel_cpu="model-a", run_cpu="model-c")
+    assert list(cache.records) == [(1, 1, 1, 1, 1, 1)] and cache.n_other_cpu == 2
+    cache.add((2, 2, 2, 2, 2, 2), {"generation": 3, "order": 0, "metrics": {"n_sat": 2}, "kernel_cpu": "model-a"})
+    cache.close()
+    assert [(r["key"][0], r["generation"]) for r in read_cache_records(tmp_path)] == [(1, 1), (2, 3), (3, 1)]
+    assert len(EvaluationCache(path, "abc", kernel_cpu="model-c", run_cpu="model-c")) == 1    # the unnamed record
+    assert len(EvaluationCache(path, "abc", kernel_cpu="model-a", run_cpu=None)) == 3         # model never recorded
+
+
+def test_resume_on_another_processor_model_evaluates_the_journal_again(tmp_path):
+    """A run whose journal records name another processor model: on resume the designs the search asks for are
+    evaluated here again (new records of this model), not answered with the other model's round-off."""
+    from lnss_lib import kernel_cpu
+
+    run_dir = _synthetic(tmp_path / "run", generations=2, max_generations=1).run_dir
+    journal = run_dir / "evaluations.jsonl"
+    lines = journal.read_text().splitlines()
+    records = [json.loads(line) for line in lines[1:]]
+    assert {r.pop("crc32") and r["kernel_cpu"] for r in records} == {kernel_cpu()}
+    journal.write_text("\n".join([lines[0]] + [encode_record({**r, "kernel_cpu": "other-model"}) for r in records])
+                       + "\n")
+    with pytest.warns(RuntimeWarning, match=f"{len(records)} design.s. evaluated on another processor model"):
+        result = _resume(run_dir)
+    assert result.generations == 2 and result.session_evaluations >= len(records)
+    by_key = {tuple(r["key"]): r for r in read_cache_records(run_dir)}
+    assert all(by_key[tuple(r["key"])]["kernel_cpu"] == kernel_cpu() for r in records)
