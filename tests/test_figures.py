@@ -1,5 +1,10 @@
-"""Figure writing (figures.export): PNG through a system Chromium, HTML fallback, offline HTML; the builders'
+"""Figure writing (figures.export): PNG through kaleido's bundled renderer, HTML fallback, offline HTML; the builders'
 package layout and one builder's data."""
+
+import shutil
+import struct
+import warnings
+from pathlib import Path
 
 import plotly.graph_objects as go
 import pytest
@@ -19,32 +24,59 @@ def _figure():
     return go.Figure(go.Scatter(x=[0, 1, 2], y=[1, 3, 2]), layout={"title": {"text": "a <b>test</b> figure"}})
 
 
-@pytest.mark.skipif(figures.chromium_path() is None, reason="no Chrome/Chromium installed (apt-get install chromium)")
-def test_png_written_with_system_chromium(outputs, monkeypatch):
+def _hide_chromium(monkeypatch, tmp_path):
+    """A PATH with every program of the current one except Chrome/Chromium (the renderer's start-up script
+    still finds bash and dirname)."""
+    import os
+
+    bin_dir = tmp_path / "bin"
+    bin_dir.mkdir()
+    for folder in os.environ["PATH"].split(os.pathsep):
+        for program in Path(folder).glob("*") if Path(folder).is_dir() else ():
+            target = bin_dir / program.name
+            if "chrom" not in program.name and not target.exists():
+                target.symlink_to(program)
+    monkeypatch.setenv("PATH", str(bin_dir))
+    assert shutil.which("chromium") is None and shutil.which("dirname") is not None
+
+
+def test_png_written_without_a_browser_on_path(outputs, monkeypatch, tmp_path):
     monkeypatch.delenv(figures.PNG_ENV, raising=False)
-    written = figures.save_figure(_figure(), "t", "fig_png", width=400, height=300)
-    assert written["png"].read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+    monkeypatch.setattr(export, "_EXPORTER", None)
+    _hide_chromium(monkeypatch, tmp_path)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error", RuntimeWarning)     # a skipped PNG would warn
+        written = figures.save_figure(_figure(), "t", "fig_png", width=400, height=300)
+    png = written["png"].read_bytes()
+    assert png[:8] == b"\x89PNG\r\n\x1a\n"
+    assert struct.unpack(">II", png[16:24]) == (400, 300)     # IHDR: width and height as asked
     assert written["html"].is_file()
+    export._EXPORTER.close()
+    monkeypatch.setattr(export, "_EXPORTER", None)
 
 
 def test_html_fallback_warns_once(outputs, monkeypatch):
     monkeypatch.setenv(figures.PNG_ENV, "off")
     monkeypatch.setattr(export, "_PNG_WARNED", False)
-    with pytest.warns(RuntimeWarning, match="apt-get install chromium"):
+    with pytest.warns(RuntimeWarning, match="PNG export skipped .LNSS_PNG=off.; HTML written"):
         written = figures.save_figure(_figure(), "t", "fig_html")
     assert written["html"].is_file() and "png" not in written
     assert not (outputs / "t" / "figures" / "fig_html.png").exists()
 
 
-def test_no_browser_gives_html_and_one_warning(outputs, monkeypatch):
+def test_failed_renderer_gives_html_and_one_warning(outputs, monkeypatch):
+    class BrokenRenderer:
+        def __init__(self):
+            raise OSError("renderer would not start")
+
     monkeypatch.delenv(figures.PNG_ENV, raising=False)
-    monkeypatch.setenv("BROWSER_PATH", str(outputs / "no-such-chrome"))
+    monkeypatch.setattr(export, "_PngExporter", BrokenRenderer)
     monkeypatch.setattr(export, "_EXPORTER", None)
     monkeypatch.setattr(export, "_PNG_WARNED", False)
     stale = outputs / "t" / "figures" / "fig_b.png"
     stale.parent.mkdir(parents=True)
     stale.write_bytes(b"old")
-    with pytest.warns(RuntimeWarning, match="no Chrome/Chromium found") as record:
+    with pytest.warns(RuntimeWarning, match="renderer would not start") as record:
         first = figures.save_figure(_figure(), "t", "fig_b")
         second = figures.save_figure(_figure(), "t", "fig_c")
     assert len([w for w in record if issubclass(w.category, RuntimeWarning)]) == 1
