@@ -89,3 +89,17 @@ def test_campaign_findings_read_the_shipped_results(outputs, shipped):
     assert rows["Designs meeting Table 3 (operational, paper_dv_physical)"].workbook == "4 of 900 unique designs"
     smallest = rows["Smallest constellation (operational, paper_dv_physical)"].workbook   # the 4 is over the bound
     assert smallest.startswith("6 satellites, Delta-V total (km/s/yr) 1.100 (a 5200 km")
+
+
+def test_design_life_rows_say_what_they_count(outputs):
+    import pandas as pd
+
+    table = pd.DataFrame({"region": ["Table 4 ELFO"] * 3, "life_days": [365.0] * 3,
+                          "impact_day": [np.nan, np.nan, 161.0], "sk_dv_kms_per_year": [0.2, 1.4, 0.9],
+                          "sk_dv_max_kms_per_year": [0.3, 1.6, 1.1]})
+    lnss_lib.outputs.save_table(table, "t", "08_validation", caption="validation")
+    (row,) = findings.design_life_findings(outputs / "t")
+    assert row.topic == "Design life: Table 4 ELFO (3 designs flown in closed loop)"
+    assert row.workbook == ("1 of 3 within 1 km/s/yr on every satellite, none lost; 2 of 3 keep every satellite "
+                            "over 365 days; the controller burned 0.200 to 1.400 km/s/yr per satellite")
+    assert "not the paper's eq. 45 Delta-V" in row.why and "lost on day 161" in row.why
