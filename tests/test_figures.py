@@ -188,6 +188,36 @@ def test_monthly_availability_is_drawn_on_a_fixed_0_100_axis():
     assert fig.layout.yaxis3.range is None                     # DOP is unbounded: autoscaled
 
 
+def test_monthly_runs_that_coincide_stay_apart_by_line_and_marker():
+    import numpy as np
+    import xarray as xr
+
+    nav = xr.Dataset({k: (("run", "month"), np.full((2, 3), 100.0))
+                      for k in ("pdop_avail_pct", "hdop_avail_pct", "pdop_mean_3sigma", "hdop_mean_3sigma")},
+                     coords={"run": ["controlled", "natural"], "month": [0, 1, 2]})
+    controlled, natural = figures.monthly_dop(nav, title="t").data[::4][:2]
+    assert controlled.name == "controlled" and natural.name == "natural"
+    assert controlled.line.dash != natural.line.dash and controlled.marker.symbol != natural.marker.symbol
+
+
+def test_estimate_chart_keeps_designs_that_burned_nothing():
+    import numpy as np
+    import pandas as pd
+
+    table = pd.DataFrame({"region": ["ELFO", "ELFO", "polar", "polar"], "sma_km": [6143.0] * 4, "ecc": [0.6] * 4,
+                          "inc_deg": [51.7] * 4, "aop_deg": [90.0] * 4,
+                          "sk_dv_kms_per_year": [0.0, 0.4, 0.8, 1.2], "sk_dv_estimate_kms_per_year": [0.1, 0.5, 0.7, 2.0],
+                          "impact_day": [np.nan, np.nan, np.nan, 161.0]})
+    table["ratio"] = np.where(np.isfinite(table["impact_day"]), np.nan,
+                              table["sk_dv_estimate_kms_per_year"] / table["sk_dv_kms_per_year"])
+    fig = figures.estimate_vs_closed_loop(table, title="t")
+    designs = [t for t in fig.data if t.mode == "markers"]
+    assert sum(len(t.x) for t in designs) == 3                 # the lost design is out, the zero-cost one is in
+    (zero,) = [t for t in designs if "drawn at the floor" in t.name]
+    assert zero.name == "ELFO: 1 at zero, drawn at the floor" and zero.marker.symbol.endswith("-open")
+    assert zero.x[0] == 0.1 / 2 and all(v > 0 for t in designs for v in list(t.x) + list(t.y))
+
+
 def test_convergence_says_when_nothing_was_feasible():
     import numpy as np
     import xarray as xr
