@@ -23,6 +23,7 @@ from .gps import (GPS_SENSITIVITY_GROUPS, cn0_vs_off_boresight, gnss_visibility_
                   gps_view_from_lnss, gps_visibility_pdop, gps_visibility_pdop_vs_paper, gps_visible_links, off_boresight_geometry)
 from .pareto import LABELS, dop_against_availability, pareto_3d, variable_relationships
 from .propagation import constellation_3d, elements_history
+from ..outputs import use_reader_tables
 from .validation import front_estimate_vs_closed_loop, headline_chart
 
 __all__ = [
@@ -44,3 +45,4 @@ __all__ = [
 ]
 
 use_notebook_renderer()        # in a notebook kernel: figures keep a static copy (nbconvert, code hosts)
+use_reader_tables()            # and tables show labelled headers and each quantity's number format

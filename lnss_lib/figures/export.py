@@ -31,7 +31,7 @@ import plotly.graph_objects as go
 import plotly.io as pio
 from plotly.io._base_renderers import MimetypeRenderer, PlotlyRenderer
 
-from ..outputs import atomic_path, output_dir, write_bytes_atomic, write_caption
+from ..outputs import atomic_path, notebook_shell, output_dir, write_bytes_atomic, write_caption
 
 PNG_ENV = "LNSS_PNG"                 # set to "off" to skip PNG export (HTML only)
 PNG_TIMEOUT_S = 120.0                 # start-up of the renderer, and rendering of one figure
@@ -130,12 +130,7 @@ class NotebookRenderer(MimetypeRenderer):
 
 def use_notebook_renderer() -> bool:
     """Make :class:`NotebookRenderer` plotly's default when running in a notebook kernel; True if it did."""
-    try:
-        from IPython import get_ipython
-    except ImportError:
-        return False
-    shell = get_ipython()
-    if shell is None or not hasattr(shell, "kernel"):
+    if notebook_shell() is None:
         return False
     if NOTEBOOK_RENDERER not in pio.renderers:
         pio.renderers[NOTEBOOK_RENDERER] = NotebookRenderer()
