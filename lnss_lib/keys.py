@@ -101,6 +101,9 @@ LABELS = {                  # key -> human label with its unit: figures, tables,
     "ktn_dbw_hz": "noise density kTN (dBW/Hz)", "off_boresight_deg": "off-boresight angle (deg)",
     "launch_date": "launch date", "launch_date_source": "launch date from", "tle_epoch_utc": "TLE epoch (UTC)",
     "days_back_from_tle": "days from the TLE epoch back to the start",
+    # the Delta-V models (notebook 04: lnss_lib.deltav, lnss_lib.studies.deltav_models)
+    "model_all": "Delta-V model", "step_s": "sampling step (s)",
+    "lunar_equator_of_epoch": "lunar equator of epoch",     # an element frame, as a column of notebook 04's tables
 }
 CLOSED_LOOP_DV_BY_PURPOSE = "closed_loop_dv_{}_kms_per_year"   # the closed loop's Delta-V paid for one burn purpose
 
