@@ -104,6 +104,11 @@ LABELS = {                  # key -> human label with its unit: figures, tables,
     # the Delta-V models (notebook 04: lnss_lib.deltav, lnss_lib.studies.deltav_models)
     "model_all": "Delta-V model", "step_s": "sampling step (s)",
     "lunar_equator_of_epoch": "lunar equator of epoch",     # an element frame, as a column of notebook 04's tables
+    # the user's position error over the grid (lnss_lib.navigation_error.error_percentiles; notebook 05)
+    "horizontal_95_series_m": "horizontal 95 % error, 95th percentile over the grid (m)",
+    "vertical_95_series_m": "vertical 95 % error, 95th percentile over the grid (m)",
+    "horizontal_95_map_m": "horizontal 95 % error, 95th percentile over the arc (m)",
+    "vertical_95_map_m": "vertical 95 % error, 95th percentile over the arc (m)",
 }
 CLOSED_LOOP_DV_BY_PURPOSE = "closed_loop_dv_{}_kms_per_year"   # the closed loop's Delta-V paid for one burn purpose
 
