@@ -140,7 +140,7 @@ def _warn_if_other_kernel_cpu(run_dir: Path, run: dict) -> None:
     if recorded is not None and recorded != here:
         warnings.warn(f"{run_dir} started with kernels compiled for {recorded}; here they are compiled for "
                       f"{here}: the designs evaluated from now on differ from an uninterrupted run's by "
-                      "round-off (README, Notes for developers)", RuntimeWarning, stacklevel=3)
+                      "round-off (docs/NOTES.md, Notes for developers)", RuntimeWarning, stacklevel=3)
 
 
 def _stored_settings(run_dir: Path, run: dict) -> Settings:
