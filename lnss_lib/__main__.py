@@ -196,14 +196,13 @@ def _cmd_evaluate(args: argparse.Namespace) -> int:
     if args.json:
         print(json.dumps(result))
     else:
-        from .keys import format_value, label
+        from .cli import human_lines
 
-        print(f"profile {args.profile}" + (f", constellation {args.constellation}" if args.constellation else ""))
         result["violated_bounds"] = bounds_verdict(profile.campaign, result, labelled=True)["violated_bounds"]
-        width = max(len(label(key)) for key in result)
-        for key, value in result.items():
-            value = ("; ".join(value) or "none") if isinstance(value, list) else value
-            print(f"{label(key):<{width}}  {format_value(key, value)}")
+        what = (f"constellation {args.constellation}" if args.constellation else
+                f"a {args.sma_km:g} km, e {args.ecc:g}, AOP {args.aop_deg:g} deg, i {args.inc_deg:g} deg, "
+                f"{args.planes} planes x {args.sats_per_plane}")
+        print("\n".join(human_lines(args.profile, what, result)))
     return 0
 
 

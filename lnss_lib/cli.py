@@ -13,9 +13,9 @@ import math
 from .settings import load_settings
 from .constants import SECONDS_PER_DAY
 from .errors import ConfigError, InfeasibleDesignError
-from .keys import RESULT_KEYS, gnss_metric_keys
+from .keys import RESULT_KEYS, format_value, gnss_metric_keys, label
 
-__all__ = ["cli_result", "evaluate_cli", "evaluate_catalogue_cli", "design_life_cli"]
+__all__ = ["cli_result", "evaluate_cli", "evaluate_catalogue_cli", "design_life_cli", "human_lines"]
 
 
 def cli_result(context, result: dict, extra_keys: tuple[str, ...] = ()) -> dict:
@@ -98,3 +98,24 @@ def design_life_cli(profile_name: str, life_days: float, *, walker: tuple | None
             return {key: None for key in LIFE_KEYS}
     result = evaluate_design_life(context_for(profile), elements, float(life_days))
     return json_ready({key: result[key] for key in LIFE_KEYS})
+
+
+def human_lines(profile_name: str, what: str, result: dict) -> list[str]:
+    """The evaluate command's result for people: the profile and what was evaluated (``what``: a design in words
+    or a constellation's name), then one labelled row per value in its quantity's format. A design that was not
+    evaluated (an impact, no closed orbit) gives the reason instead of a table of empty metrics; rows without a
+    value are left out; the wall time is in seconds to one decimal."""
+    lines = [f"profile {profile_name}, {what}"]
+    if result.get("evaluated") is False:
+        lines.append(f"not evaluated: {result.get('reason') or 'no reason given'}")
+        return lines
+    shown = {key: value for key, value in result.items()
+             if value is not None and value != "" and key not in ("evaluated", "reason")}
+    width = max(len(label(key)) for key in shown)
+    for key, value in shown.items():
+        if isinstance(value, list):
+            value = "; ".join(value) or "none"
+        elif key == "wall_s":
+            value = f"{value:.1f}"
+        lines.append(f"{label(key):<{width}}  {format_value(key, value)}")
+    return lines

@@ -96,6 +96,24 @@ LABELS = {                  # key -> human label with its unit: figures, tables,
     "min_perilune_alt_km": "lowest perilune under control (km)", "impact_day": "first satellite lost (day)",
     "n_lost": "satellites lost", "requirement_held": "every tolerance held", "n_maneuvers": "manoeuvres",
     "status": "closed-loop status", "selected_for": "flown as",
+    # the GPS and multi-GNSS links (notebook 03: lnss_lib.studies.gps_link, gnss_link)
+    "visible_mean": "satellites visible (mean)", "pdop_mean": "PDOP (mean)", "pdop_median": "PDOP (median)",
+    "pdop_available_fraction": "PDOP defined (fraction of time)", "pdop_ratio_to_paper": "PDOP / paper's",
+    "gps_pdop_median": "GPS-LNSS PDOP (median)", "gps_pdop_available_fraction": "GPS-LNSS PDOP defined (fraction of time)",
+    "gps_pdop_samples_kept": "GPS-LNSS PDOP samples kept", "gps_pdop_unfiltered_mean": "GPS-LNSS PDOP, unfiltered (mean)",
+    "noise_temperature_k": "noise temperature (K)", "cn0_dbhz": "C/N0 (dB-Hz)", "eirp_dbw": "EIRP (dBW)",
+    "fsl_db": "free-space loss (dB)", "g_rx_dbi": "receive antenna gain (dBi)", "gain_dbi": "antenna gain (dBi)",
+    "ktn_dbw_hz": "noise density kTN (dBW/Hz)", "off_boresight_deg": "off-boresight angle (deg)",
+    "launch_date": "launch date", "launch_date_source": "launch date from", "tle_epoch_utc": "TLE epoch (UTC)",
+    "days_back_from_tle": "days from the TLE epoch back to the start",
+    # the Delta-V models (notebook 04: lnss_lib.deltav, lnss_lib.studies.deltav_models)
+    "model_all": "Delta-V model", "step_s": "sampling step (s)",
+    "lunar_equator_of_epoch": "lunar equator of epoch",     # an element frame, as a column of notebook 04's tables
+    # the user's position error over the grid (lnss_lib.navigation_error.error_percentiles; notebook 05)
+    "horizontal_95_series_m": "horizontal 95 % error, 95th percentile over the grid (m)",
+    "vertical_95_series_m": "vertical 95 % error, 95th percentile over the grid (m)",
+    "horizontal_95_map_m": "horizontal 95 % error, 95th percentile over the arc (m)",
+    "vertical_95_map_m": "vertical 95 % error, 95th percentile over the arc (m)",
 }
 CLOSED_LOOP_DV_BY_PURPOSE = "closed_loop_dv_{}_kms_per_year"   # the closed loop's Delta-V paid for one burn purpose
 

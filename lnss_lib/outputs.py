@@ -20,7 +20,7 @@ from .provenance import MANIFEST_PACKAGES, git_revision, package_versions
 from .settings import load_settings
 from .keys import LABELS, format_value, label
 
-__all__ = ["output_dir", "profile_dir", "display_path", "display_table", "write_text_atomic", "write_bytes_atomic", "atomic_path", "write_caption", "read_caption", "markdown_table",
+__all__ = ["output_dir", "profile_dir", "display_path", "display_table", "reader_html", "use_reader_tables", "notebook_shell", "write_text_atomic", "write_bytes_atomic", "atomic_path", "write_caption", "read_caption", "markdown_table",
            "save_table", "data_checksums", "package_versions", "git_revision", "write_manifest", "CAPTION_SUFFIX",
            "OUTPUT_KINDS", "MANIFEST_PACKAGES"]
 
@@ -48,6 +48,42 @@ def display_table(frame, columns=None):
     each number in the format of its quantity (:func:`lnss_lib.keys.format_value`), NaN as ``-``."""
     shown = frame[list(columns)] if columns is not None else frame
     return shown.apply(lambda col: col.map(lambda v: format_value(str(col.name), v))).rename(columns=lambda c: label(str(c)))
+
+
+def reader_html(frame) -> str:
+    """A DataFrame as a notebook shows it to people: :func:`display_table` (labelled headers, each number in its
+    quantity's format) over the first ``display.max_rows`` rows; pandas' own HTML when the frame cannot be
+    labelled (duplicate columns, say)."""
+    import pandas as pd
+
+    max_rows = pd.get_option("display.max_rows") or len(frame)
+    shown = frame.head(max_rows)
+    note = "" if len(shown) == len(frame) else f"<p>first {max_rows} of {len(frame)} rows</p>"
+    try:
+        return display_table(shown).to_html(notebook=True) + note
+    except (ValueError, TypeError):
+        return shown.to_html(notebook=True) + note
+
+
+def notebook_shell():
+    """The IPython shell of the notebook kernel this code runs in, or None (a plain interpreter, a terminal IPython)."""
+    try:
+        from IPython import get_ipython
+    except ImportError:
+        return None
+    shell = get_ipython()
+    return shell if shell is not None and hasattr(shell, "kernel") else None
+
+
+def use_reader_tables() -> bool:
+    """In a notebook kernel, show every DataFrame through :func:`reader_html`; True if it did."""
+    shell = notebook_shell()
+    if shell is None:
+        return False
+    import pandas as pd
+
+    shell.display_formatter.formatters["text/html"].for_type(pd.DataFrame, reader_html)
+    return True
 
 
 def output_dir(profile_name: str, kind: str) -> Path:

@@ -155,6 +155,7 @@ def reproduce(profile_name: str = DEFAULT_PROFILE, only: list[str] | None = None
 
 INDEX_STYLE = (
     "body{font-family:sans-serif;margin:2em;max-width:1400px}"
+    "#answer p{max-width:60em;font-size:1.05em}img.headline{max-width:900px;width:100%;border:1px solid #ddd}"
     "table.findings{font-size:0.9em}table.findings th{text-align:left}td.why{max-width:34em;color:#333}"
     "nav{font-size:0.9em;margin:1em 0}nav a{margin-right:1em}"
     ".scroll{max-width:100%;overflow-x:auto}"

@@ -213,3 +213,18 @@ def test_git_is_never_taken_from_path(tmp_path, monkeypatch):
     fake.chmod(0o755)
     monkeypatch.setenv("PATH", f"{tmp_path}:{os.environ['PATH']}")
     assert "forged" not in git_revision() and not (tmp_path / "ran").exists()
+
+
+def test_evaluate_for_people_repeats_the_design_and_leaves_out_empty_rows():
+    from lnss_lib.cli import human_lines
+
+    evaluated = {"n_sat": 6, "pdop_mean_3sigma": 2.345678, "deltav_model": "lsq", "evaluated": True, "reason": None,
+                 "wall_s": 0.2599, "meets_bounds": False, "violated_bounds": ["Delta-V total 2.290 km/s/yr"]}
+    lines = human_lines("ci", "a 6143 km, e 0.6, AOP 90 deg, i 51.7 deg, 2 planes x 3", evaluated)
+    assert lines[0] == "profile ci, a 6143 km, e 0.6, AOP 90 deg, i 51.7 deg, 2 planes x 3"
+    rows = {line[:line.rindex("  ")].strip(): line[line.rindex("  "):].strip() for line in lines[1:]}
+    assert rows["PDOP (3-sigma mean)"] == "2.35" and rows["wall time (s)"] == "0.3" and rows["satellites"] == "6"
+    assert "reason not evaluated" not in rows and not any("None" in line for line in lines)
+    impact = dict.fromkeys(evaluated, None) | {"evaluated": False, "reason": "satellite 2 hits the Moon on day 3.1"}
+    assert human_lines("ci", "constellation x", impact) == ["profile ci, constellation x",
+                                                            "not evaluated: satellite 2 hits the Moon on day 3.1"]

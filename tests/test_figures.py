@@ -1,5 +1,10 @@
-"""Figure writing (figures.export): PNG through a system Chromium, HTML fallback, offline HTML; the builders'
+"""Figure writing (figures.export): PNG through kaleido's bundled renderer, HTML fallback, offline HTML; the builders'
 package layout and one builder's data."""
+
+import shutil
+import struct
+import warnings
+from pathlib import Path
 
 import plotly.graph_objects as go
 import pytest
@@ -19,32 +24,59 @@ def _figure():
     return go.Figure(go.Scatter(x=[0, 1, 2], y=[1, 3, 2]), layout={"title": {"text": "a <b>test</b> figure"}})
 
 
-@pytest.mark.skipif(figures.chromium_path() is None, reason="no Chrome/Chromium installed (apt-get install chromium)")
-def test_png_written_with_system_chromium(outputs, monkeypatch):
+def _hide_chromium(monkeypatch, tmp_path):
+    """A PATH with every program of the current one except Chrome/Chromium (the renderer's start-up script
+    still finds bash and dirname)."""
+    import os
+
+    bin_dir = tmp_path / "bin"
+    bin_dir.mkdir()
+    for folder in os.environ["PATH"].split(os.pathsep):
+        for program in Path(folder).glob("*") if Path(folder).is_dir() else ():
+            target = bin_dir / program.name
+            if "chrom" not in program.name and not target.exists():
+                target.symlink_to(program)
+    monkeypatch.setenv("PATH", str(bin_dir))
+    assert shutil.which("chromium") is None and shutil.which("dirname") is not None
+
+
+def test_png_written_without_a_browser_on_path(outputs, monkeypatch, tmp_path):
     monkeypatch.delenv(figures.PNG_ENV, raising=False)
-    written = figures.save_figure(_figure(), "t", "fig_png", width=400, height=300)
-    assert written["png"].read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+    monkeypatch.setattr(export, "_EXPORTER", None)
+    _hide_chromium(monkeypatch, tmp_path)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error", RuntimeWarning)     # a skipped PNG would warn
+        written = figures.save_figure(_figure(), "t", "fig_png", width=400, height=300)
+    png = written["png"].read_bytes()
+    assert png[:8] == b"\x89PNG\r\n\x1a\n"
+    assert struct.unpack(">II", png[16:24]) == (400, 300)     # IHDR: width and height as asked
     assert written["html"].is_file()
+    export._EXPORTER.close()
+    monkeypatch.setattr(export, "_EXPORTER", None)
 
 
 def test_html_fallback_warns_once(outputs, monkeypatch):
     monkeypatch.setenv(figures.PNG_ENV, "off")
     monkeypatch.setattr(export, "_PNG_WARNED", False)
-    with pytest.warns(RuntimeWarning, match="apt-get install chromium"):
+    with pytest.warns(RuntimeWarning, match="PNG export skipped .LNSS_PNG=off.; HTML written"):
         written = figures.save_figure(_figure(), "t", "fig_html")
     assert written["html"].is_file() and "png" not in written
     assert not (outputs / "t" / "figures" / "fig_html.png").exists()
 
 
-def test_no_browser_gives_html_and_one_warning(outputs, monkeypatch):
+def test_failed_renderer_gives_html_and_one_warning(outputs, monkeypatch):
+    class BrokenRenderer:
+        def __init__(self):
+            raise OSError("renderer would not start")
+
     monkeypatch.delenv(figures.PNG_ENV, raising=False)
-    monkeypatch.setenv("BROWSER_PATH", str(outputs / "no-such-chrome"))
+    monkeypatch.setattr(export, "_PngExporter", BrokenRenderer)
     monkeypatch.setattr(export, "_EXPORTER", None)
     monkeypatch.setattr(export, "_PNG_WARNED", False)
     stale = outputs / "t" / "figures" / "fig_b.png"
     stale.parent.mkdir(parents=True)
     stale.write_bytes(b"old")
-    with pytest.warns(RuntimeWarning, match="no Chrome/Chromium found") as record:
+    with pytest.warns(RuntimeWarning, match="renderer would not start") as record:
         first = figures.save_figure(_figure(), "t", "fig_b")
         second = figures.save_figure(_figure(), "t", "fig_c")
     assert len([w for w in record if issubclass(w.category, RuntimeWarning)]) == 1
@@ -154,6 +186,36 @@ def test_monthly_availability_is_drawn_on_a_fixed_0_100_axis():
     fig = figures.monthly_dop(nav, title="t")
     assert tuple(fig.layout.yaxis.range) == (0, 102) and tuple(fig.layout.yaxis2.range) == (0, 102)
     assert fig.layout.yaxis3.range is None                     # DOP is unbounded: autoscaled
+
+
+def test_monthly_runs_that_coincide_stay_apart_by_line_and_marker():
+    import numpy as np
+    import xarray as xr
+
+    nav = xr.Dataset({k: (("run", "month"), np.full((2, 3), 100.0))
+                      for k in ("pdop_avail_pct", "hdop_avail_pct", "pdop_mean_3sigma", "hdop_mean_3sigma")},
+                     coords={"run": ["controlled", "natural"], "month": [0, 1, 2]})
+    controlled, natural = figures.monthly_dop(nav, title="t").data[::4][:2]
+    assert controlled.name == "controlled" and natural.name == "natural"
+    assert controlled.line.dash != natural.line.dash and controlled.marker.symbol != natural.marker.symbol
+
+
+def test_estimate_chart_keeps_designs_that_burned_nothing():
+    import numpy as np
+    import pandas as pd
+
+    table = pd.DataFrame({"region": ["ELFO", "ELFO", "polar", "polar"], "sma_km": [6143.0] * 4, "ecc": [0.6] * 4,
+                          "inc_deg": [51.7] * 4, "aop_deg": [90.0] * 4,
+                          "sk_dv_kms_per_year": [0.0, 0.4, 0.8, 1.2], "sk_dv_estimate_kms_per_year": [0.1, 0.5, 0.7, 2.0],
+                          "impact_day": [np.nan, np.nan, np.nan, 161.0]})
+    table["ratio"] = np.where(np.isfinite(table["impact_day"]), np.nan,
+                              table["sk_dv_estimate_kms_per_year"] / table["sk_dv_kms_per_year"])
+    fig = figures.estimate_vs_closed_loop(table, title="t")
+    designs = [t for t in fig.data if t.mode == "markers"]
+    assert sum(len(t.x) for t in designs) == 3                 # the lost design is out, the zero-cost one is in
+    (zero,) = [t for t in designs if "drawn at the floor" in t.name]
+    assert zero.name == "ELFO: 1 at zero, drawn at the floor" and zero.marker.symbol.endswith("-open")
+    assert zero.x[0] == 0.1 / 2 and all(v > 0 for t in designs for v in list(t.x) + list(t.y))
 
 
 def test_convergence_says_when_nothing_was_feasible():

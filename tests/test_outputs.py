@@ -128,3 +128,19 @@ def test_cached_json_computes_once_per_inputs_code_and_data(tmp_path, monkeypatc
         path.write_text('{"torn')                                         # a damaged file is computed again
     assert outputs.cached_json(tmp_path, "row", ["hash", [1.0, 2]], compute)[1] is False and len(calls) == 4
     assert outputs.cached_json(None, "row", ["hash"], compute) == (compute(), False)
+
+
+def test_notebook_tables_show_labels_and_each_quantitys_format():
+    import numpy as np
+    import pandas as pd
+
+    from lnss_lib.outputs import reader_html
+
+    frame = pd.DataFrame({"pdop_mean_3sigma": [2.123456, np.nan], "n_sat": [12.0, 8.0],
+                          "dv_total_kms_per_year": [0.2534567, 1.0], "why": ["a", "b"]})
+    page = reader_html(frame)
+    assert "<th>PDOP (3-sigma mean)</th>" in page and "<th>satellites</th>" in page and "pdop_mean_3sigma" not in page
+    assert "<td>2.12</td>" in page and "<td>-</td>" in page and "<td>12</td>" in page and "<td>0.253</td>" in page
+    with pd.option_context("display.max_rows", 1):
+        assert "first 1 of 2 rows" in reader_html(frame) and "<td>8</td>" not in reader_html(frame)
+    assert "<td>1</td>" in reader_html(pd.DataFrame([[1.0, 2.0]], columns=["x", "x"]))   # duplicate names still shown

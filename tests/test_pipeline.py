@@ -109,7 +109,7 @@ def test_findings_are_generated_from_the_outputs_and_open_the_index(outputs):
     assert page.index("07_fig8_") < page.index("07_fig9_") < page.index("07_fig10_")   # natural order
     markdown = (outputs / "t" / findings.FINDINGS_FILE).read_text()
     pdop = TABLE_4["pdop_mean_3sigma"]
-    row = next(line for line in markdown.splitlines() if label("pdop_mean_3sigma") in line)
+    row = next(line for line in markdown.splitlines() if line.startswith("| Table 4") and label("pdop_mean_3sigma") in line)
     assert f"| {format_value('pdop_mean_3sigma', pdop)} | {format_value('pdop_mean_3sigma', 1.25 * pdop)} (+25.0 %)" in row
     assert "reason for pdop_mean_3sigma" in row and "figures/05_fig4_dop_time_series.html" in row
     # the campaign: two designs meet both bounds, the smallest has 8 satellites and its own Delta-V

@@ -96,6 +96,7 @@ def test_comparison_catalogue_and_per_satellite_tables(profile):
     first = catalogue[0]["tle_epoch_utc"]
     assert days.iloc[0]["days_back_from_tle"] == pytest.approx((first - dt.datetime(2025, 5, 1)).total_seconds() / 86400.0)
     assert isinstance(days.iloc[0]["launch_date"], str)
+    assert days.iloc[0]["tle_epoch_utc"] == first.strftime("%Y-%m-%d %H:%M:%S")        # to the second
     t = tdb_seconds(profile.epoch.start_tdb) + 900.0 * np.arange(6)
     states = gps.gps_states_mci(profile.gps, profile.epoch.start_tdb, t)
     ang = np.linspace(0.0, 1.0, t.size)

@@ -63,7 +63,7 @@ KERNEL_DESIGNS = 4             # designs of the short run whose right-hand sides
 EVALUATION_DESIGNS = 30        # designs whose whole campaign evaluation is timed before and after
 HISTORY_TAIL = 20              # generations of a run whose mean evaluated count stands for its unrun generations
 ROUNDOFF_RTOL = 1e-6           # hypervolume agreement that marks the same designs where the kernels are compiled for
-                               # another processor model: its round-off moved metrics by up to 2e-7 relative (README,
+                               # another processor model: its round-off moved metrics by up to 2e-7 relative (docs/NOTES.md,
                                # Notes for developers); a different design moves the hypervolume by far more
 SHORT_GENERATIONS = 8          # generations of the short run when the profile has no shipped results
 PACE_GENERATIONS = 30          # generations of the short run when it repeats a shipped run: the pace is measured on 2-30

@@ -142,7 +142,7 @@ def _warn_if_other_kernel_cpu(run_dir: Path, run: dict) -> None:
     if recorded is not None and recorded != here:
         warnings.warn(f"{run_dir} started with kernels compiled for {recorded}; here they are compiled for "
                       f"{here}: the designs evaluated from now on (and those of its journal asked for again) differ "
-                      "from an uninterrupted run's by round-off (README, Notes for developers)", RuntimeWarning,
+                      "from an uninterrupted run's by round-off (docs/NOTES.md, Notes for developers)", RuntimeWarning,
                       stacklevel=3)
 
 

@@ -1,8 +1,8 @@
 """Figure builders (plotly) and the one place figures are written to disk.
 
 Builders take datasets and return ``plotly.graph_objects.Figure``; notebooks call them and
-:func:`save_figure`, which writes interactive HTML that opens offline and a PNG when kaleido finds a
-Chromium. One module per topic: :mod:`.charts` (generic lines and bars), :mod:`.propagation`,
+:func:`save_figure`, which writes interactive HTML that opens offline and a PNG (kaleido's bundled
+renderer: no browser to install). One module per topic: :mod:`.charts` (generic lines and bars), :mod:`.propagation`,
 :mod:`.dop` (notebook 02), :mod:`.gps` (03), :mod:`.deltav` (04), :mod:`.campaign` (06),
 :mod:`.pareto` (07), :mod:`.validation` (06-07), :mod:`.design_life` and :mod:`.frozen` (08), :mod:`.benchmark` (10), and :mod:`.export` (HTML and PNG writing). Figures import only foundations,
 :mod:`lnss_lib.outputs`, plotly and numpy: they receive datasets, never run studies or campaigns.
@@ -17,16 +17,17 @@ from .deltav import (deltav_elements_and_rates, deltav_sampling, deltav_singular
                      lsq_recovery_series, thrust_history)
 from .dop import (DOP_MAP_PANELS, POLE_AXES, dop_grid_points, dop_polar_maps, dop_time_series, dop_time_series_by_frame,
                   polar_wedges)
-from .export import NOTEBOOK_RENDERER, PNG_ENV, NotebookRenderer, chromium_path, figure_title, save_figure, use_notebook_renderer
+from .export import NOTEBOOK_RENDERER, PNG_ENV, NotebookRenderer, figure_title, local_plotlyjs, save_figure, use_notebook_renderer
 from .frozen import frozen_family_chart, perilune_envelope
 from .gps import (GPS_SENSITIVITY_GROUPS, cn0_vs_off_boresight, gnss_visibility_pdop, gps_sensitivity_scatter,
                   gps_view_from_lnss, gps_visibility_pdop, gps_visibility_pdop_vs_paper, gps_visible_links, off_boresight_geometry)
 from .pareto import LABELS, dop_against_availability, pareto_3d, variable_relationships
 from .propagation import constellation_3d, elements_history
+from ..outputs import use_reader_tables
 from .validation import front_estimate_vs_closed_loop, headline_chart, size_chart
 
 __all__ = [
-    "save_figure", "figure_title", "chromium_path", "PNG_ENV", "NOTEBOOK_RENDERER", "NotebookRenderer",
+    "save_figure", "figure_title", "local_plotlyjs", "PNG_ENV", "NOTEBOOK_RENDERER", "NotebookRenderer",
     "use_notebook_renderer", "LABELS", "DOP_MAP_PANELS", "GPS_SENSITIVITY_GROUPS",
     "line_chart", "bar_chart", "days_since_start",
     "elements_history", "constellation_3d",
@@ -44,3 +45,4 @@ __all__ = [
 ]
 
 use_notebook_renderer()        # in a notebook kernel: figures keep a static copy (nbconvert, code hosts)
+use_reader_tables()            # and tables show labelled headers and each quantity's number format

@@ -9,6 +9,8 @@ import plotly.graph_objects as go
 from ..keys import label
 
 _COLOURS = {"controlled": "#1f77b4", "natural": "#d62728"}
+_DASHES = {"controlled": "solid", "natural": "dot"}          # where the runs coincide, both stay visible
+_SYMBOLS = {"controlled": "circle", "natural": "x-thin-open"}
 _REGION_SYMBOLS = ["circle", "square", "diamond", "triangle-up", "x", "cross"]
 
 
@@ -58,7 +60,8 @@ def maneuver_timeline(ds, *, title: str) -> go.Figure:
 
 
 def monthly_dop(nav, *, title: str) -> go.Figure:
-    """Month-by-month PDOP/HDOP availability and 3-sigma means (eq. 9-14), one line per run."""
+    """Month-by-month PDOP/HDOP availability and 3-sigma means (eq. 9-14), one line per run (solid and
+    dotted, with different markers, so a run that matches the other is still seen)."""
     from plotly.subplots import make_subplots
 
     panels = ("pdop_avail_pct", "hdop_avail_pct", "pdop_mean_3sigma", "hdop_mean_3sigma")
@@ -67,8 +70,10 @@ def monthly_dop(nav, *, title: str) -> go.Figure:
     for name in nav["run"].values:
         for k, key in enumerate(panels):
             fig.add_trace(go.Scatter(x=month, y=nav[key].sel(run=name).values, mode="lines+markers", name=str(name),
-                                     legendgroup=str(name), showlegend=k == 0,
-                                     line={"color": _COLOURS.get(str(name))}), row=k // 2 + 1, col=k % 2 + 1)
+                                     legendgroup=str(name), showlegend=k == 0, line={"color": _COLOURS.get(str(name)),
+                                                                                   "dash": _DASHES.get(str(name))},
+                                     marker={"symbol": _SYMBOLS.get(str(name)), "size": 8}),
+                          row=k // 2 + 1, col=k % 2 + 1)
     for k, key in enumerate(panels):
         if key.endswith("_pct"):     # bounded quantity on a fixed axis: 99.999... % is not a drop from 100 %
             fig.update_yaxes(range=[0, 102], row=k // 2 + 1, col=k % 2 + 1)
@@ -78,19 +83,34 @@ def monthly_dop(nav, *, title: str) -> go.Figure:
 
 
 def estimate_vs_closed_loop(table, *, title: str) -> go.Figure:
-    """Campaign-grade estimate against the closed-loop Delta-V (km/s per year), one marker per design, y = x dashed."""
-    fig = go.Figure()
-    ok = np.isfinite(table["ratio"].astype(float))
-    for k, (region, part) in enumerate(table[ok].groupby("region", sort=False)):
-        fig.add_trace(go.Scatter(x=part["sk_dv_kms_per_year"], y=part["sk_dv_estimate_kms_per_year"], mode="markers",
-                                 name=str(region), marker={"size": 10, "symbol": _REGION_SYMBOLS[k % len(_REGION_SYMBOLS)]},
-                                 text=[f"a {r.sma_km:g} e {r.ecc:g} i {r.inc_deg:g} AOP {r.aop_deg:g}"
-                                       for r in part.itertuples()],
-                                 hovertemplate="%{text}<br>closed %{x:.3g}, estimate %{y:.3g}<extra></extra>"))
-    values = table.loc[ok, ["sk_dv_kms_per_year", "sk_dv_estimate_kms_per_year"]].to_numpy(dtype=float)
+    """Campaign-grade estimate against the closed-loop Delta-V (km/s per year), one marker per design kept to the
+    end of its life, y = x dashed, log axes. A design that burned nothing (or is estimated at nothing) cannot sit on
+    a log axis: it is drawn open at the axis floor, half the smallest positive value, and the legend says so."""
+    closed = table["sk_dv_kms_per_year"].astype(float).to_numpy()
+    estimate = table["sk_dv_estimate_kms_per_year"].astype(float).to_numpy()
+    kept = np.isfinite(table["ratio"].astype(float).to_numpy()) | (
+        (closed == 0) & ~np.isfinite(table["impact_day"].astype(float).to_numpy()) & np.isfinite(estimate))
+    values = np.concatenate([closed[kept], estimate[kept]])
     positive = values[values > 0]
+    floor = positive.min() / 2.0 if positive.size else 1e-3
+    fig = go.Figure()
+    for k, region in enumerate(dict.fromkeys(table.loc[kept, "region"])):
+        rows = kept & (table["region"] == region).to_numpy()
+        for at_floor in (False, True):
+            part = rows & (((closed <= 0) | (estimate <= 0)) == at_floor)
+            if not part.any():
+                continue
+            symbol = _REGION_SYMBOLS[k % len(_REGION_SYMBOLS)]
+            fig.add_trace(go.Scatter(
+                x=np.maximum(closed[part], floor), y=np.maximum(estimate[part], floor), mode="markers",
+                name=f"{region}: {int(part.sum())} at zero, drawn at the floor" if at_floor else str(region),
+                marker={"size": 10, "symbol": f"{symbol}-open" if at_floor else symbol},
+                text=[f"a {r.sma_km:g} e {r.ecc:g} i {r.inc_deg:g} AOP {r.aop_deg:g}"
+                      for r in table[part].itertuples()],
+                customdata=np.column_stack([closed[part], estimate[part]]),
+                hovertemplate="%{text}<br>closed %{customdata[0]:.3g}, estimate %{customdata[1]:.3g}<extra></extra>"))
     if positive.size:
-        lo, hi = positive.min() / 2.0, positive.max() * 2.0
+        lo, hi = floor, positive.max() * 2.0
         fig.add_trace(go.Scatter(x=[lo, hi], y=[lo, hi], mode="lines", name="estimate = closed loop",
                                  line={"dash": "dash", "color": "grey"}))
     fig.update_layout(title=title, template="plotly_white", xaxis_title="closed loop, mean per satellite (km/s/yr)",

@@ -1,34 +1,40 @@
-"""Writing figures to disk: interactive HTML that works offline, and PNG through a system Chromium (kaleido).
+"""Writing figures to disk: interactive HTML that works offline, and PNG through kaleido's own renderer.
 
 :func:`save_figure` is the one place a figure is written: ``outputs/<profile>/figures/<name>.html``
-(plotly.js from one local ``plotly.min.js`` in the same folder, no CDN), ``<name>.png`` when kaleido
-finds a Chromium, and the caption sidecar the outputs index reads.
+(plotly.js from one local ``plotly.min.js`` in the same folder, no CDN), ``<name>.png``, and the caption
+sidecar the outputs index reads.
+
+PNGs come from kaleido 0.2.1, which ships its own headless Chromium inside the wheel: ``pip install`` is
+the whole set-up, no browser is installed or searched for, and nothing is fetched (the page loads the
+``plotly.min.js`` of the installed plotly and MathJax is off). Plotly 7's ``write_image`` accepts only
+kaleido 1.x, which drives a Chrome the user must install; so this module calls the 0.2.1 renderer itself.
 
 In a notebook kernel, figures are displayed by :class:`NotebookRenderer`: the plotly JSON (interactive in
-JupyterLab) with a static copy beside it for every other viewer (``nbconvert``, code-hosting sites): the
-PNG :func:`save_figure` drew, or HTML carrying plotly.js inline once per notebook when there is no Chromium.
+JupyterLab) with the PNG beside it for every other viewer (``nbconvert``, code-hosting sites), or HTML
+carrying plotly.js inline once per notebook when PNG export is switched off.
 """
 
 from __future__ import annotations
 
-import asyncio
 import atexit
 import base64
 import hashlib
 import os
 import re
-import threading
 import warnings
+from concurrent.futures import ThreadPoolExecutor
+from concurrent.futures import TimeoutError as FutureTimeout
 from pathlib import Path
 
+import plotly
 import plotly.graph_objects as go
 import plotly.io as pio
 from plotly.io._base_renderers import MimetypeRenderer, PlotlyRenderer
 
-from ..outputs import atomic_path, output_dir, write_bytes_atomic, write_caption
+from ..outputs import atomic_path, notebook_shell, output_dir, write_bytes_atomic, write_caption
 
 PNG_ENV = "LNSS_PNG"                 # set to "off" to skip PNG export (HTML only)
-PNG_TIMEOUT_S = 120.0                 # start-up of Chromium, and rendering of one figure
+PNG_TIMEOUT_S = 120.0                 # start-up of the renderer, and rendering of one figure
 _PNG_WARNED = False
 _EXPORTER = None
 NOTEBOOK_RENDERER = "lnss_notebook"
@@ -36,77 +42,49 @@ _PNG_BY_FIGURE: dict[str, bytes] = {}  # figure fingerprint -> the PNG save_figu
 _PLOTLYJS_SENT = False                  # the HTML fallback carried plotly.js in this kernel already
 
 
-def chromium_path() -> str | None:
-    """The Chrome/Chromium kaleido would use for PNG export, or None.
-
-    ``$BROWSER_PATH`` when set (and a file), else choreographer's search: Chrome/Chromium on
-    ``PATH`` and the usual install paths (Debian's ``chromium`` package gives ``/usr/bin/chromium``).
-    Nothing is downloaded.
-    """
-    override = os.environ.get("BROWSER_PATH")
-    if override:
-        return override if Path(override).is_file() else None
-    from choreographer.browsers.chromium import Chromium
-
-    return Chromium.find_browser(skip_local=False)
+def local_plotlyjs() -> Path:
+    """The ``plotly.min.js`` installed with plotly (the one the HTML figures copy beside them)."""
+    return Path(plotly.__file__).parent / "package_data" / "plotly.min.js"
 
 
 class _PngExporter:
-    """One headless Chromium (kaleido) kept open for the whole process: about 2 s a figure instead of
-    about 7 s for a fresh browser each time. Every call has a time limit, so a broken browser can
-    only cost one timeout; MathJax is off, so the page needs no network."""
+    """One kaleido renderer kept open for the whole process (its start-up costs a few seconds, a figure
+    then a fraction of one). Every call has a time limit: a renderer that stops answering is shut down,
+    so it can only cost one timeout."""
 
-    def __init__(self, browser: str) -> None:
-        import kaleido
+    def __init__(self) -> None:
+        from kaleido.scopes.plotly import PlotlyScope
 
         self.pid = os.getpid()
-        self._loop = asyncio.new_event_loop()
-        self._thread = threading.Thread(target=self._loop.run_forever, name="lnss-png-export", daemon=True)
-        self._thread.start()
-
-        async def open_browser():
-            k = kaleido.Kaleido(path=browser, mathjax=False, timeout=PNG_TIMEOUT_S)
-            await k.open()
-            return k
-
-        try:
-            self._kaleido = self._run(open_browser())
-        except BaseException:
-            self._loop.call_soon_threadsafe(self._loop.stop)
-            raise
+        self._scope = PlotlyScope(plotlyjs=str(local_plotlyjs()), mathjax=False)
+        self._worker = ThreadPoolExecutor(max_workers=1, thread_name_prefix="lnss-png-export")
         atexit.register(self.close)
-
-    def _run(self, coroutine):
-        return asyncio.run_coroutine_threadsafe(coroutine, self._loop).result(timeout=PNG_TIMEOUT_S)
 
     def png(self, fig: go.Figure, width: int, height: int) -> bytes:
         """PNG bytes of ``fig`` at ``width`` x ``height`` pixels."""
-        return self._run(self._kaleido.calc_fig(fig.to_plotly_json(),
-                                                opts={"format": "png", "width": width, "height": height}))
+        job = self._worker.submit(self._scope.transform, fig.to_plotly_json(), format="png", width=width,
+                                  height=height)
+        try:
+            return job.result(timeout=PNG_TIMEOUT_S)
+        except FutureTimeout:
+            self._scope._proc.kill()     # ends the blocked read in the worker; the scope holds its lock
+            raise TimeoutError(f"no PNG after {PNG_TIMEOUT_S:.0f} s") from None
 
     def close(self) -> None:
-        """Close the browser and stop the event loop (registered with ``atexit``)."""
-        try:
-            self._run(self._kaleido.close())
-        except BaseException:
-            pass
-        self._loop.call_soon_threadsafe(self._loop.stop)
+        """Stop the renderer's process (registered with ``atexit``)."""
+        self._scope._shutdown_kaleido()
+        self._worker.shutdown(wait=False)
 
 
 def _png_unavailable(reason: str) -> None:
     global _PNG_WARNED
     if not _PNG_WARNED:
-        warnings.warn(
-            f"PNG export skipped ({reason}); HTML written. For PNG figures install Chromium "
-            "(Debian/Ubuntu: apt-get install chromium) or point BROWSER_PATH at a Chrome/Chromium executable.",
-            RuntimeWarning,
-            stacklevel=3,
-        )
+        warnings.warn(f"PNG export skipped ({reason}); HTML written.", RuntimeWarning, stacklevel=3)
         _PNG_WARNED = True
 
 
 def _png_bytes(fig: go.Figure, width: int, height: int) -> bytes | None:
-    """PNG bytes of ``fig`` from a persistent kaleido browser; None (one warning) when not possible."""
+    """PNG bytes of ``fig`` from a persistent kaleido renderer; None (one warning) when not possible."""
     global _EXPORTER
     if os.environ.get(PNG_ENV, "").lower() in ("off", "0", "no", "false"):
         _png_unavailable(f"{PNG_ENV}={os.environ[PNG_ENV]}")
@@ -115,14 +93,9 @@ def _png_bytes(fig: go.Figure, width: int, height: int) -> bytes | None:
         return None
     try:
         if _EXPORTER is None or _EXPORTER.pid != os.getpid():
-            browser = chromium_path()
-            if browser is None:
-                _EXPORTER = "unavailable"
-                _png_unavailable("no Chrome/Chromium found")
-                return None
-            _EXPORTER = _PngExporter(browser)
+            _EXPORTER = _PngExporter()
         return _EXPORTER.png(fig, width, height)
-    except Exception as error:  # kaleido and choreographer raise several types when the browser fails
+    except Exception as error:  # the renderer reports a failed figure or a dead process as several types
         _EXPORTER = "unavailable"
         _png_unavailable(f"{type(error).__name__}: {error}")
         return None
@@ -135,7 +108,7 @@ def _fingerprint(fig_dict: dict) -> str:
 class NotebookRenderer(MimetypeRenderer):
     """Plotly JSON (interactive where a plotly renderer exists, as in JupyterLab) and a static copy for
     every other viewer: the PNG :func:`save_figure` drew (or one drawn now at ``width`` x ``height``), or,
-    without a Chromium, HTML whose first figure in the kernel carries plotly.js inline (no CDN; the renderer
+    with PNG export off, HTML whose first figure in the kernel carries plotly.js inline (no CDN; the renderer
     is copied per display, so that state is the module's)."""
 
     def __init__(self, width: int = 1000, height: int = 600) -> None:
@@ -157,12 +130,7 @@ class NotebookRenderer(MimetypeRenderer):
 
 def use_notebook_renderer() -> bool:
     """Make :class:`NotebookRenderer` plotly's default when running in a notebook kernel; True if it did."""
-    try:
-        from IPython import get_ipython
-    except ImportError:
-        return False
-    shell = get_ipython()
-    if shell is None or not hasattr(shell, "kernel"):
+    if notebook_shell() is None:
         return False
     if NOTEBOOK_RENDERER not in pio.renderers:
         pio.renderers[NOTEBOOK_RENDERER] = NotebookRenderer()
@@ -191,8 +159,8 @@ def save_figure(fig: go.Figure, profile_name: str, name: str, *, width: int = 10
     """Write ``fig`` as ``outputs/<profile>/figures/<name>.html`` and ``.png``; return the written paths.
 
     The HTML loads plotly.js from ``plotly.min.js`` beside it (written once per folder), so figures open
-    with no network. PNG export needs kaleido and a Chromium (Debian package ``chromium``; see
-    :func:`chromium_path`); without one the HTML is still written and one warning says how to get PNGs.
+    with no network. The PNG comes from kaleido's bundled renderer; when it fails (or ``LNSS_PNG=off``) the
+    HTML is still written and one warning says why.
     ``caption`` (default: the figure's title) goes to the sidecar ``<name>.meta.json`` that
     :func:`lnss_lib.pipeline.write_index` reads.
     """

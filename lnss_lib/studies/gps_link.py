@@ -58,7 +58,8 @@ def catalogue_table(catalogue: list[dict], start_tdb: str) -> pd.DataFrame:
     start = pd.Timestamp(start_tdb[:10])
     out = pd.DataFrame(catalogue)
     out["days_back_from_tle"] = [(pd.Timestamp(e) - start).total_seconds() / SECONDS_PER_DAY for e in out["tle_epoch_utc"]]
-    return out.astype({"launch_date": str, "tle_epoch_utc": str})
+    out["tle_epoch_utc"] = [pd.Timestamp(e).strftime("%Y-%m-%d %H:%M:%S") for e in out["tle_epoch_utc"]]  # to the second
+    return out.astype({"launch_date": str})
 
 
 def link_budget_table(gps: GpsSettings, theta_off_deg, distance_km: float, **overrides) -> pd.DataFrame:

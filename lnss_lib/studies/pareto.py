@@ -47,16 +47,16 @@ __all__ = ["load_campaign", "parse_constraints", "satisfies", "pareto_front", "t
 # physics puts it (issue 23 item 1(b); params/paper_dv_physical.toml states the value and its derivation)
 PHYSICAL_BOUND_PROFILES = {"paper": "paper_dv_physical"}
 
-DIFFERENCE_CAUSES = {   # why the workbook's front differs from the paper's text (../shared/paper/NOTES.md)
+DIFFERENCE_CAUSES = {   # why the workbook's front differs from the paper's text, and the notebook that shows it
     "dv_opt_kms_per_year": "the workbook's Delta-V is the least-squares inverse of all five GVEs, which recovers the "
                            "perturbing acceleration; the paper's eq. 26-35 carry misprints and singular points it caps "
-                           "(NOTES.md, station-keeping Delta-V)",
+                           "(notebook 04)",
     "dv_total_kms_per_year": "as for Delta-V_opt: the least-squares GVE inverse against the paper's capped eq. 30-35",
     "gps_pdop_mean": "the noise temperature and the sidelobe level are not given in the paper, and the count of visible "
                      "GPS satellites switches sharply with them; a straightforward link gives about a tenth of the "
-                     "paper's PDOP (NOTES.md, GPS-LNSS integration; notebook 03)",
-    "hdop_mean_3sigma": "HDOP axes: the paper's literal eq. 5-8 (Moon-fixed x-y, as here) against East-North-Up (NOTES.md, "
-                        "frames); the navigation metrics reproduce Table 4 within 5 % (notebook 05), so the range moves "
+                     "paper's PDOP (notebook 03)",
+    "hdop_mean_3sigma": "HDOP axes: the paper's literal eq. 5-8 (Moon-fixed x-y, as here) against East-North-Up (notebook "
+                        "02); the navigation metrics reproduce Table 4 within 5 % (notebook 05), so the range moves "
                         "with the designs the Delta-V bound admits",
     "ecc": "the designs the search keeps follow the Delta-V model (higher e costs more under the GVE inverse)",
     "n_sat": "the satellites a design needs for the coverage do not depend on the Delta-V model, but which designs "
