@@ -16,7 +16,7 @@ from __future__ import annotations
 import numba as nb
 import numpy as np
 
-from .config import PDOP_FILTERS
+from .sections import PDOP_FILTERS
 
 __all__ = ["SINGULAR_RTOL", "PDOP_FILTERS", "normal_matrix_entries", "block_inverse", "position_block_inverse",
            "weighted_dop_stats", "sigma_filtered_mean", "availability_pct", "filtered_mean"]

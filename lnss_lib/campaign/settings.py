@@ -16,7 +16,8 @@ from collections.abc import Mapping
 from dataclasses import dataclass, field
 
 from ..config import CAMPAIGN_OFF as OFF
-from ..config import EVALUATORS, NOTEBOOK_MODES, profile_hash
+from ..config import legacy_spelling, profile_hash
+from ..sections import EVALUATORS, NOTEBOOK_MODES
 from ..settings import CampaignSettings, Settings, profile_data
 from ..keys import METRIC_KEYS, VERDICT_KEYS, bound_text, format_value, label
 from .fitness import constraint_matrix
@@ -123,8 +124,8 @@ def evaluation_hash(settings: Settings | Mapping) -> str:
     (``campaign.variables``), ``campaign.overrides`` and ``campaign.evaluator`` stay in. ``settings``: checked
     settings, or the profile dict a run folder stored (compared as it is, not validated again).
     """
-    profile = profile_data(settings)
-    content = {k: v for k, v in profile.items() if k not in NON_EVALUATION_SECTIONS}   # profile_data copied
+    profile = legacy_spelling(profile_data(settings))    # the keys of the fingerprint, while every section is here
+    content = {k: v for k, v in profile.items() if k not in NON_EVALUATION_SECTIONS}
     for key in CAMPAIGN_ONLY_KEYS:
         content.get("campaign", {}).pop(key, None)
     return profile_hash(content)
@@ -155,7 +156,7 @@ def run_differences(run: Settings | Mapping, settings: Settings | Mapping, limit
     run_hash, hash_ = _hash(run), _hash(settings)
     if run_hash == hash_:
         return []
-    run_profile, profile = profile_data(run), profile_data(settings)
+    run_profile, profile = (legacy_spelling(profile_data(p)) for p in (run, settings))   # keys of one spelling
     reasons = []
     run_evaluator, evaluator = (p.get("campaign", {}).get("evaluator") for p in (run_profile, profile))
     if run_evaluator != evaluator:

@@ -64,7 +64,7 @@ import xarray as xr
 from scipy.integrate import solve_ivp
 from scipy.interpolate import CubicSpline
 
-from ..config import STABILITY_BODIES
+from ..sections import STABILITY_BODIES
 from ..constants import SECONDS_PER_DAY
 from ..elements import eccentricity_vector, vis_viva_sma_km
 from ..ephemeris import body_states_mci, ensure_kernels, rotation, tdb_seconds

@@ -181,7 +181,7 @@ def element_frame_table(deltav: DeltaVSettings, dynamics: Dynamics, ds: xr.Datas
     """Budgets of every model of satellite ``sat`` with the GVE elements taken in each element frame."""
     rows = {}
     for frame in ELEMENT_FRAMES:
-        r = deltav_from_propagation(deltav, dynamics, ds, sat=sat, element_frame=frame)
+        r = deltav_from_propagation(deltav, dynamics, ds, sat=sat, gve_frame=frame)
         rows[frame] = {**{f"{m} total": r["dv_total_kms_per_year"].sel(model_all=m).item() for m in MODELS},
                        **{f"{m} opt": r["dv_opt_kms_per_year"].sel(model_all=m).item() for m in OSCULATING_MODELS}}
     return pd.DataFrame(rows).T
