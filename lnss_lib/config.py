@@ -31,11 +31,13 @@ from pathlib import Path
 from typing import Any
 
 from .constants import INTEGER_SETTING_MAX, MAX_GRID_POINTS, SECONDS_PER_DAY
+from .dates import ISO_DATE_FORMAT, ISO_FORMAT, is_iso_date
 from .errors import ConfigError
 from .keys import (DESIGN_KEYS, INTEGER_DESIGN_KEYS, LIFE_NAVIGATION_KEYS, METRIC_KEYS, NAVIGATION_ERROR_KEYS,
                    NEEDS_ALL_SATELLITES)
 from .sections import (CR_AREA_MASS, CR_AREA_MASS_WHY, GNSS_SYSTEMS, SEMI_MAJOR_AXIS, SEMI_MAJOR_AXIS_WHY,
-                       ProfileSections, Rule, allowed_range_text, in_range, rule_of)
+                       LEGACY_KEYS, ProfileSections, Rule, allowed_range_text, in_range, legacy_spelling,
+                       rule_of)
 
 PACKAGE_DIR = Path(__file__).resolve().parent
 PROJECT_DIR = PACKAGE_DIR.parent
@@ -211,45 +213,10 @@ REFERENCE_PROFILE = "paper"    # the root of every profile: its values fill a se
 PROFILE_SCHEMA = ProfileSections   # every key, its type and its rule (lnss_lib.sections)
 
 
-ISO_DATE_FORMAT = "YYYY-MM-DD"
-ISO_FORMAT = ("YYYY-MM-DDTHH:MM:SS (ISO 8601; seconds and a fraction .fff optional, a bare date YYYY-MM-DD is "
-              "midnight; no zone such as Z or +05:00: the time scale is given apart)")
-_ISO = re.compile(r"(\d{4})-(\d{2})-(\d{2})(?:T(\d{2}):(\d{2})(?::(\d{2})(?:\.(\d{1,9}))?)?)?")
-_ZONE = re.compile(r"T.*(Z|[+-]\d{2}(:?\d{2})?)$")
-
-
-def parse_iso_date(text, what: str = "date", *, date_only: bool = False) -> dt.datetime:
-    """The one reader of calendar dates (``--epoch-tdb``, profile epochs, constellation files): ``text`` in the
-    strict ISO 8601 form :data:`ISO_FORMAT` (:data:`ISO_DATE_FORMAT` with ``date_only``) as a naive datetime (the
-    fraction beyond microseconds dropped). Anything else, a zone included (a time scale is never a zone), raises
-    ConfigError naming ``what``, the text and the expected format: ``01-05-2025`` or ``1/5/2025`` are never read
-    as some day."""
-    expected = ISO_DATE_FORMAT if date_only else ISO_FORMAT
-    match = _ISO.fullmatch(text) if isinstance(text, str) else None
-    if match is None or (date_only and match.group(4) is not None):
-        zone = isinstance(text, str) and not date_only and _ZONE.search(text) is not None
-        raise ConfigError(f"{what} {text!r} is not " + ("a date with a zone, which is not allowed; expected "
-                                                         if zone else "an ISO 8601 date; expected ") + expected)
-    fields = [int(value) if value else 0 for value in match.groups()[:6]]
-    fraction = match.group(7) or ""
-    try:
-        return dt.datetime(*fields, int((fraction + "000000")[:6]))
-    except ValueError as error:
-        raise ConfigError(f"{what} {text!r} is no calendar date and time ({error}); expected {expected}") from None
-
-
-def _is_iso_date(text, date_only: bool = False) -> bool:
-    try:
-        parse_iso_date(text, date_only=date_only)
-    except ConfigError:
-        return False
-    return True
-
-
 ISO_TEXT = f"an ISO 8601 date and time, {ISO_FORMAT} (e.g. 2025-05-01T00:00:00)"
 FORMS = {      # an open set of text values (Rule.form) -> (test, what is allowed)
-    "iso_datetime": (_is_iso_date, ISO_TEXT),
-    "launch_cutoff": (lambda v: v in ("epoch", "none") or _is_iso_date(v, date_only=True),
+    "iso_datetime": (is_iso_date, ISO_TEXT),
+    "launch_cutoff": (lambda v: v in ("epoch", "none") or is_iso_date(v, date_only=True),
                       f"'epoch', 'none' or an ISO 8601 date {ISO_DATE_FORMAT} (e.g. 2025-05-30)"),
     "designator": (lambda v: re.fullmatch(r"(\d{4}-\d{3}[A-Z]{0,3})?", v) is not None,
                    '"" (off) or an international designator YYYY-NNN'),
@@ -258,9 +225,7 @@ FORMS = {      # an open set of text values (Rule.form) -> (test, what is allowe
 }
 
 
-@functools.cache
-def _hints(cls) -> dict:
-    return typing.get_type_hints(cls)
+_hints = functools.cache(typing.get_type_hints)     # field types of a section class, resolved once
 
 
 def _schema_fields(cls) -> dict:
@@ -299,24 +264,13 @@ def _reference() -> dict:
     return read_toml(PARAMS_DIR / f"{REFERENCE_PROFILE}.toml")
 
 
+KIND_OF_TYPE = {bool: "a boolean (true or false)", int: "an integer", float: "a number", str: "a string",
+                list: "a list", dict: "a table"}
+
+
 def _kind(value) -> str:
     """A value's kind in words, for messages."""
-    if isinstance(value, bool):
-        return "a boolean (true or false)"
-    if isinstance(value, int):
-        return "an integer"
-    if isinstance(value, float):
-        return "a number"
-    if isinstance(value, str):
-        return "a string"
-    if isinstance(value, list):
-        return "a list"
-    if isinstance(value, dict):
-        return "a table"
-    return type(value).__name__
-
-
-KIND_OF_TYPE = {bool: "a boolean (true or false)", int: "an integer", float: "a number", str: "a string"}
+    return KIND_OF_TYPE.get(type(value), type(value).__name__)
 
 
 def _expected(hint) -> str:
@@ -731,66 +685,6 @@ def with_absent_sections(profile: dict) -> dict:
     for section in OFF_WHEN_ABSENT:
         profile.setdefault(section, copy.deepcopy(_reference()[section]))
     return profile
-
-
-LEGACY_KEYS = {
-    "stability.life_days": "stability.span_days",
-    "sk_estimate.element_frame": "sk_estimate.arc_frame",
-    "deltav.element_frame": "deltav.gve_frame",
-    "sk_estimate.year_days": "deltav.year_days",
-}
-"""Keys of profiles stored before each quantity had one key (run folders' ``run.json``, the shipped results) ->
-the key that holds the quantity now. The screen's span is the design life unless set apart (``span_days``, 0:
-``[design_life] life_days``); the arc estimate's box and the GVEs read their elements in frames of their own, named
-so, and the design's elements are ``[frames] element_frame`` alone; the year of every per-year figure is
-``[deltav] year_days``. :func:`migrate_legacy` reads a stored profile in today's keys; :func:`profile_hash` spells a
-profile in the stored keys, so a stored profile and today's same settings share one fingerprint."""
-FOLLOWS = {"stability.span_days": "design_life.life_days"}   # an override at 0 takes this key's value
-OLD_KEYS_KEPT = {new for old, new in LEGACY_KEYS.items() if old.split(".")[-1] == new.split(".")[-1]}   # one key now
-
-
-def _pop(profile: dict, key: str):
-    section, name = key.split(".")
-    return profile.get(section, {}).pop(name, None)
-
-
-def _put(profile: dict, key: str, value) -> None:
-    section, name = key.split(".")
-    profile.setdefault(section, {})[name] = value
-
-
-def migrate_legacy(profile: dict) -> dict:
-    """``profile`` (changed in place) with every key of :data:`LEGACY_KEYS` it holds moved to today's key; an
-    override equal to the value it follows (:data:`FOLLOWS`) becomes 0. ConfigError when two old keys of one
-    quantity disagree (a stored profile today's keys cannot spell)."""
-    for old, new in LEGACY_KEYS.items():
-        value = _pop(profile, old)
-        if value is None:
-            continue
-        if new in FOLLOWS and value == _lookup(profile, FOLLOWS[new]):
-            value = 0.0
-        kept = _lookup(profile, new)
-        if new in OLD_KEYS_KEPT and kept is not None and kept != value:
-            raise ConfigError(f"stored profile: {old} = {value!r} and {new} = {kept!r} are one quantity with two "
-                              f"values; it cannot be read in one key", key=old)
-        _put(profile, new, value)
-    return profile
-
-
-def legacy_spelling(profile: dict) -> dict:
-    """A copy of a complete ``profile`` in the keys of :data:`LEGACY_KEYS` (what :func:`profile_hash` fingerprints):
-    the inverse of :func:`migrate_legacy`; a profile already so spelled comes back unchanged."""
-    content = copy.deepcopy(profile)
-    for old, new in LEGACY_KEYS.items():
-        value = _lookup(content, new)
-        if value is None or _lookup(content, old) is not None:
-            continue
-        if new in FOLLOWS and value == 0:
-            value = _lookup(content, FOLLOWS[new])
-        _put(content, old, value)
-        if new not in OLD_KEYS_KEPT:
-            _pop(content, new)
-    return content
 
 
 def profile_hash(profile: dict) -> str:

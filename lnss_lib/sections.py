@@ -19,6 +19,7 @@ its tuple from here.
 
 from __future__ import annotations
 
+import copy
 import dataclasses
 from collections.abc import Mapping
 from dataclasses import dataclass, field
@@ -574,3 +575,72 @@ class ProfileSections:
     life_evaluation: LifeEvaluationSettings
     life_navigation: LifeNavigationSettings
     front_validation: FrontValidationSettings
+
+
+# --- keys of profiles stored before each quantity had one key ------------------------------------------
+
+LEGACY_KEYS = {
+    "stability.life_days": "stability.span_days",
+    "sk_estimate.element_frame": "sk_estimate.arc_frame",
+    "deltav.element_frame": "deltav.gve_frame",
+    "sk_estimate.year_days": "deltav.year_days",
+}
+"""Keys of profiles stored before each quantity had one key (run folders' ``run.json``, the shipped results)
+-> the key that holds the quantity now. The screen's span is the design life unless set apart (``span_days``,
+0: ``[design_life] life_days``); the arc estimate's box and the GVEs read their elements in frames of their own,
+named so, and the design's elements are ``[frames] element_frame`` alone; the year of every per-year figure is
+``[deltav] year_days``. :func:`migrate_legacy` reads a stored profile in today's keys;
+:func:`lnss_lib.config.profile_hash` spells a profile in the stored keys, so a stored profile and today's same
+settings share one fingerprint."""
+FOLLOWS = {"stability.span_days": "design_life.life_days"}   # an override at 0 takes this key's value
+OLD_KEYS_KEPT = {new for old, new in LEGACY_KEYS.items() if old.split(".")[-1] == new.split(".")[-1]}   # one key now
+
+
+def _value_at(profile: dict, key: str):
+    """The value at dotted ``key`` (section.name), or None where it is absent."""
+    section, name = key.split(".")
+    return profile.get(section, {}).get(name)
+
+
+def _pop(profile: dict, key: str):
+    section, name = key.split(".")
+    return profile.get(section, {}).pop(name, None)
+
+
+def _put(profile: dict, key: str, value) -> None:
+    section, name = key.split(".")
+    profile.setdefault(section, {})[name] = value
+
+
+def migrate_legacy(profile: dict) -> dict:
+    """``profile`` (changed in place) with every key of :data:`LEGACY_KEYS` it holds moved to today's key; an
+    override equal to the value it follows (:data:`FOLLOWS`) becomes 0. ConfigError when two old keys of one
+    quantity disagree (a stored profile today's keys cannot spell)."""
+    for old, new in LEGACY_KEYS.items():
+        value = _pop(profile, old)
+        if value is None:
+            continue
+        if new in FOLLOWS and value == _value_at(profile, FOLLOWS[new]):
+            value = 0.0
+        kept = _value_at(profile, new)
+        if new in OLD_KEYS_KEPT and kept is not None and kept != value:
+            raise ConfigError(f"stored profile: {old} = {value!r} and {new} = {kept!r} are one quantity with two "
+                              f"values; it cannot be read in one key", key=old)
+        _put(profile, new, value)
+    return profile
+
+
+def legacy_spelling(profile: dict) -> dict:
+    """A copy of a complete ``profile`` in the keys of :data:`LEGACY_KEYS` (what :func:`lnss_lib.config.profile_hash` fingerprints):
+    the inverse of :func:`migrate_legacy`; a profile already so spelled comes back unchanged."""
+    content = copy.deepcopy(profile)
+    for old, new in LEGACY_KEYS.items():
+        value = _value_at(content, new)
+        if value is None or _value_at(content, old) is not None:
+            continue
+        if new in FOLLOWS and value == 0:
+            value = _value_at(content, FOLLOWS[new])
+        _put(content, old, value)
+        if new not in OLD_KEYS_KEPT:
+            _pop(content, new)
+    return content

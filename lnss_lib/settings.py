@@ -30,8 +30,7 @@ from collections.abc import Mapping
 from dataclasses import dataclass, field
 from typing import Any
 
-from .config import (deep_merge, load_profile, migrate_legacy, profile_hash, toml_literal, validate_profile,
-                     with_absent_sections)
+from .config import deep_merge, load_profile, profile_hash, toml_literal, validate_profile, with_absent_sections
 from .errors import ConfigError
 from .sections import (  # the sections, importable from here as they always were
     ProfileInfo, EpochSettings, SpacecraftSettings, GravitySettings, ForceSettings, BodyConstants,
@@ -41,6 +40,7 @@ from .sections import (  # the sections, importable from here as they always wer
     NavigationErrorSettings, VariableBounds, CampaignSettings, StabilitySettings,
     SkEstimateSettings, BoxSettings, ServiceSettings, DesignLifeSettings, BenchmarkSettings,
     LifeEvaluationSettings, LifeNavigationSettings, FrontValidationSettings, ProfileSections,
+    migrate_legacy,
     rule_of,
 )
 
@@ -182,7 +182,7 @@ def _with_derived(section, profile: Mapping):
 
 def settings_from_profile(profile: Mapping) -> Settings:
     """Settings of a merged profile dict (as :func:`lnss_lib.config.load_profile` returns, or as a run folder stored
-    it, read in today's keys by :func:`lnss_lib.config.migrate_legacy`), checked again."""
+    it, read in today's keys by :func:`lnss_lib.sections.migrate_legacy`), checked again."""
     profile = migrate_legacy(with_absent_sections(_thawed(profile)))   # a fresh copy of every table and list
     validate_profile(profile)
     sections = {item.name: _with_derived(_build(_hints(Settings)[item.name], profile[item.name], item.name), profile)

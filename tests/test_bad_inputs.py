@@ -658,8 +658,8 @@ OPEN_TEXT = {"profile.name", "profile.description", "gravity.file", "ephemeris.k
 def _text_keys(table: dict, prefix: str = "", rule: str = ""):
     for name, value in table.items():
         key, rule_key = f"{prefix}{name}", ("integrator.settings.*" if rule == "integrator.settings." else f"{rule}{name}")
-        rule = RULES.get(rule_key)          # None for a named entry ("integrator.settings.*")
-        if isinstance(value, dict) and not (rule and (rule.free or rule.sections)):
+        table_rule = RULES.get(rule_key)          # None for a named entry ("integrator.settings.*")
+        if isinstance(value, dict) and not (table_rule and (table_rule.free or table_rule.sections)):
             yield from _text_keys(value, f"{key}.", f"{rule_key}.")
         elif isinstance(value, str) or (isinstance(value, list) and value and all(isinstance(v, str) for v in value)):
             yield key, rule_key

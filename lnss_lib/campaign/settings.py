@@ -16,8 +16,8 @@ from collections.abc import Mapping
 from dataclasses import dataclass, field
 
 from ..config import CAMPAIGN_OFF as OFF
-from ..config import legacy_spelling, profile_hash
-from ..sections import EVALUATORS, NOTEBOOK_MODES
+from ..config import profile_hash
+from ..sections import EVALUATORS, NOTEBOOK_MODES, legacy_spelling
 from ..settings import CampaignSettings, Settings, profile_data
 from ..keys import METRIC_KEYS, VERDICT_KEYS, bound_text, format_value, label
 from .fitness import constraint_matrix
