@@ -13,7 +13,7 @@ from __future__ import annotations
 import copy
 import math
 from collections.abc import Mapping
-from dataclasses import dataclass, field
+from dataclasses import dataclass, fields
 
 from ..config import CAMPAIGN_OFF as OFF
 from ..config import profile_hash
@@ -44,52 +44,28 @@ def campaign_constraints(campaign: CampaignSettings) -> tuple[tuple[str, str, fl
 
 
 @dataclass(frozen=True)
-class CampaignPlan:
-    """What the campaign engine runs by, derived from the checked ``settings.campaign`` (no checks here:
-    :mod:`lnss_lib.config` made them at load): the grid of eq. 43-44, the NSGA-II numbers of Table 5,
-    the objectives, the constraint list and the hypervolume references."""
+class CampaignPlan(CampaignSettings):
+    """What the campaign engine runs by: the checked ``[campaign]`` section (no checks here: :mod:`lnss_lib.config`
+    made them at load) with its tables read for the engine: the grid of eq. 43-44, the constraints as
+    ``(metric, "min" | "max", limit)`` and the hypervolume references as ``(metric, reference)``, entries set to
+    "off" left out, and the metrics an evaluation returns beyond :data:`~lnss_lib.keys.METRIC_KEYS`."""
 
-    grid: DesignGrid
-    population: int
-    generations: int
-    crossover_prob: float
-    crossover_eta: float
-    mutation_eta: float
-    mutation_prob_var: float
-    seed: int
-    ftol: float
-    ftol_period: int
-    objectives: tuple[str, ...]
     constraints: tuple[tuple[str, str, float], ...]
-    nan_objective: float
-    nan_violation: float
     hypervolume: tuple[tuple[str, float], ...]
-    evaluator: str
-    synthetic_delay_s: float
-    max_resubmits: int
-    numba_threads_per_worker: int
-    max_errors: int = 0
-    overrides: dict = field(default_factory=dict)
-    companion_profile: str = ""
-    notebook_mode: str = "run"
-    extra_metrics: tuple[str, ...] = ()     # [evaluator] extra_metrics: columns beyond METRIC_KEYS
+    grid: DesignGrid
+    extra_metrics: tuple[str, ...]          # [evaluator] extra_metrics
 
     @classmethod
     def of(cls, settings: Settings) -> "CampaignPlan":
         """The plan of checked settings (``settings.campaign`` and ``settings.evaluator.extra_metrics``)."""
-        c = settings.campaign
-        return cls(
-            grid=DesignGrid.from_variables(c.variables),
-            population=c.population, generations=c.generations, crossover_prob=c.crossover_prob,
-            crossover_eta=c.crossover_eta, mutation_eta=c.mutation_eta, mutation_prob_var=c.mutation_prob_var,
-            seed=c.seed, ftol=c.ftol, ftol_period=c.ftol_period, objectives=tuple(c.objectives),
-            constraints=campaign_constraints(c), nan_objective=c.nan_objective, nan_violation=c.nan_violation,
-            hypervolume=tuple((metric, float(ref)) for metric, ref in c.hypervolume.items() if ref != OFF),
-            evaluator=c.evaluator, synthetic_delay_s=c.synthetic_delay_s, max_resubmits=c.max_resubmits,
-            numba_threads_per_worker=c.numba_threads_per_worker, max_errors=c.max_errors,
-            overrides=copy.deepcopy(dict(c.overrides)), companion_profile=c.companion_profile,
-            notebook_mode=c.notebook_mode, extra_metrics=tuple(settings.evaluator.extra_metrics),
-        )
+        campaign = settings.campaign
+        section = {item.name: getattr(campaign, item.name) for item in fields(CampaignSettings)}
+        return cls(**{**section, "overrides": copy.deepcopy(dict(campaign.overrides)),
+                      "constraints": campaign_constraints(campaign),
+                      "hypervolume": tuple((metric, float(ref)) for metric, ref in campaign.hypervolume.items()
+                                           if ref != OFF)},
+                   grid=DesignGrid.from_variables(campaign.variables),
+                   extra_metrics=tuple(settings.evaluator.extra_metrics))
 
 
 def evaluation_profile(settings: Settings) -> Settings:
