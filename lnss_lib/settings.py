@@ -44,7 +44,16 @@ from .sections import (  # the sections, importable from here as they always wer
     rule_of,
 )
 
-__all__ = ["Settings", "Dynamics", "load_settings", "settings_from_profile", "settings_from_toml"]
+__all__ = ["Settings", "Dynamics", "load_settings", "settings_from_profile", "settings_from_toml",
+           "ProfileInfo", "EpochSettings", "SpacecraftSettings", "GravitySettings", "ForceSettings",
+           "BodyConstants", "IntegratorSetting", "IntegratorSettings", "FrameSettings",
+           "EphemerisSettings", "ImpactSettings", "StandaloneElfoSettings", "CapstoneSettings",
+           "ValidationSettings", "NotebookSettings", "DopSettings", "GpsSettings", "GnssReference",
+           "GnssTransmitter", "GnssSettings", "DeltaVSettings", "EvaluatorSettings",
+           "NavigationErrorSettings", "VariableBounds", "CampaignSettings", "StabilitySettings",
+           "SkEstimateSettings", "BoxSettings", "ServiceSettings", "DesignLifeSettings",
+           "BenchmarkSettings", "LifeEvaluationSettings", "LifeNavigationSettings",
+           "FrontValidationSettings", "ProfileSections"]   # the sections (lnss_lib.sections) are importable from here too
 
 
 def _frozen(value):
