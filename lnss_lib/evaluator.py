@@ -9,7 +9,7 @@ paper does, Section 5.3). Infeasible designs (impact, invalid elements) come bac
 metrics, never raised, so batch callers can treat them as constraint violations.
 
 A profile may ask for the operational metrics of :data:`~lnss_lib.keys.EXTRA_METRIC_KEYS` in
-``[evaluator] extra_metrics`` (issue 11 item 5; none in ``paper``): the station-keeping Delta-V estimate over
+``[evaluator] extra_metrics`` (none in ``paper``): the station-keeping Delta-V estimate over
 every satellite (``[sk_estimate] model``: the 10-day box slope of :mod:`lnss_lib.design_life.estimate` from the
 same arc, or the service controller's life of :mod:`lnss_lib.design_life.life_estimate`, which shares the screen),
 the design-life stability screen (:mod:`lnss_lib.design_life.screen`, from the initial states; ``stable_screen`` 1.0

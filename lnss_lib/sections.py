@@ -536,7 +536,7 @@ class LifeNavigationSettings:
 
 @dataclass(frozen=True)
 class FrontValidationSettings:
-    """The front flown in closed loop after NSGA-II (issue 20 item 4) and the headline's bounds (item 5)."""
+    """The front flown in closed loop after NSGA-II and the headline's bounds."""
     max_designs: int = setting(range=NON_NEGATIVE)  # 0: off
     max_sats_per_plane: int = setting(range=NON_NEGATIVE)  # 0: every satellite
     headline_sizes: tuple[int, ...] = setting(range=(1, None, False, False))

@@ -1,4 +1,4 @@
-"""Campaign-grade estimate of the geometry-keeping station-keeping cost (issue 11 item 2).
+"""Campaign-grade estimate of the geometry-keeping station-keeping cost.
 
 From the short arc the evaluator already propagates (every satellite), the secular drift of exactly
 the quantities a geometry box holds, converted to Delta-V per year with linearised impulsive costs.

@@ -1,6 +1,6 @@
 """Design-life stability screen: the doubly-averaged (secular) lunar J2 + third-body quadrupole model.
 
-Issue 11 item 2. A satellite's orbit is reduced to its eccentricity vector ``e`` and dimensionless
+A satellite's orbit is reduced to its eccentricity vector ``e`` and dimensionless
 angular momentum ``j = sqrt(1 - e^2) h_hat`` (Moon-centred J2000); ``a`` is constant. The
 orbit-averaged potential per unit mass is
 

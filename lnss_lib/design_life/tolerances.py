@@ -1,4 +1,4 @@
-"""The service controller's relative-geometry tolerances, derived per design from its navigation sensitivity (issue 19).
+"""The service controller's relative-geometry tolerances, derived per design from its navigation sensitivity.
 
 Question: how far may one satellite's plane tilt away from its slot's plane (relative node) or its argument of
 latitude slide along its orbit (slot) before the design's navigation requirement breaks? The requirement is the one

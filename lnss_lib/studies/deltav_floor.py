@@ -1,4 +1,4 @@
-"""Issue 23 item 1(b): which Delta-V bound does the workbook's physics allow over Table 3?
+"""Which Delta-V bound does the workbook's physics allow over Table 3?
 
 Question: Table 3 bounds the station-keeping Delta-V at 1 km/s per satellite per year. The paper's
 Delta-V came from its own inverse of the Gauss equations (eq. 30-35); the workbook's campaign budget
@@ -57,7 +57,7 @@ __all__ = ["DV_KEY", "PAPER_MODEL", "SAMPLE_SEED", "SAMPLE_SIZE", "SIGNIFICANT_F
 DV_KEY = "dv_total_kms_per_year"          # the eq. 45 Delta-V that Table 3 bounds
 PAPER_MODEL = "paper"                     # [deltav] model of the paper's eq. 30-35 (corrected)
 PAPER_DV_KEY = f"{DV_KEY}_paper_model"    # the same designs' Delta-V under that model
-SAMPLE_SEED = 23                          # issue 23
+SAMPLE_SEED = 23                          # one fixed draw: the same sample in every run
 SAMPLE_SIZE = 300
 SIGNIFICANT_FIGURES = 2
 PERCENTILES = (1, 5, 10, 25, 50, 75, 90)

@@ -1,7 +1,6 @@
-"""Notebooks 06-07: the operational front flown in closed loop, and the paper's headline validated (issue 20
-items 4-5).
+"""Notebooks 06-07: the operational front flown in closed loop, and the paper's headline validated.
 
-Question (item 4): the campaign ranks designs by the life-long estimate of the service controller's cost; does the
+First question: the campaign ranks designs by the life-long estimate of the service controller's cost; does the
 front it finds cost that when flown? :func:`estimate_table` sets the campaign's estimate (mean and worst satellite)
 beside the closed loop of ``validated.nc`` (:mod:`lnss_lib.campaign.validation`: every satellite, the service
 controller, the design life), :func:`front_statistics` gives Spearman rho and the share within a factor 2
@@ -10,7 +9,7 @@ designs kept (a design that loses a satellite pays for a shorter span), and :fun
 design outside a factor 2. :func:`validated_table6` chooses the operational Table 6 from the validated designs, on
 the closed-loop worst-satellite Delta-V and the availability flown over the life, failed designs excluded.
 
-Question (item 5): what is the smallest constellation with at least 90 % south-pole PDOP availability (PDOP <= 10
+Second question: what is the smallest constellation with at least 90 % south-pole PDOP availability (PDOP <= 10
 at 3 sigma) flown for the design life within 1 km/s per satellite and year, and the cheapest such design at 6, 8,
 12 and 16 satellites? :func:`headline_table`, beside the paper's claim (:data:`lnss_lib.paper.SMALLEST_CONSTELLATION`).
 
@@ -149,7 +148,7 @@ def validated_table6(validated: xr.Dataset, *, availability_min_pct: float, dv_m
 
 def headline_table(validated: xr.Dataset | None, sizes, *, availability_min_pct: float, dv_max_kms_per_year: float,
                    paper: dict) -> pd.DataFrame:
-    """Issue 20 item 5: the smallest kept validated constellation with PDOP availability over the life (closed loop)
+    """The smallest kept validated constellation with PDOP availability over the life (closed loop)
     >= ``availability_min_pct`` and worst-satellite closed-loop Delta-V <= ``dv_max_kms_per_year`` (ties: the
     cheapest), then the cheapest such design at each of ``sizes`` (:data:`NONE_VALIDATED` when none), each row with
     how many designs of that size were flown and failed, and the paper's claim (``paper``:
