@@ -524,7 +524,7 @@ class LifeEvaluationSettings:
     frame_rerun_designs: int = setting(range=NON_NEGATIVE)
     validation_designs: tuple[tuple[int | float, ...], ...]   # Walker rows (a_km, e, aop, inc, planes, per plane)
     screen_validation_designs: int = setting(range=NON_NEGATIVE)  # random Table 3 designs of studies.screen_validation
-    screen_validation_life_days: float = setting(range=NON_NEGATIVE)  # ... flown this long (0: the screened profile's [stability] life_days)
+    screen_validation_life_days: float = setting(range=NON_NEGATIVE)  # ... flown this long (0: the screened profile's screen span)
 
 
 @dataclass(frozen=True)

@@ -490,7 +490,7 @@ def screen_states(stability: StabilitySettings, dynamics: Dynamics, states_mci, 
     the mean one without monthly terms), per satellite ``min_perilune_alt_km`` (of the restored perilune),
     ``impact`` and ``impact_day`` (NaN when none); attrs ``stable`` (no impact within the life),
     ``min_perilune_alt_km``, ``impact_day`` (first, NaN when none), ``n_orbits`` (distinct orbits
-    integrated), ``n_rhs``, ``wall_s``. ``life_days`` replaces ``[stability] life_days``; an explicit
+    integrated), ``n_rhs``, ``wall_s``. ``life_days`` replaces the screen's span (``stability.life_days``); an explicit
     ``field`` comes with its ``monthly`` (None: no monthly terms).
     """
     start = time.perf_counter()

@@ -267,7 +267,7 @@ def run_estimate_validation(settings: Settings, life_days: float | None = None, 
     """The validation table (one row per design: design, source, ``closed_loop`` mean Delta-V, its split as
     ``closed_<purpose>``, ``lost``, the tolerances it held as ``<raan_rel|u_rel>_tolerance_deg``, the estimates of
     :data:`ESTIMATES`, the life estimate's split as ``est_<part>``) and
-    :func:`estimate_statistics`. ``life_days`` defaults to ``[stability] life_days`` (the life the campaign's estimate
+    :func:`estimate_statistics`. ``life_days`` defaults to the screen's span (``stability.life_days``) (the life the campaign's estimate
     covers); ``max_designs`` keeps the first designs (the ci/quick notebook run)."""
     life = float(settings.stability.life_days if life_days is None else life_days)
     designs = estimate_validation_designs(settings, n_random)[:max_designs]

@@ -90,7 +90,7 @@ def estimate_table(validated: xr.Dataset) -> pd.DataFrame:
 
 def reestimated_table(settings: Settings, validated: xr.Dataset) -> pd.DataFrame:
     """:func:`estimate_table` with the campaign's estimate of every design recomputed by today's life estimate
-    (:func:`lnss_lib.studies.estimate_validation.estimate_costs` over ``[stability] life_days``, the satellites
+    (:func:`lnss_lib.studies.estimate_validation.estimate_costs` over the screen's span (``stability.life_days``), the satellites
     ``validated`` flew), plus its navigation part beside the closed loop's (``estimate_navigation``,
     ``closed_loop_navigation``, ``ratio_navigation``): e.g. ``validated.nc`` flown before the estimate changed."""
     frame = estimate_table(validated)
