@@ -16,7 +16,8 @@ from pathlib import Path
 
 import numpy as np
 
-from .config import CR_AREA_MASS, CR_AREA_MASS_WHY, PACKAGE_DIR, allowed_range_text, available_profiles, in_range, parse_sets, use_profile_file
+from .config import PACKAGE_DIR, available_profiles, parse_sets, use_profile_file
+from .sections import CR_AREA_MASS, CR_AREA_MASS_WHY, allowed_range_text, in_range
 from .settings import load_settings
 from .constants import DAYS_PER_JULIAN_YEAR, INTEGER_SETTING_MAX, SECONDS_PER_DAY
 from .errors import ConfigError, EphemerisRangeError, InvalidOrbitError, SpiceError, Terminated
@@ -26,7 +27,7 @@ BENCHMARKS = ("propagator", "dop", "evaluate", "estimate", "navigation", "campai
 
 
 def _require(flag: str, value, spec: tuple, integer: bool = False, why: str = ""):
-    """``value`` if finite (an integer with ``integer``) and inside ``spec`` (config.RANGES form), else ConfigError
+    """``value`` if finite (an integer with ``integer``) and inside ``spec`` (a range of lnss_lib.sections), else ConfigError
     (with the reason ``why``)."""
     if value is None:
         return None

@@ -44,7 +44,8 @@ from pathlib import Path
 
 import numpy as np
 
-from .config import ISO_FORMAT, PARAMS_DIR, parse_iso_date, read_toml
+from .config import PARAMS_DIR, read_toml
+from .dates import ISO_FORMAT, parse_iso_date
 from .constants import INTEGER_SETTING_MAX
 from .settings import Dynamics, Settings, load_settings
 from .elements import mean_anomaly_from_true, validate_elements

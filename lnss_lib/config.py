@@ -1,34 +1,42 @@
 """Run profiles: TOML files in ``params/`` merged along their ``inherits`` chain, and every rule they obey.
 
 :func:`load_profile` returns the merged TOML as a plain nested ``dict`` with the chain resolved and
-``profile.name`` set, checked by :func:`validate_profile` against the one table of each kind of rule
-(:data:`RANGES` with :data:`WHY`, :data:`CHOICES`, :data:`FORMS`, the rules across keys); the workbook
-reads it once, to freeze it into typed sections (:mod:`lnss_lib.settings`). :func:`profile_hash`
-fingerprints everything that can change a result, so caches and manifests can tell runs apart. Profiles are names of files in ``params/`` (or a file
-made loadable by :func:`use_profile_file`); data paths in a profile are relative to ``params/`` and
+``profile.name`` set, checked by :func:`validate_profile` against the sections of
+:mod:`lnss_lib.sections`, where each setting is declared once with its type and rule (range and reason,
+allowed values, form), and against the rules across keys; the workbook reads it once, to freeze it into
+typed sections (:mod:`lnss_lib.settings`). :func:`profile_hash` fingerprints everything that can change
+a result, so caches and manifests can tell runs apart. Profiles are names of files in ``params/`` (or a
+file made loadable by :func:`use_profile_file`); data paths in a profile are relative to ``params/`` and
 must lie under ``params/data/``.
 """
 
 from __future__ import annotations
 
 import copy
+import dataclasses
 import datetime as dt
 import difflib
+import functools
 import hashlib
-import math
 import json
+import math
 import os
 import re
 import tomllib
+import types
+import typing
+from collections.abc import Mapping
 from functools import lru_cache
 from pathlib import Path
+from typing import Any
 
-from .constants import (CR_AREA_MASS_MAX_M2_KG, CR_MAX, INTEGER_SETTING_MAX, MAX_GRID_POINTS, MAX_POPULATION,
-                        MOON_HILL_RADIUS_KM, SECONDS_PER_DAY, SPACECRAFT_MASS_RANGE_KG, TOLERANCE_CEILING,
-                        TOLERANCE_FLOOR, WGS84_A_KM)
+from .constants import INTEGER_SETTING_MAX, MAX_GRID_POINTS, SECONDS_PER_DAY
+from .dates import ISO_DATE_FORMAT, ISO_FORMAT, is_iso_date
 from .errors import ConfigError
-from .keys import (DELTAV_SATELLITES, DESIGN_KEYS, EXTRA_METRIC_KEYS, GNSS_NAMES, INTEGER_DESIGN_KEYS,
-                   LIFE_NAVIGATION_KEYS, METRIC_KEYS, NAVIGATION_ERROR_KEYS, NEEDS_ALL_SATELLITES)
+from .keys import DESIGN_KEYS, INTEGER_DESIGN_KEYS, LIFE_NAVIGATION_KEYS, METRIC_KEYS, NEEDS_ALL_SATELLITES
+from .sections import (CR_AREA_MASS, CR_AREA_MASS_WHY, GNSS_SYSTEMS, KEYS_OFF_WHEN_ABSENT, LEGACY_KEYS,
+                       OFF_WHEN_ABSENT, SEMI_MAJOR_AXIS, SEMI_MAJOR_AXIS_WHY, ProfileSections, Rule,
+                       allowed_range_text, in_range, legacy_spelling, rule_of, walker_splits)
 
 PACKAGE_DIR = Path(__file__).resolve().parent
 PROJECT_DIR = PACKAGE_DIR.parent
@@ -200,252 +208,96 @@ def _own_settings(name: str) -> dict:
     return {section: table for section, table in data.items() if section != "profile"}
 
 
-REFERENCE_PROFILE = "paper"          # its TOML fixes the keys and value types of every profile
-FREE_TABLES = ("gps.launch_dates", "campaign.constraints", "campaign.hypervolume", "campaign.variables")
-PROFILE_TABLE = {"name": "", "description": "", "inherits": "", "also": [""]}
-ALLOW_INFINITE = ("gps.sidelobe_offset_db",)   # -inf = main lobe only
-NON_EMPTY = ("benchmark.epochs_tdb", "navigation_error.station_lat_deg", "gnss.systems")   # lists that need an entry
-# Allowed ranges of physical settings: key -> (low, high, low open, high open); None = unbounded.
-# integrator.settings.<any name> is "integrator.settings.*"; campaign.overrides.<section> uses the section's keys.
-POSITIVE, NON_NEGATIVE = (0.0, None, True, False), (0.0, None, False, False)
-TOLERANCE = (TOLERANCE_FLOOR, TOLERANCE_CEILING, False, False)
-SEMI_MAJOR_AXIS = (0.0, MOON_HILL_RADIUS_KM, True, False)
-CR_AREA_MASS = (0.0, CR_AREA_MASS_MAX_M2_KG, False, False)
-CR_AREA_MASS_WHY = "solar sails reach ~10-50 m^2/kg"
-SEMI_MAJOR_AXIS_WHY = f"a must be within the Moon's Hill sphere ({MOON_HILL_RADIUS_KM:,.0f} km) for a bound lunar orbit"
-RANGES = {
-    "epoch.duration_days": POSITIVE, "epoch.step_s": POSITIVE,
-    "spacecraft.mass_kg": (*SPACECRAFT_MASS_RANGE_KG, False, False), "spacecraft.area_m2": POSITIVE,
-    "spacecraft.cr": (0.0, CR_MAX, True, False),
-    "gravity.degree": (0, 100, False, False), "gravity.gm_km3_s2": POSITIVE, "gravity.truncation_kms2": NON_NEGATIVE, "gravity.r_ref_km": POSITIVE,
-    "forces.earth_albedo": (0.0, 1.0, False, False), "forces.solar_flux_w_m2": NON_NEGATIVE,
-    "integrator.settings.*.rtol": TOLERANCE, "integrator.settings.*.atol": TOLERANCE,
-    "ephemeris.table_step_s": POSITIVE, "impact.min_altitude_km": NON_NEGATIVE,
-    "standalone_elfo.sma_km": SEMI_MAJOR_AXIS, "standalone_elfo.ecc": (0.0, 1.0, False, True),
-    "standalone_elfo.inc_deg": (0.0, 180.0, False, False), "standalone_elfo.sats_per_plane": (1, None, False, False),
-    "notebooks.timeout_s": POSITIVE,
-    "dop.lat_min_deg": (-90.0, 90.0, False, False), "dop.lat_max_deg": (-90.0, 90.0, False, False),
-    "dop.lat_step_deg": POSITIVE, "dop.lon_min_deg": (-360.0, 360.0, False, False),
-    "dop.lon_max_deg": (-360.0, 360.0, False, False), "dop.lon_step_deg": POSITIVE,
-    "dop.elevation_mask_deg": (0.0, 90.0, False, False), "dop.availability_threshold": POSITIVE,
-    "dop.filter_sigma": POSITIVE,
-    "gps.frequency_mhz": POSITIVE, "gps.noise_temperature_k": POSITIVE, "gps.beam_mask_deg": (0.0, 180.0, True, False),
-    "gps.atmosphere_margin_deg": NON_NEGATIVE, "gps.sidelobe_from_deg": (0.0, 180.0, False, False),
-    "gnss.gps.sma_km": (WGS84_A_KM, None, True, False), "gnss.gps.edge_elevation_deg": (0.0, 90.0, False, True),
-    "deltav.year_days": POSITIVE, "deltav.paper_divisor_floor": (0.0, 1.0, False, True),
-    "deltav.paper_cap_kms2": POSITIVE, "deltav.secular_min_periods": (1.0, None, True, False),
-    "deltav.slsqp_lambda": NON_NEGATIVE,
-    "campaign.max_errors": (0, None, False, False), "campaign.population": (2, MAX_POPULATION, False, False),
-    "campaign.generations": (1, None, False, False), "campaign.crossover_prob": (0.0, 1.0, False, False),
-    "campaign.crossover_eta": NON_NEGATIVE, "campaign.mutation_eta": NON_NEGATIVE,
-    "campaign.mutation_prob_var": (0.0, 1.0, False, False), "campaign.seed": (0, None, False, False),
-    "campaign.ftol": NON_NEGATIVE, "campaign.ftol_period": (1, None, False, False), "campaign.n_sat": (0, None, False, False),
-    "campaign.nan_objective": NON_NEGATIVE, "campaign.nan_violation": NON_NEGATIVE,
-    "campaign.synthetic_delay_s": NON_NEGATIVE, "campaign.max_resubmits": (0, None, False, False),
-    "campaign.numba_threads_per_worker": (0, None, False, False),
-    "stability.life_days": POSITIVE, "stability.average_days": POSITIVE, "stability.table_step_days": POSITIVE,
-    "stability.rtol": TOLERANCE, "stability.atol": TOLERANCE, "stability.output_step_days": POSITIVE,
-    "stability.margin_km": NON_NEGATIVE, "stability.validation_degree": (0, 100, False, False),
-    "stability.validation_step_s": POSITIVE, "stability.step_days": POSITIVE,
-    "stability.validity_period_fraction": POSITIVE, "stability.validity_ecc": NON_NEGATIVE,
-    "sk_estimate.year_days": POSITIVE, "sk_estimate.min_periods": POSITIVE,
-    "sk_estimate.along_track_rebias_per_year": NON_NEGATIVE,
-    "design_life.life_days": POSITIVE, "design_life.check_interval_days": POSITIVE,
-    "design_life.samples_per_orbit": (16, None, False, False), "design_life.min_maneuver_spacing_days": NON_NEGATIVE,
-    "design_life.dv_cap_kms_per_year": NON_NEGATIVE, "design_life.box_tolerance": NON_NEGATIVE,
-    "benchmark.extra_masks_deg": (0.0, 90.0, False, True),      # each entry of the list
-    "navigation_error.sise_at_upload_m": NON_NEGATIVE, "navigation_error.sise_growth_m": NON_NEGATIVE,
-    "navigation_error.sise_growth_age_h": POSITIVE, "navigation_error.receiver_noise_m": NON_NEGATIVE,
-    "navigation_error.lunar_multipath_zenith_m": NON_NEGATIVE,
-    "navigation_error.station_lat_deg": (-90.0, 90.0, False, False),     # each entry
-    "navigation_error.station_lon_deg": (-360.0, 360.0, False, False),   # each entry
-    "navigation_error.station_mask_deg": (0.0, 90.0, False, True),
-    "navigation_error.requirement_horizontal_95_m": POSITIVE, "navigation_error.requirement_vertical_95_m": NON_NEGATIVE,
-    "design_life.slot_coast_days": POSITIVE,
-    "design_life.slot_fit_days": POSITIVE, "design_life.slot_quad_days": POSITIVE,
-    "design_life.tide_period_days": POSITIVE, "design_life.target_fraction": (0.0, 1.0, False, True),
-    "life_evaluation.sample_step_s": POSITIVE, "life_evaluation.month_days": POSITIVE,
-    "life_evaluation.screen_validation_designs": (0, None, False, False),
-    "life_evaluation.screen_validation_life_days": NON_NEGATIVE,
-    "life_navigation.designs": (0, None, False, False), "life_navigation.life_days": NON_NEGATIVE,
-    "robustness.draws": (0, 10_000, False, False), "robustness.life_days": (1.0, 36525.0, False, False),
-    "robustness.seed": (0, 2**63 - 1, False, False), "robustness.sma_km": NON_NEGATIVE, "robustness.ecc": (0.0, 0.1, False, False),
-    "robustness.inc_deg": (0.0, 10.0, False, False), "robustness.raan_deg": (0.0, 10.0, False, False),
-    "robustness.aop_deg": (0.0, 180.0, False, False), "robustness.anomaly_deg": (0.0, 180.0, False, False),
-    "life_evaluation.frame_rerun_designs": (0, None, False, False),
-    "front_validation.max_designs": (0, None, False, False), "front_validation.max_sats_per_plane": (0, None, False, False),
-    "front_validation.headline_sizes": (1, None, False, False), "front_validation.headline_per_size": (0, None, False, False),
-    "front_validation.availability_min_pct": (0.0, 100.0, False, False), "front_validation.dv_max_kms_per_year": POSITIVE,
-}
-_TOLERANCE_WHY = (f"below about 100 machine epsilons ({TOLERANCE_FLOOR:g}) an integrator's error test asks for what "
-                  f"double precision cannot resolve; above {TOLERANCE_CEILING:g} (SciPy's default rtol) it no longer "
-                  f"resolves a lunar orbit")
-WHY = {   # the physical or numerical reason of a range, quoted in the message
-    "integrator.settings.*.rtol": _TOLERANCE_WHY, "integrator.settings.*.atol": _TOLERANCE_WHY,
-    "stability.rtol": _TOLERANCE_WHY, "stability.atol": _TOLERANCE_WHY,
-    "spacecraft.mass_kg": "from a gram (chip-scale satellites) to 1000 t",
-    "spacecraft.cr": "Cr = 1 + specular reflectivity: 2 is a perfect mirror",
-    "standalone_elfo.sma_km": SEMI_MAJOR_AXIS_WHY,
-    "deltav.paper_divisor_floor": "a floor of 0 is the paper's literal divisors (notebook 04's sweep); 1 or more "
-                                  "would replace every divisor",
-    "deltav.secular_min_periods": "the secular trend needs at least two one-orbit windows",
-    "design_life.samples_per_orbit": "the one-orbit mean elements of the checks and the insertion trim average "
-                                     "this many samples of an orbit (at least 8 to be computed at all, 16 for an "
-                                     "e = 0.6 orbit's mean a to settle)",
-    "design_life.target_fraction": "a correction aims this fraction of the half-width past the reference: "
-                                   "1 would aim at the far edge of the box",
-    "campaign.population": f"NSGA-II ranks parents and offspring through a 2N x 2N domination matrix, "
-                           f"{(2 * MAX_POPULATION) ** 2 * 8 / 1e9:.1f} GB at N = {MAX_POPULATION}",
-}
-
-# Allowed values of the text settings (one copy: the modules that read a setting import its tuple from here).
-METHODS = ("RK45", "DOP853")                      # propagator: Dormand-Prince 5(4) and 8(5,3)
-ELEMENT_FRAMES = ("lunar_equator_of_epoch", "j2000", "moon_op")
-POLE_FRAMES = ("MOON_ME", "MOON_PA", "IAU_MOON")
-THIRD_BODIES = ("SUN", "EARTH", "JUPITER")        # also the rows of the ephemeris table
-SHADOW_MODELS = ("conical", "none")
-LOS_AXES = ("moon_fixed", "enu")
-AREA_WEIGHTINGS = ("none", "cos_lat", "cell_area")
-PDOP_FILTERS = ("percentile95", "sigma2", "none")
-DELTAV_MODELS = ("paper", "lsq", "secular")
-LSQ_RATES = ("vectors", "elements")
-PAPER_NORMAL = ("weighted", "eq32", "rss")
-PAPER_RADIAL = ("weighted", "eq35")
-EVALUATORS = ("walker", "synthetic")
-NOTEBOOK_MODES = ("run", "load")                  # notebook 06 runs the campaign itself, or loads the latest CLI run
-STABILITY_METHODS = ("DOP853", "RK45", "Radau", "LSODA", "RK4")
-STABILITY_BODIES = ("EARTH", "SUN")
-SK_ESTIMATE_MODELS = ("arc", "life")             # campaign estimate: the 10-day box slope, or the service controller's life
-CONTROLLERS = ("service", "box")                 # design life: hold the service (design_life.service) or the fixed-element box
-SISE_LAWS = ("constant", "linear", "quadratic")   # signal-in-space error growth with the ephemeris age
-GNSS_SYSTEMS = tuple(GNSS_NAMES)                 # [gnss] systems: GPS from TLEs, the others nominal slots
-TOLERANCE_SOURCES = ("derived", "fixed")         # service controller: node/slot tolerances from each design's navigation, or as set
-CHOICES = {    # a text setting (or each entry of a list of texts) -> its allowed values
-    "integrator.settings.*.method": METHODS, "frames.element_frame": ELEMENT_FRAMES, "frames.moon_fixed": POLE_FRAMES,
-    "frames.gravity": POLE_FRAMES, "forces.third_bodies": THIRD_BODIES, "forces.shadow": SHADOW_MODELS,
-    "dop.los_axes": LOS_AXES, "dop.area_weighting": AREA_WEIGHTINGS, "gps.pdop_filter": PDOP_FILTERS,
-    "deltav.model": DELTAV_MODELS, "deltav.element_frame": ELEMENT_FRAMES, "deltav.lsq_rates": LSQ_RATES,
-    "deltav.paper_normal": PAPER_NORMAL, "deltav.paper_radial": PAPER_RADIAL, "deltav.satellites": DELTAV_SATELLITES,
-    "campaign.evaluator": EVALUATORS, "campaign.notebook_mode": NOTEBOOK_MODES, "stability.method": STABILITY_METHODS,
-    "stability.third_bodies": STABILITY_BODIES, "sk_estimate.element_frame": ELEMENT_FRAMES,
-    "sk_estimate.model": SK_ESTIMATE_MODELS,
-    "evaluator.extra_metrics": EXTRA_METRIC_KEYS, "design_life.controller": CONTROLLERS,
-    "design_life.service.tolerances": TOLERANCE_SOURCES, "navigation_error.sise_law": SISE_LAWS,
-    "life_evaluation.validation_frames": ELEMENT_FRAMES, "gnss.systems": GNSS_SYSTEMS,
-}
-
-
-ISO_DATE_FORMAT = "YYYY-MM-DD"
-ISO_FORMAT = ("YYYY-MM-DDTHH:MM:SS (ISO 8601; seconds and a fraction .fff optional, a bare date YYYY-MM-DD is "
-              "midnight; no zone such as Z or +05:00: the time scale is given apart)")
-_ISO = re.compile(r"(\d{4})-(\d{2})-(\d{2})(?:T(\d{2}):(\d{2})(?::(\d{2})(?:\.(\d{1,9}))?)?)?")
-_ZONE = re.compile(r"T.*(Z|[+-]\d{2}(:?\d{2})?)$")
-
-
-def parse_iso_date(text, what: str = "date", *, date_only: bool = False) -> dt.datetime:
-    """The one reader of calendar dates (``--epoch-tdb``, profile epochs, constellation files): ``text`` in the
-    strict ISO 8601 form :data:`ISO_FORMAT` (:data:`ISO_DATE_FORMAT` with ``date_only``) as a naive datetime (the
-    fraction beyond microseconds dropped). Anything else, a zone included (a time scale is never a zone), raises
-    ConfigError naming ``what``, the text and the expected format: ``01-05-2025`` or ``1/5/2025`` are never read
-    as some day."""
-    expected = ISO_DATE_FORMAT if date_only else ISO_FORMAT
-    match = _ISO.fullmatch(text) if isinstance(text, str) else None
-    if match is None or (date_only and match.group(4) is not None):
-        zone = isinstance(text, str) and not date_only and _ZONE.search(text) is not None
-        raise ConfigError(f"{what} {text!r} is not " + ("a date with a zone, which is not allowed; expected "
-                                                         if zone else "an ISO 8601 date; expected ") + expected)
-    fields = [int(value) if value else 0 for value in match.groups()[:6]]
-    fraction = match.group(7) or ""
-    try:
-        return dt.datetime(*fields, int((fraction + "000000")[:6]))
-    except ValueError as error:
-        raise ConfigError(f"{what} {text!r} is no calendar date and time ({error}); expected {expected}") from None
-
-
-def _is_iso_date(text, date_only: bool = False) -> bool:
-    try:
-        parse_iso_date(text, date_only=date_only)
-    except ConfigError:
-        return False
-    return True
+REFERENCE_PROFILE = "paper"    # the root of every profile: its values fill a section a stored profile lacks
+PROFILE_SCHEMA = ProfileSections   # every key, its type and its rule (lnss_lib.sections)
 
 
 ISO_TEXT = f"an ISO 8601 date and time, {ISO_FORMAT} (e.g. 2025-05-01T00:00:00)"
-FORMS = {      # a text setting with an open set of values -> (test, what is allowed)
-    "epoch.start_tdb": (_is_iso_date, ISO_TEXT), "validation.capstone.arc_break_tdb": (_is_iso_date, ISO_TEXT),
-    "benchmark.epochs_tdb": (_is_iso_date, ISO_TEXT),
-    "gps.exclude_launched_after": (lambda v: v in ("epoch", "none") or _is_iso_date(v, date_only=True),
-                                   f"'epoch', 'none' or an ISO 8601 date {ISO_DATE_FORMAT} (e.g. 2025-05-30)"),
-    "gps.exclude_launches_from": (lambda v: re.fullmatch(r"(\d{4}-\d{3}[A-Z]{0,3})?", v) is not None,
-                                  '"" (off) or an international designator YYYY-NNN'),
-    "campaign.companion_profile": (lambda v: v == "" or v in available_profiles(),
-                                   '"" (none) or a profile name: ' + ", ".join(available_profiles())),
+FORMS = {      # an open set of text values (Rule.form) -> (test, what is allowed)
+    "iso_datetime": (is_iso_date, ISO_TEXT),
+    "launch_cutoff": (lambda v: v in ("epoch", "none") or is_iso_date(v, date_only=True),
+                      f"'epoch', 'none' or an ISO 8601 date {ISO_DATE_FORMAT} (e.g. 2025-05-30)"),
+    "designator": (lambda v: re.fullmatch(r"(\d{4}-\d{3}[A-Z]{0,3})?", v) is not None,
+                   '"" (off) or an international designator YYYY-NNN'),
+    "profile_name": (lambda v: v == "" or v in available_profiles(),
+                     lambda: '"" (none) or a profile name: ' + ", ".join(available_profiles())),
 }
-SETTING_NAMES = ("integrator.setting", "design_life.integrator_setting", "validation.capstone.integrator_setting")
-
-for _name in ("ecc", "aop_deg", "inc_deg", "raan_rel_deg", "u_rel_deg"):
-    RANGES[f"design_life.box.{_name}"] = POSITIVE
-for _name in ("safety_check_days", "safety_lead_days", "nav_window_days", "raan_rel_deg", "u_rel_deg",
-              "tolerance_arc_days", "tolerance_step_s"):
-    RANGES[f"design_life.service.{_name}"] = POSITIVE
-RANGES["design_life.service.raan_rel_bounds_deg"] = (0.0, 90.0, True, False)     # each entry: a tilt of the plane
-RANGES["design_life.service.u_rel_bounds_deg"] = (0.0, 180.0, True, False)      # each entry: half a turn at most
-BOUND_PAIRS = ("design_life.service.raan_rel_bounds_deg", "design_life.service.u_rel_bounds_deg")
-for _name in ("perilune_margin_km", "nav_avail_drop_pct", "nav_dop_rise_fraction"):
-    RANGES[f"design_life.service.{_name}"] = NON_NEGATIVE
-for _name in GNSS_SYSTEMS[1:]:
-    RANGES[f"gnss.{_name}.frequency_mhz"] = POSITIVE
-    RANGES[f"gnss.{_name}.edge_elevation_deg"] = (0.0, 90.0, False, True)
-for _name in ("gm_sun_km3_s2", "gm_earth_km3_s2", "gm_jupiter_km3_s2", "r_moon_mean_km", "r_earth_km", "r_sun_km",
-              "au_km", "c_km_s"):
-    RANGES[f"constants.{_name}"] = POSITIVE
 
 
-def allowed_range_text(spec: tuple) -> str:
-    """``(0, inf)``-style text of a range of :data:`RANGES`."""
-    low, high, low_open, high_open = spec
-    left = "(-inf" if low is None else f"{'(' if low_open else '['}{low:g}"
-    right = "inf)" if high is None else f"{high:g}{')' if high_open else ']'}"
-    return f"{left}, {right}"
+_hints = functools.cache(typing.get_type_hints)     # field types of a section class, resolved once
 
 
-def in_range(value: float, spec: tuple) -> bool:
-    low, high, low_open, high_open = spec
-    return ((low is None or (value > low if low_open else value >= low))
-            and (high is None or (value < high if high_open else value <= high)))
+def _schema_fields(cls) -> dict:
+    """``{key: (type, Rule)}`` of a section class: the keys a profile may write (not the derived fields)."""
+    hints = _hints(cls)
+    return {item.name: (hints[item.name], rule_of(item)) for item in dataclasses.fields(cls)
+            if item.init and not rule_of(item).derived}
+
+
+def _entry_class(hint):
+    """The section class of a table of named sections (``Mapping[str, IntegratorSetting]``), else None."""
+    args = typing.get_args(hint)
+    named = typing.get_origin(hint) is Mapping and len(args) == 2 and dataclasses.is_dataclass(args[1])
+    return args[1] if named else None
+
+
+def rules(cls=PROFILE_SCHEMA, prefix: str = ""):
+    """Every ``(dotted key, Rule)`` of the schema (a named entry of ``[integrator.settings]`` is ``*``)."""
+    for name, (hint, rule) in _schema_fields(cls).items():
+        key = f"{prefix}{name}"
+        yield key, rule
+        if dataclasses.is_dataclass(hint):
+            yield from rules(hint, f"{key}.")
+        elif _entry_class(hint) is not None and not rule.free:
+            yield from rules(_entry_class(hint), f"{key}.*.")
+
+
+def keys_with(flag: str) -> tuple[str, ...]:
+    """Dotted keys whose :class:`~lnss_lib.sections.Rule` sets ``flag`` (e.g. ``"pair"``)."""
+    return tuple(key for key, rule in rules() if getattr(rule, flag))
 
 
 @lru_cache(maxsize=1)
 def _reference() -> dict:
-    reference = read_toml(PARAMS_DIR / f"{REFERENCE_PROFILE}.toml")
-    reference["profile"] = dict(PROFILE_TABLE)
-    return reference
+    """params/paper.toml's values (a section a stored profile lacks is read from them)."""
+    return read_toml(PARAMS_DIR / f"{REFERENCE_PROFILE}.toml")
+
+
+KIND_OF_TYPE = {bool: "a boolean (true or false)", int: "an integer", float: "a number", str: "a string",
+                list: "a list", dict: "a table"}
 
 
 def _kind(value) -> str:
-    if isinstance(value, bool):
-        return "a boolean (true or false)"
-    if isinstance(value, int):
-        return "an integer"
-    if isinstance(value, float):
+    """A value's kind in words, for messages."""
+    return KIND_OF_TYPE.get(type(value), type(value).__name__)
+
+
+def _expected(hint) -> str:
+    """The kind of value a field's type ``hint`` takes, in words."""
+    if hint in KIND_OF_TYPE:
+        return KIND_OF_TYPE[hint]
+    if typing.get_origin(hint) is types.UnionType:
         return "a number"
-    if isinstance(value, str):
-        return "a string"
-    if isinstance(value, list):
+    if typing.get_origin(hint) is tuple:
         return "a list"
-    if isinstance(value, dict):
-        return "a table"
-    return type(value).__name__
+    return "a table"
 
 
-def _type_ok(value, ref) -> bool:
-    if isinstance(ref, bool) or isinstance(value, bool):
-        return isinstance(ref, bool) and isinstance(value, bool)
-    if isinstance(ref, int):
+def _type_ok(value, hint) -> bool:
+    """Whether a TOML ``value`` has the field type ``hint`` (a float field takes an integer)."""
+    if hint is Any:
+        return True
+    if hint is bool or isinstance(value, bool):
+        return hint is bool and isinstance(value, bool)
+    if hint is int:
         return isinstance(value, int)
-    if isinstance(ref, float):
+    if hint is float or typing.get_origin(hint) is types.UnionType:
         return isinstance(value, (int, float))
-    return isinstance(value, type(ref))
+    if hint is str:
+        return isinstance(value, str)
+    if typing.get_origin(hint) is tuple:
+        return isinstance(value, list)
+    return isinstance(value, dict)
 
 
 def _line_of(source, key: str) -> str:
@@ -474,71 +326,92 @@ def _check_integer_size(key: str, value, source) -> None:
               f"(the int64 of the NetCDF outputs)", key, source)
 
 
-def _check_number(key: str, rule_key: str, value, source) -> None:
+def _check_number(key: str, rule: Rule, value, source) -> None:
     if isinstance(value, bool) or not isinstance(value, (int, float)):
         return
     _check_integer_size(key, value, source)
-    if not math.isfinite(value) and not (rule_key in ALLOW_INFINITE and not math.isnan(value)):
+    if not math.isfinite(value) and not (rule.infinite_ok and not math.isnan(value)):
         _fail(f"{key} = {value!r} is not finite; allowed: a finite number"
-              + (f" in {allowed_range_text(RANGES[rule_key])}" if rule_key in RANGES else ""), key, source)
-    spec = RANGES.get(rule_key)
-    if spec is not None and math.isfinite(value) and not in_range(value, spec):
-        why = f" ({WHY[rule_key]})" if rule_key in WHY else ""
-        _fail(f"{key} = {value!r} is out of range; allowed: {allowed_range_text(spec)}{why}", key, source)
+              + (f" in {allowed_range_text(rule.range)}" if rule.range else ""), key, source)
+    if rule.range is not None and math.isfinite(value) and not in_range(value, rule.range):
+        why = f" ({rule.why})" if rule.why else ""
+        _fail(f"{key} = {value!r} is out of range; allowed: {allowed_range_text(rule.range)}{why}", key, source)
 
 
-def _check_text(key: str, rule_key: str, value, source) -> None:
-    """A text setting (or a list of them) against :data:`CHOICES` or :data:`FORMS`."""
-    if rule_key not in CHOICES and rule_key not in FORMS:
-        return
+def _check_text(key: str, rule: Rule, value, source) -> None:
+    """A text setting (or a list of them) against its rule's choices or form."""
     for item in (value if isinstance(value, list) else [value]):
-        if rule_key in CHOICES and item not in CHOICES[rule_key]:
-            _fail(f"{key} = {item!r} is not allowed; allowed: {', '.join(map(repr, CHOICES[rule_key]))}", key, source)
-        if rule_key in FORMS and not (isinstance(item, str) and FORMS[rule_key][0](item)):
-            _fail(f"{key} = {item!r} is not allowed; allowed: {FORMS[rule_key][1]}", key, source)
+        if rule.choices is not None and item not in rule.choices:
+            _fail(f"{key} = {item!r} is not allowed; allowed: {', '.join(map(repr, rule.choices))}", key, source)
+        if rule.form is not None and not (isinstance(item, str) and FORMS[rule.form][0](item)):
+            allowed = FORMS[rule.form][1]
+            _fail(f"{key} = {item!r} is not allowed; allowed: {allowed() if callable(allowed) else allowed}",
+                  key, source)
 
 
-def _walk(data: dict, ref: dict, prefix: str, rule_prefix: str, partial: bool, source) -> None:
+def _unknown(key: str, known: list[str], source) -> None:
+    """Refuse an unknown ``key``, naming the key that holds its quantity now or the nearest known keys."""
+    if key in LEGACY_KEYS:
+        _fail(f"unknown key {key}: its quantity has one key, {LEGACY_KEYS[key]}", key, source)
+    near = difflib.get_close_matches(key, known, n=3, cutoff=0.6)
+    _fail(f"unknown key {key}; " + (f"did you mean {' or '.join(near)}?" if near else
+                                      f"known keys here: {', '.join(known)}"), key, source)
+
+
+def _walk(data: dict, cls, prefix: str, partial: bool, source) -> None:
+    """Check the table ``data`` at ``prefix`` against the section class ``cls``: keys, types, rules."""
+    fields = _schema_fields(cls)
     for name, value in data.items():
-        key, rule_key = f"{prefix}{name}", f"{rule_prefix}{name}"
-        if rule_prefix == "integrator.settings.":          # a setting of any name, shaped like the reference's
-            ref_value, rule_key = ref.get(name, next(iter(ref.values()))), "integrator.settings.*"
-        elif rule_prefix == "campaign.overrides.":          # profile sections changed for campaign evaluations
-            ref_value, rule_key = _reference().get(name), name
-            if name in ("campaign", "profile") or ref_value is None:
-                _fail(f"unknown key {key}: campaign.overrides holds profile sections other than campaign; known: "
-                      f"{', '.join(k for k in _reference() if k not in ('campaign', 'profile'))}", key, source)
-        elif name not in ref:
-            known = [f"{prefix}{k}" for k in ref]
-            near = difflib.get_close_matches(key, known, n=3, cutoff=0.6)
-            _fail(f"unknown key {key}; " + (f"did you mean {' or '.join(near)}?" if near else
-                                              f"known keys here: {', '.join(known)}"), key, source)
-        else:
-            ref_value = ref[name]
-        if not _type_ok(value, ref_value):
-            _fail(f"{key} = {value!r} has the wrong type: expected {_kind(ref_value)} (as in params/"
-                  f"{REFERENCE_PROFILE}.toml), got {_kind(value)}", key, source)
-        if isinstance(value, dict):
-            if rule_key in FREE_TABLES:
-                _check_free(key, value, source)
-            else:
-                _walk(value, ref_value, f"{key}.", f"{rule_key}.", True, source)
+        key = f"{prefix}{name}"
+        if name not in fields:
+            _unknown(key, [f"{prefix}{k}" for k in fields], source)
+        hint, rule = fields[name]
+        if not _type_ok(value, hint):
+            _fail(f"{key} = {value!r} has the wrong type: expected {_expected(hint)}, got {_kind(value)}",
+                  key, source)
+        if rule.sections:                           # profile sections changed for campaign evaluations
+            _walk_sections(key, value, source)
+        elif isinstance(value, dict) and (rule.free or hint is Any or _entry_class(hint) is None
+                                          and not dataclasses.is_dataclass(hint)):
+            _check_free(key, value, source)
+        elif isinstance(value, dict):
+            for entry, table in (value.items() if _entry_class(hint) else [(None, value)]):
+                inner = key if entry is None else f"{key}.{entry}"
+                if not isinstance(table, dict):
+                    _fail(f"{inner} = {table!r} has the wrong type: expected a table, got {_kind(table)}",
+                          inner, source)
+                _walk(table, _entry_class(hint) or hint, f"{inner}.", True, source)
         elif isinstance(value, list):
             _check_free(key, value, source)
-            _check_text(key, rule_key, value, source)
-            if rule_key in NON_EMPTY and not value:
+            _check_text(key, rule, value, source)
+            if rule.non_empty and not value:
                 _fail(f"{key} = [] is not allowed; allowed: a list of at least one entry", key, source)
-            for index, item in enumerate(value if rule_key in RANGES else []):
-                _check_number(f"{key}[{index}]", rule_key, item, source)
+            for index, item in enumerate(value if rule.range else []):
+                _check_number(f"{key}[{index}]", rule, item, source)
         elif isinstance(value, str):
-            _check_text(key, rule_key, value, source)
+            _check_text(key, rule, value, source)
         else:
-            _check_number(key, rule_key, value, source)
+            _check_number(key, rule, value, source)
     if not partial:
-        missing = [f"{prefix}{k}" for k in ref if k not in data and f"{prefix}{k}" not in ("profile.inherits", "profile.also")]
+        missing = [f"{prefix}{k}" for k, item in ((f.name, f) for f in dataclasses.fields(cls))
+                   if k in fields and k not in data and item.default is dataclasses.MISSING]
         if missing:
             _fail(f"missing key(s) {', '.join(missing)} (every profile has the keys of params/{REFERENCE_PROFILE}.toml; "
                   f"inherit it with [profile] inherits = \"{REFERENCE_PROFILE}\")", missing[0], source)
+
+
+def _walk_sections(key: str, sections: dict, source) -> None:
+    """``campaign.overrides``: a table of profile sections other than campaign and profile, each checked as its own."""
+    known = {name: hint for name, (hint, _) in _schema_fields(PROFILE_SCHEMA).items()
+             if name not in ("campaign", "profile")}
+    for name, table in sections.items():
+        if name not in known:
+            _fail(f"unknown key {key}.{name}: campaign.overrides holds profile sections other than campaign; known: "
+                  f"{', '.join(known)}", f"{key}.{name}", source)
+        if not isinstance(table, dict):
+            _fail(f"{key}.{name} = {table!r} has the wrong type: expected a table, got {_kind(table)}",
+                  f"{key}.{name}", source)
+        _walk(table, known[name], f"{key}.{name}.", True, source)
 
 
 def _check_free(key: str, value, source) -> None:
@@ -557,15 +430,15 @@ def _check_free(key: str, value, source) -> None:
 def validate_profile(profile: dict, *, partial: bool = False, source=None) -> None:
     """Check a profile (or, with ``partial``, a fragment: one TOML file, overrides) before any work.
 
-    Keys and value types follow ``params/paper.toml`` (integers where it has integers; floats accept
-    integers); numbers are finite and inside :data:`RANGES`; ``integrator.setting`` names one of
-    ``integrator.settings``. Tables in :data:`FREE_TABLES` take any keys (their numbers must be
-    finite; :func:`_check_campaign` checks the campaign's). Raises :class:`ConfigError` naming the key,
+    Keys and value types are the fields of :data:`PROFILE_SCHEMA` (a float field takes an integer);
+    numbers are finite and inside their field's range; texts are among its choices or of its form;
+    ``integrator.setting`` names one of ``integrator.settings``. A free table takes any keys (its
+    numbers must be finite; :func:`_check_campaign` checks the campaign's). Raises :class:`ConfigError` naming the key,
     the value and what is allowed (with the file and line when ``source`` is a path).
     """
     if not isinstance(profile, dict):
         raise ConfigError(f"a profile is a table of sections; got {profile!r}")
-    _walk(profile, _reference(), "", "", partial, source)
+    _walk(profile, PROFILE_SCHEMA, "", partial, source)
     _check_across(profile, source)
     if not partial:
         _check_campaign(profile, source)
@@ -587,10 +460,10 @@ def _lookup(profile: dict, key: str):
 def _check_across(profile: dict, source) -> None:
     """Rules across keys, wherever a (partial) profile holds every key a rule needs: setting names name an
     ``[integrator.settings.*]`` table; ``[evaluator] extra_metrics`` are distinct, and the Delta-V maxima among
-    them need ``[deltav] satellites = "all"``, the life navigation metrics ``[sk_estimate] model = "life"``; Cr A/m of the spacecraft is a spacecraft's; :data:`BOUND_PAIRS` are
-    ``[low, high]`` with low < high."""
+    them need ``[deltav] satellites = "all"``, the life navigation metrics ``[sk_estimate] model = "life"``; Cr A/m of the spacecraft is a spacecraft's; a pair
+    (``Rule.pair``) is ``[low, high]`` with low < high."""
     settings = _lookup(profile, "integrator.settings")
-    for key in SETTING_NAMES:
+    for key in keys_with("names_integrator_setting"):
         name = _lookup(profile, key)
         if settings is not None and name is not None and name not in settings:
             _fail(f"{key} = {name!r} names no [integrator.settings.*]; allowed: {', '.join(settings)}", key, source)
@@ -619,7 +492,7 @@ def _check_across(profile: dict, source) -> None:
     if None not in floor and max(floor) <= 0.0:
         _fail("navigation_error.sise_at_upload_m and receiver_noise_m are both 0; allowed: a positive range error floor "
               "(a zero-error range would take infinite weight)", "navigation_error.receiver_noise_m", source)
-    for key in BOUND_PAIRS:
+    for key in keys_with("pair"):
         pair = _lookup(profile, key)
         if pair is not None and not (len(pair) == 2 and pair[0] < pair[1]):
             _fail(f"{key} = {pair!r} is not allowed; allowed: [low, high] with low < high", key, source)
@@ -684,10 +557,9 @@ def _check_campaign(profile: dict, source) -> None:
         if name in INTEGER_DESIGN_KEYS and (any(v != round(v) for v in (lower, upper, step)) or lower < 1):
             _fail(f"{key} = {spec!r} is not allowed; allowed: integer bounds >= 1 and an integer step (a count)",
                   key, source)
-    count_ranges = [range(int(variables[name]["lower"]), int(variables[name]["upper"]) + 1, int(variables[name]["step"]))
-                    for name in INTEGER_DESIGN_KEYS]
-    n_sat = campaign["n_sat"]
-    if n_sat and not walker_splits(n_sat, *count_ranges):
+    count_ranges = [range(int(variables[k]["lower"]), int(variables[k]["upper"]) + 1, int(variables[k]["step"]))
+                    for k in INTEGER_DESIGN_KEYS]
+    if (n_sat := campaign["n_sat"]) and not walker_splits(n_sat, *count_ranges):
         sizes = sorted({p * s for p in count_ranges[0] for s in count_ranges[1]})
         _fail(f"campaign.n_sat = {n_sat!r} has no planes x satellites-per-plane split on the grid of "
               f"campaign.variables; allowed: 0 (any size) or one of {', '.join(map(str, sizes))}", "campaign.n_sat",
@@ -696,12 +568,6 @@ def _check_campaign(profile: dict, source) -> None:
     if companion and companion == profile["profile"].get("name"):
         _fail(f"campaign.companion_profile = {companion!r} is this profile; allowed: \"\" (none) or another profile",
               "campaign.companion_profile", source)
-
-
-def walker_splits(n_sat: int, planes: range, sats_per_plane: range) -> tuple[tuple[int, int], ...]:
-    """``(Np, Ns)`` with ``Np`` in ``planes``, ``Ns`` in ``sats_per_plane`` and ``Np x Ns = n_sat``, fewest planes
-    first: the Walker constellations of one size that a size-restricted campaign searches."""
-    return tuple((p, n_sat // p) for p in planes if n_sat % p == 0 and n_sat // p in sats_per_plane)
 
 
 def parse_sets(items) -> dict:
@@ -806,26 +672,6 @@ def _check_grid(profile: dict) -> None:
                           key="dop.lat_step_deg")
 
 
-OFF_WHEN_ABSENT = {
-    "front_validation": lambda profile: profile["front_validation"].get("max_designs", 0) == 0,
-    "navigation_error": lambda profile: not set(profile.get("evaluator", {}).get("extra_metrics", ()))
-    & set(NAVIGATION_ERROR_KEYS),
-    "gnss": lambda profile: list(profile["gnss"].get("systems", ["gps"])) == ["gps"],
-    "life_navigation": lambda profile: profile["life_navigation"].get("designs", 0) == 0,
-    "robustness": lambda profile: profile["robustness"].get("draws", 0) == 0,
-}
-"""Sections a profile stored before they existed lacks, each with its test of being off: read as params/paper.toml's
-(front validation off, ``max_designs = 0``; the navigation error unused while no metric of
-:data:`~lnss_lib.keys.NAVIGATION_ERROR_KEYS` is asked for; the GPS link alone, ``[gnss] systems = ["gps"]``; notebook
-08's life navigation check off, ``designs = 0``), and left out of the profile hash while off, so runs and shipped
-results from before them keep their hash."""
-
-
-KEYS_OFF_WHEN_ABSENT = {("campaign", "n_sat"): 0}
-"""Keys a profile stored before they existed lacks, with the value that keeps their effect off (a campaign over
-every size): read so when absent and left out of the profile hash at that value, like :data:`OFF_WHEN_ABSENT`."""
-
-
 def with_absent_sections(profile: dict) -> dict:
     """``profile`` (changed in place) with every section of :data:`OFF_WHEN_ABSENT` it lacks taken from paper.toml
     and every key of :data:`KEYS_OFF_WHEN_ABSENT` its sections lack set off."""
@@ -838,9 +684,10 @@ def with_absent_sections(profile: dict) -> dict:
 
 
 def profile_hash(profile: dict) -> str:
-    """SHA-256 (16 hex digits) of a profile's canonical JSON, excluding its name and description, a
-    :data:`OFF_WHEN_ABSENT` section that is off and a :data:`KEYS_OFF_WHEN_ABSENT` key at its off value."""
-    content = copy.deepcopy(profile)
+    """SHA-256 (16 hex digits) of a profile's canonical JSON in :func:`legacy_spelling`, excluding its name and
+    description, a :data:`OFF_WHEN_ABSENT` section that is off and a :data:`KEYS_OFF_WHEN_ABSENT` key at its off
+    value."""
+    content = legacy_spelling(profile)
     content.get("profile", {}).pop("name", None)
     content.get("profile", {}).pop("description", None)
     for section, off in OFF_WHEN_ABSENT.items():

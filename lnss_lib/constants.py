@@ -38,7 +38,7 @@ TOLERANCE_FLOOR = 1e-14             # integrator rtol/atol: about 100 machine ep
                                     # for what rounding cannot resolve (the tightest setting in use, the DOP853 1e-12/1e-14
                                     # reference of bench integrator and design_life.closed_loop.integrator_convergence, sits on it)
 
-# Sanity ranges of physical inputs (issue 21 item 4): values outside are no lunar spacecraft or orbit.
+# Sanity ranges of physical inputs: values outside are no lunar spacecraft or orbit.
 EARTH_MOON_DISTANCE_KM = 384400.0   # mean; beyond it the Earth, not the Moon, is the central body
 MOON_HILL_RADIUS_KM = 61500.0       # a_moon (m_moon / (3 m_earth))^(1/3) = 384400 x (0.0123 / 3)^(1/3): a lunar
                                     # orbit's semi-major axis beyond it is no bound orbit of the Moon

@@ -42,7 +42,8 @@ import numpy as np
 import xarray as xr
 from scipy.optimize import minimize
 
-from .config import DELTAV_MODELS, LSQ_RATES, validate_profile
+from .config import validate_profile
+from .sections import DELTAV_MODELS, LSQ_RATES
 from .constants import DAYS_PER_JULIAN_YEAR, SECONDS_PER_DAY
 from .frames import ELEMENT_FRAMES, element_frame_to_j2000, to_rtn
 from .gve import (NATURAL_RATE_NAMES, PAPER_NORMAL, PAPER_RADIAL, RATE_NAMES, check_epochs, element_rates, lsq_thrust,
@@ -71,7 +72,7 @@ SECULAR_PARTS = ("sma", "ecc_vector", "plane")
 
 def with_overrides(deltav: DeltaVSettings, **overrides) -> DeltaVSettings:
     """``deltav`` (the ``[deltav]`` section) with ``overrides`` (None values ignored; e.g. a study's
-    ``element_frame="lunar_equator_of_epoch"``), checked as the profile is (:func:`lnss_lib.config.validate_profile`:
+    ``gve_frame="lunar_equator_of_epoch"``), checked as the profile is (:func:`lnss_lib.config.validate_profile`:
     keys, types, ranges, allowed values); the section itself when nothing changes."""
     changed = {k: v for k, v in overrides.items() if v is not None}
     if not changed:
@@ -376,7 +377,7 @@ def deltav_from_propagation(deltav: DeltaVSettings, dynamics: Dynamics, ds: xr.D
     natural rates and cost parts (part), and the summary
     ``dv_total_kms_per_year`` and ``dv_opt_kms_per_year`` (model_all: paper, lsq, secular).
     Attributes name the chosen model (``model`` or ``deltav.model``) and its two budgets. ``overrides``
-    replace ``[deltav]`` settings (:func:`with_overrides`, e.g. ``element_frame="lunar_equator_of_epoch"``).
+    replace ``[deltav]`` settings (:func:`with_overrides`, e.g. ``gve_frame="lunar_equator_of_epoch"``).
     ``dynamics`` gives GM (``gravity.gm_km3_s2``) and the element frame's rotation to J2000.
     """
     cfg = with_overrides(deltav, model=model, **overrides)
@@ -416,7 +417,7 @@ def deltav_from_propagation(deltav: DeltaVSettings, dynamics: Dynamics, ds: xr.D
             "dv_total_kms_per_year": float(res["dv_total"][cfg.model]),
             "dv_opt_kms_per_year": float(res["dv_opt"][cfg.model]),
             "per_year_factor": res["per_year_factor"],
-            "element_frame": cfg.element_frame,
+            "element_frame": cfg.gve_frame,
             "settings": repr(dict(sorted(dataclasses.asdict(cfg).items()))),
             "units": "elements km and rad; rates km/s, 1/s, rad/s; thrust km/s^2; Delta-V km/s per satellite per year",
             "sign": "T is the acceleration that produces the drift; the station-keeping thrust is -T",
@@ -429,10 +430,10 @@ def deltav_from_propagation(deltav: DeltaVSettings, dynamics: Dynamics, ds: xr.D
 def _satellite_arrays(cfg: DeltaVSettings, dynamics: Dynamics, t: np.ndarray, states_mci: np.ndarray, sat: int,
                       models: tuple[str, ...]) -> dict:
     """:func:`deltav_arrays` of ``models`` for satellite ``sat``'s states (n, 6) in Moon-centred J2000, rotated into
-    ``cfg.element_frame``; ValueError when a state is not finite."""
+    ``cfg.gve_frame``; ValueError when a state is not finite."""
     if not np.all(np.isfinite(states_mci)):
         raise ValueError(f"satellite {sat} has non-finite states (impact or failed propagation); no Delta-V")
-    rot = element_frame_to_j2000(dynamics, float(t[0]), cfg.element_frame)
+    rot = element_frame_to_j2000(dynamics, float(t[0]), cfg.gve_frame)
     return deltav_arrays(t, _rotate_states(states_mci, rot), dynamics.gravity.gm_km3_s2, cfg, models)
 
 
@@ -461,14 +462,14 @@ def deltav_per_satellite(deltav: DeltaVSettings, dynamics: Dynamics, ds: xr.Data
     total = np.full((states.shape[0], len(MODELS)), np.nan)
     opt = np.full_like(total, np.nan)
     if np.any(finite):
-        rot = element_frame_to_j2000(dynamics, float(t[0]), cfg.element_frame)
+        rot = element_frame_to_j2000(dynamics, float(t[0]), cfg.gve_frame)
         res = deltav_arrays(t, _rotate_states(states[finite], rot), gm, cfg)
         total[finite] = np.stack([res["dv_total"][m] for m in MODELS], axis=-1)
         opt[finite] = np.stack([res["dv_opt"][m] for m in MODELS], axis=-1)
     return xr.Dataset(
         {"dv_total_kms_per_year": (("sat", "model_all"), total), "dv_opt_kms_per_year": (("sat", "model_all"), opt)},
         coords={"sat": ds["sat"].values, "model_all": list(MODELS)},
-        attrs={"deltav_model": cfg.model, "element_frame": cfg.element_frame,
+        attrs={"deltav_model": cfg.model, "element_frame": cfg.gve_frame,
                "units": "km/s per satellite per year"},
     )
 

@@ -29,7 +29,7 @@ import numba as nb
 import numpy as np
 import xarray as xr
 
-from .config import AREA_WEIGHTINGS, LOS_AXES
+from .sections import AREA_WEIGHTINGS, LOS_AXES
 from .constants import MIN_VISIBLE
 from .frames import rotate_to_moon_fixed
 from .geometry import (availability_pct, block_inverse, normal_matrix_entries, position_block_inverse, sigma_filtered_mean,

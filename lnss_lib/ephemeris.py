@@ -22,7 +22,8 @@ import numpy as np
 import spiceypy as spice
 import spiceypy.utils.exceptions
 
-from .config import ISO_FORMAT, SKYFIELD_DATA, data_path, parse_iso_date
+from .config import SKYFIELD_DATA, data_path
+from .dates import ISO_FORMAT, parse_iso_date
 from .constants import DAYS_PER_JULIAN_YEAR, SECONDS_PER_DAY
 from .errors import ConfigError, EphemerisRangeError, SpiceError
 from .settings import Dynamics, EphemerisSettings
@@ -98,7 +99,7 @@ def ensure_kernels(ephemeris: EphemerisSettings) -> None:
 
 
 def tdb_seconds(calendar: str, scale: str = "TDB") -> float:
-    """Seconds past J2000 TDB for an ISO 8601 calendar string (:func:`~lnss_lib.config.parse_iso_date`, strict: no
+    """Seconds past J2000 TDB for an ISO 8601 calendar string (:func:`~lnss_lib.dates.parse_iso_date`, strict: no
     zone, no day-month order) read in ``scale`` ("TDB" or "UTC").
 
     ``str2et`` reads a bare date as UTC; the scale is therefore always appended explicitly.

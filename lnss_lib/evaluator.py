@@ -9,7 +9,7 @@ paper does, Section 5.3). Infeasible designs (impact, invalid elements) come bac
 metrics, never raised, so batch callers can treat them as constraint violations.
 
 A profile may ask for the operational metrics of :data:`~lnss_lib.keys.EXTRA_METRIC_KEYS` in
-``[evaluator] extra_metrics`` (issue 11 item 5; none in ``paper``): the station-keeping Delta-V estimate over
+``[evaluator] extra_metrics`` (none in ``paper``): the station-keeping Delta-V estimate over
 every satellite (``[sk_estimate] model``: the 10-day box slope of :mod:`lnss_lib.design_life.estimate` from the
 same arc, or the service controller's life of :mod:`lnss_lib.design_life.life_estimate`, which shares the screen),
 the design-life stability screen (:mod:`lnss_lib.design_life.screen`, from the initial states; ``stable_screen`` 1.0
@@ -33,7 +33,7 @@ import xarray as xr
 
 from . import deltav, dop, gnss, gps, navigation_error
 from .design_life import life_estimate
-from .design_life import screen as stability
+from .design_life import screen
 from .constellation import WalkerDesign
 from .ephemeris import EphemerisTable, ensure_kernels, rotation, tdb_seconds
 from .constants import SECONDS_PER_DAY
@@ -81,13 +81,12 @@ class EvaluationContext:
     @classmethod
     def build(cls, settings: Settings) -> "EvaluationContext":
         """Tables, force model, Moon-fixed rotations, grid and GPS states over the settings' arc (checked at load)."""
-        profile = settings
-        ensure_kernels(profile.ephemeris)
+        ensure_kernels(settings.ephemeris)
         epoch = settings.epoch
         t0 = tdb_seconds(epoch.start_tdb, "TDB")
         times = output_times(t0, epoch.duration_days * SECONDS_PER_DAY, epoch.step_s)
-        table = EphemerisTable.build(profile.dynamics, t0, float(times[-1]))
-        model = ForceModel.build(profile.dynamics, table)
+        table = EphemerisTable.build(settings.dynamics, t0, float(times[-1]))
+        model = ForceModel.build(settings.dynamics, table)
         rot = rotation("J2000", settings.frames.moon_fixed, times)
         grid = dop.SurfaceGrid.from_settings(settings.dop, settings.constants.r_moon_mean_km)
         extras = requested_extra_metrics(settings.evaluator)
@@ -144,9 +143,9 @@ def analyse_states(context: EvaluationContext, elements: np.ndarray, states: np.
     grid compiled (:func:`lnss_lib.dop.metrics_for_settings`, same metrics to ~1e-12 relative) and the
     GPS link from arrays (:func:`lnss_lib.gps.gps_link_metrics`, bit for bit)."""
     laps = Laps()
-    profile = context.settings
+    settings = context.settings
     times = context.times
-    ds = propagate_states(profile.dynamics, states, context.t0_tdb_s, float(times[-1] - times[0]), profile.epoch.step_s,
+    ds = propagate_states(settings.dynamics, states, context.t0_tdb_s, float(times[-1] - times[0]), settings.epoch.step_s,
                           batch=True, model=context.model)
     _raise_first_impact(context, ds.impact.values, ds.impact_t_tdb_s.values)
     ds["elements_deg"] = (("sat", "element"), elements)
@@ -334,31 +333,31 @@ def _design_deltav(settings: DeltaVSettings, dynamics: Dynamics, ds: xr.Dataset,
 def _operational_metrics(context: EvaluationContext, ds: xr.Dataset, states: np.ndarray, computed: dict) -> dict:
     """The requested extra metrics (``context.extra_metrics``), those already ``computed`` (the Delta-V budget's
     maxima, the metre metrics, the GNSS link) taken from there; NaN for an estimate the arc cannot give."""
-    profile, wanted = context.settings, context.extra_metrics
+    settings, wanted = context.settings, context.extra_metrics
     out = {k: computed[k] for k in wanted if k in computed}
     want_nav = any(k in LIFE_NAVIGATION_KEYS for k in wanted)
     want_sk = want_nav or any(k.startswith("sk_dv_estimate") for k in wanted)
-    screen = None
-    if any(k.startswith(("stable", "screen")) for k in wanted) or (want_sk and profile.sk_estimate.model == "life"):
-        screen = stability.screen_states(profile.stability, context.dynamics, states, context.t0_tdb_s)
+    screened = None
+    if any(k.startswith(("stable", "screen")) for k in wanted) or (want_sk and settings.sk_estimate.model == "life"):
+        screened = screen.screen_states(settings.stability, context.dynamics, states, context.t0_tdb_s)
     if want_sk:
-        min_periods = profile.sk_estimate.min_periods
+        min_periods = settings.sk_estimate.min_periods
         gm = context.dynamics.gravity.gm_km3_s2
         r = np.linalg.norm(ds["r_mci_km"].values, axis=-1)
         v2 = np.sum(ds["v_mci_kms"].values ** 2, axis=-1)
         a_mean = np.mean(vis_viva_sma_km(r, v2, gm), axis=1)             # vis-viva, as the estimate's arc test
         arc_s = float(ds["time"].values[-1] - ds["time"].values[0])
         if arc_s >= min_periods * 2.0 * np.pi * np.sqrt(np.max(a_mean) ** 3 / gm) * (1.0 + 1e-9):
-            estimate = life_estimate.campaign_estimate(profile.sk_estimate, profile.stability, profile.design_life,
-                                                       context.dynamics, profile.dop, ds, screen, availability=want_nav)
+            estimate = life_estimate.campaign_estimate(settings.sk_estimate, settings.stability, settings.design_life,
+                                                       context.dynamics, settings.dop, ds, screened, availability=want_nav)
         else:
             estimate = dict.fromkeys(("sk_dv_estimate_kms_per_year", "sk_dv_estimate_max_kms_per_year",
                                       *LIFE_NAVIGATION_KEYS), math.nan)
         out.update({k: float(estimate[k]) for k in wanted
                     if k.startswith("sk_dv_estimate") or k in LIFE_NAVIGATION_KEYS})
-    if screen is not None:
-        values = {"stable_screen": 1.0 if screen.attrs["stable"] else 0.0,
-                  "screen_min_perilune_alt_km": float(screen.attrs["min_perilune_alt_km"])}
+    if screened is not None:
+        values = {"stable_screen": 1.0 if screened.attrs["stable"] else 0.0,
+                  "screen_min_perilune_alt_km": float(screened.attrs["min_perilune_alt_km"])}
         out.update({k: values[k] for k in wanted if k in values})
     return {k: out[k] for k in wanted}
 

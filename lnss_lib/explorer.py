@@ -1,4 +1,4 @@
-"""Live design explorer (issue 14): sliders over the Table 3 variables, eq. 45 metrics after each change.
+"""Live design explorer: sliders over the Table 3 variables, eq. 45 metrics after each change.
 
 :class:`DesignExplorer` puts ipywidgets around :func:`lnss_lib.evaluator.analyse_constellation`: one
 slider per Table 3 variable (bounds and steps from the profile's ``[campaign.variables]``), a choice

@@ -15,7 +15,7 @@ from dataclasses import dataclass
 import numba as nb
 import numpy as np
 
-from .config import CR_AREA_MASS, CR_AREA_MASS_WHY, THIRD_BODIES, allowed_range_text, in_range
+from .sections import CR_AREA_MASS, CR_AREA_MASS_WHY, THIRD_BODIES, allowed_range_text, in_range
 from .ephemeris import EphemerisTable, hermite_apply, hermite_basis, hermite_sum
 from .errors import ConfigError
 from .gravity import GravityField, harmonic_acceleration, tabulated_truncation_degree

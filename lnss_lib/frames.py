@@ -26,7 +26,7 @@ from __future__ import annotations
 import numpy as np
 import spiceypy as spice
 
-from .config import ELEMENT_FRAMES, POLE_FRAMES
+from .sections import ELEMENT_FRAMES, POLE_FRAMES
 from .constants import ARCSEC_RAD, SECONDS_PER_DAY, SECONDS_PER_JULIAN_CENTURY
 from .ephemeris import body_states_mci, ensure_kernels, rotation, spice_errors
 from .settings import Dynamics

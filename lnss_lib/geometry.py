@@ -16,7 +16,7 @@ from __future__ import annotations
 import numba as nb
 import numpy as np
 
-from .config import PDOP_FILTERS
+from .sections import PDOP_FILTERS
 
 __all__ = ["SINGULAR_RTOL", "PDOP_FILTERS", "normal_matrix_entries", "block_inverse", "position_block_inverse",
            "weighted_dop_stats", "sigma_filtered_mean", "availability_pct", "filtered_mean"]
@@ -91,7 +91,7 @@ def _regular(det, t):
     t * t * t is within 1e-15 of the power (three roundings against one), so a determinant outside 1e-14 of the
     threshold decides on the product alone; the power is computed only in that band (and for tiny or non-finite
     values). The libm call per grid sample and epoch cost 5.0 -> 2.3 ms for a design's 138,384 decisions (the same bits,
-    interleaved A/B in one process), a quarter of the DOP grid's time (issue 23)."""
+    interleaved A/B in one process), a quarter of the DOP grid's time."""
     if t > 1e-90 and t < 1e90:
         threshold = SINGULAR_RTOL * (t * t * t)
         if det > threshold * (1.0 + 1e-14):

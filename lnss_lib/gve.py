@@ -15,7 +15,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from .config import PAPER_NORMAL, PAPER_RADIAL
+from .sections import PAPER_NORMAL, PAPER_RADIAL
 from .elements import eccentricity_vector, state_to_elements, vis_viva_sma_km
 
 __all__ = ["RATE_NAMES", "NATURAL_RATE_NAMES", "PAPER_NORMAL", "PAPER_RADIAL", "check_epochs", "osculating_elements",

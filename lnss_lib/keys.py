@@ -15,7 +15,7 @@ ELEMENT_KEYS = ("sma_km", "ecc", "inc_deg", "raan_deg", "aop_deg", "mean_anomaly
 
 METRIC_KEYS = ("n_sat", "mean_visible_sats", "pdop_mean_3sigma", "pdop_avail_pct", "hdop_mean_3sigma",
                "hdop_avail_pct", "dv_total_kms_per_year", "dv_opt_kms_per_year", "gps_visible_mean", "gps_pdop_mean")
-# operational metrics, computed only when ``[evaluator] extra_metrics`` names them (issue 11 item 5):
+# operational metrics, computed only when ``[evaluator] extra_metrics`` names them:
 # geometry-keeping Delta-V estimate (sk_estimate, mean and max over satellites), design-life stability
 # screen (stability: 1.0 stable, 0.0 not; minimum perilune altitude), and the eq. 45 Delta-V's maximum
 # over satellites ([deltav] satellites = "all")

@@ -1,4 +1,4 @@
-"""Progress inside a long notebook cell (issue 24): a bar JupyterLab shows live, cleared when the work is done.
+"""Progress inside a long notebook cell: a bar JupyterLab shows live, cleared when the work is done.
 
 In a Jupyter kernel the outermost :class:`CellProgress` displays one output (an HTML ``<progress>`` line and
 its text) and updates it in place, at most every :data:`MIN_INTERVAL_S`; bars opened while it runs (a design

@@ -22,7 +22,7 @@ import xarray as xr
 from scipy.integrate._ivp import dop853_coefficients as _dop853
 from scipy.integrate._ivp.rk import RK45 as _RK45
 
-from .config import METHODS, SEMI_MAJOR_AXIS, SEMI_MAJOR_AXIS_WHY, allowed_range_text, in_range
+from .sections import METHODS, SEMI_MAJOR_AXIS, SEMI_MAJOR_AXIS_WHY, allowed_range_text, in_range
 from .constants import EARTH_MOON_DISTANCE_KM, MAX_OUTPUT_SAMPLES, SECONDS_PER_DAY
 from .elements import check_states_km, elements_to_state, validate_elements
 from .errors import ConfigError, ImpactError, PropagationError

@@ -6,13 +6,12 @@ error names the key, the value and what is allowed) and freezes the result into 
 dataclass a section (``settings.forces``, ``settings.dop``, ...). A kernel takes the section it reads,
 or the :class:`Dynamics` bundle that the force model and the propagator read, never the whole tree.
 
-Why plain frozen dataclasses and not pydantic: the checking already lives in one place
-(:func:`lnss_lib.config.validate_profile`, with TOML file and line numbers in its messages, the allowed
-set of every text setting from :data:`lnss_lib.config.CHOICES` and physical ranges with the reason),
-so a second validator would duplicate it; a frozen dataclass adds no dependency, cannot be changed
-after the check, and shows every setting a function depends on in its signature. The fields take the
-names and value types of ``params/paper.toml``; numbers that TOML allows as integers in a float key
-become ``float``, lists become tuples; free tables (``gps.launch_dates``, ``campaign.constraints``, ...) stay
+The sections are declared in :mod:`lnss_lib.sections`, each setting once (type, range or allowed
+values, reason); the checker reads its rules from there. Why plain frozen dataclasses and not pydantic:
+the standard library's field metadata holds the rules, the checker names the TOML file and line, and a
+frozen dataclass adds no dependency, cannot be changed after the check, and shows every setting a
+function depends on in its signature. Numbers that TOML allows as integers in a float key become
+``float``, lists become tuples; free tables (``gps.launch_dates``, ``campaign.constraints``, ...) stay
 plain tables, checked with the rest (the campaign's by :func:`lnss_lib.config.validate_profile` too).
 
 :attr:`Settings.hash` is computed once, at construction (the same fingerprint as
@@ -33,8 +32,28 @@ from typing import Any
 
 from .config import deep_merge, load_profile, profile_hash, toml_literal, validate_profile, with_absent_sections
 from .errors import ConfigError
+from .sections import (  # the sections, importable from here as they always were
+    ProfileInfo, EpochSettings, SpacecraftSettings, GravitySettings, ForceSettings, BodyConstants,
+    IntegratorSetting, IntegratorSettings, FrameSettings, EphemerisSettings, ImpactSettings,
+    StandaloneElfoSettings, CapstoneSettings, ValidationSettings, NotebookSettings, DopSettings,
+    GpsSettings, GnssReference, GnssTransmitter, GnssSettings, DeltaVSettings, EvaluatorSettings,
+    NavigationErrorSettings, VariableBounds, CampaignSettings, StabilitySettings,
+    SkEstimateSettings, BoxSettings, ServiceSettings, DesignLifeSettings, BenchmarkSettings,
+    LifeEvaluationSettings, LifeNavigationSettings, RobustnessSettings, FrontValidationSettings, ProfileSections,
+    migrate_legacy,
+    rule_of,
+)
 
-__all__ = ["Settings", "Dynamics", "load_settings", "settings_from_profile", "settings_from_toml"]
+__all__ = ["Settings", "Dynamics", "load_settings", "settings_from_profile", "settings_from_toml",
+           "ProfileInfo", "EpochSettings", "SpacecraftSettings", "GravitySettings", "ForceSettings",
+           "BodyConstants", "IntegratorSetting", "IntegratorSettings", "FrameSettings",
+           "EphemerisSettings", "ImpactSettings", "StandaloneElfoSettings", "CapstoneSettings",
+           "ValidationSettings", "NotebookSettings", "DopSettings", "GpsSettings", "GnssReference",
+           "GnssTransmitter", "GnssSettings", "DeltaVSettings", "EvaluatorSettings",
+           "NavigationErrorSettings", "VariableBounds", "CampaignSettings", "StabilitySettings",
+           "SkEstimateSettings", "BoxSettings", "ServiceSettings", "DesignLifeSettings",
+           "BenchmarkSettings", "LifeEvaluationSettings", "LifeNavigationSettings", "RobustnessSettings",
+           "FrontValidationSettings", "ProfileSections"]   # the sections (lnss_lib.sections) are importable from here too
 
 
 def _frozen(value):
@@ -88,7 +107,7 @@ def _build(cls, table: Mapping, key: str):
     hints = _hints(cls)
     values = {}
     for item in dataclasses.fields(cls):
-        if not item.init or item.metadata.get("derived"):
+        if not item.init or rule_of(item).derived or rule_of(item).file_only:
             continue
         name = item.name
         if name not in table:
@@ -96,431 +115,6 @@ def _build(cls, table: Mapping, key: str):
                               key=f"{key}.{name}")
         values[item.name] = _convert(hints[item.name], table[name], f"{key}.{name}")
     return cls(**values)
-
-
-# --- the sections, in the order of params/paper.toml ------------------------------------------------------
-
-@dataclass(frozen=True)
-class ProfileInfo:
-    name: str
-    description: str
-
-
-@dataclass(frozen=True)
-class EpochSettings:
-    """Study epoch (TDB) and the arc of the 10-day evaluation (Section 5.3)."""
-    start_tdb: str
-    duration_days: float
-    step_s: float
-
-
-@dataclass(frozen=True)
-class SpacecraftSettings:
-    """Table 2 bus: mass, SRP area and reflectivity coefficient."""
-    mass_kg: float
-    area_m2: float
-    cr: float
-
-    @property
-    def cr_area_mass_m2_kg(self) -> float:
-        """Cr A / m of the SRP acceleration (m^2/kg)."""
-        return self.cr * self.area_m2 / self.mass_kg
-
-
-@dataclass(frozen=True)
-class GravitySettings:
-    """The lunar field (fully normalised, in ``frames.gravity``), its degree and the per-evaluation truncation."""
-    file: str
-    degree: int
-    gm_km3_s2: float
-    r_ref_km: float
-    truncation_kms2: float
-
-
-@dataclass(frozen=True)
-class ForceSettings:
-    """Perturbations beyond the lunar field (Table 2)."""
-    third_bodies: tuple[str, ...]
-    srp: bool
-    shadow: str
-    relativity: bool
-    albedo: bool
-    earth_albedo: float
-    solar_flux_w_m2: float
-
-
-@dataclass(frozen=True)
-class BodyConstants:
-    """GMs of the third bodies (DE421), radii, the astronomical unit and the speed of light."""
-    gm_sun_km3_s2: float
-    gm_earth_km3_s2: float
-    gm_jupiter_km3_s2: float
-    r_moon_mean_km: float
-    r_earth_km: float
-    r_sun_km: float
-    au_km: float
-    c_km_s: float
-
-
-@dataclass(frozen=True)
-class IntegratorSetting:
-    """One named integrator setting: method and tolerances."""
-    method: str
-    rtol: float
-    atol: float
-    name: str = field(default="", metadata={"derived": True})   # filled in by IntegratorSettings.named
-
-
-@dataclass(frozen=True)
-class IntegratorSettings:
-    """The named integrator settings and the one the profile propagates with."""
-    setting: str
-    settings: Mapping[str, IntegratorSetting]
-
-    def named(self, name: str | None = None) -> IntegratorSetting:
-        """Setting ``name`` (default: the profile's ``integrator.setting``) with its name filled in."""
-        name = self.setting if name is None else name
-        if name not in self.settings:
-            raise ConfigError(f"unknown integrator setting {name!r}; allowed: {', '.join(self.settings)}",
-                              key="integrator.setting")
-        return dataclasses.replace(self.settings[name], name=name)
-
-
-@dataclass(frozen=True)
-class FrameSettings:
-    """Frame of the design elements, of the surface grid and of the gravity field."""
-    element_frame: str
-    moon_fixed: str
-    gravity: str
-
-
-@dataclass(frozen=True)
-class EphemerisSettings:
-    """SPICE kernels (relative to params/), the planetary SPK and the tabulation step of bodies and rotations."""
-    kernels: tuple[str, ...]
-    planetary_spk: str
-    table_step_s: float
-
-
-@dataclass(frozen=True)
-class ImpactSettings:
-    min_altitude_km: float
-
-
-@dataclass(frozen=True)
-class StandaloneElfoSettings:
-    """Table 4: the standalone ELFO constellation."""
-    sma_km: float
-    ecc: float
-    inc_deg: float
-    aop_deg: float
-    raan_deg: tuple[float, ...]
-    sats_per_plane: int
-
-
-@dataclass(frozen=True)
-class CapstoneSettings:
-    """CAPSTONE NRHO reference arc (HORIZONS) of the propagator validation."""
-    file: str
-    arc_break_tdb: str
-    srp_cr_area_mass_m2_kg: float
-    integrator_setting: str
-
-
-@dataclass(frozen=True)
-class ValidationSettings:
-    capstone: CapstoneSettings
-
-
-@dataclass(frozen=True)
-class NotebookSettings:
-    timeout_s: int
-
-
-@dataclass(frozen=True)
-class DopSettings:
-    """South-pole receiver grid and DOP statistics (Section 2.1, eq. 1-14)."""
-    lat_min_deg: float
-    lat_max_deg: float
-    lat_step_deg: float
-    lon_min_deg: float
-    lon_max_deg: float
-    lon_step_deg: float
-    area_weighting: str
-    elevation_mask_deg: float
-    los_axes: str
-    availability_threshold: float
-    filter_sigma: float
-
-
-@dataclass(frozen=True)
-class GpsSettings:
-    """GPS-LNSS link budget and visibility (Section 2.2, eq. 15-24, Table 1)."""
-    tle_file: str
-    exclude_prn: tuple[int, ...]
-    exclude_launched_after: str
-    exclude_launches_from: str
-    launch_dates: Mapping[str, str]
-    gain_file: str
-    gain_column: str
-    sidelobe_from_deg: float
-    sidelobe_offset_db: float
-    p_tx_dbw: float
-    l_tx_db: float
-    l_pol_db: float
-    g_rx_dbi: float
-    frequency_mhz: float
-    noise_temperature_k: float
-    cn0_threshold_dbhz: float
-    beam_mask_deg: float
-    atmosphere_margin_deg: float
-    ellipsoid_test: bool
-    clock_column: bool
-    pdop_filter: str
-
-
-@dataclass(frozen=True)
-class GnssReference:
-    """GPS's ICD minimum received power and where it is specified: the reference of the other systems' EIRP."""
-    min_received_power_dbw: float
-    edge_elevation_deg: float
-    sma_km: float
-
-
-@dataclass(frozen=True)
-class GnssTransmitter:
-    """A system's signal frequency and its ICD minimum received power at the edge-of-coverage elevation."""
-    frequency_mhz: float
-    min_received_power_dbw: float
-    edge_elevation_deg: float
-
-
-@dataclass(frozen=True)
-class GnssSettings:
-    """The GNSS link (:mod:`lnss_lib.gnss`): which systems, their nominal slots and transmitters."""
-    systems: tuple[str, ...]
-    nominal_file: str
-    gps: GnssReference
-    galileo: GnssTransmitter
-    beidou: GnssTransmitter
-    glonass: GnssTransmitter
-
-
-@dataclass(frozen=True)
-class DeltaVSettings:
-    """Station-keeping Delta-V of the 10-day evaluation (Section 3.1, eq. 25-41)."""
-    model: str
-    element_frame: str
-    year_days: float
-    lsq_rates: str
-    paper_normal: str
-    paper_radial: str
-    paper_divisor_floor: float
-    paper_cap_kms2: float
-    secular_min_periods: float
-    slsqp_lambda: float
-    satellites: str
-
-
-@dataclass(frozen=True)
-class EvaluatorSettings:
-    extra_metrics: tuple[str, ...]
-
-
-@dataclass(frozen=True)
-class NavigationErrorSettings:
-    """The user range error budget (signal in space by ephemeris age, receiver, lunar-surface multipath), the upload
-    stations on the Earth and the position-error requirement (:mod:`lnss_lib.navigation_error`)."""
-    sise_law: str                                    # config.SISE_LAWS
-    sise_at_upload_m: float
-    sise_growth_m: float
-    sise_growth_age_h: float
-    receiver_noise_m: float
-    lunar_multipath_zenith_m: float
-    station_lat_deg: tuple[float, ...]
-    station_lon_deg: tuple[float, ...]
-    station_mask_deg: float
-    requirement_horizontal_95_m: float
-    requirement_vertical_95_m: float                 # 0: no vertical requirement
-
-
-@dataclass(frozen=True)
-class VariableBounds:
-    """A design variable's grid (eq. 43-44): lower and upper bound and step."""
-    lower: int | float
-    upper: int | float
-    step: int | float
-
-
-@dataclass(frozen=True)
-class CampaignSettings:
-    """NSGA-II campaign (Section 5, Table 5) over the Table 3 grid."""
-    population: int
-    generations: int
-    crossover_prob: float
-    crossover_eta: float
-    mutation_eta: float
-    mutation_prob_var: float
-    seed: int
-    ftol: float
-    ftol_period: int
-    n_sat: int
-    objectives: tuple[str, ...]
-    nan_objective: float
-    nan_violation: float
-    evaluator: str
-    synthetic_delay_s: float
-    max_resubmits: int
-    max_errors: int
-    numba_threads_per_worker: int
-    notebook_mode: str
-    companion_profile: str
-    variables: Mapping[str, VariableBounds]
-    constraints: Mapping[str, Any]
-    hypervolume: Mapping[str, Any]
-    overrides: Mapping[str, Any]
-
-
-@dataclass(frozen=True)
-class StabilitySettings:
-    """Doubly-averaged stability screen over the design life."""
-    life_days: float
-    third_bodies: tuple[str, ...]
-    precession: bool
-    average_days: float
-    table_step_days: float
-    method: str
-    rtol: float
-    atol: float
-    step_days: float
-    output_step_days: float
-    margin_km: float
-    monthly_terms: bool
-    validity_period_fraction: float
-    validity_ecc: float
-    validation_degree: int
-    validation_step_s: float
-    validation_designs: tuple[tuple[int | float, ...], ...]   # Walker rows (a_km, e, aop, inc, planes, per plane)
-
-
-@dataclass(frozen=True)
-class SkEstimateSettings:
-    """Campaign-grade station-keeping Delta-V estimate: the 10-day box slope or the service controller's life."""
-    model: str
-    element_frame: str
-    year_days: float
-    min_periods: float
-    along_track_rebias_per_year: float
-
-
-@dataclass(frozen=True)
-class BoxSettings:
-    """Half-widths of the fixed-element box controller."""
-    ecc: float
-    aop_deg: float
-    inc_deg: float
-    raan_rel_deg: float
-    u_rel_deg: float
-
-
-@dataclass(frozen=True)
-class ServiceSettings:
-    """What the service controller holds: a safe perilune and the navigation service."""
-    perilune_margin_km: float
-    safety_check_days: float
-    safety_lead_days: float
-    nav_window_days: float
-    nav_avail_drop_pct: float
-    nav_dop_rise_fraction: float
-    raan_rel_deg: float
-    u_rel_deg: float
-    tolerances: str                                  # config.TOLERANCE_SOURCES
-    tolerance_arc_days: float
-    tolerance_step_s: float
-    raan_rel_bounds_deg: tuple[float, float]
-    u_rel_bounds_deg: tuple[float, float]
-
-
-@dataclass(frozen=True)
-class DesignLifeSettings:
-    """Closed-loop station keeping over the design life."""
-    life_days: float
-    check_interval_days: float
-    samples_per_orbit: int
-    min_maneuver_spacing_days: float
-    dv_cap_kms_per_year: float
-    slot_coast_days: float
-    slot_fit_days: float
-    slot_quad_days: float
-    target_fraction: float
-    tide_period_days: float
-    box_tolerance: float
-    integrator_setting: str
-    initial_trim: bool
-    controller: str
-    box: BoxSettings
-    service: ServiceSettings
-
-
-@dataclass(frozen=True)
-class BenchmarkSettings:
-    """Notebook 10: every catalogue constellation on one yardstick."""
-    extra_masks_deg: tuple[float, ...]
-    campaign_picks: bool
-    closed_loop_life: bool
-    epoch_constellations: tuple[str, ...]
-    epochs_tdb: tuple[str, ...]
-
-
-@dataclass(frozen=True)
-class LifeEvaluationSettings:
-    """A design over its design life: sampling, months, and the notebook's validation sets."""
-    sample_step_s: float
-    month_days: float
-    notebook_life_days: float
-    convergence_life_days: float
-    convergence_sats: int
-    validation_life_days: float
-    validation_max_sats_per_plane: int
-    validation_front_designs: int
-    anchor_life_days: float
-    validation_frames: tuple[str, ...]
-    frame_rerun_designs: int
-    validation_designs: tuple[tuple[int | float, ...], ...]   # Walker rows (a_km, e, aop, inc, planes, per plane)
-    screen_validation_designs: int          # random Table 3 designs of studies.screen_validation
-    screen_validation_life_days: float      # ... flown this long (0: the screened profile's [stability] life_days)
-
-
-@dataclass(frozen=True)
-class LifeNavigationSettings:
-    """Notebook 08's check of the life-long availability estimate against the closed loop (studies.life_navigation)."""
-    designs: int                            # whole designs flown, the first of the study's list (0: off)
-    life_days: float                        # ... flown this long (0: the operational companion's [design_life] life_days)
-
-
-@dataclass(frozen=True)
-class RobustnessSettings:
-    """Insertion dispersions flown in closed loop (studies.robustness): 1-sigma errors of the mean elements."""
-    draws: int                              # dispersed insertions per design (0: off)
-    life_days: float
-    seed: int
-    sma_km: float
-    ecc: float
-    inc_deg: float
-    raan_deg: float
-    aop_deg: float
-    anomaly_deg: float
-
-
-@dataclass(frozen=True)
-class FrontValidationSettings:
-    """The front flown in closed loop after NSGA-II (issue 20 item 4) and the headline's bounds (item 5)."""
-    max_designs: int                        # 0: off
-    max_sats_per_plane: int                 # 0: every satellite
-    headline_sizes: tuple[int, ...]
-    headline_per_size: int
-    availability_min_pct: float
-    dv_max_kms_per_year: float
 
 
 @dataclass(frozen=True)
@@ -542,37 +136,9 @@ class Dynamics:
 
 
 @dataclass(frozen=True)
-class Settings:
+class Settings(ProfileSections):
     """A whole profile, checked and frozen; only the top of the workbook (command line, pipeline, studies,
     campaign set-up, explorer) holds it, and hands each kernel its section."""
-    profile: ProfileInfo
-    epoch: EpochSettings
-    spacecraft: SpacecraftSettings
-    gravity: GravitySettings
-    forces: ForceSettings
-    constants: BodyConstants
-    integrator: IntegratorSettings
-    frames: FrameSettings
-    ephemeris: EphemerisSettings
-    impact: ImpactSettings
-    standalone_elfo: StandaloneElfoSettings
-    validation: ValidationSettings
-    notebooks: NotebookSettings
-    dop: DopSettings
-    gps: GpsSettings
-    gnss: GnssSettings
-    deltav: DeltaVSettings
-    navigation_error: NavigationErrorSettings
-    evaluator: EvaluatorSettings
-    campaign: CampaignSettings
-    stability: StabilitySettings
-    sk_estimate: SkEstimateSettings
-    design_life: DesignLifeSettings
-    benchmark: BenchmarkSettings
-    life_evaluation: LifeEvaluationSettings
-    life_navigation: LifeNavigationSettings
-    robustness: RobustnessSettings
-    front_validation: FrontValidationSettings
     source: Mapping[str, Any] = field(repr=False, compare=False)
     hash: str = field(init=False, compare=True)
 
@@ -609,11 +175,26 @@ class Settings:
         return settings_from_profile(deep_merge(self.as_dict(), _thawed(overrides)))
 
 
+def _value_of(profile: Mapping, key: str):
+    section, name = key.split(".")
+    return profile[section][name]
+
+
+def _with_derived(section, profile: Mapping):
+    """``section`` with each derived field (:func:`lnss_lib.sections.derived`) set to the first of its keys whose
+    value is not 0."""
+    hints = _hints(type(section))
+    values = {item.name: next((v for v in (_value_of(profile, k) for k in rule_of(item).derived) if v), 0)
+              for item in dataclasses.fields(section) if isinstance(rule_of(item).derived, tuple)}
+    return dataclasses.replace(section, **{name: _convert(hints[name], value, name) for name, value in values.items()})
+
+
 def settings_from_profile(profile: Mapping) -> Settings:
-    """Settings of a merged profile dict (as :func:`lnss_lib.config.load_profile` returns), checked again."""
-    profile = with_absent_sections(_thawed(profile))   # a fresh copy of every table and list
+    """Settings of a merged profile dict (as :func:`lnss_lib.config.load_profile` returns, or as a run folder stored
+    it, read in today's keys by :func:`lnss_lib.sections.migrate_legacy`), checked again."""
+    profile = migrate_legacy(with_absent_sections(_thawed(profile)))   # a fresh copy of every table and list
     validate_profile(profile)
-    sections = {item.name: _build(_hints(Settings)[item.name], profile[item.name], item.name)
+    sections = {item.name: _with_derived(_build(_hints(Settings)[item.name], profile[item.name], item.name), profile)
                 for item in dataclasses.fields(Settings) if item.init and item.name != "source"}
     return Settings(**sections, source=profile)
 

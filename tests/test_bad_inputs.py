@@ -630,14 +630,19 @@ def _bad_text(key: str):
     return value
 
 
-@pytest.mark.parametrize("key", sorted(config.CHOICES) + sorted(config.FORMS) + list(config.SETTING_NAMES))
+RULES = dict(config.rules())
+CHECKED_TEXT = sorted(key for key, rule in RULES.items()
+                      if rule.choices or rule.form or rule.names_integrator_setting)
+
+
+@pytest.mark.parametrize("key", CHECKED_TEXT)
 def test_every_text_setting_is_checked_against_its_allowed_values(key):
     """Each text setting refuses an unknown value before any work, naming the key and what is allowed."""
     with pytest.raises(ConfigError, match="allowed") as caught:
         load_settings("ci", overrides=_bad_text(key))
     assert key.replace("*", "paper") in str(caught.value) and "NOSUCH" in str(caught.value)
-    if key in config.CHOICES:
-        assert all(repr(v) in str(caught.value) for v in config.CHOICES[key])
+    if RULES[key].choices:
+        assert all(repr(v) in str(caught.value) for v in RULES[key].choices)
     if not key.startswith("campaign."):
         with pytest.raises(ConfigError, match="allowed"):    # and in campaign.overrides, which evaluations use
             load_settings("ci", overrides={"campaign": {"overrides": _bad_text(key)}})
@@ -653,7 +658,8 @@ OPEN_TEXT = {"profile.name", "profile.description", "gravity.file", "ephemeris.k
 def _text_keys(table: dict, prefix: str = "", rule: str = ""):
     for name, value in table.items():
         key, rule_key = f"{prefix}{name}", ("integrator.settings.*" if rule == "integrator.settings." else f"{rule}{name}")
-        if isinstance(value, dict) and rule_key not in config.FREE_TABLES:
+        table_rule = RULES.get(rule_key)          # None for a named entry ("integrator.settings.*")
+        if isinstance(value, dict) and not (table_rule and (table_rule.free or table_rule.sections)):
             yield from _text_keys(value, f"{key}.", f"{rule_key}.")
         elif isinstance(value, str) or (isinstance(value, list) and value and all(isinstance(v, str) for v in value)):
             yield key, rule_key
@@ -661,8 +667,9 @@ def _text_keys(table: dict, prefix: str = "", rule: str = ""):
 
 @pytest.mark.parametrize("profile_name", config.available_profiles())
 def test_no_text_setting_escapes_the_checks(profile_name):
-    """A new text setting must get an allowed set (config.CHOICES / FORMS / SETTING_NAMES) or be declared open."""
-    checked = set(config.CHOICES) | set(config.FORMS) | set(config.SETTING_NAMES) | OPEN_TEXT
+    """A new text setting must get an allowed set (its Rule's choices, form or names_integrator_setting) or be
+    declared open."""
+    checked = set(CHECKED_TEXT) | OPEN_TEXT
     unchecked = [key for key, rule in _text_keys(load_settings(profile_name).as_dict()) if rule not in checked]
     assert not unchecked, unchecked
 

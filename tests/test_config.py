@@ -79,7 +79,7 @@ def test_every_setting_round_trips_through_set():
     ("2025-05-01T12:30:15.1234567", dt.datetime(2025, 5, 1, 12, 30, 15, 123456))])
 def test_iso_dates_are_read_in_one_strict_form(text, expected):
     """The one date reader: ISO 8601 calendar dates and times, never another order, a zone or a week date."""
-    from lnss_lib.config import parse_iso_date
+    from lnss_lib.dates import parse_iso_date
 
     assert parse_iso_date(text) == expected
     for bad in ("01-05-2025", "1/5/2025", "20250501", "2025-W18-4", "2025-05-01 12:30", "2025-05-01T12:30Z",

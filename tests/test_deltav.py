@@ -143,7 +143,7 @@ def test_deltav_from_propagation_dataset(j2_arc):
     _, t, states = j2_arc
     profile = load_settings("ci")
     ds = _dataset(t, states)
-    out = dv.deltav_from_propagation(profile.deltav, profile.dynamics, ds, sat=0, model="secular", element_frame="j2000")
+    out = dv.deltav_from_propagation(profile.deltav, profile.dynamics, ds, sat=0, model="secular", gve_frame="j2000")
     assert out.attrs["deltav_model"] == "secular"
     chosen = float(out["dv_total_kms_per_year"].sel(model_all="secular"))
     assert out.attrs["dv_total_kms_per_year"] == pytest.approx(chosen)
@@ -151,7 +151,7 @@ def test_deltav_from_propagation_dataset(j2_arc):
     assert out["T_total_kms2"].dims == ("model", "time")
     np.testing.assert_allclose(out["T_total_kms2"].sel(model="lsq"),
                                np.linalg.norm(out["T_rtn_kms2"].sel(model="lsq"), axis=-1))
-    per_sat = dv.deltav_per_satellite(profile.deltav, profile.dynamics, ds, element_frame="j2000")
+    per_sat = dv.deltav_per_satellite(profile.deltav, profile.dynamics, ds, gve_frame="j2000")
     np.testing.assert_allclose(per_sat["dv_total_kms_per_year"].sel(sat=0), out["dv_total_kms_per_year"])
 
 
@@ -170,7 +170,7 @@ def test_bad_inputs_are_rejected(j2_arc):
 
 @pytest.mark.parametrize("bad, key", [
     ({"model": "osculating"}, "deltav.model"),
-    ({"element_frame": "ecliptic"}, "deltav.element_frame"),
+    ({"gve_frame": "ecliptic"}, "deltav.gve_frame"),
     ({"paper_divisor_floor": -1.0}, "deltav.paper_divisor_floor"),
     ({"paper_divisor_floor": 1.0}, "deltav.paper_divisor_floor"),
     ({"secular_min_periods": 1.0}, "deltav.secular_min_periods"),
@@ -212,7 +212,7 @@ def test_lsq_recovers_the_force_model_perturbation():
     assert np.median(err) < 0.01
     dv_truth = dv.trapezoid_deltav(t, np.linalg.norm(truth, axis=1)) * res["per_year_factor"]
     assert res["dv_total"]["lsq"] == pytest.approx(dv_truth, rel=0.02)
-    out = dv.deltav_from_propagation(profile.deltav, profile.dynamics, ds, element_frame="lunar_equator_of_epoch")
+    out = dv.deltav_from_propagation(profile.deltav, profile.dynamics, ds, gve_frame="lunar_equator_of_epoch")
     assert out.attrs["dv_total_kms_per_year"] == pytest.approx(res["dv_total"]["lsq"], rel=1e-6)
 
 
@@ -232,7 +232,7 @@ def test_one_model_alone_is_bit_for_bit_every_models_value(j2_arc, model):
     assert alone["dv_total"][model] == every["dv_total"][model] and alone["dv_opt"][model] == every["dv_opt"][model]
     assert ("secular" in alone) == (model == "secular") and ("paper_estimates" in alone) == (model == "paper")
     ci = load_settings("ci")
-    cfg = dv.with_overrides(ci.deltav, model=model, element_frame="j2000")
+    cfg = dv.with_overrides(ci.deltav, model=model, gve_frame="j2000")
     ds = _dataset(t, states)
     full = dv.deltav_from_propagation(cfg, ci.dynamics, ds, sat=0)
     budget = dv.chosen_budget(cfg, ci.dynamics, t, states)

@@ -373,8 +373,8 @@ def test_voila_page_shows_the_metrics(tmp_path):
                 server.wait(timeout=20)
             except subprocess.TimeoutExpired:
                 server.kill()
-    for label in ("mean visible satellites", "PDOP (3-sigma mean)", "HDOP availability (%)", "feasible"):
-        assert label in before, label
+    for text in ("mean visible satellites", "PDOP (3-sigma mean)", "HDOP availability (%)", "feasible"):
+        assert text in before, text
     assert "Traceback" not in after and "error</b>" not in after, log_path.read_text()[-3000:]
     assert "lnss-explorer-comparison" not in before and "lnss-explorer-comparison" in after
     assert "secular Delta-V" in after and "previous design" in after

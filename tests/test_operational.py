@@ -135,9 +135,9 @@ def test_operational_profiles_load_and_validate():
     # the quick campaign evaluates as the full one does, over a one-year screen instead of five (issue 20 item 3)
     operational = load_settings("operational")
     assert operational.stability.life_days == 1826.25 and load_settings("quick_operational").stability.life_days == 365.25
-    assert evaluation_hash(load_settings("quick_operational", overrides={"stability": {"life_days": 1826.25}})) == \
+    assert evaluation_hash(load_settings("quick_operational", overrides={"stability": {"span_days": 1826.25}})) == \
         evaluation_hash(operational)
-    assert operational.frames.element_frame == operational.sk_estimate.element_frame == "moon_op"
+    assert operational.frames.element_frame == operational.sk_estimate.arc_frame == "moon_op"
     assert CampaignPlan.of(load_settings("quick")).companion_profile == "quick_operational"
     assert CampaignPlan.of(load_settings("ci")).companion_profile == "ci_operational"
 

@@ -1,6 +1,6 @@
 """``python -m lnss_lib bench campaign [--scaling]``: a short NSGA-II campaign, its throughput and time shares,
 and the projected wall time of the paper's 120 x 1000 campaign on this machine (and of the operational
-profile's, when ``params/operational.toml`` exists); then the force model before and after issue 23's speed
+profile's, when ``params/operational.toml`` exists); then the force model before and after its speed
 work side by side (:mod:`lnss_lib.bench.kernels_before`): CPU time per right-hand side and per design over
 the points an RK45 integration of each satellite of the run's first :data:`KERNEL_DESIGNS` valid designs
 evaluates, and the largest relative difference of the two accelerations (round-off, ~1e-15). Before the force
@@ -215,7 +215,7 @@ def _late_designs(records: list[dict], n: int, tail: int = HISTORY_TAIL) -> list
 
 def evaluation_comparison(profile_name: str, projection: dict, overrides: dict | None = None,
                           history: str | None = None) -> dict:
-    """Print and return the campaign evaluation before and after issue 23's evaluation-path work
+    """Print and return the campaign evaluation before and after the evaluation-path work
     (:mod:`lnss_lib.bench.evaluation_before`) on :data:`EVALUATION_DESIGNS` designs: the last
     :data:`HISTORY_TAIL` generations' of ``history`` (the mix a converged search evaluates) or else the short
     run's; and the per-generation time and 120 x 1000 projection of both from the short run's rate."""
@@ -231,7 +231,7 @@ def evaluation_comparison(profile_name: str, projection: dict, overrides: dict |
     got = compare_evaluations(context, designs)
     before, now = got["before_s"], got["now_s"]
     where = f"{history}'s last {HISTORY_TAIL} generations" if history is not None else "the short run"
-    print(f"campaign evaluation before -> now (issue 23, evaluation path), {got['n_designs']} designs of {where}, 1 thread, "
+    print(f"campaign evaluation before -> now (evaluation path), {got['n_designs']} designs of {where}, 1 thread, "
           f"median of 3 alternating runs: {1e3 * before:.1f} ms -> {1e3 * now:.1f} ms per design "
           f"({100 * (1 - now / before):.1f}% less); "
           + ", ".join(f"{k} {1e3 * got[f'before_{k}_s']:.1f} -> {1e3 * got[f'now_{k}_s']:.1f}" for k in TIMING_KEYS)
@@ -283,7 +283,7 @@ def kernel_comparison(profile_name: str, records: list[dict], overrides: dict | 
     totals = {"new_s": 0.0, "before_s": 0.0, "n_rhs": 0}
     shadows = {"shadow_new_s": 0.0, "shadow_before_s": 0.0, "shadow_same": True}
     max_rel_diff = 0.0
-    print(f"force model before -> after (issue 23), {integ.method} at rtol {integ.rtol:g}, CPU time, same points:")
+    print(f"force model before -> after, {integ.method} at rtol {integ.rtol:g}, CPU time, same points:")
     for record in [r for r in records if r["ok"]][:KERNEL_DESIGNS]:
         design = grid.descale(record["key"])[0]
         walker = WalkerDesign(*(float(x) for x in design[:4]), int(design[4]), int(design[5]))
@@ -440,7 +440,7 @@ def dispatch_comparison(profile_name: str, run_dir, overrides: dict | None = Non
     evaluated = hist["evaluated_total"] / TABLE_5["generations"]
     scale = evaluated / len(designs)
     hours = {k: TABLE_5["generations"] * v * scale / 3600.0 for k, v in best.items()}
-    print(f"generation dispatch before -> now (issue 23), {len(designs)} designs of {run_dir}'s last {HISTORY_TAIL} "
+    print(f"generation dispatch before -> now, {len(designs)} designs of {run_dir}'s last {HISTORY_TAIL} "
           f"generations, {workers} workers, best of {repeats} alternating: {best['before']:.2f} s -> {best['now']:.2f} s "
           f"({100 * (1 - best['now'] / best['before']):.1f}% less; early stop "
           + ("at the bounds" if bounds is not None else "off: the run's population was not all feasible")

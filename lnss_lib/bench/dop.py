@@ -1,8 +1,8 @@
-"""Benchmark of the south-pole DOP evaluation (issue 3): 20 satellites, 961 epochs, 144 points.
+"""Benchmark of the south-pole DOP evaluation: 20 satellites, 961 epochs, 144 points.
 
 Keplerian orbits of a 5-plane x 4-satellite Walker design (a = 6143 km, e = 0.6, i = 51.7 deg,
 AOP = 90 deg) over 10 days at 900 s, taken directly as Moon-fixed positions (the benchmark times
-the DOP grid, not SPICE). Today's numpy path and the compiled path (issue 12) run alternately, side by side.
+the DOP grid, not SPICE). Today's numpy path and the compiled path run alternately, side by side.
 """
 
 from __future__ import annotations

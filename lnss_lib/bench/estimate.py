@@ -1,5 +1,5 @@
 """``python -m lnss_lib bench estimate``: what the life-long estimate of the service controller's cost adds to a design
-evaluation (issue 20 item 2), beside the 10-day box slope it replaces.
+evaluation, beside the 10-day box slope it replaces.
 
 The campaign's path (:func:`~lnss_lib.evaluator.evaluate_constellation`) with ``[sk_estimate] model = "arc"`` (old)
 and ``"life"`` (new), everything else the profile's, on the designs of ``bench evaluate`` (the Table 4 ELFO and a

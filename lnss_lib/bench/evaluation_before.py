@@ -1,4 +1,4 @@
-"""The campaign's design evaluation before issue 23's evaluation-path work, kept here only to time it beside the new.
+"""The campaign's design evaluation before the evaluation-path work, kept here only to time it beside the new.
 
 Before, each evaluation resolved and checked the SPICE kernel paths again (:func:`evaluate_before` calls
 :func:`~lnss_lib.ephemeris.load_kernels` on :func:`~lnss_lib.ephemeris.kernel_paths` as

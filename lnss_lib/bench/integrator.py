@@ -1,5 +1,5 @@
 """``python -m lnss_lib bench integrator``: force evaluations against 10-day position error for each
-integrator candidate (issue 12), to choose the operational profile's setting.
+integrator candidate, to choose the operational profile's setting.
 
 Two orbits: the standalone ELFO (Table 4) and a high, eccentric design (a = 15000 km, e = 0.8,
 apolune 27,000 km). Reference: DOP853 at rtol 1e-12 / atol 1e-14 with every gravity degree.

@@ -1,4 +1,4 @@
-"""The force model's right-hand side before issue 23's speed work, kept here only to time it beside the new one.
+"""The force model's right-hand side before its speed work, kept here only to time it beside the new one.
 
 Before, each evaluation chose its gravity degree with the loop :func:`lnss_lib.gravity.truncation_degree`
 (a sum with a division per degree; now a lookup in radii tabulated once per field), interpolated the

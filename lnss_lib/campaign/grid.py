@@ -19,7 +19,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..keys import DESIGN_KEYS, INTEGER_DESIGN_KEYS
-from ..config import walker_splits
+from ..sections import walker_splits
 from ..settings import VariableBounds
 
 __all__ = ["DesignGrid"]

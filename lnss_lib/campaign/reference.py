@@ -1,6 +1,6 @@
 """Shipped reference results: a run folder exported as its profile's results, ``outputs/reference/<profile>/``.
 
-The paper's 120 x 1000 campaigns take hours, so a fresh clone reads these (issue 23 item 3). The folder holds
+The paper's 120 x 1000 campaigns take hours, so a fresh clone reads these. The folder holds
 NetCDF files with CF-1.8 attributes, each under :data:`MAX_FILE_BYTES`, and a ``README.md`` with provenance:
 
 * ``front.nc``: the campaign's front (feasible designs no feasible design dominates; every column);

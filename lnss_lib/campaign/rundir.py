@@ -105,6 +105,7 @@ CHECKPOINT_GLOBALS = {
     "lnss_lib.campaign.grid": ("DesignGrid",),
     "lnss_lib.campaign.problem": ("WalkerDesignProblem",),
     "lnss_lib.campaign.settings": ("CampaignPlan",),
+    "lnss_lib.sections": ("VariableBounds",),          # the plan's [campaign] variables
     "pymoo.algorithms.moo.nsga2": ("NSGA2", "binary_tournament"),
     "pymoo.core.callback": ("Callback",),
     "pymoo.core.duplicate": ("DefaultDuplicateElimination", "default_attr"),

@@ -13,10 +13,11 @@ from __future__ import annotations
 import copy
 import math
 from collections.abc import Mapping
-from dataclasses import dataclass, field
+from dataclasses import dataclass, fields
 
 from ..config import CAMPAIGN_OFF as OFF
-from ..config import EVALUATORS, NOTEBOOK_MODES, profile_hash
+from ..config import profile_hash
+from ..sections import EVALUATORS, NOTEBOOK_MODES, legacy_spelling
 from ..settings import CampaignSettings, Settings, profile_data
 from ..keys import METRIC_KEYS, VERDICT_KEYS, bound_text, format_value, label
 from .fitness import constraint_matrix
@@ -43,52 +44,28 @@ def campaign_constraints(campaign: CampaignSettings) -> tuple[tuple[str, str, fl
 
 
 @dataclass(frozen=True)
-class CampaignPlan:
-    """What the campaign engine runs by, derived from the checked ``settings.campaign`` (no checks here:
-    :mod:`lnss_lib.config` made them at load): the grid of eq. 43-44, the NSGA-II numbers of Table 5,
-    the objectives, the constraint list and the hypervolume references."""
+class CampaignPlan(CampaignSettings):
+    """What the campaign engine runs by: the checked ``[campaign]`` section (no checks here: :mod:`lnss_lib.config`
+    made them at load) with its tables read for the engine: the grid of eq. 43-44, the constraints as
+    ``(metric, "min" | "max", limit)`` and the hypervolume references as ``(metric, reference)``, entries set to
+    "off" left out, and the metrics an evaluation returns beyond :data:`~lnss_lib.keys.METRIC_KEYS`."""
 
-    grid: DesignGrid
-    population: int
-    generations: int
-    crossover_prob: float
-    crossover_eta: float
-    mutation_eta: float
-    mutation_prob_var: float
-    seed: int
-    ftol: float
-    ftol_period: int
-    objectives: tuple[str, ...]
     constraints: tuple[tuple[str, str, float], ...]
-    nan_objective: float
-    nan_violation: float
     hypervolume: tuple[tuple[str, float], ...]
-    evaluator: str
-    synthetic_delay_s: float
-    max_resubmits: int
-    numba_threads_per_worker: int
-    max_errors: int = 0
-    overrides: dict = field(default_factory=dict)
-    companion_profile: str = ""
-    notebook_mode: str = "run"
-    extra_metrics: tuple[str, ...] = ()     # [evaluator] extra_metrics: columns beyond METRIC_KEYS
+    grid: DesignGrid
+    extra_metrics: tuple[str, ...]          # [evaluator] extra_metrics
 
     @classmethod
     def of(cls, settings: Settings) -> "CampaignPlan":
         """The plan of checked settings (``settings.campaign`` and ``settings.evaluator.extra_metrics``)."""
-        c = settings.campaign
-        return cls(
-            grid=DesignGrid.from_variables(c.variables, c.n_sat),
-            population=c.population, generations=c.generations, crossover_prob=c.crossover_prob,
-            crossover_eta=c.crossover_eta, mutation_eta=c.mutation_eta, mutation_prob_var=c.mutation_prob_var,
-            seed=c.seed, ftol=c.ftol, ftol_period=c.ftol_period, objectives=tuple(c.objectives),
-            constraints=campaign_constraints(c), nan_objective=c.nan_objective, nan_violation=c.nan_violation,
-            hypervolume=tuple((metric, float(ref)) for metric, ref in c.hypervolume.items() if ref != OFF),
-            evaluator=c.evaluator, synthetic_delay_s=c.synthetic_delay_s, max_resubmits=c.max_resubmits,
-            numba_threads_per_worker=c.numba_threads_per_worker, max_errors=c.max_errors,
-            overrides=copy.deepcopy(dict(c.overrides)), companion_profile=c.companion_profile,
-            notebook_mode=c.notebook_mode, extra_metrics=tuple(settings.evaluator.extra_metrics),
-        )
+        campaign = settings.campaign
+        section = {item.name: getattr(campaign, item.name) for item in fields(CampaignSettings)}
+        return cls(**{**section, "overrides": copy.deepcopy(dict(campaign.overrides)),
+                      "constraints": campaign_constraints(campaign),
+                      "hypervolume": tuple((metric, float(ref)) for metric, ref in campaign.hypervolume.items()
+                                           if ref != OFF)},
+                   grid=DesignGrid.from_variables(campaign.variables, campaign.n_sat),
+                   extra_metrics=tuple(settings.evaluator.extra_metrics))
 
 
 def evaluation_profile(settings: Settings) -> Settings:
@@ -123,8 +100,8 @@ def evaluation_hash(settings: Settings | Mapping) -> str:
     (``campaign.variables``), ``campaign.overrides`` and ``campaign.evaluator`` stay in. ``settings``: checked
     settings, or the profile dict a run folder stored (compared as it is, not validated again).
     """
-    profile = profile_data(settings)
-    content = {k: v for k, v in profile.items() if k not in NON_EVALUATION_SECTIONS}   # profile_data copied
+    profile = legacy_spelling(profile_data(settings))    # the keys of the fingerprint, while every section is here
+    content = {k: v for k, v in profile.items() if k not in NON_EVALUATION_SECTIONS}
     for key in CAMPAIGN_ONLY_KEYS:
         content.get("campaign", {}).pop(key, None)
     return profile_hash(content)
@@ -155,7 +132,7 @@ def run_differences(run: Settings | Mapping, settings: Settings | Mapping, limit
     run_hash, hash_ = _hash(run), _hash(settings)
     if run_hash == hash_:
         return []
-    run_profile, profile = profile_data(run), profile_data(settings)
+    run_profile, profile = (legacy_spelling(profile_data(p)) for p in (run, settings))   # keys of one spelling
     reasons = []
     run_evaluator, evaluator = (p.get("campaign", {}).get("evaluator") for p in (run_profile, profile))
     if run_evaluator != evaluator:

@@ -1,7 +1,7 @@
-"""The validated front (issue 20 item 4): the campaign's front flown in closed loop over the design life.
+"""The validated front: the campaign's front flown in closed loop over the design life.
 
 After NSGA-II, :func:`validate_front` flies every selected design (:func:`select_designs`: the feasible
-non-dominated designs up to ``[front_validation] max_designs``, plus the headline's candidates of item 5) with the
+non-dominated designs up to ``[front_validation] max_designs``, plus the headline's candidates) with the
 service controller over ``[design_life] life_days``, every satellite (``max_sats_per_plane`` 0), controlled run only
 (:func:`lnss_lib.design_life.evaluation.run_design_life` with ``natural=False``, then ``life_navigation`` and
 ``life_metrics``), elements in the profile's element frame (:meth:`lnss_lib.constellation.WalkerDesign.elements_deg`).
@@ -94,7 +94,7 @@ def _key(row: dict) -> tuple:
 
 
 def select_designs(evaluations: xr.Dataset, front: xr.Dataset, fv: FrontValidationSettings) -> list[dict]:
-    """The designs to fly (issue 20 items 4-5), each ``{DESIGN_KEYS..., "selected_for"}``, front first.
+    """The designs to fly, each ``{DESIGN_KEYS..., "selected_for"}``, front first.
 
     ``front``: every feasible non-dominated design, the ``max_designs`` cheapest by :data:`COST_KEY` when there are
     more. Headline: for each of ``headline_sizes``, the ``headline_per_size`` cheapest feasible designs of
@@ -214,7 +214,7 @@ def validated_dataset(selection: list[dict], records: dict, evaluations: xr.Data
     for name in ("requirement_held", "n_lost", "n_maneuvers"):
         ds[name].attrs["comment"] = "-1: not flown yet, or the closed loop raised"
     ds["n_minus_1_sat"].attrs["comment"] = "-1: not flown yet, not a headline candidate, or the closed loop raised"
-    ds.attrs = {"Conventions": "CF-1.8", "title": "LNSS campaign front validated in closed loop (issue 20 item 4)",
+    ds.attrs = {"Conventions": "CF-1.8", "title": "LNSS campaign front validated in closed loop",
                 "institution": "LNSS workbook", **attrs,
                 "complete": int(all(r.get("status") in STATUSES for r in found))}
     return ds

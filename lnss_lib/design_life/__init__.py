@@ -1,27 +1,27 @@
-"""The design life: does a constellation keep its geometry for years, and at what Delta-V? (issues 11 and 19).
+"""The design life: does a constellation keep its geometry for years, and at what Delta-V?
 
 One subject in three answers of rising cost, each module answering one question:
 
 * :mod:`.screen` -- will a perilune reach the surface within the life? The doubly-averaged (secular) model
   of lunar J2 and the Earth's and Sun's quadrupole tides (``SecularField``, Milankovitch equations on the
   e and j vectors, Moon-centred J2000) integrated from the initial states, with the tide's monthly terms
-  restored to first order for the verdict (``MonthlyTide``; issue 20 item 3): the campaign's stability
-  screen (issue 11 item 2), a tenth of a second per design over five years (compiled RK4); checked against
+  restored to first order for the verdict (``MonthlyTide``): the campaign's stability
+  screen, a tenth of a second per design over five years (compiled RK4); checked against
   the full model on random Table 3 designs by :mod:`lnss_lib.studies.screen_validation`.
 * :mod:`.estimate` -- what would holding the geometry cost? The secular drift of mean e-vector, orbit
   normal, a and slot fitted on the evaluator's 10-day arc, priced with linearised GVE costs: the
-  campaign's geometry-keeping Delta-V (issue 11 item 2; ``sk_dv_estimate_kms_per_year``).
+  campaign's geometry-keeping Delta-V (``sk_dv_estimate_kms_per_year``).
 * :mod:`.life_estimate` -- what would the service controller pay over the life? Safety raises where the averaged
   perilune (the screen's integration) would cross the floor, navigation restores where the constellation rebuilt
   from the averaged elements breaks the monitor's DOP rule, relative node and slot held within the service's
-  tolerances on the averaged evolution plus the 10-day arc: the operational campaign's estimate (issue 20 item 2;
-  ``[sk_estimate] model = "life"``).
+  tolerances on the averaged evolution plus the 10-day arc: the operational campaign's estimate
+  (``[sk_estimate] model = "life"``).
 * :mod:`.closed_loop` -- what does flying the life cost? Every satellite propagated with the full force
-  model over the life, check by check, a controller deciding burns at each check (issue 11 item 4, the
-  ``box`` controller; issue 19, the ``service`` controller), or no burns (natural drift).
+  model over the life, check by check, a controller deciding burns at each check (the ``box`` or the
+  ``service`` controller), or no burns (natural drift).
 * :mod:`.evaluation` -- the verdict: the closed loop and the natural drift side by side, navigation over
   the life (south-pole DOP month by month, paper eq. 3-14), and the two cheap predictors above for the
-  same design (``evaluate --design-life-days``; issue 11 item 6).
+  same design (``evaluate --design-life-days``).
 
 So: screen -> estimate or life estimate (campaign, every design) -> closed loop -> evaluation (one design, minutes).
 Under the closed loop:
@@ -38,7 +38,7 @@ Under the closed loop:
   GVE matrix and the one- or two-burn planner refined in two-body flight.
 
 Beside them :mod:`.frozen` reads the averaged model of :mod:`.screen` in the Earth-Moon orbital plane
-(``moon_op``): frozen and librating orbits (issue 19 item 1).
+(``moon_op``): frozen and librating orbits.
 
 Frames: states are Moon-centred J2000 (``_mci``); mean elements, boxes and the controllers work in the
 profile's element frame (``[frames] element_frame``: the lunar equator of epoch, ``j2000`` or ``moon_op``;

@@ -1,4 +1,4 @@
-"""Campaign-grade estimate of the geometry-keeping station-keeping cost (issue 11 item 2).
+"""Campaign-grade estimate of the geometry-keeping station-keeping cost.
 
 From the short arc the evaluator already propagates (every satellite), the secular drift of exactly
 the quantities a geometry box holds, converted to Delta-V per year with linearised impulsive costs.
@@ -146,7 +146,7 @@ def sk_estimate_from_propagation(sk_estimate: SkEstimateSettings, dynamics: Dyna
     start = time.perf_counter()
     t = ds["time"].values.astype(float)
     states = np.concatenate([ds["r_mci_km"].values, ds["v_mci_kms"].values], axis=-1)
-    rot = element_frame_to_j2000(dynamics, float(t[0]), sk_estimate.element_frame)
+    rot = element_frame_to_j2000(dynamics, float(t[0]), sk_estimate.arc_frame)
     states = np.concatenate([states[..., :3] @ rot, states[..., 3:] @ rot], axis=-1)
     gm = dynamics.gravity.gm_km3_s2
     parts = sk_estimate_arrays(mean_drift(t, states, gm, sk_estimate.min_periods), gm, sk_estimate.year_days,

@@ -1,4 +1,4 @@
-"""A design judged over its design life (issue 11 items 4 and 6): station keeping, drift and navigation.
+"""A design judged over its design life: station keeping, drift and navigation.
 
 :func:`evaluate_design_life` flies the constellation for the design life twice with the full force
 model (:func:`lnss_lib.design_life.closed_loop.simulate_life`, one force model shared by both runs): with

@@ -1,6 +1,6 @@
 """Frozen and librating orbits: the doubly-averaged model of :mod:`lnss_lib.design_life.screen` in the ``moon_op`` frame.
 
-Issue 19 item 1. Above a few thousand km the Earth's tide drives e, i and AOP, and it is symmetric about
+Above a few thousand km the Earth's tide drives e, i and AOP, and it is symmetric about
 the Earth-Moon orbital plane (``moon_op``, :func:`lnss_lib.frames.moon_op_to_j2000`), not the lunar
 equator. In that frame the doubly-averaged potential of :func:`lnss_lib.design_life.screen.averaged_potential`
 (lunar J2 + Earth and Sun quadrupole tides) is nearly axisymmetric about z: the lunar pole is tilted

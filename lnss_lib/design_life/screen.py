@@ -1,6 +1,6 @@
 """Design-life stability screen: the doubly-averaged (secular) lunar J2 + third-body quadrupole model.
 
-Issue 11 item 2. A satellite's orbit is reduced to its eccentricity vector ``e`` and dimensionless
+A satellite's orbit is reduced to its eccentricity vector ``e`` and dimensionless
 angular momentum ``j = sqrt(1 - e^2) h_hat`` (Moon-centred J2000); ``a`` is constant. The
 orbit-averaged potential per unit mass is
 
@@ -64,7 +64,7 @@ import xarray as xr
 from scipy.integrate import solve_ivp
 from scipy.interpolate import CubicSpline
 
-from ..config import STABILITY_BODIES
+from ..sections import STABILITY_BODIES
 from ..constants import SECONDS_PER_DAY
 from ..elements import eccentricity_vector, vis_viva_sma_km
 from ..ephemeris import body_states_mci, ensure_kernels, rotation, tdb_seconds
@@ -490,7 +490,7 @@ def screen_states(stability: StabilitySettings, dynamics: Dynamics, states_mci, 
     the mean one without monthly terms), per satellite ``min_perilune_alt_km`` (of the restored perilune),
     ``impact`` and ``impact_day`` (NaN when none); attrs ``stable`` (no impact within the life),
     ``min_perilune_alt_km``, ``impact_day`` (first, NaN when none), ``n_orbits`` (distinct orbits
-    integrated), ``n_rhs``, ``wall_s``. ``life_days`` replaces ``[stability] life_days``; an explicit
+    integrated), ``n_rhs``, ``wall_s``. ``life_days`` replaces the screen's span (``stability.life_days``); an explicit
     ``field`` comes with its ``monthly`` (None: no monthly terms).
     """
     start = time.perf_counter()

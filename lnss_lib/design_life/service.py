@@ -130,17 +130,17 @@ def burn_location(nu_rad: float, aop_rad: float, tol_rad: float = 1e-3) -> str:
     return "other"
 
 
-def requirement_fractions(summary: dict, baseline: dict, cfg: ServiceSettings) -> dict[str, float]:
+def requirement_fractions(summary: dict, baseline: dict, service: ServiceSettings) -> dict[str, float]:
     """Each navigation statistic's degradation in ``summary`` (a :func:`lnss_lib.dop.summary_for_settings` dict)
     against ``baseline`` (the first window's) as a fraction of what the requirement allows: availability points lost
     over ``nav_avail_drop_pct``, the relative rise of a 3-sigma PDOP/HDOP over ``nav_dop_rise_fraction`` (infinite
     for a DOP lost altogether, or any loss where nothing is allowed; a DOP without a baseline is not judged)."""
-    out = {key: _fraction(baseline[key] - summary[key], cfg.nav_avail_drop_pct)
+    out = {key: _fraction(baseline[key] - summary[key], service.nav_avail_drop_pct)
            for key in ("pdop_avail_pct", "hdop_avail_pct")}
     for key in ("pdop_mean_3sigma", "hdop_mean_3sigma"):
         ref, now = baseline[key], summary[key]
         if np.isfinite(ref):
-            out[key] = _fraction(now / ref - 1.0, cfg.nav_dop_rise_fraction) if np.isfinite(now) else np.inf
+            out[key] = _fraction(now / ref - 1.0, service.nav_dop_rise_fraction) if np.isfinite(now) else np.inf
     return out
 
 
@@ -158,12 +158,12 @@ def restore_target(ecc: float, aop_rad: float, d_inc_rad: float, ref_ecc: float,
             "ey": ref_ecc * np.sin(ref_aop_rad) - ecc * np.sin(aop_rad), "inc_rad": -d_inc_rad}
 
 
-def navigation_violations(summary: dict, baseline: dict, cfg: ServiceSettings) -> list[str]:
+def navigation_violations(summary: dict, baseline: dict, service: ServiceSettings) -> list[str]:
     """Names of the navigation statistics outside the requirement (:func:`requirement_fractions` above 1)."""
-    return [key for key, fraction in requirement_fractions(summary, baseline, cfg).items() if fraction > 1.0]
+    return [key for key, fraction in requirement_fractions(summary, baseline, service).items() if fraction > 1.0]
 
 
-def safety_targets(field, safe_hist, mel, active, t_days, life_days, floor_base_km, svc, tide_period_days):
+def safety_targets(field, safe_hist, mel, active, t_days, life_days, floor_base_km, service, tide_period_days):
     """Change of mean e (n_sat,) of each satellite whose perilune the averaged model predicts below the floor
     within ``safety_lead_days`` (NaN for the others).
 
@@ -187,7 +187,7 @@ def safety_targets(field, safe_hist, mel, active, t_days, life_days, floor_base_
     remaining = life_days - t_days
     day = predicted_crossing_day(field, t_days, a, e_avg, j_avg, floor, remaining)
     day = np.where(a * (1.0 - np.linalg.norm(e_avg, axis=1)) <= floor, 0.0, day)
-    for q in np.flatnonzero(day <= svc.safety_lead_days):
+    for q in np.flatnonzero(day <= service.safety_lead_days):
         e_now = float(np.linalg.norm(e_avg[q]))
         d_ecc[idx[q]] = safety_ecc(field, t_days, a[q], e_avg[q], j_avg[q], floor[q], remaining) - e_now
     return d_ecc
@@ -207,8 +207,8 @@ class NavigationMonitor:
     """South-pole DOP of the sampled positions over windows of ``nav_window_days``: the first window sets the
     requirement (:func:`navigation_violations`); ``violated`` after each closed window."""
 
-    def __init__(self, dop: DopSettings, dynamics: Dynamics, sample_t: np.ndarray, svc: ServiceSettings):
-        self.dop, self.dynamics, self.sample_t, self.svc = dop, dynamics, sample_t, svc
+    def __init__(self, dop: DopSettings, dynamics: Dynamics, sample_t: np.ndarray, service: ServiceSettings):
+        self.dop, self.dynamics, self.sample_t, self.service = dop, dynamics, sample_t, service
         self.grid = SurfaceGrid.from_settings(dop, dynamics.constants.r_moon_mean_km)
         self.start = sample_t[0]
         self.baseline = None
@@ -217,7 +217,7 @@ class NavigationMonitor:
 
     def update(self, t: float, r_sample: np.ndarray) -> None:
         self.violated = False
-        if t - self.start < self.svc.nav_window_days * SECONDS_PER_DAY:
+        if t - self.start < self.service.nav_window_days * SECONDS_PER_DAY:
             return
         idx = np.flatnonzero((self.sample_t > self.start) & (self.sample_t <= t))
         self.start = t
@@ -229,5 +229,5 @@ class NavigationMonitor:
         if self.baseline is None:
             self.baseline = summary
             return
-        self.violated = bool(navigation_violations(summary, self.baseline, self.svc))
+        self.violated = bool(navigation_violations(summary, self.baseline, self.service))
         self.n_violations += int(self.violated)

@@ -1,4 +1,4 @@
-"""The service controller's relative-geometry tolerances, derived per design from its navigation sensitivity (issue 19).
+"""The service controller's relative-geometry tolerances, derived per design from its navigation sensitivity.
 
 Question: how far may one satellite's plane tilt away from its slot's plane (relative node) or its argument of
 latitude slide along its orbit (slot) before the design's navigation requirement breaks? The requirement is the one
@@ -57,11 +57,11 @@ TRIALS = 6
 """Trial amounts per quantity and sign (a geometric ladder from the lower bound to the upper)."""
 
 
-def requirement_margin(summary: dict, baseline: dict, svc: ServiceSettings) -> float:
+def requirement_margin(summary: dict, baseline: dict, service: ServiceSettings) -> float:
     """Largest degradation of ``summary`` against ``baseline`` as a fraction of what the navigation requirement allows
     (:func:`lnss_lib.design_life.service.requirement_fractions`): above 1 exactly where the navigation monitor names a
     violation."""
-    return float(max(requirement_fractions(summary, baseline, svc).values()))
+    return float(max(requirement_fractions(summary, baseline, service).values()))
 
 
 def trial_ladder(bounds_deg) -> np.ndarray:
@@ -85,7 +85,7 @@ def tolerance_at_limit(amounts_deg: np.ndarray, margins: np.ndarray) -> float:
     return float(np.exp(x0 + frac * (x1 - x0)))
 
 
-def derived_tolerances(svc: ServiceSettings, dop: DopSettings, dynamics: Dynamics, elements_deg, t0_tdb_s: float, *,
+def derived_tolerances(service: ServiceSettings, dop: DopSettings, dynamics: Dynamics, elements_deg, t0_tdb_s: float, *,
                        model: ForceModel | None = None, arc_days: float | None = None) -> dict:
     """The relative node (plane tilt) and slot tolerances (deg) of a constellation (elements (n, 6) deg in the element
     frame at TDB ``t0_tdb_s``) at the limit of its navigation requirement, and the evidence.
@@ -95,7 +95,7 @@ def derived_tolerances(svc: ServiceSettings, dop: DopSettings, dynamics: Dynamic
     ``arc_days`` replaces ``tolerance_arc_days``."""
     el = np.atleast_2d(np.asarray(elements_deg, dtype=float))
     n_sat = el.shape[0]
-    ladders = {"raan_rel_deg": trial_ladder(svc.raan_rel_bounds_deg), "u_rel_deg": trial_ladder(svc.u_rel_bounds_deg)}
+    ladders = {"raan_rel_deg": trial_ladder(service.raan_rel_bounds_deg), "u_rel_deg": trial_ladder(service.u_rel_bounds_deg)}
     copies = []
     for key, amounts in ladders.items():
         for sign in (1.0, -1.0):
@@ -107,9 +107,9 @@ def derived_tolerances(svc: ServiceSettings, dop: DopSettings, dynamics: Dynamic
                     row[5] += sign * amount
                 copies.append(row)
     t0 = float(t0_tdb_s)
-    arc_days = float(svc.tolerance_arc_days if arc_days is None else arc_days)
+    arc_days = float(service.tolerance_arc_days if arc_days is None else arc_days)
     states = elements_deg_to_states(dynamics, np.vstack([el, copies]), t0)
-    arc = propagate_states(dynamics, states, t0, arc_days * SECONDS_PER_DAY, svc.tolerance_step_s,
+    arc = propagate_states(dynamics, states, t0, arc_days * SECONDS_PER_DAY, service.tolerance_step_s,
                            batch=True, model=model)
     t = arc["time"].values
     r_mf = rotate_to_moon_fixed(dynamics, arc["r_mci_km"].transpose("sat", "time", "xyz").values, t)
@@ -127,14 +127,14 @@ def derived_tolerances(svc: ServiceSettings, dop: DopSettings, dynamics: Dynamic
             for j in range(TRIALS):
                 r = r_mf[:n_sat].copy()
                 r[0] = r_mf[k]
-                margins[s, j] = requirement_margin(summary(r), baseline, svc)
+                margins[s, j] = requirement_margin(summary(r), baseline, service)
                 k += 1
         out["trials"][key] = (amounts, margins)
         out[key] = min(tolerance_at_limit(amounts, margins[s]) for s in range(2))
     return out
 
 
-def estimate_tolerances_deg(svc: ServiceSettings) -> dict[str, float]:
+def estimate_tolerances_deg(service: ServiceSettings) -> dict[str, float]:
     """``{"raan_rel": tilt, "u_rel": slot}`` (deg) the campaign's life estimate holds
     (:mod:`lnss_lib.design_life.life_estimate`), without the derivation's arc (1.6-3 s a design, ten times an
     evaluation): the fixed values with ``tolerances = "fixed"``; with ``"derived"`` the upper bound of the tilt and the
@@ -143,17 +143,17 @@ def estimate_tolerances_deg(svc: ServiceSettings) -> dict[str, float]:
     (four or five satellites, one a plane) get less, down to the lower bound. The derived slot spreads from 6 to
     90 deg on those designs; the fixed 20 deg prices phase keeping on the cautious side of most, and it costs a few
     m/s a year at most (:mod:`lnss_lib.studies.estimate_validation`)."""
-    if svc.tolerances == "fixed":
-        return {"raan_rel": float(svc.raan_rel_deg), "u_rel": float(svc.u_rel_deg)}
-    return {"raan_rel": float(svc.raan_rel_bounds_deg[1]), "u_rel": float(svc.u_rel_deg)}
+    if service.tolerances == "fixed":
+        return {"raan_rel": float(service.raan_rel_deg), "u_rel": float(service.u_rel_deg)}
+    return {"raan_rel": float(service.raan_rel_bounds_deg[1]), "u_rel": float(service.u_rel_deg)}
 
 
-def relative_tolerances_deg(svc: ServiceSettings, dop: DopSettings, dynamics: Dynamics, elements_deg,
+def relative_tolerances_deg(service: ServiceSettings, dop: DopSettings, dynamics: Dynamics, elements_deg,
                             t0_tdb_s: float, *, model: ForceModel | None = None,
                             arc_days: float | None = None) -> dict[str, float]:
     """``{"raan_rel": tilt, "u_rel": slot}`` (deg) the service controller holds: ``[design_life.service]
     raan_rel_deg`` / ``u_rel_deg`` with ``tolerances = "fixed"``, :func:`derived_tolerances` with ``"derived"``."""
-    if svc.tolerances == "fixed":
-        return {"raan_rel": float(svc.raan_rel_deg), "u_rel": float(svc.u_rel_deg)}
-    derived = derived_tolerances(svc, dop, dynamics, elements_deg, t0_tdb_s, model=model, arc_days=arc_days)
+    if service.tolerances == "fixed":
+        return {"raan_rel": float(service.raan_rel_deg), "u_rel": float(service.u_rel_deg)}
+    derived = derived_tolerances(service, dop, dynamics, elements_deg, t0_tdb_s, model=model, arc_days=arc_days)
     return {"raan_rel": derived["raan_rel_deg"], "u_rel": derived["u_rel_deg"]}

@@ -1,4 +1,4 @@
-"""The validated front (notebooks 06-07, issue 20 items 4-5): the campaign's estimate against the closed loop, and
+"""The validated front (notebooks 06-07): the campaign's estimate against the closed loop, and
 the closed-loop Delta-V against the number of satellites with the headline's bound and the paper's claim."""
 
 from __future__ import annotations

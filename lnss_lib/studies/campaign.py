@@ -188,7 +188,7 @@ def _reference_run(reference, how: str) -> CampaignRun:
                        reference.front, reference.history, [])
 
 
-def shipped_reference(profile_name: str, profile: Settings, campaign_dir) -> CampaignRun | None:
+def shipped_reference(profile_name: str, settings: Settings, campaign_dir) -> CampaignRun | None:
     """The shipped reference results of ``profile_name`` (:func:`~lnss_lib.campaign.reference.load_reference`)
     as a :class:`CampaignRun`, when no run in ``campaign_dir`` has the settings ``profile`` and the reference
     has them (the publication rule: :func:`~lnss_lib.campaign.publication.run_differences` empty); None
@@ -198,12 +198,12 @@ def shipped_reference(profile_name: str, profile: Settings, campaign_dir) -> Cam
     from ..outputs import display_path
 
     runs = _runs(campaign_dir)
-    if any(not run_differences(load_run(run)["profile"], profile) for run in runs):
+    if any(not run_differences(load_run(run)["profile"], settings) for run in runs):
         return None
     reference = load_reference(profile_name)
     if reference is None:
         return None
-    reasons = run_differences(reference.profile, profile)
+    reasons = run_differences(reference.profile, settings)
     if reasons and not runs:
         raise FileNotFoundError(
             f"no campaign in {campaign_dir}, and the shipped results {display_path(reference.folder)} are not the "

@@ -1,4 +1,4 @@
-"""Issue 23 item 1(b): which Delta-V bound does the workbook's physics allow over Table 3?
+"""Which Delta-V bound does the workbook's physics allow over Table 3?
 
 Question: Table 3 bounds the station-keeping Delta-V at 1 km/s per satellite per year. The paper's
 Delta-V came from its own inverse of the Gauss equations (eq. 30-35); the workbook's campaign budget
@@ -57,23 +57,23 @@ __all__ = ["DV_KEY", "PAPER_MODEL", "SAMPLE_SEED", "SAMPLE_SIZE", "SIGNIFICANT_F
 DV_KEY = "dv_total_kms_per_year"          # the eq. 45 Delta-V that Table 3 bounds
 PAPER_MODEL = "paper"                     # [deltav] model of the paper's eq. 30-35 (corrected)
 PAPER_DV_KEY = f"{DV_KEY}_paper_model"    # the same designs' Delta-V under that model
-SAMPLE_SEED = 23                          # issue 23
+SAMPLE_SEED = 23                          # one fixed draw: the same sample in every run
 SAMPLE_SIZE = 300
 SIGNIFICANT_FIGURES = 2
 PERCENTILES = (1, 5, 10, 25, 50, 75, 90)
 
 
-def sample_keys(settings: CampaignPlan, n: int, seed: int = SAMPLE_SEED) -> np.ndarray:
+def sample_keys(plan: CampaignPlan, n: int, seed: int = SAMPLE_SEED) -> np.ndarray:
     """``n`` scaled designs (n, 6) int, uniform over the grid's levels 0..n_levels of each variable (eq. 43)."""
     rng = np.random.default_rng(seed)
-    return rng.integers(0, settings.grid.n_levels + 1, size=(int(n), len(DESIGN_KEYS)))
+    return rng.integers(0, plan.grid.n_levels + 1, size=(int(n), len(DESIGN_KEYS)))
 
 
-def evaluate_records(profile: Settings, designs: list[dict], workers: int = 0) -> list[dict]:
+def evaluate_records(settings: Settings, designs: list[dict], workers: int = 0) -> list[dict]:
     """Campaign records (``{"ok", "impact", "metrics", ...}``) of ``designs`` in their order, evaluated as the
     campaign evaluates them: :func:`evaluation_profile` and the campaign's backend (serial for 0 or 1 workers)."""
-    settings = CampaignPlan.of(profile)
-    backend = open_backend(evaluation_profile(profile), settings, workers)
+    plan = CampaignPlan.of(settings)
+    backend = open_backend(evaluation_profile(settings), plan, workers)
     records: list = [None] * len(designs)
     try:
         for index, record in backend.run(designs):
@@ -89,25 +89,25 @@ def floor_sample(profile_name: str = "paper", n: int = SAMPLE_SIZE, seed: int = 
     ``impact``, the campaign's constraint values G (``g_<metric>``, feasible where <= 0) and the Delta-V under
     the paper's model (``dv_total_kms_per_year_paper_model``, with ``paper_model``: a second evaluation of the same
     designs, NaN without)."""
-    profile = load_settings(profile_name, overrides=overrides)
-    settings = CampaignPlan.of(profile)
-    keys = sample_keys(settings, n, seed)
-    designs = settings.grid.designs(keys)
-    records = evaluate_records(profile, designs, workers)
+    settings = load_settings(profile_name, overrides=overrides)
+    plan = CampaignPlan.of(settings)
+    keys = sample_keys(plan, n, seed)
+    designs = plan.grid.designs(keys)
+    records = evaluate_records(settings, designs, workers)
     if paper_model:
         paper_overrides = {**(overrides or {}), "deltav": {**(overrides or {}).get("deltav", {}), "model": PAPER_MODEL}}
         paper_dv = metric_columns(evaluate_records(load_settings(profile_name, overrides=paper_overrides), designs,
                                                    workers))[DV_KEY]
     else:
         paper_dv = np.full(len(designs), np.nan)
-    columns = metric_columns(records, settings.extra_metrics)
-    g = constraint_matrix(columns, settings.constraints, settings.nan_violation)
+    columns = metric_columns(records, plan.extra_metrics)
+    g = constraint_matrix(columns, plan.constraints, plan.nan_violation)
     data = {k: ("design", np.array([d[k] for d in designs])) for k in DESIGN_KEYS}
     data.update({k: ("design", columns[k]) for k in METRIC_KEYS})
     data["ok"] = ("design", columns["ok"])
     data["impact"] = ("design", np.array([bool(r["impact"]) for r in records]))
     data[PAPER_DV_KEY] = ("design", paper_dv)
-    for j, (metric, _, _) in enumerate(settings.constraints):
+    for j, (metric, _, _) in enumerate(plan.constraints):
         data[f"g_{metric}"] = ("design", g[:, j])
     ds = xr.Dataset(data, coords={"design": np.arange(len(designs))})
     ds["key"] = (("design", "variable"), keys)
@@ -116,8 +116,8 @@ def floor_sample(profile_name: str = "paper", n: int = SAMPLE_SIZE, seed: int = 
                             "model (campaign)")
     ds[PAPER_DV_KEY].attrs.update(units="km s-1 yr-1", long_name="station-keeping Delta-V, paper eq. 30-35 (corrected)")
     ds.attrs.update(profile=profile_name, seed=int(seed), n_designs=int(n),
-                    deltav_model=profile.deltav.model, paper_deltav_model=PAPER_MODEL,
-                    constraints=",".join(f"{m} {'<=' if k == 'max' else '>='} {v:g}" for m, k, v in settings.constraints),
+                    deltav_model=settings.deltav.model, paper_deltav_model=PAPER_MODEL,
+                    constraints=",".join(f"{m} {'<=' if k == 'max' else '>='} {v:g}" for m, k, v in plan.constraints),
                     title="Delta-V floor over a sample of the Table 3 grid (lnss_lib.studies.deltav_floor)")
     return ds
 

@@ -107,35 +107,35 @@ def lsq_recovery(dynamics: Dynamics, deltav: DeltaVSettings, t_tdb_s: np.ndarray
     return row, truth, out
 
 
-def lsq_recovery_study(profile: Settings, elements_deg, steps_s, *, integrators=("paper", "converged"),
+def lsq_recovery_study(settings: Settings, elements_deg, steps_s, *, integrators=("paper", "converged"),
                        deltav: DeltaVSettings | None = None):
     """:func:`lsq_recovery` of one satellite (``elements_deg`` (1, 6)) propagated with each integrator setting
     and output step (``deltav``: default ``profile.deltav``); returns (table indexed by (integrator, step_s),
     {(integrator, step): (t, truth, out)})."""
-    deltav = profile.deltav if deltav is None else deltav
+    deltav = settings.deltav if deltav is None else deltav
     rows, data = {}, {}
     for setting in integrators:
         for step in steps_s:
-            d = propagate_elements(profile.dynamics, profile.epoch, elements_deg, step_s=step, setting=setting)
+            d = propagate_elements(settings.dynamics, settings.epoch, elements_deg, step_s=step, setting=setting)
             t = d["time"].values
-            rows[(setting, step)], truth, out = lsq_recovery(profile.dynamics, deltav, t, dataset_states(d))
+            rows[(setting, step)], truth, out = lsq_recovery(settings.dynamics, deltav, t, dataset_states(d))
             data[(setting, step)] = (t, truth, out)
     table = pd.DataFrame(rows).T
     table.index.names = ["integrator", "step_s"]
     return table, data
 
 
-def sampling_sweep(profile: Settings, elements_deg, steps_s=(60.0, 300.0, 900.0, 1800.0), *,
+def sampling_sweep(settings: Settings, elements_deg, steps_s=(60.0, 300.0, 900.0, 1800.0), *,
                    integrators=("paper", "converged"), deltav: DeltaVSettings | None = None):
     """Budgets (:func:`budget_row`) of one satellite propagated with each integrator setting and output step
     (the finite differences of Section 3.1.1 depend on the step; ``deltav``: default ``profile.deltav``);
     index (integrator, step_s)."""
-    deltav = profile.deltav if deltav is None else deltav
-    gm = profile.gravity.gm_km3_s2
+    deltav = settings.deltav if deltav is None else deltav
+    gm = settings.gravity.gm_km3_s2
     rows = []
     for setting in integrators:
         for step in steps_s:
-            d = propagate_elements(profile.dynamics, profile.epoch, elements_deg, step_s=step, setting=setting)
+            d = propagate_elements(settings.dynamics, settings.epoch, elements_deg, step_s=step, setting=setting)
             out = deltav_arrays(d["time"].values, dataset_states(d), gm, deltav)
             rows.append({"integrator": setting, "step_s": step, **budget_row(out)})
     return pd.DataFrame(rows).set_index(["integrator", "step_s"])
@@ -181,7 +181,7 @@ def element_frame_table(deltav: DeltaVSettings, dynamics: Dynamics, ds: xr.Datas
     """Budgets of every model of satellite ``sat`` with the GVE elements taken in each element frame."""
     rows = {}
     for frame in ELEMENT_FRAMES:
-        r = deltav_from_propagation(deltav, dynamics, ds, sat=sat, element_frame=frame)
+        r = deltav_from_propagation(deltav, dynamics, ds, sat=sat, gve_frame=frame)
         rows[frame] = {**{f"{m} total": r["dv_total_kms_per_year"].sel(model_all=m).item() for m in MODELS},
                        **{f"{m} opt": r["dv_opt_kms_per_year"].sel(model_all=m).item() for m in OSCULATING_MODELS}}
     return pd.DataFrame(rows).T

@@ -1,5 +1,4 @@
 """Notebook 08: what does keeping a design for its whole life cost, and do the campaign's cheap predictors know?
-(issue 11 items 3, 4 and 7; issue 19 item 5)
 
 Question: on designs spanning Table 3 (the standalone ELFO, the frozen family near i = 56-63 deg
 with AOP 90/270 deg, high-a high-i orbits, low near-circular ones, and the quick campaign's best
@@ -12,7 +11,7 @@ Verdict (the notebook prints it from the numbers, for the profile's controller a
 here from ``run_validation(load_settings("paper", overrides={"life_evaluation": {"validation_life_days": 365,
 "validation_max_sats_per_plane": 1}}))``: one year, one satellite per plane, the 15 ``validation_designs`` (no
 campaign folder), elements read in the lunar equator / in ``moon_op`` (``frames.element_frame``), under the
-``service`` controller of issue 19 (in brackets the fixed-element ``box`` of issue 11, ``design_life.controller =
+``service`` controller (in brackets the fixed-element ``box``, ``design_life.controller =
 "box"``); Delta-V in km/s per satellite and year, "sustainable" = no satellite lost and each within 1 km/s/yr:
 
 - standalone ELFO: sustainable; median 0.22 (all relative node) / nothing (box 0.42 / 0.031).
@@ -29,11 +28,11 @@ campaign folder), elements read in the lunar equator / in ``moon_op`` (``frames.
 - in all: 11 / 12 of 15 sustainable (box 5 / 11); no design paid for navigation.
 - the campaign-grade estimate / closed loop ratio runs 1.17-37 / 1.84-48 (median 4.2 / 5.9); Spearman rho
   0.37 (p 0.29, 10 designs) / 0.61 (p 0.15, 7) over the designs with a ratio. The estimate prices holding
-  fixed elements, which the service controller does not fly: it neither ranks nor budgets (issue 20).
+  fixed elements, which the service controller does not fly: it neither ranks nor budgets.
 - the stability screen agrees with natural drift on 14 / 15 of 15: in the lunar equator it misses the a 9000 km
   e 0.6 i 56.2 design, whose mean perilune stays 112 km up while the real one reaches the surface on day 102.
 
-Box figures in brackets were measured before the Delta-V cap was enforced per burn set (issue 19 fixes);
+Box figures in brackets were measured before the Delta-V cap was enforced per burn set;
 service figures after it and after the relative node became the tilt of the plane, with the fixed tolerances
 (``[design_life.service] tolerances = "fixed"``: 4.7 deg of tilt, 20 deg of slot); under the derived default
 (:mod:`lnss_lib.design_life.tolerances`) the 15 designs were not re-flown in both frames. Note that a validation

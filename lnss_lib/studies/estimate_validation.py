@@ -1,5 +1,4 @@
-"""Notebook 08: does the campaign's life-long estimate rank and budget what the service controller flies? (issue 20
-item 2)
+"""Notebook 08: does the campaign's life-long estimate rank and budget what the service controller flies?
 
 Question: on designs spanning Table 3 and the frozen family (``[life_evaluation] validation_designs``, the
 screen's ``[stability] validation_designs``, frozen members of :mod:`lnss_lib.design_life.frozen` at four
@@ -72,11 +71,11 @@ designs and the quick operational front's 9800 km e 0.39 2 x 4, the evaluation w
 process, best of three, one thread, a loaded 2-core machine; branch nav20): +17.7 % evaluation time with the
 operational five-year life (0.133 -> 0.157 s a design), +12.3 % with one year (0.100 -> 0.113 s); a design whose
 e, AOP and i stay in the box pays nothing, one that leaves it a DOP pass over 64 epochs per window judged (about
-0.5 ms), one restore plan per distinct orbit and restore pattern. Issue 20's budget, at most 20 % more evaluation
+0.5 ms), one restore plan per distinct orbit and restore pattern. The estimate's budget, at most 20 % more evaluation
 time than the operational evaluation of the day it was filed (``bench evaluate --profile operational``), is met: that
 command at 5630943 (the commit before the issue's first) and at a9c3b6d, alternating, three runs each on the same 12
 designs (2-core machine, other work on it): 0.135, 0.153, 0.150 s -> 0.138, 0.139, 0.136 s a design (-8 % to +2 %);
-the evaluation path was made faster meanwhile (issue 23), which paid for the five-year estimate. Beside today's
+the evaluation path was made faster meanwhile, which paid for the five-year estimate. Beside today's
 evaluation with the 10-day arc alone, the estimate still adds half: ``bench estimate`` (operational, five years)
 measured +69.6 % and +76.6 % (0.089 -> 0.151 s, 0.087 -> 0.154 s a
 design) before the estimate's compiled pieces (branch estcost: the candidates' right-hand side and perilune event, the
@@ -268,7 +267,7 @@ def run_estimate_validation(settings: Settings, life_days: float | None = None, 
     """The validation table (one row per design: design, source, ``closed_loop`` mean Delta-V, its split as
     ``closed_<purpose>``, ``lost``, the tolerances it held as ``<raan_rel|u_rel>_tolerance_deg``, the estimates of
     :data:`ESTIMATES`, the life estimate's split as ``est_<part>``) and
-    :func:`estimate_statistics`. ``life_days`` defaults to ``[stability] life_days`` (the life the campaign's estimate
+    :func:`estimate_statistics`. ``life_days`` defaults to the screen's span (``stability.life_days``) (the life the campaign's estimate
     covers); ``max_designs`` keeps the first designs (the ci/quick notebook run)."""
     life = float(settings.stability.life_days if life_days is None else life_days)
     designs = estimate_validation_designs(settings, n_random)[:max_designs]

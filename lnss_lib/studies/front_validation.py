@@ -1,7 +1,6 @@
-"""Notebooks 06-07: the operational front flown in closed loop, and the paper's headline validated (issue 20
-items 4-5).
+"""Notebooks 06-07: the operational front flown in closed loop, and the paper's headline validated.
 
-Question (item 4): the campaign ranks designs by the life-long estimate of the service controller's cost; does the
+First question: the campaign ranks designs by the life-long estimate of the service controller's cost; does the
 front it finds cost that when flown? :func:`estimate_table` sets the campaign's estimate (mean and worst satellite)
 beside the closed loop of ``validated.nc`` (:mod:`lnss_lib.campaign.validation`: every satellite, the service
 controller, the design life), :func:`front_statistics` gives Spearman rho and the share within a factor 2
@@ -10,7 +9,7 @@ designs kept (a design that loses a satellite pays for a shorter span), and :fun
 design outside a factor 2. :func:`validated_table6` chooses the operational Table 6 from the validated designs, on
 the closed-loop worst-satellite Delta-V and the availability flown over the life, failed designs excluded.
 
-Question (item 5): what is the smallest constellation with at least 90 % south-pole PDOP availability (PDOP <= 10
+Second question: what is the smallest constellation with at least 90 % south-pole PDOP availability (PDOP <= 10
 at 3 sigma) flown for the design life within 1 km/s per satellite and year, and the cheapest such design at 6, 8,
 12 and 16 satellites? :func:`headline_table`, beside the paper's claim (:data:`lnss_lib.paper.SMALLEST_CONSTELLATION`).
 
@@ -95,7 +94,7 @@ def estimate_table(validated: xr.Dataset) -> pd.DataFrame:
 
 def reestimated_table(settings: Settings, validated: xr.Dataset) -> pd.DataFrame:
     """:func:`estimate_table` with the campaign's estimate of every design recomputed by today's life estimate
-    (:func:`lnss_lib.studies.estimate_validation.estimate_costs` over ``[stability] life_days``, the satellites
+    (:func:`lnss_lib.studies.estimate_validation.estimate_costs` over the screen's span (``stability.life_days``), the satellites
     ``validated`` flew), plus its navigation part beside the closed loop's (``estimate_navigation``,
     ``closed_loop_navigation``, ``ratio_navigation``): e.g. ``validated.nc`` flown before the estimate changed."""
     frame = estimate_table(validated)

@@ -1,4 +1,4 @@
-"""Notebook 08, frozen orbits: which published designs are frozen, in which frame, and do the anchors hold? (issue 19)
+"""Notebook 08, frozen orbits: which published designs are frozen, in which frame, and do the anchors hold?
 
 Question: where does the frozen family of the doubly-averaged model (:mod:`lnss_lib.design_life.frozen`, the
 Earth-Moon orbital plane ``moon_op``) lie against a, where do the Table 4 ELFO, Ely's (2005) orbits and the

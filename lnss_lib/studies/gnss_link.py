@@ -38,15 +38,15 @@ COMBINATIONS = {"GPS + Galileo": ("gps", "galileo"), "all four": SYSTEMS}
 TEMPERATURES_K = (100.0, 150.0, 190.0, 230.0, 300.0, 400.0)     # around the 190 K default (LuPNT)
 
 
-def first_satellite_link(profile: Settings, prop: xr.Dataset, systems=SYSTEMS, **gps_overrides) -> dict:
+def first_satellite_link(settings: Settings, prop: xr.Dataset, systems=SYSTEMS, **gps_overrides) -> dict:
     """Per-epoch visible count (time, system) and centred scatter (time, system, 6) of the first satellite of a
     propagation to every satellite of ``systems``, with ``[gps]`` changed by ``gps_overrides`` (e.g.
     ``noise_temperature_k``); also ``systems``, ``time`` (TDB s) and the ``[gps]`` section used."""
-    gps = dataclasses.replace(profile.gps, **gps_overrides)
-    gnss = dataclasses.replace(profile.gnss, systems=tuple(systems))
+    gps = dataclasses.replace(settings.gps, **gps_overrides)
+    gnss = dataclasses.replace(settings.gnss, systems=tuple(systems))
     times = prop["time"].values
-    states = gnss_states_mci(gnss, profile.gps, profile.epoch.start_tdb, times)
-    counts, scatter = gnss_link_arrays(gps, profile.constants, states, system_transmitters(gnss, gps, states),
+    states = gnss_states_mci(gnss, settings.gps, settings.epoch.start_tdb, times)
+    counts, scatter = gnss_link_arrays(gps, settings.constants, states, system_transmitters(gnss, gps, states),
                                        prop["r_mci_km"].values[0])
     return {"counts": counts, "scatter": scatter, "systems": tuple(systems), "time": times, "gps": gps}
 
@@ -79,9 +79,9 @@ def time_series(link: dict) -> tuple[pd.DataFrame, pd.DataFrame]:
     return pd.DataFrame(visible, index=days), pd.DataFrame(pdop, index=days)
 
 
-def noise_temperature_sweep(profile: Settings, prop: xr.Dataset, temperatures_k=TEMPERATURES_K) -> pd.DataFrame:
+def noise_temperature_sweep(settings: Settings, prop: xr.Dataset, temperatures_k=TEMPERATURES_K) -> pd.DataFrame:
     """:func:`system_table` for each receiver noise temperature (rows: temperature K, systems)."""
-    tables = {t: system_table(first_satellite_link(profile, prop, noise_temperature_k=float(t)))
+    tables = {t: system_table(first_satellite_link(settings, prop, noise_temperature_k=float(t)))
               for t in temperatures_k}
     return pd.concat(tables, names=["noise_temperature_k"])
 

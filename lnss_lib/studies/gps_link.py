@@ -251,7 +251,7 @@ def sensitivity_variants(gps: GpsSettings) -> dict[str, dict]:
     return variants
 
 
-def sensitivity_table(profile: Settings, gps: xr.Dataset, lnss: xr.Dataset, elements_deg, *,
+def sensitivity_table(settings: Settings, gps: xr.Dataset, lnss: xr.Dataset, elements_deg, *,
                       phase_shifts_days=(-30.0, -7.0, 7.0, 30.0), paper: dict | None = None) -> pd.DataFrame:
     """Summary of the first satellite's link for every :func:`sensitivity_variants` entry, then for a
     Keplerian orbit, the elements referred to the J2000 equator, and GPS phases shifted by running SGP4
@@ -262,15 +262,15 @@ def sensitivity_table(profile: Settings, gps: xr.Dataset, lnss: xr.Dataset, elem
     paper = TABLE_4 if paper is None else paper
     el = np.asarray(elements_deg, dtype=float)
     times = lnss["time"].values
-    gps_cfg, constants = profile.gps, profile.constants
+    gps_cfg, constants = settings.gps, settings.constants
     sens = gps_link_sensitivity(gps_cfg, constants, gps, lnss, sensitivity_variants(gps_cfg))
     extra = {"Keplerian ELFO orbit": gps_link_summary(gps_link(gps_cfg, constants, gps,
-                                                               two_body_positions_mci(profile.dynamics, el[:1], times)))}
-    p_j2000 = profile.with_overrides({"frames": {"element_frame": "j2000"}})
+                                                               two_body_positions_mci(settings.dynamics, el[:1], times)))}
+    p_j2000 = settings.with_overrides({"frames": {"element_frame": "j2000"}})
     extra["elements in J2000 equator"] = gps_link_summary(gps_link(gps_cfg, constants, gps,
                                                                    propagate_elements(p_j2000.dynamics, p_j2000.epoch, el[:1])))
     for shift_days in phase_shifts_days:
-        shifted = gps_states_mci(gps_cfg, profile.epoch.start_tdb, times, sgp4_offset_s=shift_days * SECONDS_PER_DAY)
+        shifted = gps_states_mci(gps_cfg, settings.epoch.start_tdb, times, sgp4_offset_s=shift_days * SECONDS_PER_DAY)
         extra[f"GPS phase: SGP4 at t {shift_days:+.0f} d"] = gps_link_summary(gps_link(gps_cfg, constants, shifted, lnss))
     sens = pd.concat([sens, pd.DataFrame(extra).T])
     sens["pdop_ratio_to_paper"] = sens["gps_pdop_mean"] / paper["gps_pdop_mean"]

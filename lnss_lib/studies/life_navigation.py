@@ -167,7 +167,7 @@ def run_life_navigation_validation(settings: Settings, life_days: float | None =
     of each availability as ``<key>_life`` and ``<key>_worst_month``, the estimate's as
     :data:`~lnss_lib.keys.LIFE_NAVIGATION_KEYS`, satellites lost, the closed loop's mean Delta-V) and
     :func:`life_navigation_statistics`. ``life_days`` defaults to ``[design_life] life_days`` (the life the
-    campaign's estimate covers, ``[stability] life_days``, is the same in every profile); ``max_designs`` keeps the
+    campaign's estimate covers, the screen's span (``stability.life_days``), is the same in every profile); ``max_designs`` keeps the
     first designs (the ci/quick notebook run)."""
     life = float(settings.design_life.life_days if life_days is None else life_days)
     designs = availability_validation_designs(settings, n_random)[:max_designs]

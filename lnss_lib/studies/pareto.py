@@ -19,7 +19,7 @@ Works on the campaign's NetCDF results (:mod:`lnss_lib.campaign`; a local public
 results, :func:`lnss_lib.studies.campaign.shown_campaign`): every evaluated design (or the designs the shipped
 results keep) and the front. :func:`table6` selects the designs of Table 6 by the rules of :data:`TABLE6_RULES`.
 
-Question (issue 20 item 1): what does the element frame change on the operational front? The
+Question: what does the element frame change on the operational front? The
 operational study reads its designs in ``moon_op`` (the Earth-Moon orbital plane, about which the
 Earth's tide is symmetric); :func:`frame_readings` evaluates the front's designs again with the same
 elements read in the lunar equator of epoch (the paper's reading; the geometry-keeping estimate's
@@ -44,7 +44,7 @@ __all__ = ["load_campaign", "parse_constraints", "satisfies", "pareto_front", "t
            "closest_to_feasible", "DIFFERENCE_CAUSES", "frame_readings", "frame_summary"]
 
 # the campaign shown beside a profile's at full scale: the same study with the Delta-V bound where the workbook's
-# physics puts it (issue 23 item 1(b); params/paper_dv_physical.toml states the value and its derivation)
+# physics puts it (params/paper_dv_physical.toml states the value and its derivation)
 PHYSICAL_BOUND_PROFILES = {"paper": "paper_dv_physical"}
 
 DIFFERENCE_CAUSES = {   # why the workbook's front differs from the paper's text, and the notebook that shows it

@@ -80,7 +80,7 @@ def dispersed_flight(settings: Settings, design, errors_deg: np.ndarray | None, 
 
 def dispersion_table(settings: Settings, design, *, draws: int | None = None,
                      cache_dir: Path | None = None) -> pd.DataFrame:
-    """``[robustness] draws`` (or ``draws``) closed-loop flights of ``design`` over ``[robustness] life_days``, each
+    """``[robustness] draws`` (or ``draws``) closed-loop flights of ``design`` over ``[robustness] flown_days``, each
     inserted with its own :func:`insertion_errors_deg` (generator seeded by ``[robustness] seed``: draw k is the same
     whatever the number of draws); one row a draw. Each flight is cached in ``cache_dir`` by design, draw, settings,
     code and data (:func:`~lnss_lib.outputs.cached_json`)."""
@@ -93,8 +93,8 @@ def dispersion_table(settings: Settings, design, *, draws: int | None = None,
     for k in steps(n, f"insertion dispersions of {design}", "draws"):
         errors = insertion_errors_deg(robustness, elements, np.random.default_rng([robustness.seed, k]))
         row = cached_json(cache_dir, "dispersed_flight",
-                          [list(design), k, errors.tolist(), robustness.life_days, settings.hash],
-                          lambda: dispersed_flight(settings, design, errors, robustness.life_days))[0]
+                          [list(design), k, errors.tolist(), robustness.flown_days, settings.hash],
+                          lambda: dispersed_flight(settings, design, errors, robustness.flown_days))[0]
         rows.append({"draw": k, **row})
     return pd.DataFrame(rows)
 

@@ -1,4 +1,4 @@
-"""Notebook 08 (issue 20 item 3): does the stability screen agree with full-model natural propagation?
+"""Notebook 08: does the stability screen agree with full-model natural propagation?
 
 Question: over the design life, does :func:`lnss_lib.design_life.screen.screen_states` say "a satellite
 reaches the surface" exactly when the full force model, flown with no manoeuvre, says so, on random

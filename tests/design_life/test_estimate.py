@@ -72,8 +72,8 @@ def test_a_frozen_design_costs_less_than_a_non_frozen_one_of_the_same_a(paper_pr
 def test_settings_and_inputs_are_checked(paper_profile):
     with pytest.raises(ConfigError, match="sk_estimate.year"):
         paper_profile.with_overrides({"sk_estimate": {"year": 365.0}})
-    with pytest.raises(ConfigError, match="sk_estimate.element_frame"):
-        paper_profile.with_overrides({"sk_estimate": {"element_frame": "ecliptic"}})
+    with pytest.raises(ConfigError, match="sk_estimate.arc_frame"):
+        paper_profile.with_overrides({"sk_estimate": {"arc_frame": "ecliptic"}})
     t, states = _drifting(24000.0, 0.0, 60.0, 0.0, 0.0, days=5.0)                   # 5 d < 2 periods of 3.9 d
     with pytest.raises(ValueError, match="orbits"):
         sk.mean_drift(t, states[None], GM)

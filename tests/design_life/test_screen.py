@@ -73,8 +73,8 @@ def test_tide_tensor_from_spice_matches_the_earths_orbit(paper_profile, epoch_td
 def test_settings_reject_unknown_keys_and_bad_values(paper_profile):
     with pytest.raises(ConfigError, match="stability.lifetime"):
         paper_profile.with_overrides({"stability": {"lifetime": 3.0}})
-    with pytest.raises(ConfigError, match="stability.life_days"):
-        paper_profile.with_overrides({"stability": {"life_days": -1.0}})
+    with pytest.raises(ConfigError, match="stability.span_days"):
+        paper_profile.with_overrides({"stability": {"span_days": -1.0}})
     with pytest.raises(ConfigError, match="stability.third_bodies"):
         paper_profile.with_overrides({"stability": {"third_bodies": ["MARS"]}})
 
