@@ -123,9 +123,9 @@ def _campaign(entry: dict, index: int, path: Path) -> StudyCampaign:
     return StudyCampaign(name=name, profile=entry["profile"], overrides=overrides)
 
 
-def load_study(path) -> Study:
+def load_study(path, name: str | None = None) -> Study:
     """The study file at ``path``, every value checked before any work (see the module docstring); ConfigError
-    naming the file, the entry and the value."""
+    naming the file, the entry and the value. ``name``: the study's (default: the file's stem)."""
     path = Path(path)
     if not path.is_file():
         raise ConfigError(f"study file {path}: no such file (a TOML file, e.g. params/studies/ci_pair.toml)",
@@ -146,7 +146,7 @@ def load_study(path) -> Study:
     if repeated:
         raise ConfigError(f"{path}: campaign names {', '.join(map(repr, repeated))} are used twice; each campaign "
                           f"needs its own run folder", key="campaigns.name", source=str(path))
-    return Study(name=path.stem, description=study.get("description", ""), campaigns=campaigns,
+    return Study(name=name or path.stem, description=study.get("description", ""), campaigns=campaigns,
                  text=path.read_text())
 
 
@@ -245,7 +245,7 @@ def run_study(study=None, *, run_dir=None, resume: bool = False, workers: int | 
         run_dir = Path(run_dir)
         if not (run_dir / STUDY_FILE).is_file():
             raise ConfigError(f"--resume {run_dir}: not a study folder (no {STUDY_FILE})", key="--resume")
-        study = load_study(run_dir / STUDY_FILE)
+        study = load_study(run_dir / STUDY_FILE, name=run_dir.name)
     else:
         study = study if isinstance(study, Study) else load_study(study)
         run_dir = _new_study_dir(run_dir)

@@ -144,3 +144,21 @@ def test_worker_with_other_kernels_is_refused(pair_file, tmp_path):
     assert raised.value.differences["kernel_cpu"][0] == "generic" and raised.value.worker.startswith("tcp://127.0.0.1:")
     assert done.returncode == 1 and "is refused" in done.stderr and "kernel_cpu generic" in done.stderr
     assert not any((tmp_path / "refused").glob("*/run.json"))
+
+
+@pytest.mark.parametrize("argv, needle", [
+    (["study"], "a study FILE (with --run-dir) or --resume RUN_DIR"),
+    (["study", "params/studies/ci_pair.toml"], "a new study needs --run-dir"),
+    (["study", "params/studies/nosuch.toml", "--run-dir", "x"], "nosuch.toml: no such file"),
+    (["study", "--resume", "/nonexistent/study"], "not a study folder"),
+    (["study", "params/studies/ci_pair.toml", "--run-dir", "x", "--workers", "-2"], "--workers -2"),
+])
+def test_bad_study_command_is_one_line_exit_2(capsys, monkeypatch, tmp_path, argv, needle):
+    from lnss_lib.__main__ import main
+
+    argv = [str(PROJECT_DIR / a) if a.startswith("params/") else a for a in argv]
+    monkeypatch.chdir(tmp_path)
+    code = main(argv)
+    err = capsys.readouterr().err.strip()
+    assert code == 2 and len(err.splitlines()) == 1 and needle in err, err
+    assert not any(tmp_path.iterdir())
