@@ -295,9 +295,33 @@ def _cmd_campaign(args: argparse.Namespace) -> int:
     return 0
 
 
+def _replay(args: argparse.Namespace) -> int:
+    from .campaign.replay import recorded_costs, replay
+
+    given = [flag for flag, value in (("FILE", args.file), ("--run-dir", args.run_dir), ("--resume", args.resume),
+                                      ("--workers", args.workers), ("--scheduler-address", args.scheduler_address),
+                                      ("--max-generations", args.max_generations)) if value is not None]
+    if given:
+        raise ConfigError(f"--replay measures recorded runs on local thread workers and runs no campaign: drop "
+                          f"{', '.join(given)}", key="--replay")
+    for n in args.replay_workers:
+        _require("--replay-workers", n, (1, None, False, False), integer=True)
+    _require("--copies", args.copies, (1, None, False, False), integer=True)
+    _require("--time-scale", args.time_scale, (0.0, 1.0, True, False))
+    campaigns = [costs for folder in args.replay for costs in recorded_costs(folder).values()] * args.copies
+    print(f"replay of {len(campaigns)} campaign(s), each design sleeping its recorded cost x {args.time_scale:g}:")
+    print("workers  projected wall (s)  busy  perfect scaling (s)")
+    for n in args.replay_workers:
+        result = replay(campaigns, n, time_scale=args.time_scale)
+        print(f"{n:7d}  {result.wall_s:18.1f}  {result.busy_fraction:4.2f}  {result.cost_s / n:19.1f}")
+    return 0
+
+
 def _cmd_study(args: argparse.Namespace) -> int:
     from .campaign.study import run_study
 
+    if args.replay:
+        return _replay(args)
     _require("--workers", args.workers, (0, None, False, False), integer=True)
     _require("--max-generations", args.max_generations, (1, None, False, False), integer=True)
     if (args.file is None) == (args.resume is None):
@@ -458,6 +482,15 @@ def build_parser() -> argparse.ArgumentParser:
     study.add_argument("--max-generations", type=integer, help="stop each campaign's session after N generations "
                        "(resumable)")
     study.add_argument("--no-progress", action="store_true", help="no progress line")
+    study.add_argument("--replay", nargs="+", metavar="RUN_DIR", help="instead of running: replay the recorded "
+                       "per-design costs of these campaign or study folders as sleeping tasks on local thread workers "
+                       "and print the projected wall time and busy fraction")
+    study.add_argument("--replay-workers", nargs="+", type=integer, default=[2, 8, 32, 128], metavar="N",
+                       help="replay: the worker counts (default 2 8 32 128)")
+    study.add_argument("--copies", type=integer, default=1, help="replay: the recorded campaigns N times side by side "
+                       "(a study of N seeds projected from one)")
+    study.add_argument("--time-scale", type=float, default=1.0, help="replay: each design sleeps its cost times this, "
+                       "in (0, 1] (smaller: faster, the dispatch weighs more)")
     study.set_defaults(func=_cmd_study)
 
     bench = _command(sub, "bench")

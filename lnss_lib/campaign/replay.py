@@ -18,10 +18,13 @@ import warnings
 from dataclasses import dataclass
 from pathlib import Path
 
+from ..errors import ConfigError
 from .backends import DaskBackend
 from .journal import read_cache_records
+from .rundir import RUN_FILE
+from .study import STUDY_FILE
 
-__all__ = ["journal_costs", "replay", "Replay", "sleep_task"]
+__all__ = ["journal_costs", "recorded_costs", "replay", "Replay", "sleep_task"]
 
 
 def journal_costs(run_dir) -> list[list[dict]]:
@@ -35,6 +38,18 @@ def journal_costs(run_dir) -> list[list[dict]]:
         generations.setdefault(int(record["generation"]), []).append(
             {"n_planes": int(key[4]), "sats_per_plane": int(key[5]), "cost_s": float(record["task_wall_s"])})
     return [generations[g] for g in sorted(generations)]
+
+
+def recorded_costs(folder) -> dict[str, list[list[dict]]]:
+    """:func:`journal_costs` of a campaign's run folder (``{its name: costs}``) or of every campaign of a study's
+    folder (``{campaign: costs}``, those started so far); ConfigError for any other folder."""
+    folder = Path(folder)
+    if (folder / RUN_FILE).is_file():
+        return {folder.name: journal_costs(folder)}
+    if (folder / STUDY_FILE).is_file():
+        return {run.parent.name: journal_costs(run.parent) for run in sorted(folder.glob(f"*/{RUN_FILE}"))}
+    raise ConfigError(f"--replay {folder}: neither a campaign run folder ({RUN_FILE}) nor a study folder "
+                      f"({STUDY_FILE})", key="--replay")
 
 
 def sleep_task(time_scale: float, item: dict, numba_threads: int = 0) -> float:
@@ -74,24 +89,21 @@ def replay(campaigns: list[list[list[dict]]], n_workers: int, time_scale: float 
         cluster = LocalCluster(n_workers=n_workers, threads_per_worker=1, processes=False, protocol="tcp",
                                host="127.0.0.1", dashboard_address=None)
     errors: list[BaseException] = []
+    backends = []
 
-    def one(generations: list[list[dict]]) -> None:
-        try:
-            backend = DaskBackend(time_scale, sleep_task, max_resubmits=0, scheduler_address=cluster.scheduler_address)
-        except BaseException as error:
-            errors.append(error)
-            return
+    def one(backend: DaskBackend, generations: list[list[dict]]) -> None:
         try:
             for items in generations:
                 for _ in backend.run(items, guided=True):
                     pass
         except BaseException as error:
             errors.append(error)
-        finally:
-            backend.close()
 
     try:
-        threads = [threading.Thread(target=one, args=(generations,)) for generations in campaigns]
+        for _ in campaigns:      # connected (and the workers checked) before the clock starts
+            backends.append(DaskBackend(time_scale, sleep_task, max_resubmits=0,
+                                        scheduler_address=cluster.scheduler_address))
+        threads = [threading.Thread(target=one, args=pair) for pair in zip(backends, campaigns)]
         start = time.perf_counter()
         for thread in threads:
             thread.start()
@@ -99,6 +111,8 @@ def replay(campaigns: list[list[list[dict]]], n_workers: int, time_scale: float 
             thread.join()
         wall_s = time.perf_counter() - start
     finally:
+        for backend in backends:
+            backend.close()
         cluster.close()
     if errors:
         raise errors[0]
