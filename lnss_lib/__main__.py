@@ -1,4 +1,4 @@
-"""Command line: ``python -m lnss_lib {reproduce, propagate, evaluate, campaign, bench} ...`` (``--help`` on each)."""
+"""Command line: ``python -m lnss_lib {reproduce, propagate, evaluate, campaign, study, bench} ...`` (``--help`` on each)."""
 
 from __future__ import annotations
 
@@ -297,6 +297,52 @@ def _cmd_campaign(args: argparse.Namespace) -> int:
     return 0
 
 
+def _replay(args: argparse.Namespace) -> int:
+    from .campaign.replay import recorded_costs, replay
+
+    given = [flag for flag, value in (("FILE", args.file), ("--run-dir", args.run_dir), ("--resume", args.resume),
+                                      ("--workers", args.workers), ("--scheduler-address", args.scheduler_address),
+                                      ("--max-generations", args.max_generations)) if value is not None]
+    if given:
+        raise ConfigError(f"--replay measures recorded runs on local thread workers and runs no campaign: drop "
+                          f"{', '.join(given)}", key="--replay")
+    for n in args.replay_workers:
+        _require("--replay-workers", n, (1, None, False, False), integer=True)
+    _require("--copies", args.copies, (1, None, False, False), integer=True)
+    _require("--time-scale", args.time_scale, (0.0, 1.0, True, False))
+    campaigns = [costs for folder in args.replay for costs in recorded_costs(folder).values()] * args.copies
+    print(f"replay of {len(campaigns)} campaign(s), each design sleeping its recorded cost x {args.time_scale:g}:")
+    print("workers  projected wall (s)  busy  perfect scaling (s)")
+    for n in args.replay_workers:
+        result = replay(campaigns, n, time_scale=args.time_scale)
+        print(f"{n:7d}  {result.wall_s:18.1f}  {result.busy_fraction:4.2f}  {result.cost_s / n:19.1f}")
+    return 0
+
+
+def _cmd_study(args: argparse.Namespace) -> int:
+    from .campaign.study import run_study
+
+    if args.replay:
+        return _replay(args)
+    _require("--workers", args.workers, (0, None, False, False), integer=True)
+    _require("--max-generations", args.max_generations, (1, None, False, False), integer=True)
+    if (args.file is None) == (args.resume is None):
+        raise ConfigError("study needs a study FILE (with --run-dir) or --resume RUN_DIR, not both", key="FILE")
+    if args.resume is not None and args.run_dir is not None:
+        raise ConfigError("--resume continues the study in its folder: drop --run-dir", key="--run-dir")
+    result = run_study(args.file, run_dir=args.run_dir if args.resume is None else args.resume,
+                       resume=args.resume is not None, workers=args.workers, scheduler_address=args.scheduler_address,
+                       progress=not args.no_progress, max_generations=args.max_generations)
+    for name, run in result.campaigns.items():
+        print(f"campaign {name}: {run.run_dir}: {run.generations} generation(s), {run.n_evaluations} unique designs "
+              f"({run.n_feasible} feasible, {run.n_errors} evaluation errors); this session "
+              f"{run.session_evaluations} evaluations"
+              + (f", {run.resubmitted} design(s) resubmitted after lost workers" if run.resubmitted else ""))
+    print(f"study {result.run_dir}: {len(result.campaigns)} campaign(s) in {result.wall_s:.1f} s "
+          f"({result.designs_per_s:.2f} designs/s)")
+    return 0
+
+
 def _cmd_bench(args: argparse.Namespace) -> int:
     import importlib
 
@@ -334,6 +380,10 @@ COMMANDS = {    # name -> (one-line help, description, example) for ``--help``
                  "checkpointed, so --resume continues an interrupted run.",
                  "python -m lnss_lib campaign --profile ci --workers 2; "
                  "python -m lnss_lib campaign --export-reference RUN_DIR (ship a run's results)"),
+    "study": ("many campaigns (seeds, sizes, profiles) side by side on one Dask cluster",
+              "Run the campaigns a study file lists, all at once on one Dask cluster, each in its own run folder "
+              "under --run-dir with its journal and checkpoint; --resume continues the whole study.",
+              "python -m lnss_lib study params/studies/ci_pair.toml --run-dir runs/pair --workers 2"),
     "bench": ("benchmarks that print numbers",
               "Time a part of the workbook and print the new path beside the one it replaces.",
               "python -m lnss_lib bench dop"),
@@ -422,6 +472,28 @@ def build_parser() -> argparse.ArgumentParser:
     camp.add_argument("--validate", metavar="RUN_DIR", help="fly the front of the finished run RUN_DIR in closed "
                       "loop over the design life ([front_validation]; continues a validation), write validated.nc")
     camp.set_defaults(func=_cmd_campaign)
+
+    study = _command(sub, "study")
+    study.add_argument("file", nargs="?", metavar="FILE", help="study file (TOML, e.g. params/studies/ci_pair.toml)")
+    study.add_argument("--run-dir", help="new folder of the study (missing or empty); campaign NAME runs in RUN_DIR/NAME")
+    study.add_argument("--resume", metavar="RUN_DIR", help="continue the study in RUN_DIR (every campaign from its last "
+                       "checkpoint)")
+    study.add_argument("--workers", type=integer, help="Dask worker processes on this machine (default: one per core; "
+                       "0 or 1: the campaigns one after the other in this process)")
+    study.add_argument("--scheduler-address", help="use an existing Dask cluster, e.g. tcp://HOST:8786")
+    study.add_argument("--max-generations", type=integer, help="stop each campaign's session after N generations "
+                       "(resumable)")
+    study.add_argument("--no-progress", action="store_true", help="no progress line")
+    study.add_argument("--replay", nargs="+", metavar="RUN_DIR", help="instead of running: replay the recorded "
+                       "per-design costs of these campaign or study folders as sleeping tasks on local thread workers "
+                       "and print the projected wall time and busy fraction")
+    study.add_argument("--replay-workers", nargs="+", type=integer, default=[2, 8, 32, 128], metavar="N",
+                       help="replay: the worker counts (default 2 8 32 128)")
+    study.add_argument("--copies", type=integer, default=1, help="replay: the recorded campaigns N times side by side "
+                       "(a study of N seeds projected from one)")
+    study.add_argument("--time-scale", type=float, default=1.0, help="replay: each design sleeps its cost times this, "
+                       "in (0, 1] (smaller: faster, the dispatch weighs more)")
+    study.set_defaults(func=_cmd_study)
 
     bench = _command(sub, "bench")
     bench.add_argument("name", choices=BENCHMARKS, metavar="NAME", help=f"one of {', '.join(BENCHMARKS)}")

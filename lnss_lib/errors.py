@@ -6,7 +6,7 @@ Callers read the attributes; messages are for people and are never parsed back.
 from __future__ import annotations
 
 __all__ = ["ConfigError", "EphemerisRangeError", "InfeasibleDesignError", "ImpactError", "InvalidOrbitError",
-           "PropagationError", "SpiceError", "Terminated"]
+           "PropagationError", "SpiceError", "Terminated", "WorkerMismatchError"]
 
 
 class ConfigError(ValueError):
@@ -78,3 +78,14 @@ class SpiceError(RuntimeError):
 
 class Terminated(KeyboardInterrupt):
     """SIGTERM received by the command line: handled wherever an interrupt is (a KeyboardInterrupt), exit 143."""
+
+
+class WorkerMismatchError(RuntimeError):
+    """A Dask worker that would not compute what this process computes: ``worker`` its address and
+    ``differences`` ``{item: (the worker's value, this process's value)}`` (package versions, the processor model
+    its kernels are compiled for, the workbook's sources)."""
+
+    def __init__(self, message: str, *, worker: str, differences: dict[str, tuple[str, str]]):
+        super().__init__(message)
+        self.worker = worker
+        self.differences = differences

@@ -12,6 +12,8 @@ resumed (``--resume``) ends with the same population as an uninterrupted one. Mo
 * :mod:`.publication`: a run published as its profile's campaign (a pointer to an unchanging copy);
 * :mod:`.reference`: a run exported as its profile's shipped results (``outputs/reference/<profile>/``);
 * :mod:`.validation`: the front flown in closed loop over the design life after NSGA-II (``validated.nc``);
+* :mod:`.study`: many campaigns side by side on one Dask cluster (``python -m lnss_lib study FILE``);
+  :mod:`.replay`: recorded per-design costs as sleeping tasks on N workers (what a cluster would take);
 * :mod:`.runner`: the generation loop, which notifies the observers of :mod:`.callbacks` (error guard,
   history, checkpoint, progress bars); :mod:`.timing`: worker-time shares.
 

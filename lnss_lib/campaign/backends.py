@@ -22,13 +22,14 @@ from collections.abc import Callable
 
 import numpy as np
 
-from ..errors import ConfigError
+from ..errors import ConfigError, WorkerMismatchError
 from .fitness import metric_columns
 from .journal import EvaluationCache
 from .settings import CampaignPlan
 from .tasks import evaluate_task
 
-__all__ = ["SerialBackend", "DaskBackend", "open_backend", "check_scheduler_address", "SCHEDULER_TIMEOUT_S", "campaign_task", "BatchEvaluator", "guided_batches",
+__all__ = ["SerialBackend", "DaskBackend", "open_backend", "check_scheduler_address", "start_local_cluster",
+           "connect_scheduler", "check_workers", "worker_fingerprint", "SCHEDULER_TIMEOUT_S", "campaign_task", "BatchEvaluator", "guided_batches",
            "early_stop_bounds"]
 
 
@@ -113,6 +114,79 @@ def _sigint_deferred():
         raise KeyboardInterrupt
 
 
+def start_local_cluster(n_workers: int | None):
+    """A Dask cluster on this machine: ``n_workers`` processes (None: one per core), one thread each, on
+    127.0.0.1, without a dashboard; Ctrl-C reaches only this process (every worker, a restarted one too, ignores it:
+    :func:`dask_setup`), and one pressed while the workers start is raised once they are up, the cluster closed
+    (:func:`_sigint_deferred`)."""
+    import logging
+
+    from dask.distributed import LocalCluster
+
+    cluster = None
+    try:
+        with _sigint_deferred(), warnings.catch_warnings():
+            # the scheduler's HTTP port (no dashboard here) moves aside when another cluster holds 8787
+            warnings.filterwarnings("ignore", message="Port .* is already in use", category=UserWarning)
+            cluster = LocalCluster(n_workers=n_workers, threads_per_worker=1, processes=True, host="127.0.0.1",
+                                   dashboard_address=None, preload=[__name__],
+                                   silence_logs=logging.CRITICAL)   # task errors come back through the futures
+    except KeyboardInterrupt:
+        if cluster is not None:
+            cluster.close()
+        raise
+    return cluster
+
+
+def connect_scheduler(scheduler_address: str):
+    """A Dask client of the scheduler at ``scheduler_address`` whose workers all compute what this process computes
+    (:func:`check_workers`); RuntimeError when none answers within :data:`SCHEDULER_TIMEOUT_S`. Not the default
+    client: xarray would then write NetCDF files under the cluster's locks (campaigns of a study share a process)."""
+    from dask.distributed import Client
+
+    try:
+        client = Client(check_scheduler_address(scheduler_address), timeout=SCHEDULER_TIMEOUT_S, set_as_default=False)
+    except OSError as error:        # TimeoutError included: nothing answers at the address
+        raise RuntimeError(f"--scheduler-address {scheduler_address}: no Dask scheduler answered within "
+                           f"{SCHEDULER_TIMEOUT_S} s ({type(error).__name__}); start one (dask scheduler) or "
+                           f"drop --scheduler-address for a local cluster") from None
+    try:
+        check_workers(client)
+    except BaseException:
+        client.close()
+        raise
+    return client
+
+
+def worker_fingerprint() -> dict[str, str]:
+    """What fixes a process's results: Python's and the packages' versions, the processor model the kernels are
+    compiled for (:func:`~lnss_lib.provenance.package_versions`) and the digest of the workbook's sources
+    (:func:`~lnss_lib.source_digest`, the key of the compiled-kernel cache)."""
+    from .. import source_digest
+    from ..config import PACKAGE_DIR
+    from ..provenance import package_versions
+
+    return {**package_versions(), "lnss_lib sources": source_digest(PACKAGE_DIR)}
+
+
+def check_workers(client) -> None:
+    """Refuse (:class:`~lnss_lib.errors.WorkerMismatchError`) a cluster with a worker whose
+    :func:`worker_fingerprint` is not this process's: its designs would differ from a serial run's (other
+    round-off, other code), or it cannot import the workbook at all."""
+    here = worker_fingerprint()
+    for worker, theirs in sorted(client.run(worker_fingerprint, on_error="return").items()):
+        if isinstance(theirs, BaseException):
+            differences = {"lnss_lib": (f"{type(theirs).__name__}: {theirs}", "importable")}
+        else:
+            differences = {k: (theirs.get(k, "absent"), v) for k, v in here.items() if theirs.get(k) != v}
+        if differences:
+            listed = "; ".join(f"{k} {mine} (here {ours})" for k, (mine, ours) in differences.items())
+            raise WorkerMismatchError(f"Dask worker {worker} is refused: it differs from this process in {listed}; "
+                                      f"its designs would not be those of a serial run. Start every worker from this "
+                                      f"environment (same packages, same workbook, same NUMBA_CPU_NAME)",
+                                      worker=worker, differences=differences)
+
+
 class DaskBackend:
     """Runs ``task(shared, item, numba_threads=numba_threads)`` as tasks on a Dask cluster: a new local one
     (``n_workers`` processes, one thread each, on 127.0.0.1) or an existing one at ``scheduler_address``. A task
@@ -120,31 +194,14 @@ class DaskBackend:
 
     def __init__(self, shared, task: Callable, *, max_resubmits: int, numba_threads: int = 0,
                  n_workers: int | None = None, scheduler_address: str | None = None):
-        import logging
-
-        from dask.distributed import Client, LocalCluster
+        from dask.distributed import Client
 
         self.cluster = None
         if scheduler_address:
-            try:
-                self.client = Client(check_scheduler_address(scheduler_address), timeout=SCHEDULER_TIMEOUT_S)
-            except OSError as error:        # TimeoutError included: nothing answers at the address
-                raise RuntimeError(f"--scheduler-address {scheduler_address}: no Dask scheduler answered within "
-                                   f"{SCHEDULER_TIMEOUT_S} s ({type(error).__name__}); start one (dask scheduler) or "
-                                   f"drop --scheduler-address for a local cluster") from None
+            self.client = connect_scheduler(scheduler_address)
         else:
-            try:
-                with _sigint_deferred(), warnings.catch_warnings():
-                    # the scheduler's HTTP port (no dashboard here) moves aside when another cluster holds 8787
-                    warnings.filterwarnings("ignore", message="Port .* is already in use", category=UserWarning)
-                    self.cluster = LocalCluster(n_workers=n_workers, threads_per_worker=1, processes=True,
-                                                host="127.0.0.1", dashboard_address=None, preload=[__name__],
-                                                silence_logs=logging.CRITICAL)   # task errors come back through the futures
-            except KeyboardInterrupt:       # Ctrl-C while the workers started: raised once they are up
-                if self.cluster is not None:
-                    self.cluster.close()
-                raise
-            self.client = Client(self.cluster)
+            self.cluster = start_local_cluster(n_workers)
+            self.client = Client(self.cluster, set_as_default=False)
         self.n_workers = max(1, len(self.client.scheduler_info().get("workers", {})))
         self.shared, self.task = shared, task
         self.max_resubmits, self.numba_threads = max_resubmits, numba_threads
@@ -181,7 +238,7 @@ class DaskBackend:
         futures = {self._submit([designs[i] for i in batches[b]]): b for b in range(min(in_flight, len(batches)))}
         waiting = iter(range(len(futures), len(batches)))
         attempts = [0] * len(batches)
-        queue = as_completed(list(futures))
+        queue = as_completed(list(futures), loop=self.client.loop)
         for future in queue:
             b = futures.pop(future)
             batch = batches[b]

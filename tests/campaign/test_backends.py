@@ -1,12 +1,9 @@
 """Evaluation tasks and backends: the synthetic evaluator, a Dask cluster on loopback against the in-process
 run, and a lost worker."""
 
-import json
 import math
-import os
 import signal
 import subprocess
-import sys
 import time
 
 import numpy as np
@@ -18,7 +15,7 @@ from lnss_lib.config import PROJECT_DIR
 from lnss_lib.settings import load_settings
 from lnss_lib.keys import METRIC_KEYS
 
-from .helpers import CLI, KILL_SETTINGS, SYNTHETIC, _cli, _journal_count
+from .helpers import CLI, KILL_SETTINGS, SYNTHETIC, _cli, _journal_count, _start_worker, _wait_for_workers, dask_cluster
 
 
 def test_synthetic_evaluator_flags_impact():
@@ -29,52 +26,11 @@ def test_synthetic_evaluator_flags_impact():
     assert ok["evaluated"] and all(math.isfinite(ok[k]) for k in METRIC_KEYS)
 
 
-DASK = [sys.executable, "-m", "dask"]
-"""The ``dask`` command of this interpreter (not whatever ``dask`` is first on PATH)."""
-
-
-def _start_worker(scheduler_address):
-    return subprocess.Popen([*DASK, "worker", scheduler_address, "--nthreads", "1", "--no-nanny", "--no-dashboard",
-                             "--host", "127.0.0.1"], cwd=PROJECT_DIR, stdout=subprocess.DEVNULL,
-                            stderr=subprocess.DEVNULL, env={**os.environ, "NUMBA_NUM_THREADS": "1"})
-
-
-def _wait_for_workers(address, n):
-    from dask.distributed import Client
-
-    with Client(address, timeout=60) as client:
-        client.wait_for_workers(n, timeout=120)
-
-
 @pytest.fixture(scope="module")
 def cluster(tmp_path_factory):
     """``dask scheduler`` and two ``dask worker`` processes bound to 127.0.0.1."""
-    scheduler_file = tmp_path_factory.mktemp("dask") / "scheduler.json"
-    procs = [subprocess.Popen([*DASK, "scheduler", "--host", "127.0.0.1", "--port", "0", "--no-dashboard",
-                               "--scheduler-file", str(scheduler_file)], cwd=PROJECT_DIR,
-                              stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL,
-                              env={**os.environ, "DASK_DISTRIBUTED__SCHEDULER__ALLOWED_FAILURES": "0"})]
-    try:
-        deadline = time.monotonic() + 60
-        while not scheduler_file.exists():
-            assert time.monotonic() < deadline and procs[0].poll() is None, "dask scheduler did not start"
-            time.sleep(0.1)
-        time.sleep(0.2)
-        address = json.loads(scheduler_file.read_text())["address"]
-        assert address.startswith("tcp://127.0.0.1:")
-        workers = [_start_worker(address) for _ in range(2)]
-        procs += workers
-        _wait_for_workers(address, 2)
-        yield address, workers
-    finally:
-        for proc in reversed(procs):
-            if proc.poll() is None:
-                proc.send_signal(signal.SIGTERM)
-        for proc in procs:
-            try:
-                proc.wait(timeout=20)
-            except subprocess.TimeoutExpired:
-                proc.kill()
+    with dask_cluster(tmp_path_factory.mktemp("dask"), 2) as running:
+        yield running
 
 
 def test_dask_cluster_run_equals_local_run(cluster, real_run, tmp_path):
