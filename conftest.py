@@ -21,13 +21,16 @@ def _notebook_cell(item) -> bool:
 def pytest_configure(config):
     """Notebook kernels (nbval, papermill) import lnss_lib from this checkout and run under the ci profile; an
     nbval cell may take as long as the profile gives a papermill cell (unless --nbval-cell-timeout says)."""
-    from lnss_lib.settings import load_settings
     from lnss_lib.pipeline import kernel_environment
+    from lnss_lib.settings import load_settings
 
     kernel_environment(NOTEBOOK_PROFILE)
     if hasattr(config.option, "nbval_cell_timeout") and not any(
-            arg.startswith("--nbval-cell-timeout") for arg in config.invocation_params.args):
-        config.option.nbval_cell_timeout = float(load_settings(NOTEBOOK_PROFILE).notebooks.timeout_s)
+        arg.startswith("--nbval-cell-timeout") for arg in config.invocation_params.args
+    ):
+        config.option.nbval_cell_timeout = float(
+            load_settings(NOTEBOOK_PROFILE).notebooks.timeout_s
+        )
 
 
 @pytest.hookimpl(tryfirst=True)
@@ -49,6 +52,7 @@ def pytest_runtest_logreport(report):
 @dataclass
 class NotebookRuns:
     """Which notebooks ran in this session, how (``nbval`` or ``papermill``), and the failed cells of each."""
+
     profile: str
     started: float
     runner: dict[Path, str] = field(default_factory=dict)
@@ -80,7 +84,9 @@ def notebook_runs(request) -> NotebookRuns:
             missing.append(book)
     if missing:
         reproduce(NOTEBOOK_PROFILE, only=[book.stem for book in missing])
-        ran = json.loads((OUTPUTS_DIR / NOTEBOOK_PROFILE / "manifest.json").read_text())["notebooks"]
+        ran = json.loads((OUTPUTS_DIR / NOTEBOOK_PROFILE / "manifest.json").read_text())[
+            "notebooks"
+        ]
         for book in missing:
             run = ran.get(book.stem, {"status": "not run (an earlier notebook failed)"})
             runs.runner[book] = "papermill"

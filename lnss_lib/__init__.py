@@ -47,8 +47,11 @@ def kernel_cache_dir() -> str:
     keep the old machine code after only that other module changed; with the folder keyed by every source, any
     change compiles afresh. Child processes (Dask workers, the command line) inherit the parent folder
     (``LNSS_NUMBA_CACHE_PARENT``), not the keyed one."""
-    parent = (os.environ.get("LNSS_NUMBA_CACHE_PARENT") or os.environ.get("NUMBA_CACHE_DIR")
-              or os.path.join(os.path.expanduser("~"), ".cache", "lnss_workbook", "numba"))
+    parent = (
+        os.environ.get("LNSS_NUMBA_CACHE_PARENT")
+        or os.environ.get("NUMBA_CACHE_DIR")
+        or os.path.join(os.path.expanduser("~"), ".cache", "lnss_workbook", "numba")
+    )
     os.environ["LNSS_NUMBA_CACHE_PARENT"] = parent
     return os.path.join(parent, source_digest(Path(__file__).resolve().parent))
 
@@ -59,13 +62,45 @@ def kernel_cache_dir() -> str:
 # campaigns' and the pins' machine), both with AVX-512. Compiled for one named model wherever the processor can run
 # it, every machine computes the same bits (the shipped results reproduce bit for bit on both), at the same speed.
 KERNEL_CPU = "skylake-avx512"
-KERNEL_CPU_NEEDS = ("avx512f", "avx512cd", "avx512bw", "avx512dq", "avx512vl", "avx2", "avx", "fma", "f16c", "bmi",
-                    "bmi2", "lzcnt", "movbe", "popcnt", "sse4.2", "adx", "clflushopt", "clwb", "xsave")
+KERNEL_CPU_NEEDS = (
+    "avx512f",
+    "avx512cd",
+    "avx512bw",
+    "avx512dq",
+    "avx512vl",
+    "avx2",
+    "avx",
+    "fma",
+    "f16c",
+    "bmi",
+    "bmi2",
+    "lzcnt",
+    "movbe",
+    "popcnt",
+    "sse4.2",
+    "adx",
+    "clflushopt",
+    "clwb",
+    "xsave",
+)
 
 
-AVX512_MODELS = ("skylake-avx512", "cascadelake", "cooperlake", "cannonlake", "icelake-client", "icelake-server",
-                 "tigerlake", "rocketlake", "sapphirerapids", "emeraldrapids", "graniterapids", "znver4", "znver5",
-                 "x86-64-v4")       # LLVM's names of the processor models whose code may use AVX-512
+AVX512_MODELS = (
+    "skylake-avx512",
+    "cascadelake",
+    "cooperlake",
+    "cannonlake",
+    "icelake-client",
+    "icelake-server",
+    "tigerlake",
+    "rocketlake",
+    "sapphirerapids",
+    "emeraldrapids",
+    "graniterapids",
+    "znver4",
+    "znver5",
+    "x86-64-v4",
+)  # LLVM's names of the processor models whose code may use AVX-512
 
 
 def kernel_cpu() -> str:
@@ -81,15 +116,24 @@ def kernel_cpu() -> str:
     features = llvm.get_host_cpu_features()
     name = os.environ.get("NUMBA_CPU_NAME")
     if name:
-        needs = KERNEL_CPU_NEEDS if name == KERNEL_CPU else ("avx512f",) if name in AVX512_MODELS else ()
+        needs = (
+            KERNEL_CPU_NEEDS
+            if name == KERNEL_CPU
+            else ("avx512f",)
+            if name in AVX512_MODELS
+            else ()
+        )
         missing = [feature for feature in needs if not features.get(feature, False)]
         if missing:
             from .errors import ConfigError
 
-            raise ConfigError(f"environment variable NUMBA_CPU_NAME={name} names a processor model this machine "
-                              f"({llvm.get_host_cpu_name()}) cannot run: it lacks {', '.join(missing)}, and the kernels "
-                              f"would stop with an illegal instruction; unset NUMBA_CPU_NAME (the kernels are then "
-                              f"compiled for this machine)", key="NUMBA_CPU_NAME")
+            raise ConfigError(
+                f"environment variable NUMBA_CPU_NAME={name} names a processor model this machine "
+                f"({llvm.get_host_cpu_name()}) cannot run: it lacks {', '.join(missing)}, and the kernels "
+                f"would stop with an illegal instruction; unset NUMBA_CPU_NAME (the kernels are then "
+                f"compiled for this machine)",
+                key="NUMBA_CPU_NAME",
+            )
         return name
     if all(features.get(feature, False) for feature in KERNEL_CPU_NEEDS):
         return KERNEL_CPU
@@ -98,16 +142,20 @@ def kernel_cpu() -> str:
 
 os.environ["NUMBA_CACHE_DIR"] = kernel_cache_dir()
 try:
-    _cpu = kernel_cpu()                      # asks llvmlite once; later calls read NUMBA_CPU_NAME
-except ValueError as _error:                 # ConfigError: a model this machine cannot run
-    if sys.argv[:1] == ["-m"]:               # ``python -m lnss_lib`` locating its __main__: the command line's one line
+    _cpu = kernel_cpu()  # asks llvmlite once; later calls read NUMBA_CPU_NAME
+except ValueError as _error:  # ConfigError: a model this machine cannot run
+    if sys.argv[:1] == [
+        "-m"
+    ]:  # ``python -m lnss_lib`` locating its __main__: the command line's one line
         print(f"error: {_error}", file=sys.stderr)
         sys.exit(2)
     raise
 if not _cpu.startswith("host:"):
     os.environ["NUMBA_CPU_NAME"] = _cpu
-    os.environ.setdefault("NUMBA_CPU_FEATURES", "")          # only the features the model implies
-if "numba.core.config" in sys.modules:      # numba imported first (a notebook): its settings are read when compiling
+    os.environ.setdefault("NUMBA_CPU_FEATURES", "")  # only the features the model implies
+if (
+    "numba.core.config" in sys.modules
+):  # numba imported first (a notebook): its settings are read when compiling
     _numba_config = sys.modules["numba.core.config"]
     _numba_config.CACHE_DIR = os.environ["NUMBA_CACHE_DIR"]
     _numba_config.CPU_NAME = os.environ.get("NUMBA_CPU_NAME")

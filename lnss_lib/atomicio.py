@@ -29,7 +29,9 @@ def atomic_path(path, suffix: str = ""):
     except BaseException as error:
         with contextlib.suppress(OSError):
             temporary.unlink()
-        if isinstance(error, OSError) and error.errno is not None:   # name the target, not the temporary file
+        if (
+            isinstance(error, OSError) and error.errno is not None
+        ):  # name the target, not the temporary file
             raise type(error)(error.errno, error.strerror or str(error), str(path)) from error
         raise
 

@@ -45,21 +45,32 @@ from pathlib import Path
 import numpy as np
 
 from .config import PARAMS_DIR, read_toml
-from .dates import ISO_FORMAT, parse_iso_date
 from .constants import INTEGER_SETTING_MAX
-from .settings import Dynamics, Settings, load_settings
+from .dates import ISO_FORMAT, parse_iso_date
 from .elements import mean_anomaly_from_true, validate_elements
 from .ephemeris import ensure_kernels, tdb_iso, tdb_seconds
-from .frames import element_frame_to_j2000
 from .errors import ConfigError, InfeasibleDesignError, InvalidOrbitError
+from .frames import element_frame_to_j2000
+from .settings import Dynamics, Settings, load_settings
 
-__all__ = ["CATALOGUE_DIR", "FILE_FRAMES", "CatalogueConstellation", "CatalogueStates", "list_catalogue",
-           "load_constellation", "true_to_mean_anomaly_deg", "constellation_states_mci", "file_epoch_profile",
-           "analyse_catalogue", "evaluate_catalogue", "refuse_approximate"]
+__all__ = [
+    "CATALOGUE_DIR",
+    "FILE_FRAMES",
+    "CatalogueConstellation",
+    "CatalogueStates",
+    "list_catalogue",
+    "load_constellation",
+    "true_to_mean_anomaly_deg",
+    "constellation_states_mci",
+    "file_epoch_profile",
+    "analyse_catalogue",
+    "evaluate_catalogue",
+    "refuse_approximate",
+]
 
 CATALOGUE_DIR = PARAMS_DIR / "constellations"
 NOT_GIVEN = "not given"
-FILE_FRAMES = {                     # file's element_frame -> frames.element_frame_to_j2000 frame
+FILE_FRAMES = {  # file's element_frame -> frames.element_frame_to_j2000 frame
     "moon_op": "moon_op",
     "moon_j2000_eq": "j2000",
     "moon_ci": "j2000",
@@ -139,8 +150,12 @@ def _string(path: Path, data: dict, key: str, label: str | None = None) -> str:
 def _number(path: Path, value, label: str) -> float:
     if isinstance(value, bool) or not isinstance(value, (int, float)):
         raise _fail(path, label, f"must be a number; got {value!r} ({type(value).__name__})")
-    if isinstance(value, int) and abs(value) > INTEGER_SETTING_MAX:        # float() of it raised OverflowError
-        raise _fail(path, label, f"must be a finite number; got an integer of {value.bit_length()} bits")
+    if (
+        isinstance(value, int) and abs(value) > INTEGER_SETTING_MAX
+    ):  # float() of it raised OverflowError
+        raise _fail(
+            path, label, f"must be a finite number; got an integer of {value.bit_length()} bits"
+        )
     if not math.isfinite(float(value)):
         raise _fail(path, label, f"must be finite; got {value!r}")
     return float(value)
@@ -177,8 +192,10 @@ def _resolve(name_or_path: str | Path) -> Path:
     candidate = CATALOGUE_DIR / f"{name_or_path}.toml"
     if not candidate.is_file():
         names = ", ".join(p.stem for p in sorted(CATALOGUE_DIR.glob("*.toml")))
-        raise ValueError(f"unknown constellation {str(name_or_path)!r}: neither a file nor a catalogue name; "
-                         f"catalogue: {names}")
+        raise ValueError(
+            f"unknown constellation {str(name_or_path)!r}: neither a file nor a catalogue name; "
+            f"catalogue: {names}"
+        )
     return candidate
 
 
@@ -199,8 +216,10 @@ def _parse_satellites(path: Path, sats, approximate: bool, floor_km: float):
         if not 0.0 <= e < 1.0:
             raise _fail(path, where + "e", f"must be in [0, 1) (closed orbits); got {e!r}")
         if not approximate and not 0.0 <= values["inc_deg"] <= 180.0:
-            raise _fail(path, where + "inc_deg", f"must be in [0, 180] deg; got {values['inc_deg']!r}")
-        try:     # the check of every element set (flags, profiles, explorer): above the surface, inside the Hill sphere
+            raise _fail(
+                path, where + "inc_deg", f"must be in [0, 180] deg; got {values['inc_deg']!r}"
+            )
+        try:  # the check of every element set (flags, profiles, explorer): above the surface, inside the Hill sphere
             validate_elements(values["a_km"], e, 0.0 if approximate else floor_km)
         except InvalidOrbitError as error:
             raise _fail(path, where + "a_km", str(error)) from None
@@ -209,7 +228,9 @@ def _parse_satellites(path: Path, sats, approximate: bool, floor_km: float):
     return tuple(names), np.array(rows, dtype=float)
 
 
-def load_constellation(name_or_path: str | Path, dynamics: Dynamics | None = None) -> CatalogueConstellation:
+def load_constellation(
+    name_or_path: str | Path, dynamics: Dynamics | None = None
+) -> CatalogueConstellation:
     """A checked :class:`CatalogueConstellation` from a catalogue name (file stem) or a TOML path.
 
     Raises :class:`~lnss_lib.errors.ConfigError` naming the file and the bad key for a malformed
@@ -225,10 +246,18 @@ def load_constellation(name_or_path: str | Path, dynamics: Dynamics | None = Non
     if not isinstance(approximate, bool):
         raise _fail(path, "approximate", f"must be true or false; got {approximate!r}")
     text = {key: _string(path, data, key) for key in ("name", "element_frame", "epoch", "anomaly")}
-    text.update({key: _string(path, data, key) for key in ("reference", "source", "notes", "time_scale") if key in data})
+    text.update(
+        {
+            key: _string(path, data, key)
+            for key in ("reference", "source", "notes", "time_scale")
+            if key in data
+        }
+    )
     frame, anomaly = text["element_frame"], text["anomaly"]
     if not (frame in FILE_FRAMES or (approximate and frame == NOT_GIVEN)):
-        raise _fail(path, "element_frame", f"unknown frame {frame!r}; allowed: {', '.join(FILE_FRAMES)}")
+        raise _fail(
+            path, "element_frame", f"unknown frame {frame!r}; allowed: {', '.join(FILE_FRAMES)}"
+        )
     if not (anomaly in ANOMALIES or (approximate and anomaly == NOT_GIVEN)):
         raise _fail(path, "anomaly", f"must be one of {', '.join(ANOMALIES)}; got {anomaly!r}")
     epoch, scale = text["epoch"], text.get("time_scale", NOT_GIVEN)
@@ -236,12 +265,21 @@ def load_constellation(name_or_path: str | Path, dynamics: Dynamics | None = Non
         try:
             parse_iso_date(epoch)
         except ConfigError:
-            raise _fail(path, "epoch", f"must be {ISO_FORMAT} or {NOT_GIVEN!r}; got {epoch!r}") from None
+            raise _fail(
+                path, "epoch", f"must be {ISO_FORMAT} or {NOT_GIVEN!r}; got {epoch!r}"
+            ) from None
         if scale not in TIME_SCALES:
-            raise _fail(path, "time_scale", f"must be one of {', '.join(TIME_SCALES)} when an epoch is given; "
-                        f"got {scale!r}")
+            raise _fail(
+                path,
+                "time_scale",
+                f"must be one of {', '.join(TIME_SCALES)} when an epoch is given; got {scale!r}",
+            )
     elif scale not in TIME_SCALES + (NOT_GIVEN,):
-        raise _fail(path, "time_scale", f"must be one of {', '.join(TIME_SCALES + (NOT_GIVEN,))}; got {scale!r}")
+        raise _fail(
+            path,
+            "time_scale",
+            f"must be one of {', '.join(TIME_SCALES + (NOT_GIVEN,))}; got {scale!r}",
+        )
     published = data.get("published", {})
     if not isinstance(published, dict):
         raise _fail(path, "published", "must be a table")
@@ -256,12 +294,23 @@ def load_constellation(name_or_path: str | Path, dynamics: Dynamics | None = Non
             elements[:, 5] = true_to_mean_anomaly_deg(rows[:, 5], rows[:, 1])
         elements[:, 3:] = np.mod(elements[:, 3:], 360.0)
     return CatalogueConstellation(
-        key=path.stem, path=path, name=text["name"], reference=text.get("reference", ""),
-        source=text.get("source", ""), element_frame=None if frame == NOT_GIVEN else frame,
-        epoch=None if epoch == NOT_GIVEN else epoch, time_scale=None if epoch == NOT_GIVEN else scale,
-        anomaly=None if anomaly == NOT_GIVEN else anomaly, approximate=approximate, satellite_names=names,
-        elements_deg=elements, anomaly_as_written_deg=written, approximate_a_km=approx_a,
-        published=published, notes=text.get("notes", ""))
+        key=path.stem,
+        path=path,
+        name=text["name"],
+        reference=text.get("reference", ""),
+        source=text.get("source", ""),
+        element_frame=None if frame == NOT_GIVEN else frame,
+        epoch=None if epoch == NOT_GIVEN else epoch,
+        time_scale=None if epoch == NOT_GIVEN else scale,
+        anomaly=None if anomaly == NOT_GIVEN else anomaly,
+        approximate=approximate,
+        satellite_names=names,
+        elements_deg=elements,
+        anomaly_as_written_deg=written,
+        approximate_a_km=approx_a,
+        published=published,
+        notes=text.get("notes", ""),
+    )
 
 
 def list_catalogue(dynamics: Dynamics | None = None) -> list[dict]:
@@ -270,8 +319,18 @@ def list_catalogue(dynamics: Dynamics | None = None) -> list[dict]:
     rows = []
     for path in sorted(CATALOGUE_DIR.glob("*.toml")):
         c = load_constellation(path, dynamics)
-        rows.append({"key": c.key, "n_sat": c.n_sat, "element_frame": c.element_frame, "epoch": c.epoch,
-                     "time_scale": c.time_scale, "anomaly": c.anomaly, "approximate": c.approximate, "name": c.name})
+        rows.append(
+            {
+                "key": c.key,
+                "n_sat": c.n_sat,
+                "element_frame": c.element_frame,
+                "epoch": c.epoch,
+                "time_scale": c.time_scale,
+                "anomaly": c.anomaly,
+                "approximate": c.approximate,
+                "name": c.name,
+            }
+        )
     return rows
 
 
@@ -281,20 +340,29 @@ def refuse_approximate(c: CatalogueConstellation) -> None:
         raise ConfigError(
             f"{c.path}: {c.key!r} is an approximate entry (approximate = true): its sources give no eccentricity, "
             "inclination, node, perilune or phasing, so it has no geometry to evaluate. Write a user file with "
-            "assumed elements (and say they are assumed) to study it.", key="approximate", source=str(c.path))
+            "assumed elements (and say they are assumed) to study it.",
+            key="approximate",
+            source=str(c.path),
+        )
 
 
 def _file_epoch_tdb_s(c: CatalogueConstellation) -> float:
     if c.epoch is None:
-        raise ConfigError(f"{c.path}: the file gives no epoch; use epoch='study'", key="epoch", source=str(c.path))
+        raise ConfigError(
+            f"{c.path}: the file gives no epoch; use epoch='study'", key="epoch", source=str(c.path)
+        )
     return tdb_seconds(c.epoch, c.time_scale)
 
 
-def _states_at(dynamics: Dynamics, c: CatalogueConstellation, t0_tdb_s: float, source: str) -> CatalogueStates:
+def _states_at(
+    dynamics: Dynamics, c: CatalogueConstellation, t0_tdb_s: float, source: str
+) -> CatalogueStates:
     from .propagator import elements_deg_to_states
 
     frame = FILE_FRAMES[c.element_frame]
-    framed = dataclasses.replace(dynamics, frames=dataclasses.replace(dynamics.frames, element_frame=frame))
+    framed = dataclasses.replace(
+        dynamics, frames=dataclasses.replace(dynamics.frames, element_frame=frame)
+    )
     states = elements_deg_to_states(framed, c.elements_deg, t0_tdb_s)
     rot = element_frame_to_j2000(framed, t0_tdb_s, frame)
     return CatalogueStates(states, float(t0_tdb_s), tdb_iso(t0_tdb_s), source, c.element_frame, rot)
@@ -306,8 +374,9 @@ def _epoch_source(c: CatalogueConstellation, epoch: str) -> str:
     return f"study epoch (file gives {'none' if c.epoch is None else f'{c.epoch} {c.time_scale}'})"
 
 
-def constellation_states_mci(dynamics: Dynamics, start_tdb: str, c: CatalogueConstellation,
-                             epoch: str = "study") -> CatalogueStates:
+def constellation_states_mci(
+    dynamics: Dynamics, start_tdb: str, c: CatalogueConstellation, epoch: str = "study"
+) -> CatalogueStates:
     """Moon-centred J2000 states of a constellation at the study epoch or the file's epoch.
 
     ``epoch``: ``"study"`` (elements read at the study epoch ``start_tdb`` (TDB) in their frame built
@@ -333,7 +402,9 @@ def file_epoch_profile(settings: Settings, c: CatalogueConstellation) -> Setting
     return settings.with_overrides({"epoch": {"start_tdb": tdb_iso(_file_epoch_tdb_s(c))}})
 
 
-def analyse_catalogue(context, c: CatalogueConstellation, epoch: str = "study", *, datasets: bool = True) -> dict:
+def analyse_catalogue(
+    context, c: CatalogueConstellation, epoch: str = "study", *, datasets: bool = True
+) -> dict:
     """:func:`lnss_lib.evaluator.analyse_constellation` for a catalogue constellation, for study notebooks.
 
     Returns the evaluator's ``{"propagation", "dop", "deltav", "gps_link", "metrics"}`` plus ``"states"``
@@ -348,10 +419,15 @@ def analyse_catalogue(context, c: CatalogueConstellation, epoch: str = "study", 
         raise ValueError(f"epoch must be one of {', '.join(EPOCH_CHOICES)}; got {epoch!r}")
     refuse_approximate(c)
     if epoch == "file" and abs(_file_epoch_tdb_s(c) - context.t0_tdb_s) > 1e-3:
-        raise ValueError(f"{c.key}: the evaluation context starts at {tdb_iso(context.t0_tdb_s)} TDB, not at the "
-                         f"file's epoch {c.epoch} {c.time_scale}: build it from file_epoch_profile(profile, constellation)")
+        raise ValueError(
+            f"{c.key}: the evaluation context starts at {tdb_iso(context.t0_tdb_s)} TDB, not at the "
+            f"file's epoch {c.epoch} {c.time_scale}: build it from file_epoch_profile(profile, constellation)"
+        )
     states = _states_at(context.dynamics, c, context.t0_tdb_s, _epoch_source(c, epoch))
-    return {**analyse_states(context, c.elements_deg, states.states_mci, datasets=datasets), "states": states}
+    return {
+        **analyse_states(context, c.elements_deg, states.states_mci, datasets=datasets),
+        "states": states,
+    }
 
 
 def evaluate_catalogue(context, c: CatalogueConstellation, epoch: str = "study") -> dict:
@@ -372,8 +448,15 @@ def evaluate_catalogue(context, c: CatalogueConstellation, epoch: str = "study")
     start = time.perf_counter()
     try:
         result = analyse_catalogue(context, c, epoch, datasets=False)["metrics"]
-    except InfeasibleDesignError as error:      # only a physically impossible design; any other error propagates
+    except (
+        InfeasibleDesignError
+    ) as error:  # only a physically impossible design; any other error propagates
         result = _infeasible(c.n_sat, str(error), context.deltav.model, start)
-    result.update(name=c.key, approximate=c.approximate, element_frame=c.element_frame,
-                  epoch_used=tdb_iso(context.t0_tdb_s), epoch_source=_epoch_source(c, epoch))
+    result.update(
+        name=c.key,
+        approximate=c.approximate,
+        element_frame=c.element_frame,
+        epoch_used=tdb_iso(context.t0_tdb_s),
+        epoch_source=_epoch_source(c, epoch),
+    )
     return result

@@ -10,10 +10,10 @@ from __future__ import annotations
 
 import math
 
-from .settings import load_settings
 from .constants import SECONDS_PER_DAY
 from .errors import ConfigError, InfeasibleDesignError
 from .keys import RESULT_KEYS, format_value, gnss_metric_keys, label
+from .settings import load_settings
 
 __all__ = ["cli_result", "evaluate_cli", "evaluate_catalogue_cli", "design_life_cli", "human_lines"]
 
@@ -23,31 +23,57 @@ def cli_result(context, result: dict, extra_keys: tuple[str, ...] = ()) -> dict:
     evaluated), the GNSS link's combined and per-system keys when ``[gnss]`` names more than GPS
     (:func:`~lnss_lib.keys.gnss_metric_keys`), then ``extra_keys``; NaN becomes None (JSON null). ``context``: an
     :class:`lnss_lib.evaluator.EvaluationContext`."""
-    gnss = tuple(k for k in gnss_metric_keys(context.gnss.systems) if k not in context.extra_metrics)
+    gnss = tuple(
+        k for k in gnss_metric_keys(context.gnss.systems) if k not in context.extra_metrics
+    )
     keys = RESULT_KEYS + context.extra_metrics + gnss + extra_keys
-    return {key: (None if isinstance(result.get(key), float) and math.isnan(result[key]) else result.get(key))
-            for key in keys}
+    return {
+        key: (
+            None
+            if isinstance(result.get(key), float) and math.isnan(result[key])
+            else result.get(key)
+        )
+        for key in keys
+    }
 
 
-def evaluate_cli(profile_name: str, sma_km: float, ecc: float, aop_deg: float, inc_deg: float, n_planes: int,
-                 sats_per_plane: int, overrides: dict | None = None) -> dict:
+def evaluate_cli(
+    profile_name: str,
+    sma_km: float,
+    ecc: float,
+    aop_deg: float,
+    inc_deg: float,
+    n_planes: int,
+    sats_per_plane: int,
+    overrides: dict | None = None,
+) -> dict:
     """:func:`lnss_lib.evaluator.evaluate_design` under a named profile (with ``overrides``) with exactly the CLI's
     JSON keys (:func:`cli_result`); the design is checked before any kernel loads."""
     from .evaluator import check_design, context_for, evaluate_design
 
     check_design(sma_km, ecc, aop_deg, inc_deg, n_planes, sats_per_plane)
     context = context_for(load_settings(profile_name, overrides=overrides))
-    return cli_result(context, evaluate_design(context, sma_km, ecc, aop_deg, inc_deg, n_planes, sats_per_plane))
+    return cli_result(
+        context, evaluate_design(context, sma_km, ecc, aop_deg, inc_deg, n_planes, sats_per_plane)
+    )
 
 
-def evaluate_catalogue_cli(profile_name: str, name_or_path: str, epoch: str = "study", overrides: dict | None = None) -> dict:
+def evaluate_catalogue_cli(
+    profile_name: str, name_or_path: str, epoch: str = "study", overrides: dict | None = None
+) -> dict:
     """:func:`lnss_lib.catalogue.evaluate_catalogue` under a named profile with the evaluate CLI's JSON keys plus
     the labels.
 
     The keys are those of :func:`cli_result` followed by ``name``, ``approximate``,
     ``element_frame``, ``epoch_used`` and ``epoch_source``; NaN becomes None (JSON null).
     """
-    from .catalogue import EXTRA_RESULT_KEYS, evaluate_catalogue, file_epoch_profile, load_constellation, refuse_approximate
+    from .catalogue import (
+        EXTRA_RESULT_KEYS,
+        evaluate_catalogue,
+        file_epoch_profile,
+        load_constellation,
+        refuse_approximate,
+    )
     from .evaluator import context_for
 
     profile = load_settings(profile_name, overrides=overrides)
@@ -59,16 +85,27 @@ def evaluate_catalogue_cli(profile_name: str, name_or_path: str, epoch: str = "s
     return cli_result(context, evaluate_catalogue(context, c, epoch), EXTRA_RESULT_KEYS)
 
 
-def design_life_cli(profile_name: str, life_days: float, *, walker: tuple | None = None,
-                    constellation: str | None = None, constellation_epoch: str = "study",
-                    overrides: dict | None = None) -> dict:
+def design_life_cli(
+    profile_name: str,
+    life_days: float,
+    *,
+    walker: tuple | None = None,
+    constellation: str | None = None,
+    constellation_epoch: str = "study",
+    overrides: dict | None = None,
+) -> dict:
     """:data:`lnss_lib.design_life.evaluation.LIFE_KEYS` for the evaluate CLI: a Walker design ``(sma_km, ecc, aop_deg,
     inc_deg, n_planes, sats_per_plane)`` or a catalogue constellation (its states at the evaluation epoch, as
     elements in the profile's element frame, inserted as given: no insertion trim, so a designed per-satellite
     a such as Ely's phasing, which its authors found by propagating those very states, is flown as published).
     NaN becomes None. An invalid Walker design (the evaluation says why) gives every key None."""
     from .constellation import WalkerDesign
-    from .design_life.evaluation import LIFE_KEYS, elements_deg_in_frame, evaluate_design_life, json_ready
+    from .design_life.evaluation import (
+        LIFE_KEYS,
+        elements_deg_in_frame,
+        evaluate_design_life,
+        json_ready,
+    )
     from .ephemeris import tdb_seconds
     from .evaluator import context_for
     from .propagator import elements_deg_to_states
@@ -78,22 +115,30 @@ def design_life_cli(profile_name: str, life_days: float, *, walker: tuple | None
     profile = load_settings(profile_name, overrides=overrides)
     step_s = profile.life_evaluation.sample_step_s
     if not life_days * SECONDS_PER_DAY > step_s:
-        raise ConfigError(f"--design-life-days {life_days!r} ({life_days * SECONDS_PER_DAY:g} s) is not longer than "
-                          f"life_evaluation.sample_step_s = {step_s!r} s; allowed: a life of more than one sampling step",
-                          key="--design-life-days")
+        raise ConfigError(
+            f"--design-life-days {life_days!r} ({life_days * SECONDS_PER_DAY:g} s) is not longer than "
+            f"life_evaluation.sample_step_s = {step_s!r} s; allowed: a life of more than one sampling step",
+            key="--design-life-days",
+        )
     if constellation is not None:
         from .catalogue import constellation_states_mci, file_epoch_profile, load_constellation
 
         c = load_constellation(constellation, profile.dynamics)
         if constellation_epoch == "file":
             profile = file_epoch_profile(profile, c)
-        profile = profile.with_overrides({"design_life": {"initial_trim": False}})   # the file's states as given
-        states = constellation_states_mci(profile.dynamics, profile.epoch.start_tdb, c, constellation_epoch)
+        profile = profile.with_overrides(
+            {"design_life": {"initial_trim": False}}
+        )  # the file's states as given
+        states = constellation_states_mci(
+            profile.dynamics, profile.epoch.start_tdb, c, constellation_epoch
+        )
         elements = elements_deg_in_frame(profile.dynamics, states.states_mci, states.t_epoch_tdb_s)
     else:
         try:
             elements = WalkerDesign(*walker).elements_deg()
-            elements_deg_to_states(profile.dynamics, elements, tdb_seconds(profile.epoch.start_tdb, "TDB"))
+            elements_deg_to_states(
+                profile.dynamics, elements, tdb_seconds(profile.epoch.start_tdb, "TDB")
+            )
         except InfeasibleDesignError:
             return {key: None for key in LIFE_KEYS}
     result = evaluate_design_life(context_for(profile), elements, float(life_days))
@@ -109,8 +154,11 @@ def human_lines(profile_name: str, what: str, result: dict) -> list[str]:
     if result.get("evaluated") is False:
         lines.append(f"not evaluated: {result.get('reason') or 'no reason given'}")
         return lines
-    shown = {key: value for key, value in result.items()
-             if value is not None and value != "" and key not in ("evaluated", "reason")}
+    shown = {
+        key: value
+        for key, value in result.items()
+        if value is not None and value != "" and key not in ("evaluated", "reason")
+    }
     width = max(len(label(key)) for key in shown)
     for key, value in shown.items():
         if isinstance(value, list):

@@ -33,17 +33,41 @@ from typing import Any
 from .constants import INTEGER_SETTING_MAX, MAX_GRID_POINTS, SECONDS_PER_DAY
 from .dates import ISO_DATE_FORMAT, ISO_FORMAT, is_iso_date
 from .errors import ConfigError
-from .keys import DESIGN_KEYS, INTEGER_DESIGN_KEYS, LIFE_NAVIGATION_KEYS, METRIC_KEYS, NEEDS_ALL_SATELLITES
-from .sections import (CR_AREA_MASS, CR_AREA_MASS_WHY, GNSS_SYSTEMS, KEYS_OFF_WHEN_ABSENT, LEGACY_KEYS,
-                       OFF_WHEN_ABSENT, SEMI_MAJOR_AXIS, SEMI_MAJOR_AXIS_WHY, ProfileSections, Rule,
-                       allowed_range_text, in_range, legacy_spelling, rule_of, walker_splits)
+from .keys import (
+    DESIGN_KEYS,
+    INTEGER_DESIGN_KEYS,
+    LIFE_NAVIGATION_KEYS,
+    METRIC_KEYS,
+    NEEDS_ALL_SATELLITES,
+)
+from .sections import (
+    CR_AREA_MASS,
+    CR_AREA_MASS_WHY,
+    GNSS_SYSTEMS,
+    KEYS_OFF_WHEN_ABSENT,
+    LEGACY_KEYS,
+    OFF_WHEN_ABSENT,
+    SEMI_MAJOR_AXIS,
+    SEMI_MAJOR_AXIS_WHY,
+    ProfileSections,
+    Rule,
+    allowed_range_text,
+    in_range,
+    legacy_spelling,
+    rule_of,
+    walker_splits,
+)
 
 PACKAGE_DIR = Path(__file__).resolve().parent
 PROJECT_DIR = PACKAGE_DIR.parent
 PARAMS_DIR = PROJECT_DIR / "params"
 OUTPUTS_DIR = PROJECT_DIR / "outputs"
-REFERENCE_DIR = OUTPUTS_DIR / "reference"     # shipped results, one folder per profile (lnss_lib.campaign.reference)
-RESERVED_PROFILE_NAMES = (REFERENCE_DIR.name,)  # outputs/<name>/ is not a profile's: no profile may take the name
+REFERENCE_DIR = (
+    OUTPUTS_DIR / "reference"
+)  # shipped results, one folder per profile (lnss_lib.campaign.reference)
+RESERVED_PROFILE_NAMES = (
+    REFERENCE_DIR.name,
+)  # outputs/<name>/ is not a profile's: no profile may take the name
 
 
 def available_profiles() -> list[str]:
@@ -68,31 +92,44 @@ def read_toml(path: Path) -> dict:
         with path.open("rb") as handle:
             return tomllib.load(handle)
     except UnicodeDecodeError as error:
-        raise ConfigError(f"{path}: not a TOML text file (byte {error.start} is not UTF-8 text)",
-                          source=str(path)) from None
+        raise ConfigError(
+            f"{path}: not a TOML text file (byte {error.start} is not UTF-8 text)", source=str(path)
+        ) from None
     except tomllib.TOMLDecodeError as error:
         where = re.search(r"\(at line (\d+), column \d+\)", str(error))
         line = f", line {where.group(1)}" if where else ""
         raise ConfigError(f"{path}{line}: TOML syntax error", source=str(path)) from None
-    except (ValueError, RecursionError) as error:       # an integer of more than 4300 digits, arrays nested too deep
-        raise ConfigError(f"{path}: not a TOML file the workbook reads ({type(error).__name__}: a number too long or "
-                          f"nesting too deep)", source=str(path)) from None
+    except (
+        ValueError,
+        RecursionError,
+    ) as error:  # an integer of more than 4300 digits, arrays nested too deep
+        raise ConfigError(
+            f"{path}: not a TOML file the workbook reads ({type(error).__name__}: a number too long or "
+            f"nesting too deep)",
+            source=str(path),
+        ) from None
 
 
 PROFILE_NAME = re.compile(r"[A-Za-z0-9][A-Za-z0-9_-]{0,63}")
-PROFILE_FILES_ENV = "LNSS_PROFILE_FILES"   # {name: path} of use_profile_file, inherited by kernels and workers
+PROFILE_FILES_ENV = (
+    "LNSS_PROFILE_FILES"  # {name: path} of use_profile_file, inherited by kernels and workers
+)
 
 
 def _profile_file_problem(name, path) -> str | None:
     """Why ``name`` -> ``path`` cannot be a profile file (:func:`use_profile_file`'s rules), or None."""
     if not isinstance(name, str) or not PROFILE_NAME.fullmatch(name):
-        return (f"the name {name!r} is not allowed as a profile name; allowed: letters, digits, '_' and '-' (at most "
-                f"64, first a letter or digit)")
+        return (
+            f"the name {name!r} is not allowed as a profile name; allowed: letters, digits, '_' and '-' (at most "
+            f"64, first a letter or digit)"
+        )
     if name in RESERVED_PROFILE_NAMES:
         return f"the name {name!r} is reserved (outputs/{name}/ holds the shipped results of every profile)"
     if name in available_profiles():
-        return (f"params/{name}.toml already has the name {name!r}; rename the file (profiles in params/: "
-                f"{', '.join(available_profiles())})")
+        return (
+            f"params/{name}.toml already has the name {name!r}; rename the file (profiles in params/: "
+            f"{', '.join(available_profiles())})"
+        )
     if not isinstance(path, str) or not path.endswith(".toml") or not Path(path).is_file():
         return f"{path!r} is not an existing regular file ending in .toml"
     return None
@@ -107,13 +144,18 @@ def _profile_files() -> dict[str, str]:
     except (ValueError, RecursionError):
         files = None
     if not isinstance(files, dict):
-        raise ConfigError(f"environment variable {PROFILE_FILES_ENV} is not a JSON table of profile files",
-                          key=PROFILE_FILES_ENV)
+        raise ConfigError(
+            f"environment variable {PROFILE_FILES_ENV} is not a JSON table of profile files",
+            key=PROFILE_FILES_ENV,
+        )
     for name, path in files.items():
         problem = _profile_file_problem(name, path)
         if problem:
-            raise ConfigError(f"environment variable {PROFILE_FILES_ENV}: {problem}; unset it (it is set by "
-                              f"--profile-file for the processes the workbook starts)", key=PROFILE_FILES_ENV)
+            raise ConfigError(
+                f"environment variable {PROFILE_FILES_ENV}: {problem}; unset it (it is set by "
+                f"--profile-file for the processes the workbook starts)",
+                key=PROFILE_FILES_ENV,
+            )
     return files
 
 
@@ -126,7 +168,10 @@ def use_profile_file(path) -> str:
     """
     path = Path(path)
     if path.suffix != ".toml" or not path.is_file():
-        raise ConfigError(f"--profile-file {path}: need an existing regular file ending in .toml", key="--profile-file")
+        raise ConfigError(
+            f"--profile-file {path}: need an existing regular file ending in .toml",
+            key="--profile-file",
+        )
     problem = _profile_file_problem(path.stem, str(path.resolve()))
     if problem:
         raise ConfigError(f"--profile-file {path}: {problem}", key="--profile-file")
@@ -142,10 +187,17 @@ def profile_path(name: str, key: str = "--profile") -> Path:
     files = _profile_files()
     if isinstance(name, str) and name in files:
         return Path(files[name])
-    path = PARAMS_DIR / f"{name}.toml" if isinstance(name, str) and PROFILE_NAME.fullmatch(name) else None
+    path = (
+        PARAMS_DIR / f"{name}.toml"
+        if isinstance(name, str) and PROFILE_NAME.fullmatch(name)
+        else None
+    )
     if path is None or not path.is_file():
-        raise ConfigError(f"{key}: unknown profile {name!r}; allowed: {', '.join(available_profiles() + sorted(files))} "
-                          f"(names of params/*.toml; a file elsewhere: --profile-file PATH)", key=key)
+        raise ConfigError(
+            f"{key}: unknown profile {name!r}; allowed: {', '.join(available_profiles() + sorted(files))} "
+            f"(names of params/*.toml; a file elsewhere: --profile-file PATH)",
+            key=key,
+        )
     return path
 
 
@@ -165,9 +217,14 @@ def load_profile(name: str = "quick", overrides: dict | str | None = None) -> di
     if isinstance(overrides, str):
         try:
             overrides = json.loads(overrides)
-        except (ValueError, RecursionError) as error:    # JSONDecodeError, a 5000-digit integer, deep nesting
-            raise ConfigError(f"overrides are not JSON the workbook reads ({type(error).__name__}: "
-                              f"{str(error)[:120]})") from None
+        except (
+            ValueError,
+            RecursionError,
+        ) as error:  # JSONDecodeError, a 5000-digit integer, deep nesting
+            raise ConfigError(
+                f"overrides are not JSON the workbook reads ({type(error).__name__}: "
+                f"{str(error)[:120]})"
+            ) from None
     if overrides is not None and not isinstance(overrides, dict):
         raise ConfigError(f"overrides must be a nested dict of profile sections; got {overrides!r}")
     chain: list[dict] = []
@@ -208,36 +265,49 @@ def _own_settings(name: str) -> dict:
     return {section: table for section, table in data.items() if section != "profile"}
 
 
-REFERENCE_PROFILE = "paper"    # the root of every profile: its values fill a section a stored profile lacks
-PROFILE_SCHEMA = ProfileSections   # every key, its type and its rule (lnss_lib.sections)
+REFERENCE_PROFILE = (
+    "paper"  # the root of every profile: its values fill a section a stored profile lacks
+)
+PROFILE_SCHEMA = ProfileSections  # every key, its type and its rule (lnss_lib.sections)
 
 
 ISO_TEXT = f"an ISO 8601 date and time, {ISO_FORMAT} (e.g. 2025-05-01T00:00:00)"
-FORMS = {      # an open set of text values (Rule.form) -> (test, what is allowed)
+FORMS = {  # an open set of text values (Rule.form) -> (test, what is allowed)
     "iso_datetime": (is_iso_date, ISO_TEXT),
-    "launch_cutoff": (lambda v: v in ("epoch", "none") or is_iso_date(v, date_only=True),
-                      f"'epoch', 'none' or an ISO 8601 date {ISO_DATE_FORMAT} (e.g. 2025-05-30)"),
-    "designator": (lambda v: re.fullmatch(r"(\d{4}-\d{3}[A-Z]{0,3})?", v) is not None,
-                   '"" (off) or an international designator YYYY-NNN'),
-    "profile_name": (lambda v: v == "" or v in available_profiles(),
-                     lambda: '"" (none) or a profile name: ' + ", ".join(available_profiles())),
+    "launch_cutoff": (
+        lambda v: v in ("epoch", "none") or is_iso_date(v, date_only=True),
+        f"'epoch', 'none' or an ISO 8601 date {ISO_DATE_FORMAT} (e.g. 2025-05-30)",
+    ),
+    "designator": (
+        lambda v: re.fullmatch(r"(\d{4}-\d{3}[A-Z]{0,3})?", v) is not None,
+        '"" (off) or an international designator YYYY-NNN',
+    ),
+    "profile_name": (
+        lambda v: v == "" or v in available_profiles(),
+        lambda: '"" (none) or a profile name: ' + ", ".join(available_profiles()),
+    ),
 }
 
 
-_hints = functools.cache(typing.get_type_hints)     # field types of a section class, resolved once
+_hints = functools.cache(typing.get_type_hints)  # field types of a section class, resolved once
 
 
 def _schema_fields(cls) -> dict:
     """``{key: (type, Rule)}`` of a section class: the keys a profile may write (not the derived fields)."""
     hints = _hints(cls)
-    return {item.name: (hints[item.name], rule_of(item)) for item in dataclasses.fields(cls)
-            if item.init and not rule_of(item).derived}
+    return {
+        item.name: (hints[item.name], rule_of(item))
+        for item in dataclasses.fields(cls)
+        if item.init and not rule_of(item).derived
+    }
 
 
 def _entry_class(hint):
     """The section class of a table of named sections (``Mapping[str, IntegratorSetting]``), else None."""
     args = typing.get_args(hint)
-    named = typing.get_origin(hint) is Mapping and len(args) == 2 and dataclasses.is_dataclass(args[1])
+    named = (
+        typing.get_origin(hint) is Mapping and len(args) == 2 and dataclasses.is_dataclass(args[1])
+    )
     return args[1] if named else None
 
 
@@ -263,8 +333,14 @@ def _reference() -> dict:
     return read_toml(PARAMS_DIR / f"{REFERENCE_PROFILE}.toml")
 
 
-KIND_OF_TYPE = {bool: "a boolean (true or false)", int: "an integer", float: "a number", str: "a string",
-                list: "a list", dict: "a table"}
+KIND_OF_TYPE = {
+    bool: "a boolean (true or false)",
+    int: "an integer",
+    float: "a number",
+    str: "a string",
+    list: "a list",
+    dict: "a table",
+}
 
 
 def _kind(value) -> str:
@@ -301,7 +377,7 @@ def _type_ok(value, hint) -> bool:
 
 
 def _line_of(source, key: str) -> str:
-    """", line N" of ``key``'s last component in a TOML file (for messages), or ""."""
+    """ ", line N" of ``key``'s last component in a TOML file (for messages), or ""."""
     if not isinstance(source, Path) or not source.is_file():
         return ""
     leaf = key.rsplit(".", 1)[-1]
@@ -320,10 +396,16 @@ def _check_integer_size(key: str, value, source) -> None:
     """An integer a float cannot hold or an output cannot store (|n| > :data:`INTEGER_SETTING_MAX`) is refused before
     anything compares it (``math.isfinite`` raised OverflowError; ``repr`` of 5000 digits raises ValueError)."""
     if isinstance(value, int) and not isinstance(value, bool) and abs(value) > INTEGER_SETTING_MAX:
-        digits = int(value.bit_length() * math.log10(2)) + 1       # one too many when |value| < 10**(digits - 1)
+        digits = (
+            int(value.bit_length() * math.log10(2)) + 1
+        )  # one too many when |value| < 10**(digits - 1)
         digits -= abs(value) < 10 ** (digits - 1)
-        _fail(f"{key} = an integer of {digits} digits is too large; allowed: at most 2**63 - 1 in magnitude "
-              f"(the int64 of the NetCDF outputs)", key, source)
+        _fail(
+            f"{key} = an integer of {digits} digits is too large; allowed: at most 2**63 - 1 in magnitude "
+            f"(the int64 of the NetCDF outputs)",
+            key,
+            source,
+        )
 
 
 def _check_number(key: str, rule: Rule, value, source) -> None:
@@ -331,22 +413,37 @@ def _check_number(key: str, rule: Rule, value, source) -> None:
         return
     _check_integer_size(key, value, source)
     if not math.isfinite(value) and not (rule.infinite_ok and not math.isnan(value)):
-        _fail(f"{key} = {value!r} is not finite; allowed: a finite number"
-              + (f" in {allowed_range_text(rule.range)}" if rule.range else ""), key, source)
+        _fail(
+            f"{key} = {value!r} is not finite; allowed: a finite number"
+            + (f" in {allowed_range_text(rule.range)}" if rule.range else ""),
+            key,
+            source,
+        )
     if rule.range is not None and math.isfinite(value) and not in_range(value, rule.range):
         why = f" ({rule.why})" if rule.why else ""
-        _fail(f"{key} = {value!r} is out of range; allowed: {allowed_range_text(rule.range)}{why}", key, source)
+        _fail(
+            f"{key} = {value!r} is out of range; allowed: {allowed_range_text(rule.range)}{why}",
+            key,
+            source,
+        )
 
 
 def _check_text(key: str, rule: Rule, value, source) -> None:
     """A text setting (or a list of them) against its rule's choices or form."""
-    for item in (value if isinstance(value, list) else [value]):
+    for item in value if isinstance(value, list) else [value]:
         if rule.choices is not None and item not in rule.choices:
-            _fail(f"{key} = {item!r} is not allowed; allowed: {', '.join(map(repr, rule.choices))}", key, source)
+            _fail(
+                f"{key} = {item!r} is not allowed; allowed: {', '.join(map(repr, rule.choices))}",
+                key,
+                source,
+            )
         if rule.form is not None and not (isinstance(item, str) and FORMS[rule.form][0](item)):
             allowed = FORMS[rule.form][1]
-            _fail(f"{key} = {item!r} is not allowed; allowed: {allowed() if callable(allowed) else allowed}",
-                  key, source)
+            _fail(
+                f"{key} = {item!r} is not allowed; allowed: {allowed() if callable(allowed) else allowed}",
+                key,
+                source,
+            )
 
 
 def _unknown(key: str, known: list[str], source) -> None:
@@ -354,8 +451,14 @@ def _unknown(key: str, known: list[str], source) -> None:
     if key in LEGACY_KEYS:
         _fail(f"unknown key {key}: its quantity has one key, {LEGACY_KEYS[key]}", key, source)
     near = difflib.get_close_matches(key, known, n=3, cutoff=0.6)
-    _fail(f"unknown key {key}; " + (f"did you mean {' or '.join(near)}?" if near else
-                                      f"known keys here: {', '.join(known)}"), key, source)
+    _fail(
+        f"unknown key {key}; "
+        + (
+            f"did you mean {' or '.join(near)}?" if near else f"known keys here: {', '.join(known)}"
+        ),
+        key,
+        source,
+    )
 
 
 def _walk(data: dict, cls, prefix: str, partial: bool, source) -> None:
@@ -367,25 +470,37 @@ def _walk(data: dict, cls, prefix: str, partial: bool, source) -> None:
             _unknown(key, [f"{prefix}{k}" for k in fields], source)
         hint, rule = fields[name]
         if not _type_ok(value, hint):
-            _fail(f"{key} = {value!r} has the wrong type: expected {_expected(hint)}, got {_kind(value)}",
-                  key, source)
-        if rule.sections:                           # profile sections changed for campaign evaluations
+            _fail(
+                f"{key} = {value!r} has the wrong type: expected {_expected(hint)}, got {_kind(value)}",
+                key,
+                source,
+            )
+        if rule.sections:  # profile sections changed for campaign evaluations
             _walk_sections(key, value, source)
-        elif isinstance(value, dict) and (rule.free or hint is Any or _entry_class(hint) is None
-                                          and not dataclasses.is_dataclass(hint)):
+        elif isinstance(value, dict) and (
+            rule.free
+            or hint is Any
+            or _entry_class(hint) is None
+            and not dataclasses.is_dataclass(hint)
+        ):
             _check_free(key, value, source)
         elif isinstance(value, dict):
-            for entry, table in (value.items() if _entry_class(hint) else [(None, value)]):
+            for entry, table in value.items() if _entry_class(hint) else [(None, value)]:
                 inner = key if entry is None else f"{key}.{entry}"
                 if not isinstance(table, dict):
-                    _fail(f"{inner} = {table!r} has the wrong type: expected a table, got {_kind(table)}",
-                          inner, source)
+                    _fail(
+                        f"{inner} = {table!r} has the wrong type: expected a table, got {_kind(table)}",
+                        inner,
+                        source,
+                    )
                 _walk(table, _entry_class(hint) or hint, f"{inner}.", True, source)
         elif isinstance(value, list):
             _check_free(key, value, source)
             _check_text(key, rule, value, source)
             if rule.non_empty and not value:
-                _fail(f"{key} = [] is not allowed; allowed: a list of at least one entry", key, source)
+                _fail(
+                    f"{key} = [] is not allowed; allowed: a list of at least one entry", key, source
+                )
             for index, item in enumerate(value if rule.range else []):
                 _check_number(f"{key}[{index}]", rule, item, source)
         elif isinstance(value, str):
@@ -393,24 +508,41 @@ def _walk(data: dict, cls, prefix: str, partial: bool, source) -> None:
         else:
             _check_number(key, rule, value, source)
     if not partial:
-        missing = [f"{prefix}{k}" for k, item in ((f.name, f) for f in dataclasses.fields(cls))
-                   if k in fields and k not in data and item.default is dataclasses.MISSING]
+        missing = [
+            f"{prefix}{k}"
+            for k, item in ((f.name, f) for f in dataclasses.fields(cls))
+            if k in fields and k not in data and item.default is dataclasses.MISSING
+        ]
         if missing:
-            _fail(f"missing key(s) {', '.join(missing)} (every profile has the keys of params/{REFERENCE_PROFILE}.toml; "
-                  f"inherit it with [profile] inherits = \"{REFERENCE_PROFILE}\")", missing[0], source)
+            _fail(
+                f"missing key(s) {', '.join(missing)} (every profile has the keys of params/{REFERENCE_PROFILE}.toml; "
+                f'inherit it with [profile] inherits = "{REFERENCE_PROFILE}")',
+                missing[0],
+                source,
+            )
 
 
 def _walk_sections(key: str, sections: dict, source) -> None:
     """``campaign.overrides``: a table of profile sections other than campaign and profile, each checked as its own."""
-    known = {name: hint for name, (hint, _) in _schema_fields(PROFILE_SCHEMA).items()
-             if name not in ("campaign", "profile")}
+    known = {
+        name: hint
+        for name, (hint, _) in _schema_fields(PROFILE_SCHEMA).items()
+        if name not in ("campaign", "profile")
+    }
     for name, table in sections.items():
         if name not in known:
-            _fail(f"unknown key {key}.{name}: campaign.overrides holds profile sections other than campaign; known: "
-                  f"{', '.join(known)}", f"{key}.{name}", source)
+            _fail(
+                f"unknown key {key}.{name}: campaign.overrides holds profile sections other than campaign; known: "
+                f"{', '.join(known)}",
+                f"{key}.{name}",
+                source,
+            )
         if not isinstance(table, dict):
-            _fail(f"{key}.{name} = {table!r} has the wrong type: expected a table, got {_kind(table)}",
-                  f"{key}.{name}", source)
+            _fail(
+                f"{key}.{name} = {table!r} has the wrong type: expected a table, got {_kind(table)}",
+                f"{key}.{name}",
+                source,
+            )
         _walk(table, known[name], f"{key}.{name}.", True, source)
 
 
@@ -419,7 +551,9 @@ def _check_free(key: str, value, source) -> None:
     items = value.items() if isinstance(value, dict) else enumerate(value)
     for name, item in items:
         if isinstance(item, (dict, list)):
-            _check_free(f"{key}.{name}" if isinstance(value, dict) else f"{key}[{name}]", item, source)
+            _check_free(
+                f"{key}.{name}" if isinstance(value, dict) else f"{key}[{name}]", item, source
+            )
         elif isinstance(item, (int, float)):
             inner = f"{key}.{name}" if isinstance(value, dict) else f"{key}[{name}]"
             _check_integer_size(inner, item, source)
@@ -443,7 +577,7 @@ def validate_profile(profile: dict, *, partial: bool = False, source=None) -> No
     if not partial:
         _check_campaign(profile, source)
     overrides = _lookup(profile, "campaign.overrides")
-    if overrides:                                   # the profile campaign evaluations use
+    if overrides:  # the profile campaign evaluations use
         _check_across(deep_merge(profile, overrides), source)
 
 
@@ -466,43 +600,89 @@ def _check_across(profile: dict, source) -> None:
     for key in keys_with("names_integrator_setting"):
         name = _lookup(profile, key)
         if settings is not None and name is not None and name not in settings:
-            _fail(f"{key} = {name!r} names no [integrator.settings.*]; allowed: {', '.join(settings)}", key, source)
+            _fail(
+                f"{key} = {name!r} names no [integrator.settings.*]; allowed: {', '.join(settings)}",
+                key,
+                source,
+            )
     systems = _lookup(profile, "gnss.systems")
     if isinstance(systems, list) and len(set(systems)) != len(systems):
-        _fail(f"gnss.systems = {systems!r} is not allowed; allowed: distinct names from {', '.join(GNSS_SYSTEMS)}",
-              "gnss.systems", source)
+        _fail(
+            f"gnss.systems = {systems!r} is not allowed; allowed: distinct names from {', '.join(GNSS_SYSTEMS)}",
+            "gnss.systems",
+            source,
+        )
     extras = _lookup(profile, "evaluator.extra_metrics")
     if isinstance(extras, list) and len(set(extras)) != len(extras):
-        _fail(f"[evaluator] extra_metrics must be distinct names; got {extras!r}", "evaluator.extra_metrics", source)
+        _fail(
+            f"[evaluator] extra_metrics must be distinct names; got {extras!r}",
+            "evaluator.extra_metrics",
+            source,
+        )
     model = _lookup(profile, "sk_estimate.model")
     life_nav = [n for n in extras or () if n in LIFE_NAVIGATION_KEYS]
     if life_nav and model is not None and model != "life":
-        _fail(f"[evaluator] extra_metrics {life_nav} come from the life estimate's rebuilt constellation: they need "
-              f'[sk_estimate] model = "life"; got {model!r}', "sk_estimate.model", source)
+        _fail(
+            f"[evaluator] extra_metrics {life_nav} come from the life estimate's rebuilt constellation: they need "
+            f'[sk_estimate] model = "life"; got {model!r}',
+            "sk_estimate.model",
+            source,
+        )
     satellites = _lookup(profile, "deltav.satellites")
     needs_all = [n for n in extras or () if n in NEEDS_ALL_SATELLITES]
     if needs_all and satellites is not None and satellites != "all":
-        _fail(f"[evaluator] extra_metrics {needs_all} are maxima over satellites: they need "
-              f'[deltav] satellites = "all"; got {satellites!r}', "deltav.satellites", source)
-    lat, lon = _lookup(profile, "navigation_error.station_lat_deg"), _lookup(profile, "navigation_error.station_lon_deg")
+        _fail(
+            f"[evaluator] extra_metrics {needs_all} are maxima over satellites: they need "
+            f'[deltav] satellites = "all"; got {satellites!r}',
+            "deltav.satellites",
+            source,
+        )
+    lat, lon = (
+        _lookup(profile, "navigation_error.station_lat_deg"),
+        _lookup(profile, "navigation_error.station_lon_deg"),
+    )
     if lat is not None and lon is not None and len(lat) != len(lon):
-        _fail(f"navigation_error.station_lon_deg has {len(lon)} entries for {len(lat)} station latitudes; allowed: one "
-              "longitude per latitude", "navigation_error.station_lon_deg", source)
-    floor = [_lookup(profile, f"navigation_error.{k}") for k in ("sise_at_upload_m", "receiver_noise_m")]
+        _fail(
+            f"navigation_error.station_lon_deg has {len(lon)} entries for {len(lat)} station latitudes; allowed: one "
+            "longitude per latitude",
+            "navigation_error.station_lon_deg",
+            source,
+        )
+    floor = [
+        _lookup(profile, f"navigation_error.{k}") for k in ("sise_at_upload_m", "receiver_noise_m")
+    ]
     if None not in floor and max(floor) <= 0.0:
-        _fail("navigation_error.sise_at_upload_m and receiver_noise_m are both 0; allowed: a positive range error floor "
-              "(a zero-error range would take infinite weight)", "navigation_error.receiver_noise_m", source)
+        _fail(
+            "navigation_error.sise_at_upload_m and receiver_noise_m are both 0; allowed: a positive range error floor "
+            "(a zero-error range would take infinite weight)",
+            "navigation_error.receiver_noise_m",
+            source,
+        )
     for key in keys_with("pair"):
         pair = _lookup(profile, key)
         if pair is not None and not (len(pair) == 2 and pair[0] < pair[1]):
-            _fail(f"{key} = {pair!r} is not allowed; allowed: [low, high] with low < high", key, source)
+            _fail(
+                f"{key} = {pair!r} is not allowed; allowed: [low, high] with low < high",
+                key,
+                source,
+            )
     craft = [_lookup(profile, f"spacecraft.{k}") for k in ("cr", "area_m2", "mass_kg")]
-    if None not in craft and craft[2] > 0 and not in_range(craft[0] * craft[1] / craft[2], CR_AREA_MASS):
-        _fail(f"spacecraft cr * area_m2 / mass_kg = {craft[0] * craft[1] / craft[2]:.6g} m^2/kg is out of range; "
-              f"allowed: {allowed_range_text(CR_AREA_MASS)} ({CR_AREA_MASS_WHY})", "spacecraft.area_m2", source)
+    if (
+        None not in craft
+        and craft[2] > 0
+        and not in_range(craft[0] * craft[1] / craft[2], CR_AREA_MASS)
+    ):
+        _fail(
+            f"spacecraft cr * area_m2 / mass_kg = {craft[0] * craft[1] / craft[2]:.6g} m^2/kg is out of range; "
+            f"allowed: {allowed_range_text(CR_AREA_MASS)} ({CR_AREA_MASS_WHY})",
+            "spacecraft.area_m2",
+            source,
+        )
 
 
-CAMPAIGN_OFF = "off"          # a campaign constraint or hypervolume entry set to "off" drops an inherited one
+CAMPAIGN_OFF = (
+    "off"  # a campaign constraint or hypervolume entry set to "off" drops an inherited one
+)
 
 
 def _is_number(value) -> bool:
@@ -522,13 +702,25 @@ def _check_campaign(profile: dict, source) -> None:
     names = [o.lstrip("-") if isinstance(o, str) else o for o in objectives]
     bad = [o for o, name in zip(objectives, names) if name not in metrics]
     if not objectives or bad or len(set(names)) != len(names):
-        _fail(f"campaign.objectives = {objectives!r} is not allowed" + (f" ({bad!r} unknown)" if bad else "")
-              + f"; allowed: distinct metric names, '-' first to maximise, from {metric_text}", "campaign.objectives",
-              source)
-    entries = {   # table -> (test of an entry's value, what is allowed)
-        "constraints": (lambda spec: isinstance(spec, dict) and len(spec) == 1 and next(iter(spec)) in ("min", "max")
-                        and _is_number(next(iter(spec.values()))), "exactly one of {min = number}, {max = number}"),
-        "hypervolume": (lambda ref: _is_number(ref) and ref > 0, "a positive reference value")}
+        _fail(
+            f"campaign.objectives = {objectives!r} is not allowed"
+            + (f" ({bad!r} unknown)" if bad else "")
+            + f"; allowed: distinct metric names, '-' first to maximise, from {metric_text}",
+            "campaign.objectives",
+            source,
+        )
+    entries = {  # table -> (test of an entry's value, what is allowed)
+        "constraints": (
+            lambda spec: (
+                isinstance(spec, dict)
+                and len(spec) == 1
+                and next(iter(spec)) in ("min", "max")
+                and _is_number(next(iter(spec.values())))
+            ),
+            "exactly one of {min = number}, {max = number}",
+        ),
+        "hypervolume": (lambda ref: _is_number(ref) and ref > 0, "a positive reference value"),
+    }
     for table, (ok, allowed) in entries.items():
         for metric, value in campaign[table].items():
             key = f"campaign.{table}.{metric}"
@@ -537,37 +729,71 @@ def _check_campaign(profile: dict, source) -> None:
             if metric not in metrics:
                 _fail(f"unknown metric {key}; allowed: {metric_text}", key, source)
             if not ok(value):
-                _fail(f"{key} = {value!r} is not allowed; allowed: {allowed} or {CAMPAIGN_OFF!r}", key, source)
+                _fail(
+                    f"{key} = {value!r} is not allowed; allowed: {allowed} or {CAMPAIGN_OFF!r}",
+                    key,
+                    source,
+                )
     variables = campaign["variables"]
     if set(variables) != set(DESIGN_KEYS):
-        _fail(f"campaign.variables names {', '.join(variables)}; allowed: exactly {', '.join(DESIGN_KEYS)}",
-              "campaign.variables", source)
+        _fail(
+            f"campaign.variables names {', '.join(variables)}; allowed: exactly {', '.join(DESIGN_KEYS)}",
+            "campaign.variables",
+            source,
+        )
     for name in DESIGN_KEYS:
         key, spec = f"campaign.variables.{name}", variables[name]
-        if not isinstance(spec, dict) or set(spec) != {"lower", "upper", "step"} \
-                or not all(_is_number(spec[k]) for k in spec):
-            _fail(f"{key} = {spec!r} is not allowed; allowed: {{lower = number, upper = number, step = number}}",
-                  key, source)
+        if (
+            not isinstance(spec, dict)
+            or set(spec) != {"lower", "upper", "step"}
+            or not all(_is_number(spec[k]) for k in spec)
+        ):
+            _fail(
+                f"{key} = {spec!r} is not allowed; allowed: {{lower = number, upper = number, step = number}}",
+                key,
+                source,
+            )
         lower, upper, step = (spec[k] for k in ("lower", "upper", "step"))
         if step <= 0 or upper <= lower:
-            _fail(f"{key} = {spec!r} is not allowed; allowed: lower < upper and step > 0", key, source)
-        if name == "sma_km" and not (in_range(lower, SEMI_MAJOR_AXIS) and in_range(upper, SEMI_MAJOR_AXIS)):
-            _fail(f"{key} = {spec!r} is out of range; allowed: bounds in {allowed_range_text(SEMI_MAJOR_AXIS)} "
-                  f"({SEMI_MAJOR_AXIS_WHY})", key, source)
-        if name in INTEGER_DESIGN_KEYS and (any(v != round(v) for v in (lower, upper, step)) or lower < 1):
-            _fail(f"{key} = {spec!r} is not allowed; allowed: integer bounds >= 1 and an integer step (a count)",
-                  key, source)
-    count_ranges = [range(int(variables[k]["lower"]), int(variables[k]["upper"]) + 1, int(variables[k]["step"]))
-                    for k in INTEGER_DESIGN_KEYS]
+            _fail(
+                f"{key} = {spec!r} is not allowed; allowed: lower < upper and step > 0", key, source
+            )
+        if name == "sma_km" and not (
+            in_range(lower, SEMI_MAJOR_AXIS) and in_range(upper, SEMI_MAJOR_AXIS)
+        ):
+            _fail(
+                f"{key} = {spec!r} is out of range; allowed: bounds in {allowed_range_text(SEMI_MAJOR_AXIS)} "
+                f"({SEMI_MAJOR_AXIS_WHY})",
+                key,
+                source,
+            )
+        if name in INTEGER_DESIGN_KEYS and (
+            any(v != round(v) for v in (lower, upper, step)) or lower < 1
+        ):
+            _fail(
+                f"{key} = {spec!r} is not allowed; allowed: integer bounds >= 1 and an integer step (a count)",
+                key,
+                source,
+            )
+    count_ranges = [
+        range(int(variables[k]["lower"]), int(variables[k]["upper"]) + 1, int(variables[k]["step"]))
+        for k in INTEGER_DESIGN_KEYS
+    ]
     if (n_sat := campaign["n_sat"]) and not walker_splits(n_sat, *count_ranges):
         sizes = sorted({p * s for p in count_ranges[0] for s in count_ranges[1]})
-        _fail(f"campaign.n_sat = {n_sat!r} has no planes x satellites-per-plane split on the grid of "
-              f"campaign.variables; allowed: 0 (any size) or one of {', '.join(map(str, sizes))}", "campaign.n_sat",
-              source)
+        _fail(
+            f"campaign.n_sat = {n_sat!r} has no planes x satellites-per-plane split on the grid of "
+            f"campaign.variables; allowed: 0 (any size) or one of {', '.join(map(str, sizes))}",
+            "campaign.n_sat",
+            source,
+        )
     companion = campaign["companion_profile"]
     if companion and companion == profile["profile"].get("name"):
-        _fail(f"campaign.companion_profile = {companion!r} is this profile; allowed: \"\" (none) or another profile",
-              "campaign.companion_profile", source)
+        _fail(
+            f'campaign.companion_profile = {companion!r} is this profile; allowed: "" (none) or another profile',
+            "campaign.companion_profile",
+            source,
+        )
 
 
 def parse_sets(items) -> dict:
@@ -581,17 +807,25 @@ def parse_sets(items) -> dict:
             raise ConfigError(f"--set needs SECTION.KEY=VALUE (VALUE in TOML syntax); got {item!r}")
         try:
             value = tomllib.loads(f"v = {literal}")["v"]
-        except ValueError as error:      # TOMLDecodeError, or an integer of more than 4300 digits
-            if literal.strip() and literal.strip().replace("_", "").replace("-", "").isalnum() \
-                    and not literal.strip()[0].isdigit() and literal.strip().lower() not in ("nan", "inf"):
+        except ValueError as error:  # TOMLDecodeError, or an integer of more than 4300 digits
+            if (
+                literal.strip()
+                and literal.strip().replace("_", "").replace("-", "").isalnum()
+                and not literal.strip()[0].isdigit()
+                and literal.strip().lower() not in ("nan", "inf")
+            ):
                 value = literal.strip()
             else:
                 shown = item if len(item) <= 80 else f"{item[:60]}... ({len(item)} characters)"
-                raise ConfigError(f"--set {shown!r}: VALUE is not a TOML literal ({str(error)[:120]})",
-                                  key=path) from None
+                raise ConfigError(
+                    f"--set {shown!r}: VALUE is not a TOML literal ({str(error)[:120]})", key=path
+                ) from None
         if isinstance(value, (dt.date, dt.time)):
-            raise ConfigError(f"--set {item!r}: TOML reads an unquoted {literal.strip()} as a date-time, and dates are "
-                              f"strings here; quote it: --set '{path.strip()}=\"{literal.strip()}\"'", key=path.strip())
+            raise ConfigError(
+                f"--set {item!r}: TOML reads an unquoted {literal.strip()} as a date-time, and dates are "
+                f"strings here; quote it: --set '{path.strip()}=\"{literal.strip()}\"'",
+                key=path.strip(),
+            )
         nested: dict = value
         for part in reversed(parts):
             nested = {part: nested}
@@ -606,13 +840,21 @@ def toml_literal(value) -> str:
     if isinstance(value, int):
         return str(value)
     if isinstance(value, float):
-        return repr(value) if math.isfinite(value) else ("nan" if math.isnan(value) else ("inf" if value > 0 else "-inf"))
+        return (
+            repr(value)
+            if math.isfinite(value)
+            else ("nan" if math.isnan(value) else ("inf" if value > 0 else "-inf"))
+        )
     if isinstance(value, str):
         return json.dumps(value)
     if isinstance(value, (list, tuple)):
         return "[" + ", ".join(map(toml_literal, value)) + "]"
     if isinstance(value, dict):
-        return "{" + ", ".join(f"{json.dumps(str(k))} = {toml_literal(v)}" for k, v in value.items()) + "}"
+        return (
+            "{"
+            + ", ".join(f"{json.dumps(str(k))} = {toml_literal(v)}" for k, v in value.items())
+            + "}"
+        )
     raise TypeError(f"no TOML literal for {type(value).__name__} {value!r}")
 
 
@@ -620,16 +862,30 @@ def data_path(relative: str, key: str = "data file") -> Path:
     """Absolute path of a data file named relative to ``params/`` (``data/...``); ConfigError naming ``key``
     unless it lies under ``params/data/`` once symbolic links are resolved."""
     root = (PARAMS_DIR / "data").resolve()
-    if not isinstance(relative, str) or Path(relative).is_absolute() \
-            or not (PARAMS_DIR / relative).resolve().is_relative_to(root):
-        raise ConfigError(f"{key} = {relative!r} is not allowed; allowed: a file under params/data/, named relative "
-                          f"to params/ (e.g. \"data/gravity/...\")", key=key)
+    if (
+        not isinstance(relative, str)
+        or Path(relative).is_absolute()
+        or not (PARAMS_DIR / relative).resolve().is_relative_to(root)
+    ):
+        raise ConfigError(
+            f"{key} = {relative!r} is not allowed; allowed: a file under params/data/, named relative "
+            f'to params/ (e.g. "data/gravity/...")',
+            key=key,
+        )
     return PARAMS_DIR / relative
 
 
-DATA_KEYS = ("gravity.file", "ephemeris.kernels", "gps.tle_file", "gps.gain_file", "gnss.nominal_file",
-             "validation.capstone.file")
-SKYFIELD_DATA = "skyfield-data:"      # ephemeris.planetary_spk prefix: a file of the skyfield-data package
+DATA_KEYS = (
+    "gravity.file",
+    "ephemeris.kernels",
+    "gps.tle_file",
+    "gps.gain_file",
+    "gnss.nominal_file",
+    "validation.capstone.file",
+)
+SKYFIELD_DATA = (
+    "skyfield-data:"  # ephemeris.planetary_spk prefix: a file of the skyfield-data package
+)
 
 
 def _check_data_paths(profile: dict) -> None:
@@ -644,8 +900,11 @@ def _check_data_paths(profile: dict) -> None:
     if spk.startswith(SKYFIELD_DATA):
         name = spk.removeprefix(SKYFIELD_DATA)
         if name in ("", ".", "..") or Path(name).name != name:
-            raise ConfigError(f"ephemeris.planetary_spk = {spk!r} is not allowed; allowed: {SKYFIELD_DATA}FILE_NAME "
-                              f"or a file under params/data/", key="ephemeris.planetary_spk")
+            raise ConfigError(
+                f"ephemeris.planetary_spk = {spk!r} is not allowed; allowed: {SKYFIELD_DATA}FILE_NAME "
+                f"or a file under params/data/",
+                key="ephemeris.planetary_spk",
+            )
     else:
         data_path(spk, "ephemeris.planetary_spk")
 
@@ -655,9 +914,12 @@ def _check_sampling(profile: dict) -> None:
     the fewest the DOP statistics and the GVE Delta-V take."""
     days, step_s = profile["epoch"]["duration_days"], profile["epoch"]["step_s"]
     if not days * SECONDS_PER_DAY > step_s * (1.0 + 1e-9):
-        raise ConfigError(f"epoch.duration_days = {days!r} ({days * SECONDS_PER_DAY:g} s) is not longer than epoch.step_s = "
-                          f"{step_s!r} s; allowed: an arc of more than one step (at least 3 epochs): lengthen "
-                          f"epoch.duration_days or shorten epoch.step_s", key="epoch.duration_days")
+        raise ConfigError(
+            f"epoch.duration_days = {days!r} ({days * SECONDS_PER_DAY:g} s) is not longer than epoch.step_s = "
+            f"{step_s!r} s; allowed: an arc of more than one step (at least 3 epochs): lengthen "
+            f"epoch.duration_days or shorten epoch.step_s",
+            key="epoch.duration_days",
+        )
 
 
 def _check_grid(profile: dict) -> None:
@@ -666,10 +928,12 @@ def _check_grid(profile: dict) -> None:
     n_lat = math.floor((dop["lat_max_deg"] - dop["lat_min_deg"]) / dop["lat_step_deg"]) + 1
     n_lon = math.floor((dop["lon_max_deg"] - dop["lon_min_deg"]) / dop["lon_step_deg"]) + 1
     if n_lat * n_lon > MAX_GRID_POINTS:
-        raise ConfigError(f"dop.lat_step_deg = {dop['lat_step_deg']!r}, dop.lon_step_deg = {dop['lon_step_deg']!r}: a "
-                          f"grid of {n_lat:,} x {n_lon:,} points; allowed: at most {MAX_GRID_POINTS:,} points (a "
-                          f"whole-Moon 1-degree grid is 65,160; the DOP arrays hold epochs x points x satellites)",
-                          key="dop.lat_step_deg")
+        raise ConfigError(
+            f"dop.lat_step_deg = {dop['lat_step_deg']!r}, dop.lon_step_deg = {dop['lon_step_deg']!r}: a "
+            f"grid of {n_lat:,} x {n_lon:,} points; allowed: at most {MAX_GRID_POINTS:,} points (a "
+            f"whole-Moon 1-degree grid is 65,160; the DOP arrays hold epochs x points x satellites)",
+            key="dop.lat_step_deg",
+        )
 
 
 def with_absent_sections(profile: dict) -> dict:

@@ -28,15 +28,22 @@ from .keys import ELEMENT_KEYS
 if TYPE_CHECKING:
     from .settings import Dynamics, StandaloneElfoSettings
 
-__all__ = ["planes_elements_deg", "WalkerDesign", "walker_design", "explicit_constellation", "standalone_elfo",
-           "two_body_positions_mci"]
-
+__all__ = [
+    "planes_elements_deg",
+    "WalkerDesign",
+    "walker_design",
+    "explicit_constellation",
+    "standalone_elfo",
+    "two_body_positions_mci",
+]
 
 
 def _positive_int(value, name: str) -> int:
     """``value`` as an int if it is a positive integer (integral floats accepted), else ``ValueError``."""
     if isinstance(value, (bool, np.bool_)) or not isinstance(value, numbers.Real):
-        raise ValueError(f"{name} must be a positive integer; got {value!r} ({type(value).__name__})")
+        raise ValueError(
+            f"{name} must be a positive integer; got {value!r} ({type(value).__name__})"
+        )
     if not np.isfinite(float(value)) or float(value) != int(value) or int(value) < 1:
         raise ValueError(f"{name} must be a positive integer; got {value!r}")
     return int(value)
@@ -60,8 +67,9 @@ def _surface_limits(dynamics: Dynamics) -> tuple[float, float]:
     return dynamics.constants.r_moon_mean_km, dynamics.impact.min_altitude_km
 
 
-def planes_elements_deg(sma_km: float, e: float, inc_deg: float, aop_deg: float,
-                        raan_deg, sats_per_plane: int) -> np.ndarray:
+def planes_elements_deg(
+    sma_km: float, e: float, inc_deg: float, aop_deg: float, raan_deg, sats_per_plane: int
+) -> np.ndarray:
     """Elements (nsat, 6) of planes with the given RAANs, ``sats_per_plane`` satellites each.
 
     Within a plane the mean anomalies are ``(s - 1) 360 / Ns`` deg, s = 1..Ns (the first at
@@ -70,16 +78,24 @@ def planes_elements_deg(sma_km: float, e: float, inc_deg: float, aop_deg: float,
     ns = _positive_int(sats_per_plane, "sats_per_plane")
     raans = np.atleast_1d(np.asarray(raan_deg, dtype=float))
     if raans.ndim != 1 or raans.size == 0:
-        raise ValueError(f"raan_deg must be a non-empty 1-D list of angles; got shape {raans.shape}")
+        raise ValueError(
+            f"raan_deg must be a non-empty 1-D list of angles; got shape {raans.shape}"
+        )
     _check_finite_angles(raans, "raan_deg")
     mean_anomalies = np.arange(ns) * 360.0 / ns
     raan_col = np.repeat(raans, ns)
     m_col = np.tile(mean_anomalies, raans.size)
     n = raan_col.size
-    return np.column_stack([
-        np.full(n, float(sma_km)), np.full(n, float(e)), np.full(n, float(inc_deg)),
-        np.mod(raan_col, 360.0), np.full(n, float(np.mod(aop_deg, 360.0))), np.mod(m_col, 360.0),
-    ])
+    return np.column_stack(
+        [
+            np.full(n, float(sma_km)),
+            np.full(n, float(e)),
+            np.full(n, float(inc_deg)),
+            np.mod(raan_col, 360.0),
+            np.full(n, float(np.mod(aop_deg, 360.0))),
+            np.mod(m_col, 360.0),
+        ]
+    )
 
 
 @dataclass(frozen=True)
@@ -103,7 +119,9 @@ class WalkerDesign:
 
     def __post_init__(self) -> None:
         object.__setattr__(self, "n_planes", _positive_int(self.n_planes, "n_planes (Np)"))
-        object.__setattr__(self, "sats_per_plane", _positive_int(self.sats_per_plane, "sats_per_plane (Ns)"))
+        object.__setattr__(
+            self, "sats_per_plane", _positive_int(self.sats_per_plane, "sats_per_plane (Ns)")
+        )
         validate_elements(self.sma_km, self.ecc, r_body_km=0.0)
         _check_inclination(self.inc_deg)
         _check_finite_angles([self.aop_deg, self.raan_offset_deg], "aop_deg and raan_offset_deg")
@@ -115,19 +133,34 @@ class WalkerDesign:
 
     def raan_deg(self) -> np.ndarray:
         """RAAN of each plane (deg, eq. 42), shape (Np,)."""
-        return np.mod(self.raan_offset_deg + np.arange(self.n_planes) * 360.0 / self.n_planes, 360.0)
+        return np.mod(
+            self.raan_offset_deg + np.arange(self.n_planes) * 360.0 / self.n_planes, 360.0
+        )
 
     def elements_deg(self, max_sats_per_plane: int = 0) -> np.ndarray:
         """Elements (n_sat, 6) ``[sma_km, ecc, inc_deg, raan_deg, aop_deg, M_deg]``, plane by plane; with
         ``max_sats_per_plane`` > 0 at most that many per plane, at the design's slots (the first of each plane)."""
-        el = planes_elements_deg(self.sma_km, self.ecc, self.inc_deg, self.aop_deg, self.raan_deg(),
-                                 self.sats_per_plane)
-        k = self.sats_per_plane if max_sats_per_plane <= 0 else min(self.sats_per_plane, int(max_sats_per_plane))
+        el = planes_elements_deg(
+            self.sma_km, self.ecc, self.inc_deg, self.aop_deg, self.raan_deg(), self.sats_per_plane
+        )
+        k = (
+            self.sats_per_plane
+            if max_sats_per_plane <= 0
+            else min(self.sats_per_plane, int(max_sats_per_plane))
+        )
         return el.reshape(self.n_planes, self.sats_per_plane, 6)[:, :k].reshape(-1, 6)
 
 
-def walker_design(dynamics: Dynamics, sma_km: float, ecc: float, aop_deg: float, inc_deg: float,
-                  n_planes: int, sats_per_plane: int, raan_offset_deg: float = 0.0) -> WalkerDesign:
+def walker_design(
+    dynamics: Dynamics,
+    sma_km: float,
+    ecc: float,
+    aop_deg: float,
+    inc_deg: float,
+    n_planes: int,
+    sats_per_plane: int,
+    raan_offset_deg: float = 0.0,
+) -> WalkerDesign:
     """A :class:`WalkerDesign` whose perilune a(1 - e) clears the surface (``constants.r_moon_mean_km``
     + ``impact.min_altitude_km``); ``ValueError`` naming the bad value otherwise."""
     design = WalkerDesign(sma_km, ecc, aop_deg, inc_deg, n_planes, sats_per_plane, raan_offset_deg)
@@ -165,7 +198,9 @@ def standalone_elfo(elfo: StandaloneElfoSettings, dynamics: Dynamics) -> np.ndar
     spaced in mean anomaly from M = 0: 16 satellites, a = 6143 km, e = 0.6, i = 51.7 deg,
     AOP = 90 deg.
     """
-    el = planes_elements_deg(elfo.sma_km, elfo.ecc, elfo.inc_deg, elfo.aop_deg, elfo.raan_deg, elfo.sats_per_plane)
+    el = planes_elements_deg(
+        elfo.sma_km, elfo.ecc, elfo.inc_deg, elfo.aop_deg, elfo.raan_deg, elfo.sats_per_plane
+    )
     return explicit_constellation(dynamics, el)
 
 

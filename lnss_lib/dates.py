@@ -12,8 +12,10 @@ import re
 from .errors import ConfigError
 
 ISO_DATE_FORMAT = "YYYY-MM-DD"
-ISO_FORMAT = ("YYYY-MM-DDTHH:MM:SS (ISO 8601; seconds and a fraction .fff optional, a bare date YYYY-MM-DD is "
-              "midnight; no zone such as Z or +05:00: the time scale is given apart)")
+ISO_FORMAT = (
+    "YYYY-MM-DDTHH:MM:SS (ISO 8601; seconds and a fraction .fff optional, a bare date YYYY-MM-DD is "
+    "midnight; no zone such as Z or +05:00: the time scale is given apart)"
+)
 _ISO = re.compile(r"(\d{4})-(\d{2})-(\d{2})(?:T(\d{2}):(\d{2})(?::(\d{2})(?:\.(\d{1,9}))?)?)?")
 _ZONE = re.compile(r"T.*(Z|[+-]\d{2}(:?\d{2})?)$")
 
@@ -28,14 +30,23 @@ def parse_iso_date(text, what: str = "date", *, date_only: bool = False) -> dt.d
     match = _ISO.fullmatch(text) if isinstance(text, str) else None
     if match is None or (date_only and match.group(4) is not None):
         zone = isinstance(text, str) and not date_only and _ZONE.search(text) is not None
-        raise ConfigError(f"{what} {text!r} is not " + ("a date with a zone, which is not allowed; expected "
-                                                         if zone else "an ISO 8601 date; expected ") + expected)
+        raise ConfigError(
+            f"{what} {text!r} is not "
+            + (
+                "a date with a zone, which is not allowed; expected "
+                if zone
+                else "an ISO 8601 date; expected "
+            )
+            + expected
+        )
     fields = [int(value) if value else 0 for value in match.groups()[:6]]
     fraction = match.group(7) or ""
     try:
         return dt.datetime(*fields, int((fraction + "000000")[:6]))
     except ValueError as error:
-        raise ConfigError(f"{what} {text!r} is no calendar date and time ({error}); expected {expected}") from None
+        raise ConfigError(
+            f"{what} {text!r} is no calendar date and time ({error}); expected {expected}"
+        ) from None
 
 
 def is_iso_date(text, date_only: bool = False) -> bool:

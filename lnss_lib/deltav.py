@@ -43,23 +43,61 @@ import xarray as xr
 from scipy.optimize import minimize
 
 from .config import validate_profile
-from .sections import DELTAV_MODELS, LSQ_RATES
 from .constants import DAYS_PER_JULIAN_YEAR, SECONDS_PER_DAY
 from .frames import ELEMENT_FRAMES, element_frame_to_j2000, to_rtn
-from .gve import (NATURAL_RATE_NAMES, PAPER_NORMAL, PAPER_RADIAL, RATE_NAMES, check_epochs, element_rates, lsq_thrust,
-                  natural_rates_from_elements, orbit_vectors, osculating_elements, paper_thrust, project_natural)
+from .gve import (
+    NATURAL_RATE_NAMES,
+    PAPER_NORMAL,
+    PAPER_RADIAL,
+    RATE_NAMES,
+    check_epochs,
+    element_rates,
+    lsq_thrust,
+    natural_rates_from_elements,
+    orbit_vectors,
+    osculating_elements,
+    paper_thrust,
+    project_natural,
+)
+from .sections import DELTAV_MODELS, LSQ_RATES
 
 if TYPE_CHECKING:
     from .settings import DeltaVSettings, Dynamics
 
-__all__ = ["MODELS", "OSCULATING_MODELS", "LSQ_RATES", "SECULAR_PARTS", "with_overrides",
-           "thrust_total", "tmax_closed_form", "slsqp_tmax", "trapezoid_deltav", "per_year_factor", "orbit_mean",
-           "secular_drift", "secular_deltav_rates", "deltav_arrays", "perturbing_acceleration_rtn",
-           "deltav_from_propagation", "chosen_budget", "deltav_per_satellite", "dataset_states",
-           # re-exported from gve and frames (the kernels deltav_arrays is built on)
-           "osculating_elements", "element_rates", "lsq_thrust", "paper_thrust", "orbit_vectors",
-           "natural_rates_from_elements", "to_rtn", "ELEMENT_FRAMES", "RATE_NAMES", "NATURAL_RATE_NAMES",
-           "PAPER_NORMAL", "PAPER_RADIAL"]
+__all__ = [
+    "MODELS",
+    "OSCULATING_MODELS",
+    "LSQ_RATES",
+    "SECULAR_PARTS",
+    "with_overrides",
+    "thrust_total",
+    "tmax_closed_form",
+    "slsqp_tmax",
+    "trapezoid_deltav",
+    "per_year_factor",
+    "orbit_mean",
+    "secular_drift",
+    "secular_deltav_rates",
+    "deltav_arrays",
+    "perturbing_acceleration_rtn",
+    "deltav_from_propagation",
+    "chosen_budget",
+    "deltav_per_satellite",
+    "dataset_states",
+    # re-exported from gve and frames (the kernels deltav_arrays is built on)
+    "osculating_elements",
+    "element_rates",
+    "lsq_thrust",
+    "paper_thrust",
+    "orbit_vectors",
+    "natural_rates_from_elements",
+    "to_rtn",
+    "ELEMENT_FRAMES",
+    "RATE_NAMES",
+    "NATURAL_RATE_NAMES",
+    "PAPER_NORMAL",
+    "PAPER_RADIAL",
+]
 
 MODELS = DELTAV_MODELS
 OSCULATING_MODELS = ("paper", "lsq")
@@ -70,6 +108,7 @@ SECULAR_PARTS = ("sma", "ecc_vector", "plane")
 # settings
 # ----------------------------------------------------------------------------------------------
 
+
 def with_overrides(deltav: DeltaVSettings, **overrides) -> DeltaVSettings:
     """``deltav`` (the ``[deltav]`` section) with ``overrides`` (None values ignored; e.g. a study's
     ``gve_frame="lunar_equator_of_epoch"``), checked as the profile is (:func:`lnss_lib.config.validate_profile`:
@@ -78,13 +117,16 @@ def with_overrides(deltav: DeltaVSettings, **overrides) -> DeltaVSettings:
     if not changed:
         return deltav
     validate_profile({"deltav": changed}, partial=True, source="overrides")
-    return dataclasses.replace(deltav, **{k: float(v) if isinstance(getattr(deltav, k), float) else v
-                                          for k, v in changed.items()})
+    return dataclasses.replace(
+        deltav,
+        **{k: float(v) if isinstance(getattr(deltav, k), float) else v for k, v in changed.items()},
+    )
 
 
 # ----------------------------------------------------------------------------------------------
 # magnitude, optimisation and integration (eq. 36-41)
 # ----------------------------------------------------------------------------------------------
+
 
 def thrust_total(t_rtn_kms2: np.ndarray) -> np.ndarray:
     """T_total = sqrt(T_R^2 + T_T^2 + T_N^2) (eq. 36), over the last axis."""
@@ -120,7 +162,9 @@ def slsqp_tmax(t_rtn_kms2: np.ndarray, lam: float = 20.0) -> tuple[np.ndarray, n
     """
     samples = np.atleast_2d(np.asarray(t_rtn_kms2, dtype=float))
     if samples.shape[-1] != 3:
-        raise ValueError(f"thrust samples must have shape (m, 3) [T_R, T_T, T_N]; got {samples.shape}")
+        raise ValueError(
+            f"thrust samples must have shape (m, 3) [T_R, T_T, T_N]; got {samples.shape}"
+        )
     out = np.zeros(samples.shape[0])
     ok = np.ones(samples.shape[0], dtype=bool)
     for k, row in enumerate(samples):
@@ -133,15 +177,23 @@ def slsqp_tmax(t_rtn_kms2: np.ndarray, lam: float = 20.0) -> tuple[np.ndarray, n
 
         def equalities(x, target=target):
             tm, alpha, beta = x
-            return np.array([target[0] - tm * np.cos(beta) * np.cos(alpha),
-                             target[1] - tm * np.cos(beta) * np.sin(alpha),
-                             target[2] - tm * np.sin(beta)])
+            return np.array(
+                [
+                    target[0] - tm * np.cos(beta) * np.cos(alpha),
+                    target[1] - tm * np.cos(beta) * np.sin(alpha),
+                    target[2] - tm * np.sin(beta),
+                ]
+            )
 
         x0 = np.array([1.0, np.arctan2(c[1], c[0]), np.arcsin(np.clip(c[2], -1.0, 1.0))])
-        res = minimize(lambda x: x[0] + lam * (x[0] - 1.0) ** 2, x0, method="SLSQP",
-                       constraints=[{"type": "eq", "fun": equalities}],
-                       bounds=[(0.0, 1.0), (-np.pi, np.pi), (-np.pi / 2, np.pi / 2)],
-                       options={"ftol": 1e-12, "maxiter": 200})
+        res = minimize(
+            lambda x: x[0] + lam * (x[0] - 1.0) ** 2,
+            x0,
+            method="SLSQP",
+            constraints=[{"type": "eq", "fun": equalities}],
+            bounds=[(0.0, 1.0), (-np.pi, np.pi), (-np.pi / 2, np.pi / 2)],
+            options={"ftol": 1e-12, "maxiter": 200},
+        )
         out[k] = res.x[0] * total
         ok[k] = np.max(np.abs(equalities(res.x))) < 1e-7
     return out, ok
@@ -149,7 +201,9 @@ def slsqp_tmax(t_rtn_kms2: np.ndarray, lam: float = 20.0) -> tuple[np.ndarray, n
 
 def trapezoid_deltav(t_tdb_s: np.ndarray, t_total_kms2: np.ndarray) -> np.ndarray:
     """Delta-V (km/s) = integral of T_total dt by the trapezoidal rule over time (last axis) (eq. 37)."""
-    return np.trapezoid(np.asarray(t_total_kms2, dtype=float), np.asarray(t_tdb_s, dtype=float), axis=-1)
+    return np.trapezoid(
+        np.asarray(t_total_kms2, dtype=float), np.asarray(t_tdb_s, dtype=float), axis=-1
+    )
 
 
 def per_year_factor(t_tdb_s: np.ndarray, year_days: float = DAYS_PER_JULIAN_YEAR) -> float:
@@ -165,7 +219,10 @@ def per_year_factor(t_tdb_s: np.ndarray, year_days: float = DAYS_PER_JULIAN_YEAR
 # secular (mean-element) model
 # ----------------------------------------------------------------------------------------------
 
-def orbit_mean(t_tdb_s: np.ndarray, values: np.ndarray, period_s: float) -> tuple[np.ndarray, np.ndarray]:
+
+def orbit_mean(
+    t_tdb_s: np.ndarray, values: np.ndarray, period_s: float
+) -> tuple[np.ndarray, np.ndarray]:
     """Running mean over one period: window mid-times (m,) and means (..., m, k) of values (..., n, k).
 
     Windows [t_j, t_j + P] start at every sample with t_j + P <= t_end; the mean is the exact
@@ -175,10 +232,14 @@ def orbit_mean(t_tdb_s: np.ndarray, values: np.ndarray, period_s: float) -> tupl
     v = np.asarray(values, dtype=float)
     starts = t[t + period_s <= t[-1] + 1e-9 * period_s]
     if starts.size < 2:
-        raise ValueError(f"arc of {t[-1] - t[0]:.0f} s holds fewer than two one-period windows (P = {period_s:.0f} s)")
+        raise ValueError(
+            f"arc of {t[-1] - t[0]:.0f} s holds fewer than two one-period windows (P = {period_s:.0f} s)"
+        )
     dt = np.diff(t)
     increments = 0.5 * (v[..., 1:, :] + v[..., :-1, :]) * dt[:, None]
-    cumulative = np.concatenate([np.zeros_like(v[..., :1, :]), np.cumsum(increments, axis=-2)], axis=-2)
+    cumulative = np.concatenate(
+        [np.zeros_like(v[..., :1, :]), np.cumsum(increments, axis=-2)], axis=-2
+    )
     ends = starts + period_s
     k = np.clip(np.searchsorted(t, ends, side="right") - 1, 0, t.size - 2)
     u = (ends - t[k]) / dt[k]
@@ -189,8 +250,13 @@ def orbit_mean(t_tdb_s: np.ndarray, values: np.ndarray, period_s: float) -> tupl
     return starts + 0.5 * period_s, means
 
 
-def secular_drift(t_tdb_s: np.ndarray, states: np.ndarray, gm_km3_s2: float, min_periods: float = 2.0,
-                  short_arc: str = "raise") -> dict:
+def secular_drift(
+    t_tdb_s: np.ndarray,
+    states: np.ndarray,
+    gm_km3_s2: float,
+    min_periods: float = 2.0,
+    short_arc: str = "raise",
+) -> dict:
     """Mean (orbit-averaged) orbit and its secular drift over an arc of states (n, 6) or (..., n, 6).
 
     a, the eccentricity vector and the orbit normal (:func:`orbit_vectors`) are averaged over one
@@ -209,27 +275,47 @@ def secular_drift(t_tdb_s: np.ndarray, states: np.ndarray, gm_km3_s2: float, min
     if short_arc not in ("raise", "nan"):
         raise ValueError(f"short_arc = {short_arc!r}; allowed: 'raise', 'nan'")
     t = np.asarray(t_tdb_s, dtype=float)
-    return _secular_from_vectors(t, orbit_vectors(states, gm_km3_s2), gm_km3_s2, min_periods, short_arc)
+    return _secular_from_vectors(
+        t, orbit_vectors(states, gm_km3_s2), gm_km3_s2, min_periods, short_arc
+    )
 
 
-def _secular_from_vectors(t: np.ndarray, vectors: np.ndarray, gm_km3_s2: float, min_periods: float,
-                          short_arc: str) -> dict:
+def _secular_from_vectors(
+    t: np.ndarray, vectors: np.ndarray, gm_km3_s2: float, min_periods: float, short_arc: str
+) -> dict:
     if vectors.ndim > 2:
-        flat = [_secular_from_vectors(t, one, gm_km3_s2, min_periods, short_arc)
-                for one in vectors.reshape(-1, *vectors.shape[-2:])]
-        return {k: np.stack([f[k] for f in flat]).reshape(*vectors.shape[:-2], *np.shape(flat[0][k])) for k in flat[0]}
+        flat = [
+            _secular_from_vectors(t, one, gm_km3_s2, min_periods, short_arc)
+            for one in vectors.reshape(-1, *vectors.shape[-2:])
+        ]
+        return {
+            k: np.stack([f[k] for f in flat]).reshape(*vectors.shape[:-2], *np.shape(flat[0][k]))
+            for k in flat[0]
+        }
     check_epochs(t, vectors)
     a_mean_km = np.mean(vectors[:, 0])
     if not a_mean_km > 0.0:
-        raise ValueError(f"the secular Delta-V model needs a bound orbit: the arc-mean semi-major axis is "
-                         f"{a_mean_km:.6g} km, so the orbital period is undefined (the orbit escapes or hits the Moon)")
-    period = 2.0 * np.pi * np.sqrt(a_mean_km ** 3 / gm_km3_s2)
+        raise ValueError(
+            f"the secular Delta-V model needs a bound orbit: the arc-mean semi-major axis is "
+            f"{a_mean_km:.6g} km, so the orbital period is undefined (the orbit escapes or hits the Moon)"
+        )
+    period = 2.0 * np.pi * np.sqrt(a_mean_km**3 / gm_km3_s2)
     if t[-1] - t[0] < min_periods * period:
         if short_arc == "nan":
-            return {"a_km": np.nan, "e": np.nan, "inc_rad": np.nan, "natural_rates": np.full(5, np.nan),
-                    "raan_dot": np.nan, "aop_dot": np.nan, "axis_cos": np.nan, "period_s": float(period)}
-        raise ValueError(f"the secular model needs an arc of at least {min_periods:g} orbital periods "
-                         f"({min_periods * period:.0f} s); got {t[-1] - t[0]:.0f} s")
+            return {
+                "a_km": np.nan,
+                "e": np.nan,
+                "inc_rad": np.nan,
+                "natural_rates": np.full(5, np.nan),
+                "raan_dot": np.nan,
+                "aop_dot": np.nan,
+                "axis_cos": np.nan,
+                "period_s": float(period),
+            }
+        raise ValueError(
+            f"the secular model needs an arc of at least {min_periods:g} orbital periods "
+            f"({min_periods * period:.0f} s); got {t[-1] - t[0]:.0f} s"
+        )
     t_mid, means = orbit_mean(t, vectors, period)
     x = t_mid - t_mid.mean()
     slope = x @ (means - means.mean(axis=0)) / np.sum(x * x)
@@ -241,8 +327,16 @@ def _secular_from_vectors(t: np.ndarray, vectors: np.ndarray, gm_km3_s2: float, 
     inc = float(np.arccos(np.clip(h_hat[2], -1.0, 1.0)))
     raan_dot = natural[4] / np.sin(inc) if np.sin(inc) > 0.0 else np.nan
     aop_dot = natural[2] / e - np.cos(inc) * raan_dot if e > 0.0 else np.nan
-    return {"a_km": float(mean[0]), "e": e, "inc_rad": inc, "natural_rates": natural, "raan_dot": raan_dot,
-            "aop_dot": aop_dot, "axis_cos": float(axis_cos), "period_s": float(period)}
+    return {
+        "a_km": float(mean[0]),
+        "e": e,
+        "inc_rad": inc,
+        "natural_rates": natural,
+        "raan_dot": raan_dot,
+        "aop_dot": aop_dot,
+        "axis_cos": float(axis_cos),
+        "period_s": float(period),
+    }
 
 
 def secular_deltav_rates(sma_km, e, natural_rates: np.ndarray, axis_cos, gm_km3_s2: float) -> dict:
@@ -276,7 +370,10 @@ def secular_deltav_rates(sma_km, e, natural_rates: np.ndarray, axis_cos, gm_km3_
     parts = {
         "sma": 0.5 * n * a * np.sqrt(1.0 - e * e) * np.abs(q[..., 0]),
         "ecc_vector": h * np.hypot(q[..., 1], q[..., 2]) / (2.0 * p),
-        "plane": h * np.hypot(q[..., 3], q[..., 4]) * (1.0 - e * np.asarray(axis_cos, dtype=float)) / p,
+        "plane": h
+        * np.hypot(q[..., 3], q[..., 4])
+        * (1.0 - e * np.asarray(axis_cos, dtype=float))
+        / p,
     }
     parts["total"] = sum(parts[k] for k in SECULAR_PARTS)
     return parts
@@ -286,8 +383,14 @@ def secular_deltav_rates(sma_km, e, natural_rates: np.ndarray, axis_cos, gm_km3_
 # the whole kernel on arrays
 # ----------------------------------------------------------------------------------------------
 
-def deltav_arrays(t_tdb_s: np.ndarray, states: np.ndarray, gm_km3_s2: float, deltav: DeltaVSettings,
-                  models: tuple[str, ...] = MODELS) -> dict:
+
+def deltav_arrays(
+    t_tdb_s: np.ndarray,
+    states: np.ndarray,
+    gm_km3_s2: float,
+    deltav: DeltaVSettings,
+    models: tuple[str, ...] = MODELS,
+) -> dict:
     """Each of ``models``' Delta-V (default every model) from one arc of states (..., n, 6) in the GVE element
     frame, with the ``[deltav]`` settings ``deltav`` (its ``model`` does not enter).
 
@@ -304,7 +407,9 @@ def deltav_arrays(t_tdb_s: np.ndarray, states: np.ndarray, gm_km3_s2: float, del
     cfg = deltav
     unknown = [m for m in models if m not in MODELS]
     if unknown:
-        raise ValueError(f"Delta-V model(s) {unknown} are not allowed; allowed: {', '.join(MODELS)}")
+        raise ValueError(
+            f"Delta-V model(s) {unknown} are not allowed; allowed: {', '.join(MODELS)}"
+        )
     t = np.asarray(t_tdb_s, dtype=float)
     elements = osculating_elements(states, gm_km3_s2)
     rates = element_rates(t, elements)
@@ -315,12 +420,25 @@ def deltav_arrays(t_tdb_s: np.ndarray, states: np.ndarray, gm_km3_s2: float, del
     else:
         natural = natural_rates_from_elements(elements, rates)
     factor = per_year_factor(t, cfg.year_days)
-    out = {"elements": elements, "rates": rates, "natural_rates": natural, "per_year_factor": factor,
-           "dv_total": {}, "dv_opt": {}}
+    out = {
+        "elements": elements,
+        "rates": rates,
+        "natural_rates": natural,
+        "per_year_factor": factor,
+        "dv_total": {},
+        "dv_opt": {},
+    }
     thrusts = {}
     if "paper" in models:
-        paper = paper_thrust(elements, rates, gm_km3_s2, normal=cfg.paper_normal, radial=cfg.paper_radial,
-                             divisor_floor=cfg.paper_divisor_floor, cap_kms2=cfg.paper_cap_kms2)
+        paper = paper_thrust(
+            elements,
+            rates,
+            gm_km3_s2,
+            normal=cfg.paper_normal,
+            radial=cfg.paper_radial,
+            divisor_floor=cfg.paper_divisor_floor,
+            cap_kms2=cfg.paper_cap_kms2,
+        )
         out["paper_estimates"] = paper
         thrusts["paper"] = np.stack([paper["T_R"], paper["T_T"], paper["T_N"]], axis=-1)
     if "lsq" in models:
@@ -336,7 +454,9 @@ def deltav_arrays(t_tdb_s: np.ndarray, states: np.ndarray, gm_km3_s2: float, del
     if "secular" not in models:
         return out
     sec = _secular_from_vectors(t, vectors, gm_km3_s2, cfg.secular_min_periods, "nan")
-    parts = secular_deltav_rates(sec["a_km"], sec["e"], sec["natural_rates"], sec["axis_cos"], gm_km3_s2)
+    parts = secular_deltav_rates(
+        sec["a_km"], sec["e"], sec["natural_rates"], sec["axis_cos"], gm_km3_s2
+    )
     year_s = cfg.year_days * SECONDS_PER_DAY
     out["secular"] = sec
     out["secular_parts"] = parts
@@ -349,6 +469,7 @@ def deltav_arrays(t_tdb_s: np.ndarray, states: np.ndarray, gm_km3_s2: float, del
 # orchestration on propagator datasets
 # ----------------------------------------------------------------------------------------------
 
+
 def _states_from_dataset(ds: xr.Dataset) -> np.ndarray:
     return np.concatenate([ds["r_mci_km"].values, ds["v_mci_kms"].values], axis=-1)
 
@@ -357,8 +478,9 @@ def _rotate_states(states: np.ndarray, rot_to_j2000: np.ndarray) -> np.ndarray:
     return np.concatenate([states[..., :3] @ rot_to_j2000, states[..., 3:] @ rot_to_j2000], axis=-1)
 
 
-def perturbing_acceleration_rtn(dynamics: Dynamics, t_tdb_s: np.ndarray, states_mci: np.ndarray, *,
-                                degree: int | None = None) -> np.ndarray:
+def perturbing_acceleration_rtn(
+    dynamics: Dynamics, t_tdb_s: np.ndarray, states_mci: np.ndarray, *, degree: int | None = None
+) -> np.ndarray:
     """The force model's non-Keplerian acceleration (n, 3) in RTN (km/s^2): all terms but ``central``."""
     from .forces import acceleration_breakdown
 
@@ -367,8 +489,14 @@ def perturbing_acceleration_rtn(dynamics: Dynamics, t_tdb_s: np.ndarray, states_
     return to_rtn(perturbing, states_mci)
 
 
-def deltav_from_propagation(deltav: DeltaVSettings, dynamics: Dynamics, ds: xr.Dataset, sat: int = 0,
-                            model: str | None = None, **overrides) -> xr.Dataset:
+def deltav_from_propagation(
+    deltav: DeltaVSettings,
+    dynamics: Dynamics,
+    ds: xr.Dataset,
+    sat: int = 0,
+    model: str | None = None,
+    **overrides,
+) -> xr.Dataset:
     """Delta-V of satellite ``sat`` of a propagator Dataset, every model; time series and summary.
 
     Data variables: the osculating elements and their rates (time), ``T_rtn_kms2`` (model, time,
@@ -382,7 +510,9 @@ def deltav_from_propagation(deltav: DeltaVSettings, dynamics: Dynamics, ds: xr.D
     """
     cfg = with_overrides(deltav, model=model, **overrides)
     if sat not in ds["sat"].values:
-        raise ValueError(f"satellite {sat!r} is not in the dataset; available: {ds['sat'].values.tolist()}")
+        raise ValueError(
+            f"satellite {sat!r} is not in the dataset; available: {ds['sat'].values.tolist()}"
+        )
     one = ds.sel(sat=sat)
     t = one["time"].values.astype(float)
     res = _satellite_arrays(cfg, dynamics, t, _states_from_dataset(one), sat, MODELS)
@@ -390,8 +520,12 @@ def deltav_from_propagation(deltav: DeltaVSettings, dynamics: Dynamics, ds: xr.D
     osc = list(OSCULATING_MODELS)
     out = xr.Dataset(
         {
-            "a_km": ("time", el[:, 0]), "ecc": ("time", el[:, 1]), "inc_rad": ("time", el[:, 2]),
-            "raan_rad": ("time", el[:, 3]), "aop_rad": ("time", el[:, 4]), "nu_rad": ("time", el[:, 5]),
+            "a_km": ("time", el[:, 0]),
+            "ecc": ("time", el[:, 1]),
+            "inc_rad": ("time", el[:, 2]),
+            "raan_rad": ("time", el[:, 3]),
+            "aop_rad": ("time", el[:, 4]),
+            "nu_rad": ("time", el[:, 5]),
             "rate": (("time", "element"), rates),
             "T_rtn_kms2": (("model", "time", "rtn"), np.stack([res[f"T_rtn_{m}"] for m in osc])),
             "T_total_kms2": (("model", "time"), np.stack([res[f"T_total_{m}"] for m in osc])),
@@ -404,14 +538,23 @@ def deltav_from_propagation(deltav: DeltaVSettings, dynamics: Dynamics, ds: xr.D
             "secular_mean_inc_rad": res["secular"]["inc_rad"],
             "secular_raan_dot_rad_s": res["secular"]["raan_dot"],
             "secular_aop_dot_rad_s": res["secular"]["aop_dot"],
-            "secular_dv_kms_per_year": ("part", [res["secular_parts"][k] * cfg.year_days * SECONDS_PER_DAY
-                                                 for k in SECULAR_PARTS]),
+            "secular_dv_kms_per_year": (
+                "part",
+                [res["secular_parts"][k] * cfg.year_days * SECONDS_PER_DAY for k in SECULAR_PARTS],
+            ),
             "dv_total_kms_per_year": ("model_all", [res["dv_total"][m] for m in MODELS]),
             "dv_opt_kms_per_year": ("model_all", [res["dv_opt"][m] for m in MODELS]),
         },
-        coords={"time": t, "element": list(RATE_NAMES), "natural": list(NATURAL_RATE_NAMES), "model": osc,
-                "rtn": ["R", "T", "N"],
-                "part": list(SECULAR_PARTS), "model_all": list(MODELS), "sat": sat},
+        coords={
+            "time": t,
+            "element": list(RATE_NAMES),
+            "natural": list(NATURAL_RATE_NAMES),
+            "model": osc,
+            "rtn": ["R", "T", "N"],
+            "part": list(SECULAR_PARTS),
+            "model_all": list(MODELS),
+            "sat": sat,
+        },
         attrs={
             "deltav_model": cfg.model,
             "dv_total_kms_per_year": float(res["dv_total"][cfg.model]),
@@ -427,28 +570,52 @@ def deltav_from_propagation(deltav: DeltaVSettings, dynamics: Dynamics, ds: xr.D
     return out
 
 
-def _satellite_arrays(cfg: DeltaVSettings, dynamics: Dynamics, t: np.ndarray, states_mci: np.ndarray, sat: int,
-                      models: tuple[str, ...]) -> dict:
+def _satellite_arrays(
+    cfg: DeltaVSettings,
+    dynamics: Dynamics,
+    t: np.ndarray,
+    states_mci: np.ndarray,
+    sat: int,
+    models: tuple[str, ...],
+) -> dict:
     """:func:`deltav_arrays` of ``models`` for satellite ``sat``'s states (n, 6) in Moon-centred J2000, rotated into
     ``cfg.gve_frame``; ValueError when a state is not finite."""
     if not np.all(np.isfinite(states_mci)):
-        raise ValueError(f"satellite {sat} has non-finite states (impact or failed propagation); no Delta-V")
+        raise ValueError(
+            f"satellite {sat} has non-finite states (impact or failed propagation); no Delta-V"
+        )
     rot = element_frame_to_j2000(dynamics, float(t[0]), cfg.gve_frame)
-    return deltav_arrays(t, _rotate_states(states_mci, rot), dynamics.gravity.gm_km3_s2, cfg, models)
+    return deltav_arrays(
+        t, _rotate_states(states_mci, rot), dynamics.gravity.gm_km3_s2, cfg, models
+    )
 
 
-def chosen_budget(deltav: DeltaVSettings, dynamics: Dynamics, t_tdb_s: np.ndarray, states_mci: np.ndarray,
-                  sat: int = 0) -> dict:
+def chosen_budget(
+    deltav: DeltaVSettings,
+    dynamics: Dynamics,
+    t_tdb_s: np.ndarray,
+    states_mci: np.ndarray,
+    sat: int = 0,
+) -> dict:
     """``deltav.model``'s ``dv_total_kms_per_year`` and ``dv_opt_kms_per_year`` of one satellite's states (n, 6)
     (Moon-centred J2000) at ``t_tdb_s``: the attributes :func:`deltav_from_propagation` gives, with that model
     alone computed and no Dataset (the campaign's path). ValueError naming ``sat`` for non-finite states."""
-    res = _satellite_arrays(deltav, dynamics, np.asarray(t_tdb_s, dtype=float), states_mci, sat, (deltav.model,))
-    return {"dv_total_kms_per_year": float(res["dv_total"][deltav.model]),
-            "dv_opt_kms_per_year": float(res["dv_opt"][deltav.model])}
+    res = _satellite_arrays(
+        deltav, dynamics, np.asarray(t_tdb_s, dtype=float), states_mci, sat, (deltav.model,)
+    )
+    return {
+        "dv_total_kms_per_year": float(res["dv_total"][deltav.model]),
+        "dv_opt_kms_per_year": float(res["dv_opt"][deltav.model]),
+    }
 
 
-def deltav_per_satellite(deltav: DeltaVSettings, dynamics: Dynamics, ds: xr.Dataset, model: str | None = None,
-                         **overrides) -> xr.Dataset:
+def deltav_per_satellite(
+    deltav: DeltaVSettings,
+    dynamics: Dynamics,
+    ds: xr.Dataset,
+    model: str | None = None,
+    **overrides,
+) -> xr.Dataset:
     """Per-satellite budgets of every model (dims sat, model_all), km/s per satellite per year.
 
     Satellites with non-finite states (impact) get NaN. Attributes name the chosen model. Arguments as
@@ -467,16 +634,25 @@ def deltav_per_satellite(deltav: DeltaVSettings, dynamics: Dynamics, ds: xr.Data
         total[finite] = np.stack([res["dv_total"][m] for m in MODELS], axis=-1)
         opt[finite] = np.stack([res["dv_opt"][m] for m in MODELS], axis=-1)
     return xr.Dataset(
-        {"dv_total_kms_per_year": (("sat", "model_all"), total), "dv_opt_kms_per_year": (("sat", "model_all"), opt)},
+        {
+            "dv_total_kms_per_year": (("sat", "model_all"), total),
+            "dv_opt_kms_per_year": (("sat", "model_all"), opt),
+        },
         coords={"sat": ds["sat"].values, "model_all": list(MODELS)},
-        attrs={"deltav_model": cfg.model, "element_frame": cfg.gve_frame,
-               "units": "km/s per satellite per year"},
+        attrs={
+            "deltav_model": cfg.model,
+            "element_frame": cfg.gve_frame,
+            "units": "km/s per satellite per year",
+        },
     )
 
 
 def dataset_states(ds: xr.Dataset, sat: int = 0) -> np.ndarray:
     """States (time, 6) [km, km/s] in Moon-centred J2000 of satellite index ``sat`` of a propagator Dataset."""
-    return np.concatenate([ds["r_mci_km"].transpose("sat", "time", "xyz").values[sat],
-                           ds["v_mci_kms"].transpose("sat", "time", "xyz").values[sat]], axis=-1)
-
-
+    return np.concatenate(
+        [
+            ds["r_mci_km"].transpose("sat", "time", "xyz").values[sat],
+            ds["v_mci_kms"].transpose("sat", "time", "xyz").values[sat],
+        ],
+        axis=-1,
+    )

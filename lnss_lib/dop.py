@@ -29,19 +29,41 @@ import numba as nb
 import numpy as np
 import xarray as xr
 
-from .sections import AREA_WEIGHTINGS, LOS_AXES
 from .constants import MIN_VISIBLE
 from .frames import rotate_to_moon_fixed
-from .geometry import (availability_pct, block_inverse, normal_matrix_entries, position_block_inverse, sigma_filtered_mean,
-                       weighted_dop_stats)
+from .geometry import (
+    availability_pct,
+    block_inverse,
+    normal_matrix_entries,
+    position_block_inverse,
+    sigma_filtered_mean,
+    weighted_dop_stats,
+)
+from .sections import AREA_WEIGHTINGS, LOS_AXES
 
 if TYPE_CHECKING:
     from .settings import DopSettings, Dynamics
 
-__all__ = ["LOS_AXES", "WEIGHTINGS", "SurfaceGrid", "surface_grid", "elevation_deg", "dop_kernel",
-           "check_positions", "dop_arrays", "dop_and_error_arrays", "dop_metrics", "array_metrics",
-           "metrics_for_settings", "metrics_and_errors_for_settings", "dop_grid", "dop_summary",
-           "dop_for_settings", "dop_from_propagation", "summary_for_settings"]
+__all__ = [
+    "LOS_AXES",
+    "WEIGHTINGS",
+    "SurfaceGrid",
+    "surface_grid",
+    "elevation_deg",
+    "dop_kernel",
+    "check_positions",
+    "dop_arrays",
+    "dop_and_error_arrays",
+    "dop_metrics",
+    "array_metrics",
+    "metrics_for_settings",
+    "metrics_and_errors_for_settings",
+    "dop_grid",
+    "dop_summary",
+    "dop_for_settings",
+    "dop_from_propagation",
+    "summary_for_settings",
+]
 
 WEIGHTINGS = AREA_WEIGHTINGS
 
@@ -76,23 +98,35 @@ class SurfaceGrid:
         return self.lat_deg.size, self.lon_deg.size
 
     @classmethod
-    def from_settings(cls, dop: DopSettings, radius_km: float) -> "SurfaceGrid":
+    def from_settings(cls, dop: DopSettings, radius_km: float) -> SurfaceGrid:
         """The :func:`surface_grid` described by ``[dop]`` on a sphere of ``radius_km`` (the mean lunar
         radius, ``constants.r_moon_mean_km``)."""
-        return surface_grid(dop.lat_min_deg, dop.lat_max_deg, dop.lat_step_deg, dop.lon_min_deg, dop.lon_max_deg,
-                            dop.lon_step_deg, radius_km=radius_km, weighting=dop.area_weighting)
+        return surface_grid(
+            dop.lat_min_deg,
+            dop.lat_max_deg,
+            dop.lat_step_deg,
+            dop.lon_min_deg,
+            dop.lon_max_deg,
+            dop.lon_step_deg,
+            radius_km=radius_km,
+            weighting=dop.area_weighting,
+        )
 
 
 def _inclusive_range(start: float, stop: float, step: float, name: str) -> np.ndarray:
     if not (np.isfinite(start) and np.isfinite(stop) and np.isfinite(step)) or step <= 0.0:
-        raise ValueError(f"{name}: step must be positive and bounds finite; got {start}..{stop} step {step}")
+        raise ValueError(
+            f"{name}: step must be positive and bounds finite; got {start}..{stop} step {step}"
+        )
     if stop < start:
         raise ValueError(f"{name}: upper bound {stop} is below lower bound {start}")
     n = int(np.floor((stop - start) / step + 1e-9)) + 1
     return start + step * np.arange(n)
 
 
-def _area_weights(lat_deg: np.ndarray, lat_step_deg: float, nlon: int, weighting: str) -> np.ndarray:
+def _area_weights(
+    lat_deg: np.ndarray, lat_step_deg: float, nlon: int, weighting: str
+) -> np.ndarray:
     """Weights (nlat, nlon) summing to 1.
 
     ``cos_lat``: proportional to cos(lat) (the pole gets none). ``cell_area``: area of the band
@@ -112,23 +146,38 @@ def _area_weights(lat_deg: np.ndarray, lat_step_deg: float, nlon: int, weighting
     else:
         raise ValueError(f"unknown area weighting {weighting!r}; allowed: {', '.join(WEIGHTINGS)}")
     if row.sum() <= 0.0:
-        raise ValueError(f"area weighting {weighting!r} gives zero total weight for latitudes {lat_deg.tolist()}")
+        raise ValueError(
+            f"area weighting {weighting!r} gives zero total weight for latitudes {lat_deg.tolist()}"
+        )
     weights = np.repeat(row[:, None], nlon, axis=1)
     return weights / weights.sum()
 
 
-def surface_grid(lat_min_deg: float = -90.0, lat_max_deg: float = -60.0, lat_step_deg: float = 10.0,
-                 lon_min_deg: float = 0.0, lon_max_deg: float = 350.0, lon_step_deg: float = 10.0,
-                 radius_km: float = 1737.4, weighting: str = "none") -> SurfaceGrid:
+def surface_grid(
+    lat_min_deg: float = -90.0,
+    lat_max_deg: float = -60.0,
+    lat_step_deg: float = 10.0,
+    lon_min_deg: float = 0.0,
+    lon_max_deg: float = 350.0,
+    lon_step_deg: float = 10.0,
+    radius_km: float = 1737.4,
+    weighting: str = "none",
+) -> SurfaceGrid:
     """Latitude-longitude grid of eq. 1-2, bounds inclusive (defaults: 4 x 36 = 144 points).
 
     Latitudes must lie in [-90, 90] deg; ``weighting`` is one of ``none`` (the paper),
     ``cos_lat`` or ``cell_area`` (see :func:`_area_weights`).
     """
-    lat = _inclusive_range(float(lat_min_deg), float(lat_max_deg), float(lat_step_deg), "latitude grid")
-    lon = _inclusive_range(float(lon_min_deg), float(lon_max_deg), float(lon_step_deg), "longitude grid")
+    lat = _inclusive_range(
+        float(lat_min_deg), float(lat_max_deg), float(lat_step_deg), "latitude grid"
+    )
+    lon = _inclusive_range(
+        float(lon_min_deg), float(lon_max_deg), float(lon_step_deg), "longitude grid"
+    )
     if lat[0] < -90.0 or lat[-1] > 90.0:
-        raise ValueError(f"grid latitudes must lie in [-90, 90] deg; got {lat_min_deg}..{lat_max_deg}")
+        raise ValueError(
+            f"grid latitudes must lie in [-90, 90] deg; got {lat_min_deg}..{lat_max_deg}"
+        )
     if not np.isfinite(radius_km) or radius_km <= 0.0:
         raise ValueError(f"grid radius must be positive (km); got {radius_km!r}")
     phi, lam = np.meshgrid(np.radians(lat), np.radians(lon), indexing="ij")
@@ -137,7 +186,9 @@ def surface_grid(lat_min_deg: float = -90.0, lat_max_deg: float = -60.0, lat_ste
     east = np.stack([-slam, clam, np.zeros_like(clam)], axis=-1)
     north = np.stack([-sphi * clam, -sphi * slam, cphi], axis=-1)
     weight = _area_weights(lat, float(lat_step_deg), lon.size, weighting)
-    return SurfaceGrid(lat, lon, float(radius_km), weighting, radius_km * up, east, north, up, weight)
+    return SurfaceGrid(
+        lat, lon, float(radius_km), weighting, radius_km * up, east, north, up, weight
+    )
 
 
 def check_positions(r_mf_km) -> np.ndarray:
@@ -160,8 +211,14 @@ def elevation_deg(r_mf_km, grid: SurfaceGrid) -> np.ndarray:
     return np.degrees(np.arcsin(np.clip(sin_el, -1.0, 1.0)))
 
 
-def dop_kernel(r_mf_km: np.ndarray, r_grid_km: np.ndarray, up: np.ndarray, elevation_mask_deg: float = 5.0,
-               los_axes: str = "moon_fixed", time_chunk: int = 32) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+def dop_kernel(
+    r_mf_km: np.ndarray,
+    r_grid_km: np.ndarray,
+    up: np.ndarray,
+    elevation_mask_deg: float = 5.0,
+    los_axes: str = "moon_fixed",
+    time_chunk: int = 32,
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Visible count, PDOP and HDOP for every epoch and receiver (eq. 3-8), each (time, npoint).
 
     ``r_mf_km`` (sat, time, 3) satellite positions, ``r_grid_km`` (npoint, 3) receivers and ``up``
@@ -204,24 +261,39 @@ def dop_kernel(r_mf_km: np.ndarray, r_grid_km: np.ndarray, up: np.ndarray, eleva
         if los_axes == "moon_fixed":
             horizontal = ixx + iyy
         else:
-            vertical = (ux * ux * ixx + uy * uy * iyy + uz * uz * izz
-                        + 2.0 * (ux * uy * ixy + ux * uz * ixz + uy * uz * iyz))
+            vertical = (
+                ux * ux * ixx
+                + uy * uy * iyy
+                + uz * uz * izz
+                + 2.0 * (ux * uy * ixy + ux * uz * ixz + uy * uz * iyz)
+            )
             horizontal = trace - vertical
         enough = n >= MIN_VISIBLE
         n_visible[t0:t1] = n
-        pdop[t0:t1] = np.where(enough, np.where(ok, np.sqrt(np.maximum(trace, 0.0)), np.inf), np.nan)
-        hdop[t0:t1] = np.where(enough, np.where(ok, np.sqrt(np.maximum(horizontal, 0.0)), np.inf), np.nan)
+        pdop[t0:t1] = np.where(
+            enough, np.where(ok, np.sqrt(np.maximum(trace, 0.0)), np.inf), np.nan
+        )
+        hdop[t0:t1] = np.where(
+            enough, np.where(ok, np.sqrt(np.maximum(horizontal, 0.0)), np.inf), np.nan
+        )
     return n_visible, pdop, hdop
 
 
 @nb.njit(cache=True)
 def _vertical_variance(ux, uy, uz, ixx, iyy, izz, ixy, ixz, iyz):
     """u^T S^-1 u: the variance along the local vertical ``u`` of a position covariance given by its six entries."""
-    return ux * ux * ixx + uy * uy * iyy + uz * uz * izz + 2.0 * (ux * uy * ixy + ux * uz * ixz + uy * uz * iyz)
+    return (
+        ux * ux * ixx
+        + uy * uy * iyy
+        + uz * uz * izz
+        + 2.0 * (ux * uy * ixy + ux * uz * ixz + uy * uz * iyz)
+    )
 
 
 @nb.njit(cache=True)
-def _grid_kernel(r, gx, gy, gz, ux, uy, uz, sin_mask, enu, n_visible, pdop, hdop, var_m2, b2_m2, sigma_h, sigma_v):
+def _grid_kernel(
+    r, gx, gy, gz, ux, uy, uz, sin_mask, enu, n_visible, pdop, hdop, var_m2, b2_m2, sigma_h, sigma_v
+):
     """:func:`dop_kernel`'s arithmetic on ``r`` (time, sat, 3), one epoch at a time: lines of sight and
     visibility (sat, point), the centred normal matrix in two passes weighted by visibility (as
     :func:`lnss_lib.geometry.normal_matrix_entries`) and its inverse
@@ -296,13 +368,16 @@ def _grid_kernel(r, gx, gy, gz, ux, uy, uz, sin_mask, enu, n_visible, pdop, hdop
             n = count[p]
             n_visible[t, p] = int(n)
             if weighted:
-                sigma_h[t, p], sigma_v[t, p] = _horizontal_vertical(n, q[0, p], q[1, p], q[2, p], q[3, p], q[4, p],
-                                                                    q[5, p], ux[p], uy[p], uz[p])
+                sigma_h[t, p], sigma_v[t, p] = _horizontal_vertical(
+                    n, q[0, p], q[1, p], q[2, p], q[3, p], q[4, p], q[5, p], ux[p], uy[p], uz[p]
+                )
             if n < MIN_VISIBLE:
                 pdop[t, p] = np.nan
                 hdop[t, p] = np.nan
                 continue
-            ixx, iyy, izz, ixy, ixz, iyz, ok = block_inverse(s[0, p], s[1, p], s[2, p], s[3, p], s[4, p], s[5, p])
+            ixx, iyy, izz, ixy, ixz, iyz, ok = block_inverse(
+                s[0, p], s[1, p], s[2, p], s[3, p], s[4, p], s[5, p]
+            )
             if not ok:
                 pdop[t, p] = np.inf
                 hdop[t, p] = np.inf
@@ -333,7 +408,9 @@ def _weighted_normal_sums(lx, ly, lz, visible, ux, uy, uz, var_m2, b2_m2, qv, qm
         for p in range(npt):
             sin2 = lxk[p] * ux[p] + lyk[p] * uy[p] + lzk[p] * uz[p]
             sin2 *= sin2
-            qw = wk[p] * sin2 / max(var_k * sin2 + b2_m2, 1e-300)    # 1 / (var + b2 / sin^2), one division
+            qw = (
+                wk[p] * sin2 / max(var_k * sin2 + b2_m2, 1e-300)
+            )  # 1 / (var + b2 / sin^2), one division
             qk[p] = qw
             qm[0, p] += qw
             qm[1, p] += qw * lxk[p]
@@ -373,8 +450,9 @@ def _horizontal_vertical(n, sxx, syy, szz, sxy, sxz, syz, ux, uy, uz):
     return np.sqrt(max(ixx + iyy + izz - vertical, 0.0)), np.sqrt(max(vertical, 0.0))
 
 
-def dop_arrays(r_mf_km, r_grid_km, up, elevation_mask_deg: float = 5.0,
-               los_axes: str = "moon_fixed") -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+def dop_arrays(
+    r_mf_km, r_grid_km, up, elevation_mask_deg: float = 5.0, los_axes: str = "moon_fixed"
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """:func:`dop_kernel`'s (n_visible, pdop, hdop), each (time, npoint), from one compiled pass.
 
     Same conventions and inputs as :func:`dop_kernel`; the results agree with it to rounding (the
@@ -383,8 +461,15 @@ def dop_arrays(r_mf_km, r_grid_km, up, elevation_mask_deg: float = 5.0,
     return dop_and_error_arrays(r_mf_km, r_grid_km, up, elevation_mask_deg, los_axes)[:3]
 
 
-def dop_and_error_arrays(r_mf_km, r_grid_km, up, elevation_mask_deg: float = 5.0, los_axes: str = "moon_fixed",
-                         uere_var_m2=None, multipath_zenith_m: float = 0.0) -> tuple[np.ndarray, ...]:
+def dop_and_error_arrays(
+    r_mf_km,
+    r_grid_km,
+    up,
+    elevation_mask_deg: float = 5.0,
+    los_axes: str = "moon_fixed",
+    uere_var_m2=None,
+    multipath_zenith_m: float = 0.0,
+) -> tuple[np.ndarray, ...]:
     """(n_visible, pdop, hdop, sigma_h_m, sigma_v_m), each (time, npoint), from one compiled pass.
 
     The first three are :func:`dop_arrays`'s. With ``uere_var_m2`` (sat, time), each satellite's user range
@@ -400,7 +485,9 @@ def dop_and_error_arrays(r_mf_km, r_grid_km, up, elevation_mask_deg: float = 5.0
     if not np.isfinite(elevation_mask_deg) or not -90.0 <= elevation_mask_deg < 90.0:
         raise ValueError(f"elevation mask must be in [-90, 90) deg; got {elevation_mask_deg!r}")
     r = check_positions(r_mf_km)
-    r = np.ascontiguousarray(np.where(np.isfinite(r).all(axis=-1, keepdims=True), r, 0.0).transpose(1, 0, 2))
+    r = np.ascontiguousarray(
+        np.where(np.isfinite(r).all(axis=-1, keepdims=True), r, 0.0).transpose(1, 0, 2)
+    )
     g = np.asarray(r_grid_km, dtype=float).reshape(-1, 3)
     u = np.asarray(up, dtype=float).reshape(-1, 3)
     ntime, nsat, npt = r.shape[0], r.shape[1], g.shape[0]
@@ -409,28 +496,55 @@ def dop_and_error_arrays(r_mf_km, r_grid_km, up, elevation_mask_deg: float = 5.0
     else:
         var = np.ascontiguousarray(np.asarray(uere_var_m2, dtype=float).T)
         if var.shape != (ntime, nsat) or not np.all(var > 0.0) or not np.all(np.isfinite(var)):
-            raise ValueError(f"uere_var_m2 must be positive and finite with shape (sat, time) = ({nsat}, {ntime}); "
-                             f"got shape {var.T.shape}")
+            raise ValueError(
+                f"uere_var_m2 must be positive and finite with shape (sat, time) = ({nsat}, {ntime}); "
+                f"got shape {var.T.shape}"
+            )
     if not np.isfinite(multipath_zenith_m) or multipath_zenith_m < 0.0:
-        raise ValueError(f"multipath_zenith_m must be a finite number >= 0 (m); got {multipath_zenith_m!r}")
-    n_visible = np.full((ntime, npt), -1, dtype=np.int16)      # -1: not computed (checked after the kernel)
+        raise ValueError(
+            f"multipath_zenith_m must be a finite number >= 0 (m); got {multipath_zenith_m!r}"
+        )
+    n_visible = np.full(
+        (ntime, npt), -1, dtype=np.int16
+    )  # -1: not computed (checked after the kernel)
     pdop = np.full((ntime, npt), np.nan)
     hdop = np.full((ntime, npt), np.nan)
     sigma_h = np.full((ntime, npt if var.shape[1] else 0), np.nan)
     sigma_v = np.full_like(sigma_h, np.nan)
-    _grid_kernel(r, *(np.ascontiguousarray(g[:, k]) for k in range(3)), *(np.ascontiguousarray(u[:, k]) for k in range(3)),
-                 float(np.sin(np.radians(elevation_mask_deg))), los_axes == "enu", n_visible, pdop, hdop,
-                 var, float(multipath_zenith_m) ** 2, sigma_h, sigma_v)
+    _grid_kernel(
+        r,
+        *(np.ascontiguousarray(g[:, k]) for k in range(3)),
+        *(np.ascontiguousarray(u[:, k]) for k in range(3)),
+        float(np.sin(np.radians(elevation_mask_deg))),
+        los_axes == "enu",
+        n_visible,
+        pdop,
+        hdop,
+        var,
+        float(multipath_zenith_m) ** 2,
+        sigma_h,
+        sigma_v,
+    )
     if np.any(n_visible < 0):
-        raise RuntimeError(f"the DOP grid kernel left {int(np.sum(n_visible < 0))} of {n_visible.size} "
-                           "(epoch, point) samples not computed")
+        raise RuntimeError(
+            f"the DOP grid kernel left {int(np.sum(n_visible < 0))} of {n_visible.size} "
+            "(epoch, point) samples not computed"
+        )
     if uere_var_m2 is None:
         return n_visible, pdop, hdop, None, None
     return n_visible, pdop, hdop, sigma_h, sigma_v
 
 
-def dop_metrics(r_mf_km, grid: SurfaceGrid, *, elevation_mask_deg: float = 5.0, los_axes: str = "moon_fixed",
-                threshold: float = 15.0, n_sigma: float = 3.0, weighted: bool = True) -> dict[str, float]:
+def dop_metrics(
+    r_mf_km,
+    grid: SurfaceGrid,
+    *,
+    elevation_mask_deg: float = 5.0,
+    los_axes: str = "moon_fixed",
+    threshold: float = 15.0,
+    n_sigma: float = 3.0,
+    weighted: bool = True,
+) -> dict[str, float]:
     """:func:`dop_summary` of :func:`dop_grid` without the Dataset: the campaign's path (compiled grid
     pass :func:`dop_arrays` and compiled statistics :func:`lnss_lib.geometry.weighted_dop_stats`).
 
@@ -466,23 +580,44 @@ def array_metrics(n_visible, pdop, hdop, w, threshold: float, n_sigma: float) ->
 
 def metrics_for_settings(dop: DopSettings, r_mf_km, grid: SurfaceGrid) -> dict[str, float]:
     """:func:`dop_metrics` on ``grid`` with the mask, LOS axes, threshold and filter width of ``[dop]``."""
-    return dop_metrics(r_mf_km, grid, elevation_mask_deg=dop.elevation_mask_deg, los_axes=dop.los_axes,
-                       threshold=dop.availability_threshold, n_sigma=dop.filter_sigma)
+    return dop_metrics(
+        r_mf_km,
+        grid,
+        elevation_mask_deg=dop.elevation_mask_deg,
+        los_axes=dop.los_axes,
+        threshold=dop.availability_threshold,
+        n_sigma=dop.filter_sigma,
+    )
 
 
-def metrics_and_errors_for_settings(dop: DopSettings, r_mf_km, grid: SurfaceGrid, uere_var_m2,
-                                    multipath_zenith_m: float) -> tuple[dict[str, float], np.ndarray, np.ndarray]:
+def metrics_and_errors_for_settings(
+    dop: DopSettings, r_mf_km, grid: SurfaceGrid, uere_var_m2, multipath_zenith_m: float
+) -> tuple[dict[str, float], np.ndarray, np.ndarray]:
     """(:func:`metrics_for_settings`, sigma_h_m, sigma_v_m): the DOP metrics (the same bits) and the weighted
     position errors (time, point) of :func:`dop_and_error_arrays`, from one compiled pass."""
-    n_visible, pdop, hdop, sigma_h, sigma_v = dop_and_error_arrays(r_mf_km, grid.r_mf_km, grid.up,
-                                                                   dop.elevation_mask_deg, dop.los_axes, uere_var_m2,
-                                                                   multipath_zenith_m)
-    stats = array_metrics(n_visible, pdop, hdop, grid.weight.reshape(-1), dop.availability_threshold, dop.filter_sigma)
+    n_visible, pdop, hdop, sigma_h, sigma_v = dop_and_error_arrays(
+        r_mf_km,
+        grid.r_mf_km,
+        grid.up,
+        dop.elevation_mask_deg,
+        dop.los_axes,
+        uere_var_m2,
+        multipath_zenith_m,
+    )
+    stats = array_metrics(
+        n_visible, pdop, hdop, grid.weight.reshape(-1), dop.availability_threshold, dop.filter_sigma
+    )
     return stats, sigma_h, sigma_v
 
 
-def dop_grid(r_mf_km, grid: SurfaceGrid, *, t_tdb_s=None, elevation_mask_deg: float = 5.0,
-             los_axes: str = "moon_fixed") -> xr.Dataset:
+def dop_grid(
+    r_mf_km,
+    grid: SurfaceGrid,
+    *,
+    t_tdb_s=None,
+    elevation_mask_deg: float = 5.0,
+    los_axes: str = "moon_fixed",
+) -> xr.Dataset:
     """Visibility and DOP over the grid (eq. 3-8) as a Dataset with dims (time, lat, lon).
 
     Variables ``n_visible``, ``pdop``, ``hdop`` (NaN where fewer than 4 visible) and ``weight``
@@ -492,10 +627,13 @@ def dop_grid(r_mf_km, grid: SurfaceGrid, *, t_tdb_s=None, elevation_mask_deg: fl
     ntime = r.shape[1]
     times = np.arange(ntime, dtype=float) if t_tdb_s is None else np.asarray(t_tdb_s, dtype=float)
     if times.shape != (ntime,):
-        raise ValueError(f"t_tdb_s must have one entry per epoch ({ntime}); got shape {times.shape}")
+        raise ValueError(
+            f"t_tdb_s must have one entry per epoch ({ntime}); got shape {times.shape}"
+        )
     nlat, nlon = grid.shape
-    n_visible, pdop, hdop = dop_kernel(r, grid.r_mf_km.reshape(-1, 3), grid.up.reshape(-1, 3),
-                                       elevation_mask_deg, los_axes)
+    n_visible, pdop, hdop = dop_kernel(
+        r, grid.r_mf_km.reshape(-1, 3), grid.up.reshape(-1, 3), elevation_mask_deg, los_axes
+    )
     dims = ("time", "lat", "lon")
     ds = xr.Dataset(
         {
@@ -517,14 +655,17 @@ def dop_grid(r_mf_km, grid: SurfaceGrid, *, t_tdb_s=None, elevation_mask_deg: fl
     )
     ds["n_visible"].attrs["long_name"] = "visible satellites (eq. 4)"
     ds["pdop"].attrs["long_name"] = "PDOP (eq. 7), NaN with fewer than 4 visible"
-    ds["hdop"].attrs["long_name"] = f"HDOP (eq. 8) in {los_axes} axes, NaN with fewer than 4 visible"
+    ds["hdop"].attrs["long_name"] = (
+        f"HDOP (eq. 8) in {los_axes} axes, NaN with fewer than 4 visible"
+    )
     ds["lat"].attrs["units"] = "deg"
     ds["lon"].attrs["units"] = "deg"
     return ds
 
 
-def dop_summary(ds: xr.Dataset, *, threshold: float = 15.0, n_sigma: float = 3.0,
-                weighted: bool = True) -> dict[str, float]:
+def dop_summary(
+    ds: xr.Dataset, *, threshold: float = 15.0, n_sigma: float = 3.0, weighted: bool = True
+) -> dict[str, float]:
     """Scalar metrics of a :func:`dop_grid` Dataset (eq. 9-14).
 
     ``pdop_mean_3sigma``, ``hdop_mean_3sigma`` (filtered means over samples with a DOP),
@@ -547,8 +688,12 @@ def dop_summary(ds: xr.Dataset, *, threshold: float = 15.0, n_sigma: float = 3.0
         "mean_visible_sats": float(np.sum(w * nvis) / np.sum(w)),
         "pdop_mean_3sigma": pdop_mean,
         "hdop_mean_3sigma": hdop_mean,
-        "pdop_mean_raw": float(np.sum(w[fin_p] * pdop[fin_p]) / np.sum(w[fin_p])) if fin_p.any() else float("nan"),
-        "hdop_mean_raw": float(np.sum(w[fin_h] * hdop[fin_h]) / np.sum(w[fin_h])) if fin_h.any() else float("nan"),
+        "pdop_mean_raw": float(np.sum(w[fin_p] * pdop[fin_p]) / np.sum(w[fin_p]))
+        if fin_p.any()
+        else float("nan"),
+        "hdop_mean_raw": float(np.sum(w[fin_h] * hdop[fin_h]) / np.sum(w[fin_h]))
+        if fin_h.any()
+        else float("nan"),
         "pdop_avail_pct": availability_pct(pdop, threshold, w),
         "hdop_avail_pct": availability_pct(hdop, threshold, w),
         "availability_pct": min(100.0, float(100.0 * np.sum(w * both) / np.sum(w))),
@@ -559,15 +704,27 @@ def dop_summary(ds: xr.Dataset, *, threshold: float = 15.0, n_sigma: float = 3.0
     }
 
 
-def dop_for_settings(dop: DopSettings, r_mf_km, t_tdb_s, grid: SurfaceGrid, *,
-                     los_axes: str | None = None) -> xr.Dataset:
+def dop_for_settings(
+    dop: DopSettings, r_mf_km, t_tdb_s, grid: SurfaceGrid, *, los_axes: str | None = None
+) -> xr.Dataset:
     """:func:`dop_grid` on ``grid`` with the mask and LOS axes of ``[dop]`` (the axes overridable)."""
-    return dop_grid(r_mf_km, grid, t_tdb_s=t_tdb_s, elevation_mask_deg=dop.elevation_mask_deg,
-                    los_axes=los_axes or dop.los_axes)
+    return dop_grid(
+        r_mf_km,
+        grid,
+        t_tdb_s=t_tdb_s,
+        elevation_mask_deg=dop.elevation_mask_deg,
+        los_axes=los_axes or dop.los_axes,
+    )
 
 
-def dop_from_propagation(dop: DopSettings, dynamics: Dynamics, ds: xr.Dataset, *, los_axes: str | None = None,
-                         grid: SurfaceGrid | None = None) -> xr.Dataset:
+def dop_from_propagation(
+    dop: DopSettings,
+    dynamics: Dynamics,
+    ds: xr.Dataset,
+    *,
+    los_axes: str | None = None,
+    grid: SurfaceGrid | None = None,
+) -> xr.Dataset:
     """DOP grid for a propagator Dataset (``r_mci_km`` (sat, time, xyz), ``time`` TDB s).
 
     Rotates to the Moon-fixed frame (``dynamics.frames.moon_fixed``) with SPICE
@@ -577,7 +734,9 @@ def dop_from_propagation(dop: DopSettings, dynamics: Dynamics, ds: xr.Dataset, *
     r_mci = ds["r_mci_km"].transpose("sat", "time", "xyz").values
     times = ds["time"].values.astype(float)
     grid = grid or SurfaceGrid.from_settings(dop, dynamics.constants.r_moon_mean_km)
-    return dop_for_settings(dop, rotate_to_moon_fixed(dynamics, r_mci, times), times, grid, los_axes=los_axes)
+    return dop_for_settings(
+        dop, rotate_to_moon_fixed(dynamics, r_mci, times), times, grid, los_axes=los_axes
+    )
 
 
 def summary_for_settings(dop: DopSettings, ds: xr.Dataset) -> dict[str, float]:

@@ -13,9 +13,22 @@ import numpy as np
 from .constants import C_M_S, EARTH_MOON_DISTANCE_KM, MOON_HILL_RADIUS_KM
 from .errors import ConfigError, InvalidOrbitError
 
-__all__ = ["TWO_PI", "validate_elements", "check_states_km", "solve_kepler", "eccentric_anomaly_from_true", "true_anomaly_from_eccentric",
-           "mean_anomaly_from_true", "true_anomaly_from_mean", "vis_viva_sma_km", "eccentricity_vector",
-           "elements_to_state", "state_to_elements", "kepler_states", "orbital_period_s"]
+__all__ = [
+    "TWO_PI",
+    "validate_elements",
+    "check_states_km",
+    "solve_kepler",
+    "eccentric_anomaly_from_true",
+    "true_anomaly_from_eccentric",
+    "mean_anomaly_from_true",
+    "true_anomaly_from_mean",
+    "vis_viva_sma_km",
+    "eccentricity_vector",
+    "elements_to_state",
+    "state_to_elements",
+    "kepler_states",
+    "orbital_period_s",
+]
 
 TWO_PI = 2.0 * np.pi
 
@@ -26,13 +39,19 @@ def validate_elements(sma_km, e, r_body_km: float, min_altitude_km: float = 0.0)
     a = np.atleast_1d(np.asarray(sma_km, dtype=float))
     ecc = np.atleast_1d(np.asarray(e, dtype=float))
     if np.any(~np.isfinite(a)) or np.any(a <= 0.0):
-        raise InvalidOrbitError(f"semi-major axis must be positive and finite (km); got {a[(a <= 0) | ~np.isfinite(a)][0]!r}")
+        raise InvalidOrbitError(
+            f"semi-major axis must be positive and finite (km); got {a[(a <= 0) | ~np.isfinite(a)][0]!r}"
+        )
     if np.any(~np.isfinite(ecc)) or np.any((ecc < 0.0) | (ecc >= 1.0)):
         bad = ecc[(ecc < 0.0) | (ecc >= 1.0) | ~np.isfinite(ecc)][0]
-        raise InvalidOrbitError(f"eccentricity must be in [0, 1) (closed orbits only); got e = {bad!r}")
+        raise InvalidOrbitError(
+            f"eccentricity must be in [0, 1) (closed orbits only); got e = {bad!r}"
+        )
     if np.any(a > MOON_HILL_RADIUS_KM):
-        raise InvalidOrbitError(f"semi-major axis {a[a > MOON_HILL_RADIUS_KM][0]:.1f} km is beyond the Moon's Hill sphere "
-                                f"({MOON_HILL_RADIUS_KM:,.0f} km): no bound lunar orbit")
+        raise InvalidOrbitError(
+            f"semi-major axis {a[a > MOON_HILL_RADIUS_KM][0]:.1f} km is beyond the Moon's Hill sphere "
+            f"({MOON_HILL_RADIUS_KM:,.0f} km): no bound lunar orbit"
+        )
     perilune = a * (1.0 - ecc)
     floor = r_body_km + min_altitude_km
     if np.any(perilune < floor):
@@ -51,9 +70,14 @@ def check_states_km(states, gm_km3_s2: float, r_min_km: float | None = None) -> 
     bound every element set meets (:func:`validate_elements`)."""
     states = np.atleast_2d(np.asarray(states, dtype=float))
     if states.ndim != 2 or states.shape[1] != 6:
-        raise ConfigError(f"states must have shape (n_sat, 6) [x, y, z, vx, vy, vz]; got {states.shape}", key="state")
+        raise ConfigError(
+            f"states must have shape (n_sat, 6) [x, y, z, vx, vy, vz]; got {states.shape}",
+            key="state",
+        )
     if not np.all(np.isfinite(states)):
-        raise ConfigError("states contain non-finite values; allowed: finite km and km/s", key="state")
+        raise ConfigError(
+            "states contain non-finite values; allowed: finite km and km/s", key="state"
+        )
     r_km, v_kms = np.linalg.norm(states[:, :3], axis=1), np.linalg.norm(states[:, 3:], axis=1)
     c_kms = C_M_S / 1000.0
     v_escape_kms = np.sqrt(2.0 * gm_km3_s2 / np.maximum(r_km, np.finfo(float).tiny))
@@ -61,19 +85,29 @@ def check_states_km(states, gm_km3_s2: float, r_min_km: float | None = None) -> 
         a_km = 1.0 / (2.0 / r_km - v_kms**2 / gm_km3_s2)
     for k in range(states.shape[0]):
         if r_min_km is not None and r_km[k] < r_min_km:
-            problem = (f"radius {r_km[k]:.1f} km is inside the Moon (below {r_min_km:.1f} km, the surface plus the "
-                       f"minimum altitude); allowed: a state above it")
+            problem = (
+                f"radius {r_km[k]:.1f} km is inside the Moon (below {r_min_km:.1f} km, the surface plus the "
+                f"minimum altitude); allowed: a state above it"
+            )
         elif r_km[k] > EARTH_MOON_DISTANCE_KM:
-            problem = (f"radius {r_km[k]:.6g} km is not allowed; allowed: up to {EARTH_MOON_DISTANCE_KM:,.0f} km (the "
-                       f"Earth-Moon distance: beyond it the Earth, not the Moon, is the central body)")
+            problem = (
+                f"radius {r_km[k]:.6g} km is not allowed; allowed: up to {EARTH_MOON_DISTANCE_KM:,.0f} km (the "
+                f"Earth-Moon distance: beyond it the Earth, not the Moon, is the central body)"
+            )
         elif v_kms[k] >= c_kms:
-            problem = f"speed {v_kms[k]:.6g} km/s is not below the speed of light ({c_kms:,.0f} km/s)"
+            problem = (
+                f"speed {v_kms[k]:.6g} km/s is not below the speed of light ({c_kms:,.0f} km/s)"
+            )
         elif v_kms[k] >= v_escape_kms[k]:
-            problem = (f"speed {v_kms[k]:.6g} km/s at radius {r_km[k]:.6g} km is not below the Moon's escape speed "
-                       f"there ({v_escape_kms[k]:.4g} km/s): no bound lunar orbit")
+            problem = (
+                f"speed {v_kms[k]:.6g} km/s at radius {r_km[k]:.6g} km is not below the Moon's escape speed "
+                f"there ({v_escape_kms[k]:.4g} km/s): no bound lunar orbit"
+            )
         elif a_km[k] > MOON_HILL_RADIUS_KM:
-            problem = (f"osculating semi-major axis {a_km[k]:.6g} km is beyond the Moon's Hill sphere "
-                       f"({MOON_HILL_RADIUS_KM:,.0f} km): no bound lunar orbit")
+            problem = (
+                f"osculating semi-major axis {a_km[k]:.6g} km is beyond the Moon's Hill sphere "
+                f"({MOON_HILL_RADIUS_KM:,.0f} km): no bound lunar orbit"
+            )
         else:
             continue
         raise ConfigError(f"state {k}: {problem}", key="state")
@@ -100,7 +134,9 @@ def eccentric_anomaly_from_true(true_anomaly_rad, e):
     tan(E / 2) = sqrt((1 - e) / (1 + e)) tan(nu / 2) with the quadrant kept.
     """
     nu = np.asarray(true_anomaly_rad, dtype=float)
-    return 2.0 * np.arctan2(np.sqrt(1.0 - e) * np.sin(nu / 2.0), np.sqrt(1.0 + e) * np.cos(nu / 2.0))
+    return 2.0 * np.arctan2(
+        np.sqrt(1.0 - e) * np.sin(nu / 2.0), np.sqrt(1.0 + e) * np.cos(nu / 2.0)
+    )
 
 
 def true_anomaly_from_eccentric(eccentric_anomaly_rad, e):
@@ -151,7 +187,14 @@ def elements_to_state(elements: np.ndarray, gm_km3_s2: float) -> np.ndarray:
     n_factor = np.sqrt(gm_km3_s2 * a) / r
     vx_pf = -n_factor * sin_E
     vy_pf = n_factor * sqrt_1me2 * cos_E
-    cO, sO, cw, sw, ci, si = np.cos(raan), np.sin(raan), np.cos(aop), np.sin(aop), np.cos(inc), np.sin(inc)
+    cO, sO, cw, sw, ci, si = (
+        np.cos(raan),
+        np.sin(raan),
+        np.cos(aop),
+        np.sin(aop),
+        np.cos(inc),
+        np.sin(inc),
+    )
     p_hat = np.stack([cO * cw - sO * sw * ci, sO * cw + cO * sw * ci, sw * si], axis=-1)
     q_hat = np.stack([-cO * sw - sO * cw * ci, -sO * sw + cO * cw * ci, cw * si], axis=-1)
     r_vec = x_pf[..., None] * p_hat + y_pf[..., None] * q_hat
@@ -180,16 +223,27 @@ def state_to_elements(state: np.ndarray, gm_km3_s2: float) -> np.ndarray:
     node = np.stack([-h_vec[..., 1], h_vec[..., 0], np.zeros_like(h)], axis=-1)
     n_norm = np.linalg.norm(node, axis=-1)
     equatorial = n_norm < 1e-12 * h
-    node_hat = np.where(equatorial[..., None], np.array([1.0, 0.0, 0.0]), node / np.where(equatorial, 1.0, n_norm)[..., None])
+    node_hat = np.where(
+        equatorial[..., None],
+        np.array([1.0, 0.0, 0.0]),
+        node / np.where(equatorial, 1.0, n_norm)[..., None],
+    )
     raan = np.mod(np.arctan2(node_hat[..., 1], node_hat[..., 0]), TWO_PI)
     h_hat = h_vec / h[..., None]
     circular = e < 1e-12
     e_hat = np.where(circular[..., None], node_hat, e_vec / np.where(circular, 1.0, e)[..., None])
-    aop = np.mod(np.arctan2(np.sum(np.cross(node_hat, e_hat) * h_hat, axis=-1), np.sum(node_hat * e_hat, axis=-1)), TWO_PI)
+    aop = np.mod(
+        np.arctan2(
+            np.sum(np.cross(node_hat, e_hat) * h_hat, axis=-1), np.sum(node_hat * e_hat, axis=-1)
+        ),
+        TWO_PI,
+    )
     r_hat = r_vec / r[..., None]
     nu = np.arctan2(np.sum(np.cross(e_hat, r_hat) * h_hat, axis=-1), np.sum(e_hat * r_hat, axis=-1))
     closed = e < 1.0
-    M = np.where(closed, np.mod(mean_anomaly_from_true(nu, np.where(closed, e, 0.0)), TWO_PI), np.nan)
+    M = np.where(
+        closed, np.mod(mean_anomaly_from_true(nu, np.where(closed, e, 0.0)), TWO_PI), np.nan
+    )
     return np.stack([a, e, inc, raan, aop, M], axis=-1)
 
 

@@ -23,18 +23,38 @@ import spiceypy as spice
 import spiceypy.utils.exceptions
 
 from .config import SKYFIELD_DATA, data_path
-from .dates import ISO_FORMAT, parse_iso_date
 from .constants import DAYS_PER_JULIAN_YEAR, SECONDS_PER_DAY
+from .dates import ISO_FORMAT, parse_iso_date
 from .errors import ConfigError, EphemerisRangeError, SpiceError
 from .settings import Dynamics, EphemerisSettings
 
-__all__ = ["NAIF_BODY", "planetary_spk_path", "kernel_paths", "load_kernels", "ensure_kernels", "tdb_seconds", "kernel_span_tdb_s", "check_span",
-           "tdb_iso", "spice_errors", "body_states_mci", "rotation_and_rate", "rotation", "hermite_basis", "hermite_sum", "hermite_apply", "hermite_cubic", "EphemerisTable",
-           "file_sha256"]
+__all__ = [
+    "NAIF_BODY",
+    "planetary_spk_path",
+    "kernel_paths",
+    "load_kernels",
+    "ensure_kernels",
+    "tdb_seconds",
+    "kernel_span_tdb_s",
+    "check_span",
+    "tdb_iso",
+    "spice_errors",
+    "body_states_mci",
+    "rotation_and_rate",
+    "rotation",
+    "hermite_basis",
+    "hermite_sum",
+    "hermite_apply",
+    "hermite_cubic",
+    "EphemerisTable",
+    "file_sha256",
+]
 
 NAIF_BODY = {"SUN": "SUN", "EARTH": "EARTH", "JUPITER": "JUPITER BARYCENTER", "MOON": "MOON"}
 _LOADED: set[str] = set()
-_ENSURED: set[EphemerisSettings] = set()     # settings whose kernels are loaded (paths resolved and checked once)
+_ENSURED: set[EphemerisSettings] = (
+    set()
+)  # settings whose kernels are loaded (paths resolved and checked once)
 
 
 def planetary_spk_path(spec: str = "skyfield-data:de421.bsp") -> Path:
@@ -43,13 +63,19 @@ def planetary_spk_path(spec: str = "skyfield-data:de421.bsp") -> Path:
         import skyfield_data
 
         # The package's own path helper warns about its unrelated Earth-orientation file: avoid it.
-        return Path(skyfield_data.__file__).resolve().parent / "data" / spec.removeprefix(SKYFIELD_DATA)
+        return (
+            Path(skyfield_data.__file__).resolve().parent
+            / "data"
+            / spec.removeprefix(SKYFIELD_DATA)
+        )
     return data_path(spec, "ephemeris.planetary_spk")
 
 
 def kernel_paths(ephemeris: EphemerisSettings) -> list[Path]:
     """Every kernel the ephemeris settings name, in load order (planetary SPK first)."""
-    return [planetary_spk_path(ephemeris.planetary_spk)] + [data_path(k, "ephemeris.kernels") for k in ephemeris.kernels]
+    return [planetary_spk_path(ephemeris.planetary_spk)] + [
+        data_path(k, "ephemeris.kernels") for k in ephemeris.kernels
+    ]
 
 
 @contextlib.contextmanager
@@ -61,8 +87,13 @@ def spice_errors(asked: str, kernels=None):
     except spice.utils.exceptions.SpiceyError as error:
         files = tuple(map(str, sorted(_LOADED) if kernels is None else kernels))
         code = error.short or type(error).__name__
-        raise SpiceError(f"SPICE could not {asked}: {code} (kernel file(s): {', '.join(files) or 'none loaded'}; "
-                         f"see params/data/README.md)", asked=asked, kernels=files, code=code) from error
+        raise SpiceError(
+            f"SPICE could not {asked}: {code} (kernel file(s): {', '.join(files) or 'none loaded'}; "
+            f"see params/data/README.md)",
+            asked=asked,
+            kernels=files,
+            code=code,
+        ) from error
 
 
 def load_kernels(paths: list[Path]) -> None:
@@ -82,7 +113,7 @@ def load_kernels(paths: list[Path]) -> None:
         with spice_errors("load the kernel", [key]):
             spice.furnsh(key)
         try:
-            _kernel_coverage(key)            # a damaged binary kernel is refused here, not at first use
+            _kernel_coverage(key)  # a damaged binary kernel is refused here, not at first use
         except SpiceError:
             spice.unload(key)
             raise
@@ -108,13 +139,17 @@ def tdb_seconds(calendar: str, scale: str = "TDB") -> float:
     if scale not in ("TDB", "UTC"):
         raise ValueError(f"unknown time scale {scale!r}; allowed: 'TDB', 'UTC'")
     if not _LOADED:
-        raise RuntimeError("SPICE kernels are not loaded: call ensure_kernels(settings.ephemeris) first")
+        raise RuntimeError(
+            "SPICE kernels are not loaded: call ensure_kernels(settings.ephemeris) first"
+        )
     parse_iso_date(calendar, f"epoch ({scale})")
     try:
         return float(spice.str2et(f"{calendar.replace('T', ' ')} {scale}"))
     except spice.utils.exceptions.SpiceyError:
-        raise ConfigError(f"epoch {calendar!r} is not an ISO calendar date; expected {ISO_FORMAT} ({scale}), "
-                          f"e.g. 2025-05-01T00:00:00") from None
+        raise ConfigError(
+            f"epoch {calendar!r} is not an ISO calendar date; expected {ISO_FORMAT} ({scale}), "
+            f"e.g. 2025-05-01T00:00:00"
+        ) from None
 
 
 def _kernel_coverage(key: str) -> tuple[float, float]:
@@ -143,7 +178,10 @@ def kernel_span_tdb_s() -> tuple[float, float]:
     key_set = frozenset(_LOADED)
     if key_set not in _SPANS:
         spans = [_kernel_coverage(key) for key in _LOADED]
-        _SPANS[key_set] = (max((s for s, _ in spans), default=-np.inf), min((e for _, e in spans), default=np.inf))
+        _SPANS[key_set] = (
+            max((s for s, _ in spans), default=-np.inf),
+            min((e for _, e in spans), default=np.inf),
+        )
     return _SPANS[key_set]
 
 
@@ -153,12 +191,19 @@ _SPANS: dict[frozenset, tuple[float, float]] = {}
 def check_span(t_start_tdb_s: float, t_end_tdb_s: float) -> None:
     """EphemerisRangeError (naming the span) unless [start, end] lies inside the loaded kernels' span."""
     start, end = kernel_span_tdb_s()
-    if not (np.isfinite(t_start_tdb_s) and np.isfinite(t_end_tdb_s)) or t_start_tdb_s < start or t_end_tdb_s > end:
+    if (
+        not (np.isfinite(t_start_tdb_s) and np.isfinite(t_end_tdb_s))
+        or t_start_tdb_s < start
+        or t_end_tdb_s > end
+    ):
         raise EphemerisRangeError(
             f"epochs {tdb_iso(t_start_tdb_s) if np.isfinite(t_start_tdb_s) else t_start_tdb_s} to "
             f"{tdb_iso(t_end_tdb_s) if np.isfinite(t_end_tdb_s) else t_end_tdb_s} TDB are outside the span of the "
             f"loaded ephemeris and lunar frame kernels, {tdb_iso(start)[:10]} to {tdb_iso(end)[:10]} TDB",
-            start_tdb_s=start, end_tdb_s=end, requested_tdb_s=(t_start_tdb_s, t_end_tdb_s))
+            start_tdb_s=start,
+            end_tdb_s=end,
+            requested_tdb_s=(t_start_tdb_s, t_end_tdb_s),
+        )
 
 
 def tdb_iso(t_tdb_s: float) -> str:
@@ -173,17 +218,23 @@ def tdb_iso(t_tdb_s: float) -> str:
 def body_states_mci(body: str, t_tdb_s: np.ndarray) -> np.ndarray:
     """Moon-centred J2000 states (km, km/s) of ``body`` at TDB epochs; shape (n, 6)."""
     times = np.atleast_1d(np.asarray(t_tdb_s, dtype=float))
-    with spice_errors(f"give the state of {body} relative to the Moon (J2000) at {_span_text(times)}"):
+    with spice_errors(
+        f"give the state of {body} relative to the Moon (J2000) at {_span_text(times)}"
+    ):
         states, _ = spice.spkezr(NAIF_BODY.get(body, body), times.tolist(), "J2000", "NONE", "MOON")
     return np.asarray(states, dtype=float).reshape(len(times), 6)
 
 
-def rotation_and_rate(frame_from: str, frame_to: str, t_tdb_s: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+def rotation_and_rate(
+    frame_from: str, frame_to: str, t_tdb_s: np.ndarray
+) -> tuple[np.ndarray, np.ndarray]:
     """Rotation R (n, 3, 3) with x_to = R x_from, and its time derivative dR/dt (1/s)."""
     times = np.atleast_1d(np.asarray(t_tdb_s, dtype=float))
     rot = np.empty((len(times), 3, 3))
     rate = np.empty((len(times), 3, 3))
-    with spice_errors(f"give the rotation {frame_from} -> {frame_to} and its rate at {_span_text(times)}"):
+    with spice_errors(
+        f"give the rotation {frame_from} -> {frame_to} and its rate at {_span_text(times)}"
+    ):
         for k, et in enumerate(times):
             xform = np.asarray(spice.sxform(frame_from, frame_to, et))
             rot[k] = xform[:3, :3]
@@ -199,8 +250,12 @@ def rotation(frame_from: str, frame_to: str, t_tdb_s: np.ndarray) -> np.ndarray:
 
 
 def _span_text(times: np.ndarray) -> str:
-    """"t0 .. t1 s TDB" of an array of epochs, for messages."""
-    return f"{times[0]:.1f} s TDB" if times.size == 1 else f"{times.min():.1f} .. {times.max():.1f} s TDB"
+    """ "t0 .. t1 s TDB" of an array of epochs, for messages."""
+    return (
+        f"{times[0]:.1f} s TDB"
+        if times.size == 1
+        else f"{times.min():.1f} .. {times.max():.1f} s TDB"
+    )
 
 
 @nb.njit(cache=True, fastmath=False)
@@ -217,7 +272,13 @@ def hermite_basis(n: int, t0: float, dt: float, t: float) -> tuple:
     u = s - k
     u2 = u * u
     u3 = u2 * u
-    return k, 2.0 * u3 - 3.0 * u2 + 1.0, (u3 - 2.0 * u2 + u) * dt, -2.0 * u3 + 3.0 * u2, (u3 - u2) * dt
+    return (
+        k,
+        2.0 * u3 - 3.0 * u2 + 1.0,
+        (u3 - 2.0 * u2 + u) * dt,
+        -2.0 * u3 + 3.0 * u2,
+        (u3 - u2) * dt,
+    )
 
 
 @nb.njit(cache=True, fastmath=False)
@@ -237,7 +298,9 @@ def hermite_apply(values: np.ndarray, rates: np.ndarray, basis: tuple, out: np.n
 
 
 @nb.njit(cache=True, fastmath=False)
-def hermite_cubic(values: np.ndarray, rates: np.ndarray, t0: float, dt: float, t: float, out: np.ndarray) -> None:
+def hermite_cubic(
+    values: np.ndarray, rates: np.ndarray, t0: float, dt: float, t: float, out: np.ndarray
+) -> None:
     """Cubic Hermite interpolation on a uniform grid (values and rates at nodes) into ``out``."""
     hermite_apply(values, rates, hermite_basis(values.shape[0], t0, dt, t), out)
 
@@ -258,8 +321,13 @@ class EphemerisTable:
     rot_pa_rate: np.ndarray
 
     @classmethod
-    def build(cls, dynamics: Dynamics, t_start_tdb_s: float, t_end_tdb_s: float,
-              body_names: tuple[str, ...] = ("SUN", "EARTH", "JUPITER")) -> "EphemerisTable":
+    def build(
+        cls,
+        dynamics: Dynamics,
+        t_start_tdb_s: float,
+        t_end_tdb_s: float,
+        body_names: tuple[str, ...] = ("SUN", "EARTH", "JUPITER"),
+    ) -> EphemerisTable:
         """Sample SPICE over [t_start, t_end] (with two nodes of margin each side), every
         ``ephemeris.table_step_s``, with the rotation to ``frames.gravity``."""
         ensure_kernels(dynamics.ephemeris)
@@ -270,8 +338,14 @@ class EphemerisTable:
         check_span(float(times[0]), float(times[-1]))
         bodies = np.stack([body_states_mci(b, times) for b in body_names], axis=1)
         rot, rate = rotation_and_rate("J2000", dynamics.frames.gravity, times)
-        return cls(float(times[0]), step, tuple(body_names), bodies,
-                   rot.reshape(n, 9).copy(), rate.reshape(n, 9).copy())
+        return cls(
+            float(times[0]),
+            step,
+            tuple(body_names),
+            bodies,
+            rot.reshape(n, 9).copy(),
+            rate.reshape(n, 9).copy(),
+        )
 
     @property
     def t_end_tdb_s(self) -> float:
@@ -281,7 +355,9 @@ class EphemerisTable:
         """Interpolated Moon-centred J2000 position (km) of a tabulated body."""
         k = self.body_names.index(name)
         out = np.empty(3)
-        hermite_cubic(self.bodies[:, k, :3], self.bodies[:, k, 3:], self.t0_tdb_s, self.step_s, t_tdb_s, out)
+        hermite_cubic(
+            self.bodies[:, k, :3], self.bodies[:, k, 3:], self.t0_tdb_s, self.step_s, t_tdb_s, out
+        )
         return out
 
     def rotation_pa(self, t_tdb_s: float) -> np.ndarray:

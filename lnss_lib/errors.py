@@ -5,8 +5,17 @@ Callers read the attributes; messages are for people and are never parsed back.
 
 from __future__ import annotations
 
-__all__ = ["ConfigError", "EphemerisRangeError", "InfeasibleDesignError", "ImpactError", "InvalidOrbitError",
-           "PropagationError", "SpiceError", "Terminated", "WorkerMismatchError"]
+__all__ = [
+    "ConfigError",
+    "EphemerisRangeError",
+    "InfeasibleDesignError",
+    "ImpactError",
+    "InvalidOrbitError",
+    "PropagationError",
+    "SpiceError",
+    "Terminated",
+    "WorkerMismatchError",
+]
 
 
 class ConfigError(ValueError):
@@ -56,8 +65,14 @@ class ImpactError(InfeasibleDesignError, RuntimeError):
     after the impact and ``days`` the time since the start of the propagation.
     """
 
-    def __init__(self, message: str, *, sat: int | None = None, t_tdb_s: float | None = None,
-                 days: float | None = None):
+    def __init__(
+        self,
+        message: str,
+        *,
+        sat: int | None = None,
+        t_tdb_s: float | None = None,
+        days: float | None = None,
+    ):
         super().__init__(message)
         self.sat = sat
         self.t_tdb_s = t_tdb_s

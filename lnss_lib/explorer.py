@@ -12,13 +12,12 @@ that reproduces them. The state logic runs without a browser: tests set widget v
 
 from __future__ import annotations
 
-from collections.abc import Mapping
-
 import html
 import json
 import math
 import os
 import shlex
+from collections.abc import Mapping
 from dataclasses import dataclass, field, replace
 from pathlib import Path
 
@@ -29,21 +28,32 @@ import plotly.io as pio
 from . import deltav, frames
 from .atomicio import write_text_atomic
 from .config import OUTPUTS_DIR, available_profiles, deep_merge, profile_path, toml_literal
-from .settings import StandaloneElfoSettings, VariableBounds, load_settings
 from .constellation import walker_design
 from .errors import ImpactError, InfeasibleDesignError
 from .evaluator import EvaluationContext, analyse_constellation, context_for
 from .figures import POLE_AXES, constellation_3d, dop_time_series, polar_wedges
 from .keys import DESIGN_KEYS, INTEGER_DESIGN_KEYS, METRIC_KEYS, format_value, label
-
+from .settings import StandaloneElfoSettings, VariableBounds, load_settings
 
 ELEMENT_FRAMES = frames.ELEMENT_FRAMES
 DELTAV_MODELS = deltav.MODELS
 
-SLIDER_LABELS = {"sma_km": "a (km)", "ecc": "e", "aop_deg": "AOP (deg)", "inc_deg": "i (deg)",
-                 "n_planes": "planes Np", "sats_per_plane": "sats/plane Ns"}
-CLI_FLAGS = {"sma_km": "--sma-km", "ecc": "--ecc", "aop_deg": "--aop-deg", "inc_deg": "--inc-deg",
-             "n_planes": "--planes", "sats_per_plane": "--sats-per-plane"}
+SLIDER_LABELS = {
+    "sma_km": "a (km)",
+    "ecc": "e",
+    "aop_deg": "AOP (deg)",
+    "inc_deg": "i (deg)",
+    "n_planes": "planes Np",
+    "sats_per_plane": "sats/plane Ns",
+}
+CLI_FLAGS = {
+    "sma_km": "--sma-km",
+    "ecc": "--ecc",
+    "aop_deg": "--aop-deg",
+    "inc_deg": "--inc-deg",
+    "n_planes": "--planes",
+    "sats_per_plane": "--sats-per-plane",
+}
 SETTING_KEYS = {"frame": ("frames", "element_frame"), "model": ("deltav", "model")}
 FIGURES = ("availability", "time_series", "constellation")
 
@@ -70,15 +80,23 @@ def snap_to_grid(value: float, spec: VariableBounds) -> float | int:
     [lower, upper]."""
     lower, upper, step = float(spec.lower), float(spec.upper), float(spec.step)
     if not math.isfinite(value):
-        raise ValueError(f"cannot snap {value!r} to the grid lower={lower}, upper={upper}, step={step}")
+        raise ValueError(
+            f"cannot snap {value!r} to the grid lower={lower}, upper={upper}, step={step}"
+        )
     snapped = round(min(max(lower + round((float(value) - lower) / step) * step, lower), upper), 10)
     return int(snapped) if isinstance(spec.step, int) and isinstance(spec.lower, int) else snapped
 
 
 def table4_design(elfo: StandaloneElfoSettings) -> dict:
     """The standalone ELFO (Table 4, ``settings.standalone_elfo``) as Table 3 design variables (RAAN of eq. 42 assumed)."""
-    return {"sma_km": elfo.sma_km, "ecc": elfo.ecc, "aop_deg": elfo.aop_deg, "inc_deg": elfo.inc_deg,
-            "n_planes": len(elfo.raan_deg), "sats_per_plane": elfo.sats_per_plane}
+    return {
+        "sma_km": elfo.sma_km,
+        "ecc": elfo.ecc,
+        "aop_deg": elfo.aop_deg,
+        "inc_deg": elfo.inc_deg,
+        "n_planes": len(elfo.raan_deg),
+        "sats_per_plane": elfo.sats_per_plane,
+    }
 
 
 def initial_design(elfo: StandaloneElfoSettings, variables: Mapping[str, VariableBounds]) -> dict:
@@ -92,20 +110,33 @@ def start_note(elfo: StandaloneElfoSettings, variables: Mapping[str, VariableBou
     """One sentence on the first design: Table 4 itself, or the nearest grid design and each variable in which
     it differs from Table 4 (a value outside Table 3's bounds said so), with both satellite counts."""
     raw, start = table4_design(elfo), initial_design(elfo, variables)
-    n_table4, n_start = raw["n_planes"] * raw["sats_per_plane"], start["n_planes"] * start["sats_per_plane"]
-    elfo = (f"the standalone ELFO (Table 4: {raw['n_planes']} planes x {raw['sats_per_plane']}, "
-            f"{n_table4} satellites)")
+    n_table4, n_start = (
+        raw["n_planes"] * raw["sats_per_plane"],
+        start["n_planes"] * start["sats_per_plane"],
+    )
+    elfo = (
+        f"the standalone ELFO (Table 4: {raw['n_planes']} planes x {raw['sats_per_plane']}, "
+        f"{n_table4} satellites)"
+    )
     differ = []
     for key in DESIGN_KEYS:
         if not math.isclose(start[key], raw[key], rel_tol=0.0, abs_tol=1e-9):
             spec = variables[key]
-            outside = (f", outside this profile's Table 3 range {format_value(key, spec.lower)}-"
-                       f"{format_value(key, spec.upper)}" if not spec.lower <= raw[key] <= spec.upper else "")
-            differ.append(f"{label(key)} {format_value(key, start[key])} (Table 4: {format_value(key, raw[key])}{outside})")
+            outside = (
+                f", outside this profile's Table 3 range {format_value(key, spec.lower)}-"
+                f"{format_value(key, spec.upper)}"
+                if not spec.lower <= raw[key] <= spec.upper
+                else ""
+            )
+            differ.append(
+                f"{label(key)} {format_value(key, start[key])} (Table 4: {format_value(key, raw[key])}{outside})"
+            )
     if not differ:
         return f"First design: {elfo}, which lies on this profile's grid."
-    return (f"First design: the grid design nearest {elfo}, NOT Table 4 itself: {'; '.join(differ)}; "
-            f"{n_start} satellites instead of {n_table4}. Notebook 05 evaluates Table 4 itself.")
+    return (
+        f"First design: the grid design nearest {elfo}, NOT Table 4 itself: {'; '.join(differ)}; "
+        f"{n_start} satellites instead of {n_table4}. Notebook 05 evaluates Table 4 itself."
+    )
 
 
 def served_by_voila() -> bool:
@@ -121,24 +152,47 @@ def availability_polar_maps(dop_ds, threshold: float, *, title: str) -> go.Figur
     """
     from plotly.subplots import make_subplots
 
-    fig = make_subplots(rows=1, cols=2, specs=[[{"type": "polar"}] * 2],
-                        subplot_titles=[f"PDOP < {threshold:g} (% of time)", f"HDOP < {threshold:g} (% of time)"])
+    fig = make_subplots(
+        rows=1,
+        cols=2,
+        specs=[[{"type": "polar"}] * 2],
+        subplot_titles=[f"PDOP < {threshold:g} (% of time)", f"HDOP < {threshold:g} (% of time)"],
+    )
     for col, name in enumerate(("pdop", "hdop"), start=1):
         pct = 100.0 * (dop_ds[name] < threshold).mean("time").values
-        fig.add_trace(polar_wedges(pct, dop_ds["lat"].values, dop_ds["lon"].values, name.upper(), "coloraxis"),
-                      row=1, col=col)
+        fig.add_trace(
+            polar_wedges(
+                pct, dop_ds["lat"].values, dop_ds["lon"].values, name.upper(), "coloraxis"
+            ),
+            row=1,
+            col=col,
+        )
     fig.update_polars(**POLE_AXES)
-    fig.update_layout(title=title, height=430, showlegend=False, template="plotly_white",
-                      coloraxis={"colorscale": "Viridis", "cmin": 0.0, "cmax": 100.0,
-                                 "colorbar": {"title": "%", "thickness": 12}})
+    fig.update_layout(
+        title=title,
+        height=430,
+        showlegend=False,
+        template="plotly_white",
+        coloraxis={
+            "colorscale": "Viridis",
+            "cmin": 0.0,
+            "cmax": 100.0,
+            "colorbar": {"title": "%", "thickness": 12},
+        },
+    )
     return fig
 
 
 def _plotly_output(fig: go.Figure) -> dict:
     """A display_data output carrying the figure as plotly's mimetype (rendered by jupyterlab-plotly, offline)."""
-    return {"output_type": "display_data", "metadata": {},
-            "data": {"application/vnd.plotly.v1+json": json.loads(pio.to_json(fig, validate=False)),
-                     "text/plain": f"<plotly figure: {fig.layout.title.text}>"}}
+    return {
+        "output_type": "display_data",
+        "metadata": {},
+        "data": {
+            "application/vnd.plotly.v1+json": json.loads(pio.to_json(fig, validate=False)),
+            "text/plain": f"<plotly figure: {fig.layout.title.text}>",
+        },
+    }
 
 
 def _fmt(value, key: str = "") -> str:
@@ -152,7 +206,11 @@ def _flatten(values, prefix: str = "") -> list[tuple[str, object]]:
     """``[("key.sub", value), ...]`` of a nested overrides table."""
     if not isinstance(values, Mapping):
         return [(prefix, values)]
-    return [item for key, value in values.items() for item in _flatten(value, f"{prefix}.{key}" if prefix else key)]
+    return [
+        item
+        for key, value in values.items()
+        for item in _flatten(value, f"{prefix}.{key}" if prefix else key)
+    ]
 
 
 def _lookup(table: dict, dotted: str):
@@ -171,9 +229,19 @@ class DesignExplorer:
     dict or its JSON, as ``reproduce --set`` passes them) apply to every profile the explorer loads.
     """
 
-    def __init__(self, profile_name: str = "quick", *, design: dict | None = None, frame: str | None = None,
-                 model: str | None = None, outputs_dir: Path | str | None = None, overrides: dict | str | None = None):
-        self.overrides = (json.loads(overrides) if isinstance(overrides, str) else dict(overrides or {}))
+    def __init__(
+        self,
+        profile_name: str = "quick",
+        *,
+        design: dict | None = None,
+        frame: str | None = None,
+        model: str | None = None,
+        outputs_dir: Path | str | None = None,
+        overrides: dict | str | None = None,
+    ):
+        self.overrides = (
+            json.loads(overrides) if isinstance(overrides, str) else dict(overrides or {})
+        )
         self.outputs_dir = Path(outputs_dir) if outputs_dir is not None else OUTPUTS_DIR
         self._contexts: dict[tuple[str, str, str], EvaluationContext] = {}
         self._holding = False
@@ -183,27 +251,51 @@ class DesignExplorer:
         self.figures: dict[str, go.Figure] = {}
         self.profile = load_settings(profile_name, overrides=self.overrides)
         style = {"description_width": "110px"}
-        choices = available_profiles() + ([] if profile_name in available_profiles() else [profile_name])
-        self.profile_choice = widgets.Dropdown(options=choices, value=profile_name,
-                                               description="profile", style=style)
-        self.frame_choice = widgets.Dropdown(options=ELEMENT_FRAMES, description="element frame", style=style,
-                                             value=frame or self.profile.frames.element_frame)
-        self.model_choice = widgets.Dropdown(options=DELTAV_MODELS, description="Delta-V model", style=style,
-                                             value=model or self.profile.deltav.model)
+        choices = available_profiles() + (
+            [] if profile_name in available_profiles() else [profile_name]
+        )
+        self.profile_choice = widgets.Dropdown(
+            options=choices, value=profile_name, description="profile", style=style
+        )
+        self.frame_choice = widgets.Dropdown(
+            options=ELEMENT_FRAMES,
+            description="element frame",
+            style=style,
+            value=frame or self.profile.frames.element_frame,
+        )
+        self.model_choice = widgets.Dropdown(
+            options=DELTAV_MODELS,
+            description="Delta-V model",
+            style=style,
+            value=model or self.profile.deltav.model,
+        )
         self.sliders: dict[str, widgets.Widget] = {}
         for key in DESIGN_KEYS:
             cls = widgets.IntSlider if key in INTEGER_DESIGN_KEYS else widgets.FloatSlider
-            self.sliders[key] = cls(description=SLIDER_LABELS[key], continuous_update=False, style=style,
-                                    layout={"width": "420px"})
-        self._configure_sliders(design or initial_design(self.profile.standalone_elfo, self.profile.campaign.variables))
-        self.start_text = (start_note(self.profile.standalone_elfo, self.profile.campaign.variables) if design is None
-                           else "First design: the one the explorer was given.")
-        self.start_html = widgets.HTML(f"<div style='max-width:640px'>{html.escape(self.start_text)}</div>")
+            self.sliders[key] = cls(
+                description=SLIDER_LABELS[key],
+                continuous_update=False,
+                style=style,
+                layout={"width": "420px"},
+            )
+        self._configure_sliders(
+            design or initial_design(self.profile.standalone_elfo, self.profile.campaign.variables)
+        )
+        self.start_text = (
+            start_note(self.profile.standalone_elfo, self.profile.campaign.variables)
+            if design is None
+            else "First design: the one the explorer was given."
+        )
+        self.start_html = widgets.HTML(
+            f"<div style='max-width:640px'>{html.escape(self.start_text)}</div>"
+        )
         self.status = widgets.HTML()
         self.metrics_html = widgets.HTML()
         self.comparison_html = widgets.HTML()
         self.export_text = widgets.Textarea(layout={"width": "100%", "height": "260px"})
-        self.write_export = widgets.Checkbox(value=False, description="also write a file in outputs/")
+        self.write_export = widgets.Checkbox(
+            value=False, description="also write a file in outputs/"
+        )
         self.add_button = widgets.Button(description="add to comparison", icon="plus")
         self.export_button = widgets.Button(description="export design", icon="download")
         self.outputs = {name: widgets.Output() for name in FIGURES}
@@ -247,8 +339,9 @@ class DesignExplorer:
         """The cached :class:`EvaluationContext` of the chosen (profile, element frame, Delta-V model)."""
         key = (self.profile_choice.value, self.frame_choice.value, self.model_choice.value)
         if key not in self._contexts:
-            self._contexts[key] = context_for(load_settings(key[0], overrides=deep_merge(self.overrides,
-                                                                                          self.settings())))
+            self._contexts[key] = context_for(
+                load_settings(key[0], overrides=deep_merge(self.overrides, self.settings()))
+            )
         return self._contexts[key]
 
     def evaluate(self) -> Evaluation:
@@ -257,12 +350,26 @@ class DesignExplorer:
         Any other exception is an error and propagates.
         """
         context, design = self.context(), self.design()
-        record = Evaluation(self.profile_choice.value, self.frame_choice.value, self.model_choice.value, design,
-                            {key: math.nan for key in METRIC_KEYS})
+        record = Evaluation(
+            self.profile_choice.value,
+            self.frame_choice.value,
+            self.model_choice.value,
+            design,
+            {key: math.nan for key in METRIC_KEYS},
+        )
         try:
-            elements = walker_design(context.dynamics, design["sma_km"], design["ecc"], design["aop_deg"],
-                                     design["inc_deg"], design["n_planes"], design["sats_per_plane"]).elements_deg()
-        except InfeasibleDesignError as error:      # no closed orbit above the surface; other errors propagate
+            elements = walker_design(
+                context.dynamics,
+                design["sma_km"],
+                design["ecc"],
+                design["aop_deg"],
+                design["inc_deg"],
+                design["n_planes"],
+                design["sats_per_plane"],
+            ).elements_deg()
+        except (
+            InfeasibleDesignError
+        ) as error:  # no closed orbit above the surface; other errors propagate
             record.metrics["n_sat"] = design["n_planes"] * design["sats_per_plane"]
             return replace(record, reason=f"invalid design: {error}")
         try:
@@ -278,9 +385,13 @@ class DesignExplorer:
             return
         try:
             evaluation = self.evaluate()
-        except Exception as error:  # shown in the page: a widget callback has nowhere else to report
-            self.status.value = (f"<div style='color:#a00'><b>error</b> (not an infeasible design): "
-                                 f"{html.escape(type(error).__name__)}: {html.escape(str(error))}</div>")
+        except (
+            Exception
+        ) as error:  # shown in the page: a widget callback has nowhere else to report
+            self.status.value = (
+                f"<div style='color:#a00'><b>error</b> (not an infeasible design): "
+                f"{html.escape(type(error).__name__)}: {html.escape(str(error))}</div>"
+            )
             raise
         self.previous, self.current = self.current, evaluation
         self._render()
@@ -289,8 +400,10 @@ class DesignExplorer:
         """A new profile brings its own element frame and Delta-V model (``operational`` reads ``moon_op``)."""
         design = self.design()
         self.profile = load_settings(change["new"], overrides=self.overrides)
-        for control, value in ((self.frame_choice, self.profile.frames.element_frame),
-                               (self.model_choice, self.profile.deltav.model)):
+        for control, value in (
+            (self.frame_choice, self.profile.frames.element_frame),
+            (self.model_choice, self.profile.deltav.model),
+        ):
             control.unobserve(self.refresh, names="value")
             control.value = value
             control.observe(self.refresh, names="value")
@@ -299,9 +412,14 @@ class DesignExplorer:
 
     def add_to_comparison(self, _=None) -> dict:
         """Append the current design, settings and metrics to :attr:`comparison`; returns the row."""
-        row = {"profile": self.current.profile_name, "frame": self.current.frame, "model": self.current.model,
-               **self.current.design, **{k: self.current.metrics[k] for k in METRIC_KEYS},
-               "reason": self.current.reason}
+        row = {
+            "profile": self.current.profile_name,
+            "frame": self.current.frame,
+            "model": self.current.model,
+            **self.current.design,
+            **{k: self.current.metrics[k] for k in METRIC_KEYS},
+            "reason": self.current.reason,
+        }
         self.comparison.append(row)
         self._render_comparison()
         return row
@@ -316,8 +434,11 @@ class DesignExplorer:
         """
         design, name = self.design(), self.profile_choice.value
         base = load_settings(name).as_dict()
-        argv = (["evaluate", "--profile", name] if name in available_profiles()
-                else ["evaluate", "--profile-file", str(profile_path(name))])    # a reproduce --profile-file run
+        argv = (
+            ["evaluate", "--profile", name]
+            if name in available_profiles()
+            else ["evaluate", "--profile-file", str(profile_path(name))]
+        )  # a reproduce --profile-file run
         for key in DESIGN_KEYS:
             argv += [CLI_FLAGS[key], str(design[key])]
         for section, values in deep_merge(self.overrides, self.settings()).items():
@@ -325,8 +446,11 @@ class DesignExplorer:
                 if _lookup(base[section], key) != value:
                     argv += ["--set", f"{section}.{key}={toml_literal(value)}"]
         command = "python -m lnss_lib " + shlex.join(argv)
-        lines = [f"# LNSS design explorer: Walker design (Table 3 variables, RAAN by eq. 42), profile {name!r}",
-                 f"# reproduce: {command}", "[design]"]
+        lines = [
+            f"# LNSS design explorer: Walker design (Table 3 variables, RAAN by eq. 42), profile {name!r}",
+            f"# reproduce: {command}",
+            "[design]",
+        ]
         lines += [f"{key} = {toml_literal(design[key])}" for key in DESIGN_KEYS]
         for section, values in self.settings().items():
             lines += ["", f"[{section}]", *(f"{k} = {toml_literal(v)}" for k, v in values.items())]
@@ -334,7 +458,12 @@ class DesignExplorer:
         path = None
         if write:
             stem = "design_" + "_".join(f"{design[k]:g}" for k in DESIGN_KEYS).replace(".", "p")
-            path = self.outputs_dir / name / "explorer" / f"{stem}_{self.frame_choice.value}_{self.model_choice.value}.toml"
+            path = (
+                self.outputs_dir
+                / name
+                / "explorer"
+                / f"{stem}_{self.frame_choice.value}_{self.model_choice.value}.toml"
+            )
             path.parent.mkdir(parents=True, exist_ok=True)
             write_text_atomic(path, toml_text)
         self.export_text.value = toml_text + (f"\n# written to {path}\n" if path else "")
@@ -347,8 +476,15 @@ class DesignExplorer:
         rows = []
         for key in METRIC_KEYS:
             now, before = self.current.metrics[key], prev.get(key, math.nan)
-            rows.append({"metric": key, "label": label(key), "current": now, "previous": before,
-                         "delta": float(now - before)})
+            rows.append(
+                {
+                    "metric": key,
+                    "label": label(key),
+                    "current": now,
+                    "previous": before,
+                    "delta": float(now - before),
+                }
+            )
         return rows
 
     def _render(self) -> None:
@@ -356,26 +492,42 @@ class DesignExplorer:
         where = f"{html.escape(cur.profile_name)} profile, {html.escape(cur.frame)} elements, {html.escape(cur.model)} Delta-V"
         if cur.feasible:
             wall = cur.metrics.get("wall_s", math.nan)
-            self.status.value = f"<div style='color:#060'><b>feasible</b>: {where}; evaluated in {wall:.2f} s</div>"
+            self.status.value = (
+                f"<div style='color:#060'><b>feasible</b>: {where}; evaluated in {wall:.2f} s</div>"
+            )
         else:
-            self.status.value = (f"<div style='color:#a00'><b>infeasible</b> ({where}): "
-                                 f"{html.escape(cur.reason)}</div>")
-        body = "".join(f"<tr><td>{html.escape(r['label'])}</td><td>{_fmt(r['current'], r['metric'])}</td>"
-                       f"<td>{_fmt(r['previous'], r['metric'])}</td><td>{_fmt(r['delta'], r['metric'])}</td></tr>"
-                       for r in self.metrics_rows())
-        self.metrics_html.value = ("<table class='lnss-explorer-metrics' style='border-collapse:collapse' border='1' "
-                                   "cellpadding='4'><tr><th>eq. 45 metric</th><th>this design</th>"
-                                   f"<th>previous design</th><th>change</th></tr>{body}</table>")
+            self.status.value = (
+                f"<div style='color:#a00'><b>infeasible</b> ({where}): "
+                f"{html.escape(cur.reason)}</div>"
+            )
+        body = "".join(
+            f"<tr><td>{html.escape(r['label'])}</td><td>{_fmt(r['current'], r['metric'])}</td>"
+            f"<td>{_fmt(r['previous'], r['metric'])}</td><td>{_fmt(r['delta'], r['metric'])}</td></tr>"
+            for r in self.metrics_rows()
+        )
+        self.metrics_html.value = (
+            "<table class='lnss-explorer-metrics' style='border-collapse:collapse' border='1' "
+            "cellpadding='4'><tr><th>eq. 45 metric</th><th>this design</th>"
+            f"<th>previous design</th><th>change</th></tr>{body}</table>"
+        )
         self.figures = {}
         if cur.study is not None:
             profile, study = self.context().settings, cur.study
             design = ", ".join(f"{SLIDER_LABELS[k]} {v:g}" for k, v in cur.design.items())
             self.figures = {
-                "availability": availability_polar_maps(study["dop"], profile.dop.availability_threshold,
-                                                        title=f"South-pole DOP availability: {design}"),
-                "time_series": dop_time_series(study["dop"], title="Grid-mean visibility, PDOP and HDOP"),
-                "constellation": constellation_3d(study["propagation"], title="Constellation (Moon-centred J2000)",
-                                                  moon_radius_km=profile.constants.r_moon_mean_km),
+                "availability": availability_polar_maps(
+                    study["dop"],
+                    profile.dop.availability_threshold,
+                    title=f"South-pole DOP availability: {design}",
+                ),
+                "time_series": dop_time_series(
+                    study["dop"], title="Grid-mean visibility, PDOP and HDOP"
+                ),
+                "constellation": constellation_3d(
+                    study["propagation"],
+                    title="Constellation (Moon-centred J2000)",
+                    moon_radius_km=profile.constants.r_moon_mean_km,
+                ),
             }
         for name, out in self.outputs.items():
             out.outputs = (_plotly_output(self.figures[name]),) if name in self.figures else ()
@@ -385,18 +537,41 @@ class DesignExplorer:
             self.comparison_html.value = ""
             return
         columns = list(self.comparison[0])
-        head = "".join(f"<th title='{html.escape(c)}'>{html.escape(label(c))}</th>" for c in columns)
-        body = "".join("<tr>" + "".join(f"<td>{_fmt(row[c], c)}</td>" for c in columns) + "</tr>" for row in self.comparison)
-        self.comparison_html.value = (f"<div style='overflow-x:auto'><table class='lnss-explorer-comparison' border='1' "
-                                      f"cellpadding='3' style='border-collapse:collapse;font-size:90%'><tr>{head}</tr>"
-                                      f"{body}</table></div>")
+        head = "".join(
+            f"<th title='{html.escape(c)}'>{html.escape(label(c))}</th>" for c in columns
+        )
+        body = "".join(
+            "<tr>" + "".join(f"<td>{_fmt(row[c], c)}</td>" for c in columns) + "</tr>"
+            for row in self.comparison
+        )
+        self.comparison_html.value = (
+            f"<div style='overflow-x:auto'><table class='lnss-explorer-comparison' border='1' "
+            f"cellpadding='3' style='border-collapse:collapse;font-size:90%'><tr>{head}</tr>"
+            f"{body}</table></div>"
+        )
 
     @property
     def widget(self) -> widgets.Widget:
         """The assembled explorer: controls beside status and metrics, then the figures, comparison and export."""
-        controls = widgets.VBox([self.profile_choice, self.frame_choice, self.model_choice, *self.sliders.values(),
-                                 widgets.HBox([self.add_button, self.export_button]), self.write_export])
-        return widgets.VBox([widgets.HBox([controls, widgets.VBox([self.start_html, self.status, self.metrics_html])]),
-                             *(self.outputs[name] for name in FIGURES),
-                             widgets.HTML("<b>comparison</b>"), self.comparison_html,
-                             widgets.HTML("<b>export</b>"), self.export_text])
+        controls = widgets.VBox(
+            [
+                self.profile_choice,
+                self.frame_choice,
+                self.model_choice,
+                *self.sliders.values(),
+                widgets.HBox([self.add_button, self.export_button]),
+                self.write_export,
+            ]
+        )
+        return widgets.VBox(
+            [
+                widgets.HBox(
+                    [controls, widgets.VBox([self.start_html, self.status, self.metrics_html])]
+                ),
+                *(self.outputs[name] for name in FIGURES),
+                widgets.HTML("<b>comparison</b>"),
+                self.comparison_html,
+                widgets.HTML("<b>export</b>"),
+                self.export_text,
+            ]
+        )

@@ -28,20 +28,48 @@ from .campaign.publication import load_published
 from .campaign.reference import load_reference
 from .keys import NON_NAVIGATION_METRICS, bound_text, format_value, label
 from .outputs import profile_dir
-from .paper import EVALUATIONS, FEASIBLE_DESIGNS, SMALL_CONSTELLATION_SATS, SMALLEST_CONSTELLATION, TABLE_4, TABLE_6
+from .paper import (
+    EVALUATIONS,
+    FEASIBLE_DESIGNS,
+    SMALL_CONSTELLATION_SATS,
+    SMALLEST_CONSTELLATION,
+    TABLE_4,
+    TABLE_6,
+)
 
-__all__ = ["Finding", "Answer", "study_answer", "smallest_design", "run_summary", "collect", "headline_findings", "findings_markdown", "findings_html", "write_findings",
-           "FINDINGS_FILE"]
+__all__ = [
+    "Finding",
+    "Answer",
+    "study_answer",
+    "smallest_design",
+    "run_summary",
+    "collect",
+    "headline_findings",
+    "findings_markdown",
+    "findings_html",
+    "write_findings",
+    "FINDINGS_FILE",
+]
 
 FINDINGS_FILE = "FINDINGS.md"
-ANSWER_SOURCE = ("profiles paper and paper_dv_physical, 120 x 1000 each: a local published run, else the "
-                 "shipped results in outputs/reference/")
-HEADLINE_FIGURES = ("07_fig8_hdop_pdop_deltav", "06_designs_pdop_dv")   # the first a run drew opens the page
-TABLE4_FIGURES = {      # Table 4 metric -> the figure of notebook 05 that shows it
-    "mean_visible_sats": "05_fig4_dop_time_series", "pdop_mean_3sigma": "05_fig4_dop_time_series",
-    "hdop_mean_3sigma": "05_fig4_dop_time_series", "pdop_avail_pct": "05_fig4_dop_time_series",
-    "hdop_avail_pct": "05_fig4_dop_time_series", "dv_total_kms_per_year": "05_fig6_thrust",
-    "dv_opt_kms_per_year": "05_fig6_thrust", "gps_visible_mean": "05_fig7_gps", "gps_pdop_mean": "05_fig7_gps",
+ANSWER_SOURCE = (
+    "profiles paper and paper_dv_physical, 120 x 1000 each: a local published run, else the "
+    "shipped results in outputs/reference/"
+)
+HEADLINE_FIGURES = (
+    "07_fig8_hdop_pdop_deltav",
+    "06_designs_pdop_dv",
+)  # the first a run drew opens the page
+TABLE4_FIGURES = {  # Table 4 metric -> the figure of notebook 05 that shows it
+    "mean_visible_sats": "05_fig4_dop_time_series",
+    "pdop_mean_3sigma": "05_fig4_dop_time_series",
+    "hdop_mean_3sigma": "05_fig4_dop_time_series",
+    "pdop_avail_pct": "05_fig4_dop_time_series",
+    "hdop_avail_pct": "05_fig4_dop_time_series",
+    "dv_total_kms_per_year": "05_fig6_thrust",
+    "dv_opt_kms_per_year": "05_fig6_thrust",
+    "gps_visible_mean": "05_fig7_gps",
+    "gps_pdop_mean": "05_fig7_gps",
 }
 
 
@@ -74,8 +102,14 @@ def _number(text) -> float:
 
 def _notebook(root: Path, number: str) -> tuple[tuple[str, str], ...]:
     """Links to the index section of notebook ``number`` and to its executed copy, when there is one."""
-    books = sorted((root / "notebooks").glob(f"{number}_*.ipynb")) if (root / "notebooks").is_dir() else []
-    return ((f"section {number}", f"#nb-{number}"),) + tuple((f"notebook {number}", f"notebooks/{b.name}") for b in books)
+    books = (
+        sorted((root / "notebooks").glob(f"{number}_*.ipynb"))
+        if (root / "notebooks").is_dir()
+        else []
+    )
+    return ((f"section {number}", f"#nb-{number}"),) + tuple(
+        (f"notebook {number}", f"notebooks/{b.name}") for b in books
+    )
 
 
 def _figure(root: Path, stem: str) -> tuple[tuple[str, str], ...]:
@@ -86,8 +120,12 @@ def _figure(root: Path, stem: str) -> tuple[tuple[str, str], ...]:
 
 
 def _missing(topic: str, paper: str, number: str, what: str) -> Finding:
-    return Finding(topic, paper, "not in this run", f"{what} is written by notebook {number}: "
-                   f"python -m lnss_lib reproduce --only {number}")
+    return Finding(
+        topic,
+        paper,
+        "not in this run",
+        f"{what} is written by notebook {number}: python -m lnss_lib reproduce --only {number}",
+    )
 
 
 def run_summary(profile_name: str) -> dict:
@@ -95,10 +133,13 @@ def run_summary(profile_name: str) -> dict:
     path = profile_dir(profile_name) / "manifest.json"
     manifest = json.loads(path.read_text()) if path.is_file() else {}
     runs = manifest.get("notebooks", {})
-    return {"profile": profile_name, "git_revision": manifest.get("git_revision", "unknown"),
-            "written_utc": manifest.get("written_utc", "unknown"),
-            "notebooks": {name: run.get("status", "?") for name, run in runs.items()},
-            "wall_s": sum(float(run.get("wall_s", 0.0)) for run in runs.values())}
+    return {
+        "profile": profile_name,
+        "git_revision": manifest.get("git_revision", "unknown"),
+        "written_utc": manifest.get("written_utc", "unknown"),
+        "notebooks": {name: run.get("status", "?") for name, run in runs.items()},
+        "wall_s": sum(float(run.get("wall_s", 0.0)) for run in runs.values()),
+    }
 
 
 def table4_findings(root: Path) -> list[Finding]:
@@ -107,7 +148,9 @@ def table4_findings(root: Path) -> list[Finding]:
     if not path.is_file():
         return [_missing("Table 4: standalone ELFO", "Table 4", "05", "the Table 4 comparison")]
     rows = _read_csv(path)
-    keys = list(TABLE_4) if len(rows) == len(TABLE_4) else [""] * len(rows)   # 05_table4 lists Table 4 in order
+    keys = (
+        list(TABLE_4) if len(rows) == len(TABLE_4) else [""] * len(rows)
+    )  # 05_table4 lists Table 4 in order
     found = []
     for key, row in zip(keys, rows):
         difference = _number(row.get("difference (%)"))
@@ -117,8 +160,15 @@ def table4_findings(root: Path) -> list[Finding]:
         links = _figure(root, TABLE4_FIGURES.get(key, "")) + _notebook(root, "05")
         if key in ("gps_visible_mean", "gps_pdop_mean"):
             links += _notebook(root, "03")
-        found.append(Finding(f"Table 4: {row.get('metric', '')}", format_value(key, _number(row.get("paper"))), ours,
-                             row.get("why", ""), links))
+        found.append(
+            Finding(
+                f"Table 4: {row.get('metric', '')}",
+                format_value(key, _number(row.get("paper"))),
+                ours,
+                row.get("why", ""),
+                links,
+            )
+        )
     return found
 
 
@@ -149,9 +199,11 @@ def smallest_design(ds, mask, metric: str) -> int | None:
 
 
 def _design_text(ds, i: int) -> str:
-    return (f"a {format_value('sma_km', ds['sma_km'].values[i])} km, e {format_value('ecc', ds['ecc'].values[i])}, "
-            f"i {format_value('inc_deg', ds['inc_deg'].values[i])} deg, "
-            f"{int(ds['n_planes'].values[i])} planes x {int(ds['sats_per_plane'].values[i])}")
+    return (
+        f"a {format_value('sma_km', ds['sma_km'].values[i])} km, e {format_value('ecc', ds['ecc'].values[i])}, "
+        f"i {format_value('inc_deg', ds['inc_deg'].values[i])} deg, "
+        f"{int(ds['n_planes'].values[i])} planes x {int(ds['sats_per_plane'].values[i])}"
+    )
 
 
 @dataclass(frozen=True)
@@ -164,14 +216,19 @@ class Answer:
     differs_most: str
 
     def _parts(self):
-        return zip(("Question.", "The paper.", "This workbook.", "The number that differs most."),
-                   (self.question, self.paper, self.workbook, self.differs_most))
+        return zip(
+            ("Question.", "The paper.", "This workbook.", "The number that differs most."),
+            (self.question, self.paper, self.workbook, self.differs_most),
+        )
 
     def markdown(self, width: int = 100) -> str:
         """Four paragraphs, each wrapped at ``width`` characters."""
         import textwrap
 
-        return "\n\n".join(textwrap.fill(f"**{head}** {text}", width, break_on_hyphens=False) for head, text in self._parts())
+        return "\n\n".join(
+            textwrap.fill(f"**{head}** {text}", width, break_on_hyphens=False)
+            for head, text in self._parts()
+        )
 
     def html(self) -> str:
         return "".join(f"<p><b>{head}</b> {html.escape(text)}</p>" for head, text in self._parts())
@@ -190,31 +247,44 @@ def study_answer(paper_bound="paper", physical_bound="paper_dv_physical") -> Ans
     bounds = ", ".join(bound_text(*c) for c in constraints if c[0] != "n_sat")
     navigation = satisfies(printed, [c for c in constraints if c[0] not in NON_NAVIGATION_METRICS])
     cheapest = np.nanmin(printed[dv_metric].values[navigation]) if navigation.any() else math.nan
-    target_pct, paper_dv = SMALLEST_CONSTELLATION["availability_pct"], SMALLEST_CONSTELLATION["dv_below_kms_per_year"]
+    target_pct, paper_dv = (
+        SMALLEST_CONSTELLATION["availability_pct"],
+        SMALLEST_CONSTELLATION["dv_below_kms_per_year"],
+    )
     physical_metric, physical_limit = deltav_constraint(physical)
     feasible = satisfies(physical, parse_constraints(physical.attrs["constraints"]))
-    i = smallest_design(physical, feasible & (physical["pdop_avail_pct"].values >= target_pct), physical_metric)
+    i = smallest_design(
+        physical, feasible & (physical["pdop_avail_pct"].values >= target_pct), physical_metric
+    )
     if i is None:
         return None
     dv = float(physical[physical_metric].values[i])
     return Answer(
-        question=("What is the smallest constellation of lunar navigation satellites meeting the paper's Table 3 "
-                  f"bounds ({bounds}) at the lunar south pole?"),
-        paper=(f"As few as {SMALLEST_CONSTELLATION['n_sat']} satellites, over {target_pct:g} % availability, below "
-               f"{paper_dv:g} km/s/yr; {FEASIBLE_DESIGNS:,} feasible designs in at most {EVALUATIONS:,} evaluations."),
-        workbook=(f"The geometry agrees and the cost does not. {int(physical['n_sat'].values[i])} satellites "
-                  f"({_design_text(physical, i)}) give {format_value('pdop_avail_pct', physical['pdop_avail_pct'].values[i])} % "
-                  f"PDOP availability; but none of the {_designs_evaluated(printed):,} designs of the full-size campaign "
-                  f"meets the {dv_limit:g} km/s/yr bound: the cheapest of the {int(navigation.sum()):,} meeting the "
-                  f"navigation bounds costs {format_value(dv_metric, cheapest)} km/s/yr. With the bound at "
-                  f"{physical_limit:g} km/s/yr (the paper's margin over the one design it prices, kept at the "
-                  f"workbook's physics), {int(feasible.sum()):,} of {_designs_evaluated(physical):,} designs are "
-                  "feasible."),
-        differs_most=(f"The station-keeping Delta-V of the smallest constellation over {target_pct:g} %: "
-                      f"{format_value(dv_metric, dv)} km/s/yr per satellite against the paper's below {paper_dv:g}, "
-                      f"{dv / paper_dv:.1f} times. The workbook prices the whole perturbing acceleration (a "
-                      "least-squares inverse of the Gauss equations); the paper's inverse solves them one at a time "
-                      "and caps its singular divisors, which sets its cost (notebook 04 shows both)."),
+        question=(
+            "What is the smallest constellation of lunar navigation satellites meeting the paper's Table 3 "
+            f"bounds ({bounds}) at the lunar south pole?"
+        ),
+        paper=(
+            f"As few as {SMALLEST_CONSTELLATION['n_sat']} satellites, over {target_pct:g} % availability, below "
+            f"{paper_dv:g} km/s/yr; {FEASIBLE_DESIGNS:,} feasible designs in at most {EVALUATIONS:,} evaluations."
+        ),
+        workbook=(
+            f"The geometry agrees and the cost does not. {int(physical['n_sat'].values[i])} satellites "
+            f"({_design_text(physical, i)}) give {format_value('pdop_avail_pct', physical['pdop_avail_pct'].values[i])} % "
+            f"PDOP availability; but none of the {_designs_evaluated(printed):,} designs of the full-size campaign "
+            f"meets the {dv_limit:g} km/s/yr bound: the cheapest of the {int(navigation.sum()):,} meeting the "
+            f"navigation bounds costs {format_value(dv_metric, cheapest)} km/s/yr. With the bound at "
+            f"{physical_limit:g} km/s/yr (the paper's margin over the one design it prices, kept at the "
+            f"workbook's physics), {int(feasible.sum()):,} of {_designs_evaluated(physical):,} designs are "
+            "feasible."
+        ),
+        differs_most=(
+            f"The station-keeping Delta-V of the smallest constellation over {target_pct:g} %: "
+            f"{format_value(dv_metric, dv)} km/s/yr per satellite against the paper's below {paper_dv:g}, "
+            f"{dv / paper_dv:.1f} times. The workbook prices the whole perturbing acceleration (a "
+            "least-squares inverse of the Gauss equations); the paper's inverse solves them one at a time "
+            "and caps its singular divisors, which sets its cost (notebook 04 shows both)."
+        ),
     )
 
 
@@ -228,43 +298,82 @@ def campaign_findings(root: Path, profile_name: str, companion: str | None) -> l
         kind = "paper-faithful" if name == profile_name else "operational"
         ds = _campaign(name)
         if ds is None:
-            found.append(_missing(f"Campaign ({kind}, {name})", f"{FEASIBLE_DESIGNS} feasible", "06",
-                                  f"the {name} campaign"))
+            found.append(
+                _missing(
+                    f"Campaign ({kind}, {name})",
+                    f"{FEASIBLE_DESIGNS} feasible",
+                    "06",
+                    f"the {name} campaign",
+                )
+            )
             continue
         constraints = parse_constraints(ds.attrs["constraints"])
         dv_metric, dv_limit = deltav_constraint(ds)
         feasible = satisfies(ds, constraints)
         navigation = satisfies(ds, [c for c in constraints if c[0] not in NON_NAVIGATION_METRICS])
         n = _designs_evaluated(ds)
-        links = _figure(root, "06_designs_pdop_dv") + _figure(root, "07_fig8_hdop_pdop_deltav") + _notebook(root, "06")
+        links = (
+            _figure(root, "06_designs_pdop_dv")
+            + _figure(root, "07_fig8_hdop_pdop_deltav")
+            + _notebook(root, "06")
+        )
         dv_values = ds[dv_metric].values[navigation]
         dv_values = dv_values[np.isfinite(dv_values)]
-        lowest = (f"the lowest {label(dv_metric)} among them is {format_value(dv_metric, dv_values.min())} against "
-                  f"the bound of {dv_limit:g}" if dv_values.size else f"none of them has a {label(dv_metric)}")
-        why = (f"{int(navigation.sum())} of {n} designs meet the navigation bounds; {lowest}: the Delta-V and "
-               "stability bounds decide feasibility." if not feasible.any() else
-               f"a campaign of {ds.attrs.get('generations_done', '?')} generations finds fewer than the paper's "
-               f"{EVALUATIONS} evaluations; the designs meeting every bound are in the Pareto figures.")
-        found.append(Finding(f"Designs meeting Table 3 ({kind}, {name})",
-                             f"{FEASIBLE_DESIGNS} of at most {EVALUATIONS} evaluations",
-                             f"{int(feasible.sum())} of {n} unique designs", why, links))
+        lowest = (
+            f"the lowest {label(dv_metric)} among them is {format_value(dv_metric, dv_values.min())} against "
+            f"the bound of {dv_limit:g}"
+            if dv_values.size
+            else f"none of them has a {label(dv_metric)}"
+        )
+        why = (
+            f"{int(navigation.sum())} of {n} designs meet the navigation bounds; {lowest}: the Delta-V and "
+            "stability bounds decide feasibility."
+            if not feasible.any()
+            else f"a campaign of {ds.attrs.get('generations_done', '?')} generations finds fewer than the paper's "
+            f"{EVALUATIONS} evaluations; the designs meeting every bound are in the Pareto figures."
+        )
+        found.append(
+            Finding(
+                f"Designs meeting Table 3 ({kind}, {name})",
+                f"{FEASIBLE_DESIGNS} of at most {EVALUATIONS} evaluations",
+                f"{int(feasible.sum())} of {n} unique designs",
+                why,
+                links,
+            )
+        )
         pick = feasible if feasible.any() else navigation
         i = smallest_design(ds, pick, dv_metric)
         if i is not None:
             design = _design_text(ds, i)
-            ours = (f"{int(ds['n_sat'].values[i])} satellites, {label(dv_metric)} "
-                    f"{format_value(dv_metric, ds[dv_metric].values[i])} ({design})")
-            why = ("meets every Table 3 bound" if feasible.any() else
-                   "no design meets every bound: this is the smallest meeting the navigation bounds") + (
-                   "; the paper's Delta-V comes from its capped singular inverse (notebook 04)"
-                   if dv_metric == "dv_total_kms_per_year" else
-                   f"; the Delta-V bound applies to the {label(dv_metric)}, the campaign's estimate of what an operator "
-                   "would fly (flown in closed loop: the headline row, when the front was validated)") + "."
+            ours = (
+                f"{int(ds['n_sat'].values[i])} satellites, {label(dv_metric)} "
+                f"{format_value(dv_metric, ds[dv_metric].values[i])} ({design})"
+            )
+            why = (
+                (
+                    "meets every Table 3 bound"
+                    if feasible.any()
+                    else "no design meets every bound: this is the smallest meeting the navigation bounds"
+                )
+                + (
+                    "; the paper's Delta-V comes from its capped singular inverse (notebook 04)"
+                    if dv_metric == "dv_total_kms_per_year"
+                    else f"; the Delta-V bound applies to the {label(dv_metric)}, the campaign's estimate of what an operator "
+                    "would fly (flown in closed loop: the headline row, when the front was validated)"
+                )
+                + "."
+            )
         else:
             ours, why = "none", "no design meets the navigation bounds in this short campaign"
-        found.append(Finding(f"Smallest constellation ({kind}, {name})",
-                             f"{SMALL_CONSTELLATION_SATS[0]}-{SMALL_CONSTELLATION_SATS[1]} satellites within the bounds",
-                             ours, why, _figure(root, "07_table6") + _notebook(root, "07")))
+        found.append(
+            Finding(
+                f"Smallest constellation ({kind}, {name})",
+                f"{SMALL_CONSTELLATION_SATS[0]}-{SMALL_CONSTELLATION_SATS[1]} satellites within the bounds",
+                ours,
+                why,
+                _figure(root, "07_table6") + _notebook(root, "07"),
+            )
+        )
     return found
 
 
@@ -276,27 +385,61 @@ def design_life_findings(root: Path) -> list[Finding]:
     path = root / "tables" / "08_validation.csv"
     bound = TABLE_6["dv_total_max_kms_per_year"]
     if not path.is_file():
-        return [_missing("Design life", f"Delta-V <= {bound:g} km/s/yr per satellite", "08", "the design-life validation")]
+        return [
+            _missing(
+                "Design life",
+                f"Delta-V <= {bound:g} km/s/yr per satellite",
+                "08",
+                "the design-life validation",
+            )
+        ]
     rows = _read_csv(path)
     found = []
     for region in dict.fromkeys(r.get("region", "") for r in rows):
         chosen = [r for r in rows if r.get("region", "") == region]
         lost = [r for r in chosen if math.isfinite(_number(r.get("impact_day")))]
-        within = [r for r in chosen if r not in lost and _number(r.get("sk_dv_max_kms_per_year")) <= bound]
-        dv = sorted({format_value("sk_dv_kms_per_year", v) for v in (_number(r.get("sk_dv_kms_per_year"))
-                                                                     for r in chosen) if math.isfinite(v)}, key=float)
+        within = [
+            r for r in chosen if r not in lost and _number(r.get("sk_dv_max_kms_per_year")) <= bound
+        ]
+        dv = sorted(
+            {
+                format_value("sk_dv_kms_per_year", v)
+                for v in (_number(r.get("sk_dv_kms_per_year")) for r in chosen)
+                if math.isfinite(v)
+            },
+            key=float,
+        )
         days = max(_number(r.get("life_days")) for r in chosen)
-        ours = (f"{len(within)} of {len(chosen)} within {bound:g} km/s/yr on every satellite, none lost; "
-                f"{len(chosen) - len(lost)} of {len(chosen)} keep every satellite over {days:.0f} days"
-                + (f"; the controller burned {dv[0]}" + (f" to {dv[-1]}" if len(dv) > 1 else "")
-                   + " km/s/yr per satellite" if dv else ""))
-        why = ("flown in closed loop with the full force model over the design life, where the paper judges a "
-               "10-day arc; the closed-loop cost is what the controller burns to hold the constellation, not the "
-               "paper's eq. 45 Delta-V (Table 4, the campaigns)"
-               + (f"; lost on day {', '.join(format(_number(r['impact_day']), '.0f') for r in lost)}" if lost else ""))
-        found.append(Finding(f"Design life: {region} ({len(chosen)} designs flown in closed loop)",
-                             f"Delta-V <= {bound:g} km/s/yr per satellite (Table 3, judged on a 10-day arc)", ours,
-                             why, _figure(root, "08_estimate_vs_closed_loop") + _notebook(root, "08")))
+        ours = (
+            f"{len(within)} of {len(chosen)} within {bound:g} km/s/yr on every satellite, none lost; "
+            f"{len(chosen) - len(lost)} of {len(chosen)} keep every satellite over {days:.0f} days"
+            + (
+                f"; the controller burned {dv[0]}"
+                + (f" to {dv[-1]}" if len(dv) > 1 else "")
+                + " km/s/yr per satellite"
+                if dv
+                else ""
+            )
+        )
+        why = (
+            "flown in closed loop with the full force model over the design life, where the paper judges a "
+            "10-day arc; the closed-loop cost is what the controller burns to hold the constellation, not the "
+            "paper's eq. 45 Delta-V (Table 4, the campaigns)"
+            + (
+                f"; lost on day {', '.join(format(_number(r['impact_day']), '.0f') for r in lost)}"
+                if lost
+                else ""
+            )
+        )
+        found.append(
+            Finding(
+                f"Design life: {region} ({len(chosen)} designs flown in closed loop)",
+                f"Delta-V <= {bound:g} km/s/yr per satellite (Table 3, judged on a 10-day arc)",
+                ours,
+                why,
+                _figure(root, "08_estimate_vs_closed_loop") + _notebook(root, "08"),
+            )
+        )
     return found
 
 
@@ -309,59 +452,105 @@ def headline_findings(root: Path) -> list[Finding]:
     rows = {r.get("row", ""): r for r in _read_csv(path)}
     smallest = rows.get("smallest", {})
     flown, failed = _number(smallest.get("flown")), _number(smallest.get("failed or error"))
-    paper = (f"{SMALLEST_CONSTELLATION['n_sat']} satellites, over {SMALLEST_CONSTELLATION['availability_pct']:g} % "
-             f"availability, below {SMALLEST_CONSTELLATION['dv_below_kms_per_year']:g} km/s/yr")
+    paper = (
+        f"{SMALLEST_CONSTELLATION['n_sat']} satellites, over {SMALLEST_CONSTELLATION['availability_pct']:g} % "
+        f"availability, below {SMALLEST_CONSTELLATION['dv_below_kms_per_year']:g} km/s/yr"
+    )
     if smallest.get("result") == "validated":
-        design = (f"a {format_value('sma_km', _number(smallest['sma_km']))} km, e {format_value('ecc', _number(smallest['ecc']))}, "
-                  f"i {format_value('inc_deg', _number(smallest['inc_deg']))} deg, "
-                  f"{int(_number(smallest['n_planes']))} planes x {int(_number(smallest['sats_per_plane']))}")
-        ours = (f"{int(_number(smallest['n_sat']))} satellites, "
-                f"{format_value('pdop_avail_pct_life', _number(smallest['pdop_avail_pct_life']))} % over the life, "
-                f"{format_value('closed_loop_dv_max_kms_per_year', _number(smallest['closed_loop_dv_max_kms_per_year']))}"
-                f" km/s/yr worst satellite ({design})")
+        design = (
+            f"a {format_value('sma_km', _number(smallest['sma_km']))} km, e {format_value('ecc', _number(smallest['ecc']))}, "
+            f"i {format_value('inc_deg', _number(smallest['inc_deg']))} deg, "
+            f"{int(_number(smallest['n_planes']))} planes x {int(_number(smallest['sats_per_plane']))}"
+        )
+        ours = (
+            f"{int(_number(smallest['n_sat']))} satellites, "
+            f"{format_value('pdop_avail_pct_life', _number(smallest['pdop_avail_pct_life']))} % over the life, "
+            f"{format_value('closed_loop_dv_max_kms_per_year', _number(smallest['closed_loop_dv_max_kms_per_year']))}"
+            f" km/s/yr worst satellite ({design})"
+        )
     else:
         ours = "no validated design meets both"
-    sizes = ", ".join(f"{name.split()[0]}: " + (format_value("closed_loop_dv_max_kms_per_year",
-                                                            _number(r["closed_loop_dv_max_kms_per_year"]))
-                                               if r.get("result") == "validated" else "none")
-                      for name, r in rows.items() if name.endswith("satellites"))
-    why = (f"flown in closed loop over the design life with the service controller, every satellite "
-           f"({flown:.0f} designs flown, {failed:.0f} lost a satellite or failed); worst-satellite km/s/yr by size: "
-           f"{sizes}.")
-    return [Finding("The paper's headline, flown in closed loop (operational)", paper, ours, why,
-                    _figure(root, "07_headline_validated") + _notebook(root, "07"))]
+    sizes = ", ".join(
+        f"{name.split()[0]}: "
+        + (
+            format_value(
+                "closed_loop_dv_max_kms_per_year", _number(r["closed_loop_dv_max_kms_per_year"])
+            )
+            if r.get("result") == "validated"
+            else "none"
+        )
+        for name, r in rows.items()
+        if name.endswith("satellites")
+    )
+    why = (
+        f"flown in closed loop over the design life with the service controller, every satellite "
+        f"({flown:.0f} designs flown, {failed:.0f} lost a satellite or failed); worst-satellite km/s/yr by size: "
+        f"{sizes}."
+    )
+    return [
+        Finding(
+            "The paper's headline, flown in closed loop (operational)",
+            paper,
+            ours,
+            why,
+            _figure(root, "07_headline_validated") + _notebook(root, "07"),
+        )
+    ]
 
 
 def published_findings(root: Path) -> list[Finding]:
     """The published constellations measured on one yardstick (``10_published_comparison.csv``)."""
     path = root / "tables" / "10_published_comparison.csv"
     if not path.is_file():
-        return [_missing("Published constellations", "published figures", "10", "the published comparison")]
+        return [
+            _missing(
+                "Published constellations", "published figures", "10", "the published comparison"
+            )
+        ]
     found = []
     for row in _read_csv(path):
         ours = _number(row.get("ours"))
-        if not row.get("published figure", "").endswith("availability_pct") or not math.isfinite(ours):
+        if not row.get("published figure", "").endswith("availability_pct") or not math.isfinite(
+            ours
+        ):
             continue
-        mask = row["published figure"].split(".")[0].replace("elevation_mask_", "").replace("deg", " deg mask")
-        found.append(Finding(f"{row.get('constellation', '')}: availability ({mask}, %)",
-                             format_value("pdop_avail_pct", _number(row.get("published"))),
-                             format_value("pdop_avail_pct", ours), row.get("why they differ", ""),
-                             _figure(root, "10_benchmark_scatter") + _notebook(root, "10")))
+        mask = (
+            row["published figure"]
+            .split(".")[0]
+            .replace("elevation_mask_", "")
+            .replace("deg", " deg mask")
+        )
+        found.append(
+            Finding(
+                f"{row.get('constellation', '')}: availability ({mask}, %)",
+                format_value("pdop_avail_pct", _number(row.get("published"))),
+                format_value("pdop_avail_pct", ours),
+                row.get("why they differ", ""),
+                _figure(root, "10_benchmark_scatter") + _notebook(root, "10"),
+            )
+        )
     return found
 
 
 def collect(profile_name: str, companion: str | None = None) -> list[Finding]:
     """Every finding of the run under ``outputs/<profile>/``, in reading order."""
     root = profile_dir(profile_name)
-    return (table4_findings(root) + campaign_findings(root, profile_name, companion) + headline_findings(root)
-            + design_life_findings(root) + published_findings(root))
+    return (
+        table4_findings(root)
+        + campaign_findings(root, profile_name, companion)
+        + headline_findings(root)
+        + design_life_findings(root)
+        + published_findings(root)
+    )
 
 
 def _run_line(summary: dict) -> str:
     failed = [name for name, status in summary["notebooks"].items() if status != "ok"]
-    return (f"profile {summary['profile']}, commit {summary['git_revision']}, written {summary['written_utc']}, "
-            f"{len(summary['notebooks'])} notebook(s) in {summary['wall_s']:.0f} s"
-            + (f"; failed: {', '.join(failed)}" if failed else ""))
+    return (
+        f"profile {summary['profile']}, commit {summary['git_revision']}, written {summary['written_utc']}, "
+        f"{len(summary['notebooks'])} notebook(s) in {summary['wall_s']:.0f} s"
+        + (f"; failed: {', '.join(failed)}" if failed else "")
+    )
 
 
 def _headline_figure(profile_name: str) -> str | None:
@@ -372,6 +561,7 @@ def _headline_figure(profile_name: str) -> str | None:
 
 def findings_markdown(profile_name: str, findings: list[Finding]) -> str:
     """``FINDINGS.md``: the run, then one table row per finding with its links (relative to the file)."""
+
     def cell(text: str) -> str:
         return " ".join(str(text).split()).replace("|", "\\|")
 
@@ -381,36 +571,60 @@ def findings_markdown(profile_name: str, findings: list[Finding]) -> str:
         lines += [answer.markdown(), "", f"From the full-size campaigns ({ANSWER_SOURCE}).", ""]
     if headline is not None:
         lines += [f"![{headline}](figures/{headline}.png)", ""]
-    lines += [f"Run: {_run_line(run_summary(profile_name))}.", "",
-              "Generated from this run's outputs and the shipped results; the paper's values from "
-              "`lnss_lib/paper.py`.", "",
-             "| result | paper | this workbook | why they differ | shown in |", "|---|---|---|---|---|"]
+    lines += [
+        f"Run: {_run_line(run_summary(profile_name))}.",
+        "",
+        "Generated from this run's outputs and the shipped results; the paper's values from "
+        "`lnss_lib/paper.py`.",
+        "",
+        "| result | paper | this workbook | why they differ | shown in |",
+        "|---|---|---|---|---|",
+    ]
     for f in findings:
-        links = ", ".join(f"[{text}]({'index.html' + href if href.startswith('#') else href})" for text, href in f.links)
-        lines.append(f"| {cell(f.topic)} | {cell(f.paper)} | {cell(f.workbook)} | {cell(f.why)} | {links} |")
+        links = ", ".join(
+            f"[{text}]({'index.html' + href if href.startswith('#') else href})"
+            for text, href in f.links
+        )
+        lines.append(
+            f"| {cell(f.topic)} | {cell(f.paper)} | {cell(f.workbook)} | {cell(f.why)} | {links} |"
+        )
     return "\n".join(lines) + "\n"
 
 
 def findings_html(profile_name: str, findings: list[Finding]) -> str:
     """The findings section that opens ``index.html`` (``id="findings"``)."""
+
     def links(finding: Finding) -> str:
-        return " ".join(f'<a href="{html.escape(href)}">{html.escape(text)}</a>' for text, href in finding.links)
+        return " ".join(
+            f'<a href="{html.escape(href)}">{html.escape(text)}</a>' for text, href in finding.links
+        )
 
     rows = "".join(
         f"<tr><td class='text'>{html.escape(f.topic)}</td><td class='text'>{html.escape(f.paper)}</td>"
         f"<td class='text'><b>{html.escape(f.workbook)}</b></td><td class='text why'>{html.escape(f.why)}</td>"
-        f"<td class='text'>{links(f)}</td></tr>" for f in findings)
+        f"<td class='text'>{links(f)}</td></tr>"
+        for f in findings
+    )
     answer, headline = study_answer(), _headline_figure(profile_name)
-    opening = ("" if answer is None else
-               f'<section id="answer"><h2>The answer</h2>{answer.html()}'
-               f"<p class='files'>From the full-size campaigns ({html.escape(ANSWER_SOURCE)}).</p>"
-               + ("" if headline is None else
-                  f'<a href="figures/{headline}.html"><img class="headline" src="figures/{headline}.png" '
-                  f'alt="{html.escape(headline)}"></a>') + "</section>")
-    return opening + (f'<section id="findings"><h2>Findings</h2><p>Run: {html.escape(_run_line(run_summary(profile_name)))}. '
-            f'Generated from this run\'s outputs beside the paper\'s values (<a href="{FINDINGS_FILE}">{FINDINGS_FILE}</a>).</p>'
-            "<table class='findings'><tr><th>result</th><th>paper</th><th>this workbook</th><th>why they differ</th>"
-            f"<th>shown in</th></tr>{rows}</table></section>")
+    opening = (
+        ""
+        if answer is None
+        else f'<section id="answer"><h2>The answer</h2>{answer.html()}'
+        f"<p class='files'>From the full-size campaigns ({html.escape(ANSWER_SOURCE)}).</p>"
+        + (
+            ""
+            if headline is None
+            else f'<a href="figures/{headline}.html"><img class="headline" src="figures/{headline}.png" '
+            f'alt="{html.escape(headline)}"></a>'
+        )
+        + "</section>"
+    )
+    return opening + (
+        f'<section id="findings"><h2>Findings</h2><p>Run: {html.escape(_run_line(run_summary(profile_name)))}. '
+        f"Generated from this run's outputs beside the paper's values (<a href=\"{FINDINGS_FILE}\">{FINDINGS_FILE}</a>).</p>"
+        "<table class='findings'><tr><th>result</th><th>paper</th><th>this workbook</th><th>why they differ</th>"
+        f"<th>shown in</th></tr>{rows}</table></section>"
+    )
 
 
 def write_findings(profile_name: str, companion: str | None = None) -> tuple[Path, str]:
@@ -418,5 +632,7 @@ def write_findings(profile_name: str, companion: str | None = None) -> tuple[Pat
     from .atomicio import write_text_atomic
 
     findings = collect(profile_name, companion)
-    path = write_text_atomic(profile_dir(profile_name) / FINDINGS_FILE, findings_markdown(profile_name, findings))
+    path = write_text_atomic(
+        profile_dir(profile_name) / FINDINGS_FILE, findings_markdown(profile_name, findings)
+    )
     return path, findings_html(profile_name, findings)

@@ -26,15 +26,35 @@ from __future__ import annotations
 import numpy as np
 import spiceypy as spice
 
-from .sections import ELEMENT_FRAMES, POLE_FRAMES
 from .constants import ARCSEC_RAD, SECONDS_PER_DAY, SECONDS_PER_JULIAN_CENTURY
 from .ephemeris import body_states_mci, ensure_kernels, rotation, spice_errors
+from .sections import ELEMENT_FRAMES, POLE_FRAMES
 from .settings import Dynamics
 
-__all__ = ["ELEMENT_FRAMES", "POLE_FRAMES", "element_frame_to_j2000", "moon_op_axes_j2000", "orbit_plane_axes_j2000", "moon_op_to_j2000", "rotate_to_moon_fixed", "rotate_with", "latitude_deg",
-           "rtn_basis", "to_rtn", "from_rtn", "J2000_JD", "NUTATION_SKIPPED_DPSI_MAS", "NUTATION_SKIPPED_DEPS_MAS",
-           "utc_julian_dates", "tt_centuries", "precession_iau1976", "mean_obliquity_iau1980", "nutation_iau1980",
-           "nutation_matrix", "teme_to_j2000"]
+__all__ = [
+    "ELEMENT_FRAMES",
+    "POLE_FRAMES",
+    "element_frame_to_j2000",
+    "moon_op_axes_j2000",
+    "orbit_plane_axes_j2000",
+    "moon_op_to_j2000",
+    "rotate_to_moon_fixed",
+    "rotate_with",
+    "latitude_deg",
+    "rtn_basis",
+    "to_rtn",
+    "from_rtn",
+    "J2000_JD",
+    "NUTATION_SKIPPED_DPSI_MAS",
+    "NUTATION_SKIPPED_DEPS_MAS",
+    "utc_julian_dates",
+    "tt_centuries",
+    "precession_iau1976",
+    "mean_obliquity_iau1980",
+    "nutation_iau1980",
+    "nutation_matrix",
+    "teme_to_j2000",
+]
 
 J2000_JD = 2451545.0
 
@@ -43,8 +63,9 @@ J2000_JD = 2451545.0
 # ---------------------------------------------------------------------------------------------
 
 
-
-def element_frame_to_j2000(dynamics: Dynamics, t_epoch_tdb_s: float, frame: str | None = None) -> np.ndarray:
+def element_frame_to_j2000(
+    dynamics: Dynamics, t_epoch_tdb_s: float, frame: str | None = None
+) -> np.ndarray:
     """Rotation from an element frame (default: ``frames.element_frame``) to J2000 (x_j2000 = R x_elements).
 
     ``lunar_equator_of_epoch``: the Moon-fixed frame (``frames.moon_fixed``) frozen at the epoch,
@@ -62,7 +83,9 @@ def element_frame_to_j2000(dynamics: Dynamics, t_epoch_tdb_s: float, frame: str 
     if frame == "moon_op":
         ensure_kernels(dynamics.ephemeris)
         return moon_op_to_j2000(float(t_epoch_tdb_s))
-    raise ValueError(f"unknown element frame {frame!r}; allowed: {', '.join(map(repr, ELEMENT_FRAMES))}")
+    raise ValueError(
+        f"unknown element frame {frame!r}; allowed: {', '.join(map(repr, ELEMENT_FRAMES))}"
+    )
 
 
 # ---------------------------------------------------------------------------------------------
@@ -92,7 +115,9 @@ def element_frame_to_j2000(dynamics: Dynamics, t_epoch_tdb_s: float, frame: str 
 # solar perturbation of the osculating orbit.
 
 
-def moon_op_axes_j2000(r_earth_km: np.ndarray, v_earth_kms: np.ndarray, pole_j2000: np.ndarray) -> np.ndarray:
+def moon_op_axes_j2000(
+    r_earth_km: np.ndarray, v_earth_kms: np.ndarray, pole_j2000: np.ndarray
+) -> np.ndarray:
     """Rotation (3, 3) from ``moon_op`` to J2000: columns are the x, y, z axes in J2000.
 
     ``r_earth_km``, ``v_earth_kms``: the Earth's position and velocity relative to the Moon (J2000);
@@ -114,7 +139,9 @@ def orbit_plane_axes_j2000(normal_j2000, pole_j2000) -> np.ndarray:
     node = np.cross(pole, z)
     norm = np.linalg.norm(node)
     if not norm > 1e-9 * np.linalg.norm(pole):
-        raise ValueError("moon_op is undefined: the lunar pole is parallel to the Earth's orbit normal")
+        raise ValueError(
+            "moon_op is undefined: the lunar pole is parallel to the Earth's orbit normal"
+        )
     x = node / norm
     y = np.cross(z, x)
     return np.column_stack([x, y, z])
@@ -128,7 +155,9 @@ def moon_op_to_j2000(t_epoch_tdb_s: float, pole_frame: str = "MOON_ME") -> np.nd
     the lunar pole, one of :data:`POLE_FRAMES` (default ``MOON_ME``, as LuPNT).
     """
     if pole_frame not in POLE_FRAMES:
-        raise ValueError(f"unknown lunar pole frame {pole_frame!r}; allowed: {', '.join(map(repr, POLE_FRAMES))}")
+        raise ValueError(
+            f"unknown lunar pole frame {pole_frame!r}; allowed: {', '.join(map(repr, POLE_FRAMES))}"
+        )
     t = float(t_epoch_tdb_s)
     if not np.isfinite(t):
         raise ValueError(f"epoch must be finite (TDB seconds past J2000); got {t_epoch_tdb_s!r}")
@@ -137,10 +166,14 @@ def moon_op_to_j2000(t_epoch_tdb_s: float, pole_frame: str = "MOON_ME") -> np.nd
     return moon_op_axes_j2000(earth[:3], earth[3:], pole)
 
 
-def rotate_to_moon_fixed(dynamics: Dynamics, r_mci_km: np.ndarray, t_tdb_s: np.ndarray) -> np.ndarray:
+def rotate_to_moon_fixed(
+    dynamics: Dynamics, r_mci_km: np.ndarray, t_tdb_s: np.ndarray
+) -> np.ndarray:
     """Moon-centred J2000 positions (sat, time, 3) -> Moon-fixed (``frames.moon_fixed``) positions."""
     ensure_kernels(dynamics.ephemeris)
-    return rotate_with(rotation("J2000", dynamics.frames.moon_fixed, np.asarray(t_tdb_s, dtype=float)), r_mci_km)
+    return rotate_with(
+        rotation("J2000", dynamics.frames.moon_fixed, np.asarray(t_tdb_s, dtype=float)), r_mci_km
+    )
 
 
 def rotate_with(rot: np.ndarray, vectors) -> np.ndarray:
@@ -157,6 +190,7 @@ def latitude_deg(r_mf_km) -> np.ndarray:
 # ---------------------------------------------------------------------------------------------
 # RTN axes of an orbit
 # ---------------------------------------------------------------------------------------------
+
 
 def rtn_basis(states: np.ndarray) -> np.ndarray:
     """Unit vectors (..., 3, 3) with rows R (along r), T (N x R), N (along r x v) in the state's frame."""
@@ -186,21 +220,23 @@ def from_rtn(components_rtn: np.ndarray, states: np.ndarray) -> np.ndarray:
 # IAU-1980 nutation series (Seidelmann 1992, Explanatory Supplement 3.222; SOFA nut80), the 13 terms
 # with |dpsi amplitude| >= 100 x 0.1 mas. Columns: multipliers of l, l', F, D, Omega; dpsi sine
 # coefficient and its rate per Julian century; deps cosine coefficient and its rate (0.1 mas).
-_NUT80_TERMS = np.array([
-    [0, 0, 0, 0, 1, -171996.0, -174.2, 92025.0, 8.9],
-    [0, 0, 2, -2, 2, -13187.0, -1.6, 5736.0, -3.1],
-    [0, 0, 2, 0, 2, -2274.0, -0.2, 977.0, -0.5],
-    [0, 0, 0, 0, 2, 2062.0, 0.2, -895.0, 0.5],
-    [0, 1, 0, 0, 0, 1426.0, -3.4, 54.0, -0.1],
-    [1, 0, 0, 0, 0, 712.0, 0.1, -7.0, 0.0],
-    [0, 1, 2, -2, 2, -517.0, 1.2, 224.0, -0.6],
-    [0, 0, 2, 0, 1, -386.0, -0.4, 200.0, 0.0],
-    [1, 0, 2, 0, 2, -301.0, 0.0, 129.0, -0.1],
-    [0, -1, 2, -2, 2, 217.0, -0.5, -95.0, 0.3],
-    [1, 0, 0, -2, 0, -158.0, 0.0, -1.0, 0.0],
-    [0, 0, 2, -2, 1, 129.0, 0.1, -70.0, 0.0],
-    [-1, 0, 2, 0, 2, 123.0, 0.0, -53.0, 0.0],
-])
+_NUT80_TERMS = np.array(
+    [
+        [0, 0, 0, 0, 1, -171996.0, -174.2, 92025.0, 8.9],
+        [0, 0, 2, -2, 2, -13187.0, -1.6, 5736.0, -3.1],
+        [0, 0, 2, 0, 2, -2274.0, -0.2, 977.0, -0.5],
+        [0, 0, 0, 0, 2, 2062.0, 0.2, -895.0, 0.5],
+        [0, 1, 0, 0, 0, 1426.0, -3.4, 54.0, -0.1],
+        [1, 0, 0, 0, 0, 712.0, 0.1, -7.0, 0.0],
+        [0, 1, 2, -2, 2, -517.0, 1.2, 224.0, -0.6],
+        [0, 0, 2, 0, 1, -386.0, -0.4, 200.0, 0.0],
+        [1, 0, 2, 0, 2, -301.0, 0.0, 129.0, -0.1],
+        [0, -1, 2, -2, 2, 217.0, -0.5, -95.0, 0.3],
+        [1, 0, 0, -2, 0, -158.0, 0.0, -1.0, 0.0],
+        [0, 0, 2, -2, 1, 129.0, 0.1, -70.0, 0.0],
+        [-1, 0, 2, 0, 2, 123.0, 0.0, -53.0, 0.0],
+    ]
+)
 # Sum of |amplitude| (incl. the rate terms at 2025) of the 93 IAU-1980 terms left out above (mas).
 NUTATION_SKIPPED_DPSI_MAS = 88.0
 NUTATION_SKIPPED_DEPS_MAS = 29.6
@@ -223,7 +259,10 @@ def tt_centuries(t_tdb_s) -> np.ndarray:
     """Julian centuries of TT past J2000 (SPICE ``unitim`` TDB -> TDT)."""
     et = np.atleast_1d(np.asarray(t_tdb_s, dtype=float))
     with spice_errors("convert TDB to TT (unitim) with the leap-second kernel"):
-        return np.array([spice.unitim(float(e), "TDB", "TDT") for e in et]) / SECONDS_PER_JULIAN_CENTURY
+        return (
+            np.array([spice.unitim(float(e), "TDB", "TDT") for e in et])
+            / SECONDS_PER_JULIAN_CENTURY
+        )
 
 
 def _rot(axis: int, angle: np.ndarray) -> np.ndarray:
@@ -259,11 +298,21 @@ def nutation_iau1980(t_tt_cy, terms: np.ndarray = _NUT80_TERMS) -> tuple[np.ndar
     """Nutation in longitude and obliquity (rad) from the IAU-1980 series ``terms`` (default: 13 largest)."""
     t = np.atleast_1d(np.asarray(t_tt_cy, dtype=float))
     turn = 2.0 * np.pi
-    el = (485866.733 + (715922.633 + (31.310 + 0.064 * t) * t) * t) * ARCSEC_RAD + np.mod(1325.0 * t, 1.0) * turn
-    elp = (1287099.804 + (1292581.224 + (-0.577 - 0.012 * t) * t) * t) * ARCSEC_RAD + np.mod(99.0 * t, 1.0) * turn
-    f = (335778.877 + (295263.137 + (-13.257 + 0.011 * t) * t) * t) * ARCSEC_RAD + np.mod(1342.0 * t, 1.0) * turn
-    d = (1072261.307 + (1105601.328 + (-6.891 + 0.019 * t) * t) * t) * ARCSEC_RAD + np.mod(1236.0 * t, 1.0) * turn
-    om = (450160.280 + (-482890.539 + (7.455 + 0.008 * t) * t) * t) * ARCSEC_RAD + np.mod(-5.0 * t, 1.0) * turn
+    el = (485866.733 + (715922.633 + (31.310 + 0.064 * t) * t) * t) * ARCSEC_RAD + np.mod(
+        1325.0 * t, 1.0
+    ) * turn
+    elp = (1287099.804 + (1292581.224 + (-0.577 - 0.012 * t) * t) * t) * ARCSEC_RAD + np.mod(
+        99.0 * t, 1.0
+    ) * turn
+    f = (335778.877 + (295263.137 + (-13.257 + 0.011 * t) * t) * t) * ARCSEC_RAD + np.mod(
+        1342.0 * t, 1.0
+    ) * turn
+    d = (1072261.307 + (1105601.328 + (-6.891 + 0.019 * t) * t) * t) * ARCSEC_RAD + np.mod(
+        1236.0 * t, 1.0
+    ) * turn
+    om = (450160.280 + (-482890.539 + (7.455 + 0.008 * t) * t) * t) * ARCSEC_RAD + np.mod(
+        -5.0 * t, 1.0
+    ) * turn
     args = np.stack([el, elp, f, d, om], axis=-1) @ terms[:, :5].T
     dpsi = np.sum((terms[:, 5] + terms[:, 6] * t[:, None]) * np.sin(args), axis=-1)
     deps = np.sum((terms[:, 7] + terms[:, 8] * t[:, None]) * np.cos(args), axis=-1)

@@ -18,10 +18,21 @@ import numpy as np
 
 from .sections import PDOP_FILTERS
 
-__all__ = ["SINGULAR_RTOL", "PDOP_FILTERS", "normal_matrix_entries", "block_inverse", "position_block_inverse",
-           "weighted_dop_stats", "sigma_filtered_mean", "availability_pct", "filtered_mean"]
+__all__ = [
+    "SINGULAR_RTOL",
+    "PDOP_FILTERS",
+    "normal_matrix_entries",
+    "block_inverse",
+    "position_block_inverse",
+    "weighted_dop_stats",
+    "sigma_filtered_mean",
+    "availability_pct",
+    "filtered_mean",
+]
 
-SINGULAR_RTOL = 1e-12       # det S relative to (trace S / 3)^3 below which the geometry counts as singular
+SINGULAR_RTOL = (
+    1e-12  # det S relative to (trace S / 3)^3 below which the geometry counts as singular
+)
 
 
 @nb.njit(cache=True)
@@ -81,7 +92,9 @@ def normal_matrix_entries(lx, ly, lz, visible, axis: int = -1, clock_column: boo
     shape = np.delete(np.shape(lx), axis)
     mask = np.asarray(visible)
     w = _leading(mask, axis, bool if mask.dtype == bool else float)
-    count, sums = _normal_sums(_leading(lx, axis), _leading(ly, axis), _leading(lz, axis), w, bool(clock_column))
+    count, sums = _normal_sums(
+        _leading(lx, axis), _leading(ly, axis), _leading(lz, axis), w, bool(clock_column)
+    )
     return count.reshape(shape), tuple(sums[k].reshape(shape) for k in range(6))
 
 
@@ -98,7 +111,7 @@ def _regular(det, t):
             return True
         if det < threshold * (1.0 - 1e-14):
             return False
-    return det > SINGULAR_RTOL * t ** 3.0
+    return det > SINGULAR_RTOL * t**3.0
 
 
 @nb.njit(cache=True)
@@ -114,13 +127,23 @@ def block_inverse(sxx, syy, szz, sxy, sxz, syz):
     det = sxx * cxx + sxy * cxy + sxz * cxz
     ok = _regular(det, (sxx + syy + szz) / 3.0)
     inv_det = 1.0 / (det if ok else 1.0)
-    return cxx * inv_det, cyy * inv_det, czz * inv_det, cxy * inv_det, cxz * inv_det, cyz * inv_det, ok
+    return (
+        cxx * inv_det,
+        cyy * inv_det,
+        czz * inv_det,
+        cxy * inv_det,
+        cxz * inv_det,
+        cyz * inv_det,
+        ok,
+    )
 
 
 @nb.njit(cache=True)
 def _block_inverse_loop(s, out, ok):
     for j in range(s.shape[1]):
-        ixx, iyy, izz, ixy, ixz, iyz, good = block_inverse(s[0, j], s[1, j], s[2, j], s[3, j], s[4, j], s[5, j])
+        ixx, iyy, izz, ixy, ixz, iyz, good = block_inverse(
+            s[0, j], s[1, j], s[2, j], s[3, j], s[4, j], s[5, j]
+        )
         out[0, j] = ixx
         out[1, j] = iyy
         out[2, j] = izz
@@ -136,7 +159,9 @@ def position_block_inverse(sxx, syy, szz, sxy, sxz, syz):
     Returns (ixx, iyy, izz, ixy, ixz, iyz, ok), ``ok`` False where S is singular
     (det S <= :data:`SINGULAR_RTOL` (trace S / 3)^3); the entries there are finite but meaningless.
     """
-    arrays = np.broadcast_arrays(*(np.asarray(a, dtype=float) for a in (sxx, syy, szz, sxy, sxz, syz)))
+    arrays = np.broadcast_arrays(
+        *(np.asarray(a, dtype=float) for a in (sxx, syy, szz, sxy, sxz, syz))
+    )
     shape = arrays[0].shape
     s = np.ascontiguousarray(np.stack([a.reshape(-1) for a in arrays]))
     out = np.full_like(s, np.nan)
@@ -191,7 +216,6 @@ def weighted_dop_stats(values, weights, n_sigma, threshold):
     return kwv / kw, kept, mu, min(100.0, 100.0 * w_ok / w_all)
 
 
-
 def sigma_filtered_mean(values, weights=None, n_sigma: float = 3.0) -> tuple[float, int]:
     """Mean of the samples within ``n_sigma`` standard deviations of the mean (eq. 9-13).
 
@@ -200,7 +224,11 @@ def sigma_filtered_mean(values, weights=None, n_sigma: float = 3.0) -> tuple[flo
     (filtered mean, number of samples kept); (NaN, 0) when no finite sample exists.
     """
     v = np.asarray(values, dtype=float)
-    w = np.ones_like(v) if weights is None else np.broadcast_to(np.asarray(weights, dtype=float), v.shape)
+    w = (
+        np.ones_like(v)
+        if weights is None
+        else np.broadcast_to(np.asarray(weights, dtype=float), v.shape)
+    )
     finite = np.isfinite(v)
     v, w = v[finite], w[finite]
     if v.size == 0 or w.sum() <= 0.0:
@@ -214,7 +242,11 @@ def sigma_filtered_mean(values, weights=None, n_sigma: float = 3.0) -> tuple[flo
 def availability_pct(values, threshold: float = 15.0, weights=None) -> float:
     """Percentage of ALL samples with value < ``threshold`` (eq. 14); NaN (no DOP) counts as unavailable."""
     v = np.asarray(values, dtype=float)
-    w = np.ones_like(v) if weights is None else np.broadcast_to(np.asarray(weights, dtype=float), v.shape)
+    w = (
+        np.ones_like(v)
+        if weights is None
+        else np.broadcast_to(np.asarray(weights, dtype=float), v.shape)
+    )
     with np.errstate(invalid="ignore"):
         ok = v < threshold
     return min(100.0, float(100.0 * np.sum(w * ok) / np.sum(w)))  # min: rounding of the weight sums

@@ -48,8 +48,16 @@ import xarray as xr
 from sgp4.propagation import gstime
 
 from .config import data_path
-from .constants import (BOLTZMANN_J_K, C_M_S, EARTH_J2, MIN_VISIBLE, WGS84_A_KM, WGS84_B_KM, WGS84_GM_KM3_S2,
-                        WGS84_OMEGA_RAD_S)
+from .constants import (
+    BOLTZMANN_J_K,
+    C_M_S,
+    EARTH_J2,
+    MIN_VISIBLE,
+    WGS84_A_KM,
+    WGS84_B_KM,
+    WGS84_GM_KM3_S2,
+    WGS84_OMEGA_RAD_S,
+)
 from .ephemeris import body_states_mci
 from .errors import ConfigError
 from .frames import teme_to_j2000, tt_centuries, utc_julian_dates
@@ -59,9 +67,21 @@ from .gps import gain_for_settings, gps_states_mci
 if TYPE_CHECKING:
     from .settings import BodyConstants, GnssSettings, GpsSettings
 
-__all__ = ["Shell", "load_nominal_slots", "secular_rates", "nodal_period_s", "repeat_period_s", "repeat_sma_km",
-           "nominal_positions_teme", "gnss_states_mci", "Transmitters", "system_transmitters", "gnss_link_arrays",
-           "combined_pdop", "gnss_link_summary"]
+__all__ = [
+    "Shell",
+    "load_nominal_slots",
+    "secular_rates",
+    "nodal_period_s",
+    "repeat_period_s",
+    "repeat_sma_km",
+    "nominal_positions_teme",
+    "gnss_states_mci",
+    "Transmitters",
+    "system_transmitters",
+    "gnss_link_arrays",
+    "combined_pdop",
+    "gnss_link_summary",
+]
 
 SHELL_KINDS = ("MEO", "IGSO", "GEO")
 
@@ -73,6 +93,7 @@ class Shell:
     ``raan_deg`` and ``u_deg`` (n,) are the right ascension of the node and the argument of latitude
     of each slot in TEME at the study epoch; ``repeat`` (revolutions, sidereal days) the published
     ground-track repeat; ``published_period_s`` a period the document prints (NaN where none)."""
+
     system: str
     kind: str
     sma_km: float
@@ -89,7 +110,7 @@ def secular_rates(sma_km, inc_deg) -> tuple[np.ndarray, np.ndarray]:
     Omega_dot = -3/2 n J2 (R/a)^2 cos i; (M + omega)_dot = n (1 + 3/4 J2 (R/a)^2 (8 cos^2 i - 2))
     (the sum of the mean-anomaly and perigee rates for e = 0; Vallado, Section 9.6)."""
     a = np.asarray(sma_km, dtype=float)
-    n = np.sqrt(WGS84_GM_KM3_S2 / a ** 3)
+    n = np.sqrt(WGS84_GM_KM3_S2 / a**3)
     k = EARTH_J2 * (WGS84_A_KM / a) ** 2
     c = np.cos(np.radians(inc_deg))
     return -1.5 * n * k * c, n * (1.0 + 0.75 * k * (8.0 * c * c - 2.0))
@@ -109,7 +130,9 @@ def repeat_period_s(sma_km, inc_deg, revolutions: int, sidereal_days: int) -> np
 
 def repeat_sma_km(inc_deg: float, revolutions: int, sidereal_days: int) -> float:
     """Semi-major axis (km) whose J2 draconic period gives the ground-track repeat (fixed-point, to 1 mm)."""
-    period_s = sidereal_days * 2.0 * np.pi / (revolutions * WGS84_OMEGA_RAD_S)     # Kepler's first guess
+    period_s = (
+        sidereal_days * 2.0 * np.pi / (revolutions * WGS84_OMEGA_RAD_S)
+    )  # Kepler's first guess
     a = (WGS84_GM_KM3_S2 * (period_s / (2.0 * np.pi)) ** 2) ** (1 / 3)
     for _ in range(50):
         target = float(repeat_period_s(a, inc_deg, revolutions, sidereal_days))
@@ -117,29 +140,44 @@ def repeat_sma_km(inc_deg: float, revolutions: int, sidereal_days: int) -> float
         if abs(new - a) < 1e-6:
             return new
         a = new
-    raise RuntimeError(f"repeat_sma_km: no convergence for i = {inc_deg} deg, {revolutions} rev / {sidereal_days} d")
+    raise RuntimeError(
+        f"repeat_sma_km: no convergence for i = {inc_deg} deg, {revolutions} rev / {sidereal_days} d"
+    )
 
 
 def _walker(total: int, planes: int, phasing: int) -> tuple[np.ndarray, np.ndarray]:
     """(RAAN, argument of latitude) deg of a Walker T/P/F pattern, plane 1 at RAAN 0 and u 0."""
     per_plane = total // planes
     plane, slot = np.divmod(np.arange(total), per_plane)
-    return 360.0 * plane / planes, (360.0 * slot / per_plane + 360.0 * phasing * plane / total) % 360.0
+    return 360.0 * plane / planes, (
+        360.0 * slot / per_plane + 360.0 * phasing * plane / total
+    ) % 360.0
 
 
 def _shell(system: str, table: dict, gmst_deg: float, where: str) -> Shell:
     """A :class:`Shell` of one ``[[<system>.shell]]`` table; ``gmst_deg``: Greenwich angle at the epoch."""
     kind, inc = table.get("kind"), table.get("inc_deg")
     revs, days = table.get("repeat", (0, 0))
-    if kind not in SHELL_KINDS or not isinstance(inc, float) or not 0.0 <= inc <= 180.0 or revs < 1 or days < 1:
-        raise ConfigError(f"{where}: a shell needs kind in {SHELL_KINDS}, inc_deg in [0, 180] and repeat = "
-                          f"[revolutions, sidereal days] >= 1; got {table!r}", key="gnss.nominal_file")
+    if (
+        kind not in SHELL_KINDS
+        or not isinstance(inc, float)
+        or not 0.0 <= inc <= 180.0
+        or revs < 1
+        or days < 1
+    ):
+        raise ConfigError(
+            f"{where}: a shell needs kind in {SHELL_KINDS}, inc_deg in [0, 180] and repeat = "
+            f"[revolutions, sidereal days] >= 1; got {table!r}",
+            key="gnss.nominal_file",
+        )
     sma = float(table["sma_km"]) if "sma_km" in table else repeat_sma_km(inc, revs, days)
     if "walker" in table:
         total, planes, phasing = table["walker"]
         if total < 1 or planes < 1 or total % planes:
-            raise ConfigError(f"{where}: walker = {table['walker']!r}; allowed: [T, P, F] with T a multiple of P",
-                              key="gnss.nominal_file")
+            raise ConfigError(
+                f"{where}: walker = {table['walker']!r}; allowed: [T, P, F] with T a multiple of P",
+                key="gnss.nominal_file",
+            )
         raan, u = _walker(total, planes, phasing)
     elif kind == "IGSO":
         # one figure-eight track: slot k reaches its ascending node k/count of a sidereal day after slot 0,
@@ -150,9 +188,19 @@ def _shell(system: str, table: dict, gmst_deg: float, where: str) -> Shell:
         lon = np.asarray(table["longitudes_deg"], dtype=float)
         raan, u = np.zeros_like(lon), (lon + gmst_deg) % 360.0
     else:
-        raise ConfigError(f"{where}: a {kind} shell needs walker = [T, P, F]", key="gnss.nominal_file")
-    return Shell(system, kind, sma, inc, np.asarray(raan, float), np.asarray(u, float), (int(revs), int(days)),
-                 float(table.get("draconic_period_s", math.nan)))
+        raise ConfigError(
+            f"{where}: a {kind} shell needs walker = [T, P, F]", key="gnss.nominal_file"
+        )
+    return Shell(
+        system,
+        kind,
+        sma,
+        inc,
+        np.asarray(raan, float),
+        np.asarray(u, float),
+        (int(revs), int(days)),
+        float(table.get("draconic_period_s", math.nan)),
+    )
 
 
 def load_nominal_slots(path: str | Path, systems, gmst_deg: float = 0.0) -> list[Shell]:
@@ -165,9 +213,14 @@ def load_nominal_slots(path: str | Path, systems, gmst_deg: float = 0.0) -> list
     for system in systems:
         if system not in data or not data[system].get("shell"):
             there = ", ".join(k for k, v in data.items() if isinstance(v, dict))
-            raise ConfigError(f"{path}: no [[{system}.shell]] table; systems there: {there}", key="gnss.nominal_file")
-        shells.extend(_shell(system, table, gmst_deg, f"{path} [{system}] shell {k + 1}")
-                      for k, table in enumerate(data[system]["shell"]))
+            raise ConfigError(
+                f"{path}: no [[{system}.shell]] table; systems there: {there}",
+                key="gnss.nominal_file",
+            )
+        shells.extend(
+            _shell(system, table, gmst_deg, f"{path} [{system}] shell {k + 1}")
+            for k, table in enumerate(data[system]["shell"])
+        )
     return shells
 
 
@@ -181,7 +234,10 @@ def nominal_positions_teme(shells: list[Shell], dt_s) -> np.ndarray:
         u = np.radians(shell.u_deg)[:, None] + u_dot * dt[None, :]
         ci, si = math.cos(math.radians(shell.inc_deg)), math.sin(math.radians(shell.inc_deg))
         cu, su, co, so = np.cos(u), np.sin(u), np.cos(raan), np.sin(raan)
-        out.append(shell.sma_km * np.stack([co * cu - so * su * ci, so * cu + co * su * ci, su * si], axis=-1))
+        out.append(
+            shell.sma_km
+            * np.stack([co * cu - so * su * ci, so * cu + co * su * ci, su * si], axis=-1)
+        )
     return np.concatenate(out, axis=0)
 
 
@@ -196,8 +252,17 @@ def gnss_states_mci(gnss: GnssSettings, gps: GpsSettings, start_tdb: str, t_tdb_
     ``t_tdb_s[0]``, whose Greenwich angle (UT1 taken as UTC) places the GEO and IGSO slots."""
     t = np.atleast_1d(np.asarray(t_tdb_s, dtype=float))
     path = data_path(gnss.nominal_file, "gnss.nominal_file")
-    key = hashlib.sha256(b"".join([path.read_bytes(), repr(gnss.systems).encode(), repr(gps).encode(),
-                                   start_tdb.encode(), t.tobytes()])).hexdigest()
+    key = hashlib.sha256(
+        b"".join(
+            [
+                path.read_bytes(),
+                repr(gnss.systems).encode(),
+                repr(gps).encode(),
+                start_tdb.encode(),
+                t.tobytes(),
+            ]
+        )
+    ).hexdigest()
     if key in _STATE_CACHE:
         return _STATE_CACHE[key]
     if len(_STATE_CACHE) >= 8:
@@ -221,14 +286,27 @@ def gnss_states_mci(gnss: GnssSettings, gps: GpsSettings, start_tdb: str, t_tdb_
     r_teme = np.concatenate(parts, axis=0)
     r_eci = np.einsum("tij,gtj->gti", rot, r_teme)
     ds = xr.Dataset(
-        {"r_mci_km": (("sat", "time", "xyz"), r_eci + earth[None]), "r_eci_km": (("sat", "time", "xyz"), r_eci),
-         "r_teme_km": (("sat", "time", "xyz"), r_teme), "rot_teme_to_j2000": (("time", "i", "j"), rot),
-         "earth_mci_km": (("time", "xyz"), earth)},
-        coords={"sat": np.arange(len(systems)), "time": t, "xyz": ["x", "y", "z"], "system": ("sat", systems),
-                "name": ("sat", names)},
-        attrs={"frame": "J2000 (r_mci_km Moon-centred, r_eci_km Earth-centred); r_teme_km TEME",
-               "time_scale": "TDB seconds past J2000", "nominal_file": str(path),
-               "propagator": "GPS: SGP4 from TLEs; others: nominal slots, Kepler + J2 secular rates"})
+        {
+            "r_mci_km": (("sat", "time", "xyz"), r_eci + earth[None]),
+            "r_eci_km": (("sat", "time", "xyz"), r_eci),
+            "r_teme_km": (("sat", "time", "xyz"), r_teme),
+            "rot_teme_to_j2000": (("time", "i", "j"), rot),
+            "earth_mci_km": (("time", "xyz"), earth),
+        },
+        coords={
+            "sat": np.arange(len(systems)),
+            "time": t,
+            "xyz": ["x", "y", "z"],
+            "system": ("sat", systems),
+            "name": ("sat", names),
+        },
+        attrs={
+            "frame": "J2000 (r_mci_km Moon-centred, r_eci_km Earth-centred); r_teme_km TEME",
+            "time_scale": "TDB seconds past J2000",
+            "nominal_file": str(path),
+            "propagator": "GPS: SGP4 from TLEs; others: nominal slots, Kepler + J2 secular rates",
+        },
+    )
     _STATE_CACHE[key] = ds
     return ds
 
@@ -237,11 +315,13 @@ def gnss_states_mci(gnss: GnssSettings, gps: GpsSettings, start_tdb: str, t_tdb_
 # Link budget per system
 # --------------------------------------------------------------------------------------------
 
+
 @dataclass(frozen=True)
 class Transmitters:
     """Per satellite (sat,): system index into ``systems``, the factor on theta_off that reads the GPS pattern
     (``angle_scale``), EIRP plus receiver gain without the pattern (``eirp_rx_db``, dB) and 4 pi / lambda
     (``fsl_per_km``, 1/km: free-space loss = 20 log10(fsl_per_km d))."""
+
     systems: tuple[str, ...]
     system_index: np.ndarray
     angle_scale: np.ndarray
@@ -254,7 +334,9 @@ def _edge_of_coverage(sma_km, elevation_deg: float) -> tuple[np.ndarray, np.ndar
     sphere who sees it at ``elevation_deg``."""
     a = np.asarray(sma_km, dtype=float)
     ce, se = math.cos(math.radians(elevation_deg)), math.sin(math.radians(elevation_deg))
-    return np.sqrt(a * a - (WGS84_A_KM * ce) ** 2) - WGS84_A_KM * se, np.degrees(np.arcsin(WGS84_A_KM * ce / a))
+    return np.sqrt(a * a - (WGS84_A_KM * ce) ** 2) - WGS84_A_KM * se, np.degrees(
+        np.arcsin(WGS84_A_KM * ce / a)
+    )
 
 
 def _fsl_per_km(frequency_mhz: float) -> float:
@@ -274,7 +356,9 @@ def system_transmitters(gnss: GnssSettings, gps: GpsSettings, states: xr.Dataset
     alpha_gps = np.degrees(np.arcsin(WGS84_A_KM / ref.sma_km))
     d_gps, eta_gps = _edge_of_coverage(ref.sma_km, ref.edge_elevation_deg)
     fsl_gps = 20.0 * np.log10(_fsl_per_km(gps.frequency_mhz) * d_gps)
-    margin_gps = float(gain(eta_gps)) - fsl_gps - ref.min_received_power_dbw   # GPS budget over its ICD minimum
+    margin_gps = (
+        float(gain(eta_gps)) - fsl_gps - ref.min_received_power_dbw
+    )  # GPS budget over its ICD minimum
     radius = np.linalg.norm(states["r_teme_km"].values[:, 0, :], axis=-1)
     system = states["system"].values
     index = np.array([gnss.systems.index(s) for s in system], dtype=np.int64)
@@ -289,11 +373,16 @@ def system_transmitters(gnss: GnssSettings, gps: GpsSettings, states: xr.Dataset
         d, eta = _edge_of_coverage(radius[mask], tx.edge_elevation_deg)
         f = _fsl_per_km(tx.frequency_mhz)
         # pattern shift so that gain(k eta) + shift - FSL(d) - P_min = the GPS margin
-        shift[mask] = margin_gps + tx.min_received_power_dbw + 20.0 * np.log10(f * d) - gain(k * eta)
+        shift[mask] = (
+            margin_gps + tx.min_received_power_dbw + 20.0 * np.log10(f * d) - gain(k * eta)
+        )
         scale[mask], fsl[mask] = k, f
     if np.any(~np.isfinite(shift)):
-        raise ConfigError("an edge-of-coverage angle falls outside the gain pattern's table; widen the pattern "
-                          "file or lower [gnss.<system>] edge_elevation_deg", key="gps.gain_file")
+        raise ConfigError(
+            "an edge-of-coverage angle falls outside the gain pattern's table; widen the pattern "
+            "file or lower [gnss.<system>] edge_elevation_deg",
+            key="gps.gain_file",
+        )
     return Transmitters(tuple(gnss.systems), index, scale, base + shift, fsl)
 
 
@@ -315,21 +404,51 @@ def _satellite_arrays(states: xr.Dataset, margin_deg: float, r_earth_km: float) 
         return hit[2]
     if len(_ARRAYS) >= 8:
         _ARRAYS.clear()
-    r_mci, r_eci, r_teme = (np.ascontiguousarray(states[name].transpose("time", "sat", "xyz").values)
-                            for name in ("r_mci_km", "r_eci_km", "r_teme_km"))
+    r_mci, r_eci, r_teme = (
+        np.ascontiguousarray(states[name].transpose("time", "sat", "xyz").values)
+        for name in ("r_mci_km", "r_eci_km", "r_teme_km")
+    )
     norm = np.linalg.norm(r_eci, axis=-1)
     cos_earth = np.cos(np.arcsin(r_earth_km / norm) + np.radians(margin_deg))
-    arrays = (r_mci, np.ascontiguousarray(r_eci / norm[..., None]), np.ascontiguousarray(cos_earth), r_teme,
-              np.ascontiguousarray(states["earth_mci_km"].values),
-              np.ascontiguousarray(states["rot_teme_to_j2000"].values))
+    arrays = (
+        r_mci,
+        np.ascontiguousarray(r_eci / norm[..., None]),
+        np.ascontiguousarray(cos_earth),
+        r_teme,
+        np.ascontiguousarray(states["earth_mci_km"].values),
+        np.ascontiguousarray(states["rot_teme_to_j2000"].values),
+    )
     _ARRAYS[key] = (states, (margin_deg, r_earth_km), arrays)
     return arrays
 
 
 @nb.njit(cache=True)
-def _gnss_kernel(r_lnss, r_mci, out_hat, cos_earth, r_teme, earth, rot, system, cos_beam, angle_scale, eirp_rx_db,
-                 fsl_per_km, n_systems, theta_tab, gain_tab, r_moon, ellipsoid, a_km, b_km, noise_db, threshold_dbhz,
-                 clock, counts, scatter):
+def _gnss_kernel(
+    r_lnss,
+    r_mci,
+    out_hat,
+    cos_earth,
+    r_teme,
+    earth,
+    rot,
+    system,
+    cos_beam,
+    angle_scale,
+    eirp_rx_db,
+    fsl_per_km,
+    n_systems,
+    theta_tab,
+    gain_tab,
+    r_moon,
+    ellipsoid,
+    a_km,
+    b_km,
+    noise_db,
+    threshold_dbhz,
+    clock,
+    counts,
+    scatter,
+):
     """Visibility (eq. 15-24, the tests of :func:`lnss_lib.gps.gps_link` with cosines compared in place of
     angles) of every (epoch, satellite) pair for one LNSS satellite ``r_lnss`` (time, 3); per epoch and system
     the visible count (``counts`` (time, system)) and the scatter of the lines of sight about the system's mean
@@ -347,7 +466,7 @@ def _gnss_kernel(r_lnss, r_mci, out_hat, cos_earth, r_teme, earth, rot, system, 
         r_norm = np.sqrt(px * px + py * py + pz * pz)
         zx, zy, zz = px / r_norm, py / r_norm, pz / r_norm
         s_moon = min(r_moon / r_norm, 1.0)
-        cos_moon = np.sqrt(1.0 - s_moon * s_moon)                          # cos of the Moon's angular radius
+        cos_moon = np.sqrt(1.0 - s_moon * s_moon)  # cos of the Moon's angular radius
         if ellipsoid:
             ex, ey, ez = px - earth[t, 0], py - earth[t, 1], pz - earth[t, 2]
             for i in range(3):
@@ -361,27 +480,43 @@ def _gnss_kernel(r_lnss, r_mci, out_hat, cos_earth, r_teme, earth, rot, system, 
             ux /= rng
             uy /= rng
             uz /= rng
-            cos_off = out_hat[t, g, 0] * ux + out_hat[t, g, 1] * uy + out_hat[t, g, 2] * uz  # boresight, sat -> LNSS
+            cos_off = (
+                out_hat[t, g, 0] * ux + out_hat[t, g, 1] * uy + out_hat[t, g, 2] * uz
+            )  # boresight, sat -> LNSS
             if cos_off < cos_beam[g]:
-                continue                                                   # outside the beam mask
+                continue  # outside the beam mask
             if cos_off > cos_earth[t, g]:
-                continue                                                   # behind the Earth + margin (eq. 21)
+                continue  # behind the Earth + margin (eq. 21)
             if -(ux * zx + uy * zy + uz * zz) > cos_moon:
-                continue                                                   # behind the Moon (eq. 17-18)
+                continue  # behind the Moon (eq. 17-18)
             if ellipsoid:
-                q0x, q0y, q0z = r_teme[t, g, 0] / a_km, r_teme[t, g, 1] / a_km, r_teme[t, g, 2] / b_km
-                dx, dy, dz = lnss_teme[0] / a_km - q0x, lnss_teme[1] / a_km - q0y, lnss_teme[2] / b_km - q0z
-                sc = min(max(-(q0x * dx + q0y * dy + q0z * dz) / (dx * dx + dy * dy + dz * dz), 0.0), 1.0)
+                q0x, q0y, q0z = (
+                    r_teme[t, g, 0] / a_km,
+                    r_teme[t, g, 1] / a_km,
+                    r_teme[t, g, 2] / b_km,
+                )
+                dx, dy, dz = (
+                    lnss_teme[0] / a_km - q0x,
+                    lnss_teme[1] / a_km - q0y,
+                    lnss_teme[2] / b_km - q0z,
+                )
+                sc = min(
+                    max(-(q0x * dx + q0y * dy + q0z * dz) / (dx * dx + dy * dy + dz * dz), 0.0), 1.0
+                )
                 cx, cy, cz = q0x + sc * dx, q0y + sc * dy, q0z + sc * dz
                 if cx * cx + cy * cy + cz * cz < 1.0:
-                    continue                                               # through the WGS-84 ellipsoid
+                    continue  # through the WGS-84 ellipsoid
             theta = np.degrees(np.arccos(min(max(cos_off, -1.0), 1.0))) * angle_scale[g]
             if theta < theta_tab[0] or theta > theta_tab[-1]:
-                continue                                                   # no gain tabulated: no link
-            cn0 = eirp_rx_db[g] + np.interp(theta, theta_tab, gain_tab) - 20.0 * np.log10(fsl_per_km[g] * rng) \
+                continue  # no gain tabulated: no link
+            cn0 = (
+                eirp_rx_db[g]
+                + np.interp(theta, theta_tab, gain_tab)
+                - 20.0 * np.log10(fsl_per_km[g] * rng)
                 - noise_db
+            )
             if not cn0 >= threshold_dbhz:
-                continue                                                   # link budget (eq. 22-24)
+                continue  # link budget (eq. 22-24)
             lx[n] = ux
             ly[n] = uy
             lz[n] = uz
@@ -443,40 +578,76 @@ def _combined_pdop_kernel(counts, scatter, members, clock, pdop):
         pdop[t] = np.sqrt(max(ixx + iyy + izz, 0.0)) if ok else np.inf
 
 
-def gnss_link_arrays(gps: GpsSettings, constants: BodyConstants, states: xr.Dataset, tx: Transmitters,
-                     r_lnss_mci_km: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+def gnss_link_arrays(
+    gps: GpsSettings,
+    constants: BodyConstants,
+    states: xr.Dataset,
+    tx: Transmitters,
+    r_lnss_mci_km: np.ndarray,
+) -> tuple[np.ndarray, np.ndarray]:
     """(counts (time, system), scatter (time, system, 6)) of one LNSS satellite ``r_lnss_mci_km`` (time, 3)
     on the states' epochs: the compiled pass over every (epoch, satellite) pair (:func:`_gnss_kernel`) with the
     ``[gps]`` receiver, beam mask, occultation tests and gain pattern and the transmitters ``tx``."""
     gain = gain_for_settings(gps)
     arrays = _satellite_arrays(states, gps.atmosphere_margin_deg, constants.r_earth_km)
     ntime, nsys = states.sizes["time"], len(tx.systems)
-    counts = np.full((ntime, nsys), -1, dtype=np.int64)     # -1: not computed (checked after the kernel)
+    counts = np.full(
+        (ntime, nsys), -1, dtype=np.int64
+    )  # -1: not computed (checked after the kernel)
     scatter = np.zeros((ntime, nsys, 6))
     cos_beam = np.cos(np.radians(np.minimum(gps.beam_mask_deg / tx.angle_scale, 180.0)))
-    _gnss_kernel(np.ascontiguousarray(r_lnss_mci_km, dtype=float), *arrays,
-                 tx.system_index, cos_beam, tx.angle_scale, tx.eirp_rx_db, tx.fsl_per_km, nsys,
-                 np.asarray(gain.off_boresight_deg, dtype=float), np.asarray(gain.gain_dbi, dtype=float),
-                 constants.r_moon_mean_km, gps.ellipsoid_test, WGS84_A_KM, WGS84_B_KM,
-                 10.0 * np.log10(BOLTZMANN_J_K * gps.noise_temperature_k),
-                 gps.cn0_threshold_dbhz, gps.clock_column, counts, scatter)
+    _gnss_kernel(
+        np.ascontiguousarray(r_lnss_mci_km, dtype=float),
+        *arrays,
+        tx.system_index,
+        cos_beam,
+        tx.angle_scale,
+        tx.eirp_rx_db,
+        tx.fsl_per_km,
+        nsys,
+        np.asarray(gain.off_boresight_deg, dtype=float),
+        np.asarray(gain.gain_dbi, dtype=float),
+        constants.r_moon_mean_km,
+        gps.ellipsoid_test,
+        WGS84_A_KM,
+        WGS84_B_KM,
+        10.0 * np.log10(BOLTZMANN_J_K * gps.noise_temperature_k),
+        gps.cn0_threshold_dbhz,
+        gps.clock_column,
+        counts,
+        scatter,
+    )
     if np.any(counts < 0):
-        raise RuntimeError(f"the GNSS link kernel left {int(np.sum(counts[:, 0] < 0))} of {ntime} epochs not computed")
+        raise RuntimeError(
+            f"the GNSS link kernel left {int(np.sum(counts[:, 0] < 0))} of {ntime} epochs not computed"
+        )
     return counts, scatter
 
 
-def combined_pdop(counts: np.ndarray, scatter: np.ndarray, systems, members, clock_column: bool = True) -> np.ndarray:
+def combined_pdop(
+    counts: np.ndarray, scatter: np.ndarray, systems, members, clock_column: bool = True
+) -> np.ndarray:
     """PDOP (time,) of the systems named in ``members`` (a subset of ``systems``, the columns of ``counts``)."""
     unknown = set(members) - set(systems)
     if unknown or not members:
-        raise ValueError(f"PDOP members {sorted(unknown) or members!r} not among the link's systems {list(systems)}")
+        raise ValueError(
+            f"PDOP members {sorted(unknown) or members!r} not among the link's systems {list(systems)}"
+        )
     pdop = np.empty(counts.shape[0])
-    _combined_pdop_kernel(counts, scatter, np.array([s in members for s in systems]), bool(clock_column), pdop)
+    _combined_pdop_kernel(
+        counts, scatter, np.array([s in members for s in systems]), bool(clock_column), pdop
+    )
     return pdop
 
 
-def gnss_link_summary(counts: np.ndarray, scatter: np.ndarray, systems, combinations: dict[str, tuple[str, ...]],
-                      pdop_filter: str, clock_column: bool = True) -> dict[str, dict[str, float]]:
+def gnss_link_summary(
+    counts: np.ndarray,
+    scatter: np.ndarray,
+    systems,
+    combinations: dict[str, tuple[str, ...]],
+    pdop_filter: str,
+    clock_column: bool = True,
+) -> dict[str, dict[str, float]]:
     """Per system and per named combination of systems: ``visible_mean`` (mean over epochs, zeros included),
     ``pdop_mean`` (:func:`lnss_lib.geometry.filtered_mean` with ``pdop_filter``) and
     ``pdop_available_fraction`` (epochs with a PDOP)."""
@@ -485,7 +656,9 @@ def gnss_link_summary(counts: np.ndarray, scatter: np.ndarray, systems, combinat
     for label, members in groups.items():
         pdop = combined_pdop(counts, scatter, systems, members, clock_column)
         columns = [list(systems).index(m) for m in members]
-        out[label] = {"visible_mean": float(counts[:, columns].sum(axis=1).mean()),
-                      "pdop_mean": filtered_mean(pdop, pdop_filter)[0],
-                      "pdop_available_fraction": float(np.isfinite(pdop).mean())}
+        out[label] = {
+            "visible_mean": float(counts[:, columns].sum(axis=1).mean()),
+            "pdop_mean": filtered_mean(pdop, pdop_filter)[0],
+            "pdop_available_fraction": float(np.isfinite(pdop).mean()),
+        }
     return out

@@ -42,9 +42,24 @@ from .tle import TleRecord, gps_catalogue
 if TYPE_CHECKING:
     from .settings import BodyConstants, GpsSettings
 
-__all__ = ["propagate_teme", "gps_states_mci", "lunar_occultation", "off_boresight_deg", "earth_occultation",
-           "ray_hits_ellipsoid", "free_space_loss_db", "cn0_dbhz", "pdop_kernel", "pdop_along_axis", "GainPattern",
-           "load_gain_pattern", "gain_for_settings", "gps_link", "gps_link_metrics", "gps_link_summary"]
+__all__ = [
+    "propagate_teme",
+    "gps_states_mci",
+    "lunar_occultation",
+    "off_boresight_deg",
+    "earth_occultation",
+    "ray_hits_ellipsoid",
+    "free_space_loss_db",
+    "cn0_dbhz",
+    "pdop_kernel",
+    "pdop_along_axis",
+    "GainPattern",
+    "load_gain_pattern",
+    "gain_for_settings",
+    "gps_link",
+    "gps_link_metrics",
+    "gps_link_summary",
+]
 
 
 def propagate_teme(records: list[TleRecord], jd_utc: np.ndarray, fr_utc: np.ndarray) -> np.ndarray:
@@ -56,12 +71,16 @@ def propagate_teme(records: list[TleRecord], jd_utc: np.ndarray, fr_utc: np.ndar
     if np.any(err != 0):
         k, j = np.argwhere(err != 0)[0]
         record, code = records[k], int(err[k, j])
-        at_utc = dt.datetime(2000, 1, 1, 12) + dt.timedelta(days=float(jd_utc[j] - J2000_JD) + float(fr_utc[j]))
+        at_utc = dt.datetime(2000, 1, 1, 12) + dt.timedelta(
+            days=float(jd_utc[j] - J2000_JD) + float(fr_utc[j])
+        )
         days = (at_utc - record.epoch_utc).total_seconds() / SECONDS_PER_DAY
-        raise ValueError(f"SGP4 cannot propagate {record.name} (catalogue number {record.satnum}, line "
-                         f"{record.file_line}) to {at_utc:%Y-%m-%dT%H:%M:%S} UTC, {days:+,.1f} days from its TLE epoch "
-                         f"{record.epoch_utc:%Y-%m-%dT%H:%M:%S} UTC: {SGP4_ERRORS.get(code, 'unknown error')} "
-                         f"(SGP4 error {code})")
+        raise ValueError(
+            f"SGP4 cannot propagate {record.name} (catalogue number {record.satnum}, line "
+            f"{record.file_line}) to {at_utc:%Y-%m-%dT%H:%M:%S} UTC, {days:+,.1f} days from its TLE epoch "
+            f"{record.epoch_utc:%Y-%m-%dT%H:%M:%S} UTC: {SGP4_ERRORS.get(code, 'unknown error')} "
+            f"(SGP4 error {code})"
+        )
     return np.asarray(r_km)
 
 
@@ -69,8 +88,14 @@ _STATE_CACHE: dict[str, xr.Dataset] = {}
 _STATE_CACHE_SIZE = 8
 
 
-def gps_states_mci(gps: GpsSettings, start_tdb: str, t_tdb_s, *, tle_path: str | Path | None = None,
-                   sgp4_offset_s: float = 0.0) -> xr.Dataset:
+def gps_states_mci(
+    gps: GpsSettings,
+    start_tdb: str,
+    t_tdb_s,
+    *,
+    tle_path: str | Path | None = None,
+    sgp4_offset_s: float = 0.0,
+) -> xr.Dataset:
     """GPS positions at TDB epochs: Dataset (gps, time, xyz) with ``r_mci_km``, ``r_eci_km``, ``r_teme_km``.
 
     SGP4 (TEME, UTC) -> J2000 (:func:`teme_to_j2000`) -> Moon-centred by adding the Earth's
@@ -86,11 +111,21 @@ def gps_states_mci(gps: GpsSettings, start_tdb: str, t_tdb_s, *, tle_path: str |
     """
     t = np.atleast_1d(np.asarray(t_tdb_s, dtype=float))
     path = Path(tle_path) if tle_path is not None else data_path(gps.tle_file)
-    selection = {k: str(getattr(gps, k)) for k in ("exclude_prn", "exclude_launched_after", "exclude_launches_from",
-                                                    "launch_dates")}
-    key = hashlib.sha256(b"".join([
-        path.read_bytes(), repr(sorted(selection.items())).encode(), start_tdb.encode(),
-        t.tobytes(), repr(float(sgp4_offset_s)).encode()])).hexdigest()
+    selection = {
+        k: str(getattr(gps, k))
+        for k in ("exclude_prn", "exclude_launched_after", "exclude_launches_from", "launch_dates")
+    }
+    key = hashlib.sha256(
+        b"".join(
+            [
+                path.read_bytes(),
+                repr(sorted(selection.items())).encode(),
+                start_tdb.encode(),
+                t.tobytes(),
+                repr(float(sgp4_offset_s)).encode(),
+            ]
+        )
+    ).hexdigest()
     if key in _STATE_CACHE:
         return _STATE_CACHE[key]
     if len(_STATE_CACHE) >= _STATE_CACHE_SIZE:
@@ -100,8 +135,11 @@ def gps_states_mci(gps: GpsSettings, start_tdb: str, t_tdb_s, *, tle_path: str |
     try:
         r_teme = propagate_teme(records, jd, fr)
     except ValueError as error:
-        raise ConfigError(f"gps.tle_file = {gps.tle_file!r} for the study from epoch.start_tdb = {start_tdb!r}: "
-                          f"{error}; use TLEs dated nearer the study epoch", key="gps.tle_file") from None
+        raise ConfigError(
+            f"gps.tle_file = {gps.tle_file!r} for the study from epoch.start_tdb = {start_tdb!r}: "
+            f"{error}; use TLEs dated nearer the study epoch",
+            key="gps.tle_file",
+        ) from None
     rot = teme_to_j2000(tt_centuries(t))
     r_eci = np.einsum("tij,gtj->gti", rot, r_teme)
     earth_mci = body_states_mci("EARTH", t)[:, :3]
@@ -114,15 +152,22 @@ def gps_states_mci(gps: GpsSettings, start_tdb: str, t_tdb_s, *, tle_path: str |
             "rot_teme_to_j2000": (("time", "i", "j"), rot),
             "earth_mci_km": (("time", "xyz"), earth_mci),
         },
-        coords={"gps": np.arange(len(records)), "time": t, "xyz": ["x", "y", "z"],
-                "prn": ("gps", np.array([-1 if r.prn is None else r.prn for r in records])),
-                "name": ("gps", [r.name for r in records]),
-                "designator": ("gps", [r.designator for r in records])},
-        attrs={"frame": "J2000 (r_mci_km Moon-centred, r_eci_km Earth-centred); r_teme_km TEME",
-               "time_scale": "TDB seconds past J2000", "tle_file": str(path),
-               "propagator": "SGP4 (sgp4 package), UTC from SPICE deltet",
-               "teme_to_j2000": "IAU-1976 precession, IAU-1980 nutation (13 terms), EqE 1982",
-               "sgp4_offset_s": float(sgp4_offset_s)},
+        coords={
+            "gps": np.arange(len(records)),
+            "time": t,
+            "xyz": ["x", "y", "z"],
+            "prn": ("gps", np.array([-1 if r.prn is None else r.prn for r in records])),
+            "name": ("gps", [r.name for r in records]),
+            "designator": ("gps", [r.designator for r in records]),
+        },
+        attrs={
+            "frame": "J2000 (r_mci_km Moon-centred, r_eci_km Earth-centred); r_teme_km TEME",
+            "time_scale": "TDB seconds past J2000",
+            "tle_file": str(path),
+            "propagator": "SGP4 (sgp4 package), UTC from SPICE deltet",
+            "teme_to_j2000": "IAU-1976 precession, IAU-1980 nutation (13 terms), EqE 1982",
+            "sgp4_offset_s": float(sgp4_offset_s),
+        },
     )
     _STATE_CACHE[key] = ds
     return ds
@@ -131,6 +176,7 @@ def gps_states_mci(gps: GpsSettings, start_tdb: str, t_tdb_s, *, tle_path: str |
 # --------------------------------------------------------------------------------------------
 # Link kernels (pure numpy, broadcasting over any leading axes)
 # --------------------------------------------------------------------------------------------
+
 
 def _unit(v: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     norm = np.linalg.norm(v, axis=-1)
@@ -141,7 +187,9 @@ def _angle_deg(a_hat: np.ndarray, b_hat: np.ndarray) -> np.ndarray:
     return np.degrees(np.arccos(np.clip(np.sum(a_hat * b_hat, axis=-1), -1.0, 1.0)))
 
 
-def lunar_occultation(r_lnss_mci_km: np.ndarray, r_gps_mci_km: np.ndarray, r_moon_km: float) -> np.ndarray:
+def lunar_occultation(
+    r_lnss_mci_km: np.ndarray, r_gps_mci_km: np.ndarray, r_moon_km: float
+) -> np.ndarray:
     """True where the Moon blocks the LNSS -> GPS line of sight (eq. 15-18).
 
     theta_moon = acos(-u . z_hat) (u: unit LNSS -> GPS, z_hat: unit Moon -> LNSS) is compared with
@@ -161,15 +209,17 @@ def off_boresight_deg(r_gps_eci_km: np.ndarray, r_lnss_eci_km: np.ndarray) -> np
     return _angle_deg(b_hat, u_hat)
 
 
-def earth_occultation(theta_off_deg: np.ndarray, r_gps_eci_km: np.ndarray, r_earth_km: float,
-                      margin_deg: float) -> np.ndarray:
+def earth_occultation(
+    theta_off_deg: np.ndarray, r_gps_eci_km: np.ndarray, r_earth_km: float, margin_deg: float
+) -> np.ndarray:
     """True where theta_off < alpha_earth + margin (eq. 21): behind the Earth or its atmosphere."""
     alpha = np.degrees(np.arcsin(r_earth_km / np.linalg.norm(r_gps_eci_km, axis=-1)))
     return theta_off_deg < alpha + margin_deg
 
 
-def ray_hits_ellipsoid(p0_km: np.ndarray, p1_km: np.ndarray, a_km: float = WGS84_A_KM,
-                       b_km: float = WGS84_B_KM) -> np.ndarray:
+def ray_hits_ellipsoid(
+    p0_km: np.ndarray, p1_km: np.ndarray, a_km: float = WGS84_A_KM, b_km: float = WGS84_B_KM
+) -> np.ndarray:
     """True where the segment p0 -> p1 meets the ellipsoid x^2/a^2 + y^2/a^2 + z^2/b^2 = 1 (axes along z).
 
     Both ends are in the ellipsoid's own frame (Earth-centred, z along the pole). Scaling by
@@ -190,21 +240,34 @@ def free_space_loss_db(distance_km: np.ndarray, frequency_hz: float) -> np.ndarr
     return 20.0 * np.log10(4.0 * np.pi * np.asarray(distance_km) * 1e3 / wavelength_m)
 
 
-def cn0_dbhz(gain_tx_dbi: np.ndarray, distance_km: np.ndarray, *, p_tx_dbw: float, losses_db: float,
-             g_rx_dbi: float, frequency_hz: float, noise_temperature_k: float) -> np.ndarray:
+def cn0_dbhz(
+    gain_tx_dbi: np.ndarray,
+    distance_km: np.ndarray,
+    *,
+    p_tx_dbw: float,
+    losses_db: float,
+    g_rx_dbi: float,
+    frequency_hz: float,
+    noise_temperature_k: float,
+) -> np.ndarray:
     """C/N0 (dB-Hz, eq. 22-24): P_tx - L_tx + G_tx + G_rx - FSL - 10 log10(k T)."""
     if not noise_temperature_k > 0.0:
         raise ValueError(f"noise temperature must be positive (K); got {noise_temperature_k!r}")
     eirp = p_tx_dbw - losses_db + np.asarray(gain_tx_dbi)
-    return eirp + g_rx_dbi - free_space_loss_db(distance_km, frequency_hz) \
+    return (
+        eirp
+        + g_rx_dbi
+        - free_space_loss_db(distance_km, frequency_hz)
         - 10.0 * np.log10(BOLTZMANN_J_K * noise_temperature_k)
+    )
 
 
 def _position_block(los_hat, visible, clock_column: bool):
     """(entries of the position block of (G^T G)^-1, ok, enough) from lines of sight (..., n, 3)."""
     los = np.asarray(los_hat, dtype=float)
-    n_vis, entries = normal_matrix_entries(los[..., 0], los[..., 1], los[..., 2], visible, axis=-1,
-                                           clock_column=clock_column)
+    n_vis, entries = normal_matrix_entries(
+        los[..., 0], los[..., 1], los[..., 2], visible, axis=-1, clock_column=clock_column
+    )
     *inverse, ok = position_block_inverse(*entries)
     return inverse, ok, n_vis >= (MIN_VISIBLE if clock_column else MIN_VISIBLE - 1)
 
@@ -221,8 +284,9 @@ def pdop_kernel(los_hat: np.ndarray, visible: np.ndarray, clock_column: bool = T
     return np.where(enough, pdop, np.nan)
 
 
-def pdop_along_axis(los_hat: np.ndarray, visible: np.ndarray, axis_hat: np.ndarray,
-                    clock_column: bool = True) -> tuple[np.ndarray, np.ndarray]:
+def pdop_along_axis(
+    los_hat: np.ndarray, visible: np.ndarray, axis_hat: np.ndarray, clock_column: bool = True
+) -> tuple[np.ndarray, np.ndarray]:
     """Split PDOP into the error along ``axis_hat`` (..., 3) and across it: (sigma_along, sigma_across).
 
     sigma_along^2 = a^T Q a and sigma_across^2 = PDOP^2 - sigma_along^2 with Q the position block of
@@ -233,7 +297,12 @@ def pdop_along_axis(los_hat: np.ndarray, visible: np.ndarray, axis_hat: np.ndarr
     (qxx, qyy, qzz, qxy, qxz, qyz), ok, enough = _position_block(los_hat, visible, clock_column)
     a = np.broadcast_to(np.asarray(axis_hat, dtype=float), qxx.shape + (3,))
     ax, ay, az = a[..., 0], a[..., 1], a[..., 2]
-    along2 = ax * ax * qxx + ay * ay * qyy + az * az * qzz + 2.0 * (ax * ay * qxy + ax * az * qxz + ay * az * qyz)
+    along2 = (
+        ax * ax * qxx
+        + ay * ay * qyy
+        + az * az * qzz
+        + 2.0 * (ax * ay * qxy + ax * az * qxz + ay * az * qyz)
+    )
     total2 = qxx + qyy + qzz
     defined = ok & enough
     along = np.where(defined, np.sqrt(np.maximum(along2, 0.0)), np.nan)
@@ -244,6 +313,7 @@ def pdop_along_axis(los_hat: np.ndarray, visible: np.ndarray, axis_hat: np.ndarr
 # --------------------------------------------------------------------------------------------
 # Transmit gain pattern
 # --------------------------------------------------------------------------------------------
+
 
 @dataclass(frozen=True)
 class GainPattern:
@@ -259,13 +329,16 @@ class GainPattern:
         inside = (theta >= self.off_boresight_deg[0]) & (theta <= self.off_boresight_deg[-1])
         return np.where(inside, gain, np.nan)
 
-    def with_sidelobes(self, from_deg: float, offset_db: float) -> "GainPattern":
+    def with_sidelobes(self, from_deg: float, offset_db: float) -> GainPattern:
         """The pattern with ``offset_db`` added beyond ``from_deg`` (-inf: main lobe only)."""
         if offset_db == 0.0:
             return self
         gain = np.where(self.off_boresight_deg > from_deg, self.gain_dbi + offset_db, self.gain_dbi)
-        return GainPattern(self.off_boresight_deg, gain, f"{self.source}, sidelobes beyond {from_deg} deg "
-                                                         f"{offset_db:+g} dB")
+        return GainPattern(
+            self.off_boresight_deg,
+            gain,
+            f"{self.source}, sidelobes beyond {from_deg} deg {offset_db:+g} dB",
+        )
 
 
 def load_gain_pattern(path: str | Path, column: str) -> GainPattern:
@@ -274,22 +347,32 @@ def load_gain_pattern(path: str | Path, column: str) -> GainPattern:
     if not path.is_file():
         raise ValueError(f"gain pattern file not found: {path}")
     with open(path, newline="") as handle:
-        numbered = [(k, line) for k, line in enumerate(handle, start=1) if line.strip() and not line.startswith("#")]
+        numbered = [
+            (k, line)
+            for k, line in enumerate(handle, start=1)
+            if line.strip() and not line.startswith("#")
+        ]
     rows = list(zip((k for k, _ in numbered), csv.reader(line for _, line in numbered)))
     if len(rows) < 3:
-        raise ConfigError(f"{path}: a gain pattern needs a header line and at least two rows", key="gps.gain_file")
+        raise ConfigError(
+            f"{path}: a gain pattern needs a header line and at least two rows", key="gps.gain_file"
+        )
     header = [c.strip() for c in rows[0][1]]
     values = []
     for line_no, row in rows[1:]:
         try:
             numbers = [float(c) for c in row]
         except ValueError:
-            raise ConfigError(f"{path}: line {line_no}: need {len(header)} numbers separated by commas",
-                              key="gps.gain_file") from None
+            raise ConfigError(
+                f"{path}: line {line_no}: need {len(header)} numbers separated by commas",
+                key="gps.gain_file",
+            ) from None
         if len(numbers) != len(header) or not all(np.isfinite(numbers)):
-            raise ConfigError(f"{path}: line {line_no}: need {len(header)} finite numbers; got {len(numbers)} value(s)"
-                              f"{'' if all(np.isfinite(numbers)) else ', not all finite'}",
-                              key="gps.gain_file")
+            raise ConfigError(
+                f"{path}: line {line_no}: need {len(header)} finite numbers; got {len(numbers)} value(s)"
+                f"{'' if all(np.isfinite(numbers)) else ', not all finite'}",
+                key="gps.gain_file",
+            )
         values.append(numbers)
     table = {name: np.array([row[k] for row in values]) for k, name in enumerate(header)}
     if "off_boresight_deg" not in table:
@@ -306,19 +389,26 @@ def load_gain_pattern(path: str | Path, column: str) -> GainPattern:
 def gain_for_settings(gps: GpsSettings) -> GainPattern:
     """The ``[gps]`` transmit pattern: ``gain_file`` / ``gain_column`` with the sidelobe offset (read once a
     process)."""
-    return _cached_gain(str(data_path(gps.gain_file)), gps.gain_column, float(gps.sidelobe_from_deg),
-                        float(gps.sidelobe_offset_db))
+    return _cached_gain(
+        str(data_path(gps.gain_file)),
+        gps.gain_column,
+        float(gps.sidelobe_from_deg),
+        float(gps.sidelobe_offset_db),
+    )
 
 
 # --------------------------------------------------------------------------------------------
 # Orchestration
 # --------------------------------------------------------------------------------------------
 
+
 def _lnss_positions(lnss, times: np.ndarray) -> np.ndarray:
     """(sat, time, 3) Moon-centred J2000 km from a propagation Dataset or an array on ``times``."""
     if isinstance(lnss, xr.Dataset):
         if not np.allclose(lnss["time"].values, times, rtol=0.0, atol=1e-3):
-            raise ValueError("LNSS and GPS epochs differ: compute gps_states_mci on the propagation's time coord")
+            raise ValueError(
+                "LNSS and GPS epochs differ: compute gps_states_mci on the propagation's time coord"
+            )
         return lnss["r_mci_km"].transpose("sat", "time", "xyz").values
     r = np.asarray(lnss, dtype=float)
     if r.ndim == 2:
@@ -334,9 +424,14 @@ def _link_settings(gps: GpsSettings, overrides: dict) -> tuple[GpsSettings, Gain
     names = [item.name for item in dataclasses.fields(gps) if item.init]
     unknown = set(overrides) - set(names) - {"gain"}
     if unknown:
-        raise ValueError(f"unknown GPS link setting(s) {sorted(unknown)}; allowed: {sorted(names)} or 'gain'")
-    changed = {k: float(v) if isinstance(getattr(gps, k), float) and not isinstance(v, bool) else v
-               for k, v in overrides.items() if k != "gain"}
+        raise ValueError(
+            f"unknown GPS link setting(s) {sorted(unknown)}; allowed: {sorted(names)} or 'gain'"
+        )
+    changed = {
+        k: float(v) if isinstance(getattr(gps, k), float) and not isinstance(v, bool) else v
+        for k, v in overrides.items()
+        if k != "gain"
+    }
     cfg = dataclasses.replace(gps, **changed) if changed else gps
     return cfg, overrides.get("gain") or gain_for_settings(cfg)
 
@@ -358,42 +453,96 @@ def _gps_arrays(gps: xr.Dataset) -> tuple:
         return hit
     if len(_GPS_ARRAYS) >= 8:
         _GPS_ARRAYS.clear()
-    arrays = (gps, *(np.ascontiguousarray(gps[name].transpose("time", "gps", "xyz").values[None])
-                     for name in ("r_mci_km", "r_eci_km", "r_teme_km")),
-              gps["earth_mci_km"].values[None, :, None, :], gps["rot_teme_to_j2000"].values)
+    arrays = (
+        gps,
+        *(
+            np.ascontiguousarray(gps[name].transpose("time", "gps", "xyz").values[None])
+            for name in ("r_mci_km", "r_eci_km", "r_teme_km")
+        ),
+        gps["earth_mci_km"].values[None, :, None, :],
+        gps["rot_teme_to_j2000"].values,
+    )
     _GPS_ARRAYS[id(gps)] = arrays
     return arrays
 
 
-def _link_arrays(constants: BodyConstants, cfg: GpsSettings, gain: GainPattern, gps_states: xr.Dataset,
-                 r_lnss: np.ndarray) -> dict:
+def _link_arrays(
+    constants: BodyConstants,
+    cfg: GpsSettings,
+    gain: GainPattern,
+    gps_states: xr.Dataset,
+    r_lnss: np.ndarray,
+) -> dict:
     """Every array of :func:`gps_link` for LNSS positions ``r_lnss`` (sat, time, 1, 3), Moon-centred J2000 km."""
     _, r_gps_mci, r_gps_eci, r_gps_teme, earth, rot = _gps_arrays(gps_states)
     r_lnss_eci = r_lnss - earth
     r_lnss_teme = np.einsum("tji,stgj->stgi", rot, r_lnss_eci)
     moon_blocked = lunar_occultation(r_lnss, r_gps_mci, constants.r_moon_mean_km)
     theta = off_boresight_deg(r_gps_eci, r_lnss_eci)
-    earth_blocked = earth_occultation(theta, r_gps_eci, constants.r_earth_km, cfg.atmosphere_margin_deg)
-    ellipsoid_blocked = ray_hits_ellipsoid(r_gps_teme, r_lnss_teme,
-                                           WGS84_A_KM, WGS84_B_KM) if cfg.ellipsoid_test else np.zeros_like(theta, bool)
+    earth_blocked = earth_occultation(
+        theta, r_gps_eci, constants.r_earth_km, cfg.atmosphere_margin_deg
+    )
+    ellipsoid_blocked = (
+        ray_hits_ellipsoid(r_gps_teme, r_lnss_teme, WGS84_A_KM, WGS84_B_KM)
+        if cfg.ellipsoid_test
+        else np.zeros_like(theta, bool)
+    )
     outside_beam = theta > cfg.beam_mask_deg
     los = r_gps_mci - r_lnss
     range_km = np.linalg.norm(los, axis=-1)
     g_tx = gain(theta)
-    cn0 = cn0_dbhz(g_tx, range_km, p_tx_dbw=cfg.p_tx_dbw, losses_db=cfg.l_tx_db + cfg.l_pol_db, g_rx_dbi=cfg.g_rx_dbi,
-                   frequency_hz=cfg.frequency_mhz * 1e6, noise_temperature_k=cfg.noise_temperature_k)
+    cn0 = cn0_dbhz(
+        g_tx,
+        range_km,
+        p_tx_dbw=cfg.p_tx_dbw,
+        losses_db=cfg.l_tx_db + cfg.l_pol_db,
+        g_rx_dbi=cfg.g_rx_dbi,
+        frequency_hz=cfg.frequency_mhz * 1e6,
+        noise_temperature_k=cfg.noise_temperature_k,
+    )
     strong = np.nan_to_num(cn0, nan=-np.inf) >= cfg.cn0_threshold_dbhz
     visible = ~moon_blocked & ~earth_blocked & ~ellipsoid_blocked & ~outside_beam & strong
     pdop = pdop_kernel(los / range_km[..., None], visible, bool(cfg.clock_column))
-    return {"theta_off_deg": theta, "range_km": range_km, "gain_dbi": g_tx, "cn0_dbhz": cn0,
-            "moon_blocked": moon_blocked, "earth_blocked": earth_blocked, "ellipsoid_blocked": ellipsoid_blocked,
-            "outside_beam": outside_beam, "above_threshold": strong, "visible": visible, "pdop": pdop}
+    return {
+        "theta_off_deg": theta,
+        "range_km": range_km,
+        "gain_dbi": g_tx,
+        "cn0_dbhz": cn0,
+        "moon_blocked": moon_blocked,
+        "earth_blocked": earth_blocked,
+        "ellipsoid_blocked": ellipsoid_blocked,
+        "outside_beam": outside_beam,
+        "above_threshold": strong,
+        "visible": visible,
+        "pdop": pdop,
+    }
 
 
 @nb.njit(cache=True)
-def _link_kernel(r_lnss, r_gps_mci, r_gps_eci, r_gps_teme, earth, rot, theta_tab, gain_tab, r_moon, r_earth, margin_deg,
-                 beam_deg, ellipsoid, a_km, b_km, eirp_base_db, fsl_factor, noise_db, threshold_dbhz, clock,
-                 n_visible, pdop):
+def _link_kernel(
+    r_lnss,
+    r_gps_mci,
+    r_gps_eci,
+    r_gps_teme,
+    earth,
+    rot,
+    theta_tab,
+    gain_tab,
+    r_moon,
+    r_earth,
+    margin_deg,
+    beam_deg,
+    ellipsoid,
+    a_km,
+    b_km,
+    eirp_base_db,
+    fsl_factor,
+    noise_db,
+    threshold_dbhz,
+    clock,
+    n_visible,
+    pdop,
+):
     """:func:`_link_arrays`'s visibility (eq. 15-24) and PDOP (eq. 5-7) for one LNSS satellite ``r_lnss`` (time, 3),
     one (epoch, GPS) pair at a time, into ``n_visible`` and ``pdop`` (time,)."""
     ntime, ngps, _ = r_gps_mci.shape
@@ -418,28 +567,46 @@ def _link_kernel(r_lnss, r_gps_mci, r_gps_eci, r_gps_teme, earth, rot, theta_tab
             ux /= rng
             uy /= rng
             uz /= rng
-            if np.degrees(np.arccos(min(max(-(ux * zx + uy * zy + uz * zz), -1.0), 1.0))) < alpha_moon:
-                continue                                                   # behind the Moon (eq. 17-18)
+            if (
+                np.degrees(np.arccos(min(max(-(ux * zx + uy * zy + uz * zz), -1.0), 1.0)))
+                < alpha_moon
+            ):
+                continue  # behind the Moon (eq. 17-18)
             gx, gy, gz = r_gps_eci[t, g, 0], r_gps_eci[t, g, 1], r_gps_eci[t, g, 2]
             g_norm = np.sqrt(gx * gx + gy * gy + gz * gz)
             vx, vy, vz = ex - gx, ey - gy, ez - gz
             v_norm = np.sqrt(vx * vx + vy * vy + vz * vz)
             cos_off = -(gx * vx + gy * vy + gz * vz) / (g_norm * v_norm)
-            theta = np.degrees(np.arccos(min(max(cos_off, -1.0), 1.0)))     # off-boresight (eq. 19-20)
+            theta = np.degrees(np.arccos(min(max(cos_off, -1.0), 1.0)))  # off-boresight (eq. 19-20)
             if theta > beam_deg or theta < np.degrees(np.arcsin(r_earth / g_norm)) + margin_deg:
-                continue                                                   # outside the beam, or behind the Earth (eq. 21)
+                continue  # outside the beam, or behind the Earth (eq. 21)
             if ellipsoid:
-                q0x, q0y, q0z = r_gps_teme[t, g, 0] / a_km, r_gps_teme[t, g, 1] / a_km, r_gps_teme[t, g, 2] / b_km
-                dx, dy, dz = lnss_teme[0] / a_km - q0x, lnss_teme[1] / a_km - q0y, lnss_teme[2] / b_km - q0z
-                sc = min(max(-(q0x * dx + q0y * dy + q0z * dz) / (dx * dx + dy * dy + dz * dz), 0.0), 1.0)
+                q0x, q0y, q0z = (
+                    r_gps_teme[t, g, 0] / a_km,
+                    r_gps_teme[t, g, 1] / a_km,
+                    r_gps_teme[t, g, 2] / b_km,
+                )
+                dx, dy, dz = (
+                    lnss_teme[0] / a_km - q0x,
+                    lnss_teme[1] / a_km - q0y,
+                    lnss_teme[2] / b_km - q0z,
+                )
+                sc = min(
+                    max(-(q0x * dx + q0y * dy + q0z * dz) / (dx * dx + dy * dy + dz * dz), 0.0), 1.0
+                )
                 cx, cy, cz = q0x + sc * dx, q0y + sc * dy, q0z + sc * dz
                 if cx * cx + cy * cy + cz * cz < 1.0:
-                    continue                                               # through the WGS-84 ellipsoid
+                    continue  # through the WGS-84 ellipsoid
             if theta < theta_tab[0] or theta > theta_tab[-1]:
-                continue                                                   # no gain tabulated: no link
-            cn0 = eirp_base_db + np.interp(theta, theta_tab, gain_tab) - 20.0 * np.log10(fsl_factor * rng) - noise_db
+                continue  # no gain tabulated: no link
+            cn0 = (
+                eirp_base_db
+                + np.interp(theta, theta_tab, gain_tab)
+                - 20.0 * np.log10(fsl_factor * rng)
+                - noise_db
+            )
             if not cn0 >= threshold_dbhz:
-                continue                                                   # link budget (eq. 22-24)
+                continue  # link budget (eq. 22-24)
             lx[n] = ux
             ly[n] = uy
             lz[n] = uz
@@ -470,8 +637,9 @@ def _link_kernel(r_lnss, r_gps_mci, r_gps_eci, r_gps_teme, earth, rot, theta_tab
         pdop[t] = np.sqrt(max(ixx + iyy + izz, 0.0)) if ok else np.inf
 
 
-def gps_link_metrics(gps: GpsSettings, constants: BodyConstants, gps_states: xr.Dataset,
-                     r_lnss_mci_km: np.ndarray) -> dict[str, float]:
+def gps_link_metrics(
+    gps: GpsSettings, constants: BodyConstants, gps_states: xr.Dataset, r_lnss_mci_km: np.ndarray
+) -> dict[str, float]:
     """:func:`gps_link_summary` of :func:`gps_link` (first satellite) without the Dataset: the campaign's path.
 
     ``r_lnss_mci_km`` (sat, time, 3) on the GPS dataset's epochs; the first satellite is used, as in
@@ -484,22 +652,48 @@ def gps_link_metrics(gps: GpsSettings, constants: BodyConstants, gps_states: xr.
     _, r_gps_mci, r_gps_eci, r_gps_teme, earth, rot = _gps_arrays(gps_states)
     wavelength_m = C_M_S / (cfg.frequency_mhz * 1e6)
     ntime = r.shape[0]
-    n_visible = np.full(ntime, -1, dtype=np.int64)      # -1: not computed (checked after the kernel)
+    n_visible = np.full(ntime, -1, dtype=np.int64)  # -1: not computed (checked after the kernel)
     pdop = np.full(ntime, np.nan)
-    _link_kernel(r, r_gps_mci[0], r_gps_eci[0], r_gps_teme[0], np.ascontiguousarray(earth[0, :, 0]), rot,
-                 np.asarray(gain.off_boresight_deg, dtype=float), np.asarray(gain.gain_dbi, dtype=float),
-                 constants.r_moon_mean_km, constants.r_earth_km,
-                 cfg.atmosphere_margin_deg, cfg.beam_mask_deg, cfg.ellipsoid_test, WGS84_A_KM, WGS84_B_KM,
-                 cfg.p_tx_dbw - (cfg.l_tx_db + cfg.l_pol_db) + cfg.g_rx_dbi,
-                 4.0 * np.pi * 1e3 / wavelength_m, 10.0 * np.log10(BOLTZMANN_J_K * cfg.noise_temperature_k),
-                 cfg.cn0_threshold_dbhz, cfg.clock_column, n_visible, pdop)
+    _link_kernel(
+        r,
+        r_gps_mci[0],
+        r_gps_eci[0],
+        r_gps_teme[0],
+        np.ascontiguousarray(earth[0, :, 0]),
+        rot,
+        np.asarray(gain.off_boresight_deg, dtype=float),
+        np.asarray(gain.gain_dbi, dtype=float),
+        constants.r_moon_mean_km,
+        constants.r_earth_km,
+        cfg.atmosphere_margin_deg,
+        cfg.beam_mask_deg,
+        cfg.ellipsoid_test,
+        WGS84_A_KM,
+        WGS84_B_KM,
+        cfg.p_tx_dbw - (cfg.l_tx_db + cfg.l_pol_db) + cfg.g_rx_dbi,
+        4.0 * np.pi * 1e3 / wavelength_m,
+        10.0 * np.log10(BOLTZMANN_J_K * cfg.noise_temperature_k),
+        cfg.cn0_threshold_dbhz,
+        cfg.clock_column,
+        n_visible,
+        pdop,
+    )
     if np.any(n_visible < 0):
-        raise RuntimeError(f"the GPS link kernel left {int(np.sum(n_visible < 0))} of {ntime} epochs not computed")
+        raise RuntimeError(
+            f"the GPS link kernel left {int(np.sum(n_visible < 0))} of {ntime} epochs not computed"
+        )
     return _summary(pdop[None], n_visible[None], cfg.pdop_filter)
 
 
-def gps_link(gps: GpsSettings, constants: BodyConstants, gps_states: xr.Dataset, lnss, *, sats="first",
-             **overrides) -> xr.Dataset:
+def gps_link(
+    gps: GpsSettings,
+    constants: BodyConstants,
+    gps_states: xr.Dataset,
+    lnss,
+    *,
+    sats="first",
+    **overrides,
+) -> xr.Dataset:
     """GPS-LNSS visibility, C/N0 and PDOP (eq. 15-24, Section 2.2.4) on the GPS dataset's epochs.
 
     ``gps``: the ``[gps]`` section; ``constants``: the Moon's and the Earth's radii; ``gps_states``: from
@@ -527,23 +721,47 @@ def gps_link(gps: GpsSettings, constants: BodyConstants, gps_states: xr.Dataset,
         index = [int(s) for s in sats]
         if any(s < 0 or s >= r_all.shape[0] for s in index):
             raise ValueError(f"satellite index out of range 0..{r_all.shape[0] - 1}: {index}")
-    r_lnss = r_all[index][:, :, None, :]                                  # (sat, time, 1, 3)
+    r_lnss = r_all[index][:, :, None, :]  # (sat, time, 1, 3)
     arrays = _link_arrays(constants, cfg, gain, gps_states, r_lnss)
     visible, pdop = arrays["visible"], arrays["pdop"]
     dims = ("sat", "time", "gps")
     ds = xr.Dataset(
         {
-            **{name: (dims, arrays[name]) for name in ("theta_off_deg", "range_km", "gain_dbi", "cn0_dbhz",
-                                                        "moon_blocked", "earth_blocked", "ellipsoid_blocked",
-                                                        "outside_beam", "above_threshold", "visible")},
-            "n_visible": (("sat", "time"), visible.sum(axis=-1)), "pdop": (("sat", "time"), pdop),
+            **{
+                name: (dims, arrays[name])
+                for name in (
+                    "theta_off_deg",
+                    "range_km",
+                    "gain_dbi",
+                    "cn0_dbhz",
+                    "moon_blocked",
+                    "earth_blocked",
+                    "ellipsoid_blocked",
+                    "outside_beam",
+                    "above_threshold",
+                    "visible",
+                )
+            },
+            "n_visible": (("sat", "time"), visible.sum(axis=-1)),
+            "pdop": (("sat", "time"), pdop),
         },
-        coords={"sat": index, "time": times, "gps": gps_states["gps"].values, "prn": ("gps", gps_states["prn"].values),
-                "name": ("gps", gps_states["name"].values)},
-        attrs={"gain_pattern": gain.source, "noise_temperature_k": cfg.noise_temperature_k,
-               "beam_mask_deg": cfg.beam_mask_deg, "clock_column": int(cfg.clock_column),
-               "cn0_threshold_dbhz": cfg.cn0_threshold_dbhz, "pdop_filter": cfg.pdop_filter,
-               "frame": "Moon-centred J2000", "time_scale": "TDB seconds past J2000"},
+        coords={
+            "sat": index,
+            "time": times,
+            "gps": gps_states["gps"].values,
+            "prn": ("gps", gps_states["prn"].values),
+            "name": ("gps", gps_states["name"].values),
+        },
+        attrs={
+            "gain_pattern": gain.source,
+            "noise_temperature_k": cfg.noise_temperature_k,
+            "beam_mask_deg": cfg.beam_mask_deg,
+            "clock_column": int(cfg.clock_column),
+            "cn0_threshold_dbhz": cfg.cn0_threshold_dbhz,
+            "pdop_filter": cfg.pdop_filter,
+            "frame": "Moon-centred J2000",
+            "time_scale": "TDB seconds past J2000",
+        },
     )
     ds["pdop"].attrs["long_name"] = "GPS-LNSS PDOP (eq. 5-7), NaN with fewer than 4 visible"
     ds["cn0_dbhz"].attrs["long_name"] = "C/N0 at the LNSS receiver (eq. 24), dB-Hz"
@@ -558,7 +776,9 @@ def gps_link_summary(ds: xr.Dataset, pdop_filter: str | None = None) -> dict[str
     over the epochs with >= 4 visible; also the unfiltered mean and median, the fraction of epochs
     with a PDOP and the number of samples the filter kept.
     """
-    return _summary(ds["pdop"].values, ds["n_visible"].values, pdop_filter or ds.attrs["pdop_filter"])
+    return _summary(
+        ds["pdop"].values, ds["n_visible"].values, pdop_filter or ds.attrs["pdop_filter"]
+    )
 
 
 def _summary(pdop: np.ndarray, n_visible: np.ndarray, method: str) -> dict[str, float]:

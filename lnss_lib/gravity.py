@@ -25,12 +25,26 @@ from .config import data_path
 from .errors import ConfigError
 from .settings import GravitySettings
 
-__all__ = ["MAX_FILE_DEGREE", "LANES", "GravityField", "recursion_coefficients", "degree_bound_factors",
-           "acceleration_tables", "padded_width", "new_workspace", "fill_vw", "truncation_degree", "truncation_radii",
-           "tabulated_truncation_degree", "omitted_bound", "harmonic_acceleration", "harmonic_potential"]
+__all__ = [
+    "MAX_FILE_DEGREE",
+    "LANES",
+    "GravityField",
+    "recursion_coefficients",
+    "degree_bound_factors",
+    "acceleration_tables",
+    "padded_width",
+    "new_workspace",
+    "fill_vw",
+    "truncation_degree",
+    "truncation_radii",
+    "tabulated_truncation_degree",
+    "omitted_bound",
+    "harmonic_acceleration",
+    "harmonic_potential",
+]
 
 MAX_FILE_DEGREE = 100
-LANES = 8    # rows of the acceleration tables and of V/W are padded to a multiple of this (one AVX-512 vector)
+LANES = 8  # rows of the acceleration tables and of V/W are padded to a multiple of this (one AVX-512 vector)
 
 
 @lru_cache(maxsize=4)
@@ -41,9 +55,12 @@ def _read_rows(path: str) -> np.ndarray:
         return np.loadtxt(path, dtype=float, ndmin=2)
     except ValueError as error:
         where = re.search(r"at row \d+(, column \d+)?", str(error))
-        raise ConfigError(f"{path}: not a table of four numbers per line (n m Cnm Snm)"
-                          + (f"; the first bad value is {where.group(0)} (numpy's count)" if where else ""),
-                          key="gravity.file", source=path) from None
+        raise ConfigError(
+            f"{path}: not a table of four numbers per line (n m Cnm Snm)"
+            + (f"; the first bad value is {where.group(0)} (numpy's count)" if where else ""),
+            key="gravity.file",
+            source=path,
+        ) from None
 
 
 @dataclass(frozen=True)
@@ -69,18 +86,33 @@ class GravityField:
 
     def __post_init__(self) -> None:
         object.__setattr__(self, "tables", acceleration_tables(self.cnm, self.snm, self.coef))
-        object.__setattr__(self, "truncation_radii_km", truncation_radii(self.coef, self.gm_km3_s2, self.r_ref_km,
-                                                                         self.degree, self.truncation_kms2))
+        object.__setattr__(
+            self,
+            "truncation_radii_km",
+            truncation_radii(
+                self.coef, self.gm_km3_s2, self.r_ref_km, self.degree, self.truncation_kms2
+            ),
+        )
 
     @classmethod
-    def from_file(cls, path: Path, degree: int, gm_km3_s2: float, r_ref_km: float,
-                  truncation_kms2: float = 0.0) -> "GravityField":
+    def from_file(
+        cls,
+        path: Path,
+        degree: int,
+        gm_km3_s2: float,
+        r_ref_km: float,
+        truncation_kms2: float = 0.0,
+    ) -> GravityField:
         """Read ``n m Cnm Snm`` rows (fully normalised) and truncate to ``degree`` (0..100; 0 or 1 = point mass)."""
         if not isinstance(degree, (int, np.integer)) or not 0 <= degree <= MAX_FILE_DEGREE:
-            raise ValueError(f"gravity degree must be an integer in [0, {MAX_FILE_DEGREE}] (0 = point mass); got {degree!r}")
+            raise ValueError(
+                f"gravity degree must be an integer in [0, {MAX_FILE_DEGREE}] (0 = point mass); got {degree!r}"
+            )
         path = Path(path)
         if not path.is_file():
-            raise FileNotFoundError(f"gravity field file not found: {path} (see params/data/README.md)")
+            raise FileNotFoundError(
+                f"gravity field file not found: {path} (see params/data/README.md)"
+            )
         rows = _read_rows(str(path.resolve()))
         n_idx = rows[:, 0].astype(int)
         m_idx = rows[:, 1].astype(int)
@@ -92,17 +124,26 @@ class GravityField:
         if np.max(n_idx) < degree:
             raise ValueError(f"{path} holds degree {np.max(n_idx)} only; requested {degree}")
         if not (np.isfinite(truncation_kms2) and truncation_kms2 >= 0.0):
-            raise ValueError(f"gravity truncation must be >= 0 km/s^2 (0 = full field); got {truncation_kms2!r}")
+            raise ValueError(
+                f"gravity truncation must be >= 0 km/s^2 (0 = full field); got {truncation_kms2!r}"
+            )
         coef = recursion_coefficients(int(degree))
         coef[5, : degree + 1, 0] = degree_bound_factors(cnm, snm)
-        return cls(int(degree), float(gm_km3_s2), float(r_ref_km), cnm, snm, coef, float(truncation_kms2))
+        return cls(
+            int(degree), float(gm_km3_s2), float(r_ref_km), cnm, snm, coef, float(truncation_kms2)
+        )
 
     @classmethod
-    def from_settings(cls, gravity: GravitySettings, degree: int | None = None) -> "GravityField":
+    def from_settings(cls, gravity: GravitySettings, degree: int | None = None) -> GravityField:
         """The field the gravity settings name, at their degree unless ``degree`` overrides it."""
         chosen = gravity.degree if degree is None else degree
-        return cls.from_file(data_path(gravity.file), chosen, gravity.gm_km3_s2, gravity.r_ref_km,
-                             gravity.truncation_kms2)
+        return cls.from_file(
+            data_path(gravity.file),
+            chosen,
+            gravity.gm_km3_s2,
+            gravity.r_ref_km,
+            gravity.truncation_kms2,
+        )
 
     def workspace(self) -> np.ndarray:
         """Scratch array for :func:`harmonic_acceleration` and :func:`harmonic_potential` (:func:`new_workspace`)."""
@@ -124,15 +165,21 @@ def recursion_coefficients(degree: int) -> np.ndarray:
         for m in range(n):
             coef[0, n, m] = np.sqrt((2.0 * n + 1.0) * (2.0 * n - 1.0) / ((n - m) * (n + m)))
             if m <= n - 2:
-                coef[1, n, m] = np.sqrt((2.0 * n + 1.0) * (n + m - 1.0) * (n - m - 1.0)
-                                        / ((2.0 * n - 3.0) * (n + m) * (n - m)))
+                coef[1, n, m] = np.sqrt(
+                    (2.0 * n + 1.0)
+                    * (n + m - 1.0)
+                    * (n - m - 1.0)
+                    / ((2.0 * n - 3.0) * (n + m) * (n - m))
+                )
     for n in range(degree + 1):
         k_n = (2.0 * n + 1.0) / (2.0 * n + 3.0)
         coef[2, n, 0] = np.sqrt(0.5 * k_n * (n + 1.0) * (n + 2.0))
         coef[4, n, 0] = np.sqrt(k_n) * (n + 1.0)
         for m in range(1, n + 1):
             coef[2, n, m] = 0.5 * np.sqrt(k_n * (n + m + 1.0) * (n + m + 2.0))
-            coef[3, n, m] = 0.5 * np.sqrt((2.0 if m == 1 else 1.0) * k_n * (n - m + 2.0) * (n - m + 1.0))
+            coef[3, n, m] = 0.5 * np.sqrt(
+                (2.0 if m == 1 else 1.0) * k_n * (n - m + 2.0) * (n - m + 1.0)
+            )
             coef[4, n, m] = np.sqrt(k_n * (n - m + 1.0) * (n + m + 1.0))
     return coef
 
@@ -203,7 +250,9 @@ def new_workspace(degree: int) -> np.ndarray:
 
 
 @nb.njit(cache=True)
-def omitted_bound(r_km: float, coef: np.ndarray, gm: float, r_ref: float, degree: int, kept: int) -> float:
+def omitted_bound(
+    r_km: float, coef: np.ndarray, gm: float, r_ref: float, degree: int, kept: int
+) -> float:
     """Bound (km/s^2) on the acceleration of degrees kept + 1 .. ``degree``: sum_n GM / r^2 (R / r)^n K_n."""
     q = r_ref / r_km
     qn = q ** (kept + 1)
@@ -215,14 +264,16 @@ def omitted_bound(r_km: float, coef: np.ndarray, gm: float, r_ref: float, degree
 
 
 @nb.njit(cache=True)
-def truncation_degree(r_km: float, coef: np.ndarray, gm: float, r_ref: float, degree: int, tol_kms2: float) -> int:
+def truncation_degree(
+    r_km: float, coef: np.ndarray, gm: float, r_ref: float, degree: int, tol_kms2: float
+) -> int:
     """Smallest N <= ``degree`` whose omitted degrees N + 1 .. ``degree`` are bounded below ``tol_kms2``
     at radius ``r_km`` (:func:`degree_bound_factors`); ``degree`` itself when ``tol_kms2`` <= 0."""
     if tol_kms2 <= 0.0:
         return degree
     q = r_ref / r_km
     limit = tol_kms2 * r_km * r_km / gm
-    qn = q ** degree
+    qn = q**degree
     tail = 0.0
     for n in range(degree, 1, -1):
         tail += coef[5, n, 0] * qn
@@ -232,7 +283,9 @@ def truncation_degree(r_km: float, coef: np.ndarray, gm: float, r_ref: float, de
     return 1
 
 
-def truncation_radii(coef: np.ndarray, gm: float, r_ref: float, degree: int, tol_kms2: float) -> np.ndarray:
+def truncation_radii(
+    coef: np.ndarray, gm: float, r_ref: float, degree: int, tol_kms2: float
+) -> np.ndarray:
     """Radii (km) ``radii[n]``, n = 2..``degree``, below which :func:`truncation_degree` keeps at least degree n.
 
     Each is the smallest double at which the loop keeps fewer than n degrees, found by bisection on the
@@ -278,7 +331,16 @@ FAST = {"reassoc", "contract"}
 
 
 @nb.njit(cache=True, fastmath=FAST)
-def fill_vw(x: float, y: float, z: float, r_ref: float, nmax: int, coef: np.ndarray, V: np.ndarray, W: np.ndarray) -> None:
+def fill_vw(
+    x: float,
+    y: float,
+    z: float,
+    r_ref: float,
+    nmax: int,
+    coef: np.ndarray,
+    V: np.ndarray,
+    W: np.ndarray,
+) -> None:
     """Normalised V_nm, W_nm (Montenbruck & Gill eq. 3.29-3.31) up to degree nmax, stored [n, m].
 
     Each degree row is computed from the two before it, so the loop over orders vectorises.
@@ -311,8 +373,15 @@ def fill_vw(x: float, y: float, z: float, r_ref: float, nmax: int, coef: np.ndar
 # FAST as fill_vw; a NaN stage stops the integrator (status 4). error_model="numpy": a non-finite position gives a
 # non-finite result, not a ZeroDivisionError; r >= r_min > 0 in every integration, so the check never fires there
 @nb.njit(cache=True, fastmath=FAST, error_model="numpy")
-def harmonic_acceleration(r_bf_km: np.ndarray, tables: np.ndarray, gm: float, r_ref: float, degree: int,
-                          work: np.ndarray, out: np.ndarray) -> None:
+def harmonic_acceleration(
+    r_bf_km: np.ndarray,
+    tables: np.ndarray,
+    gm: float,
+    r_ref: float,
+    degree: int,
+    work: np.ndarray,
+    out: np.ndarray,
+) -> None:
     """Acceleration (km/s^2, body-fixed) of the field of degree/order ``degree`` at ``r_bf_km``, into ``out``.
 
     Includes the central term (C00 = 1). ``tables`` from :func:`acceleration_tables`; ``work`` from
@@ -344,7 +413,14 @@ def harmonic_acceleration(r_bf_km: np.ndarray, tables: np.ndarray, gm: float, r_
         v_nn, w_nn = f * (x0 * v_nn - y0 * w_nn), f * (x0 * w_nn + y0 * v_nn)
         a_row, b_row = tables[6, j], tables[7, j]
         v_1, v_2, w_1, w_2, v_row, w_row = V[j - 1], V[j - 2], W[j - 1], W[j - 2], V[j], W[j]
-        xv, xw, yv, yw, zv, zw = tables[0, j], tables[1, j], tables[2, j], tables[3, j], tables[4, j], tables[5, j]
+        xv, xw, yv, yw, zv, zw = (
+            tables[0, j],
+            tables[1, j],
+            tables[2, j],
+            tables[3, j],
+            tables[4, j],
+            tables[5, j],
+        )
         for m in range((j + LANES) // LANES * LANES):
             a = a_row[m] * z0
             b = b_row[m] * rho
@@ -364,8 +440,16 @@ def harmonic_acceleration(r_bf_km: np.ndarray, tables: np.ndarray, gm: float, r_
 
 
 @nb.njit(cache=True)
-def harmonic_potential(r_bf_km: np.ndarray, cnm: np.ndarray, snm: np.ndarray, coef: np.ndarray, gm: float,
-                       r_ref: float, degree: int, work: np.ndarray) -> float:
+def harmonic_potential(
+    r_bf_km: np.ndarray,
+    cnm: np.ndarray,
+    snm: np.ndarray,
+    coef: np.ndarray,
+    gm: float,
+    r_ref: float,
+    degree: int,
+    work: np.ndarray,
+) -> float:
     """Gravitational potential U (km^2/s^2, U = GM/r for a point mass) from the same V/W terms."""
     V = work[0]
     W = work[1]

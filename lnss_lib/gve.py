@@ -15,12 +15,28 @@ from __future__ import annotations
 
 import numpy as np
 
-from .sections import PAPER_NORMAL, PAPER_RADIAL
 from .elements import eccentricity_vector, state_to_elements, vis_viva_sma_km
+from .sections import PAPER_NORMAL, PAPER_RADIAL
 
-__all__ = ["RATE_NAMES", "NATURAL_RATE_NAMES", "PAPER_NORMAL", "PAPER_RADIAL", "check_epochs", "osculating_elements",
-           "element_rates", "orbit_quantities", "gve_matrix", "gve_rates", "natural_rates_from_elements", "orbit_vectors",
-           "project_natural", "natural_rates_from_states", "natural_gve_matrix", "lsq_thrust", "paper_thrust"]
+__all__ = [
+    "RATE_NAMES",
+    "NATURAL_RATE_NAMES",
+    "PAPER_NORMAL",
+    "PAPER_RADIAL",
+    "check_epochs",
+    "osculating_elements",
+    "element_rates",
+    "orbit_quantities",
+    "gve_matrix",
+    "gve_rates",
+    "natural_rates_from_elements",
+    "orbit_vectors",
+    "project_natural",
+    "natural_rates_from_states",
+    "natural_gve_matrix",
+    "lsq_thrust",
+    "paper_thrust",
+]
 
 RATE_NAMES = ("a", "e", "i", "raan", "aop")
 
@@ -28,12 +44,13 @@ RATE_NAMES = ("a", "e", "i", "raan", "aop")
 NATURAL_RATE_NAMES = ("a_dot_over_a", "e_dot", "e_apse_dot", "i_dot", "sin_i_raan_dot")
 
 
-
 def check_epochs(t: np.ndarray, series: np.ndarray) -> None:
     """Raise ``ValueError`` unless ``t`` holds >= 3 strictly increasing epochs matching axis -2 of ``series``."""
     if t.ndim != 1 or t.size < 3 or series.ndim < 2 or series.shape[-2] != t.size:
-        raise ValueError(f"need at least 3 epochs and series (..., {t.size}, k); "
-                         f"got t {t.shape}, series {series.shape}")
+        raise ValueError(
+            f"need at least 3 epochs and series (..., {t.size}, k); "
+            f"got t {t.shape}, series {series.shape}"
+        )
     if np.any(np.diff(t) <= 0.0):
         raise ValueError("epochs t_tdb_s must be strictly increasing")
 
@@ -54,7 +71,9 @@ def osculating_elements(states: np.ndarray, gm_km3_s2: float) -> np.ndarray:
     h_hat = h_vec / np.linalg.norm(h_vec, axis=-1, keepdims=True)
     node_hat = np.stack([np.cos(raan), np.sin(raan), np.zeros_like(raan)], axis=-1)
     r_hat = r_vec / np.linalg.norm(r_vec, axis=-1, keepdims=True)
-    theta = np.arctan2(np.sum(np.cross(node_hat, r_hat) * h_hat, axis=-1), np.sum(node_hat * r_hat, axis=-1))
+    theta = np.arctan2(
+        np.sum(np.cross(node_hat, r_hat) * h_hat, axis=-1), np.sum(node_hat * r_hat, axis=-1)
+    )
     raan_u = np.unwrap(raan, axis=-1)
     aop_u = np.unwrap(aop, axis=-1)
     nu = np.mod(theta - aop_u, 2.0 * np.pi)
@@ -115,7 +134,9 @@ def gve_matrix(elements: np.ndarray, gm_km3_s2: float, *, e_times_aop: bool = Fa
 
 def gve_rates(elements: np.ndarray, acc_rtn_kms2: np.ndarray, gm_km3_s2: float) -> np.ndarray:
     """Forward GVEs (eq. 25-29): rates (..., 5) of [a, e, i, raan, aop] under RTN acceleration (..., 3)."""
-    return np.einsum("...ij,...j->...i", gve_matrix(elements, gm_km3_s2), np.asarray(acc_rtn_kms2, dtype=float))
+    return np.einsum(
+        "...ij,...j->...i", gve_matrix(elements, gm_km3_s2), np.asarray(acc_rtn_kms2, dtype=float)
+    )
 
 
 def natural_rates_from_elements(elements: np.ndarray, rates: np.ndarray) -> np.ndarray:
@@ -130,8 +151,16 @@ def natural_rates_from_elements(elements: np.ndarray, rates: np.ndarray) -> np.n
     el = np.asarray(elements, dtype=float)
     rt = np.asarray(rates, dtype=float)
     a, e, inc = el[..., 0], el[..., 1], el[..., 2]
-    return np.stack([rt[..., 0] / a, rt[..., 1], e * (rt[..., 4] + np.cos(inc) * rt[..., 3]), rt[..., 2],
-                     np.sin(inc) * rt[..., 3]], axis=-1)
+    return np.stack(
+        [
+            rt[..., 0] / a,
+            rt[..., 1],
+            e * (rt[..., 4] + np.cos(inc) * rt[..., 3]),
+            rt[..., 2],
+            np.sin(inc) * rt[..., 3],
+        ],
+        axis=-1,
+    )
 
 
 def orbit_vectors(states: np.ndarray, gm_km3_s2: float) -> np.ndarray:
@@ -143,7 +172,9 @@ def orbit_vectors(states: np.ndarray, gm_km3_s2: float) -> np.ndarray:
     h_vec = np.cross(r_vec, v_vec)
     e_vec = eccentricity_vector(r_vec, v_vec, gm_km3_s2, h_vec, r[..., 0])
     a = vis_viva_sma_km(r, v2, gm_km3_s2)
-    return np.concatenate([a, e_vec, h_vec / np.linalg.norm(h_vec, axis=-1, keepdims=True)], axis=-1)
+    return np.concatenate(
+        [a, e_vec, h_vec / np.linalg.norm(h_vec, axis=-1, keepdims=True)], axis=-1
+    )
 
 
 def project_natural(vectors: np.ndarray, vector_rates: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -155,24 +186,31 @@ def project_natural(vectors: np.ndarray, vector_rates: np.ndarray) -> tuple[np.n
     node = np.cross(np.array([0.0, 0.0, 1.0]), h_hat)
     node_norm = np.linalg.norm(node, axis=-1, keepdims=True)
     inclined = node_norm > 1e-12
-    node_hat = np.where(inclined, node / np.where(inclined, node_norm, 1.0), np.array([1.0, 0.0, 0.0]))
+    node_hat = np.where(
+        inclined, node / np.where(inclined, node_norm, 1.0), np.array([1.0, 0.0, 0.0])
+    )
     e = np.linalg.norm(e_vec, axis=-1, keepdims=True)
     e_hat = np.where(e > 1e-12, e_vec / np.where(e > 1e-12, e, 1.0), node_hat)
     across = np.cross(h_hat, e_hat)
-    natural = np.stack([
-        a_dot / a,
-        np.sum(e_hat * e_dot_vec, axis=-1),
-        np.sum(across * e_dot_vec, axis=-1),
-        -np.sum(np.cross(h_hat, node_hat) * h_dot, axis=-1),
-        np.sum(node_hat * h_dot, axis=-1),
-    ], axis=-1)
+    natural = np.stack(
+        [
+            a_dot / a,
+            np.sum(e_hat * e_dot_vec, axis=-1),
+            np.sum(across * e_dot_vec, axis=-1),
+            -np.sum(np.cross(h_hat, node_hat) * h_dot, axis=-1),
+            np.sum(node_hat * h_dot, axis=-1),
+        ],
+        axis=-1,
+    )
     axis = np.cross(h_hat, h_dot)
     axis_norm = np.linalg.norm(axis, axis=-1, keepdims=True)
     axis_hat = axis / np.where(axis_norm > 0.0, axis_norm, 1.0)
     return natural, np.abs(np.sum(axis_hat * e_hat, axis=-1))
 
 
-def natural_rates_from_states(t_tdb_s: np.ndarray, states: np.ndarray, gm_km3_s2: float) -> np.ndarray:
+def natural_rates_from_states(
+    t_tdb_s: np.ndarray, states: np.ndarray, gm_km3_s2: float
+) -> np.ndarray:
     """Natural rates (..., n, 5) (see :func:`natural_rates_from_elements`) by central differences of vectors.
 
     The same central differences as :func:`element_rates`, taken on a, the eccentricity vector and
@@ -236,9 +274,17 @@ def _clip_divisor(d: np.ndarray, floor: float) -> np.ndarray:
     return np.where(d < 0.0, -1.0, 1.0) * np.maximum(np.abs(d), floor)
 
 
-def paper_thrust(elements: np.ndarray, rates: np.ndarray, gm_km3_s2: float, *, normal: str = "weighted",
-                 radial: str = "weighted", divisor_floor: float = 1e-3, cap_kms2: float = np.inf,
-                 t_t_kms2: np.ndarray | None = None) -> dict:
+def paper_thrust(
+    elements: np.ndarray,
+    rates: np.ndarray,
+    gm_km3_s2: float,
+    *,
+    normal: str = "weighted",
+    radial: str = "weighted",
+    divisor_floor: float = 1e-3,
+    cap_kms2: float = np.inf,
+    t_t_kms2: np.ndarray | None = None,
+) -> dict:
     """The paper's sequential inverse (eq. 30-35), misprints corrected; dict of (...,) arrays (km/s^2).
 
     Keys ``T_R, T_T, T_N`` (the result) and the single-equation estimates ``T_sma`` (eq. 30),
@@ -267,9 +313,13 @@ def paper_thrust(elements: np.ndarray, rates: np.ndarray, gm_km3_s2: float, *, n
     (eq. 34 multiplies by e).
     """
     if normal not in PAPER_NORMAL:
-        raise ValueError(f"unknown paper normal combination {normal!r}; allowed: {', '.join(PAPER_NORMAL)}")
+        raise ValueError(
+            f"unknown paper normal combination {normal!r}; allowed: {', '.join(PAPER_NORMAL)}"
+        )
     if radial not in PAPER_RADIAL:
-        raise ValueError(f"unknown paper radial combination {radial!r}; allowed: {', '.join(PAPER_RADIAL)}")
+        raise ValueError(
+            f"unknown paper radial combination {radial!r}; allowed: {', '.join(PAPER_RADIAL)}"
+        )
     a, e, inc, nu, theta, p, h, r = orbit_quantities(elements, gm_km3_s2)
     rate = np.asarray(rates, dtype=float)
     a_dot, e_dot, i_dot, raan_dot, aop_dot = (rate[..., k] for k in range(5))
@@ -296,5 +346,13 @@ def paper_thrust(elements: np.ndarray, rates: np.ndarray, gm_km3_s2: float, *, n
     t_e = cap(x_e / (p * div(sn)))
     t_aop = cap(x_aop / (p * div(cn)))
     t_r = cap((sn * x_e + cn * x_aop) / p) if radial == "weighted" else cap(t_e + t_aop)
-    return {"T_R": t_r, "T_T": t_t, "T_N": t_n, "T_sma": t_sma, "T_i": t_i, "T_raan": t_raan,
-            "T_e": t_e, "T_aop": t_aop}
+    return {
+        "T_R": t_r,
+        "T_T": t_t,
+        "T_N": t_n,
+        "T_sma": t_sma,
+        "T_i": t_i,
+        "T_raan": t_raan,
+        "T_e": t_e,
+        "T_aop": t_aop,
+    }

@@ -2,38 +2,110 @@
 
 from __future__ import annotations
 
-__all__ = ["DESIGN_KEYS", "INTEGER_DESIGN_KEYS", "ELEMENT_KEYS", "METRIC_KEYS", "LIFE_NAVIGATION_KEYS",
-           "NAVIGATION_ERROR_KEYS", "EXTRA_METRIC_KEYS", "CAMPAIGN_METRIC_KEYS", "GNSS_SYSTEM_METRICS", "GNSS_NAMES",
-           "gnss_metric_keys", "RESULT_KEYS", "VERDICT_KEYS", "TIMING_KEYS", "DELTAV_SATELLITES",
-           "NEEDS_ALL_SATELLITES", "CLOSED_LOOP_DV_BY_PURPOSE", "closed_loop_dv_key",
-           "requested_extra_metrics", "NON_NAVIGATION_METRICS", "LABELS", "label", "bound_text", "value_format",
-           "format_value", "violated_bound"]
+__all__ = [
+    "DESIGN_KEYS",
+    "INTEGER_DESIGN_KEYS",
+    "ELEMENT_KEYS",
+    "METRIC_KEYS",
+    "LIFE_NAVIGATION_KEYS",
+    "NAVIGATION_ERROR_KEYS",
+    "EXTRA_METRIC_KEYS",
+    "CAMPAIGN_METRIC_KEYS",
+    "GNSS_SYSTEM_METRICS",
+    "GNSS_NAMES",
+    "gnss_metric_keys",
+    "RESULT_KEYS",
+    "VERDICT_KEYS",
+    "TIMING_KEYS",
+    "DELTAV_SATELLITES",
+    "NEEDS_ALL_SATELLITES",
+    "CLOSED_LOOP_DV_BY_PURPOSE",
+    "closed_loop_dv_key",
+    "requested_extra_metrics",
+    "NON_NAVIGATION_METRICS",
+    "LABELS",
+    "label",
+    "bound_text",
+    "value_format",
+    "format_value",
+    "violated_bound",
+]
 
-DESIGN_KEYS = ("sma_km", "ecc", "aop_deg", "inc_deg", "n_planes", "sats_per_plane")   # eq. 45 arguments
+DESIGN_KEYS = (
+    "sma_km",
+    "ecc",
+    "aop_deg",
+    "inc_deg",
+    "n_planes",
+    "sats_per_plane",
+)  # eq. 45 arguments
 INTEGER_DESIGN_KEYS = ("n_planes", "sats_per_plane")
-ELEMENT_KEYS = ("sma_km", "ecc", "inc_deg", "raan_deg", "aop_deg", "mean_anomaly_deg")  # one row per satellite
+ELEMENT_KEYS = (
+    "sma_km",
+    "ecc",
+    "inc_deg",
+    "raan_deg",
+    "aop_deg",
+    "mean_anomaly_deg",
+)  # one row per satellite
 
-METRIC_KEYS = ("n_sat", "mean_visible_sats", "pdop_mean_3sigma", "pdop_avail_pct", "hdop_mean_3sigma",
-               "hdop_avail_pct", "dv_total_kms_per_year", "dv_opt_kms_per_year", "gps_visible_mean", "gps_pdop_mean")
+METRIC_KEYS = (
+    "n_sat",
+    "mean_visible_sats",
+    "pdop_mean_3sigma",
+    "pdop_avail_pct",
+    "hdop_mean_3sigma",
+    "hdop_avail_pct",
+    "dv_total_kms_per_year",
+    "dv_opt_kms_per_year",
+    "gps_visible_mean",
+    "gps_pdop_mean",
+)
 # operational metrics, computed only when ``[evaluator] extra_metrics`` names them:
 # geometry-keeping Delta-V estimate (sk_estimate, mean and max over satellites), design-life stability
 # screen (stability: 1.0 stable, 0.0 not; minimum perilune altitude), and the eq. 45 Delta-V's maximum
 # over satellites ([deltav] satellites = "all")
 # navigation over the design life, from the life estimate's rebuilt constellation ([sk_estimate] model = "life"):
 # PDOP and HDOP availability, mean over the life and worst month
-LIFE_NAVIGATION_KEYS = ("pdop_avail_pct_life_estimate", "pdop_avail_pct_worst_month_estimate",
-                        "hdop_avail_pct_life_estimate", "hdop_avail_pct_worst_month_estimate")
+LIFE_NAVIGATION_KEYS = (
+    "pdop_avail_pct_life_estimate",
+    "pdop_avail_pct_worst_month_estimate",
+    "hdop_avail_pct_life_estimate",
+    "hdop_avail_pct_worst_month_estimate",
+)
 # the user's position error in metres ([navigation_error], lnss_lib/navigation_error.py): 95th percentiles over the
 # grid-epoch samples of the horizontal (2 sigma_H) and vertical (1.96 sigma_V) 95 % errors, availability of the
 # profile's position-error requirement, the oldest broadcast ephemeris and the satellites no station ever uploads
-NAVIGATION_ERROR_KEYS = ("horizontal_error_95_m", "vertical_error_95_m", "position_error_avail_pct",
-                         "ephemeris_age_max_h", "satellites_never_uploaded")
+NAVIGATION_ERROR_KEYS = (
+    "horizontal_error_95_m",
+    "vertical_error_95_m",
+    "position_error_avail_pct",
+    "ephemeris_age_max_h",
+    "satellites_never_uploaded",
+)
 # and the multi-GNSS link over ``[gnss] systems`` (mean visible satellites, filtered mean PDOP with one clock per system)
-EXTRA_METRIC_KEYS = ("sk_dv_estimate_kms_per_year", "sk_dv_estimate_max_kms_per_year", "stable_screen",
-                     "screen_min_perilune_alt_km", "dv_total_max_kms_per_year", "dv_opt_max_kms_per_year",
-                     *LIFE_NAVIGATION_KEYS, *NAVIGATION_ERROR_KEYS, "gnss_visible_mean", "gnss_pdop_mean")
-GNSS_SYSTEM_METRICS = ("gnss_{}_visible_mean", "gnss_{}_pdop_mean")   # per system, when [gnss] names more than GPS
-GNSS_NAMES = {"gps": "GPS", "galileo": "Galileo", "beidou": "BeiDou-3", "glonass": "GLONASS"}   # [gnss] systems
+EXTRA_METRIC_KEYS = (
+    "sk_dv_estimate_kms_per_year",
+    "sk_dv_estimate_max_kms_per_year",
+    "stable_screen",
+    "screen_min_perilune_alt_km",
+    "dv_total_max_kms_per_year",
+    "dv_opt_max_kms_per_year",
+    *LIFE_NAVIGATION_KEYS,
+    *NAVIGATION_ERROR_KEYS,
+    "gnss_visible_mean",
+    "gnss_pdop_mean",
+)
+GNSS_SYSTEM_METRICS = (
+    "gnss_{}_visible_mean",
+    "gnss_{}_pdop_mean",
+)  # per system, when [gnss] names more than GPS
+GNSS_NAMES = {
+    "gps": "GPS",
+    "galileo": "Galileo",
+    "beidou": "BeiDou-3",
+    "glonass": "GLONASS",
+}  # [gnss] systems
 
 
 def gnss_metric_keys(systems) -> tuple[str, ...]:
@@ -41,46 +113,88 @@ def gnss_metric_keys(systems) -> tuple[str, ...]:
     the combined ``gnss_visible_mean``, ``gnss_pdop_mean`` and each system's (:data:`GNSS_SYSTEM_METRICS`)."""
     if tuple(systems) == ("gps",):
         return ()
-    return ("gnss_visible_mean", "gnss_pdop_mean") + tuple(key.format(s) for s in systems for key in GNSS_SYSTEM_METRICS)
-CAMPAIGN_METRIC_KEYS = METRIC_KEYS + EXTRA_METRIC_KEYS   # what a campaign journal record holds
+    return ("gnss_visible_mean", "gnss_pdop_mean") + tuple(
+        key.format(s) for s in systems for key in GNSS_SYSTEM_METRICS
+    )
+
+
+CAMPAIGN_METRIC_KEYS = METRIC_KEYS + EXTRA_METRIC_KEYS  # what a campaign journal record holds
 # "evaluated": the design was evaluated (no impact, a closed orbit); whether it meets Table 3's bounds is VERDICT_KEYS
 RESULT_KEYS = METRIC_KEYS + ("deltav_model", "evaluated", "reason", "wall_s")
-VERDICT_KEYS = ("meets_bounds", "violated_bounds")   # evaluate CLI: the profile's [campaign.constraints] (Table 3)
-TIMING_KEYS = ("propagation", "dop", "deltav", "gps", "operational")   # operational: the extra metrics
-DELTAV_SATELLITES = ("first", "all")        # [deltav] satellites: the eq. 45 Delta-V of satellite 0, or mean over all
+VERDICT_KEYS = (
+    "meets_bounds",
+    "violated_bounds",
+)  # evaluate CLI: the profile's [campaign.constraints] (Table 3)
+TIMING_KEYS = (
+    "propagation",
+    "dop",
+    "deltav",
+    "gps",
+    "operational",
+)  # operational: the extra metrics
+DELTAV_SATELLITES = (
+    "first",
+    "all",
+)  # [deltav] satellites: the eq. 45 Delta-V of satellite 0, or mean over all
 NEEDS_ALL_SATELLITES = ("dv_total_max_kms_per_year", "dv_opt_max_kms_per_year")
 # metrics of station keeping and stability: a campaign's bounds on anything else are its navigation bounds
-NON_NAVIGATION_METRICS = ("dv_total_kms_per_year", "dv_opt_kms_per_year", "sk_dv_estimate_kms_per_year",
-                          "sk_dv_estimate_max_kms_per_year", "dv_total_max_kms_per_year", "dv_opt_max_kms_per_year",
-                          "stable_screen", "screen_min_perilune_alt_km")
+NON_NAVIGATION_METRICS = (
+    "dv_total_kms_per_year",
+    "dv_opt_kms_per_year",
+    "sk_dv_estimate_kms_per_year",
+    "sk_dv_estimate_max_kms_per_year",
+    "dv_total_max_kms_per_year",
+    "dv_opt_max_kms_per_year",
+    "stable_screen",
+    "screen_min_perilune_alt_km",
+)
 
-LABELS = {                  # key -> human label with its unit: figures, tables, explorer, ``evaluate``
-    "sma_km": "semi-major axis (km)", "ecc": "eccentricity", "aop_deg": "argument of perilune (deg)",
-    "inc_deg": "inclination (deg)", "raan_deg": "RAAN (deg)", "mean_anomaly_deg": "mean anomaly (deg)",
-    "n_planes": "planes", "sats_per_plane": "satellites per plane", "n_sat": "satellites",
-    "mean_visible_sats": "mean visible LNSS satellites", "pdop_mean_3sigma": "PDOP (3-sigma mean)",
-    "pdop_avail_pct": "PDOP availability (%)", "hdop_mean_3sigma": "HDOP (3-sigma mean)",
-    "hdop_avail_pct": "HDOP availability (%)", "dv_total_kms_per_year": "Delta-V total (km/s/yr)",
+LABELS = {  # key -> human label with its unit: figures, tables, explorer, ``evaluate``
+    "sma_km": "semi-major axis (km)",
+    "ecc": "eccentricity",
+    "aop_deg": "argument of perilune (deg)",
+    "inc_deg": "inclination (deg)",
+    "raan_deg": "RAAN (deg)",
+    "mean_anomaly_deg": "mean anomaly (deg)",
+    "n_planes": "planes",
+    "sats_per_plane": "satellites per plane",
+    "n_sat": "satellites",
+    "mean_visible_sats": "mean visible LNSS satellites",
+    "pdop_mean_3sigma": "PDOP (3-sigma mean)",
+    "pdop_avail_pct": "PDOP availability (%)",
+    "hdop_mean_3sigma": "HDOP (3-sigma mean)",
+    "hdop_avail_pct": "HDOP availability (%)",
+    "dv_total_kms_per_year": "Delta-V total (km/s/yr)",
     "dv_opt_kms_per_year": "Delta-V optimised (km/s/yr)",
     "gps_visible_mean": "GPS satellites visible (mean, first LNSS satellite)",
     "gps_pdop_mean": "GPS-LNSS PDOP (first LNSS satellite)",
     "gnss_visible_mean": "GNSS satellites visible, every [gnss] system (mean, first LNSS satellite)",
-    "gnss_pdop_mean": "GNSS-LNSS PDOP, every [gnss] system, one clock each (first LNSS satellite)", "sk_dv_estimate_kms_per_year": "geometry-keeping Delta-V, mean (km/s/yr)",
+    "gnss_pdop_mean": "GNSS-LNSS PDOP, every [gnss] system, one clock each (first LNSS satellite)",
+    "sk_dv_estimate_kms_per_year": "geometry-keeping Delta-V, mean (km/s/yr)",
     "sk_dv_estimate_max_kms_per_year": "geometry-keeping Delta-V, worst satellite (km/s/yr)",
-    "stable_screen": "stable over the life (screen)", "screen_min_perilune_alt_km": "lowest perilune over the life (km)",
+    "stable_screen": "stable over the life (screen)",
+    "screen_min_perilune_alt_km": "lowest perilune over the life (km)",
     "dv_total_max_kms_per_year": "Delta-V total, worst satellite (km/s/yr)",
-    "dv_opt_max_kms_per_year": "Delta-V optimised, worst satellite (km/s/yr)", "deltav_model": "Delta-V model",
+    "dv_opt_max_kms_per_year": "Delta-V optimised, worst satellite (km/s/yr)",
+    "deltav_model": "Delta-V model",
     "horizontal_error_95_m": "horizontal 95 % error, 95th percentile (m)",
     "vertical_error_95_m": "vertical 95 % error, 95th percentile (m)",
     "position_error_avail_pct": "position-error requirement availability (%)",
-    "ephemeris_age_max_h": "oldest broadcast ephemeris (h)", "satellites_never_uploaded": "satellites never uploaded",
-    "wall_s": "wall time (s)", "evaluated": "evaluated (closed orbit, no impact)", "reason": "reason not evaluated",
-    "meets_bounds": "meets every Table 3 bound", "violated_bounds": "Table 3 bounds violated",
-    "element_frame": "element frame", "epoch_used": "epoch (TDB)", "epoch_source": "epoch from",
+    "ephemeris_age_max_h": "oldest broadcast ephemeris (h)",
+    "satellites_never_uploaded": "satellites never uploaded",
+    "wall_s": "wall time (s)",
+    "evaluated": "evaluated (closed orbit, no impact)",
+    "reason": "reason not evaluated",
+    "meets_bounds": "meets every Table 3 bound",
+    "violated_bounds": "Table 3 bounds violated",
+    "element_frame": "element frame",
+    "epoch_used": "epoch (TDB)",
+    "epoch_source": "epoch from",
     # the front flown in closed loop (validated.nc, lnss_lib.campaign.validation)
     "closed_loop_dv_kms_per_year": "closed-loop Delta-V, mean (km/s/yr)",
     "closed_loop_dv_max_kms_per_year": "closed-loop Delta-V, worst satellite (km/s/yr)",
-    "pdop_avail_pct_life": "PDOP availability over the life (%)", "hdop_avail_pct_life": "HDOP availability over the life (%)",
+    "pdop_avail_pct_life": "PDOP availability over the life (%)",
+    "hdop_avail_pct_life": "HDOP availability over the life (%)",
     "pdop_avail_pct_worst_month": "PDOP availability, worst month (%)",
     "hdop_avail_pct_worst_month": "HDOP availability, worst month (%)",
     "n_minus_1_sat": "satellite whose loss costs most (N-1)",
@@ -93,29 +207,48 @@ LABELS = {                  # key -> human label with its unit: figures, tables,
     "pdop_avail_pct_worst_month_error": "PDOP availability, worst month, estimate - closed loop (points)",
     "hdop_avail_pct_life_estimate": "HDOP availability over the life, estimated (%)",
     "hdop_avail_pct_worst_month_estimate": "HDOP availability, worst month, estimated (%)",
-    "min_perilune_alt_km": "lowest perilune under control (km)", "impact_day": "first satellite lost (day)",
-    "n_lost": "satellites lost", "requirement_held": "every tolerance held", "n_maneuvers": "manoeuvres",
-    "status": "closed-loop status", "selected_for": "flown as",
+    "min_perilune_alt_km": "lowest perilune under control (km)",
+    "impact_day": "first satellite lost (day)",
+    "n_lost": "satellites lost",
+    "requirement_held": "every tolerance held",
+    "n_maneuvers": "manoeuvres",
+    "status": "closed-loop status",
+    "selected_for": "flown as",
     # the GPS and multi-GNSS links (notebook 03: lnss_lib.studies.gps_link, gnss_link)
-    "visible_mean": "satellites visible (mean)", "pdop_mean": "PDOP (mean)", "pdop_median": "PDOP (median)",
-    "pdop_available_fraction": "PDOP defined (fraction of time)", "pdop_ratio_to_paper": "PDOP / paper's",
-    "gps_pdop_median": "GPS-LNSS PDOP (median)", "gps_pdop_available_fraction": "GPS-LNSS PDOP defined (fraction of time)",
-    "gps_pdop_samples_kept": "GPS-LNSS PDOP samples kept", "gps_pdop_unfiltered_mean": "GPS-LNSS PDOP, unfiltered (mean)",
-    "noise_temperature_k": "noise temperature (K)", "cn0_dbhz": "C/N0 (dB-Hz)", "eirp_dbw": "EIRP (dBW)",
-    "fsl_db": "free-space loss (dB)", "g_rx_dbi": "receive antenna gain (dBi)", "gain_dbi": "antenna gain (dBi)",
-    "ktn_dbw_hz": "noise density kTN (dBW/Hz)", "off_boresight_deg": "off-boresight angle (deg)",
-    "launch_date": "launch date", "launch_date_source": "launch date from", "tle_epoch_utc": "TLE epoch (UTC)",
+    "visible_mean": "satellites visible (mean)",
+    "pdop_mean": "PDOP (mean)",
+    "pdop_median": "PDOP (median)",
+    "pdop_available_fraction": "PDOP defined (fraction of time)",
+    "pdop_ratio_to_paper": "PDOP / paper's",
+    "gps_pdop_median": "GPS-LNSS PDOP (median)",
+    "gps_pdop_available_fraction": "GPS-LNSS PDOP defined (fraction of time)",
+    "gps_pdop_samples_kept": "GPS-LNSS PDOP samples kept",
+    "gps_pdop_unfiltered_mean": "GPS-LNSS PDOP, unfiltered (mean)",
+    "noise_temperature_k": "noise temperature (K)",
+    "cn0_dbhz": "C/N0 (dB-Hz)",
+    "eirp_dbw": "EIRP (dBW)",
+    "fsl_db": "free-space loss (dB)",
+    "g_rx_dbi": "receive antenna gain (dBi)",
+    "gain_dbi": "antenna gain (dBi)",
+    "ktn_dbw_hz": "noise density kTN (dBW/Hz)",
+    "off_boresight_deg": "off-boresight angle (deg)",
+    "launch_date": "launch date",
+    "launch_date_source": "launch date from",
+    "tle_epoch_utc": "TLE epoch (UTC)",
     "days_back_from_tle": "days from the TLE epoch back to the start",
     # the Delta-V models (notebook 04: lnss_lib.deltav, lnss_lib.studies.deltav_models)
-    "model_all": "Delta-V model", "step_s": "sampling step (s)",
-    "lunar_equator_of_epoch": "lunar equator of epoch",     # an element frame, as a column of notebook 04's tables
+    "model_all": "Delta-V model",
+    "step_s": "sampling step (s)",
+    "lunar_equator_of_epoch": "lunar equator of epoch",  # an element frame, as a column of notebook 04's tables
     # the user's position error over the grid (lnss_lib.navigation_error.error_percentiles; notebook 05)
     "horizontal_95_series_m": "horizontal 95 % error, 95th percentile over the grid (m)",
     "vertical_95_series_m": "vertical 95 % error, 95th percentile over the grid (m)",
     "horizontal_95_map_m": "horizontal 95 % error, 95th percentile over the arc (m)",
     "vertical_95_map_m": "vertical 95 % error, 95th percentile over the arc (m)",
 }
-CLOSED_LOOP_DV_BY_PURPOSE = "closed_loop_dv_{}_kms_per_year"   # the closed loop's Delta-V paid for one burn purpose
+CLOSED_LOOP_DV_BY_PURPOSE = (
+    "closed_loop_dv_{}_kms_per_year"  # the closed loop's Delta-V paid for one burn purpose
+)
 
 
 def closed_loop_dv_key(purpose: str) -> str:
@@ -131,14 +264,28 @@ def label(key: str) -> str:
     base, mask = _unmasked(key)
     if mask and base in LABELS:
         return f"{LABELS[base]}, {mask} deg mask"
-    for pattern, text in zip(GNSS_SYSTEM_METRICS, ("{} satellites visible (mean, first LNSS satellite)",
-                                                   "{}-LNSS PDOP, own clock (first LNSS satellite)")):
+    for pattern, text in zip(
+        GNSS_SYSTEM_METRICS,
+        (
+            "{} satellites visible (mean, first LNSS satellite)",
+            "{}-LNSS PDOP, own clock (first LNSS satellite)",
+        ),
+    ):
         head, tail = pattern.split("{}")
-        if key.startswith(head) and key.endswith(tail) and key[len(head):-len(tail)] in GNSS_NAMES:
-            return text.format(GNSS_NAMES[key[len(head):-len(tail)]])
+        if (
+            key.startswith(head)
+            and key.endswith(tail)
+            and key[len(head) : -len(tail)] in GNSS_NAMES
+        ):
+            return text.format(GNSS_NAMES[key[len(head) : -len(tail)]])
     head, tail = CLOSED_LOOP_DV_BY_PURPOSE.split("{}")
-    if key not in LABELS and key.startswith(head) and key.endswith(tail) and len(key) > len(head) + len(tail):
-        return f"closed-loop Delta-V, {key[len(head):-len(tail)].replace('_', ' ')} (km/s/yr)"
+    if (
+        key not in LABELS
+        and key.startswith(head)
+        and key.endswith(tail)
+        and len(key) > len(head) + len(tail)
+    ):
+        return f"closed-loop Delta-V, {key[len(head) : -len(tail)].replace('_', ' ')} (km/s/yr)"
     return LABELS.get(key, key)
 
 
@@ -148,7 +295,7 @@ def _unmasked(key: str) -> tuple[str, str]:
     return (base, mask[:-3]) if base and mask.endswith("deg") and mask[:-3].isdigit() else (key, "")
 
 
-UNITS = ("km", "deg", "%", "km/s/yr", "s", "m", "h")        # the units a label ends with, in parentheses
+UNITS = ("km", "deg", "%", "km/s/yr", "s", "m", "h")  # the units a label ends with, in parentheses
 
 
 def bound_text(key: str, kind: str, limit: float) -> str:
@@ -166,7 +313,7 @@ def value_format(key: str) -> str:
     key = _unmasked(key)[0]
     if key.endswith("_kms_per_year") or key in ("ecc",):
         return ".3f"
-    if "_pct_" in key:                         # a percentage over a span (pdop_avail_pct_life)
+    if "_pct_" in key:  # a percentage over a span (pdop_avail_pct_life)
         return ".1f"
     if "dop" in key and not key.endswith("_pct"):
         return ".2f"
@@ -174,7 +321,11 @@ def value_format(key: str) -> str:
         return ".0f"
     if key.endswith(("_m", "_h")):
         return ".1f"
-    if key in ("mean_visible_sats", "gps_visible_mean") or key.startswith("gnss_") and key.endswith("_visible_mean"):
+    if (
+        key in ("mean_visible_sats", "gps_visible_mean")
+        or key.startswith("gnss_")
+        and key.endswith("_visible_mean")
+    ):
         return ".2f"
     if key.endswith(("_pct", "_deg")):
         return ".1f"
@@ -189,7 +340,11 @@ def format_value(key: str, value) -> str:
         return str(value)
     if value != value:
         return "-"
-    if isinstance(value, numbers.Integral) or float(value).is_integer() and key in INTEGER_DESIGN_KEYS + ("n_sat",):
+    if (
+        isinstance(value, numbers.Integral)
+        or float(value).is_integer()
+        and key in INTEGER_DESIGN_KEYS + ("n_sat",)
+    ):
         return str(int(value))
     return format(float(value), value_format(key))
 

@@ -16,13 +16,33 @@ from pathlib import Path
 
 from .atomicio import atomic_path, write_bytes_atomic, write_text_atomic
 from .config import OUTPUTS_DIR, PARAMS_DIR, PROJECT_DIR
+from .keys import LABELS, format_value, label
 from .provenance import MANIFEST_PACKAGES, git_revision, package_versions
 from .settings import load_settings
-from .keys import LABELS, format_value, label
 
-__all__ = ["output_dir", "profile_dir", "display_path", "display_table", "reader_html", "use_reader_tables", "notebook_shell", "write_text_atomic", "write_bytes_atomic", "atomic_path", "write_caption", "read_caption", "markdown_table",
-           "save_table", "data_checksums", "package_versions", "git_revision", "write_manifest", "CAPTION_SUFFIX",
-           "OUTPUT_KINDS", "MANIFEST_PACKAGES"]
+__all__ = [
+    "output_dir",
+    "profile_dir",
+    "display_path",
+    "display_table",
+    "reader_html",
+    "use_reader_tables",
+    "notebook_shell",
+    "write_text_atomic",
+    "write_bytes_atomic",
+    "atomic_path",
+    "write_caption",
+    "read_caption",
+    "markdown_table",
+    "save_table",
+    "data_checksums",
+    "package_versions",
+    "git_revision",
+    "write_manifest",
+    "CAPTION_SUFFIX",
+    "OUTPUT_KINDS",
+    "MANIFEST_PACKAGES",
+]
 
 OUTPUT_KINDS = ("notebooks", "figures", "tables", "data", "campaign")
 CAPTION_SUFFIX = ".meta.json"
@@ -47,7 +67,9 @@ def display_table(frame, columns=None):
     """A copy of ``frame`` (its ``columns``) for a notebook's display: headers by their labels with units and
     each number in the format of its quantity (:func:`lnss_lib.keys.format_value`), NaN as ``-``."""
     shown = frame[list(columns)] if columns is not None else frame
-    return shown.apply(lambda col: col.map(lambda v: format_value(str(col.name), v))).rename(columns=lambda c: label(str(c)))
+    return shown.apply(lambda col: col.map(lambda v: format_value(str(col.name), v))).rename(
+        columns=lambda c: label(str(c))
+    )
 
 
 def reader_html(frame) -> str:
@@ -98,8 +120,17 @@ def output_dir(profile_name: str, kind: str) -> Path:
 def write_caption(folder: Path, name: str, caption: str, files: list[Path]) -> Path:
     """Sidecar ``<folder>/<name>.meta.json`` holding the one-line caption of a figure or table and its files."""
     path = folder / f"{name}{CAPTION_SUFFIX}"
-    write_text_atomic(path, json.dumps({"name": name, "caption": " ".join(str(caption).split()),
-                                "files": [p.name for p in files]}, indent=1))
+    write_text_atomic(
+        path,
+        json.dumps(
+            {
+                "name": name,
+                "caption": " ".join(str(caption).split()),
+                "files": [p.name for p in files],
+            },
+            indent=1,
+        ),
+    )
     return path
 
 
@@ -140,18 +171,24 @@ def markdown_table(frame, digits: int = 4) -> str:
     header = [label(str(c)) if c is not None else "" for c in columns]
     lines = ["| " + " | ".join(header) + " |", "|" + "---|" * len(header)]
     for index, row in zip(frame.index, frame.itertuples(index=False)):
-        cells = ([cell(index, frame.index.name)] if show_index else []) + [cell(v, c) for v, c in zip(row, frame.columns)]
+        cells = ([cell(index, frame.index.name)] if show_index else []) + [
+            cell(v, c) for v, c in zip(row, frame.columns)
+        ]
         lines.append("| " + " | ".join(cells) + " |")
     return "\n".join(lines) + "\n"
 
 
-def save_table(frame, profile_name: str, name: str, caption: str, *, digits: int = 4) -> dict[str, Path]:
+def save_table(
+    frame, profile_name: str, name: str, caption: str, *, digits: int = 4
+) -> dict[str, Path]:
     """Write ``outputs/<profile>/tables/<name>.csv`` and ``.md`` (with the caption above the table)
     and the caption sidecar used by :func:`lnss_lib.pipeline.write_index`; return the written paths."""
     folder = output_dir(profile_name, "tables")
     written = {"csv": folder / f"{name}.csv", "md": folder / f"{name}.md"}
     write_text_atomic(written["csv"], frame.to_csv(index=not _plain_index(frame)))
-    write_text_atomic(written["md"], f"{' '.join(caption.split())}\n\n{markdown_table(frame, digits)}")
+    write_text_atomic(
+        written["md"], f"{' '.join(caption.split())}\n\n{markdown_table(frame, digits)}"
+    )
     written["meta"] = write_caption(folder, name, caption, [written["csv"], written["md"]])
     return written
 
@@ -166,8 +203,11 @@ def data_checksums() -> dict[str, str]:
     """SHA-256 of every data file in ``params/data`` and of the planetary SPK."""
     from .ephemeris import file_sha256, planetary_spk_path
 
-    sums = {str(p.relative_to(PARAMS_DIR)): file_sha256(p) for p in sorted((PARAMS_DIR / "data").rglob("*"))
-            if p.is_file() and p.name not in ("README.md", "SHA256SUMS")}
+    sums = {
+        str(p.relative_to(PARAMS_DIR)): file_sha256(p)
+        for p in sorted((PARAMS_DIR / "data").rglob("*"))
+        if p.is_file() and p.name not in ("README.md", "SHA256SUMS")
+    }
     sums["skyfield-data:de421.bsp"] = file_sha256(planetary_spk_path())
     return sums
 
@@ -179,7 +219,10 @@ def code_and_data_digest() -> str:
     result was computed with, besides its settings (computed once a process)."""
     from . import kernel_cpu, source_digest
 
-    text = json.dumps([source_digest(Path(__file__).resolve().parent), data_checksums(), kernel_cpu()], sort_keys=True)
+    text = json.dumps(
+        [source_digest(Path(__file__).resolve().parent), data_checksums(), kernel_cpu()],
+        sort_keys=True,
+    )
     return hashlib.sha256(text.encode()).hexdigest()[:16]
 
 
@@ -197,8 +240,9 @@ def cached_json(cache_dir: Path | None, name: str, key, compute) -> tuple:
     computed again. ``cache_dir`` None: no cache. The result must be JSON-ready (numpy scalars are converted)."""
     if cache_dir is None:
         return compute(), False
-    digest = hashlib.sha256(json.dumps([key, code_and_data_digest()], sort_keys=True,
-                                       default=_json_ready).encode()).hexdigest()[:16]
+    digest = hashlib.sha256(
+        json.dumps([key, code_and_data_digest()], sort_keys=True, default=_json_ready).encode()
+    ).hexdigest()[:16]
     path = Path(cache_dir) / f"{name}_{digest}.json"
     if path.is_file():
         try:

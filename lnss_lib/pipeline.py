@@ -13,22 +13,37 @@ import uuid
 from pathlib import Path
 
 from .config import PROJECT_DIR, available_profiles
-from .settings import load_settings
 from .errors import ConfigError
 from .findings import write_findings
 from .keys import format_value, label
-from .outputs import (CAPTION_SUFFIX, atomic_path, output_dir, profile_dir, read_caption, write_manifest,
-                      write_text_atomic)
+from .outputs import (
+    CAPTION_SUFFIX,
+    atomic_path,
+    output_dir,
+    profile_dir,
+    read_caption,
+    write_manifest,
+    write_text_atomic,
+)
+from .settings import load_settings
 
-__all__ = ["NOTEBOOKS_DIR", "PROFILE_ENV", "notebook_paths", "notebook_profile", "kernel_environment", "reproduce",
-           "write_index", "ipc_kernel_manager_class"]
+__all__ = [
+    "NOTEBOOKS_DIR",
+    "PROFILE_ENV",
+    "notebook_paths",
+    "notebook_profile",
+    "kernel_environment",
+    "reproduce",
+    "write_index",
+    "ipc_kernel_manager_class",
+]
 
 NOTEBOOKS_DIR = PROJECT_DIR / "notebooks"
-KERNEL_LOG = "kernels.log"            # in outputs/<profile>/notebooks/: the kernel processes' own stderr
+KERNEL_LOG = "kernels.log"  # in outputs/<profile>/notebooks/: the kernel processes' own stderr
 PROFILE_ENV = "LNSS_PROFILE"
 """Environment variable naming the profile of a notebook run without papermill parameters (nbval, jupyter lab)."""
 DEFAULT_PROFILE = "quick"
-INDEX_TABLE_MAX_ROWS = 200            # rows of a table shown inline in the index; the CSV has them all
+INDEX_TABLE_MAX_ROWS = 200  # rows of a table shown inline in the index; the CSV has them all
 
 
 def notebook_paths(only: list[str] | None = None) -> list[Path]:
@@ -39,9 +54,15 @@ def notebook_paths(only: list[str] | None = None) -> list[Path]:
     chosen = []
     for key in only:
         key = key.removesuffix(".ipynb")
-        matches = [b for b in books if b.stem == key or b.stem.split("_", 1)[0] == key or b.stem.startswith(key)]
+        matches = [
+            b
+            for b in books
+            if b.stem == key or b.stem.split("_", 1)[0] == key or b.stem.startswith(key)
+        ]
         if not matches:
-            raise ValueError(f"no notebook matches {key!r}; available: {', '.join(b.stem for b in books)}")
+            raise ValueError(
+                f"no notebook matches {key!r}; available: {', '.join(b.stem for b in books)}"
+            )
         chosen.extend(m for m in matches if m not in chosen)
     return sorted(chosen)
 
@@ -52,8 +73,10 @@ def notebook_profile() -> str:
     :class:`ConfigError` for a name that is not a profile in ``params/``."""
     name = os.environ.get(PROFILE_ENV, DEFAULT_PROFILE)
     if name not in available_profiles():
-        raise ConfigError(f"{PROFILE_ENV} = {name!r} is not a profile; available: {', '.join(available_profiles())}",
-                          key=PROFILE_ENV)
+        raise ConfigError(
+            f"{PROFILE_ENV} = {name!r} is not a profile; available: {', '.join(available_profiles())}",
+            key=PROFILE_ENV,
+        )
     return name
 
 
@@ -61,7 +84,9 @@ def kernel_environment(profile_name: str) -> None:
     """Notebook kernels started from this process (papermill, nbval, voila) import this checkout's lnss_lib and
     default to ``profile_name`` (:func:`notebook_profile`)."""
     paths = [p for p in os.environ.get("PYTHONPATH", "").split(os.pathsep) if p]
-    os.environ["PYTHONPATH"] = os.pathsep.join([str(PROJECT_DIR), *(p for p in paths if p != str(PROJECT_DIR))])
+    os.environ["PYTHONPATH"] = os.pathsep.join(
+        [str(PROJECT_DIR), *(p for p in paths if p != str(PROJECT_DIR))]
+    )
     os.environ[PROFILE_ENV] = profile_name
 
 
@@ -93,7 +118,11 @@ def ipc_kernel_manager_class(log_path: Path | None = None):
     return IpcKernelManager
 
 
-def reproduce(profile_name: str = DEFAULT_PROFILE, only: list[str] | None = None, overrides: dict | None = None) -> int:
+def reproduce(
+    profile_name: str = DEFAULT_PROFILE,
+    only: list[str] | None = None,
+    overrides: dict | None = None,
+) -> int:
     """Execute the notebooks in order under a profile; stop at the first failure. Returns an exit code.
 
     ``overrides`` (a nested dict, e.g. from ``--set``) is checked here, before any notebook runs, and
@@ -123,13 +152,24 @@ def reproduce(profile_name: str = DEFAULT_PROFILE, only: list[str] | None = None
         failure = None
         try:
             with atomic_path(target / book.name, suffix=".ipynb") as temporary:
-                declared = {k: v for k, v in parameters.items() if k in papermill.inspect_notebook(str(book))}
+                declared = {
+                    k: v
+                    for k, v in parameters.items()
+                    if k in papermill.inspect_notebook(str(book))
+                }
                 try:
-                    papermill.execute_notebook(str(book), str(temporary), parameters=declared,
-                                               cwd=str(NOTEBOOKS_DIR), progress_bar=False, kernel_name="python3",
-                                               execution_timeout=timeout_s, kernel_manager_class=manager)
+                    papermill.execute_notebook(
+                        str(book),
+                        str(temporary),
+                        parameters=declared,
+                        cwd=str(NOTEBOOKS_DIR),
+                        progress_bar=False,
+                        kernel_name="python3",
+                        execution_timeout=timeout_s,
+                        kernel_manager_class=manager,
+                    )
                 except papermill.PapermillExecutionError as error:
-                    failure = error        # the complete notebook, holding the failing cell's traceback, is kept
+                    failure = error  # the complete notebook, holding the failing cell's traceback, is kept
         except BaseException:
             bar.close()
             raise
@@ -137,11 +177,18 @@ def reproduce(profile_name: str = DEFAULT_PROFILE, only: list[str] | None = None
         if failure is None:
             runs[book.stem] = {"status": "ok", "wall_s": wall_s}
             continue
-        runs[book.stem] = {"status": "failed", "wall_s": wall_s, "error": f"{failure.ename}: {failure.evalue}"}
+        runs[book.stem] = {
+            "status": "failed",
+            "wall_s": wall_s,
+            "error": f"{failure.ename}: {failure.evalue}",
+        }
         bar.close()
-        print(f"\nnotebook {book.name} failed in cell {failure.cell_index}: {failure.ename}: {failure.evalue}\n"
-              f"the executed copy with the traceback is {target / book.name}; "
-              f"outputs of the notebooks before it are kept", file=sys.stderr)
+        print(
+            f"\nnotebook {book.name} failed in cell {failure.cell_index}: {failure.ename}: {failure.evalue}\n"
+            f"the executed copy with the traceback is {target / book.name}; "
+            f"outputs of the notebooks before it are kept",
+            file=sys.stderr,
+        )
         status = 1
         break
     manifest = write_manifest(profile_name, runs)
@@ -149,7 +196,9 @@ def reproduce(profile_name: str = DEFAULT_PROFILE, only: list[str] | None = None
     print(f"index of figures and tables: {index}", file=sys.stderr)
     if status == 0:
         total = sum(r["wall_s"] for r in runs.values())
-        print(f"{len(runs)} notebook(s) ran in {total:.0f} s; manifest: {manifest}", file=sys.stderr)
+        print(
+            f"{len(runs)} notebook(s) ran in {total:.0f} s; manifest: {manifest}", file=sys.stderr
+        )
     return status
 
 
@@ -180,8 +229,14 @@ def natural_key(name: str) -> list:
 def _stems(folder: Path, suffixes: tuple[str, ...]) -> list[str]:
     if not folder.is_dir():
         return []
-    return sorted({p.name[: -len(p.suffix)] for p in folder.iterdir()
-                   if p.suffix in suffixes and not p.name.endswith(CAPTION_SUFFIX)}, key=natural_key)
+    return sorted(
+        {
+            p.name[: -len(p.suffix)]
+            for p in folder.iterdir()
+            if p.suffix in suffixes and not p.name.endswith(CAPTION_SUFFIX)
+        },
+        key=natural_key,
+    )
 
 
 def _group(stem: str) -> str:
@@ -210,9 +265,15 @@ def _csv_table(path: Path) -> str:
     if not rows:
         return "<p>(empty table)</p>"
     header, body = rows[0], rows[1:]
-    out = ['<div class="scroll"><table><tr>' + "".join(
-        f'<th title="{html.escape(h)}">{html.escape(label(h))}</th>' for h in header) + "</tr>"]
-    out += ["<tr>" + "".join(_cell(c, h) for c, h in zip(row, header)) + "</tr>" for row in body[:INDEX_TABLE_MAX_ROWS]]
+    out = [
+        '<div class="scroll"><table><tr>'
+        + "".join(f'<th title="{html.escape(h)}">{html.escape(label(h))}</th>' for h in header)
+        + "</tr>"
+    ]
+    out += [
+        "<tr>" + "".join(_cell(c, h) for c, h in zip(row, header)) + "</tr>"
+        for row in body[:INDEX_TABLE_MAX_ROWS]
+    ]
     out.append("</table></div>")
     if len(body) > INDEX_TABLE_MAX_ROWS:
         out.append(f"<p>first {INDEX_TABLE_MAX_ROWS} of {len(body)} rows; all in the CSV.</p>")
@@ -244,22 +305,31 @@ def write_index(profile_name: str) -> Path:
         caption = html.escape(read_caption(figures_dir, stem))
         page, png = figures_dir / f"{stem}.html", figures_dir / f"{stem}.png"
         target = href(page) if page.is_file() else href(png)
-        image = (f'<img src="{href(png)}" alt="{caption}" loading="lazy">' if png.is_file()
-                 else '<div class="noimg">interactive figure (no PNG)</div>')
+        image = (
+            f'<img src="{href(png)}" alt="{caption}" loading="lazy">'
+            if png.is_file()
+            else '<div class="noimg">interactive figure (no PNG)</div>'
+        )
         files = " ".join(link(p, p.suffix.lstrip(".").upper()) for p in (page, png) if p.is_file())
-        return (f'<figure><a href="{target}">{image}</a><figcaption>{caption}'
-                f'<div class="files">{html.escape(stem)}: {files}</div></figcaption></figure>')
+        return (
+            f'<figure><a href="{target}">{image}</a><figcaption>{caption}'
+            f'<div class="files">{html.escape(stem)}: {files}</div></figcaption></figure>'
+        )
 
     def table(stem: str) -> str:
         files = [tables_dir / f"{stem}{s}" for s in (".csv", ".md")]
         body = _csv_table(files[0]) if files[0].is_file() else ""
         links = " ".join(link(p, p.suffix.lstrip(".").upper()) for p in files if p.is_file())
-        return (f"<h4>{html.escape(read_caption(tables_dir, stem))}</h4>{body}"
-                f'<p class="files">{html.escape(stem)}: {links}</p>')
+        return (
+            f"<h4>{html.escape(read_caption(tables_dir, stem))}</h4>{body}"
+            f'<p class="files">{html.escape(stem)}: {links}</p>'
+        )
 
     figure_stems = _stems(figures_dir, (".html", ".png"))
     table_stems = _stems(tables_dir, (".csv", ".md"))
-    executed = {b.stem: b for b in sorted(notebooks_dir.glob("*.ipynb"))} if notebooks_dir.is_dir() else {}
+    executed = (
+        {b.stem: b for b in sorted(notebooks_dir.glob("*.ipynb"))} if notebooks_dir.is_dir() else {}
+    )
     names = {b.stem.split("_", 1)[0]: b.stem for b in notebook_paths()}
     names.update({stem.split("_", 1)[0]: stem for stem in executed})
     groups = sorted({_group(s) for s in figure_stems + table_stems} | {_group(s) for s in executed})
@@ -277,16 +347,23 @@ def write_index(profile_name: str) -> Path:
         if tabs:
             parts.append("<h3>Tables</h3>" + "".join(tabs))
         sections.append("".join(parts))
-    companion = (load_settings(profile_name).campaign.companion_profile or None
-                 if profile_name in available_profiles() else None)
+    companion = (
+        load_settings(profile_name).campaign.companion_profile or None
+        if profile_name in available_profiles()
+        else None
+    )
     _, findings = write_findings(profile_name, companion)
-    contents = "".join(f'<a href="#nb-{g or "other"}">{html.escape(g or "other")}</a>' for g in
-                       sorted(groups, key=lambda g: (g == "", g)))
+    contents = "".join(
+        f'<a href="#nb-{g or "other"}">{html.escape(g or "other")}</a>'
+        for g in sorted(groups, key=lambda g: (g == "", g))
+    )
     published = published_folder(root / "campaign") if (root / "campaign").is_dir() else None
     campaign = sorted(published.glob("*.nc")) if published else []
     extras = [link(p, p.name) for p in campaign]
     if (root / "manifest.json").is_file():
-        extras.append(link(root / "manifest.json", "manifest.json (parameters, versions, checksums, timings)"))
+        extras.append(
+            link(root / "manifest.json", "manifest.json (parameters, versions, checksums, timings)")
+        )
     page = (
         "<!DOCTYPE html><html><head><meta charset='utf-8'>"
         f"<title>LNSS workbook outputs: {html.escape(profile_name)}</title>"
@@ -294,10 +371,15 @@ def write_index(profile_name: str) -> Path:
         f"<h1>LNSS workbook outputs, profile {html.escape(profile_name)}</h1>"
         f"<p>Written {time.strftime('%Y-%m-%d %H:%M:%S UTC', time.gmtime())}. Click a thumbnail for the "
         "interactive figure (works offline).</p>"
-        + findings + f"<nav>Outputs by notebook: {contents}</nav>"
+        + findings
+        + f"<nav>Outputs by notebook: {contents}</nav>"
         + ("".join(sections) if sections else "<p>no figures or tables yet</p>")
         + "<h2>Campaign and manifest</h2>"
-        + ("<ul>" + "".join(f"<li>{e}</li>" for e in extras) + "</ul>" if extras else "<p>none yet</p>")
+        + (
+            "<ul>" + "".join(f"<li>{e}</li>" for e in extras) + "</ul>"
+            if extras
+            else "<p>none yet</p>"
+        )
         + "</body></html>\n"
     )
     return write_text_atomic(root / "index.html", page)

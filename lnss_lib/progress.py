@@ -15,8 +15,8 @@ import time
 
 __all__ = ["CellProgress", "steps", "in_kernel", "MIN_INTERVAL_S"]
 
-MIN_INTERVAL_S = 0.5        # shortest time between two redraws of a bar
-_open: list[CellProgress] = []     # bars of the running cell, outermost first
+MIN_INTERVAL_S = 0.5  # shortest time between two redraws of a bar
+_open: list[CellProgress] = []  # bars of the running cell, outermost first
 
 
 def in_kernel() -> bool:
@@ -55,7 +55,13 @@ class CellProgress:
     """
 
     def __init__(self, total: int, desc: str, unit: str = "steps", initial: int = 0):
-        self.total, self.desc, self.unit, self.n, self.note = int(total), desc, unit, int(initial), ""
+        self.total, self.desc, self.unit, self.n, self.note = (
+            int(total),
+            desc,
+            unit,
+            int(initial),
+            "",
+        )
         self.start = time.perf_counter()
         self._handle = None
         self._drawn = 0.0
@@ -63,7 +69,7 @@ class CellProgress:
         if self.closed:
             return
         count = _execution_count()
-        if _open and _open[0]._count != count:        # left open by a cell that raised: not this cell's
+        if _open and _open[0]._count != count:  # left open by a cell that raised: not this cell's
             _open.clear()
         self._count = count
         _open.append(self)
@@ -76,18 +82,30 @@ class CellProgress:
     def line(self) -> tuple[str, str]:
         """(HTML, text) of this bar's line: bar, count, elapsed time, the time left at the rate so far, the note."""
         elapsed = time.perf_counter() - self.start
-        left = f", about {_elapsed(elapsed / self.n * (self.total - self.n))} left" if 0 < self.n < self.total else ""
-        text = (f"{self.desc}: {self.n}/{self.total} {self.unit}, {_elapsed(elapsed)} elapsed{left}"
-                + (f"; {self.note}" if self.note else ""))
-        return (f"<progress value='{self.n}' max='{max(self.total, 1)}' style='width:12em'></progress> "
-                f"{html.escape(text)}", text)
+        left = (
+            f", about {_elapsed(elapsed / self.n * (self.total - self.n))} left"
+            if 0 < self.n < self.total
+            else ""
+        )
+        text = (
+            f"{self.desc}: {self.n}/{self.total} {self.unit}, {_elapsed(elapsed)} elapsed{left}"
+            + (f"; {self.note}" if self.note else "")
+        )
+        return (
+            f"<progress value='{self.n}' max='{max(self.total, 1)}' style='width:12em'></progress> "
+            f"{html.escape(text)}",
+            text,
+        )
 
     def bundle(self) -> dict:
         """The output's mimebundle: one line per open bar, outermost first."""
         lines = [bar.line() for bar in _open]
-        return {"text/html": "<div style='font-family:monospace;font-size:90%'>"
-                             + "<br>".join(h for h, _ in lines) + "</div>",
-                "text/plain": "\n".join(t for _, t in lines)}
+        return {
+            "text/html": "<div style='font-family:monospace;font-size:90%'>"
+            + "<br>".join(h for h, _ in lines)
+            + "</div>",
+            "text/plain": "\n".join(t for _, t in lines),
+        }
 
     def update(self, advance: int = 1, note: str | None = None) -> None:
         """Advance by ``advance`` (``self.n`` is clipped to ``total``) and set the note; redraws when due."""
@@ -101,7 +119,11 @@ class CellProgress:
     def _redraw(self, force: bool = False) -> None:
         root = _open[0] if _open else None
         now = time.perf_counter()
-        if root is None or root._handle is None or (not force and now - root._drawn < MIN_INTERVAL_S):
+        if (
+            root is None
+            or root._handle is None
+            or (not force and now - root._drawn < MIN_INTERVAL_S)
+        ):
             return
         root._handle.update(root.bundle(), raw=True)
         root._drawn = now
@@ -112,7 +134,7 @@ class CellProgress:
             return
         self.closed = True
         if self in _open:
-            del _open[_open.index(self):]
+            del _open[_open.index(self) :]
         if self._handle is not None:
             self._handle.update({"text/plain": ""}, raw=True)
         else:

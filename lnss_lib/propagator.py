@@ -22,31 +22,63 @@ import xarray as xr
 from scipy.integrate._ivp import dop853_coefficients as _dop853
 from scipy.integrate._ivp.rk import RK45 as _RK45
 
-from .sections import METHODS, SEMI_MAJOR_AXIS, SEMI_MAJOR_AXIS_WHY, allowed_range_text, in_range
 from .constants import EARTH_MOON_DISTANCE_KM, MAX_OUTPUT_SAMPLES, SECONDS_PER_DAY
 from .elements import check_states_km, elements_to_state, validate_elements
-from .errors import ConfigError, ImpactError, PropagationError
 from .ephemeris import EphemerisTable, check_span, ensure_kernels, tdb_iso, tdb_seconds
+from .errors import ConfigError, ImpactError, PropagationError
 from .forces import SCRATCH_SIZE, SOLAR_P, SRP_K, TERMS, ForceModel, acceleration
 from .frames import element_frame_to_j2000
 from .gravity import new_workspace
+from .sections import METHODS, SEMI_MAJOR_AXIS, SEMI_MAJOR_AXIS_WHY, allowed_range_text, in_range
 from .settings import Dynamics, EpochSettings, IntegratorSetting
 
-__all__ = ["METHODS", "STATUS_TEXT", "check_batch", "check_elements_deg", "integrate_one", "integrate_many", "integrate_batch", "output_times", "propagate_states",
-           "elements_deg_to_states", "propagate_elements"]
+__all__ = [
+    "METHODS",
+    "STATUS_TEXT",
+    "check_batch",
+    "check_elements_deg",
+    "integrate_one",
+    "integrate_many",
+    "integrate_batch",
+    "output_times",
+    "propagate_states",
+    "elements_deg_to_states",
+    "propagate_elements",
+]
 
-STATUS_NOT_RUN, STATUS_OK, STATUS_IMPACT, STATUS_MAX_STEPS, STATUS_STEP_TOO_SMALL, STATUS_NON_FINITE = -1, 0, 1, 2, 3, 4
-STATUS_TEXT = {-1: "not run (the compiled loop ended before this satellite finished)", 0: "ok", 1: "impact",
-               2: "maximum number of steps", 3: "step size too small", 4: "non-finite state or acceleration"}
+(
+    STATUS_NOT_RUN,
+    STATUS_OK,
+    STATUS_IMPACT,
+    STATUS_MAX_STEPS,
+    STATUS_STEP_TOO_SMALL,
+    STATUS_NON_FINITE,
+) = -1, 0, 1, 2, 3, 4
+STATUS_TEXT = {
+    -1: "not run (the compiled loop ended before this satellite finished)",
+    0: "ok",
+    1: "impact",
+    2: "maximum number of steps",
+    3: "step size too small",
+    4: "non-finite state or acceleration",
+}
 
 # Butcher tableaux in one layout: A (s x s), B (s), C (s), E5 and E3 (s + 1; E3 unused for RK45)
-_RK45_TAB = (np.ascontiguousarray(_RK45.A, dtype=float), np.ascontiguousarray(_RK45.B, dtype=float),
-             np.ascontiguousarray(_RK45.C, dtype=float), np.ascontiguousarray(_RK45.E, dtype=float),
-             np.zeros(7))
+_RK45_TAB = (
+    np.ascontiguousarray(_RK45.A, dtype=float),
+    np.ascontiguousarray(_RK45.B, dtype=float),
+    np.ascontiguousarray(_RK45.C, dtype=float),
+    np.ascontiguousarray(_RK45.E, dtype=float),
+    np.zeros(7),
+)
 _N = _dop853.N_STAGES
-_DOP853_TAB = (np.ascontiguousarray(_dop853.A[:_N, :_N]), np.ascontiguousarray(_dop853.B),
-               np.ascontiguousarray(_dop853.C[:_N]), np.ascontiguousarray(_dop853.E5),
-               np.ascontiguousarray(_dop853.E3))
+_DOP853_TAB = (
+    np.ascontiguousarray(_dop853.A[:_N, :_N]),
+    np.ascontiguousarray(_dop853.B),
+    np.ascontiguousarray(_dop853.C[:_N]),
+    np.ascontiguousarray(_dop853.E5),
+    np.ascontiguousarray(_dop853.E3),
+)
 SAFETY, MIN_FACTOR, MAX_FACTOR = 0.9, 0.2, 10.0
 
 
@@ -113,7 +145,7 @@ def _initial_step(t0, y0, f0, t_bound, order, rtol, atol, args, work, terms, acc
     interval = abs(t_bound - t0)
     h0 = 1e-6 if (d0 < 1e-5 or d1 < 1e-5) else 0.01 * d0 / d1
     if not np.isfinite(h0):
-        return np.nan                       # the scaled norms overflowed (tolerances far too small): the caller stops
+        return np.nan  # the scaled norms overflowed (tolerances far too small): the caller stops
     h0 = min(h0, interval)
     y1 = y0 + h0 * f0
     _rhs(t0 + h0, y1, args, work, terms, acc, f1)
@@ -173,7 +205,7 @@ def integrate_one(y0, t0, t_out, method, rtol, atol, r_min_km, max_steps, args, 
         if steps >= max_steps:
             status = STATUS_MAX_STEPS
             break
-        if not np.isfinite(h_abs):          # e.g. tolerances so small that the error norms overflow
+        if not np.isfinite(h_abs):  # e.g. tolerances so small that the error norms overflow
             status = STATUS_NON_FINITE
             break
         min_step = 10.0 * abs(np.nextafter(t, np.inf) - t)
@@ -239,13 +271,17 @@ def integrate_one(y0, t0, t_out, method, rtol, atol, r_min_km, max_steps, args, 
                 status = STATUS_NON_FINITE
                 break
             if error_norm < 1.0:
-                factor = MAX_FACTOR if error_norm == 0.0 else min(MAX_FACTOR, SAFETY * error_norm ** exponent)
+                factor = (
+                    MAX_FACTOR
+                    if error_norm == 0.0
+                    else min(MAX_FACTOR, SAFETY * error_norm**exponent)
+                )
                 if rejected:
                     factor = min(1.0, factor)
                 h_abs *= factor
                 accepted = True
             else:
-                h_abs *= max(MIN_FACTOR, SAFETY * error_norm ** exponent)
+                h_abs *= max(MIN_FACTOR, SAFETY * error_norm**exponent)
                 rejected = True
         if not accepted:
             break
@@ -291,7 +327,9 @@ def integrate_many(y0s, t0, t_out, method, rtol, atol, r_min_km, max_steps, args
     n_rhs = np.zeros(n_sat, dtype=np.int64)
     for i in nb.prange(n_sat):
         work = (np.zeros(SCRATCH_SIZE), new_workspace(degree))
-        s, st, ts, nr = integrate_one(y0s[i], t0, t_out, method, rtol, atol, r_min_km, max_steps, args, work)
+        s, st, ts, nr = integrate_one(
+            y0s[i], t0, t_out, method, rtol, atol, r_min_km, max_steps, args, work
+        )
         states[i] = s
         status[i] = st
         t_stop[i] = ts
@@ -299,25 +337,43 @@ def integrate_many(y0s, t0, t_out, method, rtol, atol, r_min_km, max_steps, args
     return states, status, t_stop, n_rhs
 
 
-def check_batch(status: np.ndarray, t_stop: np.ndarray, states: np.ndarray, t_out: np.ndarray, t0: float,
-                active: np.ndarray | None = None) -> np.ndarray:
+def check_batch(
+    status: np.ndarray,
+    t_stop: np.ndarray,
+    states: np.ndarray,
+    t_out: np.ndarray,
+    t0: float,
+    active: np.ndarray | None = None,
+) -> np.ndarray:
     """After a compiled batch loop: :class:`PropagationError` naming every (active) satellite that was not
     run, failed, or left a non-finite sample after ``t0`` and before its stop; returns the impact mask.
 
     ``states`` (n_sat, n_out, 6) on ``t_out``; an impacted satellite's samples from its stop on are NaN.
     """
-    active = np.ones(status.shape[0], dtype=bool) if active is None else np.asarray(active, dtype=bool)
+    active = (
+        np.ones(status.shape[0], dtype=bool) if active is None else np.asarray(active, dtype=bool)
+    )
     impact = active & (status == STATUS_IMPACT)
-    before_stop = (t_out[None, :] > t0) & ((status == STATUS_OK)[:, None] | (t_out[None, :] < t_stop[:, None]))
+    before_stop = (t_out[None, :] > t0) & (
+        (status == STATUS_OK)[:, None] | (t_out[None, :] < t_stop[:, None])
+    )
     holes = np.any(before_stop & ~np.all(np.isfinite(states), axis=2), axis=1)
     bad = active & (((status != STATUS_OK) & ~impact) | (impact & ~np.isfinite(t_stop)) | holes)
     if bad.any():
         sats = np.flatnonzero(bad).tolist()
-        texts = [STATUS_TEXT.get(int(status[i]), f"unknown status {int(status[i])}") if status[i] != STATUS_OK
-                 or not holes[i] else "non-finite samples" for i in sats]
-        detail = "; ".join(f"{i}: {text}" + (f" at t = {t_stop[i]:.1f} s TDB" if np.isfinite(t_stop[i]) else "")
-                           for i, text in zip(sats[:10], texts))
-        raise PropagationError(f"propagation failed for satellite(s) {sats} ({detail})", sats=sats, statuses=texts)
+        texts = [
+            STATUS_TEXT.get(int(status[i]), f"unknown status {int(status[i])}")
+            if status[i] != STATUS_OK or not holes[i]
+            else "non-finite samples"
+            for i in sats
+        ]
+        detail = "; ".join(
+            f"{i}: {text}" + (f" at t = {t_stop[i]:.1f} s TDB" if np.isfinite(t_stop[i]) else "")
+            for i, text in zip(sats[:10], texts)
+        )
+        raise PropagationError(
+            f"propagation failed for satellite(s) {sats} ({detail})", sats=sats, statuses=texts
+        )
     return impact
 
 
@@ -326,7 +382,9 @@ def _check_states(states_mci: np.ndarray, gm_km3_s2: float, r_min_km: float | No
     surface floor), finite and within the Earth-Moon distance for a batch (whose impacts are flagged)."""
     states = np.atleast_2d(np.asarray(states_mci, dtype=float))
     if states.ndim != 2 or states.shape[1] != 6:
-        raise ValueError(f"states must have shape (n_sat, 6) [x, y, z, vx, vy, vz]; got {states.shape}")
+        raise ValueError(
+            f"states must have shape (n_sat, 6) [x, y, z, vx, vy, vz]; got {states.shape}"
+        )
     if not np.all(np.isfinite(states)):
         raise ValueError("states contain non-finite values")
     if r_min_km is not None:
@@ -334,9 +392,11 @@ def _check_states(states_mci: np.ndarray, gm_km3_s2: float, r_min_km: float | No
     radius = np.linalg.norm(states[:, :3], axis=1)
     if np.any(radius > EARTH_MOON_DISTANCE_KM):
         k = int(np.argmax(radius))
-        raise ConfigError(f"state {k}: radius {radius[k]:.6g} km is not allowed; allowed: up to {EARTH_MOON_DISTANCE_KM:,.0f} "
-                          "km (the Earth-Moon distance: beyond it the Earth, not the Moon, is the central body)",
-                          key="state")
+        raise ConfigError(
+            f"state {k}: radius {radius[k]:.6g} km is not allowed; allowed: up to {EARTH_MOON_DISTANCE_KM:,.0f} "
+            "km (the Earth-Moon distance: beyond it the Earth, not the Moon, is the central body)",
+            key="state",
+        )
     return states
 
 
@@ -349,8 +409,11 @@ def output_times(t0_tdb_s: float, duration_s: float, step_s: float) -> np.ndarra
     if not np.isfinite(t0_tdb_s):
         raise ConfigError(f"start epoch must be finite (TDB s); got {t0_tdb_s}")
     if duration_s / step_s > MAX_OUTPUT_SAMPLES:
-        raise ConfigError(f"duration {duration_s:g} s at a sampling step of {step_s:g} s gives {duration_s / step_s:.3g} "
-                          f"samples; allowed: at most {MAX_OUTPUT_SAMPLES:,} (48 bytes each per satellite)", key="step_s")
+        raise ConfigError(
+            f"duration {duration_s:g} s at a sampling step of {step_s:g} s gives {duration_s / step_s:.3g} "
+            f"samples; allowed: at most {MAX_OUTPUT_SAMPLES:,} (48 bytes each per satellite)",
+            key="step_s",
+        )
     n = int(np.floor(duration_s / step_s + 1e-9))
     times = t0_tdb_s + step_s * np.arange(n + 1)
     if times[-1] < t0_tdb_s + duration_s - 1e-6:
@@ -358,10 +421,20 @@ def output_times(t0_tdb_s: float, duration_s: float, step_s: float) -> np.ndarra
     return times
 
 
-def propagate_states(dynamics: Dynamics, states_mci, t0_tdb_s: float, duration_s: float, step_s: float, *,
-                     setting: str | None = None, degree: int | None = None,
-                     srp_cr_area_mass_m2_kg: float | None = None, batch: bool | None = None,
-                     model: ForceModel | None = None, max_steps: int = 5_000_000) -> xr.Dataset:
+def propagate_states(
+    dynamics: Dynamics,
+    states_mci,
+    t0_tdb_s: float,
+    duration_s: float,
+    step_s: float,
+    *,
+    setting: str | None = None,
+    degree: int | None = None,
+    srp_cr_area_mass_m2_kg: float | None = None,
+    batch: bool | None = None,
+    model: ForceModel | None = None,
+    max_steps: int = 5_000_000,
+) -> xr.Dataset:
     """Propagate Moon-centred J2000 states (n_sat, 6; km, km/s) from TDB ``t0_tdb_s``.
 
     Returns a Dataset (dims ``sat``, ``time``, ``xyz``) sampled every ``step_s`` seconds. With one
@@ -371,27 +444,47 @@ def propagate_states(dynamics: Dynamics, states_mci, t0_tdb_s: float, duration_s
     names one of ``dynamics.integrator``'s settings (default: its own).
     """
     batch = np.atleast_2d(np.asarray(states_mci)).shape[0] > 1 if batch is None else batch
-    states = _check_states(states_mci, dynamics.gravity.gm_km3_s2, None if batch else dynamics.r_impact_km)
+    states = _check_states(
+        states_mci, dynamics.gravity.gm_km3_s2, None if batch else dynamics.r_impact_km
+    )
     integ = dynamics.integrator.named(setting)
     times = output_times(t0_tdb_s, duration_s, step_s)
     if model is None:
         table = EphemerisTable.build(dynamics, t0_tdb_s, times[-1])
-        model = ForceModel.build(dynamics, table, degree=degree, srp_cr_area_mass_m2_kg=srp_cr_area_mass_m2_kg)
+        model = ForceModel.build(
+            dynamics, table, degree=degree, srp_cr_area_mass_m2_kg=srp_cr_area_mass_m2_kg
+        )
     elif degree is not None or srp_cr_area_mass_m2_kg is not None:
-        raise ValueError("degree and srp_cr_area_mass_m2_kg belong to the force model: pass them to "
-                         "ForceModel.build, not together with model=")
+        raise ValueError(
+            "degree and srp_cr_area_mass_m2_kg belong to the force model: pass them to "
+            "ForceModel.build, not together with model="
+        )
     r_min = dynamics.r_impact_km
-    out, status, t_stop, n_rhs, impact = integrate_batch(dynamics, states, t0_tdb_s, times, model, setting=setting,
-                                                         max_steps=max_steps)
+    out, status, t_stop, n_rhs, impact = integrate_batch(
+        dynamics, states, t0_tdb_s, times, model, setting=setting, max_steps=max_steps
+    )
     if not batch and impact[0]:
         days = (t_stop[0] - t0_tdb_s) / SECONDS_PER_DAY
-        raise ImpactError(f"orbit hits the Moon (radius below {r_min:.1f} km) at {tdb_iso(t_stop[0])} TDB, "
-                          f"{days:.3f} days after the start", sat=0, t_tdb_s=float(t_stop[0]), days=float(days))
+        raise ImpactError(
+            f"orbit hits the Moon (radius below {r_min:.1f} km) at {tdb_iso(t_stop[0])} TDB, "
+            f"{days:.3f} days after the start",
+            sat=0,
+            t_tdb_s=float(t_stop[0]),
+            days=float(days),
+        )
     return _as_dataset(out, times, status, t_stop, n_rhs, integ, model)
 
 
-def integrate_batch(dynamics: Dynamics, states_mci: np.ndarray, t0_tdb_s: float, times: np.ndarray, model: ForceModel,
-                    *, setting: str | None = None, max_steps: int = 5_000_000) -> tuple:
+def integrate_batch(
+    dynamics: Dynamics,
+    states_mci: np.ndarray,
+    t0_tdb_s: float,
+    times: np.ndarray,
+    model: ForceModel,
+    *,
+    setting: str | None = None,
+    max_steps: int = 5_000_000,
+) -> tuple:
     """The arrays behind :func:`propagate_states` (batch mode), without its Dataset: the campaign's path.
 
     States (n_sat, 6) from TDB ``t0_tdb_s`` sampled at ``times`` (:func:`output_times`) with a prepared ``model``
@@ -402,13 +495,24 @@ def integrate_batch(dynamics: Dynamics, states_mci: np.ndarray, t0_tdb_s: float,
     if model.table.t0_tdb_s > t0_tdb_s or model.table.t_end_tdb_s < times[-1]:
         raise ValueError("the force model's ephemeris table does not span the requested arc")
     integ = dynamics.integrator.named(setting)
-    out, status, t_stop, n_rhs = integrate_many(states, float(t0_tdb_s), times, METHODS.index(integ.method),
-                                                integ.rtol, integ.atol, dynamics.r_impact_km, max_steps,
-                                                model.kernel_args, model.field.degree)
+    out, status, t_stop, n_rhs = integrate_many(
+        states,
+        float(t0_tdb_s),
+        times,
+        METHODS.index(integ.method),
+        integ.rtol,
+        integ.atol,
+        dynamics.r_impact_km,
+        max_steps,
+        model.kernel_args,
+        model.field.degree,
+    )
     return out, status, t_stop, n_rhs, check_batch(status, t_stop, out, times, float(t0_tdb_s))
 
 
-def _as_dataset(out, times, status, t_stop, n_rhs, integ: IntegratorSetting, model: ForceModel) -> xr.Dataset:
+def _as_dataset(
+    out, times, status, t_stop, n_rhs, integ: IntegratorSetting, model: ForceModel
+) -> xr.Dataset:
     n_sat = out.shape[0]
     valid = np.all(np.isfinite(out), axis=2)
     ds = xr.Dataset(
@@ -442,9 +546,14 @@ def _as_dataset(out, times, status, t_stop, n_rhs, integ: IntegratorSetting, mod
     return ds
 
 
-ELEMENT_RANGES = (("semi-major axis sma_km", SEMI_MAJOR_AXIS), ("eccentricity e", (0.0, 1.0, False, True)),
-                  ("inclination inc_deg", (0.0, 180.0, False, False)), ("raan_deg", (None, None, False, False)),
-                  ("aop_deg", (None, None, False, False)), ("mean_anomaly_deg", (None, None, False, False)))
+ELEMENT_RANGES = (
+    ("semi-major axis sma_km", SEMI_MAJOR_AXIS),
+    ("eccentricity e", (0.0, 1.0, False, True)),
+    ("inclination inc_deg", (0.0, 180.0, False, False)),
+    ("raan_deg", (None, None, False, False)),
+    ("aop_deg", (None, None, False, False)),
+    ("mean_anomaly_deg", (None, None, False, False)),
+)
 
 
 def check_elements_deg(elements_deg) -> np.ndarray:
@@ -454,16 +563,23 @@ def check_elements_deg(elements_deg) -> np.ndarray:
     try:
         el = np.atleast_2d(np.asarray(elements_deg, dtype=float))
     except (TypeError, ValueError):
-        raise ConfigError(f"elements must be numbers [sma_km, e, i, RAAN, AOP, M]; got {elements_deg!r}") from None
+        raise ConfigError(
+            f"elements must be numbers [sma_km, e, i, RAAN, AOP, M]; got {elements_deg!r}"
+        ) from None
     if el.ndim != 2 or el.shape[1] != 6:
-        raise ConfigError(f"elements must have shape (n_sat, 6) [sma_km, e, i, RAAN, AOP, M] in degrees; got {el.shape}")
+        raise ConfigError(
+            f"elements must have shape (n_sat, 6) [sma_km, e, i, RAAN, AOP, M] in degrees; got {el.shape}"
+        )
     for col, (name, spec) in enumerate(ELEMENT_RANGES):
         for row, value in enumerate(el[:, col]):
             if not np.isfinite(value) or not in_range(value, spec):
                 where = f"satellite {row}: " if el.shape[0] > 1 else ""
                 why = f" ({SEMI_MAJOR_AXIS_WHY})" if col == 0 else ""
-                raise ConfigError(f"{where}{name} = {float(value)!r} is not allowed; allowed: a finite number in "
-                                  f"{allowed_range_text(spec)}{why}", key=name.split()[-1])
+                raise ConfigError(
+                    f"{where}{name} = {float(value)!r} is not allowed; allowed: a finite number in "
+                    f"{allowed_range_text(spec)}{why}",
+                    key=name.split()[-1],
+                )
     return el
 
 
@@ -475,13 +591,19 @@ def elements_deg_to_states(dynamics: Dynamics, elements_deg, t0_tdb_s: float) ->
     """
     el = np.atleast_2d(np.asarray(elements_deg, dtype=float))
     if el.ndim != 2 or el.shape[1] != 6:
-        raise ValueError(f"elements must have shape (n_sat, 6) [sma_km, e, i, RAAN, AOP, M] in degrees; got {el.shape}")
-    validate_elements(el[:, 0], el[:, 1], dynamics.constants.r_moon_mean_km, dynamics.impact.min_altitude_km)
+        raise ValueError(
+            f"elements must have shape (n_sat, 6) [sma_km, e, i, RAAN, AOP, M] in degrees; got {el.shape}"
+        )
+    validate_elements(
+        el[:, 0], el[:, 1], dynamics.constants.r_moon_mean_km, dynamics.impact.min_altitude_km
+    )
     bad = ~np.isfinite(el[:, 2:])
     if bad.any():
         row, col = np.argwhere(bad)[0]
-        raise ValueError(f"satellite {row}: {('inclination', 'RAAN', 'AOP', 'mean anomaly')[col]} is not finite "
-                         f"({el[row, col + 2]!r} deg)")
+        raise ValueError(
+            f"satellite {row}: {('inclination', 'RAAN', 'AOP', 'mean anomaly')[col]} is not finite "
+            f"({el[row, col + 2]!r} deg)"
+        )
     check_span(t0_tdb_s, t0_tdb_s)
     el_rad = el.copy()
     el_rad[:, 2:] = np.radians(el[:, 2:])
@@ -490,10 +612,19 @@ def elements_deg_to_states(dynamics: Dynamics, elements_deg, t0_tdb_s: float) ->
     return np.concatenate([states_frame[:, :3] @ rot.T, states_frame[:, 3:] @ rot.T], axis=1)
 
 
-def propagate_elements(dynamics: Dynamics, epoch: EpochSettings, elements_deg, *, setting: str | None = None,
-                       degree: int | None = None, t0_tdb_s: float | None = None, duration_s: float | None = None,
-                       step_s: float | None = None, batch: bool | None = None,
-                       model: ForceModel | None = None) -> xr.Dataset:
+def propagate_elements(
+    dynamics: Dynamics,
+    epoch: EpochSettings,
+    elements_deg,
+    *,
+    setting: str | None = None,
+    degree: int | None = None,
+    t0_tdb_s: float | None = None,
+    duration_s: float | None = None,
+    step_s: float | None = None,
+    batch: bool | None = None,
+    model: ForceModel | None = None,
+) -> xr.Dataset:
     """Propagate satellites given by elements (n, 6) [sma_km, e, inc, RAAN, AOP, M] (deg) in ``frames.element_frame``.
 
     Defaults: the ``epoch`` settings' start, duration and sampling step.
@@ -503,8 +634,20 @@ def propagate_elements(dynamics: Dynamics, epoch: EpochSettings, elements_deg, *
     duration = epoch.duration_days * SECONDS_PER_DAY if duration_s is None else float(duration_s)
     step = epoch.step_s if step_s is None else float(step_s)
     states = elements_deg_to_states(dynamics, elements_deg, t0)
-    ds = propagate_states(dynamics, states, t0, duration, step, setting=setting, degree=degree, batch=batch, model=model)
+    ds = propagate_states(
+        dynamics,
+        states,
+        t0,
+        duration,
+        step,
+        setting=setting,
+        degree=degree,
+        batch=batch,
+        model=model,
+    )
     ds["elements_deg"] = (("sat", "element"), np.atleast_2d(np.asarray(elements_deg, dtype=float)))
-    ds = ds.assign_coords(element=["a_km", "e", "inc_deg", "raan_deg", "aop_deg", "mean_anomaly_deg"])
+    ds = ds.assign_coords(
+        element=["a_km", "e", "inc_deg", "raan_deg", "aop_deg", "mean_anomaly_deg"]
+    )
     ds.attrs["element_frame"] = dynamics.frames.element_frame
     return ds

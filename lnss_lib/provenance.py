@@ -14,11 +14,30 @@ from .config import PROJECT_DIR
 
 __all__ = ["MANIFEST_PACKAGES", "GIT_DIRS", "git_revision", "package_versions"]
 
-MANIFEST_PACKAGES = ("numpy", "scipy", "spiceypy", "sgp4", "numba", "xarray", "pymoo", "plotly", "dask",
-                     "distributed", "papermill", "skyfield-data", "h5netcdf", "pandas")
+MANIFEST_PACKAGES = (
+    "numpy",
+    "scipy",
+    "spiceypy",
+    "sgp4",
+    "numba",
+    "xarray",
+    "pymoo",
+    "plotly",
+    "dask",
+    "distributed",
+    "papermill",
+    "skyfield-data",
+    "h5netcdf",
+    "pandas",
+)
 
 
-GIT_DIRS = ("/usr/bin", "/bin", "/usr/local/bin", "/opt/homebrew/bin")   # where a system's git is installed
+GIT_DIRS = (
+    "/usr/bin",
+    "/bin",
+    "/usr/local/bin",
+    "/opt/homebrew/bin",
+)  # where a system's git is installed
 
 
 def git_revision() -> str:
@@ -31,11 +50,25 @@ def git_revision() -> str:
     env = {key: value for key, value in os.environ.items() if not key.startswith("GIT_")}
 
     def git(*args: str) -> str:
-        return subprocess.run([executable, *args], cwd=PROJECT_DIR, capture_output=True, text=True, timeout=10,
-                              check=True, env=env).stdout.strip()
+        return subprocess.run(
+            [executable, *args],
+            cwd=PROJECT_DIR,
+            capture_output=True,
+            text=True,
+            timeout=10,
+            check=True,
+            env=env,
+        ).stdout.strip()
 
     try:
-        dirty = git("status", "--porcelain", "--untracked-files=no", "--", ".", ":(exclude)outputs/reference")
+        dirty = git(
+            "status",
+            "--porcelain",
+            "--untracked-files=no",
+            "--",
+            ".",
+            ":(exclude)outputs/reference",
+        )
         return git("describe", "--always") + ("-dirty" if dirty else "")
     except (OSError, subprocess.SubprocessError):
         return "unknown"

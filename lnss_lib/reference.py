@@ -17,10 +17,17 @@ from .forces import shadow_factor
 from .gravity import GravityField
 from .settings import Dynamics
 
-__all__ = ["legendre_normalised", "harmonic_acceleration_spherical", "ReferenceModel", "propagate_reference"]
+__all__ = [
+    "legendre_normalised",
+    "harmonic_acceleration_spherical",
+    "ReferenceModel",
+    "propagate_reference",
+]
 
 
-def legendre_normalised(degree: int, sin_phi: float, cos_phi: float) -> tuple[np.ndarray, np.ndarray]:
+def legendre_normalised(
+    degree: int, sin_phi: float, cos_phi: float
+) -> tuple[np.ndarray, np.ndarray]:
     """Fully normalised P_nm(sin phi) and dP_nm/dphi, (degree + 2, degree + 2) arrays [n, m]."""
     size = degree + 2
     P = np.zeros((size, size))
@@ -32,7 +39,16 @@ def legendre_normalised(degree: int, sin_phi: float, cos_phi: float) -> tuple[np
     for m in range(size):
         for n in range(m + 1, size):
             a = np.sqrt((2.0 * n - 1.0) * (2.0 * n + 1.0) / ((n - m) * (n + m)))
-            b = np.sqrt((2.0 * n + 1.0) * (n + m - 1.0) * (n - m - 1.0) / ((n - m) * (n + m) * (2.0 * n - 3.0))) if n >= m + 2 else 0.0
+            b = (
+                np.sqrt(
+                    (2.0 * n + 1.0)
+                    * (n + m - 1.0)
+                    * (n - m - 1.0)
+                    / ((n - m) * (n + m) * (2.0 * n - 3.0))
+                )
+                if n >= m + 2
+                else 0.0
+            )
             P[n, m] = a * sin_phi * P[n - 1, m] - (b * P[n - 2, m] if n >= m + 2 else 0.0)
     tan_phi = sin_phi / cos_phi
     for n in range(degree + 1):
@@ -57,7 +73,7 @@ def harmonic_acceleration_spherical(r_bf_km: np.ndarray, field: GravityField) ->
     C, S = field.cnm, field.snm
     Pn, dPn = P[: field.degree + 1, : field.degree + 1], dP[: field.degree + 1, : field.degree + 1]
     gm = field.gm_km3_s2
-    dU_dr = -gm / r ** 2 * np.sum((n + 1) * ratio * Pn * (C * cos_ml + S * sin_ml))
+    dU_dr = -gm / r**2 * np.sum((n + 1) * ratio * Pn * (C * cos_ml + S * sin_ml))
     dU_dphi = gm / r * np.sum(ratio * dPn * (C * cos_ml + S * sin_ml))
     dU_dlam = gm / r * np.sum(ratio * m * Pn * (S * cos_ml - C * sin_ml))
     r_hat = np.array([cos_phi * np.cos(lam), cos_phi * np.sin(lam), sin_phi])
@@ -69,28 +85,48 @@ def harmonic_acceleration_spherical(r_bf_km: np.ndarray, field: GravityField) ->
 class ReferenceModel:
     """Full force model evaluated with SPICE at every call (same physics as :mod:`lnss_lib.forces`)."""
 
-    def __init__(self, dynamics: Dynamics, *, degree: int | None = None, srp_cr_area_mass_m2_kg: float | None = None):
+    def __init__(
+        self,
+        dynamics: Dynamics,
+        *,
+        degree: int | None = None,
+        srp_cr_area_mass_m2_kg: float | None = None,
+    ):
         ensure_kernels(dynamics.ephemeris)
         self.gravity_frame = dynamics.frames.gravity
         self.field = GravityField.from_settings(dynamics.gravity, degree)
         const, forces, craft = dynamics.constants, dynamics.forces, dynamics.spacecraft
         self.const, self.forces = const, forces
-        cr_am = craft.cr * craft.area_m2 / craft.mass_kg if srp_cr_area_mass_m2_kg is None else srp_cr_area_mass_m2_kg
+        cr_am = (
+            craft.cr * craft.area_m2 / craft.mass_kg
+            if srp_cr_area_mass_m2_kg is None
+            else srp_cr_area_mass_m2_kg
+        )
         self.srp_1au_kms2 = forces.solar_flux_w_m2 / (const.c_km_s * 1e3) * cr_am * 1e-3
-        self.gm = {"SUN": const.gm_sun_km3_s2, "EARTH": const.gm_earth_km3_s2, "JUPITER": const.gm_jupiter_km3_s2}
+        self.gm = {
+            "SUN": const.gm_sun_km3_s2,
+            "EARTH": const.gm_earth_km3_s2,
+            "JUPITER": const.gm_jupiter_km3_s2,
+        }
         self.n_calls = 0
 
     def acceleration(self, t_tdb_s: float, r: np.ndarray, v: np.ndarray) -> np.ndarray:
         """Total acceleration (km/s^2, Moon-centred J2000)."""
         self.n_calls += 1
-        with spice_errors("give the reference model's lunar frame (frames.gravity) and third bodies"):
+        with spice_errors(
+            "give the reference model's lunar frame (frames.gravity) and third bodies"
+        ):
             rot = np.asarray(spice.pxform("J2000", self.gravity_frame, t_tdb_s))
-            pos = {b: np.asarray(spice.spkpos(NAIF_BODY[b], t_tdb_s, "J2000", "NONE", "MOON")[0])
-                   for b in ("SUN", "EARTH", "JUPITER")}
+            pos = {
+                b: np.asarray(spice.spkpos(NAIF_BODY[b], t_tdb_s, "J2000", "NONE", "MOON")[0])
+                for b in ("SUN", "EARTH", "JUPITER")
+            }
         acc = rot.T @ harmonic_acceleration_spherical(rot @ r, self.field)
         for body in self.forces.third_bodies:
             rb = pos[body]
-            acc += self.gm[body] * ((rb - r) / np.linalg.norm(rb - r) ** 3 - rb / np.linalg.norm(rb) ** 3)
+            acc += self.gm[body] * (
+                (rb - r) / np.linalg.norm(rb - r) ** 3 - rb / np.linalg.norm(rb) ** 3
+            )
         c = self.const
         if self.forces.srp:
             u = r - pos["SUN"]
@@ -102,13 +138,18 @@ class ReferenceModel:
             acc += nu * self.srp_1au_kms2 * (c.au_km / d) ** 2 * u / d
         if self.forces.relativity:
             gm, rn = self.field.gm_km3_s2, np.linalg.norm(r)
-            acc += gm / (c.c_km_s ** 2 * rn ** 3) * ((4 * gm / rn - v @ v) * r + 4 * (r @ v) * v)
+            acc += gm / (c.c_km_s**2 * rn**3) * ((4 * gm / rn - v @ v) * r + 4 * (r @ v) * v)
         if self.forces.albedo:
             q = r - pos["EARTH"]
             e = pos["SUN"] - pos["EARTH"]
             phase = np.arccos(np.clip(e @ q / (np.linalg.norm(e) * np.linalg.norm(q)), -1, 1))
             lambert = (np.sin(phase) + (np.pi - phase) * np.cos(phase)) / np.pi
-            ratio = (2 / 3) * self.forces.earth_albedo * (c.r_earth_km / np.linalg.norm(q)) ** 2 * lambert
+            ratio = (
+                (2 / 3)
+                * self.forces.earth_albedo
+                * (c.r_earth_km / np.linalg.norm(q)) ** 2
+                * lambert
+            )
             ratio *= (c.au_km / np.linalg.norm(e)) ** 2
             acc += ratio * self.srp_1au_kms2 * q / np.linalg.norm(q)
         return acc
@@ -117,13 +158,26 @@ class ReferenceModel:
         return np.concatenate([y[3:], self.acceleration(t_tdb_s, y[:3], y[3:])])
 
 
-def propagate_reference(dynamics: Dynamics, state_mci: np.ndarray, t0_tdb_s: float, duration_s: float, *,
-                        setting: str | None = None, degree: int | None = None) -> tuple[np.ndarray, int]:
+def propagate_reference(
+    dynamics: Dynamics,
+    state_mci: np.ndarray,
+    t0_tdb_s: float,
+    duration_s: float,
+    *,
+    setting: str | None = None,
+    degree: int | None = None,
+) -> tuple[np.ndarray, int]:
     """Final Moon-centred J2000 state after ``duration_s`` and the number of force evaluations."""
     integ = dynamics.integrator.named(setting)
     model = ReferenceModel(dynamics, degree=degree)
-    sol = solve_ivp(model.rhs, (t0_tdb_s, t0_tdb_s + duration_s), np.asarray(state_mci, dtype=float),
-                    method=integ.method, rtol=integ.rtol, atol=integ.atol)
+    sol = solve_ivp(
+        model.rhs,
+        (t0_tdb_s, t0_tdb_s + duration_s),
+        np.asarray(state_mci, dtype=float),
+        method=integ.method,
+        rtol=integ.rtol,
+        atol=integ.atol,
+    )
     if not sol.success:
         raise RuntimeError(f"reference propagation failed: {sol.message}")
     return sol.y[:, -1], sol.nfev

@@ -25,8 +25,16 @@ from collections.abc import Mapping
 from dataclasses import dataclass, field
 from typing import Any
 
-from .constants import (CR_AREA_MASS_MAX_M2_KG, CR_MAX, MAX_POPULATION, MOON_HILL_RADIUS_KM,
-                        SPACECRAFT_MASS_RANGE_KG, TOLERANCE_CEILING, TOLERANCE_FLOOR, WGS84_A_KM)
+from .constants import (
+    CR_AREA_MASS_MAX_M2_KG,
+    CR_MAX,
+    MAX_POPULATION,
+    MOON_HILL_RADIUS_KM,
+    SPACECRAFT_MASS_RANGE_KG,
+    TOLERANCE_CEILING,
+    TOLERANCE_FLOOR,
+    WGS84_A_KM,
+)
 from .errors import ConfigError
 from .keys import DELTAV_SATELLITES, EXTRA_METRIC_KEYS, GNSS_NAMES, NAVIGATION_ERROR_KEYS
 
@@ -36,18 +44,21 @@ class Rule:
     """What a setting allows. ``range``: ``(low, high, low open, high open)``, None unbounded, each entry of a list;
     ``choices``: the allowed texts (each entry of a list); ``form``: the name of an open form checked by
     :data:`lnss_lib.config.FORMS`; ``why``: the reason a range has, quoted in the message."""
+
     range: tuple | None = None
     choices: tuple[str, ...] | None = None
     form: str | None = None
     why: str = ""
-    infinite_ok: bool = False               # -inf or inf is a value (a side lobe off)
-    non_empty: bool = False                 # a list that needs an entry
+    infinite_ok: bool = False  # -inf or inf is a value (a side lobe off)
+    non_empty: bool = False  # a list that needs an entry
     names_integrator_setting: bool = False  # a name of [integrator.settings.*]
-    pair: bool = False                      # [low, high] with low < high
-    free: bool = False                      # a table of any keys (finite numbers; the campaign's checked apart)
-    sections: bool = False                  # a table of profile sections (campaign.overrides)
-    derived: bool | tuple[str, ...] = False  # no key: the value of the one key of its quantity (derived())
-    file_only: bool = False                 # a key of a profile file, resolved when the files are merged
+    pair: bool = False  # [low, high] with low < high
+    free: bool = False  # a table of any keys (finite numbers; the campaign's checked apart)
+    sections: bool = False  # a table of profile sections (campaign.overrides)
+    derived: bool | tuple[str, ...] = (
+        False  # no key: the value of the one key of its quantity (derived())
+    )
+    file_only: bool = False  # a key of a profile file, resolved when the files are merged
 
 
 NO_RULE = Rule()
@@ -79,27 +90,32 @@ def allowed_range_text(spec: tuple) -> str:
 
 def in_range(value: float, spec: tuple) -> bool:
     low, high, low_open, high_open = spec
-    return ((low is None or (value > low if low_open else value >= low))
-            and (high is None or (value < high if high_open else value <= high)))
+    return (low is None or (value > low if low_open else value >= low)) and (
+        high is None or (value < high if high_open else value <= high)
+    )
 
 
 # Ranges that several settings share.
 POSITIVE, NON_NEGATIVE = (0.0, None, True, False), (0.0, None, False, False)
 TOLERANCE = (TOLERANCE_FLOOR, TOLERANCE_CEILING, False, False)
-TOLERANCE_WHY = (f"below about 100 machine epsilons ({TOLERANCE_FLOOR:g}) an integrator's error test asks for "
-                 f"what double precision cannot resolve; above {TOLERANCE_CEILING:g} (SciPy's default rtol) it no "
-                 f"longer resolves a lunar orbit")
+TOLERANCE_WHY = (
+    f"below about 100 machine epsilons ({TOLERANCE_FLOOR:g}) an integrator's error test asks for "
+    f"what double precision cannot resolve; above {TOLERANCE_CEILING:g} (SciPy's default rtol) it no "
+    f"longer resolves a lunar orbit"
+)
 SEMI_MAJOR_AXIS = (0.0, MOON_HILL_RADIUS_KM, True, False)
-SEMI_MAJOR_AXIS_WHY = (f"a must be within the Moon's Hill sphere ({MOON_HILL_RADIUS_KM:,.0f} km) for a bound "
-                       f"lunar orbit")
+SEMI_MAJOR_AXIS_WHY = (
+    f"a must be within the Moon's Hill sphere ({MOON_HILL_RADIUS_KM:,.0f} km) for a bound "
+    f"lunar orbit"
+)
 CR_AREA_MASS = (0.0, CR_AREA_MASS_MAX_M2_KG, False, False)
 CR_AREA_MASS_WHY = "solar sails reach ~10-50 m^2/kg"
 
 # Allowed values of the text settings.
-METHODS = ("RK45", "DOP853")                      # propagator: Dormand-Prince 5(4) and 8(5,3)
+METHODS = ("RK45", "DOP853")  # propagator: Dormand-Prince 5(4) and 8(5,3)
 ELEMENT_FRAMES = ("lunar_equator_of_epoch", "j2000", "moon_op")
 POLE_FRAMES = ("MOON_ME", "MOON_PA", "IAU_MOON")
-THIRD_BODIES = ("SUN", "EARTH", "JUPITER")        # also the rows of the ephemeris table
+THIRD_BODIES = ("SUN", "EARTH", "JUPITER")  # also the rows of the ephemeris table
 SHADOW_MODELS = ("conical", "none")
 LOS_AXES = ("moon_fixed", "enu")
 AREA_WEIGHTINGS = ("none", "cos_lat", "cell_area")
@@ -109,31 +125,52 @@ LSQ_RATES = ("vectors", "elements")
 PAPER_NORMAL = ("weighted", "eq32", "rss")
 PAPER_RADIAL = ("weighted", "eq35")
 EVALUATORS = ("walker", "synthetic")
-NOTEBOOK_MODES = ("run", "load")                  # notebook 06 runs the campaign itself, or loads the latest CLI run
+NOTEBOOK_MODES = (
+    "run",
+    "load",
+)  # notebook 06 runs the campaign itself, or loads the latest CLI run
 STABILITY_METHODS = ("DOP853", "RK45", "Radau", "LSODA", "RK4")
 STABILITY_BODIES = ("EARTH", "SUN")
-SK_ESTIMATE_MODELS = ("arc", "life")   # campaign estimate: the 10-day box slope, or the service controller's life
-CONTROLLERS = ("service", "box")       # design life: hold the service (design_life.service) or the fixed box
-SISE_LAWS = ("constant", "linear", "quadratic")   # signal-in-space error growth with the ephemeris age
-GNSS_SYSTEMS = tuple(GNSS_NAMES)                 # [gnss] systems: GPS from TLEs, the others nominal slots
-TOLERANCE_SOURCES = ("derived", "fixed")  # service controller: tolerances from each design's navigation, or as set
+SK_ESTIMATE_MODELS = (
+    "arc",
+    "life",
+)  # campaign estimate: the 10-day box slope, or the service controller's life
+CONTROLLERS = (
+    "service",
+    "box",
+)  # design life: hold the service (design_life.service) or the fixed box
+SISE_LAWS = (
+    "constant",
+    "linear",
+    "quadratic",
+)  # signal-in-space error growth with the ephemeris age
+GNSS_SYSTEMS = tuple(GNSS_NAMES)  # [gnss] systems: GPS from TLEs, the others nominal slots
+TOLERANCE_SOURCES = (
+    "derived",
+    "fixed",
+)  # service controller: tolerances from each design's navigation, or as set
 
 
 # --- the sections, in the order of params/paper.toml ------------------------------------------------------
 
+
 @dataclass(frozen=True)
 class ProfileInfo:
     """What a profile is: its name (set by the loader, the file's stem) and a sentence on its purpose."""
+
     name: str
     description: str
-    inherits: str = field(default="", metadata={"rule": Rule(file_only=True)})       # the file's parent
-    also: tuple[str, ...] = field(default=(), metadata={"rule": Rule(file_only=True)})  # profiles merged first
+    inherits: str = field(default="", metadata={"rule": Rule(file_only=True)})  # the file's parent
+    also: tuple[str, ...] = field(
+        default=(), metadata={"rule": Rule(file_only=True)}
+    )  # profiles merged first
 
 
 @dataclass(frozen=True)
 class EpochSettings:
     """Study epoch (TDB) and the arc of the 10-day evaluation (Section 5.3)."""
-    start_tdb: str = setting(form='iso_datetime')
+
+    start_tdb: str = setting(form="iso_datetime")
     duration_days: float = setting(range=POSITIVE)
     step_s: float = setting(range=POSITIVE)
 
@@ -141,11 +178,16 @@ class EpochSettings:
 @dataclass(frozen=True)
 class SpacecraftSettings:
     """Table 2 bus: mass, SRP area and reflectivity coefficient."""
-    mass_kg: float = setting(range=(*SPACECRAFT_MASS_RANGE_KG, False, False),
-                             why="from a gram (chip-scale satellites) to 1000 t")
+
+    mass_kg: float = setting(
+        range=(*SPACECRAFT_MASS_RANGE_KG, False, False),
+        why="from a gram (chip-scale satellites) to 1000 t",
+    )
     area_m2: float = setting(range=POSITIVE)
-    cr: float = setting(range=(0.0, CR_MAX, True, False),
-                       why="Cr = 1 + specular reflectivity: 2 is a perfect mirror")
+    cr: float = setting(
+        range=(0.0, CR_MAX, True, False),
+        why="Cr = 1 + specular reflectivity: 2 is a perfect mirror",
+    )
 
     @property
     def cr_area_mass_m2_kg(self) -> float:
@@ -156,6 +198,7 @@ class SpacecraftSettings:
 @dataclass(frozen=True)
 class GravitySettings:
     """The lunar field (fully normalised, in ``frames.gravity``), its degree and the per-evaluation truncation."""
+
     file: str
     degree: int = setting(range=(0, 100, False, False))
     gm_km3_s2: float = setting(range=POSITIVE)
@@ -166,6 +209,7 @@ class GravitySettings:
 @dataclass(frozen=True)
 class ForceSettings:
     """Perturbations beyond the lunar field (Table 2)."""
+
     third_bodies: tuple[str, ...] = setting(choices=THIRD_BODIES)
     srp: bool
     shadow: str = setting(choices=SHADOW_MODELS)
@@ -178,6 +222,7 @@ class ForceSettings:
 @dataclass(frozen=True)
 class BodyConstants:
     """GMs of the third bodies (DE421), radii, the astronomical unit and the speed of light."""
+
     gm_sun_km3_s2: float = setting(range=POSITIVE)
     gm_earth_km3_s2: float = setting(range=POSITIVE)
     gm_jupiter_km3_s2: float = setting(range=POSITIVE)
@@ -191,15 +236,19 @@ class BodyConstants:
 @dataclass(frozen=True)
 class IntegratorSetting:
     """One named integrator setting: method and tolerances."""
+
     method: str = setting(choices=METHODS)
     rtol: float = setting(range=TOLERANCE, why=TOLERANCE_WHY)
     atol: float = setting(range=TOLERANCE, why=TOLERANCE_WHY)
-    name: str = derived("")   # its name in [integrator.settings], filled in by IntegratorSettings.named
+    name: str = derived(
+        ""
+    )  # its name in [integrator.settings], filled in by IntegratorSettings.named
 
 
 @dataclass(frozen=True)
 class IntegratorSettings:
     """The named integrator settings and the one the profile propagates with."""
+
     setting: str = setting(names_integrator_setting=True)
     settings: Mapping[str, IntegratorSetting]
 
@@ -207,14 +256,17 @@ class IntegratorSettings:
         """Setting ``name`` (default: the profile's ``integrator.setting``) with its name filled in."""
         name = self.setting if name is None else name
         if name not in self.settings:
-            raise ConfigError(f"unknown integrator setting {name!r}; allowed: {', '.join(self.settings)}",
-                              key="integrator.setting")
+            raise ConfigError(
+                f"unknown integrator setting {name!r}; allowed: {', '.join(self.settings)}",
+                key="integrator.setting",
+            )
         return dataclasses.replace(self.settings[name], name=name)
 
 
 @dataclass(frozen=True)
 class FrameSettings:
     """Frame of the design elements, of the surface grid and of the gravity field."""
+
     element_frame: str = setting(choices=ELEMENT_FRAMES)
     moon_fixed: str = setting(choices=POLE_FRAMES)
     gravity: str = setting(choices=POLE_FRAMES)
@@ -223,6 +275,7 @@ class FrameSettings:
 @dataclass(frozen=True)
 class EphemerisSettings:
     """SPICE kernels (relative to params/), the planetary SPK and the tabulation step of bodies and rotations."""
+
     kernels: tuple[str, ...]
     planetary_spk: str
     table_step_s: float = setting(range=POSITIVE)
@@ -236,6 +289,7 @@ class ImpactSettings:
 @dataclass(frozen=True)
 class StandaloneElfoSettings:
     """Table 4: the standalone ELFO constellation."""
+
     sma_km: float = setting(range=SEMI_MAJOR_AXIS, why=SEMI_MAJOR_AXIS_WHY)
     ecc: float = setting(range=(0.0, 1.0, False, True))
     inc_deg: float = setting(range=(0.0, 180.0, False, False))
@@ -247,8 +301,9 @@ class StandaloneElfoSettings:
 @dataclass(frozen=True)
 class CapstoneSettings:
     """CAPSTONE NRHO reference arc (HORIZONS) of the propagator validation."""
+
     file: str
-    arc_break_tdb: str = setting(form='iso_datetime')
+    arc_break_tdb: str = setting(form="iso_datetime")
     srp_cr_area_mass_m2_kg: float
     integrator_setting: str = setting(names_integrator_setting=True)
 
@@ -266,6 +321,7 @@ class NotebookSettings:
 @dataclass(frozen=True)
 class DopSettings:
     """South-pole receiver grid and DOP statistics (Section 2.1, eq. 1-14)."""
+
     lat_min_deg: float = setting(range=(-90.0, 90.0, False, False))
     lat_max_deg: float = setting(range=(-90.0, 90.0, False, False))
     lat_step_deg: float = setting(range=POSITIVE)
@@ -282,10 +338,11 @@ class DopSettings:
 @dataclass(frozen=True)
 class GpsSettings:
     """GPS-LNSS link budget and visibility (Section 2.2, eq. 15-24, Table 1)."""
+
     tle_file: str
     exclude_prn: tuple[int, ...]
-    exclude_launched_after: str = setting(form='launch_cutoff')
-    exclude_launches_from: str = setting(form='designator')
+    exclude_launched_after: str = setting(form="launch_cutoff")
+    exclude_launches_from: str = setting(form="designator")
     launch_dates: Mapping[str, str] = setting(free=True)
     gain_file: str
     gain_column: str
@@ -308,6 +365,7 @@ class GpsSettings:
 @dataclass(frozen=True)
 class GnssReference:
     """GPS's ICD minimum received power and where it is specified: the reference of the other systems' EIRP."""
+
     min_received_power_dbw: float
     edge_elevation_deg: float = setting(range=(0.0, 90.0, False, True))
     sma_km: float = setting(range=(WGS84_A_KM, None, True, False))
@@ -316,6 +374,7 @@ class GnssReference:
 @dataclass(frozen=True)
 class GnssTransmitter:
     """A system's signal frequency and its ICD minimum received power at the edge-of-coverage elevation."""
+
     frequency_mhz: float = setting(range=POSITIVE)
     min_received_power_dbw: float
     edge_elevation_deg: float = setting(range=(0.0, 90.0, False, True))
@@ -324,6 +383,7 @@ class GnssTransmitter:
 @dataclass(frozen=True)
 class GnssSettings:
     """The GNSS link (:mod:`lnss_lib.gnss`): which systems, their nominal slots and transmitters."""
+
     systems: tuple[str, ...] = setting(choices=GNSS_SYSTEMS, non_empty=True)
     nominal_file: str
     gps: GnssReference
@@ -335,18 +395,24 @@ class GnssSettings:
 @dataclass(frozen=True)
 class DeltaVSettings:
     """Station-keeping Delta-V of the 10-day evaluation (Section 3.1, eq. 25-41)."""
+
     model: str = setting(choices=DELTAV_MODELS)
-    gve_frame: str = setting(choices=ELEMENT_FRAMES)   # the elements the GVEs difference, apart from the design's
+    gve_frame: str = setting(
+        choices=ELEMENT_FRAMES
+    )  # the elements the GVEs difference, apart from the design's
     year_days: float = setting(range=POSITIVE)
     lsq_rates: str = setting(choices=LSQ_RATES)
     paper_normal: str = setting(choices=PAPER_NORMAL)
     paper_radial: str = setting(choices=PAPER_RADIAL)
-    paper_divisor_floor: float = setting(range=(0.0, 1.0, False, True),
-                                         why="a floor of 0 is the paper's literal divisors (notebook 04's "
-                                             "sweep); 1 or more would replace every divisor")
+    paper_divisor_floor: float = setting(
+        range=(0.0, 1.0, False, True),
+        why="a floor of 0 is the paper's literal divisors (notebook 04's "
+        "sweep); 1 or more would replace every divisor",
+    )
     paper_cap_kms2: float = setting(range=POSITIVE)
-    secular_min_periods: float = setting(range=(1.0, None, True, False),
-                                         why="the secular trend needs at least two one-orbit windows")
+    secular_min_periods: float = setting(
+        range=(1.0, None, True, False), why="the secular trend needs at least two one-orbit windows"
+    )
     slsqp_lambda: float = setting(range=NON_NEGATIVE)
     satellites: str = setting(choices=DELTAV_SATELLITES)
 
@@ -360,6 +426,7 @@ class EvaluatorSettings:
 class NavigationErrorSettings:
     """The user range error budget (signal in space by ephemeris age, receiver, lunar-surface multipath), the upload
     stations on the Earth and the position-error requirement (:mod:`lnss_lib.navigation_error`)."""
+
     sise_law: str = setting(choices=SISE_LAWS)
     sise_at_upload_m: float = setting(range=NON_NEGATIVE)
     sise_growth_m: float = setting(range=NON_NEGATIVE)
@@ -376,6 +443,7 @@ class NavigationErrorSettings:
 @dataclass(frozen=True)
 class VariableBounds:
     """A design variable's grid (eq. 43-44): lower and upper bound and step."""
+
     lower: int | float
     upper: int | float
     step: int | float
@@ -384,9 +452,12 @@ class VariableBounds:
 @dataclass(frozen=True)
 class CampaignSettings:
     """NSGA-II campaign (Section 5, Table 5) over the Table 3 grid."""
-    population: int = setting(range=(2, MAX_POPULATION, False, False),
-                              why=f"NSGA-II ranks parents and offspring through a 2N x 2N domination "
-                                  f"matrix, {(2 * MAX_POPULATION) ** 2 * 8 / 1e9:.1f} GB at N = {MAX_POPULATION}")
+
+    population: int = setting(
+        range=(2, MAX_POPULATION, False, False),
+        why=f"NSGA-II ranks parents and offspring through a 2N x 2N domination "
+        f"matrix, {(2 * MAX_POPULATION) ** 2 * 8 / 1e9:.1f} GB at N = {MAX_POPULATION}",
+    )
     generations: int = setting(range=(1, None, False, False))
     crossover_prob: float = setting(range=(0.0, 1.0, False, False))
     crossover_eta: float = setting(range=NON_NEGATIVE)
@@ -395,7 +466,9 @@ class CampaignSettings:
     seed: int = setting(range=NON_NEGATIVE)
     ftol: float = setting(range=NON_NEGATIVE)
     ftol_period: int = setting(range=(1, None, False, False))
-    n_sat: int = setting(range=NON_NEGATIVE)  # 0: any size; N: only the splits Np x Ns = N (campaign.grid)
+    n_sat: int = setting(
+        range=NON_NEGATIVE
+    )  # 0: any size; N: only the splits Np x Ns = N (campaign.grid)
     objectives: tuple[str, ...]
     nan_objective: float = setting(range=NON_NEGATIVE)
     nan_violation: float = setting(range=NON_NEGATIVE)
@@ -405,7 +478,7 @@ class CampaignSettings:
     max_errors: int = setting(range=NON_NEGATIVE)
     numba_threads_per_worker: int = setting(range=NON_NEGATIVE)
     notebook_mode: str = setting(choices=NOTEBOOK_MODES)
-    companion_profile: str = setting(form='profile_name')
+    companion_profile: str = setting(form="profile_name")
     variables: Mapping[str, VariableBounds] = setting(free=True)
     constraints: Mapping[str, Any] = setting(free=True)
     hypervolume: Mapping[str, Any] = setting(free=True)
@@ -418,11 +491,11 @@ def walker_splits(n_sat: int, planes: range, sats_per_plane: range) -> tuple[tup
     return tuple((p, n_sat // p) for p in planes if n_sat % p == 0 and n_sat // p in sats_per_plane)
 
 
-
 @dataclass(frozen=True)
 class StabilitySettings:
     """Doubly-averaged stability screen over the design life."""
-    span_days: float = setting(range=NON_NEGATIVE)   # 0: the design life ([design_life] life_days)
+
+    span_days: float = setting(range=NON_NEGATIVE)  # 0: the design life ([design_life] life_days)
     third_bodies: tuple[str, ...] = setting(choices=STABILITY_BODIES)
     precession: bool
     average_days: float = setting(range=POSITIVE)
@@ -438,15 +511,20 @@ class StabilitySettings:
     validity_ecc: float = setting(range=NON_NEGATIVE)
     validation_degree: int = setting(range=(0, 100, False, False))
     validation_step_s: float = setting(range=POSITIVE)
-    validation_designs: tuple[tuple[int | float, ...], ...]   # Walker rows (a_km, e, aop, inc, planes, per plane)
+    validation_designs: tuple[
+        tuple[int | float, ...], ...
+    ]  # Walker rows (a_km, e, aop, inc, planes, per plane)
     life_days: float = derived(0.0, of=("stability.span_days", "design_life.life_days"))
 
 
 @dataclass(frozen=True)
 class SkEstimateSettings:
     """Campaign-grade station-keeping Delta-V estimate: the 10-day box slope or the service controller's life."""
+
     model: str = setting(choices=SK_ESTIMATE_MODELS)
-    arc_frame: str = setting(choices=ELEMENT_FRAMES)  # the "arc" model's box (the "life" model: the design's)
+    arc_frame: str = setting(
+        choices=ELEMENT_FRAMES
+    )  # the "arc" model's box (the "life" model: the design's)
     min_periods: float = setting(range=POSITIVE)
     along_track_rebias_per_year: float = setting(range=NON_NEGATIVE)
     year_days: float = derived(0.0, of=("deltav.year_days",))
@@ -455,6 +533,7 @@ class SkEstimateSettings:
 @dataclass(frozen=True)
 class BoxSettings:
     """Half-widths of the fixed-element box controller."""
+
     ecc: float = setting(range=POSITIVE)
     aop_deg: float = setting(range=POSITIVE)
     inc_deg: float = setting(range=POSITIVE)
@@ -465,6 +544,7 @@ class BoxSettings:
 @dataclass(frozen=True)
 class ServiceSettings:
     """What the service controller holds: a safe perilune and the navigation service."""
+
     perilune_margin_km: float = setting(range=NON_NEGATIVE)
     safety_check_days: float = setting(range=POSITIVE)
     safety_lead_days: float = setting(range=POSITIVE)
@@ -483,20 +563,25 @@ class ServiceSettings:
 @dataclass(frozen=True)
 class DesignLifeSettings:
     """Closed-loop station keeping over the design life."""
+
     life_days: float = setting(range=POSITIVE)
     check_interval_days: float = setting(range=POSITIVE)
-    samples_per_orbit: int = setting(range=(16, None, False, False),
-                                     why="the one-orbit mean elements of the checks and the insertion trim "
-                                         "average this many samples of an orbit (at least 8 to be computed at "
-                                         "all, 16 for an e = 0.6 orbit's mean a to settle)")
+    samples_per_orbit: int = setting(
+        range=(16, None, False, False),
+        why="the one-orbit mean elements of the checks and the insertion trim "
+        "average this many samples of an orbit (at least 8 to be computed at "
+        "all, 16 for an e = 0.6 orbit's mean a to settle)",
+    )
     min_maneuver_spacing_days: float = setting(range=NON_NEGATIVE)
     dv_cap_kms_per_year: float = setting(range=NON_NEGATIVE)
     slot_coast_days: float = setting(range=POSITIVE)
     slot_fit_days: float = setting(range=POSITIVE)
     slot_quad_days: float = setting(range=POSITIVE)
-    target_fraction: float = setting(range=(0.0, 1.0, False, True),
-                                     why="a correction aims this fraction of the half-width past the "
-                                         "reference: 1 would aim at the far edge of the box")
+    target_fraction: float = setting(
+        range=(0.0, 1.0, False, True),
+        why="a correction aims this fraction of the half-width past the "
+        "reference: 1 would aim at the far edge of the box",
+    )
     tide_period_days: float = setting(range=POSITIVE)
     box_tolerance: float = setting(range=NON_NEGATIVE)
     integrator_setting: str = setting(names_integrator_setting=True)
@@ -509,16 +594,18 @@ class DesignLifeSettings:
 @dataclass(frozen=True)
 class BenchmarkSettings:
     """Notebook 10: every catalogue constellation on one yardstick."""
+
     extra_masks_deg: tuple[float, ...] = setting(range=(0.0, 90.0, False, True))
     campaign_picks: bool
     closed_loop_life: bool
     epoch_constellations: tuple[str, ...]
-    epochs_tdb: tuple[str, ...] = setting(form='iso_datetime', non_empty=True)
+    epochs_tdb: tuple[str, ...] = setting(form="iso_datetime", non_empty=True)
 
 
 @dataclass(frozen=True)
 class LifeEvaluationSettings:
     """A design over its design life: sampling, months, and the notebook's validation sets."""
+
     sample_step_s: float = setting(range=POSITIVE)
     month_days: float = setting(range=POSITIVE)
     notebook_life_days: float
@@ -530,29 +617,51 @@ class LifeEvaluationSettings:
     anchor_life_days: float
     validation_frames: tuple[str, ...] = setting(choices=ELEMENT_FRAMES)
     frame_rerun_designs: int = setting(range=NON_NEGATIVE)
-    validation_designs: tuple[tuple[int | float, ...], ...]   # Walker rows (a_km, e, aop, inc, planes, per plane)
-    screen_validation_designs: int = setting(range=NON_NEGATIVE)  # random Table 3 designs of studies.screen_validation
-    screen_validation_life_days: float = setting(range=NON_NEGATIVE)  # ... flown this long (0: the screened profile's screen span)
+    validation_designs: tuple[
+        tuple[int | float, ...], ...
+    ]  # Walker rows (a_km, e, aop, inc, planes, per plane)
+    screen_validation_designs: int = setting(
+        range=NON_NEGATIVE
+    )  # random Table 3 designs of studies.screen_validation
+    screen_validation_life_days: float = setting(
+        range=NON_NEGATIVE
+    )  # ... flown this long (0: the screened profile's screen span)
 
 
 @dataclass(frozen=True)
 class LifeNavigationSettings:
     """Notebook 08's check of the life-long availability estimate against the closed loop (studies.life_navigation)."""
-    designs: int = setting(range=NON_NEGATIVE)  # whole designs flown, the first of the study's list (0: off)
-    life_days: float = setting(range=NON_NEGATIVE)  # ... flown this long (0: the operational companion's [design_life] life_days)
+
+    designs: int = setting(
+        range=NON_NEGATIVE
+    )  # whole designs flown, the first of the study's list (0: off)
+    life_days: float = setting(
+        range=NON_NEGATIVE
+    )  # ... flown this long (0: the operational companion's [design_life] life_days)
 
 
 @dataclass(frozen=True)
 class RobustnessSettings:
     """Insertion dispersions flown in closed loop (studies.robustness): 1-sigma errors of the mean elements."""
-    draws: int = setting(range=(0, 10_000, False, False),
-                         why="each draw is a closed-loop flight of every satellite of the design")   # 0: off
-    flown_days: float = setting(range=(1.0, 36525.0, False, False))   # each draw flown this long (not the design life)
+
+    draws: int = setting(
+        range=(0, 10_000, False, False),
+        why="each draw is a closed-loop flight of every satellite of the design",
+    )  # 0: off
+    flown_days: float = setting(
+        range=(1.0, 36525.0, False, False)
+    )  # each draw flown this long (not the design life)
     seed: int = setting(range=NON_NEGATIVE)
     sma_km: float = setting(range=NON_NEGATIVE)
-    ecc: float = setting(range=(0.0, 0.1, False, False), why="an insertion error, not another orbit")
-    inc_deg: float = setting(range=(0.0, 10.0, False, False), why="an insertion error, not another orbit")
-    raan_deg: float = setting(range=(0.0, 10.0, False, False), why="an insertion error, not another orbit")
+    ecc: float = setting(
+        range=(0.0, 0.1, False, False), why="an insertion error, not another orbit"
+    )
+    inc_deg: float = setting(
+        range=(0.0, 10.0, False, False), why="an insertion error, not another orbit"
+    )
+    raan_deg: float = setting(
+        range=(0.0, 10.0, False, False), why="an insertion error, not another orbit"
+    )
     aop_deg: float = setting(range=(0.0, 180.0, False, False))
     anomaly_deg: float = setting(range=(0.0, 180.0, False, False))
 
@@ -560,6 +669,7 @@ class RobustnessSettings:
 @dataclass(frozen=True)
 class FrontValidationSettings:
     """The front flown in closed loop after NSGA-II and the headline's bounds."""
+
     max_designs: int = setting(range=NON_NEGATIVE)  # 0: off
     max_sats_per_plane: int = setting(range=NON_NEGATIVE)  # 0: every satellite
     headline_sizes: tuple[int, ...] = setting(range=(1, None, False, False))
@@ -571,6 +681,7 @@ class FrontValidationSettings:
 @dataclass(frozen=True)
 class ProfileSections:
     """Every section of a profile: the schema the loader checks a profile against, key by key."""
+
     profile: ProfileInfo
     epoch: EpochSettings
     spacecraft: SpacecraftSettings
@@ -605,8 +716,9 @@ class ProfileSections:
 
 OFF_WHEN_ABSENT = {
     "front_validation": lambda profile: profile["front_validation"].get("max_designs", 0) == 0,
-    "navigation_error": lambda profile: not set(profile.get("evaluator", {}).get("extra_metrics", ()))
-    & set(NAVIGATION_ERROR_KEYS),
+    "navigation_error": lambda profile: (
+        not set(profile.get("evaluator", {}).get("extra_metrics", ())) & set(NAVIGATION_ERROR_KEYS)
+    ),
     "gnss": lambda profile: list(profile["gnss"].get("systems", ["gps"])) == ["gps"],
     "life_navigation": lambda profile: profile["life_navigation"].get("designs", 0) == 0,
     "robustness": lambda profile: profile["robustness"].get("draws", 0) == 0,
@@ -636,8 +748,12 @@ named so, and the design's elements are ``[frames] element_frame`` alone; the ye
 ``[deltav] year_days``. :func:`migrate_legacy` reads a stored profile in today's keys;
 :func:`lnss_lib.config.profile_hash` spells a profile in the stored keys, so a stored profile and today's same
 settings share one fingerprint."""
-FOLLOWS = {"stability.span_days": "design_life.life_days"}   # an override at 0 takes this key's value
-OLD_KEYS_KEPT = {new for old, new in LEGACY_KEYS.items() if old.split(".")[-1] == new.split(".")[-1]}   # one key now
+FOLLOWS = {
+    "stability.span_days": "design_life.life_days"
+}  # an override at 0 takes this key's value
+OLD_KEYS_KEPT = {
+    new for old, new in LEGACY_KEYS.items() if old.split(".")[-1] == new.split(".")[-1]
+}  # one key now
 
 
 def _value_at(profile: dict, key: str):
@@ -668,8 +784,11 @@ def migrate_legacy(profile: dict) -> dict:
             value = 0.0
         kept = _value_at(profile, new)
         if new in OLD_KEYS_KEPT and kept is not None and kept != value:
-            raise ConfigError(f"stored profile: {old} = {value!r} and {new} = {kept!r} are one quantity with two "
-                              f"values; it cannot be read in one key", key=old)
+            raise ConfigError(
+                f"stored profile: {old} = {value!r} and {new} = {kept!r} are one quantity with two "
+                f"values; it cannot be read in one key",
+                key=old,
+            )
         _put(profile, new, value)
     return profile
 

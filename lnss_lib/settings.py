@@ -30,30 +30,99 @@ from collections.abc import Mapping
 from dataclasses import dataclass, field
 from typing import Any
 
-from .config import deep_merge, load_profile, profile_hash, toml_literal, validate_profile, with_absent_sections
+from .config import (
+    deep_merge,
+    load_profile,
+    profile_hash,
+    toml_literal,
+    validate_profile,
+    with_absent_sections,
+)
 from .errors import ConfigError
 from .sections import (  # the sections, importable from here as they always were
-    ProfileInfo, EpochSettings, SpacecraftSettings, GravitySettings, ForceSettings, BodyConstants,
-    IntegratorSetting, IntegratorSettings, FrameSettings, EphemerisSettings, ImpactSettings,
-    StandaloneElfoSettings, CapstoneSettings, ValidationSettings, NotebookSettings, DopSettings,
-    GpsSettings, GnssReference, GnssTransmitter, GnssSettings, DeltaVSettings, EvaluatorSettings,
-    NavigationErrorSettings, VariableBounds, CampaignSettings, StabilitySettings,
-    SkEstimateSettings, BoxSettings, ServiceSettings, DesignLifeSettings, BenchmarkSettings,
-    LifeEvaluationSettings, LifeNavigationSettings, RobustnessSettings, FrontValidationSettings, ProfileSections,
+    BenchmarkSettings,
+    BodyConstants,
+    BoxSettings,
+    CampaignSettings,
+    CapstoneSettings,
+    DeltaVSettings,
+    DesignLifeSettings,
+    DopSettings,
+    EphemerisSettings,
+    EpochSettings,
+    EvaluatorSettings,
+    ForceSettings,
+    FrameSettings,
+    FrontValidationSettings,
+    GnssReference,
+    GnssSettings,
+    GnssTransmitter,
+    GpsSettings,
+    GravitySettings,
+    ImpactSettings,
+    IntegratorSetting,
+    IntegratorSettings,
+    LifeEvaluationSettings,
+    LifeNavigationSettings,
+    NavigationErrorSettings,
+    NotebookSettings,
+    ProfileInfo,
+    ProfileSections,
+    RobustnessSettings,
+    ServiceSettings,
+    SkEstimateSettings,
+    SpacecraftSettings,
+    StabilitySettings,
+    StandaloneElfoSettings,
+    ValidationSettings,
+    VariableBounds,
     migrate_legacy,
     rule_of,
 )
 
-__all__ = ["Settings", "Dynamics", "load_settings", "settings_from_profile", "settings_from_toml",
-           "ProfileInfo", "EpochSettings", "SpacecraftSettings", "GravitySettings", "ForceSettings",
-           "BodyConstants", "IntegratorSetting", "IntegratorSettings", "FrameSettings",
-           "EphemerisSettings", "ImpactSettings", "StandaloneElfoSettings", "CapstoneSettings",
-           "ValidationSettings", "NotebookSettings", "DopSettings", "GpsSettings", "GnssReference",
-           "GnssTransmitter", "GnssSettings", "DeltaVSettings", "EvaluatorSettings",
-           "NavigationErrorSettings", "VariableBounds", "CampaignSettings", "StabilitySettings",
-           "SkEstimateSettings", "BoxSettings", "ServiceSettings", "DesignLifeSettings",
-           "BenchmarkSettings", "LifeEvaluationSettings", "LifeNavigationSettings", "RobustnessSettings",
-           "FrontValidationSettings", "ProfileSections"]   # the sections (lnss_lib.sections) are importable from here too
+__all__ = [
+    "Settings",
+    "Dynamics",
+    "load_settings",
+    "settings_from_profile",
+    "settings_from_toml",
+    "ProfileInfo",
+    "EpochSettings",
+    "SpacecraftSettings",
+    "GravitySettings",
+    "ForceSettings",
+    "BodyConstants",
+    "IntegratorSetting",
+    "IntegratorSettings",
+    "FrameSettings",
+    "EphemerisSettings",
+    "ImpactSettings",
+    "StandaloneElfoSettings",
+    "CapstoneSettings",
+    "ValidationSettings",
+    "NotebookSettings",
+    "DopSettings",
+    "GpsSettings",
+    "GnssReference",
+    "GnssTransmitter",
+    "GnssSettings",
+    "DeltaVSettings",
+    "EvaluatorSettings",
+    "NavigationErrorSettings",
+    "VariableBounds",
+    "CampaignSettings",
+    "StabilitySettings",
+    "SkEstimateSettings",
+    "BoxSettings",
+    "ServiceSettings",
+    "DesignLifeSettings",
+    "BenchmarkSettings",
+    "LifeEvaluationSettings",
+    "LifeNavigationSettings",
+    "RobustnessSettings",
+    "FrontValidationSettings",
+    "ProfileSections",
+]  # the sections (lnss_lib.sections) are importable from here too
 
 
 def _frozen(value):
@@ -81,7 +150,7 @@ def _convert(hint, value, key: str):
         return _build(hint, value, key)
     if hint is float:
         return float(value)
-    if origin is types.UnionType or hint is Any:          # e.g. int | float: the value's own type
+    if origin is types.UnionType or hint is Any:  # e.g. int | float: the value's own type
         return _frozen(value)
     if hint in (int, bool, str):
         return value
@@ -92,7 +161,7 @@ def _convert(hint, value, key: str):
         args = typing.get_args(hint)
         if args and dataclasses.is_dataclass(args[1]):
             return {name: _build(args[1], item, f"{key}.{name}") for name, item in value.items()}
-        return _thawed(value)                        # a free table (a fresh copy): checked with the rest
+        return _thawed(value)  # a free table (a fresh copy): checked with the rest
     return _frozen(value)
 
 
@@ -111,8 +180,10 @@ def _build(cls, table: Mapping, key: str):
             continue
         name = item.name
         if name not in table:
-            raise ConfigError(f"missing key {key}.{name} (every profile has the keys of params/paper.toml)",
-                              key=f"{key}.{name}")
+            raise ConfigError(
+                f"missing key {key}.{name} (every profile has the keys of params/paper.toml)",
+                key=f"{key}.{name}",
+            )
         values[item.name] = _convert(hints[item.name], table[name], f"{key}.{name}")
     return cls(**values)
 
@@ -120,6 +191,7 @@ def _build(cls, table: Mapping, key: str):
 @dataclass(frozen=True)
 class Dynamics:
     """What the force model and the propagator read: bodies, frames, field, forces, spacecraft, integrator."""
+
     ephemeris: EphemerisSettings
     frames: FrameSettings
     constants: BodyConstants
@@ -139,6 +211,7 @@ class Dynamics:
 class Settings(ProfileSections):
     """A whole profile, checked and frozen; only the top of the workbook (command line, pipeline, studies,
     campaign set-up, explorer) holds it, and hands each kernel its section."""
+
     source: Mapping[str, Any] = field(repr=False, compare=False)
     hash: str = field(init=False, compare=True)
 
@@ -151,8 +224,16 @@ class Settings(ProfileSections):
 
     @functools.cached_property
     def dynamics(self) -> Dynamics:
-        return Dynamics(self.ephemeris, self.frames, self.constants, self.gravity, self.forces, self.spacecraft,
-                        self.impact, self.integrator)
+        return Dynamics(
+            self.ephemeris,
+            self.frames,
+            self.constants,
+            self.gravity,
+            self.forces,
+            self.spacecraft,
+            self.impact,
+            self.integrator,
+        )
 
     def as_dict(self) -> dict:
         """The merged, checked profile as plain TOML data (a copy)."""
@@ -163,11 +244,13 @@ class Settings(ProfileSections):
         lines = []
         for section, table in self.as_dict().items():
             lines.append(f"[{section}]")
-            lines.extend(f"{toml_literal(key)} = {toml_literal(value)}" for key, value in table.items())
+            lines.extend(
+                f"{toml_literal(key)} = {toml_literal(value)}" for key, value in table.items()
+            )
             lines.append("")
         return "\n".join(lines)
 
-    def with_overrides(self, overrides: Mapping | None) -> "Settings":
+    def with_overrides(self, overrides: Mapping | None) -> Settings:
         """These settings with the nested ``overrides`` merged in and checked (e.g. ``campaign.overrides``)."""
         if not overrides:
             return self
@@ -184,18 +267,30 @@ def _with_derived(section, profile: Mapping):
     """``section`` with each derived field (:func:`lnss_lib.sections.derived`) set to the first of its keys whose
     value is not 0."""
     hints = _hints(type(section))
-    values = {item.name: next((v for v in (_value_of(profile, k) for k in rule_of(item).derived) if v), 0)
-              for item in dataclasses.fields(section) if isinstance(rule_of(item).derived, tuple)}
-    return dataclasses.replace(section, **{name: _convert(hints[name], value, name) for name, value in values.items()})
+    values = {
+        item.name: next((v for v in (_value_of(profile, k) for k in rule_of(item).derived) if v), 0)
+        for item in dataclasses.fields(section)
+        if isinstance(rule_of(item).derived, tuple)
+    }
+    return dataclasses.replace(
+        section, **{name: _convert(hints[name], value, name) for name, value in values.items()}
+    )
 
 
 def settings_from_profile(profile: Mapping) -> Settings:
     """Settings of a merged profile dict (as :func:`lnss_lib.config.load_profile` returns, or as a run folder stored
     it, read in today's keys by :func:`lnss_lib.sections.migrate_legacy`), checked again."""
-    profile = migrate_legacy(with_absent_sections(_thawed(profile)))   # a fresh copy of every table and list
+    profile = migrate_legacy(
+        with_absent_sections(_thawed(profile))
+    )  # a fresh copy of every table and list
     validate_profile(profile)
-    sections = {item.name: _with_derived(_build(_hints(Settings)[item.name], profile[item.name], item.name), profile)
-                for item in dataclasses.fields(Settings) if item.init and item.name != "source"}
+    sections = {
+        item.name: _with_derived(
+            _build(_hints(Settings)[item.name], profile[item.name], item.name), profile
+        )
+        for item in dataclasses.fields(Settings)
+        if item.init and item.name != "source"
+    }
     return Settings(**sections, source=profile)
 
 

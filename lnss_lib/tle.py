@@ -26,10 +26,26 @@ from .config import data_path
 if TYPE_CHECKING:
     from .settings import GpsSettings
 
-__all__ = ["TleRecord", "read_tle", "launch_date", "select_satellites", "gps_catalogue", "SELECTION_COLUMNS"]
+__all__ = [
+    "TleRecord",
+    "read_tle",
+    "launch_date",
+    "select_satellites",
+    "gps_catalogue",
+    "SELECTION_COLUMNS",
+]
 
-SELECTION_COLUMNS = ("name", "prn", "designator", "launch_date", "launch_date_source", "tle_epoch_utc", "included",
-                     "reason")
+SELECTION_COLUMNS = (
+    "name",
+    "prn",
+    "designator",
+    "launch_date",
+    "launch_date_source",
+    "tle_epoch_utc",
+    "included",
+    "reason",
+)
+
 
 @dataclass(frozen=True)
 class TleRecord:
@@ -38,25 +54,37 @@ class TleRecord:
     name: str
     prn: int | None
     satnum: int
-    designator: str            # international designator "YYYY-NNNP" (e.g. "2025-116A")
+    designator: str  # international designator "YYYY-NNNP" (e.g. "2025-116A")
     launch_year: int
     launch_number: int
     epoch_utc: dt.datetime
-    rev_number: int            # revolution number at epoch (line 2, columns 64-68)
+    rev_number: int  # revolution number at epoch (line 2, columns 64-68)
     mean_motion_rev_day: float
     line1: str
     line2: str
-    file_line: int             # 1-based line number of line 1 in its file
+    file_line: int  # 1-based line number of line 1 in its file
 
 
 _BLANKS = {1: (1, 8, 17, 32, 43, 52, 61, 63), 2: (1, 7, 16, 25, 33, 42, 51)}
 
 
 _FIELDS = {
-    1: {"satellite number": (2, 7), "epoch year": (18, 20), "epoch day": (20, 32), "element set number": (64, 68)},
-    2: {"satellite number": (2, 7), "inclination": (8, 16), "RAAN": (17, 25), "eccentricity": (26, 33),
-        "argument of perigee": (34, 42), "mean anomaly": (43, 51), "mean motion": (52, 63),
-        "revolution number": (63, 68)},
+    1: {
+        "satellite number": (2, 7),
+        "epoch year": (18, 20),
+        "epoch day": (20, 32),
+        "element set number": (64, 68),
+    },
+    2: {
+        "satellite number": (2, 7),
+        "inclination": (8, 16),
+        "RAAN": (17, 25),
+        "eccentricity": (26, 33),
+        "argument of perigee": (34, 42),
+        "mean anomaly": (43, 51),
+        "mean motion": (52, 63),
+        "revolution number": (63, 68),
+    },
 }
 
 
@@ -64,14 +92,19 @@ def _check_element_line(line: str, expected: int, path: Path, line_no: int) -> N
     """Raise ``ValueError`` naming file and line if ``line`` is not a well-formed TLE line ``expected``."""
     where = f"{path}: line {line_no}"
     if len(line) != 69:
-        raise ValueError(f"{where}: TLE line {expected} must be 69 characters long, got {len(line)}")
+        raise ValueError(
+            f"{where}: TLE line {expected} must be 69 characters long, got {len(line)}"
+        )
     if line[0] != str(expected):
-        raise ValueError(f"{where}: expected TLE line number {expected} in column 1, got {line[0]!r}")
+        raise ValueError(
+            f"{where}: expected TLE line number {expected} in column 1, got {line[0]!r}"
+        )
     for col in _BLANKS[expected]:
         if line[col] != " ":
             raise ValueError(
                 f"{where}: TLE line {expected} column {col + 1} must be blank, got {line[col]!r} "
-                "(column layout of the standard two-line format)")
+                "(column layout of the standard two-line format)"
+            )
     for field, (lo, hi) in _FIELDS[expected].items():
         text = line[lo:hi].strip()
         try:
@@ -81,11 +114,14 @@ def _check_element_line(line: str, expected: int, path: Path, line_no: int) -> N
                 f"{where}: TLE line {expected} columns {lo + 1}-{hi} ({field}) are not a number: {line[lo:hi]!r}"
             ) from None
     if not line[68].isdigit():
-        raise ValueError(f"{where}: TLE line {expected} column 69 must be the checksum digit, got {line[68]!r}")
+        raise ValueError(
+            f"{where}: TLE line {expected} column 69 must be the checksum digit, got {line[68]!r}"
+        )
     if compute_checksum(line) != int(line[68]):
         raise ValueError(
             f"{where}: bad checksum on TLE line {expected}: column 69 says {line[68]} but the "
-            f"modulo-10 sum of columns 1-68 is {compute_checksum(line)}")
+            f"modulo-10 sum of columns 1-68 is {compute_checksum(line)}"
+        )
 
 
 def _designator(line1: str, path: Path, line_no: int) -> tuple[str, int, int]:
@@ -95,7 +131,9 @@ def _designator(line1: str, path: Path, line_no: int) -> tuple[str, int, int]:
         return "", 0, 0
     match = re.fullmatch(r"(\d{2})(\d{3})([A-Z ]{1,3})", raw.rstrip().ljust(6))
     if not match:
-        raise ValueError(f"{path}: line {line_no}: international designator {raw!r} is not YYNNNP (columns 10-17)")
+        raise ValueError(
+            f"{path}: line {line_no}: international designator {raw!r} is not YYNNNP (columns 10-17)"
+        )
     yy, number, piece = int(match.group(1)), int(match.group(2)), match.group(3).strip()
     year = 1900 + yy if yy >= 57 else 2000 + yy
     return f"{year}-{number:03d}{piece}", year, number
@@ -134,18 +172,31 @@ def read_tle(path: str | Path) -> list[TleRecord]:
         if line[2:7] != line2[2:7]:
             raise ValueError(
                 f"{path}: lines {k + 1}-{k + 2}: satellite number {line[2:7].strip()} on line 1 "
-                f"differs from {line2[2:7].strip()} on line 2")
+                f"differs from {line2[2:7].strip()} on line 2"
+            )
         designator, year, number = _designator(line, path, k + 1)
         sat = Satrec.twoline2rv(line, line2)
-        epoch = dt.datetime(2000 + sat.epochyr if sat.epochyr < 57 else 1900 + sat.epochyr, 1, 1) + \
-            dt.timedelta(days=sat.epochdays - 1.0)
+        epoch = dt.datetime(
+            2000 + sat.epochyr if sat.epochyr < 57 else 1900 + sat.epochyr, 1, 1
+        ) + dt.timedelta(days=sat.epochdays - 1.0)
         name = title or f"NORAD {int(line[2:7])}"
         prn_match = re.search(r"PRN\s*0*(\d+)", name)
-        records.append(TleRecord(
-            name=name, prn=int(prn_match.group(1)) if prn_match else None, satnum=int(line[2:7]),
-            designator=designator, launch_year=year, launch_number=number, epoch_utc=epoch,
-            rev_number=int(line2[63:68].strip() or 0), mean_motion_rev_day=float(line2[52:63]),
-            line1=line, line2=line2, file_line=k + 1))
+        records.append(
+            TleRecord(
+                name=name,
+                prn=int(prn_match.group(1)) if prn_match else None,
+                satnum=int(line[2:7]),
+                designator=designator,
+                launch_year=year,
+                launch_number=number,
+                epoch_utc=epoch,
+                rev_number=int(line2[63:68].strip() or 0),
+                mean_motion_rev_day=float(line2[52:63]),
+                line1=line,
+                line2=line2,
+                file_line=k + 1,
+            )
+        )
         title = None
         k += 2
     if not records:
@@ -159,14 +210,20 @@ def launch_date(record: TleRecord, launch_dates: dict | None = None) -> tuple[dt
     The estimate is TLE epoch - revolution number / mean motion, clamped to the designator's launch
     year when the TLE gives a designator; source is "table" or "estimate".
     """
-    listed = (launch_dates or {}).get(record.designator) or (launch_dates or {}).get(record.designator[:8])
+    listed = (launch_dates or {}).get(record.designator) or (launch_dates or {}).get(
+        record.designator[:8]
+    )
     if record.designator and listed:
         try:
             return dt.date.fromisoformat(str(listed)), "table"
         except ValueError:
-            raise ValueError(f"gps.launch_dates: launch date of {record.designator} must be an ISO date "
-                             f"YYYY-MM-DD; got {listed!r}") from None
-    estimate = (record.epoch_utc - dt.timedelta(days=record.rev_number / record.mean_motion_rev_day)).date()
+            raise ValueError(
+                f"gps.launch_dates: launch date of {record.designator} must be an ISO date "
+                f"YYYY-MM-DD; got {listed!r}"
+            ) from None
+    estimate = (
+        record.epoch_utc - dt.timedelta(days=record.rev_number / record.mean_motion_rev_day)
+    ).date()
     if not record.launch_year:
         return estimate, "estimate"
     first, last = dt.date(record.launch_year, 1, 1), dt.date(record.launch_year, 12, 31)
@@ -176,13 +233,20 @@ def launch_date(record: TleRecord, launch_dates: dict | None = None) -> tuple[dt
 def _parse_launch(text: str) -> tuple[int, int]:
     match = re.fullmatch(r"(\d{4})-(\d{3})", text.strip())
     if not match:
-        raise ValueError(f"launch cut-off must be an international designator 'YYYY-NNN'; got {text!r}")
+        raise ValueError(
+            f"launch cut-off must be an international designator 'YYYY-NNN'; got {text!r}"
+        )
     return int(match.group(1)), int(match.group(2))
 
 
-def select_satellites(records: list[TleRecord], *, exclude_prn=(), launched_after: dt.date | None = None,
-                      launches_from: str | None = None, launch_dates: dict | None = None
-                      ) -> tuple[list[TleRecord], list[dict]]:
+def select_satellites(
+    records: list[TleRecord],
+    *,
+    exclude_prn=(),
+    launched_after: dt.date | None = None,
+    launches_from: str | None = None,
+    launch_dates: dict | None = None,
+) -> tuple[list[TleRecord], list[dict]]:
     """Satellites kept after the exclusions, and one row (:data:`SELECTION_COLUMNS`) per satellite with the
     reason if dropped.
 
@@ -203,16 +267,28 @@ def select_satellites(records: list[TleRecord], *, exclude_prn=(), launched_afte
             reason = f"launched {date} ({source}) after {launched_after}"
         if not reason:
             kept.append(rec)
-        rows.append({"name": rec.name, "prn": rec.prn, "designator": rec.designator, "launch_date": date,
-                     "launch_date_source": source, "tle_epoch_utc": rec.epoch_utc, "included": not reason,
-                     "reason": reason})
+        rows.append(
+            {
+                "name": rec.name,
+                "prn": rec.prn,
+                "designator": rec.designator,
+                "launch_date": date,
+                "launch_date_source": source,
+                "tle_epoch_utc": rec.epoch_utc,
+                "included": not reason,
+                "reason": reason,
+            }
+        )
     if not kept:
-        raise ValueError("every GPS satellite was excluded: check gps.exclude_prn and the launch cut-offs")
+        raise ValueError(
+            "every GPS satellite was excluded: check gps.exclude_prn and the launch cut-offs"
+        )
     return kept, rows
 
 
-def gps_catalogue(gps: GpsSettings, start_tdb: str,
-                  tle_path: str | Path | None = None) -> tuple[list[TleRecord], list[dict]]:
+def gps_catalogue(
+    gps: GpsSettings, start_tdb: str, tle_path: str | Path | None = None
+) -> tuple[list[TleRecord], list[dict]]:
     """Read the ``[gps]`` TLE file (or a user's) and apply the ``[gps]`` exclusions; ``start_tdb`` (the study
     epoch, ``epoch.start_tdb``) is the launch cut-off of ``exclude_launched_after = "epoch"``."""
     path = Path(tle_path) if tle_path is not None else data_path(gps.tle_file)
@@ -222,6 +298,11 @@ def gps_catalogue(gps: GpsSettings, start_tdb: str,
     elif after == "none":
         cutoff = None
     else:
-        cutoff = dt.date.fromisoformat(after)          # an ISO date: checked at load (config.FORMS)
-    return select_satellites(read_tle(path), exclude_prn=gps.exclude_prn, launched_after=cutoff,
-                             launches_from=gps.exclude_launches_from or None, launch_dates=gps.launch_dates)
+        cutoff = dt.date.fromisoformat(after)  # an ISO date: checked at load (config.FORMS)
+    return select_satellites(
+        read_tle(path),
+        exclude_prn=gps.exclude_prn,
+        launched_after=cutoff,
+        launches_from=gps.exclude_launches_from or None,
+        launch_dates=gps.launch_dates,
+    )

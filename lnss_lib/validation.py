@@ -28,8 +28,15 @@ _RECORD = re.compile(
     r"VX\s*=\s*(?P<vx>\S+)\s+VY\s*=\s*(?P<vy>\S+)\s+VZ\s*=\s*(?P<vz>\S+)\s*$",
     re.MULTILINE,
 )
-__all__ = ["read_horizons_vectors", "capstone_arcs", "one_step_residuals", "propagate_arc", "estimate_srp",
-           "variant_differences", "without_term"]
+__all__ = [
+    "read_horizons_vectors",
+    "capstone_arcs",
+    "one_step_residuals",
+    "propagate_arc",
+    "estimate_srp",
+    "variant_differences",
+    "without_term",
+]
 
 JD_J2000 = 2451545.0
 
@@ -44,7 +51,9 @@ def read_horizons_vectors(path: Path) -> xr.Dataset:
         raise ValueError(f"{path}: no $$SOE ... $$EOE block; expected a Horizons VECTORS table")
     for required in ("Center body name: Moon", "Reference frame : ICRF", "Output units    : KM-S"):
         if required not in text:
-            raise ValueError(f"{path}: header lacks {required!r}; the validation needs Moon-centred ICRF km, km/s")
+            raise ValueError(
+                f"{path}: header lacks {required!r}; the validation needs Moon-centred ICRF km, km/s"
+            )
     body = text.split("$$SOE", 1)[1].split("$$EOE", 1)[0]
     rows = [m.groupdict() for m in _RECORD.finditer(body)]
     if not rows:
@@ -70,15 +79,24 @@ def capstone_arcs(capstone: CapstoneSettings, ephemeris: EphemerisSettings) -> l
     return [first, second]
 
 
-def one_step_residuals(dynamics: Dynamics, capstone: CapstoneSettings, ref: xr.Dataset, *,
-                       srp_cr_area_mass_m2_kg: float | None = None) -> xr.Dataset:
+def one_step_residuals(
+    dynamics: Dynamics,
+    capstone: CapstoneSettings,
+    ref: xr.Dataset,
+    *,
+    srp_cr_area_mass_m2_kg: float | None = None,
+) -> xr.Dataset:
     """Propagate every Horizons state to the next epoch and return |prediction - Horizons| (km).
 
     Over one 10-minute sample the force model is good to metres, so a jump of the residual marks a
     manoeuvre or a join between orbit solutions: only arcs between such epochs are comparable.
     Defaults: ``capstone``'s Cr*A/m and integrator setting.
     """
-    cr_am = capstone.srp_cr_area_mass_m2_kg if srp_cr_area_mass_m2_kg is None else srp_cr_area_mass_m2_kg
+    cr_am = (
+        capstone.srp_cr_area_mass_m2_kg
+        if srp_cr_area_mass_m2_kg is None
+        else srp_cr_area_mass_m2_kg
+    )
     times = ref.time.values
     table = EphemerisTable.build(dynamics, float(times[0]), float(times[-1]))
     model = ForceModel.build(dynamics, table, srp_cr_area_mass_m2_kg=cr_am)
@@ -86,16 +104,32 @@ def one_step_residuals(dynamics: Dynamics, capstone: CapstoneSettings, ref: xr.D
     residual = np.empty(len(times) - 1)
     for k in range(len(times) - 1):
         dt = float(times[k + 1] - times[k])
-        ds = propagate_states(dynamics, states[k][None, :], float(times[k]), dt, dt,
-                              setting=capstone.integrator_setting, model=model)
+        ds = propagate_states(
+            dynamics,
+            states[k][None, :],
+            float(times[k]),
+            dt,
+            dt,
+            setting=capstone.integrator_setting,
+            model=model,
+        )
         residual[k] = np.linalg.norm(ds.r_mci_km.values[0, -1] - states[k + 1, :3])
-    return xr.Dataset({"one_step_error_km": ("time", residual)}, coords={"time": times[1:]},
-                      attrs={"meaning": "error of a one-sample propagation ending at each epoch"})
+    return xr.Dataset(
+        {"one_step_error_km": ("time", residual)},
+        coords={"time": times[1:]},
+        attrs={"meaning": "error of a one-sample propagation ending at each epoch"},
+    )
 
 
-def propagate_arc(dynamics: Dynamics, capstone: CapstoneSettings, arc: xr.Dataset, *,
-                  srp_cr_area_mass_m2_kg: float | None = None, setting: str | None = None,
-                  degree: int | None = None) -> xr.Dataset:
+def propagate_arc(
+    dynamics: Dynamics,
+    capstone: CapstoneSettings,
+    arc: xr.Dataset,
+    *,
+    srp_cr_area_mass_m2_kg: float | None = None,
+    setting: str | None = None,
+    degree: int | None = None,
+) -> xr.Dataset:
     """Propagate from an arc's first Horizons state over the arc, sampled at the Horizons epochs.
 
     Defaults: ``capstone``'s Cr*A/m and integrator setting. Returns the arc with ``r_prop_km`` and
@@ -106,20 +140,39 @@ def propagate_arc(dynamics: Dynamics, capstone: CapstoneSettings, arc: xr.Datase
     y0 = np.concatenate([arc.r_mci_km.values[0], arc.v_mci_kms.values[0]])
     if srp_cr_area_mass_m2_kg is None:
         srp_cr_area_mass_m2_kg = capstone.srp_cr_area_mass_m2_kg
-    ds = propagate_states(dynamics, y0[None, :], float(times[0]), float(times[-1] - times[0]), step,
-                          setting=setting or capstone.integrator_setting, degree=degree,
-                          srp_cr_area_mass_m2_kg=srp_cr_area_mass_m2_kg)
+    ds = propagate_states(
+        dynamics,
+        y0[None, :],
+        float(times[0]),
+        float(times[-1] - times[0]),
+        step,
+        setting=setting or capstone.integrator_setting,
+        degree=degree,
+        srp_cr_area_mass_m2_kg=srp_cr_area_mass_m2_kg,
+    )
     r_prop = ds.r_mci_km.isel(sat=0).sel(time=times, method="nearest").values
     out = arc.copy()
     out["r_prop_km"] = (("time", "xyz"), r_prop)
     out["pos_error_km"] = ("time", np.linalg.norm(r_prop - arc.r_mci_km.values, axis=1))
-    out.attrs.update(srp_cr_area_mass_m2_kg=float(srp_cr_area_mass_m2_kg), force_model=ds.attrs["force_model"],
-                     integrator=ds.attrs["integrator"], rtol=ds.attrs["rtol"], atol=ds.attrs["atol"])
+    out.attrs.update(
+        srp_cr_area_mass_m2_kg=float(srp_cr_area_mass_m2_kg),
+        force_model=ds.attrs["force_model"],
+        integrator=ds.attrs["integrator"],
+        rtol=ds.attrs["rtol"],
+        atol=ds.attrs["atol"],
+    )
     return out
 
 
-def estimate_srp(dynamics: Dynamics, capstone: CapstoneSettings, arc: xr.Dataset, *,
-                 initial_m2_kg: float | None = None, iterations: int = 6, setting: str | None = None) -> dict:
+def estimate_srp(
+    dynamics: Dynamics,
+    capstone: CapstoneSettings,
+    arc: xr.Dataset,
+    *,
+    initial_m2_kg: float | None = None,
+    iterations: int = 6,
+    setting: str | None = None,
+) -> dict:
     """Least-squares estimate of Cr*A/m (m^2/kg) from an arc's position residuals (Gauss-Newton).
 
     The partial derivative of the positions is taken by central differences; the initial state is
@@ -131,13 +184,22 @@ def estimate_srp(dynamics: Dynamics, capstone: CapstoneSettings, arc: xr.Dataset
     for _ in range(iterations):
         delta = max(1e-4, 0.02 * abs(p))
         base = propagate_arc(dynamics, capstone, arc, srp_cr_area_mass_m2_kg=p, setting=setting)
-        plus = propagate_arc(dynamics, capstone, arc, srp_cr_area_mass_m2_kg=p + delta, setting=setting)
-        minus = propagate_arc(dynamics, capstone, arc, srp_cr_area_mass_m2_kg=max(p - delta, 0.0), setting=setting)
+        plus = propagate_arc(
+            dynamics, capstone, arc, srp_cr_area_mass_m2_kg=p + delta, setting=setting
+        )
+        minus = propagate_arc(
+            dynamics, capstone, arc, srp_cr_area_mass_m2_kg=max(p - delta, 0.0), setting=setting
+        )
         width = delta + min(delta, p)
         partial = ((plus.r_prop_km - minus.r_prop_km) / width).values.ravel()
         residual = (arc.r_mci_km - base.r_prop_km).values.ravel()
         step = float(partial @ residual / (partial @ partial))
-        history.append({"cr_area_mass_m2_kg": p, "rms_km": float(np.sqrt(np.mean(base.pos_error_km.values ** 2)))})
+        history.append(
+            {
+                "cr_area_mass_m2_kg": p,
+                "rms_km": float(np.sqrt(np.mean(base.pos_error_km.values**2))),
+            }
+        )
         p = max(p + step, 0.0)
         if abs(step) < 1e-6 * max(p, 1e-6):
             break
@@ -148,15 +210,21 @@ def estimate_srp(dynamics: Dynamics, capstone: CapstoneSettings, arc: xr.Dataset
     return {
         "cr_area_mass_m2_kg": float(p),
         "sigma_m2_kg": sigma,
-        "rms_km": float(np.sqrt(np.mean(final.pos_error_km.values ** 2))),
+        "rms_km": float(np.sqrt(np.mean(final.pos_error_km.values**2))),
         "end_error_km": float(final.pos_error_km.values[-1]),
         "history": history,
         "arc": final,
     }
 
 
-def variant_differences(dynamics: Dynamics, state_mci: np.ndarray, t0_tdb_s: float, duration_s: float, step_s: float,
-                        variants: Mapping[str, Dynamics]) -> xr.Dataset:
+def variant_differences(
+    dynamics: Dynamics,
+    state_mci: np.ndarray,
+    t0_tdb_s: float,
+    duration_s: float,
+    step_s: float,
+    variants: Mapping[str, Dynamics],
+) -> xr.Dataset:
     """Position difference (km) of each variant model against ``dynamics``, from one state.
 
     ``variants`` maps a label to other dynamics settings (for example
@@ -168,9 +236,11 @@ def variant_differences(dynamics: Dynamics, state_mci: np.ndarray, t0_tdb_s: flo
     for other_dynamics in variants.values():
         other = propagate_states(other_dynamics, state_mci[None, :], t0_tdb_s, duration_s, step_s)
         diffs.append(np.linalg.norm(other.r_mci_km.values[0] - base.r_mci_km.values[0], axis=1))
-    return xr.Dataset({"difference_km": (("variant", "time"), np.array(diffs))},
-                      coords={"variant": list(variants), "time": base.time.values},
-                      attrs={"baseline": base.attrs["force_model"], "integrator": base.attrs["integrator"]})
+    return xr.Dataset(
+        {"difference_km": (("variant", "time"), np.array(diffs))},
+        coords={"variant": list(variants), "time": base.time.values},
+        attrs={"baseline": base.attrs["force_model"], "integrator": base.attrs["integrator"]},
+    )
 
 
 def without_term(forces: ForceSettings, term: str) -> dict:
@@ -181,4 +251,6 @@ def without_term(forces: ForceSettings, term: str) -> dict:
         return {"gravity": {"degree": 0}}
     if term in ("srp", "relativity", "albedo"):
         return {"forces": {term: False}}
-    raise ValueError(f"unknown force term {term!r}; allowed: SUN, EARTH, JUPITER, harmonics, srp, relativity, albedo")
+    raise ValueError(
+        f"unknown force term {term!r}; allowed: SUN, EARTH, JUPITER, harmonics, srp, relativity, albedo"
+    )

@@ -3,8 +3,8 @@
 import numpy as np
 import pytest
 
-from lnss_lib.settings import load_settings
 from lnss_lib.ephemeris import ensure_kernels, tdb_seconds
+from lnss_lib.settings import load_settings
 
 
 def _loaded(name: str) -> dict:
@@ -31,11 +31,14 @@ def epoch_tdb_s(paper_profile):
 @pytest.fixture(scope="session")
 def two_body_profile():
     """Point-mass Moon only: every perturbation switched off."""
-    profile = load_settings("paper", overrides={
-        "gravity": {"degree": 0},
-        "forces": {"third_bodies": [], "srp": False, "albedo": False, "relativity": False},
-        "integrator": {"setting": "converged"},
-    })
+    profile = load_settings(
+        "paper",
+        overrides={
+            "gravity": {"degree": 0},
+            "forces": {"third_bodies": [], "srp": False, "albedo": False, "relativity": False},
+            "integrator": {"setting": "converged"},
+        },
+    )
     ensure_kernels(profile.ephemeris)
     return profile
 
@@ -43,4 +46,3 @@ def two_body_profile():
 @pytest.fixture(scope="session")
 def rng():
     return np.random.default_rng(20250501)
-

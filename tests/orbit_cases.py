@@ -21,10 +21,16 @@ YEAR_S = 365.25 * SECONDS_PER_DAY
 
 def random_elements(rng, m):
     """Elements [a, e, i, raan, aop, nu] of closed orbits well away from e = 0 and i = 0, pi."""
-    return np.column_stack([
-        rng.uniform(2500.0, 9000.0, m), rng.uniform(0.05, 0.7, m), rng.uniform(0.2, np.pi - 0.2, m),
-        rng.uniform(0.0, 2 * np.pi, m), rng.uniform(0.0, 2 * np.pi, m), rng.uniform(0.0, 2 * np.pi, m),
-    ])
+    return np.column_stack(
+        [
+            rng.uniform(2500.0, 9000.0, m),
+            rng.uniform(0.05, 0.7, m),
+            rng.uniform(0.2, np.pi - 0.2, m),
+            rng.uniform(0.0, 2 * np.pi, m),
+            rng.uniform(0.0, 2 * np.pi, m),
+            rng.uniform(0.0, 2 * np.pi, m),
+        ]
+    )
 
 
 def state_from_nu(el):
@@ -47,11 +53,14 @@ def j2_acceleration(r_vec):
 
 def integrate(state0, t_eval, extra):
     """Two-body plus ``extra(state)`` acceleration, DOP853 at tight tolerances; (n, 6) states at t_eval."""
+
     def rhs(_, y):
         r = y[:3]
         return np.concatenate([y[3:], -GM * r / np.linalg.norm(r) ** 3 + extra(y)])
 
-    sol = solve_ivp(rhs, (t_eval[0], t_eval[-1]), state0, method="DOP853", t_eval=t_eval, rtol=1e-12, atol=1e-12)
+    sol = solve_ivp(
+        rhs, (t_eval[0], t_eval[-1]), state0, method="DOP853", t_eval=t_eval, rtol=1e-12, atol=1e-12
+    )
     assert sol.success
     return sol.y.T
 

@@ -55,16 +55,38 @@ import numpy as np
 from lnss_lib import kernel_cpu
 
 ROOT = Path(__file__).resolve().parents[1]
-FIXTURES = ROOT / "tests" / "data" / "pinned_results"          # one record per processor model: <model>.json
+FIXTURES = (
+    ROOT / "tests" / "data" / "pinned_results"
+)  # one record per processor model: <model>.json
 
-TABLE4_ARGV = ["evaluate", "--profile", "paper", "--json", "--sma-km", "6143", "--ecc", "0.6", "--aop-deg", "90",
-               "--inc-deg", "51.7", "--planes", "2", "--sats-per-plane", "8"]
+TABLE4_ARGV = [
+    "evaluate",
+    "--profile",
+    "paper",
+    "--json",
+    "--sma-km",
+    "6143",
+    "--ecc",
+    "0.6",
+    "--aop-deg",
+    "90",
+    "--inc-deg",
+    "51.7",
+    "--planes",
+    "2",
+    "--sats-per-plane",
+    "8",
+]
 LIFE_DAYS = "60"
 CAMPAIGN_PROFILE, CAMPAIGN_GENERATIONS = "quick", 2
 RANDOM_PROFILE, RANDOM_SEED, RANDOM_N = "paper", 20250522, 50
 
-RTOL = {"evaluate_table4": 1e-12, "evaluate_table4_life60": 1e-12, "campaign_quick_2gen": 1e-12,
-        "random_paper_designs": 1e-9}
+RTOL = {
+    "evaluate_table4": 1e-12,
+    "evaluate_table4_life60": 1e-12,
+    "campaign_quick_2gen": 1e-12,
+    "random_paper_designs": 1e-9,
+}
 # The cross-model tolerance of a pin: this factor times the largest relative difference between two models' records
 # of it, rounded up to a power of ten (room for a model whose round-off lies beyond both recorded ones).
 CROSS_MODEL_FACTOR = 10.0
@@ -78,9 +100,13 @@ EXCLUDED = {
     "crc32": "journal line checksum; it covers the timings above (run-dependent)",
     "kernel_cpu": "journal record: the processor model of the kernels (the record's meta names it)",
     "designs_per_s": "history: evaluation rate (timing)",
-    "time_campaign_s": "history: timing", "time_deltav_s": "history: timing", "time_dop_s": "history: timing",
-    "time_gps_s": "history: timing", "time_operational_s": "history: timing",
-    "time_overhead_s": "history: timing", "time_propagation_s": "history: timing",
+    "time_campaign_s": "history: timing",
+    "time_deltav_s": "history: timing",
+    "time_dop_s": "history: timing",
+    "time_gps_s": "history: timing",
+    "time_operational_s": "history: timing",
+    "time_overhead_s": "history: timing",
+    "time_propagation_s": "history: timing",
     "versions": "NetCDF attribute: installed package versions",
     "evaluation_hash": "NetCDF attribute / journal header: hash of the settings (issue 22 changes the hashing)",
     "parameters": "NetCDF attribute: echo of the profile (input, not a result; issue 22 changes its serialisation)",
@@ -108,6 +134,7 @@ def _clean(value):
 
 # ---------------------------------------------------------------- the pins' computations
 
+
 def evaluate_json(extra_argv=(), overrides=()) -> dict:
     """``python -m lnss_lib evaluate ... --json`` for the Table 4 ELFO, in-process; ``overrides`` are ``--set`` texts."""
     from lnss_lib.__main__ import main
@@ -127,8 +154,12 @@ def _problem_fg(settings, records: list[dict], keys: list[tuple]) -> tuple[np.nd
     from lnss_lib.campaign.problem import WalkerDesignProblem
 
     by_key = {tuple(r["key"]): r for r in records}
-    problem = WalkerDesignProblem(settings, lambda x: metric_columns(
-        [by_key[tuple(int(v) for v in row)] for row in np.rint(x)], settings.extra_metrics))
+    problem = WalkerDesignProblem(
+        settings,
+        lambda x: metric_columns(
+            [by_key[tuple(int(v) for v in row)] for row in np.rint(x)], settings.extra_metrics
+        ),
+    )
     out = problem.evaluate(np.array(keys), return_as_dictionary=True)
     g = out.get("G")
     return out["F"], (g if g is not None else np.zeros((len(keys), 0)))
@@ -138,8 +169,10 @@ def _netcdf(path: Path) -> dict:
     import xarray as xr
 
     with xr.open_dataset(path) as ds:
-        return {"attrs": {k: v for k, v in ds.attrs.items()},
-                "variables": {name: ds[name].values for name in ds.variables}}
+        return {
+            "attrs": {k: v for k, v in ds.attrs.items()},
+            "variables": {name: ds[name].values for name in ds.variables},
+        }
 
 
 def campaign_pin(overrides: dict | None = None) -> dict:
@@ -155,24 +188,48 @@ def campaign_pin(overrides: dict | None = None) -> dict:
     class KeptPopulation(Callback):
         def on_generation_end(self, state):
             pop = state.algorithm.pop
-            populations.append({"generation": state.generation, "X": pop.get("X"), "F": pop.get("F"),
-                                "G": pop.get("G")})
+            populations.append(
+                {
+                    "generation": state.generation,
+                    "X": pop.get("X"),
+                    "F": pop.get("F"),
+                    "G": pop.get("G"),
+                }
+            )
 
     settings = CampaignPlan.of(load_settings(CAMPAIGN_PROFILE, overrides=overrides))
     with tempfile.TemporaryDirectory(prefix="lnss_pin_campaign_") as tmp:
         run_dir = Path(tmp) / "run"
-        result = run_campaign(CAMPAIGN_PROFILE, overrides=overrides, workers=0, run_dir=run_dir, progress=False,
-                              max_generations=CAMPAIGN_GENERATIONS, callbacks=[KeptPopulation()])
+        result = run_campaign(
+            CAMPAIGN_PROFILE,
+            overrides=overrides,
+            workers=0,
+            run_dir=run_dir,
+            progress=False,
+            max_generations=CAMPAIGN_GENERATIONS,
+            callbacks=[KeptPopulation()],
+        )
         records = sorted(read_cache_records(run_dir), key=lambda r: (r["generation"], r["order"]))
-        files = {name: _netcdf(run_dir / f"{name}.nc") for name in ("evaluations", "front", "history")}
+        files = {
+            name: _netcdf(run_dir / f"{name}.nc") for name in ("evaluations", "front", "history")
+        }
     keys = [tuple(r["key"]) for r in records]
     f, g = _problem_fg(settings, records, keys)
     designs = settings.grid.designs(np.array(keys))
-    evaluations = [{**r, "design": d, "objectives": fi, "constraints": gi}
-                   for r, d, fi, gi in zip(records, designs, f, g)]
-    return _clean({"generations": result.generations, "n_evaluations": result.n_evaluations,
-                   "n_feasible": result.n_feasible, "evaluations": evaluations, "populations": populations,
-                   **files})
+    evaluations = [
+        {**r, "design": d, "objectives": fi, "constraints": gi}
+        for r, d, fi, gi in zip(records, designs, f, g)
+    ]
+    return _clean(
+        {
+            "generations": result.generations,
+            "n_evaluations": result.n_evaluations,
+            "n_feasible": result.n_feasible,
+            "evaluations": evaluations,
+            "populations": populations,
+            **files,
+        }
+    )
 
 
 def random_designs_pin(overrides: dict | None = None) -> dict:
@@ -184,7 +241,10 @@ def random_designs_pin(overrides: dict | None = None) -> dict:
     profile = load_settings(RANDOM_PROFILE, overrides=overrides)
     settings = CampaignPlan.of(profile)
     rng = np.random.default_rng(RANDOM_SEED)
-    keys = [tuple(int(v) for v in row) for row in rng.integers(0, settings.grid.n_levels + 1, size=(RANDOM_N, 6))]
+    keys = [
+        tuple(int(v) for v in row)
+        for row in rng.integers(0, settings.grid.n_levels + 1, size=(RANDOM_N, 6))
+    ]
     designs = settings.grid.designs(np.array(keys))
     backend = SerialBackend(evaluation_profile(profile), campaign_task(settings))
     try:
@@ -194,9 +254,16 @@ def random_designs_pin(overrides: dict | None = None) -> dict:
     finally:
         backend.close()
     f, g = _problem_fg(settings, records, keys)
-    return _clean({"seed": RANDOM_SEED, "profile": RANDOM_PROFILE,
-                   "evaluations": [{**r, "design": d, "objectives": fi, "constraints": gi}
-                                   for r, d, fi, gi in zip(records, designs, f, g)]})
+    return _clean(
+        {
+            "seed": RANDOM_SEED,
+            "profile": RANDOM_PROFILE,
+            "evaluations": [
+                {**r, "design": d, "objectives": fi, "constraints": gi}
+                for r, d, fi, gi in zip(records, designs, f, g)
+            ],
+        }
+    )
 
 
 def _overrides(sets) -> dict | None:
@@ -208,7 +275,9 @@ def _overrides(sets) -> dict | None:
 # name -> recompute(sets): ``sets`` are ``--set SECTION.KEY=VALUE`` texts (scratch checks that a pin can fail)
 PINS = {
     "evaluate_table4": lambda sets=(): evaluate_json(overrides=sets),
-    "evaluate_table4_life60": lambda sets=(): evaluate_json(["--design-life-days", LIFE_DAYS], overrides=sets),
+    "evaluate_table4_life60": lambda sets=(): evaluate_json(
+        ["--design-life-days", LIFE_DAYS], overrides=sets
+    ),
     "campaign_quick_2gen": lambda sets=(): campaign_pin(_overrides(sets)),
     "random_paper_designs": lambda sets=(): random_designs_pin(_overrides(sets)),
 }
@@ -216,10 +285,18 @@ PINS = {
 
 # ---------------------------------------------------------------- comparison
 
+
 def _kind(value) -> str:
     if value is None:
         return "null"
-    for name, types in (("bool", bool), ("int", int), ("float", float), ("str", str), ("list", list), ("dict", dict)):
+    for name, types in (
+        ("bool", bool),
+        ("int", int),
+        ("float", float),
+        ("str", str),
+        ("list", list),
+        ("dict", dict),
+    ):
         if isinstance(value, types):
             return name
     return type(value).__name__
@@ -237,7 +314,10 @@ def differences(expected, actual, rtol: float, path: str = "") -> list[str]:
         out = []
         e_keys = [k for k in expected if k not in EXCLUDED]
         a_keys = [k for k in actual if k not in EXCLUDED]
-        missing, extra = [k for k in e_keys if k not in actual], [k for k in a_keys if k not in expected]
+        missing, extra = (
+            [k for k in e_keys if k not in actual],
+            [k for k in a_keys if k not in expected],
+        )
         if missing:
             out.append(f"{where}: missing keys {missing}")
         if extra:
@@ -258,10 +338,17 @@ def differences(expected, actual, rtol: float, path: str = "") -> list[str]:
             return []
         if expected == actual:
             return []
-        if math.isfinite(expected) and math.isfinite(actual) and \
-                abs(actual - expected) <= rtol * max(abs(expected), abs(actual)):
+        if (
+            math.isfinite(expected)
+            and math.isfinite(actual)
+            and abs(actual - expected) <= rtol * max(abs(expected), abs(actual))
+        ):
             return []
-        rel = abs(actual - expected) / max(abs(expected), abs(actual)) if math.isfinite(expected - actual) else math.inf
+        rel = (
+            abs(actual - expected) / max(abs(expected), abs(actual))
+            if math.isfinite(expected - actual)
+            else math.inf
+        )
         return [f"{where}: {actual!r}, expected {expected!r} (relative {rel:.3g} > {rtol:g})"]
     return [] if expected == actual else [f"{where}: {actual!r:.120}, expected {expected!r:.120}"]
 
@@ -270,12 +357,22 @@ def largest_relative_difference(expected, actual) -> float:
     """The largest relative difference between the floats at the same place of two JSON-like trees of the same
     shape (:data:`EXCLUDED` keys skipped; 0 when every float is equal, NaN with NaN counting equal)."""
     if isinstance(expected, dict):
-        return max((largest_relative_difference(expected[k], actual[k]) for k in expected
-                    if k not in EXCLUDED and k in actual), default=0.0)
+        return max(
+            (
+                largest_relative_difference(expected[k], actual[k])
+                for k in expected
+                if k not in EXCLUDED and k in actual
+            ),
+            default=0.0,
+        )
     if isinstance(expected, list):
         return max(map(largest_relative_difference, expected, actual), default=0.0)
-    if isinstance(expected, float) and isinstance(actual, float) and expected != actual \
-            and not (math.isnan(expected) and math.isnan(actual)):
+    if (
+        isinstance(expected, float)
+        and isinstance(actual, float)
+        and expected != actual
+        and not (math.isnan(expected) and math.isnan(actual))
+    ):
         return abs(actual - expected) / max(abs(expected), abs(actual))
     return 0.0
 
@@ -284,8 +381,14 @@ def cross_model_rtol(name: str, records: list) -> float:
     """The tolerance within which pin ``name`` of one processor model holds another model's record: the
     :data:`CROSS_MODEL_FACTOR` times the largest relative difference between any two of ``records`` (that pin as
     recorded on each model), rounded up to a power of ten, and never below the pin's own :data:`RTOL`."""
-    spread = max((largest_relative_difference(a, b) for i, a in enumerate(records) for b in records[i + 1:]),
-                 default=0.0)
+    spread = max(
+        (
+            largest_relative_difference(a, b)
+            for i, a in enumerate(records)
+            for b in records[i + 1 :]
+        ),
+        default=0.0,
+    )
     if spread == 0.0:
         return RTOL[name]
     return max(RTOL[name], 10.0 ** math.ceil(math.log10(CROSS_MODEL_FACTOR * spread)))
@@ -312,27 +415,46 @@ def check_pin(name: str, result, recorded: dict[str, dict], here: str) -> list[s
     found = []
     for model, record in recorded.items():
         rtol = RTOL[name] if model == here else cross_rtol
-        found += [f"{model} (rtol {rtol:g}, recorded at commit {record['meta']['commit'][:12]}): {line}"
-                  for line in differences(record["pins"][name], result, rtol)]
+        found += [
+            f"{model} (rtol {rtol:g}, recorded at commit {record['meta']['commit'][:12]}): {line}"
+            for line in differences(record["pins"][name], result, rtol)
+        ]
     return found
 
 
 # ---------------------------------------------------------------- regeneration
 
+
 def _git(*args) -> str:
-    return subprocess.run(["git", *args], cwd=ROOT, capture_output=True, text=True, check=True).stdout.strip()
+    return subprocess.run(
+        ["git", *args], cwd=ROOT, capture_output=True, text=True, check=True
+    ).stdout.strip()
 
 
 def main(argv=None) -> int:
-    parser = argparse.ArgumentParser(description="Recompute the pinned results; --write records them.")
-    parser.add_argument("--write", action="store_true",
-                        help=f"write {fixture_path(kernel_cpu()).relative_to(ROOT)} (this machine's processor model)")
-    parser.add_argument("--only", choices=sorted(PINS), action="append", help="recompute only these pins")
-    parser.add_argument("--set", action="append", default=[], metavar="SECTION.KEY=VALUE",
-                        help="recompute under a changed setting and show the differences (never with --write)")
+    parser = argparse.ArgumentParser(
+        description="Recompute the pinned results; --write records them."
+    )
+    parser.add_argument(
+        "--write",
+        action="store_true",
+        help=f"write {fixture_path(kernel_cpu()).relative_to(ROOT)} (this machine's processor model)",
+    )
+    parser.add_argument(
+        "--only", choices=sorted(PINS), action="append", help="recompute only these pins"
+    )
+    parser.add_argument(
+        "--set",
+        action="append",
+        default=[],
+        metavar="SECTION.KEY=VALUE",
+        help="recompute under a changed setting and show the differences (never with --write)",
+    )
     args = parser.parse_args(argv)
     if args.write and (args.only or args.set):
-        parser.error("--write records every pin under the unchanged profiles; drop --only and --set")
+        parser.error(
+            "--write records every pin under the unchanged profiles; drop --only and --set"
+        )
     names = args.only or list(PINS)
     pins, seconds = {}, {}
     for name in names:
@@ -348,15 +470,23 @@ def main(argv=None) -> int:
             failed += bool(diffs)
             print(f"{name}: {len(diffs)} difference(s)" + "".join(f"\n  {d}" for d in diffs[:20]))
         return 1 if failed else 0
-    meta = {"commit": _git("rev-parse", "HEAD"), "dirty": bool(_git("status", "--porcelain", "--", "lnss_lib", "params")),
-            "written_utc": time.strftime("%Y-%m-%dT%H:%M:%SZ", time.gmtime()),
-            "command": "PYTHONPATH=$PWD python tests/pinned_results.py --write", "seconds": seconds,
-            "kernel_cpu": kernel_cpu(),
-            "rtol": RTOL, "excluded": EXCLUDED}
+    meta = {
+        "commit": _git("rev-parse", "HEAD"),
+        "dirty": bool(_git("status", "--porcelain", "--", "lnss_lib", "params")),
+        "written_utc": time.strftime("%Y-%m-%dT%H:%M:%SZ", time.gmtime()),
+        "command": "PYTHONPATH=$PWD python tests/pinned_results.py --write",
+        "seconds": seconds,
+        "kernel_cpu": kernel_cpu(),
+        "rtol": RTOL,
+        "excluded": EXCLUDED,
+    }
     path = fixture_path(meta["kernel_cpu"])
     path.parent.mkdir(parents=True, exist_ok=True)
     path.write_text(json.dumps({"meta": meta, "pins": pins}, indent=1) + "\n")
-    print(f"wrote {path} (commit {meta['commit'][:12]}{', dirty' if meta['dirty'] else ''})", file=sys.stderr)
+    print(
+        f"wrote {path} (commit {meta['commit'][:12]}{', dirty' if meta['dirty'] else ''})",
+        file=sys.stderr,
+    )
     return 0
 
 

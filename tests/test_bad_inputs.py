@@ -18,14 +18,29 @@ from lnss_lib import config
 from lnss_lib.__main__ import main
 from lnss_lib.campaign.rundir import RunLock, run_checksum
 from lnss_lib.config import PROJECT_DIR
-from lnss_lib.settings import load_settings
 from lnss_lib.errors import ConfigError, SpiceError
+from lnss_lib.settings import load_settings
 
 EPOCH = ["--epoch-tdb", "2025-05-01T00:00:00"]
 ELFO = ["--elements", "6143", "0.6", "51.7", "0", "90", "0"]
-WALKER = {"--sma-km": "6143", "--ecc": "0.6", "--aop-deg": "90", "--inc-deg": "51.7", "--planes": "2",
-          "--sats-per-plane": "2"}
-SYNTHETIC = ["campaign", "--profile", "ci", "--evaluator", "synthetic", "--workers", "0", "--no-progress"]
+WALKER = {
+    "--sma-km": "6143",
+    "--ecc": "0.6",
+    "--aop-deg": "90",
+    "--inc-deg": "51.7",
+    "--planes": "2",
+    "--sats-per-plane": "2",
+}
+SYNTHETIC = [
+    "campaign",
+    "--profile",
+    "ci",
+    "--evaluator",
+    "synthetic",
+    "--workers",
+    "0",
+    "--no-progress",
+]
 
 
 def walker(**changes):
@@ -54,8 +69,14 @@ BAD_VALUES = [
     (["propagate", *EPOCH, *ELFO, "--days", "-1"], "--days -1"),
     (["propagate", *EPOCH, *ELFO, "--days", "one"], "'one'"),
     (["propagate", *EPOCH, *ELFO, "--days", "1", "--step-s", "0"], "--step-s 0"),
-    (["propagate", *EPOCH, *ELFO, "--days", "1", "--srp-cr-area-mass", "nan"], "--srp-cr-area-mass nan"),
-    (["propagate", *EPOCH, *ELFO, "--days", "1", "--srp-cr-area-mass", "inf"], "--srp-cr-area-mass inf"),
+    (
+        ["propagate", *EPOCH, *ELFO, "--days", "1", "--srp-cr-area-mass", "nan"],
+        "--srp-cr-area-mass nan",
+    ),
+    (
+        ["propagate", *EPOCH, *ELFO, "--days", "1", "--srp-cr-area-mass", "inf"],
+        "--srp-cr-area-mass inf",
+    ),
     (["propagate", *EPOCH, *ELFO, "--days", "1", "--degree", "101"], "--degree 101"),
     (elements("6143", "1.0", "51.7", "0", "90", "0"), "e = 1.0"),
     (elements("0", "0.6", "51.7", "0", "90", "0"), "sma_km = 0.0"),
@@ -66,8 +87,14 @@ BAD_VALUES = [
     (["propagate", *EPOCH, "--state-km", "1e4", "0", "0", "0", "nan", "0", "--days", "1"], "nan"),
     (["propagate", "--epoch-tdb", "2025-13-45", *ELFO, "--days", "1"], "YYYY-MM-DDTHH:MM:SS"),
     (["propagate", "--epoch-tdb", "yesterday", *ELFO, "--days", "1"], "'yesterday'"),
-    (["propagate", "--epoch-tdb", "2060-01-01T00:00:00", *ELFO, "--days", "1"], "1900-01-01 to 2051-01-01"),
-    (["propagate", *EPOCH, *ELFO, "--days", "1", "--out", "/nonexistent/folder/x.csv"], "/nonexistent/folder"),
+    (
+        ["propagate", "--epoch-tdb", "2060-01-01T00:00:00", *ELFO, "--days", "1"],
+        "1900-01-01 to 2051-01-01",
+    ),
+    (
+        ["propagate", *EPOCH, *ELFO, "--days", "1", "--out", "/nonexistent/folder/x.csv"],
+        "/nonexistent/folder",
+    ),
     (["propagate", *EPOCH, *ELFO, "--days", "1", "--out", "orbit.txt"], "orbit.txt"),
     # evaluate: the same element checks, and the counts
     (walker(ecc="1.0"), "--ecc"),
@@ -78,17 +105,32 @@ BAD_VALUES = [
     (walker(sats_per_plane="0"), "sats_per_plane = 0"),
     (walker(planes="two"), "'two'"),
     (["evaluate", "--profile", "ci", "--sma-km", "6143"], "missing --ecc"),
-    (["evaluate", "--constellation", "/nonexistent/constellation.toml"], "/nonexistent/constellation.toml"),
-    (["evaluate", "--profile", "nosuchprofile", *sum(map(list, WALKER.items()), [])], "'nosuchprofile'"),
+    (
+        ["evaluate", "--constellation", "/nonexistent/constellation.toml"],
+        "/nonexistent/constellation.toml",
+    ),
+    (
+        ["evaluate", "--profile", "nosuchprofile", *sum(map(list, WALKER.items()), [])],
+        "'nosuchprofile'",
+    ),
     # --set: unknown keys, wrong types, non-finite and out-of-range values, on every command
     (walker() + ["--set", "spacecraft.cr=nan"], "spacecraft.cr = nan"),
     (walker() + ["--set", "spacecraft.crr=1.3"], "spacecraft.cr"),
     (walker() + ["--set", "dop.elevation_mask_deg=95"], "[0, 90]"),
     (walker() + ["--set", "epoch.duration_days=inf"], "epoch.duration_days = inf"),
-    (["propagate", *EPOCH, *ELFO, "--days", "1", "--set", "gravity.degree=3.5"], "gravity.degree = 3.5"),
-    (["propagate", *EPOCH, *ELFO, "--days", "1", "--set", "spacecraft.area_m2=0"], "spacecraft.area_m2 = 0"),
+    (
+        ["propagate", *EPOCH, *ELFO, "--days", "1", "--set", "gravity.degree=3.5"],
+        "gravity.degree = 3.5",
+    ),
+    (
+        ["propagate", *EPOCH, *ELFO, "--days", "1", "--set", "spacecraft.area_m2=0"],
+        "spacecraft.area_m2 = 0",
+    ),
     (["reproduce", "--profile", "ci", "--set", "campaign.populaton=4"], "campaign.population"),
-    (["reproduce", "--profile", "ci", "--set", "integrator.settings.paper.rtol=-1e-6"], "rtol = -1e-06"),
+    (
+        ["reproduce", "--profile", "ci", "--set", "integrator.settings.paper.rtol=-1e-6"],
+        "rtol = -1e-06",
+    ),
     (SYNTHETIC + ["--set", "campaign.populaton=4"], "did you mean campaign.population"),
     (SYNTHETIC + ["--set", "campaign.population='many'"], "campaign.population = 'many'"),
     (SYNTHETIC + ["--set", "campaign.population"], "SECTION.KEY=VALUE"),
@@ -96,24 +138,51 @@ BAD_VALUES = [
     (SYNTHETIC + ["--workers", "-2"], "--workers -2"),
     (["campaign", "--resume", "/nonexistent/run"], "/nonexistent/run"),
     # issue 21 item 1: tolerances a double cannot meet (the compiled loop failed and the command exited 0)
-    (["propagate", *EPOCH, *ELFO, "--days", "0.1", "--set", "integrator.settings.paper.rtol=1e-300", "--set",
-      "integrator.settings.paper.atol=1e-300"], "integrator.settings.paper.rtol = 1e-300"),
+    (
+        [
+            "propagate",
+            *EPOCH,
+            *ELFO,
+            "--days",
+            "0.1",
+            "--set",
+            "integrator.settings.paper.rtol=1e-300",
+            "--set",
+            "integrator.settings.paper.atol=1e-300",
+        ],
+        "integrator.settings.paper.rtol = 1e-300",
+    ),
     (walker() + ["--set", "stability.atol=1e-20"], "stability.atol = 1e-20"),
     # issue 21 item 2: a text setting outside its allowed set (was accepted, then every design "infeasible")
     (walker() + ["--set", "frames.element_frame=nosuch"], "frames.element_frame = 'nosuch'"),
     (["reproduce", "--profile", "ci", "--set", "dop.los_axes=up"], "allowed: 'moon_fixed', 'enu'"),
     (SYNTHETIC + ["--set", "deltav.model=magic"], "deltav.model = 'magic'"),
     # dates: one strict ISO 8601 reader (01-05-2025 and 1/5/2025 ran from 2025-01-05; a zone was accepted)
-    (["propagate", "--epoch-tdb", "01-05-2025", *ELFO, "--days", "1"], "'01-05-2025' is not an ISO 8601 date"),
+    (
+        ["propagate", "--epoch-tdb", "01-05-2025", *ELFO, "--days", "1"],
+        "'01-05-2025' is not an ISO 8601 date",
+    ),
     (["propagate", "--epoch-tdb", "1/5/2025", *ELFO, "--days", "1"], "YYYY-MM-DDTHH:MM:SS"),
-    (["propagate", "--epoch-tdb", "2025-05-01T00:00:00Z", *ELFO, "--days", "1"], "with a zone, which is not allowed"),
-    (["propagate", "--epoch-tdb", "2025-05-01T05:00:00+05:00", *ELFO, "--days", "1"], "with a zone"),
+    (
+        ["propagate", "--epoch-tdb", "2025-05-01T00:00:00Z", *ELFO, "--days", "1"],
+        "with a zone, which is not allowed",
+    ),
+    (
+        ["propagate", "--epoch-tdb", "2025-05-01T05:00:00+05:00", *ELFO, "--days", "1"],
+        "with a zone",
+    ),
     (["propagate", "--epoch-tdb", "2025-02-30", *ELFO, "--days", "1"], "no calendar date"),
     (walker() + ["--set", 'epoch.start_tdb="01-05-2025"'], "epoch.start_tdb = '01-05-2025'"),
-    (walker() + ["--set", 'benchmark.epochs_tdb=["2025-05-01T00:00:00-07:00"]'], "benchmark.epochs_tdb"),
+    (
+        walker() + ["--set", 'benchmark.epochs_tdb=["2025-05-01T00:00:00-07:00"]'],
+        "benchmark.epochs_tdb",
+    ),
     (walker() + ["--set", 'gps.exclude_launched_after="20250530"'], "YYYY-MM-DD"),
     # a scheduler address checked before work (nonsense was an internal error, port 99999 waited 60 s)
-    (SYNTHETIC + ["--scheduler-address", "nonsense"], "--scheduler-address 'nonsense' is not a Dask scheduler"),
+    (
+        SYNTHETIC + ["--scheduler-address", "nonsense"],
+        "--scheduler-address 'nonsense' is not a Dask scheduler",
+    ),
     (SYNTHETIC + ["--scheduler-address", "tcp://127.0.0.1:99999"], "PORT in 1-65535"),
 ]
 
@@ -127,8 +196,25 @@ def test_bad_value_is_one_line_exit_2(capsys, tmp_path, monkeypatch, argv, needl
 
 
 def test_impact_is_a_failure_with_its_time(capsys):
-    code = main(["propagate", *EPOCH, "--elements", "5900", "0.7", "80", "0", "0", "180", "--days", "20",
-                 "--degree", "8", "--step-s", "3600"])
+    code = main(
+        [
+            "propagate",
+            *EPOCH,
+            "--elements",
+            "5900",
+            "0.7",
+            "80",
+            "0",
+            "0",
+            "180",
+            "--days",
+            "20",
+            "--degree",
+            "8",
+            "--step-s",
+            "3600",
+        ]
+    )
     one_line_error(capsys, code, 1, "hits the Moon", "days after the start")
 
 
@@ -156,7 +242,12 @@ def test_full_disk_keeps_the_existing_output(capsys, tmp_path, monkeypatch):
 def test_bad_input_leaves_an_existing_output_alone(capsys, tmp_path):
     out = tmp_path / "orbit.csv"
     out.write_text("previous result\n")
-    one_line_error(capsys, main(["propagate", *EPOCH, *ELFO, "--days", "nan", "--out", str(out)]), 2, "--days nan")
+    one_line_error(
+        capsys,
+        main(["propagate", *EPOCH, *ELFO, "--days", "nan", "--out", str(out)]),
+        2,
+        "--days nan",
+    )
     assert out.read_text() == "previous result\n"
 
 
@@ -165,7 +256,9 @@ def test_atomic_writers_never_truncate(tmp_path, monkeypatch):
 
     target = tmp_path / "table.csv"
     target.write_text("a,b\n1,2\n")
-    monkeypatch.setattr(atomicio.os, "replace", lambda *a: (_ for _ in ()).throw(OSError(errno.EIO, "I/O error")))
+    monkeypatch.setattr(
+        atomicio.os, "replace", lambda *a: (_ for _ in ()).throw(OSError(errno.EIO, "I/O error"))
+    )
     with pytest.raises(OSError, match="I/O error"):
         atomicio.write_text_atomic(target, "x")
     assert target.read_text() == "a,b\n1,2\n" and os.listdir(tmp_path) == ["table.csv"]
@@ -181,13 +274,28 @@ def params_dir(tmp_path, monkeypatch):
     return folder
 
 
-@pytest.mark.parametrize("text, needles", [
-    ('[profile]\ninherits = "paper"\n[spacecraft]\ncr = \n', ("bad.toml", "TOML syntax error", "line 4")),
-    ('[profile]\ninherits = "paper"\n\n[spacecraft]\ncr = "high"\n', ("bad.toml, line 5", "spacecraft.cr = 'high'")),
-    ('[profile]\ninherits = "paper"\n[spacecraft]\nmass_kg = -1.0\n', ("bad.toml, line 4", "mass_kg = -1.0", "[0.001, 1e+06]")),
-    ('[profile]\ninherits = "paper"\n[gravty]\ndegree = 8\n', ("unknown key gravty", "did you mean gravity")),
-    ('[profile]\nname = "bad"\n[epoch]\nstart_tdb = "2025-05-01T00:00:00"\n', ("missing key",)),
-])
+@pytest.mark.parametrize(
+    "text, needles",
+    [
+        (
+            '[profile]\ninherits = "paper"\n[spacecraft]\ncr = \n',
+            ("bad.toml", "TOML syntax error", "line 4"),
+        ),
+        (
+            '[profile]\ninherits = "paper"\n\n[spacecraft]\ncr = "high"\n',
+            ("bad.toml, line 5", "spacecraft.cr = 'high'"),
+        ),
+        (
+            '[profile]\ninherits = "paper"\n[spacecraft]\nmass_kg = -1.0\n',
+            ("bad.toml, line 4", "mass_kg = -1.0", "[0.001, 1e+06]"),
+        ),
+        (
+            '[profile]\ninherits = "paper"\n[gravty]\ndegree = 8\n',
+            ("unknown key gravty", "did you mean gravity"),
+        ),
+        ('[profile]\nname = "bad"\n[epoch]\nstart_tdb = "2025-05-01T00:00:00"\n', ("missing key",)),
+    ],
+)
 def test_profile_file_errors_name_file_and_line(capsys, params_dir, text, needles):
     (params_dir / "bad.toml").write_text(text)
     one_line_error(capsys, main(walker() + ["--profile", "bad"]), 2, *needles)
@@ -200,8 +308,11 @@ def test_python_api_checks_the_same_values():
         load_settings("ci", overrides={"gps": {"gain_fle": "x.csv"}})
     from lnss_lib.gps import load_gain_pattern
 
-    for path, content, needle in (("empty.csv", "", "header line"), ("text.csv", "off_boresight_deg,g\n0,1\nx,2\n", "line 3"),
-                                  ("nan.csv", "off_boresight_deg,g\n0,1\n1,nan\n", "line 3")):
+    for path, content, needle in (
+        ("empty.csv", "", "header line"),
+        ("text.csv", "off_boresight_deg,g\n0,1\nx,2\n", "line 3"),
+        ("nan.csv", "off_boresight_deg,g\n0,1\n1,nan\n", "line 3"),
+    ):
         file = config.PROJECT_DIR / "outputs" / f".test_{path}"
         file.parent.mkdir(exist_ok=True)
         file.write_text(content)
@@ -213,6 +324,7 @@ def test_python_api_checks_the_same_values():
 
 
 # ---- campaign: evaluation errors, folders, locks, resume ------------------------------------------------------
+
 
 def _synthetic_run(tmp_path, name="run", extra=()):
     run_dir = tmp_path / name
@@ -234,16 +346,31 @@ def test_crashing_evaluator_stops_the_campaign(capsys, tmp_path, monkeypatch):
     monkeypatch.setattr(tasks, "synthetic_evaluation", crash_on_some)
     run_dir = tmp_path / "run"
     code = main(SYNTHETIC + ["--run-dir", str(run_dir)])
-    one_line_error(capsys, code, 1, "campaign stopped", "1 evaluation error", "campaign.max_errors = 0",
-                   "gain table holds NaN")
+    one_line_error(
+        capsys,
+        code,
+        1,
+        "campaign stopped",
+        "1 evaluation error",
+        "campaign.max_errors = 0",
+        "gain table holds NaN",
+    )
     ev = xr.open_dataset(run_dir / "evaluations.nc", engine="h5netcdf").load()
     errors = ev["error"].values
-    assert (errors != "").sum() == 1 and "FloatingPointError: gain table holds NaN" in errors[errors != ""][0]
+    assert (errors != "").sum() == 1 and "FloatingPointError: gain table holds NaN" in errors[
+        errors != ""
+    ][0]
     assert not ev["feasible"].values[errors != ""].any()
     # with a tolerance the run goes on and counts the errors in its summary
-    code = main(SYNTHETIC + ["--run-dir", str(tmp_path / "tolerant"), "--set", "campaign.max_errors=1000"])
+    code = main(
+        SYNTHETIC + ["--run-dir", str(tmp_path / "tolerant"), "--set", "campaign.max_errors=1000"]
+    )
     out = capsys.readouterr().out
-    assert code == 0 and " evaluation errors)" in out and "(0 evaluation errors)" not in out.replace(", 0 eval", "")
+    assert (
+        code == 0
+        and " evaluation errors)" in out
+        and "(0 evaluation errors)" not in out.replace(", 0 eval", "")
+    )
 
 
 def test_stopped_campaign_resumes_once_the_cause_is_gone(capsys, tmp_path, monkeypatch):
@@ -254,14 +381,22 @@ def test_stopped_campaign_resumes_once_the_cause_is_gone(capsys, tmp_path, monke
     real = tasks.synthetic_evaluation
     reference = _synthetic_run(tmp_path, "reference")
     with monkeypatch.context() as patch:
-        patch.setattr(tasks, "synthetic_evaluation", lambda profile, sma_km, *args, **kwargs: (
-            (_ for _ in ()).throw(FloatingPointError("gain table holds NaN")) if sma_km > 12000.0
-            else real(profile, sma_km, *args, **kwargs)))
+        patch.setattr(
+            tasks,
+            "synthetic_evaluation",
+            lambda profile, sma_km, *args, **kwargs: (
+                (_ for _ in ()).throw(FloatingPointError("gain table holds NaN"))
+                if sma_km > 12000.0
+                else real(profile, sma_km, *args, **kwargs)
+            ),
+        )
         run_dir = tmp_path / "stopped"
         code = main(SYNTHETIC + ["--run-dir", str(run_dir), "--set", "campaign.generations=2"])
         one_line_error(capsys, code, 1, "campaign stopped", "gain table holds NaN")
         code = main(["campaign", "--resume", str(run_dir), "--workers", "0", "--no-progress"])
-        one_line_error(capsys, code, 1, "campaign stopped", "gain table holds NaN")   # the cause is still there
+        one_line_error(
+            capsys, code, 1, "campaign stopped", "gain table holds NaN"
+        )  # the cause is still there
     assert main(["campaign", "--resume", str(run_dir), "--workers", "0", "--no-progress"]) == 0
     for got, want in zip(final_population(run_dir), final_population(reference)):
         np.testing.assert_array_equal(got, want)
@@ -276,8 +411,12 @@ def test_deleting_the_lock_file_does_not_unlock_a_run(capsys, tmp_path):
     lock = RunLock(run_dir)
     try:
         (run_dir / "run.lock").unlink()
-        one_line_error(capsys, main(["campaign", "--resume", str(run_dir), "--workers", "0", "--no-progress"]), 1,
-                       "in use by another campaign process")
+        one_line_error(
+            capsys,
+            main(["campaign", "--resume", str(run_dir), "--workers", "0", "--no-progress"]),
+            1,
+            "in use by another campaign process",
+        )
     finally:
         lock.release()
     assert main(["campaign", "--resume", str(run_dir), "--workers", "0", "--no-progress"]) == 0
@@ -294,8 +433,14 @@ def test_forged_checkpoint_is_one_line_and_runs_nothing(capsys, tmp_path):
     run_dir = _synthetic_run(tmp_path, extra=["--max-generations", "1"])
     capsys.readouterr()
     (run_dir / "checkpoint.pkl").write_bytes(pickle.dumps(Exploit()))
-    one_line_error(capsys, main(["campaign", "--resume", str(run_dir), "--workers", "0", "--no-progress"]), 1,
-                   "checkpoint.pkl", "posix.system", "refused")
+    one_line_error(
+        capsys,
+        main(["campaign", "--resume", str(run_dir), "--workers", "0", "--no-progress"]),
+        1,
+        "checkpoint.pkl",
+        "posix.system",
+        "refused",
+    )
     assert not (tmp_path / "code_ran").exists()
 
 
@@ -307,15 +452,30 @@ def test_forged_profile_name_in_a_run_folder_is_refused(capsys, tmp_path):
     forged = json.loads(run_file.read_text())
     forged["profile"]["profile"]["name"] = "../../elsewhere"
     run_file.write_text(json.dumps(forged))
-    one_line_error(capsys, main(["campaign", "--resume", str(run_dir), "--workers", "0", "--no-progress"]), 2,
-                   "run.json was edited after the run started")
-    run_file.write_text(json.dumps({**forged, "checksum": run_checksum(forged)}))    # a forger who re-seals it
-    one_line_error(capsys, main(["campaign", "--resume", str(run_dir), "--workers", "0", "--no-progress"]), 2,
-                   "profile.name", "forged")
+    one_line_error(
+        capsys,
+        main(["campaign", "--resume", str(run_dir), "--workers", "0", "--no-progress"]),
+        2,
+        "run.json was edited after the run started",
+    )
+    run_file.write_text(
+        json.dumps({**forged, "checksum": run_checksum(forged)})
+    )  # a forger who re-seals it
+    one_line_error(
+        capsys,
+        main(["campaign", "--resume", str(run_dir), "--workers", "0", "--no-progress"]),
+        2,
+        "profile.name",
+        "forged",
+    )
 
 
 def test_rejected_campaign_leaves_no_folder(capsys, tmp_path):
-    for bad in (["--set", "spacecraft.cr=nan"], ["--set", "campaign.population=1"], ["--set", "campaign.seed=1.5"]):
+    for bad in (
+        ["--set", "spacecraft.cr=nan"],
+        ["--set", "campaign.population=1"],
+        ["--set", "campaign.seed=1.5"],
+    ):
         code = main(SYNTHETIC + ["--run-dir", str(tmp_path / "new" / "run"), *bad])
         one_line_error(capsys, code, 2, bad[1].split("=")[0])
         assert not (tmp_path / "new").exists()
@@ -329,15 +489,25 @@ def test_resume_refuses_edited_settings_and_a_locked_run(capsys, tmp_path):
     edited = json.loads(original)
     edited["profile"]["campaign"]["population"] = 8
     run_file.write_text(json.dumps({**edited, "checksum": run_checksum(edited)}))
-    one_line_error(capsys, main(["campaign", "--resume", str(run_dir), "--workers", "0", "--no-progress"]), 2, "differ from those the run")
+    one_line_error(
+        capsys,
+        main(["campaign", "--resume", str(run_dir), "--workers", "0", "--no-progress"]),
+        2,
+        "differ from those the run",
+    )
     run_file.write_text(original)
     lock = RunLock(run_dir)
     try:
-        one_line_error(capsys, main(["campaign", "--resume", str(run_dir), "--workers", "0", "--no-progress"]), 1,
-                       "in use by another campaign process", f"pid {os.getpid()}")
+        one_line_error(
+            capsys,
+            main(["campaign", "--resume", str(run_dir), "--workers", "0", "--no-progress"]),
+            1,
+            "in use by another campaign process",
+            f"pid {os.getpid()}",
+        )
     finally:
         lock.release()
-    (run_dir / "run.lock").write_text("999999999\n")     # stale: its process is gone, no flock held
+    (run_dir / "run.lock").write_text("999999999\n")  # stale: its process is gone, no flock held
     assert main(["campaign", "--resume", str(run_dir), "--workers", "0", "--no-progress"]) == 0
 
 
@@ -346,8 +516,14 @@ def test_truncated_checkpoint_says_how_to_recover(capsys, tmp_path):
     capsys.readouterr()
     checkpoint = run_dir / "checkpoint.pkl"
     checkpoint.write_bytes(checkpoint.read_bytes()[:100])
-    one_line_error(capsys, main(["campaign", "--resume", str(run_dir), "--workers", "0", "--no-progress"]), 1,
-                   "truncated or corrupt", "delete it and resume", "evaluations.jsonl")
+    one_line_error(
+        capsys,
+        main(["campaign", "--resume", str(run_dir), "--workers", "0", "--no-progress"]),
+        1,
+        "truncated or corrupt",
+        "delete it and resume",
+        "evaluations.jsonl",
+    )
     checkpoint.unlink()
     assert main(["campaign", "--resume", str(run_dir), "--workers", "0", "--no-progress"]) == 0
 
@@ -358,7 +534,9 @@ def test_torn_journal_line_costs_one_design(capsys, tmp_path):
     journal = run_dir / "evaluations.jsonl"
     data = journal.read_bytes()
     lines = data.splitlines(keepends=True)
-    journal.write_bytes(b"".join(lines[:-1]) + lines[-1][:20] + b"\n")   # last record torn, newline after it
+    journal.write_bytes(
+        b"".join(lines[:-1]) + lines[-1][:20] + b"\n"
+    )  # last record torn, newline after it
     assert main(["campaign", "--resume", str(run_dir), "--workers", "0", "--no-progress"]) == 0
     ref = xr.open_dataset(reference / "evaluations.nc", engine="h5netcdf").load()
     ev = xr.open_dataset(run_dir / "evaluations.nc", engine="h5netcdf").load()
@@ -367,11 +545,31 @@ def test_torn_journal_line_costs_one_design(capsys, tmp_path):
 
 
 def test_two_resumes_of_one_run_one_refuses(tmp_path):
-    run_dir = _synthetic_run(tmp_path, extra=["--max-generations", "1", "--set", "campaign.synthetic_delay_s=0.4",
-                                              "--set", "campaign.generations=3"])
-    command = [sys.executable, "-m", "lnss_lib", "campaign", "--resume", str(run_dir), "--workers", "0",
-               "--no-progress"]
-    first = subprocess.Popen(command, cwd=PROJECT_DIR, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    run_dir = _synthetic_run(
+        tmp_path,
+        extra=[
+            "--max-generations",
+            "1",
+            "--set",
+            "campaign.synthetic_delay_s=0.4",
+            "--set",
+            "campaign.generations=3",
+        ],
+    )
+    command = [
+        sys.executable,
+        "-m",
+        "lnss_lib",
+        "campaign",
+        "--resume",
+        str(run_dir),
+        "--workers",
+        "0",
+        "--no-progress",
+    ]
+    first = subprocess.Popen(
+        command, cwd=PROJECT_DIR, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True
+    )
     deadline = time.monotonic() + 60
     while not (run_dir / "run.lock").read_text().strip().startswith(str(first.pid)):
         assert time.monotonic() < deadline and first.poll() is None, first.communicate()
@@ -381,7 +579,10 @@ def test_two_resumes_of_one_run_one_refuses(tmp_path):
     assert first.returncode == 0, err
     assert second.returncode == 1 and "in use by another campaign process" in second.stderr
     assert len(second.stderr.strip().splitlines()) == 1 and "Traceback" not in second.stderr
-    keys = [tuple(json.loads(line)["key"]) for line in (run_dir / "evaluations.jsonl").read_text().splitlines()[1:]]
+    keys = [
+        tuple(json.loads(line)["key"])
+        for line in (run_dir / "evaluations.jsonl").read_text().splitlines()[1:]
+    ]
     assert len(keys) == len(set(keys))
 
 
@@ -408,7 +609,9 @@ def test_profile_is_a_name_in_params(capsys, tmp_path, monkeypatch, name):
     shutil.copy(config.PARAMS_DIR / "ci.toml", tmp_path / "x.toml")
     monkeypatch.chdir(config.PROJECT_DIR)
     name = name.format(tmp=tmp_path)
-    err = one_line_error(capsys, main(["evaluate", "--profile", name, *WALKER_ARGS]), 2, repr(name), "--profile-file")
+    err = one_line_error(
+        capsys, main(["evaluate", "--profile", name, *WALKER_ARGS]), 2, repr(name), "--profile-file"
+    )
     assert "ci, ci_operational" in err
     assert sorted(os.listdir(tmp_path)) == ["x.toml"]
 
@@ -417,48 +620,96 @@ def test_profile_file_runs_and_writes_under_its_stem(capsys, tmp_path, own_outpu
     profile_file = tmp_path / "elsewhere" / "mine.toml"
     profile_file.parent.mkdir()
     shutil.copy(config.PARAMS_DIR / "ci.toml", profile_file)
-    command = ["campaign", "--profile-file", str(profile_file), "--evaluator", "synthetic", "--workers", "0",
-               "--no-progress", "--set", "campaign.generations=1"]
+    command = [
+        "campaign",
+        "--profile-file",
+        str(profile_file),
+        "--evaluator",
+        "synthetic",
+        "--workers",
+        "0",
+        "--no-progress",
+        "--set",
+        "campaign.generations=1",
+    ]
     assert main(command) == 0, capsys.readouterr().err
     assert [p.name for p in own_outputs.iterdir()] == ["mine"]
     assert sorted(os.listdir(profile_file.parent)) == ["mine.toml"]
     assert load_settings("mine").profile.name == "mine"
 
 
-@pytest.mark.parametrize("file_name, needle", [("x y.toml", "'x y' is not allowed"), ("ci.toml", "params/ci.toml"),
-                                               ("mine.txt", "ending in .toml"), ("../x.toml", "ending in .toml")])
+@pytest.mark.parametrize(
+    "file_name, needle",
+    [
+        ("x y.toml", "'x y' is not allowed"),
+        ("ci.toml", "params/ci.toml"),
+        ("mine.txt", "ending in .toml"),
+        ("../x.toml", "ending in .toml"),
+    ],
+)
 def test_profile_file_name_is_checked(capsys, tmp_path, own_outputs, file_name, needle):
     path = tmp_path / file_name
     if path.suffix == ".toml" and ".." not in file_name:
         shutil.copy(config.PARAMS_DIR / "ci.toml", path)
-    one_line_error(capsys, main(["evaluate", "--profile-file", str(path), *WALKER_ARGS]), 2, "--profile-file", needle)
+    one_line_error(
+        capsys,
+        main(["evaluate", "--profile-file", str(path), *WALKER_ARGS]),
+        2,
+        "--profile-file",
+        needle,
+    )
     assert not own_outputs.exists()
 
 
 def test_inherits_and_also_name_profiles_only(capsys, tmp_path, own_outputs):
     for key, value in (("inherits", f"{config.PARAMS_DIR}/ci"), ("also", ["../params/ci"])):
         path = tmp_path / "mine.toml"
-        path.write_text(f'[profile]\ninherits = "paper"\n{key} = {config.toml_literal(value)}\n'
-                        if key == "also" else f'[profile]\ninherits = {config.toml_literal(value)}\n')
-        one_line_error(capsys, main(["evaluate", "--profile-file", str(path), *WALKER_ARGS]), 2,
-                       f"profile.{key}", "unknown profile")
+        path.write_text(
+            f'[profile]\ninherits = "paper"\n{key} = {config.toml_literal(value)}\n'
+            if key == "also"
+            else f"[profile]\ninherits = {config.toml_literal(value)}\n"
+        )
+        one_line_error(
+            capsys,
+            main(["evaluate", "--profile-file", str(path), *WALKER_ARGS]),
+            2,
+            f"profile.{key}",
+            "unknown profile",
+        )
 
 
-@pytest.mark.parametrize("setting", ['gravity.file="../../etc/passwd"', 'gravity.file="/etc/passwd"',
-                                     'gps.tle_file="data/../../README.md"', 'ephemeris.kernels=["/etc/hosts"]',
-                                     'ephemeris.planetary_spk="skyfield-data:../../../x.bsp"',
-                                     'validation.capstone.file="../pyproject.toml"'])
+@pytest.mark.parametrize(
+    "setting",
+    [
+        'gravity.file="../../etc/passwd"',
+        'gravity.file="/etc/passwd"',
+        'gps.tle_file="data/../../README.md"',
+        'ephemeris.kernels=["/etc/hosts"]',
+        'ephemeris.planetary_spk="skyfield-data:../../../x.bsp"',
+        'validation.capstone.file="../pyproject.toml"',
+    ],
+)
 def test_data_paths_stay_under_params_data(capsys, setting):
     """Data-file keys accepted `../` and absolute paths, and the error then echoed a line of the file read."""
-    err = one_line_error(capsys, main(walker() + ["--set", setting]), 2, setting.split("=")[0], "params/data/")
+    err = one_line_error(
+        capsys, main(walker() + ["--set", setting]), 2, setting.split("=")[0], "params/data/"
+    )
     assert "root:" not in err
 
 
 def test_a_symlink_out_of_params_data_is_refused(capsys, params_dir):
     (params_dir / "data").mkdir()
     (params_dir / "data" / "field.txt").symlink_to("/etc/passwd")
-    (params_dir / "bad.toml").write_text('[profile]\ninherits = "paper"\n[gravity]\nfile = "data/field.txt"\n')
-    one_line_error(capsys, main(walker() + ["--profile", "bad"]), 2, "gravity.file = 'data/field.txt'", "params/data/")
+    (params_dir / "bad.toml").write_text(
+        '[profile]\ninherits = "paper"\n[gravity]\nfile = "data/field.txt"\n'
+    )
+    one_line_error(
+        capsys,
+        main(walker() + ["--profile", "bad"]),
+        2,
+        "gravity.file = 'data/field.txt'",
+        "params/data/",
+    )
 
 
 def test_no_message_prints_a_line_of_a_file(tmp_path):
@@ -469,10 +720,22 @@ def test_no_message_prints_a_line_of_a_file(tmp_path):
 
     secret = "SECRET-7f3a"
     cases = {
-        "profile.toml": (f"[profile]\ninherits = {secret}\n", lambda p: config.read_toml(p), "line 2"),
-        "field.txt": (f"2 0 1.0 0.0\n{secret} 0 1.0 0.0\n", lambda p: GravityField.from_file(p, 2, 4902.8, 1738.0), "row"),
+        "profile.toml": (
+            f"[profile]\ninherits = {secret}\n",
+            lambda p: config.read_toml(p),
+            "line 2",
+        ),
+        "field.txt": (
+            f"2 0 1.0 0.0\n{secret} 0 1.0 0.0\n",
+            lambda p: GravityField.from_file(p, 2, 4902.8, 1738.0),
+            "row",
+        ),
         "gps.tle": (f"GPS\n1 {secret}\n2 x\n", read_tle, "line 2"),
-        "gain.csv": (f"off_boresight_deg,g\n0,1\n{secret},2\n", lambda p: load_gain_pattern(p, "g"), "line 3"),
+        "gain.csv": (
+            f"off_boresight_deg,g\n0,1\n{secret},2\n",
+            lambda p: load_gain_pattern(p, "g"),
+            "line 3",
+        ),
     }
     for name, (text, read, where) in cases.items():
         path = tmp_path / name
@@ -487,29 +750,47 @@ def test_internal_errors_are_not_bad_input(capsys, monkeypatch):
     """A KeyError (or any unexpected exception) is a failure with the traceback on request, not bad input."""
     from lnss_lib import cli
 
-    for error in (KeyError("inc"), KeyError((191, 34, 9, 70, 1, 1)), TypeError("unsupported operand")):
+    for error in (
+        KeyError("inc"),
+        KeyError((191, 34, 9, 70, 1, 1)),
+        TypeError("unsupported operand"),
+    ):
+
         def broken(*args, _error=error, **kwargs):
             raise _error
 
         monkeypatch.setattr(cli, "evaluate_cli", broken)
-        one_line_error(capsys, main(walker()), 1, f"internal error: {type(error).__name__}: ",
-                       "(run with --debug for the traceback)")
+        one_line_error(
+            capsys,
+            main(walker()),
+            1,
+            f"internal error: {type(error).__name__}: ",
+            "(run with --debug for the traceback)",
+        )
 
     def numpy_fails(*args, **kwargs):
-        return np.linspace(0.0, 1.0, -1)           # a ValueError raised inside numpy: a bug, not bad input
+        return np.linspace(0.0, 1.0, -1)  # a ValueError raised inside numpy: a bug, not bad input
 
     monkeypatch.setattr(cli, "evaluate_cli", numpy_fails)
     one_line_error(capsys, main(walker()), 1, "internal error: ValueError: ")
     assert main(walker() + ["--debug"]) == 1
     err = capsys.readouterr().err
-    assert "Traceback" in err and "linspace" in err and err.strip().splitlines()[-1].startswith("error: internal error")
+    assert (
+        "Traceback" in err
+        and "linspace" in err
+        and err.strip().splitlines()[-1].startswith("error: internal error")
+    )
 
 
 def test_debug_keeps_the_exit_code(capsys):
     """`--debug` adds the traceback and keeps exit 2 for bad input (it turned it into 1)."""
     assert main(elements("6143", "1.0", "51.7", "0", "90", "0") + ["--debug"]) == 2
     err = capsys.readouterr().err
-    assert "Traceback" in err and "ConfigError" in err and err.strip().splitlines()[-1].startswith("error: ")
+    assert (
+        "Traceback" in err
+        and "ConfigError" in err
+        and err.strip().splitlines()[-1].startswith("error: ")
+    )
     assert "e = 1.0" in err.strip().splitlines()[-1]
 
 
@@ -527,30 +808,59 @@ def test_every_command_takes_set_and_profile_file():
 def test_bench_applies_and_checks_set(capsys, monkeypatch):
     from lnss_lib.bench import dop
 
-    one_line_error(capsys, main(["bench", "dop", "--profile", "ci", "--set", "gravity.degree=500"]), 2,
-                   "gravity.degree = 500")
+    one_line_error(
+        capsys,
+        main(["bench", "dop", "--profile", "ci", "--set", "gravity.degree=500"]),
+        2,
+        "gravity.degree = 500",
+    )
     seen = {}
-    monkeypatch.setattr(dop, "run", lambda profile_name, overrides=None: seen.update(name=profile_name, overrides=overrides))
+    monkeypatch.setattr(
+        dop,
+        "run",
+        lambda profile_name, overrides=None: seen.update(name=profile_name, overrides=overrides),
+    )
     assert main(["bench", "dop", "--profile", "ci", "--set", "dop.elevation_mask_deg=10.0"]) == 0
     assert seen == {"name": "ci", "overrides": {"dop": {"elevation_mask_deg": 10.0}}}
     one_line_error(capsys, main(["bench", "dop", "--scaling"]), 2, "--scaling", "bench dop")
-    one_line_error(capsys, main(["bench", "dop", "--history", "runs/x"]), 2, "--history", "bench dop")
-    one_line_error(capsys, main(["bench", "campaign", "--profile", "ci", "--history", "no/such/run"]), 2,
-                   "--history no/such/run", "not a campaign run folder")
+    one_line_error(
+        capsys, main(["bench", "dop", "--history", "runs/x"]), 2, "--history", "bench dop"
+    )
+    one_line_error(
+        capsys,
+        main(["bench", "campaign", "--profile", "ci", "--history", "no/such/run"]),
+        2,
+        "--history no/such/run",
+        "not a campaign run folder",
+    )
 
 
 MESSAGES = [
     # too few epochs: named by the two keys, before any work
-    (walker() + ["--set", "epoch.duration_days=0.01"], ("epoch.duration_days = 0.01", "epoch.step_s = 900.0")),
-    (walker() + ["--set", "epoch.step_s=864000.0"], ("epoch.duration_days", "epoch.step_s = 864000.0")),
-    (walker() + ["--design-life-days", "0.01"], ("--design-life-days 0.01", "life_evaluation.sample_step_s = 900.0")),
+    (
+        walker() + ["--set", "epoch.duration_days=0.01"],
+        ("epoch.duration_days = 0.01", "epoch.step_s = 900.0"),
+    ),
+    (
+        walker() + ["--set", "epoch.step_s=864000.0"],
+        ("epoch.duration_days", "epoch.step_s = 864000.0"),
+    ),
+    (
+        walker() + ["--design-life-days", "0.01"],
+        ("--design-life-days 0.01", "life_evaluation.sample_step_s = 900.0"),
+    ),
     # an unquoted date: TOML reads it as a date-time; say how to write it
-    (walker() + ["--set", "epoch.start_tdb=2025-05-01T00:00:00"], ("epoch.start_tdb", "quote it",
-                                                                   "'epoch.start_tdb=\"2025-05-01T00:00:00\"'")),
+    (
+        walker() + ["--set", "epoch.start_tdb=2025-05-01T00:00:00"],
+        ("epoch.start_tdb", "quote it", "'epoch.start_tdb=\"2025-05-01T00:00:00\"'"),
+    ),
     (walker() + ["--set", "epoch.start_tdb=2025-05-01"], ("epoch.start_tdb", "quote it")),
     # a SPICE failure: what was asked and the kernels, not SPICE's banner
     (walker() + ["--set", 'frames.gravity="MOON_NOSUCH"'], ("MOON_NOSUCH",)),
-    (walker() + ["--set", 'frames.moon_fixed="MOON_NOSUCH"'], ("MOON_NOSUCH",)),      # not "infeasible": exit 2
+    (
+        walker() + ["--set", 'frames.moon_fixed="MOON_NOSUCH"'],
+        ("MOON_NOSUCH",),
+    ),  # not "infeasible": exit 2
 ]
 
 
@@ -563,8 +873,13 @@ def test_messages_name_the_key(capsys, argv, needles):
 def test_binary_constellation_file_is_named(capsys, tmp_path):
     path = tmp_path / "constellation.toml"
     path.write_bytes(bytes(range(256)) * 4)
-    one_line_error(capsys, main(["evaluate", "--constellation", str(path), "--profile", "ci"]), 2, str(path),
-                   "not a TOML text file")
+    one_line_error(
+        capsys,
+        main(["evaluate", "--constellation", str(path), "--profile", "ci"]),
+        2,
+        str(path),
+        "not a TOML text file",
+    )
 
 
 def test_damaged_kernel_is_named_and_not_kept(tmp_path):
@@ -578,17 +893,26 @@ def test_damaged_kernel_is_named_and_not_kept(tmp_path):
     with pytest.raises(SpiceError) as info:
         load_kernels([junk])
     message = str(info.value)
-    assert str(junk) in message and "SPICE(" in message and "Toolkit" not in message and "\n" not in message
-    assert info.value.kernels == (str(junk),) and not isinstance(info.value, ValueError)   # never "infeasible"
+    assert (
+        str(junk) in message
+        and "SPICE(" in message
+        and "Toolkit" not in message
+        and "\n" not in message
+    )
+    assert info.value.kernels == (str(junk),) and not isinstance(
+        info.value, ValueError
+    )  # never "infeasible"
     assert (set(_LOADED), kernel_span_tdb_s()) == before
 
 
 def test_secular_model_on_an_unbound_orbit_names_the_cause():
-    """"P = nan s" came from averaging an escaping orbit over a NaN period."""
+    """ "P = nan s" came from averaging an escaping orbit over a NaN period."""
     from lnss_lib.deltav import secular_drift
 
     t = np.linspace(0.0, 86400.0, 97)
-    r = np.array([1.0e4, 0.0, 0.0]) + np.outer(t, [0.0, 5.0, 0.0])      # 5 km/s at 10,000 km: hyperbolic
+    r = np.array([1.0e4, 0.0, 0.0]) + np.outer(
+        t, [0.0, 5.0, 0.0]
+    )  # 5 km/s at 10,000 km: hyperbolic
     states = np.column_stack([r, np.tile([0.0, 5.0, 0.0], (t.size, 1))])
     with pytest.raises(ValueError, match="bound orbit") as info:
         secular_drift(t, states, 4902.8)
@@ -614,9 +938,17 @@ def test_full_journal_disk_names_the_journal(capsys, tmp_path, monkeypatch):
 
     monkeypatch.setattr(journal.EvaluationCache, "__init__", init)
     run_dir = tmp_path / "run"
-    one_line_error(capsys, main(SYNTHETIC + ["--run-dir", str(run_dir)]), 1, str(run_dir / "evaluations.jsonl"),
-                   "No space left on device")
+    one_line_error(
+        capsys,
+        main(SYNTHETIC + ["--run-dir", str(run_dir)]),
+        1,
+        str(run_dir / "evaluations.jsonl"),
+        "No space left on device",
+    )
+
+
 # ---- issue 21 items 2 and 4: text settings, infeasible versus error, physically absurd values ----------------------
+
 
 def _bad_text(key: str):
     """An override setting ``key`` (``*`` = the paper integrator setting) to a value outside its allowed set."""
@@ -631,8 +963,9 @@ def _bad_text(key: str):
 
 
 RULES = dict(config.rules())
-CHECKED_TEXT = sorted(key for key, rule in RULES.items()
-                      if rule.choices or rule.form or rule.names_integrator_setting)
+CHECKED_TEXT = sorted(
+    key for key, rule in RULES.items() if rule.choices or rule.form or rule.names_integrator_setting
+)
 
 
 @pytest.mark.parametrize("key", CHECKED_TEXT)
@@ -644,24 +977,44 @@ def test_every_text_setting_is_checked_against_its_allowed_values(key):
     if RULES[key].choices:
         assert all(repr(v) in str(caught.value) for v in RULES[key].choices)
     if not key.startswith("campaign."):
-        with pytest.raises(ConfigError, match="allowed"):    # and in campaign.overrides, which evaluations use
+        with pytest.raises(
+            ConfigError, match="allowed"
+        ):  # and in campaign.overrides, which evaluations use
             load_settings("ci", overrides={"campaign": {"overrides": _bad_text(key)}})
 
 
 # text keys whose values are not a fixed set: data paths (confined by the loader), free text, names checked
 # against files by their readers before work (gain column, catalogue names, campaign objectives and constraints)
-OPEN_TEXT = {"profile.name", "profile.description", "gravity.file", "ephemeris.kernels", "ephemeris.planetary_spk",
-             "validation.capstone.file", "gps.tle_file", "gps.gain_file", "gps.gain_column", "gnss.nominal_file",
-             "benchmark.epoch_constellations", "campaign.objectives"}
+OPEN_TEXT = {
+    "profile.name",
+    "profile.description",
+    "gravity.file",
+    "ephemeris.kernels",
+    "ephemeris.planetary_spk",
+    "validation.capstone.file",
+    "gps.tle_file",
+    "gps.gain_file",
+    "gps.gain_column",
+    "gnss.nominal_file",
+    "benchmark.epoch_constellations",
+    "campaign.objectives",
+}
 
 
 def _text_keys(table: dict, prefix: str = "", rule: str = ""):
     for name, value in table.items():
-        key, rule_key = f"{prefix}{name}", ("integrator.settings.*" if rule == "integrator.settings." else f"{rule}{name}")
-        table_rule = RULES.get(rule_key)          # None for a named entry ("integrator.settings.*")
-        if isinstance(value, dict) and not (table_rule and (table_rule.free or table_rule.sections)):
+        key, rule_key = (
+            f"{prefix}{name}",
+            ("integrator.settings.*" if rule == "integrator.settings." else f"{rule}{name}"),
+        )
+        table_rule = RULES.get(rule_key)  # None for a named entry ("integrator.settings.*")
+        if isinstance(value, dict) and not (
+            table_rule and (table_rule.free or table_rule.sections)
+        ):
             yield from _text_keys(value, f"{key}.", f"{rule_key}.")
-        elif isinstance(value, str) or (isinstance(value, list) and value and all(isinstance(v, str) for v in value)):
+        elif isinstance(value, str) or (
+            isinstance(value, list) and value and all(isinstance(v, str) for v in value)
+        ):
             yield key, rule_key
 
 
@@ -670,31 +1023,45 @@ def test_no_text_setting_escapes_the_checks(profile_name):
     """A new text setting must get an allowed set (its Rule's choices, form or names_integrator_setting) or be
     declared open."""
     checked = set(CHECKED_TEXT) | OPEN_TEXT
-    unchecked = [key for key, rule in _text_keys(load_settings(profile_name).as_dict()) if rule not in checked]
+    unchecked = [
+        key
+        for key, rule in _text_keys(load_settings(profile_name).as_dict())
+        if rule not in checked
+    ]
     assert not unchecked, unchecked
 
 
-def test_config_and_ephemeris_errors_propagate_only_impossible_designs_are_infeasible(ci_profile, monkeypatch):
+def test_config_and_ephemeris_errors_propagate_only_impossible_designs_are_infeasible(
+    ci_profile, monkeypatch
+):
     """evaluate_constellation turns InfeasibleDesignError (no closed orbit, impact) into an infeasible design
     and lets every other error through (it caught ValueError: ConfigError and EphemerisRangeError too)."""
     from types import SimpleNamespace
 
     from lnss_lib import evaluator
-    from lnss_lib.errors import EphemerisRangeError, ImpactError
     from lnss_lib.ephemeris import tdb_seconds
+    from lnss_lib.errors import EphemerisRangeError, ImpactError
 
-    context = SimpleNamespace(settings=ci_profile, deltav=ci_profile.deltav, t0_tdb_s=tdb_seconds("2060-01-01T00:00:00", "TDB"),
-                              extra_metrics=())
+    context = SimpleNamespace(
+        settings=ci_profile,
+        deltav=ci_profile.deltav,
+        t0_tdb_s=tdb_seconds("2060-01-01T00:00:00", "TDB"),
+        extra_metrics=(),
+    )
     elfo = [[6143.0, 0.6, 51.7, 0.0, 90.0, 0.0]]
     with pytest.raises(EphemerisRangeError):
         evaluator.evaluate_constellation(context, elfo)
     context.t0_tdb_s = tdb_seconds("2025-05-01T00:00:00", "TDB")
     bad = evaluator.evaluate_constellation(context, [[1800.0, 0.5, 51.7, 0.0, 90.0, 0.0]])
     assert bad["evaluated"] is False and "perilune" in bad["reason"]
-    for error, infeasible in ((ConfigError("frames.element_frame = 'x'", key="frames.element_frame"), False),
-                              (RuntimeError("propagation failed"), False),
-                              (ImpactError("impact: satellite 0 hits the Moon", sat=0, t_tdb_s=0.0, days=1.0), True)):
-        monkeypatch.setattr(evaluator, "campaign_metrics", lambda *a, error=error, **k: (_ for _ in ()).throw(error))
+    for error, infeasible in (
+        (ConfigError("frames.element_frame = 'x'", key="frames.element_frame"), False),
+        (RuntimeError("propagation failed"), False),
+        (ImpactError("impact: satellite 0 hits the Moon", sat=0, t_tdb_s=0.0, days=1.0), True),
+    ):
+        monkeypatch.setattr(
+            evaluator, "campaign_metrics", lambda *a, error=error, **k: (_ for _ in ()).throw(error)
+        )
         if infeasible:
             assert evaluator.evaluate_constellation(context, elfo)["reason"].startswith("impact")
         else:
@@ -707,64 +1074,148 @@ def test_design_life_lets_ephemeris_errors_through():
     from lnss_lib.errors import EphemerisRangeError
 
     with pytest.raises(EphemerisRangeError):
-        design_life_cli("ci", 10.0, walker=(6143.0, 0.6, 90.0, 51.7, 2, 1),
-                        overrides={"epoch": {"start_tdb": "2060-01-01T00:00:00"}})
+        design_life_cli(
+            "ci",
+            10.0,
+            walker=(6143.0, 0.6, 90.0, 51.7, 2, 1),
+            overrides={"epoch": {"start_tdb": "2060-01-01T00:00:00"}},
+        )
 
 
-@pytest.mark.parametrize("days, needles", [("1e7", ("--design-life-days 10000000.0", "27,378.5 years",
-                                                     "allowed: 0 < days <= 9,376 from 2025-05-01T00:00:00")),
-                                            ("9377", ("--design-life-days 9377.0", "2051-01-01"))])
-def test_design_life_past_the_kernels_is_refused_before_the_evaluation(capsys, monkeypatch, days, needles):
+@pytest.mark.parametrize(
+    "days, needles",
+    [
+        (
+            "1e7",
+            (
+                "--design-life-days 10000000.0",
+                "27,378.5 years",
+                "allowed: 0 < days <= 9,376 from 2025-05-01T00:00:00",
+            ),
+        ),
+        ("9377", ("--design-life-days 9377.0", "2051-01-01")),
+    ],
+)
+def test_design_life_past_the_kernels_is_refused_before_the_evaluation(
+    capsys, monkeypatch, days, needles
+):
     """A life past the kernels' span is refused with the range of lives they allow, before the 10-day evaluation
     (which ran first, then the year was printed as '****')."""
     from lnss_lib import cli
 
-    monkeypatch.setattr(cli, "evaluate_cli", lambda *args, **kwargs: pytest.fail("the evaluation ran"))
+    monkeypatch.setattr(
+        cli, "evaluate_cli", lambda *args, **kwargs: pytest.fail("the evaluation ran")
+    )
     one_line_error(capsys, main(walker() + ["--design-life-days", days]), 2, *needles)
 
 
 def test_campaign_with_a_bad_text_setting_stops_before_work(capsys, tmp_path):
     run_dir = tmp_path / "run"
-    code = main(["campaign", "--profile", "ci", "--workers", "0", "--no-progress", "--run-dir", str(run_dir),
-                 "--set", "frames.element_frame=nosuch"])
+    code = main(
+        [
+            "campaign",
+            "--profile",
+            "ci",
+            "--workers",
+            "0",
+            "--no-progress",
+            "--run-dir",
+            str(run_dir),
+            "--set",
+            "frames.element_frame=nosuch",
+        ]
+    )
     one_line_error(capsys, code, 2, "frames.element_frame = 'nosuch'", "moon_op")
     assert not run_dir.exists()
 
 
 ABSURD = [
-    (["propagate", *EPOCH, *ELFO, "--days", "1", "--srp-cr-area-mass", "1e12"], ("--srp-cr-area-mass 1000000000000.0", "solar sails")),
-    (["propagate", *EPOCH, *ELFO, "--days", "1", "--set", "spacecraft.mass_kg=1e-300"],
-     ("spacecraft.mass_kg = 1e-300", "[0.001, 1e+06]")),
+    (
+        ["propagate", *EPOCH, *ELFO, "--days", "1", "--srp-cr-area-mass", "1e12"],
+        ("--srp-cr-area-mass 1000000000000.0", "solar sails"),
+    ),
+    (
+        ["propagate", *EPOCH, *ELFO, "--days", "1", "--set", "spacecraft.mass_kg=1e-300"],
+        ("spacecraft.mass_kg = 1e-300", "[0.001, 1e+06]"),
+    ),
     (walker() + ["--set", "spacecraft.area_m2=1e12"], ("cr * area_m2 / mass_kg", "solar sails")),
     (walker() + ["--set", "spacecraft.cr=3"], ("spacecraft.cr = 3", "perfect mirror")),
     (walker(sma_km="1e5"), ("sma_km = 100000.0", "Hill sphere (61,500 km)")),
     (walker(sma_km="1e12"), ("sma_km = 1000000000000.0", "Hill sphere")),
     (elements("1e5", "0.1", "51.7", "0", "90", "0"), ("sma_km = 100000.0", "Hill sphere")),
-    (["propagate", *EPOCH, "--state-km", "1e6", "0", "0", "0", "0.1", "0", "--days", "1"], ("1e+06 km", "Earth-Moon distance")),
-    (["propagate", *EPOCH, *ELFO, "--days", "10", "--step-s", "1e-6"], ("samples", "at most 10,000,000")),
-    (walker() + ["--set", "standalone_elfo.sma_km=1e5"], ("standalone_elfo.sma_km = 100000.0", "Hill sphere")),
-    (SYNTHETIC + ["--set", "campaign.variables.sma_km={lower=4000.0,upper=1e5,step=100.0}"], ("sma_km", "Hill sphere")),
+    (
+        ["propagate", *EPOCH, "--state-km", "1e6", "0", "0", "0", "0.1", "0", "--days", "1"],
+        ("1e+06 km", "Earth-Moon distance"),
+    ),
+    (
+        ["propagate", *EPOCH, *ELFO, "--days", "10", "--step-s", "1e-6"],
+        ("samples", "at most 10,000,000"),
+    ),
+    (
+        walker() + ["--set", "standalone_elfo.sma_km=1e5"],
+        ("standalone_elfo.sma_km = 100000.0", "Hill sphere"),
+    ),
+    (
+        SYNTHETIC + ["--set", "campaign.variables.sma_km={lower=4000.0,upper=1e5,step=100.0}"],
+        ("sma_km", "Hill sphere"),
+    ),
     # states: one check of a lunar orbit's state (3.3 times light speed ran to 575 AU; inside the Moon exited 1)
-    (["propagate", *EPOCH, "--state-km", "3000", "0", "0", "1e6", "0", "0", "--days", "0.1"], ("--state-km", "speed of light")),
-    (["propagate", *EPOCH, "--state-km", "3000", "0", "0", "2.0", "0", "0", "--days", "0.1"], ("escape speed", "1.808")),
-    (["propagate", *EPOCH, "--state-km", "60000", "0", "0", "0", "0.34", "0", "--days", "0.1"], ("Hill sphere",)),
-    (["propagate", *EPOCH, "--state-km", "1000", "0", "0", "0", "1", "0", "--days", "0.1"], ("inside the Moon", "1737.4")),
+    (
+        ["propagate", *EPOCH, "--state-km", "3000", "0", "0", "1e6", "0", "0", "--days", "0.1"],
+        ("--state-km", "speed of light"),
+    ),
+    (
+        ["propagate", *EPOCH, "--state-km", "3000", "0", "0", "2.0", "0", "0", "--days", "0.1"],
+        ("escape speed", "1.808"),
+    ),
+    (
+        ["propagate", *EPOCH, "--state-km", "60000", "0", "0", "0", "0.34", "0", "--days", "0.1"],
+        ("Hill sphere",),
+    ),
+    (
+        ["propagate", *EPOCH, "--state-km", "1000", "0", "0", "0", "1", "0", "--days", "0.1"],
+        ("inside the Moon", "1737.4"),
+    ),
     # sizes and seeds: bounded by what memory holds and what the outputs store, refused before any work
-    (SYNTHETIC + ["--set", "campaign.seed=99999999999999999999999999"], ("campaign.seed", "26 digits", "2**63 - 1")),
+    (
+        SYNTHETIC + ["--set", "campaign.seed=99999999999999999999999999"],
+        ("campaign.seed", "26 digits", "2**63 - 1"),
+    ),
     (SYNTHETIC + ["--set", f"campaign.seed={2**64}"], ("campaign.seed", "int64")),
     (SYNTHETIC + ["--set", f"gravity.degree={'9' * 400}"], ("gravity.degree", "400 digits")),
-    (SYNTHETIC + ["--set", f"gravity.degree={'9' * 5000}"], ("gravity.degree", "not a TOML literal", "5015 characters")),
-    (SYNTHETIC + ["--set", f"campaign.hypervolume.dv_total_kms_per_year={'9' * 400}"], ("hypervolume", "too large")),
+    (
+        SYNTHETIC + ["--set", f"gravity.degree={'9' * 5000}"],
+        ("gravity.degree", "not a TOML literal", "5015 characters"),
+    ),
+    (
+        SYNTHETIC + ["--set", f"campaign.hypervolume.dv_total_kms_per_year={'9' * 400}"],
+        ("hypervolume", "too large"),
+    ),
     (walker(planes="9" * 400), ("--planes", "too large")),
-    (SYNTHETIC + ["--set", "campaign.population=1000000000"], ("campaign.population", "[2, 5000]", "domination matrix")),
+    (
+        SYNTHETIC + ["--set", "campaign.population=1000000000"],
+        ("campaign.population", "[2, 5000]", "domination matrix"),
+    ),
     (walker() + ["--set", "dop.lat_step_deg=1e-9"], ("dop.lat_step_deg", "at most 100,000 points")),
-    (walker() + ["--set", "integrator.settings.paper.rtol=1e10", "--set", "integrator.settings.paper.atol=1e10"],
-     ("integrator.settings.paper.rtol = 10000000000.0", "SciPy's default rtol")),
+    (
+        walker()
+        + [
+            "--set",
+            "integrator.settings.paper.rtol=1e10",
+            "--set",
+            "integrator.settings.paper.atol=1e10",
+        ],
+        ("integrator.settings.paper.rtol = 10000000000.0", "SciPy's default rtol"),
+    ),
 ]
 
 
-@pytest.mark.parametrize("argv, needles", ABSURD, ids=[" ".join(part[:40] for part in a[-2:]) for a, _ in ABSURD])
-def test_physically_absurd_values_are_refused_with_the_reason(capsys, tmp_path, monkeypatch, argv, needles):
+@pytest.mark.parametrize(
+    "argv, needles", ABSURD, ids=[" ".join(part[:40] for part in a[-2:]) for a, _ in ABSURD]
+)
+def test_physically_absurd_values_are_refused_with_the_reason(
+    capsys, tmp_path, monkeypatch, argv, needles
+):
     monkeypatch.chdir(tmp_path)
     one_line_error(capsys, main(argv), 2, *needles)
     assert os.listdir(tmp_path) == []
@@ -774,7 +1225,9 @@ def test_hill_radius_follows_from_the_profile_masses(paper_profile):
     from lnss_lib.constants import EARTH_MOON_DISTANCE_KM, MOON_HILL_RADIUS_KM
 
     ratio = paper_profile.gravity.gm_km3_s2 / paper_profile.constants.gm_earth_km3_s2
-    assert MOON_HILL_RADIUS_KM == pytest.approx(EARTH_MOON_DISTANCE_KM * (ratio / 3.0) ** (1.0 / 3.0), rel=5e-3)
+    assert MOON_HILL_RADIUS_KM == pytest.approx(
+        EARTH_MOON_DISTANCE_KM * (ratio / 3.0) ** (1.0 / 3.0), rel=5e-3
+    )
 
 
 def test_reserved_and_forged_profile_files_are_refused(capsys, tmp_path, monkeypatch):
@@ -784,60 +1237,123 @@ def test_reserved_and_forged_profile_files_are_refused(capsys, tmp_path, monkeyp
     from lnss_lib.campaign import run_campaign
 
     (tmp_path / "reference.toml").write_text('[profile]\ninherits = "ci"\n')
-    one_line_error(capsys, main(["propagate", "--profile-file", str(tmp_path / "reference.toml"), *EPOCH, *ELFO,
-                                 "--days", "0.1"]), 2, "reserved")
+    one_line_error(
+        capsys,
+        main(
+            [
+                "propagate",
+                "--profile-file",
+                str(tmp_path / "reference.toml"),
+                *EPOCH,
+                *ELFO,
+                "--days",
+                "0.1",
+            ]
+        ),
+        2,
+        "reserved",
+    )
     (tmp_path / "fake.toml").write_text('[profile]\ninherits = "ci"\n')
     fifo = tmp_path / "pipe.toml"
     os.mkfifo(fifo)
-    for table, needle in (({"ci": str(tmp_path / "fake.toml")}, "params/ci.toml already has the name"),
-                          ({"x": "/dev/zero"}, "not an existing regular file"), ({"x": str(fifo)}, "regular file"),
-                          ({"reference": str(tmp_path / "reference.toml")}, "reserved"), (["x"], "JSON table"),
-                          ({"../x": str(tmp_path / "fake.toml")}, "not allowed as a profile name")):
+    for table, needle in (
+        ({"ci": str(tmp_path / "fake.toml")}, "params/ci.toml already has the name"),
+        ({"x": "/dev/zero"}, "not an existing regular file"),
+        ({"x": str(fifo)}, "regular file"),
+        ({"reference": str(tmp_path / "reference.toml")}, "reserved"),
+        (["x"], "JSON table"),
+        ({"../x": str(tmp_path / "fake.toml")}, "not allowed as a profile name"),
+    ):
         monkeypatch.setenv("LNSS_PROFILE_FILES", json.dumps(table))
-        one_line_error(capsys, main(["propagate", "--profile", "x", *EPOCH, *ELFO, "--days", "0.1"]), 2,
-                       "LNSS_PROFILE_FILES", needle)
+        one_line_error(
+            capsys,
+            main(["propagate", "--profile", "x", *EPOCH, *ELFO, "--days", "0.1"]),
+            2,
+            "LNSS_PROFILE_FILES",
+            needle,
+        )
     monkeypatch.delenv("LNSS_PROFILE_FILES")
     with pytest.raises(ConfigError, match="shipped results"):
-        run_campaign("ci", overrides={"campaign": {"evaluator": "synthetic"}}, workers=0, progress=False,
-                     run_dir=config.REFERENCE_DIR / "ci" / "run")
+        run_campaign(
+            "ci",
+            overrides={"campaign": {"evaluator": "synthetic"}},
+            workers=0,
+            progress=False,
+            run_dir=config.REFERENCE_DIR / "ci" / "run",
+        )
     assert not (config.REFERENCE_DIR / "ci").exists()
 
 
-@pytest.mark.parametrize("epoch, needle", [("2009-07-15T01:00:00+05:00", "zone"), ("15/07/2009", "YYYY-MM-DD"),
-                                           ("2009-07-15 01:00:00", "YYYY-MM-DDTHH:MM:SS")])
+@pytest.mark.parametrize(
+    "epoch, needle",
+    [
+        ("2009-07-15T01:00:00+05:00", "zone"),
+        ("15/07/2009", "YYYY-MM-DD"),
+        ("2009-07-15 01:00:00", "YYYY-MM-DDTHH:MM:SS"),
+    ],
+)
 def test_constellation_file_epoch_is_read_strictly(capsys, tmp_path, epoch, needle):
     """A constellation file's epoch goes through the same reader as --epoch-tdb: a zone or another order is
     refused at load, naming the file and key (a zone was accepted and echoed)."""
     source = (PROJECT_DIR / "params" / "constellations" / "ely2005_elfo_3sat.toml").read_text()
     path = tmp_path / "zoned.toml"
     path.write_text(source.replace('epoch = "2009-07-15T01:00:00"', f'epoch = "{epoch}"'))
-    one_line_error(capsys, main(["evaluate", "--profile", "ci", "--constellation", str(path)]), 2, str(path),
-                   "epoch", needle)
+    one_line_error(
+        capsys,
+        main(["evaluate", "--profile", "ci", "--constellation", str(path)]),
+        2,
+        str(path),
+        "epoch",
+        needle,
+    )
 
 
-@pytest.mark.parametrize("line, needle", [("a_km = 80000.0", "beyond the Moon's Hill sphere (61,500 km)"),
-                                          (f"a_km = {'9' * 400}", "an integer of"),
-                                          ("a_km = 2000.0", "the orbit hits the Moon")])
+@pytest.mark.parametrize(
+    "line, needle",
+    [
+        ("a_km = 80000.0", "beyond the Moon's Hill sphere (61,500 km)"),
+        (f"a_km = {'9' * 400}", "an integer of"),
+        ("a_km = 2000.0", "the orbit hits the Moon"),
+    ],
+)
 def test_constellation_file_elements_meet_the_shared_orbit_check(capsys, tmp_path, line, needle):
     """A catalogue or user constellation file's elements go through the element check of --sma-km and propagate
     --elements (a = 80000 km was evaluated, "evaluated": true); a huge integer is refused, not an OverflowError."""
     source = (PROJECT_DIR / "params" / "constellations" / "ely2005_elfo_3sat.toml").read_text()
     path = tmp_path / "user.toml"
     path.write_text(source.replace("a_km = 6541.4", line, 1))
-    one_line_error(capsys, main(["evaluate", "--profile", "ci", "--constellation", str(path), "--json"]), 2,
-                   str(path), "satellite[0].a_km", needle)
+    one_line_error(
+        capsys,
+        main(["evaluate", "--profile", "ci", "--constellation", str(path), "--json"]),
+        2,
+        str(path),
+        "satellite[0].a_km",
+        needle,
+    )
 
 
 def test_huge_numbers_in_a_profile_file_are_refused(capsys, params_dir):
     """Integers a float cannot hold, in a profile file: one line naming the file, exit 2 (an OverflowError, or a
     ValueError past 4300 digits, before)."""
-    for digits, needle in ((400, "gravity.degree = an integer of 400 digits"), (5000, "a number too long")):
-        (params_dir / "huge.toml").write_text(f'[profile]\ninherits = "paper"\n\n[gravity]\ndegree = {"9" * digits}\n')
-        one_line_error(capsys, main(["propagate", "--profile", "huge", *EPOCH, *ELFO, "--days", "0.1"]), 2,
-                       "huge.toml", needle)
+    for digits, needle in (
+        (400, "gravity.degree = an integer of 400 digits"),
+        (5000, "a number too long"),
+    ):
+        (params_dir / "huge.toml").write_text(
+            f'[profile]\ninherits = "paper"\n\n[gravity]\ndegree = {"9" * digits}\n'
+        )
+        one_line_error(
+            capsys,
+            main(["propagate", "--profile", "huge", *EPOCH, *ELFO, "--days", "0.1"]),
+            2,
+            "huge.toml",
+            needle,
+        )
 
 
-@pytest.mark.parametrize("content", [b'{"a": ' * 100_000 + b"1" + b"}" * 100_000, b'{"n": ' + b"9" * 5000 + b"}"])
+@pytest.mark.parametrize(
+    "content", [b'{"a": ' * 100_000 + b"1" + b"}" * 100_000, b'{"n": ' + b"9" * 5000 + b"}"]
+)
 def test_unreadable_run_json_is_named(capsys, tmp_path, content):
     """A run.json nested 100,000 deep or holding a 5000-digit integer: --resume, --validate and --export-reference
     name the file, exit 2 (RecursionError or an internal error, exit 1, naming no file, before)."""
@@ -845,5 +1361,10 @@ def test_unreadable_run_json_is_named(capsys, tmp_path, content):
     capsys.readouterr()
     (run_dir / "run.json").write_bytes(content)
     for flag in ("--resume", "--validate", "--export-reference"):
-        one_line_error(capsys, main(["campaign", flag, str(run_dir), "--no-progress"]), 2, "run.json",
-                       "not readable JSON")
+        one_line_error(
+            capsys,
+            main(["campaign", flag, str(run_dir), "--no-progress"]),
+            2,
+            "run.json",
+            "not readable JSON",
+        )

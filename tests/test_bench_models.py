@@ -9,22 +9,32 @@ from lnss_lib.bench.campaign import _busy_fraction, _greedy_makespan
 
 
 def test_greedy_makespan_by_hand():
-    assert _greedy_makespan(np.array([3.0, 1.0, 1.0, 1.0]), 2, 0.0) == 3.0           # 3 | 1 + 1 + 1
-    assert _greedy_makespan(np.array([1.0, 1.0, 1.0, 3.0]), 2, 0.0) == 4.0           # in order: 1+1 | 1+3
-    assert _greedy_makespan(np.ones(4), 4, 0.5) == pytest.approx(2.5)                # last task handed out at 1.5 s
+    assert _greedy_makespan(np.array([3.0, 1.0, 1.0, 1.0]), 2, 0.0) == 3.0  # 3 | 1 + 1 + 1
+    assert _greedy_makespan(np.array([1.0, 1.0, 1.0, 3.0]), 2, 0.0) == 4.0  # in order: 1+1 | 1+3
+    assert _greedy_makespan(np.ones(4), 4, 0.5) == pytest.approx(
+        2.5
+    )  # last task handed out at 1.5 s
     assert _greedy_makespan(np.ones(6), 1, 0.0) == 6.0
 
 
 def test_busy_fraction_is_one_for_perfect_balance_and_drops_with_idle_workers():
     assert _busy_fraction(np.ones(8), 4, 0.0, 0.0) == pytest.approx(1.0)
-    assert _busy_fraction(np.ones(8), 16, 0.0, 0.0) == pytest.approx(0.5)            # half the workers idle
+    assert _busy_fraction(np.ones(8), 16, 0.0, 0.0) == pytest.approx(0.5)  # half the workers idle
     assert _busy_fraction(np.array([4.0, 1.0, 1.0, 1.0, 1.0]), 2, 0.0, 0.0) == pytest.approx(1.0)
     assert _busy_fraction(np.array([8.0, 1.0]), 2, 0.0, 0.0) == pytest.approx(9.0 / 16.0)
 
 
 def _history(evaluated, population=120):
-    return [{"generation": g + 1, "n_designs": population, "n_evaluated": n, "n_cache_hits": population - n,
-             "wall_s": 1.0} for g, n in enumerate(evaluated)]
+    return [
+        {
+            "generation": g + 1,
+            "n_designs": population,
+            "n_evaluated": n,
+            "n_cache_hits": population - n,
+            "wall_s": 1.0,
+        }
+        for g, n in enumerate(evaluated)
+    ]
 
 
 def test_history_projection_counts_the_runs_evaluations_and_extends_its_tail(tmp_path):
@@ -34,9 +44,13 @@ def test_history_projection_counts_the_runs_evaluations_and_extends_its_tail(tmp
     from lnss_lib.paper import EVALUATIONS, TABLE_5
 
     evaluated = [120] + [100] * 9 + [10] * HISTORY_TAIL
-    write_checkpoint(tmp_path, len(evaluated), None, _history(evaluated), False, profile_fingerprint="x")
+    write_checkpoint(
+        tmp_path, len(evaluated), None, _history(evaluated), False, profile_fingerprint="x"
+    )
     got = evaluated_per_generation(tmp_path)
-    assert got["generations_recorded"] == len(evaluated) and got["evaluated_recorded"] == sum(evaluated)
+    assert got["generations_recorded"] == len(evaluated) and got["evaluated_recorded"] == sum(
+        evaluated
+    )
     assert got["hits_recorded"] == 120 * len(evaluated) - sum(evaluated)
     assert got["evaluated_total"] == sum(evaluated) + 10 * (TABLE_5["generations"] - len(evaluated))
     assert got["hit_fraction"] == pytest.approx(1 - got["evaluated_total"] / EVALUATIONS)
@@ -50,8 +64,10 @@ def test_history_projection_refuses_what_is_not_a_table5_run(tmp_path):
     with pytest.raises(ConfigError, match="not a campaign run folder"):
         evaluated_per_generation(tmp_path / "missing")
     with pytest.raises(ConfigError, match="not a campaign run folder"):
-        evaluated_per_generation(tmp_path)                                        # a folder with no checkpoint
-    write_checkpoint(tmp_path, 2, None, _history([16, 10], population=16), False, profile_fingerprint="x")
+        evaluated_per_generation(tmp_path)  # a folder with no checkpoint
+    write_checkpoint(
+        tmp_path, 2, None, _history([16, 10], population=16), False, profile_fingerprint="x"
+    )
     with pytest.raises(ConfigError, match="population of 120"):
         evaluated_per_generation(tmp_path)
 
@@ -67,11 +83,13 @@ def test_previous_force_model_agrees_to_round_off_on_an_integrated_arc(paper_pro
     duration = 0.5 * 86400.0
     table = EphemerisTable.build(paper_profile.dynamics, epoch_tdb_s, epoch_tdb_s + duration)
     model = ForceModel.build(paper_profile.dynamics, table)
-    y0 = elements_deg_to_states(paper_profile.dynamics, [[6143.0, 0.6, 51.7, 0.0, 90.0, 0.0]], epoch_tdb_s)[0]
+    y0 = elements_deg_to_states(
+        paper_profile.dynamics, [[6143.0, 0.6, 51.7, 0.0, 90.0, 0.0]], epoch_tdb_s
+    )[0]
     ts, ys = rhs_points(model, y0, epoch_tdb_s, duration, "RK45", 1e-6, 1e-9)
     replay = replay_times(model, ts, ys, repeats=1)
     assert replay["max_rel_diff"] < 1e-13 and replay["n_rhs"] == len(ts) > 100
-    assert shadow_times(model, ts, ys, repeats=1)["shadow_same"]           # the shadow factors bit for bit
+    assert shadow_times(model, ts, ys, repeats=1)["shadow_same"]  # the shadow factors bit for bit
 
 
 def test_previous_campaign_evaluation_gives_the_same_metrics():
@@ -83,9 +101,11 @@ def test_previous_campaign_evaluation_gives_the_same_metrics():
     from lnss_lib.settings import load_settings
 
     context = context_for(load_settings("ci"))
-    designs = [WalkerDesign(6143.0, 0.6, 90.0, 51.7, 2, 2).elements_deg(),
-               WalkerDesign(9000.0, 0.4, 270.0, 70.0, 3, 1).elements_deg(),
-               WalkerDesign(1800.0, 0.1, 90.0, 51.7, 2, 1).elements_deg()]      # perilune inside the Moon: skipped
+    designs = [
+        WalkerDesign(6143.0, 0.6, 90.0, 51.7, 2, 2).elements_deg(),
+        WalkerDesign(9000.0, 0.4, 270.0, 70.0, 3, 1).elements_deg(),
+        WalkerDesign(1800.0, 0.1, 90.0, 51.7, 2, 1).elements_deg(),
+    ]  # perilune inside the Moon: skipped
     got = compare_evaluations(context, designs, repeats=1)
     assert got["n_designs"] == 2 and got["n_differing"] == 0
     assert got["before_s"] > 0.0 and got["now_s"] > 0.0
@@ -104,20 +124,22 @@ def test_shadow_factor_equals_the_three_angle_computation_bit_for_bit():
     unit = rng.normal(size=(20000, 3))
     unit /= np.linalg.norm(unit, axis=1)[:, None]
     positions = list(unit * rng.uniform(r_moon * 0.999, 6.0e4, size=(20000, 1)))
-    for along in (2.0e3, 1.0e4, 4.0e4):                   # behind the Moon, across the umbra and penumbra edges
+    for along in (2.0e3, 1.0e4, 4.0e4):  # behind the Moon, across the umbra and penumbra edges
         half_width = r_moon - along * (r_sun - r_moon) / au, r_moon + along * (r_sun + r_moon) / au
         for edge in half_width:
             for offset in edge * (1.0 + np.linspace(-1e-3, 1e-3, 401)):
                 positions.append(np.array([-along, offset, 0.0]))
     near_earth = earth + unit[:5000] * rng.uniform(r_earth, 5.0e4, size=(5000, 1))
     values = {"lit": 0, "partial": 0, "dark": 0}
-    for body, radius, points in (((0.0, 0.0, 0.0), r_moon, positions), (tuple(earth), r_earth, near_earth)):
+    for body, radius, points in (
+        ((0.0, 0.0, 0.0), r_moon, positions),
+        (tuple(earth), r_earth, near_earth),
+    ):
         for r in points:
             new = shadow_factor(r, sun, *body, radius, r_sun)
             assert new == shadow_factor_before(r, sun, *body, radius, r_sun), (r, body)
             values["lit" if new == 1.0 else "dark" if new == 0.0 else "partial"] += 1
-    assert min(values.values()) > 100                      # every branch is exercised
-
+    assert min(values.values()) > 100  # every branch is exercised
 
 
 def test_run_pace_after_subtracts_the_measured_shares(tmp_path):
@@ -128,23 +150,44 @@ def test_run_pace_after_subtracts_the_measured_shares(tmp_path):
     from lnss_lib.campaign.rundir import write_checkpoint
 
     generations = HISTORY_TAIL + 5
-    history = [{"generation": g + 1, "n_designs": 120, "n_evaluated": 100, "n_cache_hits": 20, "wall_s": 4.0}
-               for g in range(generations)]
+    history = [
+        {
+            "generation": g + 1,
+            "n_designs": 120,
+            "n_evaluated": 100,
+            "n_cache_hits": 20,
+            "wall_s": 4.0,
+        }
+        for g in range(generations)
+    ]
     write_checkpoint(tmp_path, generations, None, history, False, profile_fingerprint="x")
     journal = EvaluationCache(tmp_path / JOURNAL_FILE, "h")
     for g in range(1, generations + 1):
-        for i in range(100):                                   # 100 tasks of 0.07 s on two workers: 3.5 s a worker
-            journal.add((g, i, 0, 0, 0, 0), {"ok": True, "generation": g, "worker": f"w{i % 2}", "task_wall_s": 0.07})
+        for i in range(100):  # 100 tasks of 0.07 s on two workers: 3.5 s a worker
+            journal.add(
+                (g, i, 0, 0, 0, 0),
+                {"ok": True, "generation": g, "worker": f"w{i % 2}", "task_wall_s": 0.07},
+            )
     journal.close()
-    evaluation = {"before_s": 0.1, "now_s": 0.09, "now_propagation_s": 0.08}      # 10 % of the task time saved
-    kernels = {"new_s": 0.9, "shadow_before_s": 0.2, "shadow_new_s": 0.1}        # 10 % of the right-hand side
+    evaluation = {
+        "before_s": 0.1,
+        "now_s": 0.09,
+        "now_propagation_s": 0.08,
+    }  # 10 % of the task time saved
+    kernels = {
+        "new_s": 0.9,
+        "shadow_before_s": 0.2,
+        "shadow_new_s": 0.1,
+    }  # 10 % of the right-hand side
     got = history_after(tmp_path, evaluation, kernels)
-    shadow = 0.1 * 0.08 / 0.1                                   # of the propagation's share of the previous evaluation
+    shadow = 0.1 * 0.08 / 0.1  # of the propagation's share of the previous evaluation
     assert got["generation_before_s"] == pytest.approx(4.0)
     assert got["generation_after_s"] == pytest.approx(4.0 - 3.5 * (0.1 + shadow))
 
 
-def test_shipped_projection_scales_the_shipped_history_by_the_pace_on_the_same_generations(monkeypatch):
+def test_shipped_projection_scales_the_shipped_history_by_the_pace_on_the_same_generations(
+    monkeypatch,
+):
     """``bench campaign`` on a profile with shipped results: the shipped run's generation times times this machine's
     pace on generations 2.. of the short run, plus the short run's start-up and generation 1; nothing when the short
     run's generations are not the shipped run's: one hypervolume bit apart where the kernels are compiled for the
@@ -157,20 +200,40 @@ def test_shipped_projection_scales_the_shipped_history_by_the_pace_on_the_same_g
     from lnss_lib.bench import campaign as bench
 
     shipped_wall = np.array([90.0, 4.0, 6.0, 5.0, 5.0, 5.0])
-    evaluated, hits, hv = np.array([120, 119, 118, 117, 116, 115]), np.arange(6), np.linspace(0.1, 0.4, 6)
-    history = xr.Dataset({"wall_s": ("generation", shipped_wall), "n_evaluated": ("generation", evaluated),
-                          "n_cache_hits": ("generation", hits), "hypervolume": ("generation", hv)},
-                         attrs={"versions": json.dumps({"kernel_cpu": kernel_cpu()})})
+    evaluated, hits, hv = (
+        np.array([120, 119, 118, 117, 116, 115]),
+        np.arange(6),
+        np.linspace(0.1, 0.4, 6),
+    )
+    history = xr.Dataset(
+        {
+            "wall_s": ("generation", shipped_wall),
+            "n_evaluated": ("generation", evaluated),
+            "n_cache_hits": ("generation", hits),
+            "hypervolume": ("generation", hv),
+        },
+        attrs={"versions": json.dumps({"kernel_cpu": kernel_cpu()})},
+    )
     monkeypatch.setattr(bench, "load_reference", lambda name: SimpleNamespace(history=history))
-    short = [{"generation": g + 1, "n_evaluated": int(evaluated[g]), "n_cache_hits": int(hits[g]),
-              "hypervolume": float(hv[g]), "wall_s": w} for g, w in enumerate([30.0, 2.0, 3.0])]
+    short = [
+        {
+            "generation": g + 1,
+            "n_evaluated": int(evaluated[g]),
+            "n_cache_hits": int(hits[g]),
+            "hypervolume": float(hv[g]),
+            "wall_s": w,
+        }
+        for g, w in enumerate([30.0, 2.0, 3.0])
+    ]
     got = bench.shipped_projection("x", {"history": short, "startup_s": 7.0})
     assert got["generations_compared"] == 3 and got["pace_vs_shipped"] == pytest.approx(5.0 / 10.0)
     assert got["projected_s"] == pytest.approx(7.0 + 30.0 + 0.5 * 25.0)
     short[2]["hypervolume"] = float(np.nextafter(hv[2], 1.0))
     assert bench.shipped_projection("x", {"history": short, "startup_s": 7.0}) is None
     history.attrs["versions"] = json.dumps({"kernel_cpu": "another-model"})
-    assert bench.shipped_projection("x", {"history": short, "startup_s": 7.0})["projected_s"] == pytest.approx(49.5)
+    assert bench.shipped_projection("x", {"history": short, "startup_s": 7.0})[
+        "projected_s"
+    ] == pytest.approx(49.5)
     short[2]["hypervolume"] = float(hv[2] * (1.0 + 1e-5))
     assert bench.shipped_projection("x", {"history": short, "startup_s": 7.0}) is None
     short[2]["hypervolume"], short[2]["n_evaluated"] = float(hv[2]), int(evaluated[2]) - 1
@@ -196,8 +259,15 @@ def test_short_run_repeats_thirty_shipped_generations_and_eight_otherwise(monkey
     monkeypatch.setattr(bench, "evaluation_comparison", lambda *args: {"records": []})
     monkeypatch.setattr(bench, "kernel_comparison", lambda *args: {})
     bench.run("paper")
-    assert (bench.REFERENCE_DIR / "paper").is_dir() and (bench.PARAMS_DIR / "operational.toml").is_file()
-    assert calls == [("paper", 120, bench.PACE_GENERATIONS), ("operational", 32, bench.SHORT_GENERATIONS)]
+    assert (bench.REFERENCE_DIR / "paper").is_dir() and (
+        bench.PARAMS_DIR / "operational.toml"
+    ).is_file()
+    assert calls == [
+        ("paper", 120, bench.PACE_GENERATIONS),
+        ("operational", 32, bench.SHORT_GENERATIONS),
+    ]
     calls.clear()
     bench.run("quick")
-    assert calls[0][2] == min(bench.load_settings("quick").campaign.generations, bench.SHORT_GENERATIONS)
+    assert calls[0][2] == min(
+        bench.load_settings("quick").campaign.generations, bench.SHORT_GENERATIONS
+    )

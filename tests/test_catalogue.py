@@ -5,10 +5,17 @@ import math
 import numpy as np
 import pytest
 
-from lnss_lib.catalogue import (CATALOGUE_DIR, EXTRA_RESULT_KEYS, FILE_FRAMES, constellation_states_mci,
-                                evaluate_catalogue, list_catalogue, load_constellation, true_to_mean_anomaly_deg)
+from lnss_lib.catalogue import (
+    CATALOGUE_DIR,
+    EXTRA_RESULT_KEYS,
+    FILE_FRAMES,
+    constellation_states_mci,
+    evaluate_catalogue,
+    list_catalogue,
+    load_constellation,
+    true_to_mean_anomaly_deg,
+)
 from lnss_lib.cli import evaluate_catalogue_cli
-from lnss_lib.settings import load_settings
 from lnss_lib.constellation import WalkerDesign
 from lnss_lib.elements import elements_to_state, state_to_elements
 from lnss_lib.ephemeris import file_sha256
@@ -16,6 +23,7 @@ from lnss_lib.errors import ConfigError
 from lnss_lib.evaluator import METRIC_KEYS, context_for, evaluate_design
 from lnss_lib.keys import RESULT_KEYS
 from lnss_lib.propagator import elements_deg_to_states
+from lnss_lib.settings import load_settings
 
 CATALOGUE = sorted(p.stem for p in CATALOGUE_DIR.glob("*.toml"))
 EXACT = [k for k in CATALOGUE if not load_constellation(k).approximate]
@@ -24,14 +32,29 @@ ANGLE_TOL_DEG = 1e-8
 WALKER = WalkerDesign(6143.0, 0.6, 90.0, 51.7, 2, 2)
 
 
-def _user_file(path, elements_deg, frame="lunar_equator_of_epoch", epoch="not given", time_scale="not given",
-               anomaly="mean"):
+def _user_file(
+    path,
+    elements_deg,
+    frame="lunar_equator_of_epoch",
+    epoch="not given",
+    time_scale="not given",
+    anomaly="mean",
+):
     """A user constellation file in the catalogue format; elements written with repr (exact floats)."""
-    lines = ['name = "user test"', f'element_frame = "{frame}"', f'epoch = "{epoch}"', f'time_scale = "{time_scale}"',
-             f'anomaly = "{anomaly}"', "approximate = false"]
+    lines = [
+        'name = "user test"',
+        f'element_frame = "{frame}"',
+        f'epoch = "{epoch}"',
+        f'time_scale = "{time_scale}"',
+        f'anomaly = "{anomaly}"',
+        "approximate = false",
+    ]
     for k, row in enumerate(np.asarray(elements_deg, dtype=float)):
         lines += ["", "[[satellite]]", f'name = "S{k}"']
-        lines += [f"{key} = {float(v)!r}" for key, v in zip(("a_km", "e", "inc_deg", "raan_deg", "aop_deg", "anomaly_deg"), row)]
+        lines += [
+            f"{key} = {float(v)!r}"
+            for key, v in zip(("a_km", "e", "inc_deg", "raan_deg", "aop_deg", "anomaly_deg"), row)
+        ]
     path.write_text("\n".join(lines) + "\n")
     return path
 
@@ -52,7 +75,10 @@ def test_listing_labels_the_approximate_entry():
     rows = {r["key"]: r for r in list_catalogue()}
     assert set(rows) == set(CATALOGUE)
     assert [k for k, r in rows.items() if r["approximate"]] == ["moonlight_lcns_approx"]
-    assert rows["bhamidipati2023_case_c"]["n_sat"] == 16 and rows["bhamidipati2023_case_c"]["element_frame"] == "moon_op"
+    assert (
+        rows["bhamidipati2023_case_c"]["n_sat"] == 16
+        and rows["bhamidipati2023_case_c"]["element_frame"] == "moon_op"
+    )
     assert rows["bhamidipati2023_case_c"]["epoch"] is None
 
 
@@ -62,7 +88,9 @@ def test_every_file_round_trips_in_its_own_frame(paper_profile, key, epoch):
     c = load_constellation(key, paper_profile.dynamics)
     if epoch == "file" and c.epoch is None:
         with pytest.raises(ConfigError, match="no epoch"):
-            constellation_states_mci(paper_profile.dynamics, paper_profile.epoch.start_tdb, c, epoch)
+            constellation_states_mci(
+                paper_profile.dynamics, paper_profile.epoch.start_tdb, c, epoch
+            )
         return
     s = constellation_states_mci(paper_profile.dynamics, paper_profile.epoch.start_tdb, c, epoch)
     assert s.states_mci.shape == (c.n_sat, 6) and np.all(np.isfinite(s.states_mci))
@@ -72,7 +100,9 @@ def test_every_file_round_trips_in_its_own_frame(paper_profile, key, epoch):
     back = state_to_elements(in_frame, paper_profile.gravity.gm_km3_s2)
     back[:, 2:] = np.degrees(back[:, 2:])
     el = c.elements_deg
-    assert np.allclose(back[:, 0], el[:, 0], atol=SMA_TOL_KM) and np.allclose(back[:, 1], el[:, 1], atol=1e-12)
+    assert np.allclose(back[:, 0], el[:, 0], atol=SMA_TOL_KM) and np.allclose(
+        back[:, 1], el[:, 1], atol=1e-12
+    )
     assert np.all(_wrap_deg(back[:, 2] - el[:, 2]) < ANGLE_TOL_DEG)
     regular = (el[:, 1] > 1e-9) & (el[:, 2] > 1e-9)
     assert np.all(_wrap_deg(back[regular, 3:] - el[regular, 3:]) < 1e-6)
@@ -82,12 +112,20 @@ def test_every_file_round_trips_in_its_own_frame(paper_profile, key, epoch):
 
 def test_epoch_choice_matters_only_for_frames_that_follow_the_moon(paper_profile):
     inertial = load_constellation("lupnt_example_isl_3sat", paper_profile.dynamics)
-    a, b = (constellation_states_mci(paper_profile.dynamics, paper_profile.epoch.start_tdb, inertial, e) for e in ("study", "file"))
+    a, b = (
+        constellation_states_mci(paper_profile.dynamics, paper_profile.epoch.start_tdb, inertial, e)
+        for e in ("study", "file")
+    )
     assert np.array_equal(a.states_mci, b.states_mci) and a.t_epoch_tdb_s != b.t_epoch_tdb_s
     op = load_constellation("ely2005_elfo_3sat", paper_profile.dynamics)
-    a, b = (constellation_states_mci(paper_profile.dynamics, paper_profile.epoch.start_tdb, op, e) for e in ("study", "file"))
+    a, b = (
+        constellation_states_mci(paper_profile.dynamics, paper_profile.epoch.start_tdb, op, e)
+        for e in ("study", "file")
+    )
     assert np.max(np.abs(a.states_mci[:, :3] - b.states_mci[:, :3])) > 100.0
-    assert b.epoch_used.startswith("2009-07-15T01:00:00") and a.epoch_used.startswith("2025-05-01T00:00:00")
+    assert b.epoch_used.startswith("2009-07-15T01:00:00") and a.epoch_used.startswith(
+        "2025-05-01T00:00:00"
+    )
     assert a.epoch_source == "study epoch (file gives 2009-07-15T01:00:00 TDB)"
 
 
@@ -101,21 +139,34 @@ def test_true_anomaly_becomes_mean_anomaly(paper_profile):
     r = state[:, :3]
     p_hat = elements_to_state(np.column_stack([el[:, :5], np.zeros(len(el))]), 1.0)[:, :3]
     h = np.cross(r, state[:, 3:])
-    nu = np.degrees(np.arctan2(np.einsum("ij,ij->i", np.cross(p_hat, r), h / np.linalg.norm(h, axis=1)[:, None]),
-                               np.einsum("ij,ij->i", p_hat, r)))
+    nu = np.degrees(
+        np.arctan2(
+            np.einsum("ij,ij->i", np.cross(p_hat, r), h / np.linalg.norm(h, axis=1)[:, None]),
+            np.einsum("ij,ij->i", p_hat, r),
+        )
+    )
     assert np.all(_wrap_deg(nu - c.anomaly_as_written_deg) < 1e-9)
     # and a known value: e = 0.6, nu = 90 deg -> E = 2 atan(sqrt(0.4 / 1.6)), M = E - e sin E
     e_anom = 2.0 * math.atan(math.sqrt(0.4 / 1.6))
-    assert true_to_mean_anomaly_deg(90.0, 0.6) == pytest.approx(math.degrees(e_anom - 0.6 * math.sin(e_anom)), abs=1e-12)
+    assert true_to_mean_anomaly_deg(90.0, 0.6) == pytest.approx(
+        math.degrees(e_anom - 0.6 * math.sin(e_anom)), abs=1e-12
+    )
     assert true_to_mean_anomaly_deg(180.0, 0.6) == pytest.approx(180.0, abs=1e-9)
 
 
 @pytest.mark.parametrize("frame", ["lunar_equator_of_epoch", "j2000", "moon_op"])
-def test_user_file_in_a_workbook_frame_gives_the_walker_states_exactly(paper_profile, tmp_path, frame):
-    c = load_constellation(_user_file(tmp_path / "walker.toml", WALKER.elements_deg(), frame), paper_profile.dynamics)
+def test_user_file_in_a_workbook_frame_gives_the_walker_states_exactly(
+    paper_profile, tmp_path, frame
+):
+    c = load_constellation(
+        _user_file(tmp_path / "walker.toml", WALKER.elements_deg(), frame), paper_profile.dynamics
+    )
     s = constellation_states_mci(paper_profile.dynamics, paper_profile.epoch.start_tdb, c)
     profile = paper_profile.with_overrides({"frames": {"element_frame": frame}})
-    assert np.array_equal(s.states_mci, elements_deg_to_states(profile.dynamics, WALKER.elements_deg(), s.t_epoch_tdb_s))
+    assert np.array_equal(
+        s.states_mci,
+        elements_deg_to_states(profile.dynamics, WALKER.elements_deg(), s.t_epoch_tdb_s),
+    )
 
 
 @pytest.fixture(scope="module")
@@ -125,10 +176,19 @@ def ci_context():
 
 def test_user_file_and_walker_design_give_identical_metrics(ci_context, tmp_path):
     assert ci_context.settings.frames.element_frame == "lunar_equator_of_epoch"
-    c = load_constellation(_user_file(tmp_path / "walker.toml", WALKER.elements_deg()), ci_context.dynamics)
+    c = load_constellation(
+        _user_file(tmp_path / "walker.toml", WALKER.elements_deg()), ci_context.dynamics
+    )
     ours = evaluate_catalogue(ci_context, c)
-    walker = evaluate_design(ci_context, WALKER.sma_km, WALKER.ecc, WALKER.aop_deg, WALKER.inc_deg, WALKER.n_planes,
-                             WALKER.sats_per_plane)
+    walker = evaluate_design(
+        ci_context,
+        WALKER.sma_km,
+        WALKER.ecc,
+        WALKER.aop_deg,
+        WALKER.inc_deg,
+        WALKER.n_planes,
+        WALKER.sats_per_plane,
+    )
     assert ours["evaluated"] and ours["n_sat"] == 4
     for key in METRIC_KEYS:
         assert ours[key] == walker[key] or (math.isnan(ours[key]) and math.isnan(walker[key])), key
@@ -138,8 +198,15 @@ def test_user_file_and_walker_design_give_identical_metrics(ci_context, tmp_path
 def test_cli_function_returns_the_evaluate_keys_plus_labels():
     result = evaluate_catalogue_cli("ci", "ely2005_elfo_3sat")
     assert list(result) == list(RESULT_KEYS + EXTRA_RESULT_KEYS)
-    assert result["name"] == "ely2005_elfo_3sat" and result["element_frame"] == "moon_op" and result["n_sat"] == 3
-    assert result["epoch_used"].startswith("2025-05-01T00:00:00") and "2009-07-15T01:00:00 TDB" in result["epoch_source"]
+    assert (
+        result["name"] == "ely2005_elfo_3sat"
+        and result["element_frame"] == "moon_op"
+        and result["n_sat"] == 3
+    )
+    assert (
+        result["epoch_used"].startswith("2025-05-01T00:00:00")
+        and "2009-07-15T01:00:00 TDB" in result["epoch_source"]
+    )
     assert result["evaluated"] and 0.0 < result["mean_visible_sats"] <= 3.0
 
 
@@ -157,22 +224,25 @@ def test_approximate_entry_loads_but_is_not_evaluated(paper_profile):
 GOOD = WALKER.elements_deg()
 
 
-@pytest.mark.parametrize("edit, key", [
-    (lambda t: t.replace("e = 0.6\n", "", 1), "satellite[0].e"),
-    (lambda t: t.replace("inc_deg = 51.7", 'inc_deg = "51.7"', 1), "satellite[0].inc_deg"),
-    (lambda t: t.replace("e = 0.6\n", "e = 1.2\n", 1), "satellite[0].e"),
-    (lambda t: t.replace('"lunar_equator_of_epoch"', '"moon_fixed"'), "element_frame"),
-    (lambda t: t.replace("raan_deg = 180.0", "raan_deg = nan", 1), "satellite[2].raan_deg"),
-    (lambda t: t.replace("a_km = 6143.0", "a_km = inf", 1), "satellite[0].a_km"),
-    (lambda t: t.replace("a_km = 6143.0", "a_km = 2000.0", 1), "satellite[0].a_km"),
-    (lambda t: t.replace('name = "user test"\n', ""), "name"),
-    (lambda t: t + 'colour = "red"\n', "satellite[3].colour"),
-    (lambda t: "colour = 1\n" + t, "colour"),
-    (lambda t: t.replace('anomaly = "mean"', 'anomaly = "eccentric"'), "anomaly"),
-    (lambda t: t.replace('epoch = "not given"', 'epoch = "1 May 2025"'), "epoch"),
-    (lambda t: t.replace('epoch = "not given"', 'epoch = "2025-05-01T00:00:00"'), "time_scale"),
-    (lambda t: t.replace("approximate = false", 'approximate = "no"'), "approximate"),
-])
+@pytest.mark.parametrize(
+    "edit, key",
+    [
+        (lambda t: t.replace("e = 0.6\n", "", 1), "satellite[0].e"),
+        (lambda t: t.replace("inc_deg = 51.7", 'inc_deg = "51.7"', 1), "satellite[0].inc_deg"),
+        (lambda t: t.replace("e = 0.6\n", "e = 1.2\n", 1), "satellite[0].e"),
+        (lambda t: t.replace('"lunar_equator_of_epoch"', '"moon_fixed"'), "element_frame"),
+        (lambda t: t.replace("raan_deg = 180.0", "raan_deg = nan", 1), "satellite[2].raan_deg"),
+        (lambda t: t.replace("a_km = 6143.0", "a_km = inf", 1), "satellite[0].a_km"),
+        (lambda t: t.replace("a_km = 6143.0", "a_km = 2000.0", 1), "satellite[0].a_km"),
+        (lambda t: t.replace('name = "user test"\n', ""), "name"),
+        (lambda t: t + 'colour = "red"\n', "satellite[3].colour"),
+        (lambda t: "colour = 1\n" + t, "colour"),
+        (lambda t: t.replace('anomaly = "mean"', 'anomaly = "eccentric"'), "anomaly"),
+        (lambda t: t.replace('epoch = "not given"', 'epoch = "1 May 2025"'), "epoch"),
+        (lambda t: t.replace('epoch = "not given"', 'epoch = "2025-05-01T00:00:00"'), "time_scale"),
+        (lambda t: t.replace("approximate = false", 'approximate = "no"'), "approximate"),
+    ],
+)
 def test_malformed_user_file_names_the_file_and_the_key(tmp_path, edit, key):
     path = _user_file(tmp_path / "bad.toml", GOOD)
     load_constellation(path)
@@ -205,11 +275,17 @@ def test_bhamidipati_case_c_is_the_table_4_elfo_in_the_moon_op_frame(ci_context)
     from lnss_lib.evaluator import evaluate_constellation
 
     c = load_constellation("bhamidipati2023_case_c", ci_context.dynamics)
-    assert np.array_equal(c.elements_deg, standalone_elfo(ci_context.settings.standalone_elfo, ci_context.dynamics))
+    assert np.array_equal(
+        c.elements_deg, standalone_elfo(ci_context.settings.standalone_elfo, ci_context.dynamics)
+    )
     ours = evaluate_catalogue(ci_context, c)
     op_profile = ci_context.settings.with_overrides({"frames": {"element_frame": "moon_op"}})
-    theirs = evaluate_constellation(context_for(op_profile), standalone_elfo(op_profile.standalone_elfo, op_profile.dynamics))
+    theirs = evaluate_constellation(
+        context_for(op_profile), standalone_elfo(op_profile.standalone_elfo, op_profile.dynamics)
+    )
     for key in METRIC_KEYS:
         assert ours[key] == theirs[key], key
-    lunar = evaluate_constellation(ci_context, standalone_elfo(ci_context.settings.standalone_elfo, ci_context.dynamics))
-    assert ours["mean_visible_sats"] != lunar["mean_visible_sats"]    # the frame changes the geometry
+    lunar = evaluate_constellation(
+        ci_context, standalone_elfo(ci_context.settings.standalone_elfo, ci_context.dynamics)
+    )
+    assert ours["mean_visible_sats"] != lunar["mean_visible_sats"]  # the frame changes the geometry

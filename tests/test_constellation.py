@@ -3,7 +3,6 @@
 import numpy as np
 import pytest
 
-from lnss_lib.settings import load_settings
 from lnss_lib.constellation import (
     WalkerDesign,
     explicit_constellation,
@@ -11,6 +10,7 @@ from lnss_lib.constellation import (
     two_body_positions_mci,
     walker_design,
 )
+from lnss_lib.settings import load_settings
 
 
 @pytest.fixture(scope="module")
@@ -32,7 +32,9 @@ def test_walker_raan_and_mean_anomaly_spacing(profile):
 
 
 def test_walker_raan_offset_wraps(profile):
-    el = walker_design(profile.dynamics, 8000.0, 0.1, 10.0, 30.0, 4, 1, raan_offset_deg=300.0).elements_deg()
+    el = walker_design(
+        profile.dynamics, 8000.0, 0.1, 10.0, 30.0, 4, 1, raan_offset_deg=300.0
+    ).elements_deg()
     np.testing.assert_allclose(el[:, 3], [300.0, 30.0, 120.0, 210.0])
 
 
@@ -59,7 +61,10 @@ def test_perilune_below_surface(profile):
     with pytest.raises(ValueError, match="perilune"):
         walker_design(profile.dynamics, 1500.0, 0.0, 90.0, 50.0, 2, 2)
     with pytest.raises(ValueError, match="perilune"):
-        explicit_constellation(profile.dynamics, [[6143.0, 0.6, 51.7, 0.0, 90.0, 0.0], [1700.0, 0.0, 10.0, 0.0, 0.0, 0.0]])
+        explicit_constellation(
+            profile.dynamics,
+            [[6143.0, 0.6, 51.7, 0.0, 90.0, 0.0], [1700.0, 0.0, 10.0, 0.0, 0.0, 0.0]],
+        )
 
 
 def test_min_altitude_raises_the_floor():
@@ -78,7 +83,11 @@ def test_counts_must_be_positive_integers(profile, value):
 
 def test_integral_counts_accepted(profile):
     design = walker_design(profile.dynamics, 8000.0, 0.1, 90.0, 50.0, np.int64(3), 2.0)
-    assert design.n_planes == 3 and design.sats_per_plane == 2 and isinstance(design.sats_per_plane, int)
+    assert (
+        design.n_planes == 3
+        and design.sats_per_plane == 2
+        and isinstance(design.sats_per_plane, int)
+    )
 
 
 def test_bad_inclination_and_shape(profile):

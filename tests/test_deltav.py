@@ -7,13 +7,13 @@ two-body + J2), the analytic J2 acceleration and secular nodal rate, SLSQP, exac
 import numpy as np
 import pytest
 import xarray as xr
+from orbit_cases import GM, J2, R_REF, YEAR_S, integrate, j2_acceleration, make_j2_arc
 
 from lnss_lib import deltav as dv
 from lnss_lib import frames, gve
-from lnss_lib.settings import load_settings
 from lnss_lib.elements import elements_to_state, orbital_period_s
 from lnss_lib.errors import ConfigError
-from orbit_cases import GM, J2, R_REF, YEAR_S, integrate, j2_acceleration, make_j2_arc
+from lnss_lib.settings import load_settings
 
 DELTAV = load_settings("paper").deltav
 
@@ -22,7 +22,6 @@ DELTAV = load_settings("paper").deltav
 def j2_arc():
     """Near-circular J2-only arc: a 2500 km, e 0.001, i 60 deg, six orbits sampled every 60 s."""
     return make_j2_arc()
-
 
 
 def test_tmax_closed_form_equals_slsqp():
@@ -42,7 +41,9 @@ def test_tmax_closed_form_equals_slsqp():
 
 def test_trapezoid_constant_thrust_and_year_scaling():
     t = np.linspace(0.0, 10 * 86400.0, 961)
-    assert dv.trapezoid_deltav(t, np.full(t.size, 2e-8)) == pytest.approx(2e-8 * 10 * 86400.0, rel=1e-13)
+    assert dv.trapezoid_deltav(t, np.full(t.size, 2e-8)) == pytest.approx(
+        2e-8 * 10 * 86400.0, rel=1e-13
+    )
     assert dv.per_year_factor(t) == pytest.approx(36.525)
     assert dv.per_year_factor(t[:193]) == pytest.approx(365.25 / 2)
     assert dv.per_year_factor(t, year_days=365.0) == pytest.approx(36.5)
@@ -81,7 +82,9 @@ def test_per_year_budget_follows_the_arc(j2_arc):
     n = t.size
     half = dv.deltav_arrays(t[: n // 2], states[: n // 2], GM, DELTAV)
     full = dv.deltav_arrays(t, states, GM, DELTAV)
-    assert full["per_year_factor"] == pytest.approx(half["per_year_factor"] * (t[n // 2 - 1] - t[0]) / (t[-1] - t[0]))
+    assert full["per_year_factor"] == pytest.approx(
+        half["per_year_factor"] * (t[n // 2 - 1] - t[0]) / (t[-1] - t[0])
+    )
     for model in dv.MODELS:
         assert half["dv_total"][model] == pytest.approx(full["dv_total"][model], rel=0.03), model
 
@@ -123,9 +126,13 @@ def test_constant_tangential_thrust_costs_the_thrust():
     thrust = 2e-8
     el0 = np.array([3000.0, 0.0, np.radians(40.0), 0.0, 0.0, 0.0])
     t = np.arange(0.0, 4.0 * orbital_period_s(el0[0], GM), 120.0)
-    states = integrate(elements_to_state(el0, GM), t, lambda y: frames.from_rtn(np.array([0.0, thrust, 0.0]), y))
+    states = integrate(
+        elements_to_state(el0, GM), t, lambda y: frames.from_rtn(np.array([0.0, thrust, 0.0]), y)
+    )
     res = dv.deltav_arrays(t, states, GM, DELTAV)
-    np.testing.assert_allclose(res["T_rtn_lsq"], np.broadcast_to([0.0, thrust, 0.0], (t.size, 3)), atol=1e-3 * thrust)
+    np.testing.assert_allclose(
+        res["T_rtn_lsq"], np.broadcast_to([0.0, thrust, 0.0], (t.size, 3)), atol=1e-3 * thrust
+    )
     assert res["dv_total"]["lsq"] == pytest.approx(thrust * YEAR_S, rel=1e-3)
     assert res["secular_parts"]["sma"] == pytest.approx(thrust, rel=1e-3)
     assert res["dv_total"]["secular"] == pytest.approx(thrust * YEAR_S, rel=1e-2)
@@ -133,8 +140,10 @@ def test_constant_tangential_thrust_costs_the_thrust():
 
 def _dataset(t, states):
     return xr.Dataset(
-        {"r_mci_km": (("sat", "time", "xyz"), states[None, :, :3]),
-         "v_mci_kms": (("sat", "time", "xyz"), states[None, :, 3:])},
+        {
+            "r_mci_km": (("sat", "time", "xyz"), states[None, :, :3]),
+            "v_mci_kms": (("sat", "time", "xyz"), states[None, :, 3:]),
+        },
         coords={"sat": [0], "time": t, "xyz": ["x", "y", "z"]},
     )
 
@@ -143,16 +152,22 @@ def test_deltav_from_propagation_dataset(j2_arc):
     _, t, states = j2_arc
     profile = load_settings("ci")
     ds = _dataset(t, states)
-    out = dv.deltav_from_propagation(profile.deltav, profile.dynamics, ds, sat=0, model="secular", gve_frame="j2000")
+    out = dv.deltav_from_propagation(
+        profile.deltav, profile.dynamics, ds, sat=0, model="secular", gve_frame="j2000"
+    )
     assert out.attrs["deltav_model"] == "secular"
     chosen = float(out["dv_total_kms_per_year"].sel(model_all="secular"))
     assert out.attrs["dv_total_kms_per_year"] == pytest.approx(chosen)
     assert set(out["model_all"].values) == set(dv.MODELS)
     assert out["T_total_kms2"].dims == ("model", "time")
-    np.testing.assert_allclose(out["T_total_kms2"].sel(model="lsq"),
-                               np.linalg.norm(out["T_rtn_kms2"].sel(model="lsq"), axis=-1))
+    np.testing.assert_allclose(
+        out["T_total_kms2"].sel(model="lsq"),
+        np.linalg.norm(out["T_rtn_kms2"].sel(model="lsq"), axis=-1),
+    )
     per_sat = dv.deltav_per_satellite(profile.deltav, profile.dynamics, ds, gve_frame="j2000")
-    np.testing.assert_allclose(per_sat["dv_total_kms_per_year"].sel(sat=0), out["dv_total_kms_per_year"])
+    np.testing.assert_allclose(
+        per_sat["dv_total_kms_per_year"].sel(sat=0), out["dv_total_kms_per_year"]
+    )
 
 
 def test_bad_inputs_are_rejected(j2_arc):
@@ -168,15 +183,18 @@ def test_bad_inputs_are_rejected(j2_arc):
         dv.deltav_from_propagation(ci.deltav, ci.dynamics, _dataset(t, states), sat=3)
 
 
-@pytest.mark.parametrize("bad, key", [
-    ({"model": "osculating"}, "deltav.model"),
-    ({"gve_frame": "ecliptic"}, "deltav.gve_frame"),
-    ({"paper_divisor_floor": -1.0}, "deltav.paper_divisor_floor"),
-    ({"paper_divisor_floor": 1.0}, "deltav.paper_divisor_floor"),
-    ({"secular_min_periods": 1.0}, "deltav.secular_min_periods"),
-    ({"lsq_weights": "x"}, "deltav.lsq_weights"),
-    ({"lsq_rates": "splines"}, "deltav.lsq_rates"),
-])
+@pytest.mark.parametrize(
+    "bad, key",
+    [
+        ({"model": "osculating"}, "deltav.model"),
+        ({"gve_frame": "ecliptic"}, "deltav.gve_frame"),
+        ({"paper_divisor_floor": -1.0}, "deltav.paper_divisor_floor"),
+        ({"paper_divisor_floor": 1.0}, "deltav.paper_divisor_floor"),
+        ({"secular_min_periods": 1.0}, "deltav.secular_min_periods"),
+        ({"lsq_weights": "x"}, "deltav.lsq_weights"),
+        ({"lsq_rates": "splines"}, "deltav.lsq_rates"),
+    ],
+)
 def test_bad_deltav_settings_are_config_errors_at_load_and_in_overrides(bad, key):
     """[deltav] is checked once, at load (config.py); a study's overrides are checked the same way."""
     with pytest.raises(ConfigError) as error:
@@ -202,8 +220,14 @@ def test_lsq_recovers_the_force_model_perturbation():
 
     profile = load_settings("ci")
     ensure_kernels(profile.ephemeris)
-    ds = propagate_elements(profile.dynamics, profile.epoch, [[6143.0, 0.6, 51.7, 0.0, 90.0, 0.0]], duration_s=86400.0, step_s=300.0,
-                            setting="converged")
+    ds = propagate_elements(
+        profile.dynamics,
+        profile.epoch,
+        [[6143.0, 0.6, 51.7, 0.0, 90.0, 0.0]],
+        duration_s=86400.0,
+        step_s=300.0,
+        setting="converged",
+    )
     t = ds["time"].values
     states = np.concatenate([ds["r_mci_km"].values[0], ds["v_mci_kms"].values[0]], axis=-1)
     truth = dv.perturbing_acceleration_rtn(profile.dynamics, t, states)
@@ -212,13 +236,13 @@ def test_lsq_recovers_the_force_model_perturbation():
     assert np.median(err) < 0.01
     dv_truth = dv.trapezoid_deltav(t, np.linalg.norm(truth, axis=1)) * res["per_year_factor"]
     assert res["dv_total"]["lsq"] == pytest.approx(dv_truth, rel=0.02)
-    out = dv.deltav_from_propagation(profile.deltav, profile.dynamics, ds, gve_frame="lunar_equator_of_epoch")
+    out = dv.deltav_from_propagation(
+        profile.deltav, profile.dynamics, ds, gve_frame="lunar_equator_of_epoch"
+    )
     assert out.attrs["dv_total_kms_per_year"] == pytest.approx(res["dv_total"]["lsq"], rel=1e-6)
 
 
 # ------------------------------------------------------------------------ analysis (notebook 04)
-
-
 
 
 @pytest.mark.parametrize("model", dv.MODELS)
@@ -229,8 +253,13 @@ def test_one_model_alone_is_bit_for_bit_every_models_value(j2_arc, model):
     every = dv.deltav_arrays(t, states, GM, DELTAV)
     alone = dv.deltav_arrays(t, states, GM, DELTAV, models=(model,))
     assert set(alone["dv_total"]) == {model} == set(alone["dv_opt"])
-    assert alone["dv_total"][model] == every["dv_total"][model] and alone["dv_opt"][model] == every["dv_opt"][model]
-    assert ("secular" in alone) == (model == "secular") and ("paper_estimates" in alone) == (model == "paper")
+    assert (
+        alone["dv_total"][model] == every["dv_total"][model]
+        and alone["dv_opt"][model] == every["dv_opt"][model]
+    )
+    assert ("secular" in alone) == (model == "secular") and ("paper_estimates" in alone) == (
+        model == "paper"
+    )
     ci = load_settings("ci")
     cfg = dv.with_overrides(ci.deltav, model=model, gve_frame="j2000")
     ds = _dataset(t, states)

@@ -4,8 +4,6 @@ import numpy as np
 import pytest
 import xarray as xr
 
-from lnss_lib.settings import load_settings
-from lnss_lib.geometry import availability_pct
 from lnss_lib.dop import (
     SurfaceGrid,
     dop_from_propagation,
@@ -14,6 +12,8 @@ from lnss_lib.dop import (
     elevation_deg,
     surface_grid,
 )
+from lnss_lib.geometry import availability_pct
+from lnss_lib.settings import load_settings
 
 R_MOON_KM = 1737.4
 
@@ -27,7 +27,9 @@ def enu_basis(lat_deg, lon_deg):
     return east, north, up
 
 
-def symmetric_geometry(lat_deg, lon_deg, elev_deg, azimuth0_deg=17.0, ranges_km=(900.0, 3000.0, 5000.0, 12000.0)):
+def symmetric_geometry(
+    lat_deg, lon_deg, elev_deg, azimuth0_deg=17.0, ranges_km=(900.0, 3000.0, 5000.0, 12000.0)
+):
     """Positions (4, 3) km: one satellite at the zenith, three at ``elev_deg`` 120 deg apart in azimuth."""
     east, north, up = enu_basis(lat_deg, lon_deg)
     receiver = R_MOON_KM * up
@@ -35,7 +37,9 @@ def symmetric_geometry(lat_deg, lon_deg, elev_deg, azimuth0_deg=17.0, ranges_km=
     directions = [up]
     for k in range(3):
         az = np.radians(azimuth0_deg + 120.0 * k)
-        directions.append(np.cos(el) * np.sin(az) * east + np.cos(el) * np.cos(az) * north + np.sin(el) * up)
+        directions.append(
+            np.cos(el) * np.sin(az) * east + np.cos(el) * np.cos(az) * north + np.sin(el) * up
+        )
     return np.array([receiver + rho * d for rho, d in zip(ranges_km, directions)])
 
 
@@ -51,7 +55,11 @@ def symmetric_closed_form(lat_deg, elev_deg):
     a = 2.0 / (3.0 * c * c)
     v = 4.0 / (3.0 * (1.0 - s) ** 2)
     phi = np.radians(lat_deg)
-    return np.sqrt(2 * a + v), np.sqrt(2 * a), np.sqrt(a * (1 + np.sin(phi) ** 2) + v * np.cos(phi) ** 2)
+    return (
+        np.sqrt(2 * a + v),
+        np.sqrt(2 * a),
+        np.sqrt(a * (1 + np.sin(phi) ** 2) + v * np.cos(phi) ** 2),
+    )
 
 
 def single_point_grid(lat_deg, lon_deg):
@@ -75,7 +83,9 @@ def test_area_weights():
     for weights in (cell.weight, cos_lat.weight):
         assert weights.sum() == pytest.approx(1.0)
     # Interior rows: band area proportional to cos(lat); the pole row keeps its polar cap.
-    assert cell.weight[1, 0] / cell.weight[2, 0] == pytest.approx(np.cos(np.radians(80.0)) / np.cos(np.radians(70.0)))
+    assert cell.weight[1, 0] / cell.weight[2, 0] == pytest.approx(
+        np.cos(np.radians(80.0)) / np.cos(np.radians(70.0))
+    )
     cap_share = (1.0 - np.cos(np.radians(5.0))) / 36.0
     band_share = 2.0 * np.sin(np.radians(5.0)) * np.cos(np.radians(80.0)) / 36.0
     assert cell.weight[0, 0] / cell.weight[1, 0] == pytest.approx(cap_share / band_share)
@@ -97,7 +107,9 @@ def test_zenith_satellite_has_elevation_90():
     np.testing.assert_allclose(elev, expected, atol=1e-9)
 
 
-@pytest.mark.parametrize("lat_deg, lon_deg", [(-90.0, 0.0), (-90.0, 130.0), (-60.0, 30.0), (-72.0, 250.0)])
+@pytest.mark.parametrize(
+    "lat_deg, lon_deg", [(-90.0, 0.0), (-90.0, 130.0), (-60.0, 30.0), (-72.0, 250.0)]
+)
 @pytest.mark.parametrize("elev_deg", [10.0, 30.0, 60.0])
 def test_symmetric_geometry_closed_form(lat_deg, lon_deg, elev_deg):
     grid = single_point_grid(lat_deg, lon_deg)
@@ -136,13 +148,20 @@ def test_matches_pseudo_inverse_of_explicit_geometry_matrix():
                 if visible.sum() < 4:
                     assert np.isnan(results["enu"]["pdop"].values[t, i, j])
                     continue
-                for axes, basis in (("moon_fixed", np.eye(3)), ("enu", np.array([east, north, up]))):
+                for axes, basis in (
+                    ("moon_fixed", np.eye(3)),
+                    ("enu", np.array([east, north, up])),
+                ):
                     g = np.column_stack([los[visible] @ basis.T, np.ones(visible.sum())])
                     h_inv = np.linalg.pinv(g.T @ g)
                     pdop_ref = np.sqrt(np.trace(h_inv[:3, :3]))
                     hdop_ref = np.sqrt(h_inv[0, 0] + h_inv[1, 1])
-                    assert results[axes]["pdop"].values[t, i, j] == pytest.approx(pdop_ref, rel=1e-7)
-                    assert results[axes]["hdop"].values[t, i, j] == pytest.approx(hdop_ref, rel=1e-7)
+                    assert results[axes]["pdop"].values[t, i, j] == pytest.approx(
+                        pdop_ref, rel=1e-7
+                    )
+                    assert results[axes]["hdop"].values[t, i, j] == pytest.approx(
+                        hdop_ref, rel=1e-7
+                    )
                 checked += 1
     assert checked > 20
 
@@ -156,7 +175,9 @@ def test_availability_counts_unavailable_and_too_few_visible():
     r_sat = np.stack([good, three_visible, poor], axis=1)
     grid = surface_grid(-90.0, -90.0, 10.0, 0.0, 350.0, 10.0, radius_km=R_MOON_KM)
     ds = dop_grid(r_sat, grid, t_tdb_s=[0.0, 900.0, 1800.0])
-    np.testing.assert_array_equal(ds["n_visible"].values, np.repeat([[4], [3], [4]], 36, axis=1)[:, None, :])
+    np.testing.assert_array_equal(
+        ds["n_visible"].values, np.repeat([[4], [3], [4]], 36, axis=1)[:, None, :]
+    )
     assert np.all(np.isnan(ds["pdop"].values[1])) and np.all(np.isnan(ds["hdop"].values[1]))
     assert np.all(ds["pdop"].values[2] > 15.0)
     summary = dop_summary(ds)
@@ -175,7 +196,9 @@ def test_non_finite_positions_are_never_visible():
 
 
 def test_summary_uses_weights():
-    grid = surface_grid(-80.0, -70.0, 10.0, 0.0, 0.0, 10.0, radius_km=R_MOON_KM, weighting="cos_lat")
+    grid = surface_grid(
+        -80.0, -70.0, 10.0, 0.0, 0.0, 10.0, radius_km=R_MOON_KM, weighting="cos_lat"
+    )
     ds = xr.Dataset(
         {
             "n_visible": (("time", "lat", "lon"), np.array([[[4], [8]]])),
@@ -219,7 +242,11 @@ def test_dop_from_propagation_rotates_to_moon_fixed():
         coords={"sat": np.arange(8), "time": times, "xyz": ["x", "y", "z"]},
     )
     via_propagation = dop_from_propagation(profile.dop, profile.dynamics, prop)
-    direct = dop_grid(r_mf, SurfaceGrid.from_settings(profile.dop, profile.constants.r_moon_mean_km), t_tdb_s=times)
+    direct = dop_grid(
+        r_mf,
+        SurfaceGrid.from_settings(profile.dop, profile.constants.r_moon_mean_km),
+        t_tdb_s=times,
+    )
     np.testing.assert_array_equal(via_propagation["n_visible"].values, direct["n_visible"].values)
     np.testing.assert_allclose(via_propagation["pdop"].values, direct["pdop"].values, rtol=1e-9)
     assert via_propagation["n_visible"].values.max() >= 4
@@ -243,8 +270,8 @@ def test_compiled_grid_pass_matches_dop_kernel_bit_for_bit(los_axes):
     from lnss_lib.dop import dop_arrays, dop_kernel
 
     r = _walker_positions_mf()
-    r[3, 10:20] = np.nan                                   # an impacted satellite is never visible
-    r[7, :, :] = r[8, :, :]                                # coincident satellites: singular geometries appear
+    r[3, 10:20] = np.nan  # an impacted satellite is never visible
+    r[7, :, :] = r[8, :, :]  # coincident satellites: singular geometries appear
     paper = load_settings("paper")
     grid = SurfaceGrid.from_settings(paper.dop, paper.constants.r_moon_mean_km)
     points, up = grid.r_mf_km.reshape(-1, 3), grid.up.reshape(-1, 3)
@@ -261,7 +288,7 @@ def test_dop_metrics_match_summary_of_dataset(weighting):
 
     r = _walker_positions_mf()
     grid = surface_grid(weighting=weighting)
-    for mask in (5.0, 40.0):                               # 40 deg: many samples without a DOP
+    for mask in (5.0, 40.0):  # 40 deg: many samples without a DOP
         old = dop_summary(dop_grid(r, grid, elevation_mask_deg=mask))
         new = dop_metrics(r, grid, elevation_mask_deg=mask)
         assert set(old) == set(new)

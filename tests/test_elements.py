@@ -7,8 +7,16 @@ import warnings
 import numpy as np
 import pytest
 
-from lnss_lib.elements import (eccentric_anomaly_from_true, eccentricity_vector, elements_to_state, mean_anomaly_from_true,
-                               state_to_elements, true_anomaly_from_eccentric, true_anomaly_from_mean, vis_viva_sma_km)
+from lnss_lib.elements import (
+    eccentric_anomaly_from_true,
+    eccentricity_vector,
+    elements_to_state,
+    mean_anomaly_from_true,
+    state_to_elements,
+    true_anomaly_from_eccentric,
+    true_anomaly_from_mean,
+    vis_viva_sma_km,
+)
 
 GM_MOON_KM3_S2 = 4902.800066
 
@@ -22,10 +30,14 @@ def test_closed_orbits_round_trip():
 def test_escaping_state_has_no_mean_anomaly_and_no_warning():
     r_km = 2000.0
     v_escape_kms = np.sqrt(2.0 * GM_MOON_KM3_S2 / r_km)
-    states = np.array([[r_km, 0.0, 0.0, 0.0, 1.2 * v_escape_kms, 0.1],      # hyperbolic: e > 1
-                       [r_km, 0.0, 0.0, 0.0, 0.8 * v_escape_kms, 0.1]])     # closed
+    states = np.array(
+        [
+            [r_km, 0.0, 0.0, 0.0, 1.2 * v_escape_kms, 0.1],  # hyperbolic: e > 1
+            [r_km, 0.0, 0.0, 0.0, 0.8 * v_escape_kms, 0.1],
+        ]
+    )  # closed
     with warnings.catch_warnings():
-        warnings.simplefilter("error")                                     # a RuntimeWarning fails the test
+        warnings.simplefilter("error")  # a RuntimeWarning fails the test
         el = state_to_elements(states, GM_MOON_KM3_S2)
     assert el[0, 1] > 1.0 and el[0, 0] < 0.0 and np.isnan(el[0, 5])
     assert el[1, 1] < 1.0 and el[1, 0] > 0.0 and 0.0 <= el[1, 5] < 2 * np.pi
@@ -61,8 +73,12 @@ def test_vis_viva_and_eccentricity_vector_of_known_orbits():
     r_km = np.linalg.norm(r_vec, axis=-1)
     e_vec = eccentricity_vector(r_vec, v_vec, gm)
     np.testing.assert_allclose(e_vec, el[:, 1:2] * r_vec / r_km[:, None], rtol=0, atol=1e-13)
-    assert np.array_equal(e_vec, eccentricity_vector(r_vec, v_vec, gm, np.cross(r_vec, v_vec), r_km))
-    np.testing.assert_allclose(vis_viva_sma_km(r_km, np.sum(v_vec * v_vec, axis=-1), gm), el[:, 0], rtol=1e-13)
+    assert np.array_equal(
+        e_vec, eccentricity_vector(r_vec, v_vec, gm, np.cross(r_vec, v_vec), r_km)
+    )
+    np.testing.assert_allclose(
+        vis_viva_sma_km(r_km, np.sum(v_vec * v_vec, axis=-1), gm), el[:, 0], rtol=1e-13
+    )
 
 
 def test_every_element_path_shares_the_hill_sphere_bound():

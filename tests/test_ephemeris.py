@@ -5,7 +5,7 @@ import pytest
 import spiceypy as spice
 
 from lnss_lib.elements import elements_to_state, state_to_elements, validate_elements
-from lnss_lib.ephemeris import (EphemerisTable, body_states_mci, load_kernels, rotation, tdb_seconds)
+from lnss_lib.ephemeris import EphemerisTable, body_states_mci, load_kernels, rotation, tdb_seconds
 
 
 def test_calendar_scale_is_explicit(paper_profile):
@@ -43,7 +43,9 @@ def test_interpolated_tables_match_spice(paper_profile, epoch_tdb_s):
         for body in ("SUN", "EARTH", "JUPITER"):
             exact = body_states_mci(body, [t])[0, :3]
             # metre-level on 1e5..1e9 km: far below any force-model uncertainty
-            assert np.linalg.norm(table.body_position(body, t) - exact) < 1e-3 * max(1.0, np.linalg.norm(exact) / 1e8)
+            assert np.linalg.norm(table.body_position(body, t) - exact) < 1e-3 * max(
+                1.0, np.linalg.norm(exact) / 1e8
+            )
         exact_rot = np.asarray(spice.pxform("J2000", "MOON_PA", t))
         assert np.abs(table.rotation_pa(t) - exact_rot).max() < 1e-10
 
@@ -54,11 +56,17 @@ def test_one_shared_basis_interpolates_every_table_as_before(paper_profile, epoc
     from lnss_lib.ephemeris import hermite_apply, hermite_basis, hermite_cubic
 
     table = EphemerisTable.build(paper_profile.dynamics, epoch_tdb_s, epoch_tdb_s + 86400.0)
-    times = np.concatenate([table.t0_tdb_s + table.step_s * np.arange(3), rng.uniform(table.t0_tdb_s - 50.0,
-                                                                                          table.t_end_tdb_s + 50.0, 200)])
+    times = np.concatenate(
+        [
+            table.t0_tdb_s + table.step_s * np.arange(3),
+            rng.uniform(table.t0_tdb_s - 50.0, table.t_end_tdb_s + 50.0, 200),
+        ]
+    )
     for t in times:
         basis = hermite_basis(table.rot_pa.shape[0], table.t0_tdb_s, table.step_s, t)
-        pairs = [(table.rot_pa, table.rot_pa_rate)] + [(table.bodies[:, k, :3], table.bodies[:, k, 3:]) for k in range(3)]
+        pairs = [(table.rot_pa, table.rot_pa_rate)] + [
+            (table.bodies[:, k, :3], table.bodies[:, k, 3:]) for k in range(3)
+        ]
         for values, rates in pairs:
             shared, alone = np.empty(values.shape[1]), np.empty(values.shape[1])
             hermite_apply(values, rates, basis, shared)
@@ -69,8 +77,16 @@ def test_one_shared_basis_interpolates_every_table_as_before(paper_profile, epoc
 def test_elements_round_trip(rng):
     gm = 4902.7999671
     n = 500
-    el = np.column_stack([rng.uniform(1800, 30000, n), rng.uniform(0.0, 0.95, n), rng.uniform(0.01, np.pi - 0.01, n),
-                          rng.uniform(0, 2 * np.pi, n), rng.uniform(0, 2 * np.pi, n), rng.uniform(0, 2 * np.pi, n)])
+    el = np.column_stack(
+        [
+            rng.uniform(1800, 30000, n),
+            rng.uniform(0.0, 0.95, n),
+            rng.uniform(0.01, np.pi - 0.01, n),
+            rng.uniform(0, 2 * np.pi, n),
+            rng.uniform(0, 2 * np.pi, n),
+            rng.uniform(0, 2 * np.pi, n),
+        ]
+    )
     back = state_to_elements(elements_to_state(el, gm), gm)
     assert np.allclose(back[:, :3], el[:, :3], rtol=1e-10, atol=1e-10)
     angle_diff = np.angle(np.exp(1j * (back[:, 3:] - el[:, 3:])))
@@ -87,9 +103,16 @@ def test_state_to_elements_known_circular_orbit():
     assert el[2] == pytest.approx(0.3, abs=1e-12)
 
 
-@pytest.mark.parametrize("a, e, message", [(6000.0, 1.0, "eccentricity"), (6000.0, 1.3, "eccentricity"),
-                                            (-5000.0, 0.1, "semi-major axis"), (6000.0, -0.1, "eccentricity"),
-                                            (3000.0, 0.5, "hits the Moon")])
+@pytest.mark.parametrize(
+    "a, e, message",
+    [
+        (6000.0, 1.0, "eccentricity"),
+        (6000.0, 1.3, "eccentricity"),
+        (-5000.0, 0.1, "semi-major axis"),
+        (6000.0, -0.1, "eccentricity"),
+        (3000.0, 0.5, "hits the Moon"),
+    ],
+)
 def test_bad_elements_rejected(a, e, message):
     with pytest.raises(ValueError, match=message):
         validate_elements(a, e, 1737.4)

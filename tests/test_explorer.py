@@ -22,17 +22,27 @@ import pytest
 pytest.importorskip("ipywidgets")
 
 from lnss_lib.__main__ import build_parser, main  # noqa: E402
-from lnss_lib.settings import VariableBounds, load_settings  # noqa: E402
-from lnss_lib.evaluator import context_for, evaluate_design  # noqa: E402
 from lnss_lib.constellation import standalone_elfo, walker_design  # noqa: E402
+from lnss_lib.evaluator import context_for, evaluate_design  # noqa: E402
 from lnss_lib.explorer import DesignExplorer, initial_design, snap_to_grid, table4_design  # noqa: E402
-from lnss_lib.keys import label  # noqa: E402
-from lnss_lib.keys import METRIC_KEYS, format_value  # noqa: E402
+from lnss_lib.keys import (  # noqa: E402
+    METRIC_KEYS,
+    format_value,
+    label,  # noqa: E402
+)
+from lnss_lib.settings import VariableBounds, load_settings  # noqa: E402
 
 PROFILE = "ci"
 ROOT = Path(__file__).resolve().parents[1]
 NOTEBOOK = ROOT / "notebooks" / "09_design_explorer.ipynb"
-IMPACTING = {"sma_km": 4000.0, "ecc": 0.56, "aop_deg": 45.0, "inc_deg": 60.0, "n_planes": 2, "sats_per_plane": 1}
+IMPACTING = {
+    "sma_km": 4000.0,
+    "ecc": 0.56,
+    "aop_deg": 45.0,
+    "inc_deg": 60.0,
+    "n_planes": 2,
+    "sats_per_plane": 1,
+}
 
 
 @pytest.fixture
@@ -47,8 +57,15 @@ def _set(explorer, **values):
 
 def _reference(design, overrides=None):
     context = context_for(load_settings(PROFILE, overrides=overrides))
-    return evaluate_design(context, design["sma_km"], design["ecc"], design["aop_deg"], design["inc_deg"],
-                           design["n_planes"], design["sats_per_plane"])
+    return evaluate_design(
+        context,
+        design["sma_km"],
+        design["ecc"],
+        design["aop_deg"],
+        design["inc_deg"],
+        design["n_planes"],
+        design["sats_per_plane"],
+    )
 
 
 def _assert_same_metrics(ours, reference):
@@ -65,7 +82,11 @@ def test_snap_to_grid_follows_table3_steps():
     assert snap_to_grid(99999.0, spec) == 24000.0
     assert snap_to_grid(0.6000000001, VariableBounds(lower=0.0, upper=0.8, step=0.01)) == 0.6
     planes = VariableBounds(lower=2, upper=5, step=1)
-    assert snap_to_grid(7, planes) == 5 and snap_to_grid(3.2, planes) == 3 and isinstance(snap_to_grid(3.2, planes), int)
+    assert (
+        snap_to_grid(7, planes) == 5
+        and snap_to_grid(3.2, planes) == 3
+        and isinstance(snap_to_grid(3.2, planes), int)
+    )
     with pytest.raises(ValueError, match="nan"):
         snap_to_grid(float("nan"), spec)
 
@@ -91,7 +112,10 @@ def test_start_says_it_is_not_table4_and_how_it_differs(explorer):
     text = explorer.start_text
     assert "NOT Table 4 itself" in text and "snapped" not in text
     for key in differ:
-        assert f"{label(key)} {format_value(key, start[key])} (Table 4: {format_value(key, table4[key])}" in text, key
+        assert (
+            f"{label(key)} {format_value(key, start[key])} (Table 4: {format_value(key, table4[key])}"
+            in text
+        ), key
     n_table4 = table4["n_planes"] * table4["sats_per_plane"]
     assert f"{explorer.current.metrics['n_sat']} satellites instead of {n_table4}" in text
     assert "outside this profile's Table 3 range" in text
@@ -101,17 +125,35 @@ def test_start_says_it_is_not_table4_and_how_it_differs(explorer):
 def test_start_is_table4_itself_where_the_grid_holds_it(tmp_path):
     """On a grid that holds Table 4 the first design is the standalone ELFO: the same 16 satellites (eq. 42 RAANs,
     M from 0) and the same metrics as evaluating :func:`standalone_elfo` directly."""
-    grid = {"campaign": {"variables": {"sma_km": {"lower": 4000.0, "upper": 24000.0, "step": 1.0},
-                                       "inc_deg": {"lower": 1.0, "upper": 90.0, "step": 0.1},
-                                       "sats_per_plane": {"lower": 1, "upper": 8, "step": 1}}}}
+    grid = {
+        "campaign": {
+            "variables": {
+                "sma_km": {"lower": 4000.0, "upper": 24000.0, "step": 1.0},
+                "inc_deg": {"lower": 1.0, "upper": 90.0, "step": 0.1},
+                "sats_per_plane": {"lower": 1, "upper": 8, "step": 1},
+            }
+        }
+    }
     explorer = DesignExplorer(PROFILE, outputs_dir=tmp_path, overrides=grid)
     profile = load_settings(PROFILE, overrides=grid)
     design = explorer.design()
     assert design == table4_design(profile.standalone_elfo)
-    elements = walker_design(profile.dynamics, design["sma_km"], design["ecc"], design["aop_deg"], design["inc_deg"],
-                             design["n_planes"], design["sats_per_plane"]).elements_deg()
-    np.testing.assert_allclose(elements, standalone_elfo(profile.standalone_elfo, profile.dynamics), rtol=0.0, atol=1e-9)
-    assert "which lies on this profile's grid" in explorer.start_text and "NOT" not in explorer.start_text
+    elements = walker_design(
+        profile.dynamics,
+        design["sma_km"],
+        design["ecc"],
+        design["aop_deg"],
+        design["inc_deg"],
+        design["n_planes"],
+        design["sats_per_plane"],
+    ).elements_deg()
+    np.testing.assert_allclose(
+        elements, standalone_elfo(profile.standalone_elfo, profile.dynamics), rtol=0.0, atol=1e-9
+    )
+    assert (
+        "which lies on this profile's grid" in explorer.start_text
+        and "NOT" not in explorer.start_text
+    )
     assert explorer.current.metrics["n_sat"] == 16
     _assert_same_metrics(explorer.current.metrics, _reference(design, grid))
 
@@ -126,9 +168,16 @@ def test_slider_change_updates_metrics_keeps_previous_and_equals_evaluate(explor
     _assert_same_metrics(explorer.current.metrics, _reference(design))
     rows = {row["metric"]: row for row in explorer.metrics_rows()}
     assert rows["pdop_mean_3sigma"]["delta"] == pytest.approx(
-        explorer.current.metrics["pdop_mean_3sigma"] - explorer.previous.metrics["pdop_mean_3sigma"])
-    assert format_value("pdop_mean_3sigma", explorer.current.metrics["pdop_mean_3sigma"]) in explorer.metrics_html.value
-    assert "PDOP (3-sigma mean)" in explorer.metrics_html.value and "pdop_mean_3sigma" not in explorer.metrics_html.value
+        explorer.current.metrics["pdop_mean_3sigma"] - explorer.previous.metrics["pdop_mean_3sigma"]
+    )
+    assert (
+        format_value("pdop_mean_3sigma", explorer.current.metrics["pdop_mean_3sigma"])
+        in explorer.metrics_html.value
+    )
+    assert (
+        "PDOP (3-sigma mean)" in explorer.metrics_html.value
+        and "pdop_mean_3sigma" not in explorer.metrics_html.value
+    )
     for name in ("availability", "time_series", "constellation"):
         assert "application/vnd.plotly.v1+json" in explorer.outputs[name].outputs[0]["data"], name
 
@@ -150,14 +199,19 @@ def test_frame_and_model_choice_use_their_own_context(explorer):
     assert explorer.current.metrics["deltav_model"] == "paper"
     assert explorer.context().settings.frames.element_frame == "j2000"
     _assert_same_metrics(explorer.current.metrics, _reference(explorer.design(), overrides))
-    assert explorer.current.metrics["pdop_mean_3sigma"] != pytest.approx(_reference(explorer.design())["pdop_mean_3sigma"])
+    assert explorer.current.metrics["pdop_mean_3sigma"] != pytest.approx(
+        _reference(explorer.design())["pdop_mean_3sigma"]
+    )
     assert len(explorer._contexts) == 3
 
 
-@pytest.mark.parametrize("design, words", [
-    ({"sma_km": 4000.0, "ecc": 0.8}, "perilune"),
-    (IMPACTING, "impact"),
-])
+@pytest.mark.parametrize(
+    "design, words",
+    [
+        ({"sma_km": 4000.0, "ecc": 0.8}, "perilune"),
+        (IMPACTING, "impact"),
+    ],
+)
 def test_infeasible_design_shows_its_reason(explorer, design, words):
     _set(explorer, **design)
     reference = _reference(explorer.design())
@@ -200,8 +254,14 @@ def test_export_command_reproduces_the_design(explorer, capsys):
     exported = explorer.export()
     assert exported["command"].startswith("python -m lnss_lib evaluate ")
     args = build_parser().parse_args(exported["argv"])
-    parsed = {"sma_km": args.sma_km, "ecc": args.ecc, "aop_deg": args.aop_deg, "inc_deg": args.inc_deg,
-              "n_planes": args.planes, "sats_per_plane": args.sats_per_plane}
+    parsed = {
+        "sma_km": args.sma_km,
+        "ecc": args.ecc,
+        "aop_deg": args.aop_deg,
+        "inc_deg": args.inc_deg,
+        "n_planes": args.planes,
+        "sats_per_plane": args.sats_per_plane,
+    }
     assert args.profile == PROFILE and parsed == explorer.design()
     assert tomllib.loads(exported["toml"])["design"] == explorer.design()
     assert main(exported["argv"] + ["--json"]) == 0
@@ -212,7 +272,9 @@ def test_export_command_reproduces_the_design(explorer, capsys):
 def test_export_passes_changed_settings_and_writes_atomically(explorer, tmp_path):
     explorer.model_choice.value = "secular"
     exported = explorer.export(write=True)
-    assert 'deltav.model="secular"' in exported["argv"] and not any("element_frame" in a for a in exported["argv"])
+    assert 'deltav.model="secular"' in exported["argv"] and not any(
+        "element_frame" in a for a in exported["argv"]
+    )
     written = tomllib.loads(exported["path"].read_text())
     assert exported["path"].is_relative_to(tmp_path / PROFILE / "explorer")
     assert written["deltav"]["model"] == "secular" and written["design"] == explorer.design()
@@ -258,9 +320,16 @@ def test_profile_switch_brings_the_profiles_element_frame(explorer):
 # in real time, which --virtual-time-budget skips ("Loading widget..."), so the test drives Chromium
 # over its DevTools protocol and polls the page until the metrics table appears.
 
+
 def _chromium() -> str | None:
-    return next((path for name in ("chromium", "chromium-browser", "google-chrome")
-                 if (path := shutil.which(name))), None)
+    return next(
+        (
+            path
+            for name in ("chromium", "chromium-browser", "google-chrome")
+            if (path := shutil.which(name))
+        ),
+        None,
+    )
 
 
 def _free_port() -> int:
@@ -279,7 +348,9 @@ def _wait_for_port(port: int, process: subprocess.Popen, timeout_s: float) -> No
         time.sleep(0.5)
 
 
-async def _browse(url: str, chromium: str, screenshot: Path, timeout_s: float = 240.0) -> tuple[str, str]:
+async def _browse(
+    url: str, chromium: str, screenshot: Path, timeout_s: float = 240.0
+) -> tuple[str, str]:
     """Load ``url``, wait for the metrics table, click "add to comparison", wait for the comparison table,
     choose the secular Delta-V model and wait for the re-evaluation; return the page's HTML at the start
     and at the end and write a screenshot of the whole page."""
@@ -293,52 +364,91 @@ async def _browse(url: str, chromium: str, screenshot: Path, timeout_s: float = 
     # waited for, and a late write into the throw-away profile is no test failure
     with tempfile.TemporaryDirectory(ignore_cleanup_errors=True) as profile_dir:
         browser = subprocess.Popen(
-            [chromium, "--headless", "--no-sandbox", "--disable-gpu", "--disable-background-networking",
-             "--no-first-run", "--disable-component-update", "--disable-sync", f"--user-data-dir={profile_dir}",
-             f"--remote-debugging-port={port}", "--remote-debugging-address=127.0.0.1", "--remote-allow-origins=*",
-             "--window-size=1400,4200", "about:blank"], stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL,
-            start_new_session=True)
+            [
+                chromium,
+                "--headless",
+                "--no-sandbox",
+                "--disable-gpu",
+                "--disable-background-networking",
+                "--no-first-run",
+                "--disable-component-update",
+                "--disable-sync",
+                f"--user-data-dir={profile_dir}",
+                f"--remote-debugging-port={port}",
+                "--remote-debugging-address=127.0.0.1",
+                "--remote-allow-origins=*",
+                "--window-size=1400,4200",
+                "about:blank",
+            ],
+            stdout=subprocess.DEVNULL,
+            stderr=subprocess.DEVNULL,
+            start_new_session=True,
+        )
         try:
             _wait_for_port(port, browser, 60)
             targets = json.load(urllib.request.urlopen(f"http://127.0.0.1:{port}/json", timeout=10))
             page = next(t["webSocketDebuggerUrl"] for t in targets if t["type"] == "page")
-            async with websockets.connect(page, max_size=2 ** 28) as ws:
-                ids = iter(range(1, 10 ** 6))
+            async with websockets.connect(page, max_size=2**28) as ws:
+                ids = iter(range(1, 10**6))
 
                 async def call(method, **params):
                     message_id = next(ids)
-                    await ws.send(json.dumps({"id": message_id, "method": method, "params": params}))
+                    await ws.send(
+                        json.dumps({"id": message_id, "method": method, "params": params})
+                    )
                     while (reply := json.loads(await ws.recv())).get("id") != message_id:
                         pass
                     return reply["result"]
 
                 async def value(expression):
-                    return (await call("Runtime.evaluate", expression=expression, returnByValue=True))["result"].get("value")
+                    return (
+                        await call("Runtime.evaluate", expression=expression, returnByValue=True)
+                    )["result"].get("value")
 
                 async def wait_for(selector):
                     deadline = time.monotonic() + timeout_s
-                    while not await value(f"document.querySelector({json.dumps(selector)}) !== null"):
-                        assert time.monotonic() < deadline, f"{selector} not shown after {timeout_s} s"
+                    while not await value(
+                        f"document.querySelector({json.dumps(selector)}) !== null"
+                    ):
+                        assert time.monotonic() < deadline, (
+                            f"{selector} not shown after {timeout_s} s"
+                        )
                         await asyncio.sleep(1)
 
                 await call("Page.enable")
                 await call("Page.navigate", url=url)
                 await wait_for(".lnss-explorer-metrics")
                 before = await value("document.documentElement.outerHTML")
-                await value("[...document.querySelectorAll('button')].find(b => b.textContent.includes("
-                            "'add to comparison')).click()")
+                await value(
+                    "[...document.querySelectorAll('button')].find(b => b.textContent.includes("
+                    "'add to comparison')).click()"
+                )
                 await wait_for(".lnss-explorer-comparison")
-                await value("(s => { s.value = [...s.options].find(o => o.text === 'secular').value; "
-                            "s.dispatchEvent(new Event('change', {bubbles: true})); })([...document.querySelectorAll('select')]"
-                            ".find(s => [...s.options].some(o => o.text === 'secular')))")
+                await value(
+                    "(s => { s.value = [...s.options].find(o => o.text === 'secular').value; "
+                    "s.dispatchEvent(new Event('change', {bubbles: true})); })([...document.querySelectorAll('select')]"
+                    ".find(s => [...s.options].some(o => o.text === 'secular')))"
+                )
                 deadline = time.monotonic() + timeout_s
                 while "secular Delta-V" not in await value("document.body.innerText"):
-                    assert time.monotonic() < deadline, "choosing the secular Delta-V model changed nothing"
+                    assert time.monotonic() < deadline, (
+                        "choosing the secular Delta-V model changed nothing"
+                    )
                     await asyncio.sleep(1)
                 await asyncio.sleep(3)
                 size = (await call("Page.getLayoutMetrics"))["cssContentSize"]
-                shot = await call("Page.captureScreenshot", format="png", captureBeyondViewport=True,
-                                  clip={"x": 0, "y": 0, "width": size["width"], "height": size["height"], "scale": 1})
+                shot = await call(
+                    "Page.captureScreenshot",
+                    format="png",
+                    captureBeyondViewport=True,
+                    clip={
+                        "x": 0,
+                        "y": 0,
+                        "width": size["width"],
+                        "height": size["height"],
+                        "scale": 1,
+                    },
+                )
                 screenshot.write_bytes(base64.b64decode(shot["data"]))
                 return before, await value("document.documentElement.outerHTML")
         finally:
@@ -352,28 +462,56 @@ async def _browse(url: str, chromium: str, screenshot: Path, timeout_s: float = 
                 os.killpg(browser.pid, signal.SIGKILL)
 
 
-@pytest.mark.skipif(_chromium() is None or importlib.util.find_spec("voila") is None, reason="needs voila and Chromium")
+@pytest.mark.skipif(
+    _chromium() is None or importlib.util.find_spec("voila") is None,
+    reason="needs voila and Chromium",
+)
 def test_voila_page_shows_the_metrics(tmp_path):
     pytest.importorskip("websockets")
     port = _free_port()
-    env = {**os.environ, "PYTHONPATH": os.pathsep.join(p for p in (str(ROOT), os.environ.get("PYTHONPATH")) if p),
-           "LNSS_PNG": "off"}
+    env = {
+        **os.environ,
+        "PYTHONPATH": os.pathsep.join(p for p in (str(ROOT), os.environ.get("PYTHONPATH")) if p),
+        "LNSS_PNG": "off",
+    }
     log_path = tmp_path / "voila.log"
     with log_path.open("w") as log:
-        server = subprocess.Popen([sys.executable, "-m", "voila", "--no-browser", f"--port={port}",
-                                   "--Voila.ip=127.0.0.1", "--Voila.port_retries=0", str(NOTEBOOK)], cwd=ROOT, env=env,
-                                  stdout=log, stderr=subprocess.STDOUT)
+        server = subprocess.Popen(
+            [
+                sys.executable,
+                "-m",
+                "voila",
+                "--no-browser",
+                f"--port={port}",
+                "--Voila.ip=127.0.0.1",
+                "--Voila.port_retries=0",
+                str(NOTEBOOK),
+            ],
+            cwd=ROOT,
+            env=env,
+            stdout=log,
+            stderr=subprocess.STDOUT,
+        )
         try:
             _wait_for_port(port, server, 60)
-            before, after = asyncio.run(asyncio.wait_for(
-                _browse(f"http://127.0.0.1:{port}/", _chromium(), tmp_path / "voila.png"), timeout=420))
+            before, after = asyncio.run(
+                asyncio.wait_for(
+                    _browse(f"http://127.0.0.1:{port}/", _chromium(), tmp_path / "voila.png"),
+                    timeout=420,
+                )
+            )
         finally:
             server.terminate()
             try:
                 server.wait(timeout=20)
             except subprocess.TimeoutExpired:
                 server.kill()
-    for text in ("mean visible satellites", "PDOP (3-sigma mean)", "HDOP availability (%)", "feasible"):
+    for text in (
+        "mean visible satellites",
+        "PDOP (3-sigma mean)",
+        "HDOP availability (%)",
+        "feasible",
+    ):
         assert text in before, text
     assert "Traceback" not in after and "error</b>" not in after, log_path.read_text()[-3000:]
     assert "lnss-explorer-comparison" not in before and "lnss-explorer-comparison" in after
@@ -388,7 +526,10 @@ def test_exported_command_passes_the_command_line_checks(tmp_path):
 
     from lnss_lib.config import parse_sets
 
-    overrides = {"forces": {"relativity": False, "third_bodies": ["SUN", "EARTH"]}, "dop": {"elevation_mask_deg": 15.0}}
+    overrides = {
+        "forces": {"relativity": False, "third_bodies": ["SUN", "EARTH"]},
+        "dop": {"elevation_mask_deg": 15.0},
+    }
     explorer = DesignExplorer(PROFILE, outputs_dir=tmp_path, overrides=overrides)
     explorer.model_choice.value = "secular"
     exported = explorer.export()
@@ -413,4 +554,4 @@ def test_export_of_a_profile_file_names_the_file(tmp_path, monkeypatch):
     assert args.profile_file == str(path)
     loaded = load_settings(config.use_profile_file(args.profile_file))
     assert loaded.profile.name == "mine"
-    assert loaded.hash == explorer.context().settings.hash   # contexts are shared by hash
+    assert loaded.hash == explorer.context().settings.hash  # contexts are shared by hash

@@ -7,24 +7,51 @@ from lnss_lib.figures import frozen_family_chart, perilune_envelope
 
 
 def test_frozen_family_chart_draws_each_curve_and_orbit():
-    family = pd.DataFrame({"sma_km": [5000.0, 9000.0] * 2, "curve": ["i at e = 0.6"] * 2 + ["e at i = 56.2 deg"] * 2,
-                           "inc_deg": [53.9, 52.0, 56.2, 56.2], "ecc": [0.6, 0.6, 0.65, 0.69]})
-    orbits = pd.DataFrame({"orbit": ["A", "B"], "read_in": ["moon_op", "lunar equator"], "epoch": ["study"] * 2,
-                           "sma_km": [6143.0, 6143.0], "ecc_op": [0.6, 0.6], "inc_op_deg": [51.7, 128.3],
-                           "aop_op_deg": [90.0, 98.0], "frozen_inc_deg": [52.6, 52.6], "ecc_min": [0.58, 0.5],
-                           "ecc_max": [0.6, 0.65], "verdict": ["frozen", "librating"]})
+    family = pd.DataFrame(
+        {
+            "sma_km": [5000.0, 9000.0] * 2,
+            "curve": ["i at e = 0.6"] * 2 + ["e at i = 56.2 deg"] * 2,
+            "inc_deg": [53.9, 52.0, 56.2, 56.2],
+            "ecc": [0.6, 0.6, 0.65, 0.69],
+        }
+    )
+    orbits = pd.DataFrame(
+        {
+            "orbit": ["A", "B"],
+            "read_in": ["moon_op", "lunar equator"],
+            "epoch": ["study"] * 2,
+            "sma_km": [6143.0, 6143.0],
+            "ecc_op": [0.6, 0.6],
+            "inc_op_deg": [51.7, 128.3],
+            "aop_op_deg": [90.0, 98.0],
+            "frozen_inc_deg": [52.6, 52.6],
+            "ecc_min": [0.58, 0.5],
+            "ecc_max": [0.6, 0.65],
+            "verdict": ["frozen", "librating"],
+        }
+    )
     fig = frozen_family_chart(family, orbits, title="t")
     names = [t.name for t in fig.data]
     assert "i at e = 0.6" in names and "e at i = 56.2 deg" in names
     points = [t for t in fig.data if t.mode == "markers"]
-    assert len(points) == 4                                                   # two groups, two panels each
-    assert max(y for t in points for y in t.y if y is not None) <= 90.0       # retrograde read as 180 - i
+    assert len(points) == 4  # two groups, two panels each
+    assert (
+        max(y for t in points for y in t.y if y is not None) <= 90.0
+    )  # retrograde read as 180 - i
     bars = [t for t in fig.data if t.mode == "lines" and t.showlegend is False]
     assert {tuple(np.round(b.y[:2], 1)) for b in bars} == {(51.7, 52.6), (51.7, 52.6)}
 
 
 def test_perilune_envelope_draws_full_and_mean_per_satellite():
     t = np.linspace(0.0, 365.0, 10)
-    fig = perilune_envelope(t, np.full((2, 10), 300.0), t, np.full((2, 10), 350.0), 100.0, names=["a", "b"],
-                            floor_km=100.0, title="t")
+    fig = perilune_envelope(
+        t,
+        np.full((2, 10), 300.0),
+        t,
+        np.full((2, 10), 350.0),
+        100.0,
+        names=["a", "b"],
+        floor_km=100.0,
+        title="t",
+    )
     assert len(fig.data) == 4 and np.allclose(fig.data[1].y, 250.0)

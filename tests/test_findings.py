@@ -19,20 +19,31 @@ from lnss_lib.paper import SMALLEST_CONSTELLATION
 @pytest.fixture
 def outputs(tmp_path, monkeypatch):
     monkeypatch.setattr(lnss_lib.outputs, "OUTPUTS_DIR", tmp_path)
-    monkeypatch.setattr(export, "_png_bytes", lambda fig, width, height: None)   # HTML only: no renderer started
+    monkeypatch.setattr(
+        export, "_png_bytes", lambda fig, width, height: None
+    )  # HTML only: no renderer started
     return tmp_path
 
 
 def _evaluations(n_sat, avail, dv, dv_bound, evaluated):
     n = len(n_sat)
     return xr.Dataset(
-        {"n_sat": ("design", np.array(n_sat)), "pdop_mean_3sigma": ("design", np.full(n, 3.0)),
-         "pdop_avail_pct": ("design", np.array(avail, float)), "dv_total_kms_per_year": ("design", np.array(dv, float)),
-         "sma_km": ("design", np.arange(n) * 100.0 + 5000.0), "ecc": ("design", np.full(n, 0.5)),
-         "inc_deg": ("design", np.full(n, 60.0)), "n_planes": ("design", np.full(n, 2)),
-         "sats_per_plane": ("design", np.array(n_sat) // 2)},
-        attrs={"constraints": f"pdop_mean_3sigma <= 10,pdop_avail_pct >= 70,dv_total_kms_per_year <= {dv_bound}",
-               "n_designs_evaluated": evaluated})
+        {
+            "n_sat": ("design", np.array(n_sat)),
+            "pdop_mean_3sigma": ("design", np.full(n, 3.0)),
+            "pdop_avail_pct": ("design", np.array(avail, float)),
+            "dv_total_kms_per_year": ("design", np.array(dv, float)),
+            "sma_km": ("design", np.arange(n) * 100.0 + 5000.0),
+            "ecc": ("design", np.full(n, 0.5)),
+            "inc_deg": ("design", np.full(n, 60.0)),
+            "n_planes": ("design", np.full(n, 2)),
+            "sats_per_plane": ("design", np.array(n_sat) // 2),
+        },
+        attrs={
+            "constraints": f"pdop_mean_3sigma <= 10,pdop_avail_pct >= 70,dv_total_kms_per_year <= {dv_bound}",
+            "n_designs_evaluated": evaluated,
+        },
+    )
 
 
 @pytest.fixture
@@ -40,29 +51,57 @@ def shipped(monkeypatch):
     """Two shipped campaigns: Table 3's bound (none feasible) and the bound moved to 4.6 km/s/yr."""
     campaigns = {
         "paper": _evaluations([6, 8, 10], [95.0, 80.0, 99.0], [2.5, 1.2, 1.9], 1, evaluated=500),
-        "paper_dv_physical": _evaluations([6, 6, 6, 8, 4], [92.0, 95.0, 75.0, 99.0, 91.0],
-                                          [2.4, 2.0, 1.1, 1.5, 5.0], 4.6, evaluated=900),
+        "paper_dv_physical": _evaluations(
+            [6, 6, 6, 8, 4],
+            [92.0, 95.0, 75.0, 99.0, 91.0],
+            [2.4, 2.0, 1.1, 1.5, 5.0],
+            4.6,
+            evaluated=900,
+        ),
     }
-    monkeypatch.setattr(findings, "load_reference",
-                        lambda name: types.SimpleNamespace(evaluations=campaigns[name]) if name in campaigns else None)
+    monkeypatch.setattr(
+        findings,
+        "load_reference",
+        lambda name: (
+            types.SimpleNamespace(evaluations=campaigns[name]) if name in campaigns else None
+        ),
+    )
     return campaigns
 
 
 def test_smallest_design_is_fewest_satellites_then_cheapest():
     ds = _evaluations([8, 6, 6, 6], [90, 90, 90, 90], [0.1, 0.9, 0.5, 0.7], 1, evaluated=4)
-    assert findings.smallest_design(ds, np.array([True, True, True, True]), "dv_total_kms_per_year") == 2
-    assert findings.smallest_design(ds, np.array([True, False, False, False]), "dv_total_kms_per_year") == 0
+    assert (
+        findings.smallest_design(ds, np.array([True, True, True, True]), "dv_total_kms_per_year")
+        == 2
+    )
+    assert (
+        findings.smallest_design(ds, np.array([True, False, False, False]), "dv_total_kms_per_year")
+        == 0
+    )
     assert findings.smallest_design(ds, np.zeros(4, bool), "dv_total_kms_per_year") is None
 
 
 def test_answer_from_the_shipped_campaigns(outputs, shipped):
     answer = findings.study_answer()
     # over the paper's availability, feasible under 4.6: the 6-satellite designs at 92 % and 95 %, the cheaper wins
-    assert "6 satellites (a 5100 km" in answer.workbook and "95.0 % PDOP availability" in answer.workbook
-    assert "none of the 500 designs" in answer.workbook and "the cheapest of the 3 meeting" in answer.workbook
-    assert "costs 1.200 km/s/yr" in answer.workbook and "4 of 900 designs are feasible" in answer.workbook
+    assert (
+        "6 satellites (a 5100 km" in answer.workbook
+        and "95.0 % PDOP availability" in answer.workbook
+    )
+    assert (
+        "none of the 500 designs" in answer.workbook
+        and "the cheapest of the 3 meeting" in answer.workbook
+    )
+    assert (
+        "costs 1.200 km/s/yr" in answer.workbook
+        and "4 of 900 designs are feasible" in answer.workbook
+    )
     ratio = 2.0 / SMALLEST_CONSTELLATION["dv_below_kms_per_year"]
-    assert "2.000 km/s/yr per satellite" in answer.differs_most and f"{ratio:.1f} times" in answer.differs_most
+    assert (
+        "2.000 km/s/yr per satellite" in answer.differs_most
+        and f"{ratio:.1f} times" in answer.differs_most
+    )
     assert all(len(line) <= 100 for line in answer.markdown().splitlines())
 
 
@@ -80,26 +119,49 @@ def test_index_and_findings_open_on_the_answer_and_headline_figure(outputs, ship
     assert page.index('id="answer"') < page.index('id="findings"') < page.index('id="nb-07"')
     assert '<img class="headline" src="figures/07_fig8_hdop_pdop_deltav.png"' in page
     markdown = (outputs / "t" / findings.FINDINGS_FILE).read_text()
-    assert markdown.index("**Question.**") < markdown.index("![07_fig8_hdop_pdop_deltav]") < markdown.index("| result |")
+    assert (
+        markdown.index("**Question.**")
+        < markdown.index("![07_fig8_hdop_pdop_deltav]")
+        < markdown.index("| result |")
+    )
 
 
 def test_campaign_findings_read_the_shipped_results(outputs, shipped):
-    rows = {f.topic: f for f in findings.campaign_findings(outputs / "paper", "paper", "paper_dv_physical")}
-    assert rows["Designs meeting Table 3 (paper-faithful, paper)"].workbook == "0 of 500 unique designs"
-    assert rows["Designs meeting Table 3 (operational, paper_dv_physical)"].workbook == "4 of 900 unique designs"
-    smallest = rows["Smallest constellation (operational, paper_dv_physical)"].workbook   # the 4 is over the bound
+    rows = {
+        f.topic: f
+        for f in findings.campaign_findings(outputs / "paper", "paper", "paper_dv_physical")
+    }
+    assert (
+        rows["Designs meeting Table 3 (paper-faithful, paper)"].workbook
+        == "0 of 500 unique designs"
+    )
+    assert (
+        rows["Designs meeting Table 3 (operational, paper_dv_physical)"].workbook
+        == "4 of 900 unique designs"
+    )
+    smallest = rows[
+        "Smallest constellation (operational, paper_dv_physical)"
+    ].workbook  # the 4 is over the bound
     assert smallest.startswith("6 satellites, Delta-V total (km/s/yr) 1.100 (a 5200 km")
 
 
 def test_design_life_rows_say_what_they_count(outputs):
     import pandas as pd
 
-    table = pd.DataFrame({"region": ["Table 4 ELFO"] * 3, "life_days": [365.0] * 3,
-                          "impact_day": [np.nan, np.nan, 161.0], "sk_dv_kms_per_year": [0.2, 1.4, 0.9],
-                          "sk_dv_max_kms_per_year": [0.3, 1.6, 1.1]})
+    table = pd.DataFrame(
+        {
+            "region": ["Table 4 ELFO"] * 3,
+            "life_days": [365.0] * 3,
+            "impact_day": [np.nan, np.nan, 161.0],
+            "sk_dv_kms_per_year": [0.2, 1.4, 0.9],
+            "sk_dv_max_kms_per_year": [0.3, 1.6, 1.1],
+        }
+    )
     lnss_lib.outputs.save_table(table, "t", "08_validation", caption="validation")
     (row,) = findings.design_life_findings(outputs / "t")
     assert row.topic == "Design life: Table 4 ELFO (3 designs flown in closed loop)"
-    assert row.workbook == ("1 of 3 within 1 km/s/yr on every satellite, none lost; 2 of 3 keep every satellite "
-                            "over 365 days; the controller burned 0.200 to 1.400 km/s/yr per satellite")
+    assert row.workbook == (
+        "1 of 3 within 1 km/s/yr on every satellite, none lost; 2 of 3 keep every satellite "
+        "over 365 days; the controller burned 0.200 to 1.400 km/s/yr per satellite"
+    )
     assert "not the paper's eq. 45 Delta-V" in row.why and "lost on day 161" in row.why

@@ -10,23 +10,32 @@ import math
 import numpy as np
 import pytest
 import spiceypy as spice
+from orbit_cases import random_elements, state_from_nu
 
 from lnss_lib import frames
-from lnss_lib.settings import load_settings
 from lnss_lib.ephemeris import rotation, tdb_seconds
-from orbit_cases import random_elements, state_from_nu
+from lnss_lib.settings import load_settings
 
 
 def _spice_dynamic_frames():
     """True- and mean-of-date Earth frames of SPICE (full 106-term IAU-1980 nutation, IAU-1976 precession)."""
     pool = []
-    for code, name, family in ((1400901, "LNSS_TEST_TOD", "TRUE_EQUATOR_AND_EQUINOX_OF_DATE"),
-                               (1400902, "LNSS_TEST_MOD", "MEAN_EQUATOR_AND_EQUINOX_OF_DATE")):
-        pool += [f"FRAME_{name} = {code}", f"FRAME_{code}_NAME = '{name}'", f"FRAME_{code}_CLASS = 5",
-                 f"FRAME_{code}_CLASS_ID = {code}", f"FRAME_{code}_CENTER = 399",
-                 f"FRAME_{code}_RELATIVE = 'J2000'", f"FRAME_{code}_DEF_STYLE = 'PARAMETERIZED'",
-                 f"FRAME_{code}_FAMILY = '{family}'", f"FRAME_{code}_PREC_MODEL = 'EARTH_IAU_1976'",
-                 f"FRAME_{code}_ROTATION_STATE = 'ROTATING'"]
+    for code, name, family in (
+        (1400901, "LNSS_TEST_TOD", "TRUE_EQUATOR_AND_EQUINOX_OF_DATE"),
+        (1400902, "LNSS_TEST_MOD", "MEAN_EQUATOR_AND_EQUINOX_OF_DATE"),
+    ):
+        pool += [
+            f"FRAME_{name} = {code}",
+            f"FRAME_{code}_NAME = '{name}'",
+            f"FRAME_{code}_CLASS = 5",
+            f"FRAME_{code}_CLASS_ID = {code}",
+            f"FRAME_{code}_CENTER = 399",
+            f"FRAME_{code}_RELATIVE = 'J2000'",
+            f"FRAME_{code}_DEF_STYLE = 'PARAMETERIZED'",
+            f"FRAME_{code}_FAMILY = '{family}'",
+            f"FRAME_{code}_PREC_MODEL = 'EARTH_IAU_1976'",
+            f"FRAME_{code}_ROTATION_STATE = 'ROTATING'",
+        ]
         if "TRUE" in family:
             pool.append(f"FRAME_{code}_NUT_MODEL = 'EARTH_IAU_1980'")
     spice.lmpool(pool)
@@ -77,7 +86,12 @@ def test_precession_nutation_against_spice_frames(profile):
     _spice_dynamic_frames()
     start = tdb_seconds("2025-05-01T00:00:00")
     # The paper's epochs (where dpsi happens to be only ~0.3 arcsec) and one with dpsi ~ 17 arcsec.
-    for et in (start, start + 3.3 * 86400.0, start + 9.7 * 86400.0, tdb_seconds("2029-06-01T00:00:00")):
+    for et in (
+        start,
+        start + 3.3 * 86400.0,
+        start + 9.7 * 86400.0,
+        tdb_seconds("2029-06-01T00:00:00"),
+    ):
         tc = frames.tt_centuries(et)
         p = frames.precession_iau1976(tc)[0]
         n = frames.nutation_matrix(tc)[0]
@@ -94,9 +108,11 @@ def test_precession_nutation_against_spice_frames(profile):
         n_spice = np.asarray(spice.pxform("LNSS_TEST_MOD", "LNSS_TEST_TOD", et))
         eqe = -n_spice[0, 1]
         c, s = math.cos(eqe), math.sin(eqe)
-        teme_to_tod = np.array([[c, -s, 0.0], [s, c, 0.0], [0.0, 0.0, 1.0]])   # r_TOD = R3(-EqE) r_TEME
+        teme_to_tod = np.array(
+            [[c, -s, 0.0], [s, c, 0.0], [0.0, 0.0, 1.0]]
+        )  # r_TOD = R3(-EqE) r_TEME
         assert _angle_mas(frames.teme_to_j2000(tc)[0], tod_to_j2000 @ teme_to_tod) < bound
-    assert 2.0 * abs(eqe) * 206264806.2 > 20 * bound       # a sign error in EqE would be resolved
+    assert 2.0 * abs(eqe) * 206264806.2 > 20 * bound  # a sign error in EqE would be resolved
 
 
 def test_lunar_equator_element_frame(paper_profile, epoch_tdb_s):
@@ -108,9 +124,11 @@ def test_lunar_equator_element_frame(paper_profile, epoch_tdb_s):
     assert 20.0 < tilt_deg < 26.0  # the lunar pole is about 22 deg from the J2000 pole
     j2000 = load_settings("paper", overrides={"frames": {"element_frame": "j2000"}})
     assert np.array_equal(frames.element_frame_to_j2000(j2000.dynamics, epoch_tdb_s), np.eye(3))
-    with pytest.raises(ValueError, match="ecliptic"):        # refused when the profile loads
+    with pytest.raises(ValueError, match="ecliptic"):  # refused when the profile loads
         load_settings("paper", overrides={"frames": {"element_frame": "ecliptic"}})
-    with pytest.raises(ValueError, match="ecliptic"):        # and by the kernel, for a frame passed in code
+    with pytest.raises(
+        ValueError, match="ecliptic"
+    ):  # and by the kernel, for a frame passed in code
         frames.element_frame_to_j2000(paper_profile.dynamics, epoch_tdb_s, "ecliptic")
 
 
@@ -118,23 +136,36 @@ def test_rtn_basis_orthonormal_and_round_trip():
     rng = np.random.default_rng(3)
     states = np.stack([state_from_nu(el) for el in random_elements(rng, 20)])
     basis = frames.rtn_basis(states)
-    np.testing.assert_allclose(basis @ np.swapaxes(basis, -1, -2), np.broadcast_to(np.eye(3), basis.shape), atol=1e-14)
+    np.testing.assert_allclose(
+        basis @ np.swapaxes(basis, -1, -2), np.broadcast_to(np.eye(3), basis.shape), atol=1e-14
+    )
     np.testing.assert_allclose(np.linalg.det(basis), 1.0, atol=1e-13)
     vec = rng.normal(size=(20, 3))
     np.testing.assert_allclose(frames.from_rtn(frames.to_rtn(vec, states), states), vec, atol=1e-13)
-    np.testing.assert_allclose(frames.to_rtn(states[:, :3], states)[:, 0], np.linalg.norm(states[:, :3], axis=1))
+    np.testing.assert_allclose(
+        frames.to_rtn(states[:, :3], states)[:, 0], np.linalg.norm(states[:, :3], axis=1)
+    )
 
 
-@pytest.mark.parametrize("function, call", [("deltet", lambda real, e, kind: real(e, "NOSUCH")),
-                                            ("unitim", lambda real, e, insys, outsys: real(e, "NOSUCH", outsys))])
+@pytest.mark.parametrize(
+    "function, call",
+    [
+        ("deltet", lambda real, e, kind: real(e, "NOSUCH")),
+        ("unitim", lambda real, e, insys, outsys: real(e, "NOSUCH", outsys)),
+    ],
+)
 def test_time_scale_spice_errors_are_named(profile, monkeypatch, function, call):
     """The TDB -> UTC (deltet) and TDB -> TT (unitim) conversions raise SpiceError naming what was asked and the leap-
     second kernel, like every other SPICE call (a bare SpiceyError and its banner before)."""
     from lnss_lib.errors import SpiceError
 
     real = getattr(spice, function)
-    monkeypatch.setattr(frames.spice, function, lambda *args: call(real, *args))     # SPICE fails on the time system
+    monkeypatch.setattr(
+        frames.spice, function, lambda *args: call(real, *args)
+    )  # SPICE fails on the time system
     convert = frames.utc_julian_dates if function == "deltet" else frames.tt_centuries
-    with pytest.raises(SpiceError, match=f"SPICE could not .*\\({function}\\) .*leap-second kernel") as raised:
+    with pytest.raises(
+        SpiceError, match=f"SPICE could not .*\\({function}\\) .*leap-second kernel"
+    ) as raised:
         convert(np.array([tdb_seconds("2025-05-01T00:00:00")]))
     assert "=====" not in str(raised.value) and raised.value.code.startswith("SPICE(")

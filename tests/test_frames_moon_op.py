@@ -5,12 +5,22 @@ import pytest
 
 from lnss_lib.elements import elements_to_state, state_to_elements
 from lnss_lib.ephemeris import body_states_mci, rotation, tdb_seconds
-from lnss_lib.frames import ELEMENT_FRAMES, element_frame_to_j2000
-from lnss_lib.frames import moon_op_axes_j2000, moon_op_to_j2000
+from lnss_lib.frames import (
+    ELEMENT_FRAMES,
+    element_frame_to_j2000,
+    moon_op_axes_j2000,
+    moon_op_to_j2000,
+)
 
 # Epochs across the 18.6-year nodal cycle: the study epoch, Ely's, LuPNT's two, and two more.
-EPOCHS = ["2025-05-01T00:00:00", "2009-07-15T01:00:00", "2022-01-15T00:00:00", "2035-02-01T00:00:00",
-          "2016-03-01T00:00:00", "2030-06-01T00:00:00"]
+EPOCHS = [
+    "2025-05-01T00:00:00",
+    "2009-07-15T01:00:00",
+    "2022-01-15T00:00:00",
+    "2035-02-01T00:00:00",
+    "2016-03-01T00:00:00",
+    "2030-06-01T00:00:00",
+]
 ORTHO_TOL = 1e-12
 # Osculating inclination of the Moon's orbit to the ecliptic: mean 5.145 deg, solar perturbations
 # swing it by about +-0.15 deg; the lunar equator is 1.543 deg from the ecliptic on the other side.
@@ -20,7 +30,11 @@ OSCULATION_TOL_DEG = 0.3
 
 
 def _angle_deg(a, b):
-    return float(np.degrees(np.arccos(np.clip(np.dot(a, b) / np.linalg.norm(a) / np.linalg.norm(b), -1.0, 1.0))))
+    return float(
+        np.degrees(
+            np.arccos(np.clip(np.dot(a, b) / np.linalg.norm(a) / np.linalg.norm(b), -1.0, 1.0))
+        )
+    )
 
 
 @pytest.fixture(scope="module", params=EPOCHS)
@@ -55,8 +69,12 @@ def test_orbit_normal_is_5_deg_from_the_ecliptic_pole_and_6_7_deg_from_the_lunar
     z = moon_op_to_j2000(epoch)[:, 2]
     ecliptic_pole = rotation("ECLIPJ2000", "J2000", np.array([epoch]))[0][:, 2]
     lunar_pole = rotation("MOON_ME", "J2000", np.array([epoch]))[0][:, 2]
-    assert _angle_deg(z, ecliptic_pole) == pytest.approx(MEAN_INC_TO_ECLIPTIC_DEG, abs=OSCULATION_TOL_DEG)
-    assert _angle_deg(z, lunar_pole) == pytest.approx(MEAN_INC_TO_LUNAR_EQUATOR_DEG, abs=OSCULATION_TOL_DEG)
+    assert _angle_deg(z, ecliptic_pole) == pytest.approx(
+        MEAN_INC_TO_ECLIPTIC_DEG, abs=OSCULATION_TOL_DEG
+    )
+    assert _angle_deg(z, lunar_pole) == pytest.approx(
+        MEAN_INC_TO_LUNAR_EQUATOR_DEG, abs=OSCULATION_TOL_DEG
+    )
 
 
 def test_iau_pole_and_me_pole_give_nearly_the_same_frame(epoch):
@@ -68,14 +86,23 @@ def test_iau_pole_and_me_pole_give_nearly_the_same_frame(epoch):
 
 def test_elements_round_trip_through_the_frame(paper_profile, epoch, rng):
     gm = paper_profile.gravity.gm_km3_s2
-    el = np.column_stack([rng.uniform(3000, 20000, 20), rng.uniform(0.01, 0.7, 20), np.radians(rng.uniform(5, 175, 20)),
-                          np.radians(rng.uniform(0, 360, 20)), np.radians(rng.uniform(0, 360, 20)),
-                          np.radians(rng.uniform(0, 360, 20))])
+    el = np.column_stack(
+        [
+            rng.uniform(3000, 20000, 20),
+            rng.uniform(0.01, 0.7, 20),
+            np.radians(rng.uniform(5, 175, 20)),
+            np.radians(rng.uniform(0, 360, 20)),
+            np.radians(rng.uniform(0, 360, 20)),
+            np.radians(rng.uniform(0, 360, 20)),
+        ]
+    )
     rot = element_frame_to_j2000(paper_profile.dynamics, epoch, "moon_op")
     assert np.array_equal(rot, moon_op_to_j2000(epoch))
     s_op = elements_to_state(el, gm)
     s_j2000 = np.concatenate([s_op[:, :3] @ rot.T, s_op[:, 3:] @ rot.T], axis=1)
-    back = state_to_elements(np.concatenate([s_j2000[:, :3] @ rot, s_j2000[:, 3:] @ rot], axis=1), gm)
+    back = state_to_elements(
+        np.concatenate([s_j2000[:, :3] @ rot, s_j2000[:, 3:] @ rot], axis=1), gm
+    )
     assert np.allclose(back[:, :2], el[:, :2], rtol=1e-10)
     assert np.allclose(np.angle(np.exp(1j * (back[:, 2:] - el[:, 2:]))), 0.0, atol=1e-9)
     # the J2000 state is a different orbit description: inclinations differ by up to the frame tilt

@@ -10,11 +10,11 @@ from lnss_lib import geometry
 
 def test_filtered_means():
     values = np.concatenate([np.arange(1.0, 101.0), [np.nan]])
-    mean, kept = geometry.filtered_mean(values, "percentile95")     # 95th percentile 95.05: 1..95 kept
+    mean, kept = geometry.filtered_mean(values, "percentile95")  # 95th percentile 95.05: 1..95 kept
     assert kept == 95 and mean == pytest.approx(48.0)
     mean, kept = geometry.filtered_mean(values, "none")
     assert kept == 100 and mean == pytest.approx(50.5)
-    spiky = np.array([1.0] * 20 + [100.0])                      # the spike is > 2 sigma away
+    spiky = np.array([1.0] * 20 + [100.0])  # the spike is > 2 sigma away
     assert geometry.filtered_mean(spiky, "sigma2") == (1.0, 20)
     with pytest.raises(ValueError, match="unknown PDOP filter"):
         geometry.filtered_mean(values, "sigma9")
@@ -33,10 +33,16 @@ def test_three_sigma_filter_removes_injected_outlier():
 
 def _explicit_position_block(los, clock_column=True):
     """Position block of (G^T G)^-1 from the explicit geometry matrix, in exact rational arithmetic."""
-    rows = [[Fraction(float(x)) for x in row] + ([Fraction(1)] if clock_column else []) for row in los]
+    rows = [
+        [Fraction(float(x)) for x in row] + ([Fraction(1)] if clock_column else []) for row in los
+    ]
     k = len(rows[0])
-    h = [[sum(r[i] * r[j] for r in rows) for j in range(k)] + [Fraction(int(i == j)) for j in range(k)] for i in range(k)]
-    for c in range(k):                                   # Gauss-Jordan on [H | I]
+    h = [
+        [sum(r[i] * r[j] for r in rows) for j in range(k)]
+        + [Fraction(int(i == j)) for j in range(k)]
+        for i in range(k)
+    ]
+    for c in range(k):  # Gauss-Jordan on [H | I]
         p = next(r for r in range(c, k) if h[r][c] != 0)
         h[c], h[p] = h[p], h[c]
         h[c] = [x / h[c][c] for x in h[c]]
@@ -47,7 +53,9 @@ def _explicit_position_block(los, clock_column=True):
 
 
 def _entries_inverse(los, visible, clock_column=True):
-    n, entries = geometry.normal_matrix_entries(los[..., 0], los[..., 1], los[..., 2], visible, clock_column=clock_column)
+    n, entries = geometry.normal_matrix_entries(
+        los[..., 0], los[..., 1], los[..., 2], visible, clock_column=clock_column
+    )
     ixx, iyy, izz, ixy, ixz, iyz, ok = geometry.position_block_inverse(*entries)
     return n, np.array([[ixx, ixy, ixz], [ixy, iyy, iyz], [ixz, iyz, izz]]), ok
 
@@ -78,14 +86,18 @@ def test_centred_form_keeps_precision_for_nearly_parallel_lines_of_sight():
     w = los.sum(axis=0)
     s_uncentred = los.T @ los - np.outer(w, w) / 8
     uncentred = np.linalg.inv(s_uncentred)
-    assert abs(np.trace(uncentred) / np.trace(exact) - 1.0) > 100 * abs(np.trace(q) / np.trace(exact) - 1.0)
+    assert abs(np.trace(uncentred) / np.trace(exact) - 1.0) > 100 * abs(
+        np.trace(q) / np.trace(exact) - 1.0
+    )
 
 
 def test_singular_geometry_is_flagged():
     """Four lines of sight on one cone about z (equal elevation) leave the vertical and the clock inseparable."""
     az = np.radians([0.0, 90.0, 180.0, 270.0])
     el = np.radians(30.0)
-    los = np.stack([np.cos(el) * np.cos(az), np.cos(el) * np.sin(az), np.full(4, np.sin(el))], axis=1)
+    los = np.stack(
+        [np.cos(el) * np.cos(az), np.cos(el) * np.sin(az), np.full(4, np.sin(el))], axis=1
+    )
     _, _, ok = _entries_inverse(los, np.ones(4, bool))
     assert not ok
     _, _, ok_without_clock = _entries_inverse(los, np.ones(4, bool), clock_column=False)
@@ -109,7 +121,9 @@ def test_dop_and_gps_share_one_pdop():
 
 def test_compiled_statistics_match_numpy_filters():
     rng = np.random.default_rng(3)
-    values = np.abs(rng.standard_cauchy((50, 12))) + 1.0       # heavy tail: the 3-sigma filter drops samples
+    values = (
+        np.abs(rng.standard_cauchy((50, 12))) + 1.0
+    )  # heavy tail: the 3-sigma filter drops samples
     values[0, :3] = np.nan
     values[1, 4] = np.inf
     weights = rng.uniform(0.5, 2.0, 12)
@@ -131,14 +145,28 @@ def test_singularity_decision_is_the_powers_without_computing_it_away_from_the_t
     test) from t * t * t outside a 1e-14 band around the threshold: the same answer as the power on determinants
     one ulp either side of the threshold, in the band, far from it, and on zero, negative and non-finite inputs."""
     rng = np.random.default_rng(5)
-    t_values = np.concatenate([10.0 ** rng.uniform(-120, 120, 400), [0.0, 1.0, 1e-90, 1e90, np.inf, np.nan]])
+    t_values = np.concatenate(
+        [10.0 ** rng.uniform(-120, 120, 400), [0.0, 1.0, 1e-90, 1e90, np.inf, np.nan]]
+    )
     cases = 0
-    with np.errstate(over="ignore"):                 # t ** 3.0 overflows to inf past 1e103: a case under test
-        thresholds = [geometry.SINGULAR_RTOL * t ** 3.0 for t in t_values]
+    with np.errstate(over="ignore"):  # t ** 3.0 overflows to inf past 1e103: a case under test
+        thresholds = [geometry.SINGULAR_RTOL * t**3.0 for t in t_values]
     for t, threshold in zip(t_values, thresholds):
-        dets = [threshold, np.nextafter(threshold, np.inf), np.nextafter(threshold, -np.inf), threshold * (1 + 3e-15),
-                threshold * (1 - 3e-15), threshold * (1 + 1e-13), threshold * (1 - 1e-13), 2 * threshold, -threshold,
-                0.0, np.nan, np.inf, -np.inf]
+        dets = [
+            threshold,
+            np.nextafter(threshold, np.inf),
+            np.nextafter(threshold, -np.inf),
+            threshold * (1 + 3e-15),
+            threshold * (1 - 3e-15),
+            threshold * (1 + 1e-13),
+            threshold * (1 - 1e-13),
+            2 * threshold,
+            -threshold,
+            0.0,
+            np.nan,
+            np.inf,
+            -np.inf,
+        ]
         for det in dets:
             assert geometry._regular(det, t) == (det > threshold), (det, t)
             cases += 1

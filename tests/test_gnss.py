@@ -29,8 +29,10 @@ def test_nominal_slots_reproduce_the_published_periods(shells):
     GLONASS's the ICD's 11 h 15 min 44 s; the Walker patterns have their published sizes."""
     for shell in shells:
         period = float(gnss.nodal_period_s(shell.sma_km, shell.inc_deg))
-        assert abs(period - float(gnss.repeat_period_s(shell.sma_km, shell.inc_deg, *shell.repeat))) < ONE_SECOND, \
-            (shell.system, shell.kind)
+        assert (
+            abs(period - float(gnss.repeat_period_s(shell.sma_km, shell.inc_deg, *shell.repeat)))
+            < ONE_SECOND
+        ), (shell.system, shell.kind)
         if math.isfinite(shell.published_period_s):
             assert abs(period - shell.published_period_s) < ONE_SECOND, shell.system
     sizes = {}
@@ -39,7 +41,7 @@ def test_nominal_slots_reproduce_the_published_periods(shells):
     assert sizes == {"galileo": 24, "beidou": 30, "glonass": 24}
     galileo = next(s for s in shells if s.system == "galileo")
     assert sorted(set(np.round(galileo.raan_deg, 9))) == [0.0, 120.0, 240.0]
-    assert galileo.sma_km == 29600.318                                  # the published radius, not solved
+    assert galileo.sma_km == 29600.318  # the published radius, not solved
 
 
 def test_kepler_j2_keeps_the_radius_and_returns_after_a_draconic_period(shells):
@@ -50,10 +52,12 @@ def test_kepler_j2_keeps_the_radius_and_returns_after_a_draconic_period(shells):
     # after one draconic period every slot is back at its argument of latitude: the same height above the equator
     np.testing.assert_allclose(r[:, 2, 2], r[:, 0, 2], atol=1e-6 * meo.sma_km)
     raan_dot, _ = gnss.secular_rates(meo.sma_km, meo.inc_deg)
-    node = np.cross(r[0, 0], r[0, 1])                                   # the orbit normal at t = 0 and later
+    node = np.cross(r[0, 0], r[0, 1])  # the orbit normal at t = 0 and later
     later = np.cross(r[0, 2], gnss.nominal_positions_teme([meo], [1.25 * period])[0, 0])
-    turned = math.atan2(later[1] * node[0] - later[0] * node[1], later[0] * node[0] + later[1] * node[1])
-    assert turned == pytest.approx(raan_dot * period, rel=1e-6)         # the node regresses at the J2 rate
+    turned = math.atan2(
+        later[1] * node[0] - later[0] * node[1], later[0] * node[0] + later[1] * node[1]
+    )
+    assert turned == pytest.approx(raan_dot * period, rel=1e-6)  # the node regresses at the J2 rate
 
 
 def _centred_scatter(los, system, n_systems):
@@ -61,8 +65,14 @@ def _centred_scatter(los, system, n_systems):
     scatter = np.zeros((1, n_systems, 6))
     for s in range(n_systems):
         d = los[system == s] - los[system == s].mean(axis=0)
-        scatter[0, s] = [d[:, 0] @ d[:, 0], d[:, 1] @ d[:, 1], d[:, 2] @ d[:, 2], d[:, 0] @ d[:, 1],
-                         d[:, 0] @ d[:, 2], d[:, 1] @ d[:, 2]]
+        scatter[0, s] = [
+            d[:, 0] @ d[:, 0],
+            d[:, 1] @ d[:, 1],
+            d[:, 2] @ d[:, 2],
+            d[:, 0] @ d[:, 1],
+            d[:, 0] @ d[:, 2],
+            d[:, 1] @ d[:, 2],
+        ]
     return counts, scatter
 
 
@@ -76,12 +86,20 @@ def test_one_clock_per_system_is_the_direct_inverse():
     counts, scatter = _centred_scatter(los, system, 3)
     g = np.hstack([los, (system[:, None] == np.arange(3)[None]).astype(float)])
     direct = math.sqrt(np.trace(np.linalg.inv(g.T @ g)[:3, :3]))
-    assert gnss.combined_pdop(counts, scatter, ("a", "b", "c"), ("a", "b", "c"))[0] == pytest.approx(direct, rel=1e-10)
+    assert gnss.combined_pdop(counts, scatter, ("a", "b", "c"), ("a", "b", "c"))[
+        0
+    ] == pytest.approx(direct, rel=1e-10)
     alone = gnss.combined_pdop(counts, scatter, ("a", "b", "c"), ("a",))[0]
     assert alone == pytest.approx(float(gps.pdop_kernel(los[:4], np.ones(4, bool))), rel=1e-12)
     # 4 satellites of one system and 1 of another: 5 unknowns, 5 equations; 2 + 2: too few
-    assert np.isfinite(gnss.combined_pdop(counts[:, :2] * [[1, 0]] + [[0, 1]], scatter[:, :2], ("a", "b"), ("a", "b")))
-    assert np.isnan(gnss.combined_pdop(np.array([[2, 2]]), scatter[:, :2], ("a", "b"), ("a", "b"))[0])
+    assert np.isfinite(
+        gnss.combined_pdop(
+            counts[:, :2] * [[1, 0]] + [[0, 1]], scatter[:, :2], ("a", "b"), ("a", "b")
+        )
+    )
+    assert np.isnan(
+        gnss.combined_pdop(np.array([[2, 2]]), scatter[:, :2], ("a", "b"), ("a", "b"))[0]
+    )
     with pytest.raises(ValueError, match="not among"):
         gnss.combined_pdop(counts, scatter, ("a", "b", "c"), ("d",))
 
@@ -92,8 +110,11 @@ def elfo(ci_profile):
     from lnss_lib.propagator import propagate_elements
 
     profile = ci_profile
-    prop = propagate_elements(profile.dynamics, profile.epoch, standalone_elfo(profile.standalone_elfo,
-                                                                                profile.dynamics)[:1])
+    prop = propagate_elements(
+        profile.dynamics,
+        profile.epoch,
+        standalone_elfo(profile.standalone_elfo, profile.dynamics)[:1],
+    )
     every = dataclasses.replace(profile.gnss, systems=ALL)
     states = gnss.gnss_states_mci(every, profile.gps, profile.epoch.start_tdb, prop["time"].values)
     return profile, prop, every, states
@@ -105,27 +126,56 @@ def test_gps_alone_is_the_gps_link(elfo):
     profile, prop, every, _ = elfo
     only = dataclasses.replace(every, systems=("gps",))
     states = gnss.gnss_states_mci(only, profile.gps, profile.epoch.start_tdb, prop["time"].values)
-    counts, scatter = gnss.gnss_link_arrays(profile.gps, profile.constants, states,
-                                            gnss.system_transmitters(only, profile.gps, states),
-                                            prop["r_mci_km"].values[0])
-    link = gps.gps_link(profile.gps, profile.constants,
-                        gps.gps_states_mci(profile.gps, profile.epoch.start_tdb, prop["time"].values), prop)
+    counts, scatter = gnss.gnss_link_arrays(
+        profile.gps,
+        profile.constants,
+        states,
+        gnss.system_transmitters(only, profile.gps, states),
+        prop["r_mci_km"].values[0],
+    )
+    link = gps.gps_link(
+        profile.gps,
+        profile.constants,
+        gps.gps_states_mci(profile.gps, profile.epoch.start_tdb, prop["time"].values),
+        prop,
+    )
     assert np.array_equal(counts[:, 0], link["n_visible"].values[0])
-    np.testing.assert_allclose(gnss.combined_pdop(counts, scatter, ("gps",), ("gps",)), link["pdop"].values[0],
-                               rtol=1e-9, equal_nan=True)
+    np.testing.assert_allclose(
+        gnss.combined_pdop(counts, scatter, ("gps",), ("gps",)),
+        link["pdop"].values[0],
+        rtol=1e-9,
+        equal_nan=True,
+    )
 
 
 def test_adding_systems_never_lowers_the_count(elfo):
     profile, prop, every, states = elfo
     tx = gnss.system_transmitters(every, profile.gps, states)
-    counts, scatter = gnss.gnss_link_arrays(profile.gps, profile.constants, states, tx, prop["r_mci_km"].values[0])
-    gps_only = gps.gps_link(profile.gps, profile.constants,
-                            gps.gps_states_mci(profile.gps, profile.epoch.start_tdb, prop["time"].values), prop)
-    assert np.array_equal(counts[:, 0], gps_only["n_visible"].values[0])        # GPS's own links unchanged
+    counts, scatter = gnss.gnss_link_arrays(
+        profile.gps, profile.constants, states, tx, prop["r_mci_km"].values[0]
+    )
+    gps_only = gps.gps_link(
+        profile.gps,
+        profile.constants,
+        gps.gps_states_mci(profile.gps, profile.epoch.start_tdb, prop["time"].values),
+        prop,
+    )
+    assert np.array_equal(
+        counts[:, 0], gps_only["n_visible"].values[0]
+    )  # GPS's own links unchanged
     assert np.all(counts.sum(axis=1) >= counts[:, 0]) and counts[:, 1:].sum() > 0
-    summary = gnss.gnss_link_summary(counts, scatter, ALL, {"gps+galileo": ("gps", "galileo"), "all": ALL},
-                                     profile.gps.pdop_filter)
-    assert summary["gps"]["visible_mean"] <= summary["gps+galileo"]["visible_mean"] <= summary["all"]["visible_mean"]
+    summary = gnss.gnss_link_summary(
+        counts,
+        scatter,
+        ALL,
+        {"gps+galileo": ("gps", "galileo"), "all": ALL},
+        profile.gps.pdop_filter,
+    )
+    assert (
+        summary["gps"]["visible_mean"]
+        <= summary["gps+galileo"]["visible_mean"]
+        <= summary["all"]["visible_mean"]
+    )
     assert summary["all"]["pdop_available_fraction"] >= summary["gps"]["pdop_available_fraction"]
 
 
@@ -139,13 +189,21 @@ def _behind_the_earth(states: xr.Dataset, r_lnss_mci_km: np.ndarray, n: int = 5)
     offsets = np.linspace(-2000.0, 2000.0, n)
     r_eci = -26000.0 * e_hat[None] + offsets[:, None, None] * side[None]
     rot = states["rot_teme_to_j2000"].values
-    extra = xr.Dataset({"r_eci_km": (("sat", "time", "xyz"), r_eci),
-                        "r_mci_km": (("sat", "time", "xyz"), r_eci + earth[None]),
-                        "r_teme_km": (("sat", "time", "xyz"), np.einsum("tji,gtj->gti", rot, r_eci))},
-                       coords={"sat": states.sizes["sat"] + np.arange(n), "system": ("sat", ["glonass"] * n),
-                               "name": ("sat", [f"hidden {k}" for k in range(n)])})
+    extra = xr.Dataset(
+        {
+            "r_eci_km": (("sat", "time", "xyz"), r_eci),
+            "r_mci_km": (("sat", "time", "xyz"), r_eci + earth[None]),
+            "r_teme_km": (("sat", "time", "xyz"), np.einsum("tji,gtj->gti", rot, r_eci)),
+        },
+        coords={
+            "sat": states.sizes["sat"] + np.arange(n),
+            "system": ("sat", ["glonass"] * n),
+            "name": ("sat", [f"hidden {k}" for k in range(n)]),
+        },
+    )
     return xr.concat([states[["r_eci_km", "r_mci_km", "r_teme_km"]], extra], dim="sat").assign(
-        earth_mci_km=states["earth_mci_km"], rot_teme_to_j2000=states["rot_teme_to_j2000"])
+        earth_mci_km=states["earth_mci_km"], rot_teme_to_j2000=states["rot_teme_to_j2000"]
+    )
 
 
 def test_a_system_behind_the_earth_adds_nothing(elfo):
@@ -153,13 +211,22 @@ def test_a_system_behind_the_earth_adds_nothing(elfo):
     pair = dataclasses.replace(every, systems=("gps", "glonass"))
     r_lnss = prop["r_mci_km"].values[0]
     only = dataclasses.replace(every, systems=("gps",))
-    states = _behind_the_earth(gnss.gnss_states_mci(only, profile.gps, profile.epoch.start_tdb,
-                                                    prop["time"].values), r_lnss)
-    counts, scatter = gnss.gnss_link_arrays(profile.gps, profile.constants, states,
-                                            gnss.system_transmitters(pair, profile.gps, states), r_lnss)
+    states = _behind_the_earth(
+        gnss.gnss_states_mci(only, profile.gps, profile.epoch.start_tdb, prop["time"].values),
+        r_lnss,
+    )
+    counts, scatter = gnss.gnss_link_arrays(
+        profile.gps,
+        profile.constants,
+        states,
+        gnss.system_transmitters(pair, profile.gps, states),
+        r_lnss,
+    )
     assert not counts[:, 1].any()
     pdop_pair = gnss.combined_pdop(counts, scatter, pair.systems, pair.systems)
-    assert np.array_equal(pdop_pair, gnss.combined_pdop(counts, scatter, pair.systems, ("gps",)), equal_nan=True)
+    assert np.array_equal(
+        pdop_pair, gnss.combined_pdop(counts, scatter, pair.systems, ("gps",)), equal_nan=True
+    )
 
 
 def test_each_system_keeps_the_gps_margin_over_its_icd_minimum(elfo):
@@ -173,18 +240,39 @@ def test_each_system_keeps_the_gps_margin_over_its_icd_minimum(elfo):
 
     def margin(sma_km, elevation_deg, eirp_rx_db, scale, fsl_per_km, p_min_dbw):
         e = math.radians(elevation_deg)
-        d = math.sqrt(sma_km ** 2 - (WGS84_A_KM * math.cos(e)) ** 2) - WGS84_A_KM * math.sin(e)
+        d = math.sqrt(sma_km**2 - (WGS84_A_KM * math.cos(e)) ** 2) - WGS84_A_KM * math.sin(e)
         eta = math.degrees(math.asin(WGS84_A_KM * math.cos(e) / sma_km))
-        return eirp_rx_db - cfg.g_rx_dbi + float(gain(scale * eta)) - 20 * math.log10(fsl_per_km * d) - p_min_dbw
+        return (
+            eirp_rx_db
+            - cfg.g_rx_dbi
+            + float(gain(scale * eta))
+            - 20 * math.log10(fsl_per_km * d)
+            - p_min_dbw
+        )
 
     ref = every.gps
-    expected = margin(ref.sma_km, ref.edge_elevation_deg, tx.eirp_rx_db[0], 1.0, tx.fsl_per_km[0],
-                      ref.min_received_power_dbw)
-    assert tx.angle_scale[0] == 1.0 and tx.eirp_rx_db[0] == cfg.p_tx_dbw - cfg.l_tx_db - cfg.l_pol_db + cfg.g_rx_dbi
+    expected = margin(
+        ref.sma_km,
+        ref.edge_elevation_deg,
+        tx.eirp_rx_db[0],
+        1.0,
+        tx.fsl_per_km[0],
+        ref.min_received_power_dbw,
+    )
+    assert (
+        tx.angle_scale[0] == 1.0
+        and tx.eirp_rx_db[0] == cfg.p_tx_dbw - cfg.l_tx_db - cfg.l_pol_db + cfg.g_rx_dbi
+    )
     for k in np.flatnonzero(states["system"].values != "gps"):
         system = getattr(every, str(states["system"].values[k]))
-        assert margin(radius[k], system.edge_elevation_deg, tx.eirp_rx_db[k], tx.angle_scale[k], tx.fsl_per_km[k],
-                      system.min_received_power_dbw) == pytest.approx(expected, abs=1e-9)
+        assert margin(
+            radius[k],
+            system.edge_elevation_deg,
+            tx.eirp_rx_db[k],
+            tx.angle_scale[k],
+            tx.fsl_per_km[k],
+            system.min_received_power_dbw,
+        ) == pytest.approx(expected, abs=1e-9)
 
 
 def test_gps_only_evaluation_unchanged_and_every_system_reported(ci_profile):
@@ -205,7 +293,9 @@ def test_gps_only_evaluation_unchanged_and_every_system_reported(ci_profile):
             assert after[key] == value or (value != value and after[key] != after[key]), key
     assert after["gnss_gps_visible_mean"] == before["gps_visible_mean"]
     assert after["gnss_gps_pdop_mean"] == pytest.approx(before["gps_pdop_mean"], rel=1e-9)
-    assert after["gnss_visible_mean"] == pytest.approx(sum(after[f"gnss_{s}_visible_mean"] for s in ALL), rel=1e-12)
+    assert after["gnss_visible_mean"] == pytest.approx(
+        sum(after[f"gnss_{s}_visible_mean"] for s in ALL), rel=1e-12
+    )
     assert after["gnss_pdop_mean"] < after["gps_pdop_mean"]
 
 
@@ -215,20 +305,42 @@ def test_evaluate_json_reports_each_system_and_the_combination(capsys):
     from lnss_lib.__main__ import main
     from lnss_lib.keys import gnss_metric_keys, label
 
-    walker = ["--sma-km", "6143", "--ecc", "0.6", "--aop-deg", "90", "--inc-deg", "51.7", "--planes", "2",
-              "--sats-per-plane", "2", "--profile", "ci", "--json"]
+    walker = [
+        "--sma-km",
+        "6143",
+        "--ecc",
+        "0.6",
+        "--aop-deg",
+        "90",
+        "--inc-deg",
+        "51.7",
+        "--planes",
+        "2",
+        "--sats-per-plane",
+        "2",
+        "--profile",
+        "ci",
+        "--json",
+    ]
     assert main(["evaluate", *walker, "--set", 'gnss.systems=["gps", "galileo"]']) == 0
     result = json.loads(capsys.readouterr().out)
-    assert gnss_metric_keys(("gps",)) == () and set(gnss_metric_keys(("gps", "galileo"))) <= set(result)
-    assert result["gnss_visible_mean"] == pytest.approx(result["gnss_gps_visible_mean"]
-                                                        + result["gnss_galileo_visible_mean"], rel=1e-12)
+    assert gnss_metric_keys(("gps",)) == () and set(gnss_metric_keys(("gps", "galileo"))) <= set(
+        result
+    )
+    assert result["gnss_visible_mean"] == pytest.approx(
+        result["gnss_gps_visible_mean"] + result["gnss_galileo_visible_mean"], rel=1e-12
+    )
     assert result["gnss_gps_visible_mean"] == result["gps_visible_mean"]
-    assert label("gnss_beidou_pdop_mean").startswith("BeiDou-3-LNSS PDOP") and label("gnss_x_pdop_mean") == \
-        "gnss_x_pdop_mean"
+    assert (
+        label("gnss_beidou_pdop_mean").startswith("BeiDou-3-LNSS PDOP")
+        and label("gnss_x_pdop_mean") == "gnss_x_pdop_mean"
+    )
 
 
-@pytest.mark.parametrize("systems, message", [(["gps", "gps"], "distinct"), (["gps", "compass"], "not allowed"),
-                                              ([], "at least one")])
+@pytest.mark.parametrize(
+    "systems, message",
+    [(["gps", "gps"], "distinct"), (["gps", "compass"], "not allowed"), ([], "at least one")],
+)
 def test_bad_systems_are_refused(systems, message):
     with pytest.raises(ConfigError, match=message):
         load_settings("ci", {"gnss": {"systems": systems}})
@@ -236,8 +348,10 @@ def test_bad_systems_are_refused(systems, message):
 
 def test_bad_nominal_slots_are_refused(tmp_path):
     bad = tmp_path / "slots.toml"
-    bad.write_text('[galileo]\n[[galileo.shell]]\nkind = "MEO"\nwalker = [24, 5, 1]\ninc_deg = 56.0\n'
-                   'sma_km = 29600.0\nrepeat = [17, 10]\n')
+    bad.write_text(
+        '[galileo]\n[[galileo.shell]]\nkind = "MEO"\nwalker = [24, 5, 1]\ninc_deg = 56.0\n'
+        "sma_km = 29600.0\nrepeat = [17, 10]\n"
+    )
     with pytest.raises(ConfigError, match="multiple of P"):
         gnss.load_nominal_slots(bad, ["galileo"])
     with pytest.raises(ConfigError, match="no \\[\\[beidou.shell\\]\\]"):

@@ -15,7 +15,9 @@ from lnss_lib import kernel_cache_dir, source_digest
 
 def test_cache_folder_is_keyed_by_every_source(tmp_path):
     root = tmp_path / "pkg"
-    shutil.copytree(os.path.dirname(lnss_lib.__file__), root, ignore=shutil.ignore_patterns("__pycache__"))
+    shutil.copytree(
+        os.path.dirname(lnss_lib.__file__), root, ignore=shutil.ignore_patterns("__pycache__")
+    )
     before = source_digest(root)
     gravity = root / "gravity.py"
     gravity.write_text(gravity.read_text() + "\n# a change in a module that others inline\n")
@@ -26,11 +28,17 @@ def test_cache_folder_is_keyed_by_every_source(tmp_path):
 def test_this_process_and_its_children_use_the_keyed_folder():
     keyed = os.environ["NUMBA_CACHE_DIR"]
     assert keyed == kernel_cache_dir() and os.path.basename(keyed) == source_digest(
-        __import__("pathlib").Path(lnss_lib.__file__).parent)
+        __import__("pathlib").Path(lnss_lib.__file__).parent
+    )
     assert numba.core.config.CACHE_DIR == keyed
-    child = subprocess.run([sys.executable, "-c", "import lnss_lib, os; print(os.environ['NUMBA_CACHE_DIR'])"],
-                           capture_output=True, text=True, check=True, env=os.environ.copy())
-    assert child.stdout.strip() == keyed                 # inherited parent, keyed once, not nested
+    child = subprocess.run(
+        [sys.executable, "-c", "import lnss_lib, os; print(os.environ['NUMBA_CACHE_DIR'])"],
+        capture_output=True,
+        text=True,
+        check=True,
+        env=os.environ.copy(),
+    )
+    assert child.stdout.strip() == keyed  # inherited parent, keyed once, not nested
 
 
 CHILD = """
@@ -51,8 +59,12 @@ def test_kernels_loaded_from_the_cache_give_the_bits_of_a_fresh_compile(tmp_path
     clone compiles them: both must give the same bits (with the full fastmath set in the gravity kernels they did
     not: these 16 satellites, the Table 3 designs where it showed, drifted apart by up to 3e-5 relative in 10 days)."""
     env = {**os.environ, "LNSS_NUMBA_CACHE_PARENT": str(tmp_path / "numba")}
-    runs = [subprocess.run([sys.executable, "-c", CHILD], capture_output=True, text=True, env=env, timeout=600)
-            for _ in range(2)]                           # the first compiles and fills the cache, the second loads it
+    runs = [
+        subprocess.run(
+            [sys.executable, "-c", CHILD], capture_output=True, text=True, env=env, timeout=600
+        )
+        for _ in range(2)
+    ]  # the first compiles and fills the cache, the second loads it
     for run in runs:
         assert run.returncode == 0, run.stderr[-2000:]
     assert (tmp_path / "numba").is_dir() and any((tmp_path / "numba").rglob("*.nbi"))
@@ -69,14 +81,32 @@ def test_kernels_are_compiled_for_one_named_processor_where_it_can_run():
         assert numba.core.config.CPU_NAME is None
         return
     assert numba.core.config.CPU_NAME == name and os.environ["NUMBA_CPU_NAME"] == name
-    assert cpu_target.target_context.codegen().magic_tuple()[1] == name      # numba's cache is keyed by it too
-    child = subprocess.run([sys.executable, "-c", "import lnss_lib, numba.core.config as c; print(c.CPU_NAME)"],
-                           capture_output=True, text=True, check=True, env=os.environ.copy())
+    assert (
+        cpu_target.target_context.codegen().magic_tuple()[1] == name
+    )  # numba's cache is keyed by it too
+    child = subprocess.run(
+        [sys.executable, "-c", "import lnss_lib, numba.core.config as c; print(c.CPU_NAME)"],
+        capture_output=True,
+        text=True,
+        check=True,
+        env=os.environ.copy(),
+    )
     assert child.stdout.strip() == name
-    bare = {k: v for k, v in os.environ.items() if k not in ("NUMBA_CPU_NAME", "NUMBA_CPU_FEATURES")}
-    numba_first = subprocess.run([sys.executable, "-c", "import numba.core.config as c; import lnss_lib; "
-                                  "print(c.CPU_NAME, repr(c.CPU_FEATURES))"],
-                                 capture_output=True, text=True, check=True, env=bare)   # a notebook that imported numba
+    bare = {
+        k: v for k, v in os.environ.items() if k not in ("NUMBA_CPU_NAME", "NUMBA_CPU_FEATURES")
+    }
+    numba_first = subprocess.run(
+        [
+            sys.executable,
+            "-c",
+            "import numba.core.config as c; import lnss_lib; "
+            "print(c.CPU_NAME, repr(c.CPU_FEATURES))",
+        ],
+        capture_output=True,
+        text=True,
+        check=True,
+        env=bare,
+    )  # a notebook that imported numba
     assert numba_first.stdout.split() == [name, "''"]
 
 
@@ -104,14 +134,25 @@ def test_a_processor_model_this_machine_cannot_run_is_refused(monkeypatch):
     host_features = llvm.get_host_cpu_features()
     monkeypatch.setenv("NUMBA_CPU_NAME", lnss_lib.KERNEL_CPU)
     monkeypatch.setattr(llvm, "get_host_cpu_features", lambda: {"avx2": True, "avx": True})
-    with pytest.raises(ConfigError, match="NUMBA_CPU_NAME=skylake-avx512 names a processor model .* lacks avx512f"):
+    with pytest.raises(
+        ConfigError, match="NUMBA_CPU_NAME=skylake-avx512 names a processor model .* lacks avx512f"
+    ):
         lnss_lib.kernel_cpu()
     monkeypatch.setenv("NUMBA_CPU_NAME", "znver4")
     with pytest.raises(ConfigError, match="lacks avx512f,"):
         lnss_lib.kernel_cpu()
-    monkeypatch.setenv("NUMBA_CPU_NAME", "haswell")           # no AVX-512 needed: taken as named
+    monkeypatch.setenv("NUMBA_CPU_NAME", "haswell")  # no AVX-512 needed: taken as named
     assert lnss_lib.kernel_cpu() == "haswell"
-    if not host_features.get("avx512f", False):               # this machine cannot run the model: the command line
-        done = subprocess.run([sys.executable, "-m", "lnss_lib", "evaluate", "--help"], cwd=PROJECT_DIR,
-                              capture_output=True, text=True, env={**os.environ, "NUMBA_CPU_NAME": "skylake-avx512"})
-        assert done.returncode == 2 and done.stderr.count("\n") == 1 and "lacks avx512f" in done.stderr, done.stderr
+    if not host_features.get(
+        "avx512f", False
+    ):  # this machine cannot run the model: the command line
+        done = subprocess.run(
+            [sys.executable, "-m", "lnss_lib", "evaluate", "--help"],
+            cwd=PROJECT_DIR,
+            capture_output=True,
+            text=True,
+            env={**os.environ, "NUMBA_CPU_NAME": "skylake-avx512"},
+        )
+        assert (
+            done.returncode == 2 and done.stderr.count("\n") == 1 and "lacks avx512f" in done.stderr
+        ), done.stderr

@@ -19,20 +19,49 @@ import subprocess
 import sys
 from pathlib import Path
 
-
 PACKAGE = "lnss_lib"
 PACKAGE_DIR = Path(__file__).resolve().parents[1] / PACKAGE
-FOUNDATIONS = {"config", "dates", "sections", "settings", "constants", "paper", "keys", "errors", "atomicio", "progress", "provenance"}
+FOUNDATIONS = {
+    "config",
+    "dates",
+    "sections",
+    "settings",
+    "constants",
+    "paper",
+    "keys",
+    "errors",
+    "atomicio",
+    "progress",
+    "provenance",
+}
 CAMPAIGN = {"campaign"}
 PRESENTATION = {"outputs", "pipeline", "findings", "figures", "studies", "explorer"}
 TOP = {"__main__", "cli", "bench"}
-KERNEL_PACKAGES = {"design_life"}                # layer-2 packages (a subject spread over several modules)
-DESIGN_LIFE_MODULES = ("screen", "estimate", "manoeuvres", "mean_elements", "control", "service", "propagation",
-                       "closed_loop", "evaluation", "frozen")
-LAYER_NAMES = {1: "foundations", 2: "kernels", 3: "campaign", 4: "presentation/studies", 5: "command line/bench"}
+KERNEL_PACKAGES = {"design_life"}  # layer-2 packages (a subject spread over several modules)
+DESIGN_LIFE_MODULES = (
+    "screen",
+    "estimate",
+    "manoeuvres",
+    "mean_elements",
+    "control",
+    "service",
+    "propagation",
+    "closed_loop",
+    "evaluation",
+    "frozen",
+)
+LAYER_NAMES = {
+    1: "foundations",
+    2: "kernels",
+    3: "campaign",
+    4: "presentation/studies",
+    5: "command line/bench",
+}
 HEAVY_FOR_KERNELS = {"pandas", "plotly", "pymoo", "dask", "distributed", "papermill"}
-FRONT_ENDS = {"studies", "figures"}          # imported only by the top layer (and notebooks, tests)
-FRONT_END_CONSUMERS = TOP | {"explorer"}     # explorer: notebook 09's widgets, a notebook in module form
+FRONT_ENDS = {"studies", "figures"}  # imported only by the top layer (and notebooks, tests)
+FRONT_END_CONSUMERS = TOP | {
+    "explorer"
+}  # explorer: notebook 09's widgets, a notebook in module form
 
 
 def layer_of(module: str) -> int:
@@ -41,7 +70,7 @@ def layer_of(module: str) -> int:
     if parts[0] != PACKAGE:
         raise ValueError(f"{module!r} is not in {PACKAGE}")
     if len(parts) == 1:
-        return 1                                # lnss_lib/__init__.py: metadata only
+        return 1  # lnss_lib/__init__.py: metadata only
     top = parts[1]
     if top in FOUNDATIONS:
         return 1
@@ -99,17 +128,26 @@ def imports_of(module: str, path: Path, known: set[str]) -> dict[str, set[str]]:
     return {"internal": internal, "external": external}
 
 
-def import_graph(package_dir: Path = PACKAGE_DIR) -> tuple[dict[str, set[str]], dict[str, set[str]]]:
+def import_graph(
+    package_dir: Path = PACKAGE_DIR,
+) -> tuple[dict[str, set[str]], dict[str, set[str]]]:
     """(internal imports, third-party top-level imports) of every module."""
     files = module_files(package_dir)
     parsed = {m: imports_of(m, p, set(files)) for m, p in files.items()}
-    return {m: d["internal"] for m, d in parsed.items()}, {m: d["external"] for m, d in parsed.items()}
+    return {m: d["internal"] for m, d in parsed.items()}, {
+        m: d["external"] for m, d in parsed.items()
+    }
 
 
 def upward_imports(graph: dict[str, set[str]]) -> list[str]:
     """Imports from a higher layer, as readable lines."""
-    return [f"{m} (layer {layer_of(m)}, {LAYER_NAMES[layer_of(m)]}) imports {t} (layer {layer_of(t)}, "
-            f"{LAYER_NAMES[layer_of(t)]})" for m in sorted(graph) for t in sorted(graph[m]) if layer_of(t) > layer_of(m)]
+    return [
+        f"{m} (layer {layer_of(m)}, {LAYER_NAMES[layer_of(m)]}) imports {t} (layer {layer_of(t)}, "
+        f"{LAYER_NAMES[layer_of(t)]})"
+        for m in sorted(graph)
+        for t in sorted(graph[m])
+        if layer_of(t) > layer_of(m)
+    ]
 
 
 def import_cycles(graph: dict[str, set[str]]) -> list[list[str]]:
@@ -145,8 +183,11 @@ def import_cycles(graph: dict[str, set[str]]) -> list[list[str]]:
 
 def heavy_kernel_imports(external: dict[str, set[str]]) -> list[str]:
     """Foundations and kernels that import pandas, plotly, pymoo, Dask or papermill."""
-    return [f"{m} (layer {layer_of(m)}) imports {', '.join(sorted(external[m] & HEAVY_FOR_KERNELS))}"
-            for m in sorted(external) if layer_of(m) <= 2 and external[m] & HEAVY_FOR_KERNELS]
+    return [
+        f"{m} (layer {layer_of(m)}) imports {', '.join(sorted(external[m] & HEAVY_FOR_KERNELS))}"
+        for m in sorted(external)
+        if layer_of(m) <= 2 and external[m] & HEAVY_FOR_KERNELS
+    ]
 
 
 def _top(module: str) -> str:
@@ -156,30 +197,53 @@ def _top(module: str) -> str:
 
 def front_end_imports(graph: dict[str, set[str]]) -> list[str]:
     """Modules other than the top layer that import ``studies`` or ``figures`` (each package may use itself)."""
-    return [f"{m} imports {t}" for m in sorted(graph) for t in sorted(graph[m])
-            if _top(t) in FRONT_ENDS and _top(m) != _top(t) and _top(m) not in FRONT_END_CONSUMERS]
+    return [
+        f"{m} imports {t}"
+        for m in sorted(graph)
+        for t in sorted(graph[m])
+        if _top(t) in FRONT_ENDS and _top(m) != _top(t) and _top(m) not in FRONT_END_CONSUMERS
+    ]
 
 
 def figure_inputs(graph: dict[str, set[str]]) -> list[str]:
     """Figure modules that read anything but foundations, ``outputs`` and other figure modules."""
-    return [f"{m} imports {t}" for m in sorted(graph) if _top(m) == "figures" for t in sorted(graph[m])
-            if not (layer_of(t) == 1 or _top(t) in ("outputs", "figures"))]
+    return [
+        f"{m} imports {t}"
+        for m in sorted(graph)
+        if _top(m) == "figures"
+        for t in sorted(graph[m])
+        if not (layer_of(t) == 1 or _top(t) in ("outputs", "figures"))
+    ]
 
 
 GRAPH, EXTERNAL = import_graph()
 
 
 def test_every_module_is_seen_and_classified():
-    assert {"lnss_lib.config", "lnss_lib.propagator", "lnss_lib.figures", "lnss_lib.figures.export",
-            "lnss_lib.outputs", "lnss_lib.pipeline", "lnss_lib.__main__"} <= set(GRAPH)
-    assert layer_of("lnss_lib.design_life.closed_loop") == 2 and layer_of("lnss_lib.campaign.runner") == 3
-    assert layer_of("lnss_lib.design_life") == 2 and layer_of("lnss_lib.design_life.evaluation") == 2
+    assert {
+        "lnss_lib.config",
+        "lnss_lib.propagator",
+        "lnss_lib.figures",
+        "lnss_lib.figures.export",
+        "lnss_lib.outputs",
+        "lnss_lib.pipeline",
+        "lnss_lib.__main__",
+    } <= set(GRAPH)
+    assert (
+        layer_of("lnss_lib.design_life.closed_loop") == 2
+        and layer_of("lnss_lib.campaign.runner") == 3
+    )
+    assert (
+        layer_of("lnss_lib.design_life") == 2 and layer_of("lnss_lib.design_life.evaluation") == 2
+    )
     assert {f"lnss_lib.design_life.{m}" for m in DESIGN_LIFE_MODULES} <= set(GRAPH)
-    assert "lnss_lib.design_life.screen" in GRAPH["lnss_lib.design_life.service"]   # relative import in the package
+    assert (
+        "lnss_lib.design_life.screen" in GRAPH["lnss_lib.design_life.service"]
+    )  # relative import in the package
     assert layer_of("lnss_lib.figures.dop") == 4 and layer_of("lnss_lib.bench.dop") == 5
-    assert "lnss_lib.outputs" in GRAPH["lnss_lib.figures.export"]     # relative import two levels up
+    assert "lnss_lib.outputs" in GRAPH["lnss_lib.figures.export"]  # relative import two levels up
     assert "lnss_lib.figures.charts" in GRAPH["lnss_lib.figures.dop"]
-    assert "lnss_lib.ephemeris" in GRAPH["lnss_lib.outputs"]          # an import inside a function
+    assert "lnss_lib.ephemeris" in GRAPH["lnss_lib.outputs"]  # an import inside a function
 
 
 def test_every_subpackage_is_named_in_its_layer():
@@ -210,29 +274,43 @@ def test_figures_read_only_foundations_and_outputs():
 
 
 def test_checks_catch_synthetic_violations(tmp_path):
-    graph = {"lnss_lib.gps": {"lnss_lib.config", "lnss_lib.campaign.grid"},    # kernel -> campaign: upward
-             "lnss_lib.campaign.grid": {"lnss_lib.gps", "lnss_lib.outputs"},    # cycle; campaign -> outputs
-             "lnss_lib.outputs": {"lnss_lib.figures"},                          # outputs -> figures
-             "lnss_lib.figures": {"lnss_lib.dop", "lnss_lib.figures.charts"},   # figures read a kernel
-             "lnss_lib.figures.charts": set(), "lnss_lib.config": set(), "lnss_lib.dop": set(),
-             "lnss_lib.studies.dop": {"lnss_lib.figures.charts"}, "lnss_lib.__main__": {"lnss_lib.studies.dop"}}
+    graph = {
+        "lnss_lib.gps": {"lnss_lib.config", "lnss_lib.campaign.grid"},  # kernel -> campaign: upward
+        "lnss_lib.campaign.grid": {
+            "lnss_lib.gps",
+            "lnss_lib.outputs",
+        },  # cycle; campaign -> outputs
+        "lnss_lib.outputs": {"lnss_lib.figures"},  # outputs -> figures
+        "lnss_lib.figures": {"lnss_lib.dop", "lnss_lib.figures.charts"},  # figures read a kernel
+        "lnss_lib.figures.charts": set(),
+        "lnss_lib.config": set(),
+        "lnss_lib.dop": set(),
+        "lnss_lib.studies.dop": {"lnss_lib.figures.charts"},
+        "lnss_lib.__main__": {"lnss_lib.studies.dop"},
+    }
     assert upward_imports(graph) == [
         "lnss_lib.campaign.grid (layer 3, campaign) imports lnss_lib.outputs (layer 4, presentation/studies)",
-        "lnss_lib.gps (layer 2, kernels) imports lnss_lib.campaign.grid (layer 3, campaign)"]
+        "lnss_lib.gps (layer 2, kernels) imports lnss_lib.campaign.grid (layer 3, campaign)",
+    ]
     assert import_cycles(graph) == [["lnss_lib.campaign.grid", "lnss_lib.gps"]]
     assert import_cycles({"a": {"b"}, "b": {"c"}, "c": {"a"}, "d": {"a"}}) == [["a", "b", "c"]]
-    assert front_end_imports(graph) == ["lnss_lib.outputs imports lnss_lib.figures",
-                                        "lnss_lib.studies.dop imports lnss_lib.figures.charts"]
+    assert front_end_imports(graph) == [
+        "lnss_lib.outputs imports lnss_lib.figures",
+        "lnss_lib.studies.dop imports lnss_lib.figures.charts",
+    ]
     assert figure_inputs(graph) == ["lnss_lib.figures imports lnss_lib.dop"]
-    assert heavy_kernel_imports({"lnss_lib.dop": {"numpy", "pandas"}, "lnss_lib.outputs": {"pandas"}}) == [
-        "lnss_lib.dop (layer 2) imports pandas"]
+    assert heavy_kernel_imports(
+        {"lnss_lib.dop": {"numpy", "pandas"}, "lnss_lib.outputs": {"pandas"}}
+    ) == ["lnss_lib.dop (layer 2) imports pandas"]
     # the parser on a synthetic package: function-level, relative, absolute and attribute imports
     root = tmp_path / "lnss_lib"
     (root / "figures").mkdir(parents=True)
     (root / "__init__.py").write_text("")
     (root / "config.py").write_text("")
-    (root / "gps.py").write_text("import numpy as np\n\ndef f():\n    from .figures import charts\n"
-                                 "    import pandas.io\n    from lnss_lib.config import PARAMS_DIR\n")
+    (root / "gps.py").write_text(
+        "import numpy as np\n\ndef f():\n    from .figures import charts\n"
+        "    import pandas.io\n    from lnss_lib.config import PARAMS_DIR\n"
+    )
     (root / "figures" / "__init__.py").write_text("from .charts import line\n")
     (root / "figures" / "charts.py").write_text("from .. import gps\nfrom ..config import X\n")
     graph, external = import_graph(root)
@@ -242,7 +320,8 @@ def test_checks_catch_synthetic_violations(tmp_path):
     assert graph["lnss_lib.figures"] == {"lnss_lib.figures.charts"}
     assert import_cycles(graph) == [["lnss_lib.figures.charts", "lnss_lib.gps"]]
     assert upward_imports(graph) == [
-        "lnss_lib.gps (layer 2, kernels) imports lnss_lib.figures.charts (layer 4, presentation/studies)"]
+        "lnss_lib.gps (layer 2, kernels) imports lnss_lib.figures.charts (layer 4, presentation/studies)"
+    ]
 
 
 # Third-party libraries are loaded once in a parent interpreter that then forks one child per module:
@@ -282,8 +361,17 @@ while running:
 
 
 def test_each_module_imports_in_a_fresh_interpreter():
-    env = {**os.environ, "PYTHONPATH": os.pathsep.join([str(PACKAGE_DIR.parent), os.environ.get("PYTHONPATH", "")])}
-    done = subprocess.run([sys.executable, "-c", _FORK_IMPORTS, *sorted(GRAPH)], capture_output=True, text=True,
-                          timeout=300, cwd=PACKAGE_DIR.parent, env=env)
+    env = {
+        **os.environ,
+        "PYTHONPATH": os.pathsep.join([str(PACKAGE_DIR.parent), os.environ.get("PYTHONPATH", "")]),
+    }
+    done = subprocess.run(
+        [sys.executable, "-c", _FORK_IMPORTS, *sorted(GRAPH)],
+        capture_output=True,
+        text=True,
+        timeout=300,
+        cwd=PACKAGE_DIR.parent,
+        env=env,
+    )
     failures = [line for line in done.stdout.splitlines() if line.strip()]
     assert done.returncode == 0 and failures == [], (failures, done.stderr[-2000:])

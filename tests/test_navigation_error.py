@@ -28,11 +28,20 @@ def geometry():
     """12 circular orbits of random planes over 97 epochs (15 min) and the paper's grid: (r_mf_km, grid)."""
     rng = np.random.default_rng(7)
     nsat, t = 12, np.arange(97) * 900.0
-    a, inc, raan, m0 = (rng.uniform(5000, 12000, nsat), rng.uniform(0.5, 1.6, nsat), rng.uniform(0, 2 * np.pi, nsat),
-                        rng.uniform(0, 2 * np.pi, nsat))
-    u = m0[:, None] + np.sqrt(4902.8 / a ** 3)[:, None] * t
+    a, inc, raan, m0 = (
+        rng.uniform(5000, 12000, nsat),
+        rng.uniform(0.5, 1.6, nsat),
+        rng.uniform(0, 2 * np.pi, nsat),
+        rng.uniform(0, 2 * np.pi, nsat),
+    )
+    u = m0[:, None] + np.sqrt(4902.8 / a**3)[:, None] * t
     x, y = a[:, None] * np.cos(u), a[:, None] * np.sin(u)
-    co, so, ci, si = np.cos(raan)[:, None], np.sin(raan)[:, None], np.cos(inc)[:, None], np.sin(inc)[:, None]
+    co, so, ci, si = (
+        np.cos(raan)[:, None],
+        np.sin(raan)[:, None],
+        np.cos(inc)[:, None],
+        np.sin(inc)[:, None],
+    )
     r = np.stack([x * co - y * ci * so, x * so + y * ci * co, y * si], axis=-1)
     return r, dop.surface_grid()
 
@@ -44,13 +53,17 @@ def _errors(r, grid, var_m2, multipath_m=0.0):
 def test_equal_uere_gives_dop_times_sigma(geometry):
     r, grid = geometry
     sigma_m = 3.86
-    n_visible, pdop, hdop, sigma_h, sigma_v = _errors(r, grid, np.full(r.shape[:2], sigma_m ** 2))
+    n_visible, pdop, hdop, sigma_h, sigma_v = _errors(r, grid, np.full(r.shape[:2], sigma_m**2))
     fix = np.isfinite(hdop)
     assert fix.mean() > 0.5 and np.array_equal(np.isnan(sigma_h), np.isnan(hdop))
-    conditioned = fix & (pdop < 1e3)         # beyond, the relative rounding of S^-1 grows with its condition number
+    conditioned = fix & (
+        pdop < 1e3
+    )  # beyond, the relative rounding of S^-1 grows with its condition number
     np.testing.assert_allclose(sigma_h[conditioned], sigma_m * hdop[conditioned], rtol=1e-10)
-    np.testing.assert_allclose(np.hypot(sigma_h, sigma_v)[conditioned], sigma_m * pdop[conditioned], rtol=1e-10)
-    same = dop.dop_arrays(r, grid.r_mf_km, grid.up, 5.0, "enu")          # the DOP outputs are the same bits
+    np.testing.assert_allclose(
+        np.hypot(sigma_h, sigma_v)[conditioned], sigma_m * pdop[conditioned], rtol=1e-10
+    )
+    same = dop.dop_arrays(r, grid.r_mf_km, grid.up, 5.0, "enu")  # the DOP outputs are the same bits
     for a, b in zip(same, (n_visible, pdop, hdop)):
         np.testing.assert_array_equal(a, b)
 
@@ -63,7 +76,9 @@ def test_an_older_ephemeris_counts_less_and_the_error_rises(geometry, nav):
     old = _errors(r, grid, navigation_error.uere_variance_m2(nav, age))
     fix = np.isfinite(fresh[3]) & np.isfinite(old[3])
     # a larger variance of one range can only widen the weighted least-squares covariance
-    assert np.all(old[3][fix] >= fresh[3][fix] * (1 - 1e-12)) and np.all(old[4][fix] >= fresh[4][fix] * (1 - 1e-12))
+    assert np.all(old[3][fix] >= fresh[3][fix] * (1 - 1e-12)) and np.all(
+        old[4][fix] >= fresh[4][fix] * (1 - 1e-12)
+    )
     assert np.mean(old[3][fix] > fresh[3][fix] * (1 + 1e-6)) > 0.2
     # a satellite whose ephemeris is infinitely old is a satellite removed
     age[0] = 1e9 * SECONDS_PER_HOUR
@@ -95,8 +110,8 @@ def test_a_satellite_no_station_sees_is_never_uploaded_and_ages(nav):
     station_km = np.broadcast_to(earth - np.array([6378.0, 0.0, 0.0]), (1, times.size, 3))
     up = np.broadcast_to(np.array([-1.0, 0.0, 0.0]), (1, times.size, 3))
     r = np.zeros((2, times.size, 3))
-    r[0, :, 0] = 3000.0                          # between the Moon and the Earth
-    r[1, :, 0] = -3000.0                         # behind the Moon
+    r[0, :, 0] = 3000.0  # between the Moon and the Earth
+    r[1, :, 0] = -3000.0  # behind the Moon
     contact = navigation_error.upload_contact(r, station_km, up, nav.station_mask_deg, R_MOON_KM)
     assert contact[0].all() and not contact[1].any()
     age, never = navigation_error.ephemeris_age_s(contact, times)
@@ -105,7 +120,7 @@ def test_a_satellite_no_station_sees_is_never_uploaded_and_ages(nav):
     np.testing.assert_array_equal(age[1], times - times[0])
     sise = navigation_error.sise_m(nav, age[1])
     assert np.all(np.diff(sise) > 0.0)
-    contact[0, 2:] = False                       # the last upload at the second epoch
+    contact[0, 2:] = False  # the last upload at the second epoch
     age, _ = navigation_error.ephemeris_age_s(contact, times)
     np.testing.assert_array_equal(age[0], [0.0, 0.0, 3600.0, 7200.0, 10800.0])
 
@@ -120,23 +135,46 @@ def test_requirement_availability_spans_0_to_100(geometry, nav):
     huge = dataclasses.replace(nav, requirement_horizontal_95_m=1e30)
     metrics = navigation_error.error_metrics(huge, sigma_h, sigma_v, weights, age, never)
     assert metrics["position_error_avail_pct"] == pytest.approx(100.0 * fix.mean(), rel=1e-12)
-    floor = dataclasses.replace(nav, requirement_horizontal_95_m=0.5 * np.nanmin(sigma_h))   # below any fix
-    assert navigation_error.error_metrics(floor, sigma_h, sigma_v, weights, age, never)["position_error_avail_pct"] == 0.0
+    floor = dataclasses.replace(
+        nav, requirement_horizontal_95_m=0.5 * np.nanmin(sigma_h)
+    )  # below any fix
+    assert (
+        navigation_error.error_metrics(floor, sigma_h, sigma_v, weights, age, never)[
+            "position_error_avail_pct"
+        ]
+        == 0.0
+    )
     vertical = dataclasses.replace(huge, requirement_vertical_95_m=0.5 * np.nanmin(sigma_v))
-    assert navigation_error.error_metrics(vertical, sigma_h, sigma_v, weights, age, never)["position_error_avail_pct"] == 0.0
-    expected = np.percentile(np.where(fix, 2.0 * sigma_h, np.inf), 95.0, method="higher")   # no fix: infinite
+    assert (
+        navigation_error.error_metrics(vertical, sigma_h, sigma_v, weights, age, never)[
+            "position_error_avail_pct"
+        ]
+        == 0.0
+    )
+    expected = np.percentile(
+        np.where(fix, 2.0 * sigma_h, np.inf), 95.0, method="higher"
+    )  # no fix: infinite
     value = metrics["horizontal_error_95_m"]
     assert value == expected if np.isfinite(expected) else np.isnan(value)
     assert metrics["ephemeris_age_max_h"] == 0.0 and metrics["satellites_never_uploaded"] == 0
 
 
-@pytest.mark.parametrize("override, words", [
-    ({"navigation_error": {"sise_law": "cubic"}}, "allowed: 'constant', 'linear', 'quadratic'"),
-    ({"navigation_error": {"station_lon_deg": [0.0]}}, "one longitude per latitude"),
-    ({"navigation_error": {"sise_at_upload_m": 0.0, "receiver_noise_m": 0.0}}, "positive range error floor"),
-    ({"navigation_error": {"station_mask_deg": 90.0}}, "out of range"),
-    ({"navigation_error": {"station_lat_deg": [], "station_lon_deg": []}}, "at least one entry"),
-])
+@pytest.mark.parametrize(
+    "override, words",
+    [
+        ({"navigation_error": {"sise_law": "cubic"}}, "allowed: 'constant', 'linear', 'quadratic'"),
+        ({"navigation_error": {"station_lon_deg": [0.0]}}, "one longitude per latitude"),
+        (
+            {"navigation_error": {"sise_at_upload_m": 0.0, "receiver_noise_m": 0.0}},
+            "positive range error floor",
+        ),
+        ({"navigation_error": {"station_mask_deg": 90.0}}, "out of range"),
+        (
+            {"navigation_error": {"station_lat_deg": [], "station_lon_deg": []}},
+            "at least one entry",
+        ),
+    ],
+)
 def test_bad_settings_are_refused(override, words):
     with pytest.raises(ConfigError, match=words):
         load_settings("ci", overrides=override)
@@ -149,7 +187,9 @@ def test_the_evaluator_adds_the_metres_without_changing_eq45():
     from lnss_lib.evaluator import analyse_constellation, context_for, evaluate_constellation
     from lnss_lib.keys import METRIC_KEYS, NAVIGATION_ERROR_KEYS
 
-    context = context_for(load_settings("ci", overrides={"evaluator": {"extra_metrics": list(NAVIGATION_ERROR_KEYS)}}))
+    context = context_for(
+        load_settings("ci", overrides={"evaluator": {"extra_metrics": list(NAVIGATION_ERROR_KEYS)}})
+    )
     elements = WalkerDesign(6143.0, 0.6, 90.0, 51.7, 2, 8).elements_deg()
     fast = evaluate_constellation(context, elements)
     full = analyse_constellation(context, elements)["metrics"]
@@ -163,15 +203,28 @@ def test_the_evaluator_adds_the_metres_without_changing_eq45():
 
 def test_maps_and_time_series_are_the_percentiles_of_the_samples(geometry, nav):
     r, grid = geometry
-    _, _, _, sigma_h, sigma_v = _errors(r, grid, navigation_error.uere_variance_m2(nav, np.zeros(r.shape[:2])), 0.1)
-    errors = navigation_error.PositionErrors(sigma_h, sigma_v, np.zeros(r.shape[:2]), np.ones(r.shape[:2], bool),
-                                             np.zeros(r.shape[0], bool), {})
+    _, _, _, sigma_h, sigma_v = _errors(
+        r, grid, navigation_error.uere_variance_m2(nav, np.zeros(r.shape[:2])), 0.1
+    )
+    errors = navigation_error.PositionErrors(
+        sigma_h,
+        sigma_v,
+        np.zeros(r.shape[:2]),
+        np.ones(r.shape[:2], bool),
+        np.zeros(r.shape[0], bool),
+        {},
+    )
     ds = navigation_error.error_percentiles(errors, grid, np.arange(r.shape[1]) * 900.0)
     h95 = np.where(np.isnan(sigma_h), np.inf, 2.0 * sigma_h)
     point = 7
     expected = np.percentile(h95[:, point], 95.0, method="higher")
     got = ds.horizontal_95_map_m.values.reshape(-1)[point]
     assert got == expected if np.isfinite(expected) else np.isnan(got)
-    assert ds.horizontal_95_series_m.sizes["time"] == r.shape[1] and ds.vertical_95_map_m.shape == grid.shape
-    fixed = np.isfinite(ds.horizontal_95_series_m.values)             # epochs whose 95th percentile has a fix
-    assert fixed.any() and np.all(ds.horizontal_95_series_m.values[fixed] >= 2.0 * np.nanmin(sigma_h[fixed], axis=1))
+    assert (
+        ds.horizontal_95_series_m.sizes["time"] == r.shape[1]
+        and ds.vertical_95_map_m.shape == grid.shape
+    )
+    fixed = np.isfinite(ds.horizontal_95_series_m.values)  # epochs whose 95th percentile has a fix
+    assert fixed.any() and np.all(
+        ds.horizontal_95_series_m.values[fixed] >= 2.0 * np.nanmin(sigma_h[fixed], axis=1)
+    )

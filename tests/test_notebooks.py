@@ -19,7 +19,7 @@ from lnss_lib.config import OUTPUTS_DIR
 from lnss_lib.paper import TABLE_4
 from lnss_lib.pipeline import notebook_paths, notebook_profile, write_index
 
-PROFILE = notebook_profile()   # ci: conftest.py sets it for the session
+PROFILE = notebook_profile()  # ci: conftest.py sets it for the session
 
 
 @pytest.fixture(scope="module")
@@ -27,7 +27,9 @@ def executed(notebook_runs):
     assert notebook_runs.profile == PROFILE
     failed = {book.name: cells for book, cells in notebook_runs.failed.items() if cells}
     if failed:
-        pytest.fail(f"notebooks failed ({', '.join(sorted(set(notebook_runs.runner.values())))}): {failed}")
+        pytest.fail(
+            f"notebooks failed ({', '.join(sorted(set(notebook_runs.runner.values())))}): {failed}"
+        )
     write_index(PROFILE)
     return notebook_runs
 
@@ -46,8 +48,12 @@ def test_every_notebook_ran_under_the_ci_profile(executed):
     """Every notebook ran once; all but 06 (whose outputs are the campaign files) wrote a figure or table
     under outputs/ci/ in this session, so their kernels took the profile from the suite."""
     assert set(executed.runner) == set(notebook_paths())
-    written = {path.stem[:2] for kind in ("figures", "tables") for path in (OUTPUTS_DIR / PROFILE / kind).glob("*")
-               if path.stat().st_mtime >= executed.started}
+    written = {
+        path.stem[:2]
+        for kind in ("figures", "tables")
+        for path in (OUTPUTS_DIR / PROFILE / kind).glob("*")
+        if path.stat().st_mtime >= executed.started
+    }
     assert {book.stem[:2] for book in notebook_paths()} - {"06"} <= written
 
 
@@ -61,21 +67,34 @@ def test_dop_notebook_reproduces_the_paper_geometry(executed):
     table = _table("02_dop_elfo_vs_paper", executed)
     table = table.set_index(table.columns[0])
     ours = table["lunar_equator_of_epoch / moon_fixed"]
-    assert abs(ours["PDOP (3-sigma mean)"] / TABLE_4["pdop_mean_3sigma"] - 1) < 0.05   # issue 3's target
+    assert (
+        abs(ours["PDOP (3-sigma mean)"] / TABLE_4["pdop_mean_3sigma"] - 1) < 0.05
+    )  # issue 3's target
     assert abs(ours["mean visible satellites"] / TABLE_4["mean_visible_sats"] - 1) < 0.05
-    assert table["j2000 / moon_fixed"]["PDOP (3-sigma mean)"] > 10  # the literal J2000 reading breaks coverage
+    assert (
+        table["j2000 / moon_fixed"]["PDOP (3-sigma mean)"] > 10
+    )  # the literal J2000 reading breaks coverage
 
 
 def test_figures_written(executed):
-    figures = [f for f in (OUTPUTS_DIR / PROFILE / "figures").glob("*.html") if f.stat().st_mtime >= executed.started]
+    figures = [
+        f
+        for f in (OUTPUTS_DIR / PROFILE / "figures").glob("*.html")
+        if f.stat().st_mtime >= executed.started
+    ]
     stems = {f.stem[:2] for f in figures}
     assert {b.stem[:2] for b in notebook_paths()} - {"06"} <= stems
 
 
 def test_standalone_elfo_table4_dop_within_five_percent(executed):
     table = _table("05_table4", executed).set_index("metric")
-    for metric in ("Satellite visibility", "PDOP (3-sigma mean)", "HDOP (3-sigma mean)", "PDOP availability (%)",
-                   "HDOP availability (%)"):
+    for metric in (
+        "Satellite visibility",
+        "PDOP (3-sigma mean)",
+        "HDOP (3-sigma mean)",
+        "PDOP availability (%)",
+        "HDOP availability (%)",
+    ):
         assert abs(table.loc[metric, "difference (%)"]) <= 5.0, metric
     assert table["why"].notna().all()
 
@@ -85,18 +104,26 @@ def test_gnss_tables_add_up(executed):
     lowers the count; notebook 05's Table 4 rows carry the same numbers."""
     table = _table("03_gnss_by_system", executed).set_index("systems")
     systems = ["GPS", "Galileo", "BeiDou-3", "GLONASS"]
-    assert table.loc["all four", "visible_mean"] == pytest.approx(table.loc[systems, "visible_mean"].sum(), rel=1e-9)
-    assert table.loc["GPS", "visible_mean"] <= table.loc["GPS + Galileo", "visible_mean"] \
+    assert table.loc["all four", "visible_mean"] == pytest.approx(
+        table.loc[systems, "visible_mean"].sum(), rel=1e-9
+    )
+    assert (
+        table.loc["GPS", "visible_mean"]
+        <= table.loc["GPS + Galileo", "visible_mean"]
         <= table.loc["all four", "visible_mean"]
+    )
     rows = _table("05_table4_gnss", executed).set_index("metric")
     assert rows.loc["Mean GNSS visibility (all four)", "this workbook"] == pytest.approx(
-        table.loc["all four", "visible_mean"], rel=1e-9)
+        table.loc["all four", "visible_mean"], rel=1e-9
+    )
 
 
 def test_campaign_and_pareto_outputs(executed):
     from lnss_lib.campaign.publication import load_published
 
-    evaluations = load_published(_fresh(OUTPUTS_DIR / PROFILE / "campaign" / "published.json", executed).parent).evaluations
+    evaluations = load_published(
+        _fresh(OUTPUTS_DIR / PROFILE / "campaign" / "published.json", executed).parent
+    ).evaluations
     assert evaluations.sizes["design"] > 0 and "objectives" in evaluations.attrs
     table6 = _table("07_table6", executed)
     assert "why selected" in table6.columns
@@ -107,12 +134,16 @@ def test_operational_companion_outputs(executed):
     """ci's companion campaign (ci_operational) ran beside it and notebooks 06-07 compare the two."""
     from lnss_lib.campaign.publication import load_published
 
-    evaluations = load_published(_fresh(OUTPUTS_DIR / "ci_operational" / "campaign" / "published.json", executed).parent).evaluations
+    evaluations = load_published(
+        _fresh(OUTPUTS_DIR / "ci_operational" / "campaign" / "published.json", executed).parent
+    ).evaluations
     assert {"sk_dv_estimate_max_kms_per_year", "stable_screen"} <= set(evaluations.data_vars)
     side = _table("06_operational_comparison", executed).set_index("designs meeting")
     assert list(side.columns) == ["ci", "ci_operational"]
     assert side.loc["unique designs evaluated", "ci_operational"] == evaluations.sizes["design"]
-    assert side.loc["all Table 3 bounds (feasible)", "ci_operational"] == int(evaluations.feasible.sum())
+    assert side.loc["all Table 3 bounds (feasible)", "ci_operational"] == int(
+        evaluations.feasible.sum()
+    )
     assert "sk_dv_estimate_max_kms_per_year" in _table("07_operational_table6", executed).columns
 
 
@@ -122,12 +153,20 @@ def test_validated_front_outputs(executed):
     from lnss_lib.campaign.publication import load_published
     from lnss_lib.settings import load_settings
 
-    published = load_published(_fresh(OUTPUTS_DIR / "ci_operational" / "campaign" / "published.json", executed).parent)
+    published = load_published(
+        _fresh(OUTPUTS_DIR / "ci_operational" / "campaign" / "published.json", executed).parent
+    )
     fv = load_settings("ci_operational").front_validation
     assert published.validated is not None and published.validated.attrs["complete"] == 1
-    assert published.validated.sizes["design"] <= fv.max_designs + fv.headline_per_size * len(fv.headline_sizes)
+    assert published.validated.sizes["design"] <= fv.max_designs + fv.headline_per_size * len(
+        fv.headline_sizes
+    )
     headline = _table("07_headline_validated", executed).set_index("row")
-    assert list(headline.index) == ["smallest", *(f"{n} satellites" for n in fv.headline_sizes), "paper (abstract)"]
+    assert list(headline.index) == [
+        "smallest",
+        *(f"{n} satellites" for n in fv.headline_sizes),
+        "paper (abstract)",
+    ]
 
 
 def test_screen_validation_table(executed):
@@ -138,5 +177,8 @@ def test_screen_validation_table(executed):
 
     table = _table("08_screen_validation", executed)
     assert set(MISS_COLUMNS) <= set(table.columns)
-    assert table.groupby(list(DESIGN_KEYS)).ngroups == load_settings(PROFILE).life_evaluation.screen_validation_designs
+    assert (
+        table.groupby(list(DESIGN_KEYS)).ngroups
+        == load_settings(PROFILE).life_evaluation.screen_validation_designs
+    )
     assert 0.0 <= agreement(table)["agreement_pct"] <= 100.0

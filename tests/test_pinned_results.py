@@ -15,10 +15,20 @@ about 2 s, 13 s, 9 s and 4 s.
 import math
 
 import pytest
+from pinned_results import (
+    CROSS_MODEL_FACTOR,
+    EXCLUDED,
+    PINS,
+    RTOL,
+    check_pin,
+    cross_model_rtol,
+    differences,
+    fixture_path,
+    largest_relative_difference,
+    load_fixtures,
+)
 
 from lnss_lib import kernel_cpu
-from pinned_results import (CROSS_MODEL_FACTOR, EXCLUDED, PINS, RTOL, check_pin, cross_model_rtol, differences,
-                            fixture_path, largest_relative_difference, load_fixtures)
 
 
 @pytest.fixture(scope="module")
@@ -29,8 +39,10 @@ def recorded():
 @pytest.mark.parametrize("name", list(PINS))
 def test_pinned_result(recorded, name):
     diffs = check_pin(name, PINS[name](), recorded, kernel_cpu())
-    assert not diffs, (f"{len(diffs)} pinned value(s) of {name} changed (kernels compiled here for {kernel_cpu()}; "
-                       f"records of {', '.join(recorded)}):\n" + "\n".join(diffs[:30]))
+    assert not diffs, (
+        f"{len(diffs)} pinned value(s) of {name} changed (kernels compiled here for {kernel_cpu()}; "
+        f"records of {', '.join(recorded)}):\n" + "\n".join(diffs[:30])
+    )
 
 
 def test_records_name_their_commit_model_and_exclusions(recorded):
@@ -63,27 +75,54 @@ def test_cross_model_tolerance_is_measured_from_the_records():
     second = {"a": 100.0 + 3e-6, "l": [1.0 - 2e-9, math.nan], "i": 3, "wall_s": 2.0}
     assert largest_relative_difference(first, second) == pytest.approx(3e-8, rel=1e-6)
     assert largest_relative_difference(first, first) == 0.0
-    assert cross_model_rtol("random_paper_designs", [first, second]) == pytest.approx(1e-6)   # 10 x 3e-8, rounded up
+    assert cross_model_rtol("random_paper_designs", [first, second]) == pytest.approx(
+        1e-6
+    )  # 10 x 3e-8, rounded up
     assert CROSS_MODEL_FACTOR * 3e-8 < cross_model_rtol("random_paper_designs", [first, second])
     assert cross_model_rtol("random_paper_designs", [first, first]) == RTOL["random_paper_designs"]
     assert cross_model_rtol("evaluate_table4", [first]) == RTOL["evaluate_table4"]
-    recorded = {"model-a": {"meta": {"commit": "a" * 40}, "pins": {"evaluate_table4": first}},
-                "model-b": {"meta": {"commit": "b" * 40}, "pins": {"evaluate_table4": second}}}
+    recorded = {
+        "model-a": {"meta": {"commit": "a" * 40}, "pins": {"evaluate_table4": first}},
+        "model-b": {"meta": {"commit": "b" * 40}, "pins": {"evaluate_table4": second}},
+    }
     assert check_pin("evaluate_table4", first, recorded, "model-a") == []
     assert check_pin("evaluate_table4", second, recorded, "model-b") == []
-    assert check_pin("evaluate_table4", first, recorded, "model-c") == []          # a model without a record
+    assert (
+        check_pin("evaluate_table4", first, recorded, "model-c") == []
+    )  # a model without a record
     moved = check_pin("evaluate_table4", {**first, "a": 100.01}, recorded, "model-c")
     assert len(moved) == 2 and all("): a: 100.01, expected" in line for line in moved)
     assert len(check_pin("evaluate_table4", {**first, "i": 4}, recorded, "model-a")) == 2
 
 
 def test_comparison_reports_each_kind_of_difference():
-    expected = {"a": 1.0, "n": math.nan, "i": 3, "b": True, "s": "lsq", "l": [1.0, 2.0], "wall_s": 1.0}
+    expected = {
+        "a": 1.0,
+        "n": math.nan,
+        "i": 3,
+        "b": True,
+        "s": "lsq",
+        "l": [1.0, 2.0],
+        "wall_s": 1.0,
+    }
     assert differences(expected, {**expected, "n": math.nan, "wall_s": 9.0}, 1e-12) == []
     assert differences(expected, {**expected, "a": 1.0 + 1e-13}, 1e-12) == []
-    cases = [("a", 1.0 + 1e-11), ("a", math.nan), ("n", 0.0), ("i", 4), ("i", 3.0), ("b", 1), ("s", "kepler"),
-             ("l", [1.0]), ("l", [1.0, 2.1])]
+    cases = [
+        ("a", 1.0 + 1e-11),
+        ("a", math.nan),
+        ("n", 0.0),
+        ("i", 4),
+        ("i", 3.0),
+        ("b", 1),
+        ("s", "kepler"),
+        ("l", [1.0]),
+        ("l", [1.0, 2.1]),
+    ]
     for key, value in cases:
         assert len(differences(expected, {**expected, key: value}, 1e-12)) == 1, (key, value)
-    assert differences(expected, {k: v for k, v in expected.items() if k != "s"}, 1e-12) == ["<root>: missing keys ['s']"]
-    assert differences(expected, {**expected, "new": 0}, 1e-12) == ["<root>: unexpected keys ['new']"]
+    assert differences(expected, {k: v for k, v in expected.items() if k != "s"}, 1e-12) == [
+        "<root>: missing keys ['s']"
+    ]
+    assert differences(expected, {**expected, "new": 0}, 1e-12) == [
+        "<root>: unexpected keys ['new']"
+    ]

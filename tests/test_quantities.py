@@ -20,7 +20,11 @@ from lnss_lib.settings import load_settings, settings_from_profile
 
 SAME_QUANTITY = {
     "design life": ("design_life.life_days", "stability.life_days"),
-    "element frame of the design": ("frames.element_frame", "sk_estimate.element_frame", "deltav.element_frame"),
+    "element frame of the design": (
+        "frames.element_frame",
+        "sk_estimate.element_frame",
+        "deltav.element_frame",
+    ),
     "days of a year of per-year figures": ("deltav.year_days", "sk_estimate.year_days"),
 }
 
@@ -37,8 +41,11 @@ def _keys(table: dict, prefix: str = "") -> set[str]:
 @pytest.mark.parametrize("name", config.available_profiles())
 def test_one_key_per_quantity(name):
     keys = _keys(load_settings(name).as_dict())
-    doubled = {quantity: sorted(keys & set(group)) for quantity, group in SAME_QUANTITY.items()
-               if len(keys & set(group)) > 1}
+    doubled = {
+        quantity: sorted(keys & set(group))
+        for quantity, group in SAME_QUANTITY.items()
+        if len(keys & set(group)) > 1
+    }
     assert not doubled, doubled
 
 
@@ -51,10 +58,20 @@ def test_every_legacy_key_is_a_quantity_of_the_list():
 def test_the_derived_fields_read_the_one_key():
     operational, paper = load_settings("operational"), load_settings("paper")
     assert operational.stability.life_days == operational.design_life.life_days == 1826.25
-    assert paper.stability.life_days == paper.stability.span_days == 365.25 != paper.design_life.life_days
+    assert (
+        paper.stability.life_days
+        == paper.stability.span_days
+        == 365.25
+        != paper.design_life.life_days
+    )
     assert paper.sk_estimate.year_days == paper.deltav.year_days
-    longer = load_settings("ci", overrides={"deltav": {"year_days": 366.0}, "stability": {"span_days": 0.0}})
-    assert longer.sk_estimate.year_days == 366.0 and longer.stability.life_days == longer.design_life.life_days
+    longer = load_settings(
+        "ci", overrides={"deltav": {"year_days": 366.0}, "stability": {"span_days": 0.0}}
+    )
+    assert (
+        longer.sk_estimate.year_days == 366.0
+        and longer.stability.life_days == longer.design_life.life_days
+    )
 
 
 @pytest.mark.parametrize("name", ["paper", "paper_dv_physical"])
@@ -63,13 +80,20 @@ def test_shipped_results_keep_their_fingerprints(name):
     the profile and evaluation hashes they were published with."""
     reference = load_reference(name)
     stored, current = reference.profile, load_settings(name)
-    assert "life_days" in stored["stability"] and "element_frame" in stored["sk_estimate"]     # the old keys
+    assert (
+        "life_days" in stored["stability"] and "element_frame" in stored["sk_estimate"]
+    )  # the old keys
     assert config.profile_hash(stored) == reference.history.attrs["profile_hash"] == current.hash
-    assert evaluation_hash(stored) == reference.history.attrs["evaluation_hash"] == evaluation_hash(current)
+    assert (
+        evaluation_hash(stored)
+        == reference.history.attrs["evaluation_hash"]
+        == evaluation_hash(current)
+    )
     assert settings_from_profile(stored) == current and run_differences(stored, current) == []
     migrated = sections.migrate_legacy(config.with_absent_sections(copy.deepcopy(stored)))
-    assert migrated == current.as_dict() and sections.legacy_spelling(migrated) == config.with_absent_sections(
-        copy.deepcopy(stored))
+    assert migrated == current.as_dict() and sections.legacy_spelling(
+        migrated
+    ) == config.with_absent_sections(copy.deepcopy(stored))
 
 
 def test_an_old_key_in_a_profile_file_names_its_new_key():

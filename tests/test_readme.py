@@ -18,8 +18,11 @@ def test_readme_fits_on_a_page_or_two():
 
 def test_readme_names_no_issue_or_commit():
     assert re.findall(r"(?i)\bissues? \d+|#\d+\b", README) == []
-    hashes = [word for word in re.findall(r"\b[0-9a-f]{7,40}\b", README) if re.search(r"[a-f]", word)
-              and re.search(r"\d", word)]
+    hashes = [
+        word
+        for word in re.findall(r"\b[0-9a-f]{7,40}\b", README)
+        if re.search(r"[a-f]", word) and re.search(r"\d", word)
+    ]
     assert hashes == []
 
 
@@ -29,14 +32,21 @@ def test_readme_answer_is_the_one_the_shipped_results_give():
     answer = study_answer()
     assert answer is not None, "no shipped results to answer from (outputs/reference/)"
     assert block.group(1) == answer.markdown(), (
-        "the README's answer is out of step with outputs/reference/; paste lnss_lib.findings.study_answer().markdown()")
+        "the README's answer is out of step with outputs/reference/; paste lnss_lib.findings.study_answer().markdown()"
+    )
 
 
 def test_readme_opens_on_the_answer_then_the_two_commands():
-    assert README.index("## The answer") < README.index("## Set up and run") < README.index("## What you get")
+    assert (
+        README.index("## The answer")
+        < README.index("## Set up and run")
+        < README.index("## What you get")
+    )
     commands = re.findall(r"^pip install -r requirements.txt && (.+?)\s+#", README, re.M)
     assert commands == ["python -m lnss_lib reproduce", "python -m pytest"]
-    assert "pip install -r requirements.txt && python -m pytest" in (ROOT / ".ci" / "run").read_text()
+    assert (
+        "pip install -r requirements.txt && python -m pytest" in (ROOT / ".ci" / "run").read_text()
+    )
 
 
 def test_readme_points_only_inside_the_repository():

@@ -9,7 +9,7 @@ import pytest
 
 from lnss_lib.config import available_profiles, load_profile, profile_hash
 from lnss_lib.errors import ConfigError
-from lnss_lib.settings import (Settings, load_settings, settings_from_profile, settings_from_toml)
+from lnss_lib.settings import Settings, load_settings, settings_from_profile, settings_from_toml
 
 
 @pytest.mark.parametrize("name", available_profiles())
@@ -23,11 +23,15 @@ def test_every_profile_freezes_hashes_and_round_trips(name):
 
 def test_sections_are_typed_and_frozen():
     settings = load_settings("paper")
-    assert isinstance(settings.epoch.duration_days, float) and isinstance(settings.gravity.degree, int)
+    assert isinstance(settings.epoch.duration_days, float) and isinstance(
+        settings.gravity.degree, int
+    )
     assert settings.forces.third_bodies == ("SUN", "EARTH", "JUPITER")
     with pytest.raises(dataclasses.FrozenInstanceError):
         settings.forces.srp = False
-    assert isinstance(settings.stability.validation_designs[0][4], int)       # plane counts stay integers
+    assert isinstance(
+        settings.stability.validation_designs[0][4], int
+    )  # plane counts stay integers
     assert isinstance(settings.campaign.variables["n_planes"].lower, int)
 
 
@@ -50,7 +54,9 @@ def test_overrides_are_checked_and_change_the_hash():
     assert settings.with_overrides({}) is settings
     changed = settings.with_overrides({"dop": {"elevation_mask_deg": 10.0}})
     assert changed.dop.elevation_mask_deg == 10.0 and changed.hash != settings.hash
-    with pytest.raises(ConfigError, match=r"frames.element_frame = 'nosuch' is not allowed; allowed: "):
+    with pytest.raises(
+        ConfigError, match=r"frames.element_frame = 'nosuch' is not allowed; allowed: "
+    ):
         settings.with_overrides({"frames": {"element_frame": "nosuch"}})
 
 

@@ -12,6 +12,7 @@ from lnss_lib import tle
 from lnss_lib.config import data_path
 from lnss_lib.settings import load_settings
 
+
 @pytest.fixture(scope="module")
 def profile(ci_profile):
     return ci_profile
@@ -39,7 +40,9 @@ def test_tle_file_parses_with_names_and_prns(tle_lines, tmp_path):
     assert first.name == tle_lines[0].strip()
     assert f"PRN {first.prn:02d}" in first.name
     assert first.satnum == int(tle_lines[1][2:7])
-    assert first.designator == "1997-035A" and first.launch_year == 1997 and first.launch_number == 35
+    assert (
+        first.designator == "1997-035A" and first.launch_year == 1997 and first.launch_number == 35
+    )
 
 
 def test_bad_checksum_names_file_and_line(tle_lines, tmp_path):
@@ -59,7 +62,9 @@ def test_wrong_length_names_line(tle_lines, tmp_path):
 
 def test_shifted_columns_are_rejected(tle_lines, tmp_path):
     line1 = tle_lines[1]
-    shifted = _with_checksum(line1[:8] + line1[9:18] + " " + line1[18:])   # designator one column left
+    shifted = _with_checksum(
+        line1[:8] + line1[9:18] + " " + line1[18:]
+    )  # designator one column left
     with pytest.raises(ValueError, match=r"line 2: TLE line 1 column \d+ must be blank"):
         tle.read_tle(_write(tmp_path, [tle_lines[0], shifted, tle_lines[2]]))
 
@@ -69,7 +74,9 @@ def test_line_number_and_satellite_number_mismatch(tle_lines, tmp_path):
     with pytest.raises(ValueError, match=r"line 3: expected TLE line number 2"):
         tle.read_tle(_write(tmp_path, tle_lines[:2] + [wrong_number]))
     other_sat = _with_checksum(tle_lines[2][:2] + "99999" + tle_lines[2][7:])
-    with pytest.raises(ValueError, match=r"lines 2-3: satellite number 24876 on line 1 differs from 99999"):
+    with pytest.raises(
+        ValueError, match=r"lines 2-3: satellite number 24876 on line 1 differs from 99999"
+    ):
         tle.read_tle(_write(tmp_path, tle_lines[:2] + [other_sat]))
 
 

@@ -43,53 +43,81 @@ import numba
 import numpy as np
 
 from .. import kernel_cpu
-from ..config import PARAMS_DIR, deep_merge
-from ..errors import ConfigError
-from ..settings import load_settings
 from ..campaign import load_checkpoint, read_cache_records, run_campaign
 from ..campaign.grid import DesignGrid
 from ..campaign.reference import REFERENCE_DIR, load_reference
+from ..campaign.timing import campaign_timing, concurrent_workers, steady_rate
+from ..config import PARAMS_DIR, deep_merge
 from ..constants import SECONDS_PER_DAY
 from ..constellation import WalkerDesign
+from ..errors import ConfigError
 from ..evaluator import context_for
-from ..propagator import elements_deg_to_states
-from .evaluation_before import compare_evaluations
-from .kernels_before import replay_times, rhs_points, shadow_times
-from ..campaign.timing import campaign_timing, concurrent_workers, steady_rate
 from ..keys import TIMING_KEYS
 from ..paper import EVALUATIONS, TABLE_5
+from ..propagator import elements_deg_to_states
+from ..settings import load_settings
+from .evaluation_before import compare_evaluations
+from .kernels_before import replay_times, rhs_points, shadow_times
 
-KERNEL_DESIGNS = 4             # designs of the short run whose right-hand sides are timed before and after
-EVALUATION_DESIGNS = 30        # designs whose whole campaign evaluation is timed before and after
-HISTORY_TAIL = 20              # generations of a run whose mean evaluated count stands for its unrun generations
-ROUNDOFF_RTOL = 1e-6           # hypervolume agreement that marks the same designs where the kernels are compiled for
-                               # another processor model: its round-off moved metrics by up to 2e-7 relative (docs/NOTES.md,
-                               # Notes for developers); a different design moves the hypervolume by far more
-SHORT_GENERATIONS = 8          # generations of the short run when the profile has no shipped results
-PACE_GENERATIONS = 30          # generations of the short run when it repeats a shipped run: the pace is measured on 2-30
+KERNEL_DESIGNS = 4  # designs of the short run whose right-hand sides are timed before and after
+EVALUATION_DESIGNS = 30  # designs whose whole campaign evaluation is timed before and after
+HISTORY_TAIL = (
+    20  # generations of a run whose mean evaluated count stands for its unrun generations
+)
+ROUNDOFF_RTOL = (
+    1e-6  # hypervolume agreement that marks the same designs where the kernels are compiled for
+)
+# another processor model: its round-off moved metrics by up to 2e-7 relative (docs/NOTES.md,
+# Notes for developers); a different design moves the hypervolume by far more
+SHORT_GENERATIONS = 8  # generations of the short run when the profile has no shipped results
+PACE_GENERATIONS = (
+    30  # generations of the short run when it repeats a shipped run: the pace is measured on 2-30
+)
 SCALING_WORKERS = (8, 32, 64)
 SCALING_DELAY_S = 0.5
 
 
-def _short_campaign(profile_name: str, population: int, generations: int, workers: int | None,
-                    overrides: dict | None = None) -> dict:
+def _short_campaign(
+    profile_name: str,
+    population: int,
+    generations: int,
+    workers: int | None,
+    overrides: dict | None = None,
+) -> dict:
     """Run a campaign in a temporary directory; its timing, history and records."""
     size = {"campaign": {"population": population, "generations": generations, "ftol": 0.0}}
     merged = deep_merge(size, overrides or {})
     with tempfile.TemporaryDirectory(prefix="lnss_bench_campaign_") as tmp:
         start = time.perf_counter()
-        result = run_campaign(profile_name, overrides=merged, workers=workers, run_dir=Path(tmp) / "run", progress=False)
+        result = run_campaign(
+            profile_name,
+            overrides=merged,
+            workers=workers,
+            run_dir=Path(tmp) / "run",
+            progress=False,
+        )
         wall = time.perf_counter() - start
         records = read_cache_records(result.run_dir)
         n_workers = concurrent_workers(records)
         timing = campaign_timing(result.run_dir, n_workers, wall)
         history = load_checkpoint(result.run_dir)["history"]
-    return {"result": result, "wall_s": wall, "records": records, "n_workers": n_workers, "timing": timing,
-            "history": history}
+    return {
+        "result": result,
+        "wall_s": wall,
+        "records": records,
+        "n_workers": n_workers,
+        "timing": timing,
+        "history": history,
+    }
 
 
-def _projection(profile_name: str, population: int, generations: int, workers: int | None,
-                overrides: dict | None = None) -> dict:
+def _projection(
+    profile_name: str,
+    population: int,
+    generations: int,
+    workers: int | None,
+    overrides: dict | None = None,
+) -> dict:
     """Short campaign at ``profile_name``'s fidelity and its 120 x 1000 projection; prints the numbers."""
     profile = load_settings(profile_name, overrides=overrides)
     run = _short_campaign(profile_name, population, generations, workers, overrides)
@@ -101,25 +129,47 @@ def _projection(profile_name: str, population: int, generations: int, workers: i
     hits = sum(h["n_cache_hits"] for h in history) / max(1, sum(h["n_designs"] for h in history))
     projected_h = (startup_s + first_gen_s + EVALUATIONS / rate) / 3600.0
     budget = timing["worker_budget_s"]
-    print(f"campaign [{profile_name}] {population} x {generations} generations, {profile.epoch.duration_days:g} "
-          f"days, degree {profile.gravity.degree} (truncation {profile.gravity.truncation_kms2:g} "
-          f"km/s^2), integrator {profile.integrator.setting}, {run['n_workers']} worker(s): {n} unique designs "
-          f"({run['result'].n_feasible} feasible), cache hits {100 * hits:.1f}% of requests")
-    print(f"  wall {wall:.1f} s (start-up {startup_s:.1f} s, generation 1 {first_gen_s:.1f} s incl. worker warm-up)")
-    print(f"  throughput {n / wall:.2f} designs/s overall, {rate:.2f} designs/s from generation 2 on")
-    print(f"  worker time {budget:.1f} s: propagation {100 * timing['propagation_s'] / budget:.1f}%, metrics "
-          f"(DOP, Delta-V, GPS) {100 * timing['metrics_s'] / budget:.1f}%, in-task overhead "
-          f"{100 * timing['in_task_overhead_s'] / budget:.1f}%, campaign overhead "
-          f"{100 * timing['campaign_overhead_s'] / budget:.1f}%")
-    parts = {k: sum(r["timing_s"].get(k, 0.0) for r in run["records"]) / max(n, 1)
-             for k in ("propagation", "dop", "deltav", "gps")}
+    print(
+        f"campaign [{profile_name}] {population} x {generations} generations, {profile.epoch.duration_days:g} "
+        f"days, degree {profile.gravity.degree} (truncation {profile.gravity.truncation_kms2:g} "
+        f"km/s^2), integrator {profile.integrator.setting}, {run['n_workers']} worker(s): {n} unique designs "
+        f"({run['result'].n_feasible} feasible), cache hits {100 * hits:.1f}% of requests"
+    )
+    print(
+        f"  wall {wall:.1f} s (start-up {startup_s:.1f} s, generation 1 {first_gen_s:.1f} s incl. worker warm-up)"
+    )
+    print(
+        f"  throughput {n / wall:.2f} designs/s overall, {rate:.2f} designs/s from generation 2 on"
+    )
+    print(
+        f"  worker time {budget:.1f} s: propagation {100 * timing['propagation_s'] / budget:.1f}%, metrics "
+        f"(DOP, Delta-V, GPS) {100 * timing['metrics_s'] / budget:.1f}%, in-task overhead "
+        f"{100 * timing['in_task_overhead_s'] / budget:.1f}%, campaign overhead "
+        f"{100 * timing['campaign_overhead_s'] / budget:.1f}%"
+    )
+    parts = {
+        k: sum(r["timing_s"].get(k, 0.0) for r in run["records"]) / max(n, 1)
+        for k in ("propagation", "dop", "deltav", "gps")
+    }
     print("  mean per evaluation: " + ", ".join(f"{k} {v:.3f} s" for k, v in parts.items()))
-    print(f"  projected 120 x 1000 campaign ({EVALUATIONS} designs, all eq. 45 objectives, no cache hits, this design "
-          f"mix): {projected_h:.1f} h on this machine; with this run's hit rate {projected_h * (1 - hits):.1f} h")
-    return {"profile": profile_name, "wall_s": wall, "n_evaluations": n, "n_workers": run["n_workers"],
-            "designs_per_s": n / wall,
-            "steady_designs_per_s": rate, "projected_paper_h": projected_h, "fixed_s": startup_s + first_gen_s,
-            "startup_s": startup_s, "records": run["records"], "history": history, **timing}
+    print(
+        f"  projected 120 x 1000 campaign ({EVALUATIONS} designs, all eq. 45 objectives, no cache hits, this design "
+        f"mix): {projected_h:.1f} h on this machine; with this run's hit rate {projected_h * (1 - hits):.1f} h"
+    )
+    return {
+        "profile": profile_name,
+        "wall_s": wall,
+        "n_evaluations": n,
+        "n_workers": run["n_workers"],
+        "designs_per_s": n / wall,
+        "steady_designs_per_s": rate,
+        "projected_paper_h": projected_h,
+        "fixed_s": startup_s + first_gen_s,
+        "startup_s": startup_s,
+        "records": run["records"],
+        "history": history,
+        **timing,
+    }
 
 
 def shipped_projection(profile_name: str, projection: dict) -> dict | None:
@@ -135,31 +185,55 @@ def shipped_projection(profile_name: str, projection: dict) -> dict | None:
         return None
     shipped, short = reference.history, projection["history"]
     n = min(len(short), int(shipped.sizes["generation"]))
-    shipped_cpu, here = json.loads(shipped.attrs.get("versions", "{}")).get("kernel_cpu"), kernel_cpu()
+    shipped_cpu, here = (
+        json.loads(shipped.attrs.get("versions", "{}")).get("kernel_cpu"),
+        kernel_cpu(),
+    )
     rtol = 0.0 if shipped_cpu == here else ROUNDOFF_RTOL
     hv_shipped = shipped["hypervolume"].values[:n]
     hv_short = np.array([h["hypervolume"] for h in short[:n]])
-    hv_rel = float(np.max(np.abs(hv_short - hv_shipped) / np.maximum(np.abs(hv_shipped), np.finfo(float).tiny),
-                          initial=0.0))
-    same = n >= 2 and hv_rel <= rtol and all(int(shipped["n_evaluated"].values[g]) == h["n_evaluated"]
-                                             and int(shipped["n_cache_hits"].values[g]) == h["n_cache_hits"]
-                                             for g, h in enumerate(short[:n]))
-    kernels = (f"kernels for {here} here, {shipped_cpu} there: hypervolume within {hv_rel:.1e} relative, "
-               f"allowed {rtol:g}")
+    hv_rel = float(
+        np.max(
+            np.abs(hv_short - hv_shipped) / np.maximum(np.abs(hv_shipped), np.finfo(float).tiny),
+            initial=0.0,
+        )
+    )
+    same = (
+        n >= 2
+        and hv_rel <= rtol
+        and all(
+            int(shipped["n_evaluated"].values[g]) == h["n_evaluated"]
+            and int(shipped["n_cache_hits"].values[g]) == h["n_cache_hits"]
+            for g, h in enumerate(short[:n])
+        )
+    )
+    kernels = (
+        f"kernels for {here} here, {shipped_cpu} there: hypervolume within {hv_rel:.1e} relative, "
+        f"allowed {rtol:g}"
+    )
     if not same:
-        print(f"  the short run's generations are not the shipped [{profile_name}] run's (another population, seed, "
-              f"profile, or more than round-off; {kernels}): no projection from it")
+        print(
+            f"  the short run's generations are not the shipped [{profile_name}] run's (another population, seed, "
+            f"profile, or more than round-off; {kernels}): no projection from it"
+        )
         return None
     shipped_s = shipped["wall_s"].values
     pace = sum(h["wall_s"] for h in short[1:n]) / float(np.sum(shipped_s[1:n]))
     total_s = projection["startup_s"] + short[0]["wall_s"] + pace * float(np.sum(shipped_s[1:]))
     hours = total_s / 3600.0
-    print(f"  from the shipped run ({shipped.sizes['generation']} generations, {int(shipped['n_evaluated'].sum())} "
-          f"designs evaluated, {int(shipped['n_cache_hits'].sum())} journal hits, {float(np.sum(shipped_s)):.0f} s): "
-          f"generations 2-{n} here took {pace:.2f} times its time for the same designs ({kernels}); projected "
-          f"{hours:.2f} h ({total_s:.0f} s) for its whole campaign on this machine")
-    return {"pace_vs_shipped": pace, "generations_compared": n, "projected_s": total_s, "projected_h": hours,
-            "shipped_wall_s": float(np.sum(shipped_s))}
+    print(
+        f"  from the shipped run ({shipped.sizes['generation']} generations, {int(shipped['n_evaluated'].sum())} "
+        f"designs evaluated, {int(shipped['n_cache_hits'].sum())} journal hits, {float(np.sum(shipped_s)):.0f} s): "
+        f"generations 2-{n} here took {pace:.2f} times its time for the same designs ({kernels}); projected "
+        f"{hours:.2f} h ({total_s:.0f} s) for its whole campaign on this machine"
+    )
+    return {
+        "pace_vs_shipped": pace,
+        "generations_compared": n,
+        "projected_s": total_s,
+        "projected_h": hours,
+        "shipped_wall_s": float(np.sum(shipped_s)),
+    }
 
 
 def evaluated_per_generation(run_dir) -> dict:
@@ -174,19 +248,31 @@ def evaluated_per_generation(run_dir) -> dict:
     checkpoint = load_checkpoint(path) if path.is_dir() else None
     history = (checkpoint or {}).get("history") or []
     if not history:
-        raise ConfigError(f"--history {run_dir}: not a campaign run folder with a checkpointed generation "
-                          "(expected checkpoint.pkl written by 'python -m lnss_lib campaign')", key="--history")
+        raise ConfigError(
+            f"--history {run_dir}: not a campaign run folder with a checkpointed generation "
+            "(expected checkpoint.pkl written by 'python -m lnss_lib campaign')",
+            key="--history",
+        )
     population, generations = TABLE_5["population"], TABLE_5["generations"]
     sizes = {int(h["n_designs"]) for h in history}
     if sizes != {population}:
-        raise ConfigError(f"--history {run_dir}: generations of {sorted(sizes)} designs; the projection needs a run "
-                          f"with Table 5's population of {population}", key="--history")
+        raise ConfigError(
+            f"--history {run_dir}: generations of {sorted(sizes)} designs; the projection needs a run "
+            f"with Table 5's population of {population}",
+            key="--history",
+        )
     recorded = np.array([int(h["n_evaluated"]) for h in history[:generations]])
     tail = float(np.mean(recorded[-HISTORY_TAIL:]))
     total = float(recorded.sum() + tail * (generations - recorded.size))
-    return {"run_dir": str(path), "generations_recorded": int(recorded.size), "evaluated_recorded": int(recorded.sum()),
-            "hits_recorded": int(sum(int(h["n_cache_hits"]) for h in history[:generations])),
-            "tail_mean_evaluated": tail, "evaluated_total": total, "hit_fraction": 1.0 - total / EVALUATIONS}
+    return {
+        "run_dir": str(path),
+        "generations_recorded": int(recorded.size),
+        "evaluated_recorded": int(recorded.sum()),
+        "hits_recorded": int(sum(int(h["n_cache_hits"]) for h in history[:generations])),
+        "tail_mean_evaluated": tail,
+        "evaluated_total": total,
+        "hit_fraction": 1.0 - total / EVALUATIONS,
+    }
 
 
 def _history_range(projection: dict, run_dir) -> dict:
@@ -195,13 +281,17 @@ def _history_range(projection: dict, run_dir) -> dict:
     rate, fixed_s = projection["steady_designs_per_s"], projection["fixed_s"]
     no_hits_h = (fixed_s + EVALUATIONS / rate) / 3600.0
     with_hits_h = (fixed_s + hist["evaluated_total"] / rate) / 3600.0
-    print(f"  with {hist['run_dir']}'s cache hits: generations 1-{hist['generations_recorded']} evaluated "
-          f"{hist['evaluated_recorded']} designs ({hist['hits_recorded']} journal hits), the other "
-          f"{TABLE_5['generations'] - hist['generations_recorded']} at its last {HISTORY_TAIL} generations' mean of "
-          f"{hist['tail_mean_evaluated']:.1f}: {hist['evaluated_total']:.0f} evaluations ({100 * hist['hit_fraction']:.1f}% "
-          f"hits)")
-    print(f"  projected 120 x 1000 [{projection['profile']}] at {rate:.2f} designs/s: {with_hits_h:.2f} h with the "
-          f"measured hits .. {no_hits_h:.2f} h with none")
+    print(
+        f"  with {hist['run_dir']}'s cache hits: generations 1-{hist['generations_recorded']} evaluated "
+        f"{hist['evaluated_recorded']} designs ({hist['hits_recorded']} journal hits), the other "
+        f"{TABLE_5['generations'] - hist['generations_recorded']} at its last {HISTORY_TAIL} generations' mean of "
+        f"{hist['tail_mean_evaluated']:.1f}: {hist['evaluated_total']:.0f} evaluations ({100 * hist['hit_fraction']:.1f}% "
+        f"hits)"
+    )
+    print(
+        f"  projected 120 x 1000 [{projection['profile']}] at {rate:.2f} designs/s: {with_hits_h:.2f} h with the "
+        f"measured hits .. {no_hits_h:.2f} h with none"
+    )
     return {**hist, "projected_h_with_hits": with_hits_h, "projected_h_no_hits": no_hits_h}
 
 
@@ -213,8 +303,9 @@ def _late_designs(records: list[dict], n: int, tail: int = HISTORY_TAIL) -> list
     return [late[i] for i in sorted(rng.choice(len(late), min(n, len(late)), replace=False))]
 
 
-def evaluation_comparison(profile_name: str, projection: dict, overrides: dict | None = None,
-                          history: str | None = None) -> dict:
+def evaluation_comparison(
+    profile_name: str, projection: dict, overrides: dict | None = None, history: str | None = None
+) -> dict:
     """Print and return the campaign evaluation before and after the evaluation-path work
     (:mod:`lnss_lib.bench.evaluation_before`) on :data:`EVALUATION_DESIGNS` designs: the last
     :data:`HISTORY_TAIL` generations' of ``history`` (the mix a converged search evaluates) or else the short
@@ -227,24 +318,43 @@ def evaluation_comparison(profile_name: str, projection: dict, overrides: dict |
     designs = []
     for record in records:
         design = grid.descale(record["key"])[0]
-        designs.append(WalkerDesign(*(float(x) for x in design[:4]), int(design[4]), int(design[5])).elements_deg())
+        designs.append(
+            WalkerDesign(
+                *(float(x) for x in design[:4]), int(design[4]), int(design[5])
+            ).elements_deg()
+        )
     got = compare_evaluations(context, designs)
     before, now = got["before_s"], got["now_s"]
-    where = f"{history}'s last {HISTORY_TAIL} generations" if history is not None else "the short run"
-    print(f"campaign evaluation before -> now (evaluation path), {got['n_designs']} designs of {where}, 1 thread, "
-          f"median of 3 alternating runs: {1e3 * before:.1f} ms -> {1e3 * now:.1f} ms per design "
-          f"({100 * (1 - now / before):.1f}% less); "
-          + ", ".join(f"{k} {1e3 * got[f'before_{k}_s']:.1f} -> {1e3 * got[f'now_{k}_s']:.1f}" for k in TIMING_KEYS)
-          + f" ms; metrics differing: {got['n_differing']}")
-    rate, fixed_s, workers = projection["steady_designs_per_s"], projection["fixed_s"], max(projection["n_workers"], 1)
+    where = (
+        f"{history}'s last {HISTORY_TAIL} generations" if history is not None else "the short run"
+    )
+    print(
+        f"campaign evaluation before -> now (evaluation path), {got['n_designs']} designs of {where}, 1 thread, "
+        f"median of 3 alternating runs: {1e3 * before:.1f} ms -> {1e3 * now:.1f} ms per design "
+        f"({100 * (1 - now / before):.1f}% less); "
+        + ", ".join(
+            f"{k} {1e3 * got[f'before_{k}_s']:.1f} -> {1e3 * got[f'now_{k}_s']:.1f}"
+            for k in TIMING_KEYS
+        )
+        + f" ms; metrics differing: {got['n_differing']}"
+    )
+    rate, fixed_s, workers = (
+        projection["steady_designs_per_s"],
+        projection["fixed_s"],
+        max(projection["n_workers"], 1),
+    )
     per_design = {"now": 1.0 / rate, "before": 1.0 / rate + (before - now) / workers}
-    evaluated = evaluated_per_generation(history)["evaluated_total"] if history is not None else EVALUATIONS
+    evaluated = (
+        evaluated_per_generation(history)["evaluated_total"] if history is not None else EVALUATIONS
+    )
     hours = {k: (fixed_s + evaluated * v) / 3600.0 for k, v in per_design.items()}
     per_generation = {k: evaluated / TABLE_5["generations"] * v for k, v in per_design.items()}
-    print(f"  at the short run's rate ({rate:.2f} designs/s, {workers} worker(s)) with "
-          + (f"{history}'s cache hits" if history is not None else "no cache hits")
-          + f": {per_generation['before']:.2f} s -> {per_generation['now']:.2f} s a generation, 120 x 1000 "
-          f"{hours['before']:.2f} h -> {hours['now']:.2f} h")
+    print(
+        f"  at the short run's rate ({rate:.2f} designs/s, {workers} worker(s)) with "
+        + (f"{history}'s cache hits" if history is not None else "no cache hits")
+        + f": {per_generation['before']:.2f} s -> {per_generation['now']:.2f} s a generation, 120 x 1000 "
+        f"{hours['before']:.2f} h -> {hours['now']:.2f} h"
+    )
     return {**got, "generation_s": per_generation, "projected_h": hours, "records": source}
 
 
@@ -255,24 +365,41 @@ def history_after(run_dir, evaluation: dict, kernels: dict) -> dict:
     the conical shadow saved (:func:`kernel_comparison`; both evaluation paths use the current force model); and
     120 x 1000 at each pace."""
     tail = load_checkpoint(Path(run_dir))["history"][-HISTORY_TAIL:]
-    records = [r for r in read_cache_records(run_dir) if int(r.get("generation", 0)) > tail[0]["generation"] - 1]
+    records = [
+        r
+        for r in read_cache_records(run_dir)
+        if int(r.get("generation", 0)) > tail[0]["generation"] - 1
+    ]
     workers = concurrent_workers(records)
     generation_s = float(np.mean([h["wall_s"] for h in tail]))
     evaluated = float(np.mean([h["n_evaluated"] for h in tail]))
     evaluating_s = sum(r["task_wall_s"] for r in records) / len(tail) / workers
     shadow_saved = kernels["shadow_before_s"] - kernels["shadow_new_s"]
-    shadow_share = shadow_saved / (kernels["new_s"] + shadow_saved) * evaluation["now_propagation_s"] / evaluation["before_s"]
+    shadow_share = (
+        shadow_saved
+        / (kernels["new_s"] + shadow_saved)
+        * evaluation["now_propagation_s"]
+        / evaluation["before_s"]
+    )
     saved_s = evaluating_s * (1.0 - evaluation["now_s"] / evaluation["before_s"] + shadow_share)
     after_s = generation_s - saved_s
     generations = TABLE_5["generations"]
-    print(f"  {run_dir}'s last {HISTORY_TAIL} generations as run (before): {generation_s:.2f} s a generation ({evaluated:.1f} "
-          f"evaluated, {evaluating_s:.2f} s of tasks per worker, {workers} workers) = {generations * generation_s / 3600:.2f} h "
-          f"for {generations}; with this change: {after_s:.2f} s ({100 * saved_s / generation_s:.1f}% less, of which the "
-          f"shadow {100 * evaluating_s * shadow_share / generation_s:.1f}%) = {generations * after_s / 3600:.2f} h")
-    return {"generation_before_s": generation_s, "generation_after_s": after_s, "saved_fraction": saved_s / generation_s}
+    print(
+        f"  {run_dir}'s last {HISTORY_TAIL} generations as run (before): {generation_s:.2f} s a generation ({evaluated:.1f} "
+        f"evaluated, {evaluating_s:.2f} s of tasks per worker, {workers} workers) = {generations * generation_s / 3600:.2f} h "
+        f"for {generations}; with this change: {after_s:.2f} s ({100 * saved_s / generation_s:.1f}% less, of which the "
+        f"shadow {100 * evaluating_s * shadow_share / generation_s:.1f}%) = {generations * after_s / 3600:.2f} h"
+    )
+    return {
+        "generation_before_s": generation_s,
+        "generation_after_s": after_s,
+        "saved_fraction": saved_s / generation_s,
+    }
 
 
-def kernel_comparison(profile_name: str, records: list[dict], overrides: dict | None = None) -> dict:
+def kernel_comparison(
+    profile_name: str, records: list[dict], overrides: dict | None = None
+) -> dict:
     """Print and return the force model's CPU time before and after, per right-hand side and per design, on the
     points each satellite of the first :data:`KERNEL_DESIGNS` valid designs of ``records`` is integrated at."""
     settings = load_settings(profile_name, overrides=overrides)
@@ -283,32 +410,45 @@ def kernel_comparison(profile_name: str, records: list[dict], overrides: dict | 
     totals = {"new_s": 0.0, "before_s": 0.0, "n_rhs": 0}
     shadows = {"shadow_new_s": 0.0, "shadow_before_s": 0.0, "shadow_same": True}
     max_rel_diff = 0.0
-    print(f"force model before -> after, {integ.method} at rtol {integ.rtol:g}, CPU time, same points:")
+    print(
+        f"force model before -> after, {integ.method} at rtol {integ.rtol:g}, CPU time, same points:"
+    )
     for record in [r for r in records if r["ok"]][:KERNEL_DESIGNS]:
         design = grid.descale(record["key"])[0]
         walker = WalkerDesign(*(float(x) for x in design[:4]), int(design[4]), int(design[5]))
         states = elements_deg_to_states(settings.dynamics, walker.elements_deg(), context.t0_tdb_s)
         mine = {"new_s": 0.0, "before_s": 0.0, "n_rhs": 0}
         for y0 in states:
-            ts, ys = rhs_points(context.model, y0, context.t0_tdb_s, duration, integ.method, integ.rtol, integ.atol)
+            ts, ys = rhs_points(
+                context.model, y0, context.t0_tdb_s, duration, integ.method, integ.rtol, integ.atol
+            )
             replay = replay_times(context.model, ts, ys)
             shadow = shadow_times(context.model, ts, ys)
-            shadows = {k: (v and shadow[k]) if k == "shadow_same" else v + shadow[k] for k, v in shadows.items()}
+            shadows = {
+                k: (v and shadow[k]) if k == "shadow_same" else v + shadow[k]
+                for k, v in shadows.items()
+            }
             max_rel_diff = max(max_rel_diff, replay["max_rel_diff"])
             for key in mine:
                 mine[key] += replay[key]
         for key in totals:
             totals[key] += mine[key]
-        print(f"  a {walker.sma_km:.0f} km, e {walker.ecc:.2f}, i {walker.inc_deg:.1f} deg, {walker.n_planes} x "
-              f"{walker.sats_per_plane}: {mine['n_rhs']} right-hand sides, {mine['before_s']:.3f} s -> {mine['new_s']:.3f} s "
-              f"per design ({100 * (1 - mine['new_s'] / mine['before_s']):.1f}% less)")
+        print(
+            f"  a {walker.sma_km:.0f} km, e {walker.ecc:.2f}, i {walker.inc_deg:.1f} deg, {walker.n_planes} x "
+            f"{walker.sats_per_plane}: {mine['n_rhs']} right-hand sides, {mine['before_s']:.3f} s -> {mine['new_s']:.3f} s "
+            f"per design ({100 * (1 - mine['new_s'] / mine['before_s']):.1f}% less)"
+        )
     n = max(totals["n_rhs"], 1)
-    print(f"  per right-hand side: {1e6 * totals['before_s'] / n:.3f} us -> {1e6 * totals['new_s'] / n:.3f} us; largest relative "
-          f"difference of the accelerations {max_rel_diff:.1e} (round-off of the reordered harmonic sums)")
-    print(f"  of which the conical shadow of the Moon and the Earth (with the bodies' interpolation), alone: "
-          f"{1e9 * shadows['shadow_before_s'] / n:.1f} ns -> {1e9 * shadows['shadow_new_s'] / n:.1f} ns per right-hand side "
-          f"({100 * (shadows['shadow_before_s'] - shadows['shadow_new_s']) / totals['new_s']:.1f}% of the new right-hand "
-          f"side); same values bit for bit: {shadows['shadow_same']}")
+    print(
+        f"  per right-hand side: {1e6 * totals['before_s'] / n:.3f} us -> {1e6 * totals['new_s'] / n:.3f} us; largest relative "
+        f"difference of the accelerations {max_rel_diff:.1e} (round-off of the reordered harmonic sums)"
+    )
+    print(
+        f"  of which the conical shadow of the Moon and the Earth (with the bodies' interpolation), alone: "
+        f"{1e9 * shadows['shadow_before_s'] / n:.1f} ns -> {1e9 * shadows['shadow_new_s'] / n:.1f} ns per right-hand side "
+        f"({100 * (shadows['shadow_before_s'] - shadows['shadow_new_s']) / totals['new_s']:.1f}% of the new right-hand "
+        f"side); same values bit for bit: {shadows['shadow_same']}"
+    )
     return {**totals, **shadows, "max_rel_diff": max_rel_diff}
 
 
@@ -321,9 +461,14 @@ def _greedy_makespan(durations: np.ndarray, n_workers: int, dispatch_s: float) -
     return float(free.max())
 
 
-def _busy_fraction(durations: np.ndarray, n_workers: int, dispatch_s: float, fixed_s: float) -> float:
+def _busy_fraction(
+    durations: np.ndarray, n_workers: int, dispatch_s: float, fixed_s: float
+) -> float:
     """Share of worker time spent in tasks when ``durations`` run as one generation (list scheduling)."""
-    return float(durations.sum() / (n_workers * (_greedy_makespan(durations, n_workers, dispatch_s) + fixed_s)))
+    return float(
+        durations.sum()
+        / (n_workers * (_greedy_makespan(durations, n_workers, dispatch_s) + fixed_s))
+    )
 
 
 def busy_model(records: list[dict], overhead: dict) -> dict:
@@ -340,7 +485,9 @@ def busy_model(records: list[dict], overhead: dict) -> dict:
     counts = [w for w in range(2, 2401) if w <= 128 or w % 32 == 0]
 
     def designs_as_tasks(w, dispatch):
-        return float(np.mean([_busy_fraction(np.sort(durations[i])[::-1], w, dispatch, 0.0) for i in picks]))
+        return float(
+            np.mean([_busy_fraction(np.sort(durations[i])[::-1], w, dispatch, 0.0) for i in picks])
+        )
 
     def satellites_as_tasks(w, dispatch):
         """Propagation split into one task per satellite, then one metrics task per design (two phases)."""
@@ -348,39 +495,51 @@ def busy_model(records: list[dict], overhead: dict) -> dict:
         for i in picks:
             sat_tasks = np.sort(np.repeat(propagation[i] / n_sat[i], n_sat[i]))[::-1]
             wall = _greedy_makespan(sat_tasks, w, dispatch) + _greedy_makespan(
-                np.sort(durations[i] - propagation[i])[::-1], w, dispatch)
+                np.sort(durations[i] - propagation[i])[::-1], w, dispatch
+            )
             fractions.append(durations[i].sum() / (w * wall))
         return float(np.mean(fractions))
 
-    print(f"  real evaluations here: mean {durations.mean():.2f} s, 95th percentile {np.percentile(durations, 95):.2f} s, "
-          f"max {durations.max():.2f} s per design, propagation {100 * propagation.sum() / durations.sum():.0f}% of "
-          f"task time")
+    print(
+        f"  real evaluations here: mean {durations.mean():.2f} s, 95th percentile {np.percentile(durations, 95):.2f} s, "
+        f"max {durations.max():.2f} s per design, propagation {100 * propagation.sum() / durations.sum():.0f}% of "
+        f"task time"
+    )
     out = {}
     for dispatch in sorted({min(overhead.values()), max(overhead.values())}):
-        for label, model in (("designs as tasks", designs_as_tasks), ("satellites as tasks", satellites_as_tasks)):
+        for label, model in (
+            ("designs as tasks", designs_as_tasks),
+            ("satellites as tasks", satellites_as_tasks),
+        ):
             busy = {w: model(w, dispatch) for w in counts}
             best = max((w for w in counts if busy[w] >= 0.9), default=1)
             out[f"max_workers_90pct_{label.split()[0]}_{1e3 * dispatch:.1f}ms"] = best
-            print(f"  {label:19s}, {1e3 * dispatch:5.1f} ms per task: >= 90% busy up to {best} workers (busy at 8: "
-                  f"{100 * busy[8]:.0f}%, 32: {100 * busy[32]:.0f}%, 64: {100 * busy[64]:.0f}%, 128: {100 * busy[128]:.0f}%)")
+            print(
+                f"  {label:19s}, {1e3 * dispatch:5.1f} ms per task: >= 90% busy up to {best} workers (busy at 8: "
+                f"{100 * busy[8]:.0f}%, 32: {100 * busy[32]:.0f}%, 64: {100 * busy[64]:.0f}%, 128: {100 * busy[128]:.0f}%)"
+            )
     return out
 
 
-def scaling(profile_name: str = "paper", reference: dict | None = None, overrides: dict | None = None) -> dict:
+def scaling(
+    profile_name: str = "paper", reference: dict | None = None, overrides: dict | None = None
+) -> dict:
     """Print local scaling, loopback-cluster overhead per design and the 90%-busy worker count."""
     out = {}
     rates = {}
     threads = numba.get_num_threads()
     for workers in (1, 2):
-        numba.set_num_threads(1)                     # one core per worker, as in a Dask worker process
+        numba.set_num_threads(1)  # one core per worker, as in a Dask worker process
         try:
             run = _short_campaign(profile_name, 16, 4, workers, overrides)
         finally:
             numba.set_num_threads(threads)
         rates[workers] = steady_rate(run["history"], run["timing"]["n_evaluations"], run["wall_s"])
     out["designs_per_s"] = rates
-    print(f"scaling [{profile_name}], 16 x 4 generations: {rates[1]:.2f} designs/s on 1 worker (in-process, 1 thread), "
-          f"{rates[2]:.2f} on 2 (Dask): efficiency {100 * rates[2] / (2 * rates[1]):.0f}%")
+    print(
+        f"scaling [{profile_name}], 16 x 4 generations: {rates[1]:.2f} designs/s on 1 worker (in-process, 1 thread), "
+        f"{rates[2]:.2f} on 2 (Dask): efficiency {100 * rates[2] / (2 * rates[1]):.0f}%"
+    )
     overhead = {}
     for workers in SCALING_WORKERS:
         start = time.perf_counter()
@@ -393,18 +552,23 @@ def scaling(profile_name: str = "paper", reference: dict | None = None, override
         excess = (gen_wall - rounds * SCALING_DELAY_S) / max(n, 1)
         busy = n * SCALING_DELAY_S / (workers * gen_wall)
         overhead[workers] = excess
-        print(f"  loopback cluster, {workers:2d} workers, {SCALING_DELAY_S} s sleep per design: generation wall "
-              f"{gen_wall / len(later):.2f} s (ideal {rounds * SCALING_DELAY_S / len(later):.2f} s), campaign overhead "
-              f"{1e3 * excess:.1f} ms per design, workers busy {100 * busy:.0f}% (run incl. start-up "
-              f"{time.perf_counter() - start:.0f} s)")
+        print(
+            f"  loopback cluster, {workers:2d} workers, {SCALING_DELAY_S} s sleep per design: generation wall "
+            f"{gen_wall / len(later):.2f} s (ideal {rounds * SCALING_DELAY_S / len(later):.2f} s), campaign overhead "
+            f"{1e3 * excess:.1f} ms per design, workers busy {100 * busy:.0f}% (run incl. start-up "
+            f"{time.perf_counter() - start:.0f} s)"
+        )
     out["overhead_s_per_design"] = overhead
-    records = (reference or {}).get("records") or _short_campaign(profile_name, 32, 2, None, overrides)["records"]
+    records = (reference or {}).get("records") or _short_campaign(
+        profile_name, 32, 2, None, overrides
+    )["records"]
     out.update(busy_model(records, overhead))
     return out
 
 
-def dispatch_comparison(profile_name: str, run_dir, overrides: dict | None = None, workers: int = 2,
-                        repeats: int = 3) -> dict:
+def dispatch_comparison(
+    profile_name: str, run_dir, overrides: dict | None = None, workers: int = 2, repeats: int = 3
+) -> dict:
     """Print and return one late generation of ``run_dir`` (its last :data:`HISTORY_TAIL` generations' mean count
     of evaluated designs, drawn from them) on a local Dask cluster, sent as before (one task per design, all at
     once) and as the campaign now sends it (:func:`~lnss_lib.campaign.backends.guided_batches`, and a design that
@@ -423,11 +587,16 @@ def dispatch_comparison(profile_name: str, run_dir, overrides: dict | None = Non
     records = _late_designs(read_cache_records(run_dir), round(hist["tail_mean_evaluated"]))
     designs = plan.grid.designs(np.array([r["key"] for r in records]))
     capped = [{**d, "stop_bounds": bounds} for d in designs] if bounds is not None else designs
-    backend = DaskBackend(evaluation_profile(settings), campaign_task(plan), max_resubmits=plan.max_resubmits,
-                          numba_threads=plan.numba_threads_per_worker, n_workers=workers)
+    backend = DaskBackend(
+        evaluation_profile(settings),
+        campaign_task(plan),
+        max_resubmits=plan.max_resubmits,
+        numba_threads=plan.numba_threads_per_worker,
+        n_workers=workers,
+    )
     best = {"before": math.inf, "now": math.inf}
     try:
-        for _ in backend.run(designs[:2 * workers]):          # workers' contexts and compiled code
+        for _ in backend.run(designs[: 2 * workers]):  # workers' contexts and compiled code
             pass
         for _ in range(repeats):
             for name, items, guided in (("before", designs, False), ("now", capped, True)):
@@ -440,19 +609,36 @@ def dispatch_comparison(profile_name: str, run_dir, overrides: dict | None = Non
     evaluated = hist["evaluated_total"] / TABLE_5["generations"]
     scale = evaluated / len(designs)
     hours = {k: TABLE_5["generations"] * v * scale / 3600.0 for k, v in best.items()}
-    print(f"generation dispatch before -> now, {len(designs)} designs of {run_dir}'s last {HISTORY_TAIL} "
-          f"generations, {workers} workers, best of {repeats} alternating: {best['before']:.2f} s -> {best['now']:.2f} s "
-          f"({100 * (1 - best['now'] / best['before']):.1f}% less; early stop "
-          + ("at the bounds" if bounds is not None else "off: the run's population was not all feasible")
-          + f"); 120 x 1000 at {evaluated:.1f} evaluated a generation: {hours['before']:.2f} h -> {hours['now']:.2f} h "
-          "(evaluations and dispatch; NSGA-II, the journal and the checkpoint add about 0.05 s a generation)")
-    return {"before_s": best["before"], "now_s": best["now"], "early_stop": bounds is not None, "n_designs": len(designs),
-            "projected_h": hours}
+    print(
+        f"generation dispatch before -> now, {len(designs)} designs of {run_dir}'s last {HISTORY_TAIL} "
+        f"generations, {workers} workers, best of {repeats} alternating: {best['before']:.2f} s -> {best['now']:.2f} s "
+        f"({100 * (1 - best['now'] / best['before']):.1f}% less; early stop "
+        + (
+            "at the bounds"
+            if bounds is not None
+            else "off: the run's population was not all feasible"
+        )
+        + f"); 120 x 1000 at {evaluated:.1f} evaluated a generation: {hours['before']:.2f} h -> {hours['now']:.2f} h "
+        "(evaluations and dispatch; NSGA-II, the journal and the checkpoint add about 0.05 s a generation)"
+    )
+    return {
+        "before_s": best["before"],
+        "now_s": best["now"],
+        "early_stop": bounds is not None,
+        "n_designs": len(designs),
+        "projected_h": hours,
+    }
 
 
-def run(profile_name: str = "paper", generations: int | None = None, population: int | None = None,
-        workers: int | None = None, scaling_run: bool = False, overrides: dict | None = None,
-        history: str | None = None) -> dict:
+def run(
+    profile_name: str = "paper",
+    generations: int | None = None,
+    population: int | None = None,
+    workers: int | None = None,
+    scaling_run: bool = False,
+    overrides: dict | None = None,
+    history: str | None = None,
+) -> dict:
     """Short campaign(s) with the profile's evaluations; throughput, shares and 120 x 1000 projections.
 
     Defaults: at most :data:`SHORT_GENERATIONS` generations of the profile's population, at most 32, unless the
@@ -472,18 +658,26 @@ def run(profile_name: str = "paper", generations: int | None = None, population:
     shipped = (REFERENCE_DIR / profile_name).is_dir()
     population = population or (settings.population if shipped else short_population)
     short_generations = generations or min(settings.generations, SHORT_GENERATIONS)
-    generations = generations or min(settings.generations, PACE_GENERATIONS if shipped else SHORT_GENERATIONS)
+    generations = generations or min(
+        settings.generations, PACE_GENERATIONS if shipped else SHORT_GENERATIONS
+    )
     out = {profile_name: _projection(profile_name, population, generations, workers, overrides)}
     out["shipped"] = shipped_projection(profile_name, out[profile_name])
     if history is not None:
         out["history"] = _history_range(out[profile_name], history)
     if (PARAMS_DIR / "operational.toml").is_file() and profile_name != "operational":
-        out["operational"] = _projection("operational", short_population, short_generations, workers, overrides)
-        print(f"projected 120 x 1000: [{profile_name}] {out[profile_name]['projected_paper_h']:.1f} h, [operational] "
-              f"{out['operational']['projected_paper_h']:.1f} h (target <= 3 h on 2 workers)")
+        out["operational"] = _projection(
+            "operational", short_population, short_generations, workers, overrides
+        )
+        print(
+            f"projected 120 x 1000: [{profile_name}] {out[profile_name]['projected_paper_h']:.1f} h, [operational] "
+            f"{out['operational']['projected_paper_h']:.1f} h (target <= 3 h on 2 workers)"
+        )
     else:
-        print(f"projected 120 x 1000: [{profile_name}] {out[profile_name]['projected_paper_h']:.1f} h (target <= 3 h on "
-              "2 workers); no params/operational.toml, so no operational projection")
+        print(
+            f"projected 120 x 1000: [{profile_name}] {out[profile_name]['projected_paper_h']:.1f} h (target <= 3 h on "
+            "2 workers); no params/operational.toml, so no operational projection"
+        )
     out["evaluation"] = evaluation_comparison(profile_name, out[profile_name], overrides, history)
     out["evaluation"].pop("records")
     out["kernels"] = kernel_comparison(profile_name, out[profile_name]["records"], overrides)

@@ -11,10 +11,17 @@ import time
 
 import numpy as np
 
-from ..settings import load_settings
 from ..constellation import WalkerDesign
-from ..dop import SurfaceGrid, dop_arrays, dop_for_settings, dop_kernel, metrics_for_settings, summary_for_settings
+from ..dop import (
+    SurfaceGrid,
+    dop_arrays,
+    dop_for_settings,
+    dop_kernel,
+    metrics_for_settings,
+    summary_for_settings,
+)
 from ..elements import kepler_states
+from ..settings import load_settings
 
 
 def _positions_km(gm: float, n_epochs: int, step_s: float) -> np.ndarray:
@@ -48,12 +55,20 @@ def run(profile_name: str = "paper", repeats: int = 9, overrides: dict | None = 
     grid = SurfaceGrid.from_settings(dop, profile.constants.r_moon_mean_km)
     r_mf_km = _positions_km(profile.gravity.gm_km3_s2, 961, 900.0)
     points, up = grid.r_mf_km.reshape(-1, 3), grid.up.reshape(-1, 3)
-    print(f"DOP grid benchmark: {r_mf_km.shape[0]} satellites x {r_mf_km.shape[1]} epochs x {grid.n_points} points "
-          f"(min / median of {repeats} alternating runs, ms)")
+    print(
+        f"DOP grid benchmark: {r_mf_km.shape[0]} satellites x {r_mf_km.shape[1]} epochs x {grid.n_points} points "
+        f"(min / median of {repeats} alternating runs, ms)"
+    )
     funcs = {
-        "old kernel (dop_kernel, numpy)": lambda: dop_kernel(r_mf_km, points, up, 5.0, "moon_fixed"),
-        "new kernel (dop_arrays, one compiled pass)": lambda: dop_arrays(r_mf_km, points, up, 5.0, "moon_fixed"),
-        "old kernel + Dataset + summary": lambda: summary_for_settings(dop, dop_for_settings(dop, r_mf_km, None, grid)),
+        "old kernel (dop_kernel, numpy)": lambda: dop_kernel(
+            r_mf_km, points, up, 5.0, "moon_fixed"
+        ),
+        "new kernel (dop_arrays, one compiled pass)": lambda: dop_arrays(
+            r_mf_km, points, up, 5.0, "moon_fixed"
+        ),
+        "old kernel + Dataset + summary": lambda: summary_for_settings(
+            dop, dop_for_settings(dop, r_mf_km, None, grid)
+        ),
         "new kernel + compiled statistics": lambda: metrics_for_settings(dop, r_mf_km, grid),
     }
     times = _alternating_ms(funcs, repeats)
@@ -61,12 +76,18 @@ def run(profile_name: str = "paper", repeats: int = 9, overrides: dict | None = 
         print(f"  {name:44s}: {lo:7.1f} / {med:7.1f}")
     old = summary_for_settings(dop, dop_for_settings(dop, r_mf_km, None, grid))
     new = metrics_for_settings(dop, r_mf_km, grid)
-    same = all(np.array_equal(a, b, equal_nan=True) for a, b in zip(dop_kernel(r_mf_km, points, up, 5.0),
-                                                                      dop_arrays(r_mf_km, points, up, 5.0)))
+    same = all(
+        np.array_equal(a, b, equal_nan=True)
+        for a, b in zip(dop_kernel(r_mf_km, points, up, 5.0), dop_arrays(r_mf_km, points, up, 5.0))
+    )
     rel = max(abs(new[k] - old[k]) / max(abs(old[k]), 1e-300) for k in old if old[k] == old[k])
-    ratio = times["old kernel + Dataset + summary"][0] / times["new kernel + compiled statistics"][0]
-    print(f"  grid arrays bit-for-bit equal: {same}; summary metrics largest relative difference {rel:.1e}; "
-          f"speed-up (grid + summary, min) {ratio:.1f}x (target: new <= 15 ms on a quiet machine)")
+    ratio = (
+        times["old kernel + Dataset + summary"][0] / times["new kernel + compiled statistics"][0]
+    )
+    print(
+        f"  grid arrays bit-for-bit equal: {same}; summary metrics largest relative difference {rel:.1e}; "
+        f"speed-up (grid + summary, min) {ratio:.1f}x (target: new <= 15 ms on a quiet machine)"
+    )
     return {"times_ms": times, "bit_for_bit": same, "max_rel_diff": rel, "speedup": ratio}
 
 

@@ -18,8 +18,8 @@ import numba
 import numpy as np
 
 from ..ephemeris import kernel_paths, load_kernels
-from ..evaluator import EvaluationContext, analyse_states, evaluate_constellation
 from ..errors import InfeasibleDesignError
+from ..evaluator import EvaluationContext, analyse_states, evaluate_constellation
 from ..keys import METRIC_KEYS, TIMING_KEYS
 from ..propagator import elements_deg_to_states
 
@@ -43,7 +43,9 @@ def _same(a: float, b: float) -> bool:
     return a == b or (math.isnan(a) and math.isnan(b))
 
 
-def compare_evaluations(context: EvaluationContext, designs: list[np.ndarray], repeats: int = 3) -> dict:
+def compare_evaluations(
+    context: EvaluationContext, designs: list[np.ndarray], repeats: int = 3
+) -> dict:
     """Wall time of the previous and the current campaign evaluation of each design (elements (n, 6)), one
     numba thread as in a campaign worker, the two alternating (which goes first alternates by repeat) so that
     machine load hits both alike; medians per design. Returns the per-design medians (s) of both paths and of
@@ -55,7 +57,7 @@ def compare_evaluations(context: EvaluationContext, designs: list[np.ndarray], r
     parts = {name: {k: [] for k in TIMING_KEYS} for name in paths}
     differing, evaluated = 0, 0
     try:
-        for elements in designs[:1]:                          # compile or load the kernels outside the clock
+        for elements in designs[:1]:  # compile or load the kernels outside the clock
             for func in paths.values():
                 func(context, elements)
         for elements in designs:
@@ -71,14 +73,27 @@ def compare_evaluations(context: EvaluationContext, designs: list[np.ndarray], r
                 differing += (results["before"] is None) != (results["now"] is None)
                 continue
             evaluated += 1
-            differing += not all(_same(results["before"][k], results["now"][k]) for k in METRIC_KEYS)
+            differing += not all(
+                _same(results["before"][k], results["now"][k]) for k in METRIC_KEYS
+            )
             for name in paths:
                 times[name].append(float(np.median([t for t, _ in runs[name]])))
                 for key in TIMING_KEYS:
-                    parts[name][key].append(float(np.median([r["timing_s"][key] for _, r in runs[name]])))
+                    parts[name][key].append(
+                        float(np.median([r["timing_s"][key] for _, r in runs[name]]))
+                    )
     finally:
         numba.set_num_threads(threads)
-    return {"n_designs": evaluated, "n_differing": differing,
-            **{f"{name}_s": float(np.mean(values)) if values else math.nan for name, values in times.items()},
-            **{f"{name}_{key}_s": float(np.mean(values)) if values else math.nan
-               for name in paths for key, values in parts[name].items()}}
+    return {
+        "n_designs": evaluated,
+        "n_differing": differing,
+        **{
+            f"{name}_s": float(np.mean(values)) if values else math.nan
+            for name, values in times.items()
+        },
+        **{
+            f"{name}_{key}_s": float(np.mean(values)) if values else math.nan
+            for name in paths
+            for key, values in parts[name].items()
+        },
+    }

@@ -26,7 +26,9 @@ from .evaluate import _designs
 SYSTEMS = ("gps", "galileo", "beidou", "glonass")
 
 
-def run(profile_name: str = "paper", n_designs: int = 6, repeats: int = 3, overrides: dict | None = None) -> dict:
+def run(
+    profile_name: str = "paper", n_designs: int = 6, repeats: int = 3, overrides: dict | None = None
+) -> dict:
     """Print the GPS-only and four-system link times per design (min of ``repeats``) and their ratio."""
     numba.set_num_threads(1)
     profile = load_settings(profile_name, overrides=overrides)
@@ -35,8 +37,10 @@ def run(profile_name: str = "paper", n_designs: int = 6, repeats: int = 3, overr
     start = time.perf_counter()
     states = gnss_states_mci(gnss, profile.gps, profile.epoch.start_tdb, context.times)
     tx = system_transmitters(gnss, profile.gps, states)
-    print(f"states of {states.sizes['sat']} GNSS satellites at {states.sizes['time']} epochs and their transmitters: "
-          f"{time.perf_counter() - start:.2f} s")
+    print(
+        f"states of {states.sizes['sat']} GNSS satellites at {states.sizes['time']} epochs and their transmitters: "
+        f"{time.perf_counter() - start:.2f} s"
+    )
     combinations = {"all": SYSTEMS}
 
     def gps_only(r):
@@ -44,8 +48,14 @@ def run(profile_name: str = "paper", n_designs: int = 6, repeats: int = 3, overr
 
     def four(r):
         counts, scatter = gnss_link_arrays(profile.gps, profile.constants, states, tx, r[0])
-        return gnss_link_summary(counts, scatter, SYSTEMS, combinations, profile.gps.pdop_filter,
-                                 profile.gps.clock_column)
+        return gnss_link_summary(
+            counts,
+            scatter,
+            SYSTEMS,
+            combinations,
+            profile.gps.pdop_filter,
+            profile.gps.clock_column,
+        )
 
     elements = [standalone_elfo(profile.standalone_elfo, profile.dynamics)[:1]]
     elements += [d.elements_deg()[:1] for d in _designs(CampaignPlan.of(profile), n_designs)[1:]]
@@ -58,8 +68,10 @@ def run(profile_name: str = "paper", n_designs: int = 6, repeats: int = 3, overr
     gps_only(positions[0][1])
     four(positions[0][1])
     print(f"first calls (JIT compile or cache load): {time.perf_counter() - start:.2f} s")
-    print(f"{profile.epoch.duration_days:g} days every {profile.epoch.step_s:g} s, first satellite, 1 thread; "
-          f"min of {repeats} alternating runs, ms (GPS alone -> all four):")
+    print(
+        f"{profile.epoch.duration_days:g} days every {profile.epoch.step_s:g} s, first satellite, 1 thread; "
+        f"min of {repeats} alternating runs, ms (GPS alone -> all four):"
+    )
     ratios = []
     for row, r in positions:
         best = {"gps": np.inf, "four": np.inf}
@@ -69,9 +81,13 @@ def run(profile_name: str = "paper", n_designs: int = 6, repeats: int = 3, overr
                 func(r)
                 best[name] = min(best[name], time.perf_counter() - t0)
         ratios.append(best["four"] / best["gps"])
-        print(f"  a {row[0]:7.0f} e {row[1]:4.2f} i {row[2]:5.1f}: {1e3 * best['gps']:.2f} -> {1e3 * best['four']:.2f} "
-              f"({ratios[-1]:.2f}x)")
+        print(
+            f"  a {row[0]:7.0f} e {row[1]:4.2f} i {row[2]:5.1f}: {1e3 * best['gps']:.2f} -> {1e3 * best['four']:.2f} "
+            f"({ratios[-1]:.2f}x)"
+        )
     n_gps = int(np.sum(tx.system_index == 0))
-    print(f"  mean ratio over {len(ratios)} designs: {np.mean(ratios):.2f}x (GPS {n_gps} satellites, all four "
-          f"{states.sizes['sat']})")
+    print(
+        f"  mean ratio over {len(ratios)} designs: {np.mean(ratios):.2f}x (GPS {n_gps} satellites, all four "
+        f"{states.sizes['sat']})"
+    )
     return {"mean_ratio": float(np.mean(ratios)), "designs": len(ratios)}

@@ -23,9 +23,32 @@ import numpy as np
 from scipy.integrate import solve_ivp
 
 from ..ephemeris import hermite_apply, hermite_basis, hermite_cubic
-from ..forces import (ALBEDO, AU, C_LIGHT, F_ALBEDO, F_EARTH, F_HARMONICS, F_JUPITER, F_REL, F_SHADOW, F_SRP, F_SUN,
-                      GM, R_EARTH, R_MOON, R_REF, R_SUN, SCRATCH_SIZE, SRP_K, TERMS, ForceModel, acceleration,
-                      conical_fraction, shadow_factor, shadow_geometry)
+from ..forces import (
+    ALBEDO,
+    AU,
+    C_LIGHT,
+    F_ALBEDO,
+    F_EARTH,
+    F_HARMONICS,
+    F_JUPITER,
+    F_REL,
+    F_SHADOW,
+    F_SRP,
+    F_SUN,
+    GM,
+    R_EARTH,
+    R_MOON,
+    R_REF,
+    R_SUN,
+    SCRATCH_SIZE,
+    SRP_K,
+    TERMS,
+    ForceModel,
+    acceleration,
+    conical_fraction,
+    shadow_factor,
+    shadow_geometry,
+)
 from ..gravity import fill_vw, truncation_degree
 
 
@@ -63,8 +86,9 @@ def harmonic_acceleration_before(r_bf_km, cnm, snm, coef, gm, r_ref, degree, wor
 @nb.njit(cache=True)
 def shadow_factor_before(r_sc, r_sun, bx, by, bz, radius_body, radius_sun):
     """The previous :func:`lnss_lib.forces.shadow_factor`: the three angles at every call (the same values)."""
-    inside, sin_a, sin_b, cos_c = shadow_geometry(r_sc[0], r_sc[1], r_sc[2], r_sun[0], r_sun[1], r_sun[2], bx, by, bz,
-                                                  radius_body, radius_sun)
+    inside, sin_a, sin_b, cos_c = shadow_geometry(
+        r_sc[0], r_sc[1], r_sc[2], r_sun[0], r_sun[1], r_sun[2], bx, by, bz, radius_body, radius_sun
+    )
     return 0.0 if inside else conical_fraction(sin_a, sin_b, cos_c)
 
 
@@ -105,7 +129,9 @@ def acceleration_terms_before(t, y, args, field_before, work, scratch, terms):
         kept = truncation_degree(r_norm, coef, gm, scalars[R_REF], degree, truncation_kms2)
         harmonic_acceleration_before(r_bf, cnm, snm, coef, gm, scalars[R_REF], kept, work, a_bf)
         for j in range(3):
-            terms[1, j] = buf[j] * a_bf[0] + buf[3 + j] * a_bf[1] + buf[6 + j] * a_bf[2] - terms[0, j]
+            terms[1, j] = (
+                buf[j] * a_bf[0] + buf[3 + j] * a_bf[1] + buf[6 + j] * a_bf[2] - terms[0, j]
+            )
     r_sun = scratch[15:18]
     r_earth = scratch[18:21]
     r_jup = scratch[21:24]
@@ -125,8 +151,9 @@ def acceleration_terms_before(t, y, args, field_before, work, scratch, terms):
         if flags[F_SHADOW]:
             nu = shadow_factor_before(r, r_sun, 0.0, 0.0, 0.0, scalars[R_MOON], scalars[R_SUN])
             if nu > 0.0:
-                nu *= shadow_factor_before(r, r_sun, r_earth[0], r_earth[1], r_earth[2], scalars[R_EARTH],
-                                           scalars[R_SUN])
+                nu *= shadow_factor_before(
+                    r, r_sun, r_earth[0], r_earth[1], r_earth[2], scalars[R_EARTH], scalars[R_SUN]
+                )
         k = nu * scalars[SRP_K] * (scalars[AU] / d) ** 2 / d
         terms[5, 0] = k * ux
         terms[5, 1] = k * uy
@@ -147,7 +174,13 @@ def acceleration_terms_before(t, y, args, field_before, work, scratch, terms):
         phase = np.arccos(max(-1.0, min(1.0, cos_phase)))
         lambert = (np.sin(phase) + (np.pi - phase) * np.cos(phase)) / np.pi
         # reflected flux / incident flux of a Lambertian sphere: (2/3) A (R/q)^2 lambert(phase)
-        ratio = (2.0 / 3.0) * scalars[ALBEDO] * (scalars[R_EARTH] / q) ** 2 * lambert * (scalars[AU] / e_norm) ** 2
+        ratio = (
+            (2.0 / 3.0)
+            * scalars[ALBEDO]
+            * (scalars[R_EARTH] / q) ** 2
+            * lambert
+            * (scalars[AU] / e_norm) ** 2
+        )
         k = ratio * scalars[SRP_K] / q
         terms[7, 0] = k * qx
         terms[7, 1] = k * qy
@@ -206,8 +239,15 @@ def before_field(model: ForceModel) -> tuple:
     return field.cnm, field.snm, field.coef, field.truncation_kms2
 
 
-def rhs_points(model: ForceModel, y0: np.ndarray, t0_tdb_s: float, duration_s: float, method: str, rtol: float,
-               atol: float) -> tuple[np.ndarray, np.ndarray]:
+def rhs_points(
+    model: ForceModel,
+    y0: np.ndarray,
+    t0_tdb_s: float,
+    duration_s: float,
+    method: str,
+    rtol: float,
+    atol: float,
+) -> tuple[np.ndarray, np.ndarray]:
     """The (t, y) points at which an integration of one satellite (``method`` RK45 or DOP853) evaluates the
     force model."""
     args, work = model.kernel_args, model.field.workspace()
@@ -228,7 +268,12 @@ def replay_times(model: ForceModel, ts: np.ndarray, ys: np.ndarray, repeats: int
     """CPU seconds of the new and the previous right-hand side over every point (median of ``repeats``, the
     two alternating) and the largest relative difference of the two accelerations over the points."""
     args, field_before = model.kernel_args, before_field(model)
-    work, scratch, terms, out = model.field.workspace(), np.zeros(SCRATCH_SIZE), np.zeros((len(TERMS), 3)), np.zeros(3)
+    work, scratch, terms, out = (
+        model.field.workspace(),
+        np.zeros(SCRATCH_SIZE),
+        np.zeros((len(TERMS), 3)),
+        np.zeros(3),
+    )
     max_rel_diff = _largest_difference(ts, ys, args, field_before, work, scratch, terms)
     times = {"new": [], "before": []}
     for _ in range(repeats):
@@ -238,8 +283,12 @@ def replay_times(model: ForceModel, ts: np.ndarray, ys: np.ndarray, repeats: int
         start = time.process_time()
         _replay_before(ts, ys, args, field_before, work, scratch, terms, out)
         times["before"].append(time.process_time() - start)
-    return {"new_s": float(np.median(times["new"])), "before_s": float(np.median(times["before"])),
-            "max_rel_diff": float(max_rel_diff), "n_rhs": int(ts.shape[0])}
+    return {
+        "new_s": float(np.median(times["new"])),
+        "before_s": float(np.median(times["before"])),
+        "max_rel_diff": float(max_rel_diff),
+        "n_rhs": int(ts.shape[0]),
+    }
 
 
 @nb.njit(cache=True)
@@ -253,8 +302,12 @@ def _replay_shadows(ts, ys, args, before, out):
         hermite_apply(bodies[:, 1, :3], bodies[:, 1, 3:], basis, r_earth)
         ex, ey, ez = r_earth[0], r_earth[1], r_earth[2]
         if before:
-            out[i, 0] = shadow_factor_before(ys[i], r_sun, 0.0, 0.0, 0.0, scalars[R_MOON], scalars[R_SUN])
-            out[i, 1] = shadow_factor_before(ys[i], r_sun, ex, ey, ez, scalars[R_EARTH], scalars[R_SUN])
+            out[i, 0] = shadow_factor_before(
+                ys[i], r_sun, 0.0, 0.0, 0.0, scalars[R_MOON], scalars[R_SUN]
+            )
+            out[i, 1] = shadow_factor_before(
+                ys[i], r_sun, ex, ey, ez, scalars[R_EARTH], scalars[R_SUN]
+            )
         else:
             out[i, 0] = shadow_factor(ys[i], r_sun, 0.0, 0.0, 0.0, scalars[R_MOON], scalars[R_SUN])
             out[i, 1] = shadow_factor(ys[i], r_sun, ex, ey, ez, scalars[R_EARTH], scalars[R_SUN])
@@ -272,5 +325,8 @@ def shadow_times(model: ForceModel, ts: np.ndarray, ys: np.ndarray, repeats: int
             start = time.process_time()
             _replay_shadows(ts, ys, args, name == "before", out)
             times[name].append(time.process_time() - start)
-    return {"shadow_new_s": float(np.median(times["new"])), "shadow_before_s": float(np.median(times["before"])),
-            "shadow_same": bool(np.array_equal(new, before))}
+    return {
+        "shadow_new_s": float(np.median(times["new"])),
+        "shadow_before_s": float(np.median(times["before"])),
+        "shadow_same": bool(np.array_equal(new, before)),
+    }

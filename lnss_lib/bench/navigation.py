@@ -24,25 +24,51 @@ def _on_the_arc(name: str) -> str:
     return name
 
 
-def run(profile_name: str = "operational", n_designs: int = 12, repeats: int = 3,
-        overrides: dict | None = None) -> dict:
+def run(
+    profile_name: str = "operational",
+    n_designs: int = 12,
+    repeats: int = 3,
+    overrides: dict | None = None,
+) -> dict:
     """Print per-design evaluation times without and with the navigation over the life, and the mean increase."""
     profile = load_settings(profile_name, overrides=overrides)
     others = [k for k in profile.evaluator.extra_metrics if k not in LIFE_NAVIGATION_KEYS]
-    arc_judged = {"objectives": [_on_the_arc(name) for name in profile.campaign.objectives],
-                  "constraints": {**{k: "off" for k in profile.campaign.constraints if k in LIFE_NAVIGATION_KEYS},
-                                  **{_on_the_arc(k): v for k, v in profile.campaign.constraints.items()
-                                     if k in LIFE_NAVIGATION_KEYS}}}
-    variants = {"old": {"evaluator": {"extra_metrics": others}, "sk_estimate": {"model": "life"},
-                        "campaign": arc_judged},
-                "new": {"evaluator": {"extra_metrics": [*others, *LIFE_NAVIGATION_KEYS]}, "sk_estimate": {"model": "life"}}}
-    designs, rows = alternating(profile, variants, n_designs, repeats,
-                                "seconds (without -> with the navigation over the life)")
+    arc_judged = {
+        "objectives": [_on_the_arc(name) for name in profile.campaign.objectives],
+        "constraints": {
+            **{k: "off" for k in profile.campaign.constraints if k in LIFE_NAVIGATION_KEYS},
+            **{
+                _on_the_arc(k): v
+                for k, v in profile.campaign.constraints.items()
+                if k in LIFE_NAVIGATION_KEYS
+            },
+        },
+    }
+    variants = {
+        "old": {
+            "evaluator": {"extra_metrics": others},
+            "sk_estimate": {"model": "life"},
+            "campaign": arc_judged,
+        },
+        "new": {
+            "evaluator": {"extra_metrics": [*others, *LIFE_NAVIGATION_KEYS]},
+            "sk_estimate": {"model": "life"},
+        },
+    }
+    designs, rows = alternating(
+        profile,
+        variants,
+        n_designs,
+        repeats,
+        "seconds (without -> with the navigation over the life)",
+    )
     for design, best in zip(designs, rows):
         old, new = best["old"], best["new"]
         same = old["sk_dv_estimate_kms_per_year"] == new["sk_dv_estimate_kms_per_year"]
-        print(f"  {design_text(design)}: {old['wall_s']:.3f} -> {new['wall_s']:.3f} s; PDOP availability "
-              f"{new['pdop_avail_pct']:.1f} % on the arc, {new['pdop_avail_pct_life_estimate']:.1f} % over the life, "
-              f"{new['pdop_avail_pct_worst_month_estimate']:.1f} % in the worst month"
-              + ("" if same else "; the Delta-V estimate differs"))
+        print(
+            f"  {design_text(design)}: {old['wall_s']:.3f} -> {new['wall_s']:.3f} s; PDOP availability "
+            f"{new['pdop_avail_pct']:.1f} % on the arc, {new['pdop_avail_pct_life_estimate']:.1f} % over the life, "
+            f"{new['pdop_avail_pct_worst_month_estimate']:.1f} % in the worst month"
+            + ("" if same else "; the Delta-V estimate differs")
+        )
     return mean_increase(rows, "old", "new")

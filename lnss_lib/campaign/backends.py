@@ -28,14 +28,28 @@ from .journal import EvaluationCache
 from .settings import CampaignPlan
 from .tasks import evaluate_task
 
-__all__ = ["SerialBackend", "DaskBackend", "open_backend", "check_scheduler_address", "start_local_cluster",
-           "connect_scheduler", "check_workers", "worker_fingerprint", "SCHEDULER_TIMEOUT_S", "campaign_task", "BatchEvaluator", "guided_batches",
-           "early_stop_bounds"]
+__all__ = [
+    "SerialBackend",
+    "DaskBackend",
+    "open_backend",
+    "check_scheduler_address",
+    "start_local_cluster",
+    "connect_scheduler",
+    "check_workers",
+    "worker_fingerprint",
+    "SCHEDULER_TIMEOUT_S",
+    "campaign_task",
+    "BatchEvaluator",
+    "guided_batches",
+    "early_stop_bounds",
+]
 
 
 def campaign_task(plan: CampaignPlan) -> Callable:
     """The campaign's task: :func:`~lnss_lib.campaign.tasks.evaluate_task` with the plan's evaluator."""
-    return functools.partial(evaluate_task, evaluator=plan.evaluator, synthetic_delay_s=plan.synthetic_delay_s)
+    return functools.partial(
+        evaluate_task, evaluator=plan.evaluator, synthetic_delay_s=plan.synthetic_delay_s
+    )
 
 
 # Guided batches on the campaign's backend: each batch the remaining cost over twice the workers, two batches per
@@ -51,7 +65,9 @@ def run_batch(task: Callable, shared, items: list[dict], numba_threads: int = 0)
     return [task(shared, item, numba_threads=numba_threads) for item in items]
 
 
-def guided_batches(costs: list[float], n_workers: int, share: int = GUIDED_SHARE) -> list[list[int]]:
+def guided_batches(
+    costs: list[float], n_workers: int, share: int = GUIDED_SHARE
+) -> list[list[int]]:
     """Indices of ``costs`` (in that order) cut into consecutive batches of guided self-scheduling (Polychronopoulos
     & Kuck 1987), weighted by cost: each batch takes items until it holds the remaining cost over ``share`` times
     ``n_workers`` (at least one item), so batches shrink to single items at the end and the last to finish are
@@ -127,10 +143,18 @@ def start_local_cluster(n_workers: int | None):
     try:
         with _sigint_deferred(), warnings.catch_warnings():
             # the scheduler's HTTP port (no dashboard here) moves aside when another cluster holds 8787
-            warnings.filterwarnings("ignore", message="Port .* is already in use", category=UserWarning)
-            cluster = LocalCluster(n_workers=n_workers, threads_per_worker=1, processes=True, host="127.0.0.1",
-                                   dashboard_address=None, preload=[__name__],
-                                   silence_logs=logging.CRITICAL)   # task errors come back through the futures
+            warnings.filterwarnings(
+                "ignore", message="Port .* is already in use", category=UserWarning
+            )
+            cluster = LocalCluster(
+                n_workers=n_workers,
+                threads_per_worker=1,
+                processes=True,
+                host="127.0.0.1",
+                dashboard_address=None,
+                preload=[__name__],
+                silence_logs=logging.CRITICAL,
+            )  # task errors come back through the futures
     except KeyboardInterrupt:
         if cluster is not None:
             cluster.close()
@@ -145,11 +169,17 @@ def connect_scheduler(scheduler_address: str):
     from dask.distributed import Client
 
     try:
-        client = Client(check_scheduler_address(scheduler_address), timeout=SCHEDULER_TIMEOUT_S, set_as_default=False)
-    except OSError as error:        # TimeoutError included: nothing answers at the address
-        raise RuntimeError(f"--scheduler-address {scheduler_address}: no Dask scheduler answered within "
-                           f"{SCHEDULER_TIMEOUT_S} s ({type(error).__name__}); start one (dask scheduler) or "
-                           f"drop --scheduler-address for a local cluster") from None
+        client = Client(
+            check_scheduler_address(scheduler_address),
+            timeout=SCHEDULER_TIMEOUT_S,
+            set_as_default=False,
+        )
+    except OSError as error:  # TimeoutError included: nothing answers at the address
+        raise RuntimeError(
+            f"--scheduler-address {scheduler_address}: no Dask scheduler answered within "
+            f"{SCHEDULER_TIMEOUT_S} s ({type(error).__name__}); start one (dask scheduler) or "
+            f"drop --scheduler-address for a local cluster"
+        ) from None
     try:
         check_workers(client)
     except BaseException:
@@ -178,13 +208,20 @@ def check_workers(client) -> None:
         if isinstance(theirs, BaseException):
             differences = {"lnss_lib": (f"{type(theirs).__name__}: {theirs}", "importable")}
         else:
-            differences = {k: (theirs.get(k, "absent"), v) for k, v in here.items() if theirs.get(k) != v}
+            differences = {
+                k: (theirs.get(k, "absent"), v) for k, v in here.items() if theirs.get(k) != v
+            }
         if differences:
-            listed = "; ".join(f"{k} {mine} (here {ours})" for k, (mine, ours) in differences.items())
-            raise WorkerMismatchError(f"Dask worker {worker} is refused: it differs from this process in {listed}; "
-                                      f"its designs would not be those of a serial run. Start every worker from this "
-                                      f"environment (same packages, same workbook, same NUMBA_CPU_NAME)",
-                                      worker=worker, differences=differences)
+            listed = "; ".join(
+                f"{k} {mine} (here {ours})" for k, (mine, ours) in differences.items()
+            )
+            raise WorkerMismatchError(
+                f"Dask worker {worker} is refused: it differs from this process in {listed}; "
+                f"its designs would not be those of a serial run. Start every worker from this "
+                f"environment (same packages, same workbook, same NUMBA_CPU_NAME)",
+                worker=worker,
+                differences=differences,
+            )
 
 
 class DaskBackend:
@@ -192,8 +229,16 @@ class DaskBackend:
     (``n_workers`` processes, one thread each, on 127.0.0.1) or an existing one at ``scheduler_address``. A task
     lost with its worker (KilledWorker, closed connection, cancelled) is resubmitted up to ``max_resubmits`` times."""
 
-    def __init__(self, shared, task: Callable, *, max_resubmits: int, numba_threads: int = 0,
-                 n_workers: int | None = None, scheduler_address: str | None = None):
+    def __init__(
+        self,
+        shared,
+        task: Callable,
+        *,
+        max_resubmits: int,
+        numba_threads: int = 0,
+        n_workers: int | None = None,
+        scheduler_address: str | None = None,
+    ):
         from dask.distributed import Client
 
         self.cluster = None
@@ -214,8 +259,14 @@ class DaskBackend:
         self.shared_future = self.client.scatter(self.shared, broadcast=True, hash=False)
 
     def _submit(self, items: list[dict]):
-        return self.client.submit(run_batch, self.task, self.shared_future, items, numba_threads=self.numba_threads,
-                                  pure=False)
+        return self.client.submit(
+            run_batch,
+            self.task,
+            self.shared_future,
+            items,
+            numba_threads=self.numba_threads,
+            pure=False,
+        )
 
     def run(self, designs: list[dict], guided: bool = False):
         """Yield ``(index, result)`` for each design as it finishes (completion order), largest constellations
@@ -227,15 +278,23 @@ class DaskBackend:
 
         if not designs:
             return
-        by_cost = sorted(range(len(designs)), key=lambda i: -designs[i]["n_planes"] * designs[i]["sats_per_plane"])
+        by_cost = sorted(
+            range(len(designs)),
+            key=lambda i: -designs[i]["n_planes"] * designs[i]["sats_per_plane"],
+        )
         if guided:
-            cuts = guided_batches([designs[i]["n_planes"] * designs[i]["sats_per_plane"] for i in by_cost],
-                                  self.n_workers)
+            cuts = guided_batches(
+                [designs[i]["n_planes"] * designs[i]["sats_per_plane"] for i in by_cost],
+                self.n_workers,
+            )
             batches = [[by_cost[j] for j in cut] for cut in cuts]
             in_flight = IN_FLIGHT_PER_WORKER * self.n_workers
         else:
             batches, in_flight = [[i] for i in by_cost], len(by_cost)
-        futures = {self._submit([designs[i] for i in batches[b]]): b for b in range(min(in_flight, len(batches)))}
+        futures = {
+            self._submit([designs[i] for i in batches[b]]): b
+            for b in range(min(in_flight, len(batches)))
+        }
         waiting = iter(range(len(futures), len(batches)))
         attempts = [0] * len(batches)
         queue = as_completed(list(futures), loop=self.client.loop)
@@ -244,11 +303,15 @@ class DaskBackend:
             batch = batches[b]
             try:
                 records = future.result()
-            except Exception as exc:  # worker lost or task cancelled: resubmit (the tasks themselves never raise)
+            except (
+                Exception
+            ) as exc:  # worker lost or task cancelled: resubmit (the tasks themselves never raise)
                 attempts[b] += 1
                 if attempts[b] > self.max_resubmits:
-                    raise RuntimeError(f"designs {[designs[i] for i in batch]} failed {attempts[b]} times on the "
-                                       f"cluster; last error: {type(exc).__name__}: {exc}") from exc
+                    raise RuntimeError(
+                        f"designs {[designs[i] for i in batch]} failed {attempts[b]} times on the "
+                        f"cluster; last error: {type(exc).__name__}: {exc}"
+                    ) from exc
                 self._scatter()
                 retry = self._submit([designs[i] for i in batch])
                 self.resubmitted += 1
@@ -268,8 +331,10 @@ class DaskBackend:
             self.cluster.close()
 
 
-SCHEDULER_TIMEOUT_S = 15     # a scheduler answers in well under a second, a loaded machine in seconds; none there waited 60 s
-_ADDRESS = re.compile(r"(?:(?:tcp|tls)://)?(\[[0-9A-Fa-f:.]+\]|[A-Za-z0-9](?:[A-Za-z0-9.-]*[A-Za-z0-9])?):(\d{1,5})")
+SCHEDULER_TIMEOUT_S = 15  # a scheduler answers in well under a second, a loaded machine in seconds; none there waited 60 s
+_ADDRESS = re.compile(
+    r"(?:(?:tcp|tls)://)?(\[[0-9A-Fa-f:.]+\]|[A-Za-z0-9](?:[A-Za-z0-9.-]*[A-Za-z0-9])?):(\d{1,5})"
+)
 
 
 def check_scheduler_address(address: str) -> str:
@@ -277,25 +342,42 @@ def check_scheduler_address(address: str) -> str:
     ConfigError saying the expected form (``nonsense`` was an internal error; port 99999 waited 60 s)."""
     match = _ADDRESS.fullmatch(address) if isinstance(address, str) else None
     if match is None or not 1 <= int(match.group(2)) <= 65535:
-        raise ConfigError(f"--scheduler-address {address!r} is not a Dask scheduler address; expected "
-                          f"[tcp://|tls://]HOST:PORT with PORT in 1-65535, e.g. tcp://127.0.0.1:8786",
-                          key="--scheduler-address")
+        raise ConfigError(
+            f"--scheduler-address {address!r} is not a Dask scheduler address; expected "
+            f"[tcp://|tls://]HOST:PORT with PORT in 1-65535, e.g. tcp://127.0.0.1:8786",
+            key="--scheduler-address",
+        )
     return address
 
 
-def open_backend(shared, plan: CampaignPlan, workers: int | None = None, scheduler_address: str | None = None,
-                 task: Callable | None = None):
+def open_backend(
+    shared,
+    plan: CampaignPlan,
+    workers: int | None = None,
+    scheduler_address: str | None = None,
+    task: Callable | None = None,
+):
     """Serial for ``workers`` 0 or 1 (and no address), else Dask (``workers`` None: one per core), running ``task``
     (default :func:`campaign_task` of ``plan``) on ``shared``; the plan's resubmit and numba-thread limits."""
     task = campaign_task(plan) if task is None else task
     if workers is None and not scheduler_address:
-        workers = len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else (os.cpu_count() or 1)
+        workers = (
+            len(os.sched_getaffinity(0))
+            if hasattr(os, "sched_getaffinity")
+            else (os.cpu_count() or 1)
+        )
     if workers is not None and workers < 0:
         raise ValueError(f"workers must be >= 0 (0 or 1 = serial in this process); got {workers}")
     if not scheduler_address and workers <= 1:
         return SerialBackend(shared, task)
-    return DaskBackend(shared, task, max_resubmits=plan.max_resubmits, numba_threads=plan.numba_threads_per_worker,
-                       n_workers=None if scheduler_address else workers, scheduler_address=scheduler_address)
+    return DaskBackend(
+        shared,
+        task,
+        max_resubmits=plan.max_resubmits,
+        numba_threads=plan.numba_threads_per_worker,
+        n_workers=None if scheduler_address else workers,
+        scheduler_address=scheduler_address,
+    )
 
 
 def early_stop_bounds(plan: CampaignPlan, algorithm) -> tuple | None:
@@ -311,8 +393,13 @@ def early_stop_bounds(plan: CampaignPlan, algorithm) -> tuple | None:
     ``nan_violation`` 0 (an undefined metric would then not violate).
     """
     pop = getattr(algorithm, "pop", None)
-    if not plan.constraints or plan.nan_violation <= 0.0 or pop is None or len(pop) < plan.population \
-            or not bool(np.all(pop.get("FEAS"))):
+    if (
+        not plan.constraints
+        or plan.nan_violation <= 0.0
+        or pop is None
+        or len(pop) < plan.population
+        or not bool(np.all(pop.get("FEAS")))
+    ):
         return None
     return plan.constraints
 
@@ -365,6 +452,11 @@ class BatchEvaluator:
             done += 1
             if self.progress:
                 self.progress(done, len(todo), hits)
-        self.last = {"evaluated": fresh, "hits": hits, "errors": errors, "wall_s": time.perf_counter() - start}
+        self.last = {
+            "evaluated": fresh,
+            "hits": hits,
+            "errors": errors,
+            "wall_s": time.perf_counter() - start,
+        }
         self.n_backend += done
         return metric_columns([self.cache.records[k] for k in keys], self.settings.extra_metrics)

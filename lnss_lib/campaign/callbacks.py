@@ -19,15 +19,32 @@ from pathlib import Path
 import numpy as np
 
 from ..progress import CellProgress
-from .fitness import (constraint_matrix, constraint_violation, front_of, hypervolume_of_front, hypervolume_points,
-                      metric_columns)
+from .fitness import (
+    constraint_matrix,
+    constraint_violation,
+    front_of,
+    hypervolume_of_front,
+    hypervolume_points,
+    metric_columns,
+)
 from .rundir import write_checkpoint
 from .settings import CampaignPlan
 from .timing import generation_timing
 
-__all__ = ["Callback", "RunState", "CampaignStopped", "ErrorGuard", "HistoryRecorder", "Checkpointer", "ProgressBars", "CellProgressBar",
-           "session_rate",
-           "generation_stats", "RunningStats", "progress_text"]
+__all__ = [
+    "Callback",
+    "RunState",
+    "CampaignStopped",
+    "ErrorGuard",
+    "HistoryRecorder",
+    "Checkpointer",
+    "ProgressBars",
+    "CellProgressBar",
+    "session_rate",
+    "generation_stats",
+    "RunningStats",
+    "progress_text",
+]
 
 
 @dataclass
@@ -51,7 +68,9 @@ class RunState:
     wall_s: float = 0.0
     profile_hash: str | None = None
     asked_keys: list = field(default_factory=list)
-    session_start: float = 0.0          # time.perf_counter() when this session started (before the backend opened)
+    session_start: float = (
+        0.0  # time.perf_counter() when this session started (before the backend opened)
+    )
 
 
 class Callback:
@@ -90,14 +109,18 @@ class RunningStats:
 
     def update(self, records: list[dict]) -> None:
         """Take the records after the first ``n_seen`` of the journal's (insertion order)."""
-        new = records[self.n_seen:]
+        new = records[self.n_seen :]
         if not new:
             return
         settings = self.settings
         columns = metric_columns(new, settings.extra_metrics)
-        cv = constraint_violation(constraint_matrix(columns, settings.constraints, settings.nan_violation))
+        cv = constraint_violation(
+            constraint_matrix(columns, settings.constraints, settings.nan_violation)
+        )
         feasible = columns["ok"] & (cv == 0.0)
-        self.violation.update((tuple(r["key"]), (float(c), bool(f))) for r, c, f in zip(new, cv, feasible))
+        self.violation.update(
+            (tuple(r["key"]), (float(c), bool(f))) for r, c, f in zip(new, cv, feasible)
+        )
         self.n_seen, self.n_feasible = len(records), self.n_feasible + int(feasible.sum())
         for name in settings.objectives:
             metric, larger = name.lstrip("-"), name.startswith("-")
@@ -106,7 +129,9 @@ class RunningStats:
             if values.size:
                 best = values.max() if larger else values.min()
                 old = self.best.get(metric, math.nan)
-                self.best[metric] = float(best if math.isnan(old) else (max(old, best) if larger else min(old, best)))
+                self.best[metric] = float(
+                    best if math.isnan(old) else (max(old, best) if larger else min(old, best))
+                )
         if settings.hypervolume and feasible.any():
             points = hypervolume_points(columns, feasible, settings.hypervolume)
             self.front = front_of(np.concatenate([self.front, points]))
@@ -114,10 +139,13 @@ class RunningStats:
     def stats(self, pop_keys: list[tuple]) -> dict:
         """The numbers of the history entry, for the population ``pop_keys``."""
         pop = [self.violation[k] for k in pop_keys]
-        stats = {"n_evaluations_cum": self.n_seen, "n_feasible_cum": self.n_feasible,
-                 "n_feasible_pop": sum(f for _, f in pop),
-                 "min_cv_pop": min(c for c, _ in pop) if pop else math.nan,
-                 "hypervolume": hypervolume_of_front(self.front)}
+        stats = {
+            "n_evaluations_cum": self.n_seen,
+            "n_feasible_cum": self.n_feasible,
+            "n_feasible_pop": sum(f for _, f in pop),
+            "min_cv_pop": min(c for c, _ in pop) if pop else math.nan,
+            "hypervolume": hypervolume_of_front(self.front),
+        }
         for name in self.settings.objectives:
             metric = name.lstrip("-")
             stats[f"best_{metric}"] = self.best.get(metric, math.nan)
@@ -160,12 +188,18 @@ class ErrorGuard(Callback):
         n_errors, limit = state.cache.n_errors, state.settings.max_errors
         if n_errors > limit:
             first = state.cache.first_error()
-            design = dict(zip(("sma_km", "ecc", "aop_deg", "inc_deg", "n_planes", "sats_per_plane"),
-                              state.settings.grid.descale(np.array([first["key"]], dtype=float))[0].tolist()))
+            design = dict(
+                zip(
+                    ("sma_km", "ecc", "aop_deg", "inc_deg", "n_planes", "sats_per_plane"),
+                    state.settings.grid.descale(np.array([first["key"]], dtype=float))[0].tolist(),
+                )
+            )
             raise CampaignStopped(
                 f"campaign stopped: {n_errors} evaluation error(s), more than campaign.max_errors = {limit}; first, "
                 f"design {design}: {first['reason']}; every error is in {state.run_dir / 'evaluations.jsonl'}",
-                errors=n_errors, first=first)
+                errors=n_errors,
+                first=first,
+            )
 
 
 class HistoryRecorder(Callback):
@@ -175,7 +209,9 @@ class HistoryRecorder(Callback):
     with the run (a 1000-generation run's numbers are its wall time, not the evaluations' alone)."""
 
     def on_session_start(self, state: RunState) -> None:
-        self.running = RunningStats(state.settings)       # from the whole journal at the first generation
+        self.running = RunningStats(
+            state.settings
+        )  # from the whole journal at the first generation
 
     def on_generation_end(self, state: RunState) -> None:
         start = time.perf_counter()
@@ -185,23 +221,40 @@ class HistoryRecorder(Callback):
         stats = self.running.stats(pop_keys)
         wall = state.wall_s + (time.perf_counter() - start)
         last = state.batch.last
-        state.history.append({"generation": state.generation, "n_designs": state.n_designs,
-                              "n_evaluated": last["evaluated"], "n_cache_hits": last["hits"],
-                              "n_errors": last["errors"], "n_errors_cum": state.cache.n_errors, **stats, "wall_s": wall,
-                              "designs_per_s": last["evaluated"] / wall if wall > 0 else 0.0,
-                              **generation_timing(records, state.generation,
-                                                  getattr(state.batch.backend, "n_workers", 1), wall)})
+        state.history.append(
+            {
+                "generation": state.generation,
+                "n_designs": state.n_designs,
+                "n_evaluated": last["evaluated"],
+                "n_cache_hits": last["hits"],
+                "n_errors": last["errors"],
+                "n_errors_cum": state.cache.n_errors,
+                **stats,
+                "wall_s": wall,
+                "designs_per_s": last["evaluated"] / wall if wall > 0 else 0.0,
+                **generation_timing(
+                    records, state.generation, getattr(state.batch.backend, "n_workers", 1), wall
+                ),
+            }
+        )
 
 
 class Checkpointer(Callback):
     """Writes ``checkpoint.pkl`` (algorithm and history) after every generation, atomically."""
 
     def on_generation_end(self, state: RunState) -> None:
-        write_checkpoint(state.run_dir, state.generation, state.algorithm, state.history,
-                         not state.algorithm.has_next(), state.profile_hash, state.asked_keys)
+        write_checkpoint(
+            state.run_dir,
+            state.generation,
+            state.algorithm,
+            state.history,
+            not state.algorithm.has_next(),
+            state.profile_hash,
+            state.asked_keys,
+        )
 
 
-BAR_COLUMNS = 80                        # the widest a progress line gets (narrower terminals: their width)
+BAR_COLUMNS = 80  # the widest a progress line gets (narrower terminals: their width)
 OUTER_FORMAT = "{desc} {n_fmt}/{total_fmt} gen {percentage:3.0f}% {elapsed}<{remaining}{postfix}"
 INNER_FORMAT = "  generation {desc}: {n_fmt}/{total_fmt} designs |{bar:10}| {elapsed}{postfix}"
 
@@ -228,29 +281,45 @@ class ProgressBars(Callback):
     def on_session_start(self, state: RunState) -> None:
         from tqdm import tqdm
 
-        self.outer = tqdm(total=state.settings.generations, initial=len(state.history), desc=state.name,
-                          file=sys.stderr, ncols=self._columns(), bar_format=OUTER_FORMAT)
+        self.outer = tqdm(
+            total=state.settings.generations,
+            initial=len(state.history),
+            desc=state.name,
+            file=sys.stderr,
+            ncols=self._columns(),
+            bar_format=OUTER_FORMAT,
+        )
 
     def on_generation_start(self, state: RunState) -> None:
         from tqdm import tqdm
 
         if sys.stderr.isatty():
-            self.inner = tqdm(total=state.n_designs, desc=str(state.generation), leave=False, file=sys.stderr,
-                              ncols=self._columns(), bar_format=INNER_FORMAT)
+            self.inner = tqdm(
+                total=state.n_designs,
+                desc=str(state.generation),
+                leave=False,
+                file=sys.stderr,
+                ncols=self._columns(),
+                bar_format=INNER_FORMAT,
+            )
 
     def on_designs(self, state: RunState, n_done: int, n_total: int, n_hits: int) -> None:
         if self.inner is None:
             return
         self.inner.total = n_total + n_hits
         self.inner.n = n_done + n_hits
-        self.inner.set_postfix_str(f"{session_rate(state):.2f} designs/s" + (f", {n_hits} cached" if n_hits else ""),
-                                   refresh=True)
+        self.inner.set_postfix_str(
+            f"{session_rate(state):.2f} designs/s" + (f", {n_hits} cached" if n_hits else ""),
+            refresh=True,
+        )
 
     def on_generation_end(self, state: RunState) -> None:
         if self.inner is not None:
             self.inner.close()
             self.inner = None
-        self.outer.set_postfix_str(progress_text(state.history[-1], session_rate(state)), refresh=False)
+        self.outer.set_postfix_str(
+            progress_text(state.history[-1], session_rate(state)), refresh=False
+        )
         self.outer.update(1)
 
     def on_session_end(self, state: RunState) -> None:
@@ -272,12 +341,19 @@ class CellProgressBar(Callback):
         self.bar = None
 
     def on_session_start(self, state: RunState) -> None:
-        self.bar = CellProgress(state.settings.generations, f"campaign {state.name}", "generations",
-                                initial=len(state.history))
+        self.bar = CellProgress(
+            state.settings.generations,
+            f"campaign {state.name}",
+            "generations",
+            initial=len(state.history),
+        )
 
     def on_designs(self, state: RunState, n_done: int, n_total: int, n_hits: int) -> None:
-        self.bar.update(0, f"generation {state.generation}: {n_done + n_hits}/{n_total + n_hits} designs, "
-                           f"{session_rate(state):.2f} designs/s")
+        self.bar.update(
+            0,
+            f"generation {state.generation}: {n_done + n_hits}/{n_total + n_hits} designs, "
+            f"{session_rate(state):.2f} designs/s",
+        )
 
     def on_generation_end(self, state: RunState) -> None:
         self.bar.update(1, progress_text(state.history[-1], session_rate(state)))

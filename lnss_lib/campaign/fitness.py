@@ -14,9 +14,19 @@ import numpy as np
 
 from ..keys import EXTRA_METRIC_KEYS, METRIC_KEYS, NON_NAVIGATION_METRICS, bound_text
 
-__all__ = ["objective_matrix", "constraint_matrix", "constraint_violation", "non_dominated_mask",
-           "hypervolume_points", "front_of", "hypervolume_of_front",
-           "metric_columns", "parse_constraints", "satisfies", "deltav_constraint"]
+__all__ = [
+    "objective_matrix",
+    "constraint_matrix",
+    "constraint_violation",
+    "non_dominated_mask",
+    "hypervolume_points",
+    "front_of",
+    "hypervolume_of_front",
+    "metric_columns",
+    "parse_constraints",
+    "satisfies",
+    "deltav_constraint",
+]
 
 
 def objective_matrix(metrics: dict, objectives, nan_objective: float) -> np.ndarray:
@@ -59,7 +69,7 @@ def non_dominated_mask(f: np.ndarray) -> np.ndarray:
     f = np.asarray(f, dtype=float)
     if f.shape[0] == 0:
         return np.zeros(0, dtype=bool)
-    import moocore                      # pymoo's dependency, imported when a front is wanted
+    import moocore  # pymoo's dependency, imported when a front is wanted
 
     return np.asarray(moocore.is_nondominated(f, keep_weakly=True), dtype=bool)
 
@@ -67,7 +77,9 @@ def non_dominated_mask(f: np.ndarray) -> np.ndarray:
 def hypervolume_points(metrics: dict, feasible: np.ndarray, reference) -> np.ndarray:
     """The feasible designs in the space of ``reference`` metrics ``((metric, value), ...)``, each divided by its
     reference value, those inside the box [0, 1) only: (m, len(reference))."""
-    points = np.column_stack([np.asarray(metrics[m], dtype=float)[feasible] / ref for m, ref in reference])
+    points = np.column_stack(
+        [np.asarray(metrics[m], dtype=float)[feasible] / ref for m, ref in reference]
+    )
     return points[np.all(points < 1.0, axis=1)]
 
 
@@ -81,7 +93,7 @@ def hypervolume_of_front(front: np.ndarray) -> float:
     """Hypervolume of normalised points (ideal at 0, reference point at 1) given as their :func:`front_of`."""
     if front.shape[0] == 0:
         return 0.0
-    from pymoo.indicators.hv import HV      # the indicator alone: no algorithm machinery
+    from pymoo.indicators.hv import HV  # the indicator alone: no algorithm machinery
 
     return float(HV(ref_point=np.ones(front.shape[1]))(front))
 
@@ -91,10 +103,16 @@ def metric_columns(records: list[dict], extras=()) -> dict:
     record has none) from cache records, plus ``ok`` (evaluated without impact)."""
     unknown = [k for k in extras if k not in EXTRA_METRIC_KEYS]
     if unknown:
-        raise ValueError(f"unknown extra metric(s) {unknown}; allowed: {', '.join(EXTRA_METRIC_KEYS)}")
-    columns = {k: np.array([r["metrics"][k] for r in records], dtype=int if k == "n_sat" else float)
-               for k in METRIC_KEYS}
-    columns.update({k: np.array([r["metrics"].get(k, np.nan) for r in records], dtype=float) for k in extras})
+        raise ValueError(
+            f"unknown extra metric(s) {unknown}; allowed: {', '.join(EXTRA_METRIC_KEYS)}"
+        )
+    columns = {
+        k: np.array([r["metrics"][k] for r in records], dtype=int if k == "n_sat" else float)
+        for k in METRIC_KEYS
+    }
+    columns.update(
+        {k: np.array([r["metrics"].get(k, np.nan) for r in records], dtype=float) for k in extras}
+    )
     columns["ok"] = np.array([r["ok"] for r in records], dtype=bool)
     return columns
 
@@ -109,7 +127,9 @@ def parse_constraints(text: str) -> list[tuple[str, str, float]]:
                 constraints.append((metric, kind, float(limit)))
                 break
         else:
-            raise ValueError(f"cannot read constraint {item!r}; expected 'metric <= limit' or 'metric >= limit'")
+            raise ValueError(
+                f"cannot read constraint {item!r}; expected 'metric <= limit' or 'metric >= limit'"
+            )
     return constraints
 
 
@@ -133,7 +153,9 @@ def bound_masks(evaluations, constraints) -> dict[str, np.ndarray]:
     each (metric, kind, limit) of ``constraints`` separately (:func:`~lnss_lib.keys.bound_text`; NaN fails),
     all bounds except those on Delta-V and stability (:data:`NAVIGATION_ONLY`), and the campaign's own
     ``feasible`` flag (:data:`ALL_BOUNDS`)."""
-    masks = {"evaluated without impact": ~np.isnan(evaluations["pdop_avail_pct"].values.astype(float))}
+    masks = {
+        "evaluated without impact": ~np.isnan(evaluations["pdop_avail_pct"].values.astype(float))
+    }
     navigation = np.ones(evaluations.sizes["design"], dtype=bool)
     for metric, kind, limit in constraints:
         if kind not in ("min", "max"):
@@ -151,7 +173,11 @@ def deltav_constraint(evaluations) -> tuple[str, float]:
     """(metric, limit) of a campaign's Delta-V bound, read from its results' ``attrs["constraints"]`` (Table 3's; a ``max`` on a metric with ``dv_`` in its
     name, e.g. ``dv_total_kms_per_year`` or ``sk_dv_estimate_max_kms_per_year``); the paper's Delta-V
     total and no limit (inf) when the campaign has none."""
-    bounds = [(m, v) for m, k, v in parse_constraints(evaluations.attrs["constraints"]) if k == "max" and "dv_" in m]
+    bounds = [
+        (m, v)
+        for m, k, v in parse_constraints(evaluations.attrs["constraints"])
+        if k == "max" and "dv_" in m
+    ]
     if len(bounds) > 1:
         raise ValueError(f"the campaign has several Delta-V bounds {bounds}; expected at most one")
     return bounds[0] if bounds else ("dv_total_kms_per_year", np.inf)

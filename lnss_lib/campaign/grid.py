@@ -13,7 +13,6 @@ satellites.
 from __future__ import annotations
 
 from collections.abc import Mapping
-
 from dataclasses import dataclass
 
 import numpy as np
@@ -32,14 +31,20 @@ class DesignGrid:
     lower: np.ndarray
     upper: np.ndarray
     step: np.ndarray
-    n_sat: int = 0      # 0: any size; N > 0: only the splits Np x Ns = N (module docstring)
+    n_sat: int = 0  # 0: any size; N > 0: only the splits Np x Ns = N (module docstring)
 
     @classmethod
-    def from_variables(cls, variables: Mapping[str, VariableBounds], n_sat: int = 0) -> "DesignGrid":
+    def from_variables(cls, variables: Mapping[str, VariableBounds], n_sat: int = 0) -> DesignGrid:
         """From ``settings.campaign.variables`` (``{name: VariableBounds}`` for every name in ``DESIGN_KEYS``,
         checked at load by :mod:`lnss_lib.config`) and ``settings.campaign.n_sat``."""
-        rows = [(float(variables[name].lower), float(variables[name].upper), float(variables[name].step))
-                for name in DESIGN_KEYS]
+        rows = [
+            (
+                float(variables[name].lower),
+                float(variables[name].upper),
+                float(variables[name].step),
+            )
+            for name in DESIGN_KEYS
+        ]
         lower, upper, step = (np.array(col) for col in zip(*rows))
         return cls(lower, upper, step, int(n_sat))
 
@@ -49,7 +54,9 @@ class DesignGrid:
         if not self.n_sat:
             return ()
         j = [DESIGN_KEYS.index(name) for name in INTEGER_DESIGN_KEYS]
-        planes, sats = (range(int(self.lower[i]), int(self.upper[i]) + 1, int(self.step[i])) for i in j)
+        planes, sats = (
+            range(int(self.lower[i]), int(self.upper[i]) + 1, int(self.step[i])) for i in j
+        )
         return walker_splits(self.n_sat, planes, sats)
 
     @property
@@ -58,7 +65,10 @@ class DesignGrid:
         restricted size, the last split's index and 0)."""
         levels = np.ceil((self.upper - self.lower) / self.step - 1e-9).astype(int)
         if self.n_sat:
-            levels[[DESIGN_KEYS.index(name) for name in INTEGER_DESIGN_KEYS]] = (len(self.splits) - 1, 0)
+            levels[[DESIGN_KEYS.index(name) for name in INTEGER_DESIGN_KEYS]] = (
+                len(self.splits) - 1,
+                0,
+            )
         return levels
 
     def scale(self, designs) -> np.ndarray:
@@ -69,7 +79,9 @@ class DesignGrid:
         if self.n_sat:
             counts = [DESIGN_KEYS.index(name) for name in INTEGER_DESIGN_KEYS]
             index = {split: i for i, split in enumerate(self.splits)}
-            scaled[:, counts[0]] = [index.get((int(p), int(n)), np.nan) for p, n in designs[:, counts]]
+            scaled[:, counts[0]] = [
+                index.get((int(p), int(n)), np.nan) for p, n in designs[:, counts]
+            ]
             scaled[:, counts[1]] = 0.0
         return scaled
 
@@ -81,8 +93,12 @@ class DesignGrid:
         """
         x = np.atleast_2d(np.asarray(scaled, dtype=float))
         if x.shape[-1] != len(DESIGN_KEYS) or not np.all(np.isfinite(x)):
-            raise ValueError(f"scaled designs must be finite with {len(DESIGN_KEYS)} columns; got shape {x.shape}")
-        values = np.round(np.minimum(np.maximum(self.lower + self.step * x, self.lower), self.upper), 12)
+            raise ValueError(
+                f"scaled designs must be finite with {len(DESIGN_KEYS)} columns; got shape {x.shape}"
+            )
+        values = np.round(
+            np.minimum(np.maximum(self.lower + self.step * x, self.lower), self.upper), 12
+        )
         counts = [DESIGN_KEYS.index(name) for name in INTEGER_DESIGN_KEYS]
         if self.n_sat:
             index = np.clip(np.rint(x[:, counts[0]]), 0, len(self.splits) - 1).astype(int)
@@ -92,5 +108,10 @@ class DesignGrid:
 
     def designs(self, scaled) -> list[dict]:
         """Keyword dicts for :func:`~lnss_lib.evaluator.evaluate_design` (ints for Np and Ns)."""
-        return [{k: (int(v) if k in INTEGER_DESIGN_KEYS else float(v)) for k, v in zip(DESIGN_KEYS, row)}
-                for row in self.descale(scaled)]
+        return [
+            {
+                k: (int(v) if k in INTEGER_DESIGN_KEYS else float(v))
+                for k, v in zip(DESIGN_KEYS, row)
+            }
+            for row in self.descale(scaled)
+        ]

@@ -20,18 +20,25 @@ from __future__ import annotations
 
 import json
 import warnings
-from collections import Counter
 import zlib
+from collections import Counter
 from pathlib import Path
 
 from ..atomicio import write_bytes_atomic
 
-__all__ = ["EvaluationCache", "read_cache_records", "parse_journal", "encode_record", "JOURNAL_FILE", "FORMAT_VERSION"]
+__all__ = [
+    "EvaluationCache",
+    "read_cache_records",
+    "parse_journal",
+    "encode_record",
+    "JOURNAL_FILE",
+    "FORMAT_VERSION",
+]
 
 JOURNAL_FILE = "evaluations.jsonl"
-FORMAT_VERSION = 2                     # 1: records without the CRC
+FORMAT_VERSION = 2  # 1: records without the CRC
 CRC_FIELD = "crc32"
-CPU_FIELD = "kernel_cpu"               # the processor model of a record's kernels (campaign.tasks.worker_fields)
+CPU_FIELD = "kernel_cpu"  # the processor model of a record's kernels (campaign.tasks.worker_fields)
 
 
 def _crc(text: str) -> str:
@@ -58,11 +65,16 @@ def _decode_record(item, crc_required: bool, is_record) -> dict | None:
 def _is_record(item) -> bool:
     """A whole evaluation record: a dict with a 6-integer design key and an integer generation."""
     key = item.get("key") if isinstance(item, dict) else None
-    return (isinstance(key, list) and len(key) == 6 and all(type(v) is int for v in key)
-            and type(item.get("generation")) is int and isinstance(item.get("metrics", {}), dict))
+    return (
+        isinstance(key, list)
+        and len(key) == 6
+        and all(type(v) is int for v in key)
+        and type(item.get("generation")) is int
+        and isinstance(item.get("metrics", {}), dict)
+    )
 
 
-_REPORTED: set[tuple[str, tuple]] = set()       # (journal, damaged lines) already named in this process
+_REPORTED: set[tuple[str, tuple]] = set()  # (journal, damaged lines) already named in this process
 
 
 def parse_journal(data: bytes, is_record=_is_record, source=None) -> tuple[dict, list[dict], int]:
@@ -84,26 +96,48 @@ def parse_journal(data: bytes, is_record=_is_record, source=None) -> tuple[dict,
     for number, line in enumerate(lines):
         try:
             item = json.loads(line)
-            record = None if number == 0 else _decode_record(item, header.get("format", FORMAT_VERSION) >= 2,
-                                                             is_record)
-        except (ValueError, RecursionError):       # JSONDecodeError, a 5000-digit integer, nesting past the limit
+            record = (
+                None
+                if number == 0
+                else _decode_record(item, header.get("format", FORMAT_VERSION) >= 2, is_record)
+            )
+        except (
+            ValueError,
+            RecursionError,
+        ):  # JSONDecodeError, a 5000-digit integer, nesting past the limit
             damaged.append(number + 1)
             continue
         if number == 0:
-            header = item if (isinstance(item, dict) and "evaluation_hash" in item
-                              and type(item.get("format", FORMAT_VERSION)) is int) else {}
+            header = (
+                item
+                if (
+                    isinstance(item, dict)
+                    and "evaluation_hash" in item
+                    and type(item.get("format", FORMAT_VERSION)) is int
+                )
+                else {}
+            )
         elif record is None:
             damaged.append(number + 1)
         else:
             key = tuple(record["key"])
-            if key not in by_key or by_key[key].get("error") or \
-                    by_key[key].get(CPU_FIELD) != record.get(CPU_FIELD):
+            if (
+                key not in by_key
+                or by_key[key].get("error")
+                or by_key[key].get(CPU_FIELD) != record.get(CPU_FIELD)
+            ):
                 by_key[key] = record
     if damaged and source is not None and (str(source), tuple(damaged)) not in _REPORTED:
         _REPORTED.add((str(source), tuple(damaged)))
-        shown = ", ".join(map(str, damaged[:5])) + (f" and {len(damaged) - 5} more" if len(damaged) > 5 else "")
-        warnings.warn(f"{source}: line(s) {shown} damaged (not a whole record or a wrong CRC): skipped, their "
-                      f"designs are evaluated again", RuntimeWarning, stacklevel=2)
+        shown = ", ".join(map(str, damaged[:5])) + (
+            f" and {len(damaged) - 5} more" if len(damaged) > 5 else ""
+        )
+        warnings.warn(
+            f"{source}: line(s) {shown} damaged (not a whole record or a wrong CRC): skipped, their "
+            f"designs are evaluated again",
+            RuntimeWarning,
+            stacklevel=2,
+        )
     return header, list(by_key.values()), end
 
 
@@ -124,8 +158,15 @@ class EvaluationCache:
     again (see the module docstring), and a RuntimeWarning says how many and why; ``n_other_cpu`` counts them.
     """
 
-    def __init__(self, path: Path, eval_hash: str, is_record=_is_record, *, kernel_cpu: str | None = None,
-                 run_cpu: str | None = None):
+    def __init__(
+        self,
+        path: Path,
+        eval_hash: str,
+        is_record=_is_record,
+        *,
+        kernel_cpu: str | None = None,
+        run_cpu: str | None = None,
+    ):
         self.path = Path(path)
         self.eval_hash = eval_hash
         self.is_record = is_record
@@ -142,33 +183,52 @@ class EvaluationCache:
         self._handle = self.path.open("a")
 
     def _header(self) -> bytes:
-        return (json.dumps({"evaluation_hash": self.eval_hash, "format": FORMAT_VERSION}) + "\n").encode()
+        return (
+            json.dumps({"evaluation_hash": self.eval_hash, "format": FORMAT_VERSION}) + "\n"
+        ).encode()
 
     def _load(self) -> None:
         data = self.path.read_bytes()
         header, records, end = parse_journal(data, self.is_record, source=self.path)
-        if "evaluation_hash" not in header:     # header line damaged: keep the records after it
-            write_bytes_atomic(self.path, self._header() + data[data.find(b"\n") + 1:end])
+        if "evaluation_hash" not in header:  # header line damaged: keep the records after it
+            write_bytes_atomic(self.path, self._header() + data[data.find(b"\n") + 1 : end])
         elif end < len(data):
             with self.path.open("r+b") as handle:
                 handle.truncate(end)
         if header.get("evaluation_hash", self.eval_hash) != self.eval_hash:
-            raise ValueError(f"{self.path} holds evaluations for evaluation hash {header.get('evaluation_hash')!r}, "
-                             f"not {self.eval_hash!r}: the parameters that change an evaluation differ")
-        self.records = {tuple(record["key"]): record for record in records
-                        if not record.get("error") and self._same_cpu(record)}
-        other = Counter(record.get(CPU_FIELD, self.run_cpu) for record in records
-                        if not record.get("error") and not self._same_cpu(record))
+            raise ValueError(
+                f"{self.path} holds evaluations for evaluation hash {header.get('evaluation_hash')!r}, "
+                f"not {self.eval_hash!r}: the parameters that change an evaluation differ"
+            )
+        self.records = {
+            tuple(record["key"]): record
+            for record in records
+            if not record.get("error") and self._same_cpu(record)
+        }
+        other = Counter(
+            record.get(CPU_FIELD, self.run_cpu)
+            for record in records
+            if not record.get("error") and not self._same_cpu(record)
+        )
         self.n_other_cpu = sum(other.values())
         if other:
-            models = ", ".join(f"{n} with kernels compiled for {model}" for model, n in other.items())
-            warnings.warn(f"{self.path}: {self.n_other_cpu} design(s) evaluated on another processor model ({models}); "
-                          f"here the kernels are compiled for {self.kernel_cpu}: they are evaluated again, since "
-                          f"another model's round-off is not this machine's result", RuntimeWarning, stacklevel=3)
+            models = ", ".join(
+                f"{n} with kernels compiled for {model}" for model, n in other.items()
+            )
+            warnings.warn(
+                f"{self.path}: {self.n_other_cpu} design(s) evaluated on another processor model ({models}); "
+                f"here the kernels are compiled for {self.kernel_cpu}: they are evaluated again, since "
+                f"another model's round-off is not this machine's result",
+                RuntimeWarning,
+                stacklevel=3,
+            )
 
     def _same_cpu(self, record: dict) -> bool:
         """Whether ``record`` was evaluated with kernels of this session's model (always, without a model)."""
-        return self.kernel_cpu is None or record.get(CPU_FIELD, self.run_cpu) in (self.kernel_cpu, None)
+        return self.kernel_cpu is None or record.get(CPU_FIELD, self.run_cpu) in (
+            self.kernel_cpu,
+            None,
+        )
 
     def __contains__(self, key: tuple) -> bool:
         return key in self.records
@@ -184,7 +244,7 @@ class EvaluationCache:
         try:
             self._handle.write(encode_record(record) + "\n")
             self._handle.flush()
-        except OSError as error:           # a full disk names the journal, not only the errno
+        except OSError as error:  # a full disk names the journal, not only the errno
             raise OSError(error.errno, error.strerror or str(error), str(self.path)) from error
 
     def first_error(self) -> dict | None:

@@ -20,15 +20,22 @@ class WalkerDesignProblem(Problem):
     """
 
     def __init__(self, settings: CampaignPlan, metrics_source=None):
-        super().__init__(n_var=len(DESIGN_KEYS), n_obj=len(settings.objectives),
-                         n_ieq_constr=len(settings.constraints), xl=np.zeros(len(DESIGN_KEYS), dtype=int),
-                         xu=settings.grid.n_levels, vtype=int)
+        super().__init__(
+            n_var=len(DESIGN_KEYS),
+            n_obj=len(settings.objectives),
+            n_ieq_constr=len(settings.constraints),
+            xl=np.zeros(len(DESIGN_KEYS), dtype=int),
+            xu=settings.grid.n_levels,
+            vtype=int,
+        )
         self.settings = settings
         self.metrics_source = metrics_source
 
     def _evaluate(self, x, out, *args, **kwargs):
         if self.metrics_source is None:
-            raise ValueError("WalkerDesignProblem has no metrics source: set problem.metrics_source first")
+            raise ValueError(
+                "WalkerDesignProblem has no metrics source: set problem.metrics_source first"
+            )
         metrics = self.metrics_source(x)
         s = self.settings
         out["F"] = objective_matrix(metrics, s.objectives, s.nan_objective)
@@ -52,11 +59,20 @@ def build_algorithm(settings: CampaignPlan):
     from pymoo.operators.sampling.rnd import IntegerRandomSampling
 
     prob_var = settings.mutation_prob_var if settings.mutation_prob_var > 0.0 else None
-    return NSGA2(pop_size=settings.population, sampling=IntegerRandomSampling(),
-                 crossover=SBX(prob=settings.crossover_prob, eta=settings.crossover_eta, vtype=float,
-                               repair=RoundingRepair()),
-                 mutation=PM(eta=settings.mutation_eta, prob_var=prob_var, vtype=float, repair=RoundingRepair()),
-                 eliminate_duplicates=True)
+    return NSGA2(
+        pop_size=settings.population,
+        sampling=IntegerRandomSampling(),
+        crossover=SBX(
+            prob=settings.crossover_prob,
+            eta=settings.crossover_eta,
+            vtype=float,
+            repair=RoundingRepair(),
+        ),
+        mutation=PM(
+            eta=settings.mutation_eta, prob_var=prob_var, vtype=float, repair=RoundingRepair()
+        ),
+        eliminate_duplicates=True,
+    )
 
 
 def build_termination(settings: CampaignPlan):
@@ -71,5 +87,7 @@ def build_termination(settings: CampaignPlan):
     from pymoo.termination.ftol import MultiObjectiveSpaceTermination
     from pymoo.termination.robust import RobustTermination
 
-    tol = RobustTermination(MultiObjectiveSpaceTermination(settings.ftol, only_feas=True), period=settings.ftol_period)
+    tol = RobustTermination(
+        MultiObjectiveSpaceTermination(settings.ftol, only_feas=True), period=settings.ftol_period
+    )
     return TerminationCollection(max_gen, tol)

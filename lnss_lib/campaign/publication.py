@@ -32,8 +32,15 @@ from .rundir import RESULT_FILES, export_results, load_run
 from .settings import run_differences
 from .validation import VALIDATED_FILE
 
-__all__ = ["Publication", "run_differences", "publish_run", "load_published", "published_folder",
-           "POINTER_FILE", "PUBLISHED_DIR"]
+__all__ = [
+    "Publication",
+    "run_differences",
+    "publish_run",
+    "load_published",
+    "published_folder",
+    "POINTER_FILE",
+    "PUBLISHED_DIR",
+]
 
 POINTER_FILE, PUBLISHED_DIR = "published.json", "published"
 
@@ -75,22 +82,32 @@ def publish_run(run_dir, campaign_dir, datasets=None) -> Path:
     with _locked(campaign_dir, exclusive=True):
         current = _pointer(campaign_dir)
         if current and current.get("finished") is True and not datasets[0].attrs["finished"]:
-            raise ConfigError(f"{campaign_dir / POINTER_FILE} publishes the finished run {current.get('run_dir')!r}; "
-                              f"this run has not finished and does not replace it")
+            raise ConfigError(
+                f"{campaign_dir / POINTER_FILE} publishes the finished run {current.get('run_dir')!r}; "
+                f"this run has not finished and does not replace it"
+            )
         root.mkdir(exist_ok=True)
         folder = Path(tempfile.mkdtemp(prefix=f"{run_dir.name}-", dir=root))
         for name, ds in zip(RESULT_FILES, datasets):
             write_netcdf_atomic(ds, folder / name)
         validated = run_dir / VALIDATED_FILE
         if validated.is_file():
-            write_netcdf_atomic(xr.load_dataset(validated, engine="h5netcdf"), folder / VALIDATED_FILE)
+            write_netcdf_atomic(
+                xr.load_dataset(validated, engine="h5netcdf"), folder / VALIDATED_FILE
+            )
         attrs = datasets[0].attrs
-        pointer = {"folder": f"{PUBLISHED_DIR}/{folder.name}", "run_dir": os.path.relpath(run_dir, campaign_dir),
-                   "profile": run["profile"]["profile"]["name"], "profile_hash": profile_hash(run["profile"]),
-                   "evaluation_hash": run["evaluation_hash"], "evaluator": attrs["evaluator"],
-                   "generations_done": int(attrs["generations_done"]), "finished": bool(attrs["finished"]),
-                   "validated": (folder / VALIDATED_FILE).is_file(),
-                   "written_utc": time.strftime("%Y-%m-%dT%H:%M:%SZ", time.gmtime())}
+        pointer = {
+            "folder": f"{PUBLISHED_DIR}/{folder.name}",
+            "run_dir": os.path.relpath(run_dir, campaign_dir),
+            "profile": run["profile"]["profile"]["name"],
+            "profile_hash": profile_hash(run["profile"]),
+            "evaluation_hash": run["evaluation_hash"],
+            "evaluator": attrs["evaluator"],
+            "generations_done": int(attrs["generations_done"]),
+            "finished": bool(attrs["finished"]),
+            "validated": (folder / VALIDATED_FILE).is_file(),
+            "written_utc": time.strftime("%Y-%m-%dT%H:%M:%SZ", time.gmtime()),
+        }
         write_text_atomic(campaign_dir / POINTER_FILE, json.dumps(pointer, indent=1))
         for old in root.iterdir():
             if old != folder:
@@ -106,8 +123,10 @@ def _pointer(campaign_dir: Path) -> dict | None:
         pointer = json.loads(path.read_text())
         folder = Path(pointer["folder"])
     except (ValueError, TypeError, KeyError):
-        raise ValueError(f"{path} is not a publication pointer (JSON naming its folder); delete it and run "
-                         f"the campaign or notebook 06 again") from None
+        raise ValueError(
+            f"{path} is not a publication pointer (JSON naming its folder); delete it and run "
+            f"the campaign or notebook 06 again"
+        ) from None
     if folder.is_absolute() or ".." in folder.parts:
         raise ValueError(f"{path}: folder {str(folder)!r} is outside {campaign_dir}")
     return pointer
@@ -131,5 +150,7 @@ def load_published(campaign_dir) -> Publication | None:
         folder = campaign_dir / pointer["folder"]
         datasets = [xr.load_dataset(folder / name, engine="h5netcdf") for name in RESULT_FILES]
         validated = folder / VALIDATED_FILE
-        datasets.append(xr.load_dataset(validated, engine="h5netcdf") if validated.is_file() else None)
+        datasets.append(
+            xr.load_dataset(validated, engine="h5netcdf") if validated.is_file() else None
+        )
     return Publication(pointer, folder, *datasets)

@@ -34,7 +34,7 @@ from pathlib import Path
 import numpy as np
 import xarray as xr
 
-from ..atomicio import write_bytes_atomic, write_netcdf_atomic, write_text_atomic
+from ..atomicio import write_bytes_atomic, write_text_atomic
 from ..config import REFERENCE_DIR, profile_hash
 from ..errors import ConfigError
 from ..keys import DESIGN_KEYS, TIMING_KEYS, label
@@ -45,31 +45,60 @@ from .rundir import check_resumable, export_results, load_checkpoint, load_run
 from .settings import CampaignPlan, evaluation_hash, run_differences
 from .timing import campaign_timing, concurrent_workers
 
-__all__ = ["REFERENCE_DIR", "REFERENCE_FILES", "README_FILE", "MAX_FILE_BYTES", "Reference", "check_run_folder",
-           "analysis_mask", "thin_to_fit", "export_reference", "load_reference", "cf_variable_attrs", "check_replaceable"]
+__all__ = [
+    "REFERENCE_DIR",
+    "REFERENCE_FILES",
+    "README_FILE",
+    "MAX_FILE_BYTES",
+    "Reference",
+    "check_run_folder",
+    "analysis_mask",
+    "thin_to_fit",
+    "export_reference",
+    "load_reference",
+    "cf_variable_attrs",
+    "check_replaceable",
+]
 
 REFERENCE_FILES = ("evaluations.nc", "front.nc", "history.nc", "population.nc")
 README_FILE = "README.md"
 MAX_FILE_BYTES = 5_000_000
 THINNING_SEED = 0
-PAPER_REFERENCE = ("Malik & Yang, Lunar Navigation System Optimization for Targeted Coverage with Semi-Analytical "
-                   "Station Keeping Model and Earth-GPS Integration (Section 5, Tables 3, 5 and 6, Figures 8-16)")
+PAPER_REFERENCE = (
+    "Malik & Yang, Lunar Navigation System Optimization for Targeted Coverage with Semi-Analytical "
+    "Station Keeping Model and Earth-GPS Integration (Section 5, Tables 3, 5 and 6, Figures 8-16)"
+)
 
-_UNITS = {"designs_per_s": "s-1"}        # where a name's suffix does not say its unit (:func:`_unit`)
-_SUFFIX_UNITS = (("kms_per_year", "km s-1 yr-1"), ("_km", "km"), ("_deg", "degree"), ("_pct", "percent"),
-                 ("_day", "day"), ("_s", "s"))
+_UNITS = {"designs_per_s": "s-1"}  # where a name's suffix does not say its unit (:func:`_unit`)
+_SUFFIX_UNITS = (
+    ("kms_per_year", "km s-1 yr-1"),
+    ("_km", "km"),
+    ("_deg", "degree"),
+    ("_pct", "percent"),
+    ("_day", "day"),
+    ("_s", "s"),
+)
 _LONG_NAMES = {
-    "n_designs": "designs asked for in the generation", "n_evaluated": "designs evaluated in the generation",
+    "n_designs": "designs asked for in the generation",
+    "n_evaluated": "designs evaluated in the generation",
     "n_cache_hits": "designs of the generation answered by the evaluation journal",
-    "n_errors": "evaluations that raised in the generation", "n_errors_cum": "evaluations that raised so far",
-    "n_evaluations_cum": "unique designs evaluated so far", "n_feasible_cum": "unique feasible designs so far",
-    "n_feasible_pop": "feasible designs in the population", "min_cv_pop": "smallest constraint violation in the population",
+    "n_errors": "evaluations that raised in the generation",
+    "n_errors_cum": "evaluations that raised so far",
+    "n_evaluations_cum": "unique designs evaluated so far",
+    "n_feasible_cum": "unique feasible designs so far",
+    "n_feasible_pop": "feasible designs in the population",
+    "min_cv_pop": "smallest constraint violation in the population",
     "hypervolume": "hypervolume of the feasible designs so far (normalised by the reference point)",
-    "wall_s": "wall time of the generation", "designs_per_s": "designs evaluated per second of the generation",
-    "time_campaign_s": "worker time per design outside the tasks", "time_overhead_s": "in-task overhead per design",
-    "feasible": "feasible under the campaign's bounds", "impact": "a satellite impacts the Moon",
-    "error": "message of an evaluation that raised", "constraint_violation": "sum of normalised constraint excesses",
-    "generation": "generation", "design": "design (row)",
+    "wall_s": "wall time of the generation",
+    "designs_per_s": "designs evaluated per second of the generation",
+    "time_campaign_s": "worker time per design outside the tasks",
+    "time_overhead_s": "in-task overhead per design",
+    "feasible": "feasible under the campaign's bounds",
+    "impact": "a satellite impacts the Moon",
+    "error": "message of an evaluation that raised",
+    "constraint_violation": "sum of normalised constraint excesses",
+    "generation": "generation",
+    "design": "design (row)",
 }
 
 
@@ -95,7 +124,11 @@ def _long_name(name: str) -> str:
     if name.startswith("time_") and name[5:-2] in TIMING_KEYS:
         return f"{name[5:-2]} time per design evaluated"
     text = (label(name) if label(name) != name else name.replace("_", " ")).split(" (")[0]
-    return f"{text} (per satellite and year)" if name.startswith("dv_") and "_max_" not in name else text
+    return (
+        f"{text} (per satellite and year)"
+        if name.startswith("dv_") and "_max_" not in name
+        else text
+    )
 
 
 def cf_variable_attrs(ds: xr.Dataset, long_names: dict | None = None) -> xr.Dataset:
@@ -116,11 +149,20 @@ def _cf(ds: xr.Dataset, title: str, provenance: dict) -> xr.Dataset:
     ``units`` / ``long_name`` on every variable and coordinate; attributes are plain numbers and strings."""
     ds = cf_variable_attrs(ds)
     keep = {k: v for k, v in ds.attrs.items() if k not in ("finished",)}
-    ds.attrs = {"title": title, "institution": "LNSS workbook", "source": provenance["source"],
-                "history": provenance["history"], "references": PAPER_REFERENCE, "Conventions": "CF-1.8",
-                **keep, "profile_hash": provenance["profile_hash"], "finished": int(provenance["finished"]),
-                "partial": int(not provenance["finished"]), "run_commit": provenance["run_commit"],
-                "export_commit": provenance["export_commit"]}
+    ds.attrs = {
+        "title": title,
+        "institution": "LNSS workbook",
+        "source": provenance["source"],
+        "history": provenance["history"],
+        "references": PAPER_REFERENCE,
+        "Conventions": "CF-1.8",
+        **keep,
+        "profile_hash": provenance["profile_hash"],
+        "finished": int(provenance["finished"]),
+        "partial": int(not provenance["finished"]),
+        "run_commit": provenance["run_commit"],
+        "export_commit": provenance["export_commit"],
+    }
     return ds
 
 
@@ -131,20 +173,26 @@ def check_run_folder(run_dir) -> tuple[dict, dict]:
     class)."""
     run_dir = Path(run_dir)
     if not run_dir.is_dir():
-        raise ConfigError(f"{run_dir} is not a folder (a campaign run folder: run.json, checkpoint.pkl, "
-                          f"{JOURNAL_FILE})")
+        raise ConfigError(
+            f"{run_dir} is not a folder (a campaign run folder: run.json, checkpoint.pkl, "
+            f"{JOURNAL_FILE})"
+        )
     run = load_run(run_dir)
     checkpoint = load_checkpoint(run_dir)
     check_resumable(run_dir, run, checkpoint)
     if run["evaluation_hash"] != evaluation_hash(run["profile"]):
-        raise ConfigError(f"{run_dir / 'run.json'}: evaluation hash {run['evaluation_hash']} is not that of its "
-                          f"settings ({evaluation_hash(run['profile'])}): an edited or foreign run folder, refused")
+        raise ConfigError(
+            f"{run_dir / 'run.json'}: evaluation hash {run['evaluation_hash']} is not that of its "
+            f"settings ({evaluation_hash(run['profile'])}): an edited or foreign run folder, refused"
+        )
     journal = run_dir / JOURNAL_FILE
     with open(journal, "rb") if journal.is_file() else contextlib.nullcontext(None) as handle:
         header = parse_journal(handle.readline())[0] if handle else {}
     if header.get("evaluation_hash") != run["evaluation_hash"]:
-        raise ConfigError(f"{journal}: evaluation hash {header.get('evaluation_hash')} (the run's: "
-                          f"{run['evaluation_hash']}): a journal of other physics or none, refused")
+        raise ConfigError(
+            f"{journal}: evaluation hash {header.get('evaluation_hash')} (the run's: "
+            f"{run['evaluation_hash']}): a journal of other physics or none, refused"
+        )
     if checkpoint is None or not checkpoint["history"]:
         raise ConfigError(f"{run_dir} has no finished generation yet: nothing to export")
     name = run["profile"].get("profile", {}).get("name")
@@ -153,15 +201,19 @@ def check_run_folder(run_dir) -> tuple[dict, dict]:
     except ConfigError as error:
         reasons = [f"profile {name!r} does not load ({error})"]
     if reasons:
-        raise ConfigError(f"{run_dir} is not a campaign of profile {name!r} as it stands: {'; '.join(reasons)}; only "
-                          f"a run of the profile's own settings is exported as its results")
+        raise ConfigError(
+            f"{run_dir} is not a campaign of profile {name!r} as it stands: {'; '.join(reasons)}; only "
+            f"a run of the profile's own settings is exported as its results"
+        )
     return run, checkpoint
 
 
 def _export_state(folder: Path) -> bool | None:
     """Whether the export in ``folder`` is complete (its README says so), None when ``folder`` is not an export
     (a file, or a folder holding anything but :data:`REFERENCE_FILES` and the README of one)."""
-    if not folder.is_dir() or sorted(p.name for p in folder.iterdir()) != sorted((*REFERENCE_FILES, README_FILE)):
+    if not folder.is_dir() or sorted(p.name for p in folder.iterdir()) != sorted(
+        (*REFERENCE_FILES, README_FILE)
+    ):
         return None
     readme = (folder / README_FILE).read_text(errors="replace")
     if not readme.startswith(f"# Reference results: campaign of profile `{folder.name}`"):
@@ -176,11 +228,15 @@ def check_replaceable(target: Path, finished: bool) -> None:
         return
     state = _export_state(target)
     if state is None:
-        raise ConfigError(f"{target} is not a previous export ({', '.join((*REFERENCE_FILES, README_FILE))} and "
-                          f"nothing else): left alone, nothing written")
+        raise ConfigError(
+            f"{target} is not a previous export ({', '.join((*REFERENCE_FILES, README_FILE))} and "
+            f"nothing else): left alone, nothing written"
+        )
     if state and not finished:
-        raise ConfigError(f"{target} holds a complete export and this run has not finished: a partial run never "
-                          f"replaces complete results; resume the run to its end, then export it")
+        raise ConfigError(
+            f"{target} holds a complete export and this run has not finished: a partial run never "
+            f"replaces complete results; resume the run to its end, then export it"
+        )
 
 
 def analysis_mask(evaluations: xr.Dataset) -> tuple[np.ndarray, str]:
@@ -192,15 +248,24 @@ def analysis_mask(evaluations: xr.Dataset) -> tuple[np.ndarray, str]:
     metric, _ = deltav_constraint(evaluations)
     others = [c for c in parse_constraints(evaluations.attrs["constraints"]) if c[0] != metric]
     mask = satisfies(evaluations, others) & ~evaluations["impact"].values.astype(bool)
-    return mask, f"no design is feasible: the designs without impact meeting every bound but {metric}'s"
+    return (
+        mask,
+        f"no design is feasible: the designs without impact meeting every bound but {metric}'s",
+    )
 
 
 def _netcdf_bytes(ds: xr.Dataset) -> bytes:
-    encoding = {name: {"zlib": True, "complevel": 4} for name in ds.data_vars if ds[name].dtype.kind not in "US"}
+    encoding = {
+        name: {"zlib": True, "complevel": 4}
+        for name in ds.data_vars
+        if ds[name].dtype.kind not in "US"
+    }
     return bytes(ds.to_netcdf(engine="h5netcdf", encoding=encoding))
 
 
-def thin_to_fit(evaluations: xr.Dataset, front: xr.Dataset, encode, limit_bytes: float) -> tuple[xr.Dataset, bytes]:
+def thin_to_fit(
+    evaluations: xr.Dataset, front: xr.Dataset, encode, limit_bytes: float
+) -> tuple[xr.Dataset, bytes]:
     """The analysis designs (:func:`analysis_mask`) and their file ``encode(dataset) -> bytes``, under
     ``limit_bytes``: all of them when they fit, else the front and a seeded uniform sample of the rest, as many as
     fit (attributes ``selection``, ``n_designs_evaluated``, ``n_selected``, ``n_kept``, ``thinning``)."""
@@ -212,12 +277,20 @@ def thin_to_fit(evaluations: xr.Dataset, front: xr.Dataset, encode, limit_bytes:
     keep = order.size
     while True:
         ds = evaluations.drop_vars("error").isel(design=np.sort(order[:keep]))
-        ds.attrs = {**evaluations.attrs, "selection": rule, "n_designs_evaluated": int(evaluations.sizes["design"]),
-                    "n_selected": int(index.size), "n_kept": int(keep),
-                    "thinning": ("none: every selected design" if keep == index.size else
-                                 f"the {int(in_front.sum())} front designs and a uniform sample (seed {THINNING_SEED}) "
-                                 f"of the other selected designs, {keep} of {index.size} kept to stay under "
-                                 f"{limit_bytes:.0f} bytes")}
+        ds.attrs = {
+            **evaluations.attrs,
+            "selection": rule,
+            "n_designs_evaluated": int(evaluations.sizes["design"]),
+            "n_selected": int(index.size),
+            "n_kept": int(keep),
+            "thinning": (
+                "none: every selected design"
+                if keep == index.size
+                else f"the {int(in_front.sum())} front designs and a uniform sample (seed {THINNING_SEED}) "
+                f"of the other selected designs, {keep} of {index.size} kept to stay under "
+                f"{limit_bytes:.0f} bytes"
+            ),
+        }
         data = encode(ds)
         if len(data) < limit_bytes or keep <= in_front.sum():
             return ds, data
@@ -227,7 +300,9 @@ def thin_to_fit(evaluations: xr.Dataset, front: xr.Dataset, encode, limit_bytes:
 def _front_rows(evaluations: xr.Dataset, front: xr.Dataset) -> np.ndarray:
     """Rows of ``evaluations`` that are designs of ``front`` (matched on the design variables)."""
     keys = np.column_stack([evaluations[k].values.astype(float) for k in DESIGN_KEYS])
-    front_keys = {tuple(row) for row in np.column_stack([front[k].values.astype(float) for k in DESIGN_KEYS])}
+    front_keys = {
+        tuple(row) for row in np.column_stack([front[k].values.astype(float) for k in DESIGN_KEYS])
+    }
     return np.array([i for i, row in enumerate(map(tuple, keys)) if row in front_keys], dtype=int)
 
 
@@ -238,8 +313,10 @@ def _population(evaluations: xr.Dataset, checkpoint: dict, plan: CampaignPlan) -
     row = {tuple(np.round(k, 9)): i for i, k in enumerate(keys)}
     rows = [row.get(tuple(np.round(d, 9))) for d in designs]
     if None in rows:
-        raise ConfigError(f"{sum(r is None for r in rows)} design(s) of the last checkpoint's population are not in "
-                          f"the journal (damaged lines): resume the run once to evaluate them again, then export")
+        raise ConfigError(
+            f"{sum(r is None for r in rows)} design(s) of the last checkpoint's population are not in "
+            f"the journal (damaged lines): resume the run once to evaluate them again, then export"
+        )
     population = evaluations.drop_vars("error").isel(design=rows)
     population.attrs = {**evaluations.attrs, "generation": int(checkpoint["generation"])}
     return population
@@ -252,28 +329,53 @@ def _versions(recorded) -> dict[str, str]:
 
 def _readme(provenance: dict, files: dict[str, int], counts: dict) -> str:
     p = provenance
-    state = "complete" if p["finished"] else (f"PARTIAL: {p['generations_done']} of {p['generations']} generations "
-                                               f"(the run had not finished when it was exported)")
-    lines = [f"# Reference results: campaign of profile `{p['profile']}`", "",
-             f"Exported by `python -m lnss_lib campaign --export-reference RUN_DIR` from a run folder; read by "
-             f"notebooks 06-07 when no local run matches the profile (`lnss_lib.campaign.reference`).", "",
-             f"**Run: {state}.**", "", "| provenance | value |", "| --- | --- |",
-             f"| profile | `{p['profile']}`, hash `{p['profile_hash']}` |",
-             f"| evaluation hash | `{p['evaluation_hash']}` (evaluator `{p['evaluator']}`) |",
-             f"| seed | {p['seed']} |", f"| population x generations | {p['population']} x {p['generations']} |",
-             f"| generations completed | {p['generations_done']} |", f"| complete | {'yes' if p['finished'] else 'no'} |",
-             f"| wall time (sum over generations) | {p['wall_s']:.0f} s ({p['wall_s'] / 3600:.2f} h) |",
-             f"| unique designs evaluated / feasible | {counts['n_designs']} / {counts['n_feasible']} |",
-             f"| run started (UTC) | {p['created_utc']} |", f"| commit of the run | {p['run_commit']} |",
-             f"| commit of the export | {p['export_commit']} |", f"| machine | {p['machine']} |",
-             f"| exported (UTC) | {p['exported_utc']} |",
-             f"| packages (of the run) | {', '.join(f'{k} {v}' for k, v in p['versions'].items())} |", "",
-             "| file | bytes | holds |", "| --- | --- | --- |"]
-    holds = {"evaluations.nc": counts["thinning"], "front.nc": "the campaign's front (feasible, non-dominated)",
-             "history.nc": "per generation: hypervolume, feasible counts, best objectives, cache hits, wall time",
-             "population.nc": "the final population"}
+    state = (
+        "complete"
+        if p["finished"]
+        else (
+            f"PARTIAL: {p['generations_done']} of {p['generations']} generations "
+            f"(the run had not finished when it was exported)"
+        )
+    )
+    lines = [
+        f"# Reference results: campaign of profile `{p['profile']}`",
+        "",
+        "Exported by `python -m lnss_lib campaign --export-reference RUN_DIR` from a run folder; read by "
+        "notebooks 06-07 when no local run matches the profile (`lnss_lib.campaign.reference`).",
+        "",
+        f"**Run: {state}.**",
+        "",
+        "| provenance | value |",
+        "| --- | --- |",
+        f"| profile | `{p['profile']}`, hash `{p['profile_hash']}` |",
+        f"| evaluation hash | `{p['evaluation_hash']}` (evaluator `{p['evaluator']}`) |",
+        f"| seed | {p['seed']} |",
+        f"| population x generations | {p['population']} x {p['generations']} |",
+        f"| generations completed | {p['generations_done']} |",
+        f"| complete | {'yes' if p['finished'] else 'no'} |",
+        f"| wall time (sum over generations) | {p['wall_s']:.0f} s ({p['wall_s'] / 3600:.2f} h) |",
+        f"| unique designs evaluated / feasible | {counts['n_designs']} / {counts['n_feasible']} |",
+        f"| run started (UTC) | {p['created_utc']} |",
+        f"| commit of the run | {p['run_commit']} |",
+        f"| commit of the export | {p['export_commit']} |",
+        f"| machine | {p['machine']} |",
+        f"| exported (UTC) | {p['exported_utc']} |",
+        f"| packages (of the run) | {', '.join(f'{k} {v}' for k, v in p['versions'].items())} |",
+        "",
+        "| file | bytes | holds |",
+        "| --- | --- | --- |",
+    ]
+    holds = {
+        "evaluations.nc": counts["thinning"],
+        "front.nc": "the campaign's front (feasible, non-dominated)",
+        "history.nc": "per generation: hypervolume, feasible counts, best objectives, cache hits, wall time",
+        "population.nc": "the final population",
+    }
     lines += [f"| `{name}` | {size} | {holds[name]} |" for name, size in files.items()]
-    lines += ["", "NetCDF-4 with CF-1.8 attributes; the run's full settings are in each file's `parameters` attribute."]
+    lines += [
+        "",
+        "NetCDF-4 with CF-1.8 attributes; the run's full settings are in each file's `parameters` attribute.",
+    ]
     return "\n".join(lines) + "\n"
 
 
@@ -290,12 +392,21 @@ def export_reference(run_dir, root=None, *, export_commit: str = "unknown") -> P
     wall_s = float(history["wall_s"].sum())
     finished = bool(checkpoint.get("finished"))
     check_replaceable(root / name, finished)
-    sealed = "checksum" in run      # run.json under its checksum (load_run checked it): its provenance is the run's
+    sealed = (
+        "checksum" in run
+    )  # run.json under its checksum (load_run checked it): its provenance is the run's
     unsealed = "not verifiable (run.json of a run that recorded no checksum)"
     provenance = {
-        "profile": name, "profile_hash": profile_hash(run["profile"]), "evaluation_hash": run["evaluation_hash"],
-        "evaluator": plan.evaluator, "seed": plan.seed, "population": plan.population, "generations": plan.generations,
-        "generations_done": len(checkpoint["history"]), "finished": finished, "wall_s": wall_s,
+        "profile": name,
+        "profile_hash": profile_hash(run["profile"]),
+        "evaluation_hash": run["evaluation_hash"],
+        "evaluator": plan.evaluator,
+        "seed": plan.seed,
+        "population": plan.population,
+        "generations": plan.generations,
+        "generations_done": len(checkpoint["history"]),
+        "finished": finished,
+        "wall_s": wall_s,
         "created_utc": str(run.get("created_utc", "unknown")) if sealed else unsealed,
         "versions": _versions(run.get("versions")) if sealed else {"packages": unsealed},
         "run_commit": str(run.get("commit", "not recorded in run.json")) if sealed else unsealed,
@@ -303,34 +414,57 @@ def export_reference(run_dir, root=None, *, export_commit: str = "unknown") -> P
         "machine": f"{platform.platform()}, {os.cpu_count()} CPU(s), {workers} worker process(es)",
         "exported_utc": time.strftime("%Y-%m-%dT%H:%M:%SZ", time.gmtime()),
     }
-    provenance["source"] = (f"NSGA-II campaign (pymoo), profile {name}, evaluator {plan.evaluator}, "
-                            f"{provenance['generations_done']} of {plan.generations} generations")
-    provenance["history"] = (f"{provenance['exported_utc']} exported from a run folder started "
-                             f"{provenance['created_utc']} ({'complete' if finished else 'partial'} run)")
+    provenance["source"] = (
+        f"NSGA-II campaign (pymoo), profile {name}, evaluator {plan.evaluator}, "
+        f"{provenance['generations_done']} of {plan.generations} generations"
+    )
+    provenance["history"] = (
+        f"{provenance['exported_utc']} exported from a run folder started "
+        f"{provenance['created_utc']} ({'complete' if finished else 'partial'} run)"
+    )
     history.attrs["worker_time"] = json.dumps(campaign_timing(run_dir, workers, wall_s))
     history.attrs["workers"] = workers
     constraints = plan.constraints
     evaluations.attrs["designs_meeting_bounds"] = json.dumps(
-        {k: int(v.sum()) for k, v in bound_masks(evaluations, constraints).items()})
+        {k: int(v.sum()) for k, v in bound_masks(evaluations, constraints).items()}
+    )
     title = f"Designs read by Figures 8-16 and Table 6 ({name})"
-    thinned, thinned_bytes = thin_to_fit(evaluations, front, lambda ds: _netcdf_bytes(_cf(ds, title, provenance)),
-                                         MAX_FILE_BYTES)
-    payloads = {"evaluations.nc": thinned_bytes,
-                "front.nc": _netcdf_bytes(_cf(front.drop_vars("error"), f"Campaign front ({name})", provenance)),
-                "history.nc": _netcdf_bytes(_cf(history, f"Campaign history per generation ({name})", provenance)),
-                "population.nc": _netcdf_bytes(_cf(_population(evaluations, checkpoint, plan),
-                                                   f"Final population ({name})", provenance))}
+    thinned, thinned_bytes = thin_to_fit(
+        evaluations, front, lambda ds: _netcdf_bytes(_cf(ds, title, provenance)), MAX_FILE_BYTES
+    )
+    payloads = {
+        "evaluations.nc": thinned_bytes,
+        "front.nc": _netcdf_bytes(
+            _cf(front.drop_vars("error"), f"Campaign front ({name})", provenance)
+        ),
+        "history.nc": _netcdf_bytes(
+            _cf(history, f"Campaign history per generation ({name})", provenance)
+        ),
+        "population.nc": _netcdf_bytes(
+            _cf(
+                _population(evaluations, checkpoint, plan), f"Final population ({name})", provenance
+            )
+        ),
+    }
     too_big = {k: len(v) for k, v in payloads.items() if len(v) >= MAX_FILE_BYTES}
     if too_big:
-        raise RuntimeError(f"reference files over {MAX_FILE_BYTES} bytes: {too_big}; nothing written")
+        raise RuntimeError(
+            f"reference files over {MAX_FILE_BYTES} bytes: {too_big}; nothing written"
+        )
     root.mkdir(parents=True, exist_ok=True)
     staging = Path(tempfile.mkdtemp(prefix=f".{name}-", dir=root))
     try:
         for file, data in payloads.items():
             write_bytes_atomic(staging / file, data)
-        counts = {"n_designs": int(evaluations.sizes["design"]), "n_feasible": int(evaluations["feasible"].sum()),
-                  "thinning": f"{thinned.attrs['selection']}; thinning: {thinned.attrs['thinning']}"}
-        write_text_atomic(staging / README_FILE, _readme(provenance, {k: len(v) for k, v in payloads.items()}, counts))
+        counts = {
+            "n_designs": int(evaluations.sizes["design"]),
+            "n_feasible": int(evaluations["feasible"].sum()),
+            "thinning": f"{thinned.attrs['selection']}; thinning: {thinned.attrs['thinning']}",
+        }
+        write_text_atomic(
+            staging / README_FILE,
+            _readme(provenance, {k: len(v) for k, v in payloads.items()}, counts),
+        )
         os.chmod(staging, 0o755)
         target = root / name
         check_replaceable(target, finished)
@@ -376,7 +510,9 @@ def load_reference(profile_name: str, root=None) -> Reference | None:
         return None
     missing = [name for name in (*REFERENCE_FILES, README_FILE) if not (folder / name).is_file()]
     if missing:
-        raise ValueError(f"{folder} is not a complete reference export (missing {', '.join(missing)}); export it "
-                         f"again: python -m lnss_lib campaign --export-reference RUN_DIR")
+        raise ValueError(
+            f"{folder} is not a complete reference export (missing {', '.join(missing)}); export it "
+            f"again: python -m lnss_lib campaign --export-reference RUN_DIR"
+        )
     datasets = [xr.load_dataset(folder / name, engine="h5netcdf") for name in REFERENCE_FILES]
     return Reference(folder, (folder / README_FILE).read_text(), *datasets)

@@ -36,7 +36,12 @@ def journal_costs(run_dir) -> list[list[dict]]:
     for record in sorted(records, key=lambda r: (r["generation"], r["order"])):
         key = record["key"]
         generations.setdefault(int(record["generation"]), []).append(
-            {"n_planes": int(key[4]), "sats_per_plane": int(key[5]), "cost_s": float(record["task_wall_s"])})
+            {
+                "n_planes": int(key[4]),
+                "sats_per_plane": int(key[5]),
+                "cost_s": float(record["task_wall_s"]),
+            }
+        )
     return [generations[g] for g in sorted(generations)]
 
 
@@ -47,9 +52,15 @@ def recorded_costs(folder) -> dict[str, list[list[dict]]]:
     if (folder / RUN_FILE).is_file():
         return {folder.name: journal_costs(folder)}
     if (folder / STUDY_FILE).is_file():
-        return {run.parent.name: journal_costs(run.parent) for run in sorted(folder.glob(f"*/{RUN_FILE}"))}
-    raise ConfigError(f"--replay {folder}: neither a campaign run folder ({RUN_FILE}) nor a study folder "
-                      f"({STUDY_FILE})", key="--replay")
+        return {
+            run.parent.name: journal_costs(run.parent)
+            for run in sorted(folder.glob(f"*/{RUN_FILE}"))
+        }
+    raise ConfigError(
+        f"--replay {folder}: neither a campaign run folder ({RUN_FILE}) nor a study folder "
+        f"({STUDY_FILE})",
+        key="--replay",
+    )
 
 
 def sleep_task(time_scale: float, item: dict, numba_threads: int = 0) -> float:
@@ -84,10 +95,18 @@ def replay(campaigns: list[list[list[dict]]], n_workers: int, time_scale: float 
         raise ValueError(f"n_workers must be an integer >= 1; got {n_workers!r}")
     if not time_scale > 0.0:
         raise ValueError(f"time_scale must be > 0; got {time_scale!r}")
-    with warnings.catch_warnings():     # the scheduler's HTTP port moves aside when another cluster holds 8787
+    with (
+        warnings.catch_warnings()
+    ):  # the scheduler's HTTP port moves aside when another cluster holds 8787
         warnings.filterwarnings("ignore", message="Port .* is already in use", category=UserWarning)
-        cluster = LocalCluster(n_workers=n_workers, threads_per_worker=1, processes=False, protocol="tcp",
-                               host="127.0.0.1", dashboard_address=None)
+        cluster = LocalCluster(
+            n_workers=n_workers,
+            threads_per_worker=1,
+            processes=False,
+            protocol="tcp",
+            host="127.0.0.1",
+            dashboard_address=None,
+        )
     errors: list[BaseException] = []
     backends = []
 
@@ -100,9 +119,15 @@ def replay(campaigns: list[list[list[dict]]], n_workers: int, time_scale: float 
             errors.append(error)
 
     try:
-        for _ in campaigns:      # connected (and the workers checked) before the clock starts
-            backends.append(DaskBackend(time_scale, sleep_task, max_resubmits=0,
-                                        scheduler_address=cluster.scheduler_address))
+        for _ in campaigns:  # connected (and the workers checked) before the clock starts
+            backends.append(
+                DaskBackend(
+                    time_scale,
+                    sleep_task,
+                    max_resubmits=0,
+                    scheduler_address=cluster.scheduler_address,
+                )
+            )
         threads = [threading.Thread(target=one, args=pair) for pair in zip(backends, campaigns)]
         start = time.perf_counter()
         for thread in threads:
@@ -117,5 +142,10 @@ def replay(campaigns: list[list[list[dict]]], n_workers: int, time_scale: float 
     if errors:
         raise errors[0]
     items = [item for generations in campaigns for generation in generations for item in generation]
-    return Replay(n_workers=n_workers, n_campaigns=len(campaigns), n_designs=len(items), wall_s=wall_s / time_scale,
-                  cost_s=sum(item["cost_s"] for item in items))
+    return Replay(
+        n_workers=n_workers,
+        n_campaigns=len(campaigns),
+        n_designs=len(items),
+        wall_s=wall_s / time_scale,
+        cost_s=sum(item["cost_s"] for item in items),
+    )

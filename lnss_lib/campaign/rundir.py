@@ -31,19 +31,45 @@ from ..atomicio import write_bytes_atomic, write_netcdf_atomic
 from ..config import OUTPUTS_DIR, profile_hash
 from ..errors import ConfigError
 from ..keys import DESIGN_KEYS, INTEGER_DESIGN_KEYS, METRIC_KEYS
-from .fitness import constraint_matrix, constraint_violation, metric_columns, non_dominated_mask, objective_matrix
-from .journal import read_cache_records
 from ..settings import Settings, settings_from_profile
+from .fitness import (
+    constraint_matrix,
+    constraint_violation,
+    metric_columns,
+    non_dominated_mask,
+    objective_matrix,
+)
+from .journal import read_cache_records
 from .settings import CampaignPlan
 
-__all__ = ["load_run", "load_checkpoint", "final_population", "export_results", "write_results",
-           "write_checkpoint", "start_run", "default_run_dir", "atomic_write_bytes", "check_resumable", "RunLock",
-           "CheckpointError", "LOCK_FILE", "RUN_FILE", "CHECKPOINT_FILE", "RESULT_FILES", "CHECKPOINT_FORMAT",
-           "CHECKPOINT_GLOBALS", "CHECKPOINT_MAGIC", "run_checksum", "check_new_run_dir", "run_kernel_cpu"]
+__all__ = [
+    "load_run",
+    "load_checkpoint",
+    "final_population",
+    "export_results",
+    "write_results",
+    "write_checkpoint",
+    "start_run",
+    "default_run_dir",
+    "atomic_write_bytes",
+    "check_resumable",
+    "RunLock",
+    "CheckpointError",
+    "LOCK_FILE",
+    "RUN_FILE",
+    "CHECKPOINT_FILE",
+    "RESULT_FILES",
+    "CHECKPOINT_FORMAT",
+    "CHECKPOINT_GLOBALS",
+    "CHECKPOINT_MAGIC",
+    "run_checksum",
+    "check_new_run_dir",
+    "run_kernel_cpu",
+]
 
 RUN_FILE, CHECKPOINT_FILE, LOCK_FILE = "run.json", "checkpoint.pkl", "run.lock"
 RESULT_FILES = ("evaluations.nc", "front.nc", "history.nc")
-CHECKPOINT_FORMAT = 2                  # 1: a bare pickle; 2: header line with the SHA-256, then the pickle
+CHECKPOINT_FORMAT = 2  # 1: a bare pickle; 2: header line with the SHA-256, then the pickle
 CHECKPOINT_MAGIC = b"LNSS campaign checkpoint\n"
 
 
@@ -53,7 +79,9 @@ atomic_write_bytes = write_bytes_atomic
 def run_checksum(run: dict) -> str:
     """SHA-256 (hex) of ``run.json``'s canonical JSON without its ``checksum`` field."""
     content = {k: v for k, v in run.items() if k != "checksum"}
-    return hashlib.sha256(json.dumps(content, sort_keys=True, separators=(",", ":"), default=str).encode()).hexdigest()
+    return hashlib.sha256(
+        json.dumps(content, sort_keys=True, separators=(",", ":"), default=str).encode()
+    ).hexdigest()
 
 
 def load_run(run_dir) -> dict:
@@ -65,13 +93,24 @@ def load_run(run_dir) -> dict:
         raise ConfigError(f"{run_dir} is not a campaign run directory (no {RUN_FILE})")
     try:
         run = json.loads(path.read_text())
-    except (ValueError, RecursionError) as error:     # JSONDecodeError, UnicodeDecodeError, a 5000-digit integer
-        raise ConfigError(f"{path} is not readable JSON ({type(error).__name__}: {str(error)[:120]})") from None
-    if not isinstance(run, dict) or not isinstance(run.get("profile"), dict) or "evaluation_hash" not in run:
+    except (
+        ValueError,
+        RecursionError,
+    ) as error:  # JSONDecodeError, UnicodeDecodeError, a 5000-digit integer
+        raise ConfigError(
+            f"{path} is not readable JSON ({type(error).__name__}: {str(error)[:120]})"
+        ) from None
+    if (
+        not isinstance(run, dict)
+        or not isinstance(run.get("profile"), dict)
+        or "evaluation_hash" not in run
+    ):
         raise ConfigError(f"{path} lacks the profile or the evaluation hash of the run")
     if "checksum" in run and run["checksum"] != run_checksum(run):
-        raise ConfigError(f"{path} was edited after the run started (its SHA-256 is not the checksum it recorded): "
-                          f"a run keeps its settings and provenance; start a new run with --profile and --set")
+        raise ConfigError(
+            f"{path} was edited after the run started (its SHA-256 is not the checksum it recorded): "
+            f"a run keeps its settings and provenance; start a new run with --profile and --set"
+        )
     return run
 
 
@@ -85,10 +124,18 @@ def run_kernel_cpu(run: dict) -> str | None:
 
 # classes pickled by older checkpoints under their old names: module lnss_lib.optimize (before the campaign
 # package) and CampaignSettings (the campaign plan before the settings were typed; same fields)
-_MOVED_CLASSES = {("lnss_lib.optimize", "WalkerDesignProblem"): ("lnss_lib.campaign.problem", "WalkerDesignProblem"),
-                  ("lnss_lib.optimize", "CampaignSettings"): ("lnss_lib.campaign.settings", "CampaignPlan"),
-                  ("lnss_lib.campaign.settings", "CampaignSettings"): ("lnss_lib.campaign.settings", "CampaignPlan"),
-                  ("lnss_lib.optimize", "DesignGrid"): ("lnss_lib.campaign.grid", "DesignGrid")}
+_MOVED_CLASSES = {
+    ("lnss_lib.optimize", "WalkerDesignProblem"): (
+        "lnss_lib.campaign.problem",
+        "WalkerDesignProblem",
+    ),
+    ("lnss_lib.optimize", "CampaignSettings"): ("lnss_lib.campaign.settings", "CampaignPlan"),
+    ("lnss_lib.campaign.settings", "CampaignSettings"): (
+        "lnss_lib.campaign.settings",
+        "CampaignPlan",
+    ),
+    ("lnss_lib.optimize", "DesignGrid"): ("lnss_lib.campaign.grid", "DesignGrid"),
+}
 
 # every global a checkpoint of the NSGA-II of :func:`~lnss_lib.campaign.problem.build_algorithm` names
 # (module: names); anything else in a checkpoint file is refused
@@ -105,7 +152,7 @@ CHECKPOINT_GLOBALS = {
     "lnss_lib.campaign.grid": ("DesignGrid",),
     "lnss_lib.campaign.problem": ("WalkerDesignProblem",),
     "lnss_lib.campaign.settings": ("CampaignPlan",),
-    "lnss_lib.sections": ("VariableBounds",),          # the plan's [campaign] variables
+    "lnss_lib.sections": ("VariableBounds",),  # the plan's [campaign] variables
     "pymoo.algorithms.moo.nsga2": ("NSGA2", "binary_tournament"),
     "pymoo.core.callback": ("Callback",),
     "pymoo.core.duplicate": ("DefaultDuplicateElimination", "default_attr"),
@@ -123,7 +170,10 @@ CHECKPOINT_GLOBALS = {
     "pymoo.operators.sampling.rnd": ("IntegerRandomSampling",),
     "pymoo.operators.selection.tournament": ("TournamentSelection",),
     "pymoo.operators.survival.rank_and_crowding.classes": ("RankAndCrowding",),
-    "pymoo.operators.survival.rank_and_crowding.metrics": ("FunctionalDiversity", "calc_crowding_distance"),
+    "pymoo.operators.survival.rank_and_crowding.metrics": (
+        "FunctionalDiversity",
+        "calc_crowding_distance",
+    ),
     "pymoo.termination.collection": ("TerminationCollection",),
     "pymoo.termination.ftol": ("MultiObjectiveSpaceTermination",),
     "pymoo.termination.max_gen": ("MaximumGenerationTermination",),
@@ -142,8 +192,10 @@ class CheckpointError(RuntimeError):
     """A checkpoint file that cannot be trusted: ``path`` and the ``reason`` (damaged, or a global it may not name)."""
 
     def __init__(self, path: Path, reason: str):
-        super().__init__(f"{path}: {reason}; delete it and resume: the evaluation cache "
-                         f"{Path(path).parent / 'evaluations.jsonl'} re-uses every design already evaluated")
+        super().__init__(
+            f"{path}: {reason}; delete it and resume: the evaluation cache "
+            f"{Path(path).parent / 'evaluations.jsonl'} re-uses every design already evaluated"
+        )
         self.path = Path(path)
         self.reason = reason
 
@@ -158,8 +210,11 @@ class _CheckpointUnpickler(pickle.Unpickler):
     def find_class(self, module, name):
         module, name = _MOVED_CLASSES.get((module, name), (module, name))
         if name not in CHECKPOINT_GLOBALS.get(module, ()):
-            raise CheckpointError(self.path, f"names {module}.{name}, which is not a class or function a campaign "
-                                             f"checkpoint holds: refused (a forged or foreign file)")
+            raise CheckpointError(
+                self.path,
+                f"names {module}.{name}, which is not a class or function a campaign "
+                f"checkpoint holds: refused (a forged or foreign file)",
+            )
         return super().find_class(module, name)
 
 
@@ -174,36 +229,66 @@ def load_checkpoint(run_dir) -> dict | None:
     if data.startswith(CHECKPOINT_MAGIC):
         header_end = data.find(b"\n", len(CHECKPOINT_MAGIC)) + 1
         try:
-            header = json.loads(data[len(CHECKPOINT_MAGIC):header_end])
+            header = json.loads(data[len(CHECKPOINT_MAGIC) : header_end])
             expected = str(header["sha256"])
         except (ValueError, TypeError, KeyError):
-            raise CheckpointError(path, "is truncated or corrupt (its header line does not read)") from None
+            raise CheckpointError(
+                path, "is truncated or corrupt (its header line does not read)"
+            ) from None
         data = data[header_end:] if header_end else b""
         actual = hashlib.sha256(data).hexdigest()
         if actual != expected:
-            raise CheckpointError(path, f"is truncated or corrupt (the SHA-256 of its {len(data)} bytes is "
-                                        f"{actual[:12]}..., its header says {expected[:12]}...)")
+            raise CheckpointError(
+                path,
+                f"is truncated or corrupt (the SHA-256 of its {len(data)} bytes is "
+                f"{actual[:12]}..., its header says {expected[:12]}...)",
+            )
     try:
         checkpoint = _CheckpointUnpickler(io.BytesIO(data), path).load()
     except CheckpointError:
         raise
-    except Exception as error:     # whatever a damaged pickle raises (EOFError, UnpicklingError, OverflowError, ...)
-        raise CheckpointError(path, f"is truncated or corrupt ({type(error).__name__}: {error})") from None
-    if not isinstance(checkpoint, dict) or not {"generation", "algorithm", "history"} <= set(checkpoint):
+    except (
+        Exception
+    ) as error:  # whatever a damaged pickle raises (EOFError, UnpicklingError, OverflowError, ...)
+        raise CheckpointError(
+            path, f"is truncated or corrupt ({type(error).__name__}: {error})"
+        ) from None
+    if not isinstance(checkpoint, dict) or not {"generation", "algorithm", "history"} <= set(
+        checkpoint
+    ):
         raise CheckpointError(path, "is truncated or corrupt (not a campaign checkpoint)")
     return checkpoint
 
 
-def write_checkpoint(run_dir, generation: int, algorithm, history: list[dict], finished: bool,
-                     profile_fingerprint: str | None = None, asked_keys: list | None = None) -> None:
+def write_checkpoint(
+    run_dir,
+    generation: int,
+    algorithm,
+    history: list[dict],
+    finished: bool,
+    profile_fingerprint: str | None = None,
+    asked_keys: list | None = None,
+) -> None:
     """Pickle the algorithm and the history after ``generation`` into ``checkpoint.pkl`` behind a header
     with the pickle's SHA-256 (atomically)."""
     profile_fingerprint = profile_fingerprint or profile_hash(load_run(run_dir)["profile"])
     payload = pickle.dumps(
-        {"format": CHECKPOINT_FORMAT, "generation": generation, "algorithm": algorithm, "history": history,
-         "finished": finished, "profile_hash": profile_fingerprint, "asked_keys": list(asked_keys or [])})
-    header = json.dumps({"format": CHECKPOINT_FORMAT, "sha256": hashlib.sha256(payload).hexdigest()})
-    atomic_write_bytes(Path(run_dir) / CHECKPOINT_FILE, CHECKPOINT_MAGIC + header.encode() + b"\n" + payload)
+        {
+            "format": CHECKPOINT_FORMAT,
+            "generation": generation,
+            "algorithm": algorithm,
+            "history": history,
+            "finished": finished,
+            "profile_hash": profile_fingerprint,
+            "asked_keys": list(asked_keys or []),
+        }
+    )
+    header = json.dumps(
+        {"format": CHECKPOINT_FORMAT, "sha256": hashlib.sha256(payload).hexdigest()}
+    )
+    atomic_write_bytes(
+        Path(run_dir) / CHECKPOINT_FILE, CHECKPOINT_MAGIC + header.encode() + b"\n" + payload
+    )
 
 
 def final_population(run_dir) -> tuple[np.ndarray, np.ndarray]:
@@ -215,42 +300,77 @@ def final_population(run_dir) -> tuple[np.ndarray, np.ndarray]:
     return np.asarray(pop.get("X")).astype(int), np.asarray(pop.get("F"), dtype=float)
 
 
-def _dataset_from_records(records: list[dict], settings: CampaignPlan, attrs: dict,
-                          extras: tuple[str, ...] = ()) -> xr.Dataset:
+def _dataset_from_records(
+    records: list[dict], settings: CampaignPlan, attrs: dict, extras: tuple[str, ...] = ()
+) -> xr.Dataset:
     records = sorted(records, key=lambda r: (r["generation"], r["order"]))
     keys = np.array([r["key"] for r in records], dtype=float).reshape(-1, len(DESIGN_KEYS))
     designs = settings.grid.descale(keys) if len(records) else np.zeros((0, len(DESIGN_KEYS)))
-    columns = metric_columns(records, extras) if records else {k: np.zeros(0) for k in (*METRIC_KEYS, *extras, "ok")}
-    cv = constraint_violation(constraint_matrix(columns, settings.constraints, settings.nan_violation)) \
-        if records else np.zeros(0)
+    columns = (
+        metric_columns(records, extras)
+        if records
+        else {k: np.zeros(0) for k in (*METRIC_KEYS, *extras, "ok")}
+    )
+    cv = (
+        constraint_violation(
+            constraint_matrix(columns, settings.constraints, settings.nan_violation)
+        )
+        if records
+        else np.zeros(0)
+    )
     data = {}
     for j, name in enumerate(DESIGN_KEYS):
-        data[name] = ("design", designs[:, j].astype(np.int64 if name in INTEGER_DESIGN_KEYS else np.float64))
+        data[name] = (
+            "design",
+            designs[:, j].astype(np.int64 if name in INTEGER_DESIGN_KEYS else np.float64),
+        )
     for name in METRIC_KEYS + extras:
-        data[name] = ("design", np.asarray(columns[name]).astype(np.int64 if name == "n_sat" else np.float64))
+        data[name] = (
+            "design",
+            np.asarray(columns[name]).astype(np.int64 if name == "n_sat" else np.float64),
+        )
     data["feasible"] = ("design", np.asarray(columns["ok"], dtype=bool) & (cv == 0.0))
     data["impact"] = ("design", np.array([r["impact"] for r in records], dtype=bool))
-    data["error"] = ("design", np.array([r["reason"] if r.get("error") else "" for r in records], dtype=str))
+    data["error"] = (
+        "design",
+        np.array([r["reason"] if r.get("error") else "" for r in records], dtype=str),
+    )
     data["constraint_violation"] = ("design", cv.astype(np.float64))
     data["generation"] = ("design", np.array([r["generation"] for r in records], dtype=np.int64))
     ds = xr.Dataset(data, attrs=attrs)
-    units = {"sma_km": "km", "aop_deg": "deg", "inc_deg": "deg", "dv_total_kms_per_year": "km/s per satellite per year",
-             "dv_opt_kms_per_year": "km/s per satellite per year", "pdop_avail_pct": "%", "hdop_avail_pct": "%",
-             "sk_dv_estimate_kms_per_year": "km/s per satellite per year (mean over satellites)",
-             "sk_dv_estimate_max_kms_per_year": "km/s per year (worst satellite)",
-             "dv_total_max_kms_per_year": "km/s per year (worst satellite)",
-             "dv_opt_max_kms_per_year": "km/s per year (worst satellite)", "screen_min_perilune_alt_km": "km"}
+    units = {
+        "sma_km": "km",
+        "aop_deg": "deg",
+        "inc_deg": "deg",
+        "dv_total_kms_per_year": "km/s per satellite per year",
+        "dv_opt_kms_per_year": "km/s per satellite per year",
+        "pdop_avail_pct": "%",
+        "hdop_avail_pct": "%",
+        "sk_dv_estimate_kms_per_year": "km/s per satellite per year (mean over satellites)",
+        "sk_dv_estimate_max_kms_per_year": "km/s per year (worst satellite)",
+        "dv_total_max_kms_per_year": "km/s per year (worst satellite)",
+        "dv_opt_max_kms_per_year": "km/s per year (worst satellite)",
+        "screen_min_perilune_alt_km": "km",
+    }
     for name, unit in units.items():
         if name in ds:
             ds[name].attrs["units"] = unit
     if "stable_screen" in ds:
-        ds["stable_screen"].attrs["description"] = "1: no perilune reaches the surface over the screened design life; 0: one does"
-    ds["feasible"].attrs["description"] = "evaluated without impact and every campaign constraint met (Table 3)"
-    ds["constraint_violation"].attrs["description"] = ("sum of positive normalised constraint values "
-                                                       "(value/limit - 1 for max, 1 - value/limit for min)")
+        ds["stable_screen"].attrs["description"] = (
+            "1: no perilune reaches the surface over the screened design life; 0: one does"
+        )
+    ds["feasible"].attrs["description"] = (
+        "evaluated without impact and every campaign constraint met (Table 3)"
+    )
+    ds["constraint_violation"].attrs["description"] = (
+        "sum of positive normalised constraint values "
+        "(value/limit - 1 for max, 1 - value/limit for min)"
+    )
     ds["generation"].attrs["description"] = "generation in which the design was first evaluated"
-    ds["error"].attrs["description"] = ("message of an evaluation that raised (an error, not an infeasible "
-                                        "design; its metrics are NaN); empty when the evaluation ran")
+    ds["error"].attrs["description"] = (
+        "message of an evaluation that raised (an error, not an infeasible "
+        "design; its metrics are NaN); empty when the evaluation ran"
+    )
     return ds
 
 
@@ -273,7 +393,9 @@ def export_results(run_dir) -> tuple[xr.Dataset, xr.Dataset, xr.Dataset]:
     attrs = {
         "profile": run_settings.name,
         "objectives": ",".join(settings.objectives),
-        "constraints": ",".join(f"{m} {'<=' if k == 'max' else '>='} {v:g}" for m, k, v in settings.constraints),
+        "constraints": ",".join(
+            f"{m} {'<=' if k == 'max' else '>='} {v:g}" for m, k, v in settings.constraints
+        ),
         "parameters": json.dumps(profile, sort_keys=True),
         "versions": json.dumps(package_versions(), sort_keys=True),
         "evaluation_hash": run["evaluation_hash"],
@@ -289,14 +411,23 @@ def export_results(run_dir) -> tuple[xr.Dataset, xr.Dataset, xr.Dataset]:
     feasible = evaluations["feasible"].values
     columns = {k: evaluations[k].values for k in METRIC_KEYS + extras}
     f = objective_matrix(columns, settings.objectives, settings.nan_objective)
-    front_index = np.flatnonzero(feasible)[non_dominated_mask(f[feasible])] if feasible.any() else np.zeros(0, int)
+    front_index = (
+        np.flatnonzero(feasible)[non_dominated_mask(f[feasible])]
+        if feasible.any()
+        else np.zeros(0, int)
+    )
     front = evaluations.isel(design=front_index)
-    front.attrs = {**attrs, "description": "feasible designs not dominated by any other feasible design in the "
-                                           "campaign objectives"}
+    front.attrs = {
+        **attrs,
+        "description": "feasible designs not dominated by any other feasible design in the "
+        "campaign objectives",
+    }
     names = sorted({k for h in history for k in h if k != "generation"})
-    hist = xr.Dataset({k: ("generation", np.array([h[k] for h in history])) for k in names},
-                      coords={"generation": np.array([h["generation"] for h in history], dtype=np.int64)},
-                      attrs={**attrs, "hypervolume_reference": json.dumps(dict(settings.hypervolume))})
+    hist = xr.Dataset(
+        {k: ("generation", np.array([h[k] for h in history])) for k in names},
+        coords={"generation": np.array([h["generation"] for h in history], dtype=np.int64)},
+        attrs={**attrs, "hypervolume_reference": json.dumps(dict(settings.hypervolume))},
+    )
     return evaluations, front, hist
 
 
@@ -324,16 +455,26 @@ def check_new_run_dir(run_dir: Path) -> None:
     """Refuse (ConfigError) a folder a new run may not be started in: one holding a run (resume it instead) or any
     other file (a new run never writes among files it did not make); a missing or empty folder is fit."""
     if (run_dir / RUN_FILE).exists():
-        raise ConfigError(f"{run_dir} already holds a campaign; continue it with --resume {run_dir}", key="--run-dir")
+        raise ConfigError(
+            f"{run_dir} already holds a campaign; continue it with --resume {run_dir}",
+            key="--run-dir",
+        )
     if run_dir.exists() and not run_dir.is_dir():
-        raise ConfigError(f"--run-dir {run_dir}: not a folder; a new run needs a missing or empty folder",
-                          key="--run-dir")
+        raise ConfigError(
+            f"--run-dir {run_dir}: not a folder; a new run needs a missing or empty folder",
+            key="--run-dir",
+        )
     if run_dir.is_dir():
         entries = sorted(entry.name for entry in run_dir.iterdir())
         if entries:
-            shown = ", ".join(entries[:3]) + (f" and {len(entries) - 3} more" if len(entries) > 3 else "")
-            raise ConfigError(f"--run-dir {run_dir} is not empty ({shown}); a new run goes into a missing or empty "
-                              f"folder", key="--run-dir")
+            shown = ", ".join(entries[:3]) + (
+                f" and {len(entries) - 3} more" if len(entries) > 3 else ""
+            )
+            raise ConfigError(
+                f"--run-dir {run_dir} is not empty ({shown}); a new run goes into a missing or empty "
+                f"folder",
+                key="--run-dir",
+            )
 
 
 def start_run(run_dir: Path, settings: Settings, eval_hash: str) -> None:
@@ -341,10 +482,17 @@ def start_run(run_dir: Path, settings: Settings, eval_hash: str) -> None:
     the workbook's commit) into ``run_dir`` (the caller holds the run's lock)."""
     from ..provenance import git_revision, package_versions
 
-    run = {"profile": settings.as_dict(), "profile_hash": settings.hash, "evaluation_hash": eval_hash,
-           "created_utc": time.strftime("%Y-%m-%dT%H:%M:%SZ", time.gmtime()), "versions": package_versions(),
-           "commit": git_revision()}
-    run = json.loads(json.dumps(run, default=str))        # the checksum is of what the file will read back
+    run = {
+        "profile": settings.as_dict(),
+        "profile_hash": settings.hash,
+        "evaluation_hash": eval_hash,
+        "created_utc": time.strftime("%Y-%m-%dT%H:%M:%SZ", time.gmtime()),
+        "versions": package_versions(),
+        "commit": git_revision(),
+    }
+    run = json.loads(
+        json.dumps(run, default=str)
+    )  # the checksum is of what the file will read back
     run["checksum"] = run_checksum(run)
     atomic_write_bytes(run_dir / RUN_FILE, json.dumps(run, indent=1).encode())
 
@@ -353,12 +501,16 @@ def check_resumable(run_dir: Path, run: dict, checkpoint: dict | None) -> None:
     """Refuse (ConfigError) a resume whose ``run.json`` settings were edited after the run started: its
     profile must still give the profile hash recorded in run.json and in the checkpoint."""
     current = profile_hash(run["profile"])
-    for recorded, where in ((run.get("profile_hash"), RUN_FILE),
-                            ((checkpoint or {}).get("profile_hash"), CHECKPOINT_FILE)):
+    for recorded, where in (
+        (run.get("profile_hash"), RUN_FILE),
+        ((checkpoint or {}).get("profile_hash"), CHECKPOINT_FILE),
+    ):
         if recorded is not None and recorded != current:
-            raise ConfigError(f"{run_dir / RUN_FILE}: its settings (profile hash {current}) differ from those the "
-                              f"run started with ({recorded}, recorded in {where}); a run keeps its settings: undo "
-                              f"the edit, or start a new run with --profile and --set")
+            raise ConfigError(
+                f"{run_dir / RUN_FILE}: its settings (profile hash {current}) differ from those the "
+                f"run started with ({recorded}, recorded in {where}); a run keeps its settings: undo "
+                f"the edit, or start a new run with --profile and --set"
+            )
 
 
 class RunLock:
@@ -383,8 +535,10 @@ class RunLock:
                 owner = self.path.read_text().strip() or "unknown"
             except OSError:
                 owner = "unknown"
-            raise RuntimeError(f"{run_dir} is in use by another campaign process (pid {owner}); wait for it to "
-                               f"finish or stop it, then --resume {run_dir}") from None
+            raise RuntimeError(
+                f"{run_dir} is in use by another campaign process (pid {owner}); wait for it to "
+                f"finish or stop it, then --resume {run_dir}"
+            ) from None
         atomic_write_bytes(self.path, f"{os.getpid()}\n".encode())
 
     def release(self) -> None:

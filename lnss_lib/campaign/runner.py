@@ -21,22 +21,40 @@ from __future__ import annotations
 import time
 import warnings
 from dataclasses import dataclass
+from pathlib import Path
 
 import numpy as np
-from pathlib import Path
 
 from .. import kernel_cpu
 from ..config import OUTPUTS_DIR, PROFILE_NAME
-from ..settings import Settings, load_settings, settings_from_profile
 from ..errors import ConfigError
+from ..settings import Settings, load_settings, settings_from_profile
 from .backends import BatchEvaluator, check_scheduler_address, early_stop_bounds, open_backend
-from .callbacks import (Callback, CampaignStopped, Checkpointer, ErrorGuard, HistoryRecorder, ProgressBars,
-                        RunState)
+from .callbacks import (
+    Callback,
+    CampaignStopped,
+    Checkpointer,
+    ErrorGuard,
+    HistoryRecorder,
+    ProgressBars,
+    RunState,
+)
 from .journal import JOURNAL_FILE, EvaluationCache, read_cache_records
-from .publication import publish_run, run_differences
 from .problem import WalkerDesignProblem, build_algorithm, build_termination
-from .rundir import (LOCK_FILE, RUN_FILE, RunLock, check_new_run_dir, check_resumable, default_run_dir, load_checkpoint,
-                     load_run, run_kernel_cpu, start_run, write_results)
+from .publication import publish_run, run_differences
+from .rundir import (
+    LOCK_FILE,
+    RUN_FILE,
+    RunLock,
+    check_new_run_dir,
+    check_resumable,
+    default_run_dir,
+    load_checkpoint,
+    load_run,
+    run_kernel_cpu,
+    start_run,
+    write_results,
+)
 from .settings import CampaignPlan, evaluation_hash, evaluation_profile
 from .validation import check_validatable, validate_front
 
@@ -67,9 +85,18 @@ class CampaignResult:
     n_errors: int = 0
 
 
-def run_campaign(profile_name: str = "quick", *, overrides: dict | None = None, workers: int | None = None,
-                 scheduler_address: str | None = None, run_dir=None, resume=None, progress: bool = True,
-                 max_generations: int | None = None, callbacks=()) -> CampaignResult:
+def run_campaign(
+    profile_name: str = "quick",
+    *,
+    overrides: dict | None = None,
+    workers: int | None = None,
+    scheduler_address: str | None = None,
+    run_dir=None,
+    resume=None,
+    progress: bool = True,
+    max_generations: int | None = None,
+    callbacks=(),
+) -> CampaignResult:
     """Run (or, with ``resume`` = a run directory, continue) an NSGA-II campaign; see the module docstring.
 
     ``overrides`` is merged into the profile (e.g. ``{"campaign": {"evaluator": "synthetic"}}``);
@@ -88,13 +115,17 @@ def run_campaign(profile_name: str = "quick", *, overrides: dict | None = None, 
         check_scheduler_address(scheduler_address)
     if resume is not None:
         if overrides:
-            raise ConfigError("a resumed run keeps its parameters: overrides are not allowed with resume")
+            raise ConfigError(
+                "a resumed run keeps its parameters: overrides are not allowed with resume"
+            )
         run_dir = Path(resume)
         run = load_run(run_dir)
         settings = _stored_settings(run_dir, run)
         eval_hash = evaluation_hash(settings)
         if eval_hash != run["evaluation_hash"]:
-            raise ConfigError(f"{run_dir}: evaluation hash of the stored profile changed; cannot resume")
+            raise ConfigError(
+                f"{run_dir}: evaluation hash of the stored profile changed; cannot resume"
+            )
         _warn_if_other_kernel_cpu(run_dir, run)
         eval_settings = evaluation_profile(settings)
         lock = RunLock(run_dir)
@@ -110,7 +141,17 @@ def run_campaign(profile_name: str = "quick", *, overrides: dict | None = None, 
     try:
         if resume is None:
             start_run(run_dir, settings, eval_hash)
-        return _run_locked(run_dir, settings, eval_settings, eval_hash, workers, scheduler_address, progress, max_generations, callbacks)
+        return _run_locked(
+            run_dir,
+            settings,
+            eval_settings,
+            eval_hash,
+            workers,
+            scheduler_address,
+            progress,
+            max_generations,
+            callbacks,
+        )
     except BaseException:
         if created:
             _remove_if_empty_run(run_dir)
@@ -125,13 +166,19 @@ def _new_run_dir(run_dir, profile_name: str) -> Path:
     if run_dir is None:
         return default_run_dir(profile_name)
     if not str(run_dir).strip():
-        raise ConfigError(f"--run-dir {str(run_dir)!r}: a folder path is needed (a blank one would be the current "
-                          f"folder); omit --run-dir for outputs/<profile>/campaign/run_<time>", key="--run-dir")
+        raise ConfigError(
+            f"--run-dir {str(run_dir)!r}: a folder path is needed (a blank one would be the current "
+            f"folder); omit --run-dir for outputs/<profile>/campaign/run_<time>",
+            key="--run-dir",
+        )
     run_dir = Path(run_dir)
     reference_dir = (OUTPUTS_DIR / "reference").resolve()
     if run_dir.resolve() == reference_dir or reference_dir in run_dir.resolve().parents:
-        raise ConfigError(f"--run-dir {run_dir}: inside {reference_dir}, the shipped results, which exports replace "
-                          f"whole; choose a folder elsewhere", key="--run-dir")
+        raise ConfigError(
+            f"--run-dir {run_dir}: inside {reference_dir}, the shipped results, which exports replace "
+            f"whole; choose a folder elsewhere",
+            key="--run-dir",
+        )
     check_new_run_dir(run_dir)
     return run_dir
 
@@ -140,10 +187,13 @@ def _warn_if_other_kernel_cpu(run_dir: Path, run: dict) -> None:
     """RuntimeWarning when ``run``'s recorded kernel processor model is not this machine's (see the module docstring)."""
     recorded, here = run_kernel_cpu(run), kernel_cpu()
     if recorded is not None and recorded != here:
-        warnings.warn(f"{run_dir} started with kernels compiled for {recorded}; here they are compiled for "
-                      f"{here}: the designs evaluated from now on (and those of its journal asked for again) differ "
-                      "from an uninterrupted run's by round-off (docs/NOTES.md, Notes for developers)", RuntimeWarning,
-                      stacklevel=3)
+        warnings.warn(
+            f"{run_dir} started with kernels compiled for {recorded}; here they are compiled for "
+            f"{here}: the designs evaluated from now on (and those of its journal asked for again) differ "
+            "from an uninterrupted run's by round-off (docs/NOTES.md, Notes for developers)",
+            RuntimeWarning,
+            stacklevel=3,
+        )
 
 
 def _stored_settings(run_dir: Path, run: dict) -> Settings:
@@ -154,8 +204,11 @@ def _stored_settings(run_dir: Path, run: dict) -> Settings:
         raise ConfigError(f"{run_dir / RUN_FILE}: {error}", key=error.key) from None
     stored_name = settings.name
     if not isinstance(stored_name, str) or not PROFILE_NAME.fullmatch(stored_name):
-        raise ConfigError(f"{run_dir / RUN_FILE}: profile.name = {stored_name!r} is not a profile name "
-                          f"(letters, digits, '_' and '-'); the run folder is damaged or forged", key="profile.name")
+        raise ConfigError(
+            f"{run_dir / RUN_FILE}: profile.name = {stored_name!r} is not a profile name "
+            f"(letters, digits, '_' and '-'); the run folder is damaged or forged",
+            key="profile.name",
+        )
     return settings
 
 
@@ -183,8 +236,17 @@ def _lost_designs(checkpoint: dict | None, cache: EvaluationCache) -> list[tuple
     return [k for k in dict.fromkeys(keys) if k not in cache]
 
 
-def _run_locked(run_dir: Path, run_settings: Settings, eval_settings: Settings, eval_hash: str, workers,
-                scheduler_address, progress: bool, max_generations, callbacks) -> CampaignResult:
+def _run_locked(
+    run_dir: Path,
+    run_settings: Settings,
+    eval_settings: Settings,
+    eval_hash: str,
+    workers,
+    scheduler_address,
+    progress: bool,
+    max_generations,
+    callbacks,
+) -> CampaignResult:
     """The generation loop of :func:`run_campaign` in a run folder this process holds the lock of: the run's
     settings, those its evaluations run under (:func:`evaluation_profile`) and their :func:`evaluation_hash`."""
     settings = CampaignPlan.of(run_settings)
@@ -198,8 +260,12 @@ def _run_locked(run_dir: Path, run_settings: Settings, eval_settings: Settings, 
     else:
         algorithm, history = build_algorithm(settings), []
         problem = WalkerDesignProblem(settings)
-        algorithm.setup(problem, termination=build_termination(settings), seed=settings.seed, verbose=False)
-    cache = EvaluationCache(run_dir / JOURNAL_FILE, eval_hash, kernel_cpu=kernel_cpu(), run_cpu=run_kernel_cpu(run))
+        algorithm.setup(
+            problem, termination=build_termination(settings), seed=settings.seed, verbose=False
+        )
+    cache = EvaluationCache(
+        run_dir / JOURNAL_FILE, eval_hash, kernel_cpu=kernel_cpu(), run_cpu=run_kernel_cpu(run)
+    )
     session_start = time.perf_counter()
     session_wall_s = None
     backend = None
@@ -209,12 +275,21 @@ def _run_locked(run_dir: Path, run_settings: Settings, eval_settings: Settings, 
         if lost or (not (checkpoint and checkpoint.get("finished")) and algorithm.has_next()):
             backend = open_backend(eval_settings, settings, workers, scheduler_address)
         batch = BatchEvaluator(settings, cache, backend)
-        if lost:   # designs of the checkpoint whose journal lines were torn, damaged or lost: evaluate them again
+        if lost:  # designs of the checkpoint whose journal lines were torn, damaged or lost: evaluate them again
             batch.generation = len(history)
             batch(np.array(lost))
         problem.metrics_source = batch
-        state = RunState(run_dir=run_dir, name=name, settings=settings, algorithm=algorithm, cache=cache,
-                         batch=batch, history=history, profile_hash=run_settings.hash, session_start=session_start)
+        state = RunState(
+            run_dir=run_dir,
+            name=name,
+            settings=settings,
+            algorithm=algorithm,
+            cache=cache,
+            batch=batch,
+            history=history,
+            profile_hash=run_settings.hash,
+            session_start=session_start,
+        )
         observers = default_callbacks(progress) + list(callbacks)
 
         def notify(hook: str, *args) -> None:
@@ -239,14 +314,18 @@ def _run_locked(run_dir: Path, run_settings: Settings, eval_settings: Settings, 
             state.wall_s = time.perf_counter() - gen_start
             notify("on_generation_end")
             session_gens += 1
-        session_wall_s = time.perf_counter() - session_start    # evaluation time: writing the results is not in it
+        session_wall_s = (
+            time.perf_counter() - session_start
+        )  # evaluation time: writing the results is not in it
         notify("on_session_end")
     except CampaignStopped:
         for observer in observers:
             if hasattr(observer, "close"):
                 observer.close()
         cache.close()
-        write_results(run_dir)          # evaluations.nc holds every design so far, errors with their messages
+        write_results(
+            run_dir
+        )  # evaluations.nc holds every design so far, errors with their messages
         raise
     finally:
         cache.close()
@@ -254,21 +333,40 @@ def _run_locked(run_dir: Path, run_settings: Settings, eval_settings: Settings, 
         if backend is not None:
             backend.close()
     files = write_results(run_dir) if history else []
-    if run_settings.front_validation.max_designs > 0 and bool((load_checkpoint(run_dir) or {}).get("finished")):
-        files.append(validate_front(run_dir, workers=workers, scheduler_address=scheduler_address,
-                                    progress=progress).path)
+    if run_settings.front_validation.max_designs > 0 and bool(
+        (load_checkpoint(run_dir) or {}).get("finished")
+    ):
+        files.append(
+            validate_front(
+                run_dir, workers=workers, scheduler_address=scheduler_address, progress=progress
+            ).path
+        )
     note = _publish(run_dir, run_settings) if history else ""
-    return CampaignResult(run_dir=run_dir, files=files, publication=note, generations=len(history),
-                          n_evaluations=history[-1]["n_evaluations_cum"] if history else 0,
-                          n_feasible=history[-1]["n_feasible_cum"] if history else 0,
-                          wall_s=float(sum(h["wall_s"] for h in history)),
-                          session_evaluations=batch.n_backend,
-                          session_wall_s=session_wall_s if session_wall_s is not None else time.perf_counter() - session_start,
-                          resubmitted=resubmitted, n_errors=sum(bool(r.get("error")) for r in read_cache_records(run_dir)))
+    return CampaignResult(
+        run_dir=run_dir,
+        files=files,
+        publication=note,
+        generations=len(history),
+        n_evaluations=history[-1]["n_evaluations_cum"] if history else 0,
+        n_feasible=history[-1]["n_feasible_cum"] if history else 0,
+        wall_s=float(sum(h["wall_s"] for h in history)),
+        session_evaluations=batch.n_backend,
+        session_wall_s=session_wall_s
+        if session_wall_s is not None
+        else time.perf_counter() - session_start,
+        resubmitted=resubmitted,
+        n_errors=sum(bool(r.get("error")) for r in read_cache_records(run_dir)),
+    )
 
 
-def validate_run(run_dir, *, workers: int | None = None, scheduler_address: str | None = None,
-                 progress: bool = True, task=None) -> tuple:
+def validate_run(
+    run_dir,
+    *,
+    workers: int | None = None,
+    scheduler_address: str | None = None,
+    progress: bool = True,
+    task=None,
+) -> tuple:
     """Validate (or continue validating) the front of a finished run (``campaign --validate RUN_DIR``), under its
     lock, then publish it as :func:`run_campaign` would: ``(ValidationResult, publication note)``. ConfigError for a
     folder that is not a run, a run not finished or a profile whose validation is off."""
@@ -276,16 +374,24 @@ def validate_run(run_dir, *, workers: int | None = None, scheduler_address: str 
     if scheduler_address is not None:
         check_scheduler_address(scheduler_address)
     if not run_dir.is_dir():
-        raise ConfigError(f"--validate {run_dir}: not a folder (a campaign run folder: {RUN_FILE}, checkpoint.pkl, "
-                          f"{JOURNAL_FILE})", key="--validate")
+        raise ConfigError(
+            f"--validate {run_dir}: not a folder (a campaign run folder: {RUN_FILE}, checkpoint.pkl, "
+            f"{JOURNAL_FILE})",
+            key="--validate",
+        )
     run = load_run(run_dir)
     settings = _stored_settings(run_dir, run)
     lock = RunLock(run_dir)
     try:
         check_resumable(run_dir, run, load_checkpoint(run_dir))
         check_validatable(run_dir, settings)
-        result = validate_front(run_dir, workers=workers, scheduler_address=scheduler_address, progress=progress,
-                                task=task)
+        result = validate_front(
+            run_dir,
+            workers=workers,
+            scheduler_address=scheduler_address,
+            progress=progress,
+            task=task,
+        )
         return result, _publish(run_dir, settings)
     finally:
         lock.release()
@@ -304,6 +410,8 @@ def _publish(run_dir: Path, settings: Settings) -> str:
     if reasons:
         return f"not published as the campaign of profile {name!r}: {'; '.join(reasons)}"
     try:
-        return f"published as the campaign of profile {name!r}: {publish_run(run_dir, campaign_dir)}"
+        return (
+            f"published as the campaign of profile {name!r}: {publish_run(run_dir, campaign_dir)}"
+        )
     except ConfigError as error:
         return f"not published as the campaign of profile {name!r}: {error}"

@@ -17,30 +17,68 @@ from dataclasses import dataclass, fields
 
 from ..config import CAMPAIGN_OFF as OFF
 from ..config import profile_hash
+from ..keys import METRIC_KEYS, VERDICT_KEYS, bound_text, format_value, label
 from ..sections import EVALUATORS, NOTEBOOK_MODES, legacy_spelling
 from ..settings import CampaignSettings, Settings, profile_data
-from ..keys import METRIC_KEYS, VERDICT_KEYS, bound_text, format_value, label
 from .fitness import constraint_matrix
 from .grid import DesignGrid
 
-__all__ = ["CampaignPlan", "campaign_constraints", "evaluation_profile", "evaluation_hash", "bounds_verdict", "run_differences",
-           "EVALUATORS", "CAMPAIGN_ONLY_KEYS", "NOTEBOOK_MODES", "OFF"]
+__all__ = [
+    "CampaignPlan",
+    "campaign_constraints",
+    "evaluation_profile",
+    "evaluation_hash",
+    "bounds_verdict",
+    "run_differences",
+    "EVALUATORS",
+    "CAMPAIGN_ONLY_KEYS",
+    "NOTEBOOK_MODES",
+    "OFF",
+]
 
-CAMPAIGN_ONLY_KEYS = ("population", "generations", "crossover_prob", "crossover_eta", "mutation_eta",
-                      "mutation_prob_var", "seed", "ftol", "ftol_period", "objectives", "constraints",
-                      "nan_objective", "nan_violation", "hypervolume", "max_resubmits",
-                      "numba_threads_per_worker", "synthetic_delay_s", "max_errors",
-                      "companion_profile", "notebook_mode")
+CAMPAIGN_ONLY_KEYS = (
+    "population",
+    "generations",
+    "crossover_prob",
+    "crossover_eta",
+    "mutation_eta",
+    "mutation_prob_var",
+    "seed",
+    "ftol",
+    "ftol_period",
+    "objectives",
+    "constraints",
+    "nan_objective",
+    "nan_violation",
+    "hypervolume",
+    "max_resubmits",
+    "numba_threads_per_worker",
+    "synthetic_delay_s",
+    "max_errors",
+    "companion_profile",
+    "notebook_mode",
+)
 
 
-NON_EVALUATION_SECTIONS = ("notebooks", "benchmark", "life_evaluation", "life_navigation", "robustness", "design_life",
-                           "front_validation")   # never read by a 10-day evaluation
+NON_EVALUATION_SECTIONS = (
+    "notebooks",
+    "benchmark",
+    "life_evaluation",
+    "life_navigation",
+    "robustness",
+    "design_life",
+    "front_validation",
+)  # never read by a 10-day evaluation
 
 
 def campaign_constraints(campaign: CampaignSettings) -> tuple[tuple[str, str, float], ...]:
     """``(metric, "min" | "max", limit)`` of ``[campaign.constraints]`` (Table 3), entries set to "off" left out."""
-    return tuple((metric, kind, float(limit)) for metric, spec in campaign.constraints.items() if spec != OFF
-                 for kind, limit in spec.items())
+    return tuple(
+        (metric, kind, float(limit))
+        for metric, spec in campaign.constraints.items()
+        if spec != OFF
+        for kind, limit in spec.items()
+    )
 
 
 @dataclass(frozen=True)
@@ -53,19 +91,27 @@ class CampaignPlan(CampaignSettings):
     constraints: tuple[tuple[str, str, float], ...]
     hypervolume: tuple[tuple[str, float], ...]
     grid: DesignGrid
-    extra_metrics: tuple[str, ...]          # [evaluator] extra_metrics
+    extra_metrics: tuple[str, ...]  # [evaluator] extra_metrics
 
     @classmethod
-    def of(cls, settings: Settings) -> "CampaignPlan":
+    def of(cls, settings: Settings) -> CampaignPlan:
         """The plan of checked settings (``settings.campaign`` and ``settings.evaluator.extra_metrics``)."""
         campaign = settings.campaign
         section = {item.name: getattr(campaign, item.name) for item in fields(CampaignSettings)}
-        return cls(**{**section, "overrides": copy.deepcopy(dict(campaign.overrides)),
-                      "constraints": campaign_constraints(campaign),
-                      "hypervolume": tuple((metric, float(ref)) for metric, ref in campaign.hypervolume.items()
-                                           if ref != OFF)},
-                   grid=DesignGrid.from_variables(campaign.variables, campaign.n_sat),
-                   extra_metrics=tuple(settings.evaluator.extra_metrics))
+        return cls(
+            **{
+                **section,
+                "overrides": copy.deepcopy(dict(campaign.overrides)),
+                "constraints": campaign_constraints(campaign),
+                "hypervolume": tuple(
+                    (metric, float(ref))
+                    for metric, ref in campaign.hypervolume.items()
+                    if ref != OFF
+                ),
+            },
+            grid=DesignGrid.from_variables(campaign.variables, campaign.n_sat),
+            extra_metrics=tuple(settings.evaluator.extra_metrics),
+        )
 
 
 def evaluation_profile(settings: Settings) -> Settings:
@@ -80,14 +126,26 @@ def bounds_verdict(campaign: CampaignSettings, result: dict, labelled: bool = Fa
     campaign (:func:`~lnss_lib.campaign.fitness.constraint_matrix`). ``labelled``: bounds in words with units
     (:func:`~lnss_lib.keys.bound_text`, for people) instead of keys (for programs)."""
     constraints = campaign_constraints(campaign)
-    value = {m: math.nan if result.get(m) is None else float(result[m]) for m in (METRIC_KEYS[0], *(c[0] for c in constraints))}
+    value = {
+        m: math.nan if result.get(m) is None else float(result[m])
+        for m in (METRIC_KEYS[0], *(c[0] for c in constraints))
+    }
     g = constraint_matrix({m: [v] for m, v in value.items()}, constraints, math.inf)[0]
     if labelled:
-        violated = [f"{label(m)} {format_value(m, value[m]) if math.isfinite(value[m]) else 'undefined'}, "
-                    f"not {bound_text(m, kind, limit)}" for (m, kind, limit), gi in zip(constraints, g) if gi > 0.0]
+        violated = [
+            f"{label(m)} {format_value(m, value[m]) if math.isfinite(value[m]) else 'undefined'}, "
+            f"not {bound_text(m, kind, limit)}"
+            for (m, kind, limit), gi in zip(constraints, g)
+            if gi > 0.0
+        ]
     else:
-        violated = [f"{m} = {value[m]:.6g} {'>' if kind == 'max' else '<'} {kind} {limit:g}" if math.isfinite(value[m])
-                    else f"{m} undefined ({kind} {limit:g})" for (m, kind, limit), gi in zip(constraints, g) if gi > 0.0]
+        violated = [
+            f"{m} = {value[m]:.6g} {'>' if kind == 'max' else '<'} {kind} {limit:g}"
+            if math.isfinite(value[m])
+            else f"{m} undefined ({kind} {limit:g})"
+            for (m, kind, limit), gi in zip(constraints, g)
+            if gi > 0.0
+        ]
     return dict(zip(VERDICT_KEYS, (not violated, violated)))
 
 
@@ -100,7 +158,9 @@ def evaluation_hash(settings: Settings | Mapping) -> str:
     (``campaign.variables``), ``campaign.overrides`` and ``campaign.evaluator`` stay in. ``settings``: checked
     settings, or the profile dict a run folder stored (compared as it is, not validated again).
     """
-    profile = legacy_spelling(profile_data(settings))    # the keys of the fingerprint, while every section is here
+    profile = legacy_spelling(
+        profile_data(settings)
+    )  # the keys of the fingerprint, while every section is here
     content = {k: v for k, v in profile.items() if k not in NON_EVALUATION_SECTIONS}
     for key in CAMPAIGN_ONLY_KEYS:
         content.get("campaign", {}).pop(key, None)
@@ -125,23 +185,37 @@ def _hash(settings: Settings | Mapping) -> str:
     return settings.hash if isinstance(settings, Settings) else profile_hash(profile_data(settings))
 
 
-def run_differences(run: Settings | Mapping, settings: Settings | Mapping, limit: int = 6) -> list[str]:
+def run_differences(
+    run: Settings | Mapping, settings: Settings | Mapping, limit: int = 6
+) -> list[str]:
     """Why a run (its settings, or the profile dict its ``run.json`` stored) is not the campaign of ``settings``: []
     when the profile hashes agree, else the evaluator, the evaluation settings and up to ``limit`` differing
     keys, in that order (nothing is validated: a stored dict is compared as it is)."""
     run_hash, hash_ = _hash(run), _hash(settings)
     if run_hash == hash_:
         return []
-    run_profile, profile = (legacy_spelling(profile_data(p)) for p in (run, settings))   # keys of one spelling
+    run_profile, profile = (
+        legacy_spelling(profile_data(p)) for p in (run, settings)
+    )  # keys of one spelling
     reasons = []
-    run_evaluator, evaluator = (p.get("campaign", {}).get("evaluator") for p in (run_profile, profile))
+    run_evaluator, evaluator = (
+        p.get("campaign", {}).get("evaluator") for p in (run_profile, profile)
+    )
     if run_evaluator != evaluator:
         reasons.append(f"its evaluator is {run_evaluator!r}, the profile's {evaluator!r}")
     run_eval_hash, eval_hash = evaluation_hash(run_profile), evaluation_hash(profile)
     if run_eval_hash != eval_hash:
-        reasons.append(f"its evaluation settings differ (evaluation hash {run_eval_hash}, the profile's {eval_hash})")
+        reasons.append(
+            f"its evaluation settings differ (evaluation hash {run_eval_hash}, the profile's {eval_hash})"
+        )
     keys = _differing_keys(run_profile, profile)
-    reasons.append(f"profile hash {run_hash}, the profile's {hash_}"
-                   + (f": {'; '.join(keys[:limit])}" + (f"; and {len(keys) - limit} more" if len(keys) > limit else "")
-                      if keys else ""))
+    reasons.append(
+        f"profile hash {run_hash}, the profile's {hash_}"
+        + (
+            f": {'; '.join(keys[:limit])}"
+            + (f"; and {len(keys) - limit} more" if len(keys) > limit else "")
+            if keys
+            else ""
+        )
+    )
     return reasons

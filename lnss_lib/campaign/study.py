@@ -42,14 +42,30 @@ from .callbacks import Callback, RunState
 from .rundir import RUN_FILE, RunLock, check_new_run_dir
 from .runner import CampaignResult, run_campaign
 
-__all__ = ["StudyCampaign", "Study", "StudyResult", "StudyStopped", "load_study", "run_study", "STUDY_FILE",
-           "STUDY_KEYS", "CAMPAIGN_KEYS"]
+__all__ = [
+    "StudyCampaign",
+    "Study",
+    "StudyResult",
+    "StudyStopped",
+    "load_study",
+    "run_study",
+    "STUDY_FILE",
+    "STUDY_KEYS",
+    "CAMPAIGN_KEYS",
+]
 
-STUDY_FILE = "study.toml"           # the study file as given, in the study's run folder (what --resume reads)
+STUDY_FILE = (
+    "study.toml"  # the study file as given, in the study's run folder (what --resume reads)
+)
 STUDY_KEYS = {"description": str}
 CAMPAIGN_KEYS = {"name": str, "profile": str, "seed": int, "set": list, "front_validation": bool}
 REQUIRED_CAMPAIGN_KEYS = ("name", "profile")
-TYPE_WORDS = {str: "a string", int: "an integer", list: 'a list of "SECTION.KEY=VALUE" strings', bool: "true or false"}
+TYPE_WORDS = {
+    str: "a string",
+    int: "an integer",
+    list: 'a list of "SECTION.KEY=VALUE" strings',
+    bool: "true or false",
+}
 
 
 @dataclass(frozen=True)
@@ -86,11 +102,18 @@ def _check_table(table, known: dict, where: str, path: Path) -> None:
         raise ConfigError(f"{path}: {where} must be a table; got {table!r}", source=str(path))
     for key, value in table.items():
         if key not in known:
-            raise ConfigError(f"{path}: {where}.{key} is not a study key; allowed: {', '.join(known)}",
-                              key=f"{where}.{key}", source=str(path))
+            raise ConfigError(
+                f"{path}: {where}.{key} is not a study key; allowed: {', '.join(known)}",
+                key=f"{where}.{key}",
+                source=str(path),
+            )
         if not _type_ok(value, known[key]):
-            raise ConfigError(f"{path}: {where}.{key} = {value!r} is not allowed; allowed: "
-                              f"{TYPE_WORDS[known[key]]}", key=f"{where}.{key}", source=str(path))
+            raise ConfigError(
+                f"{path}: {where}.{key} = {value!r} is not allowed; allowed: "
+                f"{TYPE_WORDS[known[key]]}",
+                key=f"{where}.{key}",
+                source=str(path),
+            )
 
 
 def _campaign(entry: dict, index: int, path: Path) -> StudyCampaign:
@@ -100,13 +123,19 @@ def _campaign(entry: dict, index: int, path: Path) -> StudyCampaign:
     _check_table(entry, CAMPAIGN_KEYS, where, path)
     missing = [key for key in REQUIRED_CAMPAIGN_KEYS if key not in entry]
     if missing:
-        raise ConfigError(f"{path}: {where} lacks {', '.join(missing)} (required: {', '.join(REQUIRED_CAMPAIGN_KEYS)})",
-                          key=f"{where}.{missing[0]}", source=str(path))
+        raise ConfigError(
+            f"{path}: {where} lacks {', '.join(missing)} (required: {', '.join(REQUIRED_CAMPAIGN_KEYS)})",
+            key=f"{where}.{missing[0]}",
+            source=str(path),
+        )
     name = entry["name"]
     if not PROFILE_NAME.fullmatch(name):
-        raise ConfigError(f"{path}: {where}.name = {name!r} is not allowed; allowed: a folder name of letters, "
-                          f"digits, '_' and '-' (at most 64, starting with a letter or digit)", key=f"{where}.name",
-                          source=str(path))
+        raise ConfigError(
+            f"{path}: {where}.name = {name!r} is not allowed; allowed: a folder name of letters, "
+            f"digits, '_' and '-' (at most 64, starting with a letter or digit)",
+            key=f"{where}.name",
+            source=str(path),
+        )
     try:
         overrides = parse_sets(entry.get("set", []))
         if "seed" in entry:
@@ -114,12 +143,17 @@ def _campaign(entry: dict, index: int, path: Path) -> StudyCampaign:
         settings = load_settings(entry["profile"], overrides=overrides or None)
         validate = entry.get("front_validation", False)
         if validate and settings.front_validation.max_designs == 0:
-            raise ConfigError("front_validation = true, but [front_validation] max_designs = 0 in its profile: no "
-                              "design would be flown; set front_validation.max_designs", key="front_validation")
+            raise ConfigError(
+                "front_validation = true, but [front_validation] max_designs = 0 in its profile: no "
+                "design would be flown; set front_validation.max_designs",
+                key="front_validation",
+            )
         if not validate and settings.front_validation.max_designs > 0:
             overrides = deep_merge(overrides, {"front_validation": {"max_designs": 0}})
     except ConfigError as error:
-        raise ConfigError(f"{path}: campaign {name!r}: {error}", key=error.key, source=str(path)) from None
+        raise ConfigError(
+            f"{path}: campaign {name!r}: {error}", key=error.key, source=str(path)
+        ) from None
     return StudyCampaign(name=name, profile=entry["profile"], overrides=overrides)
 
 
@@ -128,26 +162,43 @@ def load_study(path, name: str | None = None) -> Study:
     naming the file, the entry and the value. ``name``: the study's (default: the file's stem)."""
     path = Path(path)
     if not path.is_file():
-        raise ConfigError(f"study file {path}: no such file (a TOML file, e.g. params/studies/ci_pair.toml)",
-                          source=str(path))
+        raise ConfigError(
+            f"study file {path}: no such file (a TOML file, e.g. params/studies/ci_pair.toml)",
+            source=str(path),
+        )
     data = read_toml(path)
     for key in data:
         if key not in ("study", "campaigns"):
-            raise ConfigError(f"{path}: [{key}] is not a study table; allowed: [study], [[campaigns]]", key=key,
-                              source=str(path))
+            raise ConfigError(
+                f"{path}: [{key}] is not a study table; allowed: [study], [[campaigns]]",
+                key=key,
+                source=str(path),
+            )
     study = data.get("study", {})
     _check_table(study, STUDY_KEYS, "study", path)
     entries = data.get("campaigns")
     if not isinstance(entries, list) or not entries:
-        raise ConfigError(f"{path}: a study needs at least one [[campaigns]] entry", key="campaigns", source=str(path))
+        raise ConfigError(
+            f"{path}: a study needs at least one [[campaigns]] entry",
+            key="campaigns",
+            source=str(path),
+        )
     campaigns = tuple(_campaign(entry, i, path) for i, entry in enumerate(entries))
     names = [c.name for c in campaigns]
     repeated = sorted({n for n in names if names.count(n) > 1})
     if repeated:
-        raise ConfigError(f"{path}: campaign names {', '.join(map(repr, repeated))} are used twice; each campaign "
-                          f"needs its own run folder", key="campaigns.name", source=str(path))
-    return Study(name=name or path.stem, description=study.get("description", ""), campaigns=campaigns,
-                 text=path.read_text())
+        raise ConfigError(
+            f"{path}: campaign names {', '.join(map(repr, repeated))} are used twice; each campaign "
+            f"needs its own run folder",
+            key="campaigns.name",
+            source=str(path),
+        )
+    return Study(
+        name=name or path.stem,
+        description=study.get("description", ""),
+        campaigns=campaigns,
+        text=path.read_text(),
+    )
 
 
 class StudyStopped(KeyboardInterrupt):
@@ -161,8 +212,8 @@ class StudyProgress:
     campaigns: tuple[str, ...]
     generations_total: int
     start: float = field(default_factory=time.perf_counter)
-    designs: dict = field(default_factory=dict)           # campaign -> designs evaluated this session
-    generations: dict = field(default_factory=dict)       # campaign -> generations done
+    designs: dict = field(default_factory=dict)  # campaign -> designs evaluated this session
+    generations: dict = field(default_factory=dict)  # campaign -> generations done
     running: set = field(default_factory=set)
     done: set = field(default_factory=set)
     stop: threading.Event = field(default_factory=threading.Event)
@@ -176,8 +227,10 @@ class StudyProgress:
         """``campaigns 1 done, 2 running, 0 waiting; workers 2/2 busy; 12.3 designs/s``."""
         with self.lock:
             waiting = len(self.campaigns) - len(self.done) - len(self.running)
-            return (f"campaigns {len(self.done)} done, {len(self.running)} running, {waiting} waiting; workers "
-                    f"{busy}/{workers} busy; {self.designs_per_s():.2f} designs/s")
+            return (
+                f"campaigns {len(self.done)} done, {len(self.running)} running, {waiting} waiting; workers "
+                f"{busy}/{workers} busy; {self.designs_per_s():.2f} designs/s"
+            )
 
 
 class _Reporter(Callback):
@@ -220,18 +273,30 @@ class StudyResult:
 
 def _new_study_dir(run_dir) -> Path:
     if run_dir is None or not str(run_dir).strip():
-        raise ConfigError("a new study needs --run-dir DIR (a missing or empty folder; each campaign runs in "
-                          "DIR/<name>)", key="--run-dir")
+        raise ConfigError(
+            "a new study needs --run-dir DIR (a missing or empty folder; each campaign runs in "
+            "DIR/<name>)",
+            key="--run-dir",
+        )
     run_dir = Path(run_dir)
     if (run_dir / STUDY_FILE).exists():
-        raise ConfigError(f"{run_dir} already holds a study; continue it with --resume {run_dir}", key="--run-dir")
+        raise ConfigError(
+            f"{run_dir} already holds a study; continue it with --resume {run_dir}", key="--run-dir"
+        )
     check_new_run_dir(run_dir)
     return run_dir
 
 
-def run_study(study=None, *, run_dir=None, resume: bool = False, workers: int | None = None,
-              scheduler_address: str | None = None, progress: bool = True,
-              max_generations: int | None = None) -> StudyResult:
+def run_study(
+    study=None,
+    *,
+    run_dir=None,
+    resume: bool = False,
+    workers: int | None = None,
+    scheduler_address: str | None = None,
+    progress: bool = True,
+    max_generations: int | None = None,
+) -> StudyResult:
     """Run a study (a :class:`Study` or the path of a study file) in the new folder ``run_dir``, or continue the
     one in ``run_dir`` (``resume``: from its ``study.toml``; ``study`` None). ``workers``: local Dask workers
     (None: one per core; 0 or 1: the campaigns one after the other in this process); ``scheduler_address``: an
@@ -241,10 +306,15 @@ def run_study(study=None, *, run_dir=None, resume: bool = False, workers: int | 
     the others finished."""
     if resume:
         if study is not None:
-            raise ConfigError("--resume continues a study with the study file it stored: drop FILE", key="--resume")
+            raise ConfigError(
+                "--resume continues a study with the study file it stored: drop FILE",
+                key="--resume",
+            )
         run_dir = Path(run_dir)
         if not (run_dir / STUDY_FILE).is_file():
-            raise ConfigError(f"--resume {run_dir}: not a study folder (no {STUDY_FILE})", key="--resume")
+            raise ConfigError(
+                f"--resume {run_dir}: not a study folder (no {STUDY_FILE})", key="--resume"
+            )
         study = load_study(run_dir / STUDY_FILE, name=run_dir.name)
     else:
         study = study if isinstance(study, Study) else load_study(study)
@@ -259,15 +329,26 @@ def run_study(study=None, *, run_dir=None, resume: bool = False, workers: int | 
         lock.release()
 
 
-def _run_locked(study: Study, run_dir: Path, workers, scheduler_address, progress: bool,
-                max_generations) -> StudyResult:
+def _run_locked(
+    study: Study, run_dir: Path, workers, scheduler_address, progress: bool, max_generations
+) -> StudyResult:
     if workers is None and not scheduler_address:
-        workers = len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else (os.cpu_count() or 1)
+        workers = (
+            len(os.sched_getaffinity(0))
+            if hasattr(os, "sched_getaffinity")
+            else (os.cpu_count() or 1)
+        )
     if workers is not None and workers < 0:
-        raise ConfigError(f"--workers {workers} is not allowed; allowed: an integer >= 0", key="--workers")
-    generations = sum(load_settings(c.profile, overrides=c.overrides or None).campaign.generations
-                      for c in study.campaigns)
-    state = StudyProgress(campaigns=tuple(c.name for c in study.campaigns), generations_total=generations)
+        raise ConfigError(
+            f"--workers {workers} is not allowed; allowed: an integer >= 0", key="--workers"
+        )
+    generations = sum(
+        load_settings(c.profile, overrides=c.overrides or None).campaign.generations
+        for c in study.campaigns
+    )
+    state = StudyProgress(
+        campaigns=tuple(c.name for c in study.campaigns), generations_total=generations
+    )
     cluster = client = display = None
     serial = not scheduler_address and workers <= 1
     try:
@@ -281,7 +362,9 @@ def _run_locked(study: Study, run_dir: Path, workers, scheduler_address, progres
                 client = Client(cluster, set_as_default=False)
             scheduler_address = client.scheduler.address
         display = _Display(state, client, study.name) if progress else None
-        results, failures = _run_campaigns(study, run_dir, state, serial, scheduler_address, max_generations)
+        results, failures = _run_campaigns(
+            study, run_dir, state, serial, scheduler_address, max_generations
+        )
     finally:
         if display is not None:
             display.close()
@@ -290,15 +373,29 @@ def _run_locked(study: Study, run_dir: Path, workers, scheduler_address, progres
         if cluster is not None:
             cluster.close()
     if failures:
-        raise RuntimeError(f"study {study.name}: {len(failures)} of {len(study.campaigns)} campaign(s) failed ("
-                           + "; ".join(f"{name}: {type(error).__name__}: {error}" for name, error in failures.items())
-                           + f"); the others finished; continue with --resume {run_dir}")
-    return StudyResult(run_dir=run_dir, campaigns=results, wall_s=time.perf_counter() - state.start,
-                       designs_per_s=state.designs_per_s())
+        raise RuntimeError(
+            f"study {study.name}: {len(failures)} of {len(study.campaigns)} campaign(s) failed ("
+            + "; ".join(
+                f"{name}: {type(error).__name__}: {error}" for name, error in failures.items()
+            )
+            + f"); the others finished; continue with --resume {run_dir}"
+        )
+    return StudyResult(
+        run_dir=run_dir,
+        campaigns=results,
+        wall_s=time.perf_counter() - state.start,
+        designs_per_s=state.designs_per_s(),
+    )
 
 
-def _run_campaigns(study: Study, run_dir: Path, state: StudyProgress, serial: bool, scheduler_address,
-                   max_generations) -> tuple[dict, dict]:
+def _run_campaigns(
+    study: Study,
+    run_dir: Path,
+    state: StudyProgress,
+    serial: bool,
+    scheduler_address,
+    max_generations,
+) -> tuple[dict, dict]:
     """Every campaign of ``study`` to the end of its session: ``(results, failures)`` by campaign name. On the
     cluster at ``scheduler_address`` all at once (one thread each), else one after the other in this process; an
     interrupt stops them all between two designs and is raised again."""
@@ -307,11 +404,17 @@ def _run_campaigns(study: Study, run_dir: Path, state: StudyProgress, serial: bo
         folder = run_dir / campaign.name
         started = (folder / RUN_FILE).is_file()
         try:
-            return run_campaign(campaign.profile, overrides=None if started else campaign.overrides,
-                                workers=0 if serial else None, scheduler_address=scheduler_address,
-                                run_dir=None if started else folder, resume=folder if started else None,
-                                progress=False, max_generations=max_generations,
-                                callbacks=[_Reporter(state, campaign.name)])
+            return run_campaign(
+                campaign.profile,
+                overrides=None if started else campaign.overrides,
+                workers=0 if serial else None,
+                scheduler_address=scheduler_address,
+                run_dir=None if started else folder,
+                resume=folder if started else None,
+                progress=False,
+                max_generations=max_generations,
+                callbacks=[_Reporter(state, campaign.name)],
+            )
         finally:
             with state.lock:
                 state.running.discard(campaign.name)
@@ -322,10 +425,12 @@ def _run_campaigns(study: Study, run_dir: Path, state: StudyProgress, serial: bo
         for campaign in study.campaigns:
             try:
                 results[campaign.name] = one(campaign)
-            except Exception as error:          # the others still run; reported together at the end
+            except Exception as error:  # the others still run; reported together at the end
                 failures[campaign.name] = error
         return results, failures
-    with ThreadPoolExecutor(max_workers=len(study.campaigns), thread_name_prefix="campaign") as pool:
+    with ThreadPoolExecutor(
+        max_workers=len(study.campaigns), thread_name_prefix="campaign"
+    ) as pool:
         futures = {campaign.name: pool.submit(one, campaign) for campaign in study.campaigns}
         try:
             for name, future in futures.items():
@@ -335,7 +440,7 @@ def _run_campaigns(study: Study, run_dir: Path, state: StudyProgress, serial: bo
                     raise
                 except Exception as error:
                     failures[name] = error
-        except BaseException:                   # Ctrl-C, SIGTERM: every campaign stops, its folder resumable
+        except BaseException:  # Ctrl-C, SIGTERM: every campaign stops, its folder resumable
             state.stop.set()
             for future in futures.values():
                 try:
@@ -351,15 +456,20 @@ class _Display:
     :meth:`StudyProgress.text`, refreshed by a thread every :data:`REFRESH_S` (piped: :data:`REFRESH_PIPED_S`); busy workers are those the
     scheduler reports processing a task (this process when serial)."""
 
-    REFRESH_S = 1.0             # on a terminal
-    REFRESH_PIPED_S = 30.0      # into a log file: a line every half minute
+    REFRESH_S = 1.0  # on a terminal
+    REFRESH_PIPED_S = 30.0  # into a log file: a line every half minute
 
     def __init__(self, state: StudyProgress, client, name: str):
         from tqdm import tqdm
 
         self.state, self.client = state, client
-        self.bar = tqdm(total=state.generations_total, desc=f"study {name}", unit="gen", file=sys.stderr,
-                        bar_format="{desc} {n_fmt}/{total_fmt} gen {elapsed}{postfix}")
+        self.bar = tqdm(
+            total=state.generations_total,
+            desc=f"study {name}",
+            unit="gen",
+            file=sys.stderr,
+            bar_format="{desc} {n_fmt}/{total_fmt} gen {elapsed}{postfix}",
+        )
         self.refresh_s = self.REFRESH_S if sys.stderr.isatty() else self.REFRESH_PIPED_S
         self.closed = threading.Event()
         self.thread = threading.Thread(target=self._loop, daemon=True)
@@ -380,7 +490,7 @@ class _Display:
         while not self.closed.wait(self.refresh_s):
             try:
                 self._draw()
-            except Exception:               # a cluster closing under the display: the next draw or close says it
+            except Exception:  # a cluster closing under the display: the next draw or close says it
                 continue
 
     def close(self) -> None:

@@ -11,11 +11,26 @@ from .. import kernel_cpu
 from ..keys import CAMPAIGN_METRIC_KEYS, METRIC_KEYS, TIMING_KEYS, violated_bound
 from ..settings import Settings
 
-__all__ = ["evaluate_task", "synthetic_evaluation", "cap_numba_threads", "worker_name", "worker_fields"]
+__all__ = [
+    "evaluate_task",
+    "synthetic_evaluation",
+    "cap_numba_threads",
+    "worker_name",
+    "worker_fields",
+]
 
 
-def synthetic_evaluation(settings: Settings, sma_km: float, ecc: float, aop_deg: float, inc_deg: float,
-                         n_planes: int, sats_per_plane: int, delay_s: float = 0.0, stop_bounds=None) -> dict:
+def synthetic_evaluation(
+    settings: Settings,
+    sma_km: float,
+    ecc: float,
+    aop_deg: float,
+    inc_deg: float,
+    n_planes: int,
+    sats_per_plane: int,
+    delay_s: float = 0.0,
+    stop_bounds=None,
+) -> dict:
     """A closed-form stand-in for :func:`~lnss_lib.evaluator.evaluate_design` (tests and debugging; no physics).
 
     Same keys and conventions (an orbit whose perilune ``a (1 - e)`` is below the mean lunar
@@ -43,44 +58,87 @@ def synthetic_evaluation(settings: Settings, sma_km: float, ecc: float, aop_deg:
     extras = settings.evaluator.extra_metrics
     result = {"deltav_model": "synthetic", "timing_s": dict.fromkeys(TIMING_KEYS, 0.0)}
     if sma_km * (1.0 - ecc) < r_min:
-        result.update({k: math.nan for k in METRIC_KEYS + extras}, n_sat=n_sat, evaluated=False, impact=True,
-                      reason=f"impact: perilune {sma_km * (1.0 - ecc):.1f} km below {r_min:.1f} km")
+        result.update(
+            {k: math.nan for k in METRIC_KEYS + extras},
+            n_sat=n_sat,
+            evaluated=False,
+            impact=True,
+            reason=f"impact: perilune {sma_km * (1.0 - ecc):.1f} km below {r_min:.1f} km",
+        )
     else:
         pole = 0.5 * (1.0 + math.sin(math.radians(aop_deg))) * math.sin(math.radians(inc_deg))
         visible = n_sat * (0.2 + 0.6 * pole * (0.3 + ecc) + 0.2 * sma_km / 24000.0)
         pdop = 1.2 + 12.0 / max(visible, 0.3) ** 1.2
         avail = 100.0 * min(1.0, visible / 5.0)
-        dv_total = 0.1 + 4.0 * (r_min / (sma_km * (1.0 - ecc))) ** 4 + 0.3 * ecc * math.cos(math.radians(inc_deg))
+        dv_total = (
+            0.1
+            + 4.0 * (r_min / (sma_km * (1.0 - ecc))) ** 4
+            + 0.3 * ecc * math.cos(math.radians(inc_deg))
+        )
         gps_visible = 12.0 * sma_km / 24000.0 * (0.5 + 0.5 * math.cos(math.radians(aop_deg)))
-        result.update(n_sat=n_sat, mean_visible_sats=visible, pdop_mean_3sigma=pdop, pdop_avail_pct=avail,
-                      hdop_mean_3sigma=0.45 * pdop, hdop_avail_pct=min(100.0, 1.1 * avail),
-                      dv_total_kms_per_year=dv_total, dv_opt_kms_per_year=0.75 * dv_total,
-                      gps_visible_mean=gps_visible,
-                      gps_pdop_mean=500.0 / gps_visible if gps_visible >= 1.0 else math.nan,
-                      evaluated=True, impact=False, reason="")
-        result.update(_synthetic_extras(sma_km, ecc, inc_deg, r_min, dv_total, 0.45 * pdop, avail, gps_visible, extras))
+        result.update(
+            n_sat=n_sat,
+            mean_visible_sats=visible,
+            pdop_mean_3sigma=pdop,
+            pdop_avail_pct=avail,
+            hdop_mean_3sigma=0.45 * pdop,
+            hdop_avail_pct=min(100.0, 1.1 * avail),
+            dv_total_kms_per_year=dv_total,
+            dv_opt_kms_per_year=0.75 * dv_total,
+            gps_visible_mean=gps_visible,
+            gps_pdop_mean=500.0 / gps_visible if gps_visible >= 1.0 else math.nan,
+            evaluated=True,
+            impact=False,
+            reason="",
+        )
+        result.update(
+            _synthetic_extras(
+                sma_km, ecc, inc_deg, r_min, dv_total, 0.45 * pdop, avail, gps_visible, extras
+            )
+        )
         broken = violated_bound(result, stop_bounds or ())
         if broken:
-            result.update(evaluated=False, reason=f"stopped early: {broken}; the rest not evaluated")
+            result.update(
+                evaluated=False, reason=f"stopped early: {broken}; the rest not evaluated"
+            )
     result["wall_s"] = time.perf_counter() - start
     return result
 
 
-def _synthetic_extras(sma_km: float, ecc: float, inc_deg: float, r_min: float, dv_total: float, hdop: float,
-                      avail: float, gps_visible: float, extras) -> dict:
+def _synthetic_extras(
+    sma_km: float,
+    ecc: float,
+    inc_deg: float,
+    r_min: float,
+    dv_total: float,
+    hdop: float,
+    avail: float,
+    gps_visible: float,
+    extras,
+) -> dict:
     """Closed-form stand-ins for the extra metrics (see :func:`synthetic_evaluation`; no physics)."""
     cos_i = math.cos(math.radians(inc_deg))
     sk = 0.05 + 0.6 * (sma_km / 24000.0) ** 3 + 0.8 * abs(math.sin(math.radians(inc_deg - 60.0)))
-    e_max = max(ecc, math.sqrt(max(0.0, 1.0 - 5.0 / 3.0 * cos_i * cos_i))) if sma_km > 8000.0 else ecc
+    e_max = (
+        max(ecc, math.sqrt(max(0.0, 1.0 - 5.0 / 3.0 * cos_i * cos_i))) if sma_km > 8000.0 else ecc
+    )
     perilune_alt = sma_km * (1.0 - e_max) - r_min
-    values = {"sk_dv_estimate_kms_per_year": sk, "sk_dv_estimate_max_kms_per_year": 1.1 * sk,
-              "stable_screen": 1.0 if perilune_alt > 0.0 else 0.0, "screen_min_perilune_alt_km": perilune_alt,
-              "dv_total_max_kms_per_year": 1.05 * dv_total, "dv_opt_max_kms_per_year": 0.75 * 1.05 * dv_total,
-              "horizontal_error_95_m": 2.0 * 4.0 * hdop, "vertical_error_95_m": 1.96 * 4.0 * 2.0 * hdop,
-              "position_error_avail_pct": avail, "ephemeris_age_max_h": 1.0, "satellites_never_uploaded": 0,
-              "gnss_visible_mean": 3.0 * gps_visible,
-              "gnss_pdop_mean": 300.0 / (3.0 * gps_visible) if gps_visible >= 1.0 / 3.0 else math.nan}
-    drift = min(1.0, 0.5 * sk)                                       # the drift the Delta-V stand-in pays against
+    values = {
+        "sk_dv_estimate_kms_per_year": sk,
+        "sk_dv_estimate_max_kms_per_year": 1.1 * sk,
+        "stable_screen": 1.0 if perilune_alt > 0.0 else 0.0,
+        "screen_min_perilune_alt_km": perilune_alt,
+        "dv_total_max_kms_per_year": 1.05 * dv_total,
+        "dv_opt_max_kms_per_year": 0.75 * 1.05 * dv_total,
+        "horizontal_error_95_m": 2.0 * 4.0 * hdop,
+        "vertical_error_95_m": 1.96 * 4.0 * 2.0 * hdop,
+        "position_error_avail_pct": avail,
+        "ephemeris_age_max_h": 1.0,
+        "satellites_never_uploaded": 0,
+        "gnss_visible_mean": 3.0 * gps_visible,
+        "gnss_pdop_mean": 300.0 / (3.0 * gps_visible) if gps_visible >= 1.0 / 3.0 else math.nan,
+    }
+    drift = min(1.0, 0.5 * sk)  # the drift the Delta-V stand-in pays against
     for name, value in (("pdop", avail), ("hdop", min(100.0, 1.1 * avail))):
         values[f"{name}_avail_pct_life_estimate"] = value * (1.0 - 0.05 * drift)
         values[f"{name}_avail_pct_worst_month_estimate"] = value * (1.0 - 0.1 * drift)
@@ -107,8 +165,13 @@ def worker_fields() -> dict:
     return {"worker": worker_name(), "kernel_cpu": kernel_cpu()}
 
 
-def evaluate_task(eval_profile: Settings, design: dict, evaluator: str = "walker", synthetic_delay_s: float = 0.0,
-                  numba_threads: int = 0) -> dict:
+def evaluate_task(
+    eval_profile: Settings,
+    design: dict,
+    evaluator: str = "walker",
+    synthetic_delay_s: float = 0.0,
+    numba_threads: int = 0,
+) -> dict:
     """Evaluate one design under the evaluation settings ``eval_profile`` (checked once, at the campaign's start:
     nothing is validated or hashed here) where this runs (in-process or a Dask worker); a JSON-ready record.
     ``design``: Table 3's six variables, and ``stop_bounds`` when the campaign stops designs that break a bound
@@ -129,13 +192,23 @@ def evaluate_task(eval_profile: Settings, design: dict, evaluator: str = "walker
         else:
             result = synthetic_evaluation(eval_profile, **design, delay_s=synthetic_delay_s)
         error = False
-    except Exception as exc:  # recorded, counted and reported; one failed design must not stop a campaign
+    except (
+        Exception
+    ) as exc:  # recorded, counted and reported; one failed design must not stop a campaign
         result = {k: math.nan for k in CAMPAIGN_METRIC_KEYS}
-        result.update(n_sat=int(design["n_planes"]) * int(design["sats_per_plane"]), evaluated=False,
-                      impact=False, reason=f"error: {type(exc).__name__}: {exc}", wall_s=0.0, deltav_model="")
+        result.update(
+            n_sat=int(design["n_planes"]) * int(design["sats_per_plane"]),
+            evaluated=False,
+            impact=False,
+            reason=f"error: {type(exc).__name__}: {exc}",
+            wall_s=0.0,
+            deltav_model="",
+        )
         error = True
     metrics = {k: (int(result[k]) if k == "n_sat" else float(result[k])) for k in METRIC_KEYS}
-    metrics.update({k: float(result[k]) for k in CAMPAIGN_METRIC_KEYS if k in result and k not in METRIC_KEYS})
+    metrics.update(
+        {k: float(result[k]) for k in CAMPAIGN_METRIC_KEYS if k in result and k not in METRIC_KEYS}
+    )
     return {
         "metrics": metrics,
         "ok": bool(result["evaluated"]),

@@ -33,12 +33,20 @@ def campaign_timing(run_dir, n_workers: int, wall_s: float) -> dict:
     """
     records = read_cache_records(run_dir)
     propagation = sum(r["timing_s"].get("propagation", 0.0) for r in records)
-    metrics = sum(r["timing_s"].get(k, 0.0) for r in records for k in ("dop", "deltav", "gps", "operational"))
+    metrics = sum(
+        r["timing_s"].get(k, 0.0) for r in records for k in ("dop", "deltav", "gps", "operational")
+    )
     task = sum(r["task_wall_s"] for r in records)
     budget = n_workers * wall_s
-    return {"n_evaluations": len(records), "propagation_s": propagation, "metrics_s": metrics,
-            "in_task_overhead_s": task - propagation - metrics, "campaign_overhead_s": budget - task,
-            "worker_budget_s": budget, "task_s": task}
+    return {
+        "n_evaluations": len(records),
+        "propagation_s": propagation,
+        "metrics_s": metrics,
+        "in_task_overhead_s": task - propagation - metrics,
+        "campaign_overhead_s": budget - task,
+        "worker_budget_s": budget,
+        "task_s": task,
+    }
 
 
 def steady_rate(history: list[dict], n_evaluations: int, wall_s: float) -> float:

@@ -65,7 +65,7 @@ class SlotState:
             w = 2.0 * np.pi / tide_period_days
             cols += [np.sin(w * x), np.cos(w * x)]
         coef = np.linalg.lstsq(np.column_stack(cols), uu, rcond=None)[0]
-        accel = coef[2] / SECONDS_PER_DAY ** 2 if quad else self.accel
+        accel = coef[2] / SECONDS_PER_DAY**2 if quad else self.accel
         tide_now = float(coef[-1]) if harmonic else 0.0
         return float(coef[0]), float(coef[1] / SECONDS_PER_DAY), float(accel), tide_now
 
@@ -73,12 +73,14 @@ class SlotState:
 def predicted_exit(u0: float, rate: float, accel: float, half: float, lookahead_s: float) -> bool:
     """True when the trend u0 + rate t + accel t^2 / 2 is outside +-half at the end of the look-ahead and
     still moving outward."""
-    u_end = u0 + rate * lookahead_s + 0.5 * accel * lookahead_s ** 2
+    u_end = u0 + rate * lookahead_s + 0.5 * accel * lookahead_s**2
     v_end = rate + accel * lookahead_s
     return abs(u_end) > half and np.sign(v_end) == np.sign(u_end)
 
 
-def drift_band_rate(u0: float, accel: float, half: float, target_fraction: float, coast_s: float) -> float:
+def drift_band_rate(
+    u0: float, accel: float, half: float, target_fraction: float, coast_s: float
+) -> float:
     """Drift rate (rad/s) to fly from u0: the parabola turns at ``target_fraction`` x ``half`` on the side
     the acceleration pushes away from; at least the rate that crosses to that edge in ``coast_s``."""
     edge = target_fraction * half

@@ -51,8 +51,7 @@ from ..elements import eccentric_anomaly_from_true
 from ..frames import element_frame_to_j2000
 from ..settings import Dynamics, SkEstimateSettings
 
-__all__ = ["PARTS", "mean_drift", "sk_estimate_arrays",
-           "sk_estimate_from_propagation"]
+__all__ = ["PARTS", "mean_drift", "sk_estimate_arrays", "sk_estimate_from_propagation"]
 
 PARTS = ("ecc_vector", "plane", "sma", "along_track")
 
@@ -61,16 +60,20 @@ def _mean_argument_of_latitude(r: np.ndarray, e_vec: np.ndarray, h_hat: np.ndarr
     """u = AOP + M (rad) from positions, eccentricity vectors and orbit normals (..., 3) (node on z = 0)."""
     node = np.stack([-h_hat[..., 1], h_hat[..., 0], np.zeros_like(h_hat[..., 0])], axis=-1)
     m_hat = np.cross(h_hat, node)
-    theta = np.arctan2(np.sum(r * m_hat, axis=-1), np.sum(r * node, axis=-1))      # AOP + true anomaly
+    theta = np.arctan2(np.sum(r * m_hat, axis=-1), np.sum(r * node, axis=-1))  # AOP + true anomaly
     e = np.sqrt(np.sum(e_vec * e_vec, axis=-1))
     cos_nu_e = np.sum(r * e_vec, axis=-1)
     sin_nu_e = np.sum(np.cross(e_vec, r) * h_hat, axis=-1)
-    nu = np.arctan2(sin_nu_e, cos_nu_e)                                           # exact angles times |r| e
+    nu = np.arctan2(sin_nu_e, cos_nu_e)  # exact angles times |r| e
     ecc_anomaly = eccentric_anomaly_from_true(nu, e)
-    return theta - nu + ecc_anomaly - e * np.sin(ecc_anomaly)          # (theta - nu + E) - e sin E: kept in this order
+    return (
+        theta - nu + ecc_anomaly - e * np.sin(ecc_anomaly)
+    )  # (theta - nu + E) - e sin E: kept in this order
 
 
-def mean_drift(t_tdb_s: np.ndarray, states: np.ndarray, gm_km3_s2: float, min_periods: float = 2.0) -> dict:
+def mean_drift(
+    t_tdb_s: np.ndarray, states: np.ndarray, gm_km3_s2: float, min_periods: float = 2.0
+) -> dict:
     """Mean orbit and secular rates of every satellite from states (n_sat, n_time, 6) in the element frame.
 
     Returns (n_sat, ...) arrays: ``a_km``, ``e_vec``, ``h_hat`` (3), their rates ``a_dot``,
@@ -82,16 +85,22 @@ def mean_drift(t_tdb_s: np.ndarray, states: np.ndarray, gm_km3_s2: float, min_pe
     if s.ndim != 3 or s.shape[1] != t.size or s.shape[2] != 6:
         raise ValueError(f"states must have shape (n_sat, {t.size}, 6); got {s.shape}")
     if not np.all(np.isfinite(s)):
-        raise ValueError("states hold non-finite values (impact or failed propagation): no estimate")
+        raise ValueError(
+            "states hold non-finite values (impact or failed propagation): no estimate"
+        )
     vectors = orbit_vectors(s, gm_km3_s2)
-    u = np.unwrap(_mean_argument_of_latitude(s[..., :3], vectors[..., 1:4], vectors[..., 4:7]), axis=-1)
+    u = np.unwrap(
+        _mean_argument_of_latitude(s[..., :3], vectors[..., 1:4], vectors[..., 4:7]), axis=-1
+    )
     values = np.concatenate([vectors, u[..., None]], axis=-1)
     means, slopes = [], []
     for k in range(s.shape[0]):
         period = 2.0 * np.pi * np.sqrt(np.mean(vectors[k, :, 0]) ** 3 / gm_km3_s2)
         if t[-1] - t[0] < min_periods * period:
-            raise ValueError(f"satellite {k}: the estimate needs an arc of at least {min_periods:g} orbits "
-                             f"({min_periods * period:.0f} s); got {t[-1] - t[0]:.0f} s")
+            raise ValueError(
+                f"satellite {k}: the estimate needs an arc of at least {min_periods:g} orbits "
+                f"({min_periods * period:.0f} s); got {t[-1] - t[0]:.0f} s"
+            )
         t_mid, m = orbit_mean(t, values[k], period)
         x = t_mid - t_mid.mean()
         slopes.append(x @ (m - m.mean(axis=0)) / np.sum(x * x))
@@ -99,12 +108,23 @@ def mean_drift(t_tdb_s: np.ndarray, states: np.ndarray, gm_km3_s2: float, min_pe
     mean, slope = np.array(means), np.array(slopes)
     h_hat = mean[:, 4:7] / np.linalg.norm(mean[:, 4:7], axis=1)[:, None]
     e_vec = mean[:, 1:4] - np.sum(mean[:, 1:4] * h_hat, axis=1)[:, None] * h_hat
-    return {"a_km": mean[:, 0], "e_vec": e_vec, "h_hat": h_hat, "a_dot": slope[:, 0], "e_vec_dot": slope[:, 1:4],
-            "h_hat_dot": slope[:, 4:7], "u_dot": slope[:, 7]}
+    return {
+        "a_km": mean[:, 0],
+        "e_vec": e_vec,
+        "h_hat": h_hat,
+        "a_dot": slope[:, 0],
+        "e_vec_dot": slope[:, 1:4],
+        "h_hat_dot": slope[:, 4:7],
+        "u_dot": slope[:, 7],
+    }
 
 
-def sk_estimate_arrays(drift: dict, gm_km3_s2: float, year_days: float = DAYS_PER_JULIAN_YEAR,
-                       along_track_rebias_per_year: float = 1.0) -> dict:
+def sk_estimate_arrays(
+    drift: dict,
+    gm_km3_s2: float,
+    year_days: float = DAYS_PER_JULIAN_YEAR,
+    along_track_rebias_per_year: float = 1.0,
+) -> dict:
     """Geometry-keeping Delta-V (km/s per year) by part and ``total`` (n_sat,) from :func:`mean_drift`.
 
     Also returns ``common_raan_dot`` (rad/s), the free precession rate that was removed.
@@ -130,14 +150,20 @@ def sk_estimate_arrays(drift: dict, gm_km3_s2: float, year_days: float = DAYS_PE
         "ecc_vector": h * np.linalg.norm(e_in, axis=1) / (2.0 * p) * year_s,
         "plane": h * w * (1.0 - e * axis_cos) / p * year_s,
         "sma": 0.5 * n * a * root * np.abs(drift["a_dot"] - np.mean(drift["a_dot"])) / a * year_s,
-        "along_track": a / 3.0 * root * np.abs(drift["u_dot"] - np.mean(drift["u_dot"])) * along_track_rebias_per_year,
+        "along_track": a
+        / 3.0
+        * root
+        * np.abs(drift["u_dot"] - np.mean(drift["u_dot"]))
+        * along_track_rebias_per_year,
     }
     parts["total"] = sum(parts[k] for k in PARTS)
     parts["common_raan_dot"] = common
     return parts
 
 
-def sk_estimate_from_propagation(sk_estimate: SkEstimateSettings, dynamics: Dynamics, ds: xr.Dataset) -> dict:
+def sk_estimate_from_propagation(
+    sk_estimate: SkEstimateSettings, dynamics: Dynamics, ds: xr.Dataset
+) -> dict:
     """The estimate for a propagator Dataset (every satellite; e.g. the evaluator's 10-day arc).
 
     Returns ``sk_dv_estimate_kms_per_year`` (mean over satellites), ``sk_dv_estimate_max_kms_per_year``,
@@ -149,10 +175,19 @@ def sk_estimate_from_propagation(sk_estimate: SkEstimateSettings, dynamics: Dyna
     rot = element_frame_to_j2000(dynamics, float(t[0]), sk_estimate.arc_frame)
     states = np.concatenate([states[..., :3] @ rot, states[..., 3:] @ rot], axis=-1)
     gm = dynamics.gravity.gm_km3_s2
-    parts = sk_estimate_arrays(mean_drift(t, states, gm, sk_estimate.min_periods), gm, sk_estimate.year_days,
-                               sk_estimate.along_track_rebias_per_year)
+    parts = sk_estimate_arrays(
+        mean_drift(t, states, gm, sk_estimate.min_periods),
+        gm,
+        sk_estimate.year_days,
+        sk_estimate.along_track_rebias_per_year,
+    )
     total = parts["total"]
-    return {"sk_dv_estimate_kms_per_year": float(np.mean(total)), "sk_dv_estimate_max_kms_per_year": float(np.max(total)),
-            "per_sat": {k: parts[k] for k in (*PARTS, "total")},
-            "common_raan_dot_deg_per_day": float(np.degrees(parts["common_raan_dot"]) * SECONDS_PER_DAY),
-            "wall_s": time.perf_counter() - start}
+    return {
+        "sk_dv_estimate_kms_per_year": float(np.mean(total)),
+        "sk_dv_estimate_max_kms_per_year": float(np.max(total)),
+        "per_sat": {k: parts[k] for k in (*PARTS, "total")},
+        "common_raan_dot_deg_per_day": float(
+            np.degrees(parts["common_raan_dot"]) * SECONDS_PER_DAY
+        ),
+        "wall_s": time.perf_counter() - start,
+    }

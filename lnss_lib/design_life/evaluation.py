@@ -28,40 +28,100 @@ import xarray as xr
 from ..constants import SECONDS_PER_DAY
 from ..dop import SurfaceGrid, dop_for_settings, summary_for_settings
 from ..ephemeris import ensure_kernels, tdb_seconds
+from ..forces import ForceModel
 from ..frames import rotate_to_moon_fixed
 from ..progress import steps
-from ..forces import ForceModel
 from ..propagator import elements_deg_to_states, propagate_states
-from ..settings import (DesignLifeSettings, DopSettings, Dynamics, EpochSettings, Settings, SkEstimateSettings,
-                        StabilitySettings)
+from ..settings import (
+    DesignLifeSettings,
+    DopSettings,
+    Dynamics,
+    EpochSettings,
+    Settings,
+    SkEstimateSettings,
+    StabilitySettings,
+)
+from .closed_loop import impact_day, life_force_model, simulate_life
 from .life_estimate import campaign_estimate
 from .screen import screen_states
-from .closed_loop import impact_day, life_force_model, simulate_life
 
-__all__ = ["LIFE_KEYS", "NAVIGATION_KEYS", "STUDY_KEYS", "run_design_life", "life_metrics",
-           "life_navigation", "life_availability", "lost_satellites", "short_arc_predictors", "evaluate_design_life", "json_ready",
-           "elements_deg_in_frame"]
+__all__ = [
+    "LIFE_KEYS",
+    "NAVIGATION_KEYS",
+    "STUDY_KEYS",
+    "run_design_life",
+    "life_metrics",
+    "life_navigation",
+    "life_availability",
+    "lost_satellites",
+    "short_arc_predictors",
+    "evaluate_design_life",
+    "json_ready",
+    "elements_deg_in_frame",
+]
 
-LIFE_KEYS = ("life_days", "impact_day", "natural_impact_day", "sk_dv_kms_per_year", "sk_dv_max_kms_per_year",
-             "n_maneuvers", "box_held", "pdop_avail_pct_life", "hdop_avail_pct_life", "sk_dv_estimate_kms_per_year",
-             "stable_screen", "screen_min_perilune_alt_km", "controller", "element_frame", "sk_dv_split",
-             "sk_dv_split_by_location", "min_perilune_alt_km", "natural_min_perilune_alt_km", "lost_satellites",
-             "natural_lost_satellites", "pdop_avail_pct_monthly", "hdop_avail_pct_monthly", "relative_tolerances_deg")
+LIFE_KEYS = (
+    "life_days",
+    "impact_day",
+    "natural_impact_day",
+    "sk_dv_kms_per_year",
+    "sk_dv_max_kms_per_year",
+    "n_maneuvers",
+    "box_held",
+    "pdop_avail_pct_life",
+    "hdop_avail_pct_life",
+    "sk_dv_estimate_kms_per_year",
+    "stable_screen",
+    "screen_min_perilune_alt_km",
+    "controller",
+    "element_frame",
+    "sk_dv_split",
+    "sk_dv_split_by_location",
+    "min_perilune_alt_km",
+    "natural_min_perilune_alt_km",
+    "lost_satellites",
+    "natural_lost_satellites",
+    "pdop_avail_pct_monthly",
+    "hdop_avail_pct_monthly",
+    "relative_tolerances_deg",
+)
 """Keys :func:`evaluate_design_life` adds to an evaluation (the evaluate CLI's ``--design-life-days``)."""
 
-NAVIGATION_KEYS = ("pdop_avail_pct", "hdop_avail_pct", "pdop_mean_3sigma", "hdop_mean_3sigma", "mean_visible_sats",
-                   "fewer_than_4_pct")
+NAVIGATION_KEYS = (
+    "pdop_avail_pct",
+    "hdop_avail_pct",
+    "pdop_mean_3sigma",
+    "hdop_mean_3sigma",
+    "mean_visible_sats",
+    "fewer_than_4_pct",
+)
 """Per-month statistics of :func:`life_navigation` (eq. 9-14)."""
 
-STUDY_KEYS = ("notebook_life_days", "convergence_life_days", "convergence_sats", "validation_life_days",
-              "validation_max_sats_per_plane", "validation_front_designs", "validation_designs",
-              "anchor_life_days", "validation_frames", "frame_rerun_designs")
+STUDY_KEYS = (
+    "notebook_life_days",
+    "convergence_life_days",
+    "convergence_sats",
+    "validation_life_days",
+    "validation_max_sats_per_plane",
+    "validation_front_designs",
+    "validation_designs",
+    "anchor_life_days",
+    "validation_frames",
+    "frame_rerun_designs",
+)
 """``[life_evaluation]`` keys read by notebook 08 and :mod:`lnss_lib.studies.design_life` only."""
 
 
-def run_design_life(settings: Settings, elements_deg, life_days: float | None = None, *, natural: bool = True,
-                    sample_step_s: float | None = None, sample: bool = True,
-                    insertion_errors_deg=None) -> dict[str, xr.Dataset]:
+def run_design_life(
+    settings: Settings,
+    elements_deg,
+    life_days: float | None = None,
+    *,
+    natural: bool = True,
+    sample_step_s: float | None = None,
+    sample: bool = True,
+    insertion_errors_deg=None,
+) -> dict[str, xr.Dataset]:
     """The controlled (and, with ``natural``, the natural-drift) life of elements (n, 6) in the element frame.
 
     Takes the whole settings: it reads ``[design_life]``, ``[stability]`` and ``[dop]`` (the service
@@ -73,17 +133,31 @@ def run_design_life(settings: Settings, elements_deg, life_days: float | None = 
     """
     dynamics = settings.dynamics
     ensure_kernels(dynamics.ephemeris)
-    design_life = (settings.design_life if life_days is None
-                   else dataclasses.replace(settings.design_life, life_days=float(life_days)))
+    design_life = (
+        settings.design_life
+        if life_days is None
+        else dataclasses.replace(settings.design_life, life_days=float(life_days))
+    )
     step = settings.life_evaluation.sample_step_s if sample_step_s is None else float(sample_step_s)
     step = step if sample else None
     t0 = tdb_seconds(settings.epoch.start_tdb, "TDB")
     model = life_force_model(dynamics, t0, design_life.life_days)
     runs = {}
-    for name in steps(("controlled", "natural") if natural else ("controlled",), "design life", "runs"):
-        runs[name] = simulate_life(design_life, dynamics, elements_deg, t0, stability=settings.stability,
-                                   dop=settings.dop, natural=name == "natural", model=model, sample_step_s=step,
-                                   insertion_errors_deg=insertion_errors_deg)
+    for name in steps(
+        ("controlled", "natural") if natural else ("controlled",), "design life", "runs"
+    ):
+        runs[name] = simulate_life(
+            design_life,
+            dynamics,
+            elements_deg,
+            t0,
+            stability=settings.stability,
+            dop=settings.dop,
+            natural=name == "natural",
+            model=model,
+            sample_step_s=step,
+            insertion_errors_deg=insertion_errors_deg,
+        )
     return runs
 
 
@@ -94,7 +168,9 @@ def _month_index(sample_day: np.ndarray, month_days: float) -> np.ndarray:
     return np.minimum(month, last)
 
 
-def life_navigation(dop: DopSettings, dynamics: Dynamics, life_ds, *, month_days: float) -> xr.Dataset:
+def life_navigation(
+    dop: DopSettings, dynamics: Dynamics, life_ds, *, month_days: float
+) -> xr.Dataset:
     """Month-by-month PDOP/HDOP statistics (eq. 9-14) over the design life, dims (run, month).
 
     ``life_ds``: one :func:`simulate_life` Dataset sampled with ``sample_step_s`` or a mapping
@@ -111,7 +187,9 @@ def life_navigation(dop: DopSettings, dynamics: Dynamics, life_ds, *, month_days
     first = next(iter(runs.values()))
     for name, ds in runs.items():
         if "r_mci_km" not in ds:
-            raise ValueError(f"run {name!r} holds no sampled positions: simulate_life(..., sample_step_s=...)")
+            raise ValueError(
+                f"run {name!r} holds no sampled positions: simulate_life(..., sample_step_s=...)"
+            )
         if not np.array_equal(ds["sample_day"].values, first["sample_day"].values):
             raise ValueError(f"run {name!r} is sampled on another grid than {next(iter(runs))!r}")
     day = first["sample_day"].values
@@ -124,21 +202,32 @@ def life_navigation(dop: DopSettings, dynamics: Dynamics, life_ds, *, month_days
         idx = np.flatnonzero(month == m)
         for k, ds in enumerate(runs.values()):
             r_mci = ds["r_mci_km"].transpose("sat", "sample", "xyz").values[:, idx]
-            summary = summary_for_settings(dop, dop_for_settings(dop, rotate_to_moon_fixed(dynamics, r_mci, t[idx]),
-                                                                 t[idx], grid))
+            summary = summary_for_settings(
+                dop,
+                dop_for_settings(dop, rotate_to_moon_fixed(dynamics, r_mci, t[idx]), t[idx], grid),
+            )
             for key in NAVIGATION_KEYS:
                 stats[key][k, m] = summary[key]
             n_epochs[k, m] = idx.size
     starts = np.array([day[month == m][0] for m in range(n_month)])
     ends = np.array([day[month == m][-1] for m in range(n_month)])
-    out = xr.Dataset({key: (("run", "month"), value) for key, value in stats.items()},
-                     coords={"run": list(runs), "month": np.arange(n_month), "month_start_day": ("month", starts),
-                             "month_end_day": ("month", ends)},
-                     attrs={"month_days": month_days, "los_axes": dop.los_axes,
-                            "elevation_mask_deg": dop.elevation_mask_deg,
-                            "availability_threshold": dop.availability_threshold,
-                            "filter_sigma": dop.filter_sigma,
-                            "sample_step_s": float(np.median(np.diff(t))) if t.size > 1 else float("nan")})
+    out = xr.Dataset(
+        {key: (("run", "month"), value) for key, value in stats.items()},
+        coords={
+            "run": list(runs),
+            "month": np.arange(n_month),
+            "month_start_day": ("month", starts),
+            "month_end_day": ("month", ends),
+        },
+        attrs={
+            "month_days": month_days,
+            "los_axes": dop.los_axes,
+            "elevation_mask_deg": dop.elevation_mask_deg,
+            "availability_threshold": dop.availability_threshold,
+            "filter_sigma": dop.filter_sigma,
+            "sample_step_s": float(np.median(np.diff(t))) if t.size > 1 else float("nan"),
+        },
+    )
     out["n_epochs"] = (("run", "month"), n_epochs)
     return out
 
@@ -155,7 +244,9 @@ def life_availability(nav: xr.Dataset, run: str, key: str) -> float:
     return float(np.sum(nav[key].sel(run=run).values * n) / np.sum(n))
 
 
-def satellite_loss(dop: DopSettings, dynamics: Dynamics, flight: xr.Dataset, *, month_days: float) -> list[dict]:
+def satellite_loss(
+    dop: DopSettings, dynamics: Dynamics, flight: xr.Dataset, *, month_days: float
+) -> list[dict]:
     """Availability over the life of a closed-loop ``flight`` (sampled positions, every satellite) with all satellites
     (``lost_sat`` -1) and with each one removed in turn (the others flown as they flew: an operator does not
     re-phase), worst loss first (the lowest worst-month PDOP availability, then over the life): the second row is
@@ -163,11 +254,23 @@ def satellite_loss(dop: DopSettings, dynamics: Dynamics, flight: xr.Dataset, *, 
     n_sat = flight.sizes["sat"]
     runs = {"all": flight} | {str(i): flight.isel(sat=np.arange(n_sat) != i) for i in range(n_sat)}
     nav = life_navigation(dop, dynamics, runs, month_days=month_days)
-    rows = [{"lost_sat": -1 if run == "all" else int(run),
-             **{f"{key}_{span}": value for key in ("pdop_avail_pct", "hdop_avail_pct") for span, value in
-                (("life", life_availability(nav, run, key)), ("worst_month", float(nav[key].sel(run=run).min())))}}
-            for run in runs]
-    return rows[:1] + sorted(rows[1:], key=lambda r: (r["pdop_avail_pct_worst_month"], r["pdop_avail_pct_life"]))
+    rows = [
+        {
+            "lost_sat": -1 if run == "all" else int(run),
+            **{
+                f"{key}_{span}": value
+                for key in ("pdop_avail_pct", "hdop_avail_pct")
+                for span, value in (
+                    ("life", life_availability(nav, run, key)),
+                    ("worst_month", float(nav[key].sel(run=run).min())),
+                )
+            },
+        }
+        for run in runs
+    ]
+    return rows[:1] + sorted(
+        rows[1:], key=lambda r: (r["pdop_avail_pct_worst_month"], r["pdop_avail_pct_life"])
+    )
 
 
 def _day_or_none(value: float):
@@ -176,8 +279,14 @@ def _day_or_none(value: float):
 
 def lost_satellites(ds: xr.Dataset) -> list[dict]:
     """``[{"sat", "day", "cause"}]`` of the satellites a :func:`simulate_life` run lost (impact, escape, failed propagation)."""
-    return [{"sat": int(i), "day": float(ds["loss_day"].values[i]), "cause": str(ds["loss_cause"].values[i])}
-            for i in np.flatnonzero(np.isfinite(ds["loss_day"].values))]
+    return [
+        {
+            "sat": int(i),
+            "day": float(ds["loss_day"].values[i]),
+            "cause": str(ds["loss_cause"].values[i]),
+        }
+        for i in np.flatnonzero(np.isfinite(ds["loss_day"].values))
+    ]
 
 
 def life_metrics(runs: Mapping[str, xr.Dataset], nav: xr.Dataset | None = None) -> dict:
@@ -191,53 +300,96 @@ def life_metrics(runs: Mapping[str, xr.Dataset], nav: xr.Dataset | None = None) 
     :mod:`lnss_lib.design_life.tolerances`; None under the box controller)."""
     ctl = runs["controlled"]
     nat = runs.get("natural")
-    out = {"life_days": float(ctl.attrs["life_days"]), "impact_day": _day_or_none(impact_day(ctl)),
-           "natural_impact_day": _day_or_none(impact_day(nat)) if nat is not None else None,
-           "sk_dv_kms_per_year": float(ctl["dv_kms_per_year"].mean()),
-           "sk_dv_max_kms_per_year": float(ctl["dv_kms_per_year"].max()),
-           "n_maneuvers": int(ctl["n_maneuvers"].sum()), "box_held": bool(ctl["box_held"].all()),
-           "controller": str(ctl.attrs["controller"]), "element_frame": str(ctl.attrs["element_frame"]),
-           "sk_dv_split": {str(k): float(v) for k, v in ctl["dv_purpose_kms_per_year"].mean("sat").to_series().items()},
-           "sk_dv_split_by_location": {str(k): float(v) for k, v in
-                                       ctl["dv_location_kms_per_year"].mean("sat").to_series().items()},
-           "min_perilune_alt_km": float(np.nanmin(ctl["min_perilune_alt_km"].values)),
-           "natural_min_perilune_alt_km": float(np.nanmin(nat["min_perilune_alt_km"].values)) if nat is not None else None,
-           "lost_satellites": lost_satellites(ctl),
-           "natural_lost_satellites": lost_satellites(nat) if nat is not None else None,
-           "relative_tolerances_deg": (None if ctl.attrs.get("relative_tolerances", "none") == "none" else
-                                       {"raan_rel": float(ctl.attrs["raan_rel_tolerance_deg"]),
-                                        "u_rel": float(ctl.attrs["u_rel_tolerance_deg"])})}
+    out = {
+        "life_days": float(ctl.attrs["life_days"]),
+        "impact_day": _day_or_none(impact_day(ctl)),
+        "natural_impact_day": _day_or_none(impact_day(nat)) if nat is not None else None,
+        "sk_dv_kms_per_year": float(ctl["dv_kms_per_year"].mean()),
+        "sk_dv_max_kms_per_year": float(ctl["dv_kms_per_year"].max()),
+        "n_maneuvers": int(ctl["n_maneuvers"].sum()),
+        "box_held": bool(ctl["box_held"].all()),
+        "controller": str(ctl.attrs["controller"]),
+        "element_frame": str(ctl.attrs["element_frame"]),
+        "sk_dv_split": {
+            str(k): float(v)
+            for k, v in ctl["dv_purpose_kms_per_year"].mean("sat").to_series().items()
+        },
+        "sk_dv_split_by_location": {
+            str(k): float(v)
+            for k, v in ctl["dv_location_kms_per_year"].mean("sat").to_series().items()
+        },
+        "min_perilune_alt_km": float(np.nanmin(ctl["min_perilune_alt_km"].values)),
+        "natural_min_perilune_alt_km": float(np.nanmin(nat["min_perilune_alt_km"].values))
+        if nat is not None
+        else None,
+        "lost_satellites": lost_satellites(ctl),
+        "natural_lost_satellites": lost_satellites(nat) if nat is not None else None,
+        "relative_tolerances_deg": (
+            None
+            if ctl.attrs.get("relative_tolerances", "none") == "none"
+            else {
+                "raan_rel": float(ctl.attrs["raan_rel_tolerance_deg"]),
+                "u_rel": float(ctl.attrs["u_rel_tolerance_deg"]),
+            }
+        ),
+    }
     if nav is not None:
         out["pdop_avail_pct_life"] = life_availability(nav, "controlled", "pdop_avail_pct")
         out["hdop_avail_pct_life"] = life_availability(nav, "controlled", "hdop_avail_pct")
         for key in ("pdop_avail_pct", "hdop_avail_pct"):
-            out[f"{key}_monthly"] = {str(run): [float(v) for v in nav[key].sel(run=run).values] for run in nav["run"].values}
+            out[f"{key}_monthly"] = {
+                str(run): [float(v) for v in nav[key].sel(run=run).values]
+                for run in nav["run"].values
+            }
     return out
 
 
-def short_arc_predictors(epoch: EpochSettings, dynamics: Dynamics, sk_estimate: SkEstimateSettings,
-                         stability: StabilitySettings, design_life: DesignLifeSettings, dop: DopSettings,
-                         elements: np.ndarray,
-                         life_days: float, *, model: ForceModel | None = None) -> dict:
+def short_arc_predictors(
+    epoch: EpochSettings,
+    dynamics: Dynamics,
+    sk_estimate: SkEstimateSettings,
+    stability: StabilitySettings,
+    design_life: DesignLifeSettings,
+    dop: DopSettings,
+    elements: np.ndarray,
+    life_days: float,
+    *,
+    model: ForceModel | None = None,
+) -> dict:
     """The campaign-grade estimate on the epoch's short arc (``[sk_estimate] model``; NaN if a satellite hits the Moon
     on it; ``model``: a force model over that arc to reuse, e.g. the evaluation context's) and the stability screen
     for ``life_days``, which the ``"life"`` estimate also covers: ``sk_dv_estimate_kms_per_year``, ``stable_screen``,
     ``screen_min_perilune_alt_km``, ``screen_impact_day`` (None when none)."""
     t0 = tdb_seconds(epoch.start_tdb, "TDB")
     states = elements_deg_to_states(dynamics, elements, t0)
-    arc = propagate_states(dynamics, states, t0, epoch.duration_days * SECONDS_PER_DAY, epoch.step_s, batch=True,
-                           model=model)
+    arc = propagate_states(
+        dynamics,
+        states,
+        t0,
+        epoch.duration_days * SECONDS_PER_DAY,
+        epoch.step_s,
+        batch=True,
+        model=model,
+    )
     screen = screen_states(stability, dynamics, states, t0, life_days=life_days)
-    estimate = (float("nan") if bool(arc["impact"].any())
-                else campaign_estimate(sk_estimate, stability, design_life, dynamics, dop, arc,
-                                       screen)["sk_dv_estimate_kms_per_year"])
-    return {"sk_dv_estimate_kms_per_year": estimate, "stable_screen": bool(screen.attrs["stable"]),
-            "screen_min_perilune_alt_km": float(screen.attrs["min_perilune_alt_km"]),
-            "screen_impact_day": _day_or_none(screen.attrs["impact_day"])}
+    estimate = (
+        float("nan")
+        if bool(arc["impact"].any())
+        else campaign_estimate(sk_estimate, stability, design_life, dynamics, dop, arc, screen)[
+            "sk_dv_estimate_kms_per_year"
+        ]
+    )
+    return {
+        "sk_dv_estimate_kms_per_year": estimate,
+        "stable_screen": bool(screen.attrs["stable"]),
+        "screen_min_perilune_alt_km": float(screen.attrs["min_perilune_alt_km"]),
+        "screen_impact_day": _day_or_none(screen.attrs["impact_day"]),
+    }
 
 
-def evaluate_design_life(context_or_settings, elements_deg, life_days: float | None = None, *,
-                         keep: bool = False) -> dict:
+def evaluate_design_life(
+    context_or_settings, elements_deg, life_days: float | None = None, *, keep: bool = False
+) -> dict:
     """:data:`LIFE_KEYS` for elements (n, 6) ``[sma_km, e, i, RAAN, AOP, M]`` (deg, the settings' element frame).
 
     ``context_or_settings``: an :class:`lnss_lib.evaluator.EvaluationContext` (its force model is
@@ -256,12 +408,28 @@ def evaluate_design_life(context_or_settings, elements_deg, life_days: float | N
     elements = np.atleast_2d(np.asarray(elements_deg, dtype=float))
     life = settings.design_life.life_days if life_days is None else float(life_days)
     runs = run_design_life(settings, elements, life)
-    nav = life_navigation(settings.dop, settings.dynamics, runs, month_days=settings.life_evaluation.month_days)
+    nav = life_navigation(
+        settings.dop, settings.dynamics, runs, month_days=settings.life_evaluation.month_days
+    )
     result = life_metrics(runs, nav)
-    result.update(short_arc_predictors(settings.epoch, settings.dynamics, settings.sk_estimate, settings.stability,
-                                       settings.design_life, settings.dop, elements, life, model=model))
-    result = {**{k: result[k] for k in LIFE_KEYS}, "screen_impact_day": result["screen_impact_day"],
-              "design_life_wall_s": time.perf_counter() - start}
+    result.update(
+        short_arc_predictors(
+            settings.epoch,
+            settings.dynamics,
+            settings.sk_estimate,
+            settings.stability,
+            settings.design_life,
+            settings.dop,
+            elements,
+            life,
+            model=model,
+        )
+    )
+    result = {
+        **{k: result[k] for k in LIFE_KEYS},
+        "screen_impact_day": result["screen_impact_day"],
+        "design_life_wall_s": time.perf_counter() - start,
+    }
     if keep:
         result.update(runs=runs, navigation=nav)
     return result
@@ -295,5 +463,7 @@ def elements_deg_in_frame(dynamics: Dynamics, states_mci, t0_tdb_s: float) -> np
 
     rot = element_frame_to_j2000(dynamics, float(t0_tdb_s))
     s = np.atleast_2d(np.asarray(states_mci, dtype=float))
-    el = state_to_elements(np.concatenate([s[:, :3] @ rot, s[:, 3:] @ rot], axis=1), dynamics.gravity.gm_km3_s2)
+    el = state_to_elements(
+        np.concatenate([s[:, :3] @ rot, s[:, 3:] @ rot], axis=1), dynamics.gravity.gm_km3_s2
+    )
     return np.column_stack([el[:, :2], np.degrees(el[:, 2:])])

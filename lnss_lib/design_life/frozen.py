@@ -35,10 +35,25 @@ from scipy.optimize import brentq
 from ..constants import DAYS_PER_JULIAN_YEAR, SECONDS_PER_DAY
 from ..frames import orbit_plane_axes_j2000
 from ..settings import Dynamics, StabilitySettings
-from .screen import SIDEREAL_MONTH_DAYS, SecularField, averaged_potential, elements_from_vectors, secular_rates
+from .screen import (
+    SIDEREAL_MONTH_DAYS,
+    SecularField,
+    averaged_potential,
+    elements_from_vectors,
+    secular_rates,
+)
 
-__all__ = ["mean_plane_axes", "FrozenModel", "orbit_vectors_deg", "mean_plane_elements", "potential",
-           "frozen_inclination_deg", "frozen_eccentricity", "libration", "allowances"]
+__all__ = [
+    "mean_plane_axes",
+    "FrozenModel",
+    "orbit_vectors_deg",
+    "mean_plane_elements",
+    "potential",
+    "frozen_inclination_deg",
+    "frozen_eccentricity",
+    "libration",
+    "allowances",
+]
 
 _Z = np.array([0.0, 0.0, 1.0])
 
@@ -86,14 +101,17 @@ class FrozenModel:
         return float(np.degrees(np.arccos(np.clip(self.pole[2], -1.0, 1.0))))
 
     @classmethod
-    def circular(cls, gm_km3_s2: float, j2: float, r_ref_km: float, gm_body_km3_s2: float,
-                 a_body_km: float) -> "FrozenModel":
+    def circular(
+        cls, gm_km3_s2: float, j2: float, r_ref_km: float, gm_body_km3_s2: float, a_body_km: float
+    ) -> FrozenModel:
         """One perturber on a circular orbit in the x-y plane and a J2 about z (``j2 = 0``: the Kozai problem)."""
         tide = 0.5 * gm_body_km3_s2 / a_body_km**3 * (np.eye(3) - np.outer(_Z, _Z))
         return cls(tide, float(gm_km3_s2), float(j2), float(r_ref_km))
 
     @classmethod
-    def from_field(cls, field: SecularField, t_day: float = 0.0, spin_days: float = DAYS_PER_JULIAN_YEAR) -> "FrozenModel":
+    def from_field(
+        cls, field: SecularField, t_day: float = 0.0, spin_days: float = DAYS_PER_JULIAN_YEAR
+    ) -> FrozenModel:
         """Node-average of a :class:`lnss_lib.design_life.screen.SecularField` at ``t_day`` in the mean ``moon_op`` frame
         (:func:`mean_plane_axes`); the frame's turn over the next ``spin_days`` (within the field's span)."""
         tide, pole = field.at(t_day)
@@ -105,26 +123,45 @@ class FrozenModel:
         if t_end > t_day:
             z_end = rot.T @ rot_end[:, 2]
             spin = np.cross(_Z, z_end) / ((t_end - t_day) * SECONDS_PER_DAY)
-        return cls(np.diag([side, side, tide_op[2, 2]]), field.gm_km3_s2, field.j2, field.r_ref_km, pole_op, spin)
+        return cls(
+            np.diag([side, side, tide_op[2, 2]]),
+            field.gm_km3_s2,
+            field.j2,
+            field.r_ref_km,
+            pole_op,
+            spin,
+        )
 
     @classmethod
-    def from_settings(cls, stability: StabilitySettings, dynamics: Dynamics, t0_tdb_s: float) -> "FrozenModel":
+    def from_settings(
+        cls, stability: StabilitySettings, dynamics: Dynamics, t0_tdb_s: float
+    ) -> FrozenModel:
         """The model at TDB ``t0_tdb_s`` from SPICE (the ``[stability]`` tide, one year tabulated)."""
-        return cls.from_field(SecularField.from_settings(stability, dynamics, float(t0_tdb_s), DAYS_PER_JULIAN_YEAR))
+        return cls.from_field(
+            SecularField.from_settings(stability, dynamics, float(t0_tdb_s), DAYS_PER_JULIAN_YEAR)
+        )
 
 
 def orbit_vectors_deg(e, inc_deg, aop_deg, raan_deg=0.0) -> tuple[np.ndarray, np.ndarray]:
     """(e vector, j = sqrt(1 - e^2) h_hat), each (n, 3), of orbits given by e, i, AOP and RAAN (deg)."""
-    e, inc, aop, raan = np.broadcast_arrays(*(np.atleast_1d(np.asarray(x, dtype=float)) for x in
-                                              (e, np.radians(inc_deg), np.radians(aop_deg), np.radians(raan_deg))))
+    e, inc, aop, raan = np.broadcast_arrays(
+        *(
+            np.atleast_1d(np.asarray(x, dtype=float))
+            for x in (e, np.radians(inc_deg), np.radians(aop_deg), np.radians(raan_deg))
+        )
+    )
     node = np.stack([np.cos(raan), np.sin(raan), np.zeros_like(raan)], axis=-1)
-    h_hat = np.stack([np.sin(raan) * np.sin(inc), -np.cos(raan) * np.sin(inc), np.cos(inc)], axis=-1)
+    h_hat = np.stack(
+        [np.sin(raan) * np.sin(inc), -np.cos(raan) * np.sin(inc), np.cos(inc)], axis=-1
+    )
     in_plane = np.cross(h_hat, node)
     e_vec = e[:, None] * (np.cos(aop)[:, None] * node + np.sin(aop)[:, None] * in_plane)
     return e_vec, np.sqrt(1.0 - e**2)[:, None] * h_hat
 
 
-def mean_plane_elements(field: SecularField, elements_deg, rot_el_to_j2000: np.ndarray, t_day: float = 0.0) -> dict:
+def mean_plane_elements(
+    field: SecularField, elements_deg, rot_el_to_j2000: np.ndarray, t_day: float = 0.0
+) -> dict:
     """Elements (n, 6) [sma_km, e, i, RAAN, AOP, M] (deg) given in a frame (``x_j2000 = rot x``) read in the mean
     ``moon_op`` frame at ``t_day`` (:func:`mean_plane_axes`): ``sma_km``, ``ecc``, ``inc_deg``, ``raan_deg``, ``aop_deg``."""
     el = np.atleast_2d(np.asarray(elements_deg, dtype=float))
@@ -135,22 +172,30 @@ def mean_plane_elements(field: SecularField, elements_deg, rot_el_to_j2000: np.n
 
 def potential(model: FrozenModel, sma_km, e, inc_deg, aop_deg) -> np.ndarray:
     """Doubly-averaged potential (n,) (km^2/s^2) of orbits (broadcast arrays) in the model's frame."""
-    a, e, inc, aop = np.broadcast_arrays(*(np.atleast_1d(np.asarray(x, dtype=float)) for x in (sma_km, e, inc_deg, aop_deg)))
+    a, e, inc, aop = np.broadcast_arrays(
+        *(np.atleast_1d(np.asarray(x, dtype=float)) for x in (sma_km, e, inc_deg, aop_deg))
+    )
     e_vec, j_vec = orbit_vectors_deg(e, inc, aop)
-    return averaged_potential(e_vec, j_vec, a, model.tide, _Z, model.gm_km3_s2, model.j2_axial, model.r_ref_km)
+    return averaged_potential(
+        e_vec, j_vec, a, model.tide, _Z, model.gm_km3_s2, model.j2_axial, model.r_ref_km
+    )
 
 
 def _inc_at_jz_deg(e, jz):
-    return np.degrees(np.arccos(np.clip(jz / np.sqrt(1.0 - np.asarray(e, dtype=float) ** 2), -1.0, 1.0)))
+    return np.degrees(
+        np.arccos(np.clip(jz / np.sqrt(1.0 - np.asarray(e, dtype=float) ** 2), -1.0, 1.0))
+    )
 
 
 def _dphi_de(model: FrozenModel, sma_km: float, e, inc_deg, step: float = 1e-6) -> np.ndarray:
     """dPhi/de at AOP 90 deg along the Kozai integral j_z (central difference), for arrays e and inc_deg."""
-    e, inc = np.broadcast_arrays(np.atleast_1d(np.asarray(e, dtype=float)), np.atleast_1d(np.asarray(inc_deg, dtype=float)))
+    e, inc = np.broadcast_arrays(
+        np.atleast_1d(np.asarray(e, dtype=float)), np.atleast_1d(np.asarray(inc_deg, dtype=float))
+    )
     jz = np.sqrt(1.0 - e**2) * np.cos(np.radians(inc))
     ee = np.concatenate([e - step, e + step])
     phi = potential(model, sma_km, ee, _inc_at_jz_deg(ee, np.concatenate([jz, jz])), 90.0)
-    return (phi[e.size:] - phi[:e.size]) / (2.0 * step)
+    return (phi[e.size :] - phi[: e.size]) / (2.0 * step)
 
 
 def _roots(fun, lo: float, hi: float, n: int = 361) -> list[float]:
@@ -158,7 +203,10 @@ def _roots(fun, lo: float, hi: float, n: int = 361) -> list[float]:
     grid = np.linspace(lo, hi, n)
     vals = fun(grid)
     scalar = lambda x: float(fun(np.array([x]))[0])
-    return [brentq(scalar, grid[k], grid[k + 1], xtol=1e-12) for k in np.flatnonzero(np.sign(vals[:-1]) * np.sign(vals[1:]) < 0)]
+    return [
+        brentq(scalar, grid[k], grid[k + 1], xtol=1e-12)
+        for k in np.flatnonzero(np.sign(vals[:-1]) * np.sign(vals[1:]) < 0)
+    ]
 
 
 def frozen_inclination_deg(model: FrozenModel, sma_km: float, e: float) -> float:
@@ -172,11 +220,15 @@ def frozen_inclination_deg(model: FrozenModel, sma_km: float, e: float) -> float
     return float(min(roots, key=lambda r: abs(r - kozai))) if roots else float("nan")
 
 
-def frozen_eccentricity(model: FrozenModel, sma_km: float, inc_deg: float, *, min_perilune_km: float = 0.0) -> float:
+def frozen_eccentricity(
+    model: FrozenModel, sma_km: float, inc_deg: float, *, min_perilune_km: float = 0.0
+) -> float:
     """Eccentricity of the orbit of semi-major axis ``sma_km`` and inclination ``inc_deg`` frozen at AOP 90 / 270
     deg, with perilune radius above ``min_perilune_km``; the root nearest the Kozai family, NaN where none."""
     if not (0.0 < inc_deg < 180.0 and sma_km > 0.0):
-        raise ValueError(f"need 0 < inc_deg < 180 and sma_km > 0; got inc_deg = {inc_deg!r}, sma_km = {sma_km!r}")
+        raise ValueError(
+            f"need 0 < inc_deg < 180 and sma_km > 0; got inc_deg = {inc_deg!r}, sma_km = {sma_km!r}"
+        )
     e_hi = min(0.999, 1.0 - min_perilune_km / sma_km)
     if e_hi <= 1e-3:
         return float("nan")
@@ -185,7 +237,15 @@ def frozen_eccentricity(model: FrozenModel, sma_km: float, inc_deg: float, *, mi
     return float(min(roots, key=lambda r: abs(r - kozai))) if roots else float("nan")
 
 
-def libration(model: FrozenModel, sma_km: float, e: float, inc_deg: float, aop_deg: float, *, n_grid: int = 4001) -> dict:
+def libration(
+    model: FrozenModel,
+    sma_km: float,
+    e: float,
+    inc_deg: float,
+    aop_deg: float,
+    *,
+    n_grid: int = 4001,
+) -> dict:
     """The level curve of the orbit (a, e, i, AOP) at its Kozai integral: ranges of e, i and AOP.
 
     Returns ``ecc_min``, ``ecc_max``, ``inc_min_deg``, ``inc_max_deg``, ``aop_min_deg``, ``aop_max_deg``
@@ -194,10 +254,12 @@ def libration(model: FrozenModel, sma_km: float, e: float, inc_deg: float, aop_d
     (90 or 270; NaN when circulating) and ``jz`` (``sqrt(1 - e^2) cos i``).
     """
     if not (0.0 < e < 1.0 and sma_km > 0.0 and 0.0 < inc_deg < 180.0):
-        raise ValueError(f"need 0 < e < 1, sma_km > 0 and 0 < inc_deg < 180; got e = {e!r}, sma_km = {sma_km!r}, "
-                         f"inc_deg = {inc_deg!r}")
+        raise ValueError(
+            f"need 0 < e < 1, sma_km > 0 and 0 < inc_deg < 180; got e = {e!r}, sma_km = {sma_km!r}, "
+            f"inc_deg = {inc_deg!r}"
+        )
     jz = np.sqrt(1.0 - e**2) * np.cos(np.radians(inc_deg))
-    e_top = np.sqrt(1.0 - jz**2)                      # i -> 0 (or 180) on the Kozai integral
+    e_top = np.sqrt(1.0 - jz**2)  # i -> 0 (or 180) on the Kozai integral
     phi0 = float(potential(model, sma_km, e, inc_deg, aop_deg)[0])
 
     def sin2_aop(ee):
@@ -227,16 +289,32 @@ def libration(model: FrozenModel, sma_km: float, e: float, inc_deg: float, aop_d
 
     (e_lo, lo_turn), (e_hi, hi_turn) = edge(-1), edge(+1)
     ee = np.linspace(e_lo, e_hi, 401)
-    s_min = float(np.clip(np.min(sin2_aop(ee)), 0.0, 1.0)) if e_hi > e_lo else float(np.sin(np.radians(aop_deg)) ** 2)
+    s_min = (
+        float(np.clip(np.min(sin2_aop(ee)), 0.0, 1.0))
+        if e_hi > e_lo
+        else float(np.sin(np.radians(aop_deg)) ** 2)
+    )
     librating = lo_turn and hi_turn and s_min > 0.0
     upper = np.sin(np.radians(aop_deg)) >= 0.0
     half = np.degrees(np.arcsin(np.sqrt(s_min)))
     centre = (90.0 if upper else 270.0) if librating else float("nan")
-    aop_lo, aop_hi = ((half, 180.0 - half) if upper else (180.0 + half, 360.0 - half)) if librating else (0.0, 360.0)
+    aop_lo, aop_hi = (
+        ((half, 180.0 - half) if upper else (180.0 + half, 360.0 - half))
+        if librating
+        else (0.0, 360.0)
+    )
     inc = _inc_at_jz_deg(np.array([e_lo, e_hi]), jz)
-    return {"ecc_min": e_lo, "ecc_max": e_hi, "inc_min_deg": float(inc.min()), "inc_max_deg": float(inc.max()),
-            "aop_min_deg": float(aop_lo), "aop_max_deg": float(aop_hi), "librating": bool(librating),
-            "centre_aop_deg": centre, "jz": float(jz)}
+    return {
+        "ecc_min": e_lo,
+        "ecc_max": e_hi,
+        "inc_min_deg": float(inc.min()),
+        "inc_max_deg": float(inc.max()),
+        "aop_min_deg": float(aop_lo),
+        "aop_max_deg": float(aop_hi),
+        "librating": bool(librating),
+        "centre_aop_deg": centre,
+        "jz": float(jz),
+    }
 
 
 def _precession_rate(e_vec, j_vec, sma_km, tide, j2, model: FrozenModel) -> float:
@@ -270,18 +348,33 @@ def allowances(model: FrozenModel, sma_km: float, e: float, inc_deg: float, aop_
     e_vec, j_vec = orbit_vectors_deg(e, inc_deg, aop_deg)
     rates_e, rates_i = [], []
     for phi in np.radians(np.arange(0.0, 180.0, 2.0)):
-        q = 0.5 * c * (np.cos(phi) * (np.outer(x, x) - np.outer(y, y)) + np.sin(phi) * (np.outer(x, y) + np.outer(y, x)))
+        q = (
+            0.5
+            * c
+            * (
+                np.cos(phi) * (np.outer(x, x) - np.outer(y, y))
+                + np.sin(phi) * (np.outer(x, y) + np.outer(y, x))
+            )
+        )
         de, dj = secular_rates(e_vec, j_vec, sma_km, q, _Z, model.gm_km3_s2, 0.0, model.r_ref_km)
         rates_e.append(np.linalg.norm(de[0]))
         rates_i.append(np.linalg.norm(np.cross(dj[0], j_vec[0])) / np.sum(j_vec[0] ** 2))
     n_month = 2.0 * np.pi / (SIDEREAL_MONTH_DAYS * SECONDS_PER_DAY)
-    ecc_monthly, inc_monthly = max(rates_e) / (2.0 * n_month), np.degrees(max(rates_i) / (2.0 * n_month))
+    ecc_monthly, inc_monthly = (
+        max(rates_e) / (2.0 * n_month),
+        np.degrees(max(rates_i) / (2.0 * n_month)),
+    )
     n = np.sqrt(model.gm_km3_s2 / sma_km**3)
     ecc_orbital = 4.0 * np.pi * c * (1.0 + e) / n**2
     w_tide = _precession_rate(e_vec, j_vec, sma_km, model.tide, 0.0, model)
     w_j2 = _precession_rate(e_vec, j_vec, sma_km, np.zeros((3, 3)), model.j2, model)
     axis = w_tide * _Z + w_j2 * model.pole - model.frame_spin
     laplace = np.arctan2(np.linalg.norm(axis[:2]), abs(axis[2]))
-    return {"ecc_monthly": float(ecc_monthly), "ecc_orbital": float(ecc_orbital),
-            "inc_monthly_deg": float(inc_monthly), "inc_tilt_deg": float(2.0 * np.degrees(laplace)),
-            "ecc": float(2.0 * (ecc_monthly + ecc_orbital)), "inc_deg": float(2.0 * inc_monthly + 2.0 * np.degrees(laplace))}
+    return {
+        "ecc_monthly": float(ecc_monthly),
+        "ecc_orbital": float(ecc_orbital),
+        "inc_monthly_deg": float(inc_monthly),
+        "inc_tilt_deg": float(2.0 * np.degrees(laplace)),
+        "ecc": float(2.0 * (ecc_monthly + ecc_orbital)),
+        "inc_deg": float(2.0 * inc_monthly + 2.0 * np.degrees(laplace)),
+    }

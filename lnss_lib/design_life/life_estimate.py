@@ -68,23 +68,58 @@ import xarray as xr
 
 from ..constants import SECONDS_PER_DAY
 from ..dop import SurfaceGrid, metrics_for_settings
-from ..elements import TWO_PI, elements_to_state, eccentricity_vector, state_to_elements, vis_viva_sma_km
+from ..elements import (
+    TWO_PI,
+    eccentricity_vector,
+    elements_to_state,
+    state_to_elements,
+    vis_viva_sma_km,
+)
 from ..ephemeris import rotation
 from ..frames import element_frame_to_j2000, rotate_with
-from ..settings import DesignLifeSettings, DopSettings, Dynamics, SkEstimateSettings, StabilitySettings
+from ..settings import (
+    DesignLifeSettings,
+    DopSettings,
+    Dynamics,
+    SkEstimateSettings,
+    StabilitySettings,
+)
 from .control import drift_band_rate, overshoot_target
 from .estimate import mean_drift, sk_estimate_from_propagation
 from .manoeuvres import plan_impulses
 from .mean_elements import to_element_frame, wrap_pi
-from .screen import SecularField, elements_from_vectors, integrate_secular, screen_states
-from .screen import cached_field
-from .service import (SAFETY_RAISE_KM, mean_vectors_j2000, navigation_violations, raan_half_width_rad,
-                      restore_target)
+from .screen import (
+    SecularField,
+    cached_field,
+    elements_from_vectors,
+    integrate_secular,
+    screen_states,
+)
+from .service import (
+    SAFETY_RAISE_KM,
+    mean_vectors_j2000,
+    navigation_violations,
+    raan_half_width_rad,
+    restore_target,
+)
 from .tolerances import estimate_tolerances_deg
 
-__all__ = ["PARTS", "NAV_SAMPLES_PER_WINDOW", "AVAILABILITY_KEYS", "LIFE_NAVIGATION_KEYS", "perilune_dip_km", "safety_dv_kms", "node_corrections",
-           "phase_corrections", "navigation_windows", "lattice_epochs_s", "rebuilt_positions_j2000", "navigation_restores", "life_estimate",
-           "campaign_estimate"]
+__all__ = [
+    "PARTS",
+    "NAV_SAMPLES_PER_WINDOW",
+    "AVAILABILITY_KEYS",
+    "LIFE_NAVIGATION_KEYS",
+    "perilune_dip_km",
+    "safety_dv_kms",
+    "node_corrections",
+    "phase_corrections",
+    "navigation_windows",
+    "lattice_epochs_s",
+    "rebuilt_positions_j2000",
+    "navigation_restores",
+    "life_estimate",
+    "campaign_estimate",
+]
 
 PARTS = ("safety", "navigation", "relative_node", "phase")
 """What the estimate charges for (a subset of :data:`lnss_lib.design_life.service.PURPOSES`)."""
@@ -108,7 +143,9 @@ GOLDEN_FRACTION = (np.sqrt(5.0) - 1.0) / 2.0
 AVAILABILITY_KEYS = ("pdop_avail_pct", "hdop_avail_pct")
 """The availabilities (eq. 14) the estimate follows over the life, window by window."""
 
-LIFE_NAVIGATION_KEYS = tuple(f"{key}_{span}_estimate" for key in AVAILABILITY_KEYS for span in ("life", "worst_month"))
+LIFE_NAVIGATION_KEYS = tuple(
+    f"{key}_{span}_estimate" for key in AVAILABILITY_KEYS for span in ("life", "worst_month")
+)
 """What the estimate reports of the navigation over the life: each availability's mean over the life and its worst
 window (a navigation window is ``[design_life.service] nav_window_days``, a month in every profile)."""
 
@@ -130,8 +167,11 @@ def _distinct_rows(*columns: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """Rows of the side-by-side arrays (n, ...) that are bit for bit distinct: (their indices (k,), the index into
     them of every row (n,)); the work done per satellite is then done once per distinct history."""
     rows = np.ascontiguousarray(np.concatenate(columns, axis=1))
-    _, first, back = np.unique(rows.view(np.dtype((np.void, rows.dtype.itemsize * rows.shape[1]))).ravel(),
-                               return_index=True, return_inverse=True)
+    _, first, back = np.unique(
+        rows.view(np.dtype((np.void, rows.dtype.itemsize * rows.shape[1]))).ravel(),
+        return_index=True,
+        return_inverse=True,
+    )
     return first, np.asarray(back).ravel()
 
 
@@ -147,8 +187,15 @@ def _first_below(t_days: np.ndarray, perilune_km: np.ndarray, floor_km: float) -
     return np.where(below.any(axis=1), t_days[np.argmax(below, axis=1)], np.nan)
 
 
-def _raise(field: SecularField, t_burn: float, sma_km: float, e_vec: np.ndarray, j_vec: np.ndarray, floor_km: float,
-           t_rest: np.ndarray) -> tuple[float, np.ndarray, np.ndarray, float]:
+def _raise(
+    field: SecularField,
+    t_burn: float,
+    sma_km: float,
+    e_vec: np.ndarray,
+    j_vec: np.ndarray,
+    floor_km: float,
+    t_rest: np.ndarray,
+) -> tuple[float, np.ndarray, np.ndarray, float]:
     """The controller's safety raise (:func:`lnss_lib.design_life.service.safety_ecc`'s law: the smallest raise of
     :data:`lnss_lib.design_life.service.SAFETY_RAISE_KM` whose averaged perilune stays above ``floor_km`` for the rest
     of the life, else the one that delays the crossing most), from one integration of the candidates that stops
@@ -159,17 +206,33 @@ def _raise(field: SecularField, t_burn: float, sma_km: float, e_vec: np.ndarray,
     direction = e_vec / ecc if ecc > 0.0 else np.zeros(3)
     h_hat = j_vec / np.linalg.norm(j_vec)
     shifted = field.shifted(t_burn)
-    res = integrate_secular(np.full(e_new.size, sma_km), e_new[:, None] * direction, np.sqrt(1.0 - e_new ** 2)[:, None]
-                            * h_hat, shifted, float(t_rest[-1]), floor_km=floor_km, rtol=SEARCH_RTOL, atol=SEARCH_ATOL,
-                            output_step_days=float(t_rest[1] - t_rest[0]) if t_rest.size > 1 else 1.0)
+    res = integrate_secular(
+        np.full(e_new.size, sma_km),
+        e_new[:, None] * direction,
+        np.sqrt(1.0 - e_new**2)[:, None] * h_hat,
+        shifted,
+        float(t_rest[-1]),
+        floor_km=floor_km,
+        rtol=SEARCH_RTOL,
+        atol=SEARCH_ATOL,
+        output_step_days=float(t_rest[1] - t_rest[0]) if t_rest.size > 1 else 1.0,
+    )
     cross = res["impact_day"]
     safe = np.flatnonzero(np.isnan(cross))
     k = int(safe[0]) if safe.size else int(np.argmax(cross))
     return float(e_new[k]), res["e"][k], res["j"][k], float(cross[k])
 
 
-def safety_dv_kms(field: SecularField, t_days: np.ndarray, sma_km: float, e_hist: np.ndarray, j_hist: np.ndarray,
-                  floor_km: float, lead_days: float, check_days: float) -> tuple[float, int, np.ndarray, np.ndarray]:
+def safety_dv_kms(
+    field: SecularField,
+    t_days: np.ndarray,
+    sma_km: float,
+    e_hist: np.ndarray,
+    j_hist: np.ndarray,
+    floor_km: float,
+    lead_days: float,
+    check_days: float,
+) -> tuple[float, int, np.ndarray, np.ndarray]:
     """Safety burns of one orbit over the life ``t_days`` (m,) (a uniform grid from 0): Delta-V (km/s), number of
     burns, and the controlled e and j histories (m, 3).
 
@@ -182,7 +245,9 @@ def safety_dv_kms(field: SecularField, t_days: np.ndarray, sma_km: float, e_hist
     """
     gm = field.gm_km3_s2
     e_ctl, j_ctl = e_hist.copy(), j_hist.copy()
-    t_cross = float(_first_below(t_days, sma_km * (1.0 - np.linalg.norm(e_ctl, axis=-1))[None], floor_km)[0])
+    t_cross = float(
+        _first_below(t_days, sma_km * (1.0 - np.linalg.norm(e_ctl, axis=-1))[None], floor_km)[0]
+    )
     dv, n_burns, t_first, t_last = 0.0, 0, np.nan, -np.inf
     while np.isfinite(t_cross):
         k = int(np.searchsorted(t_days, max(t_cross - lead_days, t_last + check_days, 0.0) - 1e-9))
@@ -192,8 +257,9 @@ def safety_dv_kms(field: SecularField, t_days: np.ndarray, sma_km: float, e_hist
             e_ctl[k:], j_ctl[k:] = np.nan, np.nan
             return dv * (t_days[-1] - t_first) / (t_days[k] - t_first), n_burns, e_ctl, j_ctl
         ecc = float(np.linalg.norm(e_ctl[k]))
-        ecc_new, e_ctl[k:], j_ctl[k:], t_next = _raise(field, float(t_days[k]), sma_km, e_ctl[k], j_ctl[k], floor_km,
-                                                       t_days[k:] - t_days[k])
+        ecc_new, e_ctl[k:], j_ctl[k:], t_next = _raise(
+            field, float(t_days[k]), sma_km, e_ctl[k], j_ctl[k], floor_km, t_days[k:] - t_days[k]
+        )
         dv += _ecc_cost_kms(sma_km, ecc, ecc_new - ecc, gm)
         n_burns += 1
         t_first = float(t_days[k]) if n_burns == 1 else t_first
@@ -242,8 +308,13 @@ def _decisions(m: int, window):
         k += 1
 
 
-def node_corrections(t_days: np.ndarray, raan_rad: np.ndarray, half_rad: np.ndarray, target_fraction: float,
-                     spacing_days: float) -> list[list[tuple[int, float]]]:
+def node_corrections(
+    t_days: np.ndarray,
+    raan_rad: np.ndarray,
+    half_rad: np.ndarray,
+    target_fraction: float,
+    spacing_days: float,
+) -> list[list[tuple[int, float]]]:
     """Relative-node corrections of each satellite: lists of (time index, RAAN change rad).
 
     ``raan_rad`` (n_sat, m): RAAN drift of each satellite from its design value; the relative node (against the
@@ -257,7 +328,9 @@ def node_corrections(t_days: np.ndarray, raan_rad: np.ndarray, half_rad: np.ndar
 
     def window(k, end):
         rel = _relative(raan_rad[:, k:end] + offset[:, None])
-        return rel, (np.abs(rel) > half_rad[:, None]) & (t_days[None, k:end] - last[:, None] >= spacing_days)
+        return rel, (np.abs(rel) > half_rad[:, None]) & (
+            t_days[None, k:end] - last[:, None] >= spacing_days
+        )
 
     for k, rel, fire in _decisions(m, window):
         for i in np.flatnonzero(fire):
@@ -268,8 +341,14 @@ def node_corrections(t_days: np.ndarray, raan_rad: np.ndarray, half_rad: np.ndar
     return out
 
 
-def phase_corrections(t_days: np.ndarray, u_rad: np.ndarray, half_rad: float, target_fraction: float,
-                      coast_days: float, lookahead_days: float) -> list[list[tuple[int, float]]]:
+def phase_corrections(
+    t_days: np.ndarray,
+    u_rad: np.ndarray,
+    half_rad: float,
+    target_fraction: float,
+    coast_days: float,
+    lookahead_days: float,
+) -> list[list[tuple[int, float]]]:
     """Drift-band slot corrections of each satellite: lists of (time index, change of drift rate rad/s).
 
     ``u_rad`` (n_sat, m): the argument of latitude's drift from its slot; the slot (against the circular mean)
@@ -345,16 +424,27 @@ def lattice_epochs_s(span_s: float, period_s: float, n: int) -> np.ndarray:
     return np.clip(period_s * (orbits + phase), 0.0, span_s)
 
 
-def rebuilt_positions_j2000(sma_km: np.ndarray, u0_rad: np.ndarray, ecc: np.ndarray, inc_rad: np.ndarray,
-                            raan_rad: np.ndarray, aop_rad: np.ndarray, t_s: np.ndarray, rot_el_to_j2000: np.ndarray,
-                            gm_km3_s2: float) -> np.ndarray:
+def rebuilt_positions_j2000(
+    sma_km: np.ndarray,
+    u0_rad: np.ndarray,
+    ecc: np.ndarray,
+    inc_rad: np.ndarray,
+    raan_rad: np.ndarray,
+    aop_rad: np.ndarray,
+    t_s: np.ndarray,
+    rot_el_to_j2000: np.ndarray,
+    gm_km3_s2: float,
+) -> np.ndarray:
     """Moon-centred J2000 positions (n_sat, n_t, 3) km of a constellation rebuilt from mean elements (n_sat, n_t)
     (element frame, rad) at ``t_s`` (n_t,) s after the epoch: the mean argument of latitude runs from its slot
     ``u0_rad`` (n_sat,) at the design's mean motion (the slot controller holds u against the constellation's), so
     M = u - AOP."""
-    mean_motion = np.sqrt(gm_km3_s2 / sma_km ** 3)
+    mean_motion = np.sqrt(gm_km3_s2 / sma_km**3)
     anomaly = u0_rad[:, None] + mean_motion[:, None] * t_s[None, :] - aop_rad
-    el = np.stack([np.broadcast_to(sma_km[:, None], ecc.shape), ecc, inc_rad, raan_rad, aop_rad, anomaly], axis=-1)
+    el = np.stack(
+        [np.broadcast_to(sma_km[:, None], ecc.shape), ecc, inc_rad, raan_rad, aop_rad, anomaly],
+        axis=-1,
+    )
     return elements_to_state(el, gm_km3_s2)[..., :3] @ np.asarray(rot_el_to_j2000).T
 
 
@@ -365,14 +455,26 @@ def _restore_dv_kms(el: tuple, ref: tuple, gm_km3_s2: float) -> float:
     on the 0.42 km/s restore of the quick operational front's cheapest design)."""
     sma, ecc, inc, raan, aop = el
     target = restore_target(ecc, aop, inc - ref[2], ref[0], ref[1])
-    return plan_impulses(np.array([sma, ecc, inc, raan, aop, 0.0]), gm_km3_s2, target, max_burns=2,
-                         newton_steps=0).dv_total_kms
+    return plan_impulses(
+        np.array([sma, ecc, inc, raan, aop, 0.0]), gm_km3_s2, target, max_burns=2, newton_steps=0
+    ).dv_total_kms
 
 
-def navigation_restores(dop: DopSettings, dynamics: Dynamics, design_life: DesignLifeSettings, t0_tdb_s: float,
-                        t_days: np.ndarray, sma_km: np.ndarray, u0_rad: np.ndarray, raan_rad: np.ndarray,
-                        ecc: np.ndarray, inc_rad: np.ndarray, aop_rad: np.ndarray,
-                        rot_el_to_j2000: np.ndarray | None = None, availability: bool = True) -> dict:
+def navigation_restores(
+    dop: DopSettings,
+    dynamics: Dynamics,
+    design_life: DesignLifeSettings,
+    t0_tdb_s: float,
+    t_days: np.ndarray,
+    sma_km: np.ndarray,
+    u0_rad: np.ndarray,
+    raan_rad: np.ndarray,
+    ecc: np.ndarray,
+    inc_rad: np.ndarray,
+    aop_rad: np.ndarray,
+    rot_el_to_j2000: np.ndarray | None = None,
+    availability: bool = True,
+) -> dict:
     """The navigation monitor's restores over the life, and the availability it leaves, on the constellation rebuilt
     from its mean element histories.
 
@@ -400,7 +502,12 @@ def navigation_restores(dop: DopSettings, dynamics: Dynamics, design_life: Desig
     svc, box = design_life.service, design_life.box
     gm = dynamics.gravity.gm_km3_s2
     n_sat = ecc.shape[0]
-    out = {"dv_kms": np.zeros(n_sat), "n_restores": np.zeros(n_sat, dtype=int), "violations": {}, "n_judged": 0}
+    out = {
+        "dv_kms": np.zeros(n_sat),
+        "n_restores": np.zeros(n_sat, dtype=int),
+        "violations": {},
+        "n_judged": 0,
+    }
     edges = navigation_windows(t_days, svc.nav_window_days)
     bounds = np.append(edges, t_days.size - 1) if edges[-1] < t_days.size - 1 else edges
     rot = element_frame_to_j2000(dynamics, t0_tdb_s) if rot_el_to_j2000 is None else rot_el_to_j2000
@@ -409,32 +516,47 @@ def navigation_restores(dop: DopSettings, dynamics: Dynamics, design_life: Desig
     half = (box.ecc, np.radians(box.aop_deg), np.radians(box.inc_deg))
     step_s = (t_days[1] - t_days[0]) * SECONDS_PER_DAY
     period_s = TWO_PI * np.sqrt(np.mean(sma_km) ** 3 / gm)
-    shift = np.zeros(n_sat, dtype=int)                     # grid index of each satellite's last restore
+    shift = np.zeros(n_sat, dtype=int)  # grid index of each satellite's last restore
     rows = np.arange(n_sat)[:, None]
     costs = {}
 
     def summary(j):
         """Window j as flown: its own epochs, each satellite's elements since its last restore."""
-        t_s = lattice_epochs_s((bounds[j + 1] - bounds[j]) * step_s, period_s, NAV_SAMPLES_PER_WINDOW)
+        t_s = lattice_epochs_s(
+            (bounds[j + 1] - bounds[j]) * step_s, period_s, NAV_SAMPLES_PER_WINDOW
+        )
         offset = np.rint(t_s / step_s).astype(int)[None, :]
         idx = (bounds[j] - shift)[:, None] + offset
         t_s = t_s + bounds[j] * step_s
-        r = rebuilt_positions_j2000(sma_km, u0_rad, ecc[rows, idx], inc_rad[rows, idx], raan_rad[rows, bounds[j] + offset],
-                                    aop_rad[rows, idx], t_s, rot, gm)
-        return metrics_for_settings(dop, rotate_with(rotation("J2000", dynamics.frames.moon_fixed, t0_tdb_s + t_s), r),
-                                    grid)
+        r = rebuilt_positions_j2000(
+            sma_km,
+            u0_rad,
+            ecc[rows, idx],
+            inc_rad[rows, idx],
+            raan_rad[rows, bounds[j] + offset],
+            aop_rad[rows, idx],
+            t_s,
+            rot,
+            gm,
+        )
+        return metrics_for_settings(
+            dop, rotate_with(rotation("J2000", dynamics.frames.moon_fixed, t0_tdb_s + t_s), r), grid
+        )
 
     baseline = summary(0)
     windows = [baseline]
     for j in range(1, bounds.size - 1):
         windows.append(summary(j) if availability else None)
-        if j >= edges.size - 1:                            # the part after the last window: never judged
+        if j >= edges.size - 1:  # the part after the last window: never judged
             continue
         close = edges[j + 1] - shift
         e, i, w = ecc[rows[:, 0], close], inc_rad[rows[:, 0], close], aop_rad[rows[:, 0], close]
         with np.errstate(invalid="ignore"):
-            outside = ((np.abs(e - ref[0]) > half[0]) | (np.abs(wrap_pi(w - ref[1])) > half[1])
-                       | (np.abs(i - ref[2]) > half[2]))
+            outside = (
+                (np.abs(e - ref[0]) > half[0])
+                | (np.abs(wrap_pi(w - ref[1])) > half[1])
+                | (np.abs(i - ref[2]) > half[2])
+            )
         if not outside.any():
             continue
         windows[j] = windows[j] or summary(j)
@@ -444,7 +566,13 @@ def navigation_restores(dop: DopSettings, dynamics: Dynamics, design_life: Desig
             continue
         out["violations"][j] = violated
         for s in np.flatnonzero(outside):
-            el = (float(sma_km[s]), float(e[s]), float(i[s]), float(raan_rad[s, edges[j + 1]]), float(w[s]))
+            el = (
+                float(sma_km[s]),
+                float(e[s]),
+                float(i[s]),
+                float(raan_rad[s, edges[j + 1]]),
+                float(w[s]),
+            )
             key = tuple(np.round((*el[:3], *el[4:], ref[0][s], ref[1][s], ref[2][s]), 9))
             if key not in costs:
                 costs[key] = _restore_dv_kms(el, (ref[0][s], ref[1][s], ref[2][s]), gm)
@@ -455,14 +583,24 @@ def navigation_restores(dop: DopSettings, dynamics: Dynamics, design_life: Desig
     for key in AVAILABILITY_KEYS:
         values = np.array([w[key] if availability else np.nan for w in windows])
         out[f"{key}_windows"] = values
-        out[f"{key}_life_estimate"] = float(np.sum(values * out["window_days"]) / np.sum(out["window_days"]))
+        out[f"{key}_life_estimate"] = float(
+            np.sum(values * out["window_days"]) / np.sum(out["window_days"])
+        )
         out[f"{key}_worst_month_estimate"] = float(np.min(values))
     return out
 
 
-def life_estimate(sk_estimate: SkEstimateSettings, design_life: DesignLifeSettings, dynamics: Dynamics,
-                  dop: DopSettings, arc: xr.Dataset, screen: xr.Dataset, field: SecularField, tolerances_deg: dict | None = None,
-                  availability: bool = True) -> dict:
+def life_estimate(
+    sk_estimate: SkEstimateSettings,
+    design_life: DesignLifeSettings,
+    dynamics: Dynamics,
+    dop: DopSettings,
+    arc: xr.Dataset,
+    screen: xr.Dataset,
+    field: SecularField,
+    tolerances_deg: dict | None = None,
+    availability: bool = True,
+) -> dict:
     """The estimate for the evaluator's arc (every satellite) and the screen of the same states over the life.
 
     ``arc``: a propagator Dataset; ``screen``: :func:`lnss_lib.design_life.screen.screen_states` of its first
@@ -491,7 +629,9 @@ def life_estimate(sk_estimate: SkEstimateSettings, design_life: DesignLifeSettin
     n_sat = a.size
 
     floor = dynamics.r_impact_km + svc.perilune_margin_km + perilune_dip_km(states, gm)
-    mel = np.stack([np.broadcast_to(a[:, None], ecc.shape), ecc, inc, raan, aop, np.zeros_like(ecc)], axis=-1)
+    mel = np.stack(
+        [np.broadcast_to(a[:, None], ecc.shape), ecc, inc, raan, aop, np.zeros_like(ecc)], axis=-1
+    )
     e_vec, j_vec = mean_vectors_j2000(np.nan_to_num(mel).reshape(-1, 6), rot)
     lost = ~np.isfinite(ecc.ravel())
     e_vec[lost], j_vec[lost] = np.nan, np.nan
@@ -506,58 +646,115 @@ def life_estimate(sk_estimate: SkEstimateSettings, design_life: DesignLifeSettin
         floor_q = float(np.max(floor[members]))
         if np.isnan(_first_below(t_days, a[i] * (1.0 - ecc[i])[None], floor_q)[0]):
             continue
-        dv, count, e_ctl, j_ctl = safety_dv_kms(field, t_days, float(a[i]), e_vec[i], j_vec[i], floor_q,
-                                                svc.safety_lead_days, svc.safety_check_days)
+        dv, count, e_ctl, j_ctl = safety_dv_kms(
+            field,
+            t_days,
+            float(a[i]),
+            e_vec[i],
+            j_vec[i],
+            floor_q,
+            svc.safety_lead_days,
+            svc.safety_check_days,
+        )
         safety[members], n_burns[members] = dv / years, count
         e_vec[members], j_vec[members] = e_ctl, j_ctl
-    u, back = _distinct_rows(e_vec.reshape(n_sat, -1), j_vec.reshape(n_sat, -1))   # a raised plane shares one
+    u, back = _distinct_rows(
+        e_vec.reshape(n_sat, -1), j_vec.reshape(n_sat, -1)
+    )  # a raised plane shares one
     controlled = elements_from_vectors(e_vec[u], j_vec[u], rot.T)
     ecc = controlled["ecc"][back]
     inc, raan, aop = (np.radians(controlled[k])[back] for k in ("inc_deg", "raan_deg", "aop_deg"))
 
-    p = a[:, None] * (1.0 - ecc ** 2)
+    p = a[:, None] * (1.0 - ecc**2)
     h_over_p = np.sqrt(gm / p)
     node_cost = np.nan_to_num(h_over_p * np.abs(np.sin(inc)) * (1.0 - ecc * np.abs(np.sin(aop))))
     raan_drift = _fill_forward_rates(np.unwrap(raan, axis=1)) - raan[:, :1]
     half_node = raan_half_width_rad(np.radians(tol_deg["raan_rel"]), inc[:, 0])
     osc = state_to_elements(to_element_frame(states[:, 0], rot), gm)
-    nav = navigation_restores(dop, dynamics, design_life, t0, t_days, a, osc[:, 4] + osc[:, 5],
-                              raan[:, :1] + raan_drift, *(_hold_last(x) for x in (ecc, inc, aop)), rot, availability)
+    nav = navigation_restores(
+        dop,
+        dynamics,
+        design_life,
+        t0,
+        t_days,
+        a,
+        osc[:, 4] + osc[:, 5],
+        raan[:, :1] + raan_drift,
+        *(_hold_last(x) for x in (ecc, inc, aop)),
+        rot,
+        availability,
+    )
     node = np.zeros(n_sat)
-    for i, events in enumerate(node_corrections(t_days, raan_drift, half_node, design_life.target_fraction,
-                                                design_life.min_maneuver_spacing_days)):
+    for i, events in enumerate(
+        node_corrections(
+            t_days,
+            raan_drift,
+            half_node,
+            design_life.target_fraction,
+            design_life.min_maneuver_spacing_days,
+        )
+    ):
         node[i] = sum(abs(change) * node_cost[i, k] for k, change in events) / years
 
     aop_drift = _fill_forward_rates(np.unwrap(aop, axis=1)) - aop[:, :1]
     arc_t = arc["time"].values
-    drift = mean_drift(arc_t, np.concatenate([states[..., :3] @ rot, states[..., 3:] @ rot], axis=-1), gm,
-                       sk_estimate.min_periods)
+    drift = mean_drift(
+        arc_t,
+        np.concatenate([states[..., :3] @ rot, states[..., 3:] @ rot], axis=-1),
+        gm,
+        sk_estimate.min_periods,
+    )
     arc_days = (arc_t[-1] - arc_t[0]) / SECONDS_PER_DAY
     k_arc = min(int(np.searchsorted(t_days, arc_days)), t_days.size - 1)
     aop_rate = aop_drift[:, k_arc] / max(t_days[k_arc], 1e-9) / SECONDS_PER_DAY
-    trimmed = drift["u_dot"] + 1.5 * np.sqrt(gm / a ** 3) * (drift["a_km"] - a) / a     # at the design's mean a
+    trimmed = (
+        drift["u_dot"] + 1.5 * np.sqrt(gm / a**3) * (drift["a_km"] - a) / a
+    )  # at the design's mean a
     u_drift = (trimmed - aop_rate)[:, None] * t_days[None, :] * SECONDS_PER_DAY + aop_drift
-    phase_cost = np.nan_to_num(np.sqrt(1.0 - ecc ** 2) * a[:, None] / 3.0)
+    phase_cost = np.nan_to_num(np.sqrt(1.0 - ecc**2) * a[:, None] / 3.0)
     phase = np.zeros(n_sat)
     lookahead = design_life.check_interval_days
-    events_by_sat = phase_corrections(t_days, u_drift, np.radians(tol_deg["u_rel"]), design_life.target_fraction,
-                                      design_life.slot_coast_days, lookahead)
+    events_by_sat = phase_corrections(
+        t_days,
+        u_drift,
+        np.radians(tol_deg["u_rel"]),
+        design_life.target_fraction,
+        design_life.slot_coast_days,
+        lookahead,
+    )
     for i, events in enumerate(events_by_sat):
         phase[i] = sum(abs(change) * phase_cost[i, k] for k, change in events) / years
 
-    per_sat = {"safety": safety, "navigation": nav["dv_kms"] / years, "relative_node": node, "phase": phase}
+    per_sat = {
+        "safety": safety,
+        "navigation": nav["dv_kms"] / years,
+        "relative_node": node,
+        "phase": phase,
+    }
     per_sat["total"] = sum(per_sat[k] for k in PARTS)
     total = per_sat["total"]
-    return {"sk_dv_estimate_kms_per_year": float(np.mean(total)),
-            "sk_dv_estimate_max_kms_per_year": float(np.max(total)),
-            "per_sat": per_sat, "n_safety_burns": n_burns, "n_navigation_restores": nav["n_restores"],
-            **{key: nav[key] for key in LIFE_NAVIGATION_KEYS}, "navigation_windows": nav,
-            "wall_s": time.perf_counter() - start}
+    return {
+        "sk_dv_estimate_kms_per_year": float(np.mean(total)),
+        "sk_dv_estimate_max_kms_per_year": float(np.max(total)),
+        "per_sat": per_sat,
+        "n_safety_burns": n_burns,
+        "n_navigation_restores": nav["n_restores"],
+        **{key: nav[key] for key in LIFE_NAVIGATION_KEYS},
+        "navigation_windows": nav,
+        "wall_s": time.perf_counter() - start,
+    }
 
 
-def campaign_estimate(sk_estimate: SkEstimateSettings, stability: StabilitySettings, design_life: DesignLifeSettings,
-                      dynamics: Dynamics, dop: DopSettings, arc: xr.Dataset, screen: xr.Dataset | None = None,
-                      availability: bool = True) -> dict:
+def campaign_estimate(
+    sk_estimate: SkEstimateSettings,
+    stability: StabilitySettings,
+    design_life: DesignLifeSettings,
+    dynamics: Dynamics,
+    dop: DopSettings,
+    arc: xr.Dataset,
+    screen: xr.Dataset | None = None,
+    availability: bool = True,
+) -> dict:
     """``[sk_estimate] model``'s estimate for a propagator Dataset (every satellite; e.g. the evaluator's arc).
 
     ``"arc"``: :func:`lnss_lib.design_life.estimate.sk_estimate_from_propagation`; ``"life"``: :func:`life_estimate`
@@ -570,7 +767,17 @@ def campaign_estimate(sk_estimate: SkEstimateSettings, stability: StabilitySetti
         return sk_estimate_from_propagation(sk_estimate, dynamics, arc)
     t0 = float(arc["time"].values[0])
     if screen is None:
-        first = np.concatenate([arc["r_mci_km"].values[:, 0], arc["v_mci_kms"].values[:, 0]], axis=-1)
+        first = np.concatenate(
+            [arc["r_mci_km"].values[:, 0], arc["v_mci_kms"].values[:, 0]], axis=-1
+        )
         screen = screen_states(stability, dynamics, first, t0)
-    return life_estimate(sk_estimate, design_life, dynamics, dop, arc, screen, cached_field(stability, dynamics, t0)[0],
-                         availability=availability)
+    return life_estimate(
+        sk_estimate,
+        design_life,
+        dynamics,
+        dop,
+        arc,
+        screen,
+        cached_field(stability, dynamics, t0)[0],
+        availability=availability,
+    )

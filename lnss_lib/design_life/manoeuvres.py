@@ -24,8 +24,14 @@ from itertools import combinations
 
 import numpy as np
 
-from ..elements import (TWO_PI, elements_to_state, kepler_states, mean_anomaly_from_true, state_to_elements,
-                       true_anomaly_from_mean)
+from ..elements import (
+    TWO_PI,
+    elements_to_state,
+    kepler_states,
+    mean_anomaly_from_true,
+    state_to_elements,
+    true_anomaly_from_mean,
+)
 from ..frames import rtn_basis
 from ..gve import gve_matrix, orbit_quantities
 
@@ -67,7 +73,10 @@ def impulsive_gve_matrix(elements: np.ndarray, gm_km3_s2: float) -> np.ndarray:
     a, e, inc, nu, theta, p, h, r = orbit_quantities(el, gm_km3_s2)
     sn, cn = np.sin(nu), np.cos(nu)
     beta = np.sqrt(1.0 - e * e)
-    row_m = np.stack([beta / (h * e) * (p * cn - 2.0 * r * e), -beta / (h * e) * (p + r) * sn, np.zeros_like(a)], axis=-1)
+    row_m = np.stack(
+        [beta / (h * e) * (p * cn - 2.0 * r * e), -beta / (h * e) * (p + r) * sn, np.zeros_like(a)],
+        axis=-1,
+    )
     return np.concatenate([gve_matrix(el, gm_km3_s2), row_m[..., None, :]], axis=-2)
 
 
@@ -83,20 +92,39 @@ def control_gve_matrix(elements: np.ndarray, gm_km3_s2: float) -> np.ndarray:
     st = np.sin(theta)
     beta = np.sqrt(1.0 - e * e)
     cot_i = np.cos(inc) / np.sin(inc)
-    b = gve_matrix(el, gm_km3_s2, e_times_aop=True)         # rows a, e, i, raan, e aop-dot
+    b = gve_matrix(el, gm_km3_s2, e_times_aop=True)  # rows a, e, i, raan, e aop-dot
     row_e, row_e_daop = b[..., 1, :], b[..., 4, :]
     ca, sa = np.cos(el[..., 4])[..., None], np.sin(el[..., 4])[..., None]
     k = e / (1.0 + beta)
-    row_u = np.stack([row_e_daop[..., 0] * k - 2.0 * r * beta / h, row_e_daop[..., 1] * k, -r * st * cot_i / h], axis=-1)
-    rows = [b[..., 0, :], ca * row_e - sa * row_e_daop, sa * row_e + ca * row_e_daop, b[..., 2, :], b[..., 3, :], row_u]
+    row_u = np.stack(
+        [row_e_daop[..., 0] * k - 2.0 * r * beta / h, row_e_daop[..., 1] * k, -r * st * cot_i / h],
+        axis=-1,
+    )
+    rows = [
+        b[..., 0, :],
+        ca * row_e - sa * row_e_daop,
+        sa * row_e + ca * row_e_daop,
+        b[..., 2, :],
+        b[..., 3, :],
+        row_u,
+    ]
     return np.stack(rows, axis=-2)
 
 
 def control_elements(elements: np.ndarray) -> np.ndarray:
     """Control set (..., 6) ``[a, e cos(aop), e sin(aop), i, raan, aop + M]`` of classical elements (..., 6)."""
     el = np.asarray(elements, dtype=float)
-    return np.stack([el[..., 0], el[..., 1] * np.cos(el[..., 4]), el[..., 1] * np.sin(el[..., 4]), el[..., 2],
-                     el[..., 3], el[..., 4] + el[..., 5]], axis=-1)
+    return np.stack(
+        [
+            el[..., 0],
+            el[..., 1] * np.cos(el[..., 4]),
+            el[..., 1] * np.sin(el[..., 4]),
+            el[..., 2],
+            el[..., 3],
+            el[..., 4] + el[..., 5],
+        ],
+        axis=-1,
+    )
 
 
 def candidate_true_anomalies(e: float, aop_rad: float) -> np.ndarray:
@@ -125,7 +153,9 @@ class ImpulsePlan:
         return float(np.sum(np.linalg.norm(self.dv_rtn_kms, axis=-1)))
 
 
-def kepler_achieved(elements: np.ndarray, gm_km3_s2: float, dt_s, dv_rtn_kms, horizon_s: float) -> np.ndarray:
+def kepler_achieved(
+    elements: np.ndarray, gm_km3_s2: float, dt_s, dv_rtn_kms, horizon_s: float
+) -> np.ndarray:
     """Change (6,) of the control set (:data:`CONTROL_ROWS`, angles wrapped) at ``horizon_s`` after the epoch
     of ``elements`` when the impulses ``dv_rtn_kms`` (k, 3) are flown at ``dt_s`` (k,) in two-body motion,
     against the same coast without them. Impulses that open the orbit (e >= 1) give NaN, without a warning:
@@ -134,11 +164,15 @@ def kepler_achieved(elements: np.ndarray, gm_km3_s2: float, dt_s, dv_rtn_kms, ho
     state, t = elements_to_state(el, gm_km3_s2), 0.0
     with np.errstate(invalid="ignore"):
         for dt, dv in zip(dt_s, dv_rtn_kms):
-            state = apply_impulse(kepler_states(state_to_elements(state, gm_km3_s2), [dt - t], gm_km3_s2)[0, 0], dv)
+            state = apply_impulse(
+                kepler_states(state_to_elements(state, gm_km3_s2), [dt - t], gm_km3_s2)[0, 0], dv
+            )
             t = float(dt)
         final = kepler_states(state_to_elements(state, gm_km3_s2), [horizon_s - t], gm_km3_s2)[0, 0]
     nominal = kepler_states(el, [horizon_s], gm_km3_s2)[0, 0]
-    diff = control_elements(state_to_elements(final, gm_km3_s2)) - control_elements(state_to_elements(nominal, gm_km3_s2))
+    diff = control_elements(state_to_elements(final, gm_km3_s2)) - control_elements(
+        state_to_elements(nominal, gm_km3_s2)
+    )
     diff[3:] = np.mod(diff[3:] + np.pi, TWO_PI) - np.pi
     return diff
 
@@ -150,7 +184,9 @@ def lowest_perilune_km(elements: np.ndarray, gm_km3_s2: float, dt_s, dv_rtn_kms)
     state, t, low = elements_to_state(np.asarray(elements, dtype=float), gm_km3_s2), 0.0, np.inf
     with np.errstate(invalid="ignore"):
         for dt, dv in zip(dt_s, dv_rtn_kms):
-            state = apply_impulse(kepler_states(state_to_elements(state, gm_km3_s2), [dt - t], gm_km3_s2)[0, 0], dv)
+            state = apply_impulse(
+                kepler_states(state_to_elements(state, gm_km3_s2), [dt - t], gm_km3_s2)[0, 0], dv
+            )
             t = float(dt)
             a, e = state_to_elements(state, gm_km3_s2)[:2]
             if not (np.isfinite(a) and np.isfinite(e) and a > 0.0 and e < 1.0):
@@ -159,9 +195,17 @@ def lowest_perilune_km(elements: np.ndarray, gm_km3_s2: float, dt_s, dv_rtn_kms)
     return low
 
 
-def plan_impulses(elements: np.ndarray, gm_km3_s2: float, target: dict, *, horizon_s: float | None = None,
-                  max_burns: int = 2, true_anomalies=None, min_dv_kms: float = 0.0,
-                  newton_steps: int = 3) -> ImpulsePlan:
+def plan_impulses(
+    elements: np.ndarray,
+    gm_km3_s2: float,
+    target: dict,
+    *,
+    horizon_s: float | None = None,
+    max_burns: int = 2,
+    true_anomalies=None,
+    min_dv_kms: float = 0.0,
+    newton_steps: int = 3,
+) -> ImpulsePlan:
     """One or two impulses on the next orbit that change the control set (:data:`CONTROL_ROWS`) by ``target``.
 
     ``elements`` (6,) ``[a, e, i, raan, aop, M]`` (km, rad) are the osculating (or mean) elements now;
@@ -176,19 +220,27 @@ def plan_impulses(elements: np.ndarray, gm_km3_s2: float, target: dict, *, horiz
     """
     el = np.asarray(elements, dtype=float)
     if el.shape != (6,) or not np.all(np.isfinite(el)):
-        raise ValueError(f"elements must be 6 finite values [sma_km, e, i, raan, aop, M] (rad); got {el!r}")
+        raise ValueError(
+            f"elements must be 6 finite values [sma_km, e, i, raan, aop, M] (rad); got {el!r}"
+        )
     unknown = set(target) - set(CONTROL_ROWS)
     if unknown or not target:
         raise ValueError(f"target must name rows of {CONTROL_ROWS}; got {sorted(target)}")
     a, e = el[0], el[1]
-    n = np.sqrt(gm_km3_s2 / a ** 3)
+    n = np.sqrt(gm_km3_s2 / a**3)
     period = TWO_PI / n
     horizon = period if horizon_s is None else float(horizon_s)
-    nus = candidate_true_anomalies(e, el[4]) if true_anomalies is None else np.mod(np.asarray(true_anomalies), TWO_PI)
+    nus = (
+        candidate_true_anomalies(e, el[4])
+        if true_anomalies is None
+        else np.mod(np.asarray(true_anomalies), TWO_PI)
+    )
     m_now = np.mod(el[5], TWO_PI)
     dts = np.mod(mean_anomaly(nus, e) - m_now, TWO_PI) / n
     if np.any(dts > horizon):
-        raise ValueError(f"horizon {horizon:.0f} s ends before burn point(s) at {dts[dts > horizon]} s")
+        raise ValueError(
+            f"horizon {horizon:.0f} s ends before burn point(s) at {dts[dts > horizon]} s"
+        )
     rows = [CONTROL_ROWS.index(k) for k in target]
     # scale: angles and e-vector in units of 1e-3; a by the along-track drift it causes in one orbit
     # (3 pi da/a rad), so that holding a weighs as much as holding u

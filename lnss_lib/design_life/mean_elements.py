@@ -53,12 +53,16 @@ def mean_elements(states: np.ndarray, gm_km3_s2: float) -> np.ndarray:
     inc = np.arccos(np.clip(h_mean[..., 2], -1.0, 1.0))
     node = np.stack([-h_mean[..., 1], h_mean[..., 0], np.zeros_like(inc)], axis=-1)
     node_norm = np.linalg.norm(node, axis=-1, keepdims=True)
-    node_hat = np.where(node_norm > 1e-12, node / np.where(node_norm > 1e-12, node_norm, 1.0), np.array([1.0, 0, 0]))
+    node_hat = np.where(
+        node_norm > 1e-12, node / np.where(node_norm > 1e-12, node_norm, 1.0), np.array([1.0, 0, 0])
+    )
     raan = np.mod(np.arctan2(node_hat[..., 1], node_hat[..., 0]), TWO_PI)
     e_in = e_mean - np.sum(e_mean * h_mean, axis=-1, keepdims=True) * h_mean
     ecc = np.linalg.norm(e_in, axis=-1)
     across = np.cross(h_mean, node_hat)
-    aop = np.mod(np.arctan2(np.sum(e_in * across, axis=-1), np.sum(e_in * node_hat, axis=-1)), TWO_PI)
+    aop = np.mod(
+        np.arctan2(np.sum(e_in * across, axis=-1), np.sum(e_in * node_hat, axis=-1)), TWO_PI
+    )
     osc = state_to_elements(s, gm_km3_s2)
     u_osc = np.unwrap(osc[..., 4] + osc[..., 5], axis=-1)
     u_mean = np.mod(np.einsum("...n,n->...", u_osc, w), TWO_PI)
@@ -77,7 +81,9 @@ def circular_mean(angle_rad, axis=-1):
     return np.arctan2(np.nansum(np.sin(ang), axis=axis), np.nansum(np.cos(ang), axis=axis))
 
 
-def relative_angles(angle_rad: np.ndarray, nominal_rad: np.ndarray, active: np.ndarray | None = None) -> np.ndarray:
+def relative_angles(
+    angle_rad: np.ndarray, nominal_rad: np.ndarray, active: np.ndarray | None = None
+) -> np.ndarray:
     """Angle minus its nominal value minus the circular mean of that difference over the satellites
     (``active`` ones only), wrapped to [-pi, pi): each satellite's offset from its slot when the common
     motion of the whole constellation (RAAN precession, mean along-track motion) is left free."""

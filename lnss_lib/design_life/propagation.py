@@ -8,22 +8,42 @@ from __future__ import annotations
 import numba as nb
 import numpy as np
 
+from ..constants import SECONDS_PER_DAY
 from ..elements import orbital_period_s
 from ..ephemeris import EphemerisTable, ensure_kernels
-from ..constants import SECONDS_PER_DAY
 from ..forces import SCRATCH_SIZE, ForceModel
 from ..frames import element_frame_to_j2000
 from ..gravity import new_workspace
-from .mean_elements import mean_elements, to_element_frame, wrap_pi
+from ..propagator import (
+    METHODS,
+    STATUS_NOT_RUN,
+    STATUS_OK,
+    check_batch,
+    elements_deg_to_states,
+    integrate_one,
+)
 from ..settings import Dynamics, IntegratorSetting
-from ..propagator import METHODS, STATUS_NOT_RUN, STATUS_OK, check_batch, elements_deg_to_states, integrate_one
+from .mean_elements import mean_elements, to_element_frame, wrap_pi
 
 __all__ = ["integrate_chunk", "life_force_model", "trim_to_mean", "TRIM_ELEMENTS"]
 
 
 @nb.njit(cache=True, parallel=True)
-def integrate_chunk(y0s, active, t0, t_out, burn_t, burn_dv_rtn, method, rtol, atol, r_min_km, max_steps,
-                    args, degree):
+def integrate_chunk(
+    y0s,
+    active,
+    t0,
+    t_out,
+    burn_t,
+    burn_dv_rtn,
+    method,
+    rtol,
+    atol,
+    r_min_km,
+    max_steps,
+    args,
+    degree,
+):
     """Integrate each active satellite from (t0, y0) to t_out[-1], flying its burns on the way.
 
     ``burn_t`` (n_sat, k) burn epochs in (t0, t_out[-1]] (NaN = none, sorted), ``burn_dv_rtn``
@@ -64,7 +84,9 @@ def integrate_chunk(y0s, active, t0, t_out, burn_t, burn_dv_rtn, method, rtol, a
             seg[count] = t_seg
             if count > 0 and seg[count - 1] == t_seg:
                 seg = seg[:count]
-            out, st, ts, _ = integrate_one(y, t, seg, method, rtol, atol, r_min_km, max_steps, args, work)
+            out, st, ts, _ = integrate_one(
+                y, t, seg, method, rtol, atol, r_min_km, max_steps, args, work
+            )
             for c in range(count):
                 states[i, idx[c]] = out[c]
             if st != 0:
@@ -78,11 +100,21 @@ def integrate_chunk(y0s, active, t0, t_out, burn_t, burn_dv_rtn, method, rtol, a
             r = y[:3]
             v = y[3:]
             rn = np.sqrt(r[0] ** 2 + r[1] ** 2 + r[2] ** 2)
-            hx, hy, hz = r[1] * v[2] - r[2] * v[1], r[2] * v[0] - r[0] * v[2], r[0] * v[1] - r[1] * v[0]
+            hx, hy, hz = (
+                r[1] * v[2] - r[2] * v[1],
+                r[2] * v[0] - r[0] * v[2],
+                r[0] * v[1] - r[1] * v[0],
+            )
             hn = np.sqrt(hx * hx + hy * hy + hz * hz)
             rh = r / rn
             nh = np.array([hx, hy, hz]) / hn
-            th = np.array([nh[1] * rh[2] - nh[2] * rh[1], nh[2] * rh[0] - nh[0] * rh[2], nh[0] * rh[1] - nh[1] * rh[0]])
+            th = np.array(
+                [
+                    nh[1] * rh[2] - nh[2] * rh[1],
+                    nh[2] * rh[0] - nh[0] * rh[2],
+                    nh[0] * rh[1] - nh[1] * rh[0],
+                ]
+            )
             dv = burn_dv_rtn[i, k]
             for q in range(3):
                 y[3 + q] += dv[0] * rh[q] + dv[1] * th[q] + dv[2] * nh[q]
@@ -93,7 +125,9 @@ def integrate_chunk(y0s, active, t0, t_out, burn_t, burn_dv_rtn, method, rtol, a
     return states, y_end, status, t_stop
 
 
-def life_force_model(dynamics: Dynamics, t0_tdb_s: float, life_days: float, degree: int | None = None) -> ForceModel:
+def life_force_model(
+    dynamics: Dynamics, t0_tdb_s: float, life_days: float, degree: int | None = None
+) -> ForceModel:
     """One force model whose ephemeris table spans the whole life (plus one day of margin)."""
     ensure_kernels(dynamics.ephemeris)
     table = EphemerisTable.build(dynamics, t0_tdb_s, t0_tdb_s + (life_days + 1.0) * SECONDS_PER_DAY)
@@ -104,8 +138,16 @@ TRIM_ELEMENTS = (0, 1, 2, 3, 4)
 """Columns of ``[a, e, i, raan, aop]`` trimmed so that their one-orbit means equal the design's."""
 
 
-def trim_to_mean(dynamics: Dynamics, elements_deg, t0_tdb_s: float, model: ForceModel, integ: IntegratorSetting, *,
-                 samples_per_orbit: int = 64, iterations: int = 4) -> tuple[np.ndarray, np.ndarray]:
+def trim_to_mean(
+    dynamics: Dynamics,
+    elements_deg,
+    t0_tdb_s: float,
+    model: ForceModel,
+    integ: IntegratorSetting,
+    *,
+    samples_per_orbit: int = 64,
+    iterations: int = 4,
+) -> tuple[np.ndarray, np.ndarray]:
     """Osculating insertion elements (n_sat, 6) (deg) whose mean elements over the first orbit equal ``elements_deg``.
 
     The design's elements are read as MEAN elements (an operator deploys satellites with matched mean
@@ -134,26 +176,51 @@ def trim_to_mean(dynamics: Dynamics, elements_deg, t0_tdb_s: float, model: Force
         for i in range(n_sat):
             t_win = t0_tdb_s + period[i] * np.linspace(0.0, 1.0, n_win + 1)
             out, _, status, _ = integrate_chunk(
-                states[i:i + 1], np.ones(1, dtype=bool), t0_tdb_s, t_win, np.full((1, 1), np.nan), np.zeros((1, 1, 3)),
-                METHODS.index(integ.method), integ.rtol, integ.atol, r_min, 5_000_000,
-                model.kernel_args, model.field.degree)
+                states[i : i + 1],
+                np.ones(1, dtype=bool),
+                t0_tdb_s,
+                t_win,
+                np.full((1, 1), np.nan),
+                np.zeros((1, 1, 3)),
+                METHODS.index(integ.method),
+                integ.rtol,
+                integ.atol,
+                r_min,
+                5_000_000,
+                model.kernel_args,
+                model.field.degree,
+            )
             if status[0] != STATUS_OK:
-                if status[0] == STATUS_NOT_RUN:                 # the compiled loop lost an error: never a loss
+                if status[0] == STATUS_NOT_RUN:  # the compiled loop lost an error: never a loss
                     check_batch(status, np.full(1, np.nan), out, t_win, t0_tdb_s)
                 done[i] = True
                 continue
-            check_batch(status, np.full(1, np.nan), out, t_win, t0_tdb_s)     # "ok" means every sample was written
-            out[0, 0] = states[i]                  # the kernel fills epochs after t0 only
+            check_batch(
+                status, np.full(1, np.nan), out, t_win, t0_tdb_s
+            )  # "ok" means every sample was written
+            out[0, 0] = states[i]  # the kernel fills epochs after t0 only
             mean[i] = mean_elements(to_element_frame(out[0], rot), gm)
-        u_design = np.radians(design[:, 4] + design[:, 5]) + np.pi          # one orbit: u advances 2 pi, centre at pi
-        resid = np.column_stack([mean[:, 0] - design[:, 0], mean[:, 1] - design[:, 1],
-                                 np.degrees(wrap_pi(mean[:, 2:5] - np.radians(design[:, 2:5]))),
-                                 np.degrees(wrap_pi(mean[:, 5] - u_design))])
+        u_design = (
+            np.radians(design[:, 4] + design[:, 5]) + np.pi
+        )  # one orbit: u advances 2 pi, centre at pi
+        resid = np.column_stack(
+            [
+                mean[:, 0] - design[:, 0],
+                mean[:, 1] - design[:, 1],
+                np.degrees(wrap_pi(mean[:, 2:5] - np.radians(design[:, 2:5]))),
+                np.degrees(wrap_pi(mean[:, 5] - u_design)),
+            ]
+        )
         if _ == iterations:
             break
         step = osc.copy()
         step[:, list(TRIM_ELEMENTS)] -= resid[:, list(TRIM_ELEMENTS)]
-        step[:, 5] -= resid[:, 5] - resid[:, 4]     # u = aop + M: the aop trim already moved u
-        done |= ~(np.all(np.isfinite(step), axis=1) & (step[:, 0] > 0.0) & (step[:, 1] >= 0.0) & (step[:, 1] < 1.0))
+        step[:, 5] -= resid[:, 5] - resid[:, 4]  # u = aop + M: the aop trim already moved u
+        done |= ~(
+            np.all(np.isfinite(step), axis=1)
+            & (step[:, 0] > 0.0)
+            & (step[:, 1] >= 0.0)
+            & (step[:, 1] < 1.0)
+        )
         osc = np.where(done[:, None], osc, step)
     return osc, resid

@@ -64,17 +64,31 @@ import xarray as xr
 from scipy.integrate import solve_ivp
 from scipy.interpolate import CubicSpline
 
-from ..sections import STABILITY_BODIES
 from ..constants import SECONDS_PER_DAY
 from ..elements import eccentricity_vector, vis_viva_sma_km
 from ..ephemeris import body_states_mci, ensure_kernels, rotation, tdb_seconds
 from ..frames import element_frame_to_j2000
 from ..gravity import GravityField
+from ..sections import STABILITY_BODIES
 from ..settings import Dynamics, EpochSettings, GravitySettings, StabilitySettings
 
-__all__ = ["SecularField", "TideSamples", "MonthlyTide", "monthly_offsets", "orbit_vectors_ej", "secular_rates",
-           "averaged_potential", "integrate_secular", "elements_from_vectors", "screen_states", "screen_elements",
-           "cached_field", "classical_j2_rates", "kozai_e_max", "circular_tide_tensor"]
+__all__ = [
+    "SecularField",
+    "TideSamples",
+    "MonthlyTide",
+    "monthly_offsets",
+    "orbit_vectors_ej",
+    "secular_rates",
+    "averaged_potential",
+    "integrate_secular",
+    "elements_from_vectors",
+    "screen_states",
+    "screen_elements",
+    "cached_field",
+    "classical_j2_rates",
+    "kozai_e_max",
+    "circular_tide_tensor",
+]
 
 SIDEREAL_MONTH_DAYS = 27.321661
 BODIES = STABILITY_BODIES
@@ -105,26 +119,41 @@ class SecularField:
     r_ref_km: float
 
     @classmethod
-    def constant(cls, tide, pole, gm_km3_s2: float, j2: float, r_ref_km: float) -> "SecularField":
+    def constant(cls, tide, pole, gm_km3_s2: float, j2: float, r_ref_km: float) -> SecularField:
         """A field with fixed T (3, 3) and pole (3,) (analytic tests, frozen geometry)."""
         tide = np.asarray(tide, dtype=float).reshape(3, 3)
         pole = np.asarray(pole, dtype=float) / np.linalg.norm(pole)
-        return cls(np.array([0.0, 1.0]), np.stack([tide, tide]), np.stack([pole, pole]), float(gm_km3_s2),
-                   float(j2), float(r_ref_km))
+        return cls(
+            np.array([0.0, 1.0]),
+            np.stack([tide, tide]),
+            np.stack([pole, pole]),
+            float(gm_km3_s2),
+            float(j2),
+            float(r_ref_km),
+        )
 
     @classmethod
-    def from_settings(cls, stability: StabilitySettings, dynamics: Dynamics, t0_tdb_s: float,
-                      life_days: float) -> "SecularField":
+    def from_settings(
+        cls, stability: StabilitySettings, dynamics: Dynamics, t0_tdb_s: float, life_days: float
+    ) -> SecularField:
         """T and k from SPICE over ``life_days`` (running one-month mean of ``[stability]``), J2 from the gravity file."""
         span = life_days if stability.precession else 0.0
-        return cls.from_samples(stability, dynamics, t0_tdb_s, TideSamples.from_settings(stability, dynamics, t0_tdb_s, span))
+        return cls.from_samples(
+            stability,
+            dynamics,
+            t0_tdb_s,
+            TideSamples.from_settings(stability, dynamics, t0_tdb_s, span),
+        )
 
     @classmethod
-    def from_samples(cls, stability: StabilitySettings, dynamics: Dynamics, t0_tdb_s: float,
-                     samples: "TideSamples") -> "SecularField":
+    def from_samples(
+        cls, stability: StabilitySettings, dynamics: Dynamics, t0_tdb_s: float, samples: TideSamples
+    ) -> SecularField:
         """The field of :meth:`from_settings` from tide samples already taken (``samples.out_days`` nodes)."""
         tide, out_days = samples.running_mean(samples.inst), samples.out_days
-        pole = rotation(dynamics.frames.gravity, "J2000", t0_tdb_s + out_days * SECONDS_PER_DAY)[:, :, 2]
+        pole = rotation(dynamics.frames.gravity, "J2000", t0_tdb_s + out_days * SECONDS_PER_DAY)[
+            :, :, 2
+        ]
         if not stability.precession:
             return cls.constant(tide[0], pole[0], *_gravity_constants(dynamics.gravity))
         return cls(out_days, tide, pole, *_gravity_constants(dynamics.gravity))
@@ -135,7 +164,7 @@ class SecularField:
         object.__setattr__(self, "_knots", np.ascontiguousarray(spline.x, dtype=float))
         object.__setattr__(self, "_coef", np.ascontiguousarray(spline.c, dtype=float))
 
-    def shifted(self, days: float) -> "SecularField":
+    def shifted(self, days: float) -> SecularField:
         """The same field with its epoch ``days`` later: the same cubic on shifted knots (not fitted again)."""
         out = copy.copy(self)
         object.__setattr__(out, "t_days", self.t_days - days)
@@ -159,8 +188,9 @@ class TideSamples:
     half: int
 
     @classmethod
-    def from_settings(cls, stability: StabilitySettings, dynamics: Dynamics, t0_tdb_s: float,
-                      life_days: float) -> "TideSamples":
+    def from_settings(
+        cls, stability: StabilitySettings, dynamics: Dynamics, t0_tdb_s: float, life_days: float
+    ) -> TideSamples:
         ensure_kernels(dynamics.ephemeris)
         step, window = stability.table_step_days, stability.average_days
         half = int(np.ceil(0.5 * window / step))
@@ -174,17 +204,22 @@ class TideSamples:
             dist = np.linalg.norm(r, axis=1)
             inst += gms[body] * np.einsum("ni,nj->nij", r, r) / dist[:, None, None] ** 5
         weights = np.ones(2 * half + 1)
-        weights[[0, -1]] = 0.5 + (0.5 * window / step - half)   # trapezoid over exactly one window
+        weights[[0, -1]] = 0.5 + (0.5 * window / step - half)  # trapezoid over exactly one window
         return cls(t_days, inst, weights / weights.sum(), half)
 
     @property
     def out_days(self) -> np.ndarray:
-        return self.t_days[self.half:self.t_days.size - self.half]
+        return self.t_days[self.half : self.t_days.size - self.half]
 
     def running_mean(self, values: np.ndarray) -> np.ndarray:
         """One-window running mean (n_out, ...) of ``values`` (m, ...) sampled on ``t_days``, at ``out_days``."""
         w = 2 * self.half + 1
-        return np.stack([np.tensordot(self.weights, values[j:j + w], axes=1) for j in range(self.out_days.size)])
+        return np.stack(
+            [
+                np.tensordot(self.weights, values[j : j + w], axes=1)
+                for j in range(self.out_days.size)
+            ]
+        )
 
 
 @dataclass(frozen=True)
@@ -205,18 +240,26 @@ class MonthlyTide:
     z: np.ndarray
 
     @classmethod
-    def from_samples(cls, samples: TideSamples) -> "MonthlyTide":
+    def from_samples(cls, samples: TideSamples) -> MonthlyTide:
         dt_s = np.diff(samples.t_days) * SECONDS_PER_DAY
-        w = np.concatenate([np.zeros((1, 3, 3)),
-                            np.cumsum(0.5 * dt_s[:, None, None] * (samples.inst[1:] + samples.inst[:-1]), axis=0)])
-        core = w[samples.half:samples.t_days.size - samples.half]
+        w = np.concatenate(
+            [
+                np.zeros((1, 3, 3)),
+                np.cumsum(
+                    0.5 * dt_s[:, None, None] * (samples.inst[1:] + samples.inst[:-1]), axis=0
+                ),
+            ]
+        )
+        core = w[samples.half : samples.t_days.size - samples.half]
         return cls(samples.out_days, core - samples.running_mean(w))
 
     def at(self, t_days) -> np.ndarray:
         """Z (n, 3, 3) at days ``t_days`` (n,) (linear between nodes, held outside)."""
         t = np.atleast_1d(np.asarray(t_days, dtype=float))
         flat = self.z.reshape(self.t_days.size, 9)
-        return np.stack([np.interp(t, self.t_days, flat[:, k]) for k in range(9)], axis=-1).reshape(t.size, 3, 3)
+        return np.stack([np.interp(t, self.t_days, flat[:, k]) for k in range(9)], axis=-1).reshape(
+            t.size, 3, 3
+        )
 
 
 def monthly_offsets(e_vec, j_vec, sma_km, z, gm_km3_s2: float) -> tuple[np.ndarray, np.ndarray]:
@@ -228,8 +271,10 @@ def monthly_offsets(e_vec, j_vec, sma_km, z, gm_km3_s2: float) -> tuple[np.ndarr
     grad_e = -0.25 * a**2 * (-12.0 * s * e_vec + 30.0 * np.einsum("...ij,...j->...i", z, e_vec))
     grad_j = 1.5 * a**2 * np.einsum("...ij,...j->...i", z, j_vec)
     inv_l = 1.0 / np.sqrt(gm_km3_s2 * a)
-    return (-inv_l * (np.cross(j_vec, grad_e) + np.cross(e_vec, grad_j)),
-            -inv_l * (np.cross(j_vec, grad_j) + np.cross(e_vec, grad_e)))
+    return (
+        -inv_l * (np.cross(j_vec, grad_e) + np.cross(e_vec, grad_j)),
+        -inv_l * (np.cross(j_vec, grad_j) + np.cross(e_vec, grad_e)),
+    )
 
 
 def _gravity_constants(gravity: GravitySettings) -> tuple[float, float, float]:
@@ -237,7 +282,9 @@ def _gravity_constants(gravity: GravitySettings) -> tuple[float, float, float]:
     return field.gm_km3_s2, float(-field.cnm[2, 0] * np.sqrt(5.0)), field.r_ref_km
 
 
-def orbit_vectors_ej(states: np.ndarray, gm_km3_s2: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+def orbit_vectors_ej(
+    states: np.ndarray, gm_km3_s2: float
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """(sma_km (n,), e vector (n, 3), j = sqrt(1 - e^2) h_hat (n, 3)) of osculating states (n, 6)."""
     s = np.atleast_2d(np.asarray(states, dtype=float))
     r, v = s[:, :3], s[:, 3:]
@@ -259,18 +306,28 @@ def _gradients(e_vec, j_vec, sma_km, tide, pole, gm, j2, r_ref):
     jn = np.linalg.norm(j_vec, axis=1)[:, None]
     jk = (j_vec @ pole)[:, None]
     c = (gm * j2 * r_ref**2 / (4.0 * sma_km**3))[:, None]
-    grad_j = grad_j + c * (-3.0 * j_vec / jn**5 - 6.0 * jk * pole / jn**5 + 15.0 * jk**2 * j_vec / jn**7)
+    grad_j = grad_j + c * (
+        -3.0 * j_vec / jn**5 - 6.0 * jk * pole / jn**5 + 15.0 * jk**2 * j_vec / jn**7
+    )
     return grad_e, grad_j
 
 
-def averaged_potential(e_vec, j_vec, sma_km, tide, pole, gm_km3_s2: float, j2: float, r_ref_km: float) -> np.ndarray:
+def averaged_potential(
+    e_vec, j_vec, sma_km, tide, pole, gm_km3_s2: float, j2: float, r_ref_km: float
+) -> np.ndarray:
     """Doubly-averaged potential per unit mass (n,) (km^2/s^2), tide plus J2 (see module docstring)."""
     e_vec, j_vec = np.atleast_2d(e_vec), np.atleast_2d(j_vec)
     a = np.atleast_1d(np.asarray(sma_km, dtype=float))
     s = np.trace(tide)
-    tide_part = -0.25 * a**2 * (s * (1.0 - 6.0 * np.sum(e_vec**2, axis=1))
-                                - 3.0 * np.einsum("ni,ij,nj->n", j_vec, tide, j_vec)
-                                + 15.0 * np.einsum("ni,ij,nj->n", e_vec, tide, e_vec))
+    tide_part = (
+        -0.25
+        * a**2
+        * (
+            s * (1.0 - 6.0 * np.sum(e_vec**2, axis=1))
+            - 3.0 * np.einsum("ni,ij,nj->n", j_vec, tide, j_vec)
+            + 15.0 * np.einsum("ni,ij,nj->n", e_vec, tide, e_vec)
+        )
+    )
     jn = np.linalg.norm(j_vec, axis=1)
     jk = j_vec @ pole
     return tide_part + gm_km3_s2 * j2 * r_ref_km**2 / (4.0 * a**3) * (jn**-3 - 3.0 * jk**2 * jn**-5)
@@ -280,7 +337,9 @@ def secular_rates(e_vec, j_vec, sma_km, tide, pole, gm_km3_s2: float, j2: float,
     """Milankovitch rates (de/dt, dj/dt), each (n, 3) in 1/s, of vectors (n, 3) with sma_km (n,)."""
     e_vec, j_vec = np.atleast_2d(e_vec), np.atleast_2d(j_vec)
     a = np.atleast_1d(np.asarray(sma_km, dtype=float))
-    grad_e, grad_j = _gradients(e_vec, j_vec, a, np.asarray(tide), np.asarray(pole), gm_km3_s2, j2, r_ref_km)
+    grad_e, grad_j = _gradients(
+        e_vec, j_vec, a, np.asarray(tide), np.asarray(pole), gm_km3_s2, j2, r_ref_km
+    )
     inv_l = (1.0 / np.sqrt(gm_km3_s2 * a))[:, None]
     de = -inv_l * (np.cross(j_vec, grad_e) + np.cross(e_vec, grad_j))
     dj = -inv_l * (np.cross(j_vec, grad_j) + np.cross(e_vec, grad_e))
@@ -300,8 +359,16 @@ def _spline_at(knots: np.ndarray, coef: np.ndarray, t: float) -> np.ndarray:
 
 
 @nb.njit(cache=True)
-def _rhs_kernel(y: np.ndarray, sma_km: np.ndarray, tide: np.ndarray, pole: np.ndarray, gm: float, j2: float,
-                r_ref: float, scale: float) -> np.ndarray:
+def _rhs_kernel(
+    y: np.ndarray,
+    sma_km: np.ndarray,
+    tide: np.ndarray,
+    pole: np.ndarray,
+    gm: float,
+    j2: float,
+    r_ref: float,
+    scale: float,
+) -> np.ndarray:
     """Compiled :func:`secular_rates` on a flat state [e (3), j (3)] per orbit, times ``scale``."""
     n = sma_km.size
     out = np.empty(6 * n)
@@ -309,8 +376,8 @@ def _rhs_kernel(y: np.ndarray, sma_km: np.ndarray, tide: np.ndarray, pole: np.nd
     ge = np.empty(3)
     gj = np.empty(3)
     for q in range(n):
-        e = y[6 * q:6 * q + 3]
-        j = y[6 * q + 3:6 * q + 6]
+        e = y[6 * q : 6 * q + 3]
+        j = y[6 * q + 3 : 6 * q + 6]
         a = sma_km[q]
         jn = np.sqrt(j[0] * j[0] + j[1] * j[1] + j[2] * j[2])
         jk = j[0] * pole[0] + j[1] * pole[1] + j[2] * pole[2]
@@ -319,27 +386,50 @@ def _rhs_kernel(y: np.ndarray, sma_km: np.ndarray, tide: np.ndarray, pole: np.nd
             te = tide[0, m] * e[0] + tide[1, m] * e[1] + tide[2, m] * e[2]
             tj = tide[0, m] * j[0] + tide[1, m] * j[1] + tide[2, m] * j[2]
             ge[m] = -0.25 * a * a * (-12.0 * s * e[m] + 30.0 * te)
-            gj[m] = 1.5 * a * a * tj + c * (-3.0 * j[m] / jn**5 - 6.0 * jk * pole[m] / jn**5
-                                             + 15.0 * jk * jk * j[m] / jn**7)
+            gj[m] = 1.5 * a * a * tj + c * (
+                -3.0 * j[m] / jn**5 - 6.0 * jk * pole[m] / jn**5 + 15.0 * jk * jk * j[m] / jn**7
+            )
         f = -scale / np.sqrt(gm * a)
         for m in range(3):
             m1 = (m + 1) % 3
             m2 = (m + 2) % 3
             out[6 * q + m] = f * (j[m1] * ge[m2] - j[m2] * ge[m1] + e[m1] * gj[m2] - e[m2] * gj[m1])
-            out[6 * q + 3 + m] = f * (j[m1] * gj[m2] - j[m2] * gj[m1] + e[m1] * ge[m2] - e[m2] * ge[m1])
+            out[6 * q + 3 + m] = f * (
+                j[m1] * gj[m2] - j[m2] * gj[m1] + e[m1] * ge[m2] - e[m2] * ge[m1]
+            )
     return out
 
 
 @nb.njit(cache=True)
-def _field_rhs(t_day: float, y: np.ndarray, sma_km: np.ndarray, knots: np.ndarray, coef: np.ndarray, gm: float,
-               j2: float, r_ref: float) -> np.ndarray:
+def _field_rhs(
+    t_day: float,
+    y: np.ndarray,
+    sma_km: np.ndarray,
+    knots: np.ndarray,
+    coef: np.ndarray,
+    gm: float,
+    j2: float,
+    r_ref: float,
+) -> np.ndarray:
     v = _spline_at(knots, coef, t_day)
-    return _rhs_kernel(y, sma_km, v[:9].copy().reshape(3, 3), v[9:].copy(), gm, j2, r_ref, SECONDS_PER_DAY)
+    return _rhs_kernel(
+        y, sma_km, v[:9].copy().reshape(3, 3), v[9:].copy(), gm, j2, r_ref, SECONDS_PER_DAY
+    )
 
 
 @nb.njit(cache=True)
-def _rk4_secular(y0: np.ndarray, sma_km: np.ndarray, floor_km: np.ndarray, t_out: np.ndarray, max_step_days: float,
-                 knots: np.ndarray, coef: np.ndarray, gm: float, j2: float, r_ref: float):
+def _rk4_secular(
+    y0: np.ndarray,
+    sma_km: np.ndarray,
+    floor_km: np.ndarray,
+    t_out: np.ndarray,
+    max_step_days: float,
+    knots: np.ndarray,
+    coef: np.ndarray,
+    gm: float,
+    j2: float,
+    r_ref: float,
+):
     """Classical RK4 over ``t_out`` (each output interval in equal steps of at most ``max_step_days``); an orbit
     whose perilune ``a (1 - |e|)`` reaches its floor stops there (crossing interpolated linearly in the step).
     Returns (states (m, 6 n), NaN after an impact; impact_day (n,); number of right-hand sides)."""
@@ -349,11 +439,13 @@ def _rk4_secular(y0: np.ndarray, sma_km: np.ndarray, floor_km: np.ndarray, t_out
     y = y0.copy()
     margin = np.empty(n)
     for q in range(n):
-        e = y[6 * q:6 * q + 3]
-        margin[q] = sma_km[q] * (1.0 - np.sqrt(e[0] * e[0] + e[1] * e[1] + e[2] * e[2])) - floor_km[q]
+        e = y[6 * q : 6 * q + 3]
+        margin[q] = (
+            sma_km[q] * (1.0 - np.sqrt(e[0] * e[0] + e[1] * e[1] + e[2] * e[2])) - floor_km[q]
+        )
         if margin[q] <= 0.0:
             impact[q] = t_out[0]
-            y[6 * q:6 * q + 6] = np.nan
+            y[6 * q : 6 * q + 6] = np.nan
     out[0] = y
     n_rhs = 0
     for i in range(t_out.size - 1):
@@ -370,11 +462,14 @@ def _rk4_secular(y0: np.ndarray, sma_km: np.ndarray, floor_km: np.ndarray, t_out
             for q in range(n):
                 if not np.isnan(impact[q]):
                     continue
-                e = y[6 * q:6 * q + 3]
-                m = sma_km[q] * (1.0 - np.sqrt(e[0] * e[0] + e[1] * e[1] + e[2] * e[2])) - floor_km[q]
+                e = y[6 * q : 6 * q + 3]
+                m = (
+                    sma_km[q] * (1.0 - np.sqrt(e[0] * e[0] + e[1] * e[1] + e[2] * e[2]))
+                    - floor_km[q]
+                )
                 if m <= 0.0:
                     impact[q] = t + h * margin[q] / (margin[q] - m)
-                    y[6 * q:6 * q + 6] = np.nan
+                    y[6 * q : 6 * q + 6] = np.nan
                 margin[q] = m
         out[i + 1] = y
     return out, impact, n_rhs
@@ -386,7 +481,7 @@ def _perilune_margin_km(y: np.ndarray, sma_km: np.ndarray, floor_km: np.ndarray)
     orbit."""
     out = np.inf
     for q in range(sma_km.size):
-        e = y[6 * q:6 * q + 3]
+        e = y[6 * q : 6 * q + 3]
         margin = sma_km[q] * (1.0 - np.sqrt(e[0] * e[0] + e[1] * e[1] + e[2] * e[2])) - floor_km[q]
         if np.isnan(margin):
             return margin
@@ -394,9 +489,20 @@ def _perilune_margin_km(y: np.ndarray, sma_km: np.ndarray, floor_km: np.ndarray)
     return out
 
 
-def integrate_secular(sma_km, e0, j0, field: SecularField, life_days: float, *, floor_km=None,
-                      method: str = "DOP853", rtol: float = 1e-9, atol: float = 1e-11,
-                      output_step_days: float = 1.0, step_days: float = 0.5) -> dict:
+def integrate_secular(
+    sma_km,
+    e0,
+    j0,
+    field: SecularField,
+    life_days: float,
+    *,
+    floor_km=None,
+    method: str = "DOP853",
+    rtol: float = 1e-9,
+    atol: float = 1e-11,
+    output_step_days: float = 1.0,
+    step_days: float = 0.5,
+) -> dict:
     """Integrate orbits (n,) from (e0, j0) (n, 3) for ``life_days``; stop an orbit whose perilune reaches ``floor_km``.
 
     ``method``: a scipy ``solve_ivp`` method (``rtol``, ``atol``; the crossing located by an event to the
@@ -410,16 +516,35 @@ def integrate_secular(sma_km, e0, j0, field: SecularField, life_days: float, *, 
     n = a.size
     if y0.shape != (n, 6) or not np.all(np.isfinite(y0)):
         raise ValueError(f"e0 and j0 must be finite arrays of shape ({n}, 3); got {y0.shape}")
-    floor = np.full(n, -np.inf) if floor_km is None else np.broadcast_to(np.asarray(floor_km, float), (n,))
+    floor = (
+        np.full(n, -np.inf)
+        if floor_km is None
+        else np.broadcast_to(np.asarray(floor_km, float), (n,))
+    )
     t_out = np.arange(0.0, life_days + 1e-9, output_step_days)
     if t_out[-1] < life_days:
         t_out = np.append(t_out, life_days)
     if method == "RK4":
-        states, impact_day, n_rhs = _rk4_secular(y0.ravel(), a, np.asarray(floor, dtype=float).copy(), t_out,
-                                                 float(step_days), field._knots, field._coef, field.gm_km3_s2,
-                                                 field.j2, field.r_ref_km)
+        states, impact_day, n_rhs = _rk4_secular(
+            y0.ravel(),
+            a,
+            np.asarray(floor, dtype=float).copy(),
+            t_out,
+            float(step_days),
+            field._knots,
+            field._coef,
+            field.gm_km3_s2,
+            field.j2,
+            field.r_ref_km,
+        )
         out = states.reshape(t_out.size, n, 6).transpose(1, 0, 2)
-        return {"t_days": t_out, "e": out[..., :3], "j": out[..., 3:], "impact_day": impact_day, "n_rhs": int(n_rhs)}
+        return {
+            "t_days": t_out,
+            "e": out[..., :3],
+            "j": out[..., 3:],
+            "impact_day": impact_day,
+            "n_rhs": int(n_rhs),
+        }
     out = np.full((n, t_out.size, 6), np.nan)
     impact_day = np.full(n, np.nan)
     alive = np.arange(n)
@@ -428,23 +553,43 @@ def integrate_secular(sma_km, e0, j0, field: SecularField, life_days: float, *, 
         aa, ff = a[alive], floor[alive]
 
         def rhs(t, y, aa=aa):
-            return _field_rhs(float(t), y, aa, field._knots, field._coef, field.gm_km3_s2, field.j2, field.r_ref_km)
+            return _field_rhs(
+                float(t),
+                y,
+                aa,
+                field._knots,
+                field._coef,
+                field.gm_km3_s2,
+                field.j2,
+                field.r_ref_km,
+            )
 
         def surface(t, y, aa=aa, ff=ff):
             return _perilune_margin_km(y, aa, ff)
 
         surface.terminal = True
         surface.direction = -1
-        sol = solve_ivp(rhs, (t_start, life_days), y_start.ravel(), method=method, rtol=rtol, atol=atol,
-                        dense_output=True, events=surface)
+        sol = solve_ivp(
+            rhs,
+            (t_start, life_days),
+            y_start.ravel(),
+            method=method,
+            rtol=rtol,
+            atol=atol,
+            dense_output=True,
+            events=surface,
+        )
         if sol.status < 0:
-            raise RuntimeError(f"secular integration failed at t = {sol.t[-1]:.2f} d: {sol.message}")
+            raise RuntimeError(
+                f"secular integration failed at t = {sol.t[-1]:.2f} d: {sol.message}"
+            )
         n_rhs += int(sol.nfev)
         t_end = float(sol.t[-1])
         mask = (t_out >= t_start) & (t_out <= t_end)
         if mask.any():
-            out[alive[:, None], np.flatnonzero(mask)[None, :], :] = sol.sol(t_out[mask]).T.reshape(
-                mask.sum(), alive.size, 6).transpose(1, 0, 2)
+            out[alive[:, None], np.flatnonzero(mask)[None, :], :] = (
+                sol.sol(t_out[mask]).T.reshape(mask.sum(), alive.size, 6).transpose(1, 0, 2)
+            )
         if sol.status == 1:
             y_end = sol.y_events[0][0].reshape(-1, 6)
             e_end = np.linalg.norm(y_end[:, :3], axis=1)
@@ -454,7 +599,13 @@ def integrate_secular(sma_km, e0, j0, field: SecularField, life_days: float, *, 
         else:
             alive = alive[:0]
         t_start = t_end
-    return {"t_days": t_out, "e": out[..., :3], "j": out[..., 3:], "impact_day": impact_day, "n_rhs": n_rhs}
+    return {
+        "t_days": t_out,
+        "e": out[..., :3],
+        "j": out[..., 3:],
+        "impact_day": impact_day,
+        "n_rhs": n_rhs,
+    }
 
 
 def elements_from_vectors(e_vec, j_vec, rot_to_frame=None) -> dict:
@@ -468,14 +619,28 @@ def elements_from_vectors(e_vec, j_vec, rot_to_frame=None) -> dict:
     node = np.stack([-h_hat[..., 1], h_hat[..., 0], np.zeros_like(e)], axis=-1)
     raan = np.degrees(np.arctan2(node[..., 1], node[..., 0])) % 360.0
     node_hat = node / np.linalg.norm(node, axis=-1)[..., None]
-    aop = np.degrees(np.arctan2(np.sum(np.cross(node_hat, e_vec) * h_hat, axis=-1),
-                                np.sum(node_hat * e_vec, axis=-1))) % 360.0
+    aop = (
+        np.degrees(
+            np.arctan2(
+                np.sum(np.cross(node_hat, e_vec) * h_hat, axis=-1),
+                np.sum(node_hat * e_vec, axis=-1),
+            )
+        )
+        % 360.0
+    )
     return {"ecc": e, "inc_deg": inc, "raan_deg": raan, "aop_deg": aop}
 
 
-def screen_states(stability: StabilitySettings, dynamics: Dynamics, states_mci, t0_tdb_s: float, *,
-                  field: SecularField | None = None, monthly: MonthlyTide | None = None,
-                  life_days: float | None = None) -> xr.Dataset:
+def screen_states(
+    stability: StabilitySettings,
+    dynamics: Dynamics,
+    states_mci,
+    t0_tdb_s: float,
+    *,
+    field: SecularField | None = None,
+    monthly: MonthlyTide | None = None,
+    life_days: float | None = None,
+) -> xr.Dataset:
     """The screen for osculating Moon-centred J2000 states (n_sat, 6) at TDB ``t0_tdb_s``.
 
     With ``[stability] monthly_terms`` the states' vectors are taken as orbit-averaged (not month-averaged)
@@ -494,7 +659,11 @@ def screen_states(stability: StabilitySettings, dynamics: Dynamics, states_mci, 
     ``field`` comes with its ``monthly`` (None: no monthly terms).
     """
     start = time.perf_counter()
-    cfg = stability if life_days is None else dataclasses.replace(stability, life_days=float(life_days))
+    cfg = (
+        stability
+        if life_days is None
+        else dataclasses.replace(stability, life_days=float(life_days))
+    )
     gm = dynamics.gravity.gm_km3_s2
     a, e_vec, j_vec = orbit_vectors_ej(states_mci, gm)
     if field is None:
@@ -509,8 +678,19 @@ def screen_states(stability: StabilitySettings, dynamics: Dynamics, states_mci, 
         e0, j0 = e0 - de0, j0 - dj0
     r_moon = dynamics.constants.r_moon_mean_km
     floor = r_moon + dynamics.impact.min_altitude_km + cfg.margin_km
-    res = integrate_secular(a_u, e0, j0, field, cfg.life_days, floor_km=floor, method=cfg.method, rtol=cfg.rtol,
-                            atol=cfg.atol, output_step_days=cfg.output_step_days, step_days=cfg.step_days)
+    res = integrate_secular(
+        a_u,
+        e0,
+        j0,
+        field,
+        cfg.life_days,
+        floor_km=floor,
+        method=cfg.method,
+        rtol=cfg.rtol,
+        atol=cfg.atol,
+        output_step_days=cfg.output_step_days,
+        step_days=cfg.step_days,
+    )
     t_days, impact_u = res["t_days"], res["impact_day"]
     e_osc = res["e"]
     if monthly is not None:
@@ -530,59 +710,111 @@ def screen_states(stability: StabilitySettings, dynamics: Dynamics, states_mci, 
     with np.errstate(invalid="ignore"):
         alt_min = np.where(np.isnan(impact_day), np.nanmin(alt_osc, axis=1), floor - r_moon)
     ds = xr.Dataset(
-        {**{k: (("sat", "time"), v) for k, v in el.items()}, "perilune_alt_km": (("sat", "time"), alt),
-         "osc_perilune_alt_km": (("sat", "time"), alt_osc),
-         "min_perilune_alt_km": ("sat", alt_min), "impact": ("sat", ~np.isnan(impact_day)),
-         "impact_day": ("sat", impact_day), "outside_validity": ("sat", outside), "a_km": ("sat", a)},
+        {
+            **{k: (("sat", "time"), v) for k, v in el.items()},
+            "perilune_alt_km": (("sat", "time"), alt),
+            "osc_perilune_alt_km": (("sat", "time"), alt_osc),
+            "min_perilune_alt_km": ("sat", alt_min),
+            "impact": ("sat", ~np.isnan(impact_day)),
+            "impact_day": ("sat", impact_day),
+            "outside_validity": ("sat", outside),
+            "a_km": ("sat", a),
+        },
         coords={"sat": np.arange(a.size), "time": t_days},
-        attrs={"stable": bool(np.all(np.isnan(impact_day))), "min_perilune_alt_km": float(np.min(alt_min)),
-               "impact_day": float(np.nanmin(impact_day)) if np.any(~np.isnan(impact_day)) else float("nan"),
-               "life_days": cfg.life_days, "floor_alt_km": floor - r_moon, "n_orbits": int(first.size),
-               "monthly_terms": monthly is not None, "n_outside_validity": int(outside.sum()), "n_rhs": res["n_rhs"],
-               "element_frame": dynamics.frames.element_frame, "wall_s": time.perf_counter() - start})
+        attrs={
+            "stable": bool(np.all(np.isnan(impact_day))),
+            "min_perilune_alt_km": float(np.min(alt_min)),
+            "impact_day": float(np.nanmin(impact_day))
+            if np.any(~np.isnan(impact_day))
+            else float("nan"),
+            "life_days": cfg.life_days,
+            "floor_alt_km": floor - r_moon,
+            "n_orbits": int(first.size),
+            "monthly_terms": monthly is not None,
+            "n_outside_validity": int(outside.sum()),
+            "n_rhs": res["n_rhs"],
+            "element_frame": dynamics.frames.element_frame,
+            "wall_s": time.perf_counter() - start,
+        },
+    )
     ds["time"].attrs["units"] = "days since the epoch"
     return ds
 
 
-def _outside_validity(stability: StabilitySettings, sma_km: np.ndarray, ecc: np.ndarray, gm_km3_s2: float) -> np.ndarray:
+def _outside_validity(
+    stability: StabilitySettings, sma_km: np.ndarray, ecc: np.ndarray, gm_km3_s2: float
+) -> np.ndarray:
     """Orbits (n,) beyond the averaged model's validity: period above ``validity_period_fraction`` of a sidereal
     month (n_month / n; 0.1 at a = 19,060 km, a / a_Hill = 0.31) with e at least ``validity_ecc``."""
     n_month = 2.0 * np.pi / (SIDEREAL_MONTH_DAYS * SECONDS_PER_DAY)
     ratio = n_month / np.sqrt(gm_km3_s2 / np.asarray(sma_km, dtype=float) ** 3)
-    return (ratio >= stability.validity_period_fraction) & (np.asarray(ecc) >= stability.validity_ecc)
+    return (ratio >= stability.validity_period_fraction) & (
+        np.asarray(ecc) >= stability.validity_ecc
+    )
 
 
-def screen_elements(stability: StabilitySettings, dynamics: Dynamics, epoch: EpochSettings, elements_deg, *,
-                    t0_tdb_s: float | None = None, life_days: float | None = None) -> xr.Dataset:
+def screen_elements(
+    stability: StabilitySettings,
+    dynamics: Dynamics,
+    epoch: EpochSettings,
+    elements_deg,
+    *,
+    t0_tdb_s: float | None = None,
+    life_days: float | None = None,
+) -> xr.Dataset:
     """:func:`screen_states` for elements (n, 6) [sma_km, e, i, RAAN, AOP, M] (deg) in the element frame of
     ``dynamics.frames`` at ``t0_tdb_s`` (default: the epoch's start)."""
     from ..propagator import elements_deg_to_states
 
     ensure_kernels(dynamics.ephemeris)
     t0 = tdb_seconds(epoch.start_tdb, "TDB") if t0_tdb_s is None else float(t0_tdb_s)
-    return screen_states(stability, dynamics, elements_deg_to_states(dynamics, elements_deg, t0), t0,
-                         life_days=life_days)
+    return screen_states(
+        stability,
+        dynamics,
+        elements_deg_to_states(dynamics, elements_deg, t0),
+        t0,
+        life_days=life_days,
+    )
 
 
 _FIELDS: dict = {}
 
 
-def cached_field(stability: StabilitySettings, dynamics: Dynamics, t0_tdb_s: float) -> tuple[SecularField, MonthlyTide]:
+def cached_field(
+    stability: StabilitySettings, dynamics: Dynamics, t0_tdb_s: float
+) -> tuple[SecularField, MonthlyTide]:
     """The field of :meth:`SecularField.from_settings` and the :class:`MonthlyTide` of the same samples, built once
     per set of the settings they read and epoch."""
-    key = (dynamics.ephemeris, dynamics.constants, dynamics.frames.gravity, dynamics.gravity, t0_tdb_s,
-           stability.life_days, stability.third_bodies, stability.precession, stability.average_days,
-           stability.table_step_days)
+    key = (
+        dynamics.ephemeris,
+        dynamics.constants,
+        dynamics.frames.gravity,
+        dynamics.gravity,
+        t0_tdb_s,
+        stability.life_days,
+        stability.third_bodies,
+        stability.precession,
+        stability.average_days,
+        stability.table_step_days,
+    )
     if key not in _FIELDS:
         samples = TideSamples.from_settings(stability, dynamics, t0_tdb_s, stability.life_days)
-        _FIELDS[key] = (SecularField.from_samples(stability, dynamics, t0_tdb_s, samples), MonthlyTide.from_samples(samples))
+        _FIELDS[key] = (
+            SecularField.from_samples(stability, dynamics, t0_tdb_s, samples),
+            MonthlyTide.from_samples(samples),
+        )
     return _FIELDS[key]
 
 
 def classical_j2_rates(sma_km, e, inc_rad, gm_km3_s2: float, j2: float, r_ref_km: float) -> tuple:
     """Secular (RAAN-dot, AOP-dot) (rad/s) of J2 (Vallado eq. 9-41, 9-42), mean motion sqrt(GM / a^3)."""
     n = np.sqrt(gm_km3_s2 / np.asarray(sma_km, float) ** 3)
-    k = 1.5 * n * j2 * (r_ref_km / (np.asarray(sma_km, float) * (1.0 - np.asarray(e, float) ** 2))) ** 2
+    k = (
+        1.5
+        * n
+        * j2
+        * (r_ref_km / (np.asarray(sma_km, float) * (1.0 - np.asarray(e, float) ** 2))) ** 2
+    )
     return -k * np.cos(inc_rad), 0.5 * k * (5.0 * np.cos(inc_rad) ** 2 - 1.0)
 
 
@@ -592,8 +824,16 @@ def kozai_e_max(inc0_rad) -> np.ndarray:
     return np.sqrt(np.clip(1.0 - 5.0 / 3.0 * c2, 0.0, None))
 
 
-def propagated_perilune(dynamics: Dynamics, epoch: EpochSettings, elements_deg, life_days: float, *,
-                        setting: str | None = "converged", degree: int | None = None, step_s: float = 3600.0) -> dict:
+def propagated_perilune(
+    dynamics: Dynamics,
+    epoch: EpochSettings,
+    elements_deg,
+    life_days: float,
+    *,
+    setting: str | None = "converged",
+    degree: int | None = None,
+    step_s: float = 3600.0,
+) -> dict:
     """Reference for the screen: the full force model (engine, ``batch=True``, no station keeping).
 
     Propagates every satellite from the epoch's start for ``life_days`` and returns ``impact_day`` (n,)
@@ -607,8 +847,16 @@ def propagated_perilune(dynamics: Dynamics, epoch: EpochSettings, elements_deg, 
     ensure_kernels(dynamics.ephemeris)
     t0 = tdb_seconds(epoch.start_tdb, "TDB")
     states = elements_deg_to_states(dynamics, elements_deg, t0)
-    ds = propagate_states(dynamics, states, t0, life_days * SECONDS_PER_DAY, step_s, setting=setting, degree=degree,
-                          batch=True)
+    ds = propagate_states(
+        dynamics,
+        states,
+        t0,
+        life_days * SECONDS_PER_DAY,
+        step_s,
+        setting=setting,
+        degree=degree,
+        batch=True,
+    )
     gm = dynamics.gravity.gm_km3_s2
     r_moon = dynamics.constants.r_moon_mean_km
     sv = np.concatenate([ds["r_mci_km"].values, ds["v_mci_kms"].values], axis=-1)
@@ -622,6 +870,11 @@ def propagated_perilune(dynamics: Dynamics, epoch: EpochSettings, elements_deg, 
     impact = ds["impact"].values.astype(bool)
     impact_day = np.where(impact, (ds["impact_t_tdb_s"].values - t0) / SECONDS_PER_DAY, np.nan)
     floor_alt = dynamics.impact.min_altitude_km
-    return {"t_days": (ds["time"].values - t0) / SECONDS_PER_DAY, "perilune_alt_km": alt,
-            "min_perilune_alt_km": np.where(impact, floor_alt, np.nanmin(alt, axis=1)), "impact_day": impact_day,
-            "stable": bool(not impact.any()), "wall_s": time.perf_counter() - start}
+    return {
+        "t_days": (ds["time"].values - t0) / SECONDS_PER_DAY,
+        "perilune_alt_km": alt,
+        "min_perilune_alt_km": np.where(impact, floor_alt, np.nanmin(alt, axis=1)),
+        "impact_day": impact_day,
+        "stable": bool(not impact.any()),
+        "wall_s": time.perf_counter() - start,
+    }

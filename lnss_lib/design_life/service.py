@@ -43,9 +43,21 @@ from ..frames import rotate_to_moon_fixed
 from ..settings import DopSettings, Dynamics, ServiceSettings
 from .screen import SecularField, integrate_secular
 
-__all__ = ["PURPOSES", "LOCATIONS", "predicted_crossing_day", "safety_ecc", "burn_location",
-           "navigation_violations", "requirement_fractions", "restore_target", "mean_vectors_j2000", "raan_half_width_rad",
-           "safety_targets", "raised_history", "NavigationMonitor"]
+__all__ = [
+    "PURPOSES",
+    "LOCATIONS",
+    "predicted_crossing_day",
+    "safety_ecc",
+    "burn_location",
+    "navigation_violations",
+    "requirement_fractions",
+    "restore_target",
+    "mean_vectors_j2000",
+    "raan_half_width_rad",
+    "safety_targets",
+    "raised_history",
+    "NavigationMonitor",
+]
 
 PURPOSES = ("safety", "navigation", "relative_node", "phase", "a_trim")
 """What a burn is paid for (the Delta-V split of :func:`lnss_lib.design_life.closed_loop.simulate_life`)."""
@@ -65,7 +77,9 @@ def raan_half_width_rad(plane_tol_rad: float, inc_rad):
         return np.where(ratio < 1.0, 2.0 * np.arcsin(np.minimum(ratio, 1.0)), np.pi)
 
 
-def mean_vectors_j2000(mean_el: np.ndarray, rot_el_to_j2000: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+def mean_vectors_j2000(
+    mean_el: np.ndarray, rot_el_to_j2000: np.ndarray
+) -> tuple[np.ndarray, np.ndarray]:
     """(e vector, j = sqrt(1 - e^2) h_hat), each (n, 3) in Moon-centred J2000, of mean elements (n, 6)
     ``[a, e, i, raan, aop, u]`` (km, rad) in the element frame."""
     el = np.atleast_2d(mean_el)
@@ -82,19 +96,34 @@ def _shifted(field: SecularField, t_now_days: float) -> SecularField:
     return dataclasses.replace(field, t_days=field.t_days - t_now_days)
 
 
-def predicted_crossing_day(field: SecularField, t_now_days: float, sma_km, e_vec, j_vec, floor_km,
-                           horizon_days: float) -> np.ndarray:
+def predicted_crossing_day(
+    field: SecularField, t_now_days: float, sma_km, e_vec, j_vec, floor_km, horizon_days: float
+) -> np.ndarray:
     """Days from ``t_now_days`` (days since the field's epoch) until the averaged model's perilune a (1 - e) of
     each orbit (n,) reaches ``floor_km`` (radius, (n,) or scalar) within ``horizon_days``; NaN when it does not."""
     if horizon_days <= 0.0:
         return np.full(np.atleast_1d(sma_km).size, np.nan)
-    res = integrate_secular(sma_km, e_vec, j_vec, _shifted(field, t_now_days), horizon_days, floor_km=floor_km,
-                            output_step_days=max(horizon_days, 1.0))
+    res = integrate_secular(
+        sma_km,
+        e_vec,
+        j_vec,
+        _shifted(field, t_now_days),
+        horizon_days,
+        floor_km=floor_km,
+        output_step_days=max(horizon_days, 1.0),
+    )
     return res["impact_day"]
 
 
-def safety_ecc(field: SecularField, t_now_days: float, sma_km: float, e_vec, j_vec, floor_km: float,
-               horizon_days: float) -> float:
+def safety_ecc(
+    field: SecularField,
+    t_now_days: float,
+    sma_km: float,
+    e_vec,
+    j_vec,
+    floor_km: float,
+    horizon_days: float,
+) -> float:
     """Mean e after a safety burn: the e vector shortened (direction kept) by the smallest perilune raise of
     :data:`SAFETY_RAISE_KM` whose predicted perilune stays above ``floor_km`` (radius) for ``horizon_days``;
     where none does, the raise that delays the crossing most."""
@@ -102,11 +131,13 @@ def safety_ecc(field: SecularField, t_now_days: float, sma_km: float, e_vec, j_v
     h_hat = np.asarray(j_vec, dtype=float) / np.linalg.norm(j_vec)
     e0 = float(np.linalg.norm(e_vec))
     e_new = np.array([max(e0 - dr / sma_km, 0.0) for dr in SAFETY_RAISE_KM])
-    e_new = np.unique(e_new)[::-1]                                    # largest e (smallest raise) first
+    e_new = np.unique(e_new)[::-1]  # largest e (smallest raise) first
     direction = e_vec / e0 if e0 > 0.0 else np.zeros(3)
     ev = e_new[:, None] * direction[None, :]
-    jv = np.sqrt(1.0 - e_new ** 2)[:, None] * h_hat[None, :]
-    day = predicted_crossing_day(field, t_now_days, np.full(e_new.size, sma_km), ev, jv, floor_km, horizon_days)
+    jv = np.sqrt(1.0 - e_new**2)[:, None] * h_hat[None, :]
+    day = predicted_crossing_day(
+        field, t_now_days, np.full(e_new.size, sma_km), ev, jv, floor_km, horizon_days
+    )
     safe = np.flatnonzero(~np.isfinite(day))
     if safe.size:
         return float(e_new[safe[0]])
@@ -115,6 +146,7 @@ def safety_ecc(field: SecularField, t_now_days: float, sma_km: float, e_vec, j_v
 
 def burn_location(nu_rad: float, aop_rad: float, tol_rad: float = 1e-3) -> str:
     """:data:`LOCATIONS` name of a burn at true anomaly ``nu_rad`` on an orbit of argument of perilune ``aop_rad``."""
+
     def near(angle, target):
         return abs(np.mod(angle - target + np.pi, TWO_PI) - np.pi) < tol_rad
 
@@ -130,17 +162,25 @@ def burn_location(nu_rad: float, aop_rad: float, tol_rad: float = 1e-3) -> str:
     return "other"
 
 
-def requirement_fractions(summary: dict, baseline: dict, service: ServiceSettings) -> dict[str, float]:
+def requirement_fractions(
+    summary: dict, baseline: dict, service: ServiceSettings
+) -> dict[str, float]:
     """Each navigation statistic's degradation in ``summary`` (a :func:`lnss_lib.dop.summary_for_settings` dict)
     against ``baseline`` (the first window's) as a fraction of what the requirement allows: availability points lost
     over ``nav_avail_drop_pct``, the relative rise of a 3-sigma PDOP/HDOP over ``nav_dop_rise_fraction`` (infinite
     for a DOP lost altogether, or any loss where nothing is allowed; a DOP without a baseline is not judged)."""
-    out = {key: _fraction(baseline[key] - summary[key], service.nav_avail_drop_pct)
-           for key in ("pdop_avail_pct", "hdop_avail_pct")}
+    out = {
+        key: _fraction(baseline[key] - summary[key], service.nav_avail_drop_pct)
+        for key in ("pdop_avail_pct", "hdop_avail_pct")
+    }
     for key in ("pdop_mean_3sigma", "hdop_mean_3sigma"):
         ref, now = baseline[key], summary[key]
         if np.isfinite(ref):
-            out[key] = _fraction(now / ref - 1.0, service.nav_dop_rise_fraction) if np.isfinite(now) else np.inf
+            out[key] = (
+                _fraction(now / ref - 1.0, service.nav_dop_rise_fraction)
+                if np.isfinite(now)
+                else np.inf
+            )
     return out
 
 
@@ -150,20 +190,32 @@ def _fraction(excess: float, allowed: float) -> float:
     return np.inf if excess > 0.0 else 0.0
 
 
-def restore_target(ecc: float, aop_rad: float, d_inc_rad: float, ref_ecc: float, ref_aop_rad: float) -> dict:
+def restore_target(
+    ecc: float, aop_rad: float, d_inc_rad: float, ref_ecc: float, ref_aop_rad: float
+) -> dict:
     """The navigation restore's change of the control set (:func:`lnss_lib.design_life.manoeuvres.plan_impulses`):
     the e vector back to the design's (``ref_ecc``, ``ref_aop_rad``), the inclination by ``-d_inc_rad`` (its offset
     from the design's), a held."""
-    return {"a_km": 0.0, "ex": ref_ecc * np.cos(ref_aop_rad) - ecc * np.cos(aop_rad),
-            "ey": ref_ecc * np.sin(ref_aop_rad) - ecc * np.sin(aop_rad), "inc_rad": -d_inc_rad}
+    return {
+        "a_km": 0.0,
+        "ex": ref_ecc * np.cos(ref_aop_rad) - ecc * np.cos(aop_rad),
+        "ey": ref_ecc * np.sin(ref_aop_rad) - ecc * np.sin(aop_rad),
+        "inc_rad": -d_inc_rad,
+    }
 
 
 def navigation_violations(summary: dict, baseline: dict, service: ServiceSettings) -> list[str]:
     """Names of the navigation statistics outside the requirement (:func:`requirement_fractions` above 1)."""
-    return [key for key, fraction in requirement_fractions(summary, baseline, service).items() if fraction > 1.0]
+    return [
+        key
+        for key, fraction in requirement_fractions(summary, baseline, service).items()
+        if fraction > 1.0
+    ]
 
 
-def safety_targets(field, safe_hist, mel, active, t_days, life_days, floor_base_km, service, tide_period_days):
+def safety_targets(
+    field, safe_hist, mel, active, t_days, life_days, floor_base_km, service, tide_period_days
+):
     """Change of mean e (n_sat,) of each satellite whose perilune the averaged model predicts below the floor
     within ``safety_lead_days`` (NaN for the others).
 
@@ -183,17 +235,21 @@ def safety_targets(field, safe_hist, mel, active, t_days, life_days, floor_base_
         rp_avg = mel[i, 0] * (1.0 - np.linalg.norm(e_avg[-1]))
         floor.append(floor_base_km + max(0.0, max(rp_avg - h[3] for h in safe_hist[i])))
     e_avg, j_avg, floor, a = np.array(e_avg), np.array(j_avg), np.array(floor), mel[idx, 0]
-    j_avg *= (np.sqrt(1.0 - np.sum(e_avg ** 2, axis=1)) / np.linalg.norm(j_avg, axis=1))[:, None]
+    j_avg *= (np.sqrt(1.0 - np.sum(e_avg**2, axis=1)) / np.linalg.norm(j_avg, axis=1))[:, None]
     remaining = life_days - t_days
     day = predicted_crossing_day(field, t_days, a, e_avg, j_avg, floor, remaining)
     day = np.where(a * (1.0 - np.linalg.norm(e_avg, axis=1)) <= floor, 0.0, day)
     for q in np.flatnonzero(day <= service.safety_lead_days):
         e_now = float(np.linalg.norm(e_avg[q]))
-        d_ecc[idx[q]] = safety_ecc(field, t_days, a[q], e_avg[q], j_avg[q], floor[q], remaining) - e_now
+        d_ecc[idx[q]] = (
+            safety_ecc(field, t_days, a[q], e_avg[q], j_avg[q], floor[q], remaining) - e_now
+        )
     return d_ecc
 
 
-def raised_history(history: list, d_ecc: float, e_vec: np.ndarray, ecc: float, sma_km: float) -> list:
+def raised_history(
+    history: list, d_ecc: float, e_vec: np.ndarray, ecc: float, sma_km: float
+) -> list:
     """The safety history (t, e vector, j vector, lowest osculating perilune km) after a raise of mean e by ``d_ecc``:
     the e vectors move along ``e_vec`` (of length ``ecc``) and the recorded perilune minima by -``sma_km d_ecc``, so
     the dip below the averaged perilune that sets the floor (:func:`safety_targets`) is what it was before the raise,
@@ -207,7 +263,9 @@ class NavigationMonitor:
     """South-pole DOP of the sampled positions over windows of ``nav_window_days``: the first window sets the
     requirement (:func:`navigation_violations`); ``violated`` after each closed window."""
 
-    def __init__(self, dop: DopSettings, dynamics: Dynamics, sample_t: np.ndarray, service: ServiceSettings):
+    def __init__(
+        self, dop: DopSettings, dynamics: Dynamics, sample_t: np.ndarray, service: ServiceSettings
+    ):
         self.dop, self.dynamics, self.sample_t, self.service = dop, dynamics, sample_t, service
         self.grid = SurfaceGrid.from_settings(dop, dynamics.constants.r_moon_mean_km)
         self.start = sample_t[0]

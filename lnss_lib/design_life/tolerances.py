@@ -50,8 +50,15 @@ from ..propagator import elements_deg_to_states, propagate_states
 from ..settings import DopSettings, Dynamics, ServiceSettings
 from .service import raan_half_width_rad, requirement_fractions
 
-__all__ = ["TRIALS", "requirement_margin", "trial_ladder", "tolerance_at_limit", "estimate_tolerances_deg",
-           "derived_tolerances", "relative_tolerances_deg"]
+__all__ = [
+    "TRIALS",
+    "requirement_margin",
+    "trial_ladder",
+    "tolerance_at_limit",
+    "estimate_tolerances_deg",
+    "derived_tolerances",
+    "relative_tolerances_deg",
+]
 
 TRIALS = 6
 """Trial amounts per quantity and sign (a geometric ladder from the lower bound to the upper)."""
@@ -85,8 +92,16 @@ def tolerance_at_limit(amounts_deg: np.ndarray, margins: np.ndarray) -> float:
     return float(np.exp(x0 + frac * (x1 - x0)))
 
 
-def derived_tolerances(service: ServiceSettings, dop: DopSettings, dynamics: Dynamics, elements_deg, t0_tdb_s: float, *,
-                       model: ForceModel | None = None, arc_days: float | None = None) -> dict:
+def derived_tolerances(
+    service: ServiceSettings,
+    dop: DopSettings,
+    dynamics: Dynamics,
+    elements_deg,
+    t0_tdb_s: float,
+    *,
+    model: ForceModel | None = None,
+    arc_days: float | None = None,
+) -> dict:
     """The relative node (plane tilt) and slot tolerances (deg) of a constellation (elements (n, 6) deg in the element
     frame at TDB ``t0_tdb_s``) at the limit of its navigation requirement, and the evidence.
 
@@ -95,22 +110,34 @@ def derived_tolerances(service: ServiceSettings, dop: DopSettings, dynamics: Dyn
     ``arc_days`` replaces ``tolerance_arc_days``."""
     el = np.atleast_2d(np.asarray(elements_deg, dtype=float))
     n_sat = el.shape[0]
-    ladders = {"raan_rel_deg": trial_ladder(service.raan_rel_bounds_deg), "u_rel_deg": trial_ladder(service.u_rel_bounds_deg)}
+    ladders = {
+        "raan_rel_deg": trial_ladder(service.raan_rel_bounds_deg),
+        "u_rel_deg": trial_ladder(service.u_rel_bounds_deg),
+    }
     copies = []
     for key, amounts in ladders.items():
         for sign in (1.0, -1.0):
             for amount in amounts:
                 row = el[0].copy()
                 if key == "raan_rel_deg":
-                    row[3] += sign * np.degrees(raan_half_width_rad(np.radians(amount), np.radians(row[2])))
+                    row[3] += sign * np.degrees(
+                        raan_half_width_rad(np.radians(amount), np.radians(row[2]))
+                    )
                 else:
                     row[5] += sign * amount
                 copies.append(row)
     t0 = float(t0_tdb_s)
     arc_days = float(service.tolerance_arc_days if arc_days is None else arc_days)
     states = elements_deg_to_states(dynamics, np.vstack([el, copies]), t0)
-    arc = propagate_states(dynamics, states, t0, arc_days * SECONDS_PER_DAY, service.tolerance_step_s,
-                           batch=True, model=model)
+    arc = propagate_states(
+        dynamics,
+        states,
+        t0,
+        arc_days * SECONDS_PER_DAY,
+        service.tolerance_step_s,
+        batch=True,
+        model=model,
+    )
     t = arc["time"].values
     r_mf = rotate_to_moon_fixed(dynamics, arc["r_mci_km"].transpose("sat", "time", "xyz").values, t)
     grid = SurfaceGrid.from_settings(dop, dynamics.constants.r_moon_mean_km)
@@ -148,12 +175,21 @@ def estimate_tolerances_deg(service: ServiceSettings) -> dict[str, float]:
     return {"raan_rel": float(service.raan_rel_bounds_deg[1]), "u_rel": float(service.u_rel_deg)}
 
 
-def relative_tolerances_deg(service: ServiceSettings, dop: DopSettings, dynamics: Dynamics, elements_deg,
-                            t0_tdb_s: float, *, model: ForceModel | None = None,
-                            arc_days: float | None = None) -> dict[str, float]:
+def relative_tolerances_deg(
+    service: ServiceSettings,
+    dop: DopSettings,
+    dynamics: Dynamics,
+    elements_deg,
+    t0_tdb_s: float,
+    *,
+    model: ForceModel | None = None,
+    arc_days: float | None = None,
+) -> dict[str, float]:
     """``{"raan_rel": tilt, "u_rel": slot}`` (deg) the service controller holds: ``[design_life.service]
     raan_rel_deg`` / ``u_rel_deg`` with ``tolerances = "fixed"``, :func:`derived_tolerances` with ``"derived"``."""
     if service.tolerances == "fixed":
         return {"raan_rel": float(service.raan_rel_deg), "u_rel": float(service.u_rel_deg)}
-    derived = derived_tolerances(service, dop, dynamics, elements_deg, t0_tdb_s, model=model, arc_days=arc_days)
+    derived = derived_tolerances(
+        service, dop, dynamics, elements_deg, t0_tdb_s, model=model, arc_days=arc_days
+    )
     return {"raan_rel": derived["raan_rel_deg"], "u_rel": derived["u_rel_deg"]}

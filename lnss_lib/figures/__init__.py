@@ -8,41 +8,121 @@ renderer: no browser to install). One module per topic: :mod:`.charts` (generic 
 :mod:`lnss_lib.outputs`, plotly and numpy: they receive datasets, never run studies or campaigns.
 """
 
+from ..outputs import use_reader_tables
 from .benchmark import benchmark_scatter, epoch_sensitivity_lines, label_positions
-from .campaign import campaign_convergence, campaign_throughput, designs_pdop_deltav, generation_curve
+from .campaign import (
+    campaign_convergence,
+    campaign_throughput,
+    designs_pdop_deltav,
+    generation_curve,
+)
 from .charts import bar_chart, days_since_start, line_chart
-from .design_life import (estimate_vs_closed_loop, integrator_convergence_chart, life_element_histories,
-                          maneuver_timeline, monthly_dop)
-from .deltav import (deltav_elements_and_rates, deltav_sampling, deltav_singularity, deltav_thrust_components,
-                     lsq_recovery_series, thrust_history)
-from .dop import (DOP_MAP_PANELS, POLE_AXES, dop_grid_points, dop_polar_maps, dop_time_series, dop_time_series_by_frame,
-                  polar_wedges)
-from .export import NOTEBOOK_RENDERER, PNG_ENV, NotebookRenderer, figure_title, local_plotlyjs, save_figure, use_notebook_renderer
+from .deltav import (
+    deltav_elements_and_rates,
+    deltav_sampling,
+    deltav_singularity,
+    deltav_thrust_components,
+    lsq_recovery_series,
+    thrust_history,
+)
+from .design_life import (
+    estimate_vs_closed_loop,
+    integrator_convergence_chart,
+    life_element_histories,
+    maneuver_timeline,
+    monthly_dop,
+)
+from .dop import (
+    DOP_MAP_PANELS,
+    POLE_AXES,
+    dop_grid_points,
+    dop_polar_maps,
+    dop_time_series,
+    dop_time_series_by_frame,
+    polar_wedges,
+)
+from .export import (
+    NOTEBOOK_RENDERER,
+    PNG_ENV,
+    NotebookRenderer,
+    figure_title,
+    local_plotlyjs,
+    save_figure,
+    use_notebook_renderer,
+)
 from .frozen import frozen_family_chart, perilune_envelope
-from .gps import (GPS_SENSITIVITY_GROUPS, cn0_vs_off_boresight, gnss_visibility_pdop, gps_sensitivity_scatter,
-                  gps_view_from_lnss, gps_visibility_pdop, gps_visibility_pdop_vs_paper, gps_visible_links, off_boresight_geometry)
+from .gps import (
+    GPS_SENSITIVITY_GROUPS,
+    cn0_vs_off_boresight,
+    gnss_visibility_pdop,
+    gps_sensitivity_scatter,
+    gps_view_from_lnss,
+    gps_visibility_pdop,
+    gps_visibility_pdop_vs_paper,
+    gps_visible_links,
+    off_boresight_geometry,
+)
 from .pareto import LABELS, dop_against_availability, pareto_3d, variable_relationships
 from .propagation import constellation_3d, elements_history
-from ..outputs import use_reader_tables
 from .validation import front_estimate_vs_closed_loop, headline_chart, size_chart
 
 __all__ = [
-    "save_figure", "figure_title", "local_plotlyjs", "PNG_ENV", "NOTEBOOK_RENDERER", "NotebookRenderer",
-    "use_notebook_renderer", "LABELS", "DOP_MAP_PANELS", "GPS_SENSITIVITY_GROUPS",
-    "line_chart", "bar_chart", "days_since_start",
-    "elements_history", "constellation_3d",
-    "dop_time_series", "dop_grid_points", "dop_polar_maps", "polar_wedges", "POLE_AXES", "dop_time_series_by_frame",
-    "gps_visibility_pdop", "off_boresight_geometry", "gps_view_from_lnss", "cn0_vs_off_boresight",
-    "gps_visibility_pdop_vs_paper", "gps_visible_links", "gps_sensitivity_scatter", "gnss_visibility_pdop",
-    "thrust_history", "deltav_elements_and_rates", "deltav_thrust_components", "lsq_recovery_series",
-    "deltav_sampling", "deltav_singularity",
-    "pareto_3d", "dop_against_availability", "variable_relationships",
-    "campaign_convergence", "designs_pdop_deltav", "campaign_throughput", "generation_curve",
-    "benchmark_scatter", "epoch_sensitivity_lines", "label_positions",
-    "life_element_histories", "maneuver_timeline", "monthly_dop", "estimate_vs_closed_loop",
-    "integrator_convergence_chart", "frozen_family_chart", "perilune_envelope",
-    "front_estimate_vs_closed_loop", "headline_chart", "size_chart",
+    "save_figure",
+    "figure_title",
+    "local_plotlyjs",
+    "PNG_ENV",
+    "NOTEBOOK_RENDERER",
+    "NotebookRenderer",
+    "use_notebook_renderer",
+    "LABELS",
+    "DOP_MAP_PANELS",
+    "GPS_SENSITIVITY_GROUPS",
+    "line_chart",
+    "bar_chart",
+    "days_since_start",
+    "elements_history",
+    "constellation_3d",
+    "dop_time_series",
+    "dop_grid_points",
+    "dop_polar_maps",
+    "polar_wedges",
+    "POLE_AXES",
+    "dop_time_series_by_frame",
+    "gps_visibility_pdop",
+    "off_boresight_geometry",
+    "gps_view_from_lnss",
+    "cn0_vs_off_boresight",
+    "gps_visibility_pdop_vs_paper",
+    "gps_visible_links",
+    "gps_sensitivity_scatter",
+    "gnss_visibility_pdop",
+    "thrust_history",
+    "deltav_elements_and_rates",
+    "deltav_thrust_components",
+    "lsq_recovery_series",
+    "deltav_sampling",
+    "deltav_singularity",
+    "pareto_3d",
+    "dop_against_availability",
+    "variable_relationships",
+    "campaign_convergence",
+    "designs_pdop_deltav",
+    "campaign_throughput",
+    "generation_curve",
+    "benchmark_scatter",
+    "epoch_sensitivity_lines",
+    "label_positions",
+    "life_element_histories",
+    "maneuver_timeline",
+    "monthly_dop",
+    "estimate_vs_closed_loop",
+    "integrator_convergence_chart",
+    "frozen_family_chart",
+    "perilune_envelope",
+    "front_estimate_vs_closed_loop",
+    "headline_chart",
+    "size_chart",
 ]
 
-use_notebook_renderer()        # in a notebook kernel: figures keep a static copy (nbconvert, code hosts)
-use_reader_tables()            # and tables show labelled headers and each quantity's number format
+use_notebook_renderer()  # in a notebook kernel: figures keep a static copy (nbconvert, code hosts)
+use_reader_tables()  # and tables show labelled headers and each quantity's number format

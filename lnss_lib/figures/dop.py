@@ -14,33 +14,62 @@ def dop_time_series(dop_ds, *, title: str) -> go.Figure:
     from plotly.subplots import make_subplots
 
     days = days_since_start(dop_ds)
-    fig = make_subplots(rows=3, cols=1, shared_xaxes=True, vertical_spacing=0.04,
-                        subplot_titles=["mean visible satellites", "grid-mean PDOP", "grid-mean HDOP"])
+    fig = make_subplots(
+        rows=3,
+        cols=1,
+        shared_xaxes=True,
+        vertical_spacing=0.04,
+        subplot_titles=["mean visible satellites", "grid-mean PDOP", "grid-mean HDOP"],
+    )
     for row, name in enumerate(("n_visible", "pdop", "hdop"), start=1):
-        fig.add_trace(go.Scatter(x=days, y=dop_ds[name].mean(("lat", "lon")).values, mode="lines", showlegend=False),
-                      row=row, col=1)
+        fig.add_trace(
+            go.Scatter(
+                x=days, y=dop_ds[name].mean(("lat", "lon")).values, mode="lines", showlegend=False
+            ),
+            row=row,
+            col=1,
+        )
     fig.update_xaxes(title_text="days since epoch (TDB)", row=3, col=1)
     fig.update_layout(title=title, template="plotly_white", height=750)
     return fig
 
 
-POLE_AXES = {         # polar axes of the south-pole maps: radius = colatitude from the pole, labelled as latitude
-    "radialaxis": {"range": [0, 30], "tickvals": [0, 10, 20, 30], "ticktext": ["-90°", "-80°", "-70°", "-60°"],
-                   "tickfont": {"size": 9}, "angle": 45, "showline": False},
-    "angularaxis": {"tickvals": [0, 90, 180, 270], "ticktext": ["0°E", "90°E", "180°", "270°E"], "tickfont": {"size": 9},
-                    "direction": "counterclockwise"},
+POLE_AXES = {  # polar axes of the south-pole maps: radius = colatitude from the pole, labelled as latitude
+    "radialaxis": {
+        "range": [0, 30],
+        "tickvals": [0, 10, 20, 30],
+        "ticktext": ["-90°", "-80°", "-70°", "-60°"],
+        "tickfont": {"size": 9},
+        "angle": 45,
+        "showline": False,
+    },
+    "angularaxis": {
+        "tickvals": [0, 90, 180, 270],
+        "ticktext": ["0°E", "90°E", "180°", "270°E"],
+        "tickfont": {"size": 9},
+        "direction": "counterclockwise",
+    },
 }
 
 
 def dop_grid_points(grid) -> go.Figure:
     """The receiver grid of eq. 1-2 (a :class:`lnss_lib.dop.SurfaceGrid`) in a polar plot around the south pole."""
     lat2d, lon2d = np.meshgrid(grid.lat_deg, grid.lon_deg, indexing="ij")
-    fig = go.Figure(go.Scatterpolar(r=(90.0 + lat2d).ravel(), theta=lon2d.ravel(), mode="markers",
-                                    marker={"size": 7},
-                                    text=[f"lat {a:.0f}, lon {o:.0f}" for a, o in zip(lat2d.ravel(), lon2d.ravel())]))
-    fig.update_layout(title="South-pole receiver grid (radius: latitude; angle: longitude)",
-                      polar={**POLE_AXES, "radialaxis": {**POLE_AXES["radialaxis"], "range": [0, 32]}},
-                      height=500, width=550)
+    fig = go.Figure(
+        go.Scatterpolar(
+            r=(90.0 + lat2d).ravel(),
+            theta=lon2d.ravel(),
+            mode="markers",
+            marker={"size": 7},
+            text=[f"lat {a:.0f}, lon {o:.0f}" for a, o in zip(lat2d.ravel(), lon2d.ravel())],
+        )
+    )
+    fig.update_layout(
+        title="South-pole receiver grid (radius: latitude; angle: longitude)",
+        polar={**POLE_AXES, "radialaxis": {**POLE_AXES["radialaxis"], "range": [0, 32]}},
+        height=500,
+        width=550,
+    )
     return fig
 
 
@@ -50,17 +79,28 @@ def polar_wedges(values, lat_deg, lon_deg, name: str, coloraxis: str) -> go.Barp
     colat = 90.0 + lat2d
     base = np.maximum(colat - 5.0, 0.0)
     top = np.minimum(colat + 5.0, 30.0)
-    return go.Barpolar(r=(top - base).ravel(), base=base.ravel(), theta=lon2d.ravel(), width=10.0,
-                       marker={"color": np.asarray(values).ravel(), "coloraxis": coloraxis, "line_width": 0},
-                       name=name, hovertemplate="lat %{customdata[0]:.0f} lon %{theta:.0f}: %{marker.color:.3g}<extra></extra>",
-                       customdata=np.stack([lat2d.ravel(), lon2d.ravel()], axis=1))
+    return go.Barpolar(
+        r=(top - base).ravel(),
+        base=base.ravel(),
+        theta=lon2d.ravel(),
+        width=10.0,
+        marker={"color": np.asarray(values).ravel(), "coloraxis": coloraxis, "line_width": 0},
+        name=name,
+        hovertemplate="lat %{customdata[0]:.0f} lon %{theta:.0f}: %{marker.color:.3g}<extra></extra>",
+        customdata=np.stack([lat2d.ravel(), lon2d.ravel()], axis=1),
+    )
 
 
-DOP_MAP_PANELS = (("mean visible", "mean_visible", "Viridis"), ("median PDOP", "median_pdop", "Plasma"),
-                  ("median HDOP (Moon-fixed x, y)", "median_hdop_moon_fixed", "Plasma"),
-                  ("median HDOP (ENU)", "median_hdop_enu", "Plasma"),
-                  ("PDOP availability (%)", "pdop_availability_pct", "Viridis"))
-SHARED_SCALE_MAX_RATIO = 10.0   # a column shares one colour scale across rows while their maxima are within this factor
+DOP_MAP_PANELS = (
+    ("mean visible", "mean_visible", "Viridis"),
+    ("median PDOP", "median_pdop", "Plasma"),
+    ("median HDOP (Moon-fixed x, y)", "median_hdop_moon_fixed", "Plasma"),
+    ("median HDOP (ENU)", "median_hdop_enu", "Plasma"),
+    ("PDOP availability (%)", "pdop_availability_pct", "Viridis"),
+)
+SHARED_SCALE_MAX_RATIO = (
+    10.0  # a column shares one colour scale across rows while their maxima are within this factor
+)
 
 
 def _colour_ranges(maps: dict, var: str) -> list[tuple[float, float]]:
@@ -68,7 +108,9 @@ def _colour_ranges(maps: dict, var: str) -> list[tuple[float, float]]:
     :data:`SHARED_SCALE_MAX_RATIO`, else each row its own; percentages always 0-100."""
     if var.endswith("_pct"):
         return [(0.0, 100.0)] * len(maps)
-    ranges = [(float(np.nanmin(ds[var].values)), float(np.nanmax(ds[var].values))) for ds in maps.values()]
+    ranges = [
+        (float(np.nanmin(ds[var].values)), float(np.nanmax(ds[var].values))) for ds in maps.values()
+    ]
     tops = [hi for _, hi in ranges if np.isfinite(hi) and hi > 0]
     if tops and max(tops) < SHARED_SCALE_MAX_RATIO * min(tops):
         return [(min(lo for lo, _ in ranges), max(tops))] * len(maps)
@@ -87,22 +129,56 @@ def dop_polar_maps(maps: dict, *, title: str) -> go.Figure:
 
     frames = list(maps)
     ncol, nrow = len(DOP_MAP_PANELS), len(frames)
-    fig = make_subplots(rows=nrow, cols=ncol, specs=[[{"type": "polar"}] * ncol] * nrow,
-                        subplot_titles=[f"{label}<br>elements: {frame}" for frame in frames for label, _, _ in DOP_MAP_PANELS],
-                        vertical_spacing=0.16 / nrow * 2, horizontal_spacing=0.04)
+    fig = make_subplots(
+        rows=nrow,
+        cols=ncol,
+        specs=[[{"type": "polar"}] * ncol] * nrow,
+        subplot_titles=[
+            f"{label}<br>elements: {frame}" for frame in frames for label, _, _ in DOP_MAP_PANELS
+        ],
+        vertical_spacing=0.16 / nrow * 2,
+        horizontal_spacing=0.04,
+    )
     for col, (label, var, scale) in enumerate(DOP_MAP_PANELS, start=1):
-        for row, (frame, (cmin, cmax)) in enumerate(zip(frames, _colour_ranges(maps, var)), start=1):
+        for row, (frame, (cmin, cmax)) in enumerate(
+            zip(frames, _colour_ranges(maps, var)), start=1
+        ):
             ds, index = maps[frame], (row - 1) * ncol + col
             axis = f"coloraxis{index if index > 1 else ''}"
-            fig.add_trace(polar_wedges(ds[var].values, ds["lat"].values, ds["lon"].values, f"{label} ({frame})", axis),
-                          row=row, col=col)
+            fig.add_trace(
+                polar_wedges(
+                    ds[var].values, ds["lat"].values, ds["lon"].values, f"{label} ({frame})", axis
+                ),
+                row=row,
+                col=col,
+            )
             domain = fig.layout[f"polar{index if index > 1 else ''}"].domain
-            fig.update_layout({axis: {"colorscale": scale, "cmin": cmin, "cmax": cmax, "colorbar": {
-                "orientation": "h", "x": sum(domain.x) / 2, "y": domain.y[0] - 0.02, "yanchor": "top",
-                "len": 0.8 * (domain.x[1] - domain.x[0]), "thickness": 8, "tickfont": {"size": 9}}}})
+            fig.update_layout(
+                {
+                    axis: {
+                        "colorscale": scale,
+                        "cmin": cmin,
+                        "cmax": cmax,
+                        "colorbar": {
+                            "orientation": "h",
+                            "x": sum(domain.x) / 2,
+                            "y": domain.y[0] - 0.02,
+                            "yanchor": "top",
+                            "len": 0.8 * (domain.x[1] - domain.x[0]),
+                            "thickness": 8,
+                            "tickfont": {"size": 9},
+                        },
+                    }
+                }
+            )
     fig.update_polars(**POLE_AXES)
-    fig.update_layout(height=330 * nrow + 80, width=1400, showlegend=False, title=title,
-                      margin={"t": 110, "b": 50})
+    fig.update_layout(
+        height=330 * nrow + 80,
+        width=1400,
+        showlegend=False,
+        title=title,
+        margin={"t": 110, "b": 50},
+    )
     return fig
 
 
@@ -111,18 +187,35 @@ def dop_time_series_by_frame(dop: dict, *, title: str) -> go.Figure:
     frame (paper Figure 4). ``dop``: (element frame, los axes) -> :func:`lnss_lib.dop.dop_grid` Dataset."""
     from plotly.subplots import make_subplots
 
-    fig = make_subplots(rows=3, cols=1, shared_xaxes=True, vertical_spacing=0.05,
-                        subplot_titles=["mean visible satellites", "grid-mean PDOP", "grid-mean HDOP"])
+    fig = make_subplots(
+        rows=3,
+        cols=1,
+        shared_xaxes=True,
+        vertical_spacing=0.05,
+        subplot_titles=["mean visible satellites", "grid-mean PDOP", "grid-mean HDOP"],
+    )
     palette = ["#1f77b4", "#d62728", "#2ca02c", "#9467bd"]
     frames = list(dict.fromkeys(frame for frame, _ in dop))
     for k, frame in enumerate(frames):
         color = palette[k % len(palette)]
         ds_mf, ds_enu = dop[(frame, "moon_fixed")], dop[(frame, "enu")]
         days = days_since_start(ds_mf)
-        for row, var, ds, name, dash in ((1, "n_visible", ds_mf, "visible", None), (2, "pdop", ds_mf, "PDOP", None),
-                                         (3, "hdop", ds_mf, "HDOP Moon-fixed", None), (3, "hdop", ds_enu, "HDOP ENU", "dot")):
-            fig.add_trace(go.Scatter(x=days, y=ds[var].mean(("lat", "lon")).values, name=f"{frame}: {name}",
-                                     line={"color": color, "dash": dash}), row=row, col=1)
+        for row, var, ds, name, dash in (
+            (1, "n_visible", ds_mf, "visible", None),
+            (2, "pdop", ds_mf, "PDOP", None),
+            (3, "hdop", ds_mf, "HDOP Moon-fixed", None),
+            (3, "hdop", ds_enu, "HDOP ENU", "dot"),
+        ):
+            fig.add_trace(
+                go.Scatter(
+                    x=days,
+                    y=ds[var].mean(("lat", "lon")).values,
+                    name=f"{frame}: {name}",
+                    line={"color": color, "dash": dash},
+                ),
+                row=row,
+                col=1,
+            )
     fig.update_yaxes(type="log", row=2, col=1)
     fig.update_yaxes(type="log", row=3, col=1)
     fig.update_xaxes(title_text="days since epoch (TDB)", row=3, col=1)

@@ -33,13 +33,15 @@ from plotly.io._base_renderers import MimetypeRenderer, PlotlyRenderer
 
 from ..outputs import atomic_path, notebook_shell, output_dir, write_bytes_atomic, write_caption
 
-PNG_ENV = "LNSS_PNG"                 # set to "off" to skip PNG export (HTML only)
-PNG_TIMEOUT_S = 120.0                 # start-up of the renderer, and rendering of one figure
+PNG_ENV = "LNSS_PNG"  # set to "off" to skip PNG export (HTML only)
+PNG_TIMEOUT_S = 120.0  # start-up of the renderer, and rendering of one figure
 _PNG_WARNED = False
 _EXPORTER = None
 NOTEBOOK_RENDERER = "lnss_notebook"
-_PNG_BY_FIGURE: dict[str, bytes] = {}  # figure fingerprint -> the PNG save_figure drew, for the notebook display
-_PLOTLYJS_SENT = False                  # the HTML fallback carried plotly.js in this kernel already
+_PNG_BY_FIGURE: dict[
+    str, bytes
+] = {}  # figure fingerprint -> the PNG save_figure drew, for the notebook display
+_PLOTLYJS_SENT = False  # the HTML fallback carried plotly.js in this kernel already
 
 
 def local_plotlyjs() -> Path:
@@ -62,12 +64,13 @@ class _PngExporter:
 
     def png(self, fig: go.Figure, width: int, height: int) -> bytes:
         """PNG bytes of ``fig`` at ``width`` x ``height`` pixels."""
-        job = self._worker.submit(self._scope.transform, fig.to_plotly_json(), format="png", width=width,
-                                  height=height)
+        job = self._worker.submit(
+            self._scope.transform, fig.to_plotly_json(), format="png", width=width, height=height
+        )
         try:
             return job.result(timeout=PNG_TIMEOUT_S)
         except FutureTimeout:
-            self._scope._proc.kill()     # ends the blocked read in the worker; the scope holds its lock
+            self._scope._proc.kill()  # ends the blocked read in the worker; the scope holds its lock
             raise TimeoutError(f"no PNG after {PNG_TIMEOUT_S:.0f} s") from None
 
     def close(self) -> None:
@@ -95,14 +98,18 @@ def _png_bytes(fig: go.Figure, width: int, height: int) -> bytes | None:
         if _EXPORTER is None or _EXPORTER.pid != os.getpid():
             _EXPORTER = _PngExporter()
         return _EXPORTER.png(fig, width, height)
-    except Exception as error:  # the renderer reports a failed figure or a dead process as several types
+    except (
+        Exception
+    ) as error:  # the renderer reports a failed figure or a dead process as several types
         _EXPORTER = "unavailable"
         _png_unavailable(f"{type(error).__name__}: {error}")
         return None
 
 
 def _fingerprint(fig_dict: dict) -> str:
-    return hashlib.sha1(pio.to_json(fig_dict, validate=False, remove_uids=False).encode()).hexdigest()
+    return hashlib.sha1(
+        pio.to_json(fig_dict, validate=False, remove_uids=False).encode()
+    ).hexdigest()
 
 
 class NotebookRenderer(MimetypeRenderer):
@@ -122,8 +129,13 @@ class NotebookRenderer(MimetypeRenderer):
         if png is not None:
             bundle["image/png"] = base64.b64encode(png).decode("ascii")
         else:
-            bundle["text/html"] = pio.to_html(fig_dict, include_plotlyjs=not _PLOTLYJS_SENT, full_html=False,
-                                              include_mathjax=False, validate=False)
+            bundle["text/html"] = pio.to_html(
+                fig_dict,
+                include_plotlyjs=not _PLOTLYJS_SENT,
+                full_html=False,
+                include_mathjax=False,
+                validate=False,
+            )
             _PLOTLYJS_SENT = True
         return bundle
 
@@ -154,8 +166,15 @@ def figure_title(fig: go.Figure) -> str:
     return " ".join(re.sub(r"<[^>]+>", " ", text).split())
 
 
-def save_figure(fig: go.Figure, profile_name: str, name: str, *, width: int = 1000, height: int = 600,
-                caption: str | None = None) -> dict[str, Path]:
+def save_figure(
+    fig: go.Figure,
+    profile_name: str,
+    name: str,
+    *,
+    width: int = 1000,
+    height: int = 600,
+    caption: str | None = None,
+) -> dict[str, Path]:
     """Write ``fig`` as ``outputs/<profile>/figures/<name>.html`` and ``.png``; return the written paths.
 
     The HTML loads plotly.js from ``plotly.min.js`` beside it (written once per folder), so figures open
@@ -166,13 +185,19 @@ def save_figure(fig: go.Figure, profile_name: str, name: str, *, width: int = 10
     """
     folder = output_dir(profile_name, "figures")
     written = {"html": folder / f"{name}.html"}
-    with atomic_path(written["html"]) as temporary:   # plotly.min.js goes beside it, in the same folder
+    with atomic_path(
+        written["html"]
+    ) as temporary:  # plotly.min.js goes beside it, in the same folder
         fig.write_html(temporary, include_plotlyjs="directory", include_mathjax=False)
     png = folder / f"{name}.png"
     if _write_png(fig, png, width, height):
         written["png"] = png
     elif png.is_file():
         png.unlink()
-    written["meta"] = write_caption(folder, name, caption or figure_title(fig) or name,
-                                    [p for k, p in written.items() if k != "meta"])
+    written["meta"] = write_caption(
+        folder,
+        name,
+        caption or figure_title(fig) or name,
+        [p for k, p in written.items() if k != "meta"],
+    )
     return written

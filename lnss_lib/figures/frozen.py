@@ -9,8 +9,12 @@ import plotly.graph_objects as go
 from ..constants import DAYS_PER_JULIAN_YEAR
 
 _READ_SYMBOLS = {"moon_op": "circle", "lunar equator": "diamond-open"}
-_VERDICT_COLOURS = {"frozen": "#2ca02c", "librating": "#1f77b4", "circulating": "#ff7f0e",
-                    "reaches the surface": "#d62728"}
+_VERDICT_COLOURS = {
+    "frozen": "#2ca02c",
+    "librating": "#1f77b4",
+    "circulating": "#ff7f0e",
+    "reaches the surface": "#d62728",
+}
 
 
 def frozen_family_chart(family, orbits, *, title: str) -> go.Figure:
@@ -21,48 +25,141 @@ def frozen_family_chart(family, orbits, *, title: str) -> go.Figure:
     at its own e."""
     from plotly.subplots import make_subplots
 
-    fig = make_subplots(rows=1, cols=2, horizontal_spacing=0.08,
-                        subplot_titles=("frozen i (to the Earth-Moon plane) against a", "frozen e against a"))
+    fig = make_subplots(
+        rows=1,
+        cols=2,
+        horizontal_spacing=0.08,
+        subplot_titles=("frozen i (to the Earth-Moon plane) against a", "frozen e against a"),
+    )
     for col, (prefix, y_key) in enumerate((("i at", "inc_deg"), ("e at", "ecc")), start=1):
-        for curve, rows in family[family["curve"].str.startswith(prefix)].groupby("curve", sort=False):
-            fig.add_trace(go.Scatter(x=rows["sma_km"], y=rows[y_key], mode="lines", name=curve, line={"width": 1.5},
-                                     legendgroup="family"), row=1, col=col)
+        for curve, rows in family[family["curve"].str.startswith(prefix)].groupby(
+            "curve", sort=False
+        ):
+            fig.add_trace(
+                go.Scatter(
+                    x=rows["sma_km"],
+                    y=rows[y_key],
+                    mode="lines",
+                    name=curve,
+                    line={"width": 1.5},
+                    legendgroup="family",
+                ),
+                row=1,
+                col=col,
+            )
     inc = np.where(orbits["inc_op_deg"] <= 90.0, orbits["inc_op_deg"], 180.0 - orbits["inc_op_deg"])
-    for (read_in, verdict), rows in orbits.assign(inc_plot=inc).groupby(["read_in", "verdict"], sort=False):
-        text = [f"{r.orbit} ({r.read_in}, {r.epoch}): e {r.ecc_op:.3f}, i {r.inc_op_deg:.2f}, AOP {r.aop_op_deg:.1f}; "
-                f"frozen i {r.frozen_inc_deg:.2f}; e {r.ecc_min:.3f}-{r.ecc_max:.3f}" for r in rows.itertuples()]
-        marker = {"symbol": _READ_SYMBOLS.get(read_in, "square"), "size": 10,
-                  "color": _VERDICT_COLOURS.get(verdict, "grey")}
+    for (read_in, verdict), rows in orbits.assign(inc_plot=inc).groupby(
+        ["read_in", "verdict"], sort=False
+    ):
+        text = [
+            f"{r.orbit} ({r.read_in}, {r.epoch}): e {r.ecc_op:.3f}, i {r.inc_op_deg:.2f}, AOP {r.aop_op_deg:.1f}; "
+            f"frozen i {r.frozen_inc_deg:.2f}; e {r.ecc_min:.3f}-{r.ecc_max:.3f}"
+            for r in rows.itertuples()
+        ]
+        marker = {
+            "symbol": _READ_SYMBOLS.get(read_in, "square"),
+            "size": 10,
+            "color": _VERDICT_COLOURS.get(verdict, "grey"),
+        }
         name = f"{verdict}, read in {read_in}"
-        fig.add_trace(go.Scatter(x=rows["sma_km"], y=rows["inc_plot"], mode="markers", marker=marker, name=name,
-                                 legendgroup=name, text=text, hovertemplate="%{text}<extra></extra>"), row=1, col=1)
-        fig.add_trace(go.Scatter(x=rows["sma_km"], y=rows["ecc_op"], mode="markers", marker=marker, name=name,
-                                 legendgroup=name, showlegend=False, text=text, hovertemplate="%{text}<extra></extra>"),
-                      row=1, col=2)
+        fig.add_trace(
+            go.Scatter(
+                x=rows["sma_km"],
+                y=rows["inc_plot"],
+                mode="markers",
+                marker=marker,
+                name=name,
+                legendgroup=name,
+                text=text,
+                hovertemplate="%{text}<extra></extra>",
+            ),
+            row=1,
+            col=1,
+        )
+        fig.add_trace(
+            go.Scatter(
+                x=rows["sma_km"],
+                y=rows["ecc_op"],
+                mode="markers",
+                marker=marker,
+                name=name,
+                legendgroup=name,
+                showlegend=False,
+                text=text,
+                hovertemplate="%{text}<extra></extra>",
+            ),
+            row=1,
+            col=2,
+        )
         bars_x = np.repeat(rows["sma_km"].to_numpy(), 3)
-        bars_y = np.column_stack([rows["inc_plot"], rows["frozen_inc_deg"], np.full(len(rows), np.nan)]).ravel()
-        fig.add_trace(go.Scatter(x=bars_x, y=bars_y, mode="lines", line={"color": marker["color"], "width": 1},
-                                 legendgroup=name, showlegend=False, hoverinfo="skip"), row=1, col=1)
+        bars_y = np.column_stack(
+            [rows["inc_plot"], rows["frozen_inc_deg"], np.full(len(rows), np.nan)]
+        ).ravel()
+        fig.add_trace(
+            go.Scatter(
+                x=bars_x,
+                y=bars_y,
+                mode="lines",
+                line={"color": marker["color"], "width": 1},
+                legendgroup=name,
+                showlegend=False,
+                hoverinfo="skip",
+            ),
+            row=1,
+            col=1,
+        )
     fig.update_xaxes(title_text="a (km)", type="log")
     fig.update_yaxes(title_text="i in moon_op (deg)", row=1, col=1)
     fig.update_yaxes(title_text="e", row=1, col=2)
-    fig.update_layout(title=title, template="plotly_white", height=600, legend={"orientation": "h", "y": -0.2})
+    fig.update_layout(
+        title=title, template="plotly_white", height=600, legend={"orientation": "h", "y": -0.2}
+    )
     return fig
 
 
-def perilune_envelope(t_days, perilune_alt_km, mean_t_days, mean_perilune_alt_km, envelope_km: float, *,
-                      names, floor_km: float, title: str) -> go.Figure:
+def perilune_envelope(
+    t_days,
+    perilune_alt_km,
+    mean_t_days,
+    mean_perilune_alt_km,
+    envelope_km: float,
+    *,
+    names,
+    floor_km: float,
+    title: str,
+) -> go.Figure:
     """Osculating perilune altitude (sat, time) of the full model against the doubly-averaged one (sat, time) less
     ``envelope_km`` (the short-period allowance), with the altitude floor ``floor_km``."""
     fig = go.Figure()
     years = np.asarray(t_days) / DAYS_PER_JULIAN_YEAR
     mean_years = np.asarray(mean_t_days) / DAYS_PER_JULIAN_YEAR
     for k, name in enumerate(names):
-        fig.add_trace(go.Scatter(x=years, y=perilune_alt_km[k], mode="lines", name=f"{name}: full model",
-                                 line={"width": 0.6}))
-        fig.add_trace(go.Scatter(x=mean_years, y=mean_perilune_alt_km[k] - envelope_km, mode="lines",
-                                 name=f"{name}: averaged - envelope", line={"width": 2, "dash": "dot"}))
-    fig.add_hline(y=floor_km, line={"color": "black", "dash": "dash"}, annotation_text=f"{floor_km:g} km")
-    fig.update_layout(title=title, template="plotly_white", xaxis_title="years since the file's epoch (TDB)",
-                      yaxis_title="perilune altitude (km)", legend={"orientation": "h", "y": -0.2})
+        fig.add_trace(
+            go.Scatter(
+                x=years,
+                y=perilune_alt_km[k],
+                mode="lines",
+                name=f"{name}: full model",
+                line={"width": 0.6},
+            )
+        )
+        fig.add_trace(
+            go.Scatter(
+                x=mean_years,
+                y=mean_perilune_alt_km[k] - envelope_km,
+                mode="lines",
+                name=f"{name}: averaged - envelope",
+                line={"width": 2, "dash": "dot"},
+            )
+        )
+    fig.add_hline(
+        y=floor_km, line={"color": "black", "dash": "dash"}, annotation_text=f"{floor_km:g} km"
+    )
+    fig.update_layout(
+        title=title,
+        template="plotly_white",
+        xaxis_title="years since the file's epoch (TDB)",
+        yaxis_title="perilune altitude (km)",
+        legend={"orientation": "h", "y": -0.2},
+    )
     return fig

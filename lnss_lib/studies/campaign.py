@@ -19,51 +19,107 @@ import json
 from dataclasses import dataclass
 from pathlib import Path
 
-import numpy as np
 import pandas as pd
 import xarray as xr
 
-from ..campaign import (CampaignPlan, CellProgressBar, campaign_timing, concurrent_workers, export_results, load_run,
-                        read_cache_records, run_campaign)
+from ..campaign import (
+    CampaignPlan,
+    CellProgressBar,
+    campaign_timing,
+    concurrent_workers,
+    export_results,
+    load_run,
+    read_cache_records,
+    run_campaign,
+)
 from ..campaign.fitness import ALL_BOUNDS, bound_masks
 from ..campaign.rundir import CHECKPOINT_FILE
 from ..keys import NON_NAVIGATION_METRICS
 from ..paper import EVALUATIONS, FEASIBLE_DESIGNS, TABLE_5
 from ..settings import Settings
 
-__all__ = ["settings_table", "design_grid_table", "latest_run_dir", "CampaignRun", "load_or_run", "shipped_reference",
-           "shown_campaign", "campaign_source", "validated_of", "designs_evaluated", "designs_shown", "feasible_designs",
-           "constraint_table", "steady_designs_per_s", "throughput_table", "run_throughput_table", "companion_of",
-           "comparison_table",
-           "NON_NAVIGATION_METRICS"]
-
+__all__ = [
+    "settings_table",
+    "design_grid_table",
+    "latest_run_dir",
+    "CampaignRun",
+    "load_or_run",
+    "shipped_reference",
+    "shown_campaign",
+    "campaign_source",
+    "validated_of",
+    "designs_evaluated",
+    "designs_shown",
+    "feasible_designs",
+    "constraint_table",
+    "steady_designs_per_s",
+    "throughput_table",
+    "run_throughput_table",
+    "companion_of",
+    "comparison_table",
+    "NON_NAVIGATION_METRICS",
+]
 
 
 def settings_table(settings: CampaignPlan):
     """Table 5 (NSGA-II settings of the paper) next to this profile's pymoo counterparts, with notes."""
     s = settings
-    return pd.DataFrame([
-        ("Population size", TABLE_5["population"], s.population, "same"),
-        ("No. of generations", TABLE_5["generations"], s.generations, "generation 1 is the initial population"),
-        ("Total evaluations", TABLE_5["total_evaluations"], s.population * s.generations,
-         "upper bound; duplicates are evaluated once (cache)"),
-        ("Crossover fraction", TABLE_5["crossover_fraction"], s.crossover_prob, f"SBX (eta {s.crossover_eta:g}) applied to a mating pair "
-         "with this probability, rounded to the grid"),
-        ("Mutation function", "adaptive", f"polynomial, eta {s.mutation_eta:g}",
-         "rounded to the integer grid; per-variable probability "
-         + (f"{s.mutation_prob_var:g}" if s.mutation_prob_var else "1/6")),
-        ("Pareto fraction", TABLE_5["pareto_fraction"], "-", "no counterpart in pymoo: rank-and-crowding survival keeps the whole first fronts"),
-        ("Function tolerance", TABLE_5["function_tolerance"], s.ftol if s.ftol else "off",
-         f"pymoo objective-space tolerance over {s.ftol_period} generations" if s.ftol else "fixed generations"),
-        ("Seed", "fixed", s.seed, "same seed, same run (also after kill and resume)"),
-    ], columns=["parameter", "paper", "this profile", "note"]).set_index("parameter")
+    return pd.DataFrame(
+        [
+            ("Population size", TABLE_5["population"], s.population, "same"),
+            (
+                "No. of generations",
+                TABLE_5["generations"],
+                s.generations,
+                "generation 1 is the initial population",
+            ),
+            (
+                "Total evaluations",
+                TABLE_5["total_evaluations"],
+                s.population * s.generations,
+                "upper bound; duplicates are evaluated once (cache)",
+            ),
+            (
+                "Crossover fraction",
+                TABLE_5["crossover_fraction"],
+                s.crossover_prob,
+                f"SBX (eta {s.crossover_eta:g}) applied to a mating pair "
+                "with this probability, rounded to the grid",
+            ),
+            (
+                "Mutation function",
+                "adaptive",
+                f"polynomial, eta {s.mutation_eta:g}",
+                "rounded to the integer grid; per-variable probability "
+                + (f"{s.mutation_prob_var:g}" if s.mutation_prob_var else "1/6"),
+            ),
+            (
+                "Pareto fraction",
+                TABLE_5["pareto_fraction"],
+                "-",
+                "no counterpart in pymoo: rank-and-crowding survival keeps the whole first fronts",
+            ),
+            (
+                "Function tolerance",
+                TABLE_5["function_tolerance"],
+                s.ftol if s.ftol else "off",
+                f"pymoo objective-space tolerance over {s.ftol_period} generations"
+                if s.ftol
+                else "fixed generations",
+            ),
+            ("Seed", "fixed", s.seed, "same seed, same run (also after kill and resume)"),
+        ],
+        columns=["parameter", "paper", "this profile", "note"],
+    ).set_index("parameter")
 
 
 def design_grid_table(settings: CampaignPlan):
     """Table 3 design-variable bounds with the eq. 43-44 step sizes and the number of grid values."""
     grid = settings.grid
-    return pd.DataFrame({"lower": grid.lower, "upper": grid.upper, "step": grid.step, "levels": grid.n_levels + 1},
-                        index=pd.Index(["a (km)", "e", "AOP (deg)", "i (deg)", "Np", "Ns"], name="variable"))
+    return pd.DataFrame(
+        {"lower": grid.lower, "upper": grid.upper, "step": grid.step, "levels": grid.n_levels + 1},
+        index=pd.Index(["a (km)", "e", "AOP (deg)", "i (deg)", "Np", "Ns"], name="variable"),
+    )
 
 
 def _runs(campaign_dir) -> list[Path]:
@@ -71,7 +127,9 @@ def _runs(campaign_dir) -> list[Path]:
     return sorted(p for p in Path(campaign_dir).glob("run_*") if (p / CHECKPOINT_FILE).is_file())
 
 
-def latest_run_dir(campaign_dir, profile_name: str, settings: Settings | None = None) -> tuple[Path, list[str]]:
+def latest_run_dir(
+    campaign_dir, profile_name: str, settings: Settings | None = None
+) -> tuple[Path, list[str]]:
     """The run to show for ``settings`` (default: profile ``profile_name`` as it stands) and why it is not that
     profile's campaign ([] when it is): the newest ``run_*`` directory with a checkpoint under
     ``campaign_dir`` whose settings are the profile's, else the newest one. FileNotFoundError naming the
@@ -85,7 +143,8 @@ def latest_run_dir(campaign_dir, profile_name: str, settings: Settings | None = 
             f"no campaign in {campaign_dir}. Run it first (hours on 2 cores for paper, checkpointed every "
             f"generation):\n    python -m lnss_lib campaign --profile {profile_name}\n"
             "continue an interrupted run with --resume <run dir>, or use a Dask cluster with "
-            "--scheduler-address tcp://HOST:8786; then execute the notebook again")
+            "--scheduler-address tcp://HOST:8786; then execute the notebook again"
+        )
     settings = settings if settings is not None else load_settings(profile_name)
     reasons = {run: run_differences(load_run(run)["profile"], settings) for run in runs}
     matching = [run for run in runs if not reasons[run]]
@@ -99,8 +158,10 @@ def companion_of(profile_name: str) -> str:
 
     companion = load_settings(profile_name).campaign.companion_profile
     if companion and load_settings(companion).campaign.companion_profile:
-        raise ValueError(f"profile {profile_name!r}: its companion {companion!r} names a companion itself; "
-                         "companions are one level deep")
+        raise ValueError(
+            f"profile {profile_name!r}: its companion {companion!r} names a companion itself; "
+            "companions are one level deep"
+        )
     return companion
 
 
@@ -116,7 +177,9 @@ class CampaignRun:
     front: xr.Dataset
     history: xr.Dataset
     records: list[dict]
-    validated: xr.Dataset | None = None     # the front flown in closed loop (validated.nc), when the run has one
+    validated: xr.Dataset | None = (
+        None  # the front flown in closed loop (validated.nc), when the run has one
+    )
 
 
 def validated_of(run_dir: Path) -> xr.Dataset | None:
@@ -139,8 +202,8 @@ def load_or_run(profile_name: str, overrides: dict | str | None = None) -> Campa
     which run is shown and, when it is not the profile's campaign, why.
     """
     from ..campaign.publication import publish_run, run_differences
-    from ..settings import load_settings, settings_from_profile
     from ..outputs import display_path, output_dir
+    from ..settings import load_settings, settings_from_profile
 
     profile = load_settings(profile_name, overrides=overrides)
     campaign_dir = output_dir(profile_name, "campaign")
@@ -151,24 +214,33 @@ def load_or_run(profile_name: str, overrides: dict | str | None = None) -> Campa
         run_dir, reasons = latest_run_dir(campaign_dir, profile_name, profile)
         how = f"loaded {display_path(run_dir)}"
     else:
-        result = run_campaign(profile_name, overrides=overrides, progress=False, callbacks=[CellProgressBar()])
+        result = run_campaign(
+            profile_name, overrides=overrides, progress=False, callbacks=[CellProgressBar()]
+        )
         run_dir = result.run_dir
-        how = (f"ran {display_path(run_dir)}: {result.generations} generations, {result.n_evaluations} unique designs in "
-               f"{result.session_wall_s:.1f} s")
+        how = (
+            f"ran {display_path(run_dir)}: {result.generations} generations, {result.n_evaluations} unique designs in "
+            f"{result.session_wall_s:.1f} s"
+        )
         reasons = run_differences(load_run(run_dir)["profile"], profile)
     run_settings = settings_from_profile(load_run(run_dir)["profile"])
     datasets = export_results(run_dir)
     own = run_differences(run_settings, load_settings(profile_name))
     if reasons:
-        note = (f"{how}; it is NOT the campaign of profile {profile_name!r} as set here (no run in {campaign_dir} "
-                f"is): {'; '.join(reasons)}. Everything below is that run's, with its own settings")
+        note = (
+            f"{how}; it is NOT the campaign of profile {profile_name!r} as set here (no run in {campaign_dir} "
+            f"is): {'; '.join(reasons)}. Everything below is that run's, with its own settings"
+        )
     elif own:
-        note = (f"{how}: profile {profile_name!r} with the --set overrides, not published as the campaign of the "
-                f"profile ({'; '.join(own)})")
+        note = (
+            f"{how}: profile {profile_name!r} with the --set overrides, not published as the campaign of the "
+            f"profile ({'; '.join(own)})"
+        )
     else:
         note = f"{how}: the campaign of profile {profile_name!r}, published ({display_path(publish_run(run_dir, campaign_dir, datasets))})"
-    return CampaignRun(run_dir, run_settings, note, *datasets, read_cache_records(run_dir), validated_of(run_dir))
-
+    return CampaignRun(
+        run_dir, run_settings, note, *datasets, read_cache_records(run_dir), validated_of(run_dir)
+    )
 
 
 def _reference_run(reference, how: str) -> CampaignRun:
@@ -177,15 +249,27 @@ def _reference_run(reference, how: str) -> CampaignRun:
     from ..settings import settings_from_profile
 
     attrs = reference.history.attrs
-    state = (f"a complete run of {attrs['generations_done']} generations" if reference.finished else
-             f"a PARTIAL run: {attrs['generations_done']} generations, exported before it finished")
-    note = (f"{how}; shown: the shipped reference results {display_path(reference.folder)} ({state}; profile hash "
-            f"{attrs['profile_hash']}, exported at commit {attrs['export_commit']}; of its "
-            f"{reference.evaluations.attrs['n_designs_evaluated']} designs it ships those Figures 8-16 and Table 6 read, "
-            f"{reference.evaluations.attrs['selection']}: {reference.evaluations.attrs['n_kept']} kept of "
-            f"{reference.evaluations.attrs['n_selected']})")
-    return CampaignRun(reference.folder, settings_from_profile(reference.profile), note, reference.evaluations,
-                       reference.front, reference.history, [])
+    state = (
+        f"a complete run of {attrs['generations_done']} generations"
+        if reference.finished
+        else f"a PARTIAL run: {attrs['generations_done']} generations, exported before it finished"
+    )
+    note = (
+        f"{how}; shown: the shipped reference results {display_path(reference.folder)} ({state}; profile hash "
+        f"{attrs['profile_hash']}, exported at commit {attrs['export_commit']}; of its "
+        f"{reference.evaluations.attrs['n_designs_evaluated']} designs it ships those Figures 8-16 and Table 6 read, "
+        f"{reference.evaluations.attrs['selection']}: {reference.evaluations.attrs['n_kept']} kept of "
+        f"{reference.evaluations.attrs['n_selected']})"
+    )
+    return CampaignRun(
+        reference.folder,
+        settings_from_profile(reference.profile),
+        note,
+        reference.evaluations,
+        reference.front,
+        reference.history,
+        [],
+    )
 
 
 def shipped_reference(profile_name: str, settings: Settings, campaign_dir) -> CampaignRun | None:
@@ -209,10 +293,14 @@ def shipped_reference(profile_name: str, settings: Settings, campaign_dir) -> Ca
             f"no campaign in {campaign_dir}, and the shipped results {display_path(reference.folder)} are not the "
             f"campaign of profile {profile_name!r} as set here: {'; '.join(reasons)}. Run it:\n    python -m "
             f"lnss_lib campaign --profile {profile_name}\nthen export it: python -m lnss_lib campaign "
-            f"--export-reference RUN_DIR")
+            f"--export-reference RUN_DIR"
+        )
     if reasons:
         return None
-    return _reference_run(reference, f"no run in {display_path(campaign_dir)} is the campaign of profile {profile_name!r}")
+    return _reference_run(
+        reference,
+        f"no run in {display_path(campaign_dir)} is the campaign of profile {profile_name!r}",
+    )
 
 
 def shown_campaign(profile_name: str) -> CampaignRun:
@@ -228,19 +316,34 @@ def shown_campaign(profile_name: str) -> CampaignRun:
     folder = output_dir(profile_name, "campaign")
     published, reference = load_published(folder), load_reference(profile_name)
     profile = load_settings(profile_name) if reference is not None else None
-    if reference is not None and (published is None or published.pointer["profile_hash"] != profile.hash) \
-            and not run_differences(reference.profile, profile):
-        why = ("nothing is published" if published is None else
-               f"the run published in {display_path(folder)} is not the profile's")
+    if (
+        reference is not None
+        and (published is None or published.pointer["profile_hash"] != profile.hash)
+        and not run_differences(reference.profile, profile)
+    ):
+        why = (
+            "nothing is published"
+            if published is None
+            else f"the run published in {display_path(folder)} is not the profile's"
+        )
         return _reference_run(reference, f"{why} for profile {profile_name!r}")
     if published is None:
         raise FileNotFoundError(
             f"no campaign published for profile {profile_name!r} (no published.json in {folder}) and no shipped "
-            f"reference results; run: python -m lnss_lib campaign --profile {profile_name}")
+            f"reference results; run: python -m lnss_lib campaign --profile {profile_name}"
+        )
     run_settings = settings_from_profile(json.loads(published.evaluations.attrs["parameters"]))
     note = f"the campaign published for profile {profile_name!r}: {display_path(published.folder)} ({published.pointer['run_dir']})"
-    return CampaignRun(published.folder, run_settings, note, published.evaluations, published.front,
-                       published.history, [], published.validated)
+    return CampaignRun(
+        published.folder,
+        run_settings,
+        note,
+        published.evaluations,
+        published.front,
+        published.history,
+        [],
+        published.validated,
+    )
 
 
 def campaign_source(profile_name: str, overrides: dict | None = None) -> str:
@@ -261,8 +364,11 @@ def campaign_source(profile_name: str, overrides: dict | None = None) -> str:
         run_dir, reasons = latest_run_dir(campaign_dir, profile_name, profile)
     except FileNotFoundError as error:
         return " ".join(str(error).split())
-    return (f"the local run {display_path(run_dir)}, "
-            + (f"NOT the campaign of profile {profile_name!r}: {'; '.join(reasons)}" if reasons else "the profile's campaign"))
+    return f"the local run {display_path(run_dir)}, " + (
+        f"NOT the campaign of profile {profile_name!r}: {'; '.join(reasons)}"
+        if reasons
+        else "the profile's campaign"
+    )
 
 
 def designs_evaluated(evaluations: xr.Dataset) -> int:
@@ -277,8 +383,10 @@ def designs_shown(evaluations: xr.Dataset) -> str:
     total = designs_evaluated(evaluations)
     if "n_kept" not in evaluations.attrs:
         return f"every unique design the run evaluated ({total})"
-    return (f"{int(evaluations.attrs['n_kept'])} of the {total} unique designs the run evaluated: the shipped "
-            f"results keep those Figures 8-16 and Table 6 read ({evaluations.attrs['selection']})")
+    return (
+        f"{int(evaluations.attrs['n_kept'])} of the {total} unique designs the run evaluated: the shipped "
+        f"results keep those Figures 8-16 and Table 6 read ({evaluations.attrs['selection']})"
+    )
 
 
 def feasible_designs(evaluations: xr.Dataset) -> int:
@@ -303,7 +411,9 @@ def constraint_table(evaluations: xr.Dataset, constraints):
     else:
         counts = {k: int(v.sum()) for k, v in bound_masks(evaluations, constraints).items()}
         n = evaluations.sizes["design"]
-    table = pd.DataFrame({"designs": counts, "share (%)": {k: 100.0 * v / max(n, 1) for k, v in counts.items()}})
+    table = pd.DataFrame(
+        {"designs": counts, "share (%)": {k: 100.0 * v / max(n, 1) for k, v in counts.items()}}
+    )
     table.index.name = "bound"
     return table
 
@@ -320,7 +430,9 @@ def comparison_table(campaigns: dict) -> pd.DataFrame:
     rows = list(dict.fromkeys(row for series in columns.values() for row in series.index))
     last = [row for row in rows if row.startswith(("navigation bounds only", "all Table 3 bounds"))]
     rows = [row for row in rows if row not in last] + last
-    table = pd.DataFrame({name: series.reindex(rows) for name, series in columns.items()}).astype("Int64")
+    table = pd.DataFrame({name: series.reindex(rows) for name, series in columns.items()}).astype(
+        "Int64"
+    )
     table.index.name = "designs meeting"
     return table
 
@@ -349,21 +461,50 @@ def throughput_table(history: xr.Dataset, n_feasible: int, timing: dict, workers
     steady = steady_designs_per_s(history, timing["n_evaluations"])
     budget = timing["worker_budget_s"]
     hits = float(history.n_cache_hits.sum() / history.n_designs.sum())
-    return pd.DataFrame({
-        "value": [timing["n_evaluations"], n_feasible, FEASIBLE_DESIGNS, wall, timing["n_evaluations"] / wall,
-                  steady, workers, 100 * timing["propagation_s"] / budget, 100 * timing["metrics_s"] / budget,
-                  100 * timing["in_task_overhead_s"] / budget, 100 * timing["campaign_overhead_s"] / budget,
-                  100 * hits, EVALUATIONS / steady / 3600.0, (1.0 - hits) * EVALUATIONS / steady / 3600.0]},
-        index=pd.Index(["unique designs evaluated", "unique feasible designs", "unique feasible designs (paper)",
-                        "campaign wall time (s, generations)", "designs per second (overall)",
-                        "designs per second (generation 2 on)", "worker processes", "propagation (% of worker time)",
-                        "DOP, Delta-V, GPS (% of worker time)", "in-task overhead (%)", "campaign overhead (%)",
-                        "cache hits (% of requested designs)",
-                        "projected 120 x 1000 campaign at this profile's fidelity (h, this machine)",
-                        "... with this run's cache hits (h)"], name="quantity"))
+    return pd.DataFrame(
+        {
+            "value": [
+                timing["n_evaluations"],
+                n_feasible,
+                FEASIBLE_DESIGNS,
+                wall,
+                timing["n_evaluations"] / wall,
+                steady,
+                workers,
+                100 * timing["propagation_s"] / budget,
+                100 * timing["metrics_s"] / budget,
+                100 * timing["in_task_overhead_s"] / budget,
+                100 * timing["campaign_overhead_s"] / budget,
+                100 * hits,
+                EVALUATIONS / steady / 3600.0,
+                (1.0 - hits) * EVALUATIONS / steady / 3600.0,
+            ]
+        },
+        index=pd.Index(
+            [
+                "unique designs evaluated",
+                "unique feasible designs",
+                "unique feasible designs (paper)",
+                "campaign wall time (s, generations)",
+                "designs per second (overall)",
+                "designs per second (generation 2 on)",
+                "worker processes",
+                "propagation (% of worker time)",
+                "DOP, Delta-V, GPS (% of worker time)",
+                "in-task overhead (%)",
+                "campaign overhead (%)",
+                "cache hits (% of requested designs)",
+                "projected 120 x 1000 campaign at this profile's fidelity (h, this machine)",
+                "... with this run's cache hits (h)",
+            ],
+            name="quantity",
+        ),
+    )
 
 
-def run_throughput_table(run_dir, history: xr.Dataset, evaluations: xr.Dataset, records: list[dict]):
+def run_throughput_table(
+    run_dir, history: xr.Dataset, evaluations: xr.Dataset, records: list[dict]
+):
     """:func:`throughput_table` of a run directory: worker processes counted from the cache records,
     time shares from :func:`lnss_lib.campaign.timing.campaign_timing`; for shipped reference results (no
     journal) both as the export recorded them (``history.attrs``: ``workers``, ``worker_time``)."""

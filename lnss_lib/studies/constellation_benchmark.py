@@ -34,18 +34,25 @@ metrics of :mod:`lnss_lib.design_life.evaluation`.
 
 from __future__ import annotations
 
-from collections.abc import Mapping
 import math
+from collections.abc import Mapping
 from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
 import pandas as pd
 
-from ..catalogue import FILE_FRAMES, analyse_catalogue, constellation_states_mci, list_catalogue, load_constellation
-from ..settings import load_settings
+from ..catalogue import (
+    FILE_FRAMES,
+    analyse_catalogue,
+    constellation_states_mci,
+    list_catalogue,
+    load_constellation,
+)
 from ..constants import DAYS_PER_JULIAN_YEAR, SECONDS_PER_DAY
 from ..constellation import WalkerDesign, standalone_elfo
+from ..design_life.estimate import sk_estimate_from_propagation
+from ..design_life.screen import screen_states
 from ..dop import SurfaceGrid, dop_for_settings, elevation_deg, summary_for_settings
 from ..ephemeris import body_states_mci, ensure_kernels, rotation, tdb_seconds
 from ..errors import ImpactError
@@ -55,19 +62,49 @@ from ..keys import METRIC_KEYS, NAVIGATION_ERROR_KEYS
 from ..navigation_error import position_errors, station_states
 from ..outputs import display_path, output_dir
 from ..propagator import elements_deg_to_states, propagate_states
-from ..design_life.estimate import sk_estimate_from_propagation
-from ..design_life.screen import screen_states
+from ..settings import load_settings
 
-__all__ = ["TABLE4_KEY", "DOP_KEYS", "DESIGN_LIFE_KEYS", "Entry", "Benchmark", "mask_key",
-           "catalogue_entries", "paper_entry", "campaign_entries", "run_benchmark", "add_closed_loop_life",
-           "published_comparison", "BHAMIDIPATI_TOLERANCE_PCT", "bhamidipati_agreement", "epoch_sensitivity",
-           "epoch_spread", "epoch_findings", "yardstick_findings"]
+__all__ = [
+    "TABLE4_KEY",
+    "DOP_KEYS",
+    "DESIGN_LIFE_KEYS",
+    "Entry",
+    "Benchmark",
+    "mask_key",
+    "catalogue_entries",
+    "paper_entry",
+    "campaign_entries",
+    "run_benchmark",
+    "add_closed_loop_life",
+    "published_comparison",
+    "BHAMIDIPATI_TOLERANCE_PCT",
+    "bhamidipati_agreement",
+    "epoch_sensitivity",
+    "epoch_spread",
+    "epoch_findings",
+    "yardstick_findings",
+]
 
 TABLE4_KEY = "table4_elfo"
-DOP_KEYS = ("mean_visible_sats", "pdop_mean_3sigma", "pdop_avail_pct", "hdop_mean_3sigma", "hdop_avail_pct")
-DESIGN_LIFE_KEYS = ("life_days", "impact_day", "sk_dv_kms_per_year", "sk_dv_max_kms_per_year", "n_maneuvers",
-                    "box_held", "pdop_avail_pct_life", "hdop_avail_pct_life", "sk_dv_estimate_kms_per_year",
-                    "stable_screen")
+DOP_KEYS = (
+    "mean_visible_sats",
+    "pdop_mean_3sigma",
+    "pdop_avail_pct",
+    "hdop_mean_3sigma",
+    "hdop_avail_pct",
+)
+DESIGN_LIFE_KEYS = (
+    "life_days",
+    "impact_day",
+    "sk_dv_kms_per_year",
+    "sk_dv_max_kms_per_year",
+    "n_maneuvers",
+    "box_held",
+    "pdop_avail_pct_life",
+    "hdop_avail_pct_life",
+    "sk_dv_estimate_kms_per_year",
+    "stable_screen",
+)
 
 
 def mask_key(key: str, mask_deg: float) -> str:
@@ -80,12 +117,12 @@ class Entry:
     """One constellation of the yardstick: ``elements_deg`` (n, 6) in ``element_frame`` (None: not evaluated)."""
 
     label: str
-    kind: str                       # "catalogue", "paper" or "campaign"
+    kind: str  # "catalogue", "paper" or "campaign"
     n_sat: int
     elements_deg: np.ndarray | None
     element_frame: str | None
     note: str = ""
-    catalogue: object = None        # the CatalogueConstellation of a catalogue entry
+    catalogue: object = None  # the CatalogueConstellation of a catalogue entry
 
     @property
     def evaluated(self) -> bool:
@@ -111,26 +148,52 @@ def catalogue_entries(profile: dict, names=None) -> list[Entry]:
     keys = [row["key"] for row in list_catalogue(profile.dynamics)]
     unknown = sorted(set(names or ()) - set(keys))
     if unknown:
-        raise ValueError(f"unknown catalogue constellation(s) {unknown}; catalogue: {', '.join(keys)}")
+        raise ValueError(
+            f"unknown catalogue constellation(s) {unknown}; catalogue: {', '.join(keys)}"
+        )
     entries = []
     for row in (r for r in list_catalogue(profile.dynamics) if names is None or r["key"] in names):
         c = load_constellation(row["key"], profile.dynamics)
         if c.approximate:
-            entries.append(Entry(c.key, "catalogue (approximate)", c.n_sat, None, None,
-                                 "not evaluated: approximate entry, its sources give no eccentricity, inclination, "
-                                 "node, perilune or phasing", c))
+            entries.append(
+                Entry(
+                    c.key,
+                    "catalogue (approximate)",
+                    c.n_sat,
+                    None,
+                    None,
+                    "not evaluated: approximate entry, its sources give no eccentricity, inclination, "
+                    "node, perilune or phasing",
+                    c,
+                )
+            )
         else:
             epoch = "none" if c.epoch is None else f"{c.epoch} {c.time_scale}"
-            entries.append(Entry(c.key, "catalogue", c.n_sat, c.elements_deg, c.element_frame,
-                                 f"elements in {c.element_frame} at the study epoch (file epoch {epoch})", c))
+            entries.append(
+                Entry(
+                    c.key,
+                    "catalogue",
+                    c.n_sat,
+                    c.elements_deg,
+                    c.element_frame,
+                    f"elements in {c.element_frame} at the study epoch (file epoch {epoch})",
+                    c,
+                )
+            )
     return entries
 
 
 def paper_entry(profile: dict) -> Entry:
     """The paper's Table 4 standalone ELFO, elements in the profile's element frame."""
     elements = standalone_elfo(profile.standalone_elfo, profile.dynamics)
-    return Entry(TABLE4_KEY, "paper", elements.shape[0], elements, profile.frames.element_frame,
-                 "Malik & Yang Table 4 (2 planes x 8)")
+    return Entry(
+        TABLE4_KEY,
+        "paper",
+        elements.shape[0],
+        elements,
+        profile.frames.element_frame,
+        "Malik & Yang Table 4 (2 planes x 8)",
+    )
 
 
 def _campaigns(profile_name: str) -> list[tuple[str, Path, object, object]]:
@@ -144,15 +207,27 @@ def _campaigns(profile_name: str) -> list[tuple[str, Path, object, object]]:
     base = output_dir(profile_name, "campaign")
     companion = companion_of(profile_name)
     campaigns = []
-    for label, folder in [("paper-faithful", base)] + ([("operational", output_dir(companion, "campaign"))]
-                                                       if companion else []):
+    for label, folder in [("paper-faithful", base)] + (
+        [("operational", output_dir(companion, "campaign"))] if companion else []
+    ):
         published = load_published(folder)
         if published is not None:
             campaigns.append((label, published.folder, published.evaluations, published.front))
     for sub in sorted(base.iterdir()) if base.is_dir() else []:
-        if sub.is_dir() and not sub.name.startswith("run_") and sub.name != PUBLISHED_DIR and (sub / "front.nc").is_file():
-            campaigns.append((sub.name, sub, xr.load_dataset(sub / "evaluations.nc", engine="h5netcdf"),
-                              xr.load_dataset(sub / "front.nc", engine="h5netcdf")))
+        if (
+            sub.is_dir()
+            and not sub.name.startswith("run_")
+            and sub.name != PUBLISHED_DIR
+            and (sub / "front.nc").is_file()
+        ):
+            campaigns.append(
+                (
+                    sub.name,
+                    sub,
+                    xr.load_dataset(sub / "evaluations.nc", engine="h5netcdf"),
+                    xr.load_dataset(sub / "front.nc", engine="h5netcdf"),
+                )
+            )
     return campaigns
 
 
@@ -170,38 +245,76 @@ def campaign_entries(profile_name: str) -> tuple[list[Entry], list[str]]:
     entries, notes = [], []
     campaigns = _campaigns(profile_name)
     if not campaigns:
-        notes.append(f"no campaign published under {display_path(output_dir(profile_name, 'campaign'))}: campaign designs "
-                     f"skipped; run `python -m lnss_lib campaign --profile {profile_name}`")
+        notes.append(
+            f"no campaign published under {display_path(output_dir(profile_name, 'campaign'))}: campaign designs "
+            f"skipped; run `python -m lnss_lib campaign --profile {profile_name}`"
+        )
     for name, folder, evaluations, front in campaigns:
-        metric, limit = deltav_constraint(evaluations)      # the paper's Delta-V, or the operational estimate
+        metric, limit = deltav_constraint(
+            evaluations
+        )  # the paper's Delta-V, or the operational estimate
         picks = table6(front, dv_max_kms_per_year=limit, dv_metric=metric)
         if not len(picks):
             relaxed, _ = analysis_front(evaluations, front.isel(design=slice(0, 0)))
             picks = table6(relaxed, dv_max_kms_per_year=math.inf, dv_metric=metric)
-            notes.append(f"{name} campaign: no front design meets every bound; Table 6 picks from the front with the "
-                         "Delta-V bound relaxed")
+            notes.append(
+                f"{name} campaign: no front design meets every bound; Table 6 picks from the front with the "
+                "Delta-V bound relaxed"
+            )
         if not len(picks):
-            notes.append(f"{name} campaign ({display_path(folder)}): no design qualifies for Table 6; none added")
+            notes.append(
+                f"{name} campaign ({display_path(folder)}): no design qualifies for Table 6; none added"
+            )
         for k, row in picks.iterrows():
-            design = WalkerDesign(row.sma_km, row.ecc, row.aop_deg, row.inc_deg, int(row.n_planes), int(row.sats_per_plane))
-            label = (f"{name} campaign #{k + 1}: {int(row.n_planes)}x{int(row.sats_per_plane)}, a {row.sma_km:.0f} km, "
-                     f"e {row.ecc:.2f}, i {row.inc_deg:.0f}, AOP {row.aop_deg:.0f}")
-            entries.append(Entry(label, "campaign", design.n_sat, design.elements_deg(), None, row["why selected"]))
+            design = WalkerDesign(
+                row.sma_km,
+                row.ecc,
+                row.aop_deg,
+                row.inc_deg,
+                int(row.n_planes),
+                int(row.sats_per_plane),
+            )
+            label = (
+                f"{name} campaign #{k + 1}: {int(row.n_planes)}x{int(row.sats_per_plane)}, a {row.sma_km:.0f} km, "
+                f"e {row.ecc:.2f}, i {row.inc_deg:.0f}, AOP {row.aop_deg:.0f}"
+            )
+            entries.append(
+                Entry(
+                    label,
+                    "campaign",
+                    design.n_sat,
+                    design.elements_deg(),
+                    None,
+                    row["why selected"],
+                )
+            )
     return entries, notes
 
 
 def _nan_row(entry: Entry, masks) -> dict:
-    row = {"constellation": entry.label, "kind": entry.kind, "n_sat": entry.n_sat, "status": entry.note}
+    row = {
+        "constellation": entry.label,
+        "kind": entry.kind,
+        "n_sat": entry.n_sat,
+        "status": entry.note,
+    }
     row.update({k: math.nan for k in METRIC_KEYS + NAVIGATION_ERROR_KEYS if k != "n_sat"})
     row.update({mask_key(k, m): math.nan for m in masks for k in DOP_KEYS})
-    row.update(screen_min_perilune_alt_km=math.nan, stable_screen=None, screen_impact_day=math.nan,
-               sk_dv_estimate_kms_per_year=math.nan, sk_dv_estimate_max_kms_per_year=math.nan)
+    row.update(
+        screen_min_perilune_alt_km=math.nan,
+        stable_screen=None,
+        screen_impact_day=math.nan,
+        sk_dv_estimate_kms_per_year=math.nan,
+        sk_dv_estimate_max_kms_per_year=math.nan,
+    )
     return row
 
 
 def _profile_for(profile: dict, entry: Entry) -> dict:
     if entry.kind == "catalogue":
-        return profile.with_overrides({"frames": {"element_frame": FILE_FRAMES[entry.element_frame]}})
+        return profile.with_overrides(
+            {"frames": {"element_frame": FILE_FRAMES[entry.element_frame]}}
+        )
     return profile
 
 
@@ -223,26 +336,38 @@ def _evaluate_entry(context, entry: Entry, masks) -> tuple[dict, dict | None]:
     row.update({k: study["metrics"][k] for k in METRIC_KEYS})
     r_mf = rotate_with(context.rot_to_moon_fixed, study["propagation"].r_mci_km.values)
     study["r_mf_km"] = r_mf
-    metres = context.position_errors(study["propagation"].r_mci_km.values, r_mf).metrics(profile.navigation_error,
-                                                                                          context.grid)
+    metres = context.position_errors(study["propagation"].r_mci_km.values, r_mf).metrics(
+        profile.navigation_error, context.grid
+    )
     row.update({k: metres[k] for k in NAVIGATION_ERROR_KEYS})
     for mask in masks:
         masked = profile.with_overrides({"dop": {"elevation_mask_deg": float(mask)}})
-        summary = summary_for_settings(masked.dop, dop_for_settings(masked.dop, r_mf, context.times, context.grid))
+        summary = summary_for_settings(
+            masked.dop, dop_for_settings(masked.dop, r_mf, context.times, context.grid)
+        )
         row.update({mask_key(k, mask): summary[k] for k in DOP_KEYS})
     screen = screen_states(profile.stability, profile.dynamics, states, context.t0_tdb_s)
-    row.update(screen_min_perilune_alt_km=screen.attrs["min_perilune_alt_km"], stable_screen=screen.attrs["stable"],
-               screen_impact_day=screen.attrs["impact_day"])
+    row.update(
+        screen_min_perilune_alt_km=screen.attrs["min_perilune_alt_km"],
+        stable_screen=screen.attrs["stable"],
+        screen_impact_day=screen.attrs["impact_day"],
+    )
     try:
-        sk = sk_estimate_from_propagation(profile.sk_estimate, profile.dynamics, study["propagation"])
-        row.update(sk_dv_estimate_kms_per_year=sk["sk_dv_estimate_kms_per_year"],
-                   sk_dv_estimate_max_kms_per_year=sk["sk_dv_estimate_max_kms_per_year"])
+        sk = sk_estimate_from_propagation(
+            profile.sk_estimate, profile.dynamics, study["propagation"]
+        )
+        row.update(
+            sk_dv_estimate_kms_per_year=sk["sk_dv_estimate_kms_per_year"],
+            sk_dv_estimate_max_kms_per_year=sk["sk_dv_estimate_max_kms_per_year"],
+        )
     except ValueError as error:
         row["status"] = f"{entry.note}; no station-keeping estimate: {error}"
     return row, study
 
 
-def run_benchmark(profile_name: str, *, campaigns: bool | None = None, names=None, overrides=None) -> Benchmark:
+def run_benchmark(
+    profile_name: str, *, campaigns: bool | None = None, names=None, overrides=None
+) -> Benchmark:
     """Evaluate every entry (catalogue, Table 4 ELFO, campaign picks) over the profile's grid and epoch span.
 
     Columns: ``constellation``, ``kind``, ``n_sat``, ``status``, the eq. 45 metrics of
@@ -271,14 +396,19 @@ def run_benchmark(profile_name: str, *, campaigns: bool | None = None, names=Non
     return Benchmark(profile_name, profile, entries, pd.DataFrame(rows), analysis, notes)
 
 
-def add_closed_loop_life(bench: Benchmark, life_days: float | None = None) -> tuple[pd.DataFrame, str]:
+def add_closed_loop_life(
+    bench: Benchmark, life_days: float | None = None
+) -> tuple[pd.DataFrame, str]:
     """The yardstick with the closed-loop design-life metrics of ``lnss_lib.design_life.evaluation`` added (prefixed
     ``life_``), and a note. With ``[benchmark] closed_loop_life = false`` the table comes back unchanged with a
     note saying why."""
     from ..design_life.evaluation import evaluate_design_life
 
     if not bench.profile.benchmark.closed_loop_life:
-        return bench.table, "[benchmark] closed_loop_life = false: closed-loop design-life metrics not added"
+        return (
+            bench.table,
+            "[benchmark] closed_loop_life = false: closed-loop design-life metrics not added",
+        )
     life = bench.profile.design_life.life_days if life_days is None else float(life_days)
     table = bench.table.copy()
     for entry in bench.entries:
@@ -288,36 +418,62 @@ def add_closed_loop_life(bench: Benchmark, life_days: float | None = None) -> tu
         index = table.index[table["constellation"] == entry.label][0]
         for key in DESIGN_LIFE_KEYS:
             table.loc[index, f"life_{key}"] = result.get(key, math.nan)
-    return table, f"closed-loop design-life metrics over {life:g} days (lnss_lib.design_life.evaluation)"
+    return (
+        table,
+        f"closed-loop design-life metrics over {life:g} days (lnss_lib.design_life.evaluation)",
+    )
 
 
 # ---------------------------------------------------------------- published figures beside ours
 
 OUR_CONDITIONS = "{mask:g} deg mask; 144-node grid lat -90..-60 deg (pole repeated 36 times); {epoch} TDB + {days:g} d"
 BHAMIDIPATI_DEFINITIONS = {
-    "availability_pct": ("share of grid-epoch samples with PDOP < 15 (eq. 14)",
-                         "their definition (Sec. 3.2.3) was not readable; ours is eq. 14's threshold on PDOP"),
-    "coverage_pct": ("share of grid-epoch samples with >= 4 satellites above the mask",
-                     "their definition was not readable; ours counts 4-fold visibility"),
-    "failure_tolerance_pct": (None, "not computed: needs a one-satellite-out analysis whose definition was not readable"),
-    "gdop": (None, "not computed: the workbook's DOP kernel returns PDOP and HDOP, not the time term GDOP needs"),
-    "horizontal_position_rmse_mean_m": ("RMS over the available samples (PDOP < 15) of the weighted least-squares East-North "
-                                        "sigma_H per node (every satellite their UERE: UERE x HDOP), mean over nodes",
-                                        "equal, uncorrelated ranging errors of their UERE; their estimator is not stated"),
-    "horizontal_position_rmse_max_m": ("RMS over the available samples (PDOP < 15) of sigma_H per node, worst node",
-                                       "worst node decided by near-degenerate samples; their grid differs"),
-    "vertical_position_rmse_mean_m": ("RMS over the available samples of the vertical sigma_V per node (UERE x VDOP), "
-                                      "mean over nodes", "same reading as the horizontal row"),
-    "vertical_position_rmse_max_m": ("RMS over the available samples of sigma_V per node, worst node",
-                                     "worst node decided by near-degenerate samples; their grid differs"),
+    "availability_pct": (
+        "share of grid-epoch samples with PDOP < 15 (eq. 14)",
+        "their definition (Sec. 3.2.3) was not readable; ours is eq. 14's threshold on PDOP",
+    ),
+    "coverage_pct": (
+        "share of grid-epoch samples with >= 4 satellites above the mask",
+        "their definition was not readable; ours counts 4-fold visibility",
+    ),
+    "failure_tolerance_pct": (
+        None,
+        "not computed: needs a one-satellite-out analysis whose definition was not readable",
+    ),
+    "gdop": (
+        None,
+        "not computed: the workbook's DOP kernel returns PDOP and HDOP, not the time term GDOP needs",
+    ),
+    "horizontal_position_rmse_mean_m": (
+        "RMS over the available samples (PDOP < 15) of the weighted least-squares East-North "
+        "sigma_H per node (every satellite their UERE: UERE x HDOP), mean over nodes",
+        "equal, uncorrelated ranging errors of their UERE; their estimator is not stated",
+    ),
+    "horizontal_position_rmse_max_m": (
+        "RMS over the available samples (PDOP < 15) of sigma_H per node, worst node",
+        "worst node decided by near-degenerate samples; their grid differs",
+    ),
+    "vertical_position_rmse_mean_m": (
+        "RMS over the available samples of the vertical sigma_V per node (UERE x VDOP), "
+        "mean over nodes",
+        "same reading as the horizontal row",
+    ),
+    "vertical_position_rmse_max_m": (
+        "RMS over the available samples of sigma_V per node, worst node",
+        "worst node decided by near-degenerate samples; their grid differs",
+    ),
     "receiver_timing_rmse_mean_us": (None, "not computed: no TDOP in the workbook"),
     "receiver_timing_rmse_max_us": (None, "not computed: no TDOP in the workbook"),
 }
-BHAMIDIPATI_TOLERANCE_PCT = 25.0     # node-mean position RMSEs within a quarter of theirs count as agreeing: no closer
-                                    # match can be asked while their user grid, epoch, span and OP frame are unknown
+BHAMIDIPATI_TOLERANCE_PCT = (
+    25.0  # node-mean position RMSEs within a quarter of theirs count as agreeing: no closer
+)
+# match can be asked while their user grid, epoch, span and OP frame are unknown
 AGREEMENT_FIGURES = ("horizontal_position_rmse_mean_m", "vertical_position_rmse_mean_m")
-COMMON_CAUSES = ("their epoch, user grid and span are not given (ours: the study's); elements in the Moon "
-                 "orbital-plane frame built as Ely's / LuPNT's (their OP definition not readable)")
+COMMON_CAUSES = (
+    "their epoch, user grid and span are not given (ours: the study's); elements in the Moon "
+    "orbital-plane frame built as Ely's / LuPNT's (their OP definition not readable)"
+)
 
 
 def _node_rms(values: np.ndarray) -> np.ndarray:
@@ -328,20 +484,44 @@ def _node_rms(values: np.ndarray) -> np.ndarray:
     return np.where(count > 0, np.sqrt(total / np.maximum(count, 1)), np.nan)
 
 
-def _error_counterparts(profile, study: dict, times: np.ndarray, grid, mask_deg: float, uere_m: float) -> dict:
+def _error_counterparts(
+    profile, study: dict, times: np.ndarray, grid, mask_deg: float, uere_m: float
+) -> dict:
     """Availability, coverage and position RMSEs at ``mask_deg`` with every satellite's user range error ``uere_m``
     (constant: no ephemeris ageing, receiver or multipath term) through the weighted position-error pass."""
-    masked = profile.with_overrides({"dop": {"elevation_mask_deg": float(mask_deg)},
-                                     "navigation_error": {"sise_law": "constant", "sise_at_upload_m": float(uere_m),
-                                                          "receiver_noise_m": 0.0, "lunar_multipath_zenith_m": 0.0}})
+    masked = profile.with_overrides(
+        {
+            "dop": {"elevation_mask_deg": float(mask_deg)},
+            "navigation_error": {
+                "sise_law": "constant",
+                "sise_at_upload_m": float(uere_m),
+                "receiver_noise_m": 0.0,
+                "lunar_multipath_zenith_m": 0.0,
+            },
+        }
+    )
     nav = masked.navigation_error
     r_mci = study["propagation"].r_mci_km.values
-    errors = position_errors(nav, masked.dop, grid, study["r_mf_km"], r_mci, times,
-                             station_states(nav, profile.constants, times), profile.constants.r_moon_mean_km)
-    with np.errstate(invalid="ignore"):            # eq. 14, a fix is reported: PDOP < 15, sigma_P < 15 UERE
-        usable = np.hypot(errors.sigma_h_m, errors.sigma_v_m) < profile.dop.availability_threshold * uere_m
+    errors = position_errors(
+        nav,
+        masked.dop,
+        grid,
+        study["r_mf_km"],
+        r_mci,
+        times,
+        station_states(nav, profile.constants, times),
+        profile.constants.r_moon_mean_km,
+    )
+    with np.errstate(invalid="ignore"):  # eq. 14, a fix is reported: PDOP < 15, sigma_P < 15 UERE
+        usable = (
+            np.hypot(errors.sigma_h_m, errors.sigma_v_m)
+            < profile.dop.availability_threshold * uere_m
+        )
     stats = errors.dop_stats
-    out = {"availability_pct": stats["pdop_avail_pct"], "coverage_pct": 100.0 - stats["fewer_than_4_pct"]}
+    out = {
+        "availability_pct": stats["pdop_avail_pct"],
+        "coverage_pct": 100.0 - stats["fewer_than_4_pct"],
+    }
     for name, sigma in (("horizontal", errors.sigma_h_m), ("vertical", errors.sigma_v_m)):
         node = _node_rms(np.where(usable, sigma, np.nan))
         finite = node[np.isfinite(node)]
@@ -352,7 +532,9 @@ def _error_counterparts(profile, study: dict, times: np.ndarray, grid, mask_deg:
 
 def _runs(visible: np.ndarray, value: bool) -> np.ndarray:
     """Lengths (samples) of the runs of ``value`` in a boolean series."""
-    edges = np.flatnonzero(np.diff(np.concatenate([[False], visible == value, [False]]).astype(int)))
+    edges = np.flatnonzero(
+        np.diff(np.concatenate([[False], visible == value, [False]]).astype(int))
+    )
     return edges[1::2] - edges[0::2]
 
 
@@ -361,9 +543,15 @@ def _pole_coverage(elev_deg: np.ndarray, mask_deg: float, fold: int | None, step
     or of the constellation's ``fold``-fold visibility (elev (sat, time))."""
     visible = elev_deg >= mask_deg if fold is None else np.sum(elev_deg >= mask_deg, axis=0) >= fold
     passes, gaps = _runs(visible, True), _runs(visible, False)
-    return {"coverage_pct": 100.0 * float(np.mean(visible)),
-            "mean_pass_h": "Total Span" if visible.all() else float(np.mean(passes) * step_h) if passes.size else 0.0,
-            "mean_gap_h": float(np.mean(gaps) * step_h) if gaps.size else 0.0}
+    return {
+        "coverage_pct": 100.0 * float(np.mean(visible)),
+        "mean_pass_h": "Total Span"
+        if visible.all()
+        else float(np.mean(passes) * step_h)
+        if passes.size
+        else 0.0,
+        "mean_gap_h": float(np.mean(gaps) * step_h) if gaps.size else 0.0,
+    }
 
 
 def _ely_rows(bench: Benchmark, entry: Entry, study: dict, our: str) -> list[dict]:
@@ -374,30 +562,48 @@ def _ely_rows(bench: Benchmark, entry: Entry, study: dict, our: str) -> list[dic
     step_h = bench.profile.epoch.step_s / 3600.0
     days = bench.profile.epoch.duration_days
     theirs = f"{pub['conditions']} Epoch 2009-07 (ET; day uncertain, see README)."
-    why = (f"span: their 10 years against our {days:g} days at {step_h * 60:g} min sampling (passes cut at the span's "
-           "ends, pass lengths quantised to the step); epoch: theirs 2009, ours the study epoch; same station (the pole)")
+    why = (
+        f"span: their 10 years against our {days:g} days at {step_h * 60:g} min sampling (passes cut at the span's "
+        "ends, pass lengths quantised to the step); epoch: theirs 2009, ours the study epoch; same station (the pole)"
+    )
     blocks = []
     for k in range(entry.n_sat):
         blocks.append((f"satellite_{k + 1}", float(pub["elevation_mask_deg"]), None, elev[k]))
-    blocks += [("constellation_1_fold", float(pub["elevation_mask_deg"]), 1, elev),
-               ("constellation_2_fold", float(pub["elevation_mask_deg"]), 2, elev)]
+    blocks += [
+        ("constellation_1_fold", float(pub["elevation_mask_deg"]), 1, elev),
+        ("constellation_2_fold", float(pub["elevation_mask_deg"]), 2, elev),
+    ]
     rows = []
     for name, mask, fold, values in blocks:
         ours = _pole_coverage(values, mask, fold, step_h)
         for key, value in pub.get(name, {}).items():
-            rows.append({"constellation": entry.label, "published figure": f"{name}.{key}", "published": value,
-                         "their conditions": theirs, "ours": ours.get(key),
-                         "our conditions": our.format(mask=mask) + "; South Pole node only",
-                         "our definition": "as theirs (p. 314), from our sampled passes",
-                         "why they differ": why})
+            rows.append(
+                {
+                    "constellation": entry.label,
+                    "published figure": f"{name}.{key}",
+                    "published": value,
+                    "their conditions": theirs,
+                    "ours": ours.get(key),
+                    "our conditions": our.format(mask=mask) + "; South Pole node only",
+                    "our definition": "as theirs (p. 314), from our sampled passes",
+                    "why they differ": why,
+                }
+            )
     for key, fold in (("one_fold_coverage_pct", 1), ("two_fold_coverage_pct", 2)):
         if key in pub.get("elevation_mask_15deg", {}):
             ours = _pole_coverage(elev, 15.0, fold, step_h)["coverage_pct"]
-            rows.append({"constellation": entry.label, "published figure": f"elevation_mask_15deg.{key}",
-                         "published": pub["elevation_mask_15deg"][key], "their conditions": theirs.replace("10 deg", "15 deg"),
-                         "ours": ours, "our conditions": our.format(mask=15.0) + "; South Pole node only",
-                         "our definition": f"share of epochs with >= {fold} satellites above 15 deg at the pole",
-                         "why they differ": why})
+            rows.append(
+                {
+                    "constellation": entry.label,
+                    "published figure": f"elevation_mask_15deg.{key}",
+                    "published": pub["elevation_mask_15deg"][key],
+                    "their conditions": theirs.replace("10 deg", "15 deg"),
+                    "ours": ours,
+                    "our conditions": our.format(mask=15.0) + "; South Pole node only",
+                    "our definition": f"share of epochs with >= {fold} satellites above 15 deg at the pole",
+                    "why they differ": why,
+                }
+            )
     return rows
 
 
@@ -409,16 +615,25 @@ def _bhamidipati_rows(bench: Benchmark, entry: Entry, study: dict, our: str) -> 
             continue
         mask, uere = float(table["elevation_mask_deg"]), float(table["lunar_uere_m"])
         ours = _error_counterparts(bench.profile, study, context.times, context.grid, mask, uere)
-        theirs = (f"{table['table']}; {mask:g} deg mask; UERE {uere:g} m; epoch, user grid and duration not given")
+        theirs = f"{table['table']}; {mask:g} deg mask; UERE {uere:g} m; epoch, user grid and duration not given"
         for key, value in table.items():
             if key in ("table", "elevation_mask_deg", "lunar_uere_m"):
                 continue
-            definition, cause = BHAMIDIPATI_DEFINITIONS.get(key, (None, "no counterpart in the workbook"))
-            rows.append({"constellation": entry.label, "published figure": f"{table_key}.{key}", "published": value,
-                         "their conditions": theirs, "ours": ours.get(key, math.nan) if definition else math.nan,
-                         "our conditions": our.format(mask=mask) + f"; UERE {uere:g} m",
-                         "our definition": definition or "-",
-                         "why they differ": f"{cause}; {COMMON_CAUSES}" if definition else cause})
+            definition, cause = BHAMIDIPATI_DEFINITIONS.get(
+                key, (None, "no counterpart in the workbook")
+            )
+            rows.append(
+                {
+                    "constellation": entry.label,
+                    "published figure": f"{table_key}.{key}",
+                    "published": value,
+                    "their conditions": theirs,
+                    "ours": ours.get(key, math.nan) if definition else math.nan,
+                    "our conditions": our.format(mask=mask) + f"; UERE {uere:g} m",
+                    "our definition": definition or "-",
+                    "why they differ": f"{cause}; {COMMON_CAUSES}" if definition else cause,
+                }
+            )
     return rows
 
 
@@ -431,7 +646,8 @@ def published_comparison(bench: Benchmark) -> pd.DataFrame:
     """
     profile = bench.profile
     our = OUR_CONDITIONS.replace("{epoch}", profile.epoch.start_tdb).replace(
-        "{days:g}", f"{profile.epoch.duration_days:g}")
+        "{days:g}", f"{profile.epoch.duration_days:g}"
+    )
     rows = []
     for entry in bench.entries:
         if entry.kind != "catalogue" or not entry.catalogue.published:
@@ -446,34 +662,55 @@ def published_comparison(bench: Benchmark) -> pd.DataFrame:
     return pd.DataFrame(rows)
 
 
-def bhamidipati_agreement(published: pd.DataFrame, tolerance_pct: float = BHAMIDIPATI_TOLERANCE_PCT) -> pd.DataFrame:
+def bhamidipati_agreement(
+    published: pd.DataFrame, tolerance_pct: float = BHAMIDIPATI_TOLERANCE_PCT
+) -> pd.DataFrame:
     """The node-mean horizontal and vertical position RMSEs of :func:`published_comparison` (the same UERE, their
     mask) with ``difference (%)`` (100 (ours - theirs) / theirs) and ``agrees`` (within ``tolerance_pct``)."""
     rows = published[published["published figure"].str.endswith(AGREEMENT_FIGURES)]
-    difference = 100.0 * (rows["ours"].astype(float) - rows["published"].astype(float)) / rows["published"].astype(float)
-    return pd.DataFrame({"constellation": rows["constellation"], "published figure": rows["published figure"],
-                         "published (m)": rows["published"], "ours (m)": rows["ours"],
-                         "difference (%)": difference, "agrees": difference.abs() <= tolerance_pct})
+    difference = (
+        100.0
+        * (rows["ours"].astype(float) - rows["published"].astype(float))
+        / rows["published"].astype(float)
+    )
+    return pd.DataFrame(
+        {
+            "constellation": rows["constellation"],
+            "published figure": rows["published figure"],
+            "published (m)": rows["published"],
+            "ours (m)": rows["ours"],
+            "difference (%)": difference,
+            "agrees": difference.abs() <= tolerance_pct,
+        }
+    )
 
 
 # ---------------------------------------------------------------- epoch sensitivity
 
+
 def _moon_node_deg(t_tdb_s: float) -> float:
     """Longitude (deg) of the ascending node of the Moon's geocentric orbit on the J2000 ecliptic."""
     state = body_states_mci("EARTH", np.array([t_tdb_s]))[0]
-    h = np.cross(state[:3], state[3:])                 # Earth about the Moon: the same normal as the Moon about the Earth
+    h = np.cross(
+        state[:3], state[3:]
+    )  # Earth about the Moon: the same normal as the Moon about the Earth
     h = rotation("J2000", "ECLIPJ2000", np.array([t_tdb_s]))[0] @ h
     return float(np.degrees(np.arctan2(h[0], -h[1])) % 360.0)
 
 
 def _epoch_states(profile: dict, name: str, t0: float) -> np.ndarray:
     if name == TABLE4_KEY:
-        return elements_deg_to_states(profile.dynamics, standalone_elfo(profile.standalone_elfo, profile.dynamics), t0)
-    return constellation_states_mci(profile.dynamics, profile.epoch.start_tdb,
-                                    load_constellation(name, profile.dynamics)).states_mci
+        return elements_deg_to_states(
+            profile.dynamics, standalone_elfo(profile.standalone_elfo, profile.dynamics), t0
+        )
+    return constellation_states_mci(
+        profile.dynamics, profile.epoch.start_tdb, load_constellation(name, profile.dynamics)
+    ).states_mci
 
 
-def epoch_sensitivity(profile_name: str, *, epochs=None, names=None, overrides=None) -> pd.DataFrame:
+def epoch_sensitivity(
+    profile_name: str, *, epochs=None, names=None, overrides=None
+) -> pd.DataFrame:
     """Lunar-surface metrics of the same constellations started at each epoch (``[benchmark] epochs_tdb``).
 
     The constellation keeps its geometry relative to the Moon: Table 4's elements in the lunar equator
@@ -494,20 +731,42 @@ def epoch_sensitivity(profile_name: str, *, epochs=None, names=None, overrides=N
         duration = profile.epoch.duration_days * SECONDS_PER_DAY
         for name in names:
             states = _epoch_states(profile, name, t0)
-            ds = propagate_states(profile.dynamics, states, t0, duration, profile.epoch.step_s, batch=True)
-            row = {"epoch_tdb": epoch, "year": 2000.0 + (t0 / SECONDS_PER_DAY) / DAYS_PER_JULIAN_YEAR, "moon_node_deg": _moon_node_deg(t0),
-                   "constellation": name, "n_sat": states.shape[0], "impact": bool(ds.impact.any())}
+            ds = propagate_states(
+                profile.dynamics, states, t0, duration, profile.epoch.step_s, batch=True
+            )
+            row = {
+                "epoch_tdb": epoch,
+                "year": 2000.0 + (t0 / SECONDS_PER_DAY) / DAYS_PER_JULIAN_YEAR,
+                "moon_node_deg": _moon_node_deg(t0),
+                "constellation": name,
+                "n_sat": states.shape[0],
+                "impact": bool(ds.impact.any()),
+            }
             if not row["impact"]:
                 times = ds["time"].values.astype(float)
                 r_mf = rotate_to_moon_fixed(profile.dynamics, ds["r_mci_km"].values, times)
-                for mask in [profile.dop.elevation_mask_deg] + [float(m) for m in cfg.extra_masks_deg]:
+                for mask in [profile.dop.elevation_mask_deg] + [
+                    float(m) for m in cfg.extra_masks_deg
+                ]:
                     masked = profile.with_overrides({"dop": {"elevation_mask_deg": mask}})
-                    summary = summary_for_settings(masked.dop, dop_for_settings(
-                        masked.dop, r_mf, times, SurfaceGrid.from_settings(masked.dop, masked.constants.r_moon_mean_km)))
+                    summary = summary_for_settings(
+                        masked.dop,
+                        dop_for_settings(
+                            masked.dop,
+                            r_mf,
+                            times,
+                            SurfaceGrid.from_settings(masked.dop, masked.constants.r_moon_mean_km),
+                        ),
+                    )
                     row.update({mask_key(k, mask): summary[k] for k in DOP_KEYS})
-                row["sk_dv_estimate_kms_per_year"] = sk_estimate_from_propagation(profile.sk_estimate, profile.dynamics, ds)["sk_dv_estimate_kms_per_year"]
+                row["sk_dv_estimate_kms_per_year"] = sk_estimate_from_propagation(
+                    profile.sk_estimate, profile.dynamics, ds
+                )["sk_dv_estimate_kms_per_year"]
             screen = screen_states(profile.stability, profile.dynamics, states, t0)
-            row.update(screen_min_perilune_alt_km=screen.attrs["min_perilune_alt_km"], stable_screen=screen.attrs["stable"])
+            row.update(
+                screen_min_perilune_alt_km=screen.attrs["min_perilune_alt_km"],
+                stable_screen=screen.attrs["stable"],
+            )
             rows.append(row)
     return pd.DataFrame(rows)
 
@@ -517,8 +776,20 @@ def epoch_spread(table: pd.DataFrame, reference_epoch: str | None = None) -> pd.
     minimum, maximum and the spread (max - min) across the epochs, and the largest departure from the
     reference in per cent."""
     reference_epoch = table["epoch_tdb"].iloc[0] if reference_epoch is None else reference_epoch
-    metrics = [c for c in table.columns if c not in ("epoch_tdb", "year", "moon_node_deg", "constellation", "n_sat",
-                                                     "impact", "stable_screen")]
+    metrics = [
+        c
+        for c in table.columns
+        if c
+        not in (
+            "epoch_tdb",
+            "year",
+            "moon_node_deg",
+            "constellation",
+            "n_sat",
+            "impact",
+            "stable_screen",
+        )
+    ]
     rows = []
     for name, group in table.groupby("constellation", sort=False):
         ref = group[group["epoch_tdb"] == reference_epoch]
@@ -526,11 +797,22 @@ def epoch_spread(table: pd.DataFrame, reference_epoch: str | None = None) -> pd.
             values = group[metric].to_numpy(float)
             ref_value = float(ref[metric].iloc[0]) if len(ref) else math.nan
             with np.errstate(invalid="ignore", divide="ignore"):
-                departure = float(np.nanmax(np.abs(values / ref_value - 1.0)) * 100.0) if ref_value else math.nan
-            rows.append({"constellation": name, "metric": metric, f"at {reference_epoch}": ref_value,
-                         "min": float(np.nanmin(values)), "max": float(np.nanmax(values)),
-                         "spread": float(np.nanmax(values) - np.nanmin(values)),
-                         "largest departure from the reference (%)": departure})
+                departure = (
+                    float(np.nanmax(np.abs(values / ref_value - 1.0)) * 100.0)
+                    if ref_value
+                    else math.nan
+                )
+            rows.append(
+                {
+                    "constellation": name,
+                    "metric": metric,
+                    f"at {reference_epoch}": ref_value,
+                    "min": float(np.nanmin(values)),
+                    "max": float(np.nanmax(values)),
+                    "spread": float(np.nanmax(values) - np.nanmin(values)),
+                    "largest departure from the reference (%)": departure,
+                }
+            )
     return pd.DataFrame(rows)
 
 
@@ -542,25 +824,39 @@ def epoch_findings(spread: pd.DataFrame) -> list[str]:
         dop = group[group["metric"].str.contains("dop|visible")]
         other = group[~group["metric"].str.contains("dop|visible")]
         worst = dop.loc[dop[column].idxmax()] if dop[column].notna().any() else None
-        text = f"- {name}: DOP metrics move by at most {worst[column]:.2f}% ({worst['metric']})" if worst is not None else f"- {name}: no DOP metric"
+        text = (
+            f"- {name}: DOP metrics move by at most {worst[column]:.2f}% ({worst['metric']})"
+            if worst is not None
+            else f"- {name}: no DOP metric"
+        )
         for _, row in other.iterrows():
             text += f"; {row['metric']} from {row['min']:.4g} to {row['max']:.4g}"
         lines.append(text)
     return lines
 
 
-
 def yardstick_findings(table: pd.DataFrame, masks) -> list[str]:
     """Markdown bullet lines read from the yardstick: what was evaluated, and how each extra mask moves
     the PDOP availability of every evaluated constellation."""
     evaluated = table[np.isfinite(table["pdop_avail_pct"].to_numpy(float))]
-    lines = [f"- {len(evaluated)} of {len(table)} constellations evaluated; not evaluated: "
-             + (", ".join(f"{r.constellation} ({r.status})" for r in table[~table.index.isin(evaluated.index)].itertuples())
-                or "none")]
+    lines = [
+        f"- {len(evaluated)} of {len(table)} constellations evaluated; not evaluated: "
+        + (
+            ", ".join(
+                f"{r.constellation} ({r.status})"
+                for r in table[~table.index.isin(evaluated.index)].itertuples()
+            )
+            or "none"
+        )
+    ]
     for mask in masks:
         drop = evaluated["pdop_avail_pct"] - evaluated[mask_key("pdop_avail_pct", mask)]
-        lines.append(f"- {float(mask):g} deg mask: PDOP availability lower than at the profile's mask by "
-                     f"{drop.min():.1f} to {drop.max():.1f} points; "
-                     + ", ".join(f"{r.constellation} {r.pdop_avail_pct:.1f}% -> {a:.1f}%"
-                                 for r, a in zip(evaluated.itertuples(), evaluated[mask_key('pdop_avail_pct', mask)])))
+        lines.append(
+            f"- {float(mask):g} deg mask: PDOP availability lower than at the profile's mask by "
+            f"{drop.min():.1f} to {drop.max():.1f} points; "
+            + ", ".join(
+                f"{r.constellation} {r.pdop_avail_pct:.1f}% -> {a:.1f}%"
+                for r, a in zip(evaluated.itertuples(), evaluated[mask_key("pdop_avail_pct", mask)])
+            )
+        )
     return lines

@@ -45,19 +45,37 @@ import xarray as xr
 from ..campaign.backends import open_backend
 from ..campaign.fitness import constraint_matrix, metric_columns
 from ..campaign.settings import CampaignPlan, evaluation_profile
-from ..settings import Settings, load_settings
 from ..keys import DESIGN_KEYS, METRIC_KEYS
 from ..paper import TABLE_4
+from ..settings import Settings, load_settings
 
-__all__ = ["DV_KEY", "PAPER_MODEL", "SAMPLE_SEED", "SAMPLE_SIZE", "SIGNIFICANT_FIGURES", "PERCENTILES",
-           "sample_keys", "evaluate_records", "floor_sample", "distribution_table", "floor_by_family",
-           "floor_of", "round_up", "paper_bound", "table4_deltav", "physical_bound", "bound_alternatives", "feasible_counts",
-           "save_sample", "report"]
+__all__ = [
+    "DV_KEY",
+    "PAPER_MODEL",
+    "SAMPLE_SEED",
+    "SAMPLE_SIZE",
+    "SIGNIFICANT_FIGURES",
+    "PERCENTILES",
+    "sample_keys",
+    "evaluate_records",
+    "floor_sample",
+    "distribution_table",
+    "floor_by_family",
+    "floor_of",
+    "round_up",
+    "paper_bound",
+    "table4_deltav",
+    "physical_bound",
+    "bound_alternatives",
+    "feasible_counts",
+    "save_sample",
+    "report",
+]
 
-DV_KEY = "dv_total_kms_per_year"          # the eq. 45 Delta-V that Table 3 bounds
-PAPER_MODEL = "paper"                     # [deltav] model of the paper's eq. 30-35 (corrected)
-PAPER_DV_KEY = f"{DV_KEY}_paper_model"    # the same designs' Delta-V under that model
-SAMPLE_SEED = 23                          # one fixed draw: the same sample in every run
+DV_KEY = "dv_total_kms_per_year"  # the eq. 45 Delta-V that Table 3 bounds
+PAPER_MODEL = "paper"  # [deltav] model of the paper's eq. 30-35 (corrected)
+PAPER_DV_KEY = f"{DV_KEY}_paper_model"  # the same designs' Delta-V under that model
+SAMPLE_SEED = 23  # one fixed draw: the same sample in every run
 SAMPLE_SIZE = 300
 SIGNIFICANT_FIGURES = 2
 PERCENTILES = (1, 5, 10, 25, 50, 75, 90)
@@ -83,8 +101,14 @@ def evaluate_records(settings: Settings, designs: list[dict], workers: int = 0) 
     return records
 
 
-def floor_sample(profile_name: str = "paper", n: int = SAMPLE_SIZE, seed: int = SAMPLE_SEED, workers: int = 0,
-                 overrides: dict | None = None, paper_model: bool = False) -> xr.Dataset:
+def floor_sample(
+    profile_name: str = "paper",
+    n: int = SAMPLE_SIZE,
+    seed: int = SAMPLE_SEED,
+    workers: int = 0,
+    overrides: dict | None = None,
+    paper_model: bool = False,
+) -> xr.Dataset:
     """The sample (design,): design keys, every metric of eq. 45 under the profile's Delta-V model, ``ok`` and
     ``impact``, the campaign's constraint values G (``g_<metric>``, feasible where <= 0) and the Delta-V under
     the paper's model (``dv_total_kms_per_year_paper_model``, with ``paper_model``: a second evaluation of the same
@@ -95,9 +119,15 @@ def floor_sample(profile_name: str = "paper", n: int = SAMPLE_SIZE, seed: int = 
     designs = plan.grid.designs(keys)
     records = evaluate_records(settings, designs, workers)
     if paper_model:
-        paper_overrides = {**(overrides or {}), "deltav": {**(overrides or {}).get("deltav", {}), "model": PAPER_MODEL}}
-        paper_dv = metric_columns(evaluate_records(load_settings(profile_name, overrides=paper_overrides), designs,
-                                                   workers))[DV_KEY]
+        paper_overrides = {
+            **(overrides or {}),
+            "deltav": {**(overrides or {}).get("deltav", {}), "model": PAPER_MODEL},
+        }
+        paper_dv = metric_columns(
+            evaluate_records(
+                load_settings(profile_name, overrides=paper_overrides), designs, workers
+            )
+        )[DV_KEY]
     else:
         paper_dv = np.full(len(designs), np.nan)
     columns = metric_columns(records, plan.extra_metrics)
@@ -112,13 +142,24 @@ def floor_sample(profile_name: str = "paper", n: int = SAMPLE_SIZE, seed: int = 
     ds = xr.Dataset(data, coords={"design": np.arange(len(designs))})
     ds["key"] = (("design", "variable"), keys)
     ds = ds.assign_coords(variable=list(DESIGN_KEYS))
-    ds[DV_KEY].attrs.update(units="km s-1 yr-1", long_name=f"station-keeping Delta-V, {records[0]['deltav_model']} "
-                            "model (campaign)")
-    ds[PAPER_DV_KEY].attrs.update(units="km s-1 yr-1", long_name="station-keeping Delta-V, paper eq. 30-35 (corrected)")
-    ds.attrs.update(profile=profile_name, seed=int(seed), n_designs=int(n),
-                    deltav_model=settings.deltav.model, paper_deltav_model=PAPER_MODEL,
-                    constraints=",".join(f"{m} {'<=' if k == 'max' else '>='} {v:g}" for m, k, v in plan.constraints),
-                    title="Delta-V floor over a sample of the Table 3 grid (lnss_lib.studies.deltav_floor)")
+    ds[DV_KEY].attrs.update(
+        units="km s-1 yr-1",
+        long_name=f"station-keeping Delta-V, {records[0]['deltav_model']} model (campaign)",
+    )
+    ds[PAPER_DV_KEY].attrs.update(
+        units="km s-1 yr-1", long_name="station-keeping Delta-V, paper eq. 30-35 (corrected)"
+    )
+    ds.attrs.update(
+        profile=profile_name,
+        seed=int(seed),
+        n_designs=int(n),
+        deltav_model=settings.deltav.model,
+        paper_deltav_model=PAPER_MODEL,
+        constraints=",".join(
+            f"{m} {'<=' if k == 'max' else '>='} {v:g}" for m, k, v in plan.constraints
+        ),
+        title="Delta-V floor over a sample of the Table 3 grid (lnss_lib.studies.deltav_floor)",
+    )
     return ds
 
 
@@ -130,20 +171,35 @@ def _evaluated(ds: xr.Dataset, key: str = DV_KEY) -> np.ndarray:
 def distribution_table(ds: xr.Dataset) -> pd.DataFrame:
     """Rows: the campaign's model and the paper's; columns: designs evaluated, min, :data:`PERCENTILES`, max."""
     rows = {}
-    for name, key in ((ds.attrs["deltav_model"], DV_KEY), (ds.attrs["paper_deltav_model"], PAPER_DV_KEY)):
+    for name, key in (
+        (ds.attrs["deltav_model"], DV_KEY),
+        (ds.attrs["paper_deltav_model"], PAPER_DV_KEY),
+    ):
         v = _evaluated(ds, key)
-        rows[name] = {"designs": v.size, "min": v.min() if v.size else math.nan,
-                      **{f"p{p}": (np.percentile(v, p) if v.size else math.nan) for p in PERCENTILES},
-                      "max": v.max() if v.size else math.nan}
+        rows[name] = {
+            "designs": v.size,
+            "min": v.min() if v.size else math.nan,
+            **{f"p{p}": (np.percentile(v, p) if v.size else math.nan) for p in PERCENTILES},
+            "max": v.max() if v.size else math.nan,
+        }
     return pd.DataFrame(rows).T
 
 
-def floor_by_family(ds: xr.Dataset, sma_edges_km=(4000, 6000, 8000, 12000, 16000, 24001),
-                    ecc_edges=(0.0, 0.2, 0.4, 0.6, 0.81), key: str = DV_KEY) -> pd.DataFrame:
+def floor_by_family(
+    ds: xr.Dataset,
+    sma_edges_km=(4000, 6000, 8000, 12000, 16000, 24001),
+    ecc_edges=(0.0, 0.2, 0.4, 0.6, 0.81),
+    key: str = DV_KEY,
+) -> pd.DataFrame:
     """Smallest Delta-V of the evaluated designs in each (a, e) bin (rows a bins, columns e bins; NaN: none)."""
     ok = ds["ok"].values.astype(bool) & np.isfinite(ds[key].values.astype(float))
-    frame = pd.DataFrame({"a": pd.cut(ds["sma_km"].values[ok], sma_edges_km, right=False),
-                          "e": pd.cut(ds["ecc"].values[ok], ecc_edges, right=False), "dv": ds[key].values[ok]})
+    frame = pd.DataFrame(
+        {
+            "a": pd.cut(ds["sma_km"].values[ok], sma_edges_km, right=False),
+            "e": pd.cut(ds["ecc"].values[ok], ecc_edges, right=False),
+            "dv": ds[key].values[ok],
+        }
+    )
     return frame.pivot_table(index="a", columns="e", values="dv", aggfunc="min", observed=False)
 
 
@@ -169,24 +225,38 @@ def paper_bound(profile_name: str = "paper") -> float:
     return next(limit for metric, kind, limit in constraints if metric == DV_KEY and kind == "max")
 
 
-def physical_bound(dv_model_elfo: float, bound_paper: float, dv_paper_elfo: float = TABLE_4[DV_KEY]) -> dict:
+def physical_bound(
+    dv_model_elfo: float, bound_paper: float, dv_paper_elfo: float = TABLE_4[DV_KEY]
+) -> dict:
     """The rule: ``B = (bound_paper / dv_paper_elfo) x dv_model_elfo``, rounded up to :data:`SIGNIFICANT_FIGURES`."""
     ratio = bound_paper / dv_paper_elfo
     raw = ratio * dv_model_elfo
-    return {"paper_bound_kms_per_year": bound_paper, "paper_elfo_kms_per_year": dv_paper_elfo,
-            "ratio_bound_to_elfo": ratio, "model_elfo_kms_per_year": dv_model_elfo,
-            "bound_raw_kms_per_year": raw, "bound_kms_per_year": round_up(raw)}
+    return {
+        "paper_bound_kms_per_year": bound_paper,
+        "paper_elfo_kms_per_year": dv_paper_elfo,
+        "ratio_bound_to_elfo": ratio,
+        "model_elfo_kms_per_year": dv_model_elfo,
+        "bound_raw_kms_per_year": raw,
+        "bound_kms_per_year": round_up(raw),
+    }
 
 
-def bound_alternatives(ds: xr.Dataset, bound_paper: float, dv_paper_elfo: float = TABLE_4[DV_KEY]) -> pd.DataFrame:
+def bound_alternatives(
+    ds: xr.Dataset, bound_paper: float, dv_paper_elfo: float = TABLE_4[DV_KEY]
+) -> pd.DataFrame:
     """Readings not used, for comparison: the paper's ratio applied to the sample's floor (minimum), 1st and 5th
     percentiles instead of the ELFO, and (when the sample has the paper model's values) the ratio of floors."""
     ratio = bound_paper / dv_paper_elfo
     v = _evaluated(ds, DV_KEY)
-    rows = {"ratio x floor (min)": ratio * v.min(), "ratio x p1": ratio * np.percentile(v, 1),
-            "ratio x p5": ratio * np.percentile(v, 5)}
+    rows = {
+        "ratio x floor (min)": ratio * v.min(),
+        "ratio x p1": ratio * np.percentile(v, 1),
+        "ratio x p5": ratio * np.percentile(v, 5),
+    }
     if np.isfinite(ds[PAPER_DV_KEY].values).any():
-        rows["B_paper x floor / floor of corrected eq. 30-35"] = bound_paper * v.min() / floor_of(ds, PAPER_DV_KEY)
+        rows["B_paper x floor / floor of corrected eq. 30-35"] = (
+            bound_paper * v.min() / floor_of(ds, PAPER_DV_KEY)
+        )
     return pd.DataFrame({"bound_kms_per_year": rows})
 
 
@@ -221,8 +291,14 @@ def save_sample(ds: xr.Dataset, profile_name: str = "paper") -> Path:
     return path
 
 
-def report(profile_name: str = "paper", n: int = SAMPLE_SIZE, seed: int = SAMPLE_SEED, workers: int = 0,
-           paper_model: bool = False, save: bool = True) -> dict:
+def report(
+    profile_name: str = "paper",
+    n: int = SAMPLE_SIZE,
+    seed: int = SAMPLE_SEED,
+    workers: int = 0,
+    paper_model: bool = False,
+    save: bool = True,
+) -> dict:
     """Sample, evaluate, print the distribution, the floors per family, the bound and the feasible counts."""
     ds = floor_sample(profile_name, n, seed, workers, paper_model=paper_model)
     b_paper = paper_bound(profile_name)
@@ -243,8 +319,14 @@ def table4_deltav(profile_name: str = "paper") -> float:
     """The Table 4 ELFO's eq. 45 Delta-V (first satellite) under the profile, evaluated as the campaign evaluates a design."""
     settings = load_settings(profile_name)
     elfo = settings.standalone_elfo
-    design = {"sma_km": elfo.sma_km, "ecc": elfo.ecc, "aop_deg": elfo.aop_deg, "inc_deg": elfo.inc_deg,
-              "n_planes": len(elfo.raan_deg), "sats_per_plane": elfo.sats_per_plane}
+    design = {
+        "sma_km": elfo.sma_km,
+        "ecc": elfo.ecc,
+        "aop_deg": elfo.aop_deg,
+        "inc_deg": elfo.inc_deg,
+        "n_planes": len(elfo.raan_deg),
+        "sats_per_plane": elfo.sats_per_plane,
+    }
     return float(evaluate_records(settings, [design])[0]["metrics"][DV_KEY])
 
 
@@ -256,7 +338,9 @@ if __name__ == "__main__":
     parser.add_argument("--n", type=int, default=SAMPLE_SIZE)
     parser.add_argument("--seed", type=int, default=SAMPLE_SEED)
     parser.add_argument("--workers", type=int, default=0)
-    parser.add_argument("--paper-model", action="store_true", help="also evaluate under [deltav] model = \"paper\"")
+    parser.add_argument(
+        "--paper-model", action="store_true", help='also evaluate under [deltav] model = "paper"'
+    )
     parser.add_argument("--no-save", action="store_true")
     args = parser.parse_args()
     report(args.profile, args.n, args.seed, args.workers, args.paper_model, save=not args.no_save)

@@ -55,10 +55,30 @@ from ..outputs import cached_json, display_path
 from ..progress import steps
 from ..settings import Settings
 
-__all__ = ["REGIONS", "region_of", "campaign_designs", "validation_designs", "flown_elements", "validate_design",
-           "validation_table", "compare", "screen_misses", "region_summary", "verdict", "run_validation", "frame_rerun"]
+__all__ = [
+    "REGIONS",
+    "region_of",
+    "campaign_designs",
+    "validation_designs",
+    "flown_elements",
+    "validate_design",
+    "validation_table",
+    "compare",
+    "screen_misses",
+    "region_summary",
+    "verdict",
+    "run_validation",
+    "frame_rerun",
+]
 
-REGIONS = ("standalone ELFO", "frozen family", "high a, high i", "low near-circular", "campaign", "other")
+REGIONS = (
+    "standalone ELFO",
+    "frozen family",
+    "high a, high i",
+    "low near-circular",
+    "campaign",
+    "other",
+)
 
 
 def region_of(design, campaign: bool = False) -> str:
@@ -66,7 +86,12 @@ def region_of(design, campaign: bool = False) -> str:
     a, e, aop, inc = (float(x) for x in design[:4])
     if campaign:
         return "campaign"
-    if abs(a - 6143.0) < 1.0 and abs(e - 0.6) < 1e-9 and abs(inc - 51.7) < 1e-9 and abs(aop - 90.0) < 1e-9:
+    if (
+        abs(a - 6143.0) < 1.0
+        and abs(e - 0.6) < 1e-9
+        and abs(inc - 51.7) < 1e-9
+        and abs(aop - 90.0) < 1e-9
+    ):
         return "standalone ELFO"
     if 56.0 <= inc <= 63.0 and min(abs(aop - 90.0), abs(aop - 270.0)) <= 1.0:
         return "frozen family"
@@ -88,22 +113,41 @@ def campaign_designs(campaign_dir: Path, n: int) -> tuple[list[tuple], str]:
 
     folder = Path(campaign_dir)
     published = load_published(folder)
-    for ds, label in ((published.front, "its front"), (published.evaluations, "least constraint violation")) \
-            if published else ():
+    for ds, label in (
+        ((published.front, "its front"), (published.evaluations, "least constraint violation"))
+        if published
+        else ()
+    ):
         if ds.sizes.get("design", 0) == 0:
             continue
-        frame = ds[list(DESIGN_KEYS) + (["constraint_violation"] if "constraint_violation" in ds else [])].to_dataframe()
+        frame = ds[
+            list(DESIGN_KEYS) + (["constraint_violation"] if "constraint_violation" in ds else [])
+        ].to_dataframe()
         if "constraint_violation" in frame and label != "its front":
-            frame = frame[np.isfinite(frame["constraint_violation"])].sort_values("constraint_violation")
+            frame = frame[np.isfinite(frame["constraint_violation"])].sort_values(
+                "constraint_violation"
+            )
         frame = frame.drop_duplicates(list(DESIGN_KEYS)).head(n)
-        rows = [tuple(float(r[k]) if k not in ("n_planes", "sats_per_plane") else int(r[k]) for k in DESIGN_KEYS)
-                for _, r in frame.iterrows()]
-        empty = "" if label == "its front" else " (its front is empty: no design met Table 3's bounds)"
-        return rows, f"{len(rows)} design(s) of the campaign published in {display_path(folder)}, {label}{empty}."
+        rows = [
+            tuple(
+                float(r[k]) if k not in ("n_planes", "sats_per_plane") else int(r[k])
+                for k in DESIGN_KEYS
+            )
+            for _, r in frame.iterrows()
+        ]
+        empty = (
+            "" if label == "its front" else " (its front is empty: no design met Table 3's bounds)"
+        )
+        return (
+            rows,
+            f"{len(rows)} design(s) of the campaign published in {display_path(folder)}, {label}{empty}.",
+        )
     return [], f"no campaign designs: {display_path(folder)} publishes no campaign with designs."
 
 
-def validation_designs(settings: Settings, campaign_dir: Path | None = None) -> tuple[list[dict], str]:
+def validation_designs(
+    settings: Settings, campaign_dir: Path | None = None
+) -> tuple[list[dict], str]:
     """``[life_evaluation] validation_designs`` plus the campaign's designs, each ``{"design", "region"}``."""
     section = settings.life_evaluation
     rows = [{"design": tuple(d), "region": region_of(d)} for d in section.validation_designs]
@@ -120,36 +164,57 @@ def flown_elements(design, max_sats_per_plane: int = 0) -> np.ndarray:
     return WalkerDesign(a, e, aop, inc, int(n_planes), int(spp)).elements_deg(max_sats_per_plane)
 
 
-def validate_design(settings: Settings, design, life_days: float, max_sats_per_plane: int = 0, region: str = "") -> dict:
+def validate_design(
+    settings: Settings, design, life_days: float, max_sats_per_plane: int = 0, region: str = ""
+) -> dict:
     """Closed loop and natural drift over ``life_days`` beside the estimate and the screen, for one design: the
     controller and element frame flown, the Delta-V (mean, max, ``dv_<purpose>_kms_per_year`` split), the relative
     node (tilt) and slot tolerances the service controller held (NaN under the box), the lowest perilune controlled
     and natural, impacts, and the predictors."""
     elements = flown_elements(design, max_sats_per_plane)
     runs = run_design_life(settings, elements, life_days, sample=False)
-    pred = short_arc_predictors(settings.epoch, settings.dynamics, settings.sk_estimate, settings.stability,
-                                settings.design_life, settings.dop, elements, life_days)
+    pred = short_arc_predictors(
+        settings.epoch,
+        settings.dynamics,
+        settings.sk_estimate,
+        settings.stability,
+        settings.design_life,
+        settings.dop,
+        elements,
+        life_days,
+    )
     ctl, nat = runs["controlled"], runs["natural"]
     impact = ctl["impact_day"].values
     nat_impact = nat["impact_day"].values
     row = dict(zip(DESIGN_KEYS, design))
     metrics = life_metrics(runs)
-    row.update(region=region, n_sat_flown=int(elements.shape[0]), life_days=float(life_days),
-               controller=metrics["controller"], element_frame=metrics["element_frame"],
-               min_perilune_alt_km=metrics["min_perilune_alt_km"],
-               natural_min_perilune_alt_km=metrics["natural_min_perilune_alt_km"],
-               **{f"dv_{purpose}_kms_per_year": dv for purpose, dv in metrics["sk_dv_split"].items()},
-               sk_dv_kms_per_year=float(ctl["dv_kms_per_year"].mean()),
-               sk_dv_max_kms_per_year=float(ctl["dv_kms_per_year"].max()),
-               n_maneuvers=int(ctl["n_maneuvers"].sum()), box_held=bool(ctl["box_held"].all()),
-               raan_rel_tolerance_deg=float(ctl.attrs["raan_rel_tolerance_deg"]),
-               u_rel_tolerance_deg=float(ctl.attrs["u_rel_tolerance_deg"]),
-               impact_day=float(np.nanmin(impact)) if np.isfinite(impact).any() else np.nan,
-               natural_impact_day=float(np.nanmin(nat_impact)) if np.isfinite(nat_impact).any() else np.nan,
-               sk_dv_estimate_kms_per_year=pred["sk_dv_estimate_kms_per_year"], stable_screen=pred["stable_screen"],
-               screen_impact_day=np.nan if pred["screen_impact_day"] is None else pred["screen_impact_day"],
-               screen_min_perilune_alt_km=pred["screen_min_perilune_alt_km"],
-               wall_s=float(ctl.attrs["wall_s"] + nat.attrs["wall_s"]))
+    row.update(
+        region=region,
+        n_sat_flown=int(elements.shape[0]),
+        life_days=float(life_days),
+        controller=metrics["controller"],
+        element_frame=metrics["element_frame"],
+        min_perilune_alt_km=metrics["min_perilune_alt_km"],
+        natural_min_perilune_alt_km=metrics["natural_min_perilune_alt_km"],
+        **{f"dv_{purpose}_kms_per_year": dv for purpose, dv in metrics["sk_dv_split"].items()},
+        sk_dv_kms_per_year=float(ctl["dv_kms_per_year"].mean()),
+        sk_dv_max_kms_per_year=float(ctl["dv_kms_per_year"].max()),
+        n_maneuvers=int(ctl["n_maneuvers"].sum()),
+        box_held=bool(ctl["box_held"].all()),
+        raan_rel_tolerance_deg=float(ctl.attrs["raan_rel_tolerance_deg"]),
+        u_rel_tolerance_deg=float(ctl.attrs["u_rel_tolerance_deg"]),
+        impact_day=float(np.nanmin(impact)) if np.isfinite(impact).any() else np.nan,
+        natural_impact_day=float(np.nanmin(nat_impact))
+        if np.isfinite(nat_impact).any()
+        else np.nan,
+        sk_dv_estimate_kms_per_year=pred["sk_dv_estimate_kms_per_year"],
+        stable_screen=pred["stable_screen"],
+        screen_impact_day=np.nan
+        if pred["screen_impact_day"] is None
+        else pred["screen_impact_day"],
+        screen_min_perilune_alt_km=pred["screen_min_perilune_alt_km"],
+        wall_s=float(ctl.attrs["wall_s"] + nat.attrs["wall_s"]),
+    )
     return row
 
 
@@ -163,12 +228,15 @@ def validation_table(rows: list[dict]) -> pd.DataFrame:
     table = pd.DataFrame(rows)
     closed_ok = ~np.isfinite(table["impact_day"].astype(float))
     with np.errstate(divide="ignore", invalid="ignore"):
-        ratio = table["sk_dv_estimate_kms_per_year"].astype(float) / table["sk_dv_kms_per_year"].astype(float)
+        ratio = table["sk_dv_estimate_kms_per_year"].astype(float) / table[
+            "sk_dv_kms_per_year"
+        ].astype(float)
     table["ratio"] = np.where(closed_ok & np.isfinite(ratio), ratio, np.nan)
     natural_stable = ~np.isfinite(table["natural_impact_day"].astype(float))
     screen = table["stable_screen"].astype(bool)
-    table["screen_call"] = np.where(screen == natural_stable, "agree",
-                                    np.where(screen, "missed impact", "false alarm"))
+    table["screen_call"] = np.where(
+        screen == natural_stable, "agree", np.where(screen, "missed impact", "false alarm")
+    )
     return table
 
 
@@ -179,18 +247,31 @@ def compare(table: pd.DataFrame) -> dict:
     est = table.loc[ok, "sk_dv_estimate_kms_per_year"].astype(float).to_numpy()
     ratio = est / closed if ok.any() else np.array([])
     rho, p_value = spearmanr(est, closed) if ok.sum() >= 3 else (np.nan, np.nan)
-    return {"n_compared": int(ok.sum()), "n_designs": int(len(table)),
-            "ratio_median": float(np.median(ratio)) if ratio.size else np.nan,
-            "ratio_min": float(ratio.min()) if ratio.size else np.nan,
-            "ratio_max": float(ratio.max()) if ratio.size else np.nan,
-            "ratio_geometric_mean": float(np.exp(np.mean(np.log(ratio)))) if ratio.size and np.all(ratio > 0) else np.nan,
-            "spearman_rho": float(rho), "spearman_p": float(p_value)}
+    return {
+        "n_compared": int(ok.sum()),
+        "n_designs": int(len(table)),
+        "ratio_median": float(np.median(ratio)) if ratio.size else np.nan,
+        "ratio_min": float(ratio.min()) if ratio.size else np.nan,
+        "ratio_max": float(ratio.max()) if ratio.size else np.nan,
+        "ratio_geometric_mean": float(np.exp(np.mean(np.log(ratio))))
+        if ratio.size and np.all(ratio > 0)
+        else np.nan,
+        "spearman_rho": float(rho),
+        "spearman_p": float(p_value),
+    }
 
 
 def screen_misses(table: pd.DataFrame) -> pd.DataFrame:
     """Every design the screen gets wrong against natural drift, with the closed loop's impact beside it."""
-    cols = list(DESIGN_KEYS) + ["region", "stable_screen", "screen_impact_day", "screen_min_perilune_alt_km",
-                                "natural_impact_day", "impact_day", "screen_call"]
+    cols = list(DESIGN_KEYS) + [
+        "region",
+        "stable_screen",
+        "screen_impact_day",
+        "screen_min_perilune_alt_km",
+        "natural_impact_day",
+        "impact_day",
+        "screen_call",
+    ]
     return table.loc[table["screen_call"] != "agree", cols]
 
 
@@ -198,14 +279,26 @@ def region_summary(table: pd.DataFrame, dv_bound_kms_per_year: float) -> pd.Data
     """Per region: designs; ``sustainable`` (no satellite lost under station keeping and every satellite's
     closed-loop Delta-V within the bound); ``box_held`` (every quantity the controller holds within its tolerance
     throughout as well); ``natural_survives``."""
-    sustainable = (~np.isfinite(table["impact_day"].astype(float))
-                   & (table["sk_dv_max_kms_per_year"].astype(float) <= dv_bound_kms_per_year))
-    frame = table.assign(sustainable=sustainable, held=sustainable & table["box_held"].astype(bool),
-                         natural_survives=~np.isfinite(table["natural_impact_day"].astype(float)))
-    return frame.groupby("region", sort=False).agg(
-        designs=("sustainable", "size"), sustainable=("sustainable", "sum"), box_held=("held", "sum"),
-        natural_survives=("natural_survives", "sum"), dv_median_kms_per_year=("sk_dv_kms_per_year", "median"),
-        dv_max_kms_per_year=("sk_dv_max_kms_per_year", "max")).reset_index()
+    sustainable = ~np.isfinite(table["impact_day"].astype(float)) & (
+        table["sk_dv_max_kms_per_year"].astype(float) <= dv_bound_kms_per_year
+    )
+    frame = table.assign(
+        sustainable=sustainable,
+        held=sustainable & table["box_held"].astype(bool),
+        natural_survives=~np.isfinite(table["natural_impact_day"].astype(float)),
+    )
+    return (
+        frame.groupby("region", sort=False)
+        .agg(
+            designs=("sustainable", "size"),
+            sustainable=("sustainable", "sum"),
+            box_held=("held", "sum"),
+            natural_survives=("natural_survives", "sum"),
+            dv_median_kms_per_year=("sk_dv_kms_per_year", "median"),
+            dv_max_kms_per_year=("sk_dv_max_kms_per_year", "max"),
+        )
+        .reset_index()
+    )
 
 
 def _ranking_words(stats: dict) -> str:
@@ -213,38 +306,72 @@ def _ranking_words(stats: dict) -> str:
         return "Too few designs to judge the ranking."
     ranks = stats["spearman_rho"] >= 0.6 and stats["spearman_p"] < 0.05
     spread = stats["ratio_max"] / stats["ratio_min"] if stats["ratio_min"] > 0 else np.inf
-    budget = ("its ratio stays within a factor of two: a usable budget" if spread <= 2.0
-              else f"its ratio spreads over a factor of {spread:.0f}: not a budget")
-    return ("It ranks designs by station-keeping cost; " if ranks
-            else "It does not rank designs reliably by station-keeping cost; ") + budget + "."
+    budget = (
+        "its ratio stays within a factor of two: a usable budget"
+        if spread <= 2.0
+        else f"its ratio spreads over a factor of {spread:.0f}: not a budget"
+    )
+    return (
+        (
+            "It ranks designs by station-keeping cost; "
+            if ranks
+            else "It does not rank designs reliably by station-keeping cost; "
+        )
+        + budget
+        + "."
+    )
 
 
-def verdict(table: pd.DataFrame, stats: dict, regions: pd.DataFrame, dv_bound_kms_per_year: float) -> str:
+def verdict(
+    table: pd.DataFrame, stats: dict, regions: pd.DataFrame, dv_bound_kms_per_year: float
+) -> str:
     """A plain verdict in words, built from the validation's numbers."""
     life = float(table["life_days"].iloc[0])
-    lines = [f"Over a {life:g}-day life ({stats['n_designs']} designs; {stats['n_compared']} with a ratio: no impact "
-             f"under station keeping and a non-zero closed-loop Delta-V):"]
-    lines.append(f"- the campaign-grade estimate / closed loop ratio runs from {stats['ratio_min']:.2f} to "
-                 f"{stats['ratio_max']:.2f} (median {stats['ratio_median']:.2f}); Spearman rank correlation "
-                 f"{stats['spearman_rho']:.2f} (p = {stats['spearman_p']:.2g}). " + _ranking_words(stats))
+    lines = [
+        f"Over a {life:g}-day life ({stats['n_designs']} designs; {stats['n_compared']} with a ratio: no impact "
+        f"under station keeping and a non-zero closed-loop Delta-V):"
+    ]
+    lines.append(
+        f"- the campaign-grade estimate / closed loop ratio runs from {stats['ratio_min']:.2f} to "
+        f"{stats['ratio_max']:.2f} (median {stats['ratio_median']:.2f}); Spearman rank correlation "
+        f"{stats['spearman_rho']:.2f} (p = {stats['spearman_p']:.2g}). " + _ranking_words(stats)
+    )
     misses = table[table["screen_call"] != "agree"]
-    lines.append(f"- the stability screen agrees with the natural-drift propagation on {len(table) - len(misses)} of "
-                 f"{len(table)} designs" + (": wrong on " + "; ".join(
-                     f"a {r.sma_km:g} km e {r.ecc:g} i {r.inc_deg:g} AOP {r.aop_deg:g} ({r.screen_call})"
-                     for r in misses.itertuples()) if len(misses) else "") + ".")
+    lines.append(
+        f"- the stability screen agrees with the natural-drift propagation on {len(table) - len(misses)} of "
+        f"{len(table)} designs"
+        + (
+            ": wrong on "
+            + "; ".join(
+                f"a {r.sma_km:g} km e {r.ecc:g} i {r.inc_deg:g} AOP {r.aop_deg:g} ({r.screen_call})"
+                for r in misses.itertuples()
+            )
+            if len(misses)
+            else ""
+        )
+        + "."
+    )
     for r in regions.itertuples():
-        word = ("sustainable" if r.sustainable == r.designs else "not sustainable" if r.sustainable == 0
-                else "partly sustainable")
-        lines.append(f"- {r.region}: {word} ({r.sustainable} of {r.designs} keep every satellite up within "
-                     f"{dv_bound_kms_per_year:g} km/s/yr per satellite, {r.box_held} of them within the controller's tolerances "
-                     f"throughout; "
-                     f"{r.natural_survives} survive with no control; closed-loop median {r.dv_median_kms_per_year:.3g} "
-                     f"km/s/yr).")
+        word = (
+            "sustainable"
+            if r.sustainable == r.designs
+            else "not sustainable"
+            if r.sustainable == 0
+            else "partly sustainable"
+        )
+        lines.append(
+            f"- {r.region}: {word} ({r.sustainable} of {r.designs} keep every satellite up within "
+            f"{dv_bound_kms_per_year:g} km/s/yr per satellite, {r.box_held} of them within the controller's tolerances "
+            f"throughout; "
+            f"{r.natural_survives} survive with no control; closed-loop median {r.dv_median_kms_per_year:.3g} "
+            f"km/s/yr)."
+        )
     return "\n".join(lines)
 
 
-def run_validation(settings: Settings, campaign_dir: Path | None = None,
-                   cache_dir: Path | None = None) -> tuple[pd.DataFrame, str]:
+def run_validation(
+    settings: Settings, campaign_dir: Path | None = None, cache_dir: Path | None = None
+) -> tuple[pd.DataFrame, str]:
     """:func:`validate_design` on every design of :func:`validation_designs` with ``[life_evaluation]``'s life and
     satellites per plane; returns the :func:`validation_table` and the sentence on the campaign's designs (and, with
     ``cache_dir``, how many rows were read from :func:`~lnss_lib.outputs.cached_json`'s files there)."""
@@ -253,17 +380,25 @@ def run_validation(settings: Settings, campaign_dir: Path | None = None,
     designs, note = validation_designs(settings, campaign_dir)
     rows, hits = [], 0
     for d in steps(designs, "design-life validation", "designs"):
-        row, hit = cached_json(cache_dir, "validation", [settings.hash, list(d["design"]), life, per_plane, d["region"]],
-                               lambda d=d: validate_design(settings, d["design"], life, per_plane, d["region"]))
+        row, hit = cached_json(
+            cache_dir,
+            "validation",
+            [settings.hash, list(d["design"]), life, per_plane, d["region"]],
+            lambda d=d: validate_design(settings, d["design"], life, per_plane, d["region"]),
+        )
         rows.append(row)
         hits += hit
     if cache_dir is not None:
-        note += (f" {hits} of {len(rows)} closed loops read from {display_path(cache_dir)} (computed earlier with "
-                 "this code, data and settings).")
+        note += (
+            f" {hits} of {len(rows)} closed loops read from {display_path(cache_dir)} (computed earlier with "
+            "this code, data and settings)."
+        )
     return validation_table(rows), note
 
 
-def frame_rerun(settings: Settings, element_frame: str, campaign_dir: Path | None = None) -> tuple[Settings, Path | None]:
+def frame_rerun(
+    settings: Settings, element_frame: str, campaign_dir: Path | None = None
+) -> tuple[Settings, Path | None]:
     """(settings, campaign folder) of the validation re-run with the elements read in ``element_frame``: every design
     of :func:`run_validation`, or with ``[life_evaluation] frame_rerun_designs`` = n > 0 the first n
     ``validation_designs`` only (no campaign designs), so a short profile can afford the re-run."""

@@ -110,8 +110,19 @@ from ..propagator import elements_deg_to_states, propagate_states
 from ..settings import Settings
 from .design_life import flown_elements
 
-__all__ = ["FREE_KMS_PER_YEAR", "ESTIMATES", "FROZEN_MEMBERS", "estimate_validation_designs", "table3_orbits", "closed_loop_cost",
-           "design_estimates", "estimate_costs", "estimate_statistics", "estimate_outliers", "run_estimate_validation"]
+__all__ = [
+    "FREE_KMS_PER_YEAR",
+    "ESTIMATES",
+    "FROZEN_MEMBERS",
+    "estimate_validation_designs",
+    "table3_orbits",
+    "closed_loop_cost",
+    "design_estimates",
+    "estimate_costs",
+    "estimate_statistics",
+    "estimate_outliers",
+    "run_estimate_validation",
+]
 
 FREE_KMS_PER_YEAR = 0.005
 """Two costs both below this (km/s per satellite and year) agree: neither has a ratio."""
@@ -119,21 +130,33 @@ ESTIMATES = ("life", "campaign", "arc")
 """The estimates compared: the life estimate holding the closed loop's tolerances, the same as the campaign computes
 it (:func:`~lnss_lib.design_life.tolerances.estimate_tolerances_deg`), the 10-day box slope."""
 
-FROZEN_MEMBERS = ((5000.0, 0.4, 90.0, 3), (7000.0, 0.5, 270.0, 2), (9000.0, 0.55, 90.0, 4), (11000.0, 0.6, 270.0, 3))
+FROZEN_MEMBERS = (
+    (5000.0, 0.4, 90.0, 3),
+    (7000.0, 0.5, 270.0, 2),
+    (9000.0, 0.55, 90.0, 4),
+    (11000.0, 0.6, 270.0, 3),
+)
 """(a km, e, AOP deg, planes) of the frozen-family members added (frozen i from :mod:`lnss_lib.design_life.frozen`)."""
 
 LIBRATION_OFFSETS = (-0.2, -0.1, 0.1)
 """Changes of e from the frozen value of the Table 4 ELFO's a and i (libration about AOP 90 deg)."""
 
 
-def estimate_validation_designs(settings: Settings, n_random: int = 8, seed: int = 20) -> list[dict]:
+def estimate_validation_designs(
+    settings: Settings, n_random: int = 8, seed: int = 20
+) -> list[dict]:
     """Designs ``{"design", "source"}`` (one satellite per plane): the two validation lists, frozen members,
     libration offsets of the Table 4 ELFO and ``n_random`` Table 3 draws with a perilune 100 km up."""
     rows, seen = [], set()
 
     def add(design, source):
-        a, e, aop, inc, planes = (float(design[0]), round(float(design[1]), 3), float(design[2]), float(design[3]),
-                                  int(design[4]))
+        a, e, aop, inc, planes = (
+            float(design[0]),
+            round(float(design[1]), 3),
+            float(design[2]),
+            float(design[3]),
+            int(design[4]),
+        )
         if (a, e, aop, inc, planes) not in seen:
             seen.add((a, e, aop, inc, planes))
             rows.append({"design": (a, e, aop, inc, planes, 1), "source": source})
@@ -156,8 +179,16 @@ def estimate_validation_designs(settings: Settings, n_random: int = 8, seed: int
     orbits = table3_orbits(settings, rng)
     while sum(r["source"] == "random" for r in rows) < n_random:
         a, e = next(orbits)
-        add((round(a, -2), round(e, 2), float(rng.integers(1, 360)), float(rng.integers(1, 91)),
-             int(rng.integers(2, 6))), "random")
+        add(
+            (
+                round(a, -2),
+                round(e, 2),
+                float(rng.integers(1, 360)),
+                float(rng.integers(1, 91)),
+                int(rng.integers(2, 6)),
+            ),
+            "random",
+        )
     return rows
 
 
@@ -173,25 +204,45 @@ def table3_orbits(settings: Settings, rng: np.random.Generator):
             yield a, e
 
 
-def closed_loop_cost(settings: Settings, design, life_days: float, cache_dir: Path | None = None) -> dict:
+def closed_loop_cost(
+    settings: Settings, design, life_days: float, cache_dir: Path | None = None
+) -> dict:
     """The service controller's life of a design, one satellite per plane, its navigation monitor on the positions
     sampled every ``[life_evaluation] sample_step_s`` (the estimate prices its restores): ``dv`` per satellite (km/s
     per year over its flown span), ``split`` (purpose -> per satellite), ``loss_day`` (NaN when kept),
     ``tolerances_deg`` (the relative node and slot it held). Cached as JSON in ``cache_dir`` by design, life,
     settings, code and data (:func:`~lnss_lib.outputs.cached_json`; a closed loop costs seconds to minutes)."""
+
     def fly() -> dict:
-        ds = run_design_life(settings, flown_elements(design, 1), life_days, natural=False)["controlled"]
-        return {"design": list(design), "life_days": float(life_days), "dv": ds["dv_kms_per_year"].values.tolist(),
-                "split": {p: ds["dv_purpose_kms_per_year"].sel(purpose=p).values.tolist() for p in PURPOSES},
-                "loss_day": [None if not np.isfinite(d) else float(d) for d in ds["loss_day"].values],
-                "tolerances_deg": {"raan_rel": float(ds.attrs["raan_rel_tolerance_deg"]),
-                                   "u_rel": float(ds.attrs["u_rel_tolerance_deg"])}}
+        ds = run_design_life(settings, flown_elements(design, 1), life_days, natural=False)[
+            "controlled"
+        ]
+        return {
+            "design": list(design),
+            "life_days": float(life_days),
+            "dv": ds["dv_kms_per_year"].values.tolist(),
+            "split": {
+                p: ds["dv_purpose_kms_per_year"].sel(purpose=p).values.tolist() for p in PURPOSES
+            },
+            "loss_day": [None if not np.isfinite(d) else float(d) for d in ds["loss_day"].values],
+            "tolerances_deg": {
+                "raan_rel": float(ds.attrs["raan_rel_tolerance_deg"]),
+                "u_rel": float(ds.attrs["u_rel_tolerance_deg"]),
+            },
+        }
 
-    return cached_json(cache_dir, "closed_loop", [list(design), float(life_days), settings.hash], fly)[0]
+    return cached_json(
+        cache_dir, "closed_loop", [list(design), float(life_days), settings.hash], fly
+    )[0]
 
 
-def design_estimates(settings: Settings, design, life_days: float, tolerances_deg: dict | None = None,
-                     max_sats_per_plane: int = 1) -> tuple[dict, dict, xr.Dataset] | None:
+def design_estimates(
+    settings: Settings,
+    design,
+    life_days: float,
+    tolerances_deg: dict | None = None,
+    max_sats_per_plane: int = 1,
+) -> tuple[dict, dict, xr.Dataset] | None:
     """The life estimate of a design, at most ``max_sats_per_plane`` satellites a plane (0: all), as the campaign
     computes it and holding ``tolerances_deg`` (the same object when None), and the 10-day arc they start from:
     ``(campaign, held, arc)``, or None when the arc hits the Moon (no estimate)."""
@@ -199,21 +250,46 @@ def design_estimates(settings: Settings, design, life_days: float, tolerances_de
     ensure_kernels(settings.ephemeris)
     t0 = tdb_seconds(settings.epoch.start_tdb, "TDB")
     states = elements_deg_to_states(dyn, flown_elements(design, max_sats_per_plane), t0)
-    arc = propagate_states(dyn, states, t0, settings.epoch.duration_days * SECONDS_PER_DAY, settings.epoch.step_s,
-                           batch=True)
+    arc = propagate_states(
+        dyn,
+        states,
+        t0,
+        settings.epoch.duration_days * SECONDS_PER_DAY,
+        settings.epoch.step_s,
+        batch=True,
+    )
     if bool(arc["impact"].any()):
         return None
     stability = dataclasses.replace(settings.stability, life_days=float(life_days))
     screen = screen_states(stability, dyn, states, t0)
     field = cached_field(stability, dyn, t0)[0]
-    campaign = life_estimate(settings.sk_estimate, settings.design_life, dyn, settings.dop, arc, screen, field)
-    held = campaign if tolerances_deg is None else life_estimate(settings.sk_estimate, settings.design_life, dyn,
-                                                                 settings.dop, arc, screen, field, tolerances_deg)
+    campaign = life_estimate(
+        settings.sk_estimate, settings.design_life, dyn, settings.dop, arc, screen, field
+    )
+    held = (
+        campaign
+        if tolerances_deg is None
+        else life_estimate(
+            settings.sk_estimate,
+            settings.design_life,
+            dyn,
+            settings.dop,
+            arc,
+            screen,
+            field,
+            tolerances_deg,
+        )
+    )
     return campaign, held, arc
 
 
-def estimate_costs(settings: Settings, design, life_days: float, tolerances_deg: dict | None = None,
-                   max_sats_per_plane: int = 1) -> dict:
+def estimate_costs(
+    settings: Settings,
+    design,
+    life_days: float,
+    tolerances_deg: dict | None = None,
+    max_sats_per_plane: int = 1,
+) -> dict:
     """The life estimate and the 10-day box slope of a design, at most ``max_sats_per_plane`` satellites a plane (0:
     all): ``life`` (holding ``tolerances_deg``, default the campaign's
     :func:`~lnss_lib.design_life.tolerances.estimate_tolerances_deg`), ``campaign`` (the estimate as the campaign
@@ -222,14 +298,25 @@ def estimate_costs(settings: Settings, design, life_days: float, tolerances_deg:
     ``wall_s``."""
     estimates = design_estimates(settings, design, life_days, tolerances_deg, max_sats_per_plane)
     if estimates is None:
-        return {"life": np.nan, "campaign": np.nan, "arc": np.nan, "life_max": np.nan,
-                "split": dict.fromkeys(PARTS, np.nan), "wall_s": np.nan}
+        return {
+            "life": np.nan,
+            "campaign": np.nan,
+            "arc": np.nan,
+            "life_max": np.nan,
+            "split": dict.fromkeys(PARTS, np.nan),
+            "wall_s": np.nan,
+        }
     campaign, est, arc = estimates
-    return {"life": est["sk_dv_estimate_kms_per_year"], "campaign": campaign["sk_dv_estimate_kms_per_year"],
-            "arc": sk_estimate_from_propagation(settings.sk_estimate, settings.dynamics, arc)[
-                "sk_dv_estimate_kms_per_year"],
-            "life_max": est["sk_dv_estimate_max_kms_per_year"],
-            "split": {p: float(np.mean(est["per_sat"][p])) for p in PARTS}, "wall_s": est["wall_s"]}
+    return {
+        "life": est["sk_dv_estimate_kms_per_year"],
+        "campaign": campaign["sk_dv_estimate_kms_per_year"],
+        "arc": sk_estimate_from_propagation(settings.sk_estimate, settings.dynamics, arc)[
+            "sk_dv_estimate_kms_per_year"
+        ],
+        "life_max": est["sk_dv_estimate_max_kms_per_year"],
+        "split": {p: float(np.mean(est["per_sat"][p])) for p in PARTS},
+        "wall_s": est["wall_s"],
+    }
 
 
 def _agrees(estimate: np.ndarray, closed: np.ndarray) -> np.ndarray:
@@ -239,8 +326,9 @@ def _agrees(estimate: np.ndarray, closed: np.ndarray) -> np.ndarray:
     return free | ((ratio >= 0.5) & (ratio <= 2.0))
 
 
-def estimate_statistics(table: pd.DataFrame, estimates: tuple[str, ...] = ESTIMATES,
-                        closed: str = "closed_loop") -> dict:
+def estimate_statistics(
+    table: pd.DataFrame, estimates: tuple[str, ...] = ESTIMATES, closed: str = "closed_loop"
+) -> dict:
     """Spearman rho and factor-2 share of each estimate column (default :data:`ESTIMATES`)
     against the closed-loop column ``closed``, over the designs with the first estimate (``spearman_rho_<name>``,
     ``factor2_share_<name>``); rho is NaN with fewer than three designs or a constant column (no ranking)."""
@@ -251,19 +339,28 @@ def estimate_statistics(table: pd.DataFrame, estimates: tuple[str, ...] = ESTIMA
         est = table.loc[ok, name].astype(float).to_numpy()
         ranked = ok.sum() >= 3 and np.ptp(est) > 0.0 and np.ptp(closed_values) > 0.0
         out[f"spearman_rho_{name}"] = float(spearmanr(est, closed_values)[0]) if ranked else np.nan
-        out[f"factor2_share_{name}"] = float(np.mean(_agrees(est, closed_values))) if ok.any() else np.nan
+        out[f"factor2_share_{name}"] = (
+            float(np.mean(_agrees(est, closed_values))) if ok.any() else np.nan
+        )
     return out
 
 
-def estimate_outliers(table: pd.DataFrame, estimate: str = "life", closed: str = "closed_loop") -> pd.DataFrame:
+def estimate_outliers(
+    table: pd.DataFrame, estimate: str = "life", closed: str = "closed_loop"
+) -> pd.DataFrame:
     """Every design with the ``estimate`` outside a factor 2 of the ``closed`` loop (both finite)."""
     est, closed_values = (table[c].astype(float).to_numpy() for c in (estimate, closed))
     bad = np.isfinite(est) & np.isfinite(closed_values) & ~_agrees(est, closed_values)
     return table.loc[bad]
 
 
-def run_estimate_validation(settings: Settings, life_days: float | None = None, n_random: int = 8,
-                            max_designs: int | None = None, cache_dir: Path | None = None) -> tuple[pd.DataFrame, dict]:
+def run_estimate_validation(
+    settings: Settings,
+    life_days: float | None = None,
+    n_random: int = 8,
+    max_designs: int | None = None,
+    cache_dir: Path | None = None,
+) -> tuple[pd.DataFrame, dict]:
     """The validation table (one row per design: design, source, ``closed_loop`` mean Delta-V, its split as
     ``closed_<purpose>``, ``lost``, the tolerances it held as ``<raan_rel|u_rel>_tolerance_deg``, the estimates of
     :data:`ESTIMATES`, the life estimate's split as ``est_<part>``) and
@@ -275,12 +372,18 @@ def run_estimate_validation(settings: Settings, life_days: float | None = None, 
     for item in steps(designs, f"estimate vs closed loop, {life:g} days", "designs"):
         closed = closed_loop_cost(settings, item["design"], life, cache_dir)
         est = estimate_costs(settings, item["design"], life, closed["tolerances_deg"])
-        rows.append({**dict(zip(DESIGN_KEYS, item["design"])), "source": item["source"],
-                     "closed_loop": float(np.mean(closed["dv"])),
-                     **{f"closed_{p}": float(np.mean(v)) for p, v in closed["split"].items()},
-                     "lost": any(d is not None for d in closed["loss_day"]),
-                     **{f"{k}_tolerance_deg": v for k, v in closed["tolerances_deg"].items()},
-                     **{name: est[name] for name in ESTIMATES},
-                     **{f"est_{p}": v for p, v in est["split"].items()}, "estimate_wall_s": est["wall_s"]})
+        rows.append(
+            {
+                **dict(zip(DESIGN_KEYS, item["design"])),
+                "source": item["source"],
+                "closed_loop": float(np.mean(closed["dv"])),
+                **{f"closed_{p}": float(np.mean(v)) for p, v in closed["split"].items()},
+                "lost": any(d is not None for d in closed["loss_day"]),
+                **{f"{k}_tolerance_deg": v for k, v in closed["tolerances_deg"].items()},
+                **{name: est[name] for name in ESTIMATES},
+                **{f"est_{p}": v for p, v in est["split"].items()},
+                "estimate_wall_s": est["wall_s"],
+            }
+        )
     table = pd.DataFrame(rows)
     return table, estimate_statistics(table)

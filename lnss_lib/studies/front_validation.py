@@ -69,11 +69,22 @@ from .pareto import table6
 N_LOSS_KEYS = N_MINUS_1_KEYS[1:3]
 """The headline's N-1 columns: PDOP availability in the worst month and over the life, worst satellite lost."""
 
-__all__ = ["N_LOSS_KEYS", "estimate_table", "reestimated_table", "front_statistics", "front_outliers", "validated_table6",
-           "headline_table", "NONE_VALIDATED", "ESTIMATE_PAIRS"]
+__all__ = [
+    "N_LOSS_KEYS",
+    "estimate_table",
+    "reestimated_table",
+    "front_statistics",
+    "front_outliers",
+    "validated_table6",
+    "headline_table",
+    "NONE_VALIDATED",
+    "ESTIMATE_PAIRS",
+]
 
-ESTIMATE_PAIRS = {"mean": ("sk_dv_estimate_kms_per_year", "closed_loop_dv_kms_per_year"),
-                  "worst satellite": ("sk_dv_estimate_max_kms_per_year", "closed_loop_dv_max_kms_per_year")}
+ESTIMATE_PAIRS = {
+    "mean": ("sk_dv_estimate_kms_per_year", "closed_loop_dv_kms_per_year"),
+    "worst satellite": ("sk_dv_estimate_max_kms_per_year", "closed_loop_dv_max_kms_per_year"),
+}
 """(campaign estimate, closed loop) column pairs of ``validated.nc`` compared."""
 NONE_VALIDATED = "none validated"
 
@@ -82,7 +93,9 @@ def estimate_table(validated: xr.Dataset) -> pd.DataFrame:
     """One row per validated design: the design, why it was flown, its status, and each pair of
     :data:`ESTIMATE_PAIRS` as ``estimate_<pair>`` / ``closed_loop_<pair>`` (km/s per satellite and year) with their
     ratio (estimate / closed loop)."""
-    frame = pd.DataFrame({k: validated[k].values for k in (*DESIGN_KEYS, "n_sat", "selected_for", "status")})
+    frame = pd.DataFrame(
+        {k: validated[k].values for k in (*DESIGN_KEYS, "n_sat", "selected_for", "status")}
+    )
     for name, (estimate, closed) in ESTIMATE_PAIRS.items():
         tag = name.replace(" ", "_")
         frame[f"estimate_{tag}"] = validated[estimate].values.astype(float)
@@ -99,13 +112,21 @@ def reestimated_table(settings: Settings, validated: xr.Dataset) -> pd.DataFrame
     ``closed_loop_navigation``, ``ratio_navigation``): e.g. ``validated.nc`` flown before the estimate changed."""
     frame = estimate_table(validated)
     every = int(validated.attrs["max_sats_per_plane"])
-    costs = [estimate_costs(settings, [validated[k].values[d].item() for k in DESIGN_KEYS],
-                            settings.stability.life_days, max_sats_per_plane=every)
-             for d in range(validated.sizes["design"])]
+    costs = [
+        estimate_costs(
+            settings,
+            [validated[k].values[d].item() for k in DESIGN_KEYS],
+            settings.stability.life_days,
+            max_sats_per_plane=every,
+        )
+        for d in range(validated.sizes["design"])
+    ]
     frame["estimate_mean"] = [c["campaign"] for c in costs]
     frame["estimate_worst_satellite"] = [c["life_max"] for c in costs]
     frame["estimate_navigation"] = [c["split"]["navigation"] for c in costs]
-    frame["closed_loop_navigation"] = validated["closed_loop_dv_navigation_kms_per_year"].values.astype(float)
+    frame["closed_loop_navigation"] = validated[
+        "closed_loop_dv_navigation_kms_per_year"
+    ].values.astype(float)
     with np.errstate(divide="ignore", invalid="ignore"):
         for tag in ("mean", "worst_satellite", "navigation"):
             frame[f"ratio_{tag}"] = frame[f"estimate_{tag}"] / frame[f"closed_loop_{tag}"]
@@ -119,12 +140,18 @@ def front_statistics(table: pd.DataFrame, pairs=tuple(ESTIMATE_PAIRS)) -> pd.Dat
     rows = {}
     for name in pairs:
         tag = name.replace(" ", "_")
-        stats = estimate_statistics(kept, estimates=(f"estimate_{tag}",), closed=f"closed_loop_{tag}")
-        rows[name] = {"designs validated": int(len(table)), "kept": int(len(kept)),
-                      "failed": int((table["status"] == "failed").sum()),
-                      "error": int((table["status"] == "error").sum()), "compared": stats["n_compared"],
-                      "Spearman rho": stats[f"spearman_rho_estimate_{tag}"],
-                      "within a factor 2 (share)": stats[f"factor2_share_estimate_{tag}"]}
+        stats = estimate_statistics(
+            kept, estimates=(f"estimate_{tag}",), closed=f"closed_loop_{tag}"
+        )
+        rows[name] = {
+            "designs validated": int(len(table)),
+            "kept": int(len(kept)),
+            "failed": int((table["status"] == "failed").sum()),
+            "error": int((table["status"] == "error").sum()),
+            "compared": stats["n_compared"],
+            "Spearman rho": stats[f"spearman_rho_estimate_{tag}"],
+            "within a factor 2 (share)": stats[f"factor2_share_estimate_{tag}"],
+        }
     return pd.DataFrame.from_dict(rows, orient="index")
 
 
@@ -134,59 +161,117 @@ def front_outliers(table: pd.DataFrame, pairs=tuple(ESTIMATE_PAIRS)) -> pd.DataF
     bad = set()
     for name in pairs:
         tag = name.replace(" ", "_")
-        bad |= set(estimate_outliers(table, estimate=f"estimate_{tag}", closed=f"closed_loop_{tag}").index)
+        bad |= set(
+            estimate_outliers(table, estimate=f"estimate_{tag}", closed=f"closed_loop_{tag}").index
+        )
     return table.loc[sorted(bad)]
 
 
-def validated_table6(validated: xr.Dataset, *, availability_min_pct: float, dv_max_kms_per_year: float,
-                     availability: str = "life") -> tuple[pd.DataFrame, int]:
+def validated_table6(
+    validated: xr.Dataset,
+    *,
+    availability_min_pct: float,
+    dv_max_kms_per_year: float,
+    availability: str = "life",
+) -> tuple[pd.DataFrame, int]:
     """The operational Table 6 (:func:`lnss_lib.studies.pareto.table6`'s rules) among the kept validated designs, on
     the closed-loop worst-satellite Delta-V and the PDOP and HDOP availability flown (``availability``: ``"life"``
     or ``"worst_month"``); returns (table, designs excluded as failed or error)."""
     kept = validated.isel(design=np.flatnonzero(validated["status"].values == "kept"))
     columns = (f"pdop_avail_pct_{availability}", f"hdop_avail_pct_{availability}")
-    table = table6(kept, availability_min_pct=availability_min_pct, dv_max_kms_per_year=dv_max_kms_per_year,
-                   dv_metric="closed_loop_dv_max_kms_per_year", availability=columns)
+    table = table6(
+        kept,
+        availability_min_pct=availability_min_pct,
+        dv_max_kms_per_year=dv_max_kms_per_year,
+        dv_metric="closed_loop_dv_max_kms_per_year",
+        availability=columns,
+    )
     return table, int(validated.sizes["design"] - kept.sizes["design"])
 
 
-def headline_table(validated: xr.Dataset | None, sizes, *, availability_min_pct: float, dv_max_kms_per_year: float,
-                   paper: dict) -> pd.DataFrame:
+def headline_table(
+    validated: xr.Dataset | None,
+    sizes,
+    *,
+    availability_min_pct: float,
+    dv_max_kms_per_year: float,
+    paper: dict,
+) -> pd.DataFrame:
     """The smallest kept validated constellation with PDOP availability over the life (closed loop)
     >= ``availability_min_pct`` and worst-satellite closed-loop Delta-V <= ``dv_max_kms_per_year`` (ties: the
     cheapest), then the cheapest such design at each of ``sizes`` (:data:`NONE_VALIDATED` when none), each row with
     how many designs of that size were flown and failed, its service with the worst single satellite lost
     (:data:`N_LOSS_KEYS`, NaN in a validation from before it was flown), and the paper's claim (``paper``:
     :data:`lnss_lib.paper.SMALLEST_CONSTELLATION`) as the last row."""
-    columns = (*DESIGN_KEYS, "n_sat", "status", "pdop_avail_pct_life", "pdop_avail_pct_worst_month",
-               "closed_loop_dv_kms_per_year", "closed_loop_dv_max_kms_per_year", *N_LOSS_KEYS)
+    columns = (
+        *DESIGN_KEYS,
+        "n_sat",
+        "status",
+        "pdop_avail_pct_life",
+        "pdop_avail_pct_worst_month",
+        "closed_loop_dv_kms_per_year",
+        "closed_loop_dv_max_kms_per_year",
+        *N_LOSS_KEYS,
+    )
     size = validated.sizes["design"] if validated is not None else 0
-    frame = pd.DataFrame({k: validated[k].values if validated is not None and k in validated else np.full(size, np.nan)
-                          for k in columns})
+    frame = pd.DataFrame(
+        {
+            k: validated[k].values
+            if validated is not None and k in validated
+            else np.full(size, np.nan)
+            for k in columns
+        }
+    )
     with np.errstate(invalid="ignore"):
-        ok = frame[(frame["status"] == "kept") & (frame["pdop_avail_pct_life"].astype(float) >= availability_min_pct)
-                   & (frame["closed_loop_dv_max_kms_per_year"].astype(float) <= dv_max_kms_per_year)]
+        ok = frame[
+            (frame["status"] == "kept")
+            & (frame["pdop_avail_pct_life"].astype(float) >= availability_min_pct)
+            & (frame["closed_loop_dv_max_kms_per_year"].astype(float) <= dv_max_kms_per_year)
+        ]
     ok = ok.sort_values(["n_sat", "closed_loop_dv_max_kms_per_year"])
 
     def row(label: str, pick: pd.DataFrame, of_size: pd.DataFrame) -> dict:
-        counts = {"flown": int(len(of_size)), "failed or error": int((of_size["status"] != "kept").sum())}
+        counts = {
+            "flown": int(len(of_size)),
+            "failed or error": int((of_size["status"] != "kept").sum()),
+        }
         if not len(pick):
             return {"row": label, "result": NONE_VALIDATED, **counts}
         best = pick.iloc[0]
-        return {"row": label, "result": "validated", "n_sat": int(best.n_sat), "n_planes": int(best.n_planes),
-                "sats_per_plane": int(best.sats_per_plane), "sma_km": best.sma_km, "ecc": best.ecc,
-                "inc_deg": best.inc_deg, "aop_deg": best.aop_deg,
-                "closed_loop_dv_max_kms_per_year": best.closed_loop_dv_max_kms_per_year,
-                "closed_loop_dv_kms_per_year": best.closed_loop_dv_kms_per_year,
-                "pdop_avail_pct_life": best.pdop_avail_pct_life,
-                "pdop_avail_pct_worst_month": best.pdop_avail_pct_worst_month,
-                **{k: best[k] for k in N_LOSS_KEYS}, **counts}
+        return {
+            "row": label,
+            "result": "validated",
+            "n_sat": int(best.n_sat),
+            "n_planes": int(best.n_planes),
+            "sats_per_plane": int(best.sats_per_plane),
+            "sma_km": best.sma_km,
+            "ecc": best.ecc,
+            "inc_deg": best.inc_deg,
+            "aop_deg": best.aop_deg,
+            "closed_loop_dv_max_kms_per_year": best.closed_loop_dv_max_kms_per_year,
+            "closed_loop_dv_kms_per_year": best.closed_loop_dv_kms_per_year,
+            "pdop_avail_pct_life": best.pdop_avail_pct_life,
+            "pdop_avail_pct_worst_month": best.pdop_avail_pct_worst_month,
+            **{k: best[k] for k in N_LOSS_KEYS},
+            **counts,
+        }
 
     rows = [row("smallest", ok, frame)]
     for size in sizes:
-        rows.append(row(f"{size} satellites", ok[ok["n_sat"] == size].sort_values("closed_loop_dv_max_kms_per_year"),
-                        frame[frame["n_sat"] == size]))
-    rows.append({"row": "paper (abstract)", "result": "claimed", "n_sat": paper["n_sat"],
-                 "closed_loop_dv_max_kms_per_year": paper["dv_below_kms_per_year"],
-                 "pdop_avail_pct_life": paper["availability_pct"]})
+        rows.append(
+            row(
+                f"{size} satellites",
+                ok[ok["n_sat"] == size].sort_values("closed_loop_dv_max_kms_per_year"),
+                frame[frame["n_sat"] == size],
+            )
+        )
+    rows.append(
+        {
+            "row": "paper (abstract)",
+            "result": "claimed",
+            "n_sat": paper["n_sat"],
+            "closed_loop_dv_max_kms_per_year": paper["dv_below_kms_per_year"],
+            "pdop_avail_pct_life": paper["availability_pct"],
+        }
+    )
     return pd.DataFrame(rows).set_index("row")

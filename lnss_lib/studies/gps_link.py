@@ -16,40 +16,79 @@ the real GPS geometry gives. The notebook prints the numbers behind each stateme
 
 from __future__ import annotations
 
-import numpy as np
 import dataclasses
 from typing import TYPE_CHECKING
 
+import numpy as np
 import pandas as pd
 import xarray as xr
 
 from ..constants import BOLTZMANN_J_K, SECONDS_PER_DAY
 from ..constellation import two_body_positions_mci
 from ..geometry import filtered_mean
-from ..gps import (cn0_dbhz, free_space_loss_db, gain_for_settings, gps_link, gps_link_summary, gps_states_mci,
-                   pdop_along_axis)
+from ..gps import (
+    cn0_dbhz,
+    free_space_loss_db,
+    gain_for_settings,
+    gps_link,
+    gps_link_summary,
+    gps_states_mci,
+    pdop_along_axis,
+)
 from ..paper import TABLE_4, TABLE_4_LABEL
 from ..propagator import propagate_elements
 
 if TYPE_CHECKING:
     from ..settings import BodyConstants, GpsSettings, Settings
 
-__all__ = ["GAIN_COLUMNS", "GPS_ORBIT_RADIUS_KM", "MEAN_EARTH_MOON_KM", "LINK_STATUS", "catalogue_table",
-           "link_budget_table", "gps_link_sensitivity", "off_boresight_limits", "cn0_curves", "earth_plane_projection",
-           "link_status", "link_test_counts", "visible_share_by_prn", "main_lobe_share", "paper_comparison_table",
-           "decomposition_table", "pdop_split", "pdop_decomposition", "sensitivity_variants", "sensitivity_table",
-           "per_satellite_summary", "pdop_at_visible_count", "sensitivity_findings"]
+__all__ = [
+    "GAIN_COLUMNS",
+    "GPS_ORBIT_RADIUS_KM",
+    "MEAN_EARTH_MOON_KM",
+    "LINK_STATUS",
+    "catalogue_table",
+    "link_budget_table",
+    "gps_link_sensitivity",
+    "off_boresight_limits",
+    "cn0_curves",
+    "earth_plane_projection",
+    "link_status",
+    "link_test_counts",
+    "visible_share_by_prn",
+    "main_lobe_share",
+    "paper_comparison_table",
+    "decomposition_table",
+    "pdop_split",
+    "pdop_decomposition",
+    "sensitivity_variants",
+    "sensitivity_table",
+    "per_satellite_summary",
+    "pdop_at_visible_count",
+    "sensitivity_findings",
+]
 
-GAIN_COLUMNS = ("improved_panel_dbi", "legacy_iir_dbi", "iirm_dbavg_dbi", "iirm_min_dbi", "iirm_max_dbi")
+GAIN_COLUMNS = (
+    "improved_panel_dbi",
+    "legacy_iir_dbi",
+    "iirm_dbavg_dbi",
+    "iirm_min_dbi",
+    "iirm_max_dbi",
+)
 
 
-GPS_ORBIT_RADIUS_KM = 26560.0          # nominal, for the off-boresight schematic
+GPS_ORBIT_RADIUS_KM = 26560.0  # nominal, for the off-boresight schematic
 
 
-MEAN_EARTH_MOON_KM = 384400.0          # mean Earth-Moon distance of the link-budget tables
+MEAN_EARTH_MOON_KM = 384400.0  # mean Earth-Moon distance of the link-budget tables
 
 
-LINK_STATUS = ("Moon blocks", "Earth (+margin) blocks", "outside beam", "C/N0 < 15 dB-Hz", "visible")
+LINK_STATUS = (
+    "Moon blocks",
+    "Earth (+margin) blocks",
+    "outside beam",
+    "C/N0 < 15 dB-Hz",
+    "visible",
+)
 
 
 def catalogue_table(catalogue: list[dict], start_tdb: str) -> pd.DataFrame:
@@ -57,12 +96,18 @@ def catalogue_table(catalogue: list[dict], start_tdb: str) -> pd.DataFrame:
     how far SGP4 runs backwards) and the dates as ISO text."""
     start = pd.Timestamp(start_tdb[:10])
     out = pd.DataFrame(catalogue)
-    out["days_back_from_tle"] = [(pd.Timestamp(e) - start).total_seconds() / SECONDS_PER_DAY for e in out["tle_epoch_utc"]]
-    out["tle_epoch_utc"] = [pd.Timestamp(e).strftime("%Y-%m-%d %H:%M:%S") for e in out["tle_epoch_utc"]]  # to the second
+    out["days_back_from_tle"] = [
+        (pd.Timestamp(e) - start).total_seconds() / SECONDS_PER_DAY for e in out["tle_epoch_utc"]
+    ]
+    out["tle_epoch_utc"] = [
+        pd.Timestamp(e).strftime("%Y-%m-%d %H:%M:%S") for e in out["tle_epoch_utc"]
+    ]  # to the second
     return out.astype({"launch_date": str})
 
 
-def link_budget_table(gps: GpsSettings, theta_off_deg, distance_km: float, **overrides) -> pd.DataFrame:
+def link_budget_table(
+    gps: GpsSettings, theta_off_deg, distance_km: float, **overrides
+) -> pd.DataFrame:
     """Table 1 / eq. 22-24 budget terms against off-boresight angle at one GPS-LNSS distance.
 
     Columns: gain_dbi, eirp_dbw, fsl_db, g_rx_dbi, ktn_dbw_hz (10 log10 k T), cn0_dbhz and
@@ -78,19 +123,38 @@ def link_budget_table(gps: GpsSettings, theta_off_deg, distance_km: float, **ove
     gain = gain_for_settings(cfg)(theta)
     losses = float(cfg.l_tx_db) + float(cfg.l_pol_db)
     freq = float(cfg.frequency_mhz) * 1e6
-    cn0 = cn0_dbhz(gain, distance_km, p_tx_dbw=float(cfg.p_tx_dbw), losses_db=losses, g_rx_dbi=float(cfg.g_rx_dbi),
-                   frequency_hz=freq, noise_temperature_k=float(cfg.noise_temperature_k))
-    return pd.DataFrame({
-        "off_boresight_deg": theta, "gain_dbi": gain, "eirp_dbw": float(cfg.p_tx_dbw) - losses + gain,
-        "fsl_db": free_space_loss_db(np.full(theta.shape, float(distance_km)), freq),
-        "g_rx_dbi": float(cfg.g_rx_dbi),
-        "ktn_dbw_hz": 10.0 * np.log10(BOLTZMANN_J_K * float(cfg.noise_temperature_k)),
-        "cn0_dbhz": cn0, "receivable": np.nan_to_num(cn0, nan=-np.inf) >= float(cfg.cn0_threshold_dbhz),
-    }).set_index("off_boresight_deg")
+    cn0 = cn0_dbhz(
+        gain,
+        distance_km,
+        p_tx_dbw=float(cfg.p_tx_dbw),
+        losses_db=losses,
+        g_rx_dbi=float(cfg.g_rx_dbi),
+        frequency_hz=freq,
+        noise_temperature_k=float(cfg.noise_temperature_k),
+    )
+    return pd.DataFrame(
+        {
+            "off_boresight_deg": theta,
+            "gain_dbi": gain,
+            "eirp_dbw": float(cfg.p_tx_dbw) - losses + gain,
+            "fsl_db": free_space_loss_db(np.full(theta.shape, float(distance_km)), freq),
+            "g_rx_dbi": float(cfg.g_rx_dbi),
+            "ktn_dbw_hz": 10.0 * np.log10(BOLTZMANN_J_K * float(cfg.noise_temperature_k)),
+            "cn0_dbhz": cn0,
+            "receivable": np.nan_to_num(cn0, nan=-np.inf) >= float(cfg.cn0_threshold_dbhz),
+        }
+    ).set_index("off_boresight_deg")
 
 
-def gps_link_sensitivity(gps: GpsSettings, constants: BodyConstants, gps_states: xr.Dataset, lnss,
-                         variants: dict[str, dict], *, sats="first") -> pd.DataFrame:
+def gps_link_sensitivity(
+    gps: GpsSettings,
+    constants: BodyConstants,
+    gps_states: xr.Dataset,
+    lnss,
+    variants: dict[str, dict],
+    *,
+    sats="first",
+) -> pd.DataFrame:
     """Summary (:func:`gps_link_summary`) of :func:`gps_link` for each named set of ``[gps]`` overrides.
 
     ``variants`` maps a label to overrides (``{}`` = the ``[gps]`` settings); a ``pdop_filter`` key
@@ -105,8 +169,13 @@ def gps_link_sensitivity(gps: GpsSettings, constants: BodyConstants, gps_states:
     return pd.DataFrame(rows).set_index("variant")
 
 
-def off_boresight_limits(gps: GpsSettings, constants: BodyConstants, distance_km: float = MEAN_EARTH_MOON_KM,
-                         r_gps_km: float = GPS_ORBIT_RADIUS_KM, step_deg: float = 0.1) -> dict[str, float]:
+def off_boresight_limits(
+    gps: GpsSettings,
+    constants: BodyConstants,
+    distance_km: float = MEAN_EARTH_MOON_KM,
+    r_gps_km: float = GPS_ORBIT_RADIUS_KM,
+    step_deg: float = 0.1,
+) -> dict[str, float]:
     """Angles (deg) that split the GPS transmit cone for a receiver at ``distance_km`` (eq. 19-24).
 
     ``earth_limb_deg`` asin(R_earth / r_GPS), ``limb_with_margin_deg`` (+ the atmospheric margin,
@@ -120,23 +189,36 @@ def off_boresight_limits(gps: GpsSettings, constants: BodyConstants, distance_km
     receivable = link_budget_table(gps, fine, distance_km)["receivable"].values
     inside = (fine <= gps.beam_mask_deg) & receivable
     if not inside.any():
-        raise ValueError(f"no off-boresight angle inside the {gps.beam_mask_deg} deg beam mask reaches "
-                         f"{gps.cn0_threshold_dbhz} dB-Hz at {distance_km} km")
-    return {"earth_limb_deg": float(alpha), "limb_with_margin_deg": float(alpha + gps.atmosphere_margin_deg),
-            "sidelobe_from_deg": gps.sidelobe_from_deg, "last_receivable_deg": float(fine[inside].max()),
-            "beam_mask_deg": gps.beam_mask_deg, "r_gps_km": float(r_gps_km), "r_earth_km": r_earth}
+        raise ValueError(
+            f"no off-boresight angle inside the {gps.beam_mask_deg} deg beam mask reaches "
+            f"{gps.cn0_threshold_dbhz} dB-Hz at {distance_km} km"
+        )
+    return {
+        "earth_limb_deg": float(alpha),
+        "limb_with_margin_deg": float(alpha + gps.atmosphere_margin_deg),
+        "sidelobe_from_deg": gps.sidelobe_from_deg,
+        "last_receivable_deg": float(fine[inside].max()),
+        "beam_mask_deg": gps.beam_mask_deg,
+        "r_gps_km": float(r_gps_km),
+        "r_earth_km": r_earth,
+    }
 
 
-def cn0_curves(gps: GpsSettings, theta_off_deg, distance_km: float, variants: dict[str, dict]) -> pd.DataFrame:
+def cn0_curves(
+    gps: GpsSettings, theta_off_deg, distance_km: float, variants: dict[str, dict]
+) -> pd.DataFrame:
     """C/N0 (dB-Hz, eq. 22-24) against off-boresight angle (index) for each named set of ``[gps]`` overrides."""
     theta = np.atleast_1d(np.asarray(theta_off_deg, dtype=float))
-    curves = {label: link_budget_table(gps, theta, distance_km, **over)["cn0_dbhz"].values
-              for label, over in variants.items()}
+    curves = {
+        label: link_budget_table(gps, theta, distance_km, **over)["cn0_dbhz"].values
+        for label, over in variants.items()
+    }
     return pd.DataFrame(curves, index=pd.Index(theta, name="off_boresight_deg"))
 
 
-def earth_plane_projection(r_gps_mci_km: np.ndarray, earth_mci_km: np.ndarray,
-                           r_lnss_mci_km: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+def earth_plane_projection(
+    r_gps_mci_km: np.ndarray, earth_mci_km: np.ndarray, r_lnss_mci_km: np.ndarray
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """GPS positions seen from an LNSS satellite, projected on the plane through the Earth's centre
     perpendicular to the LNSS -> Earth direction: (x_km, y_km) (time, gps) and that direction (time, 3).
 
@@ -155,30 +237,48 @@ def earth_plane_projection(r_gps_mci_km: np.ndarray, earth_mci_km: np.ndarray,
 def link_status(link_one: xr.Dataset) -> np.ndarray:
     """Label (:data:`LINK_STATUS`) of every (time, gps) link of one satellite of :func:`gps_link`: the first
     test that fails (Moon, Earth or ellipsoid, beam, C/N0), else ``visible``."""
-    return np.select([link_one["moon_blocked"].values,
-                      (link_one["earth_blocked"] | link_one["ellipsoid_blocked"]).values,
-                      link_one["outside_beam"].values, ~link_one["above_threshold"].values],
-                     list(LINK_STATUS[:4]), LINK_STATUS[4])
+    return np.select(
+        [
+            link_one["moon_blocked"].values,
+            (link_one["earth_blocked"] | link_one["ellipsoid_blocked"]).values,
+            link_one["outside_beam"].values,
+            ~link_one["above_threshold"].values,
+        ],
+        list(LINK_STATUS[:4]),
+        LINK_STATUS[4],
+    )
 
 
 def link_test_counts(link_one: xr.Dataset) -> pd.Series:
     """How many (gps, epoch) pairs of one satellite each test removes, and how many stay visible."""
     visible = link_one["visible"].values
-    return pd.Series({
-        "all (gps, epoch) pairs": visible.size,
-        "Moon blocks": int(link_one["moon_blocked"].sum()),
-        "Earth + margin blocks (eq. 21)": int(link_one["earth_blocked"].sum()),
-        "WGS-84 ray test blocks (beyond eq. 21)": int((link_one["ellipsoid_blocked"] & ~link_one["earth_blocked"]).sum()),
-        "outside beam mask": int(link_one["outside_beam"].sum()),
-        "C/N0 below threshold (geometry ok)": int((~link_one["above_threshold"] & ~link_one["moon_blocked"]
-                                                   & ~link_one["earth_blocked"] & ~link_one["outside_beam"]).sum()),
-        "visible": int(visible.sum()),
-    })
+    return pd.Series(
+        {
+            "all (gps, epoch) pairs": visible.size,
+            "Moon blocks": int(link_one["moon_blocked"].sum()),
+            "Earth + margin blocks (eq. 21)": int(link_one["earth_blocked"].sum()),
+            "WGS-84 ray test blocks (beyond eq. 21)": int(
+                (link_one["ellipsoid_blocked"] & ~link_one["earth_blocked"]).sum()
+            ),
+            "outside beam mask": int(link_one["outside_beam"].sum()),
+            "C/N0 below threshold (geometry ok)": int(
+                (
+                    ~link_one["above_threshold"]
+                    & ~link_one["moon_blocked"]
+                    & ~link_one["earth_blocked"]
+                    & ~link_one["outside_beam"]
+                ).sum()
+            ),
+            "visible": int(visible.sum()),
+        }
+    )
 
 
 def visible_share_by_prn(link_one: xr.Dataset) -> pd.Series:
     """Share of epochs at which each GPS satellite (index: PRN, sorted) is visible to one LNSS satellite."""
-    return pd.Series(link_one["visible"].values.mean(axis=0), index=link_one["prn"].values).sort_index()
+    return pd.Series(
+        link_one["visible"].values.mean(axis=0), index=link_one["prn"].values
+    ).sort_index()
 
 
 def main_lobe_share(link_one: xr.Dataset, sidelobe_from_deg: float) -> float:
@@ -190,9 +290,13 @@ def main_lobe_share(link_one: xr.Dataset, sidelobe_from_deg: float) -> float:
 def paper_comparison_table(summary: dict, paper: dict | None = None) -> pd.DataFrame:
     """Mean visible GPS and filtered mean PDOP (:func:`gps_link_summary`) beside Table 4, with their ratio."""
     paper = TABLE_4 if paper is None else paper
-    table = pd.DataFrame({"this work": [summary["gps_visible_mean"], summary["gps_pdop_mean"]],
-                          TABLE_4_LABEL: [paper["gps_visible_mean"], paper["gps_pdop_mean"]]},
-                         index=["mean visible GPS", "mean PDOP (95th-percentile filter)"])
+    table = pd.DataFrame(
+        {
+            "this work": [summary["gps_visible_mean"], summary["gps_pdop_mean"]],
+            TABLE_4_LABEL: [paper["gps_visible_mean"], paper["gps_pdop_mean"]],
+        },
+        index=["mean visible GPS", "mean PDOP (95th-percentile filter)"],
+    )
     table["ratio"] = table["this work"] / table[TABLE_4_LABEL]
     return table
 
@@ -201,16 +305,28 @@ def decomposition_table(pdop, along, across, pdop_no_clock) -> pd.DataFrame:
     """Median, 95th-percentile-filtered mean and unfiltered mean of the PDOP (eq. 5-7), its parts along
     and across the Earth direction (:func:`pdop_along_axis`) and the PDOP without the clock column."""
     series = [np.asarray(v, dtype=float) for v in (pdop, along, across, pdop_no_clock)]
-    return pd.DataFrame({
-        "median": [np.nanmedian(v) for v in series],
-        "95th-percentile-filtered mean": [filtered_mean(v)[0] for v in series],
-        "unfiltered mean": [np.nanmean(v) for v in series],
-    }, index=["PDOP (eq. 5-7, clock column)", "  error along the Earth direction", "  error across it",
-              "PDOP without clock column"])
+    return pd.DataFrame(
+        {
+            "median": [np.nanmedian(v) for v in series],
+            "95th-percentile-filtered mean": [filtered_mean(v)[0] for v in series],
+            "unfiltered mean": [np.nanmean(v) for v in series],
+        },
+        index=[
+            "PDOP (eq. 5-7, clock column)",
+            "  error along the Earth direction",
+            "  error across it",
+            "PDOP without clock column",
+        ],
+    )
 
 
-def pdop_split(gps: GpsSettings, constants: BodyConstants, gps_states: xr.Dataset, lnss: xr.Dataset,
-               link: xr.Dataset | None = None) -> dict[str, np.ndarray]:
+def pdop_split(
+    gps: GpsSettings,
+    constants: BodyConstants,
+    gps_states: xr.Dataset,
+    lnss: xr.Dataset,
+    link: xr.Dataset | None = None,
+) -> dict[str, np.ndarray]:
     """PDOP of the first LNSS satellite of a propagation at every epoch (``pdop``), its parts ``along`` and
     ``across`` the LNSS -> Earth direction (:func:`pdop_along_axis`) and ``pdop_no_clock`` (eq. 5-7 without
     the clock column); ``link``: its :func:`gps_link` (computed when not given)."""
@@ -223,12 +339,21 @@ def pdop_split(gps: GpsSettings, constants: BodyConstants, gps_states: xr.Datase
     los /= np.linalg.norm(los, axis=-1, keepdims=True)
     along, across = pdop_along_axis(los, first["visible"].values, e_hat)
     no_clock = gps_link(gps, constants, gps_states, lnss, clock_column=False)
-    return {"pdop": first["pdop"].values, "along": along, "across": across,
-            "pdop_no_clock": no_clock["pdop"].values[0]}
+    return {
+        "pdop": first["pdop"].values,
+        "along": along,
+        "across": across,
+        "pdop_no_clock": no_clock["pdop"].values[0],
+    }
 
 
-def pdop_decomposition(gps: GpsSettings, constants: BodyConstants, gps_states: xr.Dataset, lnss: xr.Dataset,
-                       link: xr.Dataset | None = None) -> pd.DataFrame:
+def pdop_decomposition(
+    gps: GpsSettings,
+    constants: BodyConstants,
+    gps_states: xr.Dataset,
+    lnss: xr.Dataset,
+    link: xr.Dataset | None = None,
+) -> pd.DataFrame:
     """:func:`decomposition_table` of :func:`pdop_split`: why the GPS-LNSS PDOP is so large."""
     return decomposition_table(**pdop_split(gps, constants, gps_states, lnss, link))
 
@@ -238,11 +363,26 @@ def sensitivity_variants(gps: GpsSettings) -> dict[str, dict]:
     gain column, sidelobe level, beam mask, atmospheric margin, ellipsoid test, clock column and filter."""
     default_column = gps.gain_column
     variants: dict[str, dict] = {"default": {}}
-    variants.update({f"T = {t:.0f} K": {"noise_temperature_k": t} for t in (100.0, 150.0, 230.0, 270.0, 300.0, 350.0, 400.0)})
+    variants.update(
+        {
+            f"T = {t:.0f} K": {"noise_temperature_k": t}
+            for t in (100.0, 150.0, 230.0, 270.0, 300.0, 350.0, 400.0)
+        }
+    )
     variants.update({f"gain {c}": {"gain_column": c} for c in GAIN_COLUMNS if c != default_column})
-    variants.update({f"sidelobes {o:+g} dB": {"sidelobe_offset_db": o} for o in (-6.0, -3.0, -1.0, 1.0, 3.0, 6.0)})
+    variants.update(
+        {
+            f"sidelobes {o:+g} dB": {"sidelobe_offset_db": o}
+            for o in (-6.0, -3.0, -1.0, 1.0, 3.0, 6.0)
+        }
+    )
     variants["main lobe only"] = {"sidelobe_offset_db": -np.inf}
-    variants.update({f"beam mask {b:.0f} deg": {"beam_mask_deg": b} for b in (30.0, 40.0, 50.0, 60.0, 80.0, 90.0)})
+    variants.update(
+        {
+            f"beam mask {b:.0f} deg": {"beam_mask_deg": b}
+            for b in (30.0, 40.0, 50.0, 60.0, 80.0, 90.0)
+        }
+    )
     variants["no atmospheric margin"] = {"atmosphere_margin_deg": 0.0}
     variants["no ellipsoid test"] = {"ellipsoid_test": False}
     variants["no clock column"] = {"clock_column": False}
@@ -251,8 +391,15 @@ def sensitivity_variants(gps: GpsSettings) -> dict[str, dict]:
     return variants
 
 
-def sensitivity_table(settings: Settings, gps: xr.Dataset, lnss: xr.Dataset, elements_deg, *,
-                      phase_shifts_days=(-30.0, -7.0, 7.0, 30.0), paper: dict | None = None) -> pd.DataFrame:
+def sensitivity_table(
+    settings: Settings,
+    gps: xr.Dataset,
+    lnss: xr.Dataset,
+    elements_deg,
+    *,
+    phase_shifts_days=(-30.0, -7.0, 7.0, 30.0),
+    paper: dict | None = None,
+) -> pd.DataFrame:
     """Summary of the first satellite's link for every :func:`sensitivity_variants` entry, then for a
     Keplerian orbit, the elements referred to the J2000 equator, and GPS phases shifted by running SGP4
     at t + shift; column ``pdop_ratio_to_paper`` divides the mean PDOP by Table 4's.
@@ -264,14 +411,26 @@ def sensitivity_table(settings: Settings, gps: xr.Dataset, lnss: xr.Dataset, ele
     times = lnss["time"].values
     gps_cfg, constants = settings.gps, settings.constants
     sens = gps_link_sensitivity(gps_cfg, constants, gps, lnss, sensitivity_variants(gps_cfg))
-    extra = {"Keplerian ELFO orbit": gps_link_summary(gps_link(gps_cfg, constants, gps,
-                                                               two_body_positions_mci(settings.dynamics, el[:1], times)))}
+    extra = {
+        "Keplerian ELFO orbit": gps_link_summary(
+            gps_link(
+                gps_cfg, constants, gps, two_body_positions_mci(settings.dynamics, el[:1], times)
+            )
+        )
+    }
     p_j2000 = settings.with_overrides({"frames": {"element_frame": "j2000"}})
-    extra["elements in J2000 equator"] = gps_link_summary(gps_link(gps_cfg, constants, gps,
-                                                                   propagate_elements(p_j2000.dynamics, p_j2000.epoch, el[:1])))
+    extra["elements in J2000 equator"] = gps_link_summary(
+        gps_link(
+            gps_cfg, constants, gps, propagate_elements(p_j2000.dynamics, p_j2000.epoch, el[:1])
+        )
+    )
     for shift_days in phase_shifts_days:
-        shifted = gps_states_mci(gps_cfg, settings.epoch.start_tdb, times, sgp4_offset_s=shift_days * SECONDS_PER_DAY)
-        extra[f"GPS phase: SGP4 at t {shift_days:+.0f} d"] = gps_link_summary(gps_link(gps_cfg, constants, shifted, lnss))
+        shifted = gps_states_mci(
+            gps_cfg, settings.epoch.start_tdb, times, sgp4_offset_s=shift_days * SECONDS_PER_DAY
+        )
+        extra[f"GPS phase: SGP4 at t {shift_days:+.0f} d"] = gps_link_summary(
+            gps_link(gps_cfg, constants, shifted, lnss)
+        )
     sens = pd.concat([sens, pd.DataFrame(extra).T])
     sens["pdop_ratio_to_paper"] = sens["gps_pdop_mean"] / paper["gps_pdop_mean"]
     return sens
@@ -292,11 +451,14 @@ def pdop_at_visible_count(sens: pd.DataFrame, n_visible: float, prefix: str = "T
     ``default``."""
     rows = [k for k in sens.index if k.startswith(prefix)] + ["default"]
     sweep = sens.loc[rows].sort_values("gps_visible_mean")
-    return float(np.exp(np.interp(n_visible, sweep["gps_visible_mean"], np.log(sweep["gps_pdop_mean"]))))
+    return float(
+        np.exp(np.interp(n_visible, sweep["gps_visible_mean"], np.log(sweep["gps_pdop_mean"])))
+    )
 
 
-def sensitivity_findings(sens: pd.DataFrame, decomposition: pd.DataFrame, main_share: float,
-                         paper: dict | None = None) -> list[str]:
+def sensitivity_findings(
+    sens: pd.DataFrame, decomposition: pd.DataFrame, main_share: float, paper: dict | None = None
+) -> list[str]:
     """Markdown bullet lines with the key numbers of a run: visibility and PDOP against Table 4, main-lobe
     share, PDOP decomposition, the gain-column, noise-temperature and filter sensitivities, and the PDOP
     that the noise-temperature sweep gives at the paper's visible count."""

@@ -60,9 +60,20 @@ from ..settings import Settings
 from .design_life import flown_elements
 from .estimate_validation import FROZEN_MEMBERS, design_estimates, table3_orbits
 
-__all__ = ["RHO_TARGET", "POINTS_TARGET", "SHARE_TARGET", "MIN_SATS", "MAX_SATS", "AVAILABILITY_KEYS",
-           "availability_validation_designs", "closed_loop_availability", "estimated_availability",
-           "life_navigation_statistics", "life_navigation_outliers", "run_life_navigation_validation"]
+__all__ = [
+    "RHO_TARGET",
+    "POINTS_TARGET",
+    "SHARE_TARGET",
+    "MIN_SATS",
+    "MAX_SATS",
+    "AVAILABILITY_KEYS",
+    "availability_validation_designs",
+    "closed_loop_availability",
+    "estimated_availability",
+    "life_navigation_statistics",
+    "life_navigation_outliers",
+    "run_life_navigation_validation",
+]
 
 RHO_TARGET = 0.85
 """Spearman rank correlation the worst-month estimate must reach against the closed loop."""
@@ -77,7 +88,9 @@ AVAILABILITY_KEYS = ("pdop_avail_pct", "hdop_avail_pct")
 """The availabilities compared (eq. 14 of the PDOP and of the HDOP)."""
 
 
-def availability_validation_designs(settings: Settings, n_random: int = 10, seed: int = 36) -> list[dict]:
+def availability_validation_designs(
+    settings: Settings, n_random: int = 10, seed: int = 36
+) -> list[dict]:
     """Designs ``{"design", "source"}`` (whole constellations of :data:`MIN_SATS`-:data:`MAX_SATS` satellites):
     ``[life_evaluation] validation_designs`` of that size, the Table 4 ELFO as two planes of four, the frozen members with
     two satellites a plane and ``n_random`` Table 3 draws with the apolune in the southern hemisphere (AOP 30-150 deg,
@@ -85,7 +98,12 @@ def availability_validation_designs(settings: Settings, n_random: int = 10, seed
     rows, seen = [], set()
 
     def add(design, source):
-        key = (float(design[0]), round(float(design[1]), 3), *map(float, design[2:4]), *map(int, design[4:6]))
+        key = (
+            float(design[0]),
+            round(float(design[1]), 3),
+            *map(float, design[2:4]),
+            *map(int, design[4:6]),
+        )
         if MIN_SATS <= key[4] * key[5] <= MAX_SATS and key not in seen:
             seen.add(key)
             rows.append({"design": key, "source": source})
@@ -103,24 +121,46 @@ def availability_validation_designs(settings: Settings, n_random: int = 10, seed
     orbits = table3_orbits(settings, rng)
     while sum(r["source"] == "random" for r in rows) < n_random:
         a, e = next(orbits)
-        add((round(a, -2), round(e, 2), float(rng.integers(30, 151)), float(rng.integers(20, 91)),
-             int(rng.integers(2, 5)), int(rng.integers(2, 4))), "random")
+        add(
+            (
+                round(a, -2),
+                round(e, 2),
+                float(rng.integers(30, 151)),
+                float(rng.integers(20, 91)),
+                int(rng.integers(2, 5)),
+                int(rng.integers(2, 4)),
+            ),
+            "random",
+        )
     return rows
 
 
-def closed_loop_availability(settings: Settings, design, life_days: float, cache_dir: Path | None = None) -> dict:
+def closed_loop_availability(
+    settings: Settings, design, life_days: float, cache_dir: Path | None = None
+) -> dict:
     """The service controller's life of a whole design and its south-pole navigation month by month: ``months``
     (key -> list of monthly availabilities, %), ``dv`` (km/s per satellite and year), ``lost`` (the satellites lost,
     as :func:`lnss_lib.design_life.evaluation.lost_satellites`). Cached in ``cache_dir`` by design, life, settings,
     code and data (:func:`~lnss_lib.outputs.cached_json`)."""
-    def fly() -> dict:
-        ctl = run_design_life(settings, flown_elements(design), life_days, natural=False)["controlled"]
-        nav = life_navigation(settings.dop, settings.dynamics, ctl, month_days=settings.life_evaluation.month_days)
-        return {"design": list(design), "life_days": float(life_days),
-                "months": {key: nav[key].sel(run="life").values.tolist() for key in AVAILABILITY_KEYS},
-                "dv": ctl["dv_kms_per_year"].values.tolist(), "lost": lost_satellites(ctl)}
 
-    return cached_json(cache_dir, "closed_loop_availability", [list(design), float(life_days), settings.hash], fly)[0]
+    def fly() -> dict:
+        ctl = run_design_life(settings, flown_elements(design), life_days, natural=False)[
+            "controlled"
+        ]
+        nav = life_navigation(
+            settings.dop, settings.dynamics, ctl, month_days=settings.life_evaluation.month_days
+        )
+        return {
+            "design": list(design),
+            "life_days": float(life_days),
+            "months": {key: nav[key].sel(run="life").values.tolist() for key in AVAILABILITY_KEYS},
+            "dv": ctl["dv_kms_per_year"].values.tolist(),
+            "lost": lost_satellites(ctl),
+        }
+
+    return cached_json(
+        cache_dir, "closed_loop_availability", [list(design), float(life_days), settings.hash], fly
+    )[0]
 
 
 def estimated_availability(settings: Settings, design, life_days: float) -> dict:
@@ -132,7 +172,8 @@ def estimated_availability(settings: Settings, design, life_days: float) -> dict
         return dict.fromkeys(LIFE_NAVIGATION_KEYS, np.nan)
     nav = estimates[0]["navigation_windows"]
     return {key: nav[key] for key in LIFE_NAVIGATION_KEYS} | {
-        key: nav[key] for key in nav if key.endswith("_windows") or key == "window_days"}
+        key: nav[key] for key in nav if key.endswith("_windows") or key == "window_days"
+    }
 
 
 def life_navigation_statistics(table: pd.DataFrame) -> dict:
@@ -148,21 +189,33 @@ def life_navigation_statistics(table: pd.DataFrame) -> dict:
         ranked = ok.sum() >= 3 and np.ptp(est) > 0.0 and np.ptp(closed) > 0.0
         rho = float(spearmanr(est, closed)[0]) if ranked else np.nan
         share = float(np.mean(np.abs(est - closed) <= POINTS_TARGET)) if ok.any() else np.nan
-        out.update({"n_compared": int(ok.sum()), f"spearman_rho_{key}": rho, f"within_points_share_{key}": share,
-                    f"meets_targets_{key}": bool(rho >= RHO_TARGET and share >= SHARE_TARGET)})
+        out.update(
+            {
+                "n_compared": int(ok.sum()),
+                f"spearman_rho_{key}": rho,
+                f"within_points_share_{key}": share,
+                f"meets_targets_{key}": bool(rho >= RHO_TARGET and share >= SHARE_TARGET),
+            }
+        )
     return out
 
 
 def life_navigation_outliers(table: pd.DataFrame, key: str = "pdop_avail_pct") -> pd.DataFrame:
     """Every design whose estimated worst month of ``key`` is more than :data:`POINTS_TARGET` points from the closed
     loop's, with the difference (estimate minus closed loop) as ``<key>_worst_month_error``."""
-    error = table[f"{key}_worst_month_estimate"].astype(float) - table[f"{key}_worst_month"].astype(float)
+    error = table[f"{key}_worst_month_estimate"].astype(float) - table[f"{key}_worst_month"].astype(
+        float
+    )
     return table.assign(**{f"{key}_worst_month_error": error}).loc[error.abs() > POINTS_TARGET]
 
 
-def run_life_navigation_validation(settings: Settings, life_days: float | None = None, n_random: int = 10,
-                                   max_designs: int | None = None, cache_dir: Path | None = None
-                                   ) -> tuple[pd.DataFrame, dict]:
+def run_life_navigation_validation(
+    settings: Settings,
+    life_days: float | None = None,
+    n_random: int = 10,
+    max_designs: int | None = None,
+    cache_dir: Path | None = None,
+) -> tuple[pd.DataFrame, dict]:
     """The validation table (one row per design: design, source, ``n_sat``, the closed loop's mean and worst month
     of each availability as ``<key>_life`` and ``<key>_worst_month``, the estimate's as
     :data:`~lnss_lib.keys.LIFE_NAVIGATION_KEYS`, satellites lost, the closed loop's mean Delta-V) and
@@ -172,16 +225,26 @@ def run_life_navigation_validation(settings: Settings, life_days: float | None =
     life = float(settings.design_life.life_days if life_days is None else life_days)
     designs = availability_validation_designs(settings, n_random)[:max_designs]
     rows = []
-    for item in steps(designs, f"navigation over the life, estimate vs closed loop, {life:g} days", "designs"):
+    for item in steps(
+        designs, f"navigation over the life, estimate vs closed loop, {life:g} days", "designs"
+    ):
         design = item["design"]
         closed = closed_loop_availability(settings, design, life, cache_dir)
         est = estimated_availability(settings, design, life)
-        row = {**dict(zip(DESIGN_KEYS, design)), "source": item["source"], "n_sat": design[4] * design[5]}
+        row = {
+            **dict(zip(DESIGN_KEYS, design)),
+            "source": item["source"],
+            "n_sat": design[4] * design[5],
+        }
         for key in AVAILABILITY_KEYS:
             months = np.asarray(closed["months"][key], dtype=float)
-            row.update({f"{key}_life": float(np.mean(months)), f"{key}_worst_month": float(np.min(months))})
+            row.update(
+                {f"{key}_life": float(np.mean(months)), f"{key}_worst_month": float(np.min(months))}
+            )
         row.update({key: est[key] for key in LIFE_NAVIGATION_KEYS})
-        row.update(n_lost=len(closed["lost"]), closed_loop_dv_kms_per_year=float(np.mean(closed["dv"])))
+        row.update(
+            n_lost=len(closed["lost"]), closed_loop_dv_kms_per_year=float(np.mean(closed["dv"]))
+        )
         rows.append(row)
     table = pd.DataFrame(rows)
     return table, life_navigation_statistics(table)

@@ -35,32 +35,55 @@ import numpy as np
 import pandas as pd
 import xarray as xr
 
-from ..campaign.fitness import deltav_constraint, non_dominated_mask, objective_matrix, parse_constraints, satisfies
+from ..campaign.fitness import (
+    deltav_constraint,
+    non_dominated_mask,
+    objective_matrix,
+    parse_constraints,
+    satisfies,
+)
 from ..keys import DESIGN_KEYS, EXTRA_METRIC_KEYS, LABELS, METRIC_KEYS, bound_text
 
-__all__ = ["load_campaign", "parse_constraints", "satisfies", "pareto_front", "table6", "synthetic_campaign",
-           "deltav_constraint", "analysis_front", "TABLE6_RULES", "TABLE6_COLUMNS", "PHYSICAL_BOUND_PROFILES",
-           "physical_bound_campaign", "hypervolume_milestones", "smallest_constellation", "front_against_paper",
-           "closest_to_feasible", "DIFFERENCE_CAUSES", "frame_readings", "frame_summary"]
+__all__ = [
+    "load_campaign",
+    "parse_constraints",
+    "satisfies",
+    "pareto_front",
+    "table6",
+    "synthetic_campaign",
+    "deltav_constraint",
+    "analysis_front",
+    "TABLE6_RULES",
+    "TABLE6_COLUMNS",
+    "PHYSICAL_BOUND_PROFILES",
+    "physical_bound_campaign",
+    "hypervolume_milestones",
+    "smallest_constellation",
+    "front_against_paper",
+    "closest_to_feasible",
+    "DIFFERENCE_CAUSES",
+    "frame_readings",
+    "frame_summary",
+]
 
 # the campaign shown beside a profile's at full scale: the same study with the Delta-V bound where the workbook's
 # physics puts it (params/paper_dv_physical.toml states the value and its derivation)
 PHYSICAL_BOUND_PROFILES = {"paper": "paper_dv_physical"}
 
-DIFFERENCE_CAUSES = {   # why the workbook's front differs from the paper's text, and the notebook that shows it
+DIFFERENCE_CAUSES = {  # why the workbook's front differs from the paper's text, and the notebook that shows it
     "dv_opt_kms_per_year": "the workbook's Delta-V is the least-squares inverse of all five GVEs, which recovers the "
-                           "perturbing acceleration; the paper's eq. 26-35 carry misprints and singular points it caps "
-                           "(notebook 04)",
+    "perturbing acceleration; the paper's eq. 26-35 carry misprints and singular points it caps "
+    "(notebook 04)",
     "dv_total_kms_per_year": "as for Delta-V_opt: the least-squares GVE inverse against the paper's capped eq. 30-35",
     "gps_pdop_mean": "the noise temperature and the sidelobe level are not given in the paper, and the count of visible "
-                     "GPS satellites switches sharply with them; a straightforward link gives about a tenth of the "
-                     "paper's PDOP (notebook 03)",
+    "GPS satellites switches sharply with them; a straightforward link gives about a tenth of the "
+    "paper's PDOP (notebook 03)",
     "hdop_mean_3sigma": "HDOP axes: the paper's literal eq. 5-8 (Moon-fixed x-y, as here) against East-North-Up (notebook "
-                        "02); the navigation metrics reproduce Table 4 within 5 % (notebook 05), so the range moves "
-                        "with the designs the Delta-V bound admits",
+    "02); the navigation metrics reproduce Table 4 within 5 % (notebook 05), so the range moves "
+    "with the designs the Delta-V bound admits",
     "ecc": "the designs the search keeps follow the Delta-V model (higher e costs more under the GVE inverse)",
     "n_sat": "the satellites a design needs for the coverage do not depend on the Delta-V model, but which designs "
-             "are feasible does",
+    "are feasible does",
 }
 
 TABLE6_COLUMNS = DESIGN_KEYS + METRIC_KEYS + ("why selected",)
@@ -86,18 +109,28 @@ def pareto_front(evaluations: xr.Dataset, *, relax: tuple[str, ...] = ()) -> xr.
     With ``relax=()`` this is the campaign's own feasible front.
     """
     objectives = evaluations.attrs["objectives"].split(",")
-    constraints = [c for c in parse_constraints(evaluations.attrs["constraints"]) if c[0] not in relax]
+    constraints = [
+        c for c in parse_constraints(evaluations.attrs["constraints"]) if c[0] not in relax
+    ]
     admissible = satisfies(evaluations, constraints) & ~evaluations["impact"].values.astype(bool)
     for metric in {name.lstrip("-") for name in objectives}:
         admissible &= np.isfinite(evaluations[metric].values.astype(float))
     index = np.flatnonzero(admissible)
     if index.size:
-        f = objective_matrix({k: evaluations[k].values[index] for k in {n.lstrip("-") for n in objectives}}, objectives, 1e6)
+        f = objective_matrix(
+            {k: evaluations[k].values[index] for k in {n.lstrip("-") for n in objectives}},
+            objectives,
+            1e6,
+        )
         index = index[non_dominated_mask(f)]
     front = evaluations.isel(design=index)
-    front.attrs = {**evaluations.attrs, "front_constraints": ", ".join(f"{m} {'<=' if k == 'max' else '>='} {v:g}"
-                                                                       for m, k, v in constraints),
-                   "relaxed": ", ".join(relax)}
+    front.attrs = {
+        **evaluations.attrs,
+        "front_constraints": ", ".join(
+            f"{m} {'<=' if k == 'max' else '>='} {v:g}" for m, k, v in constraints
+        ),
+        "relaxed": ", ".join(relax),
+    }
     return front
 
 
@@ -107,8 +140,10 @@ def analysis_front(evaluations: xr.Dataset, campaign_front: xr.Dataset) -> tuple
     if campaign_front.sizes["design"] > 0:
         return campaign_front, "feasible front"
     metric, limit = deltav_constraint(evaluations)
-    return (pareto_front(evaluations, relax=(metric,)),
-            f"front with the Delta-V bound ({bound_text(metric, 'max', limit)}) relaxed")
+    return (
+        pareto_front(evaluations, relax=(metric,)),
+        f"front with the Delta-V bound ({bound_text(metric, 'max', limit)}) relaxed",
+    )
 
 
 def physical_bound_campaign(profile_name: str):
@@ -130,19 +165,31 @@ def hypervolume_milestones(history: xr.Dataset, fractions=(0.99, 0.999)) -> pd.D
     for fraction in fractions:
         reached = np.flatnonzero(hv >= fraction * final) if final > 0 else np.zeros(0, int)
         generation = int(generations[reached[0]]) if reached.size else np.nan
-        rows.append({"fraction of the final hypervolume": fraction, "first generation": generation,
-                     "generations run": int(generations[-1]) if generations.size else 0,
-                     "share of the generations run (%)": 100.0 * generation / generations[-1]
-                     if reached.size else np.nan, "final hypervolume": final})
+        rows.append(
+            {
+                "fraction of the final hypervolume": fraction,
+                "first generation": generation,
+                "generations run": int(generations[-1]) if generations.size else 0,
+                "share of the generations run (%)": 100.0 * generation / generations[-1]
+                if reached.size
+                else np.nan,
+                "final hypervolume": final,
+            }
+        )
     return pd.DataFrame(rows).set_index("fraction of the final hypervolume")
 
 
-def smallest_constellation(front: xr.Dataset, dv_metric: str, availability_min_pct: float) -> pd.Series | None:
+def smallest_constellation(
+    front: xr.Dataset, dv_metric: str, availability_min_pct: float
+) -> pd.Series | None:
     """The front design with the fewest satellites whose PDOP and HDOP availability reach ``availability_min_pct``
     (ties: the lowest ``dv_metric``), or None. The front holds it: no design has fewer satellites and less
     Delta-V."""
     frame = front[list(DESIGN_KEYS + METRIC_KEYS)].to_dataframe().reset_index(drop=True)
-    frame = frame[(frame.pdop_avail_pct >= availability_min_pct) & (frame.hdop_avail_pct >= availability_min_pct)]
+    frame = frame[
+        (frame.pdop_avail_pct >= availability_min_pct)
+        & (frame.hdop_avail_pct >= availability_min_pct)
+    ]
     return frame.sort_values(["n_sat", dv_metric]).iloc[0] if len(frame) else None
 
 
@@ -156,10 +203,19 @@ def front_against_paper(front: xr.Dataset, claims: dict) -> pd.DataFrame:
         values = values[np.isfinite(values)]
         inside = 100.0 * np.mean((values >= low) & (values <= high)) if values.size else np.nan
         p5, median, p95 = np.percentile(values, (5, 50, 95)) if values.size else (np.nan,) * 3
-        rows.append({"quantity": LABELS.get(metric, metric), "paper low": low, "paper high": high,
-                     "front 5 %": p5, "front median": median, "front 95 %": p95,
-                     "front designs in the paper's range (%)": inside,
-                     "median / paper high": median / high if high else np.nan, "why": DIFFERENCE_CAUSES.get(metric, "")})
+        rows.append(
+            {
+                "quantity": LABELS.get(metric, metric),
+                "paper low": low,
+                "paper high": high,
+                "front 5 %": p5,
+                "front median": median,
+                "front 95 %": p95,
+                "front designs in the paper's range (%)": inside,
+                "median / paper high": median / high if high else np.nan,
+                "why": DIFFERENCE_CAUSES.get(metric, ""),
+            }
+        )
     return pd.DataFrame(rows).set_index("quantity")
 
 
@@ -167,24 +223,42 @@ def closest_to_feasible(evaluations: xr.Dataset) -> pd.Series:
     """The evaluated design with the smallest constraint violation (where a search that finds nothing feasible
     ends), with its metrics."""
     index = int(np.nanargmin(evaluations["constraint_violation"].values.astype(float)))
-    columns = [k for k in DESIGN_KEYS + METRIC_KEYS + ("constraint_violation", "generation") if k in evaluations]
+    columns = [
+        k
+        for k in DESIGN_KEYS + METRIC_KEYS + ("constraint_violation", "generation")
+        if k in evaluations
+    ]
     return evaluations[columns].isel(design=index).to_pandas()
 
 
-TABLE6_RULES = (   # (reason, rule(frame, Delta-V metric name) -> frame ranked best first)
-    ("fewest satellites (ties: best PDOP)", lambda d, dv: d.sort_values(["n_sat", "pdop_mean_3sigma"])),
-    ("best PDOP with fewer than 10 satellites", lambda d, dv: d[d.n_sat < 10].sort_values("pdop_mean_3sigma")),
+TABLE6_RULES = (  # (reason, rule(frame, Delta-V metric name) -> frame ranked best first)
+    (
+        "fewest satellites (ties: best PDOP)",
+        lambda d, dv: d.sort_values(["n_sat", "pdop_mean_3sigma"]),
+    ),
+    (
+        "best PDOP with fewer than 10 satellites",
+        lambda d, dv: d[d.n_sat < 10].sort_values("pdop_mean_3sigma"),
+    ),
     ("best PDOP", lambda d, dv: d.sort_values("pdop_mean_3sigma")),
     ("best HDOP", lambda d, dv: d.sort_values("hdop_mean_3sigma")),
     ("best GPS geometry (lowest GPS-LNSS PDOP)", lambda d, dv: d.sort_values("gps_pdop_mean")),
-    ("most GPS satellites visible", lambda d, dv: d.sort_values("gps_visible_mean", ascending=False)),
+    (
+        "most GPS satellites visible",
+        lambda d, dv: d.sort_values("gps_visible_mean", ascending=False),
+    ),
     ("lowest station-keeping Delta-V", lambda d, dv: d.sort_values(dv)),
 )
 
 
-def table6(front: xr.Dataset, *, availability_min_pct: float = 90.0, dv_max_kms_per_year: float = 1.0,
-           dv_metric: str = "dv_total_kms_per_year",
-           availability: tuple[str, str] = ("pdop_avail_pct", "hdop_avail_pct")) -> pd.DataFrame:
+def table6(
+    front: xr.Dataset,
+    *,
+    availability_min_pct: float = 90.0,
+    dv_max_kms_per_year: float = 1.0,
+    dv_metric: str = "dv_total_kms_per_year",
+    availability: tuple[str, str] = ("pdop_avail_pct", "hdop_avail_pct"),
+) -> pd.DataFrame:
     """Table 6: front designs with PDOP and HDOP availability (the columns ``availability``; e.g. the life availability
     flown in closed loop, :mod:`lnss_lib.studies.front_validation`) >= ``availability_min_pct`` and the Delta-V
     ``dv_metric`` (the paper's Delta-V total, the operational ``sk_dv_estimate_max_kms_per_year``, or a closed-loop
@@ -195,14 +269,19 @@ def table6(front: xr.Dataset, *, availability_min_pct: float = 90.0, dv_max_kms_
     """
     extras = tuple(k for k in EXTRA_METRIC_KEYS if k in front)
     if dv_metric not in front or any(a not in front for a in availability):
-        raise ValueError(f"dv_metric {dv_metric!r} or availability {availability!r} is not a column of this front; "
-                         f"available: {', '.join(map(str, front.data_vars))}")
+        raise ValueError(
+            f"dv_metric {dv_metric!r} or availability {availability!r} is not a column of this front; "
+            f"available: {', '.join(map(str, front.data_vars))}"
+        )
     columns = DESIGN_KEYS + METRIC_KEYS + extras
     columns += tuple(dict.fromkeys(k for k in (dv_metric, *availability) if k not in columns))
     frame = front[list(columns)].to_dataframe().reset_index(drop=True)
     with np.errstate(invalid="ignore"):
-        eligible = frame[(frame[availability[0]] >= availability_min_pct) & (frame[availability[1]] >= availability_min_pct)
-                         & (frame[dv_metric] <= dv_max_kms_per_year)]
+        eligible = frame[
+            (frame[availability[0]] >= availability_min_pct)
+            & (frame[availability[1]] >= availability_min_pct)
+            & (frame[dv_metric] <= dv_max_kms_per_year)
+        ]
     chosen: dict[int, list[str]] = {}
     for reason, rule in TABLE6_RULES:
         ranked = rule(eligible, dv_metric)
@@ -213,8 +292,9 @@ def table6(front: xr.Dataset, *, availability_min_pct: float = 90.0, dv_max_kms_
     return rows.reset_index(drop=True)[list(columns + ("why selected",))]
 
 
-def frame_readings(front: xr.Dataset, settings_by_frame: dict, *, front_frame: str | None = None,
-                   evaluate=None) -> pd.DataFrame:
+def frame_readings(
+    front: xr.Dataset, settings_by_frame: dict, *, front_frame: str | None = None, evaluate=None
+) -> pd.DataFrame:
     """The front's designs evaluated with their elements read in each frame of ``settings_by_frame``
     (frame name -> :class:`lnss_lib.settings.Settings`). A frame whose settings are those the front was
     evaluated with (its ``evaluation_hash`` attribute), or ``front_frame`` when given, is read from the
@@ -228,15 +308,24 @@ def frame_readings(front: xr.Dataset, settings_by_frame: dict, *, front_frame: s
     from ..evaluator import context_for, evaluate_design
 
     if evaluate is None:
+
         def evaluate(settings, row):
-            return evaluate_design(context_for(settings), *(row[k] for k in DESIGN_KEYS[:4]),
-                                   int(row["n_planes"]), int(row["sats_per_plane"]))
+            return evaluate_design(
+                context_for(settings),
+                *(row[k] for k in DESIGN_KEYS[:4]),
+                int(row["n_planes"]),
+                int(row["sats_per_plane"]),
+            )
+
     metrics = [k for k in METRIC_KEYS + EXTRA_METRIC_KEYS if k in front] + ["impact"]
     designs = front[list(DESIGN_KEYS)].to_dataframe().reset_index(drop=True)
     rows = []
     for frame, settings in settings_by_frame.items():
-        reuse = frame == front_frame if front_frame is not None else \
-            front.attrs.get("evaluation_hash") == evaluation_hash(settings)
+        reuse = (
+            frame == front_frame
+            if front_frame is not None
+            else front.attrs.get("evaluation_hash") == evaluation_hash(settings)
+        )
         for i, design in designs.iterrows():
             if reuse:
                 values = {k: front[k].values[i].item() for k in metrics}
@@ -247,13 +336,20 @@ def frame_readings(front: xr.Dataset, settings_by_frame: dict, *, front_frame: s
             rows.append({**design.to_dict(), "design": i, "frame": frame, **values})
     table = pd.DataFrame(rows)
     constraints = parse_constraints(front.attrs["constraints"])
-    ds = xr.Dataset({k: ("design", table[k].to_numpy(dtype=float)) for k in {m for m, _, _ in constraints}})
+    ds = xr.Dataset(
+        {k: ("design", table[k].to_numpy(dtype=float)) for k in {m for m, _, _ in constraints}}
+    )
     table["meets_bounds"] = satisfies(ds, constraints) & ~table["impact"].astype(bool).to_numpy()
     return table
 
 
-FRAME_SUMMARY_METRICS = ("pdop_mean_3sigma", "pdop_avail_pct", "sk_dv_estimate_kms_per_year",
-                         "sk_dv_estimate_max_kms_per_year", "screen_min_perilune_alt_km")
+FRAME_SUMMARY_METRICS = (
+    "pdop_mean_3sigma",
+    "pdop_avail_pct",
+    "sk_dv_estimate_kms_per_year",
+    "sk_dv_estimate_max_kms_per_year",
+    "screen_min_perilune_alt_km",
+)
 
 
 def frame_summary(readings: pd.DataFrame, metrics=FRAME_SUMMARY_METRICS) -> pd.DataFrame:
@@ -261,9 +357,13 @@ def frame_summary(readings: pd.DataFrame, metrics=FRAME_SUMMARY_METRICS) -> pd.D
     median of each of ``metrics`` present."""
     present = [m for m in metrics if m in readings]
     grouped = readings.groupby("frame", sort=False)
-    out = pd.DataFrame({"designs": grouped.size(), "meet bounds": grouped["meets_bounds"].sum().astype(int)})
+    out = pd.DataFrame(
+        {"designs": grouped.size(), "meet bounds": grouped["meets_bounds"].sum().astype(int)}
+    )
     if "stable_screen" in readings:
-        out["stable by the screen"] = grouped["stable_screen"].apply(lambda v: int(np.nansum(v.astype(float))))
+        out["stable by the screen"] = grouped["stable_screen"].apply(
+            lambda v: int(np.nansum(v.astype(float)))
+        )
     for m in present:
         out[f"median {m}"] = grouped[m].median()
     return out
@@ -276,23 +376,40 @@ def synthetic_campaign(n_designs: int = 200, seed: int = 0) -> xr.Dataset:
     sats = rng.integers(1, 5, n_designs)
     n_sat = n_planes * sats
     sma = rng.uniform(4000, 24000, n_designs)
-    pdop = 1.5 + 40.0 / n_sat ** 1.5 + rng.uniform(0, 1, n_designs)
+    pdop = 1.5 + 40.0 / n_sat**1.5 + rng.uniform(0, 1, n_designs)
     avail = np.clip(100 * (1 - np.exp(-(n_sat - 3) / 3)) + rng.normal(0, 3, n_designs), 0, 100)
     data = {
-        "sma_km": sma, "ecc": rng.uniform(0, 0.8, n_designs), "aop_deg": rng.uniform(1, 359, n_designs),
-        "inc_deg": rng.uniform(1, 90, n_designs), "n_planes": n_planes, "sats_per_plane": sats, "n_sat": n_sat,
-        "mean_visible_sats": n_sat * 0.6, "pdop_mean_3sigma": pdop, "pdop_avail_pct": avail,
-        "hdop_mean_3sigma": 0.4 * pdop, "hdop_avail_pct": avail, "dv_total_kms_per_year": 0.3 + sma / 20000,
-        "dv_opt_kms_per_year": 0.2 + sma / 30000, "gps_visible_mean": 4 + sma / 4000,
-        "gps_pdop_mean": 5000 / (1 + sma / 4000), "feasible": np.ones(n_designs, bool),
-        "impact": np.zeros(n_designs, bool), "constraint_violation": np.zeros(n_designs),
+        "sma_km": sma,
+        "ecc": rng.uniform(0, 0.8, n_designs),
+        "aop_deg": rng.uniform(1, 359, n_designs),
+        "inc_deg": rng.uniform(1, 90, n_designs),
+        "n_planes": n_planes,
+        "sats_per_plane": sats,
+        "n_sat": n_sat,
+        "mean_visible_sats": n_sat * 0.6,
+        "pdop_mean_3sigma": pdop,
+        "pdop_avail_pct": avail,
+        "hdop_mean_3sigma": 0.4 * pdop,
+        "hdop_avail_pct": avail,
+        "dv_total_kms_per_year": 0.3 + sma / 20000,
+        "dv_opt_kms_per_year": 0.2 + sma / 30000,
+        "gps_visible_mean": 4 + sma / 4000,
+        "gps_pdop_mean": 5000 / (1 + sma / 4000),
+        "feasible": np.ones(n_designs, bool),
+        "impact": np.zeros(n_designs, bool),
+        "constraint_violation": np.zeros(n_designs),
         "generation": rng.integers(1, 10, n_designs),
     }
-    ds = xr.Dataset({k: ("design", np.asarray(v)) for k, v in data.items()}, coords={"design": np.arange(n_designs)})
-    ds.attrs = {"profile": "synthetic",
-                "objectives": "n_sat,pdop_mean_3sigma,-pdop_avail_pct,hdop_mean_3sigma,-hdop_avail_pct,"
-                              "dv_total_kms_per_year,dv_opt_kms_per_year,-gps_visible_mean,gps_pdop_mean",
-                "constraints": "pdop_mean_3sigma <= 10,pdop_avail_pct >= 70,dv_total_kms_per_year <= 1,n_sat <= 20"}
+    ds = xr.Dataset(
+        {k: ("design", np.asarray(v)) for k, v in data.items()},
+        coords={"design": np.arange(n_designs)},
+    )
+    ds.attrs = {
+        "profile": "synthetic",
+        "objectives": "n_sat,pdop_mean_3sigma,-pdop_avail_pct,hdop_mean_3sigma,-hdop_avail_pct,"
+        "dv_total_kms_per_year,dv_opt_kms_per_year,-gps_visible_mean,gps_pdop_mean",
+        "constraints": "pdop_mean_3sigma <= 10,pdop_avail_pct >= 70,dv_total_kms_per_year <= 1,n_sat <= 20",
+    }
     violation = ~satisfies(ds, parse_constraints(ds.attrs["constraints"]))
     ds["feasible"] = ("design", ~violation)
     ds["constraint_violation"] = ("design", violation.astype(float))

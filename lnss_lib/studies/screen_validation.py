@@ -44,8 +44,14 @@ from ..settings import Settings
 
 __all__ = ["random_designs", "validate_design", "validation_table", "agreement", "MISS_COLUMNS"]
 
-MISS_COLUMNS = (*DESIGN_KEYS, "plane", "truth_impact_day", "screen_impact_day", "screen_min_perilune_alt_km",
-                "truth_min_perilune_alt_km")
+MISS_COLUMNS = (
+    *DESIGN_KEYS,
+    "plane",
+    "truth_impact_day",
+    "screen_impact_day",
+    "screen_min_perilune_alt_km",
+    "truth_min_perilune_alt_km",
+)
 
 
 def random_designs(settings: Settings, n: int, seed: int = 20) -> list[tuple]:
@@ -62,7 +68,11 @@ def random_designs(settings: Settings, n: int, seed: int = 20) -> list[tuple]:
             v = variables[key]
             count = int(round((v.upper - v.lower) / v.step)) + 1
             value = v.lower + v.step * int(rng.integers(count))
-            row.append(int(round(value)) if key in ("n_planes", "sats_per_plane") else round(float(value), 6))
+            row.append(
+                int(round(value))
+                if key in ("n_planes", "sats_per_plane")
+                else round(float(value), 6)
+            )
         if row[0] * (1.0 - row[1]) > floor_km:
             rows.append(tuple(row))
     return rows
@@ -73,21 +83,37 @@ def validate_design(settings: Settings, design, life_days: float) -> list[dict]:
     walker = WalkerDesign(*design[:4], int(design[4]), int(design[5]))
     elements = walker.elements_deg()[:: walker.sats_per_plane]
     section = settings.stability
-    screen = screen_elements(section, settings.dynamics, settings.epoch, elements, life_days=life_days)
+    screen = screen_elements(
+        section, settings.dynamics, settings.epoch, elements, life_days=life_days
+    )
     start = time.perf_counter()
-    truth = propagated_perilune(settings.dynamics, settings.epoch, elements, life_days,
-                                degree=section.validation_degree, step_s=section.validation_step_s)
+    truth = propagated_perilune(
+        settings.dynamics,
+        settings.epoch,
+        elements,
+        life_days,
+        degree=section.validation_degree,
+        step_s=section.validation_step_s,
+    )
     truth_wall = time.perf_counter() - start
-    return [{**dict(zip(DESIGN_KEYS, design)), "plane": k,
-             "screen_impact_day": float(screen.impact_day.values[k]),
-             "screen_min_perilune_alt_km": float(screen.min_perilune_alt_km.values[k]),
-             "truth_impact_day": float(truth["impact_day"][k]),
-             "truth_min_perilune_alt_km": float(truth["min_perilune_alt_km"][k]),
-             "screen_wall_s": float(screen.attrs["wall_s"]), "truth_wall_s": truth_wall / elements.shape[0]}
-            for k in range(elements.shape[0])]
+    return [
+        {
+            **dict(zip(DESIGN_KEYS, design)),
+            "plane": k,
+            "screen_impact_day": float(screen.impact_day.values[k]),
+            "screen_min_perilune_alt_km": float(screen.min_perilune_alt_km.values[k]),
+            "truth_impact_day": float(truth["impact_day"][k]),
+            "truth_min_perilune_alt_km": float(truth["min_perilune_alt_km"][k]),
+            "screen_wall_s": float(screen.attrs["wall_s"]),
+            "truth_wall_s": truth_wall / elements.shape[0],
+        }
+        for k in range(elements.shape[0])
+    ]
 
 
-def validation_table(settings: Settings, designs, life_days: float | None = None, *, progress=None) -> pd.DataFrame:
+def validation_table(
+    settings: Settings, designs, life_days: float | None = None, *, progress=None
+) -> pd.DataFrame:
     """:func:`validate_design` for every design (rows: one per plane); ``progress(i, n, rows)`` after each design."""
     days = settings.stability.life_days if life_days is None else float(life_days)
     rows: list[dict] = []
@@ -110,15 +136,20 @@ def agreement(table: pd.DataFrame) -> dict:
     t = table.copy()
     t["screen_unstable"] = t["screen_impact_day"].notna()
     t["truth_unstable"] = t["truth_impact_day"].notna()
-    by_design = t.groupby(list(DESIGN_KEYS), sort=False)[["screen_unstable", "truth_unstable"]].any()
+    by_design = t.groupby(list(DESIGN_KEYS), sort=False)[
+        ["screen_unstable", "truth_unstable"]
+    ].any()
     agree = by_design["screen_unstable"] == by_design["truth_unstable"]
     wrong = t[t["screen_unstable"] != t["truth_unstable"]].copy()
     wrong["call"] = np.where(wrong["truth_unstable"], "missed impact", "false alarm")
     n = int(by_design.shape[0])
     plane_agree = t["screen_unstable"] == t["truth_unstable"]
-    return {"n_designs": n, "n_agree": int(agree.sum()),
-            "agreement_pct": 100.0 * float(agree.mean()) if n else float("nan"),
-            "missed_impacts": int((by_design["truth_unstable"] & ~by_design["screen_unstable"]).sum()),
-            "false_alarms": int((~by_design["truth_unstable"] & by_design["screen_unstable"]).sum()),
-            "plane_agreement_pct": 100.0 * float(plane_agree.mean()) if len(t) else float("nan"),
-            "misses": wrong[[*MISS_COLUMNS, "call"]].reset_index(drop=True)}
+    return {
+        "n_designs": n,
+        "n_agree": int(agree.sum()),
+        "agreement_pct": 100.0 * float(agree.mean()) if n else float("nan"),
+        "missed_impacts": int((by_design["truth_unstable"] & ~by_design["screen_unstable"]).sum()),
+        "false_alarms": int((~by_design["truth_unstable"] & by_design["screen_unstable"]).sum()),
+        "plane_agreement_pct": 100.0 * float(plane_agree.mean()) if len(t) else float("nan"),
+        "misses": wrong[[*MISS_COLUMNS, "call"]].reset_index(drop=True),
+    }

@@ -20,10 +20,18 @@ from ..evaluator import EvaluationContext, evaluate_constellation
 __all__ = ["box_sensitivity", "perturbed_elements"]
 
 _COLUMN = {"ecc": 1, "inc_deg": 2, "raan_rel_deg": 3, "aop_deg": 4, "u_rel_deg": 5}
-METRICS = ("pdop_avail_pct", "hdop_avail_pct", "pdop_mean_3sigma", "hdop_mean_3sigma", "mean_visible_sats")
+METRICS = (
+    "pdop_avail_pct",
+    "hdop_avail_pct",
+    "pdop_mean_3sigma",
+    "hdop_mean_3sigma",
+    "mean_visible_sats",
+)
 
 
-def perturbed_elements(elements_deg, offsets: dict, sat: int | None = 0, seed: int = 0) -> np.ndarray:
+def perturbed_elements(
+    elements_deg, offsets: dict, sat: int | None = 0, seed: int = 0
+) -> np.ndarray:
     """Elements (n, 6) deg with ``offsets`` (box key -> offset, :data:`lnss_lib.design_life.closed_loop.BOX_KEYS`) added.
 
     ``sat`` an index: that satellite only (the slot offset goes on M: the mean argument of latitude
@@ -49,10 +57,14 @@ def box_sensitivity(context: EvaluationContext, elements_deg, cases: dict) -> pd
     """
     rows = {"nominal": evaluate_constellation(context, elements_deg)}
     for label, (offsets, sat) in cases.items():
-        rows[label] = evaluate_constellation(context, perturbed_elements(elements_deg, offsets, sat))
+        rows[label] = evaluate_constellation(
+            context, perturbed_elements(elements_deg, offsets, sat)
+        )
     bad = [k for k, r in rows.items() if not r["evaluated"]]
     if bad:
-        raise ValueError(f"case(s) {bad} could not be evaluated: {[rows[k]['reason'] for k in bad]}")
+        raise ValueError(
+            f"case(s) {bad} could not be evaluated: {[rows[k]['reason'] for k in bad]}"
+        )
     table = pd.DataFrame({k: {m: r[m] for m in METRICS} for k, r in rows.items()}).T
     for m in METRICS:
         table[f"d_{m}"] = table[m] - table.loc["nominal", m]

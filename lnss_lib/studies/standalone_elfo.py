@@ -19,7 +19,7 @@ from ..paper import TABLE_4
 
 __all__ = ["AGREEMENT_TOLERANCE_PCT", "difference_pct", "agreement", "table4_comparison"]
 
-AGREEMENT_TOLERANCE_PCT = 5.0       # the workbook's target for the DOP rows of Table 4
+AGREEMENT_TOLERANCE_PCT = 5.0  # the workbook's target for the DOP rows of Table 4
 
 
 def difference_pct(metrics: dict, key: str, paper: dict | None = None) -> float:
@@ -30,7 +30,12 @@ def difference_pct(metrics: dict, key: str, paper: dict | None = None) -> float:
     return 100.0 * (float(metrics[key]) - paper[key]) / paper[key]
 
 
-def agreement(metrics: dict, key: str, tolerance_pct: float = AGREEMENT_TOLERANCE_PCT, paper: dict | None = None) -> str:
+def agreement(
+    metrics: dict,
+    key: str,
+    tolerance_pct: float = AGREEMENT_TOLERANCE_PCT,
+    paper: dict | None = None,
+) -> str:
     """``"Agrees (+x.x%)."`` within ``tolerance_pct`` of the paper, else ``"Differs (+x.x%)."``."""
     diff = difference_pct(metrics, key, paper)
     return f"{'Agrees' if abs(diff) <= tolerance_pct else 'Differs'} ({diff:+.1f}%)."
@@ -40,6 +45,15 @@ def table4_comparison(metrics: dict, rows, paper: dict | None = None) -> pd.Data
     """Table 4 beside the workbook: one row per (label, metric key, explanation) of ``rows`` with the paper's
     value, ours, their difference (%, rounded to 0.01) and the explanation."""
     paper = TABLE_4 if paper is None else paper
-    return pd.DataFrame([{"metric": label, "paper": paper[key], "this workbook": metrics[key],
-                          "difference (%)": round(difference_pct(metrics, key, paper), 2), "why": why}
-                         for label, key, why in rows])
+    return pd.DataFrame(
+        [
+            {
+                "metric": label,
+                "paper": paper[key],
+                "this workbook": metrics[key],
+                "difference (%)": round(difference_pct(metrics, key, paper), 2),
+                "why": why,
+            }
+            for label, key, why in rows
+        ]
+    )

@@ -7,8 +7,8 @@ import numpy as np
 import pytest
 
 from lnss_lib.campaign import CampaignPlan, run_campaign
-from lnss_lib.settings import load_settings
 from lnss_lib.keys import METRIC_KEYS
+from lnss_lib.settings import load_settings
 
 from .helpers import KILL_SETTINGS, SYNTHETIC, _cli
 
@@ -21,10 +21,12 @@ def settings():
 @pytest.fixture
 def metrics():
     """``metrics(**values)``: metric columns, NaN except the given ones."""
+
     def build(**values):
         base = {k: np.array([math.nan]) for k in METRIC_KEYS}
         base.update({k: np.atleast_1d(np.asarray(v, dtype=float)) for k, v in values.items()})
         return base
+
     return build
 
 

@@ -24,7 +24,9 @@ def _journal_count(run_dir):
 
 def _run_until(args, run_dir, n_records, timeout_s=120):
     """Start the CLI, SIGKILL it once the cache holds ``n_records`` designs; False if it finished first."""
-    proc = subprocess.Popen(CLI + args, cwd=PROJECT_DIR, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE)
+    proc = subprocess.Popen(
+        CLI + args, cwd=PROJECT_DIR, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE
+    )
     deadline = time.monotonic() + timeout_s
     while proc.poll() is None and _journal_count(run_dir) < n_records:
         assert time.monotonic() < deadline, "campaign did not progress"
@@ -38,7 +40,9 @@ def _run_until(args, run_dir, n_records, timeout_s=120):
 
 
 def _cli(args, timeout_s=300):
-    done = subprocess.run(CLI + args, cwd=PROJECT_DIR, capture_output=True, text=True, timeout=timeout_s)
+    done = subprocess.run(
+        CLI + args, cwd=PROJECT_DIR, capture_output=True, text=True, timeout=timeout_s
+    )
     assert done.returncode == 0, done.stderr
     return done
 
@@ -52,9 +56,23 @@ DASK = [sys.executable, "-m", "dask"]
 
 def _start_worker(scheduler_address, env=None):
     """A ``dask worker`` process (one thread, no nanny: killed, it stays dead) with ``env`` added to this one's."""
-    return subprocess.Popen([*DASK, "worker", scheduler_address, "--nthreads", "1", "--no-nanny", "--no-dashboard",
-                             "--host", "127.0.0.1"], cwd=PROJECT_DIR, stdout=subprocess.DEVNULL,
-                            stderr=subprocess.DEVNULL, env={**os.environ, "NUMBA_NUM_THREADS": "1", **(env or {})})
+    return subprocess.Popen(
+        [
+            *DASK,
+            "worker",
+            scheduler_address,
+            "--nthreads",
+            "1",
+            "--no-nanny",
+            "--no-dashboard",
+            "--host",
+            "127.0.0.1",
+        ],
+        cwd=PROJECT_DIR,
+        stdout=subprocess.DEVNULL,
+        stderr=subprocess.DEVNULL,
+        env={**os.environ, "NUMBA_NUM_THREADS": "1", **(env or {})},
+    )
 
 
 def _wait_for_workers(address, n):
@@ -69,14 +87,31 @@ def dask_cluster(folder, n_workers, worker_env=None):
     """``dask scheduler`` and ``n_workers`` ``dask worker`` processes bound to 127.0.0.1 (a task lost with its worker
     is not retried by the scheduler: the campaign resubmits it); yields ``(address, worker processes)``."""
     scheduler_file = folder / "scheduler.json"
-    procs = [subprocess.Popen([*DASK, "scheduler", "--host", "127.0.0.1", "--port", "0", "--no-dashboard",
-                               "--scheduler-file", str(scheduler_file)], cwd=PROJECT_DIR,
-                              stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL,
-                              env={**os.environ, "DASK_DISTRIBUTED__SCHEDULER__ALLOWED_FAILURES": "0"})]
+    procs = [
+        subprocess.Popen(
+            [
+                *DASK,
+                "scheduler",
+                "--host",
+                "127.0.0.1",
+                "--port",
+                "0",
+                "--no-dashboard",
+                "--scheduler-file",
+                str(scheduler_file),
+            ],
+            cwd=PROJECT_DIR,
+            stdout=subprocess.DEVNULL,
+            stderr=subprocess.DEVNULL,
+            env={**os.environ, "DASK_DISTRIBUTED__SCHEDULER__ALLOWED_FAILURES": "0"},
+        )
+    ]
     try:
         deadline = time.monotonic() + 60
         while not scheduler_file.exists():
-            assert time.monotonic() < deadline and procs[0].poll() is None, "dask scheduler did not start"
+            assert time.monotonic() < deadline and procs[0].poll() is None, (
+                "dask scheduler did not start"
+            )
             time.sleep(0.1)
         time.sleep(0.2)
         address = json.loads(scheduler_file.read_text())["address"]

@@ -2,6 +2,7 @@
 run, and a lost worker."""
 
 import math
+import os
 import signal
 import subprocess
 import time
@@ -12,16 +13,30 @@ import xarray as xr
 
 from lnss_lib.campaign import final_population, read_cache_records, synthetic_evaluation
 from lnss_lib.config import PROJECT_DIR
-from lnss_lib.settings import load_settings
 from lnss_lib.keys import METRIC_KEYS
+from lnss_lib.settings import load_settings
 
-from .helpers import CLI, KILL_SETTINGS, SYNTHETIC, _cli, _journal_count, _start_worker, _wait_for_workers, dask_cluster
+from .helpers import (
+    CLI,
+    KILL_SETTINGS,
+    SYNTHETIC,
+    _cli,
+    _journal_count,
+    _start_worker,
+    _wait_for_workers,
+    dask_cluster,
+)
 
 
 def test_synthetic_evaluator_flags_impact():
     profile = load_settings("ci")
     hit = synthetic_evaluation(profile, 4000.0, 0.8, 90.0, 50.0, 2, 2)
-    assert hit["impact"] and not hit["evaluated"] and math.isnan(hit["pdop_mean_3sigma"]) and hit["n_sat"] == 4
+    assert (
+        hit["impact"]
+        and not hit["evaluated"]
+        and math.isnan(hit["pdop_mean_3sigma"])
+        and hit["n_sat"] == 4
+    )
     ok = synthetic_evaluation(profile, 8000.0, 0.5, 90.0, 80.0, 4, 4)
     assert ok["evaluated"] and all(math.isfinite(ok[k]) for k in METRIC_KEYS)
 
@@ -36,7 +51,17 @@ def cluster(tmp_path_factory):
 def test_dask_cluster_run_equals_local_run(cluster, real_run, tmp_path):
     address, workers = cluster
     run_dir = tmp_path / "dask"
-    _cli(["--profile", "ci", "--scheduler-address", address, "--run-dir", str(run_dir), "--no-progress"])
+    _cli(
+        [
+            "--profile",
+            "ci",
+            "--scheduler-address",
+            address,
+            "--run-dir",
+            str(run_dir),
+            "--no-progress",
+        ]
+    )
     x_ref, f_ref = final_population(real_run.run_dir)
     x, f = final_population(run_dir)
     np.testing.assert_array_equal(x, x_ref)
@@ -45,7 +70,9 @@ def test_dask_cluster_run_equals_local_run(cluster, real_run, tmp_path):
     got = xr.open_dataset(run_dir / "evaluations.nc", engine="h5netcdf").load()
     xr.testing.assert_identical(got.drop_attrs(), ref.drop_attrs())
     used = {r["worker"].rsplit(":", 1)[1] for r in read_cache_records(run_dir)}
-    assert used <= {str(w.pid) for w in workers} and len(used) == 2  # evaluated in both worker processes
+    assert (
+        used <= {str(w.pid) for w in workers} and len(used) == 2
+    )  # evaluated in both worker processes
 
 
 def test_lost_worker_costs_only_its_designs(cluster, synthetic_reference, tmp_path):
@@ -54,9 +81,16 @@ def test_lost_worker_costs_only_its_designs(cluster, synthetic_reference, tmp_pa
     try:
         _wait_for_workers(address, 3)
         run_dir = tmp_path / "lost"
-        proc = subprocess.Popen(CLI + SYNTHETIC + KILL_SETTINGS + ["--scheduler-address", address, "--run-dir",
-                                                                   str(run_dir)],
-                                cwd=PROJECT_DIR, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+        proc = subprocess.Popen(
+            CLI
+            + SYNTHETIC
+            + KILL_SETTINGS
+            + ["--scheduler-address", address, "--run-dir", str(run_dir)],
+            cwd=PROJECT_DIR,
+            stdout=subprocess.PIPE,
+            stderr=subprocess.PIPE,
+            text=True,
+        )
         deadline = time.monotonic() + 120
         while _journal_count(run_dir) < 10:
             assert time.monotonic() < deadline and proc.poll() is None, "campaign did not progress"
@@ -69,7 +103,9 @@ def test_lost_worker_costs_only_its_designs(cluster, synthetic_reference, tmp_pa
             extra.kill()
         extra.wait()
     records = read_cache_records(run_dir)
-    assert any(r["worker"].endswith(f":{extra.pid}") for r in records)  # the killed worker had taken designs
+    assert any(
+        r["worker"].endswith(f":{extra.pid}") for r in records
+    )  # the killed worker had taken designs
     keys = [tuple(r["key"]) for r in records]
     assert len(keys) == len(set(keys))
     x_ref, f_ref = final_population(synthetic_reference)
@@ -80,12 +116,18 @@ def test_lost_worker_costs_only_its_designs(cluster, synthetic_reference, tmp_pa
 
 def _sigint_guarded(pid: int) -> bool:
     """Whether process ``pid`` blocks or ignores SIGINT (``SigBlk`` / ``SigIgn`` of /proc/PID/status)."""
-    status = dict(line.split(":\t", 1) for line in open(f"/proc/{pid}/status").read().splitlines() if ":\t" in line)
+    status = dict(
+        line.split(":\t", 1)
+        for line in open(f"/proc/{pid}/status").read().splitlines()
+        if ":\t" in line
+    )
     bit = 1 << (signal.SIGINT - 1)
     return bool((int(status["SigBlk"], 16) | int(status["SigIgn"], 16)) & bit)
 
 
-@pytest.mark.skipif(not os.path.exists(f"/proc/{os.getpid()}/status"), reason="reads signal masks from /proc")
+@pytest.mark.skipif(
+    not os.path.exists(f"/proc/{os.getpid()}/status"), reason="reads signal masks from /proc"
+)
 def test_local_workers_keep_the_sigint_guard_and_a_ctrl_c_at_their_start_is_honoured(monkeypatch):
     """Local workers never see the terminal's Ctrl-C: the first ones and one the nanny restarts after a crash (which
     ran without the guard: only the first ones inherited an ignored SIGINT). A Ctrl-C while the workers start is
@@ -102,7 +144,7 @@ def test_local_workers_keep_the_sigint_guard_and_a_ctrl_c_at_their_start_is_hono
     try:
         first = set(backend.client.run(os.getpid).values())
         assert len(first) == 2 and all(_sigint_guarded(pid) for pid in first)
-        os.kill(min(first), signal.SIGKILL)                   # a crashed worker: its nanny starts another
+        os.kill(min(first), signal.SIGKILL)  # a crashed worker: its nanny starts another
         deadline, now = time.monotonic() + 120, first
         while time.monotonic() < deadline and not (len(now) == 2 and now - first):
             time.sleep(0.5)
@@ -119,7 +161,7 @@ def test_local_workers_keep_the_sigint_guard_and_a_ctrl_c_at_their_start_is_hono
         def __init__(self, *args, **kwargs):
             super().__init__(*args, **kwargs)
             started.append(self)
-            os.kill(os.getpid(), signal.SIGINT)               # Ctrl-C before the workers are all up
+            os.kill(os.getpid(), signal.SIGINT)  # Ctrl-C before the workers are all up
 
     monkeypatch.setattr("dask.distributed.LocalCluster", CtrlCWhileStarting)
     with pytest.raises(KeyboardInterrupt):

@@ -5,8 +5,15 @@ import math
 import numpy as np
 import pytest
 
-from lnss_lib.campaign.fitness import (constraint_matrix, constraint_violation, front_of, hypervolume_of_front,
-                                       hypervolume_points, non_dominated_mask, objective_matrix)
+from lnss_lib.campaign.fitness import (
+    constraint_matrix,
+    constraint_violation,
+    front_of,
+    hypervolume_of_front,
+    hypervolume_points,
+    non_dominated_mask,
+    objective_matrix,
+)
 
 
 def hypervolume(metrics, feasible, reference):
@@ -15,10 +22,17 @@ def hypervolume(metrics, feasible, reference):
 
 
 def test_objectives_signs_and_nan_penalty(settings, metrics):
-    metrics = metrics(n_sat=[8, 12], pdop_mean_3sigma=[2.5, math.nan], pdop_avail_pct=[95.0, 0.0],
-                       hdop_mean_3sigma=[1.0, math.nan], hdop_avail_pct=[90.0, 0.0],
-                       dv_total_kms_per_year=[0.8, 2.0], dv_opt_kms_per_year=[0.6, 1.5],
-                       gps_visible_mean=[7.0, 3.0], gps_pdop_mean=[900.0, math.nan])
+    metrics = metrics(
+        n_sat=[8, 12],
+        pdop_mean_3sigma=[2.5, math.nan],
+        pdop_avail_pct=[95.0, 0.0],
+        hdop_mean_3sigma=[1.0, math.nan],
+        hdop_avail_pct=[90.0, 0.0],
+        dv_total_kms_per_year=[0.8, 2.0],
+        dv_opt_kms_per_year=[0.6, 1.5],
+        gps_visible_mean=[7.0, 3.0],
+        gps_pdop_mean=[900.0, math.nan],
+    )
     f = objective_matrix(metrics, settings.objectives, settings.nan_objective)
     np.testing.assert_array_equal(f[0], [8, 2.5, -95.0, 1.0, -90.0, 0.8, 0.6, -7.0, 900.0])
     np.testing.assert_array_equal(f[1], [12, 1e6, -0.0, 1e6, -0.0, 2.0, 1.5, -3.0, 1e6])
@@ -26,10 +40,18 @@ def test_objectives_signs_and_nan_penalty(settings, metrics):
 
 
 def test_constraints_of_table3_normalised(settings, metrics):
-    assert settings.constraints == (("pdop_mean_3sigma", "max", 10.0), ("pdop_avail_pct", "min", 70.0),
-                                    ("dv_total_kms_per_year", "max", 1.0), ("n_sat", "max", 20.0))
-    metrics = metrics(n_sat=[12, 20, 4], pdop_mean_3sigma=[12.0, 10.0, math.nan], pdop_avail_pct=[56.0, 70.0, 0.0],
-                       dv_total_kms_per_year=[2.5, 1.0, math.nan])
+    assert settings.constraints == (
+        ("pdop_mean_3sigma", "max", 10.0),
+        ("pdop_avail_pct", "min", 70.0),
+        ("dv_total_kms_per_year", "max", 1.0),
+        ("n_sat", "max", 20.0),
+    )
+    metrics = metrics(
+        n_sat=[12, 20, 4],
+        pdop_mean_3sigma=[12.0, 10.0, math.nan],
+        pdop_avail_pct=[56.0, 70.0, 0.0],
+        dv_total_kms_per_year=[2.5, 1.0, math.nan],
+    )
     g = constraint_matrix(metrics, settings.constraints, settings.nan_violation)
     np.testing.assert_allclose(g[0], [0.2, 0.2, 1.5, -0.4])
     np.testing.assert_allclose(g[1], [0.0, 0.0, 0.0, 0.0])
@@ -38,13 +60,21 @@ def test_constraints_of_table3_normalised(settings, metrics):
 
 
 def _brute_non_dominated(f):
-    return np.array([not any(np.all(f[j] <= f[i]) and np.any(f[j] < f[i]) for j in range(len(f)))
-                     for i in range(len(f))])
+    return np.array(
+        [
+            not any(np.all(f[j] <= f[i]) and np.any(f[j] < f[i]) for j in range(len(f)))
+            for i in range(len(f))
+        ]
+    )
 
 
 def test_non_dominated_mask_against_brute_force(rng):
     """Integer objectives (ties) in three dimensions and continuous ones in five (the sweep's k >= 4 branch)."""
-    for f in (rng.integers(0, 6, size=(300, 3)).astype(float), rng.random((200, 5)), rng.random((50, 1))):
+    for f in (
+        rng.integers(0, 6, size=(300, 3)).astype(float),
+        rng.random((200, 5)),
+        rng.random((50, 1)),
+    ):
         np.testing.assert_array_equal(non_dominated_mask(f), _brute_non_dominated(f))
 
 
@@ -53,7 +83,9 @@ def test_hypervolume_closed_forms(metrics):
     one = metrics(n_sat=[10], pdop_mean_3sigma=[5.0])
     assert hypervolume(one, np.array([True]), ref) == pytest.approx(0.25)
     assert hypervolume(one, np.array([False]), ref) == 0.0
-    two = metrics(n_sat=[10, 4, 12], pdop_mean_3sigma=[5.0, 8.0, 12.0])  # third lies outside the box
+    two = metrics(
+        n_sat=[10, 4, 12], pdop_mean_3sigma=[5.0, 8.0, 12.0]
+    )  # third lies outside the box
     # union of [0.5, 1] x [0.5, 1] and [0.2, 1] x [0.8, 1]: 0.25 + 0.3 * 0.2
     assert hypervolume(two, np.ones(3, dtype=bool), ref) == pytest.approx(0.31)
 
@@ -61,7 +93,9 @@ def test_hypervolume_closed_forms(metrics):
 def test_hypervolume_against_monte_carlo(rng):
     """pymoo's HV, as wrapped here (normalised by the reference, dominated and infeasible points
     dropped), against a Monte Carlo estimate of the dominated volume."""
-    points = np.array([[0.2, 0.5, 0.7], [0.6, 0.1, 0.4], [0.5, 0.5, 0.2], [0.2, 0.5, 0.7], [0.9, 0.9, 0.9]])
+    points = np.array(
+        [[0.2, 0.5, 0.7], [0.6, 0.1, 0.4], [0.5, 0.5, 0.2], [0.2, 0.5, 0.7], [0.9, 0.9, 0.9]]
+    )
     metrics = {"a": 2.0 * points[:, 0], "b": 10.0 * points[:, 1], "c": points[:, 2]}
     reference = (("a", 2.0), ("b", 10.0), ("c", 1.0))
     samples = rng.random((400_000, 3))
@@ -76,12 +110,26 @@ def test_fitness_is_pure_numpy_and_the_engine_stays_below_presentation():
     import subprocess
     import sys
 
-    code = ("import sys, lnss_lib.campaign.fitness; "
-            "print(sorted({m.split('.')[0] for m in sys.modules} & {'pymoo', 'dask', 'distributed', 'xarray'}))")
-    assert subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True).stdout.strip() == "[]"
-    code = ("import sys, lnss_lib.campaign; print(sorted(m for m in sys.modules if m.split('.')[0] in "
-            "('plotly', 'papermill') or m.startswith(('lnss_lib.studies', 'lnss_lib.figures', 'lnss_lib.bench'))))")
-    assert subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True).stdout.strip() == "[]"
+    code = (
+        "import sys, lnss_lib.campaign.fitness; "
+        "print(sorted({m.split('.')[0] for m in sys.modules} & {'pymoo', 'dask', 'distributed', 'xarray'}))"
+    )
+    assert (
+        subprocess.run(
+            [sys.executable, "-c", code], capture_output=True, text=True, check=True
+        ).stdout.strip()
+        == "[]"
+    )
+    code = (
+        "import sys, lnss_lib.campaign; print(sorted(m for m in sys.modules if m.split('.')[0] in "
+        "('plotly', 'papermill') or m.startswith(('lnss_lib.studies', 'lnss_lib.figures', 'lnss_lib.bench'))))"
+    )
+    assert (
+        subprocess.run(
+            [sys.executable, "-c", code], capture_output=True, text=True, check=True
+        ).stdout.strip()
+        == "[]"
+    )
 
 
 def test_bounds_verdict_names_each_violated_table3_bound():
@@ -89,19 +137,52 @@ def test_bounds_verdict_names_each_violated_table3_bound():
     from lnss_lib.campaign.settings import bounds_verdict
     from lnss_lib.settings import load_settings
 
-    good = {"n_sat": 8, "pdop_mean_3sigma": 3.0, "pdop_avail_pct": 99.0, "dv_total_kms_per_year": 0.2}
-    assert bounds_verdict(load_settings("ci").campaign, good) == {"meets_bounds": True, "violated_bounds": []}
-    two = {**good, "n_sat": 2, "pdop_mean_3sigma": None, "pdop_avail_pct": 0.0, "dv_total_kms_per_year": 2.25}
+    good = {
+        "n_sat": 8,
+        "pdop_mean_3sigma": 3.0,
+        "pdop_avail_pct": 99.0,
+        "dv_total_kms_per_year": 0.2,
+    }
+    assert bounds_verdict(load_settings("ci").campaign, good) == {
+        "meets_bounds": True,
+        "violated_bounds": [],
+    }
+    two = {
+        **good,
+        "n_sat": 2,
+        "pdop_mean_3sigma": None,
+        "pdop_avail_pct": 0.0,
+        "dv_total_kms_per_year": 2.25,
+    }
     verdict = bounds_verdict(load_settings("ci").campaign, two)
     assert verdict["meets_bounds"] is False
-    assert verdict["violated_bounds"] == ["pdop_mean_3sigma undefined (max 10)", "pdop_avail_pct = 0 < min 70",
-                                          "dv_total_kms_per_year = 2.25 > max 1"]
-    at_limit = {**good, "pdop_mean_3sigma": 10.0, "pdop_avail_pct": 70.0, "dv_total_kms_per_year": 1.0, "n_sat": 20}
-    assert bounds_verdict(load_settings("ci").campaign, at_limit)["meets_bounds"] is True      # the bounds are inclusive
-    operational = load_settings("ci_operational")                                      # dv_total off, extra metrics on
-    verdict = bounds_verdict(operational.campaign, {**two, "pdop_mean_3sigma": 3.0, "pdop_avail_pct": 90.0,
-                                           "sk_dv_estimate_max_kms_per_year": 0.03, "stable_screen": 0.0,
-                                           "pdop_avail_pct_worst_month_estimate": 80.0})
+    assert verdict["violated_bounds"] == [
+        "pdop_mean_3sigma undefined (max 10)",
+        "pdop_avail_pct = 0 < min 70",
+        "dv_total_kms_per_year = 2.25 > max 1",
+    ]
+    at_limit = {
+        **good,
+        "pdop_mean_3sigma": 10.0,
+        "pdop_avail_pct": 70.0,
+        "dv_total_kms_per_year": 1.0,
+        "n_sat": 20,
+    }
+    assert (
+        bounds_verdict(load_settings("ci").campaign, at_limit)["meets_bounds"] is True
+    )  # the bounds are inclusive
+    operational = load_settings("ci_operational")  # dv_total off, extra metrics on
+    verdict = bounds_verdict(
+        operational.campaign,
+        {
+            **two,
+            "pdop_mean_3sigma": 3.0,
+            "pdop_avail_pct": 90.0,
+            "sk_dv_estimate_max_kms_per_year": 0.03,
+            "stable_screen": 0.0,
+            "pdop_avail_pct_worst_month_estimate": 80.0,
+        },
+    )
     assert verdict["violated_bounds"] == ["stable_screen = 0 < min 1"]
 
 
@@ -125,17 +206,30 @@ def test_running_statistics_equal_the_statistics_over_every_design(settings, rng
     from lnss_lib.keys import METRIC_KEYS
 
     n = 900
-    values = {"n_sat": rng.integers(4, 24, n), "pdop_mean_3sigma": rng.uniform(1, 14, n),
-              "pdop_avail_pct": rng.uniform(50, 100, n), "hdop_mean_3sigma": rng.uniform(0.5, 12, n),
-              "hdop_avail_pct": rng.uniform(50, 100, n), "dv_total_kms_per_year": rng.uniform(0.2, 1.3, n),
-              "dv_opt_kms_per_year": rng.uniform(0.1, 1.0, n), "gps_visible_mean": rng.uniform(3, 9, n),
-              "gps_pdop_mean": rng.uniform(5, 2000, n), "mean_visible_sats": rng.uniform(2, 8, n)}
-    records = [{"key": [i, 0, 0, 0, 0, 0], "ok": bool(i % 17), "metrics": {k: float(values[k][i]) for k in METRIC_KEYS}}
-               for i in range(n)]
+    values = {
+        "n_sat": rng.integers(4, 24, n),
+        "pdop_mean_3sigma": rng.uniform(1, 14, n),
+        "pdop_avail_pct": rng.uniform(50, 100, n),
+        "hdop_mean_3sigma": rng.uniform(0.5, 12, n),
+        "hdop_avail_pct": rng.uniform(50, 100, n),
+        "dv_total_kms_per_year": rng.uniform(0.2, 1.3, n),
+        "dv_opt_kms_per_year": rng.uniform(0.1, 1.0, n),
+        "gps_visible_mean": rng.uniform(3, 9, n),
+        "gps_pdop_mean": rng.uniform(5, 2000, n),
+        "mean_visible_sats": rng.uniform(2, 8, n),
+    }
+    records = [
+        {
+            "key": [i, 0, 0, 0, 0, 0],
+            "ok": bool(i % 17),
+            "metrics": {k: float(values[k][i]) for k in METRIC_KEYS},
+        }
+        for i in range(n)
+    ]
     running = RunningStats(settings)
     for stop in (0, 1, 120, 121, 480, 900):
         running.update(records[:stop])
-        pop = [tuple(r["key"]) for r in records[max(0, stop - 120):stop]]
+        pop = [tuple(r["key"]) for r in records[max(0, stop - 120) : stop]]
         whole = generation_stats(settings, records[:stop], pop)
         incremental = running.stats(pop)
         assert incremental.keys() == whole.keys()
@@ -144,14 +238,21 @@ def test_running_statistics_equal_the_statistics_over_every_design(settings, rng
     assert running.n_feasible > 50
     columns = {k: values[k] for k in METRIC_KEYS}
     feasible = np.array([r["ok"] for r in records]) & np.all(
-        [values["pdop_mean_3sigma"] <= 10, values["pdop_avail_pct"] >= 70, values["dv_total_kms_per_year"] <= 1.0,
-         values["n_sat"] <= 20], axis=0)
+        [
+            values["pdop_mean_3sigma"] <= 10,
+            values["pdop_avail_pct"] >= 70,
+            values["dv_total_kms_per_year"] <= 1.0,
+            values["n_sat"] <= 20,
+        ],
+        axis=0,
+    )
     assert running.n_feasible == feasible.sum()
     points = np.column_stack([columns[m][feasible] / ref for m, ref in settings.hypervolume])
     points = points[np.all(points < 1.0, axis=1)]
     brute = _brute_non_dominated(points)
-    assert running.stats([])["hypervolume"] == pytest.approx(HV(ref_point=np.ones(points.shape[1]))(points[brute]),
-                                                            rel=1e-12)
+    assert running.stats([])["hypervolume"] == pytest.approx(
+        HV(ref_point=np.ones(points.shape[1]))(points[brute]), rel=1e-12
+    )
 
 
 def test_every_name_the_campaign_package_exports_resolves():

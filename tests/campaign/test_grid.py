@@ -19,39 +19,71 @@ def test_grid_eq43_44_round_trip_bounds_and_rounding(settings, rng):
     assert np.all(physical >= grid.lower) and np.all(physical <= grid.upper)
     np.testing.assert_array_equal(grid.descale(np.zeros(6)), [[4000.0, 0.0, 1.0, 1.0, 2, 1]])
     np.testing.assert_array_equal(grid.descale(grid.n_levels), [[24000.0, 0.8, 359.0, 90.0, 5, 4]])
-    np.testing.assert_array_equal(grid.descale([[-7, -1, 999, 500, 9, -3]]), [[4000.0, 0.0, 359.0, 90.0, 5, 1]])
-    assert grid.descale([[0, 30, 0, 0, 0.6, 1.4]])[0, 1] == 0.3  # no binary noise; Np and Ns rounded
+    np.testing.assert_array_equal(
+        grid.descale([[-7, -1, 999, 500, 9, -3]]), [[4000.0, 0.0, 359.0, 90.0, 5, 1]]
+    )
+    assert (
+        grid.descale([[0, 30, 0, 0, 0.6, 1.4]])[0, 1] == 0.3
+    )  # no binary noise; Np and Ns rounded
     np.testing.assert_array_equal(grid.descale([[0, 0, 0, 0, 0.6, 1.4]])[0, 4:], [3, 2])
     design = grid.designs([[21, 60, 89, 50, 0, 3]])[0]
-    assert design == {"sma_km": 6100.0, "ecc": 0.6, "aop_deg": 90.0, "inc_deg": 51.0, "n_planes": 2,
-                      "sats_per_plane": 4}
+    assert design == {
+        "sma_km": 6100.0,
+        "ecc": 0.6,
+        "aop_deg": 90.0,
+        "inc_deg": 51.0,
+        "n_planes": 2,
+        "sats_per_plane": 4,
+    }
     assert isinstance(design["n_planes"], int)
-    np.testing.assert_allclose(grid.scale([6143.0, 0.6, 90.0, 51.7, 2, 8])[0], [21.43, 60.0, 89.0, 50.7, 0, 7])
+    np.testing.assert_allclose(
+        grid.scale([6143.0, 0.6, 90.0, 51.7, 2, 8])[0], [21.43, 60.0, 89.0, 50.7, 0, 7]
+    )
 
 
 def test_bad_settings_raise_clear_errors():
     """Campaign rules are config's: load_settings refuses a bad [campaign] naming the key."""
     profile = load_settings("ci")
-    cases = [({"objectives": ["n_sat", "-pdop"]}, "campaign.objectives"),
-             ({"constraints": {"pdop_mean_3sigma": {"max": 10.0, "min": 1.0}}}, "campaign.constraints"),
-             ({"variables": {"ecc": {"lower": 0.5, "upper": 0.1, "step": 0.01}}}, "campaign.variables.ecc"),
-             ({"variables": {"n_planes": {"lower": 1.5, "upper": 5, "step": 1}}}, "campaign.variables.n_planes"),
-             ({"evaluator": "matlab"}, "campaign.evaluator"),
-             ({"population": 1}, "campaign.population"),
-             ({"crossover_prob": 1.5}, "campaign.crossover_prob"),
-             ({"variables": {"n_planes": {"lower": 1, "upper": 5, "step": 1.5}}}, "campaign.variables.n_planes"),
-             ({"variables": {"sma_km": {"lower": 4000.0, "upper": 1e6, "step": 100.0}}}, "campaign.variables.sma_km"),
-             ({"variables": {"ecc": {"stride": 0.1}}}, "campaign.variables.ecc"),
-             ({"variables": {"raan_deg": {"lower": 0.0, "upper": 1.0, "step": 1.0}}}, "campaign.variables"),
-             ({"constraints": {"pdop_mean_3sigma": {"max": "ten"}}}, "campaign.constraints.pdop_mean_3sigma"),
-             ({"constraints": {"nosuch": {"max": 1.0}}}, "campaign.constraints.nosuch"),
-             ({"hypervolume": {"n_sat": -1.0}}, "campaign.hypervolume.n_sat"),
-             ({"hypervolume": {"nosuch": 1.0}}, "campaign.hypervolume.nosuch"),
-             ({"objectives": ["n_sat", "-n_sat"]}, "campaign.objectives"),
-             ({"objectives": []}, "campaign.objectives"),
-             ({"companion_profile": "ci"}, "campaign.companion_profile")]
+    cases = [
+        ({"objectives": ["n_sat", "-pdop"]}, "campaign.objectives"),
+        ({"constraints": {"pdop_mean_3sigma": {"max": 10.0, "min": 1.0}}}, "campaign.constraints"),
+        (
+            {"variables": {"ecc": {"lower": 0.5, "upper": 0.1, "step": 0.01}}},
+            "campaign.variables.ecc",
+        ),
+        (
+            {"variables": {"n_planes": {"lower": 1.5, "upper": 5, "step": 1}}},
+            "campaign.variables.n_planes",
+        ),
+        ({"evaluator": "matlab"}, "campaign.evaluator"),
+        ({"population": 1}, "campaign.population"),
+        ({"crossover_prob": 1.5}, "campaign.crossover_prob"),
+        (
+            {"variables": {"n_planes": {"lower": 1, "upper": 5, "step": 1.5}}},
+            "campaign.variables.n_planes",
+        ),
+        (
+            {"variables": {"sma_km": {"lower": 4000.0, "upper": 1e6, "step": 100.0}}},
+            "campaign.variables.sma_km",
+        ),
+        ({"variables": {"ecc": {"stride": 0.1}}}, "campaign.variables.ecc"),
+        (
+            {"variables": {"raan_deg": {"lower": 0.0, "upper": 1.0, "step": 1.0}}},
+            "campaign.variables",
+        ),
+        (
+            {"constraints": {"pdop_mean_3sigma": {"max": "ten"}}},
+            "campaign.constraints.pdop_mean_3sigma",
+        ),
+        ({"constraints": {"nosuch": {"max": 1.0}}}, "campaign.constraints.nosuch"),
+        ({"hypervolume": {"n_sat": -1.0}}, "campaign.hypervolume.n_sat"),
+        ({"hypervolume": {"nosuch": 1.0}}, "campaign.hypervolume.nosuch"),
+        ({"objectives": ["n_sat", "-n_sat"]}, "campaign.objectives"),
+        ({"objectives": []}, "campaign.objectives"),
+        ({"companion_profile": "ci"}, "campaign.companion_profile"),
+    ]
     for change, message in cases:
-        with pytest.raises(ConfigError, match=message) as caught:     # at load, by config
+        with pytest.raises(ConfigError, match=message) as caught:  # at load, by config
             load_settings("ci", overrides={"campaign": change})
         assert caught.value.key.startswith(message)
     profile = profile.as_dict()
@@ -61,21 +93,35 @@ def test_bad_settings_raise_clear_errors():
 
 
 def test_campaign_plan_is_derived_from_the_section():
-    plan = CampaignPlan.of(load_settings("ci", overrides={"campaign": {"constraints": {"n_sat": "off"},
-                                                                        "hypervolume": {"n_sat": "off"}}}))
+    plan = CampaignPlan.of(
+        load_settings(
+            "ci",
+            overrides={
+                "campaign": {"constraints": {"n_sat": "off"}, "hypervolume": {"n_sat": "off"}}
+            },
+        )
+    )
     assert ("n_sat", "max", 20.0) not in plan.constraints and "n_sat" not in dict(plan.hypervolume)
     assert all(isinstance(limit, float) for _, _, limit in plan.constraints)
-    assert plan.grid.lower.dtype == float and plan.objectives == load_settings("ci").campaign.objectives
+    assert (
+        plan.grid.lower.dtype == float
+        and plan.objectives == load_settings("ci").campaign.objectives
+    )
 
 
 def test_evaluation_hash_ignores_campaign_only_keys():
     base = evaluation_hash(load_settings("ci"))
-    for change in ({"campaign": {"population": 50, "seed": 9, "objectives": ["n_sat"], "generations": 2}},
-                   {"campaign": {"constraints": {"n_sat": {"max": 12}}}}):
+    for change in (
+        {"campaign": {"population": 50, "seed": 9, "objectives": ["n_sat"], "generations": 2}},
+        {"campaign": {"constraints": {"n_sat": {"max": 12}}}},
+    ):
         assert evaluation_hash(load_settings("ci", overrides=change)) == base
-    for change in ({"gravity": {"degree": 10}}, {"campaign": {"evaluator": "synthetic"}},
-                   {"campaign": {"variables": {"ecc": {"lower": 0.0, "upper": 0.8, "step": 0.02}}}},
-                   {"campaign": {"overrides": {"epoch": {"duration_days": 1.0}}}}):
+    for change in (
+        {"gravity": {"degree": 10}},
+        {"campaign": {"evaluator": "synthetic"}},
+        {"campaign": {"variables": {"ecc": {"lower": 0.0, "upper": 0.8, "step": 0.02}}}},
+        {"campaign": {"overrides": {"epoch": {"duration_days": 1.0}}}},
+    ):
         assert evaluation_hash(load_settings("ci", overrides=change)) != base
     assert evaluation_hash(load_settings("quick")) == evaluation_hash(load_settings("paper"))
 
@@ -91,28 +137,45 @@ def test_size_restricted_grid_holds_every_split_and_no_other_size(rng):
     assert set(map(tuple, physical[:, 4:].astype(int))) == {(3, 4), (4, 3)}
     inside = np.clip(x, 0, grid.n_levels)
     np.testing.assert_allclose(grid.scale(grid.descale(inside)), inside, atol=1e-9)
-    assert np.isnan(grid.scale([[6100.0, 0.6, 90.0, 51.0, 2, 4]])[0, 4])       # 8 satellites: not on this grid
+    assert np.isnan(
+        grid.scale([[6100.0, 0.6, 90.0, 51.0, 2, 4]])[0, 4]
+    )  # 8 satellites: not on this grid
 
 
 def test_size_restriction_refused_without_a_split_and_off_at_zero():
-    with pytest.raises(ConfigError, match=r"campaign.n_sat = 7 .*allowed: 0 \(any size\) or one of 2, 3, 4, 5, 6, 8"):
+    with pytest.raises(
+        ConfigError,
+        match=r"campaign.n_sat = 7 .*allowed: 0 \(any size\) or one of 2, 3, 4, 5, 6, 8",
+    ):
         load_settings("paper", {"campaign": {"n_sat": 7}})
     with pytest.raises(ConfigError, match="campaign.n_sat"):
         load_settings("paper", {"campaign": {"n_sat": -1}})
     free = load_settings("paper")
     assert CampaignPlan.of(free).grid.splits == ()
     stored = free.as_dict()
-    del stored["campaign"]["n_sat"]                   # a profile stored before the key existed: same settings
+    del stored["campaign"]["n_sat"]  # a profile stored before the key existed: same settings
     assert evaluation_hash(settings_from_profile(stored)) == evaluation_hash(free)
-    assert evaluation_hash(load_settings("paper", {"campaign": {"n_sat": 12}})) != evaluation_hash(free)
+    assert evaluation_hash(load_settings("paper", {"campaign": {"n_sat": 12}})) != evaluation_hash(
+        free
+    )
 
 
 def test_size_restricted_search_never_proposes_another_size(tmp_path):
     """A synthetic ci campaign restricted to 9 satellites (3 x 3 alone on the grid) evaluates only 9-satellite
     designs, generation after generation."""
-    run_campaign("ci", overrides={"campaign": {"evaluator": "synthetic", "n_sat": 9, "generations": 4}},
-                 workers=0, run_dir=tmp_path / "run", progress=False)
-    records = [json.loads(line) for line in (tmp_path / "run" / "evaluations.jsonl").read_text().splitlines()[1:]]
+    run_campaign(
+        "ci",
+        overrides={"campaign": {"evaluator": "synthetic", "n_sat": 9, "generations": 4}},
+        workers=0,
+        run_dir=tmp_path / "run",
+        progress=False,
+    )
+    records = [
+        json.loads(line)
+        for line in (tmp_path / "run" / "evaluations.jsonl").read_text().splitlines()[1:]
+    ]
     plan = CampaignPlan.of(load_settings("ci", {"campaign": {"n_sat": 9}}))
     designs = plan.grid.descale([r["key"] for r in records])
-    assert len(designs) > plan.population and set(map(tuple, designs[:, 4:].astype(int))) == {(3, 3)}
+    assert len(designs) > plan.population and set(map(tuple, designs[:, 4:].astype(int))) == {
+        (3, 3)
+    }

@@ -22,8 +22,14 @@ def test_problem_evaluates_through_its_source_and_pickles_without_it(settings):
         return values
 
     problem = WalkerDesignProblem(settings, source)
-    out = problem.evaluate(np.array([[1, 2, 3, 4, 0, 1], [5, 6, 7, 8, 1, 2]]), return_as_dictionary=True)
-    assert out["F"].shape == (2, 9) and np.all(np.isfinite(out["F"])) and np.all(out["G"][:, :3] == 1e3)
+    out = problem.evaluate(
+        np.array([[1, 2, 3, 4, 0, 1], [5, 6, 7, 8, 1, 2]]), return_as_dictionary=True
+    )
+    assert (
+        out["F"].shape == (2, 9)
+        and np.all(np.isfinite(out["F"]))
+        and np.all(out["G"][:, :3] == 1e3)
+    )
     assert len(calls) == 1 and calls[0].shape == (2, 6)
     clone = pickle.loads(pickle.dumps(problem))
     assert clone.metrics_source is None
@@ -32,14 +38,23 @@ def test_problem_evaluates_through_its_source_and_pickles_without_it(settings):
 
 
 def test_tolerance_termination_stops_early(tmp_path):
-    overrides = {"campaign": {"evaluator": "synthetic", "generations": 40, "ftol": 10.0, "ftol_period": 3}}
-    result = run_campaign("ci", overrides=overrides, workers=0, run_dir=tmp_path / "tol", progress=False)
+    overrides = {
+        "campaign": {"evaluator": "synthetic", "generations": 40, "ftol": 10.0, "ftol_period": 3}
+    }
+    result = run_campaign(
+        "ci", overrides=overrides, workers=0, run_dir=tmp_path / "tol", progress=False
+    )
     history = xr.open_dataset(result.run_dir / "history.nc", engine="h5netcdf")
     first_feasible = int(history.generation[history.n_feasible_pop > 0][0])
     assert result.generations < 40 and result.generations <= first_feasible + 4
     assert history.attrs["finished"] == 1
-    fixed = run_campaign("ci", overrides={"campaign": {"evaluator": "synthetic", "generations": 5}}, workers=0,
-                         run_dir=tmp_path / "fixed", progress=False)
+    fixed = run_campaign(
+        "ci",
+        overrides={"campaign": {"evaluator": "synthetic", "generations": 5}},
+        workers=0,
+        run_dir=tmp_path / "fixed",
+        progress=False,
+    )
     assert fixed.generations == 5
 
 
@@ -70,12 +85,29 @@ def test_runner_notifies_callbacks_in_order_and_resume_continues_history(tmp_pat
 
     synthetic = {"campaign": {"evaluator": "synthetic", "generations": 3}}
     first = Recorder()
-    run_campaign("ci", overrides=synthetic, workers=0, run_dir=tmp_path / "run", progress=False,
-                 max_generations=2, callbacks=[first])
-    assert first.events == [("start", 0), ("gen", 1, 6), ("end", 1), ("gen", 2, 6), ("end", 2), ("stop", 2)]
+    run_campaign(
+        "ci",
+        overrides=synthetic,
+        workers=0,
+        run_dir=tmp_path / "run",
+        progress=False,
+        max_generations=2,
+        callbacks=[first],
+    )
+    assert first.events == [
+        ("start", 0),
+        ("gen", 1, 6),
+        ("end", 1),
+        ("gen", 2, 6),
+        ("end", 2),
+        ("stop", 2),
+    ]
     second = Recorder()
     result = run_campaign(resume=tmp_path / "run", workers=0, progress=False, callbacks=[second])
-    assert second.events == [("start", 2), ("gen", 3, 6), ("end", 3), ("stop", 3)] and result.generations == 3
+    assert (
+        second.events == [("start", 2), ("gen", 3, 6), ("end", 3), ("stop", 3)]
+        and result.generations == 3
+    )
 
 
 def test_resume_on_another_kernel_processor_warns_and_continues(tmp_path):
@@ -89,7 +121,14 @@ def test_resume_on_another_kernel_processor_warns_and_continues(tmp_path):
     from lnss_lib.campaign.rundir import run_checksum
 
     synthetic = {"campaign": {"evaluator": "synthetic", "generations": 3}}
-    run_campaign("ci", overrides=synthetic, workers=0, run_dir=tmp_path / "run", progress=False, max_generations=1)
+    run_campaign(
+        "ci",
+        overrides=synthetic,
+        workers=0,
+        run_dir=tmp_path / "run",
+        progress=False,
+        max_generations=1,
+    )
     with warnings.catch_warnings():
         warnings.simplefilter("error")
         run_campaign(resume=tmp_path / "run", workers=0, progress=False, max_generations=1)

@@ -17,7 +17,9 @@ from lnss_lib.settings import load_settings
 from lnss_lib.studies.campaign import designs_shown
 
 CF_GLOBALS = ("title", "institution", "source", "history", "references", "Conventions")
-PROFILE = "ci_synthetic"       # a profile whose own evaluator is the synthetic one: its runs are its campaign
+PROFILE = (
+    "ci_synthetic"  # a profile whose own evaluator is the synthetic one: its runs are its campaign
+)
 
 
 @pytest.fixture(scope="module", autouse=True)
@@ -56,7 +58,9 @@ def test_shipped_results_are_the_current_profiles(name):
     assert shipped is not None, f"no shipped results in {ref.REFERENCE_DIR / name}"
     settings = load_settings(name)
     for ds in (shipped.evaluations, shipped.front, shipped.history, shipped.population):
-        assert ds.attrs["profile_hash"] == settings.hash, f"{name}: re-run and re-export the campaign"
+        assert ds.attrs["profile_hash"] == settings.hash, (
+            f"{name}: re-run and re-export the campaign"
+        )
         assert ds.attrs["evaluation_hash"] == evaluation_hash(settings)
         assert ds.attrs["profile"] == name and ds.attrs["Conventions"] == "CF-1.8"
     assert run_differences(shipped.profile, settings) == []
@@ -82,21 +86,29 @@ def finished_run(tmp_path_factory):
 def test_export_round_trip_with_cf_attributes(finished_run, tmp_path):
     folder = ref.export_reference(finished_run, tmp_path, export_commit="abc1234")
     assert folder == tmp_path / PROFILE and sorted(p.name for p in folder.iterdir()) == sorted(
-        (*ref.REFERENCE_FILES, ref.README_FILE))
+        (*ref.REFERENCE_FILES, ref.README_FILE)
+    )
     shipped = ref.load_reference(PROFILE, tmp_path)
     evaluations, front, history = export_results(finished_run)
     xr.testing.assert_allclose(shipped.front.drop_attrs(), front.drop_vars("error").drop_attrs())
     xr.testing.assert_allclose(shipped.history.drop_attrs(), history.drop_attrs())
     x, _ = final_population(finished_run)
     designs = CampaignPlan.of(load_settings(PROFILE)).grid.descale(x.astype(float))
-    np.testing.assert_allclose(np.column_stack([shipped.population[k].values for k in DESIGN_KEYS]), designs)
+    np.testing.assert_allclose(
+        np.column_stack([shipped.population[k].values for k in DESIGN_KEYS]), designs
+    )
     feasible = evaluations["feasible"].values
-    assert shipped.evaluations.sizes["design"] == (feasible.sum() if feasible.any() else
-                                                   shipped.evaluations.attrs["n_selected"])
+    assert shipped.evaluations.sizes["design"] == (
+        feasible.sum() if feasible.any() else shipped.evaluations.attrs["n_selected"]
+    )
     assert shipped.evaluations.attrs["n_designs_evaluated"] == evaluations.sizes["design"]
-    assert designs_shown(evaluations) == f"every unique design the run evaluated ({evaluations.sizes['design']})"
+    assert (
+        designs_shown(evaluations)
+        == f"every unique design the run evaluated ({evaluations.sizes['design']})"
+    )
     assert designs_shown(shipped.evaluations).startswith(
-        f"{shipped.evaluations.sizes['design']} of the {evaluations.sizes['design']} unique designs the run evaluated")
+        f"{shipped.evaluations.sizes['design']} of the {evaluations.sizes['design']} unique designs the run evaluated"
+    )
     assert shipped.finished and shipped.history.attrs["partial"] == 0
     for ds in (shipped.evaluations, shipped.front, shipped.history, shipped.population):
         assert all(ds.attrs.get(key) for key in CF_GLOBALS) and ds.attrs["Conventions"] == "CF-1.8"
@@ -106,10 +118,24 @@ def test_export_round_trip_with_cf_attributes(finished_run, tmp_path):
     assert shipped.front["dv_total_kms_per_year"].attrs["units"] == "km s-1 yr-1"
     assert shipped.front["sma_km"].attrs["units"] == "km"
     assert shipped.history["wall_s"].attrs["units"] == "s"
-    for text in ("abc1234", "| complete | yes |", "| seed |", "numpy", "generations completed", "machine"):
+    for text in (
+        "abc1234",
+        "| complete | yes |",
+        "| seed |",
+        "numpy",
+        "generations completed",
+        "machine",
+    ):
         assert text in shipped.readme, text
-    assert shipped.front.attrs["run_commit"] == json.loads((finished_run / "run.json").read_text())["commit"] != ""
-    assert json.loads(shipped.history.attrs["worker_time"])["n_evaluations"] == evaluations.sizes["design"]
+    assert (
+        shipped.front.attrs["run_commit"]
+        == json.loads((finished_run / "run.json").read_text())["commit"]
+        != ""
+    )
+    assert (
+        json.loads(shipped.history.attrs["worker_time"])["n_evaluations"]
+        == evaluations.sizes["design"]
+    )
 
 
 def test_partial_run_is_marked_partial(partial_run, tmp_path):
@@ -128,15 +154,31 @@ def test_thinning_keeps_the_front_and_fits_the_limit():
     front = evaluations.isel(design=np.flatnonzero(evaluations.feasible.values)[::97])
     encode = ref._netcdf_bytes
     whole, data = ref.thin_to_fit(evaluations, front, encode, ref.MAX_FILE_BYTES)
-    assert whole.attrs["n_kept"] == whole.attrs["n_selected"] == whole.sizes["design"] == evaluations.feasible.sum()
-    assert whole.attrs["thinning"].startswith("none") and whole.attrs["selection"] == "the feasible designs"
+    assert (
+        whole.attrs["n_kept"]
+        == whole.attrs["n_selected"]
+        == whole.sizes["design"]
+        == evaluations.feasible.sum()
+    )
+    assert (
+        whole.attrs["thinning"].startswith("none")
+        and whole.attrs["selection"] == "the feasible designs"
+    )
     limit = 0.5 * len(data)
     thin, thin_data = ref.thin_to_fit(evaluations, front, encode, limit)
-    assert len(thin_data) < limit and thin.attrs["n_kept"] < thin.attrs["n_selected"] == whole.sizes["design"]
-    assert "uniform sample" in thin.attrs["thinning"] and thin.attrs["n_kept"] > 0.3 * whole.sizes["design"]
+    assert (
+        len(thin_data) < limit
+        and thin.attrs["n_kept"] < thin.attrs["n_selected"] == whole.sizes["design"]
+    )
+    assert (
+        "uniform sample" in thin.attrs["thinning"]
+        and thin.attrs["n_kept"] > 0.3 * whole.sizes["design"]
+    )
     kept = {tuple(row) for row in np.column_stack([thin[k].values for k in DESIGN_KEYS])}
     assert 0 < front.sizes["design"] < thin.sizes["design"]
-    assert all(tuple(row) in kept for row in np.column_stack([front[k].values for k in DESIGN_KEYS]))
+    assert all(
+        tuple(row) in kept for row in np.column_stack([front[k].values for k in DESIGN_KEYS])
+    )
 
 
 def _copy(run_dir, tmp_path, name):
@@ -175,8 +217,12 @@ def test_export_refuses_a_damaged_or_forged_run_folder(finished_run, tmp_path):
     (damaged / "checkpoint.pkl").write_bytes(bytes(data))
     with pytest.raises(CheckpointError, match="truncated or corrupt"):
         ref.export_reference(damaged, root)
-    edited = _edited_and_resealed(finished_run, tmp_path / "edited", root,
-                                  lambda run: run["profile"]["campaign"].update(seed=99))
+    edited = _edited_and_resealed(
+        finished_run,
+        tmp_path / "edited",
+        root,
+        lambda run: run["profile"]["campaign"].update(seed=99),
+    )
     with pytest.raises(ConfigError, match="differ from those the run started with"):
         ref.export_reference(edited, root)
     forged = _copy(finished_run, tmp_path, "forged")
@@ -193,8 +239,10 @@ def test_export_refuses_a_damaged_or_forged_run_folder(finished_run, tmp_path):
         ref.export_reference(foreign, root)
     with pytest.raises(ConfigError, match="is not a folder"):
         ref.export_reference(tmp_path / "nothing", root)
-    assert {p.name: p.read_bytes() for p in good.iterdir()} == before      # the previous export is untouched
-    assert sorted(p.name for p in root.iterdir()) == [PROFILE]               # and no staging folder is left
+    assert {
+        p.name: p.read_bytes() for p in good.iterdir()
+    } == before  # the previous export is untouched
+    assert sorted(p.name for p in root.iterdir()) == [PROFILE]  # and no staging folder is left
 
 
 def test_export_command_line(finished_run, tmp_path, monkeypatch, capsys):
@@ -211,10 +259,16 @@ def test_export_command_line(finished_run, tmp_path, monkeypatch, capsys):
     (damaged / "checkpoint.pkl").write_bytes(b"LNSS campaign checkpoint\n{}\n")
     assert main(["campaign", "--export-reference", str(damaged)]) == 1
     err = capsys.readouterr().err.strip().splitlines()
-    assert len(err) == 3 and all(line.startswith("error: ") for line in err) and "Traceback" not in "".join(err)
+    assert (
+        len(err) == 3
+        and all(line.startswith("error: ") for line in err)
+        and "Traceback" not in "".join(err)
+    )
 
 
-def test_export_never_replaces_complete_results_with_anything_else(finished_run, partial_run, tmp_path):
+def test_export_never_replaces_complete_results_with_anything_else(
+    finished_run, partial_run, tmp_path
+):
     """Shipped results are replaced only by a run of their profile's own settings, complete when they are, and
     only where a previous export lies: a toy run with overrides, a renamed run, a partial run over a complete
     export and a folder that is not an export are refused and leave the folder as it was."""
@@ -224,13 +278,22 @@ def test_export_never_replaces_complete_results_with_anything_else(finished_run,
     good = ref.export_reference(finished_run, root)
     before = {p.name: p.read_bytes() for p in good.iterdir()}
     toy = tmp_path / "toy"
-    run_campaign(PROFILE, overrides={"campaign": {"generations": 1}}, workers=0, run_dir=toy,
-                 progress=False)
-    with pytest.raises(ConfigError, match=f"is not a campaign of profile .{PROFILE}.*campaign.generations = 1"):
+    run_campaign(
+        PROFILE, overrides={"campaign": {"generations": 1}}, workers=0, run_dir=toy, progress=False
+    )
+    with pytest.raises(
+        ConfigError, match=f"is not a campaign of profile .{PROFILE}.*campaign.generations = 1"
+    ):
         ref.export_reference(toy, root)
-    renamed = _edited_and_resealed(finished_run, tmp_path / "renamed", root,
-                                   lambda run: run["profile"]["profile"].update(name="ci"))
-    with pytest.raises(ConfigError, match="is not a campaign of profile 'ci'.*its evaluator is 'synthetic'"):
+    renamed = _edited_and_resealed(
+        finished_run,
+        tmp_path / "renamed",
+        root,
+        lambda run: run["profile"]["profile"].update(name="ci"),
+    )
+    with pytest.raises(
+        ConfigError, match="is not a campaign of profile 'ci'.*its evaluator is 'synthetic'"
+    ):
         ref.export_reference(renamed, root)
     with pytest.raises(ConfigError, match="a partial run never replaces complete results"):
         ref.export_reference(partial_run, root)
@@ -241,7 +304,12 @@ def test_export_never_replaces_complete_results_with_anything_else(finished_run,
     with pytest.raises(ConfigError, match="is not a previous export"):
         ref.export_reference(finished_run, other)
     assert [p.name for p in (other / PROFILE).iterdir()] == ["notes.txt"]
-    assert ref.load_reference(PROFILE, ref.export_reference(partial_run, other.parent / "fresh").parent) is not None
+    assert (
+        ref.load_reference(
+            PROFILE, ref.export_reference(partial_run, other.parent / "fresh").parent
+        )
+        is not None
+    )
 
 
 def test_forged_provenance_never_reaches_the_readme(finished_run, tmp_path):
@@ -252,7 +320,11 @@ def test_forged_provenance_never_reaches_the_readme(finished_run, tmp_path):
 
     forged = _copy(finished_run, tmp_path, "forged")
     run = json.loads((forged / "run.json").read_text())
-    run.update(commit="0000000 all tests passed", created_utc="1969-07-20T20:17:40Z", versions={"numpy": "forged"})
+    run.update(
+        commit="0000000 all tests passed",
+        created_utc="1969-07-20T20:17:40Z",
+        versions={"numpy": "forged"},
+    )
     (forged / "run.json").write_text(json.dumps(run))
     with pytest.raises(ConfigError, match="edited after the run started"):
         ref.export_reference(forged, tmp_path / "a")

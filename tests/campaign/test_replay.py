@@ -11,16 +11,30 @@ def recorded(tmp_path_factory):
     """A synthetic campaign on two local workers, each design sleeping 0.2 s: its run folder. Generations of 20
     designs, so that their evaluation (about 2 s a generation) outweighs the campaign's own work between them
     (NSGA-II, checkpoint, dispatch), which a replay leaves out, even on a loaded machine."""
-    overrides = {"campaign": {"evaluator": "synthetic", "population": 20, "generations": 3, "synthetic_delay_s": 0.2}}
-    return run_campaign("ci", overrides=overrides, workers=2, run_dir=tmp_path_factory.mktemp("replay") / "run",
-                        progress=False).run_dir
+    overrides = {
+        "campaign": {
+            "evaluator": "synthetic",
+            "population": 20,
+            "generations": 3,
+            "synthetic_delay_s": 0.2,
+        }
+    }
+    return run_campaign(
+        "ci",
+        overrides=overrides,
+        workers=2,
+        run_dir=tmp_path_factory.mktemp("replay") / "run",
+        progress=False,
+    ).run_dir
 
 
 def test_journal_costs_are_the_designs_of_each_generation(recorded):
     costs = journal_costs(recorded)
     history = load_checkpoint(recorded)["history"]
     assert [len(generation) for generation in costs] == [h["n_evaluated"] for h in history]
-    assert all(item["cost_s"] >= 0.2 for generation in costs for item in generation)   # the sleep, at least
+    assert all(
+        item["cost_s"] >= 0.2 for generation in costs for item in generation
+    )  # the sleep, at least
 
 
 def test_replay_at_two_workers_predicts_the_measured_wall_time(recorded):
@@ -38,14 +52,29 @@ def test_replay_refuses_no_workers(recorded):
 def test_replay_command_prints_a_row_per_worker_count(recorded, capsys):
     from lnss_lib.__main__ import main
 
-    argv = ["study", "--replay", str(recorded), "--replay-workers", "2", "4", "--copies", "2", "--time-scale", "0.25"]
+    argv = [
+        "study",
+        "--replay",
+        str(recorded),
+        "--replay-workers",
+        "2",
+        "4",
+        "--copies",
+        "2",
+        "--time-scale",
+        "0.25",
+    ]
     assert main(argv) == 0
     rows = [[float(v) for v in line.split()] for line in capsys.readouterr().out.splitlines()[2:]]
-    cost_s = 2 * sum(item["cost_s"] for generation in journal_costs(recorded) for item in generation)
+    cost_s = 2 * sum(
+        item["cost_s"] for generation in journal_costs(recorded) for item in generation
+    )
     assert [row[0] for row in rows] == [2, 4]
     for n, wall_s, busy, perfect_s in rows:
         assert perfect_s == pytest.approx(cost_s / n, abs=0.1)
-        assert wall_s >= perfect_s - 0.1 and 0.0 < busy <= 1.0   # no schedule beats the work over the workers
+        assert (
+            wall_s >= perfect_s - 0.1 and 0.0 < busy <= 1.0
+        )  # no schedule beats the work over the workers
 
 
 def test_replay_of_a_folder_without_a_run(tmp_path, capsys):

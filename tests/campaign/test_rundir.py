@@ -11,23 +11,23 @@ import time
 import numpy as np
 import pytest
 import xarray as xr
+from terminal import foreground_signals
 
 from lnss_lib.__main__ import main
-from lnss_lib.config import parse_sets as _parse_sets
 from lnss_lib.campaign import CampaignPlan, final_population, read_cache_records
 from lnss_lib.config import PROJECT_DIR
-from lnss_lib.settings import load_settings
+from lnss_lib.config import parse_sets as _parse_sets
 from lnss_lib.evaluator import context_for, evaluate_design
 from lnss_lib.keys import DESIGN_KEYS, METRIC_KEYS
-
-from terminal import foreground_signals
+from lnss_lib.settings import load_settings
 
 from .helpers import CLI, KILL_SETTINGS, SYNTHETIC, _cli, _journal_count, _run_until
 
 
 def test_set_parser_and_cli_errors(capsys):
-    assert _parse_sets(["campaign.generations=4", "epoch.duration_days=1.5", "campaign.seed=3"]) == {
-        "campaign": {"generations": 4, "seed": 3}, "epoch": {"duration_days": 1.5}}
+    assert _parse_sets(
+        ["campaign.generations=4", "epoch.duration_days=1.5", "campaign.seed=3"]
+    ) == {"campaign": {"generations": 4, "seed": 3}, "epoch": {"duration_days": 1.5}}
     assert main(["campaign", "--set", "campaign.generations"]) == 2
     assert "SECTION.KEY=VALUE" in capsys.readouterr().err
     assert main(["campaign", "--resume", "/nonexistent/run", "--profile", "ci"]) == 2
@@ -39,7 +39,15 @@ def test_real_campaign_netcdf_contract(real_run):
     ev = xr.open_dataset(real_run.run_dir / "evaluations.nc", engine="h5netcdf").load()
     front = xr.open_dataset(real_run.run_dir / "front.nc", engine="h5netcdf").load()
     history = xr.open_dataset(real_run.run_dir / "history.nc", engine="h5netcdf").load()
-    expected = {*DESIGN_KEYS, *METRIC_KEYS, "feasible", "impact", "error", "constraint_violation", "generation"}
+    expected = {
+        *DESIGN_KEYS,
+        *METRIC_KEYS,
+        "feasible",
+        "impact",
+        "error",
+        "constraint_violation",
+        "generation",
+    }
     for ds in (ev, front):
         assert set(ds.data_vars) == expected and set(ds.dims) == {"design"}
         for name in ("sma_km", "ecc", "aop_deg", "inc_deg"):
@@ -47,21 +55,35 @@ def test_real_campaign_netcdf_contract(real_run):
         for name in ("n_planes", "sats_per_plane", "n_sat", "generation"):
             assert np.issubdtype(ds[name].dtype, np.integer)
         assert ds.feasible.dtype == bool and ds.impact.dtype == bool
-        assert ds.attrs["profile"] == "ci" and ds.attrs["objectives"].split(",") == list(settings.objectives)
+        assert ds.attrs["profile"] == "ci" and ds.attrs["objectives"].split(",") == list(
+            settings.objectives
+        )
         assert json.loads(ds.attrs["parameters"])["campaign"]["population"] == 6
         assert "pymoo" in json.loads(ds.attrs["versions"])
     assert ev.sizes["design"] == real_run.n_evaluations == len(read_cache_records(real_run.run_dir))
     designs = np.column_stack([ev[k].values for k in DESIGN_KEYS])
     assert len({tuple(row) for row in designs}) == ev.sizes["design"]  # every design once
-    np.testing.assert_allclose(settings.grid.descale(np.rint(settings.grid.scale(designs))), designs)
+    np.testing.assert_allclose(
+        settings.grid.descale(np.rint(settings.grid.scale(designs))), designs
+    )
     np.testing.assert_array_equal(ev.n_sat, ev.n_planes * ev.sats_per_plane)
-    assert ev.generation.min() == 1 and ev.generation.max() == 3 and np.all(np.diff(ev.generation) >= 0)
+    assert (
+        ev.generation.min() == 1
+        and ev.generation.max() == 3
+        and np.all(np.diff(ev.generation) >= 0)
+    )
     # violations and feasibility follow from the stored metrics (Table 3 limits, independently written)
-    pdop, avail, dv = ev.pdop_mean_3sigma.values, ev.pdop_avail_pct.values, ev.dv_total_kms_per_year.values
+    pdop, avail, dv = (
+        ev.pdop_mean_3sigma.values,
+        ev.pdop_avail_pct.values,
+        ev.dv_total_kms_per_year.values,
+    )
     with np.errstate(invalid="ignore"):
-        manual = (np.where(np.isnan(pdop), 1e3, np.maximum(pdop / 10 - 1, 0))
-                  + np.where(np.isnan(avail), 1e3, np.maximum(1 - avail / 70, 0))
-                  + np.where(np.isnan(dv), 1e3, np.maximum(dv - 1, 0)))
+        manual = (
+            np.where(np.isnan(pdop), 1e3, np.maximum(pdop / 10 - 1, 0))
+            + np.where(np.isnan(avail), 1e3, np.maximum(1 - avail / 70, 0))
+            + np.where(np.isnan(dv), 1e3, np.maximum(dv - 1, 0))
+        )
     np.testing.assert_allclose(ev.constraint_violation, manual, rtol=1e-12)
     assert np.all(ev.constraint_violation >= 0)
     np.testing.assert_array_equal(ev.feasible, (ev.constraint_violation == 0) & ~np.isnan(pdop))
@@ -93,7 +115,9 @@ def test_real_campaign_cache_holds_a_fresh_evaluation(real_run):
     ev = xr.open_dataset(real_run.run_dir / "evaluations.nc", engine="h5netcdf").load()
     ok = np.flatnonzero(~np.isnan(ev.pdop_avail_pct.values))
     row = ev.isel(design=int(ok[-1]))
-    fresh = evaluate_design(context_for(load_settings("ci")), **{k: row[k].item() for k in DESIGN_KEYS})
+    fresh = evaluate_design(
+        context_for(load_settings("ci")), **{k: row[k].item() for k in DESIGN_KEYS}
+    )
     for key in METRIC_KEYS:
         np.testing.assert_allclose(fresh[key], row[key].item(), rtol=1e-12, equal_nan=True)
 
@@ -101,7 +125,9 @@ def test_real_campaign_cache_holds_a_fresh_evaluation(real_run):
 def test_sigkill_at_any_moment_then_resume_matches_uninterrupted(synthetic_reference, tmp_path):
     run_dir = tmp_path / "killed"
     # kills: before the first checkpoint, mid-generation 2, mid-generation 5; then run to the end
-    assert _run_until(SYNTHETIC + KILL_SETTINGS + ["--workers", "0", "--run-dir", str(run_dir)], run_dir, 2)
+    assert _run_until(
+        SYNTHETIC + KILL_SETTINGS + ["--workers", "0", "--run-dir", str(run_dir)], run_dir, 2
+    )
     assert not (run_dir / "checkpoint.pkl").exists()
     assert _run_until(["--resume", str(run_dir), "--workers", "0", "--no-progress"], run_dir, 9)
     assert _run_until(["--resume", str(run_dir), "--workers", "0", "--no-progress"], run_dir, 27)
@@ -111,12 +137,17 @@ def test_sigkill_at_any_moment_then_resume_matches_uninterrupted(synthetic_refer
     np.testing.assert_array_equal(x, x_ref)
     np.testing.assert_array_equal(f, f_ref)
     keys = [tuple(r["key"]) for r in read_cache_records(run_dir)]
-    assert len(keys) == len(set(keys)) == len(read_cache_records(synthetic_reference))  # nothing evaluated twice
+    assert (
+        len(keys) == len(set(keys)) == len(read_cache_records(synthetic_reference))
+    )  # nothing evaluated twice
     ref = xr.open_dataset(synthetic_reference / "evaluations.nc", engine="h5netcdf").load()
     got = xr.open_dataset(run_dir / "evaluations.nc", engine="h5netcdf").load()
     xr.testing.assert_identical(got.drop_attrs(), ref.drop_attrs())
     # resuming a finished run only rewrites the results
-    assert "0 evaluations" in _cli(["--resume", str(run_dir), "--workers", "0", "--no-progress"]).stdout
+    assert (
+        "0 evaluations"
+        in _cli(["--resume", str(run_dir), "--workers", "0", "--no-progress"]).stdout
+    )
 
 
 def test_checkpoint_written_by_the_old_optimize_module_still_loads(tmp_path, monkeypatch):
@@ -126,14 +157,22 @@ def test_checkpoint_written_by_the_old_optimize_module_still_loads(tmp_path, mon
     from lnss_lib.campaign import DesignGrid, WalkerDesignProblem, load_checkpoint, run_campaign
     from lnss_lib.campaign.rundir import CHECKPOINT_FILE
 
-    run_campaign("ci", overrides={"campaign": {"evaluator": "synthetic", "generations": 2}}, workers=0,
-                 run_dir=tmp_path / "run", progress=False)
+    run_campaign(
+        "ci",
+        overrides={"campaign": {"evaluator": "synthetic", "generations": 2}},
+        workers=0,
+        run_dir=tmp_path / "run",
+        progress=False,
+    )
     checkpoint = load_checkpoint(tmp_path / "run")
     old = types.ModuleType("lnss_lib.optimize")
-    with monkeypatch.context() as patch:         # pickle the classes under the module name they had before
+    with monkeypatch.context() as patch:  # pickle the classes under the module name they had before
         patch.setitem(sys.modules, "lnss_lib.optimize", old)
-        for cls, name in ((WalkerDesignProblem, "WalkerDesignProblem"), (CampaignPlan, "CampaignSettings"),
-                          (DesignGrid, "DesignGrid")):     # the campaign plan was CampaignSettings then
+        for cls, name in (
+            (WalkerDesignProblem, "WalkerDesignProblem"),
+            (CampaignPlan, "CampaignSettings"),
+            (DesignGrid, "DesignGrid"),
+        ):  # the campaign plan was CampaignSettings then
             patch.setattr(old, name, cls, raising=False)
             patch.setattr(cls, "__module__", "lnss_lib.optimize")
         CampaignPlan.__qualname__ = "CampaignSettings"
@@ -146,7 +185,9 @@ def test_checkpoint_written_by_the_old_optimize_module_still_loads(tmp_path, mon
     (tmp_path / "run" / CHECKPOINT_FILE).write_bytes(data)
     loaded = load_checkpoint(tmp_path / "run")
     assert type(loaded["algorithm"].problem) is WalkerDesignProblem
-    np.testing.assert_array_equal(loaded["algorithm"].pop.get("X"), checkpoint["algorithm"].pop.get("X"))
+    np.testing.assert_array_equal(
+        loaded["algorithm"].pop.get("X"), checkpoint["algorithm"].pop.get("X")
+    )
     assert run_campaign(resume=tmp_path / "run", workers=0, progress=False).generations == 2
 
 
@@ -155,11 +196,17 @@ def test_ctrl_c_on_a_dask_campaign_is_one_line_and_resumes(synthetic_reference, 
     with local Dask workers: one line, exit 130, no worker left; the checkpoint resumes to the
     uninterrupted result. Before: 67 lines of worker tracebacks."""
     run_dir = tmp_path / "interrupted"
-    proc = subprocess.Popen(CLI + SYNTHETIC + KILL_SETTINGS + ["--workers", "2", "--run-dir", str(run_dir)],
-                            cwd=PROJECT_DIR, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True,
-                            start_new_session=True, preexec_fn=foreground_signals)
+    proc = subprocess.Popen(
+        CLI + SYNTHETIC + KILL_SETTINGS + ["--workers", "2", "--run-dir", str(run_dir)],
+        cwd=PROJECT_DIR,
+        stdout=subprocess.DEVNULL,
+        stderr=subprocess.PIPE,
+        text=True,
+        start_new_session=True,
+        preexec_fn=foreground_signals,
+    )
     deadline = time.monotonic() + 120
-    while proc.poll() is None and _journal_count(run_dir) < 9:       # inside generation 2
+    while proc.poll() is None and _journal_count(run_dir) < 9:  # inside generation 2
         assert time.monotonic() < deadline, "campaign did not progress"
         time.sleep(0.02)
     assert proc.poll() is None, proc.communicate()
@@ -167,7 +214,9 @@ def test_ctrl_c_on_a_dask_campaign_is_one_line_and_resumes(synthetic_reference, 
     err = proc.communicate(timeout=120)[1]
     assert proc.returncode == 130 and err.strip() == "error: interrupted", err
     deadline = time.monotonic() + 30
-    while subprocess.run(["pgrep", "-s", str(proc.pid)], capture_output=True).stdout:    # workers wind down
+    while subprocess.run(
+        ["pgrep", "-s", str(proc.pid)], capture_output=True
+    ).stdout:  # workers wind down
         assert time.monotonic() < deadline, "worker processes left behind"
         time.sleep(0.2)
     _cli(["--resume", str(run_dir), "--workers", "0", "--no-progress"])
@@ -180,8 +229,13 @@ def _checkpoint_of_a_run(tmp_path):
     from lnss_lib.campaign.rundir import CHECKPOINT_FILE
 
     run_dir = tmp_path / "run"
-    run_campaign("ci", overrides={"campaign": {"evaluator": "synthetic", "generations": 2}}, workers=0,
-                 run_dir=run_dir, progress=False)
+    run_campaign(
+        "ci",
+        overrides={"campaign": {"evaluator": "synthetic", "generations": 2}},
+        workers=0,
+        run_dir=run_dir,
+        progress=False,
+    )
     return run_dir, run_dir / CHECKPOINT_FILE
 
 
@@ -200,7 +254,7 @@ def test_damaged_checkpoint_never_loads(tmp_path):
         path.write_bytes(bytes(damaged))
         with pytest.raises(CheckpointError, match="delete it and resume"):
             load_checkpoint(run_dir)
-    for length in rng.integers(0, len(good), 30):         # cut short
+    for length in rng.integers(0, len(good), 30):  # cut short
         path.write_bytes(good[:length])
         with pytest.raises(CheckpointError, match="truncated or corrupt"):
             load_checkpoint(run_dir)
@@ -228,14 +282,28 @@ def test_forged_checkpoint_is_refused_without_running_code(tmp_path):
     run_dir, path = _checkpoint_of_a_run(tmp_path)
     marker = tmp_path / "code_ran"
 
-    def call(module: str, name: str, argument: str) -> bytes:     # protocol 4: STACK_GLOBAL, then REDUCE
+    def call(
+        module: str, name: str, argument: str
+    ) -> bytes:  # protocol 4: STACK_GLOBAL, then REDUCE
         text = [item.encode() for item in (module, name, argument)]
-        return b"\x80\x04" + b"".join(b"\x8c" + bytes([len(t)]) + t for t in text[:2]) + b"\x93" \
-            + b"\x8c" + bytes([len(text[2])]) + text[2] + b"\x85R."
+        return (
+            b"\x80\x04"
+            + b"".join(b"\x8c" + bytes([len(t)]) + t for t in text[:2])
+            + b"\x93"
+            + b"\x8c"
+            + bytes([len(text[2])])
+            + text[2]
+            + b"\x85R."
+        )
 
-    payloads = [pickle.dumps(_Exploit(marker)), pickle.dumps({"generation": 1, "algorithm": _Exploit(marker)}),
-                call("numpy", "load", "/x.npy"), call("numpy", "sum.__globals__", "x"),
-                call("lnss_lib.campaign.grid", "np.load", "/x.npy"), call("builtins", "eval", "1")]
+    payloads = [
+        pickle.dumps(_Exploit(marker)),
+        pickle.dumps({"generation": 1, "algorithm": _Exploit(marker)}),
+        call("numpy", "load", "/x.npy"),
+        call("numpy", "sum.__globals__", "x"),
+        call("lnss_lib.campaign.grid", "np.load", "/x.npy"),
+        call("builtins", "eval", "1"),
+    ]
     for payload in payloads:
         header = json.dumps({"format": 2, "sha256": hashlib.sha256(payload).hexdigest()}).encode()
         for data in (payload, CHECKPOINT_MAGIC + header + b"\n" + payload):
@@ -257,8 +325,13 @@ def test_two_runs_publishing_at_once_publish_one_run(tmp_path):
     campaign_dir = tmp_path / "campaign"
     runs = {}
     for seed in (1, 2):
-        result = run_campaign("ci", overrides={"campaign": {"evaluator": "synthetic", "generations": 2, "seed": seed}},
-                              workers=0, run_dir=campaign_dir / f"run_{seed}", progress=False)
+        result = run_campaign(
+            "ci",
+            overrides={"campaign": {"evaluator": "synthetic", "generations": 2, "seed": seed}},
+            workers=0,
+            run_dir=campaign_dir / f"run_{seed}",
+            progress=False,
+        )
         runs[seed] = (result.run_dir, export_results(result.run_dir))
     seen, errors = [], []
 
@@ -266,7 +339,7 @@ def test_two_runs_publishing_at_once_publish_one_run(tmp_path):
         try:
             for _ in range(4):
                 publish_run(runs[seed][0], campaign_dir, runs[seed][1])
-        except Exception as error:      # reported below
+        except Exception as error:  # reported below
             errors.append(error)
 
     def reader():
@@ -274,7 +347,10 @@ def test_two_runs_publishing_at_once_publish_one_run(tmp_path):
             while any(t.is_alive() for t in writers):
                 published = load_published(campaign_dir)
                 if published is not None:
-                    seeds = {int(ds.attrs["seed"]) for ds in (published.evaluations, published.front, published.history)}
+                    seeds = {
+                        int(ds.attrs["seed"])
+                        for ds in (published.evaluations, published.front, published.history)
+                    }
                     seen.append((published.pointer["run_dir"], seeds))
         except Exception as error:
             errors.append(error)
@@ -288,7 +364,7 @@ def test_two_runs_publishing_at_once_publish_one_run(tmp_path):
         thread.join()
     assert not errors, errors
     assert seen and all(seeds == {int(run[-1])} for run, seeds in seen), seen
-    assert len(list((campaign_dir / "published").iterdir())) == 1     # superseded copies removed
+    assert len(list((campaign_dir / "published").iterdir())) == 1  # superseded copies removed
 
 
 def test_progress_lines_fit_80_columns_and_report_the_summary_rate(tmp_path):
@@ -296,14 +372,30 @@ def test_progress_lines_fit_80_columns_and_report_the_summary_rate(tmp_path):
     import re
 
     env = {**os.environ, "COLUMNS": "200"}
-    args = ["--profile", "ci", "--evaluator", "synthetic", "--workers", "0", "--run-dir", str(tmp_path / "run"),
-            "--set", "campaign.generations=4", "--set", "campaign.synthetic_delay_s=0.02"]
-    done = subprocess.run(CLI + args, cwd=PROJECT_DIR, capture_output=True, text=True, timeout=300, env=env)
+    args = [
+        "--profile",
+        "ci",
+        "--evaluator",
+        "synthetic",
+        "--workers",
+        "0",
+        "--run-dir",
+        str(tmp_path / "run"),
+        "--set",
+        "campaign.generations=4",
+        "--set",
+        "campaign.synthetic_delay_s=0.02",
+    ]
+    done = subprocess.run(
+        CLI + args, cwd=PROJECT_DIR, capture_output=True, text=True, timeout=300, env=env
+    )
     assert done.returncode == 0, done.stderr
     lines = [line for line in re.split(r"[\r\n]", done.stderr) if line.strip()]
     assert lines and max(map(len, lines)) <= 80, max(lines, key=len)
-    assert not any("designs |" in line for line in lines)       # piped: no design bar ...
-    assert sum("4/4 gen" in line for line in lines) <= 2         # ... and a generation's line once (and on closing)
+    assert not any("designs |" in line for line in lines)  # piped: no design bar ...
+    assert (
+        sum("4/4 gen" in line for line in lines) <= 2
+    )  # ... and a generation's line once (and on closing)
     shown = float(re.findall(r"([0-9.]+) designs/s", lines[-1])[-1])
     summary = float(re.search(r"\(([0-9.]+) designs/s\)", done.stdout).group(1))
     assert shown == pytest.approx(summary, rel=0.05)
@@ -318,10 +410,20 @@ def test_a_partial_run_never_replaces_a_finished_publication(tmp_path):
 
     campaign_dir = tmp_path / "campaign"
     synthetic = {"campaign": {"evaluator": "synthetic", "generations": 2}}
-    finished = run_campaign("ci", overrides=synthetic, workers=0, run_dir=campaign_dir / "run_1", progress=False)
-    partial = run_campaign("ci", overrides=synthetic, workers=0, run_dir=campaign_dir / "run_2", progress=False,
-                           max_generations=1)
-    assert publish_run(partial.run_dir, campaign_dir).is_file()        # nothing finished published yet: it may
+    finished = run_campaign(
+        "ci", overrides=synthetic, workers=0, run_dir=campaign_dir / "run_1", progress=False
+    )
+    partial = run_campaign(
+        "ci",
+        overrides=synthetic,
+        workers=0,
+        run_dir=campaign_dir / "run_2",
+        progress=False,
+        max_generations=1,
+    )
+    assert publish_run(
+        partial.run_dir, campaign_dir
+    ).is_file()  # nothing finished published yet: it may
     publish_run(finished.run_dir, campaign_dir)
     with pytest.raises(ConfigError, match="has not finished and does not replace it"):
         publish_run(partial.run_dir, campaign_dir)
@@ -341,10 +443,21 @@ def test_a_new_run_goes_only_into_a_missing_or_empty_folder(tmp_path, capsys, co
     else:
         (run_dir / content).write_bytes(b"keep")
     before = sorted(p.name for p in run_dir.iterdir())
-    args = ["campaign", "--profile", "ci", "--evaluator", "synthetic", "--workers", "0", "--no-progress"]
+    args = [
+        "campaign",
+        "--profile",
+        "ci",
+        "--evaluator",
+        "synthetic",
+        "--workers",
+        "0",
+        "--no-progress",
+    ]
     assert main(args + ["--run-dir", str(run_dir)]) == 2
     err = capsys.readouterr().err
-    assert "is not empty" in err and content.rstrip("/") in err and len(err.strip().splitlines()) == 1
+    assert (
+        "is not empty" in err and content.rstrip("/") in err and len(err.strip().splitlines()) == 1
+    )
     assert sorted(p.name for p in run_dir.iterdir()) == before
     assert content.endswith("/") or (run_dir / content).read_bytes() == b"keep"
     for blank in ("", "  "):

@@ -11,8 +11,15 @@ def fly(settings, elements_deg, **kwargs):
     design_life = kwargs.pop("design_life", settings.design_life)
     t0 = kwargs.pop("t0_tdb_s", None)
     t0 = tdb_seconds(settings.epoch.start_tdb, "TDB") if t0 is None else t0
-    return simulate_life(design_life, settings.dynamics, elements_deg, t0, stability=settings.stability,
-                         dop=settings.dop, **kwargs)
+    return simulate_life(
+        design_life,
+        settings.dynamics,
+        elements_deg,
+        t0,
+        stability=settings.stability,
+        dop=settings.dop,
+        **kwargs,
+    )
 
 
 def paper_degree8():

@@ -4,14 +4,13 @@ design lives (degree 8 field, fast); the service controller is tested in test_se
 import numpy as np
 import pytest
 
-from lnss_lib.settings import load_settings
 from lnss_lib.constants import SECONDS_PER_DAY
-from lnss_lib.ephemeris import ensure_kernels, tdb_seconds
-from lnss_lib.errors import ImpactError
-from lnss_lib.design_life.mean_elements import mean_elements, relative_angles
-from lnss_lib.propagator import elements_deg_to_states, propagate_states
 from lnss_lib.design_life.closed_loop import life_force_model
-from lnss_lib.errors import ConfigError
+from lnss_lib.design_life.mean_elements import mean_elements, relative_angles
+from lnss_lib.ephemeris import ensure_kernels, tdb_seconds
+from lnss_lib.errors import ConfigError, ImpactError
+from lnss_lib.propagator import elements_deg_to_states, propagate_states
+from lnss_lib.settings import load_settings
 
 from .helpers import fly
 
@@ -20,7 +19,9 @@ LIFE_DAYS = 60.0
 
 @pytest.fixture(scope="module")
 def life_profile():
-    profile = load_settings("paper", overrides={"gravity": {"degree": 8}, "design_life": {"controller": "box"}})
+    profile = load_settings(
+        "paper", overrides={"gravity": {"degree": 8}, "design_life": {"controller": "box"}}
+    )
     ensure_kernels(profile.ephemeris)
     return profile
 
@@ -34,8 +35,12 @@ def life_model(life_profile):
 def test_frozen_orbit_holds_its_box_for_far_less_deltav(life_profile, life_model):
     """AOP 90 deg at the ELFO's a, e and i keeps the apse line (natural AOP within a few degrees over
     120 days); AOP 0 deg at the same a, e, i has its apse line turned by the Earth's tide."""
-    frozen = fly(life_profile, [[6143.0, 0.6, 51.7, 0.0, 90.0, 0.0]], life_days=LIFE_DAYS, model=life_model)
-    loose = fly(life_profile, [[6143.0, 0.6, 51.7, 0.0, 0.0, 0.0]], life_days=LIFE_DAYS, model=life_model)
+    frozen = fly(
+        life_profile, [[6143.0, 0.6, 51.7, 0.0, 90.0, 0.0]], life_days=LIFE_DAYS, model=life_model
+    )
+    loose = fly(
+        life_profile, [[6143.0, 0.6, 51.7, 0.0, 0.0, 0.0]], life_days=LIFE_DAYS, model=life_model
+    )
     dv_frozen, dv_loose = float(frozen.dv_kms_per_year[0]), float(loose.dv_kms_per_year[0])
     assert bool(frozen.box_held[0]) and not bool(frozen.impact[0])
     assert dv_frozen < 0.3 * dv_loose, (dv_frozen, dv_loose)
@@ -44,9 +49,14 @@ def test_frozen_orbit_holds_its_box_for_far_less_deltav(life_profile, life_model
     t = loose.maneuver_t_tdb_s.values[0]
     t = t[np.isfinite(t)]
     assert t.size == int(loose.n_maneuvers[0]) and np.all(np.diff(t) > 0)
-    assert np.all((t > loose.attrs["t0_tdb_s"]) & (t < loose.attrs["t0_tdb_s"] + LIFE_DAYS * SECONDS_PER_DAY))
-    np.testing.assert_allclose(np.nansum(np.linalg.norm(loose.maneuver_dv_rtn_kms.values[0], axis=-1)),
-                               float(loose.dv_total_kms[0]), rtol=1e-12)
+    assert np.all(
+        (t > loose.attrs["t0_tdb_s"]) & (t < loose.attrs["t0_tdb_s"] + LIFE_DAYS * SECONDS_PER_DAY)
+    )
+    np.testing.assert_allclose(
+        np.nansum(np.linalg.norm(loose.maneuver_dv_rtn_kms.values[0], axis=-1)),
+        float(loose.dv_total_kms[0]),
+        rtol=1e-12,
+    )
 
 
 def test_natural_drift_leaves_the_box_that_station_keeping_holds(life_profile, life_model):
@@ -63,18 +73,31 @@ def test_impact_is_reported_with_its_day(life_profile, life_model):
     ds = fly(life_profile, el, natural=True, life_days=LIFE_DAYS, model=life_model)
     assert bool(ds.impact[0]) and not bool(ds.box_held[0])
     t0 = ds.attrs["t0_tdb_s"]
-    states = elements_deg_to_states(life_profile.dynamics, ds.insertion_elements_deg.values, t0)   # after the initial trim
+    states = elements_deg_to_states(
+        life_profile.dynamics, ds.insertion_elements_deg.values, t0
+    )  # after the initial trim
     with pytest.raises(ImpactError) as caught:
-        propagate_states(life_profile.dynamics, states, t0, LIFE_DAYS * SECONDS_PER_DAY, 3600.0, model=life_model,
-                         setting="design_life")
+        propagate_states(
+            life_profile.dynamics,
+            states,
+            t0,
+            LIFE_DAYS * SECONDS_PER_DAY,
+            3600.0,
+            model=life_model,
+            setting="design_life",
+        )
     assert caught.value.sat == 0
     assert abs(float(ds.impact_day[0]) - caught.value.days) < 0.05
     assert 5.0 < float(ds.impact_day[0]) < LIFE_DAYS
-    assert np.all(np.isnan(ds.mean_elements.values[0][ds.check_day.values[0] > ds.impact_day.values[0] + 1]))
+    assert np.all(
+        np.isnan(ds.mean_elements.values[0][ds.check_day.values[0] > ds.impact_day.values[0] + 1])
+    )
 
 
-MAX_SETS_PER_MONTH = 4          # an operator's cadence: at most ~4 box corrections (pairs) per satellite and month
-MAX_BURNS_PER_SET = 4           # a correction pair plus its mean-a trim (one or two burns)
+MAX_SETS_PER_MONTH = (
+    4  # an operator's cadence: at most ~4 box corrections (pairs) per satellite and month
+)
+MAX_BURNS_PER_SET = 4  # a correction pair plus its mean-a trim (one or two burns)
 
 
 def test_two_planes_hold_every_box_at_an_operators_cadence(life_profile, life_model):
@@ -89,17 +112,23 @@ def test_two_planes_hold_every_box_at_an_operators_cadence(life_profile, life_mo
     assert bool(ds.box_held.all()), ds.max_box_ratio.values
     assert float(ds.max_box_ratio.max()) <= 1.0 + tol
     months = LIFE_DAYS / 30.44
-    assert np.all(ds.n_maneuver_sets.values <= MAX_SETS_PER_MONTH * months), ds.n_maneuver_sets.values
-    assert np.all(ds.n_maneuvers.values <= MAX_BURNS_PER_SET * np.maximum(ds.n_maneuver_sets.values, 1))
+    assert np.all(ds.n_maneuver_sets.values <= MAX_SETS_PER_MONTH * months), (
+        ds.n_maneuver_sets.values
+    )
+    assert np.all(
+        ds.n_maneuvers.values <= MAX_BURNS_PER_SET * np.maximum(ds.n_maneuver_sets.values, 1)
+    )
     days = ds.maneuver_day.values
     spacing = float(life_profile.design_life.min_maneuver_spacing_days)
-    for row in days:                                # sets start at least min spacing apart: gaps > 2 days are sets
+    for row in days:  # sets start at least min spacing apart: gaps > 2 days are sets
         burns = row[np.isfinite(row)]
         starts = burns[np.r_[True, np.diff(burns) > 2.0]] if burns.size else burns
         assert np.all(np.diff(starts) >= spacing - 1e-9), starts
     assert np.all(np.isfinite(ds.r_mci_km.values)) and ds.sizes["sample"] == int(LIFE_DAYS) + 1
     radius = np.linalg.norm(ds.r_mci_km.values, axis=-1)
-    assert np.all((radius > 1737.4) & (radius < 6143.0 * 1.7))       # above the surface, below apolune + margin
+    assert np.all(
+        (radius > 1737.4) & (radius < 6143.0 * 1.7)
+    )  # above the surface, below apolune + margin
     err = ds.box_error.sel(box=["raan_rel_deg", "u_rel_deg"]).values
     np.testing.assert_allclose(np.sin(err).sum(axis=0), 0.0, atol=1e-9)
 
@@ -109,24 +138,39 @@ def test_initial_trim_matches_the_design_mean_a(life_profile, life_model):
     orbit of each insertion state averages to the design a within 0.01 km (untrimmed, satellites at
     different mean anomalies are > 1 km apart: the slots would drift ~0.2 deg/day per km)."""
     from lnss_lib.constellation import planes_elements_deg
-    from lnss_lib.elements import orbital_period_s
-    from lnss_lib.frames import element_frame_to_j2000
     from lnss_lib.design_life.mean_elements import to_element_frame
     from lnss_lib.design_life.propagation import trim_to_mean
+    from lnss_lib.elements import orbital_period_s
+    from lnss_lib.frames import element_frame_to_j2000
 
     el = planes_elements_deg(6143.0, 0.6, 51.7, 90.0, [0.0], 4)
     t0 = tdb_seconds(life_profile.epoch.start_tdb, "TDB")
     gm = float(life_profile.gravity.gm_km3_s2)
     period = float(orbital_period_s(6143.0, gm))
     rot = element_frame_to_j2000(life_profile.dynamics, t0)
-    insert, resid = trim_to_mean(life_profile.dynamics, el, t0, life_model, life_profile.integrator.named("design_life"))
+    insert, resid = trim_to_mean(
+        life_profile.dynamics, el, t0, life_model, life_profile.integrator.named("design_life")
+    )
     assert np.all(np.abs(resid[:, 0]) < 0.01)
 
     def first_orbit_mean_a(elements):
-        ds = propagate_states(life_profile.dynamics, elements_deg_to_states(life_profile.dynamics, elements, t0), t0, period,
-                              period / 128, batch=True, model=life_model, setting="design_life")
-        states = np.concatenate([ds.r_mci_km.transpose("sat", "time", "xyz").values,
-                                 ds.v_mci_kms.transpose("sat", "time", "xyz").values], axis=-1)
+        ds = propagate_states(
+            life_profile.dynamics,
+            elements_deg_to_states(life_profile.dynamics, elements, t0),
+            t0,
+            period,
+            period / 128,
+            batch=True,
+            model=life_model,
+            setting="design_life",
+        )
+        states = np.concatenate(
+            [
+                ds.r_mci_km.transpose("sat", "time", "xyz").values,
+                ds.v_mci_kms.transpose("sat", "time", "xyz").values,
+            ],
+            axis=-1,
+        )
         return mean_elements(to_element_frame(states, rot), gm)[:, 0]
 
     np.testing.assert_allclose(first_orbit_mean_a(insert), 6143.0, atol=0.01)
@@ -143,13 +187,17 @@ def test_mean_elements_of_a_keplerian_orbit_are_its_elements():
     states = kepler_states(el, np.linspace(0.0, period, 257), gm)[0]
     mean = mean_elements(states, gm)
     np.testing.assert_allclose(mean[:5], el[:5], rtol=1e-9, atol=1e-9)
-    np.testing.assert_allclose(mean[5], np.mod(el[4] + np.pi, 2 * np.pi), atol=1e-9)   # u at the window centre
+    np.testing.assert_allclose(
+        mean[5], np.mod(el[4] + np.pi, 2 * np.pi), atol=1e-9
+    )  # u at the window centre
 
 
 def test_relative_angles_remove_the_common_motion():
     nominal = np.radians([0.0, 90.0, 180.0, 270.0])
     angles = nominal + 1.0 + np.radians([1.0, -1.0, 0.5, -0.5])
-    np.testing.assert_allclose(relative_angles(angles, nominal), np.radians([1.0, -1.0, 0.5, -0.5]), atol=1e-12)
+    np.testing.assert_allclose(
+        relative_angles(angles, nominal), np.radians([1.0, -1.0, 0.5, -0.5]), atol=1e-12
+    )
 
 
 def test_settings_are_checked(life_profile):
@@ -186,24 +234,53 @@ def test_sampled_positions_agree_with_a_plain_propagation(life_profile, life_mod
     ds = fly(life_profile, el, natural=True, life_days=life, model=life_model, sample_step_s=step_s)
     t0 = ds.attrs["t0_tdb_s"]
     assert ds.r_mci_km.dims == ("sat", "sample", "xyz") and ds.sizes["sample"] == int(life * 4) + 1
-    np.testing.assert_allclose(ds.sample_t_tdb_s.values, t0 + step_s * np.arange(ds.sizes["sample"]), rtol=0, atol=1e-6)
+    np.testing.assert_allclose(
+        ds.sample_t_tdb_s.values, t0 + step_s * np.arange(ds.sizes["sample"]), rtol=0, atol=1e-6
+    )
     base = life_profile.integrator.settings["design_life"]
-    ensemble = {f"_x{k}": {"method": base.method, "rtol": base.rtol * 2 ** (k / 4), "atol": base.atol * 2 ** (k / 4)}
-                for k in range(-4, 5)}
-    references = {"_tight": {"method": "DOP853", "rtol": 1e-13, "atol": 1e-14},
-                  "_tighter": {"method": "DOP853", "rtol": 1e-14, "atol": 1e-14}}
+    ensemble = {
+        f"_x{k}": {
+            "method": base.method,
+            "rtol": base.rtol * 2 ** (k / 4),
+            "atol": base.atol * 2 ** (k / 4),
+        }
+        for k in range(-4, 5)
+    }
+    references = {
+        "_tight": {"method": "DOP853", "rtol": 1e-13, "atol": 1e-14},
+        "_tighter": {"method": "DOP853", "rtol": 1e-14, "atol": 1e-14},
+    }
     prof = life_profile.with_overrides({"integrator": {"settings": {**ensemble, **references}}})
-    states = elements_deg_to_states(life_profile.dynamics, ds.insertion_elements_deg.values, t0)   # after the initial trim
-    r = {name: propagate_states(prof.dynamics, states, t0, life * SECONDS_PER_DAY, step_s, batch=True, model=life_model,
-                                setting=name).r_mci_km.transpose("sat", "time", "xyz").values
-         for name in (*ensemble, *references)}
+    states = elements_deg_to_states(
+        life_profile.dynamics, ds.insertion_elements_deg.values, t0
+    )  # after the initial trim
+    r = {
+        name: propagate_states(
+            prof.dynamics,
+            states,
+            t0,
+            life * SECONDS_PER_DAY,
+            step_s,
+            batch=True,
+            model=life_model,
+            setting=name,
+        )
+        .r_mci_km.transpose("sat", "time", "xyz")
+        .values
+        for name in (*ensemble, *references)
+    }
     tight = r["_tight"]
     assert r["_x0"].shape == ds.r_mci_km.shape
     envelope_km = max(np.linalg.norm(r[name] - tight, axis=-1).max() for name in ensemble)
     err_sampled = np.linalg.norm(ds.r_mci_km.values - tight, axis=-1)
-    assert np.all(np.isfinite(err_sampled)) and err_sampled.max() <= 2.0 * envelope_km, (err_sampled.max(), envelope_km)
+    assert np.all(np.isfinite(err_sampled)) and err_sampled.max() <= 2.0 * envelope_km, (
+        err_sampled.max(),
+        envelope_km,
+    )
     gm = life_profile.gravity.gm_km3_s2
-    v_apolune_kms = np.linalg.norm(elements_to_state(np.array([sma_km, ecc, 0.0, 0.0, 0.0, np.pi]), gm)[3:])
+    v_apolune_kms = np.linalg.norm(
+        elements_to_state(np.array([sma_km, ecc, 0.0, 0.0, 0.0, np.pi]), gm)[3:]
+    )
     assert 2.0 * envelope_km < 5.0 * v_apolune_kms, (envelope_km, v_apolune_kms)
     assert np.linalg.norm(tight - r["_tighter"], axis=-1).max() < 0.1 * envelope_km
     with pytest.raises(ValueError, match="sample_step_s"):
@@ -212,23 +289,34 @@ def test_sampled_positions_agree_with_a_plain_propagation(life_profile, life_mod
 
 def test_sampled_positions_are_nan_after_an_impact(life_profile, life_model):
     el = [[15000.0, 0.6, 80.0, 0.0, 90.0, 0.0]]
-    ds = fly(life_profile, el, natural=True, life_days=LIFE_DAYS, model=life_model, sample_step_s=SECONDS_PER_DAY)
+    ds = fly(
+        life_profile,
+        el,
+        natural=True,
+        life_days=LIFE_DAYS,
+        model=life_model,
+        sample_step_s=SECONDS_PER_DAY,
+    )
     day = ds.sample_day.values
     r = ds.r_mci_km.values[0]
-    assert np.all(np.isfinite(r[day < float(ds.impact_day[0])])) and np.all(np.isnan(r[day > float(ds.impact_day[0])]))
+    assert np.all(np.isfinite(r[day < float(ds.impact_day[0])])) and np.all(
+        np.isnan(r[day > float(ds.impact_day[0])])
+    )
 
 
 def test_a_burn_set_is_queued_whole_within_the_budget_and_finite_or_not_at_all():
     """The enqueue rule of the Delta-v cap: a set (e-vector pair plus a plane change) is queued whole when its total
     fits the budget, not at all when it does not (none of its burns), and never with a non-finite impulse, even with
     no budget limit (safety)."""
-    from lnss_lib.design_life.manoeuvres import ImpulsePlan, plan_impulses
     from lnss_lib.design_life.closed_loop import _enqueue
+    from lnss_lib.design_life.manoeuvres import ImpulsePlan, plan_impulses
 
     gm = 4902.8
     osc = np.array([6143.0, 0.6, np.radians(51.7), 0.2, np.radians(90.0), 0.4])
-    sets = [("navigation", plan_impulses(osc, gm, {"a_km": 0.0, "ex": 0.0, "ey": -0.01}, max_burns=2)),
-            ("relative_node", plan_impulses(osc, gm, {"raan_rad": np.radians(0.5)}, max_burns=1))]
+    sets = [
+        ("navigation", plan_impulses(osc, gm, {"a_km": 0.0, "ex": 0.0, "ey": -0.01}, max_burns=2)),
+        ("relative_node", plan_impulses(osc, gm, {"raan_rad": np.radians(0.5)}, max_burns=1)),
+    ]
     total = sum(plan.dv_total_kms for _, plan in sets)
     assert total > 0.0
     queue = []
@@ -246,8 +334,14 @@ def test_box_never_flies_past_the_deltav_cap():
     sets planned as the tide drives e up used to be checked only against what was already flown, so the last one
     went past the cap (0.2229 / 0.2203 km/s; over a year, with the full field, burns of 5.5 and 4.2 km/s unbound
     a satellite). Every satellite stays within the cap and every burn is finite."""
-    profile = load_settings("paper", overrides={"gravity": {"degree": 8}, "design_life": {"controller": "box"},
-                                               "frames": {"element_frame": "moon_op"}})
+    profile = load_settings(
+        "paper",
+        overrides={
+            "gravity": {"degree": 8},
+            "design_life": {"controller": "box"},
+            "frames": {"element_frame": "moon_op"},
+        },
+    )
     from lnss_lib.constellation import WalkerDesign
 
     ds = fly(profile, WalkerDesign(24000.0, 0.2, 75.0, 90.0, 2, 1).elements_deg(), life_days=80.0)
@@ -268,16 +362,32 @@ def test_a_burn_set_whose_orbits_dive_below_the_floor_is_not_queued():
     from lnss_lib.design_life.manoeuvres import ImpulsePlan, lowest_perilune_km
 
     gm, a, e = 4902.8, 6143.0, 0.6
-    osc = np.array([a, e, np.radians(51.7), 0.2, np.radians(90.0), np.pi])       # at apolune
+    osc = np.array([a, e, np.radians(51.7), 0.2, np.radians(90.0), np.pi])  # at apolune
     r_a, r_p_low = a * (1.0 + e), 1500.0
-    v_a, v_a_new = np.sqrt(gm * (2.0 / r_a - 1.0 / a)), np.sqrt(gm * (2.0 / r_a - 2.0 / (r_a + r_p_low)))
-    v_p_new, v_p_back = np.sqrt(gm * (2.0 / r_p_low - 2.0 / (r_a + r_p_low))), np.sqrt(gm * (2.0 / r_p_low - 2.0 / (r_a + r_p_low + 3000.0)))
+    v_a, v_a_new = (
+        np.sqrt(gm * (2.0 / r_a - 1.0 / a)),
+        np.sqrt(gm * (2.0 / r_a - 2.0 / (r_a + r_p_low))),
+    )
+    v_p_new, v_p_back = (
+        np.sqrt(gm * (2.0 / r_p_low - 2.0 / (r_a + r_p_low))),
+        np.sqrt(gm * (2.0 / r_p_low - 2.0 / (r_a + r_p_low + 3000.0))),
+    )
     half_period = np.pi * np.sqrt(((r_a + r_p_low) / 2.0) ** 3 / gm)
-    dive = ImpulsePlan(np.array([0.0, half_period]), np.array([[0.0, v_a_new - v_a, 0.0], [0.0, v_p_back - v_p_new, 0.0]]),
-                       np.zeros(1), np.zeros(1))
-    assert lowest_perilune_km(osc, gm, dive.dt_s, dive.dv_rtn_kms) == pytest.approx(r_p_low, rel=1e-9)
+    dive = ImpulsePlan(
+        np.array([0.0, half_period]),
+        np.array([[0.0, v_a_new - v_a, 0.0], [0.0, v_p_back - v_p_new, 0.0]]),
+        np.zeros(1),
+        np.zeros(1),
+    )
+    assert lowest_perilune_km(osc, gm, dive.dt_s, dive.dv_rtn_kms) == pytest.approx(
+        r_p_low, rel=1e-9
+    )
     assert lowest_perilune_km(osc, gm, dive.dt_s[:0], dive.dv_rtn_kms[:0]) == np.inf
-    assert lowest_perilune_km(osc, gm, [0.0], [[0.0, 2.0, 0.0]]) == -np.inf                     # escape
+    assert lowest_perilune_km(osc, gm, [0.0], [[0.0, 2.0, 0.0]]) == -np.inf  # escape
     queue = []
-    assert not _enqueue(queue, 0.0, osc, gm, [("navigation", dive)], floor_km=1737.4) and queue == []
-    assert _enqueue(queue, 0.0, osc, gm, [("navigation", dive)], floor_km=1400.0) and len(queue) == 2
+    assert (
+        not _enqueue(queue, 0.0, osc, gm, [("navigation", dive)], floor_km=1737.4) and queue == []
+    )
+    assert (
+        _enqueue(queue, 0.0, osc, gm, [("navigation", dive)], floor_km=1400.0) and len(queue) == 2
+    )

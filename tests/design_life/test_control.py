@@ -5,18 +5,24 @@ loop that has nothing to do."""
 import numpy as np
 import pytest
 
-from lnss_lib.settings import load_settings
 from lnss_lib.constants import SECONDS_PER_DAY
 from lnss_lib.design_life.closed_loop import BOX_KEYS, _plan
-from lnss_lib.design_life.control import (SlotState, drift_band_rate, overshoot_target, predicted_exit, running_mean,
-                                          tidal_mean)
+from lnss_lib.design_life.control import (
+    SlotState,
+    drift_band_rate,
+    overshoot_target,
+    predicted_exit,
+    running_mean,
+    tidal_mean,
+)
 from lnss_lib.design_life.evaluation import evaluate_design_life
 from lnss_lib.design_life.manoeuvres import CONTROL_ROWS, kepler_achieved, plan_impulses
 from lnss_lib.elements import kepler_states
+from lnss_lib.settings import load_settings
 
-GM = 4902.7999671                      # km^3/s^2, the paper profile's lunar GM
-ELFO = np.array([6143.0, 0.6, np.radians(51.7), 0.0, np.radians(90.0), np.pi])   # at apolune (rad)
-TIDE_DAYS = 13.66                      # half the sidereal month
+GM = 4902.7999671  # km^3/s^2, the paper profile's lunar GM
+ELFO = np.array([6143.0, 0.6, np.radians(51.7), 0.0, np.radians(90.0), np.pi])  # at apolune (rad)
+TIDE_DAYS = 13.66  # half the sidereal month
 
 
 @pytest.mark.parametrize("error", [0.07, -0.07, 0.031, -1e-9])
@@ -26,7 +32,9 @@ def test_overshoot_lands_at_the_target_fraction_on_the_far_side(error):
     assert error + change == pytest.approx(-np.sign(error) * fraction * half, abs=1e-15)
 
 
-@pytest.mark.parametrize("u0, accel", [(0.1, 2e-13), (-0.1, 2e-13), (0.15, -5e-14), (-0.02, -3e-12)])
+@pytest.mark.parametrize(
+    "u0, accel", [(0.1, 2e-13), (-0.1, 2e-13), (0.15, -5e-14), (-0.02, -3e-12)]
+)
 def test_drift_band_parabola_turns_at_the_far_edge(u0, accel):
     """u(t) = u0 + r t + a t^2 / 2 turns where r + a t = 0, at u0 - r^2 / (2 a): on the far edge
     (-sign(a) x fraction x half) whenever the rate this needs is at least the crossing floor."""
@@ -34,9 +42,11 @@ def test_drift_band_parabola_turns_at_the_far_edge(u0, accel):
     rate = drift_band_rate(u0, accel, half, fraction, coast_s)
     floor = (abs(u0) + fraction * half) / coast_s
     assert abs(rate) >= floor * (1.0 - 1e-12)
-    if abs(rate) > floor * (1.0 + 1e-12):                  # turned by the acceleration
+    if abs(rate) > floor * (1.0 + 1e-12):  # turned by the acceleration
         assert np.sign(rate) == -np.sign(accel)
-        assert u0 - rate ** 2 / (2.0 * accel) == pytest.approx(-np.sign(accel) * fraction * half, rel=1e-12)
+        assert u0 - rate**2 / (2.0 * accel) == pytest.approx(
+            -np.sign(accel) * fraction * half, rel=1e-12
+        )
 
 
 @pytest.mark.parametrize("u0", [0.1, -0.1])
@@ -48,30 +58,36 @@ def test_drift_band_without_acceleration_crosses_the_box_in_the_coast(u0):
 
 def test_predicted_exit_only_when_leaving_outward():
     half, look = 0.1, SECONDS_PER_DAY
-    assert predicted_exit(0.09, 0.02 / SECONDS_PER_DAY, 0.0, half, look)          # crosses +half, outward
-    assert not predicted_exit(0.05, 0.02 / SECONDS_PER_DAY, 0.0, half, look)      # still inside at the end
-    assert not predicted_exit(0.15, -0.02 / SECONDS_PER_DAY, 0.0, half, look)     # outside, already coming back
-    assert predicted_exit(-0.09, -0.02 / SECONDS_PER_DAY, 0.0, half, look)        # the other side
+    assert predicted_exit(0.09, 0.02 / SECONDS_PER_DAY, 0.0, half, look)  # crosses +half, outward
+    assert not predicted_exit(
+        0.05, 0.02 / SECONDS_PER_DAY, 0.0, half, look
+    )  # still inside at the end
+    assert not predicted_exit(
+        0.15, -0.02 / SECONDS_PER_DAY, 0.0, half, look
+    )  # outside, already coming back
+    assert predicted_exit(-0.09, -0.02 / SECONDS_PER_DAY, 0.0, half, look)  # the other side
     # outward now, but turned around by the acceleration before the look-ahead ends: no burn
-    assert not predicted_exit(0.11, 0.01 / SECONDS_PER_DAY, -0.04 / SECONDS_PER_DAY ** 2, half, look)
+    assert not predicted_exit(0.11, 0.01 / SECONDS_PER_DAY, -0.04 / SECONDS_PER_DAY**2, half, look)
 
 
 def test_slot_fit_recovers_the_drift_of_a_mean_a_offset():
     """A satellite whose mean a is 0.5 km above the design's drifts back along its slot at -1.5 n da / a
     (the controller's slot model); on top, the Earth tide's half-month swing. The fit separates them."""
     a, da = 6143.0, 0.5
-    rate = -1.5 * np.sqrt(GM / a ** 3) * da / a                  # rad/s
-    accel = 3e-15                                                # rad/s^2, a slow creep
+    rate = -1.5 * np.sqrt(GM / a**3) * da / a  # rad/s
+    accel = 3e-15  # rad/s^2, a slow creep
     t = np.arange(0.0, 20.0 + 1e-9, 0.5) * SECONDS_PER_DAY
     swing = 0.004 * np.sin(2 * np.pi * (t / SECONDS_PER_DAY - 20.0) / TIDE_DAYS + 0.3)
-    slot = SlotState(history=list(zip(t, 0.01 + rate * t + 0.5 * accel * t ** 2 + swing)))
+    slot = SlotState(history=list(zip(t, 0.01 + rate * t + 0.5 * accel * t**2 + swing)))
     u_now, fit_rate, fit_accel, tide_now = slot.fit(3.0, 15.0, TIDE_DAYS)
     t_end = t[-1]
     assert fit_rate == pytest.approx(rate + accel * t_end, rel=1e-8)
     assert fit_accel == pytest.approx(accel, rel=1e-6)
-    assert u_now == pytest.approx(0.01 + rate * t_end + 0.5 * accel * t_end ** 2, abs=1e-10)
+    assert u_now == pytest.approx(0.01 + rate * t_end + 0.5 * accel * t_end**2, abs=1e-10)
     assert u_now + tide_now == pytest.approx(slot.history[-1][1], abs=1e-10)
-    assert SlotState(history=slot.history[:4]).fit(3.0, 15.0, TIDE_DAYS) is None      # 1.5 days: too short
+    assert (
+        SlotState(history=slot.history[:4]).fit(3.0, 15.0, TIDE_DAYS) is None
+    )  # 1.5 days: too short
 
 
 def test_tidal_mean_removes_the_half_month_swing():
@@ -102,11 +118,11 @@ def test_tangential_perilune_burn_changes_a_by_the_vis_viva_amount(da_km):
     assert plan.dv_rtn_kms.shape == (1, 3)
     assert abs(dv[0]) < 1e-9 * abs(dv[1]) and abs(dv[2]) < 1e-9 * abs(dv[1])
     # tolerance: what is left of the requested change, through the GVE row (da/dv_T = 2 a^2 v / GM)
-    tolerance = abs(plan.residual[0]) * GM / (2 * a ** 2 * v_before) + 1e-12
+    tolerance = abs(plan.residual[0]) * GM / (2 * a**2 * v_before) + 1e-12
     assert dv[1] == pytest.approx(v_after - v_before, abs=tolerance)
     assert abs(plan.residual[0]) < 1e-6 * abs(da_km)
     # the burn is flown at perilune: half an orbit after the apolune epoch
-    assert plan.dt_s[0] == pytest.approx(np.pi * np.sqrt(a ** 3 / GM), rel=1e-12)
+    assert plan.dt_s[0] == pytest.approx(np.pi * np.sqrt(a**3 / GM), rel=1e-12)
 
 
 @pytest.mark.parametrize("sign", [1.0, -1.0])
@@ -123,9 +139,13 @@ def test_box_plan_brings_an_aop_out_of_its_band_back_inside(sign):
     mel = np.array([ELFO[0], ELFO[1], ELFO[2], ELFO[3], ELFO[4], ELFO[4] + ELFO[5]])
     plan, a_change = _plan(ELFO, mel, ELFO[0], err, out, None, half, cfg, GM)
     assert a_change == 0.0 and plan is not None
-    got = kepler_achieved(ELFO, GM, plan.dt_s, plan.dv_rtn_kms, 2 * np.pi * np.sqrt(ELFO[0] ** 3 / GM))
+    got = kepler_achieved(
+        ELFO, GM, plan.dt_s, plan.dv_rtn_kms, 2 * np.pi * np.sqrt(ELFO[0] ** 3 / GM)
+    )
     change = dict(zip(CONTROL_ROWS, got))
-    residual = dict(zip(("ex", "ey", "inc_rad", "raan_rad", "a_km", "u_rad"), plan.residual))   # _plan's target order
+    residual = dict(
+        zip(("ex", "ey", "inc_rad", "raan_rad", "a_km", "u_rad"), plan.residual)
+    )  # _plan's target order
     e, aop = ELFO[1], ELFO[4]
     ex, ey = e * np.cos(aop) + change["ex"], e * np.sin(aop) + change["ey"]
     new_err = err[1] + (np.arctan2(ey, ex) - aop)
@@ -150,7 +170,13 @@ def test_a_design_inside_a_wide_box_flies_no_burn_and_matches_its_natural_drift(
     profile = load_settings("ci", overrides={"design_life": {"controller": "box", "box": wide}})
     elements = [[6143.0, 0.6, 51.7, 0.0, 90.0, 0.0], [6143.0, 0.6, 51.7, 180.0, 90.0, 180.0]]
     out = evaluate_design_life(profile, elements, 6.0)
-    assert out["n_maneuvers"] == 0 and out["sk_dv_kms_per_year"] == 0.0 and out["sk_dv_max_kms_per_year"] == 0.0
-    assert out["box_held"] is True and out["impact_day"] is None and out["natural_impact_day"] is None
+    assert (
+        out["n_maneuvers"] == 0
+        and out["sk_dv_kms_per_year"] == 0.0
+        and out["sk_dv_max_kms_per_year"] == 0.0
+    )
+    assert (
+        out["box_held"] is True and out["impact_day"] is None and out["natural_impact_day"] is None
+    )
     assert out["min_perilune_alt_km"] == out["natural_min_perilune_alt_km"]
     assert out["pdop_avail_pct_monthly"]["controlled"] == out["pdop_avail_pct_monthly"]["natural"]

@@ -6,10 +6,15 @@ import numpy as np
 import pytest
 
 from lnss_lib.config import ConfigError
-from lnss_lib.settings import load_settings
 from lnss_lib.constellation import WalkerDesign
 from lnss_lib.design_life.evaluation import life_metrics
-from lnss_lib.design_life.service import PURPOSES, burn_location, mean_vectors_j2000, raan_half_width_rad
+from lnss_lib.design_life.service import (
+    PURPOSES,
+    burn_location,
+    mean_vectors_j2000,
+    raan_half_width_rad,
+)
+from lnss_lib.settings import load_settings
 
 from .helpers import fly, model_from_epoch, paper_degree8
 
@@ -30,8 +35,10 @@ def model(profile):
 
 @pytest.fixture(scope="module")
 def driven_down(profile, model):
-    runs = {"controlled": fly(profile, DRIVEN_DOWN, life_days=LIFE_DAYS, model=model),
-            "natural": fly(profile, DRIVEN_DOWN, natural=True, life_days=LIFE_DAYS, model=model)}
+    runs = {
+        "controlled": fly(profile, DRIVEN_DOWN, life_days=LIFE_DAYS, model=model),
+        "natural": fly(profile, DRIVEN_DOWN, natural=True, life_days=LIFE_DAYS, model=model),
+    }
     return runs
 
 
@@ -41,25 +48,37 @@ def test_frozen_orbit_that_keeps_the_service_flies_no_burn(profile, model):
     el = [[6143.0, 0.6, 51.7, 0.0, 90.0, 0.0], [6143.0, 0.6, 51.7, 0.0, 90.0, 180.0]]
     ds = fly(profile, el, life_days=LIFE_DAYS, model=model, sample_step_s=3600.0)
     assert ds.attrs["controller"] == "service"
-    assert ds.attrs["navigation_violations"] == 0            # the monitor ran and found the requirement kept
+    assert ds.attrs["navigation_violations"] == 0  # the monitor ran and found the requirement kept
     assert int(ds["n_maneuvers"].sum()) == 0 and float(ds["dv_total_kms"].sum()) == 0.0
     assert not bool(ds["impact"].any()) and bool(ds["box_held"].all())
-    assert float(ds["min_perilune_alt_km"].min()) > 300.0     # 6143 (1 - 0.6) - 1737 = 720 km, minus the swing
+    assert (
+        float(ds["min_perilune_alt_km"].min()) > 300.0
+    )  # 6143 (1 - 0.6) - 1737 = 720 km, minus the swing
 
 
 def test_perilune_driven_down_gets_a_safety_burn_before_impact_and_survives(profile, driven_down):
     natural, ctl = driven_down["natural"], driven_down["controlled"]
     impact = float(natural["impact_day"][0])
-    assert np.isfinite(impact) and impact < LIFE_DAYS and str(natural["loss_cause"].values[0]) == "impact"
+    assert (
+        np.isfinite(impact)
+        and impact < LIFE_DAYS
+        and str(natural["loss_cause"].values[0]) == "impact"
+    )
     assert float(natural["loss_day"][0]) == pytest.approx(impact)
     assert not bool(ctl["impact"][0]) and str(ctl["loss_cause"].values[0]) == ""
     purposes = ctl["maneuver_purpose"].values[0]
     days = ctl["maneuver_day"].values[0]
     safety = purposes == "safety"
     assert safety.any() and np.nanmax(days[safety]) < impact
-    assert set(ctl["maneuver_location"].values[0][safety]) <= {"perilune", "apolune"}   # e vector at the apses
+    assert set(ctl["maneuver_location"].values[0][safety]) <= {
+        "perilune",
+        "apolune",
+    }  # e vector at the apses
     floor = float(profile.impact.min_altitude_km)
-    assert float(ctl["min_perilune_alt_km"][0]) > floor + profile.design_life.service.perilune_margin_km
+    assert (
+        float(ctl["min_perilune_alt_km"][0])
+        > floor + profile.design_life.service.perilune_margin_km
+    )
     assert float(natural["min_perilune_alt_km"][0]) <= floor
 
 
@@ -67,13 +86,22 @@ def test_deltav_split_adds_up_to_the_total(driven_down):
     ctl = driven_down["controlled"]
     total = ctl["dv_kms_per_year"].values
     assert total[0] > 0.0
-    np.testing.assert_allclose(ctl["dv_purpose_kms_per_year"].sum("purpose").values, total, rtol=1e-12)
-    np.testing.assert_allclose(ctl["dv_location_kms_per_year"].sum("location").values, total, rtol=1e-12)
+    np.testing.assert_allclose(
+        ctl["dv_purpose_kms_per_year"].sum("purpose").values, total, rtol=1e-12
+    )
+    np.testing.assert_allclose(
+        ctl["dv_location_kms_per_year"].sum("location").values, total, rtol=1e-12
+    )
     metrics = life_metrics(driven_down)
     assert set(metrics["sk_dv_split"]) == set(PURPOSES)
-    assert sum(metrics["sk_dv_split"].values()) == pytest.approx(metrics["sk_dv_kms_per_year"], rel=1e-12)
+    assert sum(metrics["sk_dv_split"].values()) == pytest.approx(
+        metrics["sk_dv_kms_per_year"], rel=1e-12
+    )
     assert metrics["natural_min_perilune_alt_km"] < metrics["min_perilune_alt_km"]
-    assert metrics["lost_satellites"] == [] and metrics["natural_lost_satellites"][0]["cause"] == "impact"
+    assert (
+        metrics["lost_satellites"] == []
+        and metrics["natural_lost_satellites"][0]["cause"] == "impact"
+    )
 
 
 @pytest.mark.parametrize("controller", ["service", "box"])
@@ -81,8 +109,12 @@ def test_a_design_the_trim_cannot_hold_completes(profile, model, controller):
     """Near-circular orbits whose first-orbit mean e is larger than the design's: the insertion trim once stepped
     to e < 0 and stopped the evaluation ("eccentricity must be in [0, 1)"); now every satellite is flown."""
     el = WalkerDesign(11925.0, 0.005, 152.0, 23.6, 3, 1).elements_deg()
-    ds = fly(profile, el, model=model, design_life=dataclasses.replace(profile.design_life, life_days=20.0,
-                                                                       controller=controller))
+    ds = fly(
+        profile,
+        el,
+        model=model,
+        design_life=dataclasses.replace(profile.design_life, life_days=20.0, controller=controller),
+    )
     assert ds.sizes["sat"] == 3 and np.all(np.isfinite(ds["dv_kms_per_year"].values))
     assert np.all(ds["insertion_elements_deg"].values[:, 1] >= 0.0)
 
@@ -100,7 +132,9 @@ def test_burn_location_names_apses_and_nodes():
 
 
 def _normal(inc_rad, raan_rad):
-    return np.array([np.sin(inc_rad) * np.sin(raan_rad), -np.sin(inc_rad) * np.cos(raan_rad), np.cos(inc_rad)])
+    return np.array(
+        [np.sin(inc_rad) * np.sin(raan_rad), -np.sin(inc_rad) * np.cos(raan_rad), np.cos(inc_rad)]
+    )
 
 
 def _plane_angle(n1, n2):
@@ -117,8 +151,12 @@ def test_raan_half_width_tilts_the_plane_by_the_tolerance(tol_deg):
         inc = np.radians(inc_deg)
         half = float(raan_half_width_rad(tol, inc))
         assert half < np.pi
-        assert _plane_angle(_normal(inc, 0.3), _normal(inc, 0.3 + half)) == pytest.approx(tol, rel=1e-9)
-        assert half * abs(np.sin(inc)) / tol == pytest.approx(1.0, abs=0.3 * (half / 2.0) ** 2 + 1e-12)
+        assert _plane_angle(_normal(inc, 0.3), _normal(inc, 0.3 + half)) == pytest.approx(
+            tol, rel=1e-9
+        )
+        assert half * abs(np.sin(inc)) / tol == pytest.approx(
+            1.0, abs=0.3 * (half / 2.0) ** 2 + 1e-12
+        )
     assert float(raan_half_width_rad(tol, np.pi / 2)) == pytest.approx(tol, rel=1e-12)
     for inc in (0.0, 0.2 * tol, 0.499 * tol, np.pi - 0.4 * tol):
         assert float(raan_half_width_rad(tol, inc)) == np.pi
@@ -132,8 +170,13 @@ def test_relative_node_is_held_as_the_tilt_of_the_plane(profile, inc_deg, tol_de
     tilts the plane by 2 deg, so the node is left free; the same design polar, with a tolerance that its few
     hundredths of a degree of relative RAAN exceed, is held."""
     el = WalkerDesign(5000.0, 0.05, 180.0, inc_deg, 2, 1).elements_deg()
-    prof = load_settings("paper", overrides={"gravity": {"degree": 8},
-                                            "design_life": {"service": {"tolerances": "fixed", "raan_rel_deg": tol_deg}}})
+    prof = load_settings(
+        "paper",
+        overrides={
+            "gravity": {"degree": 8},
+            "design_life": {"service": {"tolerances": "fixed", "raan_rel_deg": tol_deg}},
+        },
+    )
     ds = fly(prof, el, life_days=16.0)
     raan_err = np.abs(ds["box_error_tidal_mean"].sel(box="raan_rel_deg").values)
     assert np.nanmax(raan_err[:, ds["check_day"].values[0] > 13.7]) > np.radians(tol_deg)
@@ -162,8 +205,13 @@ def test_box_that_drives_satellites_out_of_lunar_orbit_reports_them_and_complete
     and the evaluation stopped ("elements must be 6 finite values"); now every loss is reported with its day
     and cause and the others fly on."""
     el = WalkerDesign(15940.0, 0.734, 180.0, 62.1, 3, 1).elements_deg()
-    ds = fly(paper_profile, el, design_life=dataclasses.replace(paper_profile.design_life, life_days=365.0,
-                                                                controller="box"))
+    ds = fly(
+        paper_profile,
+        el,
+        design_life=dataclasses.replace(
+            paper_profile.design_life, life_days=365.0, controller="box"
+        ),
+    )
     causes = [str(c) for c in ds["loss_cause"].values]
     assert "escape (unbound orbit)" in causes
     lost = np.isfinite(ds["loss_day"].values)
@@ -172,7 +220,9 @@ def test_box_that_drives_satellites_out_of_lunar_orbit_reports_them_and_complete
     assert np.all(np.isfinite(ds["dv_kms_per_year"].values))
 
 
-def test_a_satellite_whose_propagation_fails_is_reported_and_the_others_fly_on(profile, model, monkeypatch):
+def test_a_satellite_whose_propagation_fails_is_reported_and_the_others_fly_on(
+    profile, model, monkeypatch
+):
     """The engine gives up on satellite 1 in the third chunk (as it did on a Table 6 design: 'propagation failed
     for satellite(s) [9]' stopped the evaluation): it is reported lost with the engine's reason, satellite 0 flies
     the whole life."""
@@ -183,18 +233,27 @@ def test_a_satellite_whose_propagation_fails_is_reported_and_the_others_fly_on(p
 
     def failing(y0s, active, t0, t_out, *rest):
         states, y_end, status, t_stop = engine(y0s, active, t0, t_out, *rest)
-        if y0s.shape[0] == 2:                                   # the life loop (the insertion trim flies one at a time)
+        if y0s.shape[0] == 2:  # the life loop (the insertion trim flies one at a time)
             calls.append(t0)
             if len(calls) == 3:
-                states[1], y_end[1], status[1], t_stop[1] = np.nan, np.nan, STATUS_MAX_STEPS, t_out[0]
+                states[1], y_end[1], status[1], t_stop[1] = (
+                    np.nan,
+                    np.nan,
+                    STATUS_MAX_STEPS,
+                    t_out[0],
+                )
         return states, y_end, status, t_stop
 
     monkeypatch.setattr(closed_loop, "integrate_chunk", failing)
     el = [[6143.0, 0.6, 51.7, 0.0, 90.0, 0.0], [6143.0, 0.6, 51.7, 0.0, 90.0, 180.0]]
     ds = fly(profile, el, life_days=10.0, model=model)
-    assert str(ds["loss_cause"].values[1]) == f"propagation failed ({STATUS_TEXT[STATUS_MAX_STEPS]})"
+    assert (
+        str(ds["loss_cause"].values[1]) == f"propagation failed ({STATUS_TEXT[STATUS_MAX_STEPS]})"
+    )
     assert 0.0 < float(ds["loss_day"][1]) < 10.0 and not bool(ds["impact"][1])
-    assert str(ds["loss_cause"].values[0]) == "" and np.isfinite(ds["mean_elements"].values[0, -1, 0])
+    assert str(ds["loss_cause"].values[0]) == "" and np.isfinite(
+        ds["mean_elements"].values[0, -1, 0]
+    )
 
 
 def test_a_safety_raise_keeps_the_recorded_dip_below_the_averaged_perilune():

@@ -8,8 +8,8 @@ import xarray as xr
 
 from lnss_lib.campaign import CampaignPlan, run_campaign
 from lnss_lib.campaign.journal import encode_record
-from lnss_lib.settings import load_settings
 from lnss_lib.keys import DESIGN_KEYS
+from lnss_lib.settings import load_settings
 
 
 @pytest.fixture(scope="module")
@@ -20,16 +20,21 @@ def settings():
 def _history(n_evaluated, wall_s, n_cache_hits, n_designs):
     gens = np.arange(1, len(n_evaluated) + 1)
     n_evaluated = np.asarray(n_evaluated)
-    return xr.Dataset({"n_evaluated": ("generation", n_evaluated), "wall_s": ("generation", np.asarray(wall_s, float)),
-                       "n_cache_hits": ("generation", np.asarray(n_cache_hits)),
-                       "n_designs": ("generation", np.asarray(n_designs)),
-                       "designs_per_s": ("generation", n_evaluated / np.asarray(wall_s, float)),
-                       "hypervolume": ("generation", np.linspace(0.0, 0.5, len(gens))),
-                       "min_cv_pop": ("generation", np.linspace(2.0, 0.0, len(gens))),
-                       "n_evaluations_cum": ("generation", np.cumsum(n_evaluated)),
-                       "n_feasible_cum": ("generation", np.arange(len(gens))),
-                       "n_feasible_pop": ("generation", np.arange(len(gens)) // 2)},
-                      coords={"generation": gens})
+    return xr.Dataset(
+        {
+            "n_evaluated": ("generation", n_evaluated),
+            "wall_s": ("generation", np.asarray(wall_s, float)),
+            "n_cache_hits": ("generation", np.asarray(n_cache_hits)),
+            "n_designs": ("generation", np.asarray(n_designs)),
+            "designs_per_s": ("generation", n_evaluated / np.asarray(wall_s, float)),
+            "hypervolume": ("generation", np.linspace(0.0, 0.5, len(gens))),
+            "min_cv_pop": ("generation", np.linspace(2.0, 0.0, len(gens))),
+            "n_evaluations_cum": ("generation", np.cumsum(n_evaluated)),
+            "n_feasible_cum": ("generation", np.arange(len(gens))),
+            "n_feasible_pop": ("generation", np.arange(len(gens)) // 2),
+        },
+        coords={"generation": gens},
+    )
 
 
 def test_settings_and_grid_tables_follow_the_settings(settings):
@@ -39,11 +44,17 @@ def test_settings_and_grid_tables_follow_the_settings(settings):
 
     table = settings_table(settings)
     assert table.loc["Population size", "this profile"] == settings.population
-    assert table.loc["Total evaluations", "this profile"] == settings.population * settings.generations
-    assert table.loc["Total evaluations", "paper"] == table.loc["Population size", "paper"] * table.loc[
-        "No. of generations", "paper"]
+    assert (
+        table.loc["Total evaluations", "this profile"] == settings.population * settings.generations
+    )
+    assert (
+        table.loc["Total evaluations", "paper"]
+        == table.loc["Population size", "paper"] * table.loc["No. of generations", "paper"]
+    )
     assert table.loc["Crossover fraction", "this profile"] == settings.crossover_prob
-    changed = settings_table(replace(settings, population=7, ftol=0.0, mutation_prob_var=0.0, seed=11))
+    changed = settings_table(
+        replace(settings, population=7, ftol=0.0, mutation_prob_var=0.0, seed=11)
+    )
     assert changed.loc["Population size", "this profile"] == 7
     assert changed.loc["Function tolerance", "this profile"] == "off"
     assert changed.loc["Function tolerance", "note"] == "fixed generations"
@@ -54,7 +65,10 @@ def test_settings_and_grid_tables_follow_the_settings(settings):
     for label, key in zip(grid.index, DESIGN_KEYS):
         v = spec[key]
         assert (grid.loc[label, "lower"], grid.loc[label, "upper"], grid.loc[label, "step"]) == (
-            v.lower, v.upper, v.step)
+            v.lower,
+            v.upper,
+            v.step,
+        )
         assert grid.loc[label, "levels"] == round((v.upper - v.lower) / v.step) + 1
 
 
@@ -66,26 +80,42 @@ def test_constraint_table_counts_each_bound_from_the_constraints():
     ev = synthetic_campaign(60, seed=3)
     pdop = ev["pdop_mean_3sigma"].values.copy()
     avail = ev["pdop_avail_pct"].values.copy()
-    pdop[:4], avail[:3] = np.nan, np.nan            # impacts / no coverage fail every bound on them
+    pdop[:4], avail[:3] = np.nan, np.nan  # impacts / no coverage fail every bound on them
     ev["pdop_mean_3sigma"], ev["pdop_avail_pct"] = ("design", pdop), ("design", avail)
     constraints = parse_constraints(ev.attrs["constraints"])
     table = constraint_table(ev, constraints)
-    assert list(table.index) == ["evaluated without impact", "PDOP (3-sigma mean) <= 10", "PDOP availability >= 70 %",
-                                 "Delta-V total <= 1 km/s/yr", "satellites <= 20",
-                                 "navigation bounds only (no Delta-V or stability bound)", "all Table 3 bounds (feasible)"]
+    assert list(table.index) == [
+        "evaluated without impact",
+        "PDOP (3-sigma mean) <= 10",
+        "PDOP availability >= 70 %",
+        "Delta-V total <= 1 km/s/yr",
+        "satellites <= 20",
+        "navigation bounds only (no Delta-V or stability bound)",
+        "all Table 3 bounds (feasible)",
+    ]
     assert table.loc["evaluated without impact", "designs"] == 57
     assert table.loc["PDOP (3-sigma mean) <= 10", "designs"] == int(np.sum(pdop[4:] <= 10.0))
     assert table.loc["PDOP availability >= 70 %", "designs"] == int(np.sum(avail[3:] >= 70.0))
-    assert table.loc["Delta-V total <= 1 km/s/yr", "designs"] == int(np.sum(ev.dv_total_kms_per_year.values <= 1.0))
+    assert table.loc["Delta-V total <= 1 km/s/yr", "designs"] == int(
+        np.sum(ev.dv_total_kms_per_year.values <= 1.0)
+    )
     navigation = satisfies(ev, [c for c in constraints if c[0] != "dv_total_kms_per_year"])
-    assert table.loc["navigation bounds only (no Delta-V or stability bound)", "designs"] == int(navigation.sum())
+    assert table.loc["navigation bounds only (no Delta-V or stability bound)", "designs"] == int(
+        navigation.sum()
+    )
     assert table.loc["all Table 3 bounds (feasible)", "designs"] == int(ev.feasible.sum())
     np.testing.assert_allclose(table["share (%)"], 100.0 * table["designs"] / 60)
     # other bounds: labels and counts follow the constraints, not fixed Table 3 numbers
-    looser = constraint_table(ev, [("pdop_mean_3sigma", "max", 5.0), ("dv_total_kms_per_year", "max", 2.0)])
+    looser = constraint_table(
+        ev, [("pdop_mean_3sigma", "max", 5.0), ("dv_total_kms_per_year", "max", 2.0)]
+    )
     assert looser.loc["PDOP (3-sigma mean) <= 5", "designs"] == int(np.sum(pdop[4:] <= 5.0))
-    assert looser.loc["Delta-V total <= 2 km/s/yr", "designs"] == int(np.sum(ev.dv_total_kms_per_year.values <= 2.0))
-    assert looser.loc["navigation bounds only (no Delta-V or stability bound)", "designs"] == int(np.sum(pdop[4:] <= 5.0))
+    assert looser.loc["Delta-V total <= 2 km/s/yr", "designs"] == int(
+        np.sum(ev.dv_total_kms_per_year.values <= 2.0)
+    )
+    assert looser.loc["navigation bounds only (no Delta-V or stability bound)", "designs"] == int(
+        np.sum(pdop[4:] <= 5.0)
+    )
     assert bound_text("hdop_avail_pct", "min", 90.5) == "HDOP availability >= 90.5 %"
     with pytest.raises(ValueError, match="'between'"):
         constraint_table(ev, [("n_sat", "between", 3.0)])
@@ -94,34 +124,69 @@ def test_constraint_table_counts_each_bound_from_the_constraints():
 
 
 def test_throughput_table_from_hand_made_history(tmp_path):
-    from lnss_lib.studies.campaign import run_throughput_table, steady_designs_per_s, throughput_table
+    from lnss_lib.studies.campaign import (
+        run_throughput_table,
+        steady_designs_per_s,
+        throughput_table,
+    )
 
     history = _history([6, 5, 4], [2.0, 1.0, 1.0], [0, 1, 2], [6, 6, 6])
-    timing = {"n_evaluations": 15, "worker_budget_s": 8.0, "propagation_s": 2.0, "metrics_s": 1.0,
-              "in_task_overhead_s": 1.0, "campaign_overhead_s": 4.0}
+    timing = {
+        "n_evaluations": 15,
+        "worker_budget_s": 8.0,
+        "propagation_s": 2.0,
+        "metrics_s": 1.0,
+        "in_task_overhead_s": 1.0,
+        "campaign_overhead_s": 4.0,
+    }
     t = throughput_table(history, 3, timing, 2)["value"]
-    assert t["unique designs evaluated"] == 15 and t["unique feasible designs"] == 3 and t["worker processes"] == 2
+    assert (
+        t["unique designs evaluated"] == 15
+        and t["unique feasible designs"] == 3
+        and t["worker processes"] == 2
+    )
     assert t["campaign wall time (s, generations)"] == 4.0
     assert t["designs per second (overall)"] == pytest.approx(15 / 4)
     assert t["designs per second (generation 2 on)"] == pytest.approx(9 / 2)
     assert t["propagation (% of worker time)"] == pytest.approx(25.0)
     assert t["campaign overhead (%)"] == pytest.approx(50.0)
     assert t["cache hits (% of requested designs)"] == pytest.approx(100 * 3 / 18)
-    assert t["projected 120 x 1000 campaign at this profile's fidelity (h, this machine)"] == pytest.approx(
-        120000 / 4.5 / 3600)
-    assert t["... with this run's cache hits (h)"] == pytest.approx((1 - 3 / 18) * 120000 / 4.5 / 3600)
+    assert t[
+        "projected 120 x 1000 campaign at this profile's fidelity (h, this machine)"
+    ] == pytest.approx(120000 / 4.5 / 3600)
+    assert t["... with this run's cache hits (h)"] == pytest.approx(
+        (1 - 3 / 18) * 120000 / 4.5 / 3600
+    )
     one = _history([6], [3.0], [0], [6])
     assert steady_designs_per_s(one, 6) == pytest.approx(2.0)
     with pytest.raises(ValueError, match="workers"):
         throughput_table(history, 3, timing, 0)
     # from a run directory: workers counted from the cache records, shares from their timings
-    records = [{"key": [i, 0, 0, 0, 0, 0], "generation": 1, "worker": w, "task_wall_s": 1.0,
-                "timing_s": {"propagation": 0.5, "dop": 0.1, "deltav": 0.1, "gps": 0.05}}
-               for i, w in enumerate(("a", "b", "a", "b", "b"))]
-    (tmp_path / "evaluations.jsonl").write_text("\n".join([json.dumps({"evaluation_hash": "h", "format": 2})]
-                                                          + [encode_record(r) for r in records]) + "\n")
-    t = run_throughput_table(tmp_path, history, xr.Dataset({"feasible": ("design", [True, False])}), records)["value"]
-    assert t["worker processes"] == 2 and t["unique designs evaluated"] == 5 and t["unique feasible designs"] == 1
+    records = [
+        {
+            "key": [i, 0, 0, 0, 0, 0],
+            "generation": 1,
+            "worker": w,
+            "task_wall_s": 1.0,
+            "timing_s": {"propagation": 0.5, "dop": 0.1, "deltav": 0.1, "gps": 0.05},
+        }
+        for i, w in enumerate(("a", "b", "a", "b", "b"))
+    ]
+    (tmp_path / "evaluations.jsonl").write_text(
+        "\n".join(
+            [json.dumps({"evaluation_hash": "h", "format": 2})]
+            + [encode_record(r) for r in records]
+        )
+        + "\n"
+    )
+    t = run_throughput_table(
+        tmp_path, history, xr.Dataset({"feasible": ("design", [True, False])}), records
+    )["value"]
+    assert (
+        t["worker processes"] == 2
+        and t["unique designs evaluated"] == 5
+        and t["unique feasible designs"] == 1
+    )
     assert t["propagation (% of worker time)"] == pytest.approx(100 * 2.5 / 8.0)
     assert t["in-task overhead (%)"] == pytest.approx(100 * (5.0 - 2.5 - 1.25) / 8.0)
 
@@ -172,26 +237,47 @@ def test_load_or_run_shows_the_profiles_run_or_says_why_not(tiny_profiles, capsy
         load_or_run("tiny")
     own = run_campaign("tiny", workers=0, run_dir=folder / "run_1", progress=False)
     assert own.publication.startswith("published as the campaign of profile 'tiny'")
-    longer = run_campaign("tiny", overrides={"campaign": {"generations": 3}}, workers=0, run_dir=folder / "run_2",
-                          progress=False)
-    assert longer.publication.startswith("not published") and "campaign.generations = 3 (profile: 2)" in longer.publication
-    physics = run_campaign("tiny", overrides={"gravity": {"degree": 4}}, workers=0, run_dir=folder / "run_3",
-                           progress=False)
+    longer = run_campaign(
+        "tiny",
+        overrides={"campaign": {"generations": 3}},
+        workers=0,
+        run_dir=folder / "run_2",
+        progress=False,
+    )
+    assert (
+        longer.publication.startswith("not published")
+        and "campaign.generations = 3 (profile: 2)" in longer.publication
+    )
+    physics = run_campaign(
+        "tiny",
+        overrides={"gravity": {"degree": 4}},
+        workers=0,
+        run_dir=folder / "run_3",
+        progress=False,
+    )
     assert "evaluation settings differ" in physics.publication
-    (folder / "run_4").mkdir()               # no checkpoint: not a run to load
+    (folder / "run_4").mkdir()  # no checkpoint: not a run to load
     assert latest_run_dir(folder, "tiny") == (own.run_dir, [])
     shown = load_or_run("tiny")
-    assert shown.run_dir == own.run_dir and "the campaign of profile 'tiny', published" in shown.note
+    assert (
+        shown.run_dir == own.run_dir and "the campaign of profile 'tiny', published" in shown.note
+    )
     published = load_published(folder)
     assert published.pointer["run_dir"] == "run_1" and published.pointer["evaluator"] == "synthetic"
-    for got, want, pub in zip((shown.evaluations, shown.front, shown.history), export_results(own.run_dir),
-                              (published.evaluations, published.front, published.history)):
+    for got, want, pub in zip(
+        (shown.evaluations, shown.front, shown.history),
+        export_results(own.run_dir),
+        (published.evaluations, published.front, published.history),
+    ):
         xr.testing.assert_identical(got.drop_attrs(), want.drop_attrs())
         xr.testing.assert_identical(pub.drop_attrs(), want.drop_attrs())
     # the run that matches the --set overrides is shown, and not published
     shown = load_or_run("tiny", '{"campaign": {"generations": 3}}')
     assert shown.run_dir == longer.run_dir and "not published" in shown.note
-    assert shown.history.sizes["generation"] == 3 and load_published(folder).pointer["run_dir"] == "run_1"
+    assert (
+        shown.history.sizes["generation"] == 3
+        and load_published(folder).pointer["run_dir"] == "run_1"
+    )
     # no run is the profile's: the newest is shown with the reason, and its own settings
     (own.run_dir / "checkpoint.pkl").unlink()
     shown = load_or_run("tiny")
@@ -201,10 +287,16 @@ def test_load_or_run_shows_the_profiles_run_or_says_why_not(tiny_profiles, capsy
     # run mode runs the campaign with the notebook's overrides
     ran = load_or_run("tinyrun", '{"campaign": {"generations": 3}}')
     assert ran.history.sizes["generation"] == 3 and ran.settings.campaign.generations == 3
-    assert "not published" in ran.note and load_published(tiny_profiles / "tinyrun" / "campaign") is None
+    assert (
+        "not published" in ran.note
+        and load_published(tiny_profiles / "tinyrun" / "campaign") is None
+    )
     ran = load_or_run("tinyrun")
     assert ran.history.sizes["generation"] == 2 and "published" in ran.note
-    assert load_published(tiny_profiles / "tinyrun" / "campaign").pointer["run_dir"] == ran.run_dir.name
+    assert (
+        load_published(tiny_profiles / "tinyrun" / "campaign").pointer["run_dir"]
+        == ran.run_dir.name
+    )
 
 
 def test_notebooks_fall_back_to_the_shipped_results(tiny_profiles, monkeypatch):
@@ -212,24 +304,40 @@ def test_notebooks_fall_back_to_the_shipped_results(tiny_profiles, monkeypatch):
     and say so (nothing runs); a local run that is the profile's wins; a reference that is not the profile's
     (stale) is never shown."""
     from lnss_lib.campaign import reference
-    from lnss_lib.studies.campaign import constraint_table, load_or_run, run_throughput_table, shown_campaign
+    from lnss_lib.studies.campaign import (
+        constraint_table,
+        load_or_run,
+        run_throughput_table,
+        shown_campaign,
+    )
 
     monkeypatch.setattr(reference, "REFERENCE_DIR", tiny_profiles / "reference")
     folder = tiny_profiles / "tiny" / "campaign"
-    elsewhere = run_campaign("tiny", workers=0, run_dir=tiny_profiles / "elsewhere" / "run", progress=False)
+    elsewhere = run_campaign(
+        "tiny", workers=0, run_dir=tiny_profiles / "elsewhere" / "run", progress=False
+    )
     reference.export_reference(elsewhere.run_dir)
     shown = load_or_run("tiny")
     assert shown.run_dir == tiny_profiles / "reference" / "tiny" and shown.records == []
-    assert "shipped reference results" in shown.note and "a complete run of 2 generations" in shown.note
+    assert (
+        "shipped reference results" in shown.note
+        and "a complete run of 2 generations" in shown.note
+    )
     assert not list(folder.glob("run_*")) and shown.settings.campaign.evaluator == "synthetic"
-    table = run_throughput_table(shown.run_dir, shown.history, shown.evaluations, shown.records)["value"]
+    table = run_throughput_table(shown.run_dir, shown.history, shown.evaluations, shown.records)[
+        "value"
+    ]
     assert table["unique designs evaluated"] == elsewhere.n_evaluations
     assert table["unique feasible designs"] == elsewhere.n_feasible
-    bounds = constraint_table(shown.evaluations, CampaignPlan.of(shown.settings).constraints)["designs"]
+    bounds = constraint_table(shown.evaluations, CampaignPlan.of(shown.settings).constraints)[
+        "designs"
+    ]
     assert bounds["all Table 3 bounds (feasible)"] == elsewhere.n_feasible
     notebook7 = shown_campaign("tiny")
     assert notebook7.run_dir == shown.run_dir and "nothing is published" in notebook7.note
-    with pytest.raises(FileNotFoundError, match="are not the campaign of profile 'tiny' as set here"):
+    with pytest.raises(
+        FileNotFoundError, match="are not the campaign of profile 'tiny' as set here"
+    ):
         load_or_run("tiny", '{"campaign": {"seed": 5}}')
     own = run_campaign("tiny", workers=0, run_dir=folder / "run_1", progress=False)
     shown = load_or_run("tiny")
@@ -284,7 +392,10 @@ def test_campaign_figures_carry_the_data():
     assert notes["Delta-V bound"].x == pytest.approx(np.log10(2.0))
     assert notes["PDOP bound"].y == pytest.approx(np.log10(5.0))
     assert fig.layout.xaxis.range[0] < np.log10(np.nanmin(ev.dv_total_kms_per_year.values))
-    assert len(designs_pdop_deltav(ev, front.isel(design=slice(0, 0)), 1.0, 10.0, "no front").data) == 1
+    assert (
+        len(designs_pdop_deltav(ev, front.isel(design=slice(0, 0)), 1.0, 10.0, "no front").data)
+        == 1
+    )
     with pytest.raises(ValueError, match="positive"):
         designs_pdop_deltav(ev, front, 0.0, 10.0, "bad")
 
@@ -299,7 +410,13 @@ def test_readers_follow_the_publication(tiny_profiles):
 
     folder = tiny_profiles / "tiny" / "campaign"
     run_campaign("tiny", workers=0, run_dir=folder / "run_1", progress=False)
-    run_campaign("tiny", overrides={"campaign": {"seed": 7}}, workers=0, run_dir=folder / "run_2", progress=False)
+    run_campaign(
+        "tiny",
+        overrides={"campaign": {"seed": 7}},
+        workers=0,
+        run_dir=folder / "run_2",
+        progress=False,
+    )
     published = load_published(folder)
     assert published.pointer["run_dir"] == "run_1" and int(published.evaluations.attrs["seed"]) != 7
     evaluations, front = load_campaign("tiny")

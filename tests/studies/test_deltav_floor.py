@@ -28,11 +28,21 @@ def sample():
 
 def test_profile_differs_from_paper_only_at_the_deltav_bound():
     paper, physical = (dict(_leaves(load_profile(name))) for name in ("paper", PROFILE))
-    differ = {k for k in paper.keys() | physical.keys() if paper.get(k, object()) != physical.get(k, object())}
+    differ = {
+        k
+        for k in paper.keys() | physical.keys()
+        if paper.get(k, object()) != physical.get(k, object())
+    }
     hv_key = ("campaign", "hypervolume", "dv_opt_kms_per_year")
-    assert differ - {("profile", "name"), ("profile", "description")} == {BOUND_KEY + ("max",), hv_key}
+    assert differ - {("profile", "name"), ("profile", "description")} == {
+        BOUND_KEY + ("max",),
+        hv_key,
+    }
     assert physical[BOUND_KEY + ("max",)] > paper[BOUND_KEY + ("max",)]
-    assert physical[hv_key] / paper[hv_key] == physical[BOUND_KEY + ("max",)] / paper[BOUND_KEY + ("max",)]
+    assert (
+        physical[hv_key] / paper[hv_key]
+        == physical[BOUND_KEY + ("max",)] / paper[BOUND_KEY + ("max",)]
+    )
 
 
 def test_profile_bound_follows_the_rule_from_the_recorded_elfo_deltav():
@@ -79,7 +89,13 @@ def test_reported_numbers_are_those_of_the_evaluations(sample):
 
 def test_feasible_counts_follow_the_constraints(sample):
     counts = study.feasible_counts(sample, {"none": math.inf, "zero": 0.0})["designs"]
-    assert counts["none: Delta-V <= inf"] == counts["other Table 3 constraints"] <= counts["evaluated (no impact)"]
+    assert (
+        counts["none: Delta-V <= inf"]
+        == counts["other Table 3 constraints"]
+        <= counts["evaluated (no impact)"]
+    )
     assert counts["zero: Delta-V <= 0"] == 0
     alternatives = study.bound_alternatives(sample, 1.0)["bound_kms_per_year"]
-    assert alternatives["ratio x floor (min)"] == pytest.approx(study.floor_of(sample) / TABLE_4[study.DV_KEY])
+    assert alternatives["ratio x floor (min)"] == pytest.approx(
+        study.floor_of(sample) / TABLE_4[study.DV_KEY]
+    )

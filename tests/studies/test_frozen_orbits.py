@@ -21,4 +21,6 @@ def test_family_table_reaches_kozai_at_large_a():
     model = FrozenModel.circular(4902.8, 2.03e-4, 1738.0, 398600.4, 384400.0)
     family = frozen_family(model, [30000.0])
     row = family[family["curve"] == "i at e = 0.6"].iloc[0]
-    assert row["inc_deg"] == pytest.approx(np.degrees(np.arccos(np.sqrt(0.6 * 0.64))), abs=0.02)   # J2 ~ a^-5: gone
+    assert row["inc_deg"] == pytest.approx(
+        np.degrees(np.arccos(np.sqrt(0.6 * 0.64))), abs=0.02
+    )  # J2 ~ a^-5: gone

@@ -43,13 +43,19 @@ def test_validation_designs_are_whole_constellations_spanning_table3_and_the_fro
 def test_statistics_and_outliers_follow_the_points_rule():
     """Three designs ranked alike, one off by more than the points target: rho 1, two of three within, the third
     listed with its error."""
-    table = pd.DataFrame({"pdop_avail_pct_worst_month": [10.0, 50.0, 90.0],
-                          "pdop_avail_pct_worst_month_estimate": [12.0, 49.0, 99.0],
-                          "hdop_avail_pct_worst_month": [20.0, 60.0, 95.0],
-                          "hdop_avail_pct_worst_month_estimate": [20.0, 60.0, 95.0]})
+    table = pd.DataFrame(
+        {
+            "pdop_avail_pct_worst_month": [10.0, 50.0, 90.0],
+            "pdop_avail_pct_worst_month_estimate": [12.0, 49.0, 99.0],
+            "hdop_avail_pct_worst_month": [20.0, 60.0, 95.0],
+            "hdop_avail_pct_worst_month_estimate": [20.0, 60.0, 95.0],
+        }
+    )
     stats = ln.life_navigation_statistics(table)
     assert stats["spearman_rho_pdop_avail_pct"] == pytest.approx(1.0)
     assert stats["within_points_share_pdop_avail_pct"] == pytest.approx(2.0 / 3.0)
     assert not stats["meets_targets_pdop_avail_pct"] and stats["meets_targets_hdop_avail_pct"]
     outliers = ln.life_navigation_outliers(table)
-    assert list(outliers.index) == [2] and outliers["pdop_avail_pct_worst_month_error"].iloc[0] == pytest.approx(9.0)
+    assert list(outliers.index) == [2] and outliers["pdop_avail_pct_worst_month_error"].iloc[
+        0
+    ] == pytest.approx(9.0)

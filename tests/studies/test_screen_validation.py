@@ -8,27 +8,55 @@ import pytest
 
 from lnss_lib.keys import DESIGN_KEYS
 from lnss_lib.settings import load_settings
-from lnss_lib.studies.screen_validation import MISS_COLUMNS, agreement, random_designs, validation_table
+from lnss_lib.studies.screen_validation import (
+    MISS_COLUMNS,
+    agreement,
+    random_designs,
+    validation_table,
+)
 
 
 def _row(design, plane, screen_day, truth_day, screen_min=100.0, truth_min=120.0):
-    return {**dict(zip(DESIGN_KEYS, design)), "plane": plane, "screen_impact_day": screen_day,
-            "screen_min_perilune_alt_km": screen_min, "truth_impact_day": truth_day, "truth_min_perilune_alt_km": truth_min}
+    return {
+        **dict(zip(DESIGN_KEYS, design)),
+        "plane": plane,
+        "screen_impact_day": screen_day,
+        "screen_min_perilune_alt_km": screen_min,
+        "truth_impact_day": truth_day,
+        "truth_min_perilune_alt_km": truth_min,
+    }
 
 
 def test_agreement_counts_designs_and_lists_every_disagreeing_plane():
-    a, b, c, d = (6000.0, 0.1, 90.0, 50.0, 2, 1), (9000.0, 0.5, 0.0, 17.0, 2, 1), (20000.0, 0.4, 30.0, 58.0, 2, 1), \
-        (7000.0, 0.2, 10.0, 80.0, 2, 1)
+    a, b, c, d = (
+        (6000.0, 0.1, 90.0, 50.0, 2, 1),
+        (9000.0, 0.5, 0.0, 17.0, 2, 1),
+        (20000.0, 0.4, 30.0, 58.0, 2, 1),
+        (7000.0, 0.2, 10.0, 80.0, 2, 1),
+    )
     nan = math.nan
-    table = pd.DataFrame([
-        _row(a, 0, nan, nan), _row(a, 1, nan, nan),          # both stable: agree
-        _row(b, 0, 5.0, 4.3), _row(b, 1, nan, 80.0),         # both unstable (plane 1 missed): the design agrees
-        _row(c, 0, nan, 41.0, 35.0, 0.0), _row(c, 1, nan, nan),   # missed impact
-        _row(d, 0, 12.0, nan, 0.0, 30.0), _row(d, 1, nan, nan),   # false alarm
-    ])
+    table = pd.DataFrame(
+        [
+            _row(a, 0, nan, nan),
+            _row(a, 1, nan, nan),  # both stable: agree
+            _row(b, 0, 5.0, 4.3),
+            _row(b, 1, nan, 80.0),  # both unstable (plane 1 missed): the design agrees
+            _row(c, 0, nan, 41.0, 35.0, 0.0),
+            _row(c, 1, nan, nan),  # missed impact
+            _row(d, 0, 12.0, nan, 0.0, 30.0),
+            _row(d, 1, nan, nan),  # false alarm
+        ]
+    )
     out = agreement(table)
-    assert (out["n_designs"], out["n_agree"], out["missed_impacts"], out["false_alarms"]) == (4, 2, 1, 1)
-    assert out["agreement_pct"] == pytest.approx(50.0) and out["plane_agreement_pct"] == pytest.approx(62.5)
+    assert (out["n_designs"], out["n_agree"], out["missed_impacts"], out["false_alarms"]) == (
+        4,
+        2,
+        1,
+        1,
+    )
+    assert out["agreement_pct"] == pytest.approx(50.0) and out[
+        "plane_agreement_pct"
+    ] == pytest.approx(62.5)
     misses = out["misses"]
     assert list(misses.columns) == [*MISS_COLUMNS, "call"] and len(misses) == 3
     assert list(misses["call"]) == ["missed impact", "missed impact", "false alarm"]
@@ -38,13 +66,17 @@ def test_agreement_counts_designs_and_lists_every_disagreeing_plane():
 def test_random_designs_are_seeded_on_the_table3_grid_above_the_surface():
     settings = load_settings("ci_operational")
     designs = random_designs(settings, 30, seed=7)
-    assert designs == random_designs(settings, 30, seed=7) and designs != random_designs(settings, 30, seed=8)
+    assert designs == random_designs(settings, 30, seed=7) and designs != random_designs(
+        settings, 30, seed=8
+    )
     variables = settings.campaign.variables
     for row in designs:
         for key, value in zip(DESIGN_KEYS, row):
             v = variables[key]
             assert v.lower <= value <= v.upper
-            assert (value - v.lower) / v.step == pytest.approx(round((value - v.lower) / v.step), abs=1e-6)
+            assert (value - v.lower) / v.step == pytest.approx(
+                round((value - v.lower) / v.step), abs=1e-6
+            )
         assert row[0] * (1.0 - row[1]) > settings.constants.r_moon_mean_km
 
 
