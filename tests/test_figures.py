@@ -363,3 +363,17 @@ def test_pareto_axes_use_the_label_registry():
     )
     assert fig.layout.scene.xaxis.title.text == label("hdop_mean_3sigma") == "HDOP (3-sigma mean)"
     assert fig.layout.scene.zaxis.title.text == "Delta-V total (km/s/yr)"
+    bounded = figures.pareto_3d(
+        front,
+        "hdop_mean_3sigma",
+        "pdop_mean_3sigma",
+        "dv_total_kms_per_year",
+        title="t",
+        z_bound=1.0,
+    )
+    counts = sorted(set(front["n_sat"].values.tolist()))
+    assert [t.name for t in bounded.data] == [f"{int(n)} satellites" for n in counts] + ["bound 1"]
+    assert (
+        sum(len(t.x) for t in bounded.data[:-1]) == front.sizes["design"]
+    )  # each design once, by its count
+    assert np.all(np.asarray(bounded.data[-1].z) == 1.0)

@@ -133,8 +133,9 @@ def bounds_verdict(campaign: CampaignSettings, result: dict, labelled: bool = Fa
     g = constraint_matrix({m: [v] for m, v in value.items()}, constraints, math.inf)[0]
     if labelled:
         violated = [
-            f"{label(m)} {format_value(m, value[m]) if math.isfinite(value[m]) else 'undefined'}, "
-            f"not {bound_text(m, kind, limit)}"
+            f"{label(m)} {format_value(m, value[m])}, {'above' if kind == 'max' else 'below'} its bound {limit:g}"
+            if math.isfinite(value[m])
+            else f"{label(m)} undefined (bound: {bound_text(m, kind, limit)})"
             for (m, kind, limit), gi in zip(constraints, g)
             if gi > 0.0
         ]

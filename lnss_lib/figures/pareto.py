@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import numpy as np
+import plotly
 import plotly.graph_objects as go
 
 from ..keys import LABELS  # labels with units, one registry (re-exported by lnss_lib.figures)
@@ -21,25 +23,46 @@ def _hover(ds) -> list[str]:
     ]
 
 
-def pareto_3d(front, x: str, y: str, z: str, *, title: str) -> go.Figure:
-    """Four-objective view of a front: three metrics in 3D, colour = number of satellites (Figures 8, 9)."""
-    fig = go.Figure(
-        go.Scatter3d(
-            x=front[x].values,
-            y=front[y].values,
-            z=front[z].values,
-            mode="markers",
-            text=_hover(front),
-            marker={
-                "size": 5,
-                "color": front["n_sat"].values,
-                "colorscale": "Viridis",
-                "colorbar": {"title": "satellites"},
-            },
-            hovertemplate="%{text}<br>"
-            + f"{LABELS[x]} %{{x:.3g}}<br>{LABELS[y]} %{{y:.3g}}<br>{LABELS[z]} %{{z:.3g}}<extra></extra>",
+def pareto_3d(
+    front, x: str, y: str, z: str, *, title: str, z_bound: float | None = None
+) -> go.Figure:
+    """Four-objective view of a front: three metrics in 3D, one colour per number of satellites (a count, so a
+    legend entry each, not a continuous scale; Figures 8, 9), and with ``z_bound`` the campaign's bound on the z
+    metric as a translucent plane (designs above it are infeasible)."""
+    fig = go.Figure()
+    counts = front["n_sat"].values
+    palette = plotly.colors.qualitative.Dark24
+    for k, n in enumerate(np.unique(counts)):
+        part = front.isel(design=np.flatnonzero(counts == n))
+        fig.add_trace(
+            go.Scatter3d(
+                x=part[x].values,
+                y=part[y].values,
+                z=part[z].values,
+                mode="markers",
+                name=f"{int(n)} satellites",
+                text=_hover(part),
+                marker={"size": 5, "color": palette[k % len(palette)]},
+                hovertemplate="%{text}<br>"
+                + f"{LABELS[x]} %{{x:.3g}}<br>{LABELS[y]} %{{y:.3g}}<br>{LABELS[z]} %{{z:.3g}}<extra></extra>",
+            )
         )
-    )
+    if z_bound is not None and np.isfinite(z_bound) and front.sizes["design"]:
+        xs = [float(np.nanmin(front[x].values)), float(np.nanmax(front[x].values))]
+        ys = [float(np.nanmin(front[y].values)), float(np.nanmax(front[y].values))]
+        fig.add_trace(
+            go.Surface(
+                x=xs,
+                y=ys,
+                z=[[z_bound, z_bound], [z_bound, z_bound]],
+                opacity=0.25,
+                showscale=False,
+                colorscale=[[0, "grey"], [1, "grey"]],
+                name=f"bound {z_bound:g}",
+                showlegend=True,
+                hoverinfo="name",
+            )
+        )
     axis = {"title_font": {"size": 12}, "tickfont": {"size": 10}}
     fig.update_layout(
         title=title,

@@ -161,6 +161,12 @@ def test_bounds_verdict_names_each_violated_table3_bound():
         "pdop_avail_pct = 0 < min 70",
         "dv_total_kms_per_year = 2.25 > max 1",
     ]
+    people = bounds_verdict(load_settings("ci").campaign, two, labelled=True)["violated_bounds"]
+    assert people == [
+        "PDOP (3-sigma mean) undefined (bound: PDOP (3-sigma mean) <= 10)",
+        "PDOP availability (%) 0.0, below its bound 70",
+        "Delta-V total (km/s/yr) 2.250, above its bound 1",
+    ]
     at_limit = {
         **good,
         "pdop_mean_3sigma": 10.0,
