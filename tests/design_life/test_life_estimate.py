@@ -19,9 +19,9 @@ from lnss_lib.settings import load_settings
 
 LIFE = {
     "frames": {"element_frame": "moon_op"},
-    "sk_estimate": {"model": "life", "element_frame": "moon_op"},
+    "sk_estimate": {"model": "life", "arc_frame": "moon_op"},
     "gravity": {"degree": 8},
-    "stability": {"life_days": 365.25},
+    "stability": {"span_days": 365.25},
 }
 ELFO = (6143.0, 0.6, 51.7)
 """The Table 4 ELFO's a, e, i: frozen in moon_op (e^2 + 5/3 cos^2 i = 1 near e 0.6, i 51.7 deg)."""
