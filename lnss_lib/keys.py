@@ -245,6 +245,43 @@ LABELS = {  # key -> human label with its unit: figures, tables, explorer, ``eva
     "vertical_95_series_m": "vertical 95 % error, 95th percentile over the grid (m)",
     "horizontal_95_map_m": "horizontal 95 % error, 95th percentile over the arc (m)",
     "vertical_95_map_m": "vertical 95 % error, 95th percentile over the arc (m)",
+    # notebook 08's tables (design life, frozen orbits, screen validation)
+    "aop_max_deg": "AOP, largest (deg)",
+    "aop_min_deg": "AOP, smallest (deg)",
+    "aop_op_deg": "AOP in moon_op (deg)",
+    "box_held": "box held",
+    "ecc_max": "e, largest",
+    "ecc_min": "e, smallest",
+    "ecc_op": "e in moon_op",
+    "ecc_swing": "e, monthly swing",
+    "fewer_than_4_pct": "fewer than 4 satellites in view (%)",
+    "frozen_inc_deg": "frozen inclination (deg)",
+    "inc_off_frozen_deg": "inclination off the frozen one (deg)",
+    "inc_op_deg": "inclination in moon_op (deg)",
+    "life_days": "design life (days)",
+    "min_mean_perilune_alt_km": "lowest mean perilune altitude (km)",
+    "month_end_day": "month ends (day)",
+    "month_start_day": "month starts (day)",
+    "n_epochs": "epochs",
+    "n_sat_flown": "satellites flown",
+    "natural_impact_day": "natural drift: impact (day)",
+    "natural_lost": "natural drift: satellites lost",
+    "natural_min_perilune_alt_km": "natural drift: lowest perilune altitude (km)",
+    "natural_survives": "natural drift: survives",
+    "raan_rel_tolerance_deg": "relative node tolerance (deg)",
+    "u_rel_tolerance_deg": "slot tolerance (deg)",
+    "read_in": "elements read in",
+    "screen_call": "screen's call",
+    "screen_impact_day": "screen: impact (day)",
+    "screen_wall_s": "screen: wall time (s)",
+    "shift_days": "epoch shift (days)",
+    "short_period_km": "short-period perilune swing (km)",
+    "sk_dv_kms_per_year": "closed-loop Delta-V, mean (km/s/yr)",
+    "sk_dv_max_kms_per_year": "closed-loop Delta-V, worst satellite (km/s/yr)",
+    "trial_deg": "trial offset (deg)",
+    "truth_impact_day": "full model: impact (day)",
+    "truth_min_perilune_alt_km": "full model: lowest perilune altitude (km)",
+    "truth_wall_s": "full model: wall time (s)",
 }
 CLOSED_LOOP_DV_BY_PURPOSE = (
     "closed_loop_dv_{}_kms_per_year"  # the closed loop's Delta-V paid for one burn purpose
@@ -286,6 +323,10 @@ def label(key: str) -> str:
         and len(key) > len(head) + len(tail)
     ):
         return f"closed-loop Delta-V, {key[len(head) : -len(tail)].replace('_', ' ')} (km/s/yr)"
+    for tail, unit in (("_kms_per_year", "km/s/yr"), ("_m_s_per_year", "m/s/yr")):
+        if key not in LABELS and key.startswith("dv_") and key.endswith(tail):
+            what = key[3 : -len(tail)].replace("_", " ")
+            return f"Delta-V{', ' + what if what else ''} ({unit})"
     return LABELS.get(key, key)
 
 

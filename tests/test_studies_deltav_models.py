@@ -32,7 +32,7 @@ def test_dataset_states_and_tables_from_a_result(j2_arc):
     ds = _dataset(t, states)
     np.testing.assert_array_equal(dv.dataset_states(ds), states)
     ci = load_settings("ci")
-    res = dv.deltav_from_propagation(ci.deltav, ci.dynamics, ds, sat=0, element_frame="j2000")
+    res = dv.deltav_from_propagation(ci.deltav, ci.dynamics, ds, sat=0, gve_frame="j2000")
     table = dm.model_comparison_table(res)
     assert table.index.tolist() == [*dv.MODELS, "paper (Table 4)"]
     assert table.loc["paper (Table 4)", "opt / total"] == pytest.approx(0.37 / 0.50)
