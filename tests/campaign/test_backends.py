@@ -140,9 +140,8 @@ def test_local_workers_keep_the_sigint_guard_and_a_ctrl_c_at_their_start_is_hono
     def task(shared, item, numba_threads=0):
         return os.getpid()
 
-    guarded_before = _sigint_guarded(
-        os.getpid()
-    )  # as an earlier test or the notebooks' kernels left it
+    # a shell's background job starts with SIGINT ignored: compare with the state found
+    guarded_before = _sigint_guarded(os.getpid())
     backend = backends.DaskBackend(None, task, max_resubmits=1, n_workers=2)
     try:
         first = set(backend.client.run(os.getpid).values())
@@ -170,4 +169,4 @@ def test_local_workers_keep_the_sigint_guard_and_a_ctrl_c_at_their_start_is_hono
     with pytest.raises(KeyboardInterrupt):
         backends.DaskBackend(None, task, max_resubmits=1, n_workers=1)
     assert started and started[0].status.name == "closed"
-    assert not _sigint_guarded(os.getpid())
+    assert _sigint_guarded(os.getpid()) == guarded_before
