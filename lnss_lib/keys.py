@@ -245,6 +245,9 @@ LABELS = {  # key -> human label with its unit: figures, tables, explorer, ``eva
     "vertical_95_series_m": "vertical 95 % error, 95th percentile over the grid (m)",
     "horizontal_95_map_m": "horizontal 95 % error, 95th percentile over the arc (m)",
     "vertical_95_map_m": "vertical 95 % error, 95th percentile over the arc (m)",
+    # notebook 10's epoch table
+    "epoch_tdb": "epoch (TDB)",
+    "moon_node_deg": "longitude of the Moon's ascending node, J2000 ecliptic (deg)",
     # notebook 08's tables (design life, frozen orbits, screen validation)
     "aop_max_deg": "AOP, largest (deg)",
     "aop_min_deg": "AOP, smallest (deg)",
