@@ -254,9 +254,15 @@ def test_synthetic_extras_are_labelled_stand_ins():
 
 
 def test_synthetic_campaign_under_the_operational_objectives(tmp_path):
+    """The campaign's own outputs under the operational objectives; its front is not flown in closed loop here
+    (``max_designs = 0``: the flight is checked in tests/campaign/test_validation.py, and with the full closed loop
+    over ci's 30 days in notebook 06)."""
     result = run_campaign(
         "ci_operational",
-        overrides={"campaign": {"evaluator": "synthetic", "generations": 4}},
+        overrides={
+            "campaign": {"evaluator": "synthetic", "generations": 4},
+            "front_validation": {"max_designs": 0},
+        },
         workers=0,
         run_dir=tmp_path / "op",
         progress=False,
