@@ -14,7 +14,7 @@ import numpy as np
 import pytest
 import xarray as xr
 
-from lnss_lib import config
+from lnss_lib import config, profile_rules
 from lnss_lib.__main__ import main
 from lnss_lib.campaign.rundir import RunLock, run_checksum
 from lnss_lib.config import PROJECT_DIR
@@ -966,7 +966,7 @@ def _bad_text(key: str):
     return value
 
 
-RULES = dict(config.rules())
+RULES = dict(profile_rules.rules())
 CHECKED_TEXT = sorted(
     key for key, rule in RULES.items() if rule.choices or rule.form or rule.names_integrator_setting
 )
