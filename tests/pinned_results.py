@@ -5,7 +5,7 @@ What is pinned (the recorded values live in ``tests/data/pinned_results.json``):
 1. ``python -m lnss_lib evaluate --profile paper --json`` for the Table 4 standalone ELFO (``[standalone_elfo]``
    of params/paper.toml: a 6143 km, e 0.6, AOP 90 deg, i 51.7 deg, 2 planes (RAAN 0 and 180 deg by eq. 42) x 8),
    without and with ``--design-life-days 60``; run in-process through :func:`lnss_lib.__main__.main` (the
-   command's own code path: argument parsing, ``_cmd_evaluate``, ``json.dumps``), stdout parsed back.
+   command's own code path: argument parsing, ``lnss_lib.cli.evaluate.run``, ``json.dumps``), stdout parsed back.
 2. The quick profile's campaign, generations 1-2 (``campaign --profile quick --max-generations 2 --workers 0``,
    in-process through :func:`lnss_lib.campaign.run_campaign`): every journal record (design key, physical
    design, metrics, flags), each evaluated design's objectives F and constraints G as the campaign's pymoo

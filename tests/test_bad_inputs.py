@@ -1074,7 +1074,7 @@ def test_config_and_ephemeris_errors_propagate_only_impossible_designs_are_infea
 
 
 def test_design_life_lets_ephemeris_errors_through():
-    from lnss_lib.cli import design_life_cli
+    from lnss_lib.cli.evaluate import design_life_cli
     from lnss_lib.errors import EphemerisRangeError
 
     with pytest.raises(EphemerisRangeError):

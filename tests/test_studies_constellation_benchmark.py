@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 
 from lnss_lib.catalogue import load_constellation
-from lnss_lib.cli import evaluate_catalogue_cli
+from lnss_lib.cli.evaluate import evaluate_catalogue_cli
 from lnss_lib.ephemeris import ensure_kernels, tdb_seconds
 from lnss_lib.errors import ConfigError
 from lnss_lib.keys import METRIC_KEYS, NAVIGATION_ERROR_KEYS
