@@ -29,6 +29,7 @@ from typing import Any
 from .constants import MAX_GRID_POINTS, SECONDS_PER_DAY
 from .dates import ISO_DATE_FORMAT, ISO_FORMAT, is_iso_date
 from .errors import ConfigError
+from .legacy_keys import KEYS_OFF_WHEN_ABSENT, LEGACY_KEYS, OFF_WHEN_ABSENT, legacy_spelling
 from .profile_rules import (
     PROFILE_SCHEMA,
     check_across,
@@ -43,13 +44,7 @@ from .profile_rules import (
     schema_fields,
     type_ok,
 )
-from .sections import (
-    KEYS_OFF_WHEN_ABSENT,
-    LEGACY_KEYS,
-    OFF_WHEN_ABSENT,
-    Rule,
-    legacy_spelling,
-)
+from .setting_rule import Rule
 
 PACKAGE_DIR = Path(__file__).resolve().parent
 PROJECT_DIR = PACKAGE_DIR.parent

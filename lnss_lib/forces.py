@@ -18,7 +18,8 @@ import numpy as np
 from .ephemeris import EphemerisTable, hermite_apply, hermite_basis, hermite_sum
 from .errors import ConfigError
 from .gravity import GravityField, harmonic_acceleration, tabulated_truncation_degree
-from .sections import CR_AREA_MASS, CR_AREA_MASS_WHY, THIRD_BODIES, allowed_range_text, in_range
+from .sections import CR_AREA_MASS, CR_AREA_MASS_WHY, THIRD_BODIES
+from .setting_rule import allowed_range_text, in_range
 from .settings import Dynamics
 
 __all__ = [

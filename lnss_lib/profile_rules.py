@@ -1,6 +1,6 @@
 """The rules a profile's values obey, read from the section classes of :mod:`lnss_lib.sections`.
 
-The schema's keys and their :class:`~lnss_lib.sections.Rule` (:func:`rules`), the check of one
+The schema's keys and their :class:`~lnss_lib.setting_rule.Rule` (:func:`rules`), the check of one
 value's type and number (finite, in range, an integer an output can store), the rules across keys
 and those of the campaign's free tables. Each refusal is a :class:`ConfigError` naming the key, the
 value and what is allowed, with the file and line when the value came from a file.
@@ -34,12 +34,9 @@ from .sections import (
     SEMI_MAJOR_AXIS,
     SEMI_MAJOR_AXIS_WHY,
     ProfileSections,
-    Rule,
-    allowed_range_text,
-    in_range,
-    rule_of,
     walker_splits,
 )
+from .setting_rule import Rule, allowed_range_text, in_range, rule_of
 
 PROFILE_SCHEMA = ProfileSections  # every key, its type and its rule (lnss_lib.sections)
 
@@ -78,7 +75,7 @@ def rules(cls=PROFILE_SCHEMA, prefix: str = ""):
 
 
 def keys_with(flag: str) -> tuple[str, ...]:
-    """Dotted keys whose :class:`~lnss_lib.sections.Rule` sets ``flag`` (e.g. ``"pair"``)."""
+    """Dotted keys whose :class:`~lnss_lib.setting_rule.Rule` sets ``flag`` (e.g. ``"pair"``)."""
     return tuple(key for key, rule in rules() if getattr(rule, flag))
 
 

@@ -13,7 +13,7 @@ from pathlib import Path
 from ..config import available_profiles, parse_sets
 from ..constants import INTEGER_SETTING_MAX
 from ..errors import ConfigError
-from ..sections import allowed_range_text, in_range
+from ..setting_rule import allowed_range_text, in_range
 
 SET_HELP = (
     "override a profile value (TOML literal: true/false, numbers, quoted strings and dates), e.g. "
