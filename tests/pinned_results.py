@@ -1,4 +1,4 @@
-"""Regression pins for refactors that must not change any result (issue 22 "Must not change", issue 23 item 2).
+"""Regression pins for refactors that must not change any result.
 
 What is pinned (the recorded values live in ``tests/data/pinned_results.json``):
 
@@ -18,8 +18,8 @@ What is pinned (the recorded values live in ``tests/data/pinned_results.json``):
 Fields left out of the comparison, each run-dependent (see :data:`EXCLUDED`): timings (``wall_s``,
 ``task_wall_s``, ``timing_s``, history's ``time_*_s``, ``designs_per_s``), the worker's ``host:pid``, the
 journal line checksum ``crc32`` (it covers the timings), and of the NetCDF attributes the package
-``versions``, the ``evaluation_hash`` and the ``parameters`` echo of the profile (inputs, not results: issue 22
-rewrites how settings are hashed and serialised).
+``versions``, the ``evaluation_hash`` and the ``parameters`` echo of the profile (inputs, not results: a refactor
+may change how settings are hashed and serialised).
 
 Regenerate (only when a change of results is intended and explained in its commit)::
 
@@ -108,8 +108,8 @@ EXCLUDED = {
     "time_overhead_s": "history: timing",
     "time_propagation_s": "history: timing",
     "versions": "NetCDF attribute: installed package versions",
-    "evaluation_hash": "NetCDF attribute / journal header: hash of the settings (issue 22 changes the hashing)",
-    "parameters": "NetCDF attribute: echo of the profile (input, not a result; issue 22 changes its serialisation)",
+    "evaluation_hash": "NetCDF attribute / journal header: hash of the settings (a refactor may change the hashing)",
+    "parameters": "NetCDF attribute: echo of the profile (input, not a result; a refactor may change its serialisation)",
 }
 
 

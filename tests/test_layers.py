@@ -1,4 +1,4 @@
-"""The layering of lnss_lib (issue 10), read from the source: a module imports only its own layer or lower.
+"""The layering of lnss_lib, read from the source: a module imports only its own layer or lower.
 
 1 foundations (``config``, ``profile_rules``, ``dates``, ``sections``, ``setting_rule``, ``legacy_keys``, ``settings``, ``constants``, ``paper``, ``keys``, ``errors``, ``atomicio``, ``progress``, ``provenance``); 2 physics
 kernels (every other top-level module: a new physics module is a kernel without editing this file; and the

@@ -225,7 +225,7 @@ def tiny_profiles(tmp_path, monkeypatch):
 
 
 def test_load_or_run_shows_the_profiles_run_or_says_why_not(tiny_profiles, capsys):
-    """Issue 21 item 3: the newest run is not trusted. The run shown and published is the newest whose
+    """The newest run is not trusted: The run shown and published is the newest whose
     settings are the profile's; otherwise the note names the run and the differing settings, and the
     profile returned is the run's own."""
     from lnss_lib.campaign import export_results
@@ -300,7 +300,7 @@ def test_load_or_run_shows_the_profiles_run_or_says_why_not(tiny_profiles, capsy
 
 
 def test_notebooks_fall_back_to_the_shipped_results(tiny_profiles, monkeypatch):
-    """Issue 23 item 3: with no local run that is the profile's, notebooks 06-07 show the shipped reference results
+    """With no local run that is the profile's, notebooks 06-07 show the shipped reference results
     and say so (nothing runs); a local run that is the profile's wins; a reference that is not the profile's
     (stale) is never shown."""
     from lnss_lib.campaign import reference
@@ -346,7 +346,7 @@ def test_notebooks_fall_back_to_the_shipped_results(tiny_profiles, monkeypatch):
 
 
 def test_paper_profile_without_a_local_run_shows_the_shipped_results(tmp_path, monkeypatch, capsys):
-    """Issue 23, done when: `reproduce --profile paper` with no local campaign draws notebooks 06-07 from the
+    """`reproduce --profile paper` with no local campaign draws notebooks 06-07 from the
     shipped results instead of running a campaign."""
     from lnss_lib import outputs
     from lnss_lib.campaign.reference import load_reference
