@@ -413,8 +413,8 @@ class BatchEvaluator:
     generation by :func:`early_stop_bounds`, goes with each design to the task.
     """
 
-    def __init__(self, settings: CampaignPlan, cache: EvaluationCache, backend):
-        self.settings = settings
+    def __init__(self, plan: CampaignPlan, cache: EvaluationCache, backend):
+        self.plan = plan
         self.cache = cache
         self.backend = backend
         self.generation = 1
@@ -439,7 +439,7 @@ class BatchEvaluator:
             elif self.cache.records[key]["generation"] == self.generation:
                 fresh += 1  # evaluated in this generation before an interruption: still new to it
         hits = len(keys) - fresh
-        designs = self.settings.grid.designs(np.array(todo)) if todo else []
+        designs = self.plan.grid.designs(np.array(todo)) if todo else []
         if self.stop_bounds is not None:
             designs = [{**design, "stop_bounds": self.stop_bounds} for design in designs]
         errors, done = 0, 0
@@ -459,4 +459,4 @@ class BatchEvaluator:
             "wall_s": time.perf_counter() - start,
         }
         self.n_backend += done
-        return metric_columns([self.cache.records[k] for k in keys], self.settings.extra_metrics)
+        return metric_columns([self.cache.records[k] for k in keys], self.plan.extra_metrics)
