@@ -88,3 +88,12 @@ def add_profile(command: argparse.ArgumentParser, default: str | None) -> None:
 def add_set(parser: argparse.ArgumentParser) -> None:
     """``--set SECTION.KEY=VALUE``, repeatable (:func:`profile_overrides` reads it)."""
     parser.add_argument("--set", action="append", metavar="SECTION.KEY=VALUE", help=SET_HELP)
+
+
+def refuse_flags(args: argparse.Namespace, flags: tuple[str, ...], why: str, key: str) -> None:
+    """ConfigError ``why: drop FLAGS`` naming those of ``flags`` the command line gave (an option that runs
+    something else than the command's other options configure); a flag's value is ``args``'s attribute of
+    its name (``--run-dir``: ``run_dir``, ``FILE``: ``file``)."""
+    given = [f for f in flags if getattr(args, f.lstrip("-").replace("-", "_").lower()) is not None]
+    if given:
+        raise ConfigError(f"{why}: drop {', '.join(given)}", key=key)

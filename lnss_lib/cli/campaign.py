@@ -6,7 +6,15 @@ from __future__ import annotations
 import argparse
 
 from ..errors import ConfigError
-from .arguments import add_profile, add_set, integer, profile_overrides, require
+from .arguments import add_profile, add_set, integer, profile_overrides, refuse_flags, require
+
+NEW_RUN_FLAGS = (
+    "--profile",
+    "--set",
+    "--resume",
+    "--run-dir",
+    "--evaluator",
+)  # what a new run is given
 
 
 def run(args: argparse.Namespace) -> int:
@@ -62,27 +70,12 @@ def _export_reference(args: argparse.Namespace) -> int:
     from ..outputs import display_path
     from ..provenance import git_revision
 
-    given = [
-        flag
-        for flag, value in (
-            ("--profile", args.profile),
-            ("--set", args.set),
-            ("--resume", args.resume),
-            ("--run-dir", args.run_dir),
-            ("--evaluator", args.evaluator),
-            ("--workers", args.workers),
-            ("--scheduler-address", args.scheduler_address),
-            ("--max-generations", args.max_generations),
-            ("--validate", args.validate),
-        )
-        if value is not None
-    ]
-    if given:
-        raise ConfigError(
-            f"--export-reference exports a run folder with its stored settings and runs nothing: drop "
-            f"{', '.join(given)}",
-            key="--export-reference",
-        )
+    refuse_flags(
+        args,
+        (*NEW_RUN_FLAGS, "--workers", "--scheduler-address", "--max-generations", "--validate"),
+        "--export-reference exports a run folder with its stored settings and runs nothing",
+        key="--export-reference",
+    )
     folder = export_reference(args.export_reference, export_commit=git_revision())
     reference = load_reference(folder.name, folder.parent)
     attrs = reference.history.attrs
@@ -103,24 +96,12 @@ def _export_reference(args: argparse.Namespace) -> int:
 def _validate(args: argparse.Namespace) -> int:
     from ..campaign.runner import validate_run
 
-    given = [
-        flag
-        for flag, value in (
-            ("--profile", args.profile),
-            ("--set", args.set),
-            ("--resume", args.resume),
-            ("--run-dir", args.run_dir),
-            ("--evaluator", args.evaluator),
-            ("--max-generations", args.max_generations),
-            ("--export-reference", args.export_reference),
-        )
-        if value is not None
-    ]
-    if given:
-        raise ConfigError(
-            f"--validate flies a finished run's front with its stored settings: drop {', '.join(given)}",
-            key="--validate",
-        )
+    refuse_flags(
+        args,
+        (*NEW_RUN_FLAGS, "--max-generations", "--export-reference"),
+        "--validate flies a finished run's front with its stored settings",
+        key="--validate",
+    )
     require("--workers", args.workers, (0, None, False, False), integer=True)
     result, note = validate_run(
         args.validate,

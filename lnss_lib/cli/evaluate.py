@@ -196,7 +196,7 @@ def run(args: argparse.Namespace) -> int:
                 f"{profile.epoch.start_tdb}",
                 key="--design-life-days",
             ) from None
-    walker = {
+    walker = {  # flag -> value, in the order of evaluate_cli's design arguments
         "--sma-km": args.sma_km,
         "--ecc": args.ecc,
         "--aop-deg": args.aop_deg,
@@ -224,16 +224,7 @@ def run(args: argparse.Namespace) -> int:
                 f"missing {', '.join(missing)}"
             )
         _check_walker(args)
-        result = evaluate_cli(
-            args.profile,
-            args.sma_km,
-            args.ecc,
-            args.aop_deg,
-            args.inc_deg,
-            args.planes,
-            args.sats_per_plane,
-            overrides=profile_overrides(args),
-        )
+        result = evaluate_cli(args.profile, *walker.values(), overrides=profile_overrides(args))
     from ..campaign.settings import bounds_verdict
 
     profile = load_settings(args.profile, overrides=profile_overrides(args))
@@ -245,14 +236,7 @@ def run(args: argparse.Namespace) -> int:
                 args.design_life_days,
                 constellation=args.constellation,
                 constellation_epoch=args.constellation_epoch,
-                walker=(
-                    args.sma_km,
-                    args.ecc,
-                    args.aop_deg,
-                    args.inc_deg,
-                    args.planes,
-                    args.sats_per_plane,
-                ),
+                walker=tuple(walker.values()),
                 overrides=profile_overrides(args),
             )
         )

@@ -6,7 +6,7 @@ from __future__ import annotations
 import argparse
 
 from ..errors import ConfigError
-from .arguments import integer, require
+from .arguments import integer, refuse_flags, require
 
 
 def run(args: argparse.Namespace) -> int:
@@ -54,24 +54,19 @@ def run(args: argparse.Namespace) -> int:
 def _replay(args: argparse.Namespace) -> int:
     from ..campaign.replay import recorded_costs, replay
 
-    given = [
-        flag
-        for flag, value in (
-            ("FILE", args.file),
-            ("--run-dir", args.run_dir),
-            ("--resume", args.resume),
-            ("--workers", args.workers),
-            ("--scheduler-address", args.scheduler_address),
-            ("--max-generations", args.max_generations),
-        )
-        if value is not None
-    ]
-    if given:
-        raise ConfigError(
-            f"--replay measures recorded runs on local thread workers and runs no campaign: drop "
-            f"{', '.join(given)}",
-            key="--replay",
-        )
+    refuse_flags(
+        args,
+        (
+            "FILE",
+            "--run-dir",
+            "--resume",
+            "--workers",
+            "--scheduler-address",
+            "--max-generations",
+        ),
+        "--replay measures recorded runs on local thread workers and runs no campaign",
+        key="--replay",
+    )
     for n in args.replay_workers:
         require("--replay-workers", n, (1, None, False, False), integer=True)
     require("--copies", args.copies, (1, None, False, False), integer=True)
