@@ -32,6 +32,7 @@ __all__ = [
     "SerialBackend",
     "DaskBackend",
     "open_backend",
+    "usable_cores",
     "check_scheduler_address",
     "start_local_cluster",
     "connect_scheduler",
@@ -350,6 +351,14 @@ def check_scheduler_address(address: str) -> str:
     return address
 
 
+def usable_cores() -> int:
+    """The cores this process may run on (its CPU affinity where the system has one): the default worker
+    count."""
+    return (
+        len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else (os.cpu_count() or 1)
+    )
+
+
 def open_backend(
     shared,
     plan: CampaignPlan,
@@ -361,11 +370,7 @@ def open_backend(
     (default :func:`campaign_task` of ``plan``) on ``shared``; the plan's resubmit and numba-thread limits."""
     task = campaign_task(plan) if task is None else task
     if workers is None and not scheduler_address:
-        workers = (
-            len(os.sched_getaffinity(0))
-            if hasattr(os, "sched_getaffinity")
-            else (os.cpu_count() or 1)
-        )
+        workers = usable_cores()
     if workers is not None and workers < 0:
         raise ValueError(f"workers must be >= 0 (0 or 1 = serial in this process); got {workers}")
     if not scheduler_address and workers <= 1:
