@@ -530,9 +530,7 @@ SKYFIELD_DATA = (
 def _check_data_paths(profile: dict) -> None:
     """Every data-file key of a profile names a file under ``params/data/`` (or a skyfield-data file)."""
     for key in DATA_KEYS:
-        value = profile
-        for part in key.split("."):
-            value = value[part]
+        value = lookup(profile, key)
         for item in value if isinstance(value, list) else [value]:
             data_path(item, key)
     spk = profile["ephemeris"]["planetary_spk"]
