@@ -3,7 +3,7 @@
 :func:`load_profile` returns the merged TOML as a plain nested ``dict`` with the chain resolved and
 ``profile.name`` set, checked by :func:`validate_profile` against the sections of
 :mod:`lnss_lib.sections`, where each setting is declared once with its type and rule (range and reason,
-allowed values, form), and against the rules across keys; the workbook reads it once, to freeze it into
+allowed values, form), and against the rules across keys (:mod:`lnss_lib.profile_rules`); the workbook reads it once, to freeze it into
 typed sections (:mod:`lnss_lib.settings`). :func:`profile_hash` fingerprints everything that can change
 a result, so caches and manifests can tell runs apart. Profiles are names of files in ``params/`` (or a
 file made loadable by :func:`use_profile_file`); data paths in a profile are relative to ``params/`` and
@@ -16,47 +16,35 @@ import copy
 import dataclasses
 import datetime as dt
 import difflib
-import functools
 import hashlib
 import json
 import math
 import os
 import re
 import tomllib
-import types
-import typing
-from collections.abc import Mapping
 from functools import lru_cache
 from pathlib import Path
 from typing import Any
 
-from .constants import INTEGER_SETTING_MAX, MAX_GRID_POINTS, SECONDS_PER_DAY
+from .constants import MAX_GRID_POINTS, SECONDS_PER_DAY
 from .dates import ISO_DATE_FORMAT, ISO_FORMAT, is_iso_date
 from .errors import ConfigError
-from .keys import (
-    DESIGN_KEYS,
-    INTEGER_DESIGN_KEYS,
-    LIFE_NAVIGATION_KEYS,
-    METRIC_KEYS,
-    NEEDS_ALL_SATELLITES,
+from .legacy_keys import KEYS_OFF_WHEN_ABSENT, LEGACY_KEYS, OFF_WHEN_ABSENT, legacy_spelling
+from .profile_rules import (
+    PROFILE_SCHEMA,
+    check_across,
+    check_campaign,
+    check_integer_size,
+    check_number,
+    entry_class,
+    expected_kind,
+    fail,
+    kind_of,
+    lookup,
+    schema_fields,
+    type_ok,
 )
-from .sections import (
-    CR_AREA_MASS,
-    CR_AREA_MASS_WHY,
-    GNSS_SYSTEMS,
-    KEYS_OFF_WHEN_ABSENT,
-    LEGACY_KEYS,
-    OFF_WHEN_ABSENT,
-    SEMI_MAJOR_AXIS,
-    SEMI_MAJOR_AXIS_WHY,
-    ProfileSections,
-    Rule,
-    allowed_range_text,
-    in_range,
-    legacy_spelling,
-    rule_of,
-    walker_splits,
-)
+from .setting_rule import Rule
 
 PACKAGE_DIR = Path(__file__).resolve().parent
 PROJECT_DIR = PACKAGE_DIR.parent
@@ -268,7 +256,6 @@ def _own_settings(name: str) -> dict:
 REFERENCE_PROFILE = (
     "paper"  # the root of every profile: its values fill a section a stored profile lacks
 )
-PROFILE_SCHEMA = ProfileSections  # every key, its type and its rule (lnss_lib.sections)
 
 
 ISO_TEXT = f"an ISO 8601 date and time, {ISO_FORMAT} (e.g. 2025-05-01T00:00:00)"
@@ -289,157 +276,24 @@ FORMS = {  # an open set of text values (Rule.form) -> (test, what is allowed)
 }
 
 
-_hints = functools.cache(typing.get_type_hints)  # field types of a section class, resolved once
-
-
-def _schema_fields(cls) -> dict:
-    """``{key: (type, Rule)}`` of a section class: the keys a profile may write (not the derived fields)."""
-    hints = _hints(cls)
-    return {
-        item.name: (hints[item.name], rule_of(item))
-        for item in dataclasses.fields(cls)
-        if item.init and not rule_of(item).derived
-    }
-
-
-def _entry_class(hint):
-    """The section class of a table of named sections (``Mapping[str, IntegratorSetting]``), else None."""
-    args = typing.get_args(hint)
-    named = (
-        typing.get_origin(hint) is Mapping and len(args) == 2 and dataclasses.is_dataclass(args[1])
-    )
-    return args[1] if named else None
-
-
-def rules(cls=PROFILE_SCHEMA, prefix: str = ""):
-    """Every ``(dotted key, Rule)`` of the schema (a named entry of ``[integrator.settings]`` is ``*``)."""
-    for name, (hint, rule) in _schema_fields(cls).items():
-        key = f"{prefix}{name}"
-        yield key, rule
-        if dataclasses.is_dataclass(hint):
-            yield from rules(hint, f"{key}.")
-        elif _entry_class(hint) is not None and not rule.free:
-            yield from rules(_entry_class(hint), f"{key}.*.")
-
-
-def keys_with(flag: str) -> tuple[str, ...]:
-    """Dotted keys whose :class:`~lnss_lib.sections.Rule` sets ``flag`` (e.g. ``"pair"``)."""
-    return tuple(key for key, rule in rules() if getattr(rule, flag))
-
-
 @lru_cache(maxsize=1)
 def _reference() -> dict:
     """params/paper.toml's values (a section a stored profile lacks is read from them)."""
     return read_toml(PARAMS_DIR / f"{REFERENCE_PROFILE}.toml")
 
 
-KIND_OF_TYPE = {
-    bool: "a boolean (true or false)",
-    int: "an integer",
-    float: "a number",
-    str: "a string",
-    list: "a list",
-    dict: "a table",
-}
-
-
-def _kind(value) -> str:
-    """A value's kind in words, for messages."""
-    return KIND_OF_TYPE.get(type(value), type(value).__name__)
-
-
-def _expected(hint) -> str:
-    """The kind of value a field's type ``hint`` takes, in words."""
-    if hint in KIND_OF_TYPE:
-        return KIND_OF_TYPE[hint]
-    if typing.get_origin(hint) is types.UnionType:
-        return "a number"
-    if typing.get_origin(hint) is tuple:
-        return "a list"
-    return "a table"
-
-
-def _type_ok(value, hint) -> bool:
-    """Whether a TOML ``value`` has the field type ``hint`` (a float field takes an integer)."""
-    if hint is Any:
-        return True
-    if hint is bool or isinstance(value, bool):
-        return hint is bool and isinstance(value, bool)
-    if hint is int:
-        return isinstance(value, int)
-    if hint is float or typing.get_origin(hint) is types.UnionType:
-        return isinstance(value, (int, float))
-    if hint is str:
-        return isinstance(value, str)
-    if typing.get_origin(hint) is tuple:
-        return isinstance(value, list)
-    return isinstance(value, dict)
-
-
-def _line_of(source, key: str) -> str:
-    """ ", line N" of ``key``'s last component in a TOML file (for messages), or ""."""
-    if not isinstance(source, Path) or not source.is_file():
-        return ""
-    leaf = key.rsplit(".", 1)[-1]
-    for number, line in enumerate(source.read_text().splitlines(), start=1):
-        if line.split("#", 1)[0].split("=", 1)[0].strip().strip('"') == leaf and "=" in line:
-            return f", line {number}"
-    return ""
-
-
-def _fail(message: str, key: str, source) -> None:
-    where = f"{source}{_line_of(source, key)}: " if source not in (None, "overrides") else ""
-    raise ConfigError(f"{where}{message}", key=key, source=None if source is None else str(source))
-
-
-def _check_integer_size(key: str, value, source) -> None:
-    """An integer a float cannot hold or an output cannot store (|n| > :data:`INTEGER_SETTING_MAX`) is refused before
-    anything compares it (``math.isfinite`` raised OverflowError; ``repr`` of 5000 digits raises ValueError)."""
-    if isinstance(value, int) and not isinstance(value, bool) and abs(value) > INTEGER_SETTING_MAX:
-        digits = (
-            int(value.bit_length() * math.log10(2)) + 1
-        )  # one too many when |value| < 10**(digits - 1)
-        digits -= abs(value) < 10 ** (digits - 1)
-        _fail(
-            f"{key} = an integer of {digits} digits is too large; allowed: at most 2**63 - 1 in magnitude "
-            f"(the int64 of the NetCDF outputs)",
-            key,
-            source,
-        )
-
-
-def _check_number(key: str, rule: Rule, value, source) -> None:
-    if isinstance(value, bool) or not isinstance(value, (int, float)):
-        return
-    _check_integer_size(key, value, source)
-    if not math.isfinite(value) and not (rule.infinite_ok and not math.isnan(value)):
-        _fail(
-            f"{key} = {value!r} is not finite; allowed: a finite number"
-            + (f" in {allowed_range_text(rule.range)}" if rule.range else ""),
-            key,
-            source,
-        )
-    if rule.range is not None and math.isfinite(value) and not in_range(value, rule.range):
-        why = f" ({rule.why})" if rule.why else ""
-        _fail(
-            f"{key} = {value!r} is out of range; allowed: {allowed_range_text(rule.range)}{why}",
-            key,
-            source,
-        )
-
-
 def _check_text(key: str, rule: Rule, value, source) -> None:
     """A text setting (or a list of them) against its rule's choices or form."""
     for item in value if isinstance(value, list) else [value]:
         if rule.choices is not None and item not in rule.choices:
-            _fail(
+            fail(
                 f"{key} = {item!r} is not allowed; allowed: {', '.join(map(repr, rule.choices))}",
                 key,
                 source,
             )
         if rule.form is not None and not (isinstance(item, str) and FORMS[rule.form][0](item)):
             allowed = FORMS[rule.form][1]
-            _fail(
+            fail(
                 f"{key} = {item!r} is not allowed; allowed: {allowed() if callable(allowed) else allowed}",
                 key,
                 source,
@@ -449,9 +303,9 @@ def _check_text(key: str, rule: Rule, value, source) -> None:
 def _unknown(key: str, known: list[str], source) -> None:
     """Refuse an unknown ``key``, naming the key that holds its quantity now or the nearest known keys."""
     if key in LEGACY_KEYS:
-        _fail(f"unknown key {key}: its quantity has one key, {LEGACY_KEYS[key]}", key, source)
+        fail(f"unknown key {key}: its quantity has one key, {LEGACY_KEYS[key]}", key, source)
     near = difflib.get_close_matches(key, known, n=3, cutoff=0.6)
-    _fail(
+    fail(
         f"unknown key {key}; "
         + (
             f"did you mean {' or '.join(near)}?" if near else f"known keys here: {', '.join(known)}"
@@ -463,15 +317,15 @@ def _unknown(key: str, known: list[str], source) -> None:
 
 def _walk(data: dict, cls, prefix: str, partial: bool, source) -> None:
     """Check the table ``data`` at ``prefix`` against the section class ``cls``: keys, types, rules."""
-    fields = _schema_fields(cls)
+    fields = schema_fields(cls)
     for name, value in data.items():
         key = f"{prefix}{name}"
         if name not in fields:
             _unknown(key, [f"{prefix}{k}" for k in fields], source)
         hint, rule = fields[name]
-        if not _type_ok(value, hint):
-            _fail(
-                f"{key} = {value!r} has the wrong type: expected {_expected(hint)}, got {_kind(value)}",
+        if not type_ok(value, hint):
+            fail(
+                f"{key} = {value!r} has the wrong type: expected {expected_kind(hint)}, got {kind_of(value)}",
                 key,
                 source,
             )
@@ -480,33 +334,33 @@ def _walk(data: dict, cls, prefix: str, partial: bool, source) -> None:
         elif isinstance(value, dict) and (
             rule.free
             or hint is Any
-            or _entry_class(hint) is None
+            or entry_class(hint) is None
             and not dataclasses.is_dataclass(hint)
         ):
             _check_free(key, value, source)
         elif isinstance(value, dict):
-            for entry, table in value.items() if _entry_class(hint) else [(None, value)]:
+            for entry, table in value.items() if entry_class(hint) else [(None, value)]:
                 inner = key if entry is None else f"{key}.{entry}"
                 if not isinstance(table, dict):
-                    _fail(
-                        f"{inner} = {table!r} has the wrong type: expected a table, got {_kind(table)}",
+                    fail(
+                        f"{inner} = {table!r} has the wrong type: expected a table, got {kind_of(table)}",
                         inner,
                         source,
                     )
-                _walk(table, _entry_class(hint) or hint, f"{inner}.", True, source)
+                _walk(table, entry_class(hint) or hint, f"{inner}.", True, source)
         elif isinstance(value, list):
             _check_free(key, value, source)
             _check_text(key, rule, value, source)
             if rule.non_empty and not value:
-                _fail(
+                fail(
                     f"{key} = [] is not allowed; allowed: a list of at least one entry", key, source
                 )
             for index, item in enumerate(value if rule.range else []):
-                _check_number(f"{key}[{index}]", rule, item, source)
+                check_number(f"{key}[{index}]", rule, item, source)
         elif isinstance(value, str):
             _check_text(key, rule, value, source)
         else:
-            _check_number(key, rule, value, source)
+            check_number(key, rule, value, source)
     if not partial:
         missing = [
             f"{prefix}{k}"
@@ -514,7 +368,7 @@ def _walk(data: dict, cls, prefix: str, partial: bool, source) -> None:
             if k in fields and k not in data and item.default is dataclasses.MISSING
         ]
         if missing:
-            _fail(
+            fail(
                 f"missing key(s) {', '.join(missing)} (every profile has the keys of params/{REFERENCE_PROFILE}.toml; "
                 f'inherit it with [profile] inherits = "{REFERENCE_PROFILE}")',
                 missing[0],
@@ -526,20 +380,20 @@ def _walk_sections(key: str, sections: dict, source) -> None:
     """``campaign.overrides``: a table of profile sections other than campaign and profile, each checked as its own."""
     known = {
         name: hint
-        for name, (hint, _) in _schema_fields(PROFILE_SCHEMA).items()
+        for name, (hint, _) in schema_fields(PROFILE_SCHEMA).items()
         if name not in ("campaign", "profile")
     }
     for name, table in sections.items():
         if name not in known:
-            _fail(
+            fail(
                 f"unknown key {key}.{name}: campaign.overrides holds profile sections other than campaign; known: "
                 f"{', '.join(known)}",
                 f"{key}.{name}",
                 source,
             )
         if not isinstance(table, dict):
-            _fail(
-                f"{key}.{name} = {table!r} has the wrong type: expected a table, got {_kind(table)}",
+            fail(
+                f"{key}.{name} = {table!r} has the wrong type: expected a table, got {kind_of(table)}",
                 f"{key}.{name}",
                 source,
             )
@@ -556,9 +410,9 @@ def _check_free(key: str, value, source) -> None:
             )
         elif isinstance(item, (int, float)):
             inner = f"{key}.{name}" if isinstance(value, dict) else f"{key}[{name}]"
-            _check_integer_size(inner, item, source)
+            check_integer_size(inner, item, source)
             if isinstance(item, float) and not math.isfinite(item):
-                _fail(f"{inner} = {item!r} is not finite; allowed: a finite number", inner, source)
+                fail(f"{inner} = {item!r} is not finite; allowed: a finite number", inner, source)
 
 
 def validate_profile(profile: dict, *, partial: bool = False, source=None) -> None:
@@ -567,233 +421,18 @@ def validate_profile(profile: dict, *, partial: bool = False, source=None) -> No
     Keys and value types are the fields of :data:`PROFILE_SCHEMA` (a float field takes an integer);
     numbers are finite and inside their field's range; texts are among its choices or of its form;
     ``integrator.setting`` names one of ``integrator.settings``. A free table takes any keys (its
-    numbers must be finite; :func:`_check_campaign` checks the campaign's). Raises :class:`ConfigError` naming the key,
+    numbers must be finite; :func:`check_campaign` checks the campaign's). Raises :class:`ConfigError` naming the key,
     the value and what is allowed (with the file and line when ``source`` is a path).
     """
     if not isinstance(profile, dict):
         raise ConfigError(f"a profile is a table of sections; got {profile!r}")
     _walk(profile, PROFILE_SCHEMA, "", partial, source)
-    _check_across(profile, source)
+    check_across(profile, source)
     if not partial:
-        _check_campaign(profile, source)
-    overrides = _lookup(profile, "campaign.overrides")
+        check_campaign(profile, source)
+    overrides = lookup(profile, "campaign.overrides")
     if overrides:  # the profile campaign evaluations use
-        _check_across(deep_merge(profile, overrides), source)
-
-
-def _lookup(profile: dict, key: str):
-    """The value at dotted ``key``, or None where a section or key is absent (a partial profile)."""
-    value = profile
-    for part in key.split("."):
-        if not isinstance(value, dict) or part not in value:
-            return None
-        value = value[part]
-    return value
-
-
-def _check_across(profile: dict, source) -> None:
-    """Rules across keys, wherever a (partial) profile holds every key a rule needs: setting names name an
-    ``[integrator.settings.*]`` table; ``[evaluator] extra_metrics`` are distinct, and the Delta-V maxima among
-    them need ``[deltav] satellites = "all"``, the life navigation metrics ``[sk_estimate] model = "life"``; Cr A/m of the spacecraft is a spacecraft's; a pair
-    (``Rule.pair``) is ``[low, high]`` with low < high."""
-    settings = _lookup(profile, "integrator.settings")
-    for key in keys_with("names_integrator_setting"):
-        name = _lookup(profile, key)
-        if settings is not None and name is not None and name not in settings:
-            _fail(
-                f"{key} = {name!r} names no [integrator.settings.*]; allowed: {', '.join(settings)}",
-                key,
-                source,
-            )
-    systems = _lookup(profile, "gnss.systems")
-    if isinstance(systems, list) and len(set(systems)) != len(systems):
-        _fail(
-            f"gnss.systems = {systems!r} is not allowed; allowed: distinct names from {', '.join(GNSS_SYSTEMS)}",
-            "gnss.systems",
-            source,
-        )
-    extras = _lookup(profile, "evaluator.extra_metrics")
-    if isinstance(extras, list) and len(set(extras)) != len(extras):
-        _fail(
-            f"[evaluator] extra_metrics must be distinct names; got {extras!r}",
-            "evaluator.extra_metrics",
-            source,
-        )
-    model = _lookup(profile, "sk_estimate.model")
-    life_nav = [n for n in extras or () if n in LIFE_NAVIGATION_KEYS]
-    if life_nav and model is not None and model != "life":
-        _fail(
-            f"[evaluator] extra_metrics {life_nav} come from the life estimate's rebuilt constellation: they need "
-            f'[sk_estimate] model = "life"; got {model!r}',
-            "sk_estimate.model",
-            source,
-        )
-    satellites = _lookup(profile, "deltav.satellites")
-    needs_all = [n for n in extras or () if n in NEEDS_ALL_SATELLITES]
-    if needs_all and satellites is not None and satellites != "all":
-        _fail(
-            f"[evaluator] extra_metrics {needs_all} are maxima over satellites: they need "
-            f'[deltav] satellites = "all"; got {satellites!r}',
-            "deltav.satellites",
-            source,
-        )
-    lat, lon = (
-        _lookup(profile, "navigation_error.station_lat_deg"),
-        _lookup(profile, "navigation_error.station_lon_deg"),
-    )
-    if lat is not None and lon is not None and len(lat) != len(lon):
-        _fail(
-            f"navigation_error.station_lon_deg has {len(lon)} entries for {len(lat)} station latitudes; allowed: one "
-            "longitude per latitude",
-            "navigation_error.station_lon_deg",
-            source,
-        )
-    floor = [
-        _lookup(profile, f"navigation_error.{k}") for k in ("sise_at_upload_m", "receiver_noise_m")
-    ]
-    if None not in floor and max(floor) <= 0.0:
-        _fail(
-            "navigation_error.sise_at_upload_m and receiver_noise_m are both 0; allowed: a positive range error floor "
-            "(a zero-error range would take infinite weight)",
-            "navigation_error.receiver_noise_m",
-            source,
-        )
-    for key in keys_with("pair"):
-        pair = _lookup(profile, key)
-        if pair is not None and not (len(pair) == 2 and pair[0] < pair[1]):
-            _fail(
-                f"{key} = {pair!r} is not allowed; allowed: [low, high] with low < high",
-                key,
-                source,
-            )
-    craft = [_lookup(profile, f"spacecraft.{k}") for k in ("cr", "area_m2", "mass_kg")]
-    if (
-        None not in craft
-        and craft[2] > 0
-        and not in_range(craft[0] * craft[1] / craft[2], CR_AREA_MASS)
-    ):
-        _fail(
-            f"spacecraft cr * area_m2 / mass_kg = {craft[0] * craft[1] / craft[2]:.6g} m^2/kg is out of range; "
-            f"allowed: {allowed_range_text(CR_AREA_MASS)} ({CR_AREA_MASS_WHY})",
-            "spacecraft.area_m2",
-            source,
-        )
-
-
-CAMPAIGN_OFF = (
-    "off"  # a campaign constraint or hypervolume entry set to "off" drops an inherited one
-)
-
-
-def _is_number(value) -> bool:
-    return not isinstance(value, bool) and isinstance(value, (int, float)) and math.isfinite(value)
-
-
-def _check_campaign(profile: dict, source) -> None:
-    """Rules of the free tables and names of a complete profile's ``[campaign]`` (the campaign plan reads them
-    unchecked): objectives and bounds name metrics (:data:`METRIC_KEYS` and ``[evaluator] extra_metrics``), a
-    constraint is ``{min = x}`` or ``{max = x}``, a hypervolume reference is positive, the grid of every design
-    variable has finite ``lower < upper`` and ``step > 0`` (semi-major axes in the Hill sphere; integer bounds
-    ``>= 1`` and integer steps for the plane and satellite counts), a companion is another profile."""
-    campaign = profile["campaign"]
-    metrics = METRIC_KEYS + tuple(profile["evaluator"]["extra_metrics"])
-    metric_text = f"{', '.join(metrics)} (extra metrics: list them in [evaluator] extra_metrics)"
-    objectives = campaign["objectives"]
-    names = [o.lstrip("-") if isinstance(o, str) else o for o in objectives]
-    bad = [o for o, name in zip(objectives, names) if name not in metrics]
-    if not objectives or bad or len(set(names)) != len(names):
-        _fail(
-            f"campaign.objectives = {objectives!r} is not allowed"
-            + (f" ({bad!r} unknown)" if bad else "")
-            + f"; allowed: distinct metric names, '-' first to maximise, from {metric_text}",
-            "campaign.objectives",
-            source,
-        )
-    entries = {  # table -> (test of an entry's value, what is allowed)
-        "constraints": (
-            lambda spec: (
-                isinstance(spec, dict)
-                and len(spec) == 1
-                and next(iter(spec)) in ("min", "max")
-                and _is_number(next(iter(spec.values())))
-            ),
-            "exactly one of {min = number}, {max = number}",
-        ),
-        "hypervolume": (lambda ref: _is_number(ref) and ref > 0, "a positive reference value"),
-    }
-    for table, (ok, allowed) in entries.items():
-        for metric, value in campaign[table].items():
-            key = f"campaign.{table}.{metric}"
-            if value == CAMPAIGN_OFF:
-                continue
-            if metric not in metrics:
-                _fail(f"unknown metric {key}; allowed: {metric_text}", key, source)
-            if not ok(value):
-                _fail(
-                    f"{key} = {value!r} is not allowed; allowed: {allowed} or {CAMPAIGN_OFF!r}",
-                    key,
-                    source,
-                )
-    variables = campaign["variables"]
-    if set(variables) != set(DESIGN_KEYS):
-        _fail(
-            f"campaign.variables names {', '.join(variables)}; allowed: exactly {', '.join(DESIGN_KEYS)}",
-            "campaign.variables",
-            source,
-        )
-    for name in DESIGN_KEYS:
-        key, spec = f"campaign.variables.{name}", variables[name]
-        if (
-            not isinstance(spec, dict)
-            or set(spec) != {"lower", "upper", "step"}
-            or not all(_is_number(spec[k]) for k in spec)
-        ):
-            _fail(
-                f"{key} = {spec!r} is not allowed; allowed: {{lower = number, upper = number, step = number}}",
-                key,
-                source,
-            )
-        lower, upper, step = (spec[k] for k in ("lower", "upper", "step"))
-        if step <= 0 or upper <= lower:
-            _fail(
-                f"{key} = {spec!r} is not allowed; allowed: lower < upper and step > 0", key, source
-            )
-        if name == "sma_km" and not (
-            in_range(lower, SEMI_MAJOR_AXIS) and in_range(upper, SEMI_MAJOR_AXIS)
-        ):
-            _fail(
-                f"{key} = {spec!r} is out of range; allowed: bounds in {allowed_range_text(SEMI_MAJOR_AXIS)} "
-                f"({SEMI_MAJOR_AXIS_WHY})",
-                key,
-                source,
-            )
-        if name in INTEGER_DESIGN_KEYS and (
-            any(v != round(v) for v in (lower, upper, step)) or lower < 1
-        ):
-            _fail(
-                f"{key} = {spec!r} is not allowed; allowed: integer bounds >= 1 and an integer step (a count)",
-                key,
-                source,
-            )
-    count_ranges = [
-        range(int(variables[k]["lower"]), int(variables[k]["upper"]) + 1, int(variables[k]["step"]))
-        for k in INTEGER_DESIGN_KEYS
-    ]
-    if (n_sat := campaign["n_sat"]) and not walker_splits(n_sat, *count_ranges):
-        sizes = sorted({p * s for p in count_ranges[0] for s in count_ranges[1]})
-        _fail(
-            f"campaign.n_sat = {n_sat!r} has no planes x satellites-per-plane split on the grid of "
-            f"campaign.variables; allowed: 0 (any size) or one of {', '.join(map(str, sizes))}",
-            "campaign.n_sat",
-            source,
-        )
-    companion = campaign["companion_profile"]
-    if companion and companion == profile["profile"].get("name"):
-        _fail(
-            f'campaign.companion_profile = {companion!r} is this profile; allowed: "" (none) or another profile',
-            "campaign.companion_profile",
-            source,
-        )
+        check_across(deep_merge(profile, overrides), source)
 
 
 def parse_sets(items) -> dict:
@@ -891,9 +530,7 @@ SKYFIELD_DATA = (
 def _check_data_paths(profile: dict) -> None:
     """Every data-file key of a profile names a file under ``params/data/`` (or a skyfield-data file)."""
     for key in DATA_KEYS:
-        value = profile
-        for part in key.split("."):
-            value = value[part]
+        value = lookup(profile, key)
         for item in value if isinstance(value, list) else [value]:
             data_path(item, key)
     spk = profile["ephemeris"]["planetary_spk"]

@@ -18,7 +18,8 @@ import numpy as np
 from .ephemeris import EphemerisTable, hermite_apply, hermite_basis, hermite_sum
 from .errors import ConfigError
 from .gravity import GravityField, harmonic_acceleration, tabulated_truncation_degree
-from .sections import CR_AREA_MASS, CR_AREA_MASS_WHY, THIRD_BODIES, allowed_range_text, in_range
+from .sections import CR_AREA_MASS, CR_AREA_MASS_WHY, THIRD_BODIES
+from .setting_rule import allowed_range_text, in_range
 from .settings import Dynamics
 
 __all__ = [
@@ -280,32 +281,27 @@ def _third_body(
 
 
 @nb.njit(cache=True)
+def _body_component(bodies: np.ndarray, body: int, basis: tuple, axis: int) -> float:
+    """Coordinate ``axis`` (0-2) of the position (km) of row ``body`` of the ephemeris table at
+    :func:`~lnss_lib.ephemeris.hermite_basis`'s weights (its rate in column ``axis + 3``)."""
+    k = basis[0]
+    return hermite_sum(
+        basis,
+        bodies[k, body, axis],
+        bodies[k, body, axis + 3],
+        bodies[k + 1, body, axis],
+        bodies[k + 1, body, axis + 3],
+    )
+
+
+@nb.njit(cache=True)
 def _body_position(bodies: np.ndarray, body: int, basis: tuple) -> tuple:
     """Position (km) of row ``body`` of the ephemeris table (positions in columns 0-2, velocities, their rates, in
     3-5) at :func:`~lnss_lib.ephemeris.hermite_basis`'s weights, indexed without a view of the table."""
-    k = basis[0]
     return (
-        hermite_sum(
-            basis,
-            bodies[k, body, 0],
-            bodies[k, body, 3],
-            bodies[k + 1, body, 0],
-            bodies[k + 1, body, 3],
-        ),
-        hermite_sum(
-            basis,
-            bodies[k, body, 1],
-            bodies[k, body, 4],
-            bodies[k + 1, body, 1],
-            bodies[k + 1, body, 4],
-        ),
-        hermite_sum(
-            basis,
-            bodies[k, body, 2],
-            bodies[k, body, 5],
-            bodies[k + 1, body, 2],
-            bodies[k + 1, body, 5],
-        ),
+        _body_component(bodies, body, basis, 0),
+        _body_component(bodies, body, basis, 1),
+        _body_component(bodies, body, basis, 2),
     )
 
 

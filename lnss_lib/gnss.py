@@ -61,8 +61,9 @@ from .constants import (
 from .ephemeris import body_states_mci
 from .errors import ConfigError
 from .frames import teme_to_j2000, tt_centuries, utc_julian_dates
+from .gain_pattern import gain_for_settings
 from .geometry import block_inverse, filtered_mean
-from .gps import gain_for_settings, gps_states_mci
+from .gps_states import gps_states_mci
 
 if TYPE_CHECKING:
     from .settings import BodyConstants, GnssSettings, GpsSettings

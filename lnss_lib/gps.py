@@ -8,8 +8,9 @@ geometry in :mod:`lnss_lib.geometry`):
   Earth occultation with the atmospheric margin (eq. 21) plus the ray / WGS-84 ellipsoid test,
   beam mask, link budget (eq. 22-24), GPS-LNSS PDOP with the clock column (eq. 5-7) and the
   95th-percentile ("2-sigma") filtered mean.
-* **Orchestration**: :func:`gps_states_mci` (SGP4 in TEME -> J2000 -> Moon-centred; computed once
-  per run, cached, reused across designs) and :func:`gps_link` / :func:`gps_link_summary`.
+* **Orchestration**: :func:`gps_link` / :func:`gps_link_summary` on the GPS states of
+  :func:`~lnss_lib.gps_states.gps_states_mci` (SGP4 in TEME -> J2000 -> Moon-centred; computed once
+  per run, cached, reused across designs) with the transmit pattern of :mod:`lnss_lib.gain_pattern`.
 
 Units and frames are in the names: ``r_mci_km`` Moon-centred J2000, ``r_eci_km`` Earth-centred
 J2000, ``r_teme_km`` Earth-centred TEME, ``t_tdb_s`` TDB seconds past J2000 (SPICE ET).
@@ -17,27 +18,17 @@ J2000, ``r_teme_km`` Earth-centred TEME, ``t_tdb_s`` TDB seconds past J2000 (SPI
 
 from __future__ import annotations
 
-import csv
 import dataclasses
-import datetime as dt
-import hashlib
-from dataclasses import dataclass
-from functools import lru_cache
-from pathlib import Path
 from typing import TYPE_CHECKING
 
 import numba as nb
 import numpy as np
 import xarray as xr
-from sgp4.api import SGP4_ERRORS, Satrec, SatrecArray
 
-from .config import data_path
-from .constants import BOLTZMANN_J_K, C_M_S, MIN_VISIBLE, SECONDS_PER_DAY, WGS84_A_KM, WGS84_B_KM
-from .ephemeris import body_states_mci
-from .errors import ConfigError
-from .frames import J2000_JD, teme_to_j2000, tt_centuries, utc_julian_dates
+from .constants import BOLTZMANN_J_K, C_M_S, MIN_VISIBLE, WGS84_A_KM, WGS84_B_KM
+from .gain_pattern import GainPattern, gain_for_settings, load_gain_pattern
 from .geometry import block_inverse, filtered_mean, normal_matrix_entries, position_block_inverse
-from .tle import TleRecord, gps_catalogue
+from .gps_states import gps_states_mci, propagate_teme
 
 if TYPE_CHECKING:
     from .settings import BodyConstants, GpsSettings
@@ -60,117 +51,6 @@ __all__ = [
     "gps_link_metrics",
     "gps_link_summary",
 ]
-
-
-def propagate_teme(records: list[TleRecord], jd_utc: np.ndarray, fr_utc: np.ndarray) -> np.ndarray:
-    """SGP4 positions (gps, time, 3) in TEME, km; ``ValueError`` naming the first satellite and epoch SGP4 fails at:
-    the satellite's catalogue number and file line, the epoch in UTC and its distance from the TLE's epoch (SGP4's
-    mean elements leave their range far from it), and SGP4's reason."""
-    sats = SatrecArray([Satrec.twoline2rv(r.line1, r.line2) for r in records])
-    err, r_km, _ = sats.sgp4(np.asarray(jd_utc, dtype=float), np.asarray(fr_utc, dtype=float))
-    if np.any(err != 0):
-        k, j = np.argwhere(err != 0)[0]
-        record, code = records[k], int(err[k, j])
-        at_utc = dt.datetime(2000, 1, 1, 12) + dt.timedelta(
-            days=float(jd_utc[j] - J2000_JD) + float(fr_utc[j])
-        )
-        days = (at_utc - record.epoch_utc).total_seconds() / SECONDS_PER_DAY
-        raise ValueError(
-            f"SGP4 cannot propagate {record.name} (catalogue number {record.satnum}, line "
-            f"{record.file_line}) to {at_utc:%Y-%m-%dT%H:%M:%S} UTC, {days:+,.1f} days from its TLE epoch "
-            f"{record.epoch_utc:%Y-%m-%dT%H:%M:%S} UTC: {SGP4_ERRORS.get(code, 'unknown error')} "
-            f"(SGP4 error {code})"
-        )
-    return np.asarray(r_km)
-
-
-_STATE_CACHE: dict[str, xr.Dataset] = {}
-_STATE_CACHE_SIZE = 8
-
-
-def gps_states_mci(
-    gps: GpsSettings,
-    start_tdb: str,
-    t_tdb_s,
-    *,
-    tle_path: str | Path | None = None,
-    sgp4_offset_s: float = 0.0,
-) -> xr.Dataset:
-    """GPS positions at TDB epochs: Dataset (gps, time, xyz) with ``r_mci_km``, ``r_eci_km``, ``r_teme_km``.
-
-    SGP4 (TEME, UTC) -> J2000 (:func:`teme_to_j2000`) -> Moon-centred by adding the Earth's
-    Moon-centred J2000 position (SPICE). Also holds ``rot_teme_to_j2000`` (time, i, j). Coords:
-    ``prn``, ``name``, ``designator`` on ``gps``; ``time`` in TDB s. The default TLE set is dated
-    November 2025 while the paper's epoch is May 2025: SGP4 then propagates about 6.5 months
-    backwards. ``sgp4_offset_s`` evaluates SGP4 at t + offset while the Earth and the frame rotation
-    stay at t: a GPS phase (along-track) error, to test how much the back-propagation matters.
-    Results are cached per (file, exclusions, epochs, offset): compute once, reuse across designs.
-    ``gps``: the ``[gps]`` section (TLE file and exclusions); ``start_tdb``: the study epoch
-    (``epoch.start_tdb``, the default launch cut-off). The SPICE kernels must be loaded
-    (:func:`lnss_lib.ephemeris.ensure_kernels`, as for the epochs ``t_tdb_s`` themselves).
-    """
-    t = np.atleast_1d(np.asarray(t_tdb_s, dtype=float))
-    path = Path(tle_path) if tle_path is not None else data_path(gps.tle_file)
-    selection = {
-        k: str(getattr(gps, k))
-        for k in ("exclude_prn", "exclude_launched_after", "exclude_launches_from", "launch_dates")
-    }
-    key = hashlib.sha256(
-        b"".join(
-            [
-                path.read_bytes(),
-                repr(sorted(selection.items())).encode(),
-                start_tdb.encode(),
-                t.tobytes(),
-                repr(float(sgp4_offset_s)).encode(),
-            ]
-        )
-    ).hexdigest()
-    if key in _STATE_CACHE:
-        return _STATE_CACHE[key]
-    if len(_STATE_CACHE) >= _STATE_CACHE_SIZE:
-        _STATE_CACHE.clear()
-    records, _ = gps_catalogue(gps, start_tdb, path)
-    jd, fr = utc_julian_dates(t + float(sgp4_offset_s))
-    try:
-        r_teme = propagate_teme(records, jd, fr)
-    except ValueError as error:
-        raise ConfigError(
-            f"gps.tle_file = {gps.tle_file!r} for the study from epoch.start_tdb = {start_tdb!r}: "
-            f"{error}; use TLEs dated nearer the study epoch",
-            key="gps.tle_file",
-        ) from None
-    rot = teme_to_j2000(tt_centuries(t))
-    r_eci = np.einsum("tij,gtj->gti", rot, r_teme)
-    earth_mci = body_states_mci("EARTH", t)[:, :3]
-    r_mci = r_eci + earth_mci[None, :, :]
-    ds = xr.Dataset(
-        {
-            "r_mci_km": (("gps", "time", "xyz"), r_mci),
-            "r_eci_km": (("gps", "time", "xyz"), r_eci),
-            "r_teme_km": (("gps", "time", "xyz"), r_teme),
-            "rot_teme_to_j2000": (("time", "i", "j"), rot),
-            "earth_mci_km": (("time", "xyz"), earth_mci),
-        },
-        coords={
-            "gps": np.arange(len(records)),
-            "time": t,
-            "xyz": ["x", "y", "z"],
-            "prn": ("gps", np.array([-1 if r.prn is None else r.prn for r in records])),
-            "name": ("gps", [r.name for r in records]),
-            "designator": ("gps", [r.designator for r in records]),
-        },
-        attrs={
-            "frame": "J2000 (r_mci_km Moon-centred, r_eci_km Earth-centred); r_teme_km TEME",
-            "time_scale": "TDB seconds past J2000",
-            "tle_file": str(path),
-            "propagator": "SGP4 (sgp4 package), UTC from SPICE deltet",
-            "teme_to_j2000": "IAU-1976 precession, IAU-1980 nutation (13 terms), EqE 1982",
-            "sgp4_offset_s": float(sgp4_offset_s),
-        },
-    )
-    _STATE_CACHE[key] = ds
-    return ds
 
 
 # --------------------------------------------------------------------------------------------
@@ -311,93 +191,6 @@ def pdop_along_axis(
 
 
 # --------------------------------------------------------------------------------------------
-# Transmit gain pattern
-# --------------------------------------------------------------------------------------------
-
-
-@dataclass(frozen=True)
-class GainPattern:
-    """Transmit gain (dBi) tabulated against off-boresight angle (deg); linear interpolation, NaN outside."""
-
-    off_boresight_deg: np.ndarray
-    gain_dbi: np.ndarray
-    source: str
-
-    def __call__(self, theta_deg) -> np.ndarray:
-        theta = np.asarray(theta_deg, dtype=float)
-        gain = np.interp(theta, self.off_boresight_deg, self.gain_dbi)
-        inside = (theta >= self.off_boresight_deg[0]) & (theta <= self.off_boresight_deg[-1])
-        return np.where(inside, gain, np.nan)
-
-    def with_sidelobes(self, from_deg: float, offset_db: float) -> GainPattern:
-        """The pattern with ``offset_db`` added beyond ``from_deg`` (-inf: main lobe only)."""
-        if offset_db == 0.0:
-            return self
-        gain = np.where(self.off_boresight_deg > from_deg, self.gain_dbi + offset_db, self.gain_dbi)
-        return GainPattern(
-            self.off_boresight_deg,
-            gain,
-            f"{self.source}, sidelobes beyond {from_deg} deg {offset_db:+g} dB",
-        )
-
-
-def load_gain_pattern(path: str | Path, column: str) -> GainPattern:
-    """Gain column ``column`` of a CSV (comment lines '#', column ``off_boresight_deg``)."""
-    path = Path(path)
-    if not path.is_file():
-        raise ValueError(f"gain pattern file not found: {path}")
-    with open(path, newline="") as handle:
-        numbered = [
-            (k, line)
-            for k, line in enumerate(handle, start=1)
-            if line.strip() and not line.startswith("#")
-        ]
-    rows = list(zip((k for k, _ in numbered), csv.reader(line for _, line in numbered)))
-    if len(rows) < 3:
-        raise ConfigError(
-            f"{path}: a gain pattern needs a header line and at least two rows", key="gps.gain_file"
-        )
-    header = [c.strip() for c in rows[0][1]]
-    values = []
-    for line_no, row in rows[1:]:
-        try:
-            numbers = [float(c) for c in row]
-        except ValueError:
-            raise ConfigError(
-                f"{path}: line {line_no}: need {len(header)} numbers separated by commas",
-                key="gps.gain_file",
-            ) from None
-        if len(numbers) != len(header) or not all(np.isfinite(numbers)):
-            raise ConfigError(
-                f"{path}: line {line_no}: need {len(header)} finite numbers; got {len(numbers)} value(s)"
-                f"{'' if all(np.isfinite(numbers)) else ', not all finite'}",
-                key="gps.gain_file",
-            )
-        values.append(numbers)
-    table = {name: np.array([row[k] for row in values]) for k, name in enumerate(header)}
-    if "off_boresight_deg" not in table:
-        raise ValueError(f"{path}: line 1 (the header) needs a column 'off_boresight_deg'")
-    if column not in table:
-        allowed = [c for c in header if c != "off_boresight_deg"]
-        raise ValueError(f"{path}: unknown gain column {column!r}; allowed: {', '.join(allowed)}")
-    theta = table["off_boresight_deg"]
-    if np.any(np.diff(theta) <= 0.0):
-        raise ValueError(f"{path}: off_boresight_deg must increase strictly")
-    return GainPattern(theta, table[column], f"{path.name}:{column}")
-
-
-def gain_for_settings(gps: GpsSettings) -> GainPattern:
-    """The ``[gps]`` transmit pattern: ``gain_file`` / ``gain_column`` with the sidelobe offset (read once a
-    process)."""
-    return _cached_gain(
-        str(data_path(gps.gain_file)),
-        gps.gain_column,
-        float(gps.sidelobe_from_deg),
-        float(gps.sidelobe_offset_db),
-    )
-
-
-# --------------------------------------------------------------------------------------------
 # Orchestration
 # --------------------------------------------------------------------------------------------
 
@@ -434,12 +227,6 @@ def _link_settings(gps: GpsSettings, overrides: dict) -> tuple[GpsSettings, Gain
     }
     cfg = dataclasses.replace(gps, **changed) if changed else gps
     return cfg, overrides.get("gain") or gain_for_settings(cfg)
-
-
-@lru_cache(maxsize=16)
-def _cached_gain(path: str, column: str, from_deg: float, offset_db: float) -> GainPattern:
-    """:func:`gain_for_settings` read once per process (the file is not re-read for every design)."""
-    return load_gain_pattern(path, column).with_sidelobes(from_deg, offset_db)
 
 
 _GPS_ARRAYS: dict[int, tuple] = {}

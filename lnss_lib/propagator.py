@@ -29,7 +29,8 @@ from .errors import ConfigError, ImpactError, PropagationError
 from .forces import SCRATCH_SIZE, SOLAR_P, SRP_K, TERMS, ForceModel, acceleration
 from .frames import element_frame_to_j2000
 from .gravity import new_workspace
-from .sections import METHODS, SEMI_MAJOR_AXIS, SEMI_MAJOR_AXIS_WHY, allowed_range_text, in_range
+from .sections import METHODS, SEMI_MAJOR_AXIS, SEMI_MAJOR_AXIS_WHY
+from .setting_rule import allowed_range_text, in_range
 from .settings import Dynamics, EpochSettings, IntegratorSetting
 
 __all__ = [

@@ -1,7 +1,7 @@
 """The sections of a profile, each setting declared once: its type, its allowed values and why.
 
 A section is a frozen dataclass (``[dop]`` is :class:`DopSettings`); a field is a setting, its
-annotation the type, and :func:`setting` puts its rule in the field's metadata: a range (each entry
+annotation the type, and :func:`~lnss_lib.setting_rule.setting` puts its rule in the field's metadata: a range (each entry
 of a list), the allowed values of a text, an open form (a date, a profile name), and the physical
 or numerical reason quoted when a value is refused. The unit is in the field's name (``_km``,
 ``_deg``, ``_days``), as everywhere in the workbook. :func:`lnss_lib.config.validate_profile` reads
@@ -14,12 +14,11 @@ A new setting is one field here and its value, with its source, in ``params/pape
         margin_km: float = setting(range=NON_NEGATIVE, why="...")
 
 The allowed values of the text settings are the tuples below; a module that reads a setting imports
-its tuple from here.
+its tuple from here. How stored profiles spelled older keys is :mod:`lnss_lib.legacy_keys`.
 """
 
 from __future__ import annotations
 
-import copy
 import dataclasses
 from collections.abc import Mapping
 from dataclasses import dataclass, field
@@ -36,64 +35,8 @@ from .constants import (
     WGS84_A_KM,
 )
 from .errors import ConfigError
-from .keys import DELTAV_SATELLITES, EXTRA_METRIC_KEYS, GNSS_NAMES, NAVIGATION_ERROR_KEYS
-
-
-@dataclass(frozen=True)
-class Rule:
-    """What a setting allows. ``range``: ``(low, high, low open, high open)``, None unbounded, each entry of a list;
-    ``choices``: the allowed texts (each entry of a list); ``form``: the name of an open form checked by
-    :data:`lnss_lib.config.FORMS`; ``why``: the reason a range has, quoted in the message."""
-
-    range: tuple | None = None
-    choices: tuple[str, ...] | None = None
-    form: str | None = None
-    why: str = ""
-    infinite_ok: bool = False  # -inf or inf is a value (a side lobe off)
-    non_empty: bool = False  # a list that needs an entry
-    names_integrator_setting: bool = False  # a name of [integrator.settings.*]
-    pair: bool = False  # [low, high] with low < high
-    free: bool = False  # a table of any keys (finite numbers; the campaign's checked apart)
-    sections: bool = False  # a table of profile sections (campaign.overrides)
-    derived: bool | tuple[str, ...] = (
-        False  # no key: the value of the one key of its quantity (derived())
-    )
-    file_only: bool = False  # a key of a profile file, resolved when the files are merged
-
-
-NO_RULE = Rule()
-
-
-def setting(**rule) -> Any:
-    """A field whose :class:`Rule` is ``rule`` (keywords of :class:`Rule`)."""
-    return field(metadata={"rule": Rule(**rule)})
-
-
-def derived(default, of: tuple[str, ...] = ()) -> Any:
-    """A field with no key of its own: the loader sets it to the first of the dotted keys ``of`` whose value is
-    not 0 (none: its section's code fills it in), so a kernel reads the quantity in the one section it takes."""
-    return field(default=default, metadata={"rule": Rule(derived=of or True)})
-
-
-def rule_of(item) -> Rule:
-    """The :class:`Rule` of a dataclass field (:data:`NO_RULE` when it has none)."""
-    return item.metadata.get("rule", NO_RULE)
-
-
-def allowed_range_text(spec: tuple) -> str:
-    """``(0, inf)``-style text of a range ``(low, high, low open, high open)``."""
-    low, high, low_open, high_open = spec
-    left = "(-inf" if low is None else f"{'(' if low_open else '['}{low:g}"
-    right = "inf)" if high is None else f"{high:g}{')' if high_open else ']'}"
-    return f"{left}, {right}"
-
-
-def in_range(value: float, spec: tuple) -> bool:
-    low, high, low_open, high_open = spec
-    return (low is None or (value > low if low_open else value >= low)) and (
-        high is None or (value < high if high_open else value <= high)
-    )
-
+from .keys import DELTAV_SATELLITES, EXTRA_METRIC_KEYS, GNSS_NAMES
+from .setting_rule import Rule, derived, setting
 
 # Ranges that several settings share.
 POSITIVE, NON_NEGATIVE = (0.0, None, True, False), (0.0, None, False, False)
@@ -710,100 +653,3 @@ class ProfileSections:
     life_navigation: LifeNavigationSettings
     robustness: RobustnessSettings
     front_validation: FrontValidationSettings
-
-
-# --- keys of profiles stored before each quantity had one key ------------------------------------------
-
-OFF_WHEN_ABSENT = {
-    "front_validation": lambda profile: profile["front_validation"].get("max_designs", 0) == 0,
-    "navigation_error": lambda profile: (
-        not set(profile.get("evaluator", {}).get("extra_metrics", ())) & set(NAVIGATION_ERROR_KEYS)
-    ),
-    "gnss": lambda profile: list(profile["gnss"].get("systems", ["gps"])) == ["gps"],
-    "life_navigation": lambda profile: profile["life_navigation"].get("designs", 0) == 0,
-    "robustness": lambda profile: profile["robustness"].get("draws", 0) == 0,
-}
-"""Sections a profile stored before they existed lacks, each with its test of being off: read as params/paper.toml's
-(front validation off, ``max_designs = 0``; the navigation error unused while no metric of
-:data:`~lnss_lib.keys.NAVIGATION_ERROR_KEYS` is asked for; the GPS link alone, ``[gnss] systems = ["gps"]``; notebook
-08's life navigation check off, ``designs = 0``; no insertion dispersions, ``draws = 0``), and left out of the profile
-hash while off, so runs and shipped results from before them keep their hash."""
-
-
-KEYS_OFF_WHEN_ABSENT = {("campaign", "n_sat"): 0}
-"""Keys a profile stored before they existed lacks, with the value that keeps their effect off (a campaign over
-every size): read so when absent and left out of the profile hash at that value, like :data:`OFF_WHEN_ABSENT`."""
-
-
-LEGACY_KEYS = {
-    "stability.life_days": "stability.span_days",
-    "sk_estimate.element_frame": "sk_estimate.arc_frame",
-    "deltav.element_frame": "deltav.gve_frame",
-    "sk_estimate.year_days": "deltav.year_days",
-}
-"""Keys of profiles stored before each quantity had one key (run folders' ``run.json``, the shipped results)
--> the key that holds the quantity now. The screen's span is the design life unless set apart (``span_days``,
-0: ``[design_life] life_days``); the arc estimate's box and the GVEs read their elements in frames of their own,
-named so, and the design's elements are ``[frames] element_frame`` alone; the year of every per-year figure is
-``[deltav] year_days``. :func:`migrate_legacy` reads a stored profile in today's keys;
-:func:`lnss_lib.config.profile_hash` spells a profile in the stored keys, so a stored profile and today's same
-settings share one fingerprint."""
-FOLLOWS = {
-    "stability.span_days": "design_life.life_days"
-}  # an override at 0 takes this key's value
-OLD_KEYS_KEPT = {
-    new for old, new in LEGACY_KEYS.items() if old.split(".")[-1] == new.split(".")[-1]
-}  # one key now
-
-
-def _value_at(profile: dict, key: str):
-    """The value at dotted ``key`` (section.name), or None where it is absent."""
-    section, name = key.split(".")
-    return profile.get(section, {}).get(name)
-
-
-def _pop(profile: dict, key: str):
-    section, name = key.split(".")
-    return profile.get(section, {}).pop(name, None)
-
-
-def _put(profile: dict, key: str, value) -> None:
-    section, name = key.split(".")
-    profile.setdefault(section, {})[name] = value
-
-
-def migrate_legacy(profile: dict) -> dict:
-    """``profile`` (changed in place) with every key of :data:`LEGACY_KEYS` it holds moved to today's key; an
-    override equal to the value it follows (:data:`FOLLOWS`) becomes 0. ConfigError when two old keys of one
-    quantity disagree (a stored profile today's keys cannot spell)."""
-    for old, new in LEGACY_KEYS.items():
-        value = _pop(profile, old)
-        if value is None:
-            continue
-        if new in FOLLOWS and value == _value_at(profile, FOLLOWS[new]):
-            value = 0.0
-        kept = _value_at(profile, new)
-        if new in OLD_KEYS_KEPT and kept is not None and kept != value:
-            raise ConfigError(
-                f"stored profile: {old} = {value!r} and {new} = {kept!r} are one quantity with two "
-                f"values; it cannot be read in one key",
-                key=old,
-            )
-        _put(profile, new, value)
-    return profile
-
-
-def legacy_spelling(profile: dict) -> dict:
-    """A copy of a complete ``profile`` in the keys of :data:`LEGACY_KEYS` (what :func:`lnss_lib.config.profile_hash` fingerprints):
-    the inverse of :func:`migrate_legacy`; a profile already so spelled comes back unchanged."""
-    content = copy.deepcopy(profile)
-    for old, new in LEGACY_KEYS.items():
-        value = _value_at(content, new)
-        if value is None or _value_at(content, old) is not None:
-            continue
-        if new in FOLLOWS and value == 0:
-            value = _value_at(content, FOLLOWS[new])
-        _put(content, old, value)
-        if new not in OLD_KEYS_KEPT:
-            _pop(content, new)
-    return content

@@ -39,6 +39,7 @@ from .config import (
     with_absent_sections,
 )
 from .errors import ConfigError
+from .legacy_keys import migrate_legacy
 from .sections import (  # the sections, importable from here as they always were
     BenchmarkSettings,
     BodyConstants,
@@ -76,9 +77,8 @@ from .sections import (  # the sections, importable from here as they always wer
     StandaloneElfoSettings,
     ValidationSettings,
     VariableBounds,
-    migrate_legacy,
-    rule_of,
 )
+from .setting_rule import rule_of
 
 __all__ = [
     "Settings",
@@ -279,7 +279,7 @@ def _with_derived(section, profile: Mapping):
 
 def settings_from_profile(profile: Mapping) -> Settings:
     """Settings of a merged profile dict (as :func:`lnss_lib.config.load_profile` returns, or as a run folder stored
-    it, read in today's keys by :func:`lnss_lib.sections.migrate_legacy`), checked again."""
+    it, read in today's keys by :func:`lnss_lib.legacy_keys.migrate_legacy`), checked again."""
     profile = migrate_legacy(
         with_absent_sections(_thawed(profile))
     )  # a fresh copy of every table and list

@@ -1,11 +1,11 @@
-"""Regression pins for refactors that must not change any result (issue 22 "Must not change", issue 23 item 2).
+"""Regression pins for refactors that must not change any result.
 
 What is pinned (the recorded values live in ``tests/data/pinned_results.json``):
 
 1. ``python -m lnss_lib evaluate --profile paper --json`` for the Table 4 standalone ELFO (``[standalone_elfo]``
    of params/paper.toml: a 6143 km, e 0.6, AOP 90 deg, i 51.7 deg, 2 planes (RAAN 0 and 180 deg by eq. 42) x 8),
    without and with ``--design-life-days 60``; run in-process through :func:`lnss_lib.__main__.main` (the
-   command's own code path: argument parsing, ``_cmd_evaluate``, ``json.dumps``), stdout parsed back.
+   command's own code path: argument parsing, ``lnss_lib.cli.evaluate.run``, ``json.dumps``), stdout parsed back.
 2. The quick profile's campaign, generations 1-2 (``campaign --profile quick --max-generations 2 --workers 0``,
    in-process through :func:`lnss_lib.campaign.run_campaign`): every journal record (design key, physical
    design, metrics, flags), each evaluated design's objectives F and constraints G as the campaign's pymoo
@@ -18,8 +18,8 @@ What is pinned (the recorded values live in ``tests/data/pinned_results.json``):
 Fields left out of the comparison, each run-dependent (see :data:`EXCLUDED`): timings (``wall_s``,
 ``task_wall_s``, ``timing_s``, history's ``time_*_s``, ``designs_per_s``), the worker's ``host:pid``, the
 journal line checksum ``crc32`` (it covers the timings), and of the NetCDF attributes the package
-``versions``, the ``evaluation_hash`` and the ``parameters`` echo of the profile (inputs, not results: issue 22
-rewrites how settings are hashed and serialised).
+``versions``, the ``evaluation_hash`` and the ``parameters`` echo of the profile (inputs, not results: a refactor
+may change how settings are hashed and serialised).
 
 Regenerate (only when a change of results is intended and explained in its commit)::
 
@@ -108,8 +108,8 @@ EXCLUDED = {
     "time_overhead_s": "history: timing",
     "time_propagation_s": "history: timing",
     "versions": "NetCDF attribute: installed package versions",
-    "evaluation_hash": "NetCDF attribute / journal header: hash of the settings (issue 22 changes the hashing)",
-    "parameters": "NetCDF attribute: echo of the profile (input, not a result; issue 22 changes its serialisation)",
+    "evaluation_hash": "NetCDF attribute / journal header: hash of the settings (a refactor may change the hashing)",
+    "parameters": "NetCDF attribute: echo of the profile (input, not a result; a refactor may change its serialisation)",
 }
 
 

@@ -1,5 +1,5 @@
 """Every command with bad input: one line on stderr naming the value, exit 2 (bad input) or 1 (failure),
-no traceback, no existing file changed and nothing left behind (issue 13). In-process through
+no traceback, no existing file changed and nothing left behind. In-process through
 ``lnss_lib.__main__.main`` except the concurrency test, which needs two processes."""
 
 import errno
@@ -14,7 +14,7 @@ import numpy as np
 import pytest
 import xarray as xr
 
-from lnss_lib import config
+from lnss_lib import config, profile_rules
 from lnss_lib.__main__ import main
 from lnss_lib.campaign.rundir import RunLock, run_checksum
 from lnss_lib.config import PROJECT_DIR
@@ -137,7 +137,7 @@ BAD_VALUES = [
     (SYNTHETIC + ["--set", "campaign.max_errors=-1"], "campaign.max_errors = -1"),
     (SYNTHETIC + ["--workers", "-2"], "--workers -2"),
     (["campaign", "--resume", "/nonexistent/run"], "/nonexistent/run"),
-    # issue 21 item 1: tolerances a double cannot meet (the compiled loop failed and the command exited 0)
+    # tolerances a double cannot meet (the compiled loop failed and the command exited 0)
     (
         [
             "propagate",
@@ -153,7 +153,7 @@ BAD_VALUES = [
         "integrator.settings.paper.rtol = 1e-300",
     ),
     (walker() + ["--set", "stability.atol=1e-20"], "stability.atol = 1e-20"),
-    # issue 21 item 2: a text setting outside its allowed set (was accepted, then every design "infeasible")
+    # a text setting outside its allowed set (was accepted, then every design "infeasible")
     (walker() + ["--set", "frames.element_frame=nosuch"], "frames.element_frame = 'nosuch'"),
     (["reproduce", "--profile", "ci", "--set", "dop.los_axes=up"], "allowed: 'moon_fixed', 'enu'"),
     (SYNTHETIC + ["--set", "deltav.model=magic"], "deltav.model = 'magic'"),
@@ -374,7 +374,7 @@ def test_crashing_evaluator_stops_the_campaign(capsys, tmp_path, monkeypatch):
 
 
 def test_stopped_campaign_resumes_once_the_cause_is_gone(capsys, tmp_path, monkeypatch):
-    """Issue 21 item 7: a run stopped by an evaluation error evaluates that design again when resumed, and
+    """A run stopped by an evaluation error evaluates that design again when resumed, and
     ends as the uninterrupted run once the cause is removed."""
     from lnss_lib.campaign import final_population, tasks
 
@@ -405,7 +405,7 @@ def test_stopped_campaign_resumes_once_the_cause_is_gone(capsys, tmp_path, monke
 
 
 def test_deleting_the_lock_file_does_not_unlock_a_run(capsys, tmp_path):
-    """Issue 21 item 6: the lock is an flock on the run folder; run.lock only names the owner."""
+    """The lock is an flock on the run folder; run.lock only names the owner."""
     run_dir = _synthetic_run(tmp_path, extra=["--max-generations", "1"])
     capsys.readouterr()
     lock = RunLock(run_dir)
@@ -423,7 +423,7 @@ def test_deleting_the_lock_file_does_not_unlock_a_run(capsys, tmp_path):
 
 
 def test_forged_checkpoint_is_one_line_and_runs_nothing(capsys, tmp_path):
-    """Issue 21 item 9: --resume of a run folder whose checkpoint would run code refuses it (exit 1)."""
+    """--resume of a run folder whose checkpoint would run code refuses it (exit 1)."""
     import pickle
 
     class Exploit:
@@ -445,7 +445,7 @@ def test_forged_checkpoint_is_one_line_and_runs_nothing(capsys, tmp_path):
 
 
 def test_forged_profile_name_in_a_run_folder_is_refused(capsys, tmp_path):
-    """Issue 21 item 10: a run folder's stored profile name builds output paths; a path-like name is refused."""
+    """A run folder's stored profile name builds output paths; a path-like name is refused."""
     run_dir = _synthetic_run(tmp_path, extra=["--max-generations", "1"])
     capsys.readouterr()
     run_file = run_dir / "run.json"
@@ -586,7 +586,7 @@ def test_two_resumes_of_one_run_one_refuses(tmp_path):
     assert len(keys) == len(set(keys))
 
 
-# ---- issue 21: confined paths, exit classes, messages that name the key or the file -----------------------
+# ---- confined paths, exit classes, messages that name the key or the file -----------------------
 
 WALKER_ARGS = [item for pair in WALKER.items() for item in pair]
 
@@ -951,7 +951,7 @@ def test_full_journal_disk_names_the_journal(capsys, tmp_path, monkeypatch):
     )
 
 
-# ---- issue 21 items 2 and 4: text settings, infeasible versus error, physically absurd values ----------------------
+# ---- text settings, infeasible versus error, physically absurd values ----------------------
 
 
 def _bad_text(key: str):
@@ -966,7 +966,7 @@ def _bad_text(key: str):
     return value
 
 
-RULES = dict(config.rules())
+RULES = dict(profile_rules.rules())
 CHECKED_TEXT = sorted(
     key for key, rule in RULES.items() if rule.choices or rule.form or rule.names_integrator_setting
 )
@@ -1074,7 +1074,7 @@ def test_config_and_ephemeris_errors_propagate_only_impossible_designs_are_infea
 
 
 def test_design_life_lets_ephemeris_errors_through():
-    from lnss_lib.cli import design_life_cli
+    from lnss_lib.cli.evaluate import design_life_cli
     from lnss_lib.errors import EphemerisRangeError
 
     with pytest.raises(EphemerisRangeError):

@@ -1,5 +1,6 @@
 """The scheduling model behind ``bench campaign --scaling`` (list scheduling of one generation)."""
 
+from pathlib import Path
 from types import SimpleNamespace
 
 import numpy as np
@@ -72,24 +73,37 @@ def test_history_projection_refuses_what_is_not_a_table5_run(tmp_path):
         evaluated_per_generation(tmp_path)
 
 
-def test_previous_force_model_agrees_to_round_off_on_an_integrated_arc(paper_profile, epoch_tdb_s):
-    """The benchmark's 'before' right-hand side (four interpolations, the truncation loop, the per-term harmonic
-    sums) equals the model's to round-off (the folded-table sums are reordered)."""
-    from lnss_lib.bench.kernels_before import replay_times, rhs_points, shadow_times
+def test_force_model_agrees_with_the_previous_one_to_round_off_on_an_integrated_arc(
+    paper_profile, epoch_tdb_s
+):
+    """The right-hand side on the points an RK45 integration of the Table 4 ELFO evaluates equals the previous
+    model's recorded accelerations (four interpolations, the truncation loop, the per-term harmonic sums:
+    tests/data/force_model_before.md) to round-off (the folded-table sums are reordered); the benchmark's
+    replay of the current model gives the same accelerations."""
+    from lnss_lib.bench.force_before import current_on_points, rhs_points
     from lnss_lib.ephemeris import EphemerisTable
-    from lnss_lib.forces import ForceModel
+    from lnss_lib.forces import SCRATCH_SIZE, TERMS, ForceModel, acceleration
     from lnss_lib.propagator import elements_deg_to_states
 
+    recorded = np.load(Path(__file__).parent / "data" / "force_model_before.npz")
+    ts, ys = recorded["arc_t_tdb_s"], recorded["arc_state_km_kms"]
     duration = 0.5 * 86400.0
     table = EphemerisTable.build(paper_profile.dynamics, epoch_tdb_s, epoch_tdb_s + duration)
     model = ForceModel.build(paper_profile.dynamics, table)
+    args, work = model.kernel_args, model.field.workspace()
+    scratch, terms, acc = np.zeros(SCRATCH_SIZE), np.zeros((len(TERMS), 3)), np.empty((len(ts), 3))
+    for i in range(len(ts)):
+        acceleration(ts[i], ys[i], args, work, scratch, terms, acc[i])
+    before = recorded["arc_acceleration_before_kms2"]
+    rel = np.linalg.norm(acc - before, axis=1) / np.linalg.norm(before, axis=1)
+    assert len(ts) > 100 and ts[0] == epoch_tdb_s and np.max(rel) < 1e-13
+    replay = current_on_points(model, ts, ys)
+    assert np.array_equal(replay["acceleration"], acc) and replay["rhs_s"] > 0.0
     y0 = elements_deg_to_states(
         paper_profile.dynamics, [[6143.0, 0.6, 51.7, 0.0, 90.0, 0.0]], epoch_tdb_s
     )[0]
-    ts, ys = rhs_points(model, y0, epoch_tdb_s, duration, "RK45", 1e-6, 1e-9)
-    replay = replay_times(model, ts, ys, repeats=1)
-    assert replay["max_rel_diff"] < 1e-13 and replay["n_rhs"] == len(ts) > 100
-    assert shadow_times(model, ts, ys, repeats=1)["shadow_same"]  # the shadow factors bit for bit
+    points, _ = rhs_points(model, y0, epoch_tdb_s, duration, "RK45", 1e-6, 1e-9)
+    assert points[0] == epoch_tdb_s and points[-1] <= epoch_tdb_s + duration and len(points) > 100
 
 
 def test_previous_campaign_evaluation_gives_the_same_metrics():
@@ -114,8 +128,12 @@ def test_previous_campaign_evaluation_gives_the_same_metrics():
 def test_shadow_factor_equals_the_three_angle_computation_bit_for_bit():
     """forces.shadow_factor (full sunlight told from the cosines) gives the previous computation's value exactly:
     random geometries round the Moon and the Earth, and satellites on the umbra and penumbra edges behind the Moon."""
-    from lnss_lib.bench.kernels_before import shadow_factor_before
-    from lnss_lib.forces import shadow_factor
+    from lnss_lib.forces import conical_fraction, shadow_factor, shadow_geometry
+
+    def shadow_factor_before(r, sun, bx, by, bz, radius_body, radius_sun):
+        """The three angles at every call (the computation the shortcut replaced)."""
+        inside, sin_a, sin_b, cos_c = shadow_geometry(*r, *sun, bx, by, bz, radius_body, radius_sun)
+        return 0.0 if inside else conical_fraction(sin_a, sin_b, cos_c)
 
     rng = np.random.default_rng(9)
     r_moon, r_earth, r_sun, au = 1737.4, 6378.137, 696000.0, 1.495978707e8

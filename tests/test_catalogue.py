@@ -15,7 +15,7 @@ from lnss_lib.catalogue import (
     load_constellation,
     true_to_mean_anomaly_deg,
 )
-from lnss_lib.cli import evaluate_catalogue_cli
+from lnss_lib.cli.evaluate import evaluate_catalogue_cli
 from lnss_lib.constellation import WalkerDesign
 from lnss_lib.elements import elements_to_state, state_to_elements
 from lnss_lib.ephemeris import file_sha256

@@ -255,11 +255,11 @@ def test_an_interrupt_leaves_no_traceback_of_abandoned_tasks():
     """Ctrl-C while an asyncio task has failed unseen (a notebook kernel that died with the interrupt): one line and
     exit 130, not asyncio's 'Task exception was never retrieved' traceback when the task is collected at exit."""
     script = (
-        "import asyncio, sys\nimport lnss_lib.__main__ as m\n"
+        "import asyncio, sys\nimport lnss_lib.__main__ as m\nfrom lnss_lib.cli import reproduce\n"
         "async def died():\n    raise RuntimeError('Kernel died')\n"
         "def command(args):\n    loop = asyncio.new_event_loop()\n    m.abandoned = loop.create_task(died())\n"
         "    loop.run_until_complete(asyncio.sleep(0.01))\n    raise KeyboardInterrupt\n"
-        "m._cmd_reproduce = command\ncode = m.main(['reproduce'])\n"
+        "reproduce.run = command\ncode = m.main(['reproduce'])\n"
         "del m.abandoned\nimport gc\ngc.collect()\nsys.exit(code)\n"
     )
     done = subprocess.run(
@@ -338,7 +338,7 @@ def test_git_is_never_taken_from_path(tmp_path, monkeypatch):
 
 
 def test_evaluate_for_people_repeats_the_design_and_leaves_out_empty_rows():
-    from lnss_lib.cli import human_lines
+    from lnss_lib.cli.evaluate import human_lines
 
     evaluated = {
         "n_sat": 6,

@@ -1,6 +1,6 @@
 """Keplerian conversion (lnss_lib.elements): closed orbits round-trip; orbits that are no longer closed
-give a NaN mean anomaly without a floating-point warning (issue 24: quiet notebook records); the one copy of
-the anomaly conversions, vis-viva and the eccentricity vector (issue 22 item 4) against analytic cases."""
+give a NaN mean anomaly without a floating-point warning (a notebook's records stay quiet); the one copy of
+the anomaly conversions, vis-viva and the eccentricity vector against analytic cases."""
 
 import warnings
 

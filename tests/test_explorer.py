@@ -1,4 +1,4 @@
-"""The design explorer (issue 14): callbacks driven in-process, the export, and the page served by voila."""
+"""The design explorer: callbacks driven in-process, the export, and the page served by voila."""
 
 import asyncio
 import contextlib
@@ -281,7 +281,7 @@ def test_export_passes_changed_settings_and_writes_atomically(explorer, tmp_path
     assert exported["toml"] in explorer.export_text.value
     _, unknown = build_parser().parse_known_args(exported["argv"])
     if unknown:
-        pytest.skip("`evaluate` has no --set yet (issue 14): the design part is checked above")
+        pytest.skip("`evaluate` has no --set yet: the design part is checked above")
     args = build_parser().parse_args(exported["argv"])
     assert args.set == ['deltav.model="secular"']
 
@@ -307,7 +307,7 @@ def test_profile_switch_keeps_the_design(explorer):
 
 
 def test_profile_switch_brings_the_profiles_element_frame(explorer):
-    """The operational study reads its designs in moon_op (issue 20 item 1): switching to it reads them there."""
+    """The operational study reads its designs in moon_op: switching to it reads them there."""
     explorer.profile_choice.value = "ci_operational"
     assert explorer.frame_choice.value == "moon_op" and explorer.current.frame == "moon_op"
     assert explorer.context().settings.frames.element_frame == "moon_op"

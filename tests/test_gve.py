@@ -119,7 +119,7 @@ def test_paper_divisor_floor_and_cap():
 
 
 def test_e_times_aop_row_is_regular_and_equals_e_times_the_aop_row():
-    """The one GVE matrix (issue 22 item 4): the regular last row is e times the aop row, and finite at e = 0."""
+    """The one GVE matrix: the regular last row is e times the aop row, and finite at e = 0."""
     el = np.array(
         [
             [6143.0, 0.6, np.radians(51.7), 0.3, np.radians(90.0), 1.0],

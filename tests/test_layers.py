@@ -1,6 +1,6 @@
-"""The layering of lnss_lib (issue 10), read from the source: a module imports only its own layer or lower.
+"""The layering of lnss_lib, read from the source: a module imports only its own layer or lower.
 
-1 foundations (``config``, ``dates``, ``sections``, ``settings``, ``constants``, ``paper``, ``keys``, ``errors``, ``atomicio``, ``progress``, ``provenance``); 2 physics
+1 foundations (``config``, ``profile_rules``, ``dates``, ``sections``, ``setting_rule``, ``legacy_keys``, ``settings``, ``constants``, ``paper``, ``keys``, ``errors``, ``atomicio``, ``progress``, ``provenance``); 2 physics
 kernels (every other top-level module: a new physics module is a kernel without editing this file; and the
 ``design_life/`` package, named in :data:`KERNEL_PACKAGES`); 3 the campaign
 engine (``campaign/``); 4 presentation and studies (``outputs``, ``pipeline``, ``figures/``,
@@ -23,8 +23,11 @@ PACKAGE = "lnss_lib"
 PACKAGE_DIR = Path(__file__).resolve().parents[1] / PACKAGE
 FOUNDATIONS = {
     "config",
+    "profile_rules",
     "dates",
     "sections",
+    "setting_rule",
+    "legacy_keys",
     "settings",
     "constants",
     "paper",

@@ -69,7 +69,7 @@ def test_dop_notebook_reproduces_the_paper_geometry(executed):
     ours = table["lunar_equator_of_epoch / moon_fixed"]
     assert (
         abs(ours["PDOP (3-sigma mean)"] / TABLE_4["pdop_mean_3sigma"] - 1) < 0.05
-    )  # issue 3's target
+    )  # Table 4's PDOP within 5 %
     assert abs(ours["mean visible satellites"] / TABLE_4["mean_visible_sats"] - 1) < 0.05
     assert (
         table["j2000 / moon_fixed"]["PDOP (3-sigma mean)"] > 10
@@ -148,7 +148,7 @@ def test_operational_companion_outputs(executed):
 
 
 def test_validated_front_outputs(executed):
-    """ci_operational's front was flown in closed loop (issue 20 item 4; ci's short front may hold no feasible design)
+    """ci_operational's front was flown in closed loop (ci's short front may hold no feasible design)
     and published with the run; notebook 07 wrote the headline table, one row per size and the paper's claim."""
     from lnss_lib.campaign.publication import load_published
     from lnss_lib.settings import load_settings
@@ -170,7 +170,7 @@ def test_validated_front_outputs(executed):
 
 
 def test_screen_validation_table(executed):
-    """Notebook 08 screened random Table 3 designs and flew them with the full model (issue 20 item 3)."""
+    """Notebook 08 screened random Table 3 designs and flew them with the full model (the screen's validation)."""
     from lnss_lib.keys import DESIGN_KEYS
     from lnss_lib.settings import load_settings
     from lnss_lib.studies.screen_validation import MISS_COLUMNS, agreement

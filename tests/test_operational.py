@@ -1,4 +1,4 @@
-"""The operational study (issue 11 item 5): extra metrics in the evaluator, their campaign wiring, the
+"""The operational study: extra metrics in the evaluator, their campaign wiring, the
 operational profiles, and a synthetic-evaluator campaign under the operational objectives."""
 
 import math
@@ -199,7 +199,7 @@ def test_operational_profiles_load_and_validate():
         }
         assert s.companion_profile == "" and np.array_equal(s.grid.n_levels, paper.grid.n_levels)
     assert CampaignPlan.of(load_settings("operational")).notebook_mode == "load"
-    # the quick campaign evaluates as the full one does, over a one-year screen instead of five (issue 20 item 3)
+    # the quick campaign evaluates as the full one does, over a one-year screen instead of five
     operational = load_settings("operational")
     assert (
         operational.stability.life_days == 1826.25
@@ -218,7 +218,7 @@ def test_operational_profiles_load_and_validate():
 )
 def test_companions_differ_from_their_base_only_where_operational_does(base, companion):
     """The companion repeats its base's campaign size and physics; only the sections operational.toml sets differ
-    (and the companion's own keys: the one-year life of issue 20 item 3)."""
+    (and the companion's own keys: its one-year life)."""
     import tomllib
 
     from lnss_lib.config import PARAMS_DIR

@@ -1,4 +1,4 @@
-"""Results pinned before a refactor (issue 22 "Must not change", issue 23 item 2), on every processor model: each
+"""Results pinned before a refactor that must not change them, on every processor model: each
 test recomputes one pin and compares it field by field (floats within a relative tolerance, NaN equal to NaN; ints,
 bools and strings exact) with the record of the model the kernels are compiled for here
 (``tests/data/pinned_results/<model>.json``, within the pin's ``RTOL``) and with every other model's record, within

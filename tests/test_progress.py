@@ -1,4 +1,4 @@
-"""Progress inside long notebook cells (issue 24): shown live in a kernel, cleared when done, silent elsewhere."""
+"""Progress inside long notebook cells: shown live in a kernel, cleared when done, silent elsewhere."""
 
 import json
 

@@ -306,7 +306,7 @@ def test_dataset_layout(paper_profile, epoch_tdb_s):
     assert np.linalg.norm(ds.r_mci_km.values[0, 0]) == pytest.approx(6143.0 * 0.4, rel=1e-12)
 
 
-# ---- batch kernels report what they did not do (issue 21 item 1) ------------------------------------------------
+# ---- batch kernels report what they did not do ------------------------------------------------
 
 
 def _batch_model(profile, t0, hours=1.0):

@@ -12,7 +12,7 @@ import copy
 
 import pytest
 
-from lnss_lib import config, sections
+from lnss_lib import config, legacy_keys
 from lnss_lib.campaign.reference import load_reference
 from lnss_lib.campaign.settings import evaluation_hash, run_differences
 from lnss_lib.errors import ConfigError
@@ -52,7 +52,7 @@ def test_one_key_per_quantity(name):
 def test_every_legacy_key_is_a_quantity_of_the_list():
     """Each key the migration retires was a second key of a listed quantity or is renamed for what it is."""
     listed = {key for group in SAME_QUANTITY.values() for key in group}
-    assert set(sections.LEGACY_KEYS) <= listed
+    assert set(legacy_keys.LEGACY_KEYS) <= listed
 
 
 def test_the_derived_fields_read_the_one_key():
@@ -90,8 +90,8 @@ def test_shipped_results_keep_their_fingerprints(name):
         == evaluation_hash(current)
     )
     assert settings_from_profile(stored) == current and run_differences(stored, current) == []
-    migrated = sections.migrate_legacy(config.with_absent_sections(copy.deepcopy(stored)))
-    assert migrated == current.as_dict() and sections.legacy_spelling(
+    migrated = legacy_keys.migrate_legacy(config.with_absent_sections(copy.deepcopy(stored)))
+    assert migrated == current.as_dict() and legacy_keys.legacy_spelling(
         migrated
     ) == config.with_absent_sections(copy.deepcopy(stored))
 
@@ -102,7 +102,7 @@ def test_an_old_key_in_a_profile_file_names_its_new_key():
 
 
 def test_a_stored_profile_with_two_values_of_one_quantity_is_refused():
-    stored = sections.legacy_spelling(load_settings("paper").as_dict())
+    stored = legacy_keys.legacy_spelling(load_settings("paper").as_dict())
     stored["sk_estimate"]["year_days"] = 365.0
     with pytest.raises(ConfigError, match="one quantity with two values"):
         settings_from_profile(stored)

@@ -1,4 +1,4 @@
-"""Settings read once (issue 22): every profile freezes into typed sections, hashes like config.profile_hash,
+"""Settings read once: every profile freezes into typed sections, hashes like config.profile_hash,
 and round-trips through TOML; bad values are refused by the one checker in config."""
 
 from __future__ import annotations

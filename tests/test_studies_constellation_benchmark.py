@@ -6,12 +6,13 @@ import numpy as np
 import pytest
 
 from lnss_lib.catalogue import load_constellation
-from lnss_lib.cli import evaluate_catalogue_cli
+from lnss_lib.cli.evaluate import evaluate_catalogue_cli
 from lnss_lib.ephemeris import ensure_kernels, tdb_seconds
 from lnss_lib.errors import ConfigError
 from lnss_lib.keys import METRIC_KEYS, NAVIGATION_ERROR_KEYS
 from lnss_lib.settings import load_settings
 from lnss_lib.studies import constellation_benchmark as cb
+from lnss_lib.studies import published_figures as pf
 
 PROFILE = "ci"
 NAMES = ["ely2005_elfo_3sat_phased", "bhamidipati2023_case_a", "moonlight_lcns_approx"]
@@ -110,10 +111,10 @@ def test_bhamidipati_case_a_in_metres_within_the_stated_tolerance(bench):
     agreement = cb.bhamidipati_agreement(cb.published_comparison(bench)).set_index(
         "published figure"
     )
-    for key in cb.AGREEMENT_FIGURES:
+    for key in pf.AGREEMENT_FIGURES:
         row = agreement.loc[f"elevation_mask_5deg.{key}"]
         assert abs(row["difference (%)"]) <= cb.BHAMIDIPATI_TOLERANCE_PCT and row["agrees"], row
-    assert len(agreement) == 2 * len(cb.AGREEMENT_FIGURES)  # two masks
+    assert len(agreement) == 2 * len(pf.AGREEMENT_FIGURES)  # two masks
 
 
 def test_the_yardstick_is_in_metres_too(bench):
@@ -129,12 +130,12 @@ def test_pole_coverage_of_a_known_series():
     elev = np.array(
         [[20.0, 20.0, 0.0, 0.0, 20.0, 20.0, 20.0, 0.0], [0.0, 0.0, 20.0, 20.0, 0.0, 0.0, 0.0, 0.0]]
     )
-    one = cb._pole_coverage(elev[0], 10.0, None, 0.5)
+    one = pf._pole_coverage(elev[0], 10.0, None, 0.5)
     assert one["coverage_pct"] == pytest.approx(62.5)
     assert one["mean_pass_h"] == pytest.approx(1.25) and one["mean_gap_h"] == pytest.approx(0.75)
-    both = cb._pole_coverage(elev, 10.0, 1, 0.5)
+    both = pf._pole_coverage(elev, 10.0, 1, 0.5)
     assert both["coverage_pct"] == pytest.approx(87.5) and both["mean_gap_h"] == pytest.approx(0.5)
-    assert cb._pole_coverage(np.full(4, 30.0), 10.0, None, 1.0)["mean_pass_h"] == "Total Span"
+    assert pf._pole_coverage(np.full(4, 30.0), 10.0, None, 1.0)["mean_pass_h"] == "Total Span"
 
 
 def test_epoch_sensitivity_at_the_study_epoch_matches_the_yardstick(bench):

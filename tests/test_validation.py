@@ -1,4 +1,4 @@
-"""Real ephemeris: CAPSTONE (JPL Horizons) arcs propagated with the full model (issue 2 targets)."""
+"""Real ephemeris: CAPSTONE (JPL Horizons) arcs propagated with the full model, against the recorded trajectory."""
 
 import numpy as np
 import pytest

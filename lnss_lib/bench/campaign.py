@@ -1,8 +1,9 @@
 """``python -m lnss_lib bench campaign [--scaling]``: a short NSGA-II campaign, its throughput and time shares,
 and the projected wall time of the paper's 120 x 1000 campaign on this machine (and of the operational
 profile's, when ``params/operational.toml`` exists); then the force model before and after its speed
-work side by side (:mod:`lnss_lib.bench.kernels_before`): CPU time per right-hand side and per design over
-the points an RK45 integration of each satellite of the run's first :data:`KERNEL_DESIGNS` valid designs
+work side by side (:func:`lnss_lib.bench.force_before.kernel_comparison`, the model before run from its
+commit): CPU time per right-hand side and per design over the points an RK45 integration of each
+satellite of the run's first :data:`~lnss_lib.bench.force_before.KERNEL_DESIGNS` valid designs
 evaluates, and the largest relative difference of the two accelerations (round-off, ~1e-15). Before the force
 model, the campaign's whole design evaluation before and after the evaluation-path work
 (:mod:`lnss_lib.bench.evaluation_before`: Datasets, every Delta-V model, kernel paths per design), on the same
@@ -48,18 +49,15 @@ from ..campaign.grid import DesignGrid
 from ..campaign.reference import REFERENCE_DIR, load_reference
 from ..campaign.timing import campaign_timing, concurrent_workers, steady_rate
 from ..config import PARAMS_DIR, deep_merge
-from ..constants import SECONDS_PER_DAY
 from ..constellation import WalkerDesign
 from ..errors import ConfigError
 from ..evaluator import context_for
 from ..keys import TIMING_KEYS
 from ..paper import EVALUATIONS, TABLE_5
-from ..propagator import elements_deg_to_states
 from ..settings import load_settings
 from .evaluation_before import compare_evaluations
-from .kernels_before import replay_times, rhs_points, shadow_times
+from .force_before import kernel_comparison
 
-KERNEL_DESIGNS = 4  # designs of the short run whose right-hand sides are timed before and after
 EVALUATION_DESIGNS = 30  # designs whose whole campaign evaluation is timed before and after
 HISTORY_TAIL = (
     20  # generations of a run whose mean evaluated count stands for its unrun generations
@@ -395,61 +393,6 @@ def history_after(run_dir, evaluation: dict, kernels: dict) -> dict:
         "generation_after_s": after_s,
         "saved_fraction": saved_s / generation_s,
     }
-
-
-def kernel_comparison(
-    profile_name: str, records: list[dict], overrides: dict | None = None
-) -> dict:
-    """Print and return the force model's CPU time before and after, per right-hand side and per design, on the
-    points each satellite of the first :data:`KERNEL_DESIGNS` valid designs of ``records`` is integrated at."""
-    settings = load_settings(profile_name, overrides=overrides)
-    context = context_for(settings)
-    grid = DesignGrid.from_variables(settings.campaign.variables)
-    integ = settings.dynamics.integrator.settings[settings.dynamics.integrator.setting]
-    duration = settings.epoch.duration_days * SECONDS_PER_DAY
-    totals = {"new_s": 0.0, "before_s": 0.0, "n_rhs": 0}
-    shadows = {"shadow_new_s": 0.0, "shadow_before_s": 0.0, "shadow_same": True}
-    max_rel_diff = 0.0
-    print(
-        f"force model before -> after, {integ.method} at rtol {integ.rtol:g}, CPU time, same points:"
-    )
-    for record in [r for r in records if r["ok"]][:KERNEL_DESIGNS]:
-        design = grid.descale(record["key"])[0]
-        walker = WalkerDesign(*(float(x) for x in design[:4]), int(design[4]), int(design[5]))
-        states = elements_deg_to_states(settings.dynamics, walker.elements_deg(), context.t0_tdb_s)
-        mine = {"new_s": 0.0, "before_s": 0.0, "n_rhs": 0}
-        for y0 in states:
-            ts, ys = rhs_points(
-                context.model, y0, context.t0_tdb_s, duration, integ.method, integ.rtol, integ.atol
-            )
-            replay = replay_times(context.model, ts, ys)
-            shadow = shadow_times(context.model, ts, ys)
-            shadows = {
-                k: (v and shadow[k]) if k == "shadow_same" else v + shadow[k]
-                for k, v in shadows.items()
-            }
-            max_rel_diff = max(max_rel_diff, replay["max_rel_diff"])
-            for key in mine:
-                mine[key] += replay[key]
-        for key in totals:
-            totals[key] += mine[key]
-        print(
-            f"  a {walker.sma_km:.0f} km, e {walker.ecc:.2f}, i {walker.inc_deg:.1f} deg, {walker.n_planes} x "
-            f"{walker.sats_per_plane}: {mine['n_rhs']} right-hand sides, {mine['before_s']:.3f} s -> {mine['new_s']:.3f} s "
-            f"per design ({100 * (1 - mine['new_s'] / mine['before_s']):.1f}% less)"
-        )
-    n = max(totals["n_rhs"], 1)
-    print(
-        f"  per right-hand side: {1e6 * totals['before_s'] / n:.3f} us -> {1e6 * totals['new_s'] / n:.3f} us; largest relative "
-        f"difference of the accelerations {max_rel_diff:.1e} (round-off of the reordered harmonic sums)"
-    )
-    print(
-        f"  of which the conical shadow of the Moon and the Earth (with the bodies' interpolation), alone: "
-        f"{1e9 * shadows['shadow_before_s'] / n:.1f} ns -> {1e9 * shadows['shadow_new_s'] / n:.1f} ns per right-hand side "
-        f"({100 * (shadows['shadow_before_s'] - shadows['shadow_new_s']) / totals['new_s']:.1f}% of the new right-hand "
-        f"side); same values bit for bit: {shadows['shadow_same']}"
-    )
-    return {**totals, **shadows, "max_rel_diff": max_rel_diff}
 
 
 def _greedy_makespan(durations: np.ndarray, n_workers: int, dispatch_s: float) -> float:

@@ -32,6 +32,7 @@ __all__ = [
     "SerialBackend",
     "DaskBackend",
     "open_backend",
+    "usable_cores",
     "check_scheduler_address",
     "start_local_cluster",
     "connect_scheduler",
@@ -350,6 +351,14 @@ def check_scheduler_address(address: str) -> str:
     return address
 
 
+def usable_cores() -> int:
+    """The cores this process may run on (its CPU affinity where the system has one): the default worker
+    count."""
+    return (
+        len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else (os.cpu_count() or 1)
+    )
+
+
 def open_backend(
     shared,
     plan: CampaignPlan,
@@ -361,11 +370,7 @@ def open_backend(
     (default :func:`campaign_task` of ``plan``) on ``shared``; the plan's resubmit and numba-thread limits."""
     task = campaign_task(plan) if task is None else task
     if workers is None and not scheduler_address:
-        workers = (
-            len(os.sched_getaffinity(0))
-            if hasattr(os, "sched_getaffinity")
-            else (os.cpu_count() or 1)
-        )
+        workers = usable_cores()
     if workers is not None and workers < 0:
         raise ValueError(f"workers must be >= 0 (0 or 1 = serial in this process); got {workers}")
     if not scheduler_address and workers <= 1:
@@ -413,8 +418,8 @@ class BatchEvaluator:
     generation by :func:`early_stop_bounds`, goes with each design to the task.
     """
 
-    def __init__(self, settings: CampaignPlan, cache: EvaluationCache, backend):
-        self.settings = settings
+    def __init__(self, plan: CampaignPlan, cache: EvaluationCache, backend):
+        self.plan = plan
         self.cache = cache
         self.backend = backend
         self.generation = 1
@@ -439,7 +444,7 @@ class BatchEvaluator:
             elif self.cache.records[key]["generation"] == self.generation:
                 fresh += 1  # evaluated in this generation before an interruption: still new to it
         hits = len(keys) - fresh
-        designs = self.settings.grid.designs(np.array(todo)) if todo else []
+        designs = self.plan.grid.designs(np.array(todo)) if todo else []
         if self.stop_bounds is not None:
             designs = [{**design, "stop_bounds": self.stop_bounds} for design in designs]
         errors, done = 0, 0
@@ -459,4 +464,4 @@ class BatchEvaluator:
             "wall_s": time.perf_counter() - start,
         }
         self.n_backend += done
-        return metric_columns([self.cache.records[k] for k in keys], self.settings.extra_metrics)
+        return metric_columns([self.cache.records[k] for k in keys], self.plan.extra_metrics)

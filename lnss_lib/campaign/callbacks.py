@@ -58,7 +58,7 @@ class RunState:
 
     run_dir: Path
     name: str
-    settings: CampaignPlan
+    plan: CampaignPlan
     algorithm: object
     cache: object
     batch: object
@@ -99,30 +99,28 @@ class RunningStats:
     far (at generation 300 of a 120 x 1000 campaign, 35,000 designs: 17 s a generation before). Within a session the
     journal only grows (the batch evaluates designs it does not hold); a session starts from the whole journal."""
 
-    def __init__(self, settings: CampaignPlan):
-        self.settings = settings
+    def __init__(self, plan: CampaignPlan):
+        self.plan = plan
         self.n_seen = 0
         self.n_feasible = 0
         self.violation: dict[tuple, tuple[float, bool]] = {}
         self.best: dict[str, float] = {}
-        self.front = np.zeros((0, len(settings.hypervolume)))
+        self.front = np.zeros((0, len(plan.hypervolume)))
 
     def update(self, records: list[dict]) -> None:
         """Take the records after the first ``n_seen`` of the journal's (insertion order)."""
         new = records[self.n_seen :]
         if not new:
             return
-        settings = self.settings
-        columns = metric_columns(new, settings.extra_metrics)
-        cv = constraint_violation(
-            constraint_matrix(columns, settings.constraints, settings.nan_violation)
-        )
+        plan = self.plan
+        columns = metric_columns(new, plan.extra_metrics)
+        cv = constraint_violation(constraint_matrix(columns, plan.constraints, plan.nan_violation))
         feasible = columns["ok"] & (cv == 0.0)
         self.violation.update(
             (tuple(r["key"]), (float(c), bool(f))) for r, c, f in zip(new, cv, feasible)
         )
         self.n_seen, self.n_feasible = len(records), self.n_feasible + int(feasible.sum())
-        for name in settings.objectives:
+        for name in plan.objectives:
             metric, larger = name.lstrip("-"), name.startswith("-")
             values = columns[metric][feasible].astype(float)
             values = values[np.isfinite(values)]
@@ -132,8 +130,8 @@ class RunningStats:
                 self.best[metric] = float(
                     best if math.isnan(old) else (max(old, best) if larger else min(old, best))
                 )
-        if settings.hypervolume and feasible.any():
-            points = hypervolume_points(columns, feasible, settings.hypervolume)
+        if plan.hypervolume and feasible.any():
+            points = hypervolume_points(columns, feasible, plan.hypervolume)
             self.front = front_of(np.concatenate([self.front, points]))
 
     def stats(self, pop_keys: list[tuple]) -> dict:
@@ -146,16 +144,16 @@ class RunningStats:
             "min_cv_pop": min(c for c, _ in pop) if pop else math.nan,
             "hypervolume": hypervolume_of_front(self.front),
         }
-        for name in self.settings.objectives:
+        for name in self.plan.objectives:
             metric = name.lstrip("-")
             stats[f"best_{metric}"] = self.best.get(metric, math.nan)
         return stats
 
 
-def generation_stats(settings: CampaignPlan, records: list[dict], pop_keys: list[tuple]) -> dict:
+def generation_stats(plan: CampaignPlan, records: list[dict], pop_keys: list[tuple]) -> dict:
     """Deterministic per-generation numbers from the cache so far and the population's keys (:class:`RunningStats`
     over every record at once)."""
-    running = RunningStats(settings)
+    running = RunningStats(plan)
     running.update(records)
     return running.stats(pop_keys)
 
@@ -185,13 +183,13 @@ class ErrorGuard(Callback):
 
     @staticmethod
     def _check(state: RunState) -> None:
-        n_errors, limit = state.cache.n_errors, state.settings.max_errors
+        n_errors, limit = state.cache.n_errors, state.plan.max_errors
         if n_errors > limit:
             first = state.cache.first_error()
             design = dict(
                 zip(
                     ("sma_km", "ecc", "aop_deg", "inc_deg", "n_planes", "sats_per_plane"),
-                    state.settings.grid.descale(np.array([first["key"]], dtype=float))[0].tolist(),
+                    state.plan.grid.descale(np.array([first["key"]], dtype=float))[0].tolist(),
                 )
             )
             raise CampaignStopped(
@@ -209,9 +207,7 @@ class HistoryRecorder(Callback):
     with the run (a 1000-generation run's numbers are its wall time, not the evaluations' alone)."""
 
     def on_session_start(self, state: RunState) -> None:
-        self.running = RunningStats(
-            state.settings
-        )  # from the whole journal at the first generation
+        self.running = RunningStats(state.plan)  # from the whole journal at the first generation
 
     def on_generation_end(self, state: RunState) -> None:
         start = time.perf_counter()
@@ -282,7 +278,7 @@ class ProgressBars(Callback):
         from tqdm import tqdm
 
         self.outer = tqdm(
-            total=state.settings.generations,
+            total=state.plan.generations,
             initial=len(state.history),
             desc=state.name,
             file=sys.stderr,
@@ -342,7 +338,7 @@ class CellProgressBar(Callback):
 
     def on_session_start(self, state: RunState) -> None:
         self.bar = CellProgress(
-            state.settings.generations,
+            state.plan.generations,
             f"campaign {state.name}",
             "generations",
             initial=len(state.history),

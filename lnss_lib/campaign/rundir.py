@@ -301,20 +301,18 @@ def final_population(run_dir) -> tuple[np.ndarray, np.ndarray]:
 
 
 def _dataset_from_records(
-    records: list[dict], settings: CampaignPlan, attrs: dict, extras: tuple[str, ...] = ()
+    records: list[dict], plan: CampaignPlan, attrs: dict, extras: tuple[str, ...] = ()
 ) -> xr.Dataset:
     records = sorted(records, key=lambda r: (r["generation"], r["order"]))
     keys = np.array([r["key"] for r in records], dtype=float).reshape(-1, len(DESIGN_KEYS))
-    designs = settings.grid.descale(keys) if len(records) else np.zeros((0, len(DESIGN_KEYS)))
+    designs = plan.grid.descale(keys) if len(records) else np.zeros((0, len(DESIGN_KEYS)))
     columns = (
         metric_columns(records, extras)
         if records
         else {k: np.zeros(0) for k in (*METRIC_KEYS, *extras, "ok")}
     )
     cv = (
-        constraint_violation(
-            constraint_matrix(columns, settings.constraints, settings.nan_violation)
-        )
+        constraint_violation(constraint_matrix(columns, plan.constraints, plan.nan_violation))
         if records
         else np.zeros(0)
     )
@@ -387,30 +385,30 @@ def export_results(run_dir) -> tuple[xr.Dataset, xr.Dataset, xr.Dataset]:
     run = load_run(run_dir)
     profile = run["profile"]
     run_settings = settings_from_profile(profile)
-    settings = CampaignPlan.of(run_settings)
+    plan = CampaignPlan.of(run_settings)
     checkpoint = load_checkpoint(run_dir)
     history = checkpoint["history"] if checkpoint else []
     attrs = {
         "profile": run_settings.name,
-        "objectives": ",".join(settings.objectives),
+        "objectives": ",".join(plan.objectives),
         "constraints": ",".join(
-            f"{m} {'<=' if k == 'max' else '>='} {v:g}" for m, k, v in settings.constraints
+            f"{m} {'<=' if k == 'max' else '>='} {v:g}" for m, k, v in plan.constraints
         ),
         "parameters": json.dumps(profile, sort_keys=True),
         "versions": json.dumps(package_versions(), sort_keys=True),
         "evaluation_hash": run["evaluation_hash"],
-        "evaluator": settings.evaluator,
-        "seed": settings.seed,
+        "evaluator": plan.evaluator,
+        "seed": plan.seed,
         "generations_done": len(history),
         "finished": int(bool(checkpoint and checkpoint.get("finished"))),
     }
     records = read_cache_records(run_dir)
     attrs["n_evaluation_errors"] = sum(bool(r.get("error")) for r in records)
-    extras = settings.extra_metrics
-    evaluations = _dataset_from_records(records, settings, attrs, extras)
+    extras = plan.extra_metrics
+    evaluations = _dataset_from_records(records, plan, attrs, extras)
     feasible = evaluations["feasible"].values
     columns = {k: evaluations[k].values for k in METRIC_KEYS + extras}
-    f = objective_matrix(columns, settings.objectives, settings.nan_objective)
+    f = objective_matrix(columns, plan.objectives, plan.nan_objective)
     front_index = (
         np.flatnonzero(feasible)[non_dominated_mask(f[feasible])]
         if feasible.any()
@@ -426,7 +424,7 @@ def export_results(run_dir) -> tuple[xr.Dataset, xr.Dataset, xr.Dataset]:
     hist = xr.Dataset(
         {k: ("generation", np.array([h[k] for h in history])) for k in names},
         coords={"generation": np.array([h["generation"] for h in history], dtype=np.int64)},
-        attrs={**attrs, "hypervolume_reference": json.dumps(dict(settings.hypervolume))},
+        attrs={**attrs, "hypervolume_reference": json.dumps(dict(plan.hypervolume))},
     )
     return evaluations, front, hist
 

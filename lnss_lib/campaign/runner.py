@@ -249,7 +249,7 @@ def _run_locked(
 ) -> CampaignResult:
     """The generation loop of :func:`run_campaign` in a run folder this process holds the lock of: the run's
     settings, those its evaluations run under (:func:`evaluation_profile`) and their :func:`evaluation_hash`."""
-    settings = CampaignPlan.of(run_settings)
+    plan = CampaignPlan.of(run_settings)
     name = run_settings.name
     checkpoint = load_checkpoint(run_dir)
     run = load_run(run_dir)
@@ -258,11 +258,9 @@ def _run_locked(
         algorithm, history = checkpoint["algorithm"], checkpoint["history"]
         problem = algorithm.problem
     else:
-        algorithm, history = build_algorithm(settings), []
-        problem = WalkerDesignProblem(settings)
-        algorithm.setup(
-            problem, termination=build_termination(settings), seed=settings.seed, verbose=False
-        )
+        algorithm, history = build_algorithm(plan), []
+        problem = WalkerDesignProblem(plan)
+        algorithm.setup(problem, termination=build_termination(plan), seed=plan.seed, verbose=False)
     cache = EvaluationCache(
         run_dir / JOURNAL_FILE, eval_hash, kernel_cpu=kernel_cpu(), run_cpu=run_kernel_cpu(run)
     )
@@ -273,8 +271,8 @@ def _run_locked(
     try:
         lost = _lost_designs(checkpoint, cache)
         if lost or (not (checkpoint and checkpoint.get("finished")) and algorithm.has_next()):
-            backend = open_backend(eval_settings, settings, workers, scheduler_address)
-        batch = BatchEvaluator(settings, cache, backend)
+            backend = open_backend(eval_settings, plan, workers, scheduler_address)
+        batch = BatchEvaluator(plan, cache, backend)
         if lost:  # designs of the checkpoint whose journal lines were torn, damaged or lost: evaluate them again
             batch.generation = len(history)
             batch(np.array(lost))
@@ -282,7 +280,7 @@ def _run_locked(
         state = RunState(
             run_dir=run_dir,
             name=name,
-            settings=settings,
+            plan=plan,
             algorithm=algorithm,
             cache=cache,
             batch=batch,
@@ -307,7 +305,7 @@ def _run_locked(
             state.generation, state.n_designs = len(history) + 1, len(pop)
             state.asked_keys = [[int(v) for v in row] for row in np.rint(pop.get("X"))]
             batch.generation = state.generation
-            batch.stop_bounds = early_stop_bounds(settings, algorithm)
+            batch.stop_bounds = early_stop_bounds(plan, algorithm)
             notify("on_generation_start")
             algorithm.evaluator.eval(problem, pop)
             algorithm.tell(infills=pop)

@@ -15,10 +15,11 @@ import math
 from collections.abc import Mapping
 from dataclasses import dataclass, fields
 
-from ..config import CAMPAIGN_OFF as OFF
 from ..config import profile_hash
 from ..keys import METRIC_KEYS, VERDICT_KEYS, bound_text, format_value, label
-from ..sections import EVALUATORS, NOTEBOOK_MODES, legacy_spelling
+from ..legacy_keys import legacy_spelling
+from ..profile_rules import CAMPAIGN_OFF as OFF
+from ..sections import EVALUATORS, NOTEBOOK_MODES
 from ..settings import CampaignSettings, Settings, profile_data
 from .fitness import constraint_matrix
 from .grid import DesignGrid

@@ -26,7 +26,6 @@ behind the evaluator is not thread-safe).
 
 from __future__ import annotations
 
-import os
 import sys
 import threading
 import time
@@ -37,7 +36,7 @@ from pathlib import Path
 from ..config import PROFILE_NAME, deep_merge, parse_sets, read_toml
 from ..errors import ConfigError
 from ..settings import load_settings
-from .backends import connect_scheduler, start_local_cluster
+from .backends import connect_scheduler, start_local_cluster, usable_cores
 from .callbacks import Callback, RunState
 from .rundir import RUN_FILE, RunLock, check_new_run_dir
 from .runner import CampaignResult, run_campaign
@@ -333,11 +332,7 @@ def _run_locked(
     study: Study, run_dir: Path, workers, scheduler_address, progress: bool, max_generations
 ) -> StudyResult:
     if workers is None and not scheduler_address:
-        workers = (
-            len(os.sched_getaffinity(0))
-            if hasattr(os, "sched_getaffinity")
-            else (os.cpu_count() or 1)
-        )
+        workers = usable_cores()
     if workers is not None and workers < 0:
         raise ConfigError(
             f"--workers {workers} is not allowed; allowed: an integer >= 0", key="--workers"

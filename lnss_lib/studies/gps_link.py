@@ -25,16 +25,16 @@ import xarray as xr
 
 from ..constants import BOLTZMANN_J_K, SECONDS_PER_DAY
 from ..constellation import two_body_positions_mci
+from ..gain_pattern import gain_for_settings
 from ..geometry import filtered_mean
 from ..gps import (
     cn0_dbhz,
     free_space_loss_db,
-    gain_for_settings,
     gps_link,
     gps_link_summary,
-    gps_states_mci,
     pdop_along_axis,
 )
+from ..gps_states import gps_states_mci
 from ..paper import TABLE_4, TABLE_4_LABEL
 from ..propagator import propagate_elements
 

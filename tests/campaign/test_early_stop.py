@@ -1,4 +1,4 @@
-"""Guided batches on the backend and the early stop of designs above the Delta-V bound (issue 23 item 2): the
+"""Guided batches on the backend and the early stop of designs above the Delta-V bound: the
 batches cover every design once, the stop is taken only when it cannot change the search, and a campaign with it
 equals one without."""
 

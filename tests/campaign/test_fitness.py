@@ -133,7 +133,7 @@ def test_fitness_is_pure_numpy_and_the_engine_stays_below_presentation():
 
 
 def test_bounds_verdict_names_each_violated_table3_bound():
-    """evaluate's meets_bounds / violated_bounds (issue 19 item 6): the profile's constraints, the campaign's test."""
+    """evaluate's meets_bounds / violated_bounds: the profile's constraints, the campaign's test."""
     from lnss_lib.campaign.settings import bounds_verdict
     from lnss_lib.settings import load_settings
 

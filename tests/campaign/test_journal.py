@@ -58,7 +58,7 @@ def _assert_same_final_population(run_dir, reference):
 
 
 def test_damaged_earlier_line_or_missing_journal_is_evaluated_again(tmp_path, uninterrupted):
-    """Issue 21 item 7: the line of a generation-1 design still in the population damaged after generation
+    """The line of a generation-1 design still in the population damaged after generation
     2 (unreadable, or one digit changed), the header line damaged, or the journal deleted: resume evaluates
     the designs again and ends as the uninterrupted run (it failed with ``error: (191, 34, 9, 70, 1, 1)``,
     a KeyError, or kept the changed digit)."""
@@ -129,7 +129,7 @@ def test_damaged_earlier_line_or_missing_journal_is_evaluated_again(tmp_path, un
 
 
 def test_duplicated_records_count_once(tmp_path, uninterrupted):
-    """Issue 21 item 6: a journal holding every record twice (two writers) exports each design once."""
+    """A journal holding every record twice (two writers) exports each design once."""
     from lnss_lib.campaign import export_results
 
     run_dir = _synthetic(tmp_path / "run", max_generations=2).run_dir

@@ -1,4 +1,4 @@
-"""Shipped reference results (issue 23 item 3): the committed exports are the current profiles', and the export
+"""Shipped reference results: the committed exports are the current profiles', and the export
 round-trips, stays under the size limit, carries CF attributes, marks partial runs and refuses run folders
 that fail their checks."""
 

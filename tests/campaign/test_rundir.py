@@ -192,7 +192,7 @@ def test_checkpoint_written_by_the_old_optimize_module_still_loads(tmp_path, mon
 
 
 def test_ctrl_c_on_a_dask_campaign_is_one_line_and_resumes(synthetic_reference, tmp_path):
-    """Issue 21 item 12: Ctrl-C (SIGINT to the whole process group, as a terminal sends it) on a campaign
+    """Ctrl-C (SIGINT to the whole process group, as a terminal sends it) on a campaign
     with local Dask workers: one line, exit 130, no worker left; the checkpoint resumes to the
     uninterrupted result. Before: 67 lines of worker tracebacks."""
     run_dir = tmp_path / "interrupted"
@@ -240,7 +240,7 @@ def _checkpoint_of_a_run(tmp_path):
 
 
 def test_damaged_checkpoint_never_loads(tmp_path):
-    """Issue 21 item 8: 300 random one-byte corruptions and 30 truncations of a checkpoint are all refused
+    """300 random one-byte corruptions and 30 truncations of a checkpoint are all refused
     with CheckpointError (before: 93 of these 300 corruptions loaded silently)."""
     from lnss_lib.campaign.rundir import CheckpointError, load_checkpoint
 
@@ -271,7 +271,7 @@ class _Exploit:
 
 
 def test_forged_checkpoint_is_refused_without_running_code(tmp_path):
-    """Issue 21 item 9: a checkpoint that would run code when unpickled is refused (raw, with a valid checksum
+    """A checkpoint that would run code when unpickled is refused (raw, with a valid checksum
     header, nested in a plausible checkpoint, or naming an allowed module's other attributes)."""
     import hashlib
     import json
@@ -314,7 +314,7 @@ def test_forged_checkpoint_is_refused_without_running_code(tmp_path):
 
 
 def test_two_runs_publishing_at_once_publish_one_run(tmp_path):
-    """Issue 21 item 5: two campaigns of one profile publishing at once (threads here, each with its own
+    """Two campaigns of one profile publishing at once (threads here, each with its own
     flock) while a reader loads: every load holds the three files of one run (before, the three
     files were copied one by one into the same folder: 3 of 6 trials mixed seeds)."""
     import threading

@@ -1,4 +1,4 @@
-"""The validated front (issue 20 item 4): selection rules, validated.nc round trip, failed and raising closed loops
+"""The validated front: selection rules, validated.nc round trip, failed and raising closed loops
 kept and marked, a resumed validation equal to an uninterrupted one, the wiring into the campaign and the CLI."""
 
 import math
@@ -263,7 +263,7 @@ def test_raising_closed_loops_stop_the_validation(tmp_path, capsys):
 
 def test_closed_loop_into_the_moon_is_failed_or_error():
     """The real task: a 7800 km e 0.74 i 17 deg orbit whose 290 km perilune the monthly swing takes into the surface
-    within days (issue 20 item 3) is 'failed' with its impact day within the 6-day life; an orbit through the surface
+    within days (the half-monthly swing of e) is 'failed' with its impact day within the 6-day life; an orbit through the surface
     is 'error' with the reason. Neither raises."""
     settings = load_settings("ci_operational", overrides={"design_life": {"life_days": 6.0}})
     record = validation_task(settings, dict(zip(DESIGN_KEYS, (7800.0, 0.74, 0.0, 17.0, 1, 1))))

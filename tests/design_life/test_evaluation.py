@@ -1,4 +1,4 @@
-"""Design-life evaluation (issue 11 items 3, 4, 6): CLI keys, monthly navigation, validation table."""
+"""Design-life evaluation: CLI keys, monthly navigation, validation table."""
 
 import json
 

@@ -1,4 +1,4 @@
-"""The life-long estimate of the service controller's cost (issue 20 item 2): frozen orbits cost nothing, the cost
+"""The life-long estimate of the service controller's cost: frozen orbits cost nothing, the cost
 rises with the libration amplitude, a perilune predicted to cross the floor pays safety, and the band laws."""
 
 import dataclasses
@@ -57,8 +57,8 @@ def _two_planes(a, e, inc, aop):
 
 
 def test_frozen_orbit_that_meets_every_requirement_costs_nothing(profile):
-    """The Table 4 ELFO read in moon_op, one satellite per plane: the closed loop flies no burn there (notebook 08,
-    issue 19), and the estimate charges nothing for any purpose."""
+    """The Table 4 ELFO read in moon_op, one satellite per plane: the closed loop flies no burn there (notebook 08),
+    and the estimate charges nothing for any purpose."""
     est = _estimate(profile, _two_planes(*ELFO, 90.0))
     for part in (*le.PARTS, "total"):
         assert np.all(est["per_sat"][part] == 0.0), part

@@ -131,7 +131,7 @@ def test_screen_agrees_with_the_full_model_on_a_stable_and_an_impacting_design(p
     np.testing.assert_allclose(screen.impact_day.values, ref["impact_day"], rtol=0.20)
 
 
-# Issue 20 item 3: designs the doubly-averaged screen called stable although the full model (degree 8, no
+# Designs the doubly-averaged screen called stable although the full model (degree 8, no
 # manoeuvre; studies.screen_validation) takes them into the surface: the half-monthly swing of e that
 # the double average drops (MonthlyTide). Full-model impact days (scan of 2025-11-25, one satellite per plane):
 # lunar equator 7800/0.74/AOP 90/17 deg: days 5.0 and 4.3; 20900/0.8/120/52: 78.4 and 91.0;

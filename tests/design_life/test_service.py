@@ -1,4 +1,4 @@
-"""The service station-keeping controller (issue 19): it pays for what the service needs and nothing else."""
+"""The service station-keeping controller: it pays for what the service needs and nothing else."""
 
 import dataclasses
 
@@ -201,7 +201,7 @@ def test_mean_vectors_match_the_state_vectors():
 
 def test_box_that_drives_satellites_out_of_lunar_orbit_reports_them_and_completes(paper_profile):
     """a 15940 km, e 0.734, i 62.1 deg, AOP 180 deg, three planes of one satellite, one year with the box (the
-    controller of issue 11, whose burns unbind two of the orbits): the planner was handed hyperbolic elements
+    box controller, whose burns unbind two of the orbits): the planner was handed hyperbolic elements
     and the evaluation stopped ("elements must be 6 finite values"); now every loss is reported with its day
     and cause and the others fly on."""
     el = WalkerDesign(15940.0, 0.734, 180.0, 62.1, 3, 1).elements_deg()

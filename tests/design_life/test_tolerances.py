@@ -1,4 +1,4 @@
-"""The service controller's relative node and slot tolerances, derived per design from its navigation (issue 19)."""
+"""The service controller's relative node and slot tolerances, derived per design from its navigation."""
 
 import dataclasses
 

@@ -225,7 +225,7 @@ def tiny_profiles(tmp_path, monkeypatch):
 
 
 def test_load_or_run_shows_the_profiles_run_or_says_why_not(tiny_profiles, capsys):
-    """Issue 21 item 3: the newest run is not trusted. The run shown and published is the newest whose
+    """The newest run is not trusted: The run shown and published is the newest whose
     settings are the profile's; otherwise the note names the run and the differing settings, and the
     profile returned is the run's own."""
     from lnss_lib.campaign import export_results
@@ -300,7 +300,7 @@ def test_load_or_run_shows_the_profiles_run_or_says_why_not(tiny_profiles, capsy
 
 
 def test_notebooks_fall_back_to_the_shipped_results(tiny_profiles, monkeypatch):
-    """Issue 23 item 3: with no local run that is the profile's, notebooks 06-07 show the shipped reference results
+    """With no local run that is the profile's, notebooks 06-07 show the shipped reference results
     and say so (nothing runs); a local run that is the profile's wins; a reference that is not the profile's
     (stale) is never shown."""
     from lnss_lib.campaign import reference
@@ -346,11 +346,11 @@ def test_notebooks_fall_back_to_the_shipped_results(tiny_profiles, monkeypatch):
 
 
 def test_paper_profile_without_a_local_run_shows_the_shipped_results(tmp_path, monkeypatch, capsys):
-    """Issue 23, done when: `reproduce --profile paper` with no local campaign draws notebooks 06-07 from the
+    """`reproduce --profile paper` with no local campaign draws notebooks 06-07 from the
     shipped results instead of running a campaign."""
-    from lnss_lib import __main__ as cli
     from lnss_lib import outputs
     from lnss_lib.campaign.reference import load_reference
+    from lnss_lib.cli.reproduce import say_which_campaign
     from lnss_lib.studies.campaign import load_or_run, shown_campaign
 
     monkeypatch.setattr(outputs, "OUTPUTS_DIR", tmp_path)
@@ -359,7 +359,7 @@ def test_paper_profile_without_a_local_run_shows_the_shipped_results(tmp_path, m
         assert shown.run_dir == shipped.folder and "shipped reference results" in shown.note
         assert shown.history.sizes["generation"] == shipped.history.sizes["generation"]
     assert not list((tmp_path / "paper" / "campaign").glob("run_*"))
-    cli._say_which_campaign("paper", None, {"06", "07"})
+    say_which_campaign("paper", None, {"06", "07"})
     said = capsys.readouterr().err
     assert "campaign of paper: no run in" in said and "outputs/reference/paper " in said
     assert "notebook 07's figures: " in said and "outputs/reference/paper_dv_physical" in said

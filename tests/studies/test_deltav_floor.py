@@ -1,4 +1,4 @@
-"""The Delta-V floor study (issue 23 item 1(b)) and the profile it derives: params/paper_dv_physical.toml."""
+"""The Delta-V floor study and the profile it derives: params/paper_dv_physical.toml."""
 
 import math
 

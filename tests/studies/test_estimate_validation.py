@@ -1,4 +1,4 @@
-"""The life estimate's validation study (issue 20 item 2): its design set and its statistics."""
+"""The life estimate's validation study: its design set and its statistics."""
 
 import numpy as np
 import pandas as pd

@@ -1,4 +1,4 @@
-"""Notebooks 06-07 on a validated front (issue 20 items 4-5): estimate against closed loop, the validated Table 6 and
+"""Notebooks 06-07 on a validated front: estimate against closed loop, the validated Table 6 and
 the headline table, on a synthetic validated.nc."""
 
 import numpy as np

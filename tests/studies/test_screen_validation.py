@@ -1,4 +1,4 @@
-"""The screen's validation study (issue 20 item 3): random Table 3 designs and the agreement statistic."""
+"""The screen's validation study: random Table 3 designs and the agreement statistic."""
 
 import math
 
