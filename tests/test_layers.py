@@ -372,7 +372,7 @@ def test_each_module_imports_in_a_fresh_interpreter():
         [sys.executable, "-c", _FORK_IMPORTS, *sorted(GRAPH)],
         capture_output=True,
         text=True,
-        timeout=300,
+        timeout=900,  # a guard against a hang: seconds on a quiet machine, minutes under load
         cwd=PACKAGE_DIR.parent,
         env=env,
     )
