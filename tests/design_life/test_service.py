@@ -226,10 +226,10 @@ def test_a_satellite_whose_propagation_fails_is_reported_and_the_others_fly_on(
     """The engine gives up on satellite 1 in the third chunk (as it did on a Table 6 design: 'propagation failed
     for satellite(s) [9]' stopped the evaluation): it is reported lost with the engine's reason, satellite 0 flies
     the whole life."""
-    from lnss_lib.design_life import closed_loop
+    from lnss_lib.design_life import fleet
     from lnss_lib.propagator import STATUS_MAX_STEPS, STATUS_TEXT
 
-    engine, calls = closed_loop.integrate_chunk, []
+    engine, calls = fleet.integrate_chunk, []
 
     def failing(y0s, active, t0, t_out, *rest):
         states, y_end, status, t_stop = engine(y0s, active, t0, t_out, *rest)
@@ -244,7 +244,7 @@ def test_a_satellite_whose_propagation_fails_is_reported_and_the_others_fly_on(
                 )
         return states, y_end, status, t_stop
 
-    monkeypatch.setattr(closed_loop, "integrate_chunk", failing)
+    monkeypatch.setattr(fleet, "integrate_chunk", failing)
     el = [[6143.0, 0.6, 51.7, 0.0, 90.0, 0.0], [6143.0, 0.6, 51.7, 0.0, 90.0, 180.0]]
     ds = fly(profile, el, life_days=10.0, model=model)
     assert (
