@@ -35,7 +35,8 @@ from ..propagator import elements_deg_to_states, propagate_states
 from ..settings import load_settings
 
 BEFORE_COMMIT = "5b283da196b61d5cdceb0c75b3361ce6bc87873c"
-"""The closed loop before its controllers became objects over one fleet state and its per-check work was trimmed."""
+"""The closed loop before its controllers became objects over one fleet state and its safety prediction was cut
+to the lead it acts within."""
 
 BEFORE_PACKAGE = "lnss_lib.design_life_before"
 """Module name the package of :data:`BEFORE_COMMIT` is imported under (its ``..`` imports reach today's lnss_lib)."""
