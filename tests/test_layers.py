@@ -50,6 +50,13 @@ DESIGN_LIFE_MODULES = (
     "service",
     "propagation",
     "closed_loop",
+    "controllers",
+    "fleet",
+    "life_report",
+    "life_estimate",
+    "life_safety",
+    "life_relative",
+    "life_navigation",
     "evaluation",
     "frozen",
 )

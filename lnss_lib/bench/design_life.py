@@ -1,6 +1,13 @@
 """``python -m lnss_lib bench design-life``: one design-year of closed loop against the campaign's cheap predictors.
 
-For the standalone ELFO (16 satellites): the wall time of the closed-loop station keeping over
+First the closed loop's cost per satellite-year, the path of :data:`BEFORE_COMMIT` (the package
+``lnss_lib/design_life`` of that commit, read from git into ``~/.cache/lnss_lib``) and today's side by side in one
+run, alternating, on one satellite of the standalone ELFO flown ``[design_life] life_days`` with the profile's
+controller and DOP samples every ``[life_evaluation] sample_step_s`` (as the validations fly it): the loop itself
+(``wall_s``) and the whole call (insertion trim, derived tolerances, averaged field), and whether both paths gave
+the same Delta-V and burns to the last bit. Without git or that commit only today's path is timed.
+
+Then, for the standalone ELFO (16 satellites): the wall time of the closed-loop station keeping over
 ``[design_life] life_days`` (full force model, every satellite), of the natural drift over the same
 life, of the campaign-grade geometry-keeping estimate on the 10-day arc (the arc's propagation
 printed apart: the evaluator pays it anyway) and of the stability screen, side by side.
@@ -8,11 +15,17 @@ printed apart: the evaluator pays it anyway) and of the stability screen, side b
 
 from __future__ import annotations
 
+import importlib.util
+import subprocess
+import sys
+import tarfile
 import time
+from io import BytesIO
+from pathlib import Path
 
 import numpy as np
 
-from ..constants import SECONDS_PER_DAY
+from ..constants import DAYS_PER_JULIAN_YEAR, SECONDS_PER_DAY
 from ..constellation import standalone_elfo
 from ..design_life.closed_loop import life_force_model, simulate_life
 from ..design_life.estimate import sk_estimate_from_propagation
@@ -21,8 +34,109 @@ from ..ephemeris import ensure_kernels, tdb_seconds
 from ..propagator import elements_deg_to_states, propagate_states
 from ..settings import load_settings
 
+BEFORE_COMMIT = "5b283da196b61d5cdceb0c75b3361ce6bc87873c"
+"""The closed loop before its controllers became objects over one fleet state and its safety prediction was cut
+to the lead it acts within."""
+
+BEFORE_PACKAGE = "lnss_lib.design_life_before"
+"""Module name the package of :data:`BEFORE_COMMIT` is imported under (its ``..`` imports reach today's lnss_lib)."""
+
+
+def closed_loop_before(commit: str = BEFORE_COMMIT):
+    """``simulate_life`` of ``lnss_lib/design_life`` at ``commit``, or None (with the reason printed) when git or the
+    commit is not there or that package no longer imports against today's modules."""
+    root = Path(__file__).resolve().parents[2]
+    cache = Path.home() / ".cache" / "lnss_lib" / "design_life" / commit
+    try:
+        if not (cache / "lnss_lib" / "design_life" / "closed_loop.py").exists():
+            archive = subprocess.run(
+                ["git", "-C", str(root), "archive", commit, "lnss_lib/design_life"],
+                capture_output=True,
+                check=True,
+            ).stdout
+            with tarfile.open(fileobj=BytesIO(archive)) as tar:
+                tar.extractall(cache, filter="data")
+        if BEFORE_PACKAGE not in sys.modules:
+            package = cache / "lnss_lib" / "design_life"
+            spec = importlib.util.spec_from_file_location(
+                BEFORE_PACKAGE, package / "__init__.py", submodule_search_locations=[str(package)]
+            )
+            module = importlib.util.module_from_spec(spec)
+            sys.modules[BEFORE_PACKAGE] = module
+            spec.loader.exec_module(module)
+        return importlib.import_module(f"{BEFORE_PACKAGE}.closed_loop").simulate_life
+    except (OSError, subprocess.CalledProcessError, ImportError, tarfile.TarError) as error:
+        sys.modules.pop(BEFORE_PACKAGE, None)
+        print(
+            f"  the path of {commit[:10]} is not available here ({type(error).__name__}: {error})"
+        )
+        return None
+
+
+def _fly(profile, el, t0, model, simulate=simulate_life, **kwargs):
+    """``simulate`` (a ``simulate_life``) of elements ``el`` with the profile's sections."""
+    return simulate(
+        profile.design_life,
+        profile.dynamics,
+        el,
+        t0,
+        stability=profile.stability,
+        dop=profile.dop,
+        model=model,
+        **kwargs,
+    )
+
+
+def satellite_year(profile_name: str = "paper", overrides: dict | None = None, repeats: int = 2):
+    """Print seconds per satellite-year of the closed loop, the path of :data:`BEFORE_COMMIT` and today's."""
+    profile = load_settings(profile_name, overrides=overrides)
+    ensure_kernels(profile.ephemeris)
+    settings = profile.design_life
+    el = standalone_elfo(profile.standalone_elfo, profile.dynamics)[:1]
+    t0 = tdb_seconds(profile.epoch.start_tdb, "TDB")
+    years = settings.life_days / DAYS_PER_JULIAN_YEAR
+    model = life_force_model(profile.dynamics, t0, settings.life_days)
+    paths = {"today": simulate_life}
+    before = closed_loop_before()
+    if before is not None:
+        paths = {f"before ({BEFORE_COMMIT[:10]})": before, **paths}
+    print(
+        f"closed loop, one standalone-ELFO satellite, {settings.life_days:g} days, controller "
+        f"{settings.controller}, samples every {profile.life_evaluation.sample_step_s:g} s"
+    )
+
+    def fly(path, days):
+        step = profile.life_evaluation.sample_step_s
+        return _fly(profile, el, t0, model, paths[path], life_days=days, sample_step_s=step)
+
+    for path in paths:  # compiled kernels and caches warm
+        fly(path, 3.0)
+    loop, whole, runs = ({path: [] for path in paths} for _ in range(3))
+    for _ in range(repeats):
+        for path in paths:
+            start = time.perf_counter()
+            ds = fly(path, settings.life_days)
+            whole[path].append((time.perf_counter() - start) / years)
+            loop[path].append(ds.attrs["wall_s"] / years)
+            runs[path] = ds
+    for path in paths:
+        ds = runs[path]
+        print(
+            f"  {path:<20} loop {min(loop[path]):7.2f} s/sat-yr, whole call {min(whole[path]):7.2f} "
+            f"s/sat-yr  ({float(ds.dv_kms_per_year[0]):.6f} km/s/yr, {int(ds.n_maneuvers[0])} burns)"
+        )
+    if len(paths) == 2:
+        old, new = runs.values()
+        same = all(
+            np.array_equal(old[k].values, new[k].values, equal_nan=True)
+            for k in ("dv_kms_per_year", "maneuver_t_tdb_s", "maneuver_dv_rtn_kms", "r_mci_km")
+        )
+        first, last = (min(loop[p]) for p in paths)
+        print(f"  loop {first / last:.1f}x faster; same burns and positions to the bit: {same}")
+
 
 def run(profile_name: str = "paper", overrides: dict | None = None) -> None:
+    satellite_year(profile_name, overrides)
     profile = load_settings(profile_name, overrides=overrides)
     ensure_kernels(profile.ephemeris)
     settings = profile.design_life
@@ -59,25 +173,8 @@ def run(profile_name: str = "paper", overrides: dict | None = None) -> None:
     start = time.perf_counter()
     model = life_force_model(profile.dynamics, t0, settings.life_days)
     model_s = time.perf_counter() - start
-    closed = simulate_life(
-        settings,
-        profile.dynamics,
-        el,
-        t0,
-        stability=profile.stability,
-        dop=profile.dop,
-        model=model,
-    )
-    natural = simulate_life(
-        settings,
-        profile.dynamics,
-        el,
-        t0,
-        stability=profile.stability,
-        dop=profile.dop,
-        natural=True,
-        model=model,
-    )
+    closed = _fly(profile, el, t0, model)
+    natural = _fly(profile, el, t0, model, natural=True)
     rows = [
         (
             "closed-loop station keeping, one design life",

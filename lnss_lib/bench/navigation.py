@@ -3,7 +3,7 @@
 The campaign's path (:func:`~lnss_lib.evaluator.evaluate_constellation`) under the profile (operational by default),
 without (old) and with (new) the life estimate's availability over the life
 (:data:`~lnss_lib.keys.LIFE_NAVIGATION_KEYS`): old rebuilds only the navigation windows the monitor judges, new every
-window of the life (:func:`~lnss_lib.design_life.life_estimate.navigation_restores`); the restores and every other
+window of the life (:func:`~lnss_lib.design_life.life_navigation.navigation_restores`); the restores and every other
 metric are the same (old judges the campaign on the 10-day availability, as before). Designs of ``bench evaluate``
 (the Table 4 ELFO and a Table 3 sample), one numba thread, the two alternating design by design, best of
 ``repeats``. The budget: at most 15 % more evaluation time.

@@ -12,13 +12,14 @@ One subject in three answers of rising cost, each module answering one question:
   normal, a and slot fitted on the evaluator's 10-day arc, priced with linearised GVE costs: the
   campaign's geometry-keeping Delta-V (``sk_dv_estimate_kms_per_year``).
 * :mod:`.life_estimate` -- what would the service controller pay over the life? Safety raises where the averaged
-  perilune (the screen's integration) would cross the floor, navigation restores where the constellation rebuilt
-  from the averaged elements breaks the monitor's DOP rule, relative node and slot held within the service's
-  tolerances on the averaged evolution plus the 10-day arc: the operational campaign's estimate
-  (``[sk_estimate] model = "life"``).
-* :mod:`.closed_loop` -- what does flying the life cost? Every satellite propagated with the full force
-  model over the life, check by check, a controller deciding burns at each check (the ``box`` or the
-  ``service`` controller), or no burns (natural drift).
+  perilune (the screen's integration) would cross the floor (:mod:`.life_safety`), navigation restores where the
+  constellation rebuilt from the averaged elements breaks the monitor's DOP rule (:mod:`.life_navigation`),
+  relative node and slot held within the service's tolerances on the averaged evolution plus the 10-day arc
+  (:mod:`.life_relative`): the operational campaign's estimate (``[sk_estimate] model = "life"``).
+* :mod:`.closed_loop` -- what does flying the life cost? Every satellite (one :class:`.fleet.FleetState`)
+  propagated with the full force model over the life, check by check, a controller
+  (:mod:`.controllers`: the ``box`` or the ``service`` controller, or natural drift, which never burns)
+  answering each check with burns; :mod:`.life_report` shapes the Dataset.
 * :mod:`.evaluation` -- the verdict: the closed loop and the natural drift side by side, navigation over
   the life (south-pole DOP month by month, paper eq. 3-14), and the two cheap predictors above for the
   same design (``evaluate --design-life-days``).
@@ -26,6 +27,8 @@ One subject in three answers of rising cost, each module answering one question:
 So: screen -> estimate or life estimate (campaign, every design) -> closed loop -> evaluation (one design, minutes).
 Under the closed loop:
 
+* :mod:`.controllers` -- the controllers behind one protocol (``decide(t_tdb_s, fleet) -> list[Burn]``);
+* :mod:`.fleet` -- the satellites' state, one chunk flown and one check measured, the burn queue;
 * :mod:`.propagation` -- the chunked full-model propagation that flies impulsive burns, the life's force
   model, the insertion trim to the design's mean elements;
 * :mod:`.mean_elements` -- one-orbit mean elements from vectors (no 1/e, no 1/sin i);

@@ -41,8 +41,9 @@ from ..settings import (
     SkEstimateSettings,
     StabilitySettings,
 )
-from .closed_loop import impact_day, life_force_model, simulate_life
+from .closed_loop import life_force_model, simulate_life
 from .life_estimate import campaign_estimate
+from .life_report import impact_day
 from .screen import screen_states
 
 __all__ = [

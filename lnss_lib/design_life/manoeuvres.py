@@ -159,7 +159,7 @@ def kepler_achieved(
     """Change (6,) of the control set (:data:`CONTROL_ROWS`, angles wrapped) at ``horizon_s`` after the epoch
     of ``elements`` when the impulses ``dv_rtn_kms`` (k, 3) are flown at ``dt_s`` (k,) in two-body motion,
     against the same coast without them. Impulses that open the orbit (e >= 1) give NaN, without a warning:
-    a plan with a non-finite impulse is never flown (``closed_loop._enqueue``)."""
+    a plan with a non-finite impulse is never flown (:func:`lnss_lib.design_life.fleet.enqueue`)."""
     el = np.asarray(elements, dtype=float)
     state, t = elements_to_state(el, gm_km3_s2), 0.0
     with np.errstate(invalid="ignore"):

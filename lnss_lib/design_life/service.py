@@ -6,10 +6,11 @@ holds what the service needs and lets every other motion run:
 * safety: the perilune stays above ``impact.min_altitude_km + perilune_margin_km`` plus the measured
   short-period amplitude (one-orbit mean perilune minus the lowest osculating perilune of the orbit).
   Every ``safety_check_days`` the doubly-averaged model (:mod:`lnss_lib.design_life.screen`, lunar J2 + Earth and
-  Sun quadrupole) predicts the mean perilune over the rest of the life (:func:`predicted_crossing_day`);
-  only a crossing within ``safety_lead_days`` is acted on, by lowering e along the e vector (a perilune /
-  apolune pair, a unchanged) by the smallest step that keeps the prediction above the floor for the
-  rest of the life (:func:`safety_ecc`);
+  Sun quadrupole) predicts the mean perilune (:func:`predicted_crossing_day`) over ``safety_lead_days`` plus
+  one ``safety_check_days`` (the next check looks again: integrating the rest of the life at every check finds
+  the same crossings within the lead, at a cost that grows with the life); only a crossing within
+  ``safety_lead_days`` is acted on, by lowering e along the e vector (a perilune / apolune pair, a unchanged)
+  by the smallest step that keeps the prediction above the floor for the rest of the life (:func:`safety_ecc`);
 * navigation: the south-pole DOP of each ``nav_window_days`` of sampled positions must keep the first
   window's availability within ``nav_avail_drop_pct`` points and its 3-sigma PDOP/HDOP within
   ``nav_dop_rise_fraction`` (:func:`navigation_violations`); a violation restores e, AOP and i of every
@@ -217,7 +218,8 @@ def safety_targets(
     field, safe_hist, mel, active, t_days, life_days, floor_base_km, service, tide_period_days
 ):
     """Change of mean e (n_sat,) of each satellite whose perilune the averaged model predicts below the floor
-    within ``safety_lead_days`` (NaN for the others).
+    within ``safety_lead_days`` (NaN for the others; the prediction is integrated over the lead and one
+    ``safety_check_days`` only: a crossing further off is not acted on at this check).
 
     Each prediction starts from the e and j vectors averaged over the last tidal period (the monthly swing of
     the one-orbit means averaged out); the floor is ``floor_base_km`` plus the largest amount by which the
@@ -237,7 +239,8 @@ def safety_targets(
     e_avg, j_avg, floor, a = np.array(e_avg), np.array(j_avg), np.array(floor), mel[idx, 0]
     j_avg *= (np.sqrt(1.0 - np.sum(e_avg**2, axis=1)) / np.linalg.norm(j_avg, axis=1))[:, None]
     remaining = life_days - t_days
-    day = predicted_crossing_day(field, t_days, a, e_avg, j_avg, floor, remaining)
+    horizon = min(remaining, service.safety_lead_days + service.safety_check_days)
+    day = predicted_crossing_day(field, t_days, a, e_avg, j_avg, floor, horizon)
     day = np.where(a * (1.0 - np.linalg.norm(e_avg, axis=1)) <= floor, 0.0, day)
     for q in np.flatnonzero(day <= service.safety_lead_days):
         e_now = float(np.linalg.norm(e_avg[q]))

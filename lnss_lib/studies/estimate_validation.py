@@ -31,7 +31,7 @@ designs of which 30 have an estimate, the 31st hitting the Moon within the 10-da
   e 0.05 i 50 (0.104 / 0.232: the restored monthly swing raises its node estimate); a 20300 km circular i 30, four
   planes (0.099 / 0.049: node the averaged model does not see).
 
-**The navigation term** (the monitor's restores, :func:`lnss_lib.design_life.life_estimate.navigation_restores`;
+**The navigation term** (the monitor's restores, :func:`lnss_lib.design_life.life_navigation.navigation_restores`;
 ``run_estimate_validation(load_settings("quick_operational"))``, the closed loops above flown again with the monitor,
 which they flew without before; branch nav20, 2026-11-25): the monitor restores four of the 30 designs
 in closed loop, the four the estimate gives a navigation part (closed loop / estimate, km/s per satellite and year):

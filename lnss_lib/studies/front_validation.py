@@ -38,7 +38,7 @@ factor 2: the search steered into the estimate's blind spot. Headline then: 8 sa
 satellite (92.2 % over the year, 85.6 % worst month); 12 satellites at 0.47.
 
 Re-estimated with the navigation term (the monitor's restores,
-:func:`lnss_lib.design_life.life_estimate.navigation_restores`; :func:`reestimated_table` of that run's ``validated.nc``
+:func:`lnss_lib.design_life.life_navigation.navigation_restores`; :func:`reestimated_table` of that run's ``validated.nc``
 with ``load_settings("quick_operational")``, every satellite; branch nav20, 2026-11-25): the five cheapest designs are
 now priced at 1.10-1.33 km/s per satellite and year (worst satellite 1.11-1.34), all of it navigation, against
 0.95-1.25 flown (estimate / closed loop 1.02-1.20; worst satellite 0.65-1.19), and the 12-satellite design at 0.34

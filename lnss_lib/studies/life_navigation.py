@@ -5,7 +5,7 @@ whole life, and a constellation whose e, AOP and i drift loses its apolune over 
 estimate (:mod:`lnss_lib.design_life.life_estimate`) rebuilds the constellation from its doubly-averaged elements
 once a navigation window and judges it with the navigation monitor's rule, restores included; from the same rebuilt
 windows it reports PDOP and HDOP availability over the life, as a mean and for the worst window
-(:func:`lnss_lib.design_life.life_estimate.navigation_restores`). Does that worst month rank and size what the
+(:func:`lnss_lib.design_life.life_navigation.navigation_restores`). Does that worst month rank and size what the
 service controller, flown in closed loop with every satellite of the design
 (:func:`lnss_lib.design_life.evaluation.run_design_life`, navigation monitor on positions every
 ``[life_evaluation] sample_step_s``, :func:`lnss_lib.design_life.evaluation.life_navigation` by month), delivers?
@@ -30,7 +30,7 @@ AOP 35 i 22, 4 x 3 (40 % flown, 64 % estimated), 15200 km e 0.22 i 48, 4 x 2 (38
 (22.3 %, 27.4 %): the closed loop's own corrections (relative node and slot, safety) move the geometry the averaged
 elements do not follow; the Table 4 ELFO and the frozen family agree within 1.5 points. The sampling alone: 64 evenly
 spaced epochs of a month of a 6500 km constellation's flown positions gave 78 % where every 900 s gave 89 %, the
-lattice 86-91 % (:func:`lnss_lib.design_life.life_estimate.lattice_epochs_s`).
+lattice 86-91 % (:func:`lnss_lib.design_life.life_navigation.lattice_epochs_s`).
 
 Five years (``operational``, the same 26 designs, every satellite flown: 1.5 h of closed loop on one loaded core,
 2026-11-29): the closed loop keeps 17 designs whole. On those the PDOP worst month meets both targets, Spearman rho

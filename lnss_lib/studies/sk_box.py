@@ -32,7 +32,7 @@ METRICS = (
 def perturbed_elements(
     elements_deg, offsets: dict, sat: int | None = 0, seed: int = 0
 ) -> np.ndarray:
-    """Elements (n, 6) deg with ``offsets`` (box key -> offset, :data:`lnss_lib.design_life.closed_loop.BOX_KEYS`) added.
+    """Elements (n, 6) deg with ``offsets`` (box key -> offset, :data:`lnss_lib.design_life.fleet.BOX_KEYS`) added.
 
     ``sat`` an index: that satellite only (the slot offset goes on M: the mean argument of latitude
     moves with it); ``sat=None``: every satellite, each offset times a uniform draw in [-1, 1] (``seed``).

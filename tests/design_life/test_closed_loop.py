@@ -308,7 +308,7 @@ def test_a_burn_set_is_queued_whole_within_the_budget_and_finite_or_not_at_all()
     """The enqueue rule of the Delta-v cap: a set (e-vector pair plus a plane change) is queued whole when its total
     fits the budget, not at all when it does not (none of its burns), and never with a non-finite impulse, even with
     no budget limit (safety)."""
-    from lnss_lib.design_life.closed_loop import _enqueue
+    from lnss_lib.design_life.fleet import enqueue
     from lnss_lib.design_life.manoeuvres import ImpulsePlan, plan_impulses
 
     gm = 4902.8
@@ -320,13 +320,13 @@ def test_a_burn_set_is_queued_whole_within_the_budget_and_finite_or_not_at_all()
     total = sum(plan.dv_total_kms for _, plan in sets)
     assert total > 0.0
     queue = []
-    assert not _enqueue(queue, 0.0, osc, gm, sets, budget_kms=0.999 * total) and queue == []
-    assert _enqueue(queue, 0.0, osc, gm, sets, budget_kms=1.001 * total)
-    assert sum(np.linalg.norm(dv) for _, dv, _, _ in queue) == pytest.approx(total, rel=1e-12)
-    assert {purpose for _, _, purpose, _ in queue} == {"navigation", "relative_node"}
+    assert not enqueue(queue, 0, 0.0, osc, gm, sets, budget=0.999 * total) and queue == []
+    assert enqueue(queue, 0, 0.0, osc, gm, sets, budget=1.001 * total)
+    assert sum(np.linalg.norm(burn.dv_rtn_kms) for burn in queue) == pytest.approx(total, rel=1e-12)
+    assert {burn.purpose for burn in queue} == {"navigation", "relative_node"}
     n_queued = len(queue)
     broken = ImpulsePlan(np.array([10.0]), np.array([[np.nan, 0.0, 0.0]]), np.zeros(1), np.zeros(1))
-    assert not _enqueue(queue, 0.0, osc, gm, [("safety", broken)]) and len(queue) == n_queued
+    assert not enqueue(queue, 0, 0.0, osc, gm, [("safety", broken)]) and len(queue) == n_queued
 
 
 def test_box_never_flies_past_the_deltav_cap():
@@ -358,7 +358,7 @@ def test_a_burn_set_whose_orbits_dive_below_the_floor_is_not_queued():
     raises it again. Here the same shape on the ELFO: at apolune a retrograde burn that drops the perilune radius to
     1500 km, half an orbit later at perilune the prograde burn that restores the apolune; queued without a floor,
     refused with the surface as the floor, and the two-body perilunes checked against vis-viva."""
-    from lnss_lib.design_life.closed_loop import _enqueue
+    from lnss_lib.design_life.fleet import enqueue
     from lnss_lib.design_life.manoeuvres import ImpulsePlan, lowest_perilune_km
 
     gm, a, e = 4902.8, 6143.0, 0.6
@@ -386,8 +386,8 @@ def test_a_burn_set_whose_orbits_dive_below_the_floor_is_not_queued():
     assert lowest_perilune_km(osc, gm, [0.0], [[0.0, 2.0, 0.0]]) == -np.inf  # escape
     queue = []
     assert (
-        not _enqueue(queue, 0.0, osc, gm, [("navigation", dive)], floor_km=1737.4) and queue == []
+        not enqueue(queue, 0, 0.0, osc, gm, [("navigation", dive)], floor_km=1737.4) and queue == []
     )
     assert (
-        _enqueue(queue, 0.0, osc, gm, [("navigation", dive)], floor_km=1400.0) and len(queue) == 2
+        enqueue(queue, 0, 0.0, osc, gm, [("navigation", dive)], floor_km=1400.0) and len(queue) == 2
     )

@@ -6,7 +6,6 @@ import numpy as np
 import pytest
 
 from lnss_lib.constants import SECONDS_PER_DAY
-from lnss_lib.design_life.closed_loop import BOX_KEYS, _plan
 from lnss_lib.design_life.control import (
     SlotState,
     drift_band_rate,
@@ -15,7 +14,9 @@ from lnss_lib.design_life.control import (
     running_mean,
     tidal_mean,
 )
+from lnss_lib.design_life.controllers import box_plan
 from lnss_lib.design_life.evaluation import evaluate_design_life
+from lnss_lib.design_life.fleet import BOX_KEYS
 from lnss_lib.design_life.manoeuvres import CONTROL_ROWS, kepler_achieved, plan_impulses
 from lnss_lib.elements import kepler_states
 from lnss_lib.settings import load_settings
@@ -137,7 +138,7 @@ def test_box_plan_brings_an_aop_out_of_its_band_back_inside(sign):
     err[1] = sign * 1.2 * half[1]
     out = np.abs(err) > half
     mel = np.array([ELFO[0], ELFO[1], ELFO[2], ELFO[3], ELFO[4], ELFO[4] + ELFO[5]])
-    plan, a_change = _plan(ELFO, mel, ELFO[0], err, out, None, half, cfg, GM)
+    plan, a_change = box_plan(ELFO, mel, ELFO[0], err, out, None, half, cfg, GM)
     assert a_change == 0.0 and plan is not None
     got = kepler_achieved(
         ELFO, GM, plan.dt_s, plan.dv_rtn_kms, 2 * np.pi * np.sqrt(ELFO[0] ** 3 / GM)
@@ -145,7 +146,7 @@ def test_box_plan_brings_an_aop_out_of_its_band_back_inside(sign):
     change = dict(zip(CONTROL_ROWS, got))
     residual = dict(
         zip(("ex", "ey", "inc_rad", "raan_rad", "a_km", "u_rad"), plan.residual)
-    )  # _plan's target order
+    )  # box_plan's target order
     e, aop = ELFO[1], ELFO[4]
     ex, ey = e * np.cos(aop) + change["ex"], e * np.sin(aop) + change["ey"]
     new_err = err[1] + (np.arctan2(ey, ex) - aop)

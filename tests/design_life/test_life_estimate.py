@@ -8,6 +8,8 @@ import pytest
 
 from lnss_lib.constants import SECONDS_PER_DAY
 from lnss_lib.design_life import life_estimate as le
+from lnss_lib.design_life import life_navigation as ln
+from lnss_lib.design_life import life_relative as lr
 from lnss_lib.design_life import tolerances as tol
 from lnss_lib.design_life.frozen import FrozenModel, libration
 from lnss_lib.design_life.screen import cached_field, screen_states
@@ -105,7 +107,7 @@ def test_node_band_corrects_a_steady_differential_drift():
     rate = np.radians(0.1)  # rad/day, each way
     drift = np.stack([rate * t, -rate * t])
     half = np.radians(np.array([3.0, 3.0]))
-    events = le.node_corrections(t, drift, half, 0.8, 7.0)
+    events = lr.node_corrections(t, drift, half, 0.8, 7.0)
     for sat in events:
         days = np.array([k for k, _ in sat])
         assert days.size >= 5 and np.all(np.diff(days) >= 7)
@@ -113,7 +115,7 @@ def test_node_band_corrects_a_steady_differential_drift():
     assert total == pytest.approx(
         2.0 * rate * 365.0, rel=0.15
     )  # the drift taken out, to within one band
-    assert le.node_corrections(t, 0.5 * half[:, None] * np.ones((2, t.size)), half, 0.8, 7.0) == [
+    assert lr.node_corrections(t, 0.5 * half[:, None] * np.ones((2, t.size)), half, 0.8, 7.0) == [
         [],
         [],
     ]
@@ -123,9 +125,9 @@ def test_phase_band_sets_a_drift_rate_only_outside():
     """A slot drifting out of its band gets a drift rate back across it; slots inside the band get nothing."""
     t = np.arange(0.0, 200.0)
     half = np.radians(20.0)
-    assert le.phase_corrections(t, np.zeros((3, t.size)), half, 0.8, 45.0, 1.0) == [[], [], []]
+    assert lr.phase_corrections(t, np.zeros((3, t.size)), half, 0.8, 45.0, 1.0) == [[], [], []]
     drift = np.stack([np.radians(0.5) * t, np.zeros_like(t)])
-    events = le.phase_corrections(t, drift, half, 0.8, 45.0, 1.0)
+    events = lr.phase_corrections(t, drift, half, 0.8, 45.0, 1.0)
     first_day, first_rate = events[0][0]
     assert 60 <= first_day <= 90  # the relative offset (half the drift) leaves 20 deg
     assert first_rate < 0.0  # commanded back
@@ -246,11 +248,11 @@ def test_navigation_restores_only_a_drift_that_degrades_the_dop(profile):
     cost of the restore's order (the e change alone, h de / (2 p) with de at least the box, bounds one restore
     below)."""
     dyn, t0 = profile.dynamics, tdb_seconds(profile.epoch.start_tdb, "TDB")
-    still = le.navigation_restores(
+    still = ln.navigation_restores(
         profile.dop, dyn, profile.design_life, t0, *_rebuilt_case(profile, 0.0)
     )
     assert still["n_judged"] == 0 and np.all(still["dv_kms"] == 0.0) and not still["violations"]
-    drift = le.navigation_restores(
+    drift = ln.navigation_restores(
         profile.dop, dyn, profile.design_life, t0, *_rebuilt_case(profile, 1.0)
     )
     assert drift["violations"] and np.all(drift["n_restores"] >= 1)
@@ -273,20 +275,20 @@ def test_navigation_judges_by_the_monitors_rule(profile):
     dyn, t0 = profile.dynamics, tdb_seconds(profile.epoch.start_tdb, "TDB")
     svc = profile.design_life.service
     t_days, sma, u0, raan, ecc, inc, aop = _rebuilt_case(profile, 1.0)
-    est = le.navigation_restores(
+    est = ln.navigation_restores(
         profile.dop, dyn, profile.design_life, t0, t_days, sma, u0, raan, ecc, inc, aop
     )
     first = min(est["violations"])
-    edges = le.navigation_windows(t_days, svc.nav_window_days)
+    edges = ln.navigation_windows(t_days, svc.nav_window_days)
     grid = SurfaceGrid.from_settings(profile.dop, dyn.constants.r_moon_mean_km)
     period_s = 2.0 * np.pi * np.sqrt(9800.0**3 / dyn.gravity.gm_km3_s2)
 
     def monitor_summary(j):
         span_s = (t_days[edges[j + 1]] - t_days[edges[j]]) * SECONDS_PER_DAY
-        t = le.lattice_epochs_s(span_s, period_s, le.NAV_SAMPLES_PER_WINDOW)
+        t = ln.lattice_epochs_s(span_s, period_s, ln.NAV_SAMPLES_PER_WINDOW)
         k = edges[j] + np.rint(t / SECONDS_PER_DAY).astype(int)
         times = t0 + t_days[edges[j]] * SECONDS_PER_DAY + t
-        r = le.rebuilt_positions_j2000(
+        r = ln.rebuilt_positions_j2000(
             sma,
             u0,
             ecc[:, k],
@@ -317,7 +319,7 @@ def test_lattice_epochs_spread_both_the_window_and_the_orbit():
     phases fill every one of n equal bins of the orbit at most twice (evenly spaced epochs on a whole number of orbits
     would put every sample at one phase)."""
     period_s, n = 86400.0 / 2.0, 64
-    t = le.lattice_epochs_s(30.0 * 86400.0, period_s, n)
+    t = ln.lattice_epochs_s(30.0 * 86400.0, period_s, n)
     assert np.all((t >= 0.0) & (t <= 30.0 * 86400.0))
     assert np.all(np.abs(t - (np.arange(n) + 0.5) / n * 30.0 * 86400.0) <= period_s / 2.0 + 1e-6)
     counts = np.bincount(np.floor((t % period_s) / period_s * n).astype(int), minlength=n)
@@ -329,14 +331,14 @@ def test_life_availability_is_the_windows_mean_and_their_worst(profile):
     month is the lowest window; elements that hold still never fall more than the monitor allows (only the Moon's
     turn and the epochs differ between windows)."""
     dyn, t0 = profile.dynamics, tdb_seconds(profile.epoch.start_tdb, "TDB")
-    still = le.navigation_restores(
+    still = ln.navigation_restores(
         profile.dop, dyn, profile.design_life, t0, *_rebuilt_case(profile, 0.0)
     )
     assert (
         np.sum(still["window_days"]) == pytest.approx(199.0, abs=1e-9)
         and still["window_days"].size == 7
     )
-    for key in le.AVAILABILITY_KEYS:
+    for key in ln.AVAILABILITY_KEYS:
         windows = still[f"{key}_windows"]
         assert still[f"{key}_worst_month_estimate"] == np.min(windows)
         assert still[f"{key}_life_estimate"] == pytest.approx(
@@ -362,11 +364,11 @@ def test_life_availability_falls_when_the_apolune_drifts_off_the_pole(profile):
         0.6 * ones,
         np.radians(51.7) * ones,
     )
-    held = le.navigation_restores(
+    held = ln.navigation_restores(
         profile.dop, dyn, profile.design_life, t0, *case, np.radians(90.0) * ones
     )
     aop = np.radians(np.maximum(90.0 - 1.5 * t_days, 0.0)) * ones
-    drift = le.navigation_restores(profile.dop, dyn, profile.design_life, t0, *case, aop)
+    drift = ln.navigation_restores(profile.dop, dyn, profile.design_life, t0, *case, aop)
     first = held["pdop_avail_pct_windows"][0]
     assert first > 50.0
     assert (
@@ -386,7 +388,7 @@ def test_compiled_relative_angles_are_the_numpy_formula_bit_for_bit():
     x[:, 5] = np.nan  # every satellite lost: mean 0 as numpy's nansum
     diff = wrap_pi(x)
     expected = wrap_pi(diff - circular_mean(diff, axis=0)[None, :])
-    np.testing.assert_array_equal(le._relative(x), expected)
+    np.testing.assert_array_equal(lr._relative(x), expected)
 
 
 def test_distinct_rows_are_bit_for_bit():

@@ -226,10 +226,10 @@ def test_a_satellite_whose_propagation_fails_is_reported_and_the_others_fly_on(
     """The engine gives up on satellite 1 in the third chunk (as it did on a Table 6 design: 'propagation failed
     for satellite(s) [9]' stopped the evaluation): it is reported lost with the engine's reason, satellite 0 flies
     the whole life."""
-    from lnss_lib.design_life import closed_loop
+    from lnss_lib.design_life import fleet
     from lnss_lib.propagator import STATUS_MAX_STEPS, STATUS_TEXT
 
-    engine, calls = closed_loop.integrate_chunk, []
+    engine, calls = fleet.integrate_chunk, []
 
     def failing(y0s, active, t0, t_out, *rest):
         states, y_end, status, t_stop = engine(y0s, active, t0, t_out, *rest)
@@ -244,7 +244,7 @@ def test_a_satellite_whose_propagation_fails_is_reported_and_the_others_fly_on(
                 )
         return states, y_end, status, t_stop
 
-    monkeypatch.setattr(closed_loop, "integrate_chunk", failing)
+    monkeypatch.setattr(fleet, "integrate_chunk", failing)
     el = [[6143.0, 0.6, 51.7, 0.0, 90.0, 0.0], [6143.0, 0.6, 51.7, 0.0, 90.0, 180.0]]
     ds = fly(profile, el, life_days=10.0, model=model)
     assert (
@@ -279,3 +279,31 @@ def test_a_safety_raise_keeps_the_recorded_dip_below_the_averaged_perilune():
     assert dip(history) > 30.0
     e_after = np.mean([h[1] for h in raised], axis=0)
     assert np.linalg.norm(e_after) == pytest.approx(np.linalg.norm(e_now) - 0.05, rel=1e-9)
+
+
+def test_the_safety_prediction_over_the_lead_finds_the_crossings_of_the_whole_life(profile):
+    """The controller acts on a predicted crossing within ``safety_lead_days`` only, so it integrates the averaged
+    model over the lead plus one ``safety_check_days`` (the next check looks again). On orbits the tides drive down
+    before and after the lead, the crossings within the lead are those of the rest-of-life prediction to the bit,
+    and none beyond the lead reads as within it."""
+    from lnss_lib.design_life.screen import SecularField
+    from lnss_lib.design_life.service import predicted_crossing_day
+    from lnss_lib.ephemeris import tdb_seconds
+    from lnss_lib.frames import element_frame_to_j2000
+
+    svc, life = profile.design_life.service, 365.0
+    t0 = tdb_seconds(profile.epoch.start_tdb, "TDB")
+    field = SecularField.from_settings(profile.stability, profile.dynamics, t0, life + 1.0)
+    ecc, aop = (x.ravel() for x in np.meshgrid([0.6, 0.65, 0.7], np.radians([30.0, 45.0, 60.0])))
+    mel = np.column_stack(
+        [np.full(ecc.size, 6143.0), ecc, np.full(ecc.size, np.radians(70.0)), 0 * ecc, aop, 0 * ecc]
+    )
+    e_vec, j_vec = mean_vectors_j2000(mel, element_frame_to_j2000(profile.dynamics, t0))
+    floor_km = profile.dynamics.r_impact_km + svc.perilune_margin_km
+    lead, horizon = svc.safety_lead_days, svc.safety_lead_days + svc.safety_check_days
+    whole = predicted_crossing_day(field, 0.0, mel[:, 0], e_vec, j_vec, floor_km, life)
+    short = predicted_crossing_day(field, 0.0, mel[:, 0], e_vec, j_vec, floor_km, horizon)
+    within = whole <= lead
+    assert within.any() and (whole > lead).any(), whole
+    np.testing.assert_array_equal(short[within], whole[within])
+    assert not np.any(short[~within] <= lead), (short, whole)
