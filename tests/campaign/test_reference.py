@@ -12,7 +12,7 @@ from lnss_lib.campaign import export_results, final_population, run_campaign
 from lnss_lib.campaign import reference as ref
 from lnss_lib.campaign.publication import run_differences
 from lnss_lib.campaign.settings import CampaignPlan, campaign_hash, evaluation_hash
-from lnss_lib.config import profile_hash
+from lnss_lib.config import available_profiles, profile_hash
 from lnss_lib.keys import DESIGN_KEYS
 from lnss_lib.settings import load_settings
 from lnss_lib.studies.campaign import designs_shown
@@ -43,7 +43,11 @@ def _reseal(path, run):
     path.write_text(json.dumps({**run, "checksum": run_checksum(run)}))
 
 
-SHIPPED = sorted(path.name for path in ref.REFERENCE_DIR.iterdir() if path.is_dir())
+SHIPPED = sorted(
+    path.name
+    for path in ref.REFERENCE_DIR.iterdir()
+    if path.is_dir() and path.name in available_profiles()
+)  # campaign exports are named after their profile; a study's shipped results beside them are not
 
 
 def test_both_paper_campaigns_are_shipped():
