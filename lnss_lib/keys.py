@@ -285,6 +285,15 @@ LABELS = {  # key -> human label with its unit: figures, tables, explorer, ``eva
     "truth_impact_day": "full model: impact (day)",
     "truth_min_perilune_alt_km": "full model: lowest perilune altitude (km)",
     "truth_wall_s": "full model: wall time (s)",
+    "screen_outside_validity": "screen: outside the averaged model's validity",
+    "n_designs": "designs",
+    "n_agree": "designs agreeing",
+    "agreement_pct": "agreement (%)",
+    "n_truth_unstable": "designs reaching the surface (full model)",
+    "missed_impacts": "missed impacts (designs)",
+    "false_alarms": "false alarms (designs)",
+    "validity_limit_calls": "called unstable by the validity limit (designs)",
+    "validity_limit_false_alarms": "of which surviving (designs)",
 }
 CLOSED_LOOP_DV_BY_PURPOSE = (
     "closed_loop_dv_{}_kms_per_year"  # the closed loop's Delta-V paid for one burn purpose

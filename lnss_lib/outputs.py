@@ -25,6 +25,7 @@ __all__ = [
     "profile_dir",
     "display_path",
     "display_table",
+    "quantity_table",
     "reader_html",
     "use_reader_tables",
     "notebook_shell",
@@ -70,6 +71,34 @@ def display_table(frame, columns=None):
     return shown.apply(lambda col: col.map(lambda v: format_value(str(col.name), v))).rename(
         columns=lambda c: label(str(c))
     )
+
+
+def quantity_table(values):
+    """Keyed results (a mapping: key -> number, text, list or mapping) as a table for people: one row per key, a
+    mapping one row per entry ("key: entry"), with the key's label (:func:`~lnss_lib.keys.label`; a key without
+    one in words) and the value in its quantity's format (a list: its values joined); None as ``-``."""
+    import pandas as pd
+
+    def words(key: str) -> str:
+        return label(key) if key in LABELS or label(key) != key else key.replace("_", " ")
+
+    def text(key: str, value) -> str:
+        if value is None:
+            return "-"
+        if isinstance(value, (list, tuple)):
+            return ", ".join(format_value(key, v) for v in value)
+        return format_value(key, value)
+
+    rows = []
+    for key, value in values.items():
+        if isinstance(value, dict):
+            rows += [
+                {"quantity": f"{words(key)}: {str(entry).replace('_', ' ')}", "value": text(key, v)}
+                for entry, v in value.items()
+            ]
+        else:
+            rows.append({"quantity": words(key), "value": text(key, value)})
+    return pd.DataFrame(rows, columns=["quantity", "value"])
 
 
 def reader_html(frame) -> str:

@@ -32,6 +32,9 @@ only (the others' records are kept), with the commit it was made on (and whether
 uncommitted edits) in the file's ``meta``. ``tests/test_pinned_results.py`` compares a result with its model's record
 within :data:`RTOL` and with every other model's within the cross-model tolerance (:func:`cross_model_rtol`), derived
 from the recorded models' own differences; on a model without a record only the latter, so every host checks.
+When a stated change moves a pin, the models that can run it re-record it and the others' records drop it; it is
+then checked there against the models that hold it (:func:`pin_cross_model_rtol`). Dropped so: the Intel
+(``skylake-avx512``) record of ``evaluate_table4_life60``, whose screen perilune moved with the one stability screen.
 ``python tests/pinned_results.py`` (no ``--write``) recomputes and prints the differences without writing;
 ``--only NAME`` picks pins and ``--set SECTION.KEY=VALUE`` recomputes under a changed setting (a scratch check
 that a pin notices a change; never recorded).
@@ -407,13 +410,30 @@ def load_fixtures() -> dict[str, dict]:
     return records
 
 
+def pin_cross_model_rtol(name: str, recorded: dict[str, dict]) -> float:
+    """The cross-model tolerance of pin ``name``: :func:`cross_model_rtol` of the models that recorded it; for a pin
+    recorded on one model alone (a change of results re-recorded where it could be), the largest cross-model
+    tolerance measured on the pins recorded on several models (the same kernels' round-off through other paths)."""
+    holders = [record["pins"][name] for record in recorded.values() if name in record["pins"]]
+    if len(holders) >= 2:
+        return cross_model_rtol(name, holders)
+    measured = [
+        cross_model_rtol(other, [record["pins"][other] for record in recorded.values()])
+        for other in PINS
+        if sum(other in record["pins"] for record in recorded.values()) >= 2
+    ]
+    return max([RTOL[name], *measured])
+
+
 def check_pin(name: str, result, recorded: dict[str, dict], here: str) -> list[str]:
     """Every difference of pin ``name``'s ``result`` (computed with kernels of model ``here``) from its model's
-    record (within :data:`RTOL`) and from each other model's (within :func:`cross_model_rtol`), each line naming the
-    record it departs from."""
-    cross_rtol = cross_model_rtol(name, [record["pins"][name] for record in recorded.values()])
+    record (within :data:`RTOL`) and from each other model's that recorded it (within
+    :func:`pin_cross_model_rtol`), each line naming the record it departs from."""
+    cross_rtol = pin_cross_model_rtol(name, recorded)
     found = []
     for model, record in recorded.items():
+        if name not in record["pins"]:
+            continue
         rtol = RTOL[name] if model == here else cross_rtol
         found += [
             f"{model} (rtol {rtol:g}, recorded at commit {record['meta']['commit'][:12]}): {line}"

@@ -26,6 +26,7 @@ from pinned_results import (
     fixture_path,
     largest_relative_difference,
     load_fixtures,
+    pin_cross_model_rtol,
 )
 
 from lnss_lib import kernel_cpu
@@ -46,15 +47,19 @@ def test_pinned_result(recorded, name):
 
 
 def test_records_name_their_commit_model_and_exclusions(recorded):
-    """Each record made at a clean commit under the current tolerances, holding every pin, in the file of its model;
-    at least two models, so that the cross-model tolerance is measured, not assumed."""
+    """Each record made at a clean commit under the current tolerances, in the file of its model, holding pins of
+    today's list; every pin recorded somewhere and most on two models or more, so that the cross-model tolerance is
+    measured, not assumed (a pin whose results changed is re-recorded on the models that can run it; the others'
+    records leave it out, :func:`pinned_results.pin_cross_model_rtol`)."""
     assert len(recorded) >= 2
     for model, record in recorded.items():
         meta = record["meta"]
         assert len(meta["commit"]) == 40 and not meta["dirty"], model
         assert fixture_path(model).is_file(), model
         assert set(meta["excluded"]) <= set(EXCLUDED) and meta["rtol"] == RTOL, model
-        assert set(record["pins"]) == set(PINS), model
+        assert set(record["pins"]) <= set(PINS), model
+    holders = [sum(name in record["pins"] for record in recorded.values()) for name in PINS]
+    assert min(holders) >= 1 and sum(h >= 2 for h in holders) > len(PINS) / 2
 
 
 @pytest.mark.parametrize("name", list(PINS))
@@ -63,11 +68,11 @@ def test_models_differ_by_round_off_alone(recorded, name):
     floats within a relative 1e-5: a last-bit difference carried through 10 days of adaptive steps (measured at most
     4e-6, in a 3-sigma DOP mean of the quick campaign), while a change of a force model or a setting moves results by
     1e-3 or more; the cross-model tolerance derived from them lies between the pin's own tolerance and 1e-4."""
-    records = [record["pins"][name] for record in recorded.values()]
+    records = [record["pins"][name] for record in recorded.values() if name in record["pins"]]
+    assert RTOL[name] <= pin_cross_model_rtol(name, recorded) <= 1e-4
     for other in records[1:]:
         assert differences(records[0], other, math.inf) == []
         assert largest_relative_difference(records[0], other) < 1e-5
-    assert RTOL[name] <= cross_model_rtol(name, records) <= 1e-4
 
 
 def test_cross_model_tolerance_is_measured_from_the_records():
@@ -93,6 +98,12 @@ def test_cross_model_tolerance_is_measured_from_the_records():
     moved = check_pin("evaluate_table4", {**first, "a": 100.01}, recorded, "model-c")
     assert len(moved) == 2 and all("): a: 100.01, expected" in line for line in moved)
     assert len(check_pin("evaluate_table4", {**first, "i": 4}, recorded, "model-a")) == 2
+    # a pin recorded on model-a alone: checked on model-b within the tolerance measured on the other pins (1e-6)
+    recorded["model-a"]["pins"]["random_paper_designs"] = first
+    assert pin_cross_model_rtol("random_paper_designs", recorded) == pytest.approx(1e-6)
+    assert check_pin("random_paper_designs", second, recorded, "model-b") == []
+    moved = check_pin("random_paper_designs", {**second, "a": 100.01}, recorded, "model-b")
+    assert len(moved) == 1 and moved[0].startswith("model-a (rtol 1e-06")
 
 
 def test_comparison_reports_each_kind_of_difference():

@@ -16,7 +16,14 @@ from collections.abc import Mapping
 from dataclasses import dataclass, fields
 
 from ..config import profile_hash
-from ..keys import METRIC_KEYS, VERDICT_KEYS, bound_text, format_value, label
+from ..keys import (
+    LIFE_NAVIGATION_KEYS,
+    METRIC_KEYS,
+    VERDICT_KEYS,
+    bound_text,
+    format_value,
+    label,
+)
 from ..legacy_keys import legacy_spelling
 from ..profile_rules import CAMPAIGN_OFF as OFF
 from ..sections import EVALUATORS, NOTEBOOK_MODES
@@ -29,6 +36,8 @@ __all__ = [
     "campaign_constraints",
     "evaluation_profile",
     "evaluation_hash",
+    "campaign_hash",
+    "reads_screen",
     "bounds_verdict",
     "run_differences",
     "EVALUATORS",
@@ -70,6 +79,9 @@ NON_EVALUATION_SECTIONS = (
     "design_life",
     "front_validation",
 )  # never read by a 10-day evaluation
+SCREEN_SECTION = (
+    "stability"  # read by a 10-day evaluation only when an extra metric needs the screen
+)
 
 
 def campaign_constraints(campaign: CampaignSettings) -> tuple[tuple[str, str, float], ...]:
@@ -151,22 +163,44 @@ def bounds_verdict(campaign: CampaignSettings, result: dict, labelled: bool = Fa
     return dict(zip(VERDICT_KEYS, (not violated, violated)))
 
 
+def reads_screen(profile: Mapping) -> bool:
+    """Whether a 10-day evaluation under ``profile`` (plain data, ``campaign.overrides`` included) runs the
+    stability screen (``[stability]``): an extra metric of the screen (``stable_*``, ``screen_*``), or a
+    station-keeping or navigation estimate with ``[sk_estimate] model = "life"``, as
+    :func:`lnss_lib.evaluator._operational_metrics` decides."""
+    overrides = profile.get("campaign", {}).get("overrides", {})
+    evaluator = {**profile.get("evaluator", {}), **overrides.get("evaluator", {})}
+    sk_estimate = {**profile.get("sk_estimate", {}), **overrides.get("sk_estimate", {})}
+    wanted = tuple(evaluator.get("extra_metrics", ()))
+    estimate = any(k.startswith("sk_dv_estimate") or k in LIFE_NAVIGATION_KEYS for k in wanted)
+    return any(k.startswith(("stable", "screen")) for k in wanted) or (
+        estimate and sk_estimate.get("model") == "life"
+    )
+
+
 def evaluation_hash(settings: Settings | Mapping) -> str:
     """Hash of every parameter that can change an evaluation of a scaled design.
 
     :func:`~lnss_lib.config.profile_hash` of the profile without the campaign-only keys
-    (``CAMPAIGN_ONLY_KEYS``: population, objectives, constraints, seed, ...) and without the sections
-    that a 10-day evaluation never reads (``NON_EVALUATION_SECTIONS``: notebooks, design life); the grid
+    (``CAMPAIGN_ONLY_KEYS``: population, objectives, constraints, seed, ...), without the sections
+    that a 10-day evaluation never reads (``NON_EVALUATION_SECTIONS``: notebooks, design life) and without
+    ``[stability]`` unless the evaluation runs the screen (:func:`reads_screen`); the grid
     (``campaign.variables``), ``campaign.overrides`` and ``campaign.evaluator`` stay in. ``settings``: checked
     settings, or the profile dict a run folder stored (compared as it is, not validated again).
     """
-    profile = legacy_spelling(
-        profile_data(settings)
-    )  # the keys of the fingerprint, while every section is here
-    content = {k: v for k, v in profile.items() if k not in NON_EVALUATION_SECTIONS}
+    content = _campaign_content(settings)
     for key in CAMPAIGN_ONLY_KEYS:
         content.get("campaign", {}).pop(key, None)
     return profile_hash(content)
+
+
+def _campaign_content(settings: Settings | Mapping) -> dict:
+    """The profile data a campaign's results depend on: every section but those its evaluations never read."""
+    profile = legacy_spelling(
+        profile_data(settings)
+    )  # the keys of the fingerprint, while every section is here
+    unread = NON_EVALUATION_SECTIONS + (() if reads_screen(profile) else (SCREEN_SECTION,))
+    return {k: v for k, v in profile.items() if k not in unread}
 
 
 def _differing_keys(run: dict, theirs: dict, prefix: str = "") -> list[str]:
@@ -182,18 +216,20 @@ def _differing_keys(run: dict, theirs: dict, prefix: str = "") -> list[str]:
     return lines
 
 
-def _hash(settings: Settings | Mapping) -> str:
-    """The profile hash of settings (computed once, when they were built) or of a stored profile dict."""
-    return settings.hash if isinstance(settings, Settings) else profile_hash(profile_data(settings))
+def campaign_hash(settings: Settings | Mapping) -> str:
+    """Hash of every setting a campaign's results depend on: :func:`evaluation_hash`'s settings and the
+    campaign-only keys (population, seed, objectives, ...), so that a change to a section its evaluations never
+    read (notebooks, the design life, an unread ``[stability]``) leaves a run the profile's campaign."""
+    return profile_hash(_campaign_content(settings))
 
 
 def run_differences(
     run: Settings | Mapping, settings: Settings | Mapping, limit: int = 6
 ) -> list[str]:
     """Why a run (its settings, or the profile dict its ``run.json`` stored) is not the campaign of ``settings``: []
-    when the profile hashes agree, else the evaluator, the evaluation settings and up to ``limit`` differing
+    when their :func:`campaign_hash` agree, else the evaluator, the evaluation settings and up to ``limit`` differing
     keys, in that order (nothing is validated: a stored dict is compared as it is)."""
-    run_hash, hash_ = _hash(run), _hash(settings)
+    run_hash, hash_ = campaign_hash(run), campaign_hash(settings)
     if run_hash == hash_:
         return []
     run_profile, profile = (
@@ -212,7 +248,7 @@ def run_differences(
         )
     keys = _differing_keys(run_profile, profile)
     reasons.append(
-        f"profile hash {run_hash}, the profile's {hash_}"
+        f"campaign hash {run_hash}, the profile's {hash_}"
         + (
             f": {'; '.join(keys[:limit])}"
             + (f"; and {len(keys) - limit} more" if len(keys) > limit else "")

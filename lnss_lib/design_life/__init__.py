@@ -3,9 +3,9 @@
 One subject in three answers of rising cost, each module answering one question:
 
 * :mod:`.screen` -- will a perilune reach the surface within the life? The doubly-averaged (secular) model
-  of lunar J2 and the Earth's and Sun's quadrupole tides (``SecularField``, Milankovitch equations on the
-  e and j vectors, Moon-centred J2000) integrated from the initial states, with the tide's monthly terms
-  restored to first order for the verdict (``MonthlyTide``): the campaign's stability
+  of lunar J2 and the Earth's and Sun's quadrupole tides (:mod:`.secular`: ``SecularField``, Milankovitch
+  equations on the e and j vectors, Moon-centred J2000) integrated from the initial states, with the tide's
+  monthly terms restored to first order for the verdict (:mod:`.monthly_tide`): the campaign's stability
   screen, a tenth of a second per design over five years (compiled RK4); checked against
   the full model on random Table 3 designs by :mod:`lnss_lib.studies.screen_validation`.
 * :mod:`.estimate` -- what would holding the geometry cost? The secular drift of mean e-vector, orbit
@@ -40,7 +40,7 @@ Under the closed loop:
 * :mod:`.manoeuvres` -- impulses from the Gauss variational equations (paper eq. 25-29): the control-set
   GVE matrix and the one- or two-burn planner refined in two-body flight.
 
-Beside them :mod:`.frozen` reads the averaged model of :mod:`.screen` in the Earth-Moon orbital plane
+Beside them :mod:`.frozen` reads the averaged model of :mod:`.secular` in the Earth-Moon orbital plane
 (``moon_op``): frozen and librating orbits.
 
 Frames: states are Moon-centred J2000 (``_mci``); mean elements, boxes and the controllers work in the

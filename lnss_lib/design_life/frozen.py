@@ -2,7 +2,7 @@
 
 Above a few thousand km the Earth's tide drives e, i and AOP, and it is symmetric about
 the Earth-Moon orbital plane (``moon_op``, :func:`lnss_lib.frames.moon_op_to_j2000`), not the lunar
-equator. In that frame the doubly-averaged potential of :func:`lnss_lib.design_life.screen.averaged_potential`
+equator. In that frame the doubly-averaged potential of :func:`lnss_lib.design_life.secular.averaged_potential`
 (lunar J2 + Earth and Sun quadrupole tides) is nearly axisymmetric about z: the lunar pole is tilted
 by about 6.7 deg and the ecliptic normal by about 5.1 deg. Averaged over the orbit's node (which
 circulates in about a year at a = 6000 km), a J2 about a pole tilted by ``eps`` is a J2 of
@@ -35,7 +35,7 @@ from scipy.optimize import brentq
 from ..constants import DAYS_PER_JULIAN_YEAR, SECONDS_PER_DAY
 from ..frames import orbit_plane_axes_j2000
 from ..settings import Dynamics, StabilitySettings
-from .screen import (
+from .secular import (
     SIDEREAL_MONTH_DAYS,
     SecularField,
     averaged_potential,
@@ -112,7 +112,7 @@ class FrozenModel:
     def from_field(
         cls, field: SecularField, t_day: float = 0.0, spin_days: float = DAYS_PER_JULIAN_YEAR
     ) -> FrozenModel:
-        """Node-average of a :class:`lnss_lib.design_life.screen.SecularField` at ``t_day`` in the mean ``moon_op`` frame
+        """Node-average of a :class:`lnss_lib.design_life.secular.SecularField` at ``t_day`` in the mean ``moon_op`` frame
         (:func:`mean_plane_axes`); the frame's turn over the next ``spin_days`` (within the field's span)."""
         tide, pole = field.at(t_day)
         t_end = min(t_day + spin_days, float(field.t_days[-1]))
@@ -330,7 +330,7 @@ def allowances(model: FrozenModel, sma_km: float, e: float, inc_deg: float, aop_
 
     * monthly (``ecc_monthly``, ``inc_monthly_deg``): the Earth's tide, orbit-averaged but not
       month-averaged, swings e and j at twice the Earth's sidereal frequency: the rates of
-      :func:`lnss_lib.design_life.screen.secular_rates` under the tide's oscillating part
+      :func:`lnss_lib.design_life.secular.secular_rates` under the tide's oscillating part
       ``Q(phi) = (c / 2) [cos phi (xx - yy) + sin phi (xy + yx)]`` (``c = T_xx + T_yy``) at the worst
       phase, divided by ``2 n_month``;
     * orbital (``ecc_orbital``): within one orbit a tidal acceleration ``|f| <= 2 c r`` moves the

@@ -42,7 +42,7 @@ from ..dop import SurfaceGrid, dop_for_settings, summary_for_settings
 from ..elements import TWO_PI
 from ..frames import rotate_to_moon_fixed
 from ..settings import DopSettings, Dynamics, ServiceSettings
-from .screen import SecularField, integrate_secular
+from .secular import SecularField, integrate_secular
 
 __all__ = [
     "PURPOSES",

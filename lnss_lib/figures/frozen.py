@@ -5,10 +5,12 @@ from __future__ import annotations
 
 import numpy as np
 import plotly.graph_objects as go
+from plotly.colors import sample_colorscale
 
 from ..constants import DAYS_PER_JULIAN_YEAR
 
 _READ_SYMBOLS = {"moon_op": "circle", "lunar equator": "diamond-open"}
+_A_TICKS_KM = (1000, 2000, 3000, 5000, 7000, 10000, 15000, 20000, 30000, 50000)
 _VERDICT_COLOURS = {
     "frozen": "#2ca02c",
     "librating": "#1f77b4",
@@ -32,21 +34,26 @@ def frozen_family_chart(family, orbits, *, title: str) -> go.Figure:
         subplot_titles=("frozen i (to the Earth-Moon plane) against a", "frozen e against a"),
     )
     for col, (prefix, y_key) in enumerate((("i at", "inc_deg"), ("e at", "ecc")), start=1):
-        for curve, rows in family[family["curve"].str.startswith(prefix)].groupby(
-            "curve", sort=False
-        ):
+        curves = family[family["curve"].str.startswith(prefix)].groupby("curve", sort=False)
+        colours = sample_colorscale("Viridis", np.linspace(0.0, 0.85, len(curves)))
+        for (curve, rows), colour in zip(curves, colours):
+            tag = curve.removeprefix(prefix).strip().replace(" = ", " ")
             fig.add_trace(
                 go.Scatter(
                     x=rows["sma_km"],
                     y=rows[y_key],
-                    mode="lines",
+                    mode="lines+text",
                     name=curve,
-                    line={"width": 1.5},
-                    legendgroup="family",
+                    line={"width": 1.5, "color": colour},
+                    text=[""] * (len(rows) - 1) + [tag],
+                    textposition="middle right",
+                    textfont={"color": colour, "size": 11},
+                    showlegend=False,
+                    hovertemplate=f"{curve}<extra></extra>",
                 ),
                 row=1,
                 col=col,
-            )
+            )  # each curve labelled at its end: the legend keeps the orbits alone
     inc = np.where(orbits["inc_op_deg"] <= 90.0, orbits["inc_op_deg"], 180.0 - orbits["inc_op_deg"])
     for (read_in, verdict), rows in orbits.assign(inc_plot=inc).groupby(
         ["read_in", "verdict"], sort=False
@@ -61,7 +68,7 @@ def frozen_family_chart(family, orbits, *, title: str) -> go.Figure:
             "size": 10,
             "color": _VERDICT_COLOURS.get(verdict, "grey"),
         }
-        name = f"{verdict}, read in {read_in}"
+        name = f"{verdict}, {read_in}"
         fig.add_trace(
             go.Scatter(
                 x=rows["sma_km"],
@@ -108,11 +115,25 @@ def frozen_family_chart(family, orbits, *, title: str) -> go.Figure:
             row=1,
             col=1,
         )
-    fig.update_xaxes(title_text="a (km)", type="log")
+    a_km = np.concatenate([family["sma_km"], orbits["sma_km"]])
+    ticks = [t for t in _A_TICKS_KM if a_km.min() / 1.2 <= t <= a_km.max() * 1.2]
+    fig.update_xaxes(
+        title_text="a (km)",
+        type="log",
+        tickvals=ticks,
+        ticktext=[f"{t:,.0f}" for t in ticks],
+        range=[
+            np.log10(a_km.min() / 1.05),
+            np.log10(a_km.max() * 1.35),
+        ],  # room for the curves' labels
+    )
     fig.update_yaxes(title_text="i in moon_op (deg)", row=1, col=1)
     fig.update_yaxes(title_text="e", row=1, col=2)
     fig.update_layout(
-        title=title, template="plotly_white", height=600, legend={"orientation": "h", "y": -0.2}
+        title=title,
+        template="plotly_white",
+        height=600,
+        legend={"orientation": "h", "y": -0.2, "title": {"text": "verdict, elements read in"}},
     )
     return fig
 

@@ -36,7 +36,8 @@ from ..design_life.frozen import (
     mean_plane_axes,
     mean_plane_elements,
 )
-from ..design_life.screen import SecularField, orbit_vectors_ej, screen_states
+from ..design_life.screen import screen_states
+from ..design_life.secular import SecularField, orbit_vectors_ej
 from ..ephemeris import ensure_kernels, tdb_seconds
 from ..frames import element_frame_to_j2000
 from ..propagator import propagate_states

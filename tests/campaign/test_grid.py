@@ -6,6 +6,7 @@ import numpy as np
 import pytest
 
 from lnss_lib.campaign import CampaignPlan, evaluation_hash, run_campaign
+from lnss_lib.campaign.settings import campaign_hash, reads_screen, run_differences
 from lnss_lib.errors import ConfigError
 from lnss_lib.settings import load_settings, settings_from_profile
 
@@ -124,6 +125,40 @@ def test_evaluation_hash_ignores_campaign_only_keys():
     ):
         assert evaluation_hash(load_settings("ci", overrides=change)) != base
     assert evaluation_hash(load_settings("quick")) == evaluation_hash(load_settings("paper"))
+
+
+def test_the_screens_settings_are_in_the_evaluation_hash_only_where_an_evaluation_screens():
+    """``[stability]`` is read by a 10-day evaluation only through the screen's metrics (``stable_screen``,
+    ``screen_*``) or the life estimate (``[sk_estimate] model = "life"``): a change of it moves the evaluation hash
+    of such a profile and leaves the others' alone (their journals and shipped results stay theirs), while it always
+    moves the profile hash."""
+    screen_off = {"stability": {"monthly_terms": False}}
+    paper, changed = load_settings("paper"), load_settings("paper", overrides=screen_off)
+    assert not reads_screen(paper.as_dict()) and changed.hash != paper.hash
+    assert evaluation_hash(changed) == evaluation_hash(paper)
+    assert campaign_hash(changed) == campaign_hash(paper) and run_differences(changed, paper) == []
+    for screening in (
+        {"evaluator": {"extra_metrics": ["stable_screen"]}},
+        {
+            "evaluator": {"extra_metrics": ["sk_dv_estimate_kms_per_year"]},
+            "sk_estimate": {"model": "life"},
+        },
+        {
+            "campaign": {
+                "overrides": {"evaluator": {"extra_metrics": ["screen_min_perilune_alt_km"]}}
+            }
+        },
+    ):
+        base = load_settings("paper", overrides=screening)
+        assert reads_screen(base.as_dict()), screening
+        assert evaluation_hash(base.with_overrides(screen_off)) != evaluation_hash(base), screening
+    arc = load_settings(
+        "paper",
+        overrides={"evaluator": {"extra_metrics": ["sk_dv_estimate_kms_per_year"]}},
+    )  # the 10-day box estimate: no screen
+    assert not reads_screen(arc.as_dict())
+    operational = load_settings("operational")
+    assert evaluation_hash(operational.with_overrides(screen_off)) != evaluation_hash(operational)
 
 
 def test_size_restricted_grid_holds_every_split_and_no_other_size(rng):

@@ -6,7 +6,9 @@ import numpy as np
 import pytest
 
 from lnss_lib.constellation import WalkerDesign, planes_elements_deg
+from lnss_lib.design_life import monthly_tide as mt
 from lnss_lib.design_life import screen as st
+from lnss_lib.design_life import secular as sec
 from lnss_lib.elements import elements_to_state
 from lnss_lib.errors import ConfigError
 from lnss_lib.settings import load_settings
@@ -19,7 +21,7 @@ def _vectors(a, e, inc_deg, raan_deg=0.0, aop_deg=30.0):
     state = elements_to_state(
         np.array([a, e, np.radians(inc_deg), np.radians(raan_deg), np.radians(aop_deg), 0.0]), GM
     )
-    return st.orbit_vectors_ej(state[None], GM)
+    return sec.orbit_vectors_ej(state[None], GM)
 
 
 @pytest.mark.parametrize(
@@ -27,13 +29,13 @@ def _vectors(a, e, inc_deg, raan_deg=0.0, aop_deg=30.0):
 )
 def test_pure_j2_gives_the_classical_secular_rates(a, e, inc_deg):
     a_, e0, j0 = _vectors(a, e, inc_deg, 20.0)
-    field = st.SecularField.constant(np.zeros((3, 3)), [0.0, 0.0, 1.0], GM, J2, R)
-    res = st.integrate_secular(
+    field = sec.SecularField.constant(np.zeros((3, 3)), [0.0, 0.0, 1.0], GM, J2, R)
+    res = sec.integrate_secular(
         a_, e0, j0, field, 100.0, output_step_days=5.0, rtol=1e-11, atol=1e-13
     )
-    el = st.elements_from_vectors(res["e"][0], res["j"][0])
+    el = sec.elements_from_vectors(res["e"][0], res["j"][0])
     t_s = res["t_days"] * 86400.0
-    raan_dot, aop_dot = st.classical_j2_rates(a, e, np.radians(inc_deg), GM, J2, R)
+    raan_dot, aop_dot = sec.classical_j2_rates(a, e, np.radians(inc_deg), GM, J2, R)
     assert np.polyfit(t_s, np.unwrap(np.radians(el["raan_deg"])), 1)[0] == pytest.approx(
         raan_dot, rel=1e-7
     )
@@ -46,14 +48,14 @@ def test_pure_j2_gives_the_classical_secular_rates(a, e, inc_deg):
 @pytest.mark.parametrize("inc_deg", [45.0, 60.0, 75.0])
 def test_kozai_cycle_reaches_the_analytic_e_max_and_conserves_the_integrals(inc_deg):
     normal = np.array([0.0, 0.0, 1.0])
-    tide = st.circular_tide_tensor(GM_EARTH, A_EARTH_KM, normal)
+    tide = sec.circular_tide_tensor(GM_EARTH, A_EARTH_KM, normal)
     a_, e0, j0 = _vectors(6000.0, 1e-3, inc_deg)
-    field = st.SecularField.constant(tide, normal, GM, 0.0, R)
-    res = st.integrate_secular(a_, e0, j0, field, 3000.0, output_step_days=0.5)
+    field = sec.SecularField.constant(tide, normal, GM, 0.0, R)
+    res = sec.integrate_secular(a_, e0, j0, field, 3000.0, output_step_days=0.5)
     e_vec, j_vec = res["e"][0], res["j"][0]
     e = np.linalg.norm(e_vec, axis=1)
-    assert e.max() == pytest.approx(st.kozai_e_max(np.radians(inc_deg)), abs=2e-4)
-    phi = st.averaged_potential(e_vec, j_vec, np.full(e.size, 6000.0), tide, normal, GM, 0.0, R)
+    assert e.max() == pytest.approx(sec.kozai_e_max(np.radians(inc_deg)), abs=2e-4)
+    phi = sec.averaged_potential(e_vec, j_vec, np.full(e.size, 6000.0), tide, normal, GM, 0.0, R)
     assert np.ptp(phi) < 1e-7 * abs(phi[0])
     assert np.ptp(j_vec @ normal) < 1e-10  # Kozai integral j.n
     assert np.max(np.abs(np.sum(e_vec * j_vec, axis=1))) < 1e-8  # constraints e.j = 0
@@ -64,17 +66,17 @@ def test_kozai_cycle_reaches_the_analytic_e_max_and_conserves_the_integrals(inc_
 
 def test_below_the_critical_inclination_a_circular_orbit_stays_circular():
     normal = np.array([0.0, 0.0, 1.0])
-    field = st.SecularField.constant(
-        st.circular_tide_tensor(GM_EARTH, A_EARTH_KM, normal), normal, GM, 0.0, R
+    field = sec.SecularField.constant(
+        sec.circular_tide_tensor(GM_EARTH, A_EARTH_KM, normal), normal, GM, 0.0, R
     )
     a_, e0, j0 = _vectors(6000.0, 1e-3, 35.0)
-    res = st.integrate_secular(a_, e0, j0, field, 3000.0)
+    res = sec.integrate_secular(a_, e0, j0, field, 3000.0)
     assert np.linalg.norm(res["e"][0], axis=1).max() < 3e-3
-    assert st.kozai_e_max(np.radians(35.0)) == 0.0
+    assert sec.kozai_e_max(np.radians(35.0)) == 0.0
 
 
 def test_tide_tensor_from_spice_matches_the_earths_orbit(paper_profile, epoch_tdb_s):
-    field = st.SecularField.from_settings(
+    field = sec.SecularField.from_settings(
         paper_profile.stability, paper_profile.dynamics, epoch_tdb_s, 30.0
     )
     tide, pole = field.at(10.0)
@@ -179,13 +181,13 @@ def test_the_table4_elfo_read_in_moon_op_is_stable_for_five_years():
 def test_monthly_offsets_vanish_for_no_oscillation_and_are_linear_in_it():
     a_, e0, j0 = _vectors(9000.0, 0.5, 50.0)
     z = 1e-7 * np.array([[1.0, 0.3, 0.0], [0.3, -1.0, 0.1], [0.0, 0.1, 0.2]])
-    de0, dj0 = st.monthly_offsets(e0, j0, a_, np.zeros((3, 3)), GM)
+    de0, dj0 = mt.monthly_offsets(e0, j0, a_, np.zeros((3, 3)), GM)
     assert not np.any(de0) and not np.any(dj0)
-    de1, dj1 = st.monthly_offsets(e0, j0, a_, z, GM)
-    de2, dj2 = st.monthly_offsets(e0, j0, a_, 2.0 * z, GM)
+    de1, dj1 = mt.monthly_offsets(e0, j0, a_, z, GM)
+    de2, dj2 = mt.monthly_offsets(e0, j0, a_, 2.0 * z, GM)
     np.testing.assert_allclose(de2, 2.0 * de1)
     np.testing.assert_allclose(dj2, 2.0 * dj1)
-    rate_e, rate_j = st.secular_rates(
+    rate_e, rate_j = sec.secular_rates(
         e0, j0, a_, z, [0.0, 0.0, 1.0], GM, 0.0, R
     )  # the rates with Z for T
     np.testing.assert_allclose(de1, rate_e, rtol=1e-12)
@@ -193,14 +195,14 @@ def test_monthly_offsets_vanish_for_no_oscillation_and_are_linear_in_it():
 
 
 def test_monthly_tide_has_zero_mean_and_the_half_month_swing(paper_profile, epoch_tdb_s):
-    samples = st.TideSamples.from_settings(
+    samples = sec.TideSamples.from_settings(
         paper_profile.stability, paper_profile.dynamics, epoch_tdb_s, 60.0
     )
-    monthly = st.MonthlyTide.from_samples(samples)
+    monthly = mt.MonthlyTide.from_samples(samples)
     z = monthly.z[:, 0, 0]
     assert abs(np.mean(z)) < 0.05 * np.ptp(z)
     # the dominant term of T - <T> turns at twice the Earth's sidereal rate: Z's amplitude ~ c / (2 * 2 n_month)
-    n_month = 2.0 * np.pi / (st.SIDEREAL_MONTH_DAYS * 86400.0)
+    n_month = 2.0 * np.pi / (sec.SIDEREAL_MONTH_DAYS * 86400.0)
     assert 0.5 * np.ptp(z) == pytest.approx(
         0.5 * GM_EARTH / A_EARTH_KM**3 / (2.0 * n_month), rel=0.35
     )
@@ -248,12 +250,12 @@ def test_orbits_beyond_the_averaged_models_validity_are_judged_unstable():
         profile.stability, profile.dynamics, profile.epoch, below, life_days=30.0
     )
     assert ds.attrs["stable"] and not ds.outside_validity.values.any()
-    paper = load_settings("paper")  # no limit in the paper profile
+    paper = load_settings("paper")  # one screen in every profile: the limit too
     assert (
         st.screen_elements(
             paper.stability, paper.dynamics, paper.epoch, high, life_days=30.0
         ).attrs["n_outside_validity"]
-        == 0
+        == 2
     )
 
 
@@ -262,7 +264,7 @@ def test_a_shifted_field_is_the_refitted_one_and_the_compiled_event_the_numpy_ma
     ang = 2.0 * np.pi * t / 27.3
     tide = 1e-12 * (np.eye(3)[None] + 0.3 * np.sin(ang)[:, None, None] * np.ones((3, 3)))
     pole = np.stack([0.01 * np.cos(ang), 0.01 * np.sin(ang), np.ones_like(t)], axis=1)
-    field = st.SecularField(t, tide, pole / np.linalg.norm(pole, axis=1)[:, None], GM, J2, R)
+    field = sec.SecularField(t, tide, pole / np.linalg.norm(pole, axis=1)[:, None], GM, J2, R)
     shift = 123.25
     refit = dataclasses.replace(field, t_days=field.t_days - shift)
     for day in (0.0, 17.3, 200.0, 276.75):
@@ -271,6 +273,6 @@ def test_a_shifted_field_is_the_refitted_one_and_the_compiled_event_the_numpy_ma
     y = np.random.default_rng(5).uniform(-0.6, 0.6, 18)
     sma, floor = np.array([5000.0, 6000.0, 7000.0]), np.array([1800.0, 1900.0, -np.inf])
     margin = sma * (1.0 - np.linalg.norm(y.reshape(-1, 6)[:, :3], axis=1)) - floor
-    assert st._perilune_margin_km(y, sma, floor) == np.min(margin)
+    assert sec._perilune_margin_km(y, sma, floor) == np.min(margin)
     y[7] = np.nan
-    assert np.isnan(st._perilune_margin_km(y, sma, floor))
+    assert np.isnan(sec._perilune_margin_km(y, sma, floor))

@@ -9,8 +9,12 @@ import pytest
 from lnss_lib.keys import DESIGN_KEYS
 from lnss_lib.settings import load_settings
 from lnss_lib.studies.screen_validation import (
+    CASE_KEYS,
     MISS_COLUMNS,
     agreement,
+    case_agreement,
+    load_measured,
+    measured_table,
     random_designs,
     validation_table,
 )
@@ -87,3 +91,71 @@ def test_validation_table_flies_one_satellite_per_plane():
     # moon_op 7800/0.74/0/17: the full model hits the surface on day 5 in both planes, and so does the screen
     assert np.all(table["truth_impact_day"] < 8.0) and np.all(table["screen_impact_day"] < 8.0)
     assert agreement(table)["agreement_pct"] == 100.0
+
+
+def test_case_agreement_counts_per_frame_and_life_and_the_validity_limits_calls():
+    a, b = (6000.0, 0.1, 90.0, 50.0, 1, 1), (21000.0, 0.6, 30.0, 58.0, 1, 1)
+    nan = math.nan
+    rows = []
+    for frame, life, truth_b in (("moon_op", 365.25, nan), ("moon_op", 1826.25, 400.0)):
+        rows += [
+            {**_row(a, 0, nan, nan), "screen_outside_validity": False},
+            {**_row(b, 0, 0.0, truth_b), "screen_outside_validity": True},
+        ]
+        for row in rows[-2:]:
+            row.update(element_frame=frame, life_days=life)
+    cases = case_agreement(pd.DataFrame(rows)).set_index("life_days")
+    year, five = cases.loc[365.25], cases.loc[1826.25]
+    assert (year.n_designs, year.n_agree, year.false_alarms, year.missed_impacts) == (2, 1, 1, 0)
+    assert (year.validity_limit_calls, year.validity_limit_false_alarms) == (1, 1)
+    assert (five.n_agree, five.n_truth_unstable, five.validity_limit_false_alarms) == (2, 1, 0)
+    assert five.agreement_pct == pytest.approx(100.0) and year.agreement_pct == pytest.approx(50.0)
+
+
+@pytest.fixture(scope="module")
+def measured():
+    return load_measured()
+
+
+def test_the_shipped_measurement_covers_both_frames_and_lives_and_agrees(measured):
+    """The shipped full-size measurement (its README gives the provenance): both element frames over one year on at
+    least 40 random designs each, and five years in both frames; the screen agrees on at least 95 % of the designs of
+    every case."""
+    cases = case_agreement(measured).set_index(list(CASE_KEYS))
+    assert set(cases.index) == {
+        (frame, life)
+        for frame in ("moon_op", "lunar_equator_of_epoch")
+        for life in (365.25, 1826.25)
+    }
+    assert (cases.xs(365.25, level="life_days")["n_designs"] >= 40).all()
+    assert (cases["agreement_pct"] >= 95.0).all(), cases
+
+
+def test_the_shipped_screen_verdicts_are_todays_screen(measured):
+    """The screen columns of the shipped measurement are what today's screen says (a change of the screen or of its
+    settings must re-assemble the file): the first two designs of each case screened again."""
+    for (frame, life), rows in measured.groupby(list(CASE_KEYS), sort=False):
+        settings = load_settings("operational", overrides={"frames": {"element_frame": frame}})
+        for design, planes in list(rows.groupby(list(DESIGN_KEYS), sort=False))[:2]:
+            again = measured_table(
+                [
+                    {
+                        "element_frame": frame,
+                        "life_days": life,
+                        "design": list(design),
+                        "impact_day": [None] * len(planes),
+                        "min_perilune_alt_km": [None] * len(planes),
+                        "flown_planes": [],
+                        "wall_s": 0.0,
+                    }
+                ],
+                {frame: settings},
+            )
+            np.testing.assert_allclose(
+                again["screen_impact_day"], planes["screen_impact_day"], rtol=1e-6
+            )
+            np.testing.assert_allclose(
+                again["screen_min_perilune_alt_km"],
+                planes["screen_min_perilune_alt_km"],
+                rtol=1e-6,
+            )
