@@ -91,7 +91,9 @@ def test_shipped_results_keep_their_fingerprints(name):
     assert {**read, "stability": today["stability"]} == today
     assert run_differences(stored, current) == []
     migrated = legacy_keys.migrate_legacy(config.with_absent_sections(copy.deepcopy(stored)))
-    assert legacy_keys.legacy_spelling(migrated) == config.with_absent_sections(copy.deepcopy(stored))
+    assert legacy_keys.legacy_spelling(migrated) == config.with_absent_sections(
+        copy.deepcopy(stored)
+    )
     assert {**migrated, "stability": current.as_dict()["stability"]} == current.as_dict()
 
 
