@@ -191,21 +191,39 @@ def _colour_range(fig, row: int, col: int) -> tuple[float, float]:
     return axis.cmin, axis.cmax
 
 
-def test_dop_maps_give_a_row_its_own_scale_when_rows_differ_by_orders_of_magnitude():
-    pdop = [var for _, var, _ in figures.DOP_MAP_PANELS].index("median_pdop") + 1
-    apart = figures.dop_polar_maps(
-        _pole_maps({"lunar_equator_of_epoch": 1.0, "j2000": 500.0, "moon_op": 1.5}), title="t"
+def test_dop_maps_share_a_scale_where_compared_and_give_a_panel_its_own_where_unreadable():
+    variables = [var for _, var, _ in figures.DOP_MAP_PANELS]
+    pdop, hdop_mf, hdop_enu = (
+        variables.index(v) + 1 for v in ("median_pdop", "median_hdop_moon_fixed", "median_hdop_enu")
     )
-    assert _colour_range(apart, 1, pdop) == pytest.approx(
-        (1.0, 2.0)
-    )  # the paper's case keeps its contrast
+    maps = _pole_maps({"lunar_equator_of_epoch": 1.0, "j2000": 500.0, "moon_op": 1.5})
+    apart = figures.dop_polar_maps(maps, title="t")
+    # the lunar-equator (1-2) and moon_op (1.5-3) rows share a scale and keep their contrast, j2000 has its own
+    assert (
+        _colour_range(apart, 1, pdop) == _colour_range(apart, 3, pdop) == pytest.approx((1.0, 3.0))
+    )
     assert _colour_range(apart, 2, pdop) == pytest.approx((500.0, 1000.0))
-    close = figures.dop_polar_maps(
-        _pole_maps({"lunar_equator_of_epoch": 1.0, "moon_op": 1.5}), title="t"
+    # the two HDOP conventions are read against each other: both columns share, j2000's two among themselves
+    assert (
+        _colour_range(apart, 1, hdop_enu)
+        == _colour_range(apart, 3, hdop_mf)
+        == pytest.approx((1.0, 3.0))
     )
     assert (
-        _colour_range(close, 1, pdop) == _colour_range(close, 2, pdop) == pytest.approx((1.0, 3.0))
+        _colour_range(apart, 2, hdop_mf)
+        == _colour_range(apart, 2, hdop_enu)
+        == pytest.approx((500.0, 1000.0))
     )
+    caption = figures.colour_scale_caption(maps)
+    assert "median PDOP: lunar_equator_of_epoch, moon_op share one; j2000 its own" in caption
+    assert "PDOP availability (%): one scale for every panel" in caption
+    # a narrow panel leaves the shared scale: 1-2 would span 20 % of 1-6
+    narrow = _pole_maps({"lunar_equator_of_epoch": 1.0, "moon_op": 3.0})
+    scales = figures.colour_scales(narrow)
+    assert scales[("lunar_equator_of_epoch", "median_pdop")] == pytest.approx((1.0, 2.0))
+    assert scales[("moon_op", "median_pdop")] == pytest.approx((3.0, 6.0))
+    close = figures.colour_scales(_pole_maps({"lunar_equator_of_epoch": 1.0, "moon_op": 2.0}))
+    assert close[("lunar_equator_of_epoch", "median_pdop")] == close[("moon_op", "median_pdop")]
     availability = len(figures.DOP_MAP_PANELS)
     assert _colour_range(apart, 3, availability) == (0.0, 100.0)  # bounded: fixed scale
     assert list(apart.layout.polar.radialaxis.ticktext) == [
