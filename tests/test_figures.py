@@ -216,7 +216,10 @@ def test_dop_maps_share_a_scale_where_compared_and_give_a_panel_its_own_where_un
     )
     caption = figures.colour_scale_caption(maps)
     assert "median PDOP: lunar_equator_of_epoch, moon_op share one; j2000 its own" in caption
-    assert "PDOP availability (%): one scale for every panel" in caption
+    assert "PDOP availability (%): one scale (0-100 %) for every panel" in caption
+    assert (
+        "lunar_equator_of_epoch (both), moon_op (both) share one; j2000 (both) share one" in caption
+    )
     # a narrow panel leaves the shared scale: 1-2 would span 20 % of 1-6
     narrow = _pole_maps({"lunar_equator_of_epoch": 1.0, "moon_op": 3.0})
     scales = figures.colour_scales(narrow)

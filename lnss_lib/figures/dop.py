@@ -155,24 +155,29 @@ def colour_scale_caption(maps: dict) -> str:
     scales, labels = colour_scales(maps), {var: label for label, var, _ in DOP_MAP_PANELS}
     parts = []
     for group in _compared_groups():
-        shared: dict[tuple[float, float], list[tuple[str, str]]] = {}
+        shared: dict[tuple[float, float], dict[str, list[str]]] = {}
         for frame in maps:
-            for var in group:
-                shared.setdefault(scales[(frame, var)], []).append((frame, var))
+            for var in (
+                group
+            ):  # a column of a group of several by its convention: "Moon-fixed x, y", "ENU"
+                column = labels[var].rpartition("(")[2].rstrip(")")
+                shared.setdefault(scales[(frame, var)], {}).setdefault(frame, []).append(column)
         columns = " and ".join(labels[v] for v in group)
         if len(shared) == 1:
-            parts.append(f"{columns}: one scale for every panel")
+            fixed = " (0-100 %)" if all(v.endswith("_pct") for v in group) else ""
+            parts.append(f"{columns}: one scale{fixed} for every panel")
             continue
-        parts.append(
-            f"{columns}: "
-            + "; ".join(
-                ", ".join(
-                    frame if len(group) == 1 else f"{frame} ({labels[var]})" for frame, var in keys
-                )
-                + (" share one" if len(keys) > 1 else " its own")
-                for keys in shared.values()
+        clusters = []
+        for frames in shared.values():
+            panels = ", ".join(
+                frame
+                if len(group) == 1
+                else f"{frame} ({'both' if len(cols) == len(group) else ', '.join(cols)})"
+                for frame, cols in frames.items()
             )
-        )
+            alone = len(frames) == 1 and len(next(iter(frames.values()))) == 1
+            clusters.append(f"{panels} {'its own' if alone else 'share one'}")
+        parts.append(f"{columns}: " + "; ".join(clusters))
     return (
         "Colour scales: panels compared share one (equal colours, equal values) while each spans at least "
         f"{READABLE_SHARE:.0%} of it; where one would not, the widest-ranging panel moves to a scale of its own. "
