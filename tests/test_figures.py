@@ -1,6 +1,7 @@
 """Figure writing (figures.export): PNG through kaleido's bundled renderer, HTML fallback, offline HTML; the builders'
 package layout and one builder's data."""
 
+import os
 import shutil
 import struct
 import warnings
@@ -29,8 +30,6 @@ def _figure():
 def _hide_chromium(monkeypatch, tmp_path):
     """A PATH with every program of the current one except Chrome/Chromium (the renderer's start-up script
     still finds bash and dirname)."""
-    import os
-
     bin_dir = tmp_path / "bin"
     bin_dir.mkdir()
     for folder in os.environ["PATH"].split(os.pathsep):
@@ -86,6 +85,38 @@ def test_failed_renderer_gives_html_and_one_warning(outputs, monkeypatch):
     assert (
         "png" not in first and not stale.exists()
     )  # a PNG from an earlier run would not match the HTML
+
+
+def test_a_timed_out_renderer_is_restarted_once_with_a_longer_limit(outputs, monkeypatch):
+    """A renderer too slow to start on a loaded machine costs one retry, not the notebook's PNGs; two timeouts in a
+    row give HTML and one warning, and no later figure waits for the renderer again."""
+    limits, slow_starts = [], [1]
+
+    class SlowStart:
+        pid = os.getpid()
+
+        def png(self, fig, width, height, timeout_s):
+            limits.append(timeout_s)
+            if len(limits) <= len(slow_starts):
+                raise TimeoutError(f"no PNG after {timeout_s:.0f} s")
+            return b"\x89PNG\r\n\x1a\n"
+
+    monkeypatch.delenv(figures.PNG_ENV, raising=False)
+    monkeypatch.setattr(export, "_PngExporter", SlowStart)
+    monkeypatch.setattr(export, "_EXPORTER", None)
+    monkeypatch.setattr(export, "_PNG_WARNED", False)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error", RuntimeWarning)
+        assert "png" in figures.save_figure(_figure(), "t", "fig_slow")
+    assert limits == [export.PNG_TIMEOUT_S, export.PNG_RETRY_FACTOR * export.PNG_TIMEOUT_S]
+    limits.clear()
+    slow_starts.append(2)  # now both tries time out
+    monkeypatch.setattr(export, "_EXPORTER", None)
+    with pytest.warns(RuntimeWarning, match="no PNG after 240 s") as record:
+        first = figures.save_figure(_figure(), "t", "fig_stalled")
+        second = figures.save_figure(_figure(), "t", "fig_after")
+    assert len(limits) == 2 and "png" not in first and "png" not in second
+    assert len([w for w in record if issubclass(w.category, RuntimeWarning)]) == 1
 
 
 def test_constellation_3d_draws_moon_and_every_orbit():
