@@ -23,10 +23,15 @@ import math
 from dataclasses import dataclass
 from pathlib import Path
 
-from .campaign.fitness import deltav_constraint, parse_constraints, satisfies
+from .campaign.fitness import (
+    deltav_constraint,
+    parse_constraints,
+    satisfies,
+    smallest_constellation,
+)
 from .campaign.publication import load_published
 from .campaign.reference import load_reference
-from .keys import NON_NAVIGATION_METRICS, bound_text, format_value, label
+from .keys import NON_NAVIGATION_METRICS, bound_text, design_text, format_value, label
 from .outputs import profile_dir
 from .paper import (
     EVALUATIONS,
@@ -41,7 +46,6 @@ __all__ = [
     "Finding",
     "Answer",
     "study_answer",
-    "smallest_design",
     "run_summary",
     "collect",
     "headline_findings",
@@ -187,25 +191,6 @@ def _designs_evaluated(ds) -> int:
     return int(ds.attrs.get("n_designs_evaluated", ds.sizes["design"]))
 
 
-def smallest_design(ds, mask, metric: str) -> int | None:
-    """The smallest constellation among the designs of ``mask``: fewest satellites, then the lowest ``metric``
-    (the campaign's Delta-V); its index, or None when ``mask`` is empty. The one rule of every "smallest"."""
-    import numpy as np
-
-    if not mask.any():
-        return None
-    order = np.lexsort((ds[metric].values[mask], ds["n_sat"].values[mask]))
-    return int(np.flatnonzero(mask)[order[0]])
-
-
-def _design_text(ds, i: int) -> str:
-    return (
-        f"a {format_value('sma_km', ds['sma_km'].values[i])} km, e {format_value('ecc', ds['ecc'].values[i])}, "
-        f"i {format_value('inc_deg', ds['inc_deg'].values[i])} deg, "
-        f"{int(ds['n_planes'].values[i])} planes x {int(ds['sats_per_plane'].values[i])}"
-    )
-
-
 @dataclass(frozen=True)
 class Answer:
     """The study in four sentences: the question, the paper's answer, the workbook's, the largest difference."""
@@ -253,9 +238,7 @@ def study_answer(paper_bound="paper", physical_bound="paper_dv_physical") -> Ans
     )
     physical_metric, physical_limit = deltav_constraint(physical)
     feasible = satisfies(physical, parse_constraints(physical.attrs["constraints"]))
-    i = smallest_design(
-        physical, feasible & (physical["pdop_avail_pct"].values >= target_pct), physical_metric
-    )
+    i = smallest_constellation(physical, feasible, physical_metric, availability_min_pct=target_pct)
     if i is None:
         return None
     dv = float(physical[physical_metric].values[i])
@@ -270,8 +253,8 @@ def study_answer(paper_bound="paper", physical_bound="paper_dv_physical") -> Ans
         ),
         workbook=(
             f"The geometry agrees and the cost does not. {int(physical['n_sat'].values[i])} satellites "
-            f"({_design_text(physical, i)}) give {format_value('pdop_avail_pct', physical['pdop_avail_pct'].values[i])} % "
-            f"PDOP availability; but none of the {_designs_evaluated(printed):,} designs of the full-size campaign "
+            f"({design_text(physical.isel(design=i))}) give {format_value('pdop_avail_pct', physical['pdop_avail_pct'].values[i])} % "
+            f"PDOP and {format_value('hdop_avail_pct', physical['hdop_avail_pct'].values[i])} % HDOP availability; but none of the {_designs_evaluated(printed):,} designs of the full-size campaign "
             f"meets the {dv_limit:g} km/s/yr bound: the cheapest of the {int(navigation.sum()):,} meeting the "
             f"navigation bounds costs {format_value(dv_metric, cheapest)} km/s/yr. With the bound at "
             f"{physical_limit:g} km/s/yr (the paper's margin over the one design it prices, kept at the "
@@ -341,19 +324,29 @@ def campaign_findings(root: Path, profile_name: str, companion: str | None) -> l
                 links,
             )
         )
-        pick = feasible if feasible.any() else navigation
-        i = smallest_design(ds, pick, dv_metric)
+        target_pct = SMALLEST_CONSTELLATION["availability_pct"]
+        pick = (
+            feasible
+            if feasible.any()
+            else satisfies(ds, [c for c in constraints if c[0] != dv_metric])
+        )
+        if "impact" in ds:
+            pick &= ~ds["impact"].values.astype(bool)
+        i = smallest_constellation(ds, pick, dv_metric, availability_min_pct=target_pct)
+        rule = (
+            f"the fewest satellites with PDOP and HDOP availability >= {target_pct:g} %, ties: the lowest "
+            f"{label(dv_metric)} (the rule of Table 6's first row and Figure 16)"
+        )
         if i is not None:
-            design = _design_text(ds, i)
             ours = (
                 f"{int(ds['n_sat'].values[i])} satellites, {label(dv_metric)} "
-                f"{format_value(dv_metric, ds[dv_metric].values[i])} ({design})"
+                f"{format_value(dv_metric, ds[dv_metric].values[i])} ({design_text(ds.isel(design=i))})"
             )
             why = (
                 (
-                    "meets every Table 3 bound"
+                    f"meets every Table 3 bound; {rule}"
                     if feasible.any()
-                    else "no design meets every bound: this is the smallest meeting the navigation bounds"
+                    else f"no design meets every bound: among those meeting every bound but the Delta-V's, {rule}"
                 )
                 + (
                     "; the paper's Delta-V comes from its capped singular inverse (notebook 04)"
@@ -364,7 +357,7 @@ def campaign_findings(root: Path, profile_name: str, companion: str | None) -> l
                 + "."
             )
         else:
-            ours, why = "none", "no design meets the navigation bounds in this short campaign"
+            ours, why = "none", f"no design of this campaign qualifies for {rule}."
         found.append(
             Finding(
                 f"Smallest constellation ({kind}, {name})",
@@ -457,16 +450,11 @@ def headline_findings(root: Path) -> list[Finding]:
         f"availability, below {SMALLEST_CONSTELLATION['dv_below_kms_per_year']:g} km/s/yr"
     )
     if smallest.get("result") == "validated":
-        design = (
-            f"a {format_value('sma_km', _number(smallest['sma_km']))} km, e {format_value('ecc', _number(smallest['ecc']))}, "
-            f"i {format_value('inc_deg', _number(smallest['inc_deg']))} deg, "
-            f"{int(_number(smallest['n_planes']))} planes x {int(_number(smallest['sats_per_plane']))}"
-        )
         ours = (
             f"{int(_number(smallest['n_sat']))} satellites, "
             f"{format_value('pdop_avail_pct_life', _number(smallest['pdop_avail_pct_life']))} % over the life, "
             f"{format_value('closed_loop_dv_max_kms_per_year', _number(smallest['closed_loop_dv_max_kms_per_year']))}"
-            f" km/s/yr worst satellite ({design})"
+            f" km/s/yr worst satellite ({design_text(smallest)})"
         )
     else:
         ours = "no validated design meets both"
@@ -494,6 +482,61 @@ def headline_findings(root: Path) -> list[Finding]:
             ours,
             why,
             _figure(root, "07_headline_validated") + _notebook(root, "07"),
+        )
+    ]
+
+
+DELTAV_TABLE = "07_deltav_vs_closed_loop"  # notebook 07: the eq. 45 Delta-V and the closed loop of the designs flown
+
+
+def _span(values) -> str:
+    """``"a to b"`` (or ``"a"``) of the finite values in the format of closed-loop Delta-V, ``"-"`` when none."""
+    finite = sorted(v for v in values if math.isfinite(v))
+    if not finite:
+        return "-"
+    low, high = (format_value("dv_total_kms_per_year", v) for v in (finite[0], finite[-1]))
+    return low if low == high else f"{low} to {high}"
+
+
+def deltav_findings(root: Path) -> list[Finding]:
+    """The paper's eq. 45 Delta-V and the closed-loop cost of the same designs: the designs of the front flown in
+    closed loop (notebook 07's ``07_deltav_vs_closed_loop``) and the Table 4 ELFO (eq. 45 from notebook 05's
+    ``05_table4``, closed loop from notebook 08's ``08_validation``); none when neither pair is in the run."""
+    parts, links = [], ()
+    table = root / "tables" / f"{DELTAV_TABLE}.csv"
+    if table.is_file():
+        rows = [r for r in _read_csv(table) if r.get("status") == "kept"]
+        if rows:
+            parts.append(
+                f"{len(rows)} designs of the operational front flown: eq. 45 total "
+                f"{_span(_number(r['dv_total_kms_per_year']) for r in rows)}, closed loop "
+                f"{_span(_number(r['closed_loop_dv_kms_per_year']) for r in rows)} (worst satellite "
+                f"{_span(_number(r['closed_loop_dv_max_kms_per_year']) for r in rows)})"
+            )
+            links += _notebook(root, "07")
+    table4, life = root / "tables" / "05_table4.csv", root / "tables" / "08_validation.csv"
+    if table4.is_file() and life.is_file():
+        eq45 = dict(zip(TABLE_4, _read_csv(table4))).get("dv_total_kms_per_year", {})
+        elfo = [r for r in _read_csv(life) if r.get("region") == "standalone ELFO"]
+        if eq45 and elfo:
+            parts.append(
+                f"the Table 4 ELFO: eq. 45 total {_span([_number(eq45.get('this workbook'))])}, closed loop "
+                f"{_span([_number(elfo[0].get('sk_dv_kms_per_year'))])} ({elfo[0].get('element_frame', '')})"
+            )
+            links += _figure(root, "05_fig6_thrust") + _notebook(root, "08")
+    if not parts:
+        return []
+    return [
+        Finding(
+            "Station-keeping Delta-V: the paper's eq. 45 model and the closed loop, same designs (km/s/yr per "
+            "satellite)",
+            f"eq. 45 only: {TABLE_4['dv_total_kms_per_year']:g} for the Table 4 ELFO, below "
+            f"{SMALLEST_CONSTELLATION['dv_below_kms_per_year']:g} for its best designs; nothing flown",
+            "; ".join(parts),
+            "two different quantities: eq. 45 integrates the whole perturbing acceleration over a 10-day arc "
+            "(what cancelling every perturbation would cost), the closed loop burns only what keeps each orbit and "
+            "the service within their tolerances over the design life.",
+            links,
         )
     ]
 
@@ -539,6 +582,7 @@ def collect(profile_name: str, companion: str | None = None) -> list[Finding]:
         table4_findings(root)
         + campaign_findings(root, profile_name, companion)
         + headline_findings(root)
+        + deltav_findings(root)
         + design_life_findings(root)
         + published_findings(root)
     )

@@ -28,6 +28,7 @@ __all__ = [
     "bound_text",
     "value_format",
     "format_value",
+    "design_text",
     "violated_bound",
 ]
 
@@ -400,6 +401,17 @@ def format_value(key: str, value) -> str:
     ):
         return str(int(value))
     return format(float(value), value_format(key))
+
+
+def design_text(design) -> str:
+    """A design in words, as the findings and the captions name it (``design``: a mapping or a table row with the
+    :data:`DESIGN_KEYS`): ``"a 6100 km, e 0.600, i 82.0 deg, AOP 90.0 deg, 2 planes x 3"``."""
+    return (
+        f"a {format_value('sma_km', float(design['sma_km']))} km, e {format_value('ecc', float(design['ecc']))}, "
+        f"i {format_value('inc_deg', float(design['inc_deg']))} deg, "
+        f"AOP {format_value('aop_deg', float(design['aop_deg']))} deg, "
+        f"{int(float(design['n_planes']))} planes x {int(float(design['sats_per_plane']))}"
+    )
 
 
 def requested_extra_metrics(evaluator) -> tuple[str, ...]:

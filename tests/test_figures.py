@@ -1,6 +1,7 @@
 """Figure writing (figures.export): PNG through kaleido's bundled renderer, HTML fallback, offline HTML; the builders'
 package layout and one builder's data."""
 
+import os
 import shutil
 import struct
 import warnings
@@ -29,8 +30,6 @@ def _figure():
 def _hide_chromium(monkeypatch, tmp_path):
     """A PATH with every program of the current one except Chrome/Chromium (the renderer's start-up script
     still finds bash and dirname)."""
-    import os
-
     bin_dir = tmp_path / "bin"
     bin_dir.mkdir()
     for folder in os.environ["PATH"].split(os.pathsep):
@@ -86,6 +85,38 @@ def test_failed_renderer_gives_html_and_one_warning(outputs, monkeypatch):
     assert (
         "png" not in first and not stale.exists()
     )  # a PNG from an earlier run would not match the HTML
+
+
+def test_a_timed_out_renderer_is_restarted_once_with_a_longer_limit(outputs, monkeypatch):
+    """A renderer too slow to start on a loaded machine costs one retry, not the notebook's PNGs; two timeouts in a
+    row give HTML and one warning, and no later figure waits for the renderer again."""
+    limits, slow_starts = [], [1]
+
+    class SlowStart:
+        pid = os.getpid()
+
+        def png(self, fig, width, height, timeout_s):
+            limits.append(timeout_s)
+            if len(limits) <= len(slow_starts):
+                raise TimeoutError(f"no PNG after {timeout_s:.0f} s")
+            return b"\x89PNG\r\n\x1a\n"
+
+    monkeypatch.delenv(figures.PNG_ENV, raising=False)
+    monkeypatch.setattr(export, "_PngExporter", SlowStart)
+    monkeypatch.setattr(export, "_EXPORTER", None)
+    monkeypatch.setattr(export, "_PNG_WARNED", False)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error", RuntimeWarning)
+        assert "png" in figures.save_figure(_figure(), "t", "fig_slow")
+    assert limits == [export.PNG_TIMEOUT_S, export.PNG_RETRY_FACTOR * export.PNG_TIMEOUT_S]
+    limits.clear()
+    slow_starts.append(2)  # now both tries time out
+    monkeypatch.setattr(export, "_EXPORTER", None)
+    with pytest.warns(RuntimeWarning, match="no PNG after 240 s") as record:
+        first = figures.save_figure(_figure(), "t", "fig_stalled")
+        second = figures.save_figure(_figure(), "t", "fig_after")
+    assert len(limits) == 2 and "png" not in first and "png" not in second
+    assert len([w for w in record if issubclass(w.category, RuntimeWarning)]) == 1
 
 
 def test_constellation_3d_draws_moon_and_every_orbit():
@@ -191,21 +222,42 @@ def _colour_range(fig, row: int, col: int) -> tuple[float, float]:
     return axis.cmin, axis.cmax
 
 
-def test_dop_maps_give_a_row_its_own_scale_when_rows_differ_by_orders_of_magnitude():
-    pdop = [var for _, var, _ in figures.DOP_MAP_PANELS].index("median_pdop") + 1
-    apart = figures.dop_polar_maps(
-        _pole_maps({"lunar_equator_of_epoch": 1.0, "j2000": 500.0, "moon_op": 1.5}), title="t"
+def test_dop_maps_share_a_scale_where_compared_and_give_a_panel_its_own_where_unreadable():
+    variables = [var for _, var, _ in figures.DOP_MAP_PANELS]
+    pdop, hdop_mf, hdop_enu = (
+        variables.index(v) + 1 for v in ("median_pdop", "median_hdop_moon_fixed", "median_hdop_enu")
     )
-    assert _colour_range(apart, 1, pdop) == pytest.approx(
-        (1.0, 2.0)
-    )  # the paper's case keeps its contrast
+    maps = _pole_maps({"lunar_equator_of_epoch": 1.0, "j2000": 500.0, "moon_op": 1.5})
+    apart = figures.dop_polar_maps(maps, title="t")
+    # the lunar-equator (1-2) and moon_op (1.5-3) rows share a scale and keep their contrast, j2000 has its own
+    assert (
+        _colour_range(apart, 1, pdop) == _colour_range(apart, 3, pdop) == pytest.approx((1.0, 3.0))
+    )
     assert _colour_range(apart, 2, pdop) == pytest.approx((500.0, 1000.0))
-    close = figures.dop_polar_maps(
-        _pole_maps({"lunar_equator_of_epoch": 1.0, "moon_op": 1.5}), title="t"
+    # the two HDOP conventions are read against each other: both columns share, j2000's two among themselves
+    assert (
+        _colour_range(apart, 1, hdop_enu)
+        == _colour_range(apart, 3, hdop_mf)
+        == pytest.approx((1.0, 3.0))
     )
     assert (
-        _colour_range(close, 1, pdop) == _colour_range(close, 2, pdop) == pytest.approx((1.0, 3.0))
+        _colour_range(apart, 2, hdop_mf)
+        == _colour_range(apart, 2, hdop_enu)
+        == pytest.approx((500.0, 1000.0))
     )
+    caption = figures.colour_scale_caption(maps)
+    assert "median PDOP: lunar_equator_of_epoch, moon_op share one; j2000 its own" in caption
+    assert "PDOP availability (%): one scale (0-100 %) for every panel" in caption
+    assert (
+        "lunar_equator_of_epoch (both), moon_op (both) share one; j2000 (both) share one" in caption
+    )
+    # a narrow panel leaves the shared scale: 1-2 would span 20 % of 1-6
+    narrow = _pole_maps({"lunar_equator_of_epoch": 1.0, "moon_op": 3.0})
+    scales = figures.colour_scales(narrow)
+    assert scales[("lunar_equator_of_epoch", "median_pdop")] == pytest.approx((1.0, 2.0))
+    assert scales[("moon_op", "median_pdop")] == pytest.approx((3.0, 6.0))
+    close = figures.colour_scales(_pole_maps({"lunar_equator_of_epoch": 1.0, "moon_op": 2.0}))
+    assert close[("lunar_equator_of_epoch", "median_pdop")] == close[("moon_op", "median_pdop")]
     availability = len(figures.DOP_MAP_PANELS)
     assert _colour_range(apart, 3, availability) == (0.0, 100.0)  # bounded: fixed scale
     assert list(apart.layout.polar.radialaxis.ticktext) == [

@@ -32,10 +32,12 @@ def _evaluations(n_sat, avail, dv, dv_bound, evaluated):
             "n_sat": ("design", np.array(n_sat)),
             "pdop_mean_3sigma": ("design", np.full(n, 3.0)),
             "pdop_avail_pct": ("design", np.array(avail, float)),
+            "hdop_avail_pct": ("design", np.array(avail, float)),
             "dv_total_kms_per_year": ("design", np.array(dv, float)),
             "sma_km": ("design", np.arange(n) * 100.0 + 5000.0),
             "ecc": ("design", np.full(n, 0.5)),
             "inc_deg": ("design", np.full(n, 60.0)),
+            "aop_deg": ("design", np.full(n, 90.0)),
             "n_planes": ("design", np.full(n, 2)),
             "sats_per_plane": ("design", np.array(n_sat) // 2),
         },
@@ -69,25 +71,12 @@ def shipped(monkeypatch):
     return campaigns
 
 
-def test_smallest_design_is_fewest_satellites_then_cheapest():
-    ds = _evaluations([8, 6, 6, 6], [90, 90, 90, 90], [0.1, 0.9, 0.5, 0.7], 1, evaluated=4)
-    assert (
-        findings.smallest_design(ds, np.array([True, True, True, True]), "dv_total_kms_per_year")
-        == 2
-    )
-    assert (
-        findings.smallest_design(ds, np.array([True, False, False, False]), "dv_total_kms_per_year")
-        == 0
-    )
-    assert findings.smallest_design(ds, np.zeros(4, bool), "dv_total_kms_per_year") is None
-
-
 def test_answer_from_the_shipped_campaigns(outputs, shipped):
     answer = findings.study_answer()
     # over the paper's availability, feasible under 4.6: the 6-satellite designs at 92 % and 95 %, the cheaper wins
     assert (
         "6 satellites (a 5100 km" in answer.workbook
-        and "95.0 % PDOP availability" in answer.workbook
+        and "95.0 % PDOP and 95.0 % HDOP availability" in answer.workbook
     )
     assert (
         "none of the 500 designs" in answer.workbook
@@ -141,8 +130,8 @@ def test_campaign_findings_read_the_shipped_results(outputs, shipped):
     )
     smallest = rows[
         "Smallest constellation (operational, paper_dv_physical)"
-    ].workbook  # the 4 is over the bound
-    assert smallest.startswith("6 satellites, Delta-V total (km/s/yr) 1.100 (a 5200 km")
+    ].workbook  # the 4 is over the bound, the cheapest 6 (75 %) does not keep the service
+    assert smallest.startswith("6 satellites, Delta-V total (km/s/yr) 2.000 (a 5100 km")
 
 
 def test_design_life_rows_say_what_they_count(outputs):
@@ -165,3 +154,38 @@ def test_design_life_rows_say_what_they_count(outputs):
         "over 365 days; the controller burned 0.200 to 1.400 km/s/yr per satellite"
     )
     assert "not the paper's eq. 45 Delta-V" in row.why and "lost on day 161" in row.why
+
+
+def test_deltav_row_sets_the_papers_model_beside_the_closed_loop(outputs):
+    import pandas as pd
+
+    from lnss_lib.paper import TABLE_4
+
+    assert findings.deltav_findings(outputs / "t") == []  # neither pair in the run: no row
+    side = pd.DataFrame(
+        {
+            "status": ["kept", "kept", "failed"],
+            "dv_total_kms_per_year": [2.1, 1.9, 3.0],
+            "closed_loop_dv_kms_per_year": [0.0, 0.08, 0.5],
+            "closed_loop_dv_max_kms_per_year": [0.0, 0.22, 0.9],
+        }
+    )
+    lnss_lib.outputs.save_table(side, "t", findings.DELTAV_TABLE, caption="side by side")
+    table4 = pd.DataFrame({"metric": list(TABLE_4), "this workbook": np.arange(len(TABLE_4)) + 0.5})
+    lnss_lib.outputs.save_table(table4, "t", "05_table4", caption="Table 4")
+    life = pd.DataFrame(
+        {
+            "region": ["frozen family", "standalone ELFO"],
+            "element_frame": ["moon_op", "lunar_equator_of_epoch"],
+            "sk_dv_kms_per_year": [0.3, 0.0],
+        }
+    )
+    lnss_lib.outputs.save_table(life, "t", "08_validation", caption="validation")
+    (row,) = findings.deltav_findings(outputs / "t")
+    eq45_elfo = list(TABLE_4).index("dv_total_kms_per_year") + 0.5
+    assert row.workbook == (
+        "2 designs of the operational front flown: eq. 45 total 1.900 to 2.100, closed loop 0.000 to 0.080 "
+        f"(worst satellite 0.000 to 0.220); the Table 4 ELFO: eq. 45 total {eq45_elfo:.3f}, closed loop 0.000 "
+        "(lunar_equator_of_epoch)"
+    )
+    assert "two different quantities" in row.why

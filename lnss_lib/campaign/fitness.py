@@ -26,6 +26,8 @@ __all__ = [
     "parse_constraints",
     "satisfies",
     "deltav_constraint",
+    "SERVICE_AVAILABILITY",
+    "smallest_constellation",
 ]
 
 
@@ -181,3 +183,38 @@ def deltav_constraint(evaluations) -> tuple[str, float]:
     if len(bounds) > 1:
         raise ValueError(f"the campaign has several Delta-V bounds {bounds}; expected at most one")
     return bounds[0] if bounds else ("dv_total_kms_per_year", np.inf)
+
+
+SERVICE_AVAILABILITY = ("pdop_avail_pct", "hdop_avail_pct")
+"""The availabilities a constellation keeps the service by (Table 6's rule): PDOP and HDOP, each in %."""
+
+
+def smallest_constellation(
+    designs,
+    admissible,
+    dv_metric: str,
+    *,
+    availability_min_pct: float,
+    availability: tuple[str, ...] = SERVICE_AVAILABILITY,
+) -> int | None:
+    """The smallest constellation that keeps the service: the one rule of every "smallest" the workbook states (the
+    answer and the findings, Table 6's first row and its Figure 16, notebook 07's comparison with the paper, the
+    headline flown in closed loop).
+
+    Among the ``admissible`` designs (boolean (design,) mask, e.g. those meeting every bound) whose ``availability``
+    columns all reach ``availability_min_pct`` (the paper's "over 90 % coverage"; NaN fails), the fewest satellites;
+    ties: the lowest ``dv_metric`` (the Delta-V the campaign bounds; NaN last). ``designs``: a Dataset or DataFrame
+    of (design,) columns with ``n_sat``. Returns the design's position, or None when none qualifies. Among a
+    campaign's feasible designs the front holds it: a design dominating it would qualify with no more satellites
+    and no more Delta-V.
+    """
+    mask = np.array(admissible, dtype=bool)
+    with np.errstate(invalid="ignore"):
+        for key in availability:
+            mask &= np.asarray(designs[key], dtype=float) >= availability_min_pct
+    index = np.flatnonzero(mask)
+    if not index.size:
+        return None
+    dv = np.asarray(designs[dv_metric], dtype=float)[index]
+    n_sat = np.asarray(designs["n_sat"], dtype=float)[index]
+    return int(index[np.lexsort((np.where(np.isnan(dv), np.inf, dv), n_sat))[0]])

@@ -35,6 +35,8 @@ from .design_life import (
 from .dop import (
     DOP_MAP_PANELS,
     POLE_AXES,
+    colour_scale_caption,
+    colour_scales,
     dop_grid_points,
     dop_polar_maps,
     dop_time_series,
@@ -85,6 +87,8 @@ __all__ = [
     "dop_time_series",
     "dop_grid_points",
     "dop_polar_maps",
+    "colour_scale_caption",
+    "colour_scales",
     "polar_wedges",
     "POLE_AXES",
     "dop_time_series_by_frame",

@@ -98,31 +98,100 @@ DOP_MAP_PANELS = (
     ("median HDOP (ENU)", "median_hdop_enu", "Plasma"),
     ("PDOP availability (%)", "pdop_availability_pct", "Viridis"),
 )
-SHARED_SCALE_MAX_RATIO = (
-    10.0  # a column shares one colour scale across rows while their maxima are within this factor
-)
+COMPARED_PANELS = (("median_hdop_moon_fixed", "median_hdop_enu"),)
+"""Map columns read against each other, so they share colour scales like the rows of one column: the two HDOP axes
+conventions (they agree at the pole and part towards -60 deg)."""
+READABLE_SHARE = 0.25
+"""A panel shares a colour scale only while its own values span at least this share of the scale: below it the
+panel is one colour, and it gets a scale of its own."""
 
 
-def _colour_ranges(maps: dict, var: str) -> list[tuple[float, float]]:
-    """(cmin, cmax) per row of a map column: shared while the rows' maxima differ by less than
-    :data:`SHARED_SCALE_MAX_RATIO`, else each row its own; percentages always 0-100."""
-    if var.endswith("_pct"):
-        return [(0.0, 100.0)] * len(maps)
-    ranges = [
-        (float(np.nanmin(ds[var].values)), float(np.nanmax(ds[var].values))) for ds in maps.values()
-    ]
-    tops = [hi for _, hi in ranges if np.isfinite(hi) and hi > 0]
-    if tops and max(tops) < SHARED_SCALE_MAX_RATIO * min(tops):
-        return [(min(lo for lo, _ in ranges), max(tops))] * len(maps)
-    return ranges
+def _span(values) -> tuple[float, float]:
+    finite = np.asarray(values, dtype=float)
+    finite = finite[np.isfinite(finite)]
+    return (float(finite.min()), float(finite.max())) if finite.size else (np.nan, np.nan)
+
+
+def _compared_groups() -> list[tuple[str, ...]]:
+    """The map columns whose panels are compared: each of :data:`COMPARED_PANELS`, then every other column alone."""
+    variables = [var for _, var, _ in DOP_MAP_PANELS]
+    groups = [g for g in COMPARED_PANELS if set(g) <= set(variables)]
+    return groups + [(v,) for v in variables if not any(v in g for g in groups)]
+
+
+def colour_scales(maps: dict) -> dict[tuple[str, str], tuple[float, float]]:
+    """(cmin, cmax) of each panel of :func:`dop_polar_maps`, keyed (element frame, variable).
+
+    Comparing the element frames (rows) is the point of the maps, and for the columns of :data:`COMPARED_PANELS`
+    comparing the columns too: such panels share one scale, so equal colours mean equal values, as long as each
+    stays readable (:data:`READABLE_SHARE`). Where values differ widely, the panel with the widest range leaves
+    the shared scale first, and the panels that left share among themselves by the same rule. Percentages keep
+    0-100 in every panel.
+    """
+    scales = {}
+    for group in _compared_groups():
+        ranges = {(f, v): _span(maps[f][v].values) for f in maps for v in group}
+        if all(v.endswith("_pct") for v in group):
+            scales.update(dict.fromkeys(ranges, (0.0, 100.0)))
+            continue
+        widths = {k: hi - lo for k, (lo, hi) in ranges.items()}
+        left = [k for k, (lo, _) in ranges.items() if np.isfinite(lo)]
+        scales.update({k: (0.0, 1.0) for k in ranges if k not in left})  # no value: an empty panel
+        while left:
+            shared = list(left)
+            while len(shared) > 1:
+                lo, hi = min(ranges[k][0] for k in shared), max(ranges[k][1] for k in shared)
+                if all(widths[k] >= READABLE_SHARE * (hi - lo) for k in shared):
+                    break
+                shared.remove(max(shared, key=widths.get))
+            lo, hi = min(ranges[k][0] for k in shared), max(ranges[k][1] for k in shared)
+            scales.update(dict.fromkeys(shared, (lo, hi if hi > lo else lo + 1.0)))
+            left = [k for k in left if k not in shared]
+    return scales
+
+
+def colour_scale_caption(maps: dict) -> str:
+    """Which panels of :func:`dop_polar_maps` share a colour scale (:func:`colour_scales`), in words."""
+    scales, labels = colour_scales(maps), {var: label for label, var, _ in DOP_MAP_PANELS}
+    parts = []
+    for group in _compared_groups():
+        shared: dict[tuple[float, float], dict[str, list[str]]] = {}
+        for frame in maps:
+            for var in (
+                group
+            ):  # a column of a group of several by its convention: "Moon-fixed x, y", "ENU"
+                column = labels[var].rpartition("(")[2].rstrip(")")
+                shared.setdefault(scales[(frame, var)], {}).setdefault(frame, []).append(column)
+        columns = " and ".join(labels[v] for v in group)
+        if len(shared) == 1:
+            fixed = " (0-100 %)" if all(v.endswith("_pct") for v in group) else ""
+            parts.append(f"{columns}: one scale{fixed} for every panel")
+            continue
+        clusters = []
+        for frames in shared.values():
+            panels = ", ".join(
+                frame
+                if len(group) == 1
+                else f"{frame} ({'both' if len(cols) == len(group) else ', '.join(cols)})"
+                for frame, cols in frames.items()
+            )
+            alone = len(frames) == 1 and len(next(iter(frames.values()))) == 1
+            clusters.append(f"{panels} {'its own' if alone else 'share one'}")
+        parts.append(f"{columns}: " + "; ".join(clusters))
+    return (
+        "Colour scales: panels compared share one (equal colours, equal values) while each spans at least "
+        f"{READABLE_SHARE:.0%} of it; where one would not, the widest-ranging panel moves to a scale of its own. "
+        + "; ".join(parts)
+        + "."
+    )
 
 
 def dop_polar_maps(maps: dict, *, title: str) -> go.Figure:
     """Polar maps over the south-pole grid, one row per element frame (notebook 02; paper Table 4 metrics).
 
     ``maps``: element frame -> :func:`lnss_lib.dop.time_statistics_maps` Dataset. Each wedge is one
-    grid node; the centre disc is the pole; radius labelled in latitude. A column shares one colour
-    scale across frames unless their values differ by an order of magnitude (:func:`_colour_ranges`);
+    grid node; the centre disc is the pole; radius labelled in latitude. Panels compared share a colour
+    scale while each stays readable (:func:`colour_scales`; :func:`colour_scale_caption` says which);
     each panel has its colour bar below it.
     """
     from plotly.subplots import make_subplots
@@ -139,11 +208,10 @@ def dop_polar_maps(maps: dict, *, title: str) -> go.Figure:
         vertical_spacing=0.16 / nrow * 2,
         horizontal_spacing=0.04,
     )
+    scales = colour_scales(maps)
     for col, (label, var, scale) in enumerate(DOP_MAP_PANELS, start=1):
-        for row, (frame, (cmin, cmax)) in enumerate(
-            zip(frames, _colour_ranges(maps, var)), start=1
-        ):
-            ds, index = maps[frame], (row - 1) * ncol + col
+        for row, frame in enumerate(frames, start=1):
+            (cmin, cmax), ds, index = scales[(frame, var)], maps[frame], (row - 1) * ncol + col
             axis = f"coloraxis{index if index > 1 else ''}"
             fig.add_trace(
                 polar_wedges(

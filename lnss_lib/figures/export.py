@@ -35,6 +35,9 @@ from ..outputs import atomic_path, notebook_shell, output_dir, write_bytes_atomi
 
 PNG_ENV = "LNSS_PNG"  # set to "off" to skip PNG export (HTML only)
 PNG_TIMEOUT_S = 120.0  # start-up of the renderer, and rendering of one figure
+PNG_RETRY_FACTOR = (
+    2.0  # a figure that timed out is tried once more, on a fresh renderer, with this much longer
+)
 _PNG_WARNED = False
 _EXPORTER = None
 NOTEBOOK_RENDERER = "lnss_notebook"
@@ -51,8 +54,9 @@ def local_plotlyjs() -> Path:
 
 class _PngExporter:
     """One kaleido renderer kept open for the whole process (its start-up costs a few seconds, a figure
-    then a fraction of one). Every call has a time limit: a renderer that stops answering is shut down,
-    so it can only cost one timeout."""
+    then a fraction of one, minutes on a machine loaded many times over). Every call has a time limit: a renderer
+    that stops answering is shut down, and :func:`_png_bytes` tries the figure once more on a fresh one, so a
+    stalled renderer costs at most one timeout and its retry."""
 
     def __init__(self) -> None:
         from kaleido.scopes.plotly import PlotlyScope
@@ -62,16 +66,18 @@ class _PngExporter:
         self._worker = ThreadPoolExecutor(max_workers=1, thread_name_prefix="lnss-png-export")
         atexit.register(self.close)
 
-    def png(self, fig: go.Figure, width: int, height: int) -> bytes:
-        """PNG bytes of ``fig`` at ``width`` x ``height`` pixels."""
+    def png(
+        self, fig: go.Figure, width: int, height: int, timeout_s: float = PNG_TIMEOUT_S
+    ) -> bytes:
+        """PNG bytes of ``fig`` at ``width`` x ``height`` pixels, within ``timeout_s``."""
         job = self._worker.submit(
             self._scope.transform, fig.to_plotly_json(), format="png", width=width, height=height
         )
         try:
-            return job.result(timeout=PNG_TIMEOUT_S)
+            return job.result(timeout=timeout_s)
         except FutureTimeout:
             self._scope._proc.kill()  # ends the blocked read in the worker; the scope holds its lock
-            raise TimeoutError(f"no PNG after {PNG_TIMEOUT_S:.0f} s") from None
+            raise TimeoutError(f"no PNG after {timeout_s:.0f} s") from None
 
     def close(self) -> None:
         """Stop the renderer's process (registered with ``atexit``)."""
@@ -94,16 +100,21 @@ def _png_bytes(fig: go.Figure, width: int, height: int) -> bytes | None:
         return None
     if _EXPORTER == "unavailable":
         return None
-    try:
-        if _EXPORTER is None or _EXPORTER.pid != os.getpid():
-            _EXPORTER = _PngExporter()
-        return _EXPORTER.png(fig, width, height)
-    except (
-        Exception
-    ) as error:  # the renderer reports a failed figure or a dead process as several types
-        _EXPORTER = "unavailable"
-        _png_unavailable(f"{type(error).__name__}: {error}")
-        return None
+    for timeout_s in (PNG_TIMEOUT_S, PNG_RETRY_FACTOR * PNG_TIMEOUT_S):
+        try:
+            if _EXPORTER is None or _EXPORTER.pid != os.getpid():
+                _EXPORTER = _PngExporter()
+            return _EXPORTER.png(fig, width, height, timeout_s)
+        except TimeoutError as error:
+            # a slow start on a loaded machine: once more on a fresh renderer, with a longer limit
+            _EXPORTER, failure = None, error
+        except Exception as error:
+            # the renderer reports a failed figure or a dead process as several types
+            failure = error
+            break
+    _EXPORTER = "unavailable"
+    _png_unavailable(f"{type(failure).__name__}: {failure}")
+    return None
 
 
 def _fingerprint(fig_dict: dict) -> str:

@@ -60,6 +60,7 @@ import numpy as np
 import pandas as pd
 import xarray as xr
 
+from ..campaign.fitness import smallest_constellation
 from ..campaign.validation import N_MINUS_1_KEYS
 from ..keys import DESIGN_KEYS
 from ..settings import Settings
@@ -77,6 +78,8 @@ __all__ = [
     "front_outliers",
     "validated_table6",
     "headline_table",
+    "DELTAV_SIDE_BY_SIDE",
+    "deltav_side_by_side",
     "NONE_VALIDATED",
     "ESTIMATE_PAIRS",
 ]
@@ -131,6 +134,34 @@ def reestimated_table(settings: Settings, validated: xr.Dataset) -> pd.DataFrame
         for tag in ("mean", "worst_satellite", "navigation"):
             frame[f"ratio_{tag}"] = frame[f"estimate_{tag}"] / frame[f"closed_loop_{tag}"]
     return frame
+
+
+DELTAV_SIDE_BY_SIDE = (
+    "dv_total_kms_per_year",
+    "dv_opt_kms_per_year",
+    "sk_dv_estimate_kms_per_year",
+    "sk_dv_estimate_max_kms_per_year",
+    "closed_loop_dv_kms_per_year",
+    "closed_loop_dv_max_kms_per_year",
+)
+"""The Delta-V of one design three ways, in km/s per satellite and year: the paper's eq. 45 budgets (total and
+optimised, the campaign's ``[deltav] model`` over the 10-day arc), the campaign's life-long estimate of the service
+controller (mean and worst satellite) and the closed loop flown over the design life (mean and worst satellite)."""
+
+
+def deltav_side_by_side(validated: xr.Dataset) -> pd.DataFrame:
+    """One row per validated design, cheapest closed loop (worst satellite) first: the satellites, the design, how its
+    closed loop ended (``status``) and :data:`DELTAV_SIDE_BY_SIDE` (NaN where the validation lacks a column)."""
+    n = validated.sizes["design"]
+    frame = pd.DataFrame(
+        {
+            k: validated[k].values if k in validated else np.full(n, np.nan)
+            for k in ("n_sat", *DESIGN_KEYS, "status", *DELTAV_SIDE_BY_SIDE)
+        }
+    )
+    return frame.sort_values("closed_loop_dv_max_kms_per_year", kind="stable").reset_index(
+        drop=True
+    )
 
 
 def front_statistics(table: pd.DataFrame, pairs=tuple(ESTIMATE_PAIRS)) -> pd.DataFrame:
@@ -197,9 +228,10 @@ def headline_table(
     dv_max_kms_per_year: float,
     paper: dict,
 ) -> pd.DataFrame:
-    """The smallest kept validated constellation with PDOP availability over the life (closed loop)
-    >= ``availability_min_pct`` and worst-satellite closed-loop Delta-V <= ``dv_max_kms_per_year`` (ties: the
-    cheapest), then the cheapest such design at each of ``sizes`` (:data:`NONE_VALIDATED` when none), each row with
+    """The smallest kept validated constellation (:func:`lnss_lib.campaign.fitness.smallest_constellation`: the
+    fewest satellites, ties the cheapest) with PDOP and HDOP availability over the life (closed loop)
+    >= ``availability_min_pct`` and worst-satellite closed-loop Delta-V <= ``dv_max_kms_per_year``, then the
+    cheapest such design at each of ``sizes`` (:data:`NONE_VALIDATED` when none), each row with
     how many designs of that size were flown and failed, its service with the worst single satellite lost
     (:data:`N_LOSS_KEYS`, NaN in a validation from before it was flown), and the paper's claim (``paper``:
     :data:`lnss_lib.paper.SMALLEST_CONSTELLATION`) as the last row."""
@@ -208,6 +240,7 @@ def headline_table(
         "n_sat",
         "status",
         "pdop_avail_pct_life",
+        "hdop_avail_pct_life",
         "pdop_avail_pct_worst_month",
         "closed_loop_dv_kms_per_year",
         "closed_loop_dv_max_kms_per_year",
@@ -223,21 +256,25 @@ def headline_table(
         }
     )
     with np.errstate(invalid="ignore"):
-        ok = frame[
-            (frame["status"] == "kept")
-            & (frame["pdop_avail_pct_life"].astype(float) >= availability_min_pct)
-            & (frame["closed_loop_dv_max_kms_per_year"].astype(float) <= dv_max_kms_per_year)
-        ]
-    ok = ok.sort_values(["n_sat", "closed_loop_dv_max_kms_per_year"])
+        ok = (frame["status"] == "kept").to_numpy() & (
+            frame["closed_loop_dv_max_kms_per_year"].astype(float).to_numpy() <= dv_max_kms_per_year
+        )
 
-    def row(label: str, pick: pd.DataFrame, of_size: pd.DataFrame) -> dict:
+    def row(label: str, admissible: np.ndarray, of_size: pd.DataFrame) -> dict:
         counts = {
             "flown": int(len(of_size)),
             "failed or error": int((of_size["status"] != "kept").sum()),
         }
-        if not len(pick):
+        i = smallest_constellation(
+            frame,
+            admissible,
+            "closed_loop_dv_max_kms_per_year",
+            availability_min_pct=availability_min_pct,
+            availability=("pdop_avail_pct_life", "hdop_avail_pct_life"),
+        )
+        if i is None:
             return {"row": label, "result": NONE_VALIDATED, **counts}
-        best = pick.iloc[0]
+        best = frame.iloc[i]
         return {
             "row": label,
             "result": "validated",
@@ -251,6 +288,7 @@ def headline_table(
             "closed_loop_dv_max_kms_per_year": best.closed_loop_dv_max_kms_per_year,
             "closed_loop_dv_kms_per_year": best.closed_loop_dv_kms_per_year,
             "pdop_avail_pct_life": best.pdop_avail_pct_life,
+            "hdop_avail_pct_life": best.hdop_avail_pct_life,
             "pdop_avail_pct_worst_month": best.pdop_avail_pct_worst_month,
             **{k: best[k] for k in N_LOSS_KEYS},
             **counts,
@@ -258,13 +296,8 @@ def headline_table(
 
     rows = [row("smallest", ok, frame)]
     for size in sizes:
-        rows.append(
-            row(
-                f"{size} satellites",
-                ok[ok["n_sat"] == size].sort_values("closed_loop_dv_max_kms_per_year"),
-                frame[frame["n_sat"] == size],
-            )
-        )
+        of_size = (frame["n_sat"] == size).to_numpy()
+        rows.append(row(f"{size} satellites", ok & of_size, frame[of_size]))
     rows.append(
         {
             "row": "paper (abstract)",

@@ -35,6 +35,7 @@ import numpy as np
 import pandas as pd
 import xarray as xr
 
+from ..campaign import fitness
 from ..campaign.fitness import (
     deltav_constraint,
     non_dominated_mask,
@@ -42,7 +43,7 @@ from ..campaign.fitness import (
     parse_constraints,
     satisfies,
 )
-from ..keys import DESIGN_KEYS, EXTRA_METRIC_KEYS, LABELS, METRIC_KEYS, bound_text
+from ..keys import DESIGN_KEYS, EXTRA_METRIC_KEYS, LABELS, METRIC_KEYS, bound_text, design_text
 
 __all__ = [
     "load_campaign",
@@ -50,6 +51,7 @@ __all__ = [
     "satisfies",
     "pareto_front",
     "table6",
+    "figure16_title",
     "synthetic_campaign",
     "deltav_constraint",
     "analysis_front",
@@ -182,15 +184,17 @@ def hypervolume_milestones(history: xr.Dataset, fractions=(0.99, 0.999)) -> pd.D
 def smallest_constellation(
     front: xr.Dataset, dv_metric: str, availability_min_pct: float
 ) -> pd.Series | None:
-    """The front design with the fewest satellites whose PDOP and HDOP availability reach ``availability_min_pct``
-    (ties: the lowest ``dv_metric``), or None. The front holds it: no design has fewer satellites and less
-    Delta-V."""
-    frame = front[list(DESIGN_KEYS + METRIC_KEYS)].to_dataframe().reset_index(drop=True)
-    frame = frame[
-        (frame.pdop_avail_pct >= availability_min_pct)
-        & (frame.hdop_avail_pct >= availability_min_pct)
-    ]
-    return frame.sort_values(["n_sat", dv_metric]).iloc[0] if len(frame) else None
+    """The smallest constellation of the front that keeps the service
+    (:func:`lnss_lib.campaign.fitness.smallest_constellation`: PDOP and HDOP availability >= ``availability_min_pct``,
+    the fewest satellites, ties the lowest ``dv_metric``) with its metrics, or None. The front holds the one its
+    campaign's feasible designs give."""
+    i = fitness.smallest_constellation(
+        front,
+        np.ones(front.sizes["design"], dtype=bool),
+        dv_metric,
+        availability_min_pct=availability_min_pct,
+    )
+    return None if i is None else front[list(DESIGN_KEYS + METRIC_KEYS)].isel(design=i).to_pandas()
 
 
 def front_against_paper(front: xr.Dataset, claims: dict) -> pd.DataFrame:
@@ -231,11 +235,21 @@ def closest_to_feasible(evaluations: xr.Dataset) -> pd.Series:
     return evaluations[columns].isel(design=index).to_pandas()
 
 
+def _smallest_first(eligible: pd.DataFrame, dv_metric: str) -> pd.DataFrame:
+    """Table 6's first rule: the smallest constellation of the eligible designs (availability and Delta-V bound
+    already applied; :func:`lnss_lib.campaign.fitness.smallest_constellation`), as a one-row frame (none: empty)."""
+    i = fitness.smallest_constellation(
+        eligible,
+        np.ones(len(eligible), dtype=bool),
+        dv_metric,
+        availability_min_pct=0.0,
+        availability=(),
+    )
+    return eligible.iloc[[] if i is None else [i]]
+
+
 TABLE6_RULES = (  # (reason, rule(frame, Delta-V metric name) -> frame ranked best first)
-    (
-        "fewest satellites (ties: best PDOP)",
-        lambda d, dv: d.sort_values(["n_sat", "pdop_mean_3sigma"]),
-    ),
+    ("fewest satellites (ties: lowest Delta-V)", lambda d, dv: _smallest_first(d, dv)),
     (
         "best PDOP with fewer than 10 satellites",
         lambda d, dv: d[d.n_sat < 10].sort_values("pdop_mean_3sigma"),
@@ -290,6 +304,12 @@ def table6(
     rows = frame.loc[list(chosen)].copy()
     rows["why selected"] = ["; ".join(reasons) for reasons in chosen.values()]
     return rows.reset_index(drop=True)[list(columns + ("why selected",))]
+
+
+def figure16_title(chosen) -> str:
+    """Figure 16's caption for ``chosen``, Table 6's first row (:func:`table6`), the design named as the findings name
+    it (:func:`lnss_lib.keys.design_text`) with the rules that picked it."""
+    return f"Figure 16: {int(chosen['n_sat'])} satellites, {design_text(chosen)} ({chosen['why selected']})"
 
 
 def frame_readings(

@@ -1,5 +1,6 @@
 """Objectives and constraints (eq. 45, Table 3), the non-dominated mask and the hypervolume."""
 
+import functools
 import math
 
 import numpy as np
@@ -267,3 +268,40 @@ def test_every_name_the_campaign_package_exports_resolves():
 
     missing = [name for name in campaign.__all__ if not hasattr(campaign, name)]
     assert missing == []
+
+
+def test_smallest_constellation_is_fewest_satellites_then_cheapest_keeping_both_availabilities():
+    import pandas as pd
+
+    from lnss_lib.campaign.fitness import smallest_constellation
+
+    designs = pd.DataFrame(
+        {
+            "n_sat": [4, 6, 6, 6, 6, 8],
+            "pdop_avail_pct": [99.0, 95.0, 95.0, 95.0, 95.0, 99.0],
+            "hdop_avail_pct": [
+                99.0,
+                80.0,
+                95.0,
+                np.nan,
+                95.0,
+                99.0,
+            ],  # 6 at 80 % or NaN HDOP: no service
+            "dv_total_kms_per_year": [0.1, 0.2, 0.9, 0.3, 0.5, 0.05],
+        },
+        index=[10, 11, 12, 13, 14, 15],  # positions are returned, whatever the index
+    )
+    every = np.ones(6, dtype=bool)
+    pick = functools.partial(smallest_constellation, designs, dv_metric="dv_total_kms_per_year")
+    assert pick(every, availability_min_pct=90.0) == 0  # the 4 keeps the service
+    no_four = every & (designs["n_sat"].to_numpy() > 4)
+    assert (
+        pick(no_four, availability_min_pct=90.0) == 4
+    )  # the cheaper 6 of the two keeping PDOP and HDOP
+    assert pick(no_four, availability_min_pct=90.0, availability=("pdop_avail_pct",)) == 1
+    assert pick(no_four, availability_min_pct=99.5) is None
+    assert pick(np.zeros(6, dtype=bool), availability_min_pct=0.0) is None
+    designs.loc[14, "dv_total_kms_per_year"] = (
+        np.nan
+    )  # an undefined Delta-V ranks last among its size
+    assert pick(no_four, availability_min_pct=90.0) == 2

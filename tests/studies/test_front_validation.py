@@ -195,3 +195,23 @@ def test_reestimated_table_prices_the_restores_of_the_front_designs():
     assert front["estimate_mean"] < 2.0 * 0.977  # within a factor 2 of the flown year
     assert front["ratio_navigation"] == pytest.approx(front["estimate_navigation"] / 0.478)
     assert table.loc[1, "ratio_mean"] == pytest.approx(front["estimate_mean"] / 0.977)
+
+
+def test_deltav_side_by_side_sets_eq45_beside_the_closed_loop(validated):
+    from lnss_lib.studies.front_validation import DELTAV_SIDE_BY_SIDE, deltav_side_by_side
+
+    side = deltav_side_by_side(validated)
+    assert len(side) == len(ROWS) and set(DELTAV_SIDE_BY_SIDE) <= set(side.columns)
+    worst = side["closed_loop_dv_max_kms_per_year"].to_numpy()
+    assert list(worst[:-1]) == sorted(worst[:-1]) and np.isnan(
+        worst[-1]
+    )  # cheapest first, no cost last
+    first = validated.isel(
+        design=int(np.nanargmin(validated.closed_loop_dv_max_kms_per_year.values))
+    )
+    assert side.loc[0, "dv_total_kms_per_year"] == float(first.dv_total_kms_per_year)
+    assert side.loc[0, "status"] == str(first.status.values)
+    without = deltav_side_by_side(validated.drop_vars("dv_opt_kms_per_year"))
+    assert (
+        without["dv_opt_kms_per_year"].isna().all()
+    )  # a validation without a column: NaN, not an error
