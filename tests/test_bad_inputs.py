@@ -748,7 +748,7 @@ def test_no_message_prints_a_line_of_a_file(tmp_path):
 
 def test_internal_errors_are_not_bad_input(capsys, monkeypatch):
     """A KeyError (or any unexpected exception) is a failure with the traceback on request, not bad input."""
-    from lnss_lib import cli
+    from lnss_lib.cli import evaluate as cli
 
     for error in (
         KeyError("inc"),
@@ -1105,7 +1105,7 @@ def test_design_life_past_the_kernels_is_refused_before_the_evaluation(
 ):
     """A life past the kernels' span is refused with the range of lives they allow, before the 10-day evaluation
     (which ran first, then the year was printed as '****')."""
-    from lnss_lib import cli
+    from lnss_lib.cli import evaluate as cli
 
     monkeypatch.setattr(
         cli, "evaluate_cli", lambda *args, **kwargs: pytest.fail("the evaluation ran")

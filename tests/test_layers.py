@@ -248,7 +248,7 @@ def test_every_module_is_seen_and_classified():
     )
     assert {f"lnss_lib.design_life.{m}" for m in DESIGN_LIFE_MODULES} <= set(GRAPH)
     assert (
-        "lnss_lib.design_life.screen" in GRAPH["lnss_lib.design_life.service"]
+        "lnss_lib.design_life.secular" in GRAPH["lnss_lib.design_life.service"]
     )  # relative import in the package
     assert layer_of("lnss_lib.figures.dop") == 4 and layer_of("lnss_lib.bench.dop") == 5
     assert "lnss_lib.outputs" in GRAPH["lnss_lib.figures.export"]  # relative import two levels up

@@ -120,6 +120,8 @@ def _campaign(folder, n_sat, pdop, dv):
             "n_sat": ("design", np.array(n_sat)),
             "pdop_mean_3sigma": ("design", np.array(pdop, float)),
             "dv_total_kms_per_year": ("design", np.array(dv, float)),
+            "pdop_avail_pct": ("design", np.full(n, 95.0)),  # every evaluation reports both
+            "hdop_avail_pct": ("design", np.full(n, 97.0)),
             "sma_km": ("design", np.full(n, 6143.0)),
             "ecc": ("design", np.full(n, 0.6)),
             "inc_deg": ("design", np.full(n, 51.7)),
