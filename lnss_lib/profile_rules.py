@@ -212,24 +212,24 @@ def check_across(profile: dict, source) -> None:
             "evaluator.extra_metrics",
             source,
         )
-    model = lookup(profile, "sk_estimate.model")
-    life_nav = [n for n in extras or () if n in LIFE_NAVIGATION_KEYS]
-    if life_nav and model is not None and model != "life":
-        fail(
-            f"[evaluator] extra_metrics {life_nav} come from the life estimate's rebuilt constellation: they need "
-            f'[sk_estimate] model = "life"; got {model!r}',
+    for names, key, value, why in (
+        (
+            LIFE_NAVIGATION_KEYS,
             "sk_estimate.model",
-            source,
-        )
-    satellites = lookup(profile, "deltav.satellites")
-    needs_all = [n for n in extras or () if n in NEEDS_ALL_SATELLITES]
-    if needs_all and satellites is not None and satellites != "all":
-        fail(
-            f"[evaluator] extra_metrics {needs_all} are maxima over satellites: they need "
-            f'[deltav] satellites = "all"; got {satellites!r}',
-            "deltav.satellites",
-            source,
-        )
+            "life",
+            "come from the life estimate's rebuilt constellation",
+        ),
+        (NEEDS_ALL_SATELLITES, "deltav.satellites", "all", "are maxima over satellites"),
+    ):  # extra metrics that only one value of another setting computes
+        needing, have = [n for n in extras or () if n in names], lookup(profile, key)
+        if needing and have is not None and have != value:
+            section, name = key.split(".")
+            fail(
+                f"[evaluator] extra_metrics {needing} {why}: they need "
+                f'[{section}] {name} = "{value}"; got {have!r}',
+                key,
+                source,
+            )
     lat, lon = (
         lookup(profile, "navigation_error.station_lat_deg"),
         lookup(profile, "navigation_error.station_lon_deg"),
