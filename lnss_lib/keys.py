@@ -241,6 +241,7 @@ LABELS = {  # key -> human label with its unit: figures, tables, explorer, ``eva
     "model_all": "Delta-V model",
     "step_s": "sampling step (s)",
     "lunar_equator_of_epoch": "lunar equator of epoch",  # an element frame, as a column of notebook 04's tables
+    "moon_op": "Moon orbital plane (moon_op)",  # the other element frame of those tables
     # the user's position error over the grid (lnss_lib.navigation_error.error_percentiles; notebook 05)
     "horizontal_95_series_m": "horizontal 95 % error, 95th percentile over the grid (m)",
     "vertical_95_series_m": "vertical 95 % error, 95th percentile over the grid (m)",

@@ -65,12 +65,21 @@ def display_path(path) -> str:
 
 
 def display_table(frame, columns=None):
-    """A copy of ``frame`` (its ``columns``) for a notebook's display: headers by their labels with units and
-    each number in the format of its quantity (:func:`lnss_lib.keys.format_value`), NaN as ``-``."""
+    """A copy of ``frame`` (its ``columns``) for a notebook's display: headers, index names and row keys by their
+    labels with units, each number in the format of its quantity (:func:`lnss_lib.keys.format_value`), NaN as
+    ``-``."""
     shown = frame[list(columns)] if columns is not None else frame
-    return shown.apply(lambda col: col.map(lambda v: format_value(str(col.name), v))).rename(
-        columns=lambda c: label(str(c))
+    table = shown.apply(lambda col: col.map(lambda v: format_value(str(col.name), v)))
+    table = table.rename(
+        columns=lambda c: label(str(c)), index=lambda r: label(r) if isinstance(r, str) else r
     )
+    table.index = table.index.set_names(
+        [None if n is None else label(str(n)) for n in table.index.names]
+    )
+    table.columns = table.columns.set_names(
+        [None if n is None else label(str(n)) for n in table.columns.names]
+    )
+    return table
 
 
 def quantity_table(values):

@@ -116,6 +116,16 @@ def test_records_show_workbook_paths_and_formatted_tables():
     shown = display_table(frame, ["sma_km", "impact_day", "region"])
     assert list(shown.columns) == ["semi-major axis (km)", "first satellite lost (day)", "region"]
     assert shown.iloc[0].tolist() == ["19100", "-", "frozen family"]
+    by_frame = (
+        pd.DataFrame(  # index name, row keys and a column level's name are read as their labels
+            {"dv_total_kms_per_year": [1.25, 2.5]},
+            index=pd.Index(["lunar_equator_of_epoch", "not a key"], name="step_s"),
+        )
+    )
+    by_frame.columns.name = "model_all"
+    shown = display_table(by_frame)
+    assert shown.index.tolist() == ["lunar equator of epoch", "not a key"]
+    assert (shown.index.name, shown.columns.name) == ("sampling step (s)", "Delta-V model")
 
 
 def test_mask_suffixed_keys_keep_their_label_and_format():
