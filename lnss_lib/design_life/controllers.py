@@ -388,7 +388,11 @@ def controller_for(
         svc, dop, dynamics, inserted_deg, t0, model=model, arc_days=arc_days
     )
     field = SecularField.from_settings(stability, dynamics, t0, design_life.life_days + 1.0)
-    nav = NavigationMonitor(dop, dynamics, grid.sample_t, svc) if grid.sample_t.size else None
+    nav = (
+        NavigationMonitor(dop, dynamics, grid.sample_t, svc, model.table)
+        if grid.sample_t.size
+        else None
+    )
     floor_km = r_min + svc.perilune_margin_km
     return ServiceController(design_life, grid, gm, design_deg, tol_deg, floor_km, field, nav)
 
