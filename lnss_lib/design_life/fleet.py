@@ -17,12 +17,12 @@ from typing import NamedTuple
 import numpy as np
 
 from ..constants import SECONDS_PER_DAY
-from ..elements import orbital_period_s, state_to_elements
+from ..elements import orbital_period_s
 from ..forces import ForceModel
 from ..propagator import METHODS, STATUS_IMPACT, STATUS_NOT_RUN, STATUS_OK, STATUS_TEXT, check_batch
 from ..settings import DesignLifeSettings, IntegratorSetting
 from .manoeuvres import candidate_true_anomalies, lowest_perilune_km, mean_anomaly
-from .mean_elements import relative_angles, to_element_frame, window_means, wrap_pi
+from .mean_elements import osculating_elements, relative_angles, window_means, wrap_pi
 from .propagation import integrate_chunk
 from .service import burn_location
 
@@ -162,9 +162,9 @@ class FleetState:
         self.active[i], self.loss_t[i], self.loss_cause[i] = False, t, cause
 
     def osculating(self, i: int, t: float) -> np.ndarray | None:
-        """Osculating elements of satellite ``i`` in the element frame (km, rad), or None (the satellite is
-        lost at ``t``) for an unbound orbit."""
-        osc = state_to_elements(to_element_frame(self.y[i], self.rot), self.gm)
+        """Osculating elements of satellite ``i`` in the element frame (km, rad;
+        :func:`~.mean_elements.osculating_elements`), or None (the satellite is lost at ``t``) for an unbound orbit."""
+        osc = osculating_elements(self.y[i], self.rot, self.gm)
         if not (np.all(np.isfinite(osc)) and osc[0] > 0.0 and osc[1] < 1.0):
             self.lose(i, t, "escape (unbound orbit)")
             return None

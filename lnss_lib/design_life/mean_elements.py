@@ -9,8 +9,9 @@ Elements are referred to the profile's element frame (lunar equator of epoch by 
 states in Moon-centred J2000 are rotated with :func:`lnss_lib.ephemeris.element_frame_to_j2000`.
 
 :func:`window_means` is the closed loop's compiled twin of :func:`mean_elements` (one window, J2000 states
-rotated inside, the lowest osculating perilune beside): the same sums in another order, so the two agree to
-rounding (``tests/design_life/test_mean_elements.py`` bounds the difference), not to the bit.
+rotated inside, the lowest osculating perilune beside), :func:`osculating_elements` that of
+:func:`lnss_lib.elements.state_to_elements` for one state: the same arithmetic in another order, so each pair agrees
+to rounding (``tests/design_life/test_mean_elements.py`` bounds the difference), not to the bit.
 """
 
 from __future__ import annotations
@@ -127,7 +128,8 @@ def window_means(states_mci, rot_el_to_j2000, gm_km3_s2):
         rp = a * (1.0 - np.sqrt(ex * ex + ey * ey + ez * ez))
         if rp < rp_min or rp != rp:  # np.min: a NaN perilune stays
             rp_min = rp
-        u_osc[k] = _osculating_u(rx, ry, rz, vx, vy, vz, r, v2, hx, hy, hz, h, gm_km3_s2)
+        _, _, _, _, aop, mean_anomaly = _osculating(rx, ry, rz, vx, vy, vz, gm_km3_s2)
+        u_osc[k] = aop + mean_anomaly
     u_sum = 0.5 * u_osc[0]
     correction = (
         0.0  # np.unwrap: each jump of the osculating u by more than pi taken as a full turn
@@ -166,20 +168,47 @@ def window_means(states_mci, rot_el_to_j2000, gm_km3_s2):
 
 
 @nb.njit(cache=True, error_model="numpy")
-def _osculating_u(rx, ry, rz, vx, vy, vz, r, v2, hx, hy, hz, h, gm_km3_s2):
-    """AOP + M (rad) of one state as :func:`lnss_lib.elements.state_to_elements` gives them (NaN when e >= 1)."""
+def osculating_elements(state_mci, rot_el_to_j2000, gm_km3_s2):
+    """Osculating ``[a, e, i, raan, aop, M]`` (6,) (km, rad) of one Moon-centred J2000 state (6,) in the element
+    frame of ``rot_el_to_j2000``: the compiled twin of :func:`lnss_lib.elements.state_to_elements` (its
+    equatorial and circular conventions; M NaN when e >= 1), equal to it to rounding."""
+    x = np.empty(6)
+    for j in range(3):
+        x[j] = (
+            state_mci[0] * rot_el_to_j2000[0, j]
+            + state_mci[1] * rot_el_to_j2000[1, j]
+            + state_mci[2] * rot_el_to_j2000[2, j]
+        )
+        x[3 + j] = (
+            state_mci[3] * rot_el_to_j2000[0, j]
+            + state_mci[4] * rot_el_to_j2000[1, j]
+            + state_mci[5] * rot_el_to_j2000[2, j]
+        )
+    return np.array(_osculating(x[0], x[1], x[2], x[3], x[4], x[5], gm_km3_s2))
+
+
+@nb.njit(cache=True, error_model="numpy")
+def _osculating(rx, ry, rz, vx, vy, vz, gm_km3_s2):
+    """(a, e, i, raan, aop, M) of one state as :func:`lnss_lib.elements.state_to_elements` gives them."""
+    r = np.sqrt(rx * rx + ry * ry + rz * rz)
+    v2 = vx * vx + vy * vy + vz * vz
+    hx, hy, hz = ry * vz - rz * vy, rz * vx - rx * vz, rx * vy - ry * vx
+    h = np.sqrt(hx * hx + hy * hy + hz * hz)
     rv = rx * vx + ry * vy + rz * vz
     c = v2 - gm_km3_s2 / r
     ex = (c * rx - rv * vx) / gm_km3_s2
     ey = (c * ry - rv * vy) / gm_km3_s2
     ez = (c * rz - rv * vz) / gm_km3_s2
     e = np.sqrt(ex * ex + ey * ey + ez * ez)
+    a = 1.0 / (2.0 / r - v2 / gm_km3_s2)
+    inc = np.arccos(min(max(hz / h, -1.0), 1.0))
     nx, ny = -hy, hx
     n_norm = np.sqrt(nx * nx + ny * ny)
     if n_norm < 1e-12 * h:
         nx, ny = 1.0, 0.0
     else:
         nx, ny = nx / n_norm, ny / n_norm
+    raan = np.mod(np.arctan2(ny, nx), TWO_PI)
     if e < 1e-12:
         ux, uy, uz = nx, ny, 0.0
     else:
@@ -193,11 +222,11 @@ def _osculating_u(rx, ry, rz, vx, vy, vz, r, v2, hx, hy, hz, h, gm_km3_s2):
     cx, cy, cz = uy * pz - uz * py, uz * px - ux * pz, ux * py - uy * px
     nu = np.arctan2(cx * kx + cy * ky + cz * kz, ux * px + uy * py + uz * pz)
     if not e < 1.0:
-        return np.nan
+        return a, e, inc, raan, aop, np.nan
     big_e = 2.0 * np.arctan2(
         np.sqrt(1.0 - e) * np.sin(nu / 2.0), np.sqrt(1.0 + e) * np.cos(nu / 2.0)
     )
-    return aop + np.mod(big_e - e * np.sin(big_e), TWO_PI)
+    return a, e, inc, raan, aop, np.mod(big_e - e * np.sin(big_e), TWO_PI)
 
 
 def wrap_pi(angle_rad):

@@ -33,8 +33,6 @@ antinodes; :func:`burn_location` names the point each one was flown at.
 
 from __future__ import annotations
 
-import dataclasses
-
 import numpy as np
 
 from ..constants import SECONDS_PER_DAY
@@ -94,10 +92,6 @@ def mean_vectors_j2000(
     return e_vec @ rot.T, (np.sqrt(1.0 - e * e)[:, None] * h_hat) @ rot.T
 
 
-def _shifted(field: SecularField, t_now_days: float) -> SecularField:
-    return dataclasses.replace(field, t_days=field.t_days - t_now_days)
-
-
 def predicted_crossing_day(
     field: SecularField, t_now_days: float, sma_km, e_vec, j_vec, floor_km, horizon_days: float
 ) -> np.ndarray:
@@ -109,7 +103,7 @@ def predicted_crossing_day(
         sma_km,
         e_vec,
         j_vec,
-        _shifted(field, t_now_days),
+        field.shifted(t_now_days),
         horizon_days,
         floor_km=floor_km,
         output_step_days=max(horizon_days, 1.0),

@@ -1,4 +1,5 @@
-"""The closed loop's compiled window means (mean_elements.window_means) against the numpy mean elements.
+"""The closed loop's compiled window means and osculating elements (mean_elements.window_means,
+osculating_elements) against the numpy mean elements and lnss_lib.elements.state_to_elements.
 
 Both average the same per-sample quantities over one orbit of 65 samples; they differ only in the order of the
 sums (numpy's einsum and BLAS rotation against one sequential loop). A sum of n terms of size S is off by at most
@@ -13,6 +14,7 @@ import pytest
 
 from lnss_lib.design_life.mean_elements import (
     mean_elements,
+    osculating_elements,
     to_element_frame,
     window_means,
     wrap_pi,
@@ -77,3 +79,40 @@ def test_an_unbound_window_gives_no_mean_argument_of_latitude():
     mel, _ = window_means(states_mci, rot, GM)
     ref = mean_elements(to_element_frame(states_mci, rot), GM)
     assert np.isnan(mel[5]) and np.isnan(ref[5])
+
+
+@pytest.mark.parametrize("seed", range(40))
+def test_osculating_elements_equal_state_to_elements_to_rounding(seed):
+    """Each state's elements from one evaluation of the same formulas: a, e and i to ~eps, the angles scaled by
+    their conditioning (node / sin i, perilune argument / (e sin i), M / e), within the module's bound; the
+    equatorial and circular conventions (RAAN 0, AOP 0) and the open orbit's NaN M as numpy gives them."""
+    rng = np.random.default_rng(100 + seed)
+    elements = [
+        rng.uniform(2000.0, 30000.0),
+        rng.choice([rng.uniform(0.0, 0.9), 0.0, 1.5]),
+        rng.choice([rng.uniform(0.01, np.pi - 0.01), 0.0]),
+        *rng.uniform(0.0, 2.0 * np.pi, 3),
+    ]
+    if elements[1] > 1.0:  # an open orbit: r and v of the ellipse with the speed raised past escape
+        state = kepler_states(np.r_[elements[0], 0.3, elements[2:]][None], [0.0], GM)[0, 0]
+        state[3:] *= 2.0
+    else:
+        state = kepler_states(np.asarray(elements)[None], [0.0], GM)[0, 0]
+    rot = np.linalg.qr(rng.normal(size=(3, 3)))[0]
+    state_mci = np.concatenate([rot @ state[:3], rot @ state[3:]])
+    ref = state_to_elements(to_element_frame(state_mci, rot), GM)
+    osc = osculating_elements(state_mci, rot, GM)
+    assert np.array_equal(np.isnan(osc), np.isnan(ref))
+    sin_i = (
+        max(np.sin(ref[2]), 1e-300) if ref[2] > 1e-6 else 1.0
+    )  # equatorial: RAAN 0 by convention
+    ecc = ref[1] if ref[1] > 1e-6 else 1.0  # circular: AOP 0 by convention
+    scaled = [
+        (osc[0] - ref[0]) / ref[0],
+        osc[1] - ref[1],
+        osc[2] - ref[2],
+        wrap_pi(osc[3] - ref[3]) * sin_i,
+        wrap_pi(osc[4] - ref[4]) * ecc * sin_i,
+        np.nan_to_num(wrap_pi(osc[5] - ref[5])) * ecc,
+    ]
+    assert np.max(np.abs(scaled)) < ROUNDING_BOUND, scaled
