@@ -1,11 +1,12 @@
 """``python -m lnss_lib bench design-life``: one design-year of closed loop against the campaign's cheap predictors.
 
-First the closed loop's cost per satellite-year, the path of :data:`BEFORE_COMMIT` (the package
-``lnss_lib/design_life`` of that commit, read from git into ``~/.cache/lnss_lib``) and today's side by side in one
-run, alternating, on one satellite of the standalone ELFO flown ``[design_life] life_days`` with the profile's
-controller and DOP samples every ``[life_evaluation] sample_step_s`` (as the validations fly it): the loop itself
-(``wall_s``) and the whole call (insertion trim, derived tolerances, averaged field), and whether both paths gave
-the same Delta-V and burns to the last bit. Without git or that commit only today's path is timed.
+First the closed loop's cost per satellite-year on one core (the compiled kernels on one thread), the path of
+:data:`BEFORE_COMMIT` (the package ``lnss_lib/design_life`` of that commit, read from git into
+``~/.cache/lnss_lib``) and today's side by side in one run, alternating, on one satellite of the standalone ELFO
+flown ``[design_life] life_days`` with the profile's controller and DOP samples every
+``[life_evaluation] sample_step_s`` (as the validations fly it): the loop itself (``wall_s``) and the whole call
+(insertion trim, derived tolerances, averaged field), whether both paths gave the same Delta-V, burns and positions
+to the last bit, and the largest relative differences. Without git or that commit only today's path is timed.
 
 Then, for the standalone ELFO (16 satellites): the wall time of the closed-loop station keeping over
 ``[design_life] life_days`` (full force model, every satellite), of the natural drift over the same
@@ -23,6 +24,7 @@ import time
 from io import BytesIO
 from pathlib import Path
 
+import numba
 import numpy as np
 
 from ..constants import DAYS_PER_JULIAN_YEAR, SECONDS_PER_DAY
@@ -89,7 +91,17 @@ def _fly(profile, el, t0, model, simulate=simulate_life, **kwargs):
 
 
 def satellite_year(profile_name: str = "paper", overrides: dict | None = None, repeats: int = 2):
-    """Print seconds per satellite-year of the closed loop, the path of :data:`BEFORE_COMMIT` and today's."""
+    """Print seconds per satellite-year of the closed loop, the path of :data:`BEFORE_COMMIT` and today's, on one
+    core (the compiled kernels on one thread, as in a validation worker; the threads are restored after)."""
+    threads = numba.get_num_threads()
+    numba.set_num_threads(1)
+    try:
+        _satellite_year(profile_name, overrides, repeats)
+    finally:
+        numba.set_num_threads(threads)
+
+
+def _satellite_year(profile_name: str, overrides: dict | None, repeats: int):
     profile = load_settings(profile_name, overrides=overrides)
     ensure_kernels(profile.ephemeris)
     settings = profile.design_life

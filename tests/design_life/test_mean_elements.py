@@ -26,6 +26,19 @@ ROUNDING_BOUND = 1e-12
 """Scaled difference allowed between the two paths (see the module docstring)."""
 
 
+def _scaled_differences(new, ref, sin_i, ecc, last_scale):
+    """Differences of [a, e, i, raan, aop, last angle] scaled by their conditioning: a relative, the node by
+    ``sin_i``, the perilune argument by ``ecc`` x ``sin_i``, the last angle (u or M) by ``last_scale``."""
+    return [
+        (new[0] - ref[0]) / ref[0],
+        new[1] - ref[1],
+        new[2] - ref[2],
+        wrap_pi(new[3] - ref[3]) * sin_i,
+        wrap_pi(new[4] - ref[4]) * ecc * sin_i,
+        wrap_pi(new[5] - ref[5]) * last_scale,
+    ]
+
+
 def _window(rng, elements):
     """One orbit of 65 Keplerian states plus metre-level noise, in a random J2000 orientation; the rotation."""
     period = 2.0 * np.pi * np.sqrt(elements[0] ** 3 / GM)
@@ -50,14 +63,8 @@ def test_window_means_equal_the_numpy_mean_elements_to_rounding(seed):
     osc = state_to_elements(window, GM)
     rp_ref = np.min(osc[:, 0] * (1.0 - osc[:, 1]))
     mel, rp_min = window_means(states_mci, rot, GM)
-    sin_i, ecc = np.sin(ref[2]), ref[1]
     scaled = [
-        (mel[0] - ref[0]) / ref[0],
-        mel[1] - ref[1],
-        mel[2] - ref[2],
-        wrap_pi(mel[3] - ref[3]) * sin_i,
-        wrap_pi(mel[4] - ref[4]) * ecc * sin_i,
-        wrap_pi(mel[5] - ref[5]) * sin_i,
+        *_scaled_differences(mel, ref, np.sin(ref[2]), ref[1], np.sin(ref[2])),
         (rp_min - rp_ref) / rp_ref,
     ]
     assert np.max(np.abs(scaled)) < ROUNDING_BOUND, scaled
@@ -107,12 +114,5 @@ def test_osculating_elements_equal_state_to_elements_to_rounding(seed):
         max(np.sin(ref[2]), 1e-300) if ref[2] > 1e-6 else 1.0
     )  # equatorial: RAAN 0 by convention
     ecc = ref[1] if ref[1] > 1e-6 else 1.0  # circular: AOP 0 by convention
-    scaled = [
-        (osc[0] - ref[0]) / ref[0],
-        osc[1] - ref[1],
-        osc[2] - ref[2],
-        wrap_pi(osc[3] - ref[3]) * sin_i,
-        wrap_pi(osc[4] - ref[4]) * ecc * sin_i,
-        np.nan_to_num(wrap_pi(osc[5] - ref[5])) * ecc,
-    ]
+    scaled = np.nan_to_num(_scaled_differences(osc, ref, sin_i, ecc, ecc))
     assert np.max(np.abs(scaled)) < ROUNDING_BOUND, scaled
