@@ -46,6 +46,7 @@ __all__ = [
     "hermite_sum",
     "hermite_apply",
     "hermite_cubic",
+    "hermite_series",
     "EphemerisTable",
     "file_sha256",
 ]
@@ -305,6 +306,17 @@ def hermite_cubic(
     hermite_apply(values, rates, hermite_basis(values.shape[0], t0, dt, t), out)
 
 
+@nb.njit(cache=True, fastmath=False)
+def hermite_series(
+    values: np.ndarray, rates: np.ndarray, t0: float, dt: float, times: np.ndarray
+) -> np.ndarray:
+    """:func:`hermite_cubic` at each of ``times`` (n,): the interpolated table, (n, values.shape[1])."""
+    out = np.empty((times.shape[0], values.shape[1]))
+    for i in range(times.shape[0]):
+        hermite_cubic(values, rates, t0, dt, times[i], out[i])
+    return out
+
+
 @dataclass(frozen=True)
 class EphemerisTable:
     """Tabulated Moon-centred J2000 geometry on a uniform TDB grid, for the compiled force model.
@@ -365,6 +377,18 @@ class EphemerisTable:
         out = np.empty(9)
         hermite_cubic(self.rot_pa, self.rot_pa_rate, self.t0_tdb_s, self.step_s, t_tdb_s, out)
         return out.reshape(3, 3)
+
+    def rotations_pa(self, t_tdb_s) -> np.ndarray:
+        """Interpolated J2000 -> MOON_PA rotations (n, 3, 3) at TDB epochs (n,) inside the table; raises
+        ``ValueError`` naming the table's span for an epoch outside it."""
+        times = np.atleast_1d(np.asarray(t_tdb_s, dtype=float))
+        if not np.all((times >= self.t0_tdb_s) & (times <= self.t_end_tdb_s)):
+            raise ValueError(
+                f"epochs {_span_text(times)} are outside the ephemeris table, "
+                f"{self.t0_tdb_s:.1f} .. {self.t_end_tdb_s:.1f} s TDB"
+            )
+        values = hermite_series(self.rot_pa, self.rot_pa_rate, self.t0_tdb_s, self.step_s, times)
+        return values.reshape(-1, 3, 3)
 
 
 def file_sha256(path: Path) -> str:

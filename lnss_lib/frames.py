@@ -4,7 +4,8 @@
   constellation's Keplerian elements are given (lunar equator of epoch, J2000, or the Moon
   orbital-plane frame ``moon_op`` of Ely 2005 / LuPNT).
 * **Moon-fixed rotation** (:func:`rotate_to_moon_fixed`, :func:`rotate_with`): Moon-centred J2000
-  to the ``frames.moon_fixed`` frame through SPICE.
+  to the ``frames.moon_fixed`` frame through SPICE, or (:func:`moon_fixed_rotations`) from the force model's
+  tabulated rotation when the Moon-fixed frame is fixed to the gravity frame.
 * **RTN** (:func:`rtn_basis`, :func:`to_rtn`, :func:`from_rtn`): radial, transverse, normal axes
   of an orbit state (the axes of the Gauss equations, :mod:`lnss_lib.gve`).
 * **Time scales and TEME -> J2000** (paper Section 2.2, for SGP4's GPS states): SGP4 gives positions
@@ -27,7 +28,7 @@ import numpy as np
 import spiceypy as spice
 
 from .constants import ARCSEC_RAD, SECONDS_PER_DAY, SECONDS_PER_JULIAN_CENTURY
-from .ephemeris import body_states_mci, ensure_kernels, rotation, spice_errors
+from .ephemeris import EphemerisTable, body_states_mci, ensure_kernels, rotation, spice_errors
 from .sections import ELEMENT_FRAMES, POLE_FRAMES
 from .settings import Dynamics
 
@@ -38,6 +39,9 @@ __all__ = [
     "moon_op_axes_j2000",
     "orbit_plane_axes_j2000",
     "moon_op_to_j2000",
+    "FIXED_OFFSET_TOLERANCE",
+    "fixed_offset",
+    "moon_fixed_rotations",
     "rotate_to_moon_fixed",
     "rotate_with",
     "latitude_deg",
@@ -174,6 +178,28 @@ def rotate_to_moon_fixed(
     return rotate_with(
         rotation("J2000", dynamics.frames.moon_fixed, np.asarray(t_tdb_s, dtype=float)), r_mci_km
     )
+
+
+FIXED_OFFSET_TOLERANCE = 1e-14
+"""Largest change of any entry of a frame offset over a span for it to count as fixed (a few rounding units of
+SPICE's chain of rotations; MOON_PA -> IAU_MOON changes by ~1e-4 over a day)."""
+
+
+def fixed_offset(frame_from: str, frame_to: str, t_start_tdb_s: float, t_end_tdb_s: float):
+    """Rotation R (3, 3), x_to = R x_from, when ``frame_to`` is fixed to ``frame_from`` over the span (their
+    offset at its two ends agrees within :data:`FIXED_OFFSET_TOLERANCE`: MOON_PA -> MOON_ME, a frame to
+    itself), else None (the frames turn against each other). SPICE kernels must be loaded."""
+    ends = rotation(frame_from, frame_to, np.array([t_start_tdb_s, t_end_tdb_s], dtype=float))
+    return ends[0] if np.max(np.abs(ends[1] - ends[0])) <= FIXED_OFFSET_TOLERANCE else None
+
+
+def moon_fixed_rotations(offset: np.ndarray, table: EphemerisTable, t_tdb_s) -> np.ndarray:
+    """J2000 -> Moon-fixed rotations (n, 3, 3) at TDB epochs (n,) inside ``table``: its Hermite-interpolated
+    J2000 -> gravity-frame rotation (:meth:`lnss_lib.ephemeris.EphemerisTable.rotations_pa`) turned by the fixed
+    ``offset`` from the gravity frame to the Moon-fixed one (:func:`fixed_offset`). The interpolation error of
+    the table (step h) is below (omega h)^4 / 384 per entry, omega the Moon's spin rate
+    (``tests/test_frames.py`` checks it against SPICE)."""
+    return np.matmul(offset, table.rotations_pa(t_tdb_s))
 
 
 def rotate_with(rot: np.ndarray, vectors) -> np.ndarray:

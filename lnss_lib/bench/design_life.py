@@ -1,11 +1,12 @@
 """``python -m lnss_lib bench design-life``: one design-year of closed loop against the campaign's cheap predictors.
 
-First the closed loop's cost per satellite-year, the path of :data:`BEFORE_COMMIT` (the package
-``lnss_lib/design_life`` of that commit, read from git into ``~/.cache/lnss_lib``) and today's side by side in one
-run, alternating, on one satellite of the standalone ELFO flown ``[design_life] life_days`` with the profile's
-controller and DOP samples every ``[life_evaluation] sample_step_s`` (as the validations fly it): the loop itself
-(``wall_s``) and the whole call (insertion trim, derived tolerances, averaged field), and whether both paths gave
-the same Delta-V and burns to the last bit. Without git or that commit only today's path is timed.
+First the closed loop's cost per satellite-year on one core (the compiled kernels on one thread), the path of
+:data:`BEFORE_COMMIT` (the package ``lnss_lib/design_life`` of that commit, read from git into
+``~/.cache/lnss_lib``) and today's side by side in one run, alternating, on one satellite of the standalone ELFO
+flown ``[design_life] life_days`` with the profile's controller and DOP samples every
+``[life_evaluation] sample_step_s`` (as the validations fly it): the loop itself (``wall_s``) and the whole call
+(insertion trim, derived tolerances, averaged field), whether both paths gave the same Delta-V, burns and positions
+to the last bit, and the largest relative differences. Without git or that commit only today's path is timed.
 
 Then, for the standalone ELFO (16 satellites): the wall time of the closed-loop station keeping over
 ``[design_life] life_days`` (full force model, every satellite), of the natural drift over the same
@@ -23,6 +24,7 @@ import time
 from io import BytesIO
 from pathlib import Path
 
+import numba
 import numpy as np
 
 from ..constants import DAYS_PER_JULIAN_YEAR, SECONDS_PER_DAY
@@ -34,9 +36,10 @@ from ..ephemeris import ensure_kernels, tdb_seconds
 from ..propagator import elements_deg_to_states, propagate_states
 from ..settings import load_settings
 
-BEFORE_COMMIT = "5b283da196b61d5cdceb0c75b3361ce6bc87873c"
-"""The closed loop before its controllers became objects over one fleet state and its safety prediction was cut
-to the lead it acts within."""
+BEFORE_COMMIT = "f1900c1d4fff8da8da3dcf664b5ce50e6636f769"
+"""The closed loop before its check measured the mean elements, the osculating elements and the navigation DOP
+with compiled kernels and the force model's tabulated Moon-fixed rotation (numpy, SPICE per sample and the Dataset
+DOP path)."""
 
 BEFORE_PACKAGE = "lnss_lib.design_life_before"
 """Module name the package of :data:`BEFORE_COMMIT` is imported under (its ``..`` imports reach today's lnss_lib)."""
@@ -88,7 +91,17 @@ def _fly(profile, el, t0, model, simulate=simulate_life, **kwargs):
 
 
 def satellite_year(profile_name: str = "paper", overrides: dict | None = None, repeats: int = 2):
-    """Print seconds per satellite-year of the closed loop, the path of :data:`BEFORE_COMMIT` and today's."""
+    """Print seconds per satellite-year of the closed loop, the path of :data:`BEFORE_COMMIT` and today's, on one
+    core (the compiled kernels on one thread, as in a validation worker; the threads are restored after)."""
+    threads = numba.get_num_threads()
+    numba.set_num_threads(1)
+    try:
+        _satellite_year(profile_name, overrides, repeats)
+    finally:
+        numba.set_num_threads(threads)
+
+
+def _satellite_year(profile_name: str, overrides: dict | None, repeats: int):
     profile = load_settings(profile_name, overrides=overrides)
     ensure_kernels(profile.ephemeris)
     settings = profile.design_life
@@ -127,12 +140,30 @@ def satellite_year(profile_name: str = "paper", overrides: dict | None = None, r
         )
     if len(paths) == 2:
         old, new = runs.values()
-        same = all(
-            np.array_equal(old[k].values, new[k].values, equal_nan=True)
-            for k in ("dv_kms_per_year", "maneuver_t_tdb_s", "maneuver_dv_rtn_kms", "r_mci_km")
-        )
+        keys = ("dv_kms_per_year", "maneuver_t_tdb_s", "maneuver_dv_rtn_kms", "r_mci_km")
+        same = all(np.array_equal(old[k].values, new[k].values, equal_nan=True) for k in keys)
         first, last = (min(loop[p]) for p in paths)
         print(f"  loop {first / last:.1f}x faster; same burns and positions to the bit: {same}")
+        print(
+            "  largest relative difference: "
+            + ", ".join(
+                f"{k} {_relative_difference(old[k].values, new[k].values):.1e}"
+                for k in (*keys, "box_error", "min_perilune_alt_km")
+            )
+        )
+
+
+def _relative_difference(old: np.ndarray, new: np.ndarray) -> float:
+    """Largest |new - old| / max |old| over the finite entries (0 for identical arrays; inf where the NaNs differ,
+    e.g. another number of burns or a loss on another day)."""
+    if old.shape != new.shape or not np.array_equal(np.isnan(old), np.isnan(new)):
+        return np.inf
+    finite = np.isfinite(old)
+    if not finite.any():
+        return 0.0
+    return float(
+        np.max(np.abs(new[finite] - old[finite])) / max(np.max(np.abs(old[finite])), 1e-300)
+    )
 
 
 def run(profile_name: str = "paper", overrides: dict | None = None) -> None:

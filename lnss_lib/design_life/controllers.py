@@ -216,10 +216,11 @@ class BoxController:
         """Queue the correction of whatever of satellite ``i``'s box its running means or slot trend leave."""
         cfg, half, slot = self.cfg, self.half[i], self.slot[i]
         u_rel, mel, ref_a = fleet.err[i, 4], fleet.mel[i], fleet.ref_a[i]
-        tt, gg = zip(*self.geo_hist[i])
+        hist = self.geo_hist[i]
+        tt, gg = zip(*hist[_window_start(hist, self.avg_days) :])
         err_avg = np.append(running_mean(np.array(tt), np.array(gg), self.avg_days), u_rel)
         out = np.abs(err_avg) > half
-        out[:4] &= tt[-1] - tt[0] >= 0.5 * self.avg_days * SECONDS_PER_DAY
+        out[:4] &= hist[-1][0] - hist[0][0] >= 0.5 * self.avg_days * SECONDS_PER_DAY
         out[4] = False
         trend = slot.fit(cfg.slot_fit_days, cfg.slot_quad_days, cfg.tide_period_days)
         rate_a = -1.5 * np.sqrt(self.gm / ref_a**3) * (mel[0] - ref_a) / ref_a
@@ -388,9 +389,24 @@ def controller_for(
         svc, dop, dynamics, inserted_deg, t0, model=model, arc_days=arc_days
     )
     field = SecularField.from_settings(stability, dynamics, t0, design_life.life_days + 1.0)
-    nav = NavigationMonitor(dop, dynamics, grid.sample_t, svc) if grid.sample_t.size else None
+    nav = (
+        NavigationMonitor(dop, dynamics, grid.sample_t, svc, model.table)
+        if grid.sample_t.size
+        else None
+    )
     floor_km = r_min + svc.perilune_margin_km
     return ServiceController(design_life, grid, gm, design_deg, tol_deg, floor_km, field, nav)
+
+
+def _window_start(history: list, window_days: float) -> int:
+    """Index of the first (t, ...) entry of a time-ordered ``history`` that :func:`~.control.running_mean` keeps
+    (t >= last t - ``window_days``): the mean of that tail is the mean over the whole coast's samples in the window,
+    at a cost that does not grow with the coast."""
+    cut = history[-1][0] - window_days * SECONDS_PER_DAY
+    k = len(history)
+    while k > 0 and history[k - 1][0] >= cut:
+        k -= 1
+    return k
 
 
 def _purpose(out: np.ndarray) -> str:

@@ -17,12 +17,12 @@ from typing import NamedTuple
 import numpy as np
 
 from ..constants import SECONDS_PER_DAY
-from ..elements import eccentricity_vector, orbital_period_s, state_to_elements, vis_viva_sma_km
+from ..elements import orbital_period_s
 from ..forces import ForceModel
 from ..propagator import METHODS, STATUS_IMPACT, STATUS_NOT_RUN, STATUS_OK, STATUS_TEXT, check_batch
 from ..settings import DesignLifeSettings, IntegratorSetting
 from .manoeuvres import candidate_true_anomalies, lowest_perilune_km, mean_anomaly
-from .mean_elements import mean_elements, relative_angles, to_element_frame, wrap_pi
+from .mean_elements import osculating_elements, relative_angles, window_means, wrap_pi
 from .propagation import integrate_chunk
 from .service import burn_location
 
@@ -162,9 +162,9 @@ class FleetState:
         self.active[i], self.loss_t[i], self.loss_cause[i] = False, t, cause
 
     def osculating(self, i: int, t: float) -> np.ndarray | None:
-        """Osculating elements of satellite ``i`` in the element frame (km, rad), or None (the satellite is
-        lost at ``t``) for an unbound orbit."""
-        osc = state_to_elements(to_element_frame(self.y[i], self.rot), self.gm)
+        """Osculating elements of satellite ``i`` in the element frame (km, rad;
+        :func:`~.mean_elements.osculating_elements`), or None (the satellite is lost at ``t``) for an unbound orbit."""
+        osc = osculating_elements(self.y[i], self.rot, self.gm)
         if not (np.all(np.isfinite(osc)) and osc[0] > 0.0 and osc[1] < 1.0):
             self.lose(i, t, "escape (unbound orbit)")
             return None
@@ -242,17 +242,12 @@ class FleetState:
 
     def _measure(self, seg_states: np.ndarray, n_win: int, t_next: float) -> None:
         """Mean elements, box errors and lowest perilune of each active satellite's last orbit before ``t_next``
-        (an unbound window: the satellite escaped)."""
+        (:func:`~.mean_elements.window_means`; an unbound window: the satellite escaped)."""
         n_sat, window = self.n_sat, self.grid.window
         mel = np.full((n_sat, 6), np.nan)
         rp_min = np.full(n_sat, np.nan)
-        for i in np.flatnonzero(self.active):
-            win = to_element_frame(seg_states[i, n_win - window[i] :], self.rot)
-            with np.errstate(
-                invalid="ignore"
-            ):  # an unbound window gives NaN elements, judged below
-                mel[i] = mean_elements(win, self.gm)
-                rp_min[i] = np.min(perilune_radius_km(win, self.gm))
+        for i in np.flatnonzero(self.active):  # an unbound window gives NaN elements, judged below
+            mel[i], rp_min[i] = window_means(seg_states[i, n_win - window[i] :], self.rot, self.gm)
             if not (
                 np.all(np.isfinite(mel[i]))
                 and 0.0 < mel[i, 0]
@@ -276,14 +271,6 @@ class FleetState:
         self.t_mid = t_next - 0.5 * self.grid.step_s * window
         for key, value in zip(("t", "el", "err", "rp"), (self.t_mid, mel, self.err, rp_min)):
             self.history[key].append(value)
-
-
-def perilune_radius_km(states: np.ndarray, gm: float) -> np.ndarray:
-    """Osculating perilune radius a (1 - e) (km) of states (n, 6)."""
-    r, v = states[:, :3], states[:, 3:]
-    rn = np.linalg.norm(r, axis=1)
-    e = np.linalg.norm(eccentricity_vector(r, v, gm, r_km=rn), axis=1)
-    return vis_viva_sma_km(rn, np.sum(v * v, axis=1), gm) * (1.0 - e)
 
 
 def enqueue(

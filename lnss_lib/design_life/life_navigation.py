@@ -129,8 +129,7 @@ def navigation_restores(
     design values at index 0. Each window of :func:`navigation_windows`, and the part of the life after the last one,
     is rebuilt (:func:`rebuilt_positions_j2000`) at its own :data:`NAV_SAMPLES_PER_WINDOW` epochs
     (:func:`lattice_epochs_s`), the Moon turned to them and the nodes where their common precession has taken them,
-    and its south-pole DOP summarised with ``[dop]`` (:func:`lnss_lib.dop.metrics_for_settings`, the compiled twin of
-    the monitor's ``summary_for_settings``). A window in which some satellite's e, AOP or i is outside
+    and its south-pole DOP summarised with ``[dop]`` (:func:`lnss_lib.dop.metrics_for_settings`, as the monitor's). A window in which some satellite's e, AOP or i is outside
     ``[design_life.box]`` at its close is judged against the first window by the monitor's rule
     (:func:`lnss_lib.design_life.service.navigation_violations`); as in the closed loop, a violation restores every
     satellite outside the box (:func:`_restore_dv_kms`), whose e, AOP and i then run their history again from the

@@ -33,14 +33,13 @@ antinodes; :func:`burn_location` names the point each one was flown at.
 
 from __future__ import annotations
 
-import dataclasses
-
 import numpy as np
 
 from ..constants import SECONDS_PER_DAY
-from ..dop import SurfaceGrid, dop_for_settings, summary_for_settings
+from ..dop import SurfaceGrid, metrics_for_settings
 from ..elements import TWO_PI
-from ..frames import rotate_to_moon_fixed
+from ..ephemeris import EphemerisTable
+from ..frames import fixed_offset, moon_fixed_rotations, rotate_to_moon_fixed, rotate_with
 from ..settings import DopSettings, Dynamics, ServiceSettings
 from .secular import SecularField, integrate_secular
 
@@ -93,10 +92,6 @@ def mean_vectors_j2000(
     return e_vec @ rot.T, (np.sqrt(1.0 - e * e)[:, None] * h_hat) @ rot.T
 
 
-def _shifted(field: SecularField, t_now_days: float) -> SecularField:
-    return dataclasses.replace(field, t_days=field.t_days - t_now_days)
-
-
 def predicted_crossing_day(
     field: SecularField, t_now_days: float, sma_km, e_vec, j_vec, floor_km, horizon_days: float
 ) -> np.ndarray:
@@ -108,7 +103,7 @@ def predicted_crossing_day(
         sma_km,
         e_vec,
         j_vec,
-        _shifted(field, t_now_days),
+        field.shifted(t_now_days),
         horizon_days,
         floor_km=floor_km,
         output_step_days=max(horizon_days, 1.0),
@@ -166,7 +161,7 @@ def burn_location(nu_rad: float, aop_rad: float, tol_rad: float = 1e-3) -> str:
 def requirement_fractions(
     summary: dict, baseline: dict, service: ServiceSettings
 ) -> dict[str, float]:
-    """Each navigation statistic's degradation in ``summary`` (a :func:`lnss_lib.dop.summary_for_settings` dict)
+    """Each navigation statistic's degradation in ``summary`` (a :func:`lnss_lib.dop.metrics_for_settings` dict)
     against ``baseline`` (the first window's) as a fraction of what the requirement allows: availability points lost
     over ``nav_avail_drop_pct``, the relative rise of a 3-sigma PDOP/HDOP over ``nav_dop_rise_fraction`` (infinite
     for a DOP lost altogether, or any loss where nothing is allowed; a DOP without a baseline is not judged)."""
@@ -264,13 +259,27 @@ def raised_history(
 
 class NavigationMonitor:
     """South-pole DOP of the sampled positions over windows of ``nav_window_days``: the first window sets the
-    requirement (:func:`navigation_violations`); ``violated`` after each closed window."""
+    requirement (:func:`navigation_violations`); ``violated`` after each closed window.
+
+    The positions turn Moon-fixed with the force model's tabulated rotation (``table``,
+    :func:`lnss_lib.frames.moon_fixed_rotations`) where the Moon-fixed frame is fixed to the gravity frame
+    (else through SPICE), and the DOP statistics come from the compiled grid pass
+    (:func:`lnss_lib.dop.metrics_for_settings`): both agree with SPICE and the Dataset path to rounding
+    (``tests/design_life/test_service.py`` checks that the verdicts do not change)."""
 
     def __init__(
-        self, dop: DopSettings, dynamics: Dynamics, sample_t: np.ndarray, service: ServiceSettings
+        self,
+        dop: DopSettings,
+        dynamics: Dynamics,
+        sample_t: np.ndarray,
+        service: ServiceSettings,
+        table: EphemerisTable,
     ):
         self.dop, self.dynamics, self.sample_t, self.service = dop, dynamics, sample_t, service
         self.grid = SurfaceGrid.from_settings(dop, dynamics.constants.r_moon_mean_km)
+        self.table = table
+        frames = dynamics.frames
+        self.offset = fixed_offset(frames.gravity, frames.moon_fixed, sample_t[0], sample_t[-1])
         self.start = sample_t[0]
         self.baseline = None
         self.violated = False
@@ -285,8 +294,12 @@ class NavigationMonitor:
         if idx.size == 0:
             return
         tt = self.sample_t[idx]
-        r_mf = rotate_to_moon_fixed(self.dynamics, r_sample[:, idx], tt)
-        summary = summary_for_settings(self.dop, dop_for_settings(self.dop, r_mf, tt, self.grid))
+        r_mf = (
+            rotate_to_moon_fixed(self.dynamics, r_sample[:, idx], tt)
+            if self.offset is None
+            else rotate_with(moon_fixed_rotations(self.offset, self.table, tt), r_sample[:, idx])
+        )
+        summary = metrics_for_settings(self.dop, r_mf, self.grid)
         if self.baseline is None:
             self.baseline = summary
             return

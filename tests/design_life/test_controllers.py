@@ -46,3 +46,21 @@ def test_budget_is_the_cap_less_what_was_flown_and_what_is_queued():
     queued = [Burn(0, 0.0, np.array([0.003, 0.004, 0.0]), "phase", "other")]
     assert budget_kms(0.1, 0.02, queued) == pytest.approx(0.1 - 0.02 - 0.005, abs=1e-15)
     assert budget_kms(0.1, 0.02, []) == pytest.approx(0.08, abs=1e-15)
+
+
+def test_the_running_mean_of_the_window_tail_is_that_of_the_whole_coast_to_the_bit():
+    """A check averages e, AOP, i and the relative node over the last samples of the coast: reading only the tail that
+    the running mean keeps gives the same bits as converting the whole coast."""
+    from lnss_lib.design_life.control import running_mean
+    from lnss_lib.design_life.controllers import _window_start
+
+    rng = np.random.default_rng(3)
+    t_s = np.cumsum(rng.uniform(0.5, 1.5, 400)) * 86400.0
+    history = [(t, rng.normal(size=4)) for t in t_s]
+    for n in (1, 5, 30, 400):
+        coast = history[:n]
+        tail = coast[_window_start(coast, 27.3) :]
+        whole = running_mean(np.array([h[0] for h in coast]), np.array([h[1] for h in coast]), 27.3)
+        part = running_mean(np.array([h[0] for h in tail]), np.array([h[1] for h in tail]), 27.3)
+        assert np.array_equal(whole, part) and 0 < len(tail) <= n
+    assert len(history[_window_start(history, 27.3) :]) < 40

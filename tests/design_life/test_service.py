@@ -307,3 +307,59 @@ def test_the_safety_prediction_over_the_lead_finds_the_crossings_of_the_whole_li
     assert within.any() and (whole > lead).any(), whole
     np.testing.assert_array_equal(short[within], whole[within])
     assert not np.any(short[~within] <= lead), (short, whole)
+
+
+def test_navigation_monitor_gives_the_verdicts_of_spice_and_the_dataset_path(profile):
+    """The monitor (tabulated Moon-fixed rotation, compiled DOP statistics) against the path it replaced (SPICE per
+    sample, the Dataset DOP and its summary) on three windows: the baseline, the same geometry, and the apolunes
+    moved off the pole (a violation). The rotation differs by < 6e-12 (tests/test_frames.py) and the sums by
+    rounding: the DOP means agree to 1e-9 relative, the availabilities within one sample of the window, and every
+    verdict is the same."""
+    from lnss_lib.design_life.service import NavigationMonitor, navigation_violations
+    from lnss_lib.dop import dop_for_settings, summary_for_settings
+    from lnss_lib.elements import kepler_states
+    from lnss_lib.ephemeris import EphemerisTable, tdb_seconds
+    from lnss_lib.frames import rotate_to_moon_fixed
+
+    prof = profile
+    dyn, svc = prof.dynamics, prof.design_life.service
+    t0 = tdb_seconds(prof.epoch.start_tdb, "TDB")
+    window_s = svc.nav_window_days * 86400.0
+    sample_t = t0 + 900.0 * np.arange(int(3 * window_s / 900.0) + 1)
+    design = np.array(
+        [[6143.0, 0.6, np.radians(57.7), k * np.pi / 3, np.radians(90.0), k] for k in range(6)]
+    )
+    moved = design.copy()
+    moved[:, 4] = np.radians(10.0)
+    late = sample_t > t0 + 2.0 * window_s
+    r = np.concatenate(
+        [
+            kepler_states(el, sample_t[part] - t0, dyn.gravity.gm_km3_s2)[..., :3]
+            for el, part in ((design, ~late), (moved, late))
+        ],
+        axis=1,
+    )
+    table = EphemerisTable.build(dyn, sample_t[0], sample_t[-1])
+    monitor = NavigationMonitor(prof.dop, dyn, sample_t, svc, table)
+    assert monitor.offset is not None
+    grid, baseline, verdicts, start = monitor.grid, None, [], sample_t[0]
+    for k in (1, 2, 3):
+        t = t0 + k * window_s
+        monitor.update(t, r)
+        idx = np.flatnonzero((sample_t > start) & (sample_t <= t))
+        start = t
+        tt = sample_t[idx]
+        old = summary_for_settings(
+            prof.dop, dop_for_settings(prof.dop, rotate_to_moon_fixed(dyn, r[:, idx], tt), tt, grid)
+        )
+        if baseline is None:
+            baseline = old
+            one_sample_pct = 100.0 / idx.size
+            for key in ("pdop_avail_pct", "hdop_avail_pct"):
+                assert abs(monitor.baseline[key] - old[key]) <= one_sample_pct
+            for key in ("pdop_mean_3sigma", "hdop_mean_3sigma"):
+                np.testing.assert_allclose(monitor.baseline[key], old[key], rtol=1e-9)
+            continue
+        verdicts.append(monitor.violated)
+        assert monitor.violated == bool(navigation_violations(old, baseline, svc))
+    assert verdicts == [False, True]
