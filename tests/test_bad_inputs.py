@@ -1186,7 +1186,10 @@ ABSURD = [
         ("campaign.seed", "26 digits", "2**63 - 1"),
     ),
     (SYNTHETIC + ["--set", f"campaign.seed={2**64}"], ("campaign.seed", "int64")),
-    (SYNTHETIC + ["--set", f"gravity.degree={'9' * 400}"], ("gravity.degree", "400 digits")),
+    (  # the setting's own range, not only what the outputs store
+        SYNTHETIC + ["--set", f"gravity.degree={'9' * 400}"],
+        ("gravity.degree", "400 digits", "allowed: [0, 100]"),
+    ),
     (
         SYNTHETIC + ["--set", f"gravity.degree={'9' * 5000}"],
         ("gravity.degree", "not a TOML literal", "5015 characters"),
@@ -1340,7 +1343,7 @@ def test_huge_numbers_in_a_profile_file_are_refused(capsys, params_dir):
     """Integers a float cannot hold, in a profile file: one line naming the file, exit 2 (an OverflowError, or a
     ValueError past 4300 digits, before)."""
     for digits, needle in (
-        (400, "gravity.degree = an integer of 400 digits"),
+        (400, "gravity.degree = an integer of 400 digits is too large; allowed: [0, 100]"),
         (5000, "a number too long"),
     ):
         (params_dir / "huge.toml").write_text(
