@@ -21,6 +21,7 @@ import json
 import math
 import os
 import re
+import sys
 import tomllib
 from functools import lru_cache
 from pathlib import Path
@@ -72,6 +73,21 @@ def deep_merge(base: dict, override: dict) -> dict:
         else:
             merged[key] = copy.deepcopy(value)
     return merged
+
+
+def unreadable_reason(error: Exception) -> str:
+    """Why a JSON or TOML text could not be read, in the text's terms: nested too deep, a JSON syntax error's line
+    and column, a byte that is not UTF-8, a number past Python's digit limit (not the interpreter's advice to
+    raise that limit), else the parser's message."""
+    if isinstance(error, RecursionError):
+        return "nested too deep"
+    if isinstance(error, json.JSONDecodeError):
+        return f"line {error.lineno}, column {error.colno}: {error.msg}"
+    if isinstance(error, UnicodeDecodeError):
+        return f"byte {error.start} is not UTF-8 text"
+    if "integer string conversion" in str(error):
+        return f"a number of more than {sys.get_int_max_str_digits()} digits"
+    return str(error)
 
 
 def read_toml(path: Path) -> dict:
@@ -210,8 +226,7 @@ def load_profile(name: str = "quick", overrides: dict | str | None = None) -> di
             RecursionError,
         ) as error:  # JSONDecodeError, a 5000-digit integer, deep nesting
             raise ConfigError(
-                f"overrides are not JSON the workbook reads ({type(error).__name__}: "
-                f"{str(error)[:120]})"
+                f"overrides are not JSON the workbook reads ({unreadable_reason(error)})"
             ) from None
     if overrides is not None and not isinstance(overrides, dict):
         raise ConfigError(f"overrides must be a nested dict of profile sections; got {overrides!r}")
@@ -457,7 +472,8 @@ def parse_sets(items) -> dict:
             else:
                 shown = item if len(item) <= 80 else f"{item[:60]}... ({len(item)} characters)"
                 raise ConfigError(
-                    f"--set {shown!r}: VALUE is not a TOML literal ({str(error)[:120]})", key=path
+                    f"--set {shown!r}: VALUE is not a TOML literal ({unreadable_reason(error)})",
+                    key=path,
                 ) from None
         if isinstance(value, (dt.date, dt.time)):
             raise ConfigError(

@@ -48,7 +48,9 @@ from .keys import (
     TIMING_KEYS,
     gnss_metric_keys,
     requested_extra_metrics,
+    runs_screen,
     violated_bound,
+    wants_life_estimate,
 )
 from .propagator import (
     check_elements_deg,
@@ -466,11 +468,9 @@ def _operational_metrics(
     settings, wanted = context.settings, context.extra_metrics
     out = {k: computed[k] for k in wanted if k in computed}
     want_nav = any(k in LIFE_NAVIGATION_KEYS for k in wanted)
-    want_sk = want_nav or any(k.startswith("sk_dv_estimate") for k in wanted)
+    want_sk = wants_life_estimate(wanted)
     screened = None
-    if any(k.startswith(("stable", "screen")) for k in wanted) or (
-        want_sk and settings.sk_estimate.model == "life"
-    ):
+    if runs_screen(wanted, settings.sk_estimate.model):
         screened = screen.screen_states(
             settings.stability, context.dynamics, states, context.t0_tdb_s
         )

@@ -22,6 +22,8 @@ __all__ = [
     "CLOSED_LOOP_DV_BY_PURPOSE",
     "closed_loop_dv_key",
     "requested_extra_metrics",
+    "wants_life_estimate",
+    "runs_screen",
     "NON_NAVIGATION_METRICS",
     "LABELS",
     "label",
@@ -420,6 +422,22 @@ def requested_extra_metrics(evaluator) -> tuple[str, ...]:
     keys sits below settings, so no import): distinct names of :data:`EXTRA_METRIC_KEYS` (the Delta-V maxima need
     ``[deltav] satellites = "all"``), all checked at load (:mod:`lnss_lib.config`)."""
     return tuple(evaluator.extra_metrics)
+
+
+def wants_life_estimate(extra_metrics) -> bool:
+    """Whether ``extra_metrics`` ask for the station-keeping Delta-V estimate or the navigation over the life it
+    rebuilds (``sk_dv_estimate*``, :data:`LIFE_NAVIGATION_KEYS`)."""
+    return any(k.startswith("sk_dv_estimate") or k in LIFE_NAVIGATION_KEYS for k in extra_metrics)
+
+
+def runs_screen(extra_metrics, sk_estimate_model: str | None) -> bool:
+    """Whether a 10-day evaluation asking for ``extra_metrics`` runs the stability screen (``[stability]``): a
+    metric of the screen (``stable_*``, ``screen_*``), or the life estimate (:func:`wants_life_estimate`) under
+    ``[sk_estimate] model = "life"``, which starts from the screen's verdict. The one rule of the evaluator (which
+    runs the screen) and of the evaluation hash (which covers ``[stability]`` only then)."""
+    return any(k.startswith(("stable", "screen")) for k in extra_metrics) or (
+        wants_life_estimate(extra_metrics) and sk_estimate_model == "life"
+    )
 
 
 def violated_bound(metrics: dict, bounds) -> str | None:

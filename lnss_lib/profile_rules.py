@@ -138,17 +138,18 @@ def fail(message: str, key: str, source) -> None:
     raise ConfigError(f"{where}{message}", key=key, source=None if source is None else str(source))
 
 
-def check_integer_size(key: str, value, source) -> None:
+def check_integer_size(key: str, value, source, allowed: str = "") -> None:
     """An integer a float cannot hold or an output cannot store (|n| > :data:`INTEGER_SETTING_MAX`) is refused before
-    anything compares it (``math.isfinite`` raised OverflowError; ``repr`` of 5000 digits raises ValueError)."""
+    anything compares it (``math.isfinite`` raised OverflowError; ``repr`` of 5000 digits raises ValueError).
+    ``allowed``: the setting's own range where it has an upper end, else what the outputs store."""
     if isinstance(value, int) and not isinstance(value, bool) and abs(value) > INTEGER_SETTING_MAX:
         digits = (
             int(value.bit_length() * math.log10(2)) + 1
         )  # one too many when |value| < 10**(digits - 1)
         digits -= abs(value) < 10 ** (digits - 1)
         fail(
-            f"{key} = an integer of {digits} digits is too large; allowed: at most 2**63 - 1 in magnitude "
-            f"(the int64 of the NetCDF outputs)",
+            f"{key} = an integer of {digits} digits is too large; allowed: "
+            + (allowed or "at most 2**63 - 1 in magnitude (the int64 of the NetCDF outputs)"),
             key,
             source,
         )
@@ -157,7 +158,9 @@ def check_integer_size(key: str, value, source) -> None:
 def check_number(key: str, rule: Rule, value, source) -> None:
     if isinstance(value, bool) or not isinstance(value, (int, float)):
         return
-    check_integer_size(key, value, source)
+    why = f" ({rule.why})" if rule.why else ""
+    bounded = rule.range is not None and rule.range[1] is not None
+    check_integer_size(key, value, source, allowed_range_text(rule.range) + why if bounded else "")
     if not math.isfinite(value) and not (rule.infinite_ok and not math.isnan(value)):
         fail(
             f"{key} = {value!r} is not finite; allowed: a finite number"
@@ -166,7 +169,6 @@ def check_number(key: str, rule: Rule, value, source) -> None:
             source,
         )
     if rule.range is not None and math.isfinite(value) and not in_range(value, rule.range):
-        why = f" ({rule.why})" if rule.why else ""
         fail(
             f"{key} = {value!r} is out of range; allowed: {allowed_range_text(rule.range)}{why}",
             key,

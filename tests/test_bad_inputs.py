@@ -1186,10 +1186,17 @@ ABSURD = [
         ("campaign.seed", "26 digits", "2**63 - 1"),
     ),
     (SYNTHETIC + ["--set", f"campaign.seed={2**64}"], ("campaign.seed", "int64")),
-    (SYNTHETIC + ["--set", f"gravity.degree={'9' * 400}"], ("gravity.degree", "400 digits")),
+    (  # the setting's own range, not only what the outputs store
+        SYNTHETIC + ["--set", f"gravity.degree={'9' * 400}"],
+        ("gravity.degree", "400 digits", "allowed: [0, 100]"),
+    ),
     (
         SYNTHETIC + ["--set", f"gravity.degree={'9' * 5000}"],
-        ("gravity.degree", "not a TOML literal", "5015 characters"),
+        (
+            "gravity.degree",
+            "not a TOML literal (a number of more than 4300 digits)",
+            "5015 characters",
+        ),
     ),
     (
         SYNTHETIC + ["--set", f"campaign.hypervolume.dv_total_kms_per_year={'9' * 400}"],
@@ -1340,7 +1347,7 @@ def test_huge_numbers_in_a_profile_file_are_refused(capsys, params_dir):
     """Integers a float cannot hold, in a profile file: one line naming the file, exit 2 (an OverflowError, or a
     ValueError past 4300 digits, before)."""
     for digits, needle in (
-        (400, "gravity.degree = an integer of 400 digits"),
+        (400, "gravity.degree = an integer of 400 digits is too large; allowed: [0, 100]"),
         (5000, "a number too long"),
     ):
         (params_dir / "huge.toml").write_text(
@@ -1356,19 +1363,45 @@ def test_huge_numbers_in_a_profile_file_are_refused(capsys, params_dir):
 
 
 @pytest.mark.parametrize(
-    "content", [b'{"a": ' * 100_000 + b"1" + b"}" * 100_000, b'{"n": ' + b"9" * 5000 + b"}"]
+    "text, reason",
+    [
+        ('{"epoch": ' * 100_000 + "1" + "}" * 100_000, "nested too deep"),
+        ('{"gravity": {"degree": ' + "9" * 5000 + "}}", "a number of more than 4300 digits"),
+        ('{"gravity": {"degree": }}', "line 1, column 24: Expecting value"),
+    ],
+    ids=["nested", "long number", "syntax"],
 )
-def test_unreadable_run_json_is_named(capsys, tmp_path, content):
-    """A run.json nested 100,000 deep or holding a 5000-digit integer: --resume, --validate and --export-reference
-    name the file, exit 2 (RecursionError or an internal error, exit 1, naming no file, before)."""
+def test_unreadable_overrides_json_says_why(text, reason):
+    """A notebook's overrides as JSON text that cannot be read: ConfigError saying why in the text's terms (it gave
+    the parser's message cut at 120 characters: Python's advice to raise its digit limit, cut mid-word)."""
+    with pytest.raises(ConfigError, match="overrides are not JSON the workbook reads") as raised:
+        load_settings("ci", overrides=text)
+    assert reason in str(raised.value) and "set_int_max_str_digits" not in str(raised.value)
+
+
+@pytest.mark.parametrize(
+    "content, reason",
+    [
+        (b'{"a": ' * 100_000 + b"1" + b"}" * 100_000, "nested too deep"),
+        (b'{"n": ' + b"9" * 5000 + b"}", "a number of more than 4300 digits"),
+        (b'{"profile": {"name": ', "line 1, column 22"),
+    ],
+    ids=["nested", "long number", "cut short"],
+)
+def test_unreadable_run_json_is_named(capsys, tmp_path, content, reason):
+    """A run.json nested 100,000 deep, holding a 5000-digit integer or cut short: --resume, --validate and
+    --export-reference name the file and what is wrong with it in the file's terms, exit 2 (RecursionError or an
+    internal error, exit 1, naming no file, before; then Python's advice to raise its digit limit, cut mid-word)."""
     run_dir = _synthetic_run(tmp_path, extra=["--max-generations", "1"])
     capsys.readouterr()
     (run_dir / "run.json").write_bytes(content)
     for flag in ("--resume", "--validate", "--export-reference"):
-        one_line_error(
+        message = one_line_error(
             capsys,
             main(["campaign", flag, str(run_dir), "--no-progress"]),
             2,
             "run.json",
             "not readable JSON",
+            reason,
         )
+        assert "sys.set_int_max_str_digits" not in message

@@ -28,7 +28,7 @@ import numpy as np
 import xarray as xr
 
 from ..atomicio import write_bytes_atomic, write_netcdf_atomic
-from ..config import OUTPUTS_DIR, profile_hash
+from ..config import OUTPUTS_DIR, profile_hash, unreadable_reason
 from ..errors import ConfigError
 from ..keys import DESIGN_KEYS, INTEGER_DESIGN_KEYS, METRIC_KEYS
 from ..settings import Settings, settings_from_profile
@@ -97,9 +97,7 @@ def load_run(run_dir) -> dict:
         ValueError,
         RecursionError,
     ) as error:  # JSONDecodeError, UnicodeDecodeError, a 5000-digit integer
-        raise ConfigError(
-            f"{path} is not readable JSON ({type(error).__name__}: {str(error)[:120]})"
-        ) from None
+        raise ConfigError(f"{path} is not readable JSON ({unreadable_reason(error)})") from None
     if (
         not isinstance(run, dict)
         or not isinstance(run.get("profile"), dict)

@@ -17,12 +17,12 @@ from dataclasses import dataclass, fields
 
 from ..config import profile_hash
 from ..keys import (
-    LIFE_NAVIGATION_KEYS,
     METRIC_KEYS,
     VERDICT_KEYS,
     bound_text,
     format_value,
     label,
+    runs_screen,
 )
 from ..legacy_keys import legacy_spelling
 from ..profile_rules import CAMPAIGN_OFF as OFF
@@ -164,18 +164,13 @@ def bounds_verdict(campaign: CampaignSettings, result: dict, labelled: bool = Fa
 
 
 def reads_screen(profile: Mapping) -> bool:
-    """Whether a 10-day evaluation under ``profile`` (plain data, ``campaign.overrides`` included) runs the
-    stability screen (``[stability]``): an extra metric of the screen (``stable_*``, ``screen_*``), or a
-    station-keeping or navigation estimate with ``[sk_estimate] model = "life"``, as
-    :func:`lnss_lib.evaluator._operational_metrics` decides."""
+    """Whether a 10-day evaluation under ``profile`` (plain data, ``campaign.overrides`` merged in as the
+    evaluation merges them) runs the stability screen (``[stability]``): the evaluator's own rule,
+    :func:`lnss_lib.keys.runs_screen`."""
     overrides = profile.get("campaign", {}).get("overrides", {})
     evaluator = {**profile.get("evaluator", {}), **overrides.get("evaluator", {})}
     sk_estimate = {**profile.get("sk_estimate", {}), **overrides.get("sk_estimate", {})}
-    wanted = tuple(evaluator.get("extra_metrics", ()))
-    estimate = any(k.startswith("sk_dv_estimate") or k in LIFE_NAVIGATION_KEYS for k in wanted)
-    return any(k.startswith(("stable", "screen")) for k in wanted) or (
-        estimate and sk_estimate.get("model") == "life"
-    )
+    return runs_screen(tuple(evaluator.get("extra_metrics", ())), sk_estimate.get("model"))
 
 
 def evaluation_hash(settings: Settings | Mapping) -> str:

@@ -161,6 +161,69 @@ def test_the_screens_settings_are_in_the_evaluation_hash_only_where_an_evaluatio
     assert evaluation_hash(operational.with_overrides(screen_off)) != evaluation_hash(operational)
 
 
+def test_the_evaluator_screens_exactly_where_the_evaluation_hash_covers_the_screen(monkeypatch):
+    """For every request of one or two extra metrics under each ``[sk_estimate] model``, set directly or through
+    ``campaign.overrides``, the evaluator runs the stability screen exactly when :func:`reads_screen` puts
+    ``[stability]`` in the evaluation hash: a screen outside the hash would let a journal answer under another
+    screen, a hash beyond it would orphan journals for nothing."""
+    from types import SimpleNamespace
+
+    import xarray as xr
+
+    from lnss_lib import evaluator
+    from lnss_lib.keys import EXTRA_METRIC_KEYS, LIFE_NAVIGATION_KEYS
+    from lnss_lib.sections import SK_ESTIMATE_MODELS
+
+    class Screened(Exception):
+        pass
+
+    def screen_states(*args):
+        raise Screened
+
+    monkeypatch.setattr(evaluator.screen, "screen_states", screen_states)
+    paper = load_settings("paper")
+    arc = xr.Dataset(  # one minute: too short for the life estimate, which then gives NaN without flying
+        {
+            "r_mci_km": (("satellite", "time", "xyz"), np.full((1, 2, 3), 4000.0)),
+            "v_mci_kms": (("satellite", "time", "xyz"), np.full((1, 2, 3), 0.6)),
+        },
+        coords={"time": [0.0, 60.0]},
+    )
+    computed = {  # the metrics the evaluation computes before (Delta-V maxima, metres, GNSS)
+        k: 0.0
+        for k in EXTRA_METRIC_KEYS
+        if not k.startswith(("stable", "screen", "sk_dv_estimate"))
+        and k not in LIFE_NAVIGATION_KEYS
+    }
+    requests = [()] + [(k,) for k in EXTRA_METRIC_KEYS]
+    requests += [
+        (a, b) for i, a in enumerate(EXTRA_METRIC_KEYS) for b in EXTRA_METRIC_KEYS[i + 1 :]
+    ]
+    screening = 0
+    for model in SK_ESTIMATE_MODELS:
+        settings = SimpleNamespace(
+            sk_estimate=SimpleNamespace(model=model, min_periods=paper.sk_estimate.min_periods),
+            stability=paper.stability,
+        )
+        for wanted in requests:
+            context = SimpleNamespace(
+                settings=settings, extra_metrics=wanted, dynamics=paper.dynamics, t0_tdb_s=0.0
+            )
+            try:
+                evaluator._operational_metrics(context, arc, np.zeros((1, 6)), computed)
+                screens = False
+            except Screened:
+                screens = True
+            request = {
+                "evaluator": {"extra_metrics": list(wanted)},
+                "sk_estimate": {"model": model},
+            }
+            overridden = {"campaign": {"overrides": request}}
+            assert reads_screen(request) == reads_screen(overridden) == screens, (model, wanted)
+            screening += screens
+    assert 0 < screening < len(SK_ESTIMATE_MODELS) * len(requests)
+
+
 def test_size_restricted_grid_holds_every_split_and_no_other_size(rng):
     """``campaign.n_sat = 12`` on Table 3's counts (2-5 planes, 1-4 per plane): 3 x 4 and 4 x 3 only; every scaled
     point, the grid's corners and points beyond them included, is a 12-satellite design, and eq. 43 inverts it."""
