@@ -26,16 +26,13 @@ import numpy as np
 import xarray as xr
 
 from .constants import BOLTZMANN_J_K, C_M_S, MIN_VISIBLE, WGS84_A_KM, WGS84_B_KM
-from .gain_pattern import GainPattern, gain_for_settings, load_gain_pattern
+from .gain_pattern import GainPattern, gain_for_settings
 from .geometry import block_inverse, filtered_mean, normal_matrix_entries, position_block_inverse
-from .gps_states import gps_states_mci, propagate_teme
 
 if TYPE_CHECKING:
     from .settings import BodyConstants, GpsSettings
 
 __all__ = [
-    "propagate_teme",
-    "gps_states_mci",
     "lunar_occultation",
     "off_boresight_deg",
     "earth_occultation",
@@ -45,9 +42,6 @@ __all__ = [
     "cn0_dbhz",
     "pdop_kernel",
     "pdop_along_axis",
-    "GainPattern",
-    "load_gain_pattern",
-    "gain_for_settings",
     "gps_link",
     "gps_link_metrics",
     "gps_link_summary",

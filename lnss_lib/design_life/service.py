@@ -38,10 +38,11 @@ import dataclasses
 import numpy as np
 
 from ..constants import SECONDS_PER_DAY
-from ..dop import SurfaceGrid, dop_for_settings, summary_for_settings
+from ..dop import dop_for_settings, summary_for_settings
 from ..elements import TWO_PI
 from ..frames import rotate_to_moon_fixed
 from ..settings import DopSettings, Dynamics, ServiceSettings
+from ..surface_grid import SurfaceGrid
 from .secular import SecularField, integrate_secular
 
 __all__ = [

@@ -269,8 +269,9 @@ def test_navigation_judges_by_the_monitors_rule(profile):
     :func:`lnss_lib.design_life.service.navigation_violations`) for the rebuilt constellation at each window's own
     lattice epochs, and reports those windows' availabilities."""
     from lnss_lib.design_life.service import navigation_violations
-    from lnss_lib.dop import SurfaceGrid, dop_for_settings, summary_for_settings
+    from lnss_lib.dop import dop_for_settings, summary_for_settings
     from lnss_lib.frames import element_frame_to_j2000, rotate_to_moon_fixed
+    from lnss_lib.surface_grid import SurfaceGrid
 
     dyn, t0 = profile.dynamics, tdb_seconds(profile.epoch.start_tdb, "TDB")
     svc = profile.design_life.service
