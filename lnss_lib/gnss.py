@@ -248,10 +248,11 @@ _STATE_CACHE: dict[str, xr.Dataset] = {}
 
 def gnss_states_mci(gnss: GnssSettings, gps: GpsSettings, start_tdb: str, t_tdb_s) -> xr.Dataset:
     """Positions of every satellite of ``gnss.systems`` at TDB epochs: Dataset (sat, time, xyz) as
-    :func:`lnss_lib.gps_states.gps_states_mci` (``r_mci_km``, ``r_eci_km``, ``r_teme_km``, ``earth_mci_km``,
-    ``rot_teme_to_j2000``) with coords ``system`` and ``name`` on ``sat``. GPS: SGP4 from the ``[gps]`` TLEs
-    (the same states as the GPS link); the others: :func:`nominal_positions_teme` from the epoch
-    ``t_tdb_s[0]``, whose Greenwich angle (UT1 taken as UTC) places the GEO and IGSO slots."""
+    :func:`lnss_lib.gps_states.gps_states_mci` (``r_mci_km``, ``r_eci_km``, ``r_teme_km``,
+    ``earth_mci_km``, ``rot_teme_to_j2000``) with coords ``system`` and ``name`` on ``sat``. GPS:
+    SGP4 from the ``[gps]`` TLEs (the same states as the GPS link); the others:
+    :func:`nominal_positions_teme` from the epoch ``t_tdb_s[0]``, whose Greenwich angle (UT1 taken
+    as UTC) places the GEO and IGSO slots."""
     t = np.atleast_1d(np.asarray(t_tdb_s, dtype=float))
     path = data_path(gnss.nominal_file, "gnss.nominal_file")
     key = hashlib.sha256(

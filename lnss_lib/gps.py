@@ -111,9 +111,9 @@ def ray_hits_ellipsoid(
 
 @nb.njit(cache=True, inline="always")
 def segment_hits_ellipsoid(p0_km, p1_km, a_km, b_km):
-    """:func:`ray_hits_ellipsoid`'s test for one segment ``p0_km`` -> ``p1_km`` (3,) (divided by the axes, not
-    multiplied by their inverses), inlined into both compiled link kernels (:func:`_link_kernel`,
-    :func:`lnss_lib.gnss._gnss_kernel`) so that they block the same links."""
+    """:func:`ray_hits_ellipsoid`'s test for one segment ``p0_km`` -> ``p1_km`` (3,) (divided by the
+    axes, not multiplied by their inverses), inlined into both compiled link kernels
+    (:func:`_link_kernel`, :func:`lnss_lib.gnss._gnss_kernel`) so that they block the same links."""
     q0x, q0y, q0z = p0_km[0] / a_km, p0_km[1] / a_km, p0_km[2] / b_km
     dx, dy, dz = p1_km[0] / a_km - q0x, p1_km[1] / a_km - q0y, p1_km[2] / b_km - q0z
     sc = min(max(-(q0x * dx + q0y * dy + q0z * dz) / (dx * dx + dy * dy + dz * dz), 0.0), 1.0)

@@ -109,16 +109,17 @@ def test_force_model_agrees_with_the_previous_one_to_round_off_on_an_integrated_
 
 
 def _recorded_before():
-    """The previous campaign evaluation's metrics on three ci designs (tests/data/evaluation_before_ci.md)."""
+    """The previous campaign evaluation's metrics on three ci designs
+    (tests/data/evaluation_before_ci.md)."""
     return json.loads((Path(__file__).parent / "data" / "evaluation_before_ci.json").read_text())
 
 
 def test_campaign_evaluation_equals_the_recorded_previous_path():
-    """Today's campaign evaluation gives the metrics the path before the evaluation-path work (Datasets, every
-    Delta-V model, kernel paths every design; ``bench campaign`` runs it from its commit) recorded: bit for bit
-    where the kernels are compiled for the recorded processor model, else within the round-off of kernels compiled
-    for another (up to 2e-7 relative measured, docs/NOTES.md: 1e-6 allowed); the design inside the Moon infeasible
-    in both."""
+    """Today's campaign evaluation gives the metrics the path before the evaluation-path work
+    (Datasets, every Delta-V model, kernel paths every design; ``bench campaign`` runs it from its
+    commit) recorded: bit for bit where the kernels are compiled for the recorded processor model,
+    else within the round-off of kernels compiled for another (up to 2e-7 relative measured,
+    docs/NOTES.md: 1e-6 allowed); the design inside the Moon infeasible in both."""
     from lnss_lib import kernel_cpu
     from lnss_lib.bench.evaluation_path import evaluate_now
     from lnss_lib.constellation import WalkerDesign
@@ -140,8 +141,8 @@ def test_campaign_evaluation_equals_the_recorded_previous_path():
 
 
 def test_evaluation_comparison_counts_designs_and_differing_metrics():
-    """``bench campaign``'s before/now comparison: an infeasible design is skipped, a design whose metrics differ
-    is counted, and without the path before today's is timed alone."""
+    """``bench campaign``'s before/now comparison: an infeasible design is skipped, a design whose
+    metrics differ is counted, and without the path before today's is timed alone."""
     from lnss_lib.bench.evaluation_path import compare_evaluations, evaluate_now
     from lnss_lib.constellation import WalkerDesign
     from lnss_lib.evaluator import context_for

@@ -1,12 +1,14 @@
-"""The campaign's design evaluation before the evaluation-path work, run from its commit, timed beside today's.
+"""The campaign's design evaluation before the evaluation-path work, run from its commit, timed
+beside today's.
 
-Before, each evaluation resolved and checked the SPICE kernel paths again, built the propagation Dataset and
-computed every Delta-V model of satellite 0 into a Dataset; now the campaign keeps the propagation in arrays and
-computes ``[deltav] model`` alone, the same metrics bit for bit. That previous path is
-``lnss_lib/bench/evaluation_before.py`` at commit :data:`BEFORE_COMMIT`: :class:`PreviousEvaluation` runs it from
-that commit's tree (read from git, :func:`~lnss_lib.bench.git_tree.cached_tree`) in a child interpreter that
-evaluates one design at a time on request, so that :func:`compare_evaluations` can alternate it with today's
-path design by design. Without git or that commit only today's path is timed.
+Before, each evaluation resolved and checked the SPICE kernel paths again, built the propagation
+Dataset and computed every Delta-V model of satellite 0 into a Dataset; now the campaign keeps the
+propagation in arrays and computes ``[deltav] model`` alone, the same metrics bit for bit. That
+previous path is ``lnss_lib/bench/evaluation_before.py`` at commit :data:`BEFORE_COMMIT`:
+:class:`PreviousEvaluation` runs it from that commit's tree (read from git,
+:func:`~lnss_lib.bench.git_tree.cached_tree`) in a child interpreter that evaluates one design at a
+time on request, so that :func:`compare_evaluations` can alternate it with today's path design by
+design. Without git or that commit only today's path is timed.
 """
 
 from __future__ import annotations
@@ -29,15 +31,15 @@ from .git_tree import cached_tree
 __all__ = ["BEFORE_COMMIT", "PreviousEvaluation", "compare_evaluations"]
 
 BEFORE_COMMIT = "5b283da196b61d5cdceb0c75b3361ce6bc87873c"
-"""The last tree that ships ``lnss_lib/bench/evaluation_before.py``, the evaluation before the evaluation-path
-work."""
+"""The last tree that ships ``lnss_lib/bench/evaluation_before.py``, the evaluation before the
+evaluation-path work."""
 
 WHAT = "the campaign evaluation before the evaluation-path work"
 ANSWER = "lnss-before "  # marks the child's answers among anything else it prints
 
-# Run in the tree of BEFORE_COMMIT (its lnss_lib first on the path): one numba thread as in a campaign worker, the
-# profile's context built once, then one design's elements (n, 6) per line of stdin, answered with its wall time
-# and metrics (None for an infeasible design).
+# Run in the tree of BEFORE_COMMIT (its lnss_lib first on the path): one numba thread as in a
+# campaign worker, the profile's context built once, then one design's elements (n, 6) per line of
+# stdin, answered with its wall time and metrics (None for an infeasible design).
 _BEFORE_SCRIPT = """
 import json, sys, time
 import numba
@@ -54,16 +56,17 @@ for line in sys.stdin:
     elements = np.array(json.loads(line), dtype=float)
     start = time.perf_counter()
     metrics = evaluate_before(context, elements)
-    wall_s = time.perf_counter() - start
-    print(request["answer"] + json.dumps({"wall_s": wall_s, "metrics": metrics}, default=float), flush=True)
+    answer = {"wall_s": time.perf_counter() - start, "metrics": metrics}
+    print(request["answer"] + json.dumps(answer, default=float), flush=True)
 """
 
 
 class PreviousEvaluation:
-    """The evaluation of :data:`BEFORE_COMMIT` for profile ``profile_name`` with ``overrides`` (that commit's own
-    copy of the profile), in a child interpreter: calling it with a design's elements (n, 6) gives the child's wall
-    time (s) and the metrics (None for an infeasible design). RuntimeError, naming what is missing, when git or the
-    commit is not there or the child stops. Use it as a context manager (the child ends on exit)."""
+    """The evaluation of :data:`BEFORE_COMMIT` for profile ``profile_name`` with ``overrides`` (that
+    commit's own copy of the profile), in a child interpreter: calling it with a design's elements
+    (n, 6) gives the child's wall time (s) and the metrics (None for an infeasible design).
+    RuntimeError, naming what is missing, when git or the commit is not there or the child stops.
+    Use it as a context manager (the child ends on exit)."""
 
     def __init__(self, profile_name: str, overrides: dict | None = None):
         tree = cached_tree(BEFORE_COMMIT, WHAT)
@@ -87,8 +90,8 @@ class PreviousEvaluation:
         self._child.wait()
         self._stderr.seek(0)
         raise RuntimeError(
-            f"{WHAT} (commit {BEFORE_COMMIT[:12]}) stopped with exit code {self._child.returncode}: "
-            f"{self._stderr.read()[-400:]}"
+            f"{WHAT} (commit {BEFORE_COMMIT[:12]}) stopped with exit code "
+            f"{self._child.returncode}: {self._stderr.read()[-400:]}"
         )
 
     def __call__(self, elements_deg: np.ndarray) -> tuple[float, dict | None]:
@@ -115,8 +118,8 @@ class PreviousEvaluation:
 
 
 def evaluate_now(context: EvaluationContext, elements_deg: np.ndarray) -> tuple[float, dict | None]:
-    """Today's campaign evaluation of a design's elements (n, 6): its wall time (s) and metrics (None for an
-    infeasible design)."""
+    """Today's campaign evaluation of a design's elements (n, 6): its wall time (s) and metrics
+    (None for an infeasible design)."""
     start = time.perf_counter()
     result = evaluate_constellation(context, elements_deg)
     return time.perf_counter() - start, result if result["evaluated"] else None
@@ -129,11 +132,12 @@ def _same(a: float, b: float) -> bool:
 def compare_evaluations(
     context: EvaluationContext, designs: list[np.ndarray], before=None, repeats: int = 3
 ) -> dict:
-    """Wall time of the previous campaign evaluation ``before`` (a callable like :class:`PreviousEvaluation`; None:
-    today's alone) and of today's on each design (elements (n, 6)), one numba thread as in a campaign worker, the two
-    alternating (which goes first alternates by repeat) so that machine load hits both alike; medians per design.
-    Returns the mean per-design medians (s) of each path and of each timed part (``before_s``, ``now_s``,
-    ``now_dop_s``, ...; NaN for a path not run), the designs evaluated and those whose metrics differ (expected:
+    """Wall time of the previous campaign evaluation ``before`` (a callable like
+    :class:`PreviousEvaluation`; None: today's alone) and of today's on each design (elements (n,
+    6)), one numba thread as in a campaign worker, the two alternating (which goes first alternates
+    by repeat) so that machine load hits both alike; medians per design. Returns the mean per-design
+    medians (s) of each path and of each timed part (``before_s``, ``now_s``, ``now_dop_s``, ...;
+    NaN for a path not run), the designs evaluated and those whose metrics differ (expected:
     none)."""
     threads = numba.get_num_threads()
     numba.set_num_threads(1)

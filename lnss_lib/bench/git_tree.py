@@ -1,10 +1,11 @@
-"""The workbook's own tree at a past commit, for benchmarks that time a previous path beside today's.
+"""The workbook's own tree at a past commit, for benchmarks that time a previous path beside
+today's.
 
-A benchmark's "before" is the code of a recorded commit, read from git (``git archive``) rather than a copy
-kept in the package: :func:`extract_tree` writes a commit's tree into a folder; :func:`cached_tree` keeps it
-under ``~/.cache/lnss_lib/tree/<commit>`` so that the compiled kernels numba caches beside its sources are
-reused by the next run. Both raise RuntimeError, naming what is missing, in a copy without git or without
-that commit (a clone with its history has it).
+A benchmark's "before" is the code of a recorded commit, read from git (``git archive``) rather than
+a copy kept in the package: :func:`extract_tree` writes a commit's tree into a folder;
+:func:`cached_tree` keeps it under ``~/.cache/lnss_lib/tree/<commit>`` so that the compiled kernels
+numba caches beside its sources are reused by the next run. Both raise RuntimeError, naming what is
+missing, in a copy without git or without that commit (a clone with its history has it).
 """
 
 from __future__ import annotations
@@ -26,9 +27,9 @@ CACHE_DIR = Path.home() / ".cache" / "lnss_lib" / "tree"
 
 
 def extract_tree(commit: str, folder: Path, what: str) -> None:
-    """The workbook's tree at ``commit`` written into ``folder``; ``what`` (e.g. "the force model before its
-    speed work") names the code the commit holds in the RuntimeError raised when git or the commit is not
-    there."""
+    """The workbook's tree at ``commit`` written into ``folder``; ``what`` (e.g. "the force model
+    before its speed work") names the code the commit holds in the RuntimeError raised when git or
+    the commit is not there."""
     executable = shutil.which("git", path=os.pathsep.join(GIT_DIRS))
     if executable is None:
         raise RuntimeError(f"{what} is commit {commit[:12]}, and git is not installed")
@@ -42,8 +43,8 @@ def extract_tree(commit: str, folder: Path, what: str) -> None:
     )
     if done.returncode != 0:
         raise RuntimeError(
-            f"{what} is commit {commit[:12]}, which this copy of the workbook does not hold (a clone "
-            f"with its history does): {done.stderr.decode()[:200]}"
+            f"{what} is commit {commit[:12]}, which this copy of the workbook does not hold "
+            f"(a clone with its history does): {done.stderr.decode()[:200]}"
         )
     with tarfile.open(fileobj=io.BytesIO(done.stdout)) as archive:
         archive.extractall(folder, filter="data")
