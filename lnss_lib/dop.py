@@ -15,7 +15,7 @@ axes either as the Moon-fixed x, y (``"moon_fixed"``, the paper's literal eq. 5-
 local East and North (``"enu"``, the physically horizontal error). PDOP is the same in both.
 Samples with fewer than 4 visible satellites have no DOP (NaN).
 
-The receivers' grid is :class:`~lnss_lib.surface_grid.SurfaceGrid` (re-exported here with
+The receivers' grid is :class:`~lnss_lib.surface_grid.SurfaceGrid` (built by
 :func:`~lnss_lib.surface_grid.surface_grid`).
 
 Statistics (:func:`dop_summary`): 3-sigma filtered means (eq. 9-13) over the samples that have a
@@ -42,16 +42,12 @@ from .geometry import (
     weighted_dop_stats,
 )
 from .sections import LOS_AXES
-from .surface_grid import WEIGHTINGS, SurfaceGrid, surface_grid
+from .surface_grid import SurfaceGrid
 
 if TYPE_CHECKING:
     from .settings import DopSettings, Dynamics
 
 __all__ = [
-    "LOS_AXES",
-    "WEIGHTINGS",
-    "SurfaceGrid",
-    "surface_grid",
     "elevation_deg",
     "dop_kernel",
     "check_positions",

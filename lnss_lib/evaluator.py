@@ -40,6 +40,7 @@ from .ephemeris import EphemerisTable, ensure_kernels, rotation, tdb_seconds
 from .errors import ConfigError, ImpactError, InfeasibleDesignError
 from .forces import ForceModel
 from .frames import rotate_with
+from .gps_states import gps_states_mci
 from .keys import (
     GNSS_SYSTEM_METRICS,
     LIFE_NAVIGATION_KEYS,
@@ -59,6 +60,7 @@ from .propagator import (
     output_times,
     propagate_states,
 )
+from .surface_grid import SurfaceGrid
 
 if TYPE_CHECKING:
     from .settings import DeltaVSettings, DopSettings, Dynamics, GnssSettings, GpsSettings, Settings
@@ -75,7 +77,7 @@ class EvaluationContext:
     times: np.ndarray
     model: ForceModel
     rot_to_moon_fixed: np.ndarray
-    grid: dop.SurfaceGrid
+    grid: SurfaceGrid
     gps_states: xr.Dataset
     extra_metrics: tuple[str, ...] = ()
     stations: tuple[np.ndarray, np.ndarray] | None = (
@@ -111,7 +113,7 @@ class EvaluationContext:
         table = EphemerisTable.build(settings.dynamics, t0, float(times[-1]))
         model = ForceModel.build(settings.dynamics, table)
         rot = rotation("J2000", settings.frames.moon_fixed, times)
-        grid = dop.SurfaceGrid.from_settings(settings.dop, settings.constants.r_moon_mean_km)
+        grid = SurfaceGrid.from_settings(settings.dop, settings.constants.r_moon_mean_km)
         extras = requested_extra_metrics(settings.evaluator)
         stations = (
             navigation_error.station_states(settings.navigation_error, settings.constants, times)
@@ -129,7 +131,7 @@ class EvaluationContext:
             model,
             rot,
             grid,
-            gps.gps_states_mci(settings.gps, epoch.start_tdb, times),
+            gps_states_mci(settings.gps, epoch.start_tdb, times),
             extras,
             stations,
             gnss_states,

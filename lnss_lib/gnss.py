@@ -63,6 +63,7 @@ from .errors import ConfigError
 from .frames import teme_to_j2000, tt_centuries, utc_julian_dates
 from .gain_pattern import gain_for_settings
 from .geometry import block_inverse, filtered_mean
+from .gps import segment_hits_ellipsoid
 from .gps_states import gps_states_mci
 
 if TYPE_CHECKING:
@@ -247,10 +248,11 @@ _STATE_CACHE: dict[str, xr.Dataset] = {}
 
 def gnss_states_mci(gnss: GnssSettings, gps: GpsSettings, start_tdb: str, t_tdb_s) -> xr.Dataset:
     """Positions of every satellite of ``gnss.systems`` at TDB epochs: Dataset (sat, time, xyz) as
-    :func:`lnss_lib.gps.gps_states_mci` (``r_mci_km``, ``r_eci_km``, ``r_teme_km``, ``earth_mci_km``,
-    ``rot_teme_to_j2000``) with coords ``system`` and ``name`` on ``sat``. GPS: SGP4 from the ``[gps]`` TLEs
-    (the same states as the GPS link); the others: :func:`nominal_positions_teme` from the epoch
-    ``t_tdb_s[0]``, whose Greenwich angle (UT1 taken as UTC) places the GEO and IGSO slots."""
+    :func:`lnss_lib.gps_states.gps_states_mci` (``r_mci_km``, ``r_eci_km``, ``r_teme_km``,
+    ``earth_mci_km``, ``rot_teme_to_j2000``) with coords ``system`` and ``name`` on ``sat``. GPS:
+    SGP4 from the ``[gps]`` TLEs (the same states as the GPS link); the others:
+    :func:`nominal_positions_teme` from the epoch ``t_tdb_s[0]``, whose Greenwich angle (UT1 taken
+    as UTC) places the GEO and IGSO slots."""
     t = np.atleast_1d(np.asarray(t_tdb_s, dtype=float))
     path = data_path(gnss.nominal_file, "gnss.nominal_file")
     key = hashlib.sha256(
@@ -490,23 +492,8 @@ def _gnss_kernel(
                 continue  # behind the Earth + margin (eq. 21)
             if -(ux * zx + uy * zy + uz * zz) > cos_moon:
                 continue  # behind the Moon (eq. 17-18)
-            if ellipsoid:
-                q0x, q0y, q0z = (
-                    r_teme[t, g, 0] / a_km,
-                    r_teme[t, g, 1] / a_km,
-                    r_teme[t, g, 2] / b_km,
-                )
-                dx, dy, dz = (
-                    lnss_teme[0] / a_km - q0x,
-                    lnss_teme[1] / a_km - q0y,
-                    lnss_teme[2] / b_km - q0z,
-                )
-                sc = min(
-                    max(-(q0x * dx + q0y * dy + q0z * dz) / (dx * dx + dy * dy + dz * dz), 0.0), 1.0
-                )
-                cx, cy, cz = q0x + sc * dx, q0y + sc * dy, q0z + sc * dz
-                if cx * cx + cy * cy + cz * cz < 1.0:
-                    continue  # through the WGS-84 ellipsoid
+            if ellipsoid and segment_hits_ellipsoid(r_teme[t, g], lnss_teme, a_km, b_km):
+                continue  # through the WGS-84 ellipsoid
             theta = np.degrees(np.arccos(min(max(cos_off, -1.0), 1.0))) * angle_scale[g]
             if theta < theta_tab[0] or theta > theta_tab[-1]:
                 continue  # no gain tabulated: no link

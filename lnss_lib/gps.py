@@ -26,27 +26,22 @@ import numpy as np
 import xarray as xr
 
 from .constants import BOLTZMANN_J_K, C_M_S, MIN_VISIBLE, WGS84_A_KM, WGS84_B_KM
-from .gain_pattern import GainPattern, gain_for_settings, load_gain_pattern
+from .gain_pattern import GainPattern, gain_for_settings
 from .geometry import block_inverse, filtered_mean, normal_matrix_entries, position_block_inverse
-from .gps_states import gps_states_mci, propagate_teme
 
 if TYPE_CHECKING:
     from .settings import BodyConstants, GpsSettings
 
 __all__ = [
-    "propagate_teme",
-    "gps_states_mci",
     "lunar_occultation",
     "off_boresight_deg",
     "earth_occultation",
     "ray_hits_ellipsoid",
+    "segment_hits_ellipsoid",
     "free_space_loss_db",
     "cn0_dbhz",
     "pdop_kernel",
     "pdop_along_axis",
-    "GainPattern",
-    "load_gain_pattern",
-    "gain_for_settings",
     "gps_link",
     "gps_link_metrics",
     "gps_link_summary",
@@ -112,6 +107,18 @@ def ray_hits_ellipsoid(
     s = np.clip(-np.sum(q0 * d, axis=-1) / np.sum(d * d, axis=-1), 0.0, 1.0)
     closest = q0 + s[..., None] * d
     return np.sum(closest * closest, axis=-1) < 1.0
+
+
+@nb.njit(cache=True, inline="always")
+def segment_hits_ellipsoid(p0_km, p1_km, a_km, b_km):
+    """:func:`ray_hits_ellipsoid`'s test for one segment ``p0_km`` -> ``p1_km`` (3,) (divided by the
+    axes, not multiplied by their inverses), inlined into both compiled link kernels
+    (:func:`_link_kernel`, :func:`lnss_lib.gnss._gnss_kernel`) so that they block the same links."""
+    q0x, q0y, q0z = p0_km[0] / a_km, p0_km[1] / a_km, p0_km[2] / b_km
+    dx, dy, dz = p1_km[0] / a_km - q0x, p1_km[1] / a_km - q0y, p1_km[2] / b_km - q0z
+    sc = min(max(-(q0x * dx + q0y * dy + q0z * dz) / (dx * dx + dy * dy + dz * dz), 0.0), 1.0)
+    cx, cy, cz = q0x + sc * dx, q0y + sc * dy, q0z + sc * dz
+    return cx * cx + cy * cy + cz * cz < 1.0
 
 
 def free_space_loss_db(distance_km: np.ndarray, frequency_hz: float) -> np.ndarray:
@@ -367,23 +374,8 @@ def _link_kernel(
             theta = np.degrees(np.arccos(min(max(cos_off, -1.0), 1.0)))  # off-boresight (eq. 19-20)
             if theta > beam_deg or theta < np.degrees(np.arcsin(r_earth / g_norm)) + margin_deg:
                 continue  # outside the beam, or behind the Earth (eq. 21)
-            if ellipsoid:
-                q0x, q0y, q0z = (
-                    r_gps_teme[t, g, 0] / a_km,
-                    r_gps_teme[t, g, 1] / a_km,
-                    r_gps_teme[t, g, 2] / b_km,
-                )
-                dx, dy, dz = (
-                    lnss_teme[0] / a_km - q0x,
-                    lnss_teme[1] / a_km - q0y,
-                    lnss_teme[2] / b_km - q0z,
-                )
-                sc = min(
-                    max(-(q0x * dx + q0y * dy + q0z * dz) / (dx * dx + dy * dy + dz * dz), 0.0), 1.0
-                )
-                cx, cy, cz = q0x + sc * dx, q0y + sc * dy, q0z + sc * dz
-                if cx * cx + cy * cy + cz * cz < 1.0:
-                    continue  # through the WGS-84 ellipsoid
+            if ellipsoid and segment_hits_ellipsoid(r_gps_teme[t, g], lnss_teme, a_km, b_km):
+                continue  # through the WGS-84 ellipsoid
             if theta < theta_tab[0] or theta > theta_tab[-1]:
                 continue  # no gain tabulated: no link
             cn0 = (

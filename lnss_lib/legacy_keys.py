@@ -11,6 +11,7 @@ import copy
 
 from .errors import ConfigError
 from .keys import NAVIGATION_ERROR_KEYS
+from .profile_rules import lookup
 
 OFF_WHEN_ABSENT = {
     "front_validation": lambda profile: profile["front_validation"].get("max_designs", 0) == 0,
@@ -54,12 +55,6 @@ OLD_KEYS_KEPT = {
 }  # one key now
 
 
-def _value_at(profile: dict, key: str):
-    """The value at dotted ``key`` (section.name), or None where it is absent."""
-    section, name = key.split(".")
-    return profile.get(section, {}).get(name)
-
-
 def _pop(profile: dict, key: str):
     section, name = key.split(".")
     return profile.get(section, {}).pop(name, None)
@@ -78,9 +73,9 @@ def migrate_legacy(profile: dict) -> dict:
         value = _pop(profile, old)
         if value is None:
             continue
-        if new in FOLLOWS and value == _value_at(profile, FOLLOWS[new]):
+        if new in FOLLOWS and value == lookup(profile, FOLLOWS[new]):
             value = 0.0
-        kept = _value_at(profile, new)
+        kept = lookup(profile, new)
         if new in OLD_KEYS_KEPT and kept is not None and kept != value:
             raise ConfigError(
                 f"stored profile: {old} = {value!r} and {new} = {kept!r} are one quantity with two "
@@ -96,11 +91,11 @@ def legacy_spelling(profile: dict) -> dict:
     the inverse of :func:`migrate_legacy`; a profile already so spelled comes back unchanged."""
     content = copy.deepcopy(profile)
     for old, new in LEGACY_KEYS.items():
-        value = _value_at(content, new)
-        if value is None or _value_at(content, old) is not None:
+        value = lookup(content, new)
+        if value is None or lookup(content, old) is not None:
             continue
         if new in FOLLOWS and value == 0:
-            value = _value_at(content, FOLLOWS[new])
+            value = lookup(content, FOLLOWS[new])
         _put(content, old, value)
         if new not in OLD_KEYS_KEPT:
             _pop(content, new)

@@ -32,8 +32,9 @@ import numpy as np
 import xarray as xr
 
 from .constants import SECONDS_PER_HOUR
-from .dop import SurfaceGrid, metrics_and_errors_for_settings
+from .dop import metrics_and_errors_for_settings
 from .ephemeris import body_states_mci, rotation
+from .surface_grid import SurfaceGrid
 
 if TYPE_CHECKING:
     from .settings import BodyConstants, DopSettings, NavigationErrorSettings

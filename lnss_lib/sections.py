@@ -477,9 +477,9 @@ class SkEstimateSettings:
 class BoxSettings:
     """Half-widths of the fixed-element box controller."""
 
-    ecc: float = setting(range=POSITIVE)
-    aop_deg: float = setting(range=POSITIVE)
-    inc_deg: float = setting(range=POSITIVE)
+    ecc: float = setting(life_estimate=True, range=POSITIVE)
+    aop_deg: float = setting(life_estimate=True, range=POSITIVE)
+    inc_deg: float = setting(life_estimate=True, range=POSITIVE)
     raan_rel_deg: float = setting(range=POSITIVE)
     u_rel_deg: float = setting(range=POSITIVE)
 
@@ -488,18 +488,20 @@ class BoxSettings:
 class ServiceSettings:
     """What the service controller holds: a safe perilune and the navigation service."""
 
-    perilune_margin_km: float = setting(range=NON_NEGATIVE)
-    safety_check_days: float = setting(range=POSITIVE)
-    safety_lead_days: float = setting(range=POSITIVE)
-    nav_window_days: float = setting(range=POSITIVE)
-    nav_avail_drop_pct: float = setting(range=NON_NEGATIVE)
-    nav_dop_rise_fraction: float = setting(range=NON_NEGATIVE)
-    raan_rel_deg: float = setting(range=POSITIVE)
-    u_rel_deg: float = setting(range=POSITIVE)
-    tolerances: str = setting(choices=TOLERANCE_SOURCES)
+    perilune_margin_km: float = setting(life_estimate=True, range=NON_NEGATIVE)
+    safety_check_days: float = setting(life_estimate=True, range=POSITIVE)
+    safety_lead_days: float = setting(life_estimate=True, range=POSITIVE)
+    nav_window_days: float = setting(life_estimate=True, range=POSITIVE)
+    nav_avail_drop_pct: float = setting(life_estimate=True, range=NON_NEGATIVE)
+    nav_dop_rise_fraction: float = setting(life_estimate=True, range=NON_NEGATIVE)
+    raan_rel_deg: float = setting(life_estimate=True, range=POSITIVE)
+    u_rel_deg: float = setting(life_estimate=True, range=POSITIVE)
+    tolerances: str = setting(life_estimate=True, choices=TOLERANCE_SOURCES)
     tolerance_arc_days: float = setting(range=POSITIVE)
     tolerance_step_s: float = setting(range=POSITIVE)
-    raan_rel_bounds_deg: tuple[float, float] = setting(range=(0.0, 90.0, True, False), pair=True)
+    raan_rel_bounds_deg: tuple[float, float] = setting(
+        life_estimate=True, range=(0.0, 90.0, True, False), pair=True
+    )
     u_rel_bounds_deg: tuple[float, float] = setting(range=(0.0, 180.0, True, False), pair=True)
 
 
@@ -508,19 +510,20 @@ class DesignLifeSettings:
     """Closed-loop station keeping over the design life."""
 
     life_days: float = setting(range=POSITIVE)
-    check_interval_days: float = setting(range=POSITIVE)
+    check_interval_days: float = setting(life_estimate=True, range=POSITIVE)
     samples_per_orbit: int = setting(
         range=(16, None, False, False),
         why="the one-orbit mean elements of the checks and the insertion trim "
         "average this many samples of an orbit (at least 8 to be computed at "
         "all, 16 for an e = 0.6 orbit's mean a to settle)",
     )
-    min_maneuver_spacing_days: float = setting(range=NON_NEGATIVE)
+    min_maneuver_spacing_days: float = setting(life_estimate=True, range=NON_NEGATIVE)
     dv_cap_kms_per_year: float = setting(range=NON_NEGATIVE)
-    slot_coast_days: float = setting(range=POSITIVE)
+    slot_coast_days: float = setting(life_estimate=True, range=POSITIVE)
     slot_fit_days: float = setting(range=POSITIVE)
     slot_quad_days: float = setting(range=POSITIVE)
     target_fraction: float = setting(
+        life_estimate=True,
         range=(0.0, 1.0, False, True),
         why="a correction aims this fraction of the half-width past the "
         "reference: 1 would aim at the far edge of the box",

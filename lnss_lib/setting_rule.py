@@ -30,6 +30,8 @@ class Rule:
         False  # no key: the value of the one key of its quantity (derived())
     )
     file_only: bool = False  # a key of a profile file, resolved when the files are merged
+    # read by the campaign's life estimate: in the evaluation hash of evaluations that run it
+    life_estimate: bool = False
 
 
 NO_RULE = Rule()

@@ -306,7 +306,7 @@ def test_python_api_checks_the_same_values():
         load_settings("ci", overrides={"spacecraft": {"cr": float("nan")}})
     with pytest.raises(ConfigError, match="unknown key gps.gain_fle"):
         load_settings("ci", overrides={"gps": {"gain_fle": "x.csv"}})
-    from lnss_lib.gps import load_gain_pattern
+    from lnss_lib.gain_pattern import load_gain_pattern
 
     for path, content, needle in (
         ("empty.csv", "", "header line"),
@@ -714,7 +714,7 @@ def test_a_symlink_out_of_params_data_is_refused(capsys, params_dir):
 
 def test_no_message_prints_a_line_of_a_file(tmp_path):
     """TOML, gravity, TLE and gain-file errors name the file and line, never the content of the line."""
-    from lnss_lib.gps import load_gain_pattern
+    from lnss_lib.gain_pattern import load_gain_pattern
     from lnss_lib.gravity import GravityField
     from lnss_lib.tle import read_tle
 

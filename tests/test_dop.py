@@ -4,16 +4,10 @@ import numpy as np
 import pytest
 import xarray as xr
 
-from lnss_lib.dop import (
-    SurfaceGrid,
-    dop_from_propagation,
-    dop_grid,
-    dop_summary,
-    elevation_deg,
-    surface_grid,
-)
+from lnss_lib.dop import dop_from_propagation, dop_grid, dop_summary, elevation_deg
 from lnss_lib.geometry import availability_pct
 from lnss_lib.settings import load_settings
+from lnss_lib.surface_grid import SurfaceGrid, surface_grid
 
 R_MOON_KM = 1737.4
 

@@ -172,7 +172,7 @@ def test_metrics_come_from_the_right_parts(context):
 def test_campaign_path_matches_study_path_and_reuses_run_geometry(context, monkeypatch):
     """The campaign's compiled DOP path gives the study path's metrics (to summation rounding), and an
     evaluation neither rebuilds the Moon-fixed rotations nor the surface grid (built once per run)."""
-    from lnss_lib import dop, evaluator
+    from lnss_lib import evaluator, surface_grid
     from lnss_lib.constellation import WalkerDesign
     from lnss_lib.evaluator import analyse_constellation
 
@@ -183,8 +183,8 @@ def test_campaign_path_matches_study_path_and_reuses_run_geometry(context, monke
         raise AssertionError("run geometry rebuilt inside an evaluation")
 
     monkeypatch.setattr(evaluator, "rotation", forbidden)
-    monkeypatch.setattr(dop, "surface_grid", forbidden)
-    monkeypatch.setattr(dop.SurfaceGrid, "from_settings", forbidden)
+    monkeypatch.setattr(surface_grid, "surface_grid", forbidden)
+    monkeypatch.setattr(surface_grid.SurfaceGrid, "from_settings", forbidden)
     campaign = evaluate_constellation(context, elements)
     assert context_for(load_settings("ci")) is context
     for key in METRIC_KEYS:

@@ -9,7 +9,7 @@ import numpy as np
 import pytest
 import xarray as xr
 
-from lnss_lib import gnss, gps
+from lnss_lib import gain_pattern, gnss, gps, gps_states
 from lnss_lib.config import data_path
 from lnss_lib.constants import WGS84_A_KM
 from lnss_lib.errors import ConfigError
@@ -136,7 +136,7 @@ def test_gps_alone_is_the_gps_link(elfo):
     link = gps.gps_link(
         profile.gps,
         profile.constants,
-        gps.gps_states_mci(profile.gps, profile.epoch.start_tdb, prop["time"].values),
+        gps_states.gps_states_mci(profile.gps, profile.epoch.start_tdb, prop["time"].values),
         prop,
     )
     assert np.array_equal(counts[:, 0], link["n_visible"].values[0])
@@ -157,7 +157,7 @@ def test_adding_systems_never_lowers_the_count(elfo):
     gps_only = gps.gps_link(
         profile.gps,
         profile.constants,
-        gps.gps_states_mci(profile.gps, profile.epoch.start_tdb, prop["time"].values),
+        gps_states.gps_states_mci(profile.gps, profile.epoch.start_tdb, prop["time"].values),
         prop,
     )
     assert np.array_equal(
@@ -234,7 +234,7 @@ def test_each_system_keeps_the_gps_margin_over_its_icd_minimum(elfo):
     what the Table 1 budget gives GPS over IS-GPS-200's -158.5 dBW."""
     profile, _, every, states = elfo
     tx = gnss.system_transmitters(every, profile.gps, states)
-    gain = gps.gain_for_settings(profile.gps)
+    gain = gain_pattern.gain_for_settings(profile.gps)
     cfg = profile.gps
     radius = np.linalg.norm(states["r_teme_km"].values[:, 0, :], axis=-1)
 

@@ -9,7 +9,7 @@ import numpy as np
 import pytest
 import spiceypy as spice
 
-from lnss_lib import gps, tle
+from lnss_lib import gain_pattern, gps, gps_states, tle
 from lnss_lib.config import data_path
 from lnss_lib.ephemeris import tdb_seconds
 
@@ -30,13 +30,15 @@ def test_sgp4_radius_at_tle_epoch_and_states_dataset(profile):
     jd = 2451545.0 + np.floor(epochs)
     r = np.stack(
         [
-            gps.propagate_teme([rec], jd[k : k + 1], (epochs - np.floor(epochs))[k : k + 1])[0, 0]
+            gps_states.propagate_teme([rec], jd[k : k + 1], (epochs - np.floor(epochs))[k : k + 1])[
+                0, 0
+            ]
             for k, rec in enumerate(records)
         ]
     )
     assert np.all(np.abs(np.linalg.norm(r, axis=-1) - 26560.0) < 500.0)
     t = tdb_seconds(profile.epoch.start_tdb) + np.array([0.0, 900.0])
-    ds = gps.gps_states_mci(profile.gps, profile.epoch.start_tdb, t)
+    ds = gps_states.gps_states_mci(profile.gps, profile.epoch.start_tdb, t)
     assert ds["r_mci_km"].dims == ("gps", "time", "xyz") and 21 not in ds["prn"].values
     earth = spice.spkpos("EARTH", t.tolist(), "J2000", "NONE", "MOON")[0]
     assert np.allclose(
@@ -45,7 +47,7 @@ def test_sgp4_radius_at_tle_epoch_and_states_dataset(profile):
     assert np.allclose(
         np.linalg.norm(ds["r_eci_km"], axis=-1), np.linalg.norm(ds["r_teme_km"], axis=-1)
     )
-    assert gps.gps_states_mci(profile.gps, profile.epoch.start_tdb, t) is ds
+    assert gps_states.gps_states_mci(profile.gps, profile.epoch.start_tdb, t) is ds
 
 
 # ------------------------------------------------------------------------------- geometry
@@ -102,7 +104,7 @@ def test_line_of_sight_through_moon_is_blocked():
 
 def test_cn0_hand_computed():
     """Table 1 link at 30 deg off boresight and 384 400 km, with the textbook FSL in km and MHz."""
-    pattern = gps.load_gain_pattern(
+    pattern = gain_pattern.load_gain_pattern(
         data_path("data/gps/gps_block_iir_l1_gain_0-90deg.csv"), "improved_panel_dbi"
     )
     gain = float(pattern(30.0))
@@ -134,7 +136,7 @@ def test_cn0_hand_computed():
 
 def test_gain_pattern_interpolation_and_errors():
     path = data_path("data/gps/gps_block_iir_l1_gain_0-90deg.csv")
-    pattern = gps.load_gain_pattern(path, "legacy_iir_dbi")
+    pattern = gain_pattern.load_gain_pattern(path, "legacy_iir_dbi")
     assert float(pattern(21.0)) == pytest.approx((0.68 + -8.16) / 2)
     assert np.isnan(pattern(95.0))
     lobes = pattern.with_sidelobes(23.0, -3.0)
@@ -142,7 +144,7 @@ def test_gain_pattern_interpolation_and_errors():
         float(pattern(40.0)) - 3
     )
     with pytest.raises(ValueError, match="unknown gain column 'nope'"):
-        gps.load_gain_pattern(path, "nope")
+        gain_pattern.load_gain_pattern(path, "nope")
 
 
 # ----------------------------------------------------------------------------------- PDOP
@@ -190,7 +192,7 @@ def test_invisible_rows_do_not_count():
 
 def test_gps_link_masks_consistent(profile):
     t = tdb_seconds(profile.epoch.start_tdb) + 900.0 * np.arange(8)
-    states = gps.gps_states_mci(profile.gps, profile.epoch.start_tdb, t)
+    states = gps_states.gps_states_mci(profile.gps, profile.epoch.start_tdb, t)
     # An LNSS satellite 8000 km from the Moon's centre, rotating about the Moon.
     ang = np.linspace(0.0, 2.0, t.size)
     r_lnss = 8000.0 * np.stack([np.cos(ang), np.sin(ang), 0.3 * np.ones_like(ang)], axis=-1)
@@ -262,7 +264,7 @@ def test_sgp4_failure_names_the_satellite_the_epochs_and_the_setting(profile):
     days_back = 10_000.0
     at = (record.epoch_utc - dt.datetime(2000, 1, 1, 12)).total_seconds() / 86400.0 - days_back
     with pytest.raises(ValueError) as raised:
-        gps.propagate_teme(
+        gps_states.propagate_teme(
             [record], np.array([2451545.0 + math.floor(at)]), np.array([at - math.floor(at)])
         )
     message = str(raised.value)
@@ -283,5 +285,5 @@ def test_sgp4_failure_names_the_satellite_the_epochs_and_the_setting(profile):
         match=r"gps.tle_file = .* epoch.start_tdb = '1998-06-01T00:00:00'.*SGP4 "
         r"cannot propagate .*1998-05-31T23:58:56 UTC",
     ) as raised:
-        gps.gps_states_mci(profile.gps, start, tdb_seconds(start) + np.array([0.0, 900.0]))
+        gps_states.gps_states_mci(profile.gps, start, tdb_seconds(start) + np.array([0.0, 900.0]))
     assert raised.value.key == "gps.tle_file"

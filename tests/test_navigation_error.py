@@ -14,6 +14,7 @@ from lnss_lib import dop, navigation_error
 from lnss_lib.constants import SECONDS_PER_HOUR
 from lnss_lib.errors import ConfigError
 from lnss_lib.settings import load_settings
+from lnss_lib.surface_grid import surface_grid
 
 R_MOON_KM = 1737.4
 
@@ -43,7 +44,7 @@ def geometry():
         np.sin(inc)[:, None],
     )
     r = np.stack([x * co - y * ci * so, x * so + y * ci * co, y * si], axis=-1)
-    return r, dop.surface_grid()
+    return r, surface_grid()
 
 
 def _errors(r, grid, var_m2, multipath_m=0.0):

@@ -407,8 +407,9 @@ def test_check_batch_reads_status_and_samples():
 
 def test_compiled_grid_kernels_that_write_nothing_are_caught(monkeypatch):
     from lnss_lib import dop
+    from lnss_lib.surface_grid import surface_grid
 
     monkeypatch.setattr(dop, "_grid_kernel", lambda *args: None)
-    grid = dop.surface_grid()
+    grid = surface_grid()
     with pytest.raises(RuntimeError, match="DOP grid kernel left 144 of 144"):
         dop.dop_arrays(np.full((4, 1, 3), 5000.0), grid.r_mf_km, grid.up)

@@ -74,7 +74,7 @@ def test_approximate_entries_listed_not_evaluated(bench):
 
 
 def test_published_comparison_has_a_row_per_figure(bench):
-    table = cb.published_comparison(bench)
+    table = pf.published_comparison(bench)
     expected = []
     for name in ("bhamidipati2023_case_a", "ely2005_elfo_3sat_phased"):
         pub = load_constellation(name).published
@@ -108,12 +108,12 @@ def test_published_comparison_has_a_row_per_figure(bench):
 def test_bhamidipati_case_a_in_metres_within_the_stated_tolerance(bench):
     """Their UERE (3.86 m) on every satellite at their 5 deg mask: the node-mean horizontal and vertical position
     RMSEs agree with the published ones within the tolerance notebook 10 states."""
-    agreement = cb.bhamidipati_agreement(cb.published_comparison(bench)).set_index(
+    agreement = pf.bhamidipati_agreement(pf.published_comparison(bench)).set_index(
         "published figure"
     )
     for key in pf.AGREEMENT_FIGURES:
         row = agreement.loc[f"elevation_mask_5deg.{key}"]
-        assert abs(row["difference (%)"]) <= cb.BHAMIDIPATI_TOLERANCE_PCT and row["agrees"], row
+        assert abs(row["difference (%)"]) <= pf.BHAMIDIPATI_TOLERANCE_PCT and row["agrees"], row
     assert len(agreement) == 2 * len(pf.AGREEMENT_FIGURES)  # two masks
 
 

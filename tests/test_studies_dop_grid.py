@@ -6,9 +6,9 @@ import pytest
 import xarray as xr
 
 from lnss_lib import frames
-from lnss_lib.dop import surface_grid
 from lnss_lib.settings import load_settings
 from lnss_lib.studies import dop_grid as dg
+from lnss_lib.surface_grid import surface_grid
 
 R_MOON_KM = 1737.4
 

@@ -11,7 +11,7 @@ import pandas as pd
 import pytest
 import xarray as xr
 
-from lnss_lib import gps, tle
+from lnss_lib import gps, gps_states, tle
 from lnss_lib.ephemeris import tdb_seconds
 from lnss_lib.studies import gps_link as gl
 
@@ -143,7 +143,7 @@ def test_comparison_catalogue_and_per_satellite_tables(profile):
     assert isinstance(days.iloc[0]["launch_date"], str)
     assert days.iloc[0]["tle_epoch_utc"] == first.strftime("%Y-%m-%d %H:%M:%S")  # to the second
     t = tdb_seconds(profile.epoch.start_tdb) + 900.0 * np.arange(6)
-    states = gps.gps_states_mci(profile.gps, profile.epoch.start_tdb, t)
+    states = gps_states.gps_states_mci(profile.gps, profile.epoch.start_tdb, t)
     ang = np.linspace(0.0, 1.0, t.size)
     r_lnss = np.stack(
         [
@@ -171,7 +171,7 @@ def elfo_link(profile):
     return (
         elements,
         prop,
-        gps.gps_states_mci(profile.gps, profile.epoch.start_tdb, prop["time"].values),
+        gps_states.gps_states_mci(profile.gps, profile.epoch.start_tdb, prop["time"].values),
     )
 
 

@@ -1,17 +1,18 @@
-"""``python -m lnss_lib bench campaign [--scaling]``: a short NSGA-II campaign, its throughput and time shares,
-and the projected wall time of the paper's 120 x 1000 campaign on this machine (and of the operational
-profile's, when ``params/operational.toml`` exists); then the force model before and after its speed
-work side by side (:func:`lnss_lib.bench.force_before.kernel_comparison`, the model before run from its
-commit): CPU time per right-hand side and per design over the points an RK45 integration of each
-satellite of the run's first :data:`~lnss_lib.bench.force_before.KERNEL_DESIGNS` valid designs
-evaluates, and the largest relative difference of the two accelerations (round-off, ~1e-15). Before the force
-model, the campaign's whole design evaluation before and after the evaluation-path work
-(:mod:`lnss_lib.bench.evaluation_before`: Datasets, every Delta-V model, kernel paths per design), on the same
-designs alternating, with the per-generation time and 120 x 1000 projection of each. After the force model, with
-``--history``, that run's own pace of its last generations before and with this change (:func:`history_after`), and
-one of its late generations sent to a local Dask cluster as before (a task per design) and as the campaign sends it
-now (guided batches, designs that break a bound stopped early once the population is all feasible), alternating
-(:func:`dispatch_comparison`).
+"""``python -m lnss_lib bench campaign [--scaling]``: a short NSGA-II campaign, its throughput and
+time shares, and the projected wall time of the paper's 120 x 1000 campaign on this machine (and of
+the operational profile's, when ``params/operational.toml`` exists); then the force model before and
+after its speed work side by side (:func:`lnss_lib.bench.force_before.kernel_comparison`, the model
+before run from its commit): CPU time per right-hand side and per design over the points an RK45
+integration of each satellite of the run's first :data:`~lnss_lib.bench.force_before.KERNEL_DESIGNS`
+valid designs evaluates, and the largest relative difference of the two accelerations (round-off,
+~1e-15). Before the force model, the campaign's whole design evaluation before and after the
+evaluation-path work (:mod:`lnss_lib.bench.evaluation_path`: Datasets, every Delta-V model, kernel
+paths per design; the path before run from its commit), on the same designs alternating, with the
+per-generation time and 120 x 1000 projection of each. After the force model, with ``--history``,
+that run's own pace of its last generations before and with this change (:func:`history_after`), and
+one of its late generations sent to a local Dask cluster as before (a task per design) and as the
+campaign sends it now (guided batches, designs that break a bound stopped early once the population
+is all feasible), alternating (:func:`dispatch_comparison`).
 
 When the profile has shipped results (``outputs/reference/<profile>/``) the short run takes the profile's population,
 so that its generations are the shipped run's first ones (the same designs, bit for bit), and the 120 x 1000
@@ -55,7 +56,7 @@ from ..evaluator import context_for
 from ..keys import TIMING_KEYS
 from ..paper import EVALUATIONS, TABLE_5
 from ..settings import load_settings
-from .evaluation_before import compare_evaluations
+from .evaluation_path import WHAT, PreviousEvaluation, compare_evaluations
 from .force_before import kernel_comparison
 
 EVALUATION_DESIGNS = 30  # designs whose whole campaign evaluation is timed before and after
@@ -305,9 +306,10 @@ def evaluation_comparison(
     profile_name: str, projection: dict, overrides: dict | None = None, history: str | None = None
 ) -> dict:
     """Print and return the campaign evaluation before and after the evaluation-path work
-    (:mod:`lnss_lib.bench.evaluation_before`) on :data:`EVALUATION_DESIGNS` designs: the last
-    :data:`HISTORY_TAIL` generations' of ``history`` (the mix a converged search evaluates) or else the short
-    run's; and the per-generation time and 120 x 1000 projection of both from the short run's rate."""
+    (:mod:`lnss_lib.bench.evaluation_path`, the path before run from its commit; without git or the
+    commit today's alone) on :data:`EVALUATION_DESIGNS` designs: the last :data:`HISTORY_TAIL`
+    generations' of ``history`` (the mix a converged search evaluates) or else the short run's; and
+    the per-generation time and 120 x 1000 projection of both from the short run's rate."""
     settings = load_settings(profile_name, overrides=overrides)
     context = context_for(settings)
     grid = DesignGrid.from_variables(settings.campaign.variables)
@@ -321,11 +323,21 @@ def evaluation_comparison(
                 *(float(x) for x in design[:4]), int(design[4]), int(design[5])
             ).elements_deg()
         )
-    got = compare_evaluations(context, designs)
-    before, now = got["before_s"], got["now_s"]
     where = (
         f"{history}'s last {HISTORY_TAIL} generations" if history is not None else "the short run"
     )
+    try:
+        with PreviousEvaluation(profile_name, overrides) as before:
+            got = compare_evaluations(context, designs, before)
+    except RuntimeError as error:
+        print(f"{WHAT}: not available here ({error}); today's path alone")
+        got = compare_evaluations(context, designs)
+        print(
+            f"campaign evaluation now, {got['n_designs']} designs of {where}, 1 thread, median "
+            f"of 3 runs: {1e3 * got['now_s']:.1f} ms per design"
+        )
+        return {**got, "records": source}
+    before, now = got["before_s"], got["now_s"]
     print(
         f"campaign evaluation before -> now (evaluation path), {got['n_designs']} designs of {where}, 1 thread, "
         f"median of 3 alternating runs: {1e3 * before:.1f} ms -> {1e3 * now:.1f} ms per design "
@@ -625,7 +637,8 @@ def run(
     out["evaluation"].pop("records")
     out["kernels"] = kernel_comparison(profile_name, out[profile_name]["records"], overrides)
     if history is not None:
-        out["history_after"] = history_after(history, out["evaluation"], out["kernels"])
+        if math.isfinite(out["evaluation"]["before_s"]):
+            out["history_after"] = history_after(history, out["evaluation"], out["kernels"])
         out["dispatch"] = dispatch_comparison(profile_name, history, overrides)
     if scaling_run:
         out["scaling"] = scaling(profile_name, out[profile_name], overrides)

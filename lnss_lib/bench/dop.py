@@ -13,7 +13,6 @@ import numpy as np
 
 from ..constellation import WalkerDesign
 from ..dop import (
-    SurfaceGrid,
     dop_arrays,
     dop_for_settings,
     dop_kernel,
@@ -22,6 +21,7 @@ from ..dop import (
 )
 from ..elements import kepler_states
 from ..settings import load_settings
+from ..surface_grid import SurfaceGrid
 
 
 def _positions_km(gm: float, n_epochs: int, step_s: float) -> np.ndarray:

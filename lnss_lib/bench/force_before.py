@@ -15,13 +15,10 @@ side for ``bench campaign``.
 
 from __future__ import annotations
 
-import io
 import json
 import os
-import shutil
 import subprocess
 import sys
-import tarfile
 import tempfile
 import time
 from pathlib import Path
@@ -31,7 +28,6 @@ import numpy as np
 from scipy.integrate import solve_ivp
 
 from ..campaign.grid import DesignGrid
-from ..config import PROJECT_DIR
 from ..constants import SECONDS_PER_DAY
 from ..constellation import WalkerDesign
 from ..ephemeris import hermite_apply, hermite_basis
@@ -47,8 +43,8 @@ from ..forces import (
     shadow_factor,
 )
 from ..propagator import elements_deg_to_states
-from ..provenance import GIT_DIRS
 from ..settings import load_settings
+from .git_tree import extract_tree
 
 __all__ = [
     "BEFORE_COMMIT",
@@ -182,31 +178,6 @@ def current_on_points(model: ForceModel, ts: np.ndarray, ys: np.ndarray) -> dict
     }
 
 
-def _extract_tree(commit: str, folder: Path) -> None:
-    """The workbook's tree at ``commit`` written into ``folder`` (``git archive``; RuntimeError naming what is
-    missing when git or the commit is not there, e.g. in a copy without the history)."""
-    executable = shutil.which("git", path=os.pathsep.join(GIT_DIRS))
-    if executable is None:
-        raise RuntimeError(
-            f"the force model before its speed work is commit {commit[:12]}, and git is not installed"
-        )
-    env = {key: value for key, value in os.environ.items() if not key.startswith("GIT_")}
-    done = subprocess.run(
-        [executable, "archive", "--format=tar", commit],
-        cwd=PROJECT_DIR,
-        capture_output=True,
-        env=env,
-        timeout=300,
-    )
-    if done.returncode != 0:
-        raise RuntimeError(
-            f"the force model before its speed work is commit {commit[:12]}, which this copy of the "
-            f"workbook does not hold (a clone with its history does): {done.stderr.decode()[:200]}"
-        )
-    with tarfile.open(fileobj=io.BytesIO(done.stdout)) as archive:
-        archive.extractall(folder, filter="data")
-
-
 def before_on_points(
     profile_name: str,
     overrides: dict | None,
@@ -224,7 +195,7 @@ def before_on_points(
             Path(scratch) / "out.npz",
         )
         tree.mkdir()
-        _extract_tree(BEFORE_COMMIT, tree)
+        extract_tree(BEFORE_COMMIT, tree, "the force model before its speed work")
         np.savez(
             points_file, **{f"{k}_{i}": a for i, p in enumerate(points) for k, a in zip("ty", p)}
         )

@@ -42,7 +42,7 @@ from ..settings import load_settings, settings_from_profile
 from .fitness import bound_masks, deltav_constraint, parse_constraints, satisfies
 from .journal import JOURNAL_FILE, parse_journal, read_cache_records
 from .rundir import check_resumable, export_results, load_checkpoint, load_run
-from .settings import CampaignPlan, evaluation_hash, run_differences
+from .settings import CampaignPlan, evaluation_hash, recorded_evaluation_hashes, run_differences
 from .timing import campaign_timing, concurrent_workers
 
 __all__ = [
@@ -180,7 +180,7 @@ def check_run_folder(run_dir) -> tuple[dict, dict]:
     run = load_run(run_dir)
     checkpoint = load_checkpoint(run_dir)
     check_resumable(run_dir, run, checkpoint)
-    if run["evaluation_hash"] != evaluation_hash(run["profile"]):
+    if run["evaluation_hash"] not in recorded_evaluation_hashes(run["profile"]):
         raise ConfigError(
             f"{run_dir / 'run.json'}: evaluation hash {run['evaluation_hash']} is not that of its "
             f"settings ({evaluation_hash(run['profile'])}): an edited or foreign run folder, refused"

@@ -55,7 +55,12 @@ from .rundir import (
     start_run,
     write_results,
 )
-from .settings import CampaignPlan, evaluation_hash, evaluation_profile
+from .settings import (
+    CampaignPlan,
+    evaluation_hash,
+    evaluation_profile,
+    recorded_evaluation_hashes,
+)
 from .validation import check_validatable, validate_front
 
 __all__ = ["run_campaign", "validate_run", "CampaignResult", "default_callbacks"]
@@ -121,8 +126,10 @@ def run_campaign(
         run_dir = Path(resume)
         run = load_run(run_dir)
         settings = _stored_settings(run_dir, run)
-        eval_hash = evaluation_hash(settings)
-        if eval_hash != run["evaluation_hash"]:
+        eval_hash = run[
+            "evaluation_hash"
+        ]  # its journal's, also when recorded before a rule of today's
+        if eval_hash not in recorded_evaluation_hashes(settings):
             raise ConfigError(
                 f"{run_dir}: evaluation hash of the stored profile changed; cannot resume"
             )

@@ -11,7 +11,9 @@ a run's journal is never re-used under other physics.
 from __future__ import annotations
 
 import copy
+import dataclasses
 import math
+import typing
 from collections.abc import Mapping
 from dataclasses import dataclass, fields
 
@@ -23,10 +25,13 @@ from ..keys import (
     format_value,
     label,
     runs_screen,
+    wants_life_estimate,
 )
 from ..legacy_keys import legacy_spelling
 from ..profile_rules import CAMPAIGN_OFF as OFF
-from ..sections import EVALUATORS, NOTEBOOK_MODES
+from ..profile_rules import lookup
+from ..sections import EVALUATORS, NOTEBOOK_MODES, DesignLifeSettings
+from ..setting_rule import rule_of
 from ..settings import CampaignSettings, Settings, profile_data
 from .fitness import constraint_matrix
 from .grid import DesignGrid
@@ -36,8 +41,11 @@ __all__ = [
     "campaign_constraints",
     "evaluation_profile",
     "evaluation_hash",
+    "recorded_evaluation_hashes",
     "campaign_hash",
     "reads_screen",
+    "reads_life_estimate",
+    "LIFE_ESTIMATE_KEYS",
     "bounds_verdict",
     "run_differences",
     "EVALUATORS",
@@ -82,6 +90,23 @@ NON_EVALUATION_SECTIONS = (
 SCREEN_SECTION = (
     "stability"  # read by a 10-day evaluation only when an extra metric needs the screen
 )
+
+
+def _life_estimate_keys(section=DesignLifeSettings, prefix: str = "design_life") -> tuple[str, ...]:
+    keys, hints = [], typing.get_type_hints(section)
+    for item in dataclasses.fields(section):
+        if dataclasses.is_dataclass(hints[item.name]):
+            keys += _life_estimate_keys(hints[item.name], f"{prefix}.{item.name}")
+        elif rule_of(item).life_estimate:
+            keys.append(f"{prefix}.{item.name}")
+    return tuple(keys)
+
+
+LIFE_ESTIMATE_KEYS = _life_estimate_keys()
+"""The ``[design_life]`` settings the campaign's life estimate reads (its fields declared with
+``setting(life_estimate=True)``): the box and the service controller's tolerances, windows and
+spacing it prices by. A 10-day evaluation reads them only through the estimate
+(:func:`reads_life_estimate`)."""
 
 
 def campaign_constraints(campaign: CampaignSettings) -> tuple[tuple[str, str, float], ...]:
@@ -163,14 +188,26 @@ def bounds_verdict(campaign: CampaignSettings, result: dict, labelled: bool = Fa
     return dict(zip(VERDICT_KEYS, (not violated, violated)))
 
 
-def reads_screen(profile: Mapping) -> bool:
-    """Whether a 10-day evaluation under ``profile`` (plain data, ``campaign.overrides`` merged in as the
-    evaluation merges them) runs the stability screen (``[stability]``): the evaluator's own rule,
-    :func:`lnss_lib.keys.runs_screen`."""
+def _evaluated(profile: Mapping, section: str) -> dict:
+    """``profile``'s ``section`` as its evaluations read it (``campaign.overrides`` merged in)."""
     overrides = profile.get("campaign", {}).get("overrides", {})
-    evaluator = {**profile.get("evaluator", {}), **overrides.get("evaluator", {})}
-    sk_estimate = {**profile.get("sk_estimate", {}), **overrides.get("sk_estimate", {})}
-    return runs_screen(tuple(evaluator.get("extra_metrics", ())), sk_estimate.get("model"))
+    return {**profile.get(section, {}), **overrides.get(section, {})}
+
+
+def reads_life_estimate(profile: Mapping) -> bool:
+    """Whether a 10-day evaluation under ``profile`` (plain data, ``campaign.overrides`` included)
+    runs the life estimate (:data:`LIFE_ESTIMATE_KEYS`): the evaluator's own rule,
+    :func:`lnss_lib.keys.wants_life_estimate` under ``[sk_estimate] model = "life"``."""
+    wanted = tuple(_evaluated(profile, "evaluator").get("extra_metrics", ()))
+    return wants_life_estimate(wanted) and _evaluated(profile, "sk_estimate").get("model") == "life"
+
+
+def reads_screen(profile: Mapping) -> bool:
+    """Whether a 10-day evaluation under ``profile`` (plain data, ``campaign.overrides`` included)
+    runs the stability screen (``[stability]``): the evaluator's own rule,
+    :func:`lnss_lib.keys.runs_screen`."""
+    wanted = tuple(_evaluated(profile, "evaluator").get("extra_metrics", ()))
+    return runs_screen(wanted, _evaluated(profile, "sk_estimate").get("model"))
 
 
 def evaluation_hash(settings: Settings | Mapping) -> str:
@@ -178,24 +215,49 @@ def evaluation_hash(settings: Settings | Mapping) -> str:
 
     :func:`~lnss_lib.config.profile_hash` of the profile without the campaign-only keys
     (``CAMPAIGN_ONLY_KEYS``: population, objectives, constraints, seed, ...), without the sections
-    that a 10-day evaluation never reads (``NON_EVALUATION_SECTIONS``: notebooks, design life) and without
-    ``[stability]`` unless the evaluation runs the screen (:func:`reads_screen`); the grid
-    (``campaign.variables``), ``campaign.overrides`` and ``campaign.evaluator`` stay in. ``settings``: checked
-    settings, or the profile dict a run folder stored (compared as it is, not validated again).
+    that a 10-day evaluation never reads (``NON_EVALUATION_SECTIONS``: notebooks, design life),
+    without ``[stability]`` unless the evaluation runs the screen (:func:`reads_screen`) and with
+    the ``[design_life]`` settings of :data:`LIFE_ESTIMATE_KEYS` where it runs the life estimate
+    (:func:`reads_life_estimate`); the grid (``campaign.variables``), ``campaign.overrides`` and
+    ``campaign.evaluator`` stay in. ``settings``: checked settings, or the profile dict a run folder
+    stored (compared as it is, not validated again).
     """
-    content = _campaign_content(settings)
+    return _evaluation_hash(settings, life_estimate=True)
+
+
+def recorded_evaluation_hashes(settings: Settings | Mapping) -> tuple[str, ...]:
+    """The evaluation hashes a run of ``settings`` may have recorded: :func:`evaluation_hash` and,
+    where its evaluations run the life estimate, the hash without the estimate's ``[design_life]``
+    settings, which runs begun before those entered the hash recorded (their ``run.json`` checksum
+    keeps the stored settings as they were; whether they are a profile's campaign
+    :func:`run_differences` tells in today's terms)."""
+    return tuple(dict.fromkeys((evaluation_hash(settings), _evaluation_hash(settings, False))))
+
+
+def _evaluation_hash(settings: Settings | Mapping, life_estimate: bool) -> str:
+    content = _campaign_content(settings, life_estimate)
     for key in CAMPAIGN_ONLY_KEYS:
         content.get("campaign", {}).pop(key, None)
     return profile_hash(content)
 
 
-def _campaign_content(settings: Settings | Mapping) -> dict:
-    """The profile data a campaign's results depend on: every section but those its evaluations never read."""
+def _campaign_content(settings: Settings | Mapping, life_estimate: bool = True) -> dict:
+    """The profile data a campaign's results depend on: every section but those its evaluations
+    never read, and of ``[design_life]`` the settings of :data:`LIFE_ESTIMATE_KEYS` where they run
+    the life estimate (unless ``life_estimate`` is False: the content before those entered)."""
     profile = legacy_spelling(
         profile_data(settings)
     )  # the keys of the fingerprint, while every section is here
     unread = NON_EVALUATION_SECTIONS + (() if reads_screen(profile) else (SCREEN_SECTION,))
-    return {k: v for k, v in profile.items() if k not in unread}
+    content = {k: v for k, v in profile.items() if k not in unread}
+    if life_estimate and reads_life_estimate(profile):
+        for key in LIFE_ESTIMATE_KEYS:
+            *path, name = key.split(".")
+            table = content
+            for part in path:
+                table = table.setdefault(part, {})
+            table[name] = lookup(profile, key)
+    return content
 
 
 def _differing_keys(run: dict, theirs: dict, prefix: str = "") -> list[str]:

@@ -30,7 +30,7 @@ from ..settings import DesignLifeSettings, DopSettings, Dynamics, StabilitySetti
 from .control import SlotState, drift_band_rate, overshoot_target, predicted_exit, running_mean
 from .fleet import Burn, FleetState, LifeGrid, budget_kms, enqueue
 from .manoeuvres import plan_impulses
-from .screen import SecularField
+from .secular import SecularField
 from .service import (
     NavigationMonitor,
     mean_vectors_j2000,

@@ -26,7 +26,7 @@ import numpy as np
 import xarray as xr
 
 from ..constants import SECONDS_PER_DAY
-from ..dop import SurfaceGrid, dop_for_settings, summary_for_settings
+from ..dop import dop_for_settings, summary_for_settings
 from ..ephemeris import ensure_kernels, tdb_seconds
 from ..forces import ForceModel
 from ..frames import rotate_to_moon_fixed
@@ -41,6 +41,7 @@ from ..settings import (
     SkEstimateSettings,
     StabilitySettings,
 )
+from ..surface_grid import SurfaceGrid
 from .closed_loop import life_force_model, simulate_life
 from .life_estimate import campaign_estimate
 from .life_report import impact_day

@@ -80,7 +80,8 @@ from .life_navigation import LIFE_NAVIGATION_KEYS, navigation_restores
 from .life_relative import node_corrections, phase_corrections
 from .life_safety import first_below, perilune_dip_km, safety_dv_kms
 from .mean_elements import to_element_frame
-from .screen import SecularField, cached_field, elements_from_vectors, screen_states
+from .screen import cached_field, screen_states
+from .secular import SecularField, elements_from_vectors
 from .service import mean_vectors_j2000, raan_half_width_rad
 from .tolerances import estimate_tolerances_deg
 

@@ -7,11 +7,12 @@ from __future__ import annotations
 import numpy as np
 
 from ..constants import SECONDS_PER_DAY
-from ..dop import SurfaceGrid, metrics_for_settings
+from ..dop import metrics_for_settings
 from ..elements import TWO_PI, elements_to_state
 from ..ephemeris import rotation
 from ..frames import element_frame_to_j2000, rotate_with
 from ..settings import DesignLifeSettings, DopSettings, Dynamics
+from ..surface_grid import SurfaceGrid
 from .manoeuvres import plan_impulses
 from .mean_elements import wrap_pi
 from .service import navigation_violations, restore_target

@@ -8,7 +8,7 @@ from __future__ import annotations
 import numpy as np
 
 from ..elements import eccentricity_vector, vis_viva_sma_km
-from .screen import SecularField, integrate_secular
+from .secular import SecularField, integrate_secular
 from .service import SAFETY_RAISE_KM
 
 __all__ = ["FOLLOWED_SAFETY_BURNS", "perilune_dip_km", "first_below", "safety_dv_kms"]

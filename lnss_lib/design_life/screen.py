@@ -49,10 +49,6 @@ from .secular import (
 )
 
 __all__ = [
-    "SecularField",
-    "elements_from_vectors",
-    "integrate_secular",
-    "orbit_vectors_ej",
     "screen_states",
     "screen_elements",
     "cached_field",

@@ -36,11 +36,12 @@ from __future__ import annotations
 import numpy as np
 
 from ..constants import SECONDS_PER_DAY
-from ..dop import SurfaceGrid, metrics_for_settings
+from ..dop import metrics_for_settings
 from ..elements import TWO_PI
 from ..ephemeris import EphemerisTable
 from ..frames import fixed_offset, moon_fixed_rotations, rotate_to_moon_fixed, rotate_with
 from ..settings import DopSettings, Dynamics, ServiceSettings
+from ..surface_grid import SurfaceGrid
 from .secular import SecularField, integrate_secular
 
 __all__ = [

@@ -43,11 +43,12 @@ from __future__ import annotations
 import numpy as np
 
 from ..constants import SECONDS_PER_DAY
-from ..dop import SurfaceGrid, dop_for_settings, summary_for_settings
+from ..dop import dop_for_settings, summary_for_settings
 from ..forces import ForceModel
 from ..frames import rotate_to_moon_fixed
 from ..propagator import elements_deg_to_states, propagate_states
 from ..settings import DopSettings, Dynamics, ServiceSettings
+from ..surface_grid import SurfaceGrid
 from .service import raan_half_width_rad, requirement_fractions
 
 __all__ = [

@@ -53,7 +53,8 @@ POLE_AXES = {  # polar axes of the south-pole maps: radius = colatitude from the
 
 
 def dop_grid_points(grid) -> go.Figure:
-    """The receiver grid of eq. 1-2 (a :class:`lnss_lib.dop.SurfaceGrid`) in a polar plot around the south pole."""
+    """The receiver grid of eq. 1-2 (a :class:`lnss_lib.surface_grid.SurfaceGrid`) in a polar plot
+    around the south pole."""
     lat2d, lon2d = np.meshgrid(grid.lat_deg, grid.lon_deg, indexing="ij")
     fig = go.Figure(
         go.Scatterpolar(

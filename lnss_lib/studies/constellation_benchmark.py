@@ -15,7 +15,7 @@ cislunar-nav designs fall short, and the three-satellite and single-satellite en
 four-satellite fix over the grid. The 20 deg mask lowers every availability, the sparse designs'
 most. The cislunar-nav designs, read in J2000 axes at the study epoch, fail the year-long stability
 screen. The published figures are not reproduced one for one (the verdict of
-:mod:`lnss_lib.studies.published_figures`, whose comparison this module re-exports). Across the nodal
+:mod:`lnss_lib.studies.published_figures`, which compares them). Across the nodal
 cycle the availabilities and visible counts barely move, the filtered mean DOPs move where a geometry has near-degenerate windows, and the year-long perilune
 history and the station-keeping estimate move most: the 2025-05-01 epoch matters for the design life,
 hardly for the navigation geometry. The notebook prints the numbers.
@@ -45,7 +45,7 @@ from ..constants import DAYS_PER_JULIAN_YEAR, SECONDS_PER_DAY
 from ..constellation import WalkerDesign, standalone_elfo
 from ..design_life.estimate import sk_estimate_from_propagation
 from ..design_life.screen import screen_states
-from ..dop import SurfaceGrid, dop_for_settings, summary_for_settings
+from ..dop import dop_for_settings, summary_for_settings
 from ..ephemeris import body_states_mci, ensure_kernels, rotation, tdb_seconds
 from ..errors import ImpactError
 from ..evaluator import analyse_constellation, context_for
@@ -54,11 +54,7 @@ from ..keys import METRIC_KEYS, NAVIGATION_ERROR_KEYS
 from ..outputs import display_path, output_dir
 from ..propagator import elements_deg_to_states, propagate_states
 from ..settings import load_settings
-from .published_figures import (
-    BHAMIDIPATI_TOLERANCE_PCT,
-    bhamidipati_agreement,
-    published_comparison,
-)
+from ..surface_grid import SurfaceGrid
 
 __all__ = [
     "TABLE4_KEY",
@@ -72,9 +68,6 @@ __all__ = [
     "campaign_entries",
     "run_benchmark",
     "add_closed_loop_life",
-    "published_comparison",
-    "BHAMIDIPATI_TOLERANCE_PCT",
-    "bhamidipati_agreement",
     "epoch_sensitivity",
     "epoch_spread",
     "epoch_findings",

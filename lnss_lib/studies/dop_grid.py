@@ -25,8 +25,6 @@ import xarray as xr
 
 from ..constellation import two_body_positions_mci
 from ..dop import (
-    LOS_AXES,
-    SurfaceGrid,
     check_positions,
     dop_for_settings,
     dop_from_propagation,
@@ -37,7 +35,9 @@ from ..elements import orbital_period_s
 from ..frames import ELEMENT_FRAMES, latitude_deg, rotate_to_moon_fixed
 from ..paper import TABLE_4, TABLE_4_LABEL
 from ..propagator import propagate_elements
+from ..sections import LOS_AXES
 from ..settings import load_settings
+from ..surface_grid import SurfaceGrid
 
 __all__ = [
     "SUMMARY_LABELS",

@@ -324,7 +324,7 @@ def frame_readings(
     campaign's metrics and ``meets_bounds`` (the front's ``constraints`` attribute, impact fails).
     ``evaluate(settings, design_row) -> dict`` replaces :func:`lnss_lib.evaluator.evaluate_design` (tests).
     """
-    from ..campaign.settings import evaluation_hash
+    from ..campaign.settings import recorded_evaluation_hashes
     from ..evaluator import context_for, evaluate_design
 
     if evaluate is None:
@@ -344,7 +344,7 @@ def frame_readings(
         reuse = (
             frame == front_frame
             if front_frame is not None
-            else front.attrs.get("evaluation_hash") == evaluation_hash(settings)
+            else front.attrs.get("evaluation_hash") in recorded_evaluation_hashes(settings)
         )
         for i, design in designs.iterrows():
             if reuse:

@@ -224,6 +224,48 @@ def test_the_evaluator_screens_exactly_where_the_evaluation_hash_covers_the_scre
     assert 0 < screening < len(SK_ESTIMATE_MODELS) * len(requests)
 
 
+def test_the_life_estimates_settings_are_in_the_evaluation_hash_only_where_an_evaluation_runs_it():
+    """The ``[design_life]`` settings the life estimate reads (:data:`LIFE_ESTIMATE_KEYS`: declared
+    in their fields) move the evaluation and campaign hashes of a profile whose evaluations run it
+    (the operational study) and of no other (the paper's); a ``[design_life]`` setting the estimate
+    does not read moves neither; a run recorded before they entered the hash is recognised by its
+    other recorded hash."""
+    from lnss_lib.campaign.settings import (
+        LIFE_ESTIMATE_KEYS,
+        reads_life_estimate,
+        recorded_evaluation_hashes,
+    )
+
+    assert {
+        "design_life.target_fraction",
+        "design_life.box.ecc",
+        "design_life.service.nav_window_days",
+    } <= set(LIFE_ESTIMATE_KEYS)
+    assert "design_life.life_days" not in LIFE_ESTIMATE_KEYS  # the screen's span: in [stability]
+    read = {"design_life": {"target_fraction": 0.7, "box": {"ecc": 0.02}}}
+    unread = {"design_life": {"controller": "box", "dv_cap_kms_per_year": 1.0}}
+    operational, paper = load_settings("operational"), load_settings("paper")
+    assert reads_life_estimate(operational.as_dict()) and not reads_life_estimate(paper.as_dict())
+    for overrides in (
+        {"design_life": {"target_fraction": 0.7}},
+        {"design_life": {"box": {"ecc": 0.02}}},
+        read,
+    ):
+        changed = operational.with_overrides(overrides)
+        assert evaluation_hash(changed) != evaluation_hash(operational), overrides
+        assert run_differences(changed, operational) != []
+        assert evaluation_hash(paper.with_overrides(overrides)) == evaluation_hash(paper), overrides
+    assert evaluation_hash(operational.with_overrides(unread)) == evaluation_hash(operational)
+    assert campaign_hash(operational.with_overrides(unread)) == campaign_hash(operational)
+    now, before = recorded_evaluation_hashes(operational)
+    assert now == evaluation_hash(operational) and before != now
+    assert evaluation_hash(operational.with_overrides(read)) != now
+    assert (
+        recorded_evaluation_hashes(operational.with_overrides(read))[1] == before
+    )  # the rule before: unread
+    assert recorded_evaluation_hashes(paper) == (evaluation_hash(paper),)
+
+
 def test_size_restricted_grid_holds_every_split_and_no_other_size(rng):
     """``campaign.n_sat = 12`` on Table 3's counts (2-5 planes, 1-4 per plane): 3 x 4 and 4 x 3 only; every scaled
     point, the grid's corners and points beyond them included, is a 12-satellite design, and eq. 43 inverts it."""

@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 import xarray as xr
 
-from lnss_lib.campaign import export_results, final_population, run_campaign
+from lnss_lib.campaign import export_results, final_population, load_checkpoint, run_campaign
 from lnss_lib.campaign import reference as ref
 from lnss_lib.campaign.publication import run_differences
 from lnss_lib.campaign.settings import CampaignPlan, campaign_hash, evaluation_hash
@@ -251,6 +251,63 @@ def test_export_refuses_a_damaged_or_forged_run_folder(finished_run, tmp_path):
         p.name: p.read_bytes() for p in good.iterdir()
     } == before  # the previous export is untouched
     assert sorted(p.name for p in root.iterdir()) == [PROFILE]  # and no staging folder is left
+
+
+# a profile whose evaluations run the life estimate (the synthetic stand-in's metrics)
+OPERATIONAL = "ci_operational_synthetic"
+
+
+@pytest.fixture(scope="module")
+def operational_run(tmp_path_factory, synthetic_profile):
+    """A synthetic campaign of :data:`OPERATIONAL` (ci_operational with the synthetic evaluator)
+    stopped after 2 generations."""
+    from lnss_lib.config import use_profile_file
+
+    path = synthetic_profile.parent / f"{OPERATIONAL}.toml"
+    path.write_text(
+        '[profile]\ninherits = "ci_operational"\n\n[campaign]\nevaluator = "synthetic"\n'
+    )
+    use_profile_file(path)
+    run_dir = tmp_path_factory.mktemp("operational") / "run"
+    run_campaign(OPERATIONAL, workers=0, run_dir=run_dir, progress=False, max_generations=2)
+    return run_dir
+
+
+def _recorded_before_the_life_estimate(run_dir, copy_dir):
+    """A copy of ``run_dir`` as a run begun before the life estimate's ``[design_life]`` settings
+    entered the evaluation hash records itself: run.json and journal under the hash without them."""
+    from lnss_lib.campaign.settings import recorded_evaluation_hashes
+
+    run_dir = _copy(run_dir, copy_dir.parent, copy_dir.name)
+    run = json.loads((run_dir / "run.json").read_text())
+    now, before = recorded_evaluation_hashes(run["profile"])
+    assert now == evaluation_hash(run["profile"]) and before != now
+    _reseal(run_dir / "run.json", {**run, "evaluation_hash": before})
+    lines = (run_dir / "evaluations.jsonl").read_text().split("\n")
+    lines[0] = json.dumps({"evaluation_hash": before, "format": 2})
+    (run_dir / "evaluations.jsonl").write_text("\n".join(lines))
+    return run_dir, before
+
+
+def test_a_run_recorded_before_the_life_estimate_entered_the_hash_stays_the_profiles(
+    operational_run, tmp_path
+):
+    """A run begun before the life estimate's ``[design_life]`` settings entered the evaluation hash
+    (its run.json and journal hold the hash without them) is exported and resumed under its recorded
+    hash while its settings are the profile's; it is not the campaign of a profile whose estimate
+    settings differ from those it stored."""
+    old, before = _recorded_before_the_life_estimate(operational_run, tmp_path / "old")
+    folder = ref.export_reference(old, tmp_path / "reference")
+    with xr.open_dataset(folder / "front.nc") as front:
+        assert front.attrs["evaluation_hash"] == before
+    resumed = run_campaign(OPERATIONAL, resume=old, workers=0, progress=False, max_generations=1)
+    assert len(load_checkpoint(resumed.run_dir)["history"]) == 3
+    header = json.loads((old / "evaluations.jsonl").read_text().split("\n")[0])
+    assert header["evaluation_hash"] == before
+    stored = json.loads((old / "run.json").read_text())["profile"]
+    assert run_differences(stored, load_settings(OPERATIONAL)) == []
+    other = load_settings(OPERATIONAL, overrides={"design_life": {"target_fraction": 0.7}})
+    assert any("evaluation settings differ" in reason for reason in run_differences(stored, other))
 
 
 def test_export_command_line(finished_run, tmp_path, monkeypatch, capsys):

@@ -12,11 +12,12 @@ from lnss_lib.__main__ import main
 from lnss_lib.constants import SECONDS_PER_DAY
 from lnss_lib.constellation import WalkerDesign
 from lnss_lib.design_life.evaluation import LIFE_KEYS, life_availability, life_navigation
-from lnss_lib.dop import SurfaceGrid, dop_for_settings, dop_summary, summary_for_settings
+from lnss_lib.dop import dop_for_settings, dop_summary, summary_for_settings
 from lnss_lib.frames import rotate_to_moon_fixed
 from lnss_lib.propagator import elements_deg_to_states, propagate_states
 from lnss_lib.settings import load_settings
 from lnss_lib.studies.design_life import compare, validate_design, validation_table
+from lnss_lib.surface_grid import SurfaceGrid
 
 ELFO_2X1 = [
     "--sma-km",

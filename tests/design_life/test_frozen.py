@@ -9,6 +9,7 @@ import pytest
 from lnss_lib.catalogue import constellation_states_mci, file_epoch_profile, load_constellation
 from lnss_lib.design_life import frozen as fz
 from lnss_lib.design_life import screen as st
+from lnss_lib.design_life import secular
 from lnss_lib.propagator import elements_deg_to_states, propagate_states
 from lnss_lib.studies.frozen_orbits import epoch_swap
 
@@ -28,7 +29,7 @@ def kozai():
 
 @pytest.fixture(scope="module")
 def lunar(paper_profile, epoch_tdb_s):
-    field = st.SecularField.from_settings(
+    field = secular.SecularField.from_settings(
         paper_profile.stability, paper_profile.dynamics, epoch_tdb_s, 365.25
     )
     return field, fz.FrozenModel.from_field(field)
@@ -49,12 +50,12 @@ def test_without_lunar_j2_the_frozen_family_is_kozais(kozai, sma_km, e):
 def test_libration_ranges_are_those_of_the_averaged_equations(kozai, inc_deg, aop_deg):
     # the level curve of the integrals against the Milankovitch equations integrated over several cycles
     a, e = 6000.0, 0.5
-    field = st.SecularField.constant(kozai.tide, [0.0, 0.0, 1.0], GM, 0.0, R)
+    field = secular.SecularField.constant(kozai.tide, [0.0, 0.0, 1.0], GM, 0.0, R)
     e_vec, j_vec = fz.orbit_vectors_deg(e, inc_deg, aop_deg)
-    res = st.integrate_secular(
+    res = secular.integrate_secular(
         [a], e_vec, j_vec, field, 6000.0, output_step_days=0.25, rtol=1e-11, atol=1e-13
     )
-    el = st.elements_from_vectors(res["e"][0], res["j"][0])
+    el = secular.elements_from_vectors(res["e"][0], res["j"][0])
     lib = fz.libration(kozai, a, e, inc_deg, aop_deg)
     assert el["ecc"].min() == pytest.approx(lib["ecc_min"], abs=2e-4)
     assert el["ecc"].max() == pytest.approx(lib["ecc_max"], abs=2e-4)
@@ -160,8 +161,8 @@ def test_a_frozen_and_a_librating_orbit_flown_a_year_with_the_full_model_stay_wi
     rot = fz.mean_plane_axes(field, (ds["time"].values - epoch_tdb_s) / 86400.0)
     for k, orbit in enumerate(orbits):
         sv = np.concatenate([ds["r_mci_km"].values[k], ds["v_mci_kms"].values[k]], axis=-1)
-        _, e_vec, j_vec = st.orbit_vectors_ej(sv, GM)
-        el = st.elements_from_vectors(
+        _, e_vec, j_vec = secular.orbit_vectors_ej(sv, GM)
+        el = secular.elements_from_vectors(
             np.einsum("tji,tj->ti", rot, e_vec), np.einsum("tji,tj->ti", rot, j_vec)
         )
         lib, allow = fz.libration(model, *orbit), fz.allowances(model, *orbit)
@@ -195,7 +196,7 @@ def test_ely_phased_constellation_keeps_its_mean_perilune_above_100_km_for_ten_y
         for stability in (mean_model, file_profile.stability)
     )
     assert verdict.attrs["stable"] and verdict.attrs["monthly_terms"]
-    field = st.SecularField.from_settings(
+    field = secular.SecularField.from_settings(
         paper_profile.stability, paper_profile.dynamics, cs.t_epoch_tdb_s, 30.0
     )
     read = fz.mean_plane_elements(field, c.elements_deg[:1], cs.rot_to_j2000)

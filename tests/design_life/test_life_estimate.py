@@ -100,6 +100,53 @@ def test_perilune_predicted_to_cross_the_floor_pays_safety(profile):
     assert est["per_sat"]["total"][0] == pytest.approx(sum(est["per_sat"][p][0] for p in le.PARTS))
 
 
+class _Reads:
+    """A settings section that records the dotted keys read from it (through its nested sections)
+    into ``seen``."""
+
+    def __init__(self, section, prefix: str, seen: set):
+        self._section, self._prefix, self._seen = section, prefix, seen
+
+    def __getattr__(self, name):
+        value, key = getattr(self._section, name), f"{self._prefix}.{name}"
+        if dataclasses.is_dataclass(value):
+            return _Reads(value, key, self._seen)
+        self._seen.add(key)
+        return value
+
+
+def test_the_estimate_reads_the_design_life_settings_the_evaluation_hash_holds(profile):
+    """Every ``[design_life]`` setting the campaign's life estimate reads, on a design that pays
+    safety, on a constellation whose drift the navigation monitor restores and with either tolerance
+    source, is one of :data:`~lnss_lib.campaign.settings.LIFE_ESTIMATE_KEYS` (the settings a
+    campaign's evaluation hash holds where its evaluations run the estimate), and each of those is
+    read."""
+    from types import SimpleNamespace
+
+    from lnss_lib.campaign.settings import LIFE_ESTIMATE_KEYS
+
+    seen = set()
+    design_life = _Reads(profile.design_life, "design_life", seen)
+    recording = SimpleNamespace(
+        **{
+            name: getattr(profile, name) for name in ("sk_estimate", "stability", "dynamics", "dop")
+        },
+        epoch=profile.epoch,
+        design_life=design_life,
+    )
+    est = _estimate(recording, [[6143.0, 0.6, 70.0, 0.0, 45.0, 0.0]])  # the safety case above
+    assert est["n_safety_burns"][0] >= 1
+    t0 = tdb_seconds(profile.epoch.start_tdb, "TDB")
+    drift = ln.navigation_restores(
+        profile.dop, profile.dynamics, design_life, t0, *_rebuilt_case(profile, 1.0)
+    )
+    assert drift["violations"]
+    for source in ("fixed", "derived"):
+        service = dataclasses.replace(profile.design_life.service, tolerances=source)
+        tol.estimate_tolerances_deg(_Reads(service, "design_life.service", seen))
+    assert seen == set(LIFE_ESTIMATE_KEYS)
+
+
 def test_node_band_corrects_a_steady_differential_drift():
     """Two satellites drifting apart at a steady rate: each is corrected when its offset from the mean leaves the
     band, aimed past the reference (overshoot law), no more often than the spacing."""
@@ -269,8 +316,9 @@ def test_navigation_judges_by_the_monitors_rule(profile):
     :func:`lnss_lib.design_life.service.navigation_violations`) for the rebuilt constellation at each window's own
     lattice epochs, and reports those windows' availabilities."""
     from lnss_lib.design_life.service import navigation_violations
-    from lnss_lib.dop import SurfaceGrid, dop_for_settings, summary_for_settings
+    from lnss_lib.dop import dop_for_settings, summary_for_settings
     from lnss_lib.frames import element_frame_to_j2000, rotate_to_moon_fixed
+    from lnss_lib.surface_grid import SurfaceGrid
 
     dyn, t0 = profile.dynamics, tdb_seconds(profile.epoch.start_tdb, "TDB")
     svc = profile.design_life.service

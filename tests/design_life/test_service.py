@@ -286,7 +286,7 @@ def test_the_safety_prediction_over_the_lead_finds_the_crossings_of_the_whole_li
     model over the lead plus one ``safety_check_days`` (the next check looks again). On orbits the tides drive down
     before and after the lead, the crossings within the lead are those of the rest-of-life prediction to the bit,
     and none beyond the lead reads as within it."""
-    from lnss_lib.design_life.screen import SecularField
+    from lnss_lib.design_life.secular import SecularField
     from lnss_lib.design_life.service import predicted_crossing_day
     from lnss_lib.ephemeris import tdb_seconds
     from lnss_lib.frames import element_frame_to_j2000
