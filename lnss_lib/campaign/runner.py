@@ -126,9 +126,7 @@ def run_campaign(
         run_dir = Path(resume)
         run = load_run(run_dir)
         settings = _stored_settings(run_dir, run)
-        eval_hash = run[
-            "evaluation_hash"
-        ]  # its journal's, also when recorded before a rule of today's
+        eval_hash = run["evaluation_hash"]  # its journal's, also one recorded under an earlier rule
         if eval_hash not in recorded_evaluation_hashes(settings):
             raise ConfigError(
                 f"{run_dir}: evaluation hash of the stored profile changed; cannot resume"

@@ -88,17 +88,7 @@ def window_means(states_mci, rot_el_to_j2000, gm_km3_s2):
     n = states_mci.shape[0]
     s = np.empty((n, 6))
     for k in range(n):
-        for j in range(3):
-            s[k, j] = (
-                states_mci[k, 0] * rot_el_to_j2000[0, j]
-                + states_mci[k, 1] * rot_el_to_j2000[1, j]
-                + states_mci[k, 2] * rot_el_to_j2000[2, j]
-            )
-            s[k, 3 + j] = (
-                states_mci[k, 3] * rot_el_to_j2000[0, j]
-                + states_mci[k, 4] * rot_el_to_j2000[1, j]
-                + states_mci[k, 5] * rot_el_to_j2000[2, j]
-            )
+        s[k] = _in_element_frame(states_mci[k], rot_el_to_j2000)
     out = np.full(6, np.nan)
     if not np.all(np.isfinite(s)):
         return out, np.nan
@@ -172,6 +162,14 @@ def osculating_elements(state_mci, rot_el_to_j2000, gm_km3_s2):
     """Osculating ``[a, e, i, raan, aop, M]`` (6,) (km, rad) of one Moon-centred J2000 state (6,) in the element
     frame of ``rot_el_to_j2000``: the compiled twin of :func:`lnss_lib.elements.state_to_elements` (its
     equatorial and circular conventions; M NaN when e >= 1), equal to it to rounding."""
+    x = _in_element_frame(state_mci, rot_el_to_j2000)
+    return np.array(_osculating(x[0], x[1], x[2], x[3], x[4], x[5], gm_km3_s2))
+
+
+@nb.njit(cache=True, error_model="numpy")
+def _in_element_frame(state_mci, rot_el_to_j2000):
+    """One Moon-centred J2000 state (6,) in the element frame: r and v times ``rot_el_to_j2000`` (element frame
+    -> J2000) from the left, as :func:`to_element_frame` (each entry summed in the same order)."""
     x = np.empty(6)
     for j in range(3):
         x[j] = (
@@ -184,7 +182,7 @@ def osculating_elements(state_mci, rot_el_to_j2000, gm_km3_s2):
             + state_mci[4] * rot_el_to_j2000[1, j]
             + state_mci[5] * rot_el_to_j2000[2, j]
         )
-    return np.array(_osculating(x[0], x[1], x[2], x[3], x[4], x[5], gm_km3_s2))
+    return x
 
 
 @nb.njit(cache=True, error_model="numpy")
