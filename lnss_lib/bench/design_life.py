@@ -2,7 +2,7 @@
 
 First the closed loop's cost per satellite-year on one core (the compiled kernels on one thread), the path of
 :data:`BEFORE_COMMIT` (the package ``lnss_lib/design_life`` of that commit, read from git into
-``~/.cache/lnss_lib``) and today's side by side in one run, alternating, on one satellite of the standalone ELFO
+``~/.cache/lnss_lib/tree``) and today's side by side in one run, alternating, on one satellite of the standalone ELFO
 flown ``[design_life] life_days`` with the profile's controller and DOP samples every
 ``[life_evaluation] sample_step_s`` (as the validations fly it): the loop itself (``wall_s``) and the whole call
 (insertion trim, derived tolerances, averaged field), whether both paths gave the same Delta-V, burns and positions
@@ -17,12 +17,9 @@ printed apart: the evaluator pays it anyway) and of the stability screen, side b
 from __future__ import annotations
 
 import importlib.util
-import subprocess
 import sys
 import tarfile
 import time
-from io import BytesIO
-from pathlib import Path
 
 import numba
 import numpy as np
@@ -35,32 +32,26 @@ from ..design_life.screen import screen_states
 from ..ephemeris import ensure_kernels, tdb_seconds
 from ..propagator import elements_deg_to_states, propagate_states
 from ..settings import load_settings
+from .git_tree import cached_tree
 
 BEFORE_COMMIT = "f1900c1d4fff8da8da3dcf664b5ce50e6636f769"
 """The closed loop before its check measured the mean elements, the osculating elements and the navigation DOP
 with compiled kernels and the force model's tabulated Moon-fixed rotation (numpy, SPICE per sample and the Dataset
 DOP path)."""
 
+WHAT = "the closed loop before its compiled check measurements"
+
 BEFORE_PACKAGE = "lnss_lib.design_life_before"
 """Module name the package of :data:`BEFORE_COMMIT` is imported under (its ``..`` imports reach today's lnss_lib)."""
 
 
 def closed_loop_before(commit: str = BEFORE_COMMIT):
-    """``simulate_life`` of ``lnss_lib/design_life`` at ``commit``, or None (with the reason printed) when git or the
-    commit is not there or that package no longer imports against today's modules."""
-    root = Path(__file__).resolve().parents[2]
-    cache = Path.home() / ".cache" / "lnss_lib" / "design_life" / commit
+    """``simulate_life`` of ``lnss_lib/design_life`` at ``commit`` (its tree from git,
+    :func:`~lnss_lib.bench.git_tree.cached_tree`), or None (with the reason printed) when git or the commit is not
+    there or that package no longer imports against today's modules."""
     try:
-        if not (cache / "lnss_lib" / "design_life" / "closed_loop.py").exists():
-            archive = subprocess.run(
-                ["git", "-C", str(root), "archive", commit, "lnss_lib/design_life"],
-                capture_output=True,
-                check=True,
-            ).stdout
-            with tarfile.open(fileobj=BytesIO(archive)) as tar:
-                tar.extractall(cache, filter="data")
+        package = cached_tree(commit, WHAT) / "lnss_lib" / "design_life"
         if BEFORE_PACKAGE not in sys.modules:
-            package = cache / "lnss_lib" / "design_life"
             spec = importlib.util.spec_from_file_location(
                 BEFORE_PACKAGE, package / "__init__.py", submodule_search_locations=[str(package)]
             )
@@ -68,7 +59,7 @@ def closed_loop_before(commit: str = BEFORE_COMMIT):
             sys.modules[BEFORE_PACKAGE] = module
             spec.loader.exec_module(module)
         return importlib.import_module(f"{BEFORE_PACKAGE}.closed_loop").simulate_life
-    except (OSError, subprocess.CalledProcessError, ImportError, tarfile.TarError) as error:
+    except (OSError, RuntimeError, ImportError, tarfile.TarError) as error:
         sys.modules.pop(BEFORE_PACKAGE, None)
         print(
             f"  the path of {commit[:10]} is not available here ({type(error).__name__}: {error})"
