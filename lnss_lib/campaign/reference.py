@@ -58,6 +58,10 @@ __all__ = [
     "load_reference",
     "cf_variable_attrs",
     "check_replaceable",
+    "cf_dataset",
+    "netcdf_bytes",
+    "run_provenance",
+    "write_export",
 ]
 
 REFERENCE_FILES = ("evaluations.nc", "front.nc", "history.nc", "population.nc")
@@ -144,7 +148,7 @@ def cf_variable_attrs(ds: xr.Dataset, long_names: dict | None = None) -> xr.Data
     return ds
 
 
-def _cf(ds: xr.Dataset, title: str, provenance: dict) -> xr.Dataset:
+def cf_dataset(ds: xr.Dataset, title: str, provenance: dict) -> xr.Dataset:
     """``ds`` with CF-1.8 global attributes (title, institution, source, history, references, Conventions) and
     ``units`` / ``long_name`` on every variable and coordinate; attributes are plain numbers and strings."""
     ds = cf_variable_attrs(ds)
@@ -166,11 +170,12 @@ def _cf(ds: xr.Dataset, title: str, provenance: dict) -> xr.Dataset:
     return ds
 
 
-def check_run_folder(run_dir) -> tuple[dict, dict]:
+def check_run_folder(run_dir, settings=None, owner: str | None = None) -> tuple[dict, dict]:
     """(run.json, last checkpoint) of a run folder fit to export, else ConfigError (no run, settings edited after
-    the start, an evaluation hash that is not the settings', a journal of other physics, no generation yet) or
-    :class:`~lnss_lib.campaign.rundir.CheckpointError` (a checkpoint that fails its checksum or names a foreign
-    class)."""
+    the start, an evaluation hash that is not the settings', a journal of other physics, no generation yet, settings
+    that are not ``settings``) or :class:`~lnss_lib.campaign.rundir.CheckpointError` (a checkpoint that fails its
+    checksum or names a foreign class). ``settings``: those the run must be a campaign of (default: its profile's as
+    it stands in ``params/``), which ``owner`` names in a refusal (default: the profile)."""
     run_dir = Path(run_dir)
     if not run_dir.is_dir():
         raise ConfigError(
@@ -196,14 +201,17 @@ def check_run_folder(run_dir) -> tuple[dict, dict]:
     if checkpoint is None or not checkpoint["history"]:
         raise ConfigError(f"{run_dir} has no finished generation yet: nothing to export")
     name = run["profile"].get("profile", {}).get("name")
+    owner = owner or f"profile {name!r}"
     try:
-        reasons = run_differences(run["profile"], load_settings(name))
+        reasons = run_differences(
+            run["profile"], settings if settings is not None else load_settings(name)
+        )
     except ConfigError as error:
         reasons = [f"profile {name!r} does not load ({error})"]
     if reasons:
         raise ConfigError(
-            f"{run_dir} is not a campaign of profile {name!r} as it stands: {'; '.join(reasons)}; only "
-            f"a run of the profile's own settings is exported as its results"
+            f"{run_dir} is not a campaign of {owner} as it stands: {'; '.join(reasons)}; only "
+            f"a run of its own settings is exported as its results"
         )
     return run, checkpoint
 
@@ -254,7 +262,7 @@ def analysis_mask(evaluations: xr.Dataset) -> tuple[np.ndarray, str]:
     )
 
 
-def _netcdf_bytes(ds: xr.Dataset) -> bytes:
+def netcdf_bytes(ds: xr.Dataset) -> bytes:
     encoding = {
         name: {"zlib": True, "complevel": 4}
         for name in ds.data_vars
@@ -322,9 +330,41 @@ def _population(evaluations: xr.Dataset, checkpoint: dict, plan: CampaignPlan) -
     return population
 
 
-def _versions(recorded) -> dict[str, str]:
-    """The package versions run.json recorded, as text ({} for anything but a table)."""
-    return {str(k): str(v) for k, v in recorded.items()} if isinstance(recorded, dict) else {}
+def run_provenance(run: dict, checkpoint: dict) -> dict:
+    """What a run folder says of its run (``run.json`` and its last checkpoint): profile, profile hash, evaluation
+    hash, evaluator, seed, population x generations, generations done and whether it finished; and ``created_utc``,
+    ``versions`` (package -> version, as text) and ``run_commit``, each only when run.json is under its checksum
+    (:func:`~lnss_lib.campaign.rundir.load_run` checked it), else said to be not verifiable."""
+    settings = settings_from_profile(run["profile"])
+    plan = CampaignPlan.of(settings)
+    provenance = {
+        "profile": settings.name,
+        "profile_hash": profile_hash(run["profile"]),
+        "evaluation_hash": run["evaluation_hash"],
+        "evaluator": plan.evaluator,
+        "seed": plan.seed,
+        "population": plan.population,
+        "generations": plan.generations,
+        "generations_done": len(checkpoint["history"]),
+        "finished": bool(checkpoint.get("finished")),
+    }
+    if "checksum" not in run:
+        unsealed = "not verifiable (run.json of a run that recorded no checksum)"
+        return {
+            **provenance,
+            "created_utc": unsealed,
+            "versions": {"packages": unsealed},
+            "run_commit": unsealed,
+        }
+    versions = run.get("versions")
+    return {
+        **provenance,
+        "created_utc": str(run.get("created_utc", "unknown")),
+        "versions": {str(k): str(v) for k, v in versions.items()}
+        if isinstance(versions, dict)
+        else {},
+        "run_commit": str(run.get("commit", "not recorded in run.json")),
+    }
 
 
 def _readme(provenance: dict, files: dict[str, int], counts: dict) -> str:
@@ -379,6 +419,40 @@ def _readme(provenance: dict, files: dict[str, int], counts: dict) -> str:
     return "\n".join(lines) + "\n"
 
 
+def write_export(root: Path, name: str, payloads: dict, readme, check_target) -> Path:
+    """Write an export ``root/name``: ``payloads`` (path inside the export -> bytes, each under
+    :data:`MAX_FILE_BYTES`, else RuntimeError and nothing written) and the README text ``readme(sizes)`` (sizes: path
+    -> bytes) into a staging folder in ``root``, then, once ``check_target(target)`` passes, put it in the target's
+    place by rename: a previous export is moved aside first and removed after, so readers see the old files or the
+    new, never a mix. Returns the target."""
+    too_big = {k: len(v) for k, v in payloads.items() if len(v) >= MAX_FILE_BYTES}
+    if too_big:
+        raise RuntimeError(
+            f"reference files over {MAX_FILE_BYTES} bytes: {too_big}; nothing written"
+        )
+    root.mkdir(parents=True, exist_ok=True)
+    staging = Path(tempfile.mkdtemp(prefix=f".{name}-", dir=root))
+    target = root / name
+    try:
+        for path, data in payloads.items():
+            (staging / path).parent.mkdir(mode=0o755, exist_ok=True)
+            write_bytes_atomic(staging / path, data)
+        write_text_atomic(staging / README_FILE, readme({k: len(v) for k, v in payloads.items()}))
+        os.chmod(staging, 0o755)
+        check_target(target)
+        if target.exists():
+            retired = Path(tempfile.mkdtemp(prefix=f".{name}-old-", dir=root))
+            os.replace(target, retired / name)
+            os.replace(staging, target)
+            shutil.rmtree(retired, ignore_errors=True)
+        else:
+            os.replace(staging, target)
+    except BaseException:
+        shutil.rmtree(staging, ignore_errors=True)
+        raise
+    return target
+
+
 def export_reference(run_dir, root=None, *, export_commit: str = "unknown") -> Path:
     """Export the run folder ``run_dir`` (checked by :func:`check_run_folder`) into ``root/<profile>/``, replacing
     a previous export as one unit (temporary folder, then rename); returns the folder. ``export_commit``: the
@@ -392,24 +466,9 @@ def export_reference(run_dir, root=None, *, export_commit: str = "unknown") -> P
     wall_s = float(history["wall_s"].sum())
     finished = bool(checkpoint.get("finished"))
     check_replaceable(root / name, finished)
-    sealed = (
-        "checksum" in run
-    )  # run.json under its checksum (load_run checked it): its provenance is the run's
-    unsealed = "not verifiable (run.json of a run that recorded no checksum)"
     provenance = {
-        "profile": name,
-        "profile_hash": profile_hash(run["profile"]),
-        "evaluation_hash": run["evaluation_hash"],
-        "evaluator": plan.evaluator,
-        "seed": plan.seed,
-        "population": plan.population,
-        "generations": plan.generations,
-        "generations_done": len(checkpoint["history"]),
-        "finished": finished,
+        **run_provenance(run, checkpoint),
         "wall_s": wall_s,
-        "created_utc": str(run.get("created_utc", "unknown")) if sealed else unsealed,
-        "versions": _versions(run.get("versions")) if sealed else {"packages": unsealed},
-        "run_commit": str(run.get("commit", "not recorded in run.json")) if sealed else unsealed,
         "export_commit": export_commit,
         "machine": f"{platform.platform()}, {os.cpu_count()} CPU(s), {workers} worker process(es)",
         "exported_utc": time.strftime("%Y-%m-%dT%H:%M:%SZ", time.gmtime()),
@@ -430,55 +489,37 @@ def export_reference(run_dir, root=None, *, export_commit: str = "unknown") -> P
     )
     title = f"Designs read by Figures 8-16 and Table 6 ({name})"
     thinned, thinned_bytes = thin_to_fit(
-        evaluations, front, lambda ds: _netcdf_bytes(_cf(ds, title, provenance)), MAX_FILE_BYTES
+        evaluations,
+        front,
+        lambda ds: netcdf_bytes(cf_dataset(ds, title, provenance)),
+        MAX_FILE_BYTES,
     )
     payloads = {
         "evaluations.nc": thinned_bytes,
-        "front.nc": _netcdf_bytes(
-            _cf(front.drop_vars("error"), f"Campaign front ({name})", provenance)
+        "front.nc": netcdf_bytes(
+            cf_dataset(front.drop_vars("error"), f"Campaign front ({name})", provenance)
         ),
-        "history.nc": _netcdf_bytes(
-            _cf(history, f"Campaign history per generation ({name})", provenance)
+        "history.nc": netcdf_bytes(
+            cf_dataset(history, f"Campaign history per generation ({name})", provenance)
         ),
-        "population.nc": _netcdf_bytes(
-            _cf(
+        "population.nc": netcdf_bytes(
+            cf_dataset(
                 _population(evaluations, checkpoint, plan), f"Final population ({name})", provenance
             )
         ),
     }
-    too_big = {k: len(v) for k, v in payloads.items() if len(v) >= MAX_FILE_BYTES}
-    if too_big:
-        raise RuntimeError(
-            f"reference files over {MAX_FILE_BYTES} bytes: {too_big}; nothing written"
-        )
-    root.mkdir(parents=True, exist_ok=True)
-    staging = Path(tempfile.mkdtemp(prefix=f".{name}-", dir=root))
-    try:
-        for file, data in payloads.items():
-            write_bytes_atomic(staging / file, data)
-        counts = {
-            "n_designs": int(evaluations.sizes["design"]),
-            "n_feasible": int(evaluations["feasible"].sum()),
-            "thinning": f"{thinned.attrs['selection']}; thinning: {thinned.attrs['thinning']}",
-        }
-        write_text_atomic(
-            staging / README_FILE,
-            _readme(provenance, {k: len(v) for k, v in payloads.items()}, counts),
-        )
-        os.chmod(staging, 0o755)
-        target = root / name
-        check_replaceable(target, finished)
-        if target.exists():
-            retired = Path(tempfile.mkdtemp(prefix=f".{name}-old-", dir=root))
-            os.replace(target, retired / name)
-            os.replace(staging, target)
-            shutil.rmtree(retired, ignore_errors=True)
-        else:
-            os.replace(staging, target)
-    except BaseException:
-        shutil.rmtree(staging, ignore_errors=True)
-        raise
-    return target
+    counts = {
+        "n_designs": int(evaluations.sizes["design"]),
+        "n_feasible": int(evaluations["feasible"].sum()),
+        "thinning": f"{thinned.attrs['selection']}; thinning: {thinned.attrs['thinning']}",
+    }
+    return write_export(
+        root,
+        name,
+        payloads,
+        lambda sizes: _readme(provenance, sizes, counts),
+        lambda target: check_replaceable(target, finished),
+    )
 
 
 @dataclass(frozen=True)

@@ -1,5 +1,5 @@
-"""``python -m lnss_lib study``: many campaigns side by side on one Dask cluster, or the replay of
-recorded campaigns' costs on local thread workers."""
+"""``python -m lnss_lib study``: many campaigns side by side on one Dask cluster, the export of a finished study
+as its shipped results, or the replay of recorded campaigns' costs on local thread workers."""
 
 from __future__ import annotations
 
@@ -8,12 +8,23 @@ import argparse
 from ..errors import ConfigError
 from .arguments import integer, refuse_flags, require
 
+RUN_FLAGS = (
+    "FILE",
+    "--run-dir",
+    "--resume",
+    "--workers",
+    "--scheduler-address",
+    "--max-generations",
+)  # what running a study is given
+
 
 def run(args: argparse.Namespace) -> int:
     from ..campaign.study import run_study
 
     if args.replay:
         return _replay(args)
+    if args.export_reference is not None:
+        return _export_reference(args)
     require("--workers", args.workers, (0, None, False, False), integer=True)
     require("--max-generations", args.max_generations, (1, None, False, False), integer=True)
     if (args.file is None) == (args.resume is None):
@@ -51,19 +62,34 @@ def run(args: argparse.Namespace) -> int:
     return 0
 
 
+def _export_reference(args: argparse.Namespace) -> int:
+    from ..campaign.study_reference import export_study_reference
+    from ..outputs import display_path
+    from ..provenance import git_revision
+
+    refuse_flags(
+        args,
+        RUN_FLAGS,
+        "--export-reference exports a finished study folder and runs nothing",
+        key="--export-reference",
+    )
+    folder = export_study_reference(args.export_reference, export_commit=git_revision())
+    print(
+        f"exported {args.export_reference} as the reference results of study {folder.name!r}: "
+        f"{display_path(folder)}"
+    )
+    for path in sorted(folder.rglob("*")):
+        if path.is_file():
+            print(f"wrote {path.relative_to(folder)} ({path.stat().st_size} bytes)")
+    return 0
+
+
 def _replay(args: argparse.Namespace) -> int:
     from ..campaign.replay import recorded_costs, replay
 
     refuse_flags(
         args,
-        (
-            "FILE",
-            "--run-dir",
-            "--resume",
-            "--workers",
-            "--scheduler-address",
-            "--max-generations",
-        ),
+        (*RUN_FLAGS, "--export-reference"),
         "--replay measures recorded runs on local thread workers and runs no campaign",
         key="--replay",
     )
@@ -117,6 +143,12 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         help="stop each campaign's session after N generations (resumable)",
     )
     parser.add_argument("--no-progress", action="store_true", help="no progress line")
+    parser.add_argument(
+        "--export-reference",
+        metavar="RUN_DIR",
+        help="export the finished study folder RUN_DIR as the "
+        "study's shipped results, outputs/reference/<study>/ (each campaign's history and front), and run nothing",
+    )
     parser.add_argument(
         "--replay",
         nargs="+",

@@ -160,7 +160,7 @@ def test_thinning_keeps_the_front_and_fits_the_limit():
     evaluations = synthetic_campaign(20000, seed=3)
     evaluations["error"] = ("design", np.full(20000, ""))
     front = evaluations.isel(design=np.flatnonzero(evaluations.feasible.values)[::97])
-    encode = ref._netcdf_bytes
+    encode = ref.netcdf_bytes
     whole, data = ref.thin_to_fit(evaluations, front, encode, ref.MAX_FILE_BYTES)
     assert (
         whole.attrs["n_kept"]
