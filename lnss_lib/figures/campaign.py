@@ -185,3 +185,41 @@ def generation_curve(
     fig.update_yaxes(title_text=long_name, type="log" if log else "linear")
     fig.update_layout(title=title, template="plotly_white", showlegend=False)
     return fig
+
+
+def seed_curves(curves, spread, title: str, *, shipped=None, shipped_name: str = "") -> go.Figure:
+    """The hypervolume per generation of several campaigns of one problem (``curves``: a frame, generations by
+    campaigns), the band between the smallest and the largest of them per generation (``spread``: a frame with
+    ``min`` and ``max`` columns on the same generations), and, dashed, one more run's curve (``shipped``: a series
+    by generation, named ``shipped_name``)."""
+    g = np.asarray(curves.index)
+    fig = go.Figure(
+        [
+            go.Scatter(x=g, y=spread["max"].values, mode="lines", line_width=0, showlegend=False),
+            go.Scatter(
+                x=g,
+                y=spread["min"].values,
+                mode="lines",
+                line_width=0,
+                fill="tonexty",
+                fillcolor="rgba(100, 100, 100, 0.2)",
+                name="smallest to largest",
+            ),
+        ]
+    )
+    for name in curves.columns:
+        fig.add_trace(go.Scatter(x=g, y=curves[name].values, mode="lines", name=str(name)))
+    if shipped is not None:
+        fig.add_trace(
+            go.Scatter(
+                x=np.asarray(shipped.index),
+                y=shipped.values,
+                mode="lines",
+                line={"dash": "dash", "color": "#444"},
+                name=shipped_name,
+            )
+        )
+    fig.update_xaxes(title_text="generation")
+    fig.update_yaxes(title_text="hypervolume of the feasible designs so far (normalised)")
+    fig.update_layout(title=title, template="plotly_white")
+    return fig
