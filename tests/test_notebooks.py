@@ -169,6 +169,26 @@ def test_validated_front_outputs(executed):
     ]
 
 
+def test_seed_question_outputs(executed):
+    """Notebook 07 read the shipped seed study under the ci profile: one row per seed with its final hypervolume and
+    milestones, and for every rule of Table 6 and the smallest feasible constellation an answer; with no study
+    shipped it wrote no seed table (and said so)."""
+    from lnss_lib.studies.seed_question import RULE_CRITERIA, SMALLEST_RULE, seed_study
+
+    seeds = seed_study()
+    path = OUTPUTS_DIR / PROFILE / "tables" / "07_seed_table.csv"
+    if seeds is None:
+        assert not path.is_file() or path.stat().st_mtime < executed.started
+        return
+    table = _table("07_seed_table", executed).set_index("campaign")
+    assert list(table.index) == list(seeds.histories)
+    assert (table["final hypervolume"] > 0).all()
+    assert (table["generation at 99 %"] <= table["generations"]).all()
+    changes = _table("07_seed_what_changes", executed).set_index("rule")
+    assert list(changes.index) == [*RULE_CRITERIA, SMALLEST_RULE]
+    assert (changes["seeds with a pick"] <= len(seeds.histories)).all()
+
+
 def test_screen_validation_table(executed):
     """Notebook 08 screened random Table 3 designs and flew them with the full model (the screen's validation)."""
     from lnss_lib.keys import DESIGN_KEYS
