@@ -13,9 +13,11 @@ from lnss_lib.campaign import export_results
 from lnss_lib.campaign import study_reference as sref
 from lnss_lib.campaign.fitness import front_of, hypervolume_of_front, hypervolume_points
 from lnss_lib.campaign.reference import MAX_FILE_BYTES
-from lnss_lib.campaign.study import run_study
-from lnss_lib.config import PARAMS_DIR
+from lnss_lib.campaign.settings import campaign_hash, evaluation_hash
+from lnss_lib.campaign.study import load_study, run_study
+from lnss_lib.config import PARAMS_DIR, REFERENCE_DIR, profile_hash
 from lnss_lib.errors import ConfigError
+from lnss_lib.settings import load_settings
 
 STUDY = "ci_pair"  # params/studies/ci_pair.toml: two seeds of ci on the synthetic evaluator
 STUDY_PATH = PARAMS_DIR / "studies" / f"{STUDY}.toml"
@@ -41,9 +43,44 @@ def _copy(folder, tmp_path, name):
     return copy
 
 
+SHIPPED_STUDIES = sorted(
+    path.stem for path in sref.STUDIES_DIR.glob("*.toml") if (REFERENCE_DIR / path.stem).is_dir()
+)
+
+
+def assert_current_study(name, root=None, studies_dir=sref.STUDIES_DIR):
+    """The export of study ``name`` in ``root`` is its study file's as it stands: every campaign of the file, each
+    finished, its stored settings with the campaign hash and the evaluation hash of the settings the study gives it
+    now, its recorded profile hash that of the settings it stored (in the README too), every file small."""
+    shipped = sref.load_study_reference(name, root)
+    assert shipped is not None, f"no shipped results of study {name}"
+    study = load_study(studies_dir / f"{name}.toml")
+    assert sorted(shipped.histories) == sorted(c.name for c in study.campaigns)
+    for campaign in study.campaigns:
+        settings = load_settings(campaign.profile, overrides=campaign.overrides or None)
+        history, front = shipped.histories[campaign.name], shipped.fronts[campaign.name]
+        stored = json.loads(history.attrs["parameters"])
+        assert campaign_hash(stored) == campaign_hash(settings), (
+            f"{name}/{campaign.name}: re-run the study and export it again"
+        )
+        assert evaluation_hash(stored) == evaluation_hash(settings)
+        for ds in (history, front):
+            assert ds.attrs["profile_hash"] == profile_hash(stored) and ds.attrs["finished"] == 1
+        assert history.sizes["generation"] == settings.campaign.generations
+        assert f"(`{profile_hash(stored)}`)" in shipped.readme
+    assert all(p.stat().st_size < MAX_FILE_BYTES for p in shipped.folder.rglob("*") if p.is_file())
+
+
+@pytest.mark.parametrize("name", SHIPPED_STUDIES)
+def test_shipped_studies_are_their_study_files(name):
+    """A change of physics or of a study file cannot leave a study's stale shipped results behind."""
+    assert_current_study(name)
+
+
 def test_export_round_trip(finished, tmp_path):
     folder = sref.export_study_reference(finished, tmp_path, export_commit="abc1234")
     assert folder == tmp_path / STUDY
+    assert_current_study(STUDY, tmp_path)
     shipped = sref.load_study_reference(STUDY, tmp_path)
     assert list(shipped.histories) == list(shipped.fronts) == ["seed1", "seed2"]
     for name in shipped.histories:
