@@ -66,6 +66,12 @@ RULE_CRITERIA = {  # each rule of Table 6 (lnss_lib.studies.pareto.TABLE6_RULES)
 }
 SMALLEST_RULE = "smallest feasible constellation"  # the row of :func:`what_changes` for it
 _COUNTS = ("n_evaluations_cum", "n_feasible_cum", "n_feasible_pop", "n_cache_hits")
+_PLURAL = {  # an answer of :func:`what_changes`, said of several rules
+    "the same design in every seed": "pick the same design in every seed",
+    "the same constellation (pattern), another orbit": "pick the same constellation with another orbit",
+    "changes with the seed": "change with the seed",
+    "no pick": "pick nothing in any seed",
+}
 
 
 def seed_study(root=None):
@@ -306,7 +312,7 @@ def verdict(curves: pd.DataFrame, table: pd.DataFrame, changes: pd.DataFrame) ->
     counts = rules["answer"].value_counts()
     lines.append(
         f"Table 6's {len(rules)} rules: "
-        + "; ".join(f"{n} {answer}" for answer, n in counts.items())
+        + "; ".join(f"{n} {_PLURAL[answer]}" for answer, n in counts.items())
         + (
             f" (changing: {', '.join(rules.index[rules['answer'] == 'changes with the seed'])})"
             if "changes with the seed" in counts

@@ -84,6 +84,7 @@ def test_what_changes_tells_same_design_same_pattern_and_change():
     )
     assert "0.2000 to 0.3000" in lines[0] and "40.00 % of the median" in lines[0]
     assert sq.SMALLEST_RULE in lines[1] and "Table 6's 7 rules" in lines[2]
+    assert "change with the seed" in lines[2]
 
 
 def test_seed_table_reads_each_seeds_milestones_and_smallest_constellation():
