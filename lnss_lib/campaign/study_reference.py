@@ -60,7 +60,7 @@ STUDY_RESULT_FILES = ("front.nc", "history.nc")  # of each campaign, in its own 
 @dataclass(frozen=True)
 class StudyReference:
     """A study's export read back: its folder, README text and each campaign's history and front (by name, in
-    the study file's order)."""
+    the natural order of the names: seed2 before seed10)."""
 
     folder: Path
     readme: str
@@ -106,17 +106,18 @@ def check_study_folder(run_dir, studies_dir=None) -> tuple[Study, dict[str, tupl
         load_study(run_dir / STUDY_FILE, name=run_dir.name),
         Path(STUDIES_DIR if studies_dir is None else studies_dir),
     )
+    planned = {
+        c.name: load_settings(c.profile, overrides=c.overrides or None) for c in study.campaigns
+    }
     unfinished = []
-    for campaign in study.campaigns:
-        folder = run_dir / campaign.name
-        planned = load_settings(campaign.profile, overrides=campaign.overrides or None)
+    for name, settings in planned.items():
+        folder = run_dir / name
         checkpoint = load_checkpoint(folder) if (folder / RUN_FILE).is_file() else None
         if checkpoint is None:
-            unfinished.append(f"{campaign.name} not started")
+            unfinished.append(f"{name} not started")
         elif not checkpoint.get("finished"):
             unfinished.append(
-                f"{campaign.name} at {len(checkpoint['history'])} of "
-                f"{planned.campaign.generations} generations"
+                f"{name} at {len(checkpoint['history'])} of {settings.campaign.generations} generations"
             )
     if unfinished:
         raise ConfigError(
@@ -124,12 +125,10 @@ def check_study_folder(run_dir, studies_dir=None) -> tuple[Study, dict[str, tupl
             f"python -m lnss_lib study --resume {run_dir}, then export it"
         )
     runs = {
-        c.name: check_run_folder(
-            run_dir / c.name,
-            load_settings(c.profile, overrides=c.overrides or None),
-            owner=f"campaign {c.name!r} of study {study.name!r}",
+        name: check_run_folder(
+            run_dir / name, settings, owner=f"campaign {name!r} of study {study.name!r}"
         )
-        for c in study.campaigns
+        for name, settings in planned.items()
     }
     return study, runs
 
