@@ -15,6 +15,7 @@ from .campaign import (
     campaign_throughput,
     designs_pdop_deltav,
     generation_curve,
+    replay_scaling,
 )
 from .charts import bar_chart, days_since_start, line_chart
 from .deltav import (
@@ -113,6 +114,7 @@ __all__ = [
     "designs_pdop_deltav",
     "campaign_throughput",
     "generation_curve",
+    "replay_scaling",
     "benchmark_scatter",
     "epoch_sensitivity_lines",
     "label_positions",

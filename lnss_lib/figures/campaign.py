@@ -185,3 +185,31 @@ def generation_curve(
     fig.update_yaxes(title_text=long_name, type="log" if log else "linear")
     fig.update_layout(title=title, template="plotly_white", showlegend=False)
     return fig
+
+
+def replay_scaling(table, title: str) -> go.Figure:
+    """Projected wall time against workers (log-log) for each study size of a replay table
+    (:func:`lnss_lib.studies.cluster_replay.replay_table`: index campaigns, workers), beside perfect scaling (its
+    work over the workers, dashed), with each point's busy fraction as hover text."""
+    fig = go.Figure()
+    for size, rows in table.groupby(level="campaigns"):
+        workers = rows.index.get_level_values("workers")
+        name = f"{size} campaign{'s' if size > 1 else ''}"
+        fig.add_scatter(
+            x=workers,
+            y=rows["projected wall (min)"],
+            mode="lines+markers",
+            name=f"{name}: replay",
+            text=[f"busy {b:.2f}" for b in rows["busy fraction"]],
+        )
+        fig.add_scatter(
+            x=workers,
+            y=rows["perfect scaling (min)"],
+            mode="lines",
+            line_dash="dash",
+            name=f"{name}: perfect scaling",
+        )
+    fig.update_layout(title=title, xaxis_title="workers", yaxis_title="wall time (min)")
+    fig.update_xaxes(type="log")
+    fig.update_yaxes(type="log")
+    return fig
