@@ -104,11 +104,13 @@ def replay(campaigns: list[list[list[dict]]], n_workers: int, time_scale: float 
     if not time_scale > 0.0:
         raise ValueError(f"time_scale must be > 0; got {time_scale!r}")
     # The workers share this process: each one's default share of the memory (1/128 of it at 128 workers) is below
-    # the process's size, and a worker above its share pauses; their stack profilers (every 10 ms each) and the
-    # GIL monitor would take the CPU the dispatch needs.
+    # the process's size, and a worker above its share pauses; their stack profilers (every 10 ms each), system
+    # monitors (every 0.5 s each, counting the process's open files, more with every worker) and the GIL monitor
+    # would take the CPU the dispatch needs.
     quiet = {
         "distributed.worker.profile.enabled": False,
         "distributed.admin.system-monitor.gil.enabled": False,
+        "distributed.admin.system-monitor.interval": "1h",
     }
     with warnings.catch_warnings(), dask.config.set(quiet):
         # the scheduler's HTTP port moves aside when another cluster holds 8787

@@ -4,7 +4,7 @@ import numpy as np
 import pytest
 import xarray as xr
 
-from lnss_lib.studies.cluster_replay import cost_levels, projected_campaign
+from lnss_lib.studies.cluster_replay import cost_levels, projected_campaign, shipped_busy_fraction
 
 
 def _recorded():
@@ -40,3 +40,17 @@ def test_cost_levels_are_the_task_shares_without_the_campaigns_own():
         }
     )
     assert cost_levels(history) == pytest.approx([0.8, 0.055])
+
+
+def test_shipped_busy_fraction_is_task_time_over_worker_time():
+    """Two workers, generations of 4 and 10 designs at 0.5 and 0.1 s taking 2 s and 1 s: 3 s of tasks in 6 s."""
+    history = xr.Dataset(
+        {
+            "n_evaluated": ("generation", [4, 10]),
+            "time_propagation_s": ("generation", [0.5, 0.1]),
+            "time_campaign_s": ("generation", [1.0, 1.0]),
+            "wall_s": ("generation", [2.0, 1.0]),
+        },
+        attrs={"workers": 2},
+    )
+    assert shipped_busy_fraction(history) == pytest.approx(3.0 / 6.0)
