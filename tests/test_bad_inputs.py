@@ -831,6 +831,9 @@ def test_bench_applies_and_checks_set(capsys, monkeypatch):
         capsys, main(["bench", "dop", "--history", "runs/x"]), 2, "--history", "bench dop"
     )
     one_line_error(
+        capsys, main(["bench", "dop", "--before-after"]), 2, "--before-after", "bench dop"
+    )
+    one_line_error(
         capsys,
         main(["bench", "campaign", "--profile", "ci", "--history", "no/such/run"]),
         2,

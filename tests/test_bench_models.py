@@ -329,3 +329,27 @@ def test_short_run_repeats_thirty_shipped_generations_and_eight_otherwise(monkey
     assert calls[0][2] == min(
         bench.load_settings("quick").campaign.generations, bench.SHORT_GENERATIONS
     )
+
+
+def test_bench_campaign_runs_the_historical_comparisons_only_when_asked(monkeypatch):
+    """The default is the projection alone; ``before_after`` adds the evaluation path and the force model before and
+    after (each run from its commit) and the operational projection."""
+    from lnss_lib.bench import campaign
+
+    ran = []
+    projection = {"projected_paper_h": 1.0, "records": []}
+    monkeypatch.setattr(
+        campaign, "_projection", lambda name, *a, **k: ran.append(name) or dict(projection)
+    )
+    monkeypatch.setattr(campaign, "shipped_projection", lambda *a: None)
+    monkeypatch.setattr(
+        campaign,
+        "evaluation_comparison",
+        lambda *a: ran.append("evaluation") or {"records": [], "before_s": 1.0},
+    )
+    monkeypatch.setattr(campaign, "kernel_comparison", lambda *a: ran.append("kernels") or {})
+    campaign.run("ci")
+    assert ran == ["ci"]
+    ran.clear()
+    campaign.run("ci", before_after=True)
+    assert ran == ["ci", "operational", "evaluation", "kernels"]

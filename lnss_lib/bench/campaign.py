@@ -1,14 +1,16 @@
-"""``python -m lnss_lib bench campaign [--scaling]``: a short NSGA-II campaign, its throughput and
-time shares, and the projected wall time of the paper's 120 x 1000 campaign on this machine (and of
-the operational profile's, when ``params/operational.toml`` exists); then the force model before and
-after its speed work side by side (:func:`lnss_lib.bench.force_before.kernel_comparison`, the model
-before run from its commit): CPU time per right-hand side and per design over the points an RK45
+"""``python -m lnss_lib bench campaign [--before-after] [--scaling]``: a short NSGA-II campaign, its throughput and
+time shares, and the projected wall time of the profile's 120 x 1000 campaign on this machine (minutes: the
+projection alone). ``--before-after`` adds the historical comparisons, each of which compiles or re-runs old code
+(tens of minutes on a loaded machine): the operational profile's projection beside the profile's (when
+``params/operational.toml`` exists), the force model before and after its speed work side by side
+(:func:`lnss_lib.bench.force_before.kernel_comparison`, the model before run from its commit): CPU time per
+right-hand side and per design over the points an RK45
 integration of each satellite of the run's first :data:`~lnss_lib.bench.force_before.KERNEL_DESIGNS`
 valid designs evaluates, and the largest relative difference of the two accelerations (round-off,
 ~1e-15). Before the force model, the campaign's whole design evaluation before and after the
 evaluation-path work (:mod:`lnss_lib.bench.evaluation_path`: Datasets, every Delta-V model, kernel
 paths per design; the path before run from its commit), on the same designs alternating, with the
-per-generation time and 120 x 1000 projection of each. After the force model, with ``--history``,
+per-generation time and 120 x 1000 projection of each. After the force model, with ``--history`` as well,
 that run's own pace of its last generations before and with this change (:func:`history_after`), and
 one of its late generations sent to a local Dask cluster as before (a task per design) and as the
 campaign sends it now (guided batches, designs that break a bound stopped early once the population
@@ -585,6 +587,21 @@ def dispatch_comparison(
     }
 
 
+def _before_after(
+    profile_name: str, projection: dict, overrides: dict | None, history: str | None
+) -> dict:
+    """The historical comparisons: the evaluation path and the force model before and after their speed work, and
+    with ``history`` that run's pace before and with them and its dispatch as before and now."""
+    out = {"evaluation": evaluation_comparison(profile_name, projection, overrides, history)}
+    out["evaluation"].pop("records")
+    out["kernels"] = kernel_comparison(profile_name, projection["records"], overrides)
+    if history is not None:
+        if math.isfinite(out["evaluation"]["before_s"]):
+            out["history_after"] = history_after(history, out["evaluation"], out["kernels"])
+        out["dispatch"] = dispatch_comparison(profile_name, history, overrides)
+    return out
+
+
 def run(
     profile_name: str = "paper",
     generations: int | None = None,
@@ -593,6 +610,7 @@ def run(
     scaling_run: bool = False,
     overrides: dict | None = None,
     history: str | None = None,
+    before_after: bool = False,
 ) -> dict:
     """Short campaign(s) with the profile's evaluations; throughput, shares and 120 x 1000 projections.
 
@@ -601,10 +619,10 @@ def run(
     repeats the shipped run's first generations and :func:`shipped_projection` scales that run's whole history by the
     pace on them. Generations 2-8 are half a minute in all, at the host's pace of that half minute: for the paper
     campaign the AMD run's pace on them was 0.83 of the Intel run's where the whole run's was 0.62 (a projection 34 %
-    high), on generations 2-30 0.66 (7 % high). When
-    ``params/operational.toml`` exists its projection is printed beside the profile's. ``overrides``
-    (``--set``) apply to every campaign run here. ``history``: a run folder whose per-generation evaluated
-    counts give the projection's range (checked before anything runs).
+    high), on generations 2-30 0.66 (7 % high). ``overrides`` (``--set``) apply to every campaign run here.
+    ``history``: a run folder whose per-generation evaluated counts give the projection's range (checked before
+    anything runs). ``before_after``: the historical comparisons too (the module docstring), and when
+    ``params/operational.toml`` exists the operational projection beside the profile's.
     """
     if history is not None:
         evaluated_per_generation(history)
@@ -620,7 +638,12 @@ def run(
     out["shipped"] = shipped_projection(profile_name, out[profile_name])
     if history is not None:
         out["history"] = _history_range(out[profile_name], history)
-    if (PARAMS_DIR / "operational.toml").is_file() and profile_name != "operational":
+    operational = (
+        before_after
+        and (PARAMS_DIR / "operational.toml").is_file()
+        and profile_name != "operational"
+    )
+    if operational:
         out["operational"] = _projection(
             "operational", short_population, short_generations, workers, overrides
         )
@@ -631,15 +654,10 @@ def run(
     else:
         print(
             f"projected 120 x 1000: [{profile_name}] {out[profile_name]['projected_paper_h']:.1f} h (target <= 3 h on "
-            "2 workers); no params/operational.toml, so no operational projection"
+            "2 workers)"
         )
-    out["evaluation"] = evaluation_comparison(profile_name, out[profile_name], overrides, history)
-    out["evaluation"].pop("records")
-    out["kernels"] = kernel_comparison(profile_name, out[profile_name]["records"], overrides)
-    if history is not None:
-        if math.isfinite(out["evaluation"]["before_s"]):
-            out["history_after"] = history_after(history, out["evaluation"], out["kernels"])
-        out["dispatch"] = dispatch_comparison(profile_name, history, overrides)
+    if before_after:
+        out.update(_before_after(profile_name, out[profile_name], overrides, history))
     if scaling_run:
         out["scaling"] = scaling(profile_name, out[profile_name], overrides)
     for value in out.values():

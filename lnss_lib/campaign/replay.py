@@ -19,48 +19,55 @@ from dataclasses import dataclass
 from pathlib import Path
 
 from ..errors import ConfigError
-from .backends import DaskBackend
-from .journal import read_cache_records
+from .backends import DaskBackend, guided_batches
+from .costs import COSTS_FILE, journal_costs, read_costs
 from .rundir import RUN_FILE
 from .study import STUDY_FILE
 
-__all__ = ["journal_costs", "recorded_costs", "replay", "Replay", "sleep_task"]
+__all__ = ["journal_costs", "recorded_costs", "replay", "Replay", "sleep_task", "time_scale_for"]
+
+# A task the cluster drops (on a machine whose cores are busy, a client's heartbeat can come late and the scheduler
+# releases what it sent) is sent again, as the campaign does; its time lost counts in the replay's wall time.
+REPLAY_RESUBMITS = 3
 
 
-def journal_costs(run_dir) -> list[list[dict]]:
-    """Per generation of the run in ``run_dir`` (first to last), one item per design first evaluated in it:
-    ``{"n_planes", "sats_per_plane", "cost_s"}`` (the task's wall time on its worker; the grid's scaled
-    ``n_planes`` and ``sats_per_plane``, which order the designs as the campaign does)."""
-    records = read_cache_records(Path(run_dir))
-    generations: dict[int, list[dict]] = {}
-    for record in sorted(records, key=lambda r: (r["generation"], r["order"])):
-        key = record["key"]
-        generations.setdefault(int(record["generation"]), []).append(
-            {
-                "n_planes": int(key[4]),
-                "sats_per_plane": int(key[5]),
-                "cost_s": float(record["task_wall_s"]),
-            }
-        )
-    return [generations[g] for g in sorted(generations)]
-
-
-def recorded_costs(folder) -> dict[str, list[list[dict]]]:
-    """:func:`journal_costs` of a campaign's run folder (``{its name: costs}``) or of every campaign of a study's
-    folder (``{campaign: costs}``, those started so far); ConfigError for any other folder."""
-    folder = Path(folder)
-    if (folder / RUN_FILE).is_file():
-        return {folder.name: journal_costs(folder)}
-    if (folder / STUDY_FILE).is_file():
+def recorded_costs(source) -> dict[str, list[list[dict]]]:
+    """:func:`journal_costs` of a campaign's run folder (``{its name: costs}``), of every campaign of a study's
+    folder (``{campaign: costs}``, those started so far), or the campaigns of a shipped ``costs.nc``
+    (:func:`~lnss_lib.campaign.costs.read_costs`); ConfigError for anything else."""
+    source = Path(source)
+    if source.is_file() and source.name.endswith(".nc"):
+        return read_costs(source)
+    if (source / RUN_FILE).is_file():
+        return {source.name: journal_costs(source)}
+    if (source / STUDY_FILE).is_file():
         return {
             run.parent.name: journal_costs(run.parent)
-            for run in sorted(folder.glob(f"*/{RUN_FILE}"))
+            for run in sorted(source.glob(f"*/{RUN_FILE}"))
         }
     raise ConfigError(
-        f"--replay {folder}: neither a campaign run folder ({RUN_FILE}) nor a study folder "
-        f"({STUDY_FILE})",
+        f"--replay {source}: neither a campaign run folder ({RUN_FILE}), a study folder ({STUDY_FILE}) nor a "
+        f"costs file ({COSTS_FILE})",
         key="--replay",
     )
+
+
+def time_scale_for(campaigns: list[list[list[dict]]], n_workers: int, tasks_per_s: float) -> float:
+    """The time scale at which a replay of ``campaigns`` on ``n_workers`` sends about ``tasks_per_s`` tasks a second
+    (the backend's guided batches of each generation, :func:`~lnss_lib.campaign.backends.guided_batches`): its
+    tasks over ``tasks_per_s`` is the replay's wall time. Each task costs the replay's one process milliseconds of
+    CPU (scheduler, workers and clients share it), so a replay that sent its tasks faster than that process can hand
+    them out would measure itself, not the schedule; short designs on many workers then sleep longer than they ran
+    (scale above 1)."""
+    tasks, cost_s = 0, 0.0
+    for generations in campaigns:
+        for items in generations:
+            n_sat = sorted(
+                (item["n_planes"] * item["sats_per_plane"] for item in items), reverse=True
+            )
+            tasks += len(guided_batches(n_sat, n_workers))
+            cost_s += sum(item["cost_s"] for item in items)
+    return tasks * n_workers / (tasks_per_s * cost_s)
 
 
 def sleep_task(time_scale: float, item: dict, numba_threads: int = 0) -> float:
@@ -89,15 +96,24 @@ def replay(campaigns: list[list[list[dict]]], n_workers: int, time_scale: float 
     """Replay ``campaigns`` (each a list of generations of :func:`journal_costs` items) side by side on a local
     cluster of ``n_workers`` single-thread workers (this process), each task sleeping its cost times ``time_scale``
     (0 < scale; below 1 the replay runs faster than the run and the dispatch weighs more)."""
+    import dask
     from dask.distributed import LocalCluster
 
     if not (isinstance(n_workers, int) and n_workers >= 1):
         raise ValueError(f"n_workers must be an integer >= 1; got {n_workers!r}")
     if not time_scale > 0.0:
         raise ValueError(f"time_scale must be > 0; got {time_scale!r}")
-    with (
-        warnings.catch_warnings()
-    ):  # the scheduler's HTTP port moves aside when another cluster holds 8787
+    # The workers share this process: each one's default share of the memory (1/128 of it at 128 workers) is below
+    # the process's size, and a worker above its share pauses; their stack profilers (every 10 ms each), system
+    # monitors (every 0.5 s each, counting the process's open files, more with every worker) and the GIL monitor
+    # would take the CPU the dispatch needs.
+    quiet = {
+        "distributed.worker.profile.enabled": False,
+        "distributed.admin.system-monitor.gil.enabled": False,
+        "distributed.admin.system-monitor.interval": "1h",
+    }
+    with warnings.catch_warnings(), dask.config.set(quiet):
+        # the scheduler's HTTP port moves aside when another cluster holds 8787
         warnings.filterwarnings("ignore", message="Port .* is already in use", category=UserWarning)
         cluster = LocalCluster(
             n_workers=n_workers,
@@ -106,6 +122,7 @@ def replay(campaigns: list[list[list[dict]]], n_workers: int, time_scale: float 
             protocol="tcp",
             host="127.0.0.1",
             dashboard_address=None,
+            memory_limit=0,
         )
     errors: list[BaseException] = []
     backends = []
@@ -124,7 +141,7 @@ def replay(campaigns: list[list[list[dict]]], n_workers: int, time_scale: float 
                 DaskBackend(
                     time_scale,
                     sleep_task,
-                    max_resubmits=0,
+                    max_resubmits=REPLAY_RESUBMITS,
                     scheduler_address=cluster.scheduler_address,
                 )
             )

@@ -26,7 +26,11 @@ def run(args: argparse.Namespace) -> int:
     import importlib
 
     module = importlib.import_module(f"lnss_lib.bench.{args.name.replace('-', '_')}")
-    for flag, given in (("--scaling", args.scaling), ("--history", args.history is not None)):
+    for flag, given in (
+        ("--scaling", args.scaling),
+        ("--history", args.history is not None),
+        ("--before-after", args.before_after),
+    ):
         if given and args.name != "campaign":
             raise ConfigError(
                 f"{flag} applies to 'bench campaign' only; got bench {args.name}", key=flag
@@ -36,6 +40,8 @@ def run(args: argparse.Namespace) -> int:
         args.profile, overrides=overrides
     )  # every setting checked before the benchmark starts
     extra = {"scaling_run": True} if args.scaling else {}
+    if args.before_after:
+        extra["before_after"] = True
     if args.history is not None:
         extra["history"] = args.history
     module.run(profile_name=args.profile, overrides=overrides, **extra)
@@ -51,6 +57,13 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         "--scaling",
         action="store_true",
         help="campaign: local scaling and loopback-cluster overhead",
+    )
+    parser.add_argument(
+        "--before-after",
+        action="store_true",
+        help="campaign: also the historical comparisons (the evaluation path and the force model "
+        "before and after their speed work, run from their commits; the operational projection; with --history "
+        "that run's pace and dispatch before and now): tens of minutes",
     )
     parser.add_argument(
         "--history",

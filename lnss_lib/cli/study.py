@@ -154,8 +154,8 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         nargs="+",
         metavar="RUN_DIR",
         help="instead of running: replay the recorded "
-        "per-design costs of these campaign or study folders as sleeping tasks on local thread workers "
-        "and print the projected wall time and busy fraction",
+        "per-design costs of these campaign or study folders (or shipped costs.nc files) as sleeping tasks on "
+        "local thread workers and print the projected wall time and busy fraction",
     )
     parser.add_argument(
         "--replay-workers",

@@ -15,6 +15,7 @@ from .campaign import (
     campaign_throughput,
     designs_pdop_deltav,
     generation_curve,
+    replay_scaling,
     seed_curves,
 )
 from .charts import bar_chart, days_since_start, line_chart
@@ -115,6 +116,7 @@ __all__ = [
     "campaign_throughput",
     "generation_curve",
     "seed_curves",
+    "replay_scaling",
     "benchmark_scatter",
     "epoch_sensitivity_lines",
     "label_positions",

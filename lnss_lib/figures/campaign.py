@@ -223,3 +223,31 @@ def seed_curves(curves, spread, title: str, *, shipped=None, shipped_name: str =
     fig.update_yaxes(title_text="hypervolume of the feasible designs so far (normalised)")
     fig.update_layout(title=title, template="plotly_white")
     return fig
+
+
+def replay_scaling(table, title: str) -> go.Figure:
+    """Projected wall time against workers (log-log) for each study size of a replay table
+    (:func:`lnss_lib.studies.cluster_replay.replay_table`: index campaigns, workers), beside perfect scaling (its
+    work over the workers, dashed), with each point's busy fraction as hover text."""
+    fig = go.Figure()
+    for size, rows in table.groupby(level="campaigns"):
+        workers = rows.index.get_level_values("workers")
+        name = f"{size} campaign{'s' if size > 1 else ''}"
+        fig.add_scatter(
+            x=workers,
+            y=rows["projected wall (min)"],
+            mode="lines+markers",
+            name=f"{name}: replay",
+            text=[f"busy {b:.2f}" for b in rows["busy fraction"]],
+        )
+        fig.add_scatter(
+            x=workers,
+            y=rows["perfect scaling (min)"],
+            mode="lines",
+            line_dash="dash",
+            name=f"{name}: perfect scaling",
+        )
+    fig.update_layout(title=title, xaxis_title="workers", yaxis_title="wall time (min)")
+    fig.update_xaxes(type="log")
+    fig.update_yaxes(type="log")
+    return fig

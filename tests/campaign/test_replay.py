@@ -3,7 +3,8 @@
 import pytest
 
 from lnss_lib.campaign import load_checkpoint, run_campaign
-from lnss_lib.campaign.replay import journal_costs, replay
+from lnss_lib.campaign.costs import read_costs, write_costs
+from lnss_lib.campaign.replay import journal_costs, recorded_costs, replay, time_scale_for
 
 
 @pytest.fixture(scope="module")
@@ -82,3 +83,25 @@ def test_replay_of_a_folder_without_a_run(tmp_path, capsys):
 
     assert main(["study", "--replay", str(tmp_path)]) == 2
     assert "neither a campaign run folder" in capsys.readouterr().err
+
+
+def test_a_costs_file_holds_the_journals_costs(recorded, tmp_path):
+    """costs.nc of two campaigns reads back as each journal's costs (float32: 6e-8 relative) and replays as they do."""
+    path = write_costs({"a": recorded, "b": recorded}, tmp_path / "costs.nc", export_commit="test")
+    costs, journal = read_costs(path), journal_costs(recorded)
+    assert list(costs) == ["a", "b"] and recorded_costs(path) == costs
+    for name in costs:
+        assert [[(i["n_planes"], i["sats_per_plane"]) for i in g] for g in costs[name]] == [
+            [(i["n_planes"], i["sats_per_plane"]) for i in g] for g in journal
+        ]
+        got = [i["cost_s"] for g in costs[name] for i in g]
+        assert got == pytest.approx([i["cost_s"] for g in journal for i in g], rel=1e-7)
+
+
+def test_time_scale_for_sends_the_asked_tasks_per_second():
+    """One generation of k designs of cost c on k workers: k single-design tasks; at rate R the replay lasts k / R
+    seconds, so the scale is k / (R * c) over the generation's wall time c on k workers."""
+    k, cost_s, rate = 10, 0.05, 40.0
+    generation = [{"n_planes": 2, "sats_per_plane": 3, "cost_s": cost_s}] * k
+    scale = time_scale_for([[generation]], k, rate)
+    assert scale * cost_s == pytest.approx(k / rate)

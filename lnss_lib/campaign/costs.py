@@ -1,0 +1,149 @@
+"""Per-design costs of recorded campaigns, small enough to ship: what a replay (:mod:`.replay`) reads of a journal.
+
+A journal (``evaluations.jsonl``) holds every metric of every design; a replay needs of each design only the
+generation that asked for it, the two integers the campaign's backend orders it by (``n_planes`` and
+``sats_per_plane`` on the grid) and its cost (``task_wall_s``: the task's wall time on its worker). ``costs.nc``
+keeps those, one row per design first evaluated in each campaign (about a dozen bytes a design compressed: 5
+campaigns of 120 x 300, some 2 MB), with where the costs were measured: the machine and processor model, the
+worker processes that shared it, and each run's commit and evaluation hash. :func:`costs_netcdf` gives its bytes
+from run folders (for a study's export), :func:`write_costs` writes them; :func:`read_costs` gives back what
+:func:`journal_costs` gives of each journal.
+"""
+
+from __future__ import annotations
+
+import os
+import platform
+from pathlib import Path
+
+import numpy as np
+import xarray as xr
+
+from ..atomicio import write_bytes_atomic
+from ..errors import ConfigError
+from .journal import read_cache_records
+from .rundir import load_checkpoint, load_run
+from .timing import concurrent_workers
+
+__all__ = ["COSTS_FILE", "journal_costs", "costs_netcdf", "write_costs", "read_costs"]
+
+COSTS_FILE = "costs.nc"
+
+
+def _generations(records: list[dict], completed: int | None) -> dict[int, list[dict]]:
+    """``{generation: items}`` of the records (in the order the campaign asked for them), the generations up to
+    ``completed`` only (None: all)."""
+    generations: dict[int, list[dict]] = {}
+    for record in sorted(records, key=lambda r: (r["generation"], r["order"])):
+        generation, key = int(record["generation"]), record["key"]
+        if completed is None or generation <= completed:
+            generations.setdefault(generation, []).append(
+                {
+                    "n_planes": int(key[4]),
+                    "sats_per_plane": int(key[5]),
+                    "cost_s": float(record["task_wall_s"]),
+                }
+            )
+    return dict(sorted(generations.items()))
+
+
+def _completed(run_dir: Path) -> int | None:
+    """Generations the run's last checkpoint completed (None without one): a journal being written holds part of
+    the next generation, which a replay leaves out."""
+    checkpoint = load_checkpoint(run_dir)
+    return None if checkpoint is None else len(checkpoint["history"])
+
+
+def journal_costs(run_dir) -> list[list[dict]]:
+    """Per generation of the run in ``run_dir`` (first to last; those its last checkpoint completed, when it has
+    one), one item per design first evaluated in it: ``{"n_planes", "sats_per_plane", "cost_s"}`` (the task's wall
+    time on its worker; the grid's scaled ``n_planes`` and ``sats_per_plane``, which order the designs as the
+    campaign does)."""
+    run_dir = Path(run_dir)
+    return list(_generations(read_cache_records(run_dir), _completed(run_dir)).values())
+
+
+def write_costs(runs: dict[str, Path], path, *, export_commit: str = "unknown") -> Path:
+    """Write :func:`costs_netcdf` of ``runs`` at ``path`` (atomically); returns the path."""
+    path = Path(path)
+    write_bytes_atomic(path, costs_netcdf(runs, export_commit=export_commit))
+    return path
+
+
+def costs_netcdf(runs: dict[str, Path], *, export_commit: str = "unknown") -> bytes:
+    """The bytes of ``costs.nc`` (NetCDF-4) from the campaign run folders ``runs`` (``{campaign name: run folder}``,
+    each with its journal and run.json; a study's export puts them beside its campaigns): one row per design (``campaign``, ``generation``, ``n_planes``,
+    ``sats_per_plane``, ``cost_s``) and, in the attributes, the campaigns in order, each run's worker processes,
+    processor model, commit and evaluation hash, and the machine that writes the file. ConfigError for an empty
+    ``runs``."""
+    if not runs:
+        raise ConfigError("write_costs needs at least one campaign run folder", key="runs")
+    columns: dict[str, list] = {
+        k: [] for k in ("campaign", "generation", "n_planes", "sats_per_plane", "cost_s")
+    }
+    provenance: dict[str, list[str]] = {
+        k: [] for k in ("workers", "kernel_cpu", "run_commit", "evaluation_hash")
+    }
+    for index, run_dir in enumerate(runs.values()):
+        run_dir = Path(run_dir)
+        run, records = load_run(run_dir), read_cache_records(run_dir)
+        for generation, items in _generations(records, _completed(run_dir)).items():
+            for item in items:
+                columns["campaign"].append(index)
+                columns["generation"].append(generation)
+                for key in ("n_planes", "sats_per_plane", "cost_s"):
+                    columns[key].append(item[key])
+        provenance["workers"].append(str(concurrent_workers(records)))
+        provenance["kernel_cpu"].append(str(run.get("versions", {}).get("kernel_cpu", "unknown")))
+        provenance["run_commit"].append(str(run.get("commit", "unknown")))
+        provenance["evaluation_hash"].append(str(run["evaluation_hash"]))
+    dtypes = {
+        "campaign": np.int16,
+        "generation": np.int32,
+        "n_planes": np.int16,
+        "sats_per_plane": np.int16,
+        "cost_s": np.float32,
+    }
+    ds = xr.Dataset({k: ("design", np.asarray(v, dtype=dtypes[k])) for k, v in columns.items()})
+    ds["cost_s"].attrs = {"units": "s", "long_name": "wall time of the design's task on its worker"}
+    ds["campaign"].attrs = {
+        "long_name": "index of the design's campaign in the attribute campaigns"
+    }
+    ds["generation"].attrs = {"long_name": "generation that first asked for the design"}
+    for key in ("n_planes", "sats_per_plane"):
+        ds[key].attrs = {"long_name": f"{key} on the design grid (scaled integer)"}
+    ds.attrs = {
+        "title": "Per-design costs of recorded campaigns (for the cluster replay)",
+        "Conventions": "CF-1.8",
+        "campaigns": ",".join(runs),
+        **{k: ",".join(v) for k, v in provenance.items()},
+        "machine": f"{platform.platform()}, {os.cpu_count()} CPU(s)",
+        "export_commit": export_commit,
+    }
+    encoding = {name: {"zlib": True, "complevel": 4} for name in ds.data_vars}
+    return bytes(ds.to_netcdf(engine="h5netcdf", encoding=encoding))
+
+
+def read_costs(path) -> dict[str, list[list[dict]]]:
+    """``{campaign: per generation the items of :func:`journal_costs`}`` from a ``costs.nc`` written by
+    :func:`write_costs`."""
+    with xr.open_dataset(Path(path), engine="h5netcdf") as ds:
+        names = ds.attrs["campaigns"].split(",")
+        columns = {
+            k: ds[k].values for k in ("campaign", "generation", "n_planes", "sats_per_plane")
+        }
+        cost_s = ds["cost_s"].values.astype(float)
+    out = {}
+    for index, name in enumerate(names):
+        rows = np.flatnonzero(columns["campaign"] == index)
+        generations: dict[int, list[dict]] = {}
+        for row in rows:
+            generations.setdefault(int(columns["generation"][row]), []).append(
+                {
+                    "n_planes": int(columns["n_planes"][row]),
+                    "sats_per_plane": int(columns["sats_per_plane"][row]),
+                    "cost_s": float(cost_s[row]),
+                }
+            )
+        out[name] = [generations[g] for g in sorted(generations)]
+    return out

@@ -1,0 +1,217 @@
+"""Notebook 06: what a cluster would take for the seed study, measured by replaying recorded per-design costs.
+
+Question: a generation of 120 designs waits for its slowest, so one campaign cannot fill a large cluster; a study of
+8 seeds side by side can. Would 8 seeds of ``paper_dv_physical``, 120 x 1000 each, keep 32 workers at least 80 %
+busy and finish within 30 minutes?
+
+How: the study's projected campaigns go through the campaign's own Dask backend as sleeping tasks
+(:func:`lnss_lib.campaign.replay.replay`) at 2, 8, 32 and 128 workers, one campaign and 8 side by side. A projected
+campaign (:func:`projected_campaign`) has the shipped 120 x 1000 run's count of new designs in each of its 1000
+generations (``history.nc``: the journal answers the rest) at that generation's recorded mean task cost (the
+``time_*_s`` shares of ``history.nc`` less the campaign's own), and the spread and ordering keys of the designs of
+recorded journals (``costs.nc`` of a study, :mod:`lnss_lib.campaign.costs`) drawn for it: the recorded journals give
+the shape of a generation, the shipped run its size and level. The level is taken from the shipped run because a
+journal's task times are wall times on the machine that ran it: the seed study's ran on two cores shared by its
+campaigns' two workers and other work, so its designs took several times the shipped run's (printed beside the
+table); on a cluster each worker has its core, and a design takes about what it took the shipped run, whose two
+workers had the machine's two cores (still sharing its memory bandwidth and caches with each other: a cluster core
+of the same model would be no slower). The spread of loaded task times is wider than a quiet core's (a task
+descheduled for a while is longer), which makes the replay's generations end later: the busy fraction is, if
+anything, low.
+
+A replay's one process hands out every task (scheduler, workers and clients share its CPU), a few milliseconds
+each, so it replays a sample of generations (:data:`SAMPLE_GENERATIONS`, evenly spread) at the time scale that sends
+:data:`TASKS_PER_S` tasks a second (:func:`~lnss_lib.campaign.replay.time_scale_for`: short designs on many workers
+sleep longer than they ran), and the 1000-generation wall time is the whole projected work over the workers times
+the busy fraction of the sample. The sample's campaigns start together and its last generations end unevenly,
+which a 1000-generation study amortises: the projection is, if anything, long. On a machine whose cores are all
+busy with other work the replay's own dispatch is late as well (the load is printed with the table).
+
+Verdict: notebook 06 prints it from the replay (:func:`target_verdict`), beside a check of the replay against a
+measured run (:func:`replay_check`). What holds whatever the replay: the 8 seeds' work at the shipped run's level is
+8 x 114,982 designs x 0.058 s, 14.9 h of worker time, 28.0 min at perfect scaling on 32 workers, so the 30 minutes
+need at least 0.93 busy, more than the 0.8 asked. On the project's 2-core machine under the seed study's load
+(load average 13-18, 2026-11-29) the replay could not decide it: a Dask round trip took 27 ms at normal priority
+(230 ms niced) and 12-23 ms of its process's CPU, half a design's 58 ms, and one campaign at 2 workers replayed
+0.58-0.70 busy where the shipped run was 0.96 busy; a replay on a machine with idle cores is the measure.
+"""
+
+from __future__ import annotations
+
+import os
+
+import numpy as np
+import pandas as pd
+
+from ..campaign.costs import COSTS_FILE, read_costs
+from ..campaign.reference import REFERENCE_DIR
+from ..campaign.replay import replay, time_scale_for
+
+__all__ = [
+    "SHIPPED_COSTS",
+    "TARGET",
+    "WORKERS",
+    "projected_campaign",
+    "projection_basis",
+    "cost_levels",
+    "replay_table",
+    "target_verdict",
+    "replay_check",
+    "shipped_busy_fraction",
+    "shipped_costs",
+]
+
+SHIPPED_COSTS = REFERENCE_DIR / "paper_dv_physical_seeds" / COSTS_FILE
+WORKERS = (2, 8, 32, 128)  # the worker counts the question names
+# The target: 8 seeds of 120 x 1000 at 32 workers, at least 80 % busy, within 30 minutes.
+TARGET = {"campaigns": 8, "workers": 32, "busy_fraction": 0.8, "wall_s": 1800.0}
+SAMPLE_GENERATIONS = (
+    1  # generations of each campaign replayed (a late one; more: evenly spread over the 1000)
+)
+TASKS_PER_S = 60.0  # tasks a second a replay sends: its process spends a few ms of CPU on each
+SEED = 0  # the draw of designs for the projected generations
+
+
+def shipped_costs() -> dict[str, list[list[dict]]] | None:
+    """The shipped study's per-design costs (``outputs/reference/paper_dv_physical_seeds/costs.nc``), or None."""
+    return read_costs(SHIPPED_COSTS) if SHIPPED_COSTS.is_file() else None
+
+
+def cost_levels(history) -> np.ndarray:
+    """Mean task time per new design in each generation of a shipped run (s): the sum of ``history.nc``'s
+    ``time_<part>_s`` (propagation, metrics and the rest of each task), without ``time_campaign_s`` (worker time
+    outside the tasks)."""
+    parts = [
+        name
+        for name in history.data_vars
+        if str(name).startswith("time_") and name != "time_campaign_s"
+    ]
+    return np.sum([history[name].values for name in parts], axis=0)
+
+
+def projection_basis(history, recorded: dict[str, list[list[dict]]]) -> pd.DataFrame:
+    """Why the projection may repeat the recorded generations' shape at the shipped run's levels: per band of the
+    shipped run's generations (the first, holding the workers' warm-up; then up to the recorded generations; then
+    the rest), the mean count of new designs and mean task time per design (``history.nc``), beside the recorded
+    journals' mean task time per design over the same bands where they have them."""
+    n_evaluated, level_s = history["n_evaluated"].values, cost_levels(history)
+    done = max(len(c) for c in recorded.values())
+    bands = {"1": (0, 1), f"2-{done}": (1, done), f"{done + 1}-{len(n_evaluated)}": (done, None)}
+    rows = {}
+    for name, (start, stop) in bands.items():
+        counts, levels = n_evaluated[start:stop], level_s[start:stop]
+        mine = [i["cost_s"] for c in recorded.values() for g in c[start:stop] for i in g]
+        rows[name] = {
+            "generations": counts.size,
+            "new designs per generation (shipped)": float(np.mean(counts))
+            if counts.size
+            else np.nan,
+            "task time per design, shipped (s)": float(np.sum(counts * levels) / np.sum(counts))
+            if counts.sum()
+            else np.nan,
+            "task time per design, recorded (s)": float(np.mean(mine)) if mine else np.nan,
+        }
+    return pd.DataFrame(rows).T.rename_axis("generations of the shipped run")
+
+
+def projected_campaign(
+    recorded: list[list[dict]], n_evaluated: np.ndarray, level_s: np.ndarray, rng
+) -> list[list[dict]]:
+    """A campaign of ``len(n_evaluated)`` generations: generation g has ``n_evaluated[g]`` designs drawn (with
+    replacement) from ``recorded`` (generation 1 from its first generation, the rest from its later ones: the first
+    holds the workers' warm-up), their costs scaled so that their mean is ``level_s[g]``."""
+    first, later = recorded[0], [item for generation in recorded[1:] for item in generation]
+    out = []
+    for g, (count, level) in enumerate(zip(n_evaluated, level_s)):
+        pool = first if g == 0 or not later else later
+        items = [pool[i] for i in rng.integers(0, len(pool), int(count))]
+        mean = np.mean([item["cost_s"] for item in items]) if items else 1.0
+        out.append([{**item, "cost_s": item["cost_s"] * level / mean} for item in items])
+    return out
+
+
+def _sample(campaign: list[list[dict]], n: int) -> list[list[dict]]:
+    """``n`` generations of ``campaign`` evenly spread from its second to its last (the first is warm-up)."""
+    picks = np.unique(np.linspace(1, len(campaign) - 1, n).round().astype(int))
+    return [campaign[g] for g in picks]
+
+
+def replay_table(
+    recorded: dict[str, list[list[dict]]],
+    history,
+    campaigns: tuple[int, ...] = (1, TARGET["campaigns"]),
+    workers: tuple[int, ...] = WORKERS,
+    tasks_per_s: float = TASKS_PER_S,
+) -> pd.DataFrame:
+    """One row per study size (``campaigns`` projected 120 x 1000 campaigns, each from one recorded campaign in
+    turn) and worker count: the replayed sample's busy fraction and time scale (the replay sending ``tasks_per_s``
+    tasks a second), the projected wall time of the whole study, perfect scaling (its work over the workers), and
+    the recorded and projected mean cost per design."""
+    rng = np.random.default_rng(SEED)
+    n_evaluated, level_s = history["n_evaluated"].values, cost_levels(history)
+    sources = list(recorded.values())
+    study = [
+        projected_campaign(sources[k % len(sources)], n_evaluated, level_s, rng)
+        for k in range(max(campaigns))
+    ]
+    recorded_mean_s = float(
+        np.mean([i["cost_s"] for c in sources for g in c[1:] for i in g] or [np.nan])
+    )
+    rows = []
+    for size in campaigns:
+        work_s = sum(item["cost_s"] for c in study[:size] for g in c for item in g)
+        designs = sum(len(g) for c in study[:size] for g in c)
+        sample = [_sample(c, SAMPLE_GENERATIONS) for c in study[:size]]
+        for n in workers:
+            scale = time_scale_for(sample, n, tasks_per_s)
+            result = replay(sample, n, time_scale=scale)
+            rows.append(
+                {
+                    "campaigns": size,
+                    "workers": n,
+                    "generations replayed per campaign": len(sample[0]),
+                    "time scale": scale,
+                    "busy fraction": result.busy_fraction,
+                    "projected wall (min)": work_s / (n * result.busy_fraction) / 60.0,
+                    "perfect scaling (min)": work_s / n / 60.0,
+                    "designs": designs,
+                    "mean cost per design, projected (s)": work_s / designs,
+                    "mean cost per design, recorded (s)": recorded_mean_s,
+                }
+            )
+    return pd.DataFrame(rows).set_index(["campaigns", "workers"])
+
+
+def shipped_busy_fraction(history) -> float:
+    """The shipped run's own busy fraction: its task time (new designs times their mean task time, every
+    generation) over its workers (``history.nc``'s ``workers`` attribute) times its wall time."""
+    task_s = float(np.sum(history["n_evaluated"].values * cost_levels(history)))
+    return task_s / (int(history.attrs["workers"]) * float(history["wall_s"].sum()))
+
+
+def replay_check(table: pd.DataFrame, history) -> str:
+    """The replay against a measurement: one campaign at the shipped run's worker count, replayed, beside that
+    run's own busy fraction (the replay's dispatch shares this machine's cores; where it is slower than the run's,
+    every busy fraction of the table is low by about as much)."""
+    workers = int(history.attrs["workers"])
+    if (1, workers) not in table.index:
+        return f"no replay of one campaign at {workers} workers to check against the shipped run"
+    replayed = float(table.loc[(1, workers), "busy fraction"])
+    return (
+        f"check: one campaign at {workers} workers, replayed busy {replayed:.2f}; the shipped run on {workers} "
+        f"workers was busy {shipped_busy_fraction(history):.2f}"
+    )
+
+
+def target_verdict(table: pd.DataFrame) -> str:
+    """The target (:data:`TARGET`) judged on the table's row for its campaigns and workers, with the machine's
+    load average over the last minute (the replay's dispatch shares its cores)."""
+    row = table.loc[(TARGET["campaigns"], TARGET["workers"])]
+    busy, wall_s = float(row["busy fraction"]), 60.0 * float(row["projected wall (min)"])
+    met = busy >= TARGET["busy_fraction"] and wall_s <= TARGET["wall_s"]
+    return (
+        f"{TARGET['campaigns']} campaigns of 120 x 1000 at {TARGET['workers']} workers: busy {busy:.2f} "
+        f"(target >= {TARGET['busy_fraction']:g}), {wall_s / 60:.0f} min (target <= {TARGET['wall_s'] / 60:g} min): "
+        f"target {'met' if met else 'not met'} (replayed on {os.cpu_count()} cores, load average "
+        f"{os.getloadavg()[0]:.1f})"
+    )
