@@ -31,6 +31,7 @@ import xarray as xr
 from ..config import PARAMS_DIR, REFERENCE_DIR
 from ..errors import ConfigError
 from ..settings import load_settings
+from .costs import COSTS_FILE, costs_netcdf
 from .journal import read_cache_records
 from .reference import (
     README_FILE,
@@ -213,6 +214,8 @@ def _readme(study: Study, provenance: list[dict], sizes: dict[str, int], stamp: 
     holds = {
         "front.nc": "the campaign's front (feasible, non-dominated; every column)",
         "history.nc": "per generation: hypervolume, feasible counts, best objectives, journal hits, wall time",
+        COSTS_FILE: "per design of every campaign: generation, ordering keys and task time (read by the cluster "
+        "replay of notebook 06)",
     }
     lines += ["", "| file | bytes | holds |", "| --- | --- | --- |"]
     lines += [f"| `{path}` | {size} | {holds[Path(path).name]} |" for path, size in sizes.items()]
@@ -225,13 +228,13 @@ def _readme(study: Study, provenance: list[dict], sizes: dict[str, int], stamp: 
 
 
 def _is_study_export(folder: Path, study: str) -> bool:
-    """Whether ``folder`` holds an export of ``study`` (its README, and folders holding each campaign's files)
-    and nothing else."""
+    """Whether ``folder`` holds an export of ``study`` (its README, the per-design costs and folders holding
+    each campaign's files) and nothing else."""
     readme = folder / README_FILE
     if not readme.is_file() or not readme.read_text(errors="replace").startswith(_title(study)):
         return False
     return all(
-        entry.name == README_FILE
+        entry.name in (README_FILE, COSTS_FILE)
         or (
             entry.is_dir() and sorted(p.name for p in entry.iterdir()) == sorted(STUDY_RESULT_FILES)
         )
@@ -270,6 +273,9 @@ def export_study_reference(
         )
         payloads.update(files)
         provenance.append(p)
+    payloads[COSTS_FILE] = costs_netcdf(
+        {c.name: run_dir / c.name for c in study.campaigns}, export_commit=export_commit
+    )
     return write_export(
         root,
         study.name,

@@ -11,6 +11,7 @@ import xarray as xr
 
 from lnss_lib.campaign import export_results
 from lnss_lib.campaign import study_reference as sref
+from lnss_lib.campaign.costs import COSTS_FILE, read_costs
 from lnss_lib.campaign.fitness import front_of, hypervolume_of_front, hypervolume_points
 from lnss_lib.campaign.reference import MAX_FILE_BYTES
 from lnss_lib.campaign.settings import campaign_hash, evaluation_hash
@@ -110,7 +111,11 @@ def test_export_round_trip(finished, tmp_path):
     assert "**Study: complete**" in shipped.readme
     assert "abc1234" in shipped.readme and "packages (of the runs)" in shipped.readme
     files = [p for p in folder.rglob("*") if p.is_file()]
-    assert len(files) == 5 and all(p.stat().st_size < MAX_FILE_BYTES for p in files)
+    assert len(files) == 6 and all(p.stat().st_size < MAX_FILE_BYTES for p in files)
+    costs = read_costs(folder / COSTS_FILE)  # the replay's input: every design of every campaign
+    for name in ("seed1", "seed2"):
+        n_designs = export_results(finished / name)[0].sizes["design"]
+        assert sum(len(generation) for generation in costs[name]) == n_designs
     again = sref.export_study_reference(finished, tmp_path)  # replaces its own previous export
     assert sref.load_study_reference(STUDY, tmp_path).readme.count("commit of the export | unknown")
     assert sorted(p.name for p in tmp_path.iterdir()) == [STUDY] and again == folder
