@@ -116,8 +116,12 @@ def _warm_kernels(config) -> None:
     longest compile; its record, in ``LNSS_TEST_FRESH_COMPILE``, is the fresh compile ``fresh_compile`` gives when
     it found the cache empty), then :data:`KERNEL_WARM_UP`'s two processes side by side. Checks nothing (the tests
     check what the kernels compute); a warm-up that fails says so in one line and the session goes on. A run of a
-    few files compiles what it uses as it goes."""
-    whole_suite = config.args_source == pytest.Config.ArgsSource.TESTPATHS
+    few files (or a selection, ``-k``, ``-m``) compiles what it uses as it goes."""
+    whole_suite = (
+        config.args_source == pytest.Config.ArgsSource.TESTPATHS
+        and not config.option.keyword
+        and not config.option.markexpr
+    )
     if hasattr(config, "workerinput") or config.option.collectonly or not whole_suite:
         return
     say = config.get_terminal_writer().line
