@@ -22,9 +22,10 @@ from lnss_lib.outputs import profile_dir
 CHROMIUM = (
     shutil.which("chromium") or shutil.which("chromium-browser") or shutil.which("google-chrome")
 )
-pytestmark = pytest.mark.skipif(
-    CHROMIUM is None, reason="no Chromium on PATH (apt-get install chromium)"
-)
+pytestmark = [
+    pytest.mark.skipif(CHROMIUM is None, reason="no Chromium on PATH (apt-get install chromium)"),
+    pytest.mark.notebook_outputs,  # the index of this session's notebook outputs; two notebooks run again here
+]
 PROFILE = "ci"
 NOTEBOOKS = ("02_dop_grid", "05_standalone_elfo")
 RAW_KEY = re.compile(r"^[a-z][a-z0-9]*(_[a-z0-9]+)+$")
