@@ -217,6 +217,17 @@ LABELS = {  # key -> human label with its unit: figures, tables, explorer, ``eva
     "n_maneuvers": "manoeuvres",
     "status": "closed-loop status",
     "selected_for": "flown as",
+    # the campaign's life-long estimate against the closed loop (lnss_lib.studies.front_validation.estimate_table)
+    "estimate_mean": "estimated Delta-V, mean (km/s/yr)",
+    "closed_loop_mean": "closed-loop Delta-V, mean (km/s/yr)",
+    "ratio_mean": "estimate / closed loop, mean",
+    "estimate_worst_satellite": "estimated Delta-V, worst satellite (km/s/yr)",
+    "closed_loop_worst_satellite": "closed-loop Delta-V, worst satellite (km/s/yr)",
+    "ratio_worst_satellite": "estimate / closed loop, worst satellite",
+    "estimate_navigation": "estimated navigation Delta-V (km/s/yr)",
+    "closed_loop_navigation": "closed-loop navigation Delta-V (km/s/yr)",
+    "ratio_navigation": "estimate / closed loop, navigation",
+    "constraint_violation": "constraint violation (pymoo CV: sum of the bounds' excesses)",
     # the GPS and multi-GNSS links (notebook 03: lnss_lib.studies.gps_link, gnss_link)
     "visible_mean": "satellites visible (mean)",
     "pdop_mean": "PDOP (mean)",
