@@ -424,7 +424,9 @@ def test_pareto_axes_use_the_label_registry():
         z_bound=1.0,
     )
     counts = sorted(set(front["n_sat"].values.tolist()))
-    assert [t.name for t in bounded.data] == [f"{int(n)} satellites" for n in counts] + ["bound 1"]
+    assert [t.name for t in bounded.data] == [f"{int(n)} satellites" for n in counts] + [
+        "bound: Delta-V total (km/s/yr) = 1"
+    ]
     assert (
         sum(len(t.x) for t in bounded.data[:-1]) == front.sizes["design"]
     )  # each design once, by its count

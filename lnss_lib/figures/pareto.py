@@ -58,7 +58,7 @@ def pareto_3d(
                 opacity=0.25,
                 showscale=False,
                 colorscale=[[0, "grey"], [1, "grey"]],
-                name=f"bound {z_bound:g}",
+                name=f"bound: {LABELS[z]} = {z_bound:g}",
                 showlegend=True,
                 hoverinfo="name",
             )
