@@ -302,8 +302,9 @@ def test_shipped_projection_scales_the_shipped_history_by_the_pace_on_the_same_g
 
 def test_short_run_repeats_thirty_shipped_generations_and_eight_otherwise(monkeypatch):
     """``bench campaign``'s defaults: a profile with shipped results runs its population for
-    :data:`PACE_GENERATIONS` (the pace is measured on generations 2-30, not on half a minute); the operational
-    projection beside it, which has no shipped run to repeat, keeps the short run (32 x 8)."""
+    :data:`PACE_GENERATIONS` (the pace is measured on generations 2-30, not on half a minute), and nothing else; with
+    ``before_after`` the operational projection beside it, which has no shipped run to repeat, keeps the short run
+    (32 x 8)."""
     from lnss_lib.bench import campaign as bench
 
     calls = []
@@ -317,6 +318,9 @@ def test_short_run_repeats_thirty_shipped_generations_and_eight_otherwise(monkey
     monkeypatch.setattr(bench, "evaluation_comparison", lambda *args: {"records": []})
     monkeypatch.setattr(bench, "kernel_comparison", lambda *args: {})
     bench.run("paper")
+    assert calls == [("paper", 120, bench.PACE_GENERATIONS)]
+    calls.clear()
+    bench.run("paper", before_after=True)
     assert (bench.REFERENCE_DIR / "paper").is_dir() and (
         bench.PARAMS_DIR / "operational.toml"
     ).is_file()
