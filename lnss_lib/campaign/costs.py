@@ -6,26 +6,24 @@ generation that asked for it, the two integers the campaign's backend orders it 
 keeps those, one row per design first evaluated in each campaign (about a dozen bytes a design compressed: 5
 campaigns of 120 x 300, some 2 MB), with where the costs were measured: the machine and processor model, the
 worker processes that shared it, and each run's commit and evaluation hash. :func:`costs_netcdf` gives its bytes
-from run folders (for a study's export), :func:`write_costs` writes them; :func:`read_costs` gives back what
+from run folders (for a study's export), :func:`costs_netcdf` writes them; :func:`read_costs` gives back what
 :func:`journal_costs` gives of each journal.
 """
 
 from __future__ import annotations
 
-import os
-import platform
 from pathlib import Path
 
 import numpy as np
 import xarray as xr
 
-from ..atomicio import write_bytes_atomic
 from ..errors import ConfigError
 from .journal import read_cache_records
+from .reference import machine_text, netcdf_bytes
 from .rundir import load_checkpoint, load_run
 from .timing import concurrent_workers
 
-__all__ = ["COSTS_FILE", "journal_costs", "costs_netcdf", "write_costs", "read_costs"]
+__all__ = ["COSTS_FILE", "journal_costs", "costs_netcdf", "read_costs"]
 
 COSTS_FILE = "costs.nc"
 
@@ -63,21 +61,14 @@ def journal_costs(run_dir) -> list[list[dict]]:
     return list(_generations(read_cache_records(run_dir), _completed(run_dir)).values())
 
 
-def write_costs(runs: dict[str, Path], path, *, export_commit: str = "unknown") -> Path:
-    """Write :func:`costs_netcdf` of ``runs`` at ``path`` (atomically); returns the path."""
-    path = Path(path)
-    write_bytes_atomic(path, costs_netcdf(runs, export_commit=export_commit))
-    return path
-
-
 def costs_netcdf(runs: dict[str, Path], *, export_commit: str = "unknown") -> bytes:
     """The bytes of ``costs.nc`` (NetCDF-4) from the campaign run folders ``runs`` (``{campaign name: run folder}``,
-    each with its journal and run.json; a study's export puts them beside its campaigns): one row per design (``campaign``, ``generation``, ``n_planes``,
-    ``sats_per_plane``, ``cost_s``) and, in the attributes, the campaigns in order, each run's worker processes,
+    each with its journal and run.json; a study's export puts them beside its campaigns): one row per design
+    (``campaign``, ``generation``, ``n_planes``, ``sats_per_plane``, ``cost_s``) and, in the attributes, the campaigns in order, each run's worker processes,
     processor model, commit and evaluation hash, and the machine that writes the file. ConfigError for an empty
     ``runs``."""
     if not runs:
-        raise ConfigError("write_costs needs at least one campaign run folder", key="runs")
+        raise ConfigError("costs_netcdf needs at least one campaign run folder", key="runs")
     columns: dict[str, list] = {
         k: [] for k in ("campaign", "generation", "n_planes", "sats_per_plane", "cost_s")
     }
@@ -117,16 +108,15 @@ def costs_netcdf(runs: dict[str, Path], *, export_commit: str = "unknown") -> by
         "Conventions": "CF-1.8",
         "campaigns": ",".join(runs),
         **{k: ",".join(v) for k, v in provenance.items()},
-        "machine": f"{platform.platform()}, {os.cpu_count()} CPU(s)",
+        "machine": machine_text(),
         "export_commit": export_commit,
     }
-    encoding = {name: {"zlib": True, "complevel": 4} for name in ds.data_vars}
-    return bytes(ds.to_netcdf(engine="h5netcdf", encoding=encoding))
+    return netcdf_bytes(ds)
 
 
 def read_costs(path) -> dict[str, list[list[dict]]]:
     """``{campaign: per generation the items of :func:`journal_costs`}`` from a ``costs.nc`` written by
-    :func:`write_costs`."""
+    :func:`costs_netcdf`."""
     with xr.open_dataset(Path(path), engine="h5netcdf") as ds:
         names = ds.attrs["campaigns"].split(",")
         columns = {

@@ -262,6 +262,11 @@ def analysis_mask(evaluations: xr.Dataset) -> tuple[np.ndarray, str]:
     )
 
 
+def machine_text() -> str:
+    """The machine a file is written on, as the exports record it: platform and CPU count."""
+    return f"{platform.platform()}, {os.cpu_count()} CPU(s)"
+
+
 def netcdf_bytes(ds: xr.Dataset) -> bytes:
     encoding = {
         name: {"zlib": True, "complevel": 4}
@@ -470,7 +475,7 @@ def export_reference(run_dir, root=None, *, export_commit: str = "unknown") -> P
         **run_provenance(run, checkpoint),
         "wall_s": wall_s,
         "export_commit": export_commit,
-        "machine": f"{platform.platform()}, {os.cpu_count()} CPU(s), {workers} worker process(es)",
+        "machine": f"{machine_text()}, {workers} worker process(es)",
         "exported_utc": time.strftime("%Y-%m-%dT%H:%M:%SZ", time.gmtime()),
     }
     provenance["source"] = (

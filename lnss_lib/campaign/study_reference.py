@@ -19,8 +19,6 @@ replaces a previous export of the study by rename; a target that is not one is l
 
 from __future__ import annotations
 
-import os
-import platform
 import re
 import time
 from dataclasses import dataclass
@@ -37,6 +35,7 @@ from .reference import (
     README_FILE,
     cf_dataset,
     check_run_folder,
+    machine_text,
     netcdf_bytes,
     run_provenance,
     write_export,
@@ -264,7 +263,7 @@ def export_study_reference(
     stamp = {
         "export_commit": export_commit,
         "exported_utc": time.strftime("%Y-%m-%dT%H:%M:%SZ", time.gmtime()),
-        "machine": f"{platform.platform()}, {os.cpu_count()} CPU(s)",
+        "machine": machine_text(),
     }
     payloads, provenance = {}, []
     for campaign in study.campaigns:
