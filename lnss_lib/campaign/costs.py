@@ -2,11 +2,12 @@
 
 A journal (``evaluations.jsonl``) holds every metric of every design; a replay needs of each design only the
 generation that asked for it, the two integers the campaign's backend orders it by (``n_planes`` and
-``sats_per_plane`` on the grid) and its cost (``task_wall_s``: the task's wall time on its worker). ``costs.nc``
+``sats_per_plane``, decoded by the run's own design grid: the journal's key holds them scaled, and the product of
+the scaled integers orders constellations differently) and its cost (``task_wall_s``: the task's wall time on its worker). ``costs.nc``
 keeps those, one row per design first evaluated in each campaign (about a dozen bytes a design compressed: 5
 campaigns of 120 x 300, some 2 MB), with where the costs were measured: the machine and processor model, the
 worker processes that shared it, and each run's commit and evaluation hash. :func:`costs_netcdf` gives its bytes
-from run folders (for a study's export), :func:`costs_netcdf` writes them; :func:`read_costs` gives back what
+from run folders (for a study's export); :func:`read_costs` gives back what
 :func:`journal_costs` gives of each journal.
 """
 
@@ -28,37 +29,38 @@ __all__ = ["COSTS_FILE", "journal_costs", "costs_netcdf", "read_costs"]
 COSTS_FILE = "costs.nc"
 
 
-def _generations(records: list[dict], completed: int | None) -> dict[int, list[dict]]:
-    """``{generation: items}`` of the records (in the order the campaign asked for them), the generations up to
-    ``completed`` only (None: all)."""
+def _generations(records: list[dict], checkpoint: dict | None) -> dict[int, list[dict]]:
+    """``{generation: items}`` of the records (in the order the campaign asked for them), the generations the
+    run's last ``checkpoint`` completed (a journal being written holds part of the next generation, which a replay
+    leaves out; none before the first checkpoint), each design's planes and satellites per plane decoded by the
+    checkpoint's design grid."""
+    if checkpoint is None:
+        return {}
+    completed, grid = len(checkpoint["history"]), checkpoint["algorithm"].problem.plan.grid
+    kept = sorted(
+        (r for r in records if int(r["generation"]) <= completed),
+        key=lambda r: (r["generation"], r["order"]),
+    )
     generations: dict[int, list[dict]] = {}
-    for record in sorted(records, key=lambda r: (r["generation"], r["order"])):
-        generation, key = int(record["generation"]), record["key"]
-        if completed is None or generation <= completed:
-            generations.setdefault(generation, []).append(
-                {
-                    "n_planes": int(key[4]),
-                    "sats_per_plane": int(key[5]),
-                    "cost_s": float(record["task_wall_s"]),
-                }
-            )
+    designs = grid.designs([r["key"] for r in kept]) if kept else []
+    for record, design in zip(kept, designs):
+        generations.setdefault(int(record["generation"]), []).append(
+            {
+                "n_planes": int(design["n_planes"]),
+                "sats_per_plane": int(design["sats_per_plane"]),
+                "cost_s": float(record["task_wall_s"]),
+            }
+        )
     return dict(sorted(generations.items()))
 
 
-def _completed(run_dir: Path) -> int | None:
-    """Generations the run's last checkpoint completed (None without one): a journal being written holds part of
-    the next generation, which a replay leaves out."""
-    checkpoint = load_checkpoint(run_dir)
-    return None if checkpoint is None else len(checkpoint["history"])
-
-
 def journal_costs(run_dir) -> list[list[dict]]:
-    """Per generation of the run in ``run_dir`` (first to last; those its last checkpoint completed, when it has
-    one), one item per design first evaluated in it: ``{"n_planes", "sats_per_plane", "cost_s"}`` (the task's wall
-    time on its worker; the grid's scaled ``n_planes`` and ``sats_per_plane``, which order the designs as the
-    campaign does)."""
+    """Per generation of the run in ``run_dir`` (first to last; those its last checkpoint completed, none before
+    the first), one item per design first evaluated in it: ``{"n_planes", "sats_per_plane", "cost_s"}`` (the task's wall
+    time on its worker; the design's planes and satellites per plane, which order the designs as the campaign
+    does)."""
     run_dir = Path(run_dir)
-    return list(_generations(read_cache_records(run_dir), _completed(run_dir)).values())
+    return list(_generations(read_cache_records(run_dir), load_checkpoint(run_dir)).values())
 
 
 def costs_netcdf(runs: dict[str, Path], *, export_commit: str = "unknown") -> bytes:
@@ -78,7 +80,7 @@ def costs_netcdf(runs: dict[str, Path], *, export_commit: str = "unknown") -> by
     for index, run_dir in enumerate(runs.values()):
         run_dir = Path(run_dir)
         run, records = load_run(run_dir), read_cache_records(run_dir)
-        for generation, items in _generations(records, _completed(run_dir)).items():
+        for generation, items in _generations(records, load_checkpoint(run_dir)).items():
             for item in items:
                 columns["campaign"].append(index)
                 columns["generation"].append(generation)
@@ -102,7 +104,9 @@ def costs_netcdf(runs: dict[str, Path], *, export_commit: str = "unknown") -> by
     }
     ds["generation"].attrs = {"long_name": "generation that first asked for the design"}
     for key in ("n_planes", "sats_per_plane"):
-        ds[key].attrs = {"long_name": f"{key} on the design grid (scaled integer)"}
+        ds[key].attrs = {
+            "long_name": f"{key} of the design (decoded from the grid's scaled integer)"
+        }
     ds.attrs = {
         "title": "Per-design costs of recorded campaigns (for the cluster replay)",
         "Conventions": "CF-1.8",

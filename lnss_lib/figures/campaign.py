@@ -227,22 +227,28 @@ def seed_curves(curves, spread, title: str, *, shipped=None, shipped_name: str =
 
 def replay_scaling(table, title: str) -> go.Figure:
     """Projected wall time against workers (log-log) for each study size of a replay table
-    (:func:`lnss_lib.studies.cluster_replay.replay_table`: index campaigns, workers), beside perfect scaling (its
-    work over the workers, dashed), with each point's busy fraction as hover text."""
+    (:func:`lnss_lib.studies.cluster_replay.replay_table`: index campaigns, workers) or of a computed schedule
+    (:func:`~lnss_lib.studies.cluster_replay.simulated_table`: a line per dispatch time per batch as well), beside
+    perfect scaling (its work over the workers, dashed), with each point's busy fraction as hover text."""
     fig = go.Figure()
+    computed = "dispatch per batch (ms)" in table.index.names
     for size, rows in table.groupby(level="campaigns"):
-        workers = rows.index.get_level_values("workers")
         name = f"{size} campaign{'s' if size > 1 else ''}"
+        lines = rows.groupby(level="dispatch per batch (ms)") if computed else [(None, rows)]
+        for dispatch_ms, line in lines:
+            fig.add_scatter(
+                x=line.index.get_level_values("workers"),
+                y=line["projected wall (min)"],
+                mode="lines+markers",
+                name=f"{name}: computed, {dispatch_ms:g} ms per batch"
+                if computed
+                else f"{name}: replay",
+                text=[f"busy {b:.2f}" for b in line["busy fraction"]],
+            )
+        perfect = rows.groupby(level="workers")["perfect scaling (min)"].first()
         fig.add_scatter(
-            x=workers,
-            y=rows["projected wall (min)"],
-            mode="lines+markers",
-            name=f"{name}: replay",
-            text=[f"busy {b:.2f}" for b in rows["busy fraction"]],
-        )
-        fig.add_scatter(
-            x=workers,
-            y=rows["perfect scaling (min)"],
+            x=perfect.index,
+            y=perfect.values,
             mode="lines",
             line_dash="dash",
             name=f"{name}: perfect scaling",

@@ -27,8 +27,18 @@ the busy fraction of the sample. The sample's campaigns start together and its l
 which a 1000-generation study amortises: the projection is, if anything, long. On a machine whose cores are all
 busy with other work the replay's own dispatch is late as well (the load is printed with the table).
 
-Verdict: notebook 06 prints it from the replay (:func:`target_verdict`), beside a check of the replay against a
-measured run (:func:`replay_check`). What holds whatever the replay: the 8 seeds' work at the shipped run's level is
+On a machine with idle cores the replay still measures its own dispatch: on 16 idle cores (2026-11-29) it replayed
+one campaign at 2 workers 0.64 busy against the shipped run's measured 0.96, and 8 campaigns at 32 workers 0.42
+busy. So the notebook also computes the schedule (:func:`lnss_lib.campaign.replay.simulate`: the same batches in the
+same order, each costing a worker its designs' task times plus a dispatch time per batch) over every one of the
+projected 1000 generations (:func:`simulated_table`), after checking it against the two runs measured on that
+machine (``outputs/reference/cluster_measurements``, :func:`simulation_check`): without dispatch time it is within
+3 % of the 2-worker run and 18 % short of the 16-worker one; 10 ms per batch matches the first, 30 ms the second
+(a Dask scheduler's round trip grows with its workers). :data:`DISPATCH_S` brackets the projection with those.
+
+Verdict: notebook 06 prints it from the replay (:func:`target_verdict`) and from the computed schedule
+(:func:`simulated_verdict`), beside a check of each against measured runs (:func:`replay_check`,
+:func:`simulation_check`). What holds whatever the replay: the 8 seeds' work at the shipped run's level is
 8 x 114,982 designs x 0.058 s, 14.9 h of worker time, 28.0 min at perfect scaling on 32 workers, so the 30 minutes
 need at least 0.93 busy, more than the 0.8 asked. On the project's 2-core machine under the seed study's load
 (load average 13-18, 2026-11-29) the replay could not decide it: a Dask round trip took 27 ms at normal priority
@@ -42,10 +52,11 @@ import os
 
 import numpy as np
 import pandas as pd
+import xarray as xr
 
 from ..campaign.costs import COSTS_FILE, read_costs
 from ..campaign.reference import REFERENCE_DIR
-from ..campaign.replay import replay, time_scale_for
+from ..campaign.replay import replay, simulate, time_scale_for
 
 __all__ = [
     "SHIPPED_COSTS",
@@ -59,6 +70,12 @@ __all__ = [
     "replay_check",
     "shipped_busy_fraction",
     "shipped_costs",
+    "DISPATCH_S",
+    "MEASURED_DIR",
+    "measured_runs",
+    "simulation_check",
+    "simulated_table",
+    "simulated_verdict",
 ]
 
 SHIPPED_COSTS = REFERENCE_DIR / "paper_dv_physical_seeds" / COSTS_FILE
@@ -70,6 +87,13 @@ SAMPLE_GENERATIONS = (
 )
 TASKS_PER_S = 60.0  # tasks a second a replay sends: its process spends a few ms of CPU on each
 SEED = 0  # the draw of designs for the projected generations
+MEASURED_DIR = REFERENCE_DIR / "cluster_measurements"
+# Dispatch time per batch (s) bracketing the computed schedule: none; what matches the 2-worker run measured on
+# 16 idle cores; what matches the 16-worker run there (simulation_check prints all three against both runs).
+DISPATCH_S = (0.0, 0.010, 0.030)
+SIMULATED_GENERATIONS = (
+    200  # of each projected campaign, evenly spread: the busy fraction within 1 % of all 1000
+)
 
 
 def shipped_costs() -> dict[str, list[list[dict]]] | None:
@@ -214,4 +238,105 @@ def target_verdict(table: pd.DataFrame) -> str:
         f"(target >= {TARGET['busy_fraction']:g}), {wall_s / 60:.0f} min (target <= {TARGET['wall_s'] / 60:g} min): "
         f"target {'met' if met else 'not met'} (replayed on {os.cpu_count()} cores, load average "
         f"{os.getloadavg()[0]:.1f})"
+    )
+
+
+def measured_runs() -> dict[str, tuple[list[list[dict]], object]] | None:
+    """The runs measured for the projection (:data:`MEASURED_DIR`): ``{campaign: (its costs, its history.nc)}``
+    with the worker count in ``history.attrs["workers"]`` (from ``costs.nc``), or None when not shipped."""
+    path = MEASURED_DIR / COSTS_FILE
+    if not path.is_file():
+        return None
+    costs = read_costs(path)
+    with xr.open_dataset(path, engine="h5netcdf") as ds:
+        workers = [int(n) for n in ds.attrs["workers"].split(",")]
+    out = {}
+    for (name, generations), n in zip(costs.items(), workers):
+        history = xr.load_dataset(MEASURED_DIR / f"history_{name}.nc", engine="h5netcdf")
+        history.attrs["workers"] = n
+        out[name] = (generations, history)
+    return out
+
+
+def simulation_check(runs: dict, dispatch: tuple[float, ...] = DISPATCH_S) -> pd.DataFrame:
+    """The computed schedule of each measured run's generations after its first (which holds the workers' start),
+    on its own workers, at each dispatch time per batch, against the measured wall time of those generations:
+    simulated wall plus the campaign's own recorded time between generations (``time_campaign_s``: NSGA-II, the
+    checkpoint), and its ratio to the measured."""
+    rows = []
+    for name, (costs, history) in runs.items():
+        n = int(history.attrs["workers"])
+        measured_s = float(history["wall_s"].values[1:].sum())
+        own_s = float(history["time_campaign_s"].values[1:].sum())
+        for dispatch_s in dispatch:
+            result = simulate([costs[1:]], n, dispatch_s)
+            rows.append(
+                {
+                    "run": name,
+                    "workers": n,
+                    "dispatch per batch (ms)": 1e3 * dispatch_s,
+                    "measured wall (s)": measured_s,
+                    "simulated wall (s)": result.wall_s + own_s,
+                    "simulated / measured": (result.wall_s + own_s) / measured_s,
+                    "measured busy": result.cost_s / (n * measured_s),
+                    "simulated busy": result.cost_s / (n * (result.wall_s + own_s)),
+                }
+            )
+    return pd.DataFrame(rows).set_index(["run", "dispatch per batch (ms)"])
+
+
+def simulated_table(
+    recorded: dict[str, list[list[dict]]],
+    history,
+    campaigns: tuple[int, ...] = (1, TARGET["campaigns"]),
+    workers: tuple[int, ...] = WORKERS,
+    dispatch: tuple[float, ...] = DISPATCH_S,
+    generations: int = SIMULATED_GENERATIONS,
+) -> pd.DataFrame:
+    """The projected study of :func:`replay_table` (the same draw), ``generations`` of each campaign (evenly
+    spread) scheduled by :func:`~lnss_lib.campaign.replay.simulate`: per study size, worker count and dispatch time
+    per batch, the busy fraction and the wall time of the whole study (its work over the workers times the busy
+    fraction) beside perfect scaling."""
+    rng = np.random.default_rng(SEED)
+    n_evaluated, level_s = history["n_evaluated"].values, cost_levels(history)
+    sources = list(recorded.values())
+    study = [
+        projected_campaign(sources[k % len(sources)], n_evaluated, level_s, rng)
+        for k in range(max(campaigns))
+    ]
+    rows = []
+    for size in campaigns:
+        work_s = sum(item["cost_s"] for c in study[:size] for g in c for item in g)
+        sample = [_sample(c, generations) for c in study[:size]]
+        for n in workers:
+            for dispatch_s in dispatch:
+                busy = simulate(sample, n, dispatch_s).busy_fraction
+                rows.append(
+                    {
+                        "campaigns": size,
+                        "workers": n,
+                        "dispatch per batch (ms)": 1e3 * dispatch_s,
+                        "generations simulated per campaign": len(sample[0]),
+                        "busy fraction": busy,
+                        "projected wall (min)": work_s / (n * busy) / 60.0,
+                        "perfect scaling (min)": work_s / n / 60.0,
+                    }
+                )
+    return pd.DataFrame(rows).set_index(["campaigns", "workers", "dispatch per batch (ms)"])
+
+
+def simulated_verdict(table: pd.DataFrame) -> str:
+    """The target (:data:`TARGET`) judged on the computed schedule at each dispatch time of ``table``."""
+    rows = table.xs((TARGET["campaigns"], TARGET["workers"]), level=("campaigns", "workers"))
+    parts = []
+    for dispatch_ms, row in rows.iterrows():
+        busy, minutes = float(row["busy fraction"]), float(row["projected wall (min)"])
+        met = busy >= TARGET["busy_fraction"] and 60.0 * minutes <= TARGET["wall_s"]
+        parts.append(
+            f"{dispatch_ms:g} ms per batch: busy {busy:.2f}, {minutes:.1f} min ({'met' if met else 'not met'})"
+        )
+    return (
+        f"computed schedule, {TARGET['campaigns']} campaigns of 120 x 1000 at {TARGET['workers']} workers "
+        f"(target busy >= {TARGET['busy_fraction']:g} within {TARGET['wall_s'] / 60:g} min): "
+        + "; ".join(parts)
     )
