@@ -63,6 +63,7 @@ __all__ = [
     "TARGET",
     "WORKERS",
     "projected_campaign",
+    "projected_study",
     "projection_basis",
     "cost_levels",
     "replay_table",
@@ -154,6 +155,20 @@ def projected_campaign(
     return out
 
 
+def projected_study(
+    recorded: dict[str, list[list[dict]]], history, size: int
+) -> list[list[list[dict]]]:
+    """``size`` projected campaigns (:func:`projected_campaign`), each from one recorded campaign in turn, drawn
+    with :data:`SEED`: the replay and the computed schedule see the same study."""
+    rng = np.random.default_rng(SEED)
+    n_evaluated, level_s = history["n_evaluated"].values, cost_levels(history)
+    sources = list(recorded.values())
+    return [
+        projected_campaign(sources[k % len(sources)], n_evaluated, level_s, rng)
+        for k in range(size)
+    ]
+
+
 def _sample(campaign: list[list[dict]], n: int) -> list[list[dict]]:
     """``n`` generations of ``campaign`` evenly spread from its second to its last (the first is warm-up)."""
     picks = np.unique(np.linspace(1, len(campaign) - 1, n).round().astype(int))
@@ -171,15 +186,9 @@ def replay_table(
     turn) and worker count: the replayed sample's busy fraction and time scale (the replay sending ``tasks_per_s``
     tasks a second), the projected wall time of the whole study, perfect scaling (its work over the workers), and
     the recorded and projected mean cost per design."""
-    rng = np.random.default_rng(SEED)
-    n_evaluated, level_s = history["n_evaluated"].values, cost_levels(history)
-    sources = list(recorded.values())
-    study = [
-        projected_campaign(sources[k % len(sources)], n_evaluated, level_s, rng)
-        for k in range(max(campaigns))
-    ]
+    study = projected_study(recorded, history, max(campaigns))
     recorded_mean_s = float(
-        np.mean([i["cost_s"] for c in sources for g in c[1:] for i in g] or [np.nan])
+        np.mean([i["cost_s"] for c in recorded.values() for g in c[1:] for i in g] or [np.nan])
     )
     rows = []
     for size in campaigns:
@@ -297,13 +306,7 @@ def simulated_table(
     spread) scheduled by :func:`~lnss_lib.campaign.replay.simulate`: per study size, worker count and dispatch time
     per batch, the busy fraction and the wall time of the whole study (its work over the workers times the busy
     fraction) beside perfect scaling."""
-    rng = np.random.default_rng(SEED)
-    n_evaluated, level_s = history["n_evaluated"].values, cost_levels(history)
-    sources = list(recorded.values())
-    study = [
-        projected_campaign(sources[k % len(sources)], n_evaluated, level_s, rng)
-        for k in range(max(campaigns))
-    ]
+    study = projected_study(recorded, history, max(campaigns))
     rows = []
     for size in campaigns:
         work_s = sum(item["cost_s"] for c in study[:size] for g in c for item in g)
