@@ -20,7 +20,12 @@ whether the pick changes with the seed (:func:`what_changes`): the same design (
 value the rule ranks by. :func:`against_shipped` sets the study's seed 1 beside the shipped run of the same seed (the
 same search only where the kernels were compiled for the same processor model: README, Notes for developers).
 
-Verdict: printed by notebook 07 from the shipped study (:func:`verdict`), the numbers never typed.
+Verdict (notebook 07 prints it from the shipped study, :func:`verdict`): a property of the problem. Over seeds 1-5
+the hypervolume after 300 generations spans 0.13 % of its median, every seed reaching 99 % of its final value by
+generation 100; the smallest feasible constellation is 6 satellites in 2 planes of 3 for every seed, in another orbit
+each time (a 5600-6400 km, e 0.58-0.62, i 83-85 deg); six of Table 6's seven rules pick the same Walker pattern in
+another orbit, and the seventh (most GPS satellites visible) swaps between 3 x 3 and 5 x 4 on a difference in the
+fourth digit of its criterion. The seed moves the orbit within the front, not its answers.
 """
 
 from __future__ import annotations
